@@ -1,0 +1,36 @@
+"""Shared fixtures: seeded data, the bundled MRI, hypothesis settings for numba code."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, settings
+
+# The first example of a property test may compile kernels: no per-example deadline.
+settings.register_profile(
+    "volpack", deadline=None, max_examples=40, suppress_health_check=[HealthCheck.too_slow]
+)
+settings.load_profile("volpack")
+
+
+@pytest.fixture
+def rng() -> np.random.Generator:
+    return np.random.default_rng(20261124)
+
+
+@pytest.fixture(scope="session")
+def brain() -> np.ndarray:
+    """The bundled head MRI (84, 128, 128) uint8."""
+    from volpack.demo import load_demo_volume
+
+    return load_demo_volume().data
+
+
+def smooth_volume(shape, dtype=np.int16, seed=0, noise=3.0) -> np.ndarray:
+    """A smooth field plus a little noise: a stand-in for real scans in fast tests."""
+    r = np.random.default_rng(seed)
+    z, y, x = np.meshgrid(*(np.linspace(0, 3, n) for n in shape), indexing="ij")
+    f = 400 * np.sin(z * 1.3 + y) * np.cos(x * 0.7 - y * 0.5) + 600
+    f = f + r.normal(0, noise, shape)
+    info = np.iinfo(dtype)
+    return np.clip(np.rint(f), info.min, info.max).astype(dtype)

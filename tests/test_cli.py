@@ -1,0 +1,154 @@
+"""The command line: every command's --help, the user's commands end to end, exit codes."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from conftest import smooth_volume
+
+from volpack.cli import main
+
+
+def run(*args, input=None, ok=True):
+    r = CliRunner().invoke(main, [str(a) for a in args], input=input, catch_exceptions=False)
+    if ok:
+        assert r.exit_code == 0, (r.output, r.stderr if hasattr(r, "stderr") else "")
+    return r
+
+
+@pytest.mark.parametrize("cmd", [[], ["info"], ["convert"], ["compress"], ["decompress"], ["demo"], ["warmup"]])
+def test_help_of_every_command(cmd):
+    r = run(*cmd, "--help")
+    assert "Usage:" in r.output and "Examples" in r.output or cmd in (["demo"], ["warmup"])
+
+
+def test_help_does_not_import_numba_and_is_fast():
+    code = (
+        "import sys, time; t = time.perf_counter(); from volpack.cli import main\n"
+        "from click.testing import CliRunner; r = CliRunner().invoke(main, ['--help'])\n"
+        "assert r.exit_code == 0; assert 'numba' not in sys.modules, 'numba imported'\n"
+        "print(time.perf_counter() - t)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert float(out.stdout) < 0.5
+
+
+def test_python_dash_m_volpack():
+    out = subprocess.run([sys.executable, "-m", "volpack", "--version"], capture_output=True, text=True, check=True)
+    assert "volpack" in out.stdout
+
+
+def test_info_on_npy_and_vpk_json(tmp_path):
+    a = smooth_volume((10, 11, 12), np.int16)
+    np.save(tmp_path / "a.npy", a)
+    d = json.loads(run("info", tmp_path / "a.npy", "--json").stdout)
+    assert d["shape"] == [10, 11, 12] and d["dtype"] == "int16"
+    assert d["min"] == int(a.min()) and d["max"] == int(a.max())
+    run("compress", tmp_path / "a.npy", tmp_path / "a.vpk")
+    d = json.loads(run("info", tmp_path / "a.vpk", "--json").stdout)
+    assert d["format"] == "vpk" and d["chunks"] == 1 and d["ratio"] > 1
+    text = run("info", tmp_path / "a.vpk", "--chunks").output
+    assert "ratio" in text and "node" in text
+
+
+def test_compress_decompress_roi_and_codec_options(tmp_path):
+    a = smooth_volume((40, 50, 60), np.uint16)
+    np.save(tmp_path / "a.npy", a)
+    run("compress", tmp_path / "a.npy", tmp_path / "a.vpk", "--wavelet", "26", "--coder", "huffman", "--brick", "16",
+        "--workers", "2")
+    run("decompress", tmp_path / "a.vpk", tmp_path / "b.npy")
+    np.testing.assert_array_equal(np.load(tmp_path / "b.npy"), a)
+    run("decompress", tmp_path / "a.vpk", tmp_path / "roi.npy", "--roi", "10:20,5:45,:7")
+    np.testing.assert_array_equal(np.load(tmp_path / "roi.npy"), a[10:20, 5:45, :7])
+
+
+def test_existing_output_is_refused_without_force(tmp_path):
+    a = smooth_volume((5, 6, 7))
+    np.save(tmp_path / "a.npy", a)
+    run("compress", tmp_path / "a.npy", tmp_path / "a.vpk")
+    before = (tmp_path / "a.vpk").read_bytes()
+    r = run("compress", tmp_path / "a.npy", tmp_path / "a.vpk", ok=False)
+    assert r.exit_code == 1 and "--force" in r.output
+    assert (tmp_path / "a.vpk").read_bytes() == before
+    run("compress", tmp_path / "a.npy", tmp_path / "a.vpk", "--force", "--coder", "rle")
+
+
+def test_input_is_never_overwritten(tmp_path):
+    a = smooth_volume((5, 6, 7))
+    np.save(tmp_path / "a.npy", a)
+    r = run("convert", tmp_path / "a.npy", tmp_path / "a.npy", "--force", ok=False)
+    assert r.exit_code == 1 and "input" in r.output
+    np.testing.assert_array_equal(np.load(tmp_path / "a.npy"), a)
+
+
+def test_user_errors_are_one_line_with_exit_1(tmp_path):
+    (tmp_path / "bad.vpk").write_bytes(b"\x89VPK\r\n\x1a\nnot really")
+    for args in (["info", tmp_path / "nope.npy"], ["decompress", tmp_path / "bad.vpk", tmp_path / "o.npy"],
+                 ["info", tmp_path / "x.unknown"]):
+        if args[1].name == "x.unknown":
+            args[1].write_bytes(b"123")
+        r = run(*args, ok=False)
+        assert r.exit_code == 1, r.output
+        lines = [ln for ln in r.output.splitlines() if ln.strip()]
+        assert len(lines) == 1 and lines[0].startswith("volpack: error: "), r.output
+    assert not (tmp_path / "o.npy").exists()
+
+
+def test_debug_shows_the_traceback(tmp_path):
+    r = CliRunner().invoke(main, ["--debug", "info", str(tmp_path / "nope.npy")])
+    assert r.exit_code != 0 and r.exception is not None
+
+
+def test_usage_errors_exit_2():
+    r = run("compress", "--coder", "nonsense", "a", "b", ok=False)
+    assert r.exit_code == 2
+
+
+def test_convert_crop_downsample_quantize(tmp_path):
+    a = smooth_volume((20, 30, 40), np.int16)
+    np.save(tmp_path / "a.npy", a)
+    run("convert", tmp_path / "a.npy", tmp_path / "c.npy", "--crop", "2:18,0:30,10:40", "--downsample", "2")
+    c = np.load(tmp_path / "c.npy")
+    assert c.shape == (8, 15, 15) and c.dtype == np.int16
+    f = (np.random.default_rng(0).normal(size=(6, 7, 8)) * 10).astype(np.float32)
+    np.save(tmp_path / "f.npy", f)
+    d = json.loads(run("convert", tmp_path / "f.npy", tmp_path / "q.npy", "--quantize", "16", "--json").stdout)
+    q = np.load(tmp_path / "q.npy")
+    assert q.dtype == np.uint16
+    meta = d["meta"]["quantize"]
+    deq = q * meta["scale"] + meta["offset"]
+    assert np.abs(deq - f).max() <= meta["max_error"] + 1e-9
+
+
+def test_stdin_to_hdf5_and_stdout(tmp_path):
+    import io
+
+    a = smooth_volume((5, 6, 7), np.uint8)
+    buf = io.BytesIO()
+    np.save(buf, a)
+    run("convert", "-", f"{tmp_path / 'out.h5'}:/data", input=buf.getvalue())
+    import h5py
+
+    with h5py.File(tmp_path / "out.h5") as f:
+        np.testing.assert_array_equal(f["data"][...], a)
+    # compress to stdout, decompress from stdin: a pipeline
+    np.save(tmp_path / "a.npy", a)
+    vpk = subprocess.run([sys.executable, "-m", "volpack", "compress", str(tmp_path / "a.npy"), "-"],
+                         capture_output=True, check=True).stdout
+    npy = subprocess.run([sys.executable, "-m", "volpack", "decompress", "-", "-"], input=vpk,
+                         capture_output=True, check=True).stdout
+    np.testing.assert_array_equal(np.load(io.BytesIO(npy)), a)
+
+
+def test_demo_runs_and_checks_every_round_trip(tmp_path):
+    r = run("demo", "--out", tmp_path / "demo", "--repeat", "1", "--json")
+    d = json.loads(r.stdout)
+    assert all(row["lossless"] for row in d["rows"]) and len(d["rows"]) >= 5
+    assert max(row["ratio"] for row in d["rows"]) > 2.0
+    assert os.path.exists(d["input"])

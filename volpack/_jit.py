@@ -1,0 +1,77 @@
+"""The only module that imports numba.
+
+Kernel modules import :func:`kernel` from here at their top, so numba is loaded when a
+kernel module is first imported, never by ``volpack --help`` or ``import volpack``.
+
+Compiled kernels are cached on disk. numba keys its cache to the file that defines a
+kernel only, so an edit to a callee in another file (or an upgrade of volpack) would
+reuse stale machine code. The cache directory is therefore named after a hash of every
+source file of the package: any change to the sources starts a fresh cache.
+
+Environment:
+
+``VOLPACK_JIT_CACHE=0``
+    compile in memory only, write nothing.
+``VOLPACK_CACHE_DIR``
+    parent of the cache directory (default ``$XDG_CACHE_HOME/volpack`` or
+    ``~/.cache/volpack``).
+``NUMBA_DISABLE_JIT=1``
+    numba's own switch: kernels run as plain Python (slow; used by tests to check the
+    compiled kernels against their interpreted selves).
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import os
+import pathlib
+
+import numba
+
+CACHE = os.environ.get("VOLPACK_JIT_CACHE", "1") != "0"
+_PACKAGE = pathlib.Path(__file__).resolve().parent
+
+
+def source_hash() -> str:
+    """Return a short hash of every ``.py`` file of the package (names and contents)."""
+    h = hashlib.sha256()
+    for p in sorted(_PACKAGE.rglob("*.py")):
+        h.update(str(p.relative_to(_PACKAGE)).encode())
+        h.update(p.read_bytes())
+    h.update(numba.__version__.encode())
+    return h.hexdigest()[:16]
+
+
+def cache_dir() -> pathlib.Path:
+    """Return the directory compiled kernels of this exact source tree are cached in."""
+    base = os.environ.get("VOLPACK_CACHE_DIR")
+    if not base:
+        xdg = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+        base = os.path.join(xdg, "volpack")
+    return pathlib.Path(base) / "jit" / source_hash()
+
+
+if CACHE and not os.environ.get("NUMBA_CACHE_DIR"):
+    numba.config.CACHE_DIR = str(cache_dir())
+
+JIT_DISABLED = bool(numba.config.DISABLE_JIT)
+
+
+def kernel(fn=None, /, *, parallel: bool = False, inline: bool = False):
+    """Decorate a kernel: nopython, nogil, cached on disk, no fastmath (bit-exact)."""
+    if fn is None:
+        return functools.partial(kernel, parallel=parallel, inline=inline)
+    return numba.njit(
+        fn,
+        cache=CACHE,
+        nogil=True,
+        parallel=parallel,
+        inline="always" if inline else "never",
+        error_model="numpy",
+    )
+
+
+def prange(*args):
+    """numba's parallel range (a plain ``range`` when the JIT is disabled)."""
+    return numba.prange(*args)

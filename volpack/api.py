@@ -1,0 +1,333 @@
+"""Volume <-> ``.vpk``: the library calls behind ``volpack compress``, ``decompress`` and ``info``.
+
+A volume is cut into independent bricks (``volpack.bricks``); each brick is coded by a
+brick codec (``volpack.codec``) into one chunk of the container (``volpack.container``),
+keyed ``(t, node)`` with ``node`` the brick number. Bricks are coded in parallel threads
+and written in order, so the file is the same whatever the worker count.
+"""
+
+from __future__ import annotations
+
+import io as _io
+import logging
+import threading
+import time
+from collections.abc import Callable
+from typing import Any, BinaryIO
+
+import numpy as np
+
+from . import __version__, bricks
+from .codec import WAVELET_DTYPES, WaveletCodec, ZstdCodec, get_codec, storage_dtype
+from .errors import FormatError
+from .parallel import ordered_map, parse_workers
+from .volume import Volume
+
+log = logging.getLogger(__name__)
+
+Progress = Callable[[int, int], None]
+
+KIND_VOLUME = "volume"
+
+
+def make_codec(codec: str = "auto", dtype: Any = None, **options: Any):
+    """Choose the brick codec: ``auto`` takes the wavelet codec for the integer dtypes it
+    codes exactly and byte-shuffled zstd for floats and 64-bit integers."""
+    if codec == "auto":
+        codec = "wavelet" if dtype is None or np.dtype(dtype).name in WAVELET_DTYPES else "zstd"
+    if codec == "wavelet":
+        return WaveletCodec(**{k: v for k, v in options.items() if v is not None})
+    if codec == "zstd":
+        return ZstdCodec()
+    raise ValueError(f"expected codec 'auto', 'wavelet' or 'zstd', found {codec!r}")
+
+
+def compress(
+    source: Volume | np.ndarray,
+    target: str | BinaryIO,
+    *,
+    codec: str = "auto",
+    wavelet: str | None = None,
+    coder: str | None = None,
+    order: str | None = None,
+    max_levels: int | None = None,
+    brick: int | tuple[int, int, int] = bricks.DEFAULT_BRICK,
+    workers: int | None = 1,
+    force: bool = False,
+    progress: Progress | None = None,
+) -> dict[str, Any]:
+    """Compress a volume into a ``.vpk`` file or stream; return what was measured.
+
+    Parameters
+    ----------
+    source : Volume or ndarray
+        ``(z, y, x)`` or ``(t, z, y, x)`` voxels.
+    target : str or binary file
+        Output path (written atomically; an existing file needs ``force``), ``'-'`` for
+        standard output, or an open binary file.
+    codec : {"auto", "wavelet", "zstd"}
+        ``auto``: the lossless wavelet codec for 8/16/32-bit integers, zstd for the rest.
+    wavelet, coder, order, max_levels
+        Wavelet codec settings (see :class:`volpack.codec.WaveletCodec`).
+    brick : int or (int, int, int)
+        Brick size; bricks are coded independently and decoded one by one.
+    workers : int or None
+        Threads; ``None`` or 0 uses every core. The output does not depend on it.
+    progress : callable(done, total), optional
+        Called after each brick.
+
+    Returns
+    -------
+    dict
+        ``raw_nbytes``, ``nbytes`` (compressed payload bytes), ``ratio``, ``seconds``,
+        ``mb_per_s``, ``bricks``, ``codec``.
+    """
+    from .container import Writer
+
+    vol = source if isinstance(source, Volume) else Volume(np.asarray(source))
+    brick_t = bricks.parse_brick(brick)
+    nworkers = parse_workers(workers)
+    c = make_codec(codec, vol.dtype, wavelet=wavelet, coder=coder, order=order, max_levels=max_levels)
+    if c.codec_id == "wavelet":
+        from .codec import check_wavelet_dtype
+
+        check_wavelet_dtype(vol.dtype)
+    header = {
+        "kind": KIND_VOLUME,
+        "volpack": __version__,
+        "shape": list(vol.shape),
+        "dtype": storage_dtype(vol.dtype).str,
+        "spacing": list(vol.spacing),
+        "origin": list(vol.origin),
+        "brick": list(brick_t),
+        "codec": c.get_config(),
+        "meta": _jsonable(vol.meta),
+    }
+    data = vol.data
+    frames = data[None] if data.ndim == 3 else data
+    tasks = [(t, node, sl) for t in range(frames.shape[0]) for node, sl in bricks.iter_bricks(data.shape, brick_t)]
+    total = len(tasks)
+
+    def encode(task):
+        t, node, sl = task
+        return t, node, c.encode(np.ascontiguousarray(frames[(t, *sl)]))
+
+    t0 = time.perf_counter()
+    nbytes = 0
+    out = "-" if target == "-" else target
+    with Writer(_stdout() if out == "-" else out, header, force=force) as w:
+        for done, (t, node, payload) in enumerate(ordered_map(encode, tasks, nworkers), 1):
+            w.write(t, node, payload, 0.0)
+            nbytes += len(payload)
+            if progress is not None:
+                progress(done, total)
+        seconds = time.perf_counter() - t0
+        summary = {"raw_nbytes": int(vol.nbytes), "payload_nbytes": nbytes, "lossless": True, "max_error": 0.0}
+        w.close(summary=summary)
+    seconds = time.perf_counter() - t0
+    return {
+        "raw_nbytes": int(vol.nbytes),
+        "nbytes": nbytes,
+        "ratio": vol.nbytes / max(nbytes, 1),
+        "seconds": seconds,
+        "mb_per_s": vol.nbytes / 1e6 / max(seconds, 1e-9),
+        "bricks": total,
+        "workers": nworkers,
+        "codec": c.get_config(),
+    }
+
+
+def decompress(
+    source: str | bytes | BinaryIO,
+    *,
+    roi: str | tuple[slice, ...] | None = None,
+    frame: int | None = None,
+    workers: int | None = 1,
+    progress: Progress | None = None,
+    max_voxels: int = 1 << 34,
+) -> Volume:
+    """Decode a ``.vpk`` volume, or only the region ``roi`` of it (reading only the
+    bricks that region touches).
+
+    ``roi`` is ``"z0:z1,y0:y1,x0:x1"`` or three slices; ``frame`` picks one time step of
+    an animation. The result keeps dtype, spacing and the origin of the region.
+    """
+    from .container import Reader
+
+    nworkers = parse_workers(workers)
+    src = _stdin() if source == "-" else source
+    with Reader(src) as r:
+        hdr = _check_volume_header(r.header, max_voxels)
+        shape = tuple(hdr["shape"])
+        dtype = np.dtype(hdr["dtype"]).newbyteorder("=")
+        brick_t = tuple(hdr["brick"])
+        c = get_codec(hdr["codec"])
+        spatial = shape[-3:]
+        nt = shape[0] if len(shape) == 4 else 1
+        if frame is not None and not 0 <= frame < nt:
+            raise FormatError(f"expected a frame in 0..{nt - 1}, found {frame}")
+        region = _parse_roi(roi, spatial)
+        origin = tuple(o + s.start * d for o, s, d in zip(hdr["origin"], region, hdr["spacing"]))
+        rshape = tuple(s.stop - s.start for s in region)
+        times = [frame] if frame is not None else list(range(nt))
+        out = np.empty((len(times), *rshape), dtype=dtype)
+        nodes = bricks.bricks_in_roi(spatial, brick_t, region)
+        tasks = [(i, t, node) for i, t in enumerate(times) for node in nodes]
+        seekable = r.seekable
+        if not seekable:
+            wanted = {(t, n) for _, t, n in tasks}
+            cache = {(t, n): p for t, n, p in r if (t, n) in wanted}
+
+        lock = threading.Lock()
+
+        def fetch(task):
+            i, t, node = task
+            if seekable:
+                with lock:  # one file handle: reads are serial, decoding is not
+                    payload = r.read(t, node)
+            else:
+                payload = cache.pop((t, node), None)
+            if payload is None:
+                raise FormatError(f"stream has no chunk for frame {t}, brick {node}")
+            sl = bricks.brick_slices(spatial, brick_t, node)
+            bshape = tuple(s.stop - s.start for s in sl)
+            return i, sl, c.decode(payload, bshape, dtype)
+
+        for done, (i, sl, b) in enumerate(ordered_map(fetch, tasks, nworkers), 1):
+            src_sl, dst_sl = _intersect(sl, region)
+            out[(i, *dst_sl)] = b[src_sl]
+            if progress is not None:
+                progress(done, len(tasks))
+    data = out[0] if (len(shape) == 3 or frame is not None) else out
+    return Volume(data, spacing=tuple(hdr["spacing"]), origin=origin, meta=dict(hdr.get("meta") or {}))
+
+
+def compress_array(array: np.ndarray, **options: Any) -> bytes:
+    """Compress an array to ``.vpk`` bytes (options as for :func:`compress`)."""
+    buf = _io.BytesIO()
+    compress(np.asarray(array), buf, **options)
+    return buf.getvalue()
+
+
+def decompress_array(blob: bytes, **options: Any) -> np.ndarray:
+    """Decode ``.vpk`` bytes made by :func:`compress_array` back to the array."""
+    return decompress(bytes(blob), **options).data
+
+
+def info(source: str, **read_options: Any) -> dict[str, Any]:
+    """Describe a ``.vpk`` file or any volume volpack reads, as plain JSON types."""
+    from . import container
+    from . import io as vio
+
+    if source != "-" and _looks_vpk(source):
+        with container.Reader(source) as r:
+            hdr = r.header
+            entries = r.entries
+            sizes = np.array([e.nbytes for e in entries], dtype=np.int64)
+            errors = np.array([e.error for e in entries], dtype=np.float64)
+            raw = int(np.prod(hdr.get("shape", [0]))) * np.dtype(hdr.get("dtype", "u1")).itemsize
+            import os
+
+            file_size = os.path.getsize(source)
+            return {
+                "format": "vpk",
+                "path": source,
+                "header": hdr,
+                "summary": r.summary,
+                "chunks": len(entries),
+                "file_nbytes": file_size,
+                "payload_nbytes": int(sizes.sum()),
+                "raw_nbytes": raw,
+                "ratio": raw / max(file_size, 1),
+                "chunk_nbytes": {"min": int(sizes.min(initial=0)), "max": int(sizes.max(initial=0)),
+                                 "mean": float(sizes.mean()) if sizes.size else 0.0},
+                "max_error": float(errors.max(initial=0.0)),
+                "entries": [{"t": e.t, "node": e.node, "offset": e.offset, "nbytes": e.nbytes, "error": e.error}
+                            for e in entries],
+            }
+    vol = vio.read_volume(source, **read_options)
+    d = vol.describe()
+    d["format"] = vio.detect_format(vio.parse_spec(source)[0]) if source != "-" else "npy"
+    d["path"] = source
+    return d
+
+
+# -- helpers -------------------------------------------------------------------------
+
+
+def _looks_vpk(path: str) -> bool:
+    from .container import is_vpk
+
+    try:
+        with open(path, "rb") as f:
+            return is_vpk(f.read(16))
+    except OSError:
+        return False
+
+
+def _check_volume_header(hdr: dict, max_voxels: int) -> dict:
+    need = ("shape", "dtype", "spacing", "origin", "brick", "codec")
+    if hdr.get("kind") != KIND_VOLUME or any(k not in hdr for k in need):
+        raise FormatError(f"expected a volpack volume header with {need}, found keys {sorted(hdr)}")
+    try:
+        shape = tuple(int(n) for n in hdr["shape"])
+        np.dtype(hdr["dtype"])
+        brick_t = bricks.parse_brick(hdr["brick"])
+    except (TypeError, ValueError) as e:
+        raise FormatError(f"bad volume header: {e}") from None
+    if len(shape) not in (3, 4) or min(shape) < 1:
+        raise FormatError(f"expected a 3-D or 4-D shape of positive sizes, found {shape}")
+    if int(np.prod(shape, dtype=np.float64)) > max_voxels:
+        raise FormatError(f"volume of shape {shape} exceeds the limit of {max_voxels} voxels")
+    hdr = dict(hdr)
+    hdr["shape"], hdr["brick"] = shape, brick_t
+    return hdr
+
+
+def _parse_roi(roi, shape: tuple[int, ...]) -> tuple[slice, slice, slice]:
+    if roi is None:
+        return tuple(slice(0, n) for n in shape)  # type: ignore[return-value]
+    if isinstance(roi, str):
+        from .prep import parse_ranges
+
+        roi = parse_ranges(roi, shape)
+    out = []
+    for s, n in zip(roi, shape):
+        start, stop, step = s.indices(n)
+        if step != 1 or stop <= start:
+            raise FormatError(f"expected a non-empty region with step 1 inside {shape}, found {roi}")
+        out.append(slice(start, stop))
+    if len(out) != 3:
+        raise FormatError(f"expected a region of three ranges (z, y, x), found {roi}")
+    return tuple(out)  # type: ignore[return-value]
+
+
+def _intersect(brick_sl, region):
+    src, dst = [], []
+    for b, r in zip(brick_sl, region):
+        lo, hi = max(b.start, r.start), min(b.stop, r.stop)
+        src.append(slice(lo - b.start, hi - b.start))
+        dst.append(slice(lo - r.start, hi - r.start))
+    return tuple(src), tuple(dst)
+
+
+def _jsonable(meta: dict) -> dict:
+    import json
+
+    try:
+        json.dumps(meta)
+        return meta
+    except TypeError:
+        return json.loads(json.dumps(meta, default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o)))
+
+
+def _stdout():
+    import sys
+
+    return sys.stdout.buffer
+
+
+def _stdin():
+    import sys
+
+    return sys.stdin.buffer

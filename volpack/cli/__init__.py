@@ -1,0 +1,87 @@
+"""The ``volpack`` command line: a thin layer of click commands over the library.
+
+It lives inside the package (``volpack/cli/``) rather than as a top-level ``cli``
+package, which would be installed into site-packages under the bare name ``cli`` and
+collide with other projects. Each command group is a small module here; the library is
+imported inside the command bodies so that ``volpack --help`` loads neither numpy's
+heavier users nor numba.
+
+Exit codes: 0 success, 1 a user error (one line ``volpack: error: ...``; the traceback
+only with ``--debug``), 2 a usage error (click's own).
+"""
+
+from __future__ import annotations
+
+import logging
+import sys
+
+import click
+
+from .. import __version__
+
+CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
+
+
+class VolpackGroup(click.Group):
+    """A click group that turns library errors into one-line messages and exit code 1."""
+
+    def invoke(self, ctx: click.Context):
+        try:
+            return super().invoke(ctx)
+        except (click.exceptions.Exit, click.ClickException, click.Abort):
+            raise
+        except KeyboardInterrupt:
+            click.echo("volpack: interrupted", err=True)
+            sys.exit(130)
+        except (ValueError, OSError, MemoryError) as e:  # VolpackError/FormatError are ValueErrors too
+            from ..errors import VolpackError
+
+            if ctx.obj and ctx.obj.get("debug"):
+                raise
+            if isinstance(e, BrokenPipeError):
+                sys.exit(1)
+            if isinstance(e, (VolpackError, ValueError, OSError, MemoryError)):
+                msg = str(e) or type(e).__name__
+                if isinstance(e, OSError) and e.filename and e.strerror:
+                    msg = f"{e.filename}: {e.strerror}"
+                click.echo(f"volpack: error: {msg}", err=True)
+                sys.exit(1)
+            raise
+
+
+@click.group(cls=VolpackGroup, context_settings=CONTEXT)
+@click.version_option(__version__, "--version", prog_name="volpack")
+@click.option("-v", "--verbose", count=True, help="Log what the library does (-vv for more).")
+@click.option("-q", "--quiet", is_flag=True, help="No progress bars.")
+@click.option("--debug", is_flag=True, help="Show a full traceback on errors.")
+@click.pass_context
+def main(ctx: click.Context, verbose: int, quiet: bool, debug: bool) -> None:
+    """Compress, preprocess and preview volume data.
+
+    \b
+    Quick start:
+      volpack demo                                  run every codec on a bundled MRI
+      volpack info head.nii.gz                      shape, dtype, spacing, value range
+      volpack convert ct.nrrd ct.npy --crop 10:90,0:256,0:256 --downsample 2
+      volpack compress ct.nii.gz ct.vpk             lossless integer wavelet codec
+      volpack decompress ct.vpk roi.npy --roi 40:80,100:200,100:200
+
+    Files: .npy, .raw (--shape/--dtype), .nii/.nii.gz, .nrrd/.nhdr, .h5:/dataset,
+    .tif (multi-page) or a folder of slices, a DICOM folder, VolPack .den, and '-' for
+    standard input/output (npy or vpk streams). Run 'volpack COMMAND --help' for more.
+    """
+    ctx.ensure_object(dict)
+    ctx.obj.update(quiet=quiet, debug=debug, verbose=verbose)
+    level = logging.WARNING - 10 * min(verbose, 2)
+    logging.basicConfig(level=level, format="volpack: %(levelname)s: %(message)s", stream=sys.stderr)
+
+
+def _register() -> None:
+    from . import codec, convert, demo, info, jit
+
+    for module in (info, convert, codec, demo, jit):
+        for cmd in module.COMMANDS:
+            main.add_command(cmd)
+
+
+_register()

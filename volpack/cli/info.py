@@ -1,0 +1,87 @@
+"""``volpack info``: what a file holds."""
+
+from __future__ import annotations
+
+import click
+
+from .options import emit_json, fmt_bytes, json_option, raw_options, read_kwargs, table
+
+
+@click.command(context_settings={"help_option_names": ["-h", "--help"]})
+@click.argument("source")
+@json_option
+@click.option("--chunks", is_flag=True, help="For .vpk: list every chunk (t, node, offset, bytes, error).")
+@raw_options
+def info(source: str, as_json: bool, chunks: bool, raw_shape, raw_dtype, byteorder, offset) -> None:
+    """Describe SOURCE: a .vpk file or any volume volpack reads.
+
+    \b
+    For a volume: format, shape (z, y, x), dtype, spacing, value range, size.
+    For a .vpk: its header, chunk count, sizes, ratio and per-chunk error.
+
+    \b
+    Examples:
+      volpack info head.nii.gz
+      volpack info ct.vpk --json | jq .ratio
+      volpack info scan.raw --shape 108,256,256 --dtype int16
+    """
+    from .. import api
+
+    d = api.info(source, **read_kwargs(raw_shape, raw_dtype, byteorder, offset))
+    if not (as_json and chunks) and "entries" in d and not chunks:
+        d = {k: v for k, v in d.items() if k != "entries"}
+    if as_json:
+        emit_json(d)
+        return
+    click.echo(_human(d, chunks))
+
+
+def _human(d: dict, chunks: bool) -> str:
+    if d["format"] != "vpk":
+        rows = [
+            ["path", d["path"]],
+            ["format", d["format"]],
+            ["shape", " x ".join(map(str, d["shape"])) + ("  (t, z, y, x)" if len(d["shape"]) == 4 else "  (z, y, x)")],
+            ["dtype", d["dtype"]],
+            ["spacing", ", ".join(f"{s:g}" for s in d["spacing"])],
+            ["value range", f"{d['min']} .. {d['max']}"],
+            ["size", fmt_bytes(d["nbytes"])],
+        ]
+        for k in ("nan", "inf", "masked"):
+            if d.get(k):
+                rows.append([k, str(d[k])])
+        for k, v in (d.get("meta") or {}).items():
+            rows.append([f"meta.{k}", str(v)])
+        return "\n".join(f"{k:<12} {v}" for k, v in rows)
+    h = d["header"]
+    s = d.get("summary") or {}
+    rows = [
+        ["path", d["path"]],
+        ["format", f"vpk (kind {h.get('kind')}, written by volpack {h.get('volpack', '?')})"],
+        ["shape", " x ".join(map(str, h.get("shape", [])))],
+        ["dtype", str(h.get("dtype"))],
+        ["spacing", ", ".join(f"{v:g}" for v in h.get("spacing", []))],
+        ["codec", ", ".join(f"{k}={v}" for k, v in (h.get("codec") or {}).items())],
+        ["bricks", f"{d['chunks']} chunks of up to {'x'.join(map(str, h.get('brick', [])))}"],
+        ["size", f"{fmt_bytes(d['file_nbytes'])} (raw {fmt_bytes(d['raw_nbytes'])})"],
+        ["ratio", f"{d['ratio']:.3f} : 1  ({8 * d['file_nbytes'] / max(1, d['raw_nbytes'] // max(1, _itemsize(h))):.3f} bits/voxel)"],
+        ["chunk bytes", f"min {d['chunk_nbytes']['min']}, mean {d['chunk_nbytes']['mean']:.0f}, max {d['chunk_nbytes']['max']}"],
+        ["max error", "0 (lossless)" if s.get("lossless") else f"{d['max_error']:g}"],
+    ]
+    out = "\n".join(f"{k:<12} {v}" for k, v in rows)
+    if chunks:
+        trs = [[str(e["t"]), str(e["node"]), str(e["offset"]), str(e["nbytes"]), f"{e['error']:g}"] for e in d["entries"]]
+        out += "\n\n" + table(trs, ["t", "node", "offset", "bytes", "error"])
+    return out
+
+
+def _itemsize(h: dict) -> int:
+    import numpy as np
+
+    try:
+        return np.dtype(h.get("dtype", "u1")).itemsize
+    except TypeError:
+        return 1
+
+
+COMMANDS = [info]

@@ -1,0 +1,226 @@
+"""Brick codecs: one brick (a small 3-D array) to bytes and back.
+
+A codec is a frozen dataclass with ``encode``, ``decode`` and ``get_config``; the bytes
+depend only on ``(codec_id, get_config(), brick)``. ``get_codec(config)`` rebuilds a codec
+from the config stored in a ``.vpk`` header. One ``codec_id`` means one byte format for
+ever (see ``formats/wavelet-1.md``).
+
+Every wavelet payload starts with a one-byte mode, so a brick that the transform cannot
+help (white noise) or that is constant costs at most its raw size plus a byte, or a
+few bytes:
+
+====  ===========================================================
+mode  payload after the mode byte
+====  ===========================================================
+0     coefficients coded by the configured entropy coder
+1     the raw voxels, little-endian, C order
+2     one voxel value (the whole brick is that value), little-endian
+====  ===========================================================
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+from typing import Any, ClassVar
+
+import numpy as np
+
+from .errors import FormatError
+
+MODE_CODED, MODE_RAW, MODE_CONSTANT = 0, 1, 2
+
+WAVELET_NAMES = ("53", "26", "haar", "97m")
+CODER_NAMES = ("arith", "huffman", "rle")
+ORDER_NAMES = ("dfs", "line")
+# Integer dtypes the lossless wavelet path takes exactly (64-bit ones may not fit int64
+# intermediates; they go through the zstd codec instead).
+WAVELET_DTYPES = ("uint8", "int8", "uint16", "int16", "uint32", "int32")
+
+
+def storage_dtype(dtype: Any) -> np.dtype:
+    """Return ``dtype`` in little-endian byte order (how voxels are stored in payloads)."""
+    return np.dtype(dtype).newbyteorder("<")
+
+
+def _as_stored(a: np.ndarray) -> bytes:
+    return np.ascontiguousarray(a, dtype=storage_dtype(a.dtype)).tobytes()
+
+
+def _from_stored(data: bytes | memoryview, shape: tuple[int, ...], dtype: np.dtype) -> np.ndarray:
+    sd = storage_dtype(dtype)
+    need = int(np.prod(shape)) * sd.itemsize
+    if len(data) != need:
+        raise FormatError(f"raw brick payload: expected {need} bytes for {shape} {dtype}, found {len(data)}")
+    return np.frombuffer(data, dtype=sd).reshape(shape).astype(dtype, copy=True)
+
+
+@dataclasses.dataclass(frozen=True)
+class WaveletCodec:
+    """Integer lifting wavelet + significance map + entropy coder (lossless).
+
+    Parameters
+    ----------
+    wavelet : {"53", "26", "haar", "97m"}
+        Reversible lifting filter; 5/3 (CDF 2,2) is the default.
+    coder : {"arith", "huffman", "rle"}
+        Adaptive arithmetic coding (best ratio), the fixed Huffman code (fast), or
+        run-length Huffman (sparse data).
+    order : {"dfs", "line"}
+        Coefficient scan: octree depth-first with zero-subtree stripping, or subband by
+        subband in raster order.
+    max_levels : int or None
+        Cap on the decomposition depth per axis; ``None`` lets the brick shape decide.
+    """
+
+    codec_id: ClassVar[str] = "wavelet"
+    wavelet: str = "53"
+    coder: str = "arith"
+    order: str = "dfs"
+    max_levels: int | None = None
+
+    def __post_init__(self) -> None:
+        _check_choice("wavelet", self.wavelet, WAVELET_NAMES)
+        _check_choice("coder", self.coder, CODER_NAMES)
+        _check_choice("order", self.order, ORDER_NAMES)
+        if self.max_levels is not None and not (0 <= int(self.max_levels) <= 16):
+            raise ValueError(f"expected max_levels in 0..16, found {self.max_levels!r}")
+
+    def get_config(self) -> dict[str, Any]:
+        return {"id": self.codec_id, **dataclasses.asdict(self)}
+
+    def _plan(self, shape: tuple[int, ...], dtype: np.dtype):
+        from .wavelet import dwt3
+
+        levels = dwt3.levels_for_shape(shape, self.max_levels)
+        info = np.iinfo(dtype)
+        work = dwt3.work_dtype(int(info.min), int(info.max), levels, self.wavelet)
+        return levels, work
+
+    def encode(self, brick: np.ndarray) -> bytes:
+        from . import sigmap
+        from .entropy import CODERS
+        from .wavelet import dwt3
+
+        brick = np.asarray(brick)
+        check_wavelet_dtype(brick.dtype)
+        if brick.ndim != 3:
+            raise ValueError(f"expected a 3-D brick, found shape {brick.shape}")
+        raw = _as_stored(brick)
+        if brick.size and (brick.flat[0] == brick).all():
+            return bytes([MODE_CONSTANT]) + raw[: brick.dtype.itemsize]
+        levels, work = self._plan(brick.shape, brick.dtype)
+        coeffs = dwt3.forward(np.ascontiguousarray(brick, dtype=work), levels, self.wavelet)
+        scan = sigmap.scan(brick.shape, levels, self.order)
+        coded = CODERS[self.coder].encode(coeffs, scan)
+        if len(coded) >= len(raw):
+            return bytes([MODE_RAW]) + raw
+        return bytes([MODE_CODED]) + coded
+
+    def decode(self, data: bytes | memoryview, shape: tuple[int, ...], dtype: Any) -> np.ndarray:
+        from . import sigmap
+        from .entropy import CODERS
+        from .wavelet import dwt3
+
+        dtype = np.dtype(dtype)
+        check_wavelet_dtype(dtype)
+        data = memoryview(data)
+        if len(data) < 1:
+            raise FormatError("empty wavelet brick payload: expected at least a mode byte")
+        mode = data[0]
+        body = data[1:]
+        if mode == MODE_RAW:
+            return _from_stored(body, shape, dtype)
+        if mode == MODE_CONSTANT:
+            value = _from_stored(body, (1,), dtype)[0]
+            return np.full(shape, value, dtype=dtype)
+        if mode != MODE_CODED:
+            raise FormatError(f"wavelet brick payload: expected mode 0, 1 or 2, found {mode}")
+        levels, work = self._plan(shape, dtype)
+        scan = sigmap.scan(tuple(shape), levels, self.order)
+        coeffs = np.empty(shape, dtype=work)
+        CODERS[self.coder].decode(bytes(body), scan, coeffs)
+        out = dwt3.inverse(coeffs, levels, self.wavelet)
+        info = np.iinfo(dtype)
+        if out.size and (out.min() < info.min or out.max() > info.max):
+            raise FormatError(f"corrupt wavelet brick: decoded values fall outside the {dtype} range")
+        return out.astype(dtype, copy=False)
+
+
+@dataclasses.dataclass(frozen=True)
+class ZstdCodec:
+    """Byte-shuffled zstd: the exact path for floats and 64-bit integers.
+
+    Shuffling groups the k-th byte of every value together, so the slowly varying high
+    bytes (sign, exponent) compress well; NaN and Inf bit patterns are kept as they are.
+    """
+
+    codec_id: ClassVar[str] = "zstd"
+    level: int = 9
+    shuffle: bool = True
+
+    def get_config(self) -> dict[str, Any]:
+        return {"id": self.codec_id, **dataclasses.asdict(self)}
+
+    def encode(self, brick: np.ndarray) -> bytes:
+        import zstandard
+
+        a = np.ascontiguousarray(brick, dtype=storage_dtype(brick.dtype))
+        raw = a.view(np.uint8).reshape(-1, a.dtype.itemsize)
+        if self.shuffle and a.dtype.itemsize > 1:
+            raw = raw.T
+        return zstandard.ZstdCompressor(level=self.level).compress(np.ascontiguousarray(raw).tobytes())
+
+    def decode(self, data: bytes | memoryview, shape: tuple[int, ...], dtype: Any) -> np.ndarray:
+        import zstandard
+
+        dtype = np.dtype(dtype)
+        n = int(np.prod(shape))
+        need = n * dtype.itemsize
+        try:
+            raw = zstandard.ZstdDecompressor().decompress(bytes(data), max_output_size=need)
+        except zstandard.ZstdError as e:
+            raise FormatError(f"corrupt zstd brick payload: {e}") from None
+        if len(raw) != need:
+            raise FormatError(f"zstd brick payload: expected {need} bytes after decompression, found {len(raw)}")
+        b = np.frombuffer(raw, dtype=np.uint8)
+        if self.shuffle and dtype.itemsize > 1:
+            b = b.reshape(dtype.itemsize, n).T
+        return np.ascontiguousarray(b).view(storage_dtype(dtype)).reshape(shape).astype(dtype, copy=True)
+
+
+CODECS: dict[str, type] = {c.codec_id: c for c in (WaveletCodec, ZstdCodec)}
+
+
+def get_codec(config: Mapping[str, Any]):
+    """Rebuild a codec from ``get_config()`` output (as stored in a ``.vpk`` header)."""
+    if not isinstance(config, Mapping) or "id" not in config:
+        raise FormatError(f"expected a codec config with an 'id', found {config!r}")
+    config = dict(config)
+    codec_id = config.pop("id")
+    try:
+        cls = CODECS[codec_id]
+    except (KeyError, TypeError):
+        raise FormatError(f"unknown codec id {codec_id!r}; known: {sorted(CODECS)}") from None
+    try:
+        return cls(**config)
+    except TypeError as e:
+        raise FormatError(f"bad config for codec {codec_id!r}: {e}") from None
+
+
+def check_wavelet_dtype(dtype: np.dtype) -> None:
+    if np.dtype(dtype).name not in WAVELET_DTYPES:
+        if np.dtype(dtype).kind == "f":
+            raise FormatError(
+                f"the lossless wavelet codec takes integer voxels, found {np.dtype(dtype)}; "
+                "use --max-error for error-bounded float coding, or --codec zstd to store floats exactly"
+            )
+        raise FormatError(
+            f"the wavelet codec takes {', '.join(WAVELET_DTYPES)} voxels, found {np.dtype(dtype)}; "
+            "use --codec zstd for this dtype"
+        )
+
+
+def _check_choice(name: str, value: Any, allowed: tuple[str, ...]) -> None:
+    if value not in allowed:
+        raise ValueError(f"expected {name} in {allowed}, found {value!r}")

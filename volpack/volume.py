@@ -1,0 +1,120 @@
+"""The in-memory volume: a voxel array with its geometry and how its values were made.
+
+Axis order is ``(z, y, x)``, with time leading for animations ``(t, z, y, x)``;
+``spacing`` and ``origin`` follow the same order (spatial axes only).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import numpy as np
+
+from .errors import FormatError
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Volume:
+    """A regular 3-D grid, or a sequence of them along a leading time axis.
+
+    Parameters
+    ----------
+    data : ndarray
+        ``(z, y, x)`` or ``(t, z, y, x)`` voxels, any integer or float dtype.
+    spacing : tuple of float
+        Voxel size along ``(z, y, x)``; 1.0 each when unknown.
+    origin : tuple of float
+        Position of voxel ``(0, 0, 0)`` along ``(z, y, x)``.
+    mask : ndarray of bool, optional
+        Same shape as ``data``; True marks voxels whose stored value is not a measurement
+        (NaN, Inf or a fill value). Their original values live in ``meta['special']``.
+    meta : dict
+        Provenance that must travel with the data, e.g. the quantisation record written
+        by :func:`volpack.prep.quantize` (scale, offset, max error).
+    """
+
+    data: np.ndarray
+    spacing: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    origin: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    mask: np.ndarray | None = None
+    meta: dict[str, Any] = dataclasses.field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        data = self.data
+        if not isinstance(data, np.ndarray):
+            data = np.asarray(data)
+            object.__setattr__(self, "data", data)
+        if data.ndim not in (3, 4):
+            raise FormatError(
+                f"expected a volume with 3 axes (z, y, x) or 4 axes (t, z, y, x), "
+                f"found an array of shape {data.shape}"
+            )
+        if data.dtype.kind not in "biuf":
+            raise FormatError(f"expected integer or float voxels, found dtype {data.dtype}")
+        object.__setattr__(self, "spacing", _triple(self.spacing, "spacing", positive=True))
+        object.__setattr__(self, "origin", _triple(self.origin, "origin"))
+        if self.mask is not None:
+            m = np.asarray(self.mask, dtype=bool)
+            if m.shape != data.shape:
+                raise FormatError(f"mask shape {m.shape} does not match data shape {data.shape}")
+            object.__setattr__(self, "mask", m)
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return self.data.shape
+
+    @property
+    def dtype(self) -> np.dtype:
+        return self.data.dtype
+
+    @property
+    def is_animation(self) -> bool:
+        return self.data.ndim == 4
+
+    @property
+    def nbytes(self) -> int:
+        return int(self.data.nbytes)
+
+    def replace(self, **changes: Any) -> Volume:
+        """Return a copy with some fields replaced (``dataclasses.replace``)."""
+        return dataclasses.replace(self, **changes)
+
+    def describe(self) -> dict[str, Any]:
+        """Return shape, dtype, spacing, value range and size as plain JSON types."""
+        d = self.data
+        valid = d if self.mask is None else d[~self.mask]
+        if d.dtype.kind == "f":
+            valid = valid[np.isfinite(valid)]
+        lo = hi = None
+        if valid.size:
+            lo, hi = valid.min().item(), valid.max().item()
+        out: dict[str, Any] = {
+            "shape": list(d.shape),
+            "dtype": str(d.dtype),
+            "spacing": list(self.spacing),
+            "origin": list(self.origin),
+            "min": lo,
+            "max": hi,
+            "nbytes": int(d.nbytes),
+        }
+        if d.dtype.kind == "f":
+            out["nan"] = int(np.isnan(d).sum())
+            out["inf"] = int(np.isinf(d).sum())
+        if self.mask is not None:
+            out["masked"] = int(self.mask.sum())
+        if self.meta:
+            out["meta"] = self.meta
+        return out
+
+
+def _triple(value: Any, name: str, positive: bool = False) -> tuple[float, float, float]:
+    try:
+        t = tuple(float(v) for v in value)
+    except TypeError:
+        raise FormatError(f"expected {name} as three numbers (z, y, x), found {value!r}") from None
+    if len(t) != 3 or not all(np.isfinite(t)):
+        raise FormatError(f"expected {name} as three finite numbers (z, y, x), found {value!r}")
+    if positive and min(t) <= 0:
+        raise FormatError(f"expected positive {name}, found {value!r}")
+    return t  # type: ignore[return-value]
