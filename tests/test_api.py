@@ -46,7 +46,9 @@ def test_extreme_values_every_dtype(dtype):
     roundtrip(full, brick=(4, 8, 16))
 
 
-@pytest.mark.parametrize("shape", [(1, 1, 1), (1, 1, 17), (1, 13, 1), (2, 3, 5), (7, 11, 13), (31, 1, 37)])
+@pytest.mark.parametrize(
+    "shape", [(1, 1, 1), (1, 1, 17), (1, 13, 1), (2, 3, 5), (7, 11, 13), (31, 1, 37)]
+)
 def test_odd_prime_and_degenerate_shapes(shape):
     a = smooth_volume(shape, np.uint16, seed=2)
     for coder in CODER_NAMES:
@@ -86,7 +88,9 @@ def test_roi_reads_only_the_bricks_it_touches(tmp_path):
     assert len(bricks.bricks_in_roi(a.shape, (16, 16, 16), roi)) == 2 * 1 * 2
 
 
-@pytest.mark.parametrize("z0,y0,x0", [(0, 0, 0), (15, 15, 15), (16, 16, 16), (31, 47, 59), (39, 49, 59)])
+@pytest.mark.parametrize(
+    "z0,y0,x0", [(0, 0, 0), (15, 15, 15), (16, 16, 16), (31, 47, 59), (39, 49, 59)]
+)
 def test_bricks_at_every_edge_position(z0, y0, x0, tmp_path):
     a = smooth_volume((40, 50, 60), np.uint16, seed=6)
     blob = api.compress_array(a, brick=16)
@@ -121,11 +125,17 @@ def test_floats_are_stored_exactly_or_refused_with_a_pointer_to_max_error():
 
 
 def test_spacing_origin_and_meta_travel_with_the_data():
-    v = Volume(smooth_volume((5, 6, 7)), spacing=(1.5, 0.9, 0.9), origin=(1, 2, 3), meta={"scan": "x"})
+    v = Volume(
+        smooth_volume((5, 6, 7)), spacing=(1.5, 0.9, 0.9), origin=(1, 2, 3), meta={"scan": "x"}
+    )
     buf = io.BytesIO()
     api.compress(v, buf)
     got = api.decompress(buf.getvalue())
-    assert got.spacing == (1.5, 0.9, 0.9) and got.origin == (1.0, 2.0, 3.0) and got.meta == {"scan": "x"}
+    assert (
+        got.spacing == (1.5, 0.9, 0.9)
+        and got.origin == (1.0, 2.0, 3.0)
+        and got.meta == {"scan": "x"}
+    )
 
 
 def test_lossless_beats_raw_on_a_real_mri(brain):

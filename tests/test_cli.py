@@ -22,7 +22,9 @@ def run(*args, input=None, ok=True):
     return r
 
 
-@pytest.mark.parametrize("cmd", [[], ["info"], ["convert"], ["compress"], ["decompress"], ["demo"], ["warmup"]])
+@pytest.mark.parametrize(
+    "cmd", [[], ["info"], ["convert"], ["compress"], ["decompress"], ["demo"], ["warmup"]]
+)
 def test_help_of_every_command(cmd):
     r = run(*cmd, "--help")
     assert "Usage:" in r.output and "Examples" in r.output or cmd in (["demo"], ["warmup"])
@@ -40,7 +42,9 @@ def test_help_does_not_import_numba_and_is_fast():
 
 
 def test_python_dash_m_volpack():
-    out = subprocess.run([sys.executable, "-m", "volpack", "--version"], capture_output=True, text=True, check=True)
+    out = subprocess.run(
+        [sys.executable, "-m", "volpack", "--version"], capture_output=True, text=True, check=True
+    )
     assert "volpack" in out.stdout
 
 
@@ -60,8 +64,19 @@ def test_info_on_npy_and_vpk_json(tmp_path):
 def test_compress_decompress_roi_and_codec_options(tmp_path):
     a = smooth_volume((40, 50, 60), np.uint16)
     np.save(tmp_path / "a.npy", a)
-    run("compress", tmp_path / "a.npy", tmp_path / "a.vpk", "--wavelet", "26", "--coder", "huffman", "--brick", "16",
-        "--workers", "2")
+    run(
+        "compress",
+        tmp_path / "a.npy",
+        tmp_path / "a.vpk",
+        "--wavelet",
+        "26",
+        "--coder",
+        "huffman",
+        "--brick",
+        "16",
+        "--workers",
+        "2",
+    )
     run("decompress", tmp_path / "a.vpk", tmp_path / "b.npy")
     np.testing.assert_array_equal(np.load(tmp_path / "b.npy"), a)
     run("decompress", tmp_path / "a.vpk", tmp_path / "roi.npy", "--roi", "10:20,5:45,:7")
@@ -89,8 +104,11 @@ def test_input_is_never_overwritten(tmp_path):
 
 def test_user_errors_are_one_line_with_exit_1(tmp_path):
     (tmp_path / "bad.vpk").write_bytes(b"\x89VPK\r\n\x1a\nnot really")
-    for args in (["info", tmp_path / "nope.npy"], ["decompress", tmp_path / "bad.vpk", tmp_path / "o.npy"],
-                 ["info", tmp_path / "x.unknown"]):
+    for args in (
+        ["info", tmp_path / "nope.npy"],
+        ["decompress", tmp_path / "bad.vpk", tmp_path / "o.npy"],
+        ["info", tmp_path / "x.unknown"],
+    ):
         if args[1].name == "x.unknown":
             args[1].write_bytes(b"123")
         r = run(*args, ok=False)
@@ -113,12 +131,22 @@ def test_usage_errors_exit_2():
 def test_convert_crop_downsample_quantize(tmp_path):
     a = smooth_volume((20, 30, 40), np.int16)
     np.save(tmp_path / "a.npy", a)
-    run("convert", tmp_path / "a.npy", tmp_path / "c.npy", "--crop", "2:18,0:30,10:40", "--downsample", "2")
+    run(
+        "convert",
+        tmp_path / "a.npy",
+        tmp_path / "c.npy",
+        "--crop",
+        "2:18,0:30,10:40",
+        "--downsample",
+        "2",
+    )
     c = np.load(tmp_path / "c.npy")
     assert c.shape == (8, 15, 15) and c.dtype == np.int16
     f = (np.random.default_rng(0).normal(size=(6, 7, 8)) * 10).astype(np.float32)
     np.save(tmp_path / "f.npy", f)
-    d = json.loads(run("convert", tmp_path / "f.npy", tmp_path / "q.npy", "--quantize", "16", "--json").stdout)
+    d = json.loads(
+        run("convert", tmp_path / "f.npy", tmp_path / "q.npy", "--quantize", "16", "--json").stdout
+    )
     q = np.load(tmp_path / "q.npy")
     assert q.dtype == np.uint16
     meta = d["meta"]["quantize"]
@@ -139,10 +167,17 @@ def test_stdin_to_hdf5_and_stdout(tmp_path):
         np.testing.assert_array_equal(f["data"][...], a)
     # compress to stdout, decompress from stdin: a pipeline
     np.save(tmp_path / "a.npy", a)
-    vpk = subprocess.run([sys.executable, "-m", "volpack", "compress", str(tmp_path / "a.npy"), "-"],
-                         capture_output=True, check=True).stdout
-    npy = subprocess.run([sys.executable, "-m", "volpack", "decompress", "-", "-"], input=vpk,
-                         capture_output=True, check=True).stdout
+    vpk = subprocess.run(
+        [sys.executable, "-m", "volpack", "compress", str(tmp_path / "a.npy"), "-"],
+        capture_output=True,
+        check=True,
+    ).stdout
+    npy = subprocess.run(
+        [sys.executable, "-m", "volpack", "decompress", "-", "-"],
+        input=vpk,
+        capture_output=True,
+        check=True,
+    ).stdout
     np.testing.assert_array_equal(np.load(io.BytesIO(npy)), a)
 
 

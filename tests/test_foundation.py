@@ -20,7 +20,12 @@ from volpack.volume import Volume
 def test_volume_checks_and_describe():
     v = Volume(np.arange(24, dtype=np.int16).reshape(2, 3, 4), spacing=(2, 1, 1))
     d = v.describe()
-    assert d["shape"] == [2, 3, 4] and d["min"] == 0 and d["max"] == 23 and d["spacing"] == [2.0, 1.0, 1.0]
+    assert (
+        d["shape"] == [2, 3, 4]
+        and d["min"] == 0
+        and d["max"] == 23
+        and d["spacing"] == [2.0, 1.0, 1.0]
+    )
     with pytest.raises(FormatError, match="found an array of shape"):
         Volume(np.zeros((3, 4)))
     with pytest.raises(FormatError, match="positive spacing"):
@@ -63,10 +68,16 @@ def test_brick_grid_covers_every_voxel_once():
 
 def test_bricks_in_roi_matches_brute_force():
     shape, brick = (20, 9, 30), (8, 4, 7)
-    for roi in [(slice(0, 20), slice(0, 9), slice(0, 30)), (slice(7, 9), slice(3, 5), slice(13, 15)),
-                (slice(19, 20), slice(8, 9), slice(29, 30))]:
-        want = [n for n, sl in bricks.iter_bricks(shape, brick)
-                if all(s.start < r.stop and r.start < s.stop for s, r in zip(sl, roi))]
+    for roi in [
+        (slice(0, 20), slice(0, 9), slice(0, 30)),
+        (slice(7, 9), slice(3, 5), slice(13, 15)),
+        (slice(19, 20), slice(8, 9), slice(29, 30)),
+    ]:
+        want = [
+            n
+            for n, sl in bricks.iter_bricks(shape, brick)
+            if all(s.start < r.stop and r.start < s.stop for s, r in zip(sl, roi))
+        ]
         assert bricks.bricks_in_roi(shape, brick, roi) == want
 
 
@@ -74,12 +85,16 @@ def test_ordered_map_keeps_order_with_threads():
     items = list(range(200))
     for w in (1, 2, 5):
         assert list(ordered_map(lambda i: i * i, items, w)) == [i * i for i in items]
-    assert list(ordered_map(lambda i: i, itertools.islice(itertools.count(), 10), 3)) == list(range(10))
+    assert list(ordered_map(lambda i: i, itertools.islice(itertools.count(), 10), 3)) == list(
+        range(10)
+    )
 
 
 def test_jit_cache_dir_follows_the_sources(tmp_path):
     code = "import volpack._jit as j; print(j.cache_dir())"
     env = dict(os.environ, VOLPACK_CACHE_DIR=str(tmp_path))
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env)
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env
+    )
     path = out.stdout.strip()
     assert path.startswith(str(tmp_path)) and len(os.path.basename(path)) == 16

@@ -87,7 +87,9 @@ def compress(
     vol = source if isinstance(source, Volume) else Volume(np.asarray(source))
     brick_t = bricks.parse_brick(brick)
     nworkers = parse_workers(workers)
-    c = make_codec(codec, vol.dtype, wavelet=wavelet, coder=coder, order=order, max_levels=max_levels)
+    c = make_codec(
+        codec, vol.dtype, wavelet=wavelet, coder=coder, order=order, max_levels=max_levels
+    )
     if c.codec_id == "wavelet":
         from .codec import check_wavelet_dtype
 
@@ -105,7 +107,11 @@ def compress(
     }
     data = vol.data
     frames = data[None] if data.ndim == 3 else data
-    tasks = [(t, node, sl) for t in range(frames.shape[0]) for node, sl in bricks.iter_bricks(data.shape, brick_t)]
+    tasks = [
+        (t, node, sl)
+        for t in range(frames.shape[0])
+        for node, sl in bricks.iter_bricks(data.shape, brick_t)
+    ]
     total = len(tasks)
 
     def encode(task):
@@ -122,7 +128,12 @@ def compress(
             if progress is not None:
                 progress(done, total)
         seconds = time.perf_counter() - t0
-        summary = {"raw_nbytes": int(vol.nbytes), "payload_nbytes": nbytes, "lossless": True, "max_error": 0.0}
+        summary = {
+            "raw_nbytes": int(vol.nbytes),
+            "payload_nbytes": nbytes,
+            "lossless": True,
+            "max_error": 0.0,
+        }
         w.close(summary=summary)
     seconds = time.perf_counter() - t0
     return {
@@ -199,13 +210,15 @@ def decompress(
             if progress is not None:
                 progress(done, len(tasks))
     data = out[0] if (len(shape) == 3 or frame is not None) else out
-    return Volume(data, spacing=tuple(hdr["spacing"]), origin=origin, meta=dict(hdr.get("meta") or {}))
+    return Volume(
+        data, spacing=tuple(hdr["spacing"]), origin=origin, meta=dict(hdr.get("meta") or {})
+    )
 
 
-def compress_array(array: np.ndarray, **options: Any) -> bytes:
-    """Compress an array to ``.vpk`` bytes (options as for :func:`compress`)."""
+def compress_array(array: np.ndarray | Volume, **options: Any) -> bytes:
+    """Compress an array (or a Volume) to ``.vpk`` bytes (options as for :func:`compress`)."""
     buf = _io.BytesIO()
-    compress(np.asarray(array), buf, **options)
+    compress(array if isinstance(array, Volume) else np.asarray(array), buf, **options)
     return buf.getvalue()
 
 
@@ -239,11 +252,22 @@ def info(source: str, **read_options: Any) -> dict[str, Any]:
                 "payload_nbytes": int(sizes.sum()),
                 "raw_nbytes": raw,
                 "ratio": raw / max(file_size, 1),
-                "chunk_nbytes": {"min": int(sizes.min(initial=0)), "max": int(sizes.max(initial=0)),
-                                 "mean": float(sizes.mean()) if sizes.size else 0.0},
+                "chunk_nbytes": {
+                    "min": int(sizes.min(initial=0)),
+                    "max": int(sizes.max(initial=0)),
+                    "mean": float(sizes.mean()) if sizes.size else 0.0,
+                },
                 "max_error": float(errors.max(initial=0.0)),
-                "entries": [{"t": e.t, "node": e.node, "offset": e.offset, "nbytes": e.nbytes, "error": e.error}
-                            for e in entries],
+                "entries": [
+                    {
+                        "t": e.t,
+                        "node": e.node,
+                        "offset": e.offset,
+                        "nbytes": e.nbytes,
+                        "error": e.error,
+                    }
+                    for e in entries
+                ],
             }
     vol = vio.read_volume(source, **read_options)
     d = vol.describe()
@@ -295,7 +319,9 @@ def _parse_roi(roi, shape: tuple[int, ...]) -> tuple[slice, slice, slice]:
     for s, n in zip(roi, shape):
         start, stop, step = s.indices(n)
         if step != 1 or stop <= start:
-            raise FormatError(f"expected a non-empty region with step 1 inside {shape}, found {roi}")
+            raise FormatError(
+                f"expected a non-empty region with step 1 inside {shape}, found {roi}"
+            )
         out.append(slice(start, stop))
     if len(out) != 3:
         raise FormatError(f"expected a region of three ranges (z, y, x), found {roi}")
@@ -318,7 +344,9 @@ def _jsonable(meta: dict) -> dict:
         json.dumps(meta)
         return meta
     except TypeError:
-        return json.loads(json.dumps(meta, default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o)))
+        return json.loads(
+            json.dumps(meta, default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o))
+        )
 
 
 def _stdout():

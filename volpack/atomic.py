@@ -29,7 +29,9 @@ def check_output(path: str | os.PathLike, *, force: bool = False, inputs: tuple 
     for inp in inputs:
         ip = os.fspath(inp).split(":/")[0] if isinstance(inp, str) else os.fspath(inp)
         if ip != "-" and os.path.exists(ip) and os.path.exists(p) and os.path.samefile(ip, p):
-            raise OutputExistsError(f"refusing to overwrite the input {ip!r}; choose another output")
+            raise OutputExistsError(
+                f"refusing to overwrite the input {ip!r}; choose another output"
+            )
     if os.path.exists(p) and not force:
         raise OutputExistsError(f"output {p!r} exists; pass --force (force=True) to replace it")
 

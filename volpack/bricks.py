@@ -24,7 +24,9 @@ def parse_brick(value: int | tuple[int, ...] | list[int]) -> tuple[int, int, int
     else:
         t = tuple(int(v) for v in value)
     if len(t) != 3 or min(t) < 1 or max(t) > 4096:
-        raise ValueError(f"expected a brick size of 1..4096 per axis (one number or z,y,x), found {value!r}")
+        raise ValueError(
+            f"expected a brick size of 1..4096 per axis (one number or z,y,x), found {value!r}"
+        )
     return t  # type: ignore[return-value]
 
 
@@ -33,23 +35,34 @@ def grid_shape(shape: tuple[int, ...], brick: tuple[int, int, int]) -> tuple[int
     return tuple(max(1, math.ceil(n / b)) for n, b in zip(shape[-3:], brick))  # type: ignore[return-value]
 
 
-def brick_slices(shape: tuple[int, ...], brick: tuple[int, int, int], node: int) -> tuple[slice, slice, slice]:
+def brick_slices(
+    shape: tuple[int, ...], brick: tuple[int, int, int], node: int
+) -> tuple[slice, slice, slice]:
     """The region of brick number ``node`` (edge bricks are smaller, never padded)."""
     g = grid_shape(shape, brick)
     if not 0 <= node < math.prod(g):
         raise FormatError(f"expected a brick number in 0..{math.prod(g) - 1}, found {node}")
     idx = np.unravel_index(node, g)
-    return tuple(slice(int(i) * b, min((int(i) + 1) * b, n)) for i, b, n in zip(idx, brick, shape[-3:]))  # type: ignore[return-value]
+    return tuple(
+        slice(int(i) * b, min((int(i) + 1) * b, n)) for i, b, n in zip(idx, brick, shape[-3:])
+    )  # type: ignore[return-value]
 
 
-def iter_bricks(shape: tuple[int, ...], brick: tuple[int, int, int]) -> Iterator[tuple[int, tuple[slice, slice, slice]]]:
+def iter_bricks(
+    shape: tuple[int, ...], brick: tuple[int, int, int]
+) -> Iterator[tuple[int, tuple[slice, slice, slice]]]:
     """Yield ``(node, slices)`` for every brick in node order."""
     g = grid_shape(shape, brick)
     for node, idx in enumerate(itertools.product(*(range(n) for n in g))):
-        yield node, tuple(slice(i * b, min((i + 1) * b, n)) for i, b, n in zip(idx, brick, shape[-3:]))
+        yield (
+            node,
+            tuple(slice(i * b, min((i + 1) * b, n)) for i, b, n in zip(idx, brick, shape[-3:])),
+        )
 
 
-def bricks_in_roi(shape: tuple[int, ...], brick: tuple[int, int, int], roi: tuple[slice, slice, slice]) -> list[int]:
+def bricks_in_roi(
+    shape: tuple[int, ...], brick: tuple[int, int, int], roi: tuple[slice, slice, slice]
+) -> list[int]:
     """Numbers of the bricks that intersect the region ``roi`` (slices with step 1)."""
     g = grid_shape(shape, brick)
     ranges = []

@@ -51,7 +51,9 @@ def _from_stored(data: bytes | memoryview, shape: tuple[int, ...], dtype: np.dty
     sd = storage_dtype(dtype)
     need = int(np.prod(shape)) * sd.itemsize
     if len(data) != need:
-        raise FormatError(f"raw brick payload: expected {need} bytes for {shape} {dtype}, found {len(data)}")
+        raise FormatError(
+            f"raw brick payload: expected {need} bytes for {shape} {dtype}, found {len(data)}"
+        )
     return np.frombuffer(data, dtype=sd).reshape(shape).astype(dtype, copy=True)
 
 
@@ -143,7 +145,9 @@ class WaveletCodec:
         out = dwt3.inverse(coeffs, levels, self.wavelet)
         info = np.iinfo(dtype)
         if out.size and (out.min() < info.min or out.max() > info.max):
-            raise FormatError(f"corrupt wavelet brick: decoded values fall outside the {dtype} range")
+            raise FormatError(
+                f"corrupt wavelet brick: decoded values fall outside the {dtype} range"
+            )
         return out.astype(dtype, copy=False)
 
 
@@ -169,7 +173,9 @@ class ZstdCodec:
         raw = a.view(np.uint8).reshape(-1, a.dtype.itemsize)
         if self.shuffle and a.dtype.itemsize > 1:
             raw = raw.T
-        return zstandard.ZstdCompressor(level=self.level).compress(np.ascontiguousarray(raw).tobytes())
+        return zstandard.ZstdCompressor(level=self.level).compress(
+            np.ascontiguousarray(raw).tobytes()
+        )
 
     def decode(self, data: bytes | memoryview, shape: tuple[int, ...], dtype: Any) -> np.ndarray:
         import zstandard
@@ -182,11 +188,18 @@ class ZstdCodec:
         except zstandard.ZstdError as e:
             raise FormatError(f"corrupt zstd brick payload: {e}") from None
         if len(raw) != need:
-            raise FormatError(f"zstd brick payload: expected {need} bytes after decompression, found {len(raw)}")
+            raise FormatError(
+                f"zstd brick payload: expected {need} bytes after decompression, found {len(raw)}"
+            )
         b = np.frombuffer(raw, dtype=np.uint8)
         if self.shuffle and dtype.itemsize > 1:
             b = b.reshape(dtype.itemsize, n).T
-        return np.ascontiguousarray(b).view(storage_dtype(dtype)).reshape(shape).astype(dtype, copy=True)
+        return (
+            np.ascontiguousarray(b)
+            .view(storage_dtype(dtype))
+            .reshape(shape)
+            .astype(dtype, copy=True)
+        )
 
 
 CODECS: dict[str, type] = {c.codec_id: c for c in (WaveletCodec, ZstdCodec)}

@@ -34,7 +34,9 @@ def parse_workers(workers: int | None) -> int:
     return int(workers)
 
 
-def ordered_map(fn: Callable[[T], R], items: Iterable[T], workers: int = 1, ahead: int = 4) -> Iterator[R]:
+def ordered_map(
+    fn: Callable[[T], R], items: Iterable[T], workers: int = 1, ahead: int = 4
+) -> Iterator[R]:
     """Yield ``fn(item)`` for each item in order, running up to ``workers`` at once.
 
     At most ``ahead * workers`` results are pending, so memory stays bounded however

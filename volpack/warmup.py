@@ -17,13 +17,21 @@ def warm() -> dict:
     n = 0
     for dtype in (np.uint8, np.int16, np.int32):
         info = np.iinfo(dtype)
-        brick = rng.integers(max(info.min, -1000), min(info.max, 1000), size=(9, 10, 11)).astype(dtype)
+        brick = rng.integers(max(info.min, -1000), min(info.max, 1000), size=(9, 10, 11)).astype(
+            dtype
+        )
         for wavelet in WAVELET_NAMES:
             for coder in CODER_NAMES:
                 for order in ORDER_NAMES:
                     c = WaveletCodec(wavelet=wavelet, coder=coder, order=order)
-                    if not np.array_equal(c.decode(c.encode(brick), brick.shape, brick.dtype), brick):
+                    if not np.array_equal(
+                        c.decode(c.encode(brick), brick.shape, brick.dtype), brick
+                    ):
                         raise AssertionError(f"warm-up round trip failed for {c}")
                     n += 1
-    return {"kernels": n, "seconds": time.perf_counter() - t0, "cache_dir": str(_jit.cache_dir()),
-            "cache": _jit.CACHE}
+    return {
+        "kernels": n,
+        "seconds": time.perf_counter() - t0,
+        "cache_dir": str(_jit.cache_dir()),
+        "cache": _jit.CACHE,
+    }

@@ -33,7 +33,11 @@ class VolpackGroup(click.Group):
         except KeyboardInterrupt:
             click.echo("volpack: interrupted", err=True)
             sys.exit(130)
-        except (ValueError, OSError, MemoryError) as e:  # VolpackError/FormatError are ValueErrors too
+        except (
+            ValueError,
+            OSError,
+            MemoryError,
+        ) as e:  # VolpackError/FormatError are ValueErrors too
             from ..errors import VolpackError
 
             if ctx.obj and ctx.obj.get("debug"):
@@ -59,7 +63,7 @@ def main(ctx: click.Context, verbose: int, quiet: bool, debug: bool) -> None:
     """Compress, preprocess and preview volume data.
 
     \b
-    Quick start:
+    Examples:
       volpack demo                                  run every codec on a bundled MRI
       volpack info head.nii.gz                      shape, dtype, spacing, value range
       volpack convert ct.nrrd ct.npy --crop 10:90,0:256,0:256 --downsample 2
@@ -73,7 +77,9 @@ def main(ctx: click.Context, verbose: int, quiet: bool, debug: bool) -> None:
     ctx.ensure_object(dict)
     ctx.obj.update(quiet=quiet, debug=debug, verbose=verbose)
     level = logging.WARNING - 10 * min(verbose, 2)
-    logging.basicConfig(level=level, format="volpack: %(levelname)s: %(message)s", stream=sys.stderr)
+    logging.basicConfig(
+        level=level, format="volpack: %(levelname)s: %(message)s", stream=sys.stderr
+    )
 
 
 def _register() -> None:

@@ -6,7 +6,16 @@ import time
 
 import click
 
-from .options import emit_json, fmt_bytes, force_option, json_option, progress_bar, raw_options, read_kwargs, workers_option
+from .options import (
+    emit_json,
+    fmt_bytes,
+    force_option,
+    json_option,
+    progress_bar,
+    raw_options,
+    read_kwargs,
+    workers_option,
+)
 
 
 def _brick(value: str) -> int | tuple[int, int, int]:
@@ -14,7 +23,9 @@ def _brick(value: str) -> int | tuple[int, int, int]:
     try:
         nums = [int(p) for p in parts]
     except ValueError:
-        raise click.BadParameter(f"expected N or Z,Y,X, found {value!r}", param_hint="--brick") from None
+        raise click.BadParameter(
+            f"expected N or Z,Y,X, found {value!r}", param_hint="--brick"
+        ) from None
     if len(nums) not in (1, 3):
         raise click.BadParameter(f"expected N or Z,Y,X, found {value!r}", param_hint="--brick")
     return nums[0] if len(nums) == 1 else tuple(nums)  # type: ignore[return-value]
@@ -23,23 +34,69 @@ def _brick(value: str) -> int | tuple[int, int, int]:
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})
 @click.argument("source")
 @click.argument("target")
-@click.option("--codec", type=click.Choice(["auto", "wavelet", "zstd"]), default="auto", show_default=True,
-              help="auto: the wavelet codec for 8/16/32-bit integers, byte-shuffled zstd (exact) for floats.")
-@click.option("--wavelet", type=click.Choice(["53", "26", "haar", "97m"]), default="53", show_default=True,
-              help="Reversible lifting filter: 5/3 (CDF 2,2), 2/6 (TS), Haar (S-transform), 9/7-M.")
-@click.option("--coder", type=click.Choice(["arith", "huffman", "rle"]), default="arith", show_default=True,
-              help="arith: best ratio; huffman: fixed code, fastest decode; rle: run-length Huffman for sparse data.")
-@click.option("--order", type=click.Choice(["dfs", "line"]), default="dfs", show_default=True,
-              help="Coefficient scan: octree depth-first with zero-subtree stripping, or line by line.")
-@click.option("--levels", "max_levels", type=click.IntRange(0, 16), help="Cap the decomposition levels per axis.")
-@click.option("--brick", default="64", show_default=True, help="Brick size N or Z,Y,X; bricks decode independently.")
+@click.option(
+    "--codec",
+    type=click.Choice(["auto", "wavelet", "zstd"]),
+    default="auto",
+    show_default=True,
+    help="auto: the wavelet codec for 8/16/32-bit integers, byte-shuffled zstd (exact) for floats.",
+)
+@click.option(
+    "--wavelet",
+    type=click.Choice(["53", "26", "haar", "97m"]),
+    default="53",
+    show_default=True,
+    help="Reversible lifting filter: 5/3 (CDF 2,2), 2/6 (TS), Haar (S-transform), 9/7-M.",
+)
+@click.option(
+    "--coder",
+    type=click.Choice(["arith", "huffman", "rle"]),
+    default="arith",
+    show_default=True,
+    help="arith: best ratio; huffman: fixed code, fastest decode; rle: run-length Huffman for sparse data.",
+)
+@click.option(
+    "--order",
+    type=click.Choice(["dfs", "line"]),
+    default="dfs",
+    show_default=True,
+    help="Coefficient scan: octree depth-first with zero-subtree stripping, or line by line.",
+)
+@click.option(
+    "--levels",
+    "max_levels",
+    type=click.IntRange(0, 16),
+    help="Cap the decomposition levels per axis.",
+)
+@click.option(
+    "--brick",
+    default="64",
+    show_default=True,
+    help="Brick size N or Z,Y,X; bricks decode independently.",
+)
 @workers_option
 @raw_options
 @force_option
 @json_option
 @click.pass_context
-def compress(ctx, source, target, codec, wavelet, coder, order, max_levels, brick, workers,
-             raw_shape, raw_dtype, byteorder, offset, force, as_json) -> None:
+def compress(
+    ctx,
+    source,
+    target,
+    codec,
+    wavelet,
+    coder,
+    order,
+    max_levels,
+    brick,
+    workers,
+    raw_shape,
+    raw_dtype,
+    byteorder,
+    offset,
+    force,
+    as_json,
+) -> None:
     """Compress the volume SOURCE into the .vpk file TARGET ('-' for stdout).
 
     Lossless by default: every voxel decodes bit-exactly. Integer volumes (8, 16 and
@@ -59,9 +116,19 @@ def compress(ctx, source, target, codec, wavelet, coder, order, max_levels, bric
     check_output(target, force=force, inputs=(vio.parse_spec(source)[0],))
     vol = vio.read_volume(source, **read_kwargs(raw_shape, raw_dtype, byteorder, offset))
     with progress_bar(ctx, "compress") as progress:
-        stats = api.compress(vol, target, codec=codec, wavelet=wavelet, coder=coder, order=order,
-                             max_levels=max_levels, brick=_brick(brick), workers=workers, force=force,
-                             progress=progress)
+        stats = api.compress(
+            vol,
+            target,
+            codec=codec,
+            wavelet=wavelet,
+            coder=coder,
+            order=order,
+            max_levels=max_levels,
+            brick=_brick(brick),
+            workers=workers,
+            force=force,
+            progress=progress,
+        )
     if as_json:
         emit_json(stats)
     elif target != "-":
@@ -101,12 +168,20 @@ def decompress(ctx, source, target, roi, frame, workers, force, as_json) -> None
         vol = api.decompress(source, roi=roi, frame=frame, workers=workers, progress=progress)
     seconds = time.perf_counter() - t0
     vio.write_volume(vol, target, force=force)
-    stats = {"target": target, "shape": list(vol.shape), "dtype": str(vol.dtype), "seconds": seconds,
-             "mb_per_s": vol.nbytes / 1e6 / max(seconds, 1e-9)}
+    stats = {
+        "target": target,
+        "shape": list(vol.shape),
+        "dtype": str(vol.dtype),
+        "seconds": seconds,
+        "mb_per_s": vol.nbytes / 1e6 / max(seconds, 1e-9),
+    }
     if as_json:
         emit_json(stats)
     elif target != "-":
-        click.echo(f"{target}: {'x'.join(map(str, vol.shape))} {vol.dtype}, {stats['mb_per_s']:.1f} MB/s", err=True)
+        click.echo(
+            f"{target}: {'x'.join(map(str, vol.shape))} {vol.dtype}, {stats['mb_per_s']:.1f} MB/s",
+            err=True,
+        )
 
 
 COMMANDS = [compress, decompress]

@@ -12,22 +12,71 @@ from .options import emit_json, force_option, json_option, raw_options, read_kwa
 @click.argument("target")
 @raw_options
 @click.option("--crop", help="Keep Z0:Z1,Y0:Y1,X0:X1 (numpy-style ranges; empty means all).")
-@click.option("--pad", "pad_to", type=click.IntRange(min=1), help="Pad each axis up to a multiple of N (edge values).")
-@click.option("--downsample", type=click.IntRange(min=1), help="Shrink each spatial axis by this factor.")
-@click.option("--method", type=click.Choice(["box", "gaussian"]), default="box", show_default=True,
-              help="Filter for --downsample.")
-@click.option("--isotropic", is_flag=True, help="Resample to isotropic spacing (the finest axis), trilinear.")
-@click.option("--spacing", "new_spacing", type=float, help="Resample to this isotropic spacing, trilinear.")
+@click.option(
+    "--pad",
+    "pad_to",
+    type=click.IntRange(min=1),
+    help="Pad each axis up to a multiple of N (edge values).",
+)
+@click.option(
+    "--downsample", type=click.IntRange(min=1), help="Shrink each spatial axis by this factor."
+)
+@click.option(
+    "--method",
+    type=click.Choice(["box", "gaussian"]),
+    default="box",
+    show_default=True,
+    help="Filter for --downsample.",
+)
+@click.option(
+    "--isotropic", is_flag=True, help="Resample to isotropic spacing (the finest axis), trilinear."
+)
+@click.option(
+    "--spacing", "new_spacing", type=float, help="Resample to this isotropic spacing, trilinear."
+)
 @click.option("--window", help="Clamp values to LO:HI.")
-@click.option("--mask-fill", type=float, help="Treat this value as 'no data': it joins NaN/Inf in the mask.")
-@click.option("--quantize", "bits", type=click.IntRange(1, 32),
-              help="Floats to N-bit unsigned integers; scale, offset and max error are recorded.")
-@click.option("--astype", help="Convert the dtype (explicit rounding, out-of-range values clipped and counted).")
-@click.option("--rounding", type=click.Choice(["nearest", "floor", "trunc"]), default="nearest", show_default=True)
+@click.option(
+    "--mask-fill", type=float, help="Treat this value as 'no data': it joins NaN/Inf in the mask."
+)
+@click.option(
+    "--quantize",
+    "bits",
+    type=click.IntRange(1, 32),
+    help="Floats to N-bit unsigned integers; scale, offset and max error are recorded.",
+)
+@click.option(
+    "--astype",
+    help="Convert the dtype (explicit rounding, out-of-range values clipped and counted).",
+)
+@click.option(
+    "--rounding",
+    type=click.Choice(["nearest", "floor", "trunc"]),
+    default="nearest",
+    show_default=True,
+)
 @force_option
 @json_option
-def convert(source, target, raw_shape, raw_dtype, byteorder, offset, crop, pad_to, downsample, method,
-            isotropic, new_spacing, window, mask_fill, bits, astype, rounding, force, as_json) -> None:
+def convert(
+    source,
+    target,
+    raw_shape,
+    raw_dtype,
+    byteorder,
+    offset,
+    crop,
+    pad_to,
+    downsample,
+    method,
+    isotropic,
+    new_spacing,
+    window,
+    mask_fill,
+    bits,
+    astype,
+    rounding,
+    force,
+    as_json,
+) -> None:
     """Read SOURCE, apply the steps asked for (in the order listed), write TARGET.
 
     The output format follows TARGET's extension ('-' writes .npy to standard output;
@@ -68,7 +117,9 @@ def convert(source, target, raw_shape, raw_dtype, byteorder, offset, crop, pad_t
         try:
             lo, hi = (float(v) for v in window.split(":"))
         except ValueError:
-            raise click.BadParameter(f"expected LO:HI, found {window!r}", param_hint="--window") from None
+            raise click.BadParameter(
+                f"expected LO:HI, found {window!r}", param_hint="--window"
+            ) from None
         vol = prep.window(vol, lo, hi)
         steps.append(f"window {lo:g}:{hi:g}")
     if vol.dtype.kind == "f" or mask_fill is not None:
@@ -92,11 +143,16 @@ def convert(source, target, raw_shape, raw_dtype, byteorder, offset, crop, pad_t
         emit_json(d)
     elif target != "-":
         shape = "x".join(map(str, vol.shape))
-        click.echo(f"{target}: {shape} {vol.dtype}" + (f" after {', '.join(steps)}" if steps else ""), err=True)
+        click.echo(
+            f"{target}: {shape} {vol.dtype}" + (f" after {', '.join(steps)}" if steps else ""),
+            err=True,
+        )
         q = vol.meta.get("quantize")
         if q:
-            click.echo(f"  quantized: scale {q['scale']:.6g}, offset {q['offset']:.6g}, max error {q['max_error']:.6g}",
-                       err=True)
+            click.echo(
+                f"  quantized: scale {q['scale']:.6g}, offset {q['offset']:.6g}, max error {q['max_error']:.6g}",
+                err=True,
+            )
 
 
 def _is_vpk_path(path: str) -> bool:

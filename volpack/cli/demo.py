@@ -8,9 +8,20 @@ from .options import emit_json, json_option, progress_bar, table
 
 
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})
-@click.option("--out", "folder", default="volpack-demo", show_default=True, help="Folder for the demo's files.")
-@click.option("--repeat", type=click.IntRange(1, 20), default=3, show_default=True,
-              help="Timing repeats (the best is reported).")
+@click.option(
+    "--out",
+    "folder",
+    default="volpack-demo",
+    show_default=True,
+    help="Folder for the demo's files.",
+)
+@click.option(
+    "--repeat",
+    type=click.IntRange(1, 20),
+    default=3,
+    show_default=True,
+    help="Timing repeats (the best is reported).",
+)
 @json_option
 @click.pass_context
 def demo(ctx, folder: str, repeat: int, as_json: bool) -> None:
@@ -29,9 +40,20 @@ def demo(ctx, folder: str, repeat: int, as_json: bool) -> None:
     if as_json:
         emit_json(report)
         return
-    rows = [[r["stage"], f"{r['ratio']:.3f}", "lossless" if r["lossless"] else f"{r['psnr']:.2f} dB",
-             f"{r['enc_mb_s']:.1f}", f"{r['dec_mb_s']:.1f}", str(r["nbytes"])] for r in report["rows"]]
-    click.echo(f"volpack demo: {report['input']} ({'x'.join(map(str, report['shape']))} {report['dtype']})\n")
+    rows = [
+        [
+            r["stage"],
+            f"{r['ratio']:.3f}",
+            "lossless" if r["lossless"] else f"{r['psnr']:.2f} dB",
+            f"{r['enc_mb_s']:.1f}",
+            f"{r['dec_mb_s']:.1f}",
+            str(r["nbytes"]),
+        ]
+        for r in report["rows"]
+    ]
+    click.echo(
+        f"volpack demo: {report['input']} ({'x'.join(map(str, report['shape']))} {report['dtype']})\n"
+    )
     click.echo(table(rows, ["stage", "ratio", "quality", "enc MB/s", "dec MB/s", "bytes"]))
     click.echo(f"\nevery round trip checked; files in {report['folder']}/")
 

@@ -10,7 +10,9 @@ from .options import emit_json, fmt_bytes, json_option, raw_options, read_kwargs
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})
 @click.argument("source")
 @json_option
-@click.option("--chunks", is_flag=True, help="For .vpk: list every chunk (t, node, offset, bytes, error).")
+@click.option(
+    "--chunks", is_flag=True, help="For .vpk: list every chunk (t, node, offset, bytes, error)."
+)
 @raw_options
 def info(source: str, as_json: bool, chunks: bool, raw_shape, raw_dtype, byteorder, offset) -> None:
     """Describe SOURCE: a .vpk file or any volume volpack reads.
@@ -41,7 +43,11 @@ def _human(d: dict, chunks: bool) -> str:
         rows = [
             ["path", d["path"]],
             ["format", d["format"]],
-            ["shape", " x ".join(map(str, d["shape"])) + ("  (t, z, y, x)" if len(d["shape"]) == 4 else "  (z, y, x)")],
+            [
+                "shape",
+                " x ".join(map(str, d["shape"]))
+                + ("  (t, z, y, x)" if len(d["shape"]) == 4 else "  (z, y, x)"),
+            ],
             ["dtype", d["dtype"]],
             ["spacing", ", ".join(f"{s:g}" for s in d["spacing"])],
             ["value range", f"{d['min']} .. {d['max']}"],
@@ -64,13 +70,22 @@ def _human(d: dict, chunks: bool) -> str:
         ["codec", ", ".join(f"{k}={v}" for k, v in (h.get("codec") or {}).items())],
         ["bricks", f"{d['chunks']} chunks of up to {'x'.join(map(str, h.get('brick', [])))}"],
         ["size", f"{fmt_bytes(d['file_nbytes'])} (raw {fmt_bytes(d['raw_nbytes'])})"],
-        ["ratio", f"{d['ratio']:.3f} : 1  ({8 * d['file_nbytes'] / max(1, d['raw_nbytes'] // max(1, _itemsize(h))):.3f} bits/voxel)"],
-        ["chunk bytes", f"min {d['chunk_nbytes']['min']}, mean {d['chunk_nbytes']['mean']:.0f}, max {d['chunk_nbytes']['max']}"],
+        [
+            "ratio",
+            f"{d['ratio']:.3f} : 1  ({8 * d['file_nbytes'] / max(1, d['raw_nbytes'] // max(1, _itemsize(h))):.3f} bits/voxel)",
+        ],
+        [
+            "chunk bytes",
+            f"min {d['chunk_nbytes']['min']}, mean {d['chunk_nbytes']['mean']:.0f}, max {d['chunk_nbytes']['max']}",
+        ],
         ["max error", "0 (lossless)" if s.get("lossless") else f"{d['max_error']:g}"],
     ]
     out = "\n".join(f"{k:<12} {v}" for k, v in rows)
     if chunks:
-        trs = [[str(e["t"]), str(e["node"]), str(e["offset"]), str(e["nbytes"]), f"{e['error']:g}"] for e in d["entries"]]
+        trs = [
+            [str(e["t"]), str(e["node"]), str(e["offset"]), str(e["nbytes"]), f"{e['error']:g}"]
+            for e in d["entries"]
+        ]
         out += "\n\n" + table(trs, ["t", "node", "offset", "bytes", "error"])
     return out
 

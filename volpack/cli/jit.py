@@ -22,7 +22,9 @@ def warmup(as_json: bool) -> None:
     if as_json:
         emit_json(report)
     else:
-        click.echo(f"compiled {report['kernels']} kernel paths in {report['seconds']:.1f} s into {report['cache_dir']}")
+        click.echo(
+            f"compiled {report['kernels']} kernel paths in {report['seconds']:.1f} s into {report['cache_dir']}"
+        )
 
 
 COMMANDS = [warmup]

@@ -10,20 +10,39 @@ from collections.abc import Iterator
 import click
 
 force_option = click.option("-f", "--force", is_flag=True, help="Replace an existing output file.")
-json_option = click.option("--json", "as_json", is_flag=True, help="Print machine-readable JSON instead of a table.")
+json_option = click.option(
+    "--json", "as_json", is_flag=True, help="Print machine-readable JSON instead of a table."
+)
 workers_option = click.option(
-    "-j", "--workers", type=click.IntRange(min=0), default=1, show_default=True,
+    "-j",
+    "--workers",
+    type=click.IntRange(min=0),
+    default=1,
+    show_default=True,
     help="Threads for bricks (0 = every core). The output does not depend on it.",
 )
 
 
 def raw_options(f):
     """--shape/--dtype/--byteorder/--offset for headerless raw input."""
-    f = click.option("--offset", type=click.IntRange(min=0), default=0, help="Raw input: bytes to skip (a header).")(f)
-    f = click.option("--byteorder", type=click.Choice(["<", ">", "little", "big"]), default="<",
-                     help="Raw input: byte order.")(f)
-    f = click.option("--dtype", "raw_dtype", help="Raw input: voxel type, e.g. uint8, int16, float32.")(f)
-    f = click.option("--shape", "raw_shape", help="Raw input: Z,Y,X (or T,Z,Y,X) voxels, e.g. 108,256,256.")(f)
+    f = click.option(
+        "--offset",
+        type=click.IntRange(min=0),
+        default=0,
+        help="Raw input: bytes to skip (a header).",
+    )(f)
+    f = click.option(
+        "--byteorder",
+        type=click.Choice(["<", ">", "little", "big"]),
+        default="<",
+        help="Raw input: byte order.",
+    )(f)
+    f = click.option(
+        "--dtype", "raw_dtype", help="Raw input: voxel type, e.g. uint8, int16, float32."
+    )(f)
+    f = click.option(
+        "--shape", "raw_shape", help="Raw input: Z,Y,X (or T,Z,Y,X) voxels, e.g. 108,256,256."
+    )(f)
     return f
 
 
@@ -33,7 +52,9 @@ def read_kwargs(raw_shape: str | None, raw_dtype: str | None, byteorder: str, of
         try:
             kw["shape"] = tuple(int(v) for v in raw_shape.replace("x", ",").split(","))
         except ValueError:
-            raise click.BadParameter(f"expected Z,Y,X integers, found {raw_shape!r}", param_hint="--shape") from None
+            raise click.BadParameter(
+                f"expected Z,Y,X integers, found {raw_shape!r}", param_hint="--shape"
+            ) from None
     if raw_dtype:
         kw["dtype"] = raw_dtype
     if byteorder != "<" or raw_dtype:
@@ -68,7 +89,9 @@ def progress_bar(ctx: click.Context, desc: str, unit: str = "brick") -> Iterator
 
 def emit_json(obj) -> None:
     """Print ``obj`` as strict JSON (infinite or NaN numbers become null)."""
-    click.echo(json.dumps(_finite(obj), indent=2, sort_keys=True, default=_default, allow_nan=False))
+    click.echo(
+        json.dumps(_finite(obj), indent=2, sort_keys=True, default=_default, allow_nan=False)
+    )
 
 
 def _finite(o):
@@ -98,8 +121,14 @@ def fmt_bytes(n: float) -> str:
 def table(rows: list[list[str]], header: list[str]) -> str:
     """A plain aligned text table."""
     widths = [max(len(str(r[i])) for r in [header, *rows]) for i in range(len(header))]
-    lines = ["  ".join(str(h).ljust(w) for h, w in zip(header, widths)),
-             "  ".join("-" * w for w in widths)]
-    lines += ["  ".join(str(c).rjust(w) if i else str(c).ljust(w) for i, (c, w) in enumerate(zip(r, widths)))
-              for r in rows]
+    lines = [
+        "  ".join(str(h).ljust(w) for h, w in zip(header, widths)),
+        "  ".join("-" * w for w in widths),
+    ]
+    lines += [
+        "  ".join(
+            str(c).rjust(w) if i else str(c).ljust(w) for i, (c, w) in enumerate(zip(r, widths))
+        )
+        for r in rows
+    ]
     return "\n".join(lines)

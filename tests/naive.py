@@ -1,0 +1,304 @@
+"""Slow, obviously correct references that the fast code is tested against.
+
+Each module's references sit in their own headed section; add new ones at the end.
+"""
+
+# --- prep and metrics ---
+
+
+def _prep_gauss_taps(n, f, i):
+    """Input indices and unnormalised weights of output i along one axis (sigma f/3, 3 sigma)."""
+    import math
+
+    c = i * f + (f - 1) / 2
+    sigma = f / 3
+    return [
+        (j, math.exp(-((j - c) ** 2) / (2 * sigma * sigma))) for j in range(n) if abs(j - c) <= f
+    ]
+
+
+def prep_downsample(a, f, method="box"):
+    """Block average (box) or Gaussian-weighted average of a 3-D array, voxel by voxel.
+
+    Box sums of integers are kept as exact fractions and rounded half to even; Gaussian
+    weights are normalised over the whole 3-D window (not axis by axis).
+    """
+    from fractions import Fraction
+
+    import numpy as np
+
+    nz, ny, nx = a.shape
+    shape = tuple(-(-n // f) for n in a.shape)
+    out = np.zeros(shape, dtype=a.dtype)
+    is_int = a.dtype.kind in "iub"
+    for i in range(shape[0]):
+        for j in range(shape[1]):
+            for k in range(shape[2]):
+                if method == "box":
+                    vals = [
+                        a[z, y, x].item()
+                        for z in range(i * f, min(i * f + f, nz))
+                        for y in range(j * f, min(j * f + f, ny))
+                        for x in range(k * f, min(k * f + f, nx))
+                    ]
+                    if is_int:
+                        out[i, j, k] = round(Fraction(sum(vals), len(vals)))
+                    else:
+                        out[i, j, k] = sum(vals) / len(vals)
+                    continue
+                num = den = 0.0
+                for z, wz in _prep_gauss_taps(nz, f, i):
+                    for y, wy in _prep_gauss_taps(ny, f, j):
+                        for x, wx in _prep_gauss_taps(nx, f, k):
+                            w = wz * wy * wx
+                            num += w * float(a[z, y, x])
+                            den += w
+                out[i, j, k] = round(num / den) if is_int else num / den
+    return out
+
+
+def prep_gaussian_float(a, f):
+    """The Gaussian downsample of ``a`` before rounding (float64), for tie checks."""
+    import numpy as np
+
+    return prep_downsample(np.asarray(a, dtype=np.float64), f, "gaussian")
+
+
+def prep_resample(a, old, new, order=1):
+    """Trilinear (order 1) or nearest (order 0) resampling by the textbook formula per voxel."""
+    import math
+
+    import numpy as np
+
+    counts = [
+        int(math.floor((n - 1) * o / s + 1e-9)) + 1
+        for n, o, s in zip(a.shape, old, new, strict=True)
+    ]
+    out = np.zeros(counts, dtype=np.float64)
+    for idx in np.ndindex(*counts):
+        p = [min(i * s / o, n - 1) for i, s, o, n in zip(idx, new, old, a.shape, strict=True)]
+        if order == 0:
+            out[idx] = a[
+                tuple(min(math.floor(q + 0.5), n - 1) for q, n in zip(p, a.shape, strict=True))
+            ]
+            continue
+        total = 0.0
+        for corner in np.ndindex(2, 2, 2):
+            w, pos = 1.0, []
+            for q, c, n in zip(p, corner, a.shape, strict=True):
+                lo = min(math.floor(q), max(n - 2, 0))
+                t = q - lo
+                w *= t if c else 1 - t
+                pos.append(min(lo + c, n - 1))
+            if w:
+                total += w * float(a[tuple(pos)])
+        out[idx] = total
+    return out
+
+
+def metric_abs_errors(a, b):
+    """``|a - b|`` of every voxel as exact Python numbers (ints stay ints)."""
+    return [abs(x - y) for x, y in zip(a.ravel().tolist(), b.ravel().tolist(), strict=True)]
+
+
+def metric_max_error(a, b):
+    return float(max(metric_abs_errors(a, b), default=0))
+
+
+def metric_rmse(a, b):
+    import math
+
+    e = metric_abs_errors(a, b)
+    return math.sqrt(sum(float(v) ** 2 for v in e) / len(e)) if e else 0.0
+
+
+def metric_psnr(a, b):
+    import math
+
+    vals = a.ravel().tolist()
+    peak = max(vals) - min(vals)
+    mse = metric_rmse(a, b) ** 2
+    return math.inf if mse == 0 else 20 * math.log10(peak) - 10 * math.log10(mse)
+
+
+# --- coefficient scans and fixed codes ---
+
+
+def entropy_scan_parents(shape, levels):
+    """Parent of every coefficient (flat index -> flat index or -1), written out by band.
+
+    A detail coefficient at level k, orientation o, local position p has its parent in the
+    band (k + 1, o) at p // 2 along axes split at level k + 1 and p along the others, clipped
+    to that band; the coarsest details and the approximation are roots.
+    """
+    n = list(shape)
+    bands = {}
+    nlev = max(levels)
+    for k in range(nlev):
+        active = [levels[a] > k for a in range(3)]
+        lo = [(n[a] + 1) // 2 if active[a] else n[a] for a in range(3)]
+        for oz in (0, 1):
+            for oy in (0, 1):
+                for ox in (0, 1):
+                    o = (oz, oy, ox)
+                    if o == (0, 0, 0) or any(o[a] and not active[a] for a in range(3)):
+                        continue
+                    start = [lo[a] if o[a] else 0 for a in range(3)]
+                    size = [n[a] - lo[a] if o[a] else lo[a] for a in range(3)]
+                    if min(size) > 0:
+                        bands[(k, o)] = (start, size)
+        n = lo
+    parent = {}
+    for (k, o), (start, size) in bands.items():
+        up = bands.get((k + 1, o))
+        for z in range(size[0]):
+            for y in range(size[1]):
+                for x in range(size[2]):
+                    me = ((start[0] + z) * shape[1] + start[1] + y) * shape[2] + start[2] + x
+                    if up is None:
+                        parent[me] = -1
+                        continue
+                    ps, psz = up
+                    loc = []
+                    for a, p in enumerate((z, y, x)):
+                        q = p // 2 if levels[a] > k + 1 else p
+                        loc.append(min(q, psz[a] - 1))
+                    parent[me] = (
+                        ((ps[0] + loc[0]) * shape[1] + ps[1] + loc[1]) * shape[2] + ps[2] + loc[2]
+                    )
+    total = shape[0] * shape[1] * shape[2]
+    return [parent.get(i, -1) for i in range(total)]
+
+
+def fixed_code_bits(m):
+    """The fixed prefix code of m as a string of '0'/'1'."""
+    if m == 0:
+        return "0"
+    n = m.bit_length()
+    return "1" * n + "0" + format(m, "b")[1:]
+
+
+def _zigzag(c):
+    return 2 * c if c >= 0 else -2 * c - 1
+
+
+def _pack(bits):
+    bits += "0" * (-len(bits) % 8)
+    return bytes(int(bits[i : i + 8], 2) for i in range(0, len(bits), 8))
+
+
+def huffman_encode(coeffs, perm, end):
+    """Subtree flag at every inner position, then the fixed code of each survivor."""
+    flat = [int(v) for v in coeffs.ravel()]
+    vals = [flat[j] for j in perm]
+    out, i = [], 0
+    while i < len(vals):
+        e = int(end[i])
+        if e > i + 1:
+            zero = not any(vals[i:e])
+            out.append("1" if zero else "0")
+            if zero:
+                i = e
+                continue
+        out.append(fixed_code_bits(_zigzag(vals[i])))
+        i += 1
+    return _pack("".join(out))
+
+
+def rle_encode(coeffs, perm):
+    """Zero run before each non-zero value, then the code of its mapped value minus one."""
+    flat = [int(v) for v in coeffs.ravel()]
+    out, run = [], 0
+    for j in perm:
+        m = _zigzag(flat[j])
+        if m == 0:
+            run += 1
+            continue
+        out.append(fixed_code_bits(run) + fixed_code_bits(m - 1))
+        run = 0
+    if run:
+        out.append(fixed_code_bits(run))
+    return _pack("".join(out))
+
+
+# --- wavelet ---
+
+
+def _wavelet_wss(x, p):
+    """x at position p of the whole-sample symmetric (mirror about 0 and n-1) extension."""
+    n = len(x)
+    if n == 1:
+        return x[0]
+    while p < 0 or p > n - 1:
+        p = -p if p < 0 else 2 * (n - 1) - p
+    return x[p]
+
+
+def _wavelet_hss(x, p):
+    """x at position p of the half-sample symmetric (mirror about -1/2 and n-1/2) extension."""
+    n = len(x)
+    while p < 0 or p > n - 1:
+        p = -1 - p if p < 0 else 2 * n - 1 - p
+    return x[p]
+
+
+def wavelet_lift_1d(x, wavelet, seen=None):
+    """One level of the integer lifting transform of the list ``x``: returns ``s + d``.
+
+    Written as the lifting of the infinitely extended signal, evaluated at each output
+    position; ``//`` floors. ``seen`` (a list) collects every value the fast code stores,
+    intermediate details of 2/6 included.
+    """
+    n = len(x)
+    ns, nd = (n + 1) // 2, n // 2
+    if wavelet in ("53", "97m"):
+
+        def X(p):
+            return _wavelet_wss(x, p)
+
+        def D(p):  # detail at odd position p
+            if wavelet == "53":
+                return X(p) - (X(p - 1) + X(p + 1)) // 2
+            return X(p) - (9 * (X(p - 1) + X(p + 1)) - (X(p - 3) + X(p + 3)) + 8) // 16
+
+        d = [D(2 * i + 1) for i in range(nd)]
+        s = [X(2 * i) + (D(2 * i - 1) + D(2 * i + 1) + 2) // 4 for i in range(ns)]
+    else:
+
+        def X(p):
+            return _wavelet_hss(x, p)
+
+        def D1(i):  # S-transform of the pair at positions 2i, 2i+1
+            return X(2 * i + 1) - X(2 * i)
+
+        def S(i):
+            return X(2 * i) + D1(i) // 2
+
+        if wavelet == "haar":
+            d = [D1(i) for i in range(nd)]
+        else:
+            d = [D1(i) + (S(i - 1) - S(i + 1) + 2) // 4 for i in range(nd)]
+            if seen is not None:
+                seen.extend(D1(i) for i in range(nd))
+        s = [S(i) for i in range(ns)]
+    if seen is not None:
+        seen.extend(s + d)
+    return s + d
+
+
+def wavelet_forward(a, levels, wavelet, seen=None):
+    """3-D Mallat-layout forward transform, one line at a time in Python integers."""
+    import numpy as np
+
+    out = np.array(a, dtype=object)
+    cur = list(out.shape)
+    for k in range(max(levels)):
+        for axis in range(3):
+            if levels[axis] <= k:
+                continue
+            region = out[: cur[0], : cur[1], : cur[2]]
+            moved = np.moveaxis(region, axis, -1)
+            for idx in np.ndindex(*moved.shape[:-1]):
+                moved[idx] = wavelet_lift_1d([int(v) for v in moved[idx]], wavelet, seen)
+        cur = [(n + 1) // 2 if lv > k else n for n, lv in zip(cur, levels)]
+    return out.astype(np.int64)

@@ -1,0 +1,196 @@
+"""Coefficient scans and coders: exact round trips, the fixed code bit for bit against a
+slow reference, compression near the entropy, and corrupt streams that never crash."""
+
+from __future__ import annotations
+
+import math
+
+import naive
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from volpack import sigmap
+from volpack.entropy import CODERS
+from volpack.errors import FormatError
+
+SHAPES = [
+    ((1, 1, 1), (0, 0, 0)),
+    ((5, 7, 3), (2, 2, 1)),
+    ((8, 8, 8), (3, 3, 3)),
+    ((17, 9, 33), (4, 3, 5)),
+    ((2, 1, 6), (1, 0, 2)),
+]
+
+
+def laplace(shape, scale, dtype, seed, zeros=0.0):
+    r = np.random.default_rng(seed)
+    c = np.rint(r.laplace(0, scale, size=shape)).astype(dtype)
+    if zeros:
+        c[r.random(shape) < zeros] = 0
+    return c
+
+
+@pytest.mark.parametrize("shape,levels", SHAPES)
+def test_scan_is_a_forest_in_preorder(shape, levels):
+    s = sigmap.scan(shape, levels, "dfs")
+    n = int(np.prod(shape))
+    assert sorted(s.perm.tolist()) == list(range(n))
+    parents = naive.entropy_scan_parents(shape, levels)
+    pos = {int(f): i for i, f in enumerate(s.perm)}
+    for i, f in enumerate(s.perm):
+        want = parents[int(f)]
+        assert s.parent[i] == (pos[want] if want >= 0 else -1)
+    # Each subtree is the contiguous run [i, end[i]): every ancestor's run holds j, and
+    # each run is exactly as long as the number of descendants.
+    size = np.ones(n, dtype=np.int64)
+    for j in range(n):
+        a = int(s.parent[j])
+        while a >= 0:
+            assert a < j < s.end[a], (a, j)
+            size[a] += 1
+            a = int(s.parent[a])
+    np.testing.assert_array_equal(s.end - np.arange(n), size)
+
+
+@pytest.mark.parametrize("shape,levels", SHAPES)
+def test_line_scan_is_bands_coarse_to_fine(shape, levels):
+    s = sigmap.scan(shape, levels, "line")
+    n = int(np.prod(shape))
+    assert sorted(s.perm.tolist()) == list(range(n))
+    assert (s.end == np.arange(1, n + 1)).all()
+    assert (s.parent < np.arange(n)).all()
+    assert s.cls[0] == sigmap.APPROX_CLASS
+
+
+@pytest.mark.parametrize(
+    "c,code",
+    [(0, "0"), (-1, "10"), (1, "1100"), (-2, "1101"), (2, "111000"), (-4, "111011")],
+)
+def test_fixed_code_known_values(c, code):
+    s = sigmap.scan((1, 1, 1), (0, 0, 0), "line")
+    got = CODERS["huffman"].encode(np.array([[[c]]], dtype=np.int32), s)
+    assert got == naive._pack(code)
+    assert naive.fixed_code_bits(naive._zigzag(c)) == code
+
+
+@pytest.mark.parametrize("shape,levels", SHAPES)
+@pytest.mark.parametrize("order", sigmap.ORDERS)
+def test_fixed_codes_match_reference_bit_for_bit(shape, levels, order):
+    s = sigmap.scan(shape, levels, order)
+    for seed, zeros in ((1, 0.0), (2, 0.9), (3, 1.0)):
+        c = laplace(shape, 20, np.int32, seed, zeros)
+        assert CODERS["huffman"].encode(c, s) == naive.huffman_encode(c, s.perm, s.end)
+        assert CODERS["rle"].encode(c, s) == naive.rle_encode(c, s.perm)
+
+
+@settings(max_examples=25)
+@given(
+    case=st.sampled_from(SHAPES),
+    order=st.sampled_from(sigmap.ORDERS),
+    coder=st.sampled_from(sorted(CODERS)),
+    dtype=st.sampled_from([np.int32, np.int64]),
+    scale=st.sampled_from([0.3, 5.0, 3000.0, 2.0e8]),
+    zeros=st.sampled_from([0.0, 0.5, 0.99]),
+    seed=st.integers(0, 1000),
+)
+def test_property_round_trip(case, order, coder, dtype, scale, zeros, seed):
+    shape, levels = case
+    s = sigmap.scan(shape, levels, order)
+    c = laplace(shape, scale, dtype, seed, zeros)
+    out = np.full(shape, 77, dtype=dtype)  # stale contents must be overwritten
+    CODERS[coder].decode(CODERS[coder].encode(c, s), s, out)
+    np.testing.assert_array_equal(out, c)
+
+
+def test_extreme_values_round_trip():
+    s = sigmap.scan((4, 4, 4), (2, 2, 2), "dfs")
+    for dtype in (np.int32, np.int64):
+        info = np.iinfo(dtype)
+        lim = info.max if dtype == np.int32 else 2**61
+        c = np.where(np.indices((4, 4, 4)).sum(0) % 2, lim, -lim).astype(dtype)
+        for coder in CODERS.values():
+            out = np.empty_like(c)
+            coder.decode(coder.encode(c, s), s, out)
+            np.testing.assert_array_equal(out, c)
+
+
+def _code_entropy_bits(c):
+    """Bits per coefficient of an ideal coder for the (bit length, low bits) split used."""
+    m = np.where(c >= 0, 2 * c, -2 * c - 1).astype(np.int64).ravel()
+    n = np.array([int(v).bit_length() for v in m])
+    _, counts = np.unique(n, return_counts=True)
+    p = counts / counts.sum()
+    return float(-(p * np.log2(p)).sum() + np.maximum(n - 1, 0).mean())
+
+
+def test_arith_codes_near_the_entropy():
+    shape, levels = (64, 64, 64), (6, 6, 6)
+    s = sigmap.scan(shape, levels, "dfs")
+    c = laplace(shape, 30, np.int32, 7)
+    bits = len(CODERS["arith"].encode(c, s)) * 8 / c.size
+    ideal = _code_entropy_bits(c)
+    assert bits < ideal * 1.02, (bits, ideal)
+    # The fixed code costs 2n bits for n-bit values: worse, as the method says.
+    huff = len(CODERS["huffman"].encode(c, s)) * 8 / c.size
+    assert bits < huff
+
+
+def test_zero_subtrees_are_stripped():
+    shape, levels = (32, 32, 32), (5, 5, 5)
+    s = sigmap.scan(shape, levels, "dfs")
+    c = np.zeros(shape, np.int32)
+    c[0, 0, 0] = 5  # the approximation coefficient only
+    for name in ("arith", "huffman"):
+        assert len(CODERS[name].encode(c, s)) < 16, name
+
+
+def test_rle_beats_huffman_when_almost_everything_is_zero():
+    shape, levels = (32, 32, 32), (5, 5, 5)
+    s = sigmap.scan(shape, levels, "line")
+    c = laplace(shape, 3, np.int32, 4, zeros=0.995)
+    rle = len(CODERS["rle"].encode(c, s))
+    huff = len(CODERS["huffman"].encode(c, s))
+    assert rle < huff
+
+
+@pytest.mark.parametrize("coder", sorted(CODERS))
+def test_corrupt_streams_never_crash(coder):
+    shape, levels = (9, 10, 11), (3, 3, 3)
+    s = sigmap.scan(shape, levels, "dfs")
+    c = laplace(shape, 40, np.int32, 5)
+    blob = CODERS[coder].encode(c, s)
+    r = np.random.default_rng(0)
+    seen = set()
+    cuts = [0, 1, len(blob) // 2, len(blob) - 1]
+    variants = [blob[:k] for k in cuts]
+    for _ in range(60):
+        bad = bytearray(blob)
+        bad[int(r.integers(len(bad)))] ^= 1 << int(r.integers(8))
+        variants.append(bytes(bad))
+    variants.append(bytes(r.integers(0, 256, 64, dtype=np.uint8)))
+    variants.append(b"\xff" * 200)
+    for v in variants:
+        out = np.empty(shape, np.int32)
+        try:
+            CODERS[coder].decode(v, s, out)
+            seen.add("decoded")
+        except FormatError:
+            seen.add("error")
+    assert "error" in seen  # at least the short streams are noticed
+
+
+def test_decode_checks_the_output_size():
+    s = sigmap.scan((4, 4, 4), (2, 2, 2), "dfs")
+    for coder in CODERS.values():
+        with pytest.raises((FormatError, ValueError)):
+            coder.decode(b"", s, np.empty((4, 4, 5), np.int32))
+
+
+def test_scan_rejects_bad_arguments():
+    with pytest.raises(ValueError):
+        sigmap.scan((4, 4, 4), (2, 2, 2), "zigzag")
+    with pytest.raises(ValueError):
+        sigmap.scan((4, 4), (2, 2), "dfs")
+    assert math.isfinite(_code_entropy_bits(np.zeros((2, 2, 2), np.int32)))

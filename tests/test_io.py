@@ -1,0 +1,486 @@
+"""External formats: round trips, orientation, spacing, stdin/stdout, errors, atomicity."""
+
+from __future__ import annotations
+
+import io
+import os
+import subprocess
+import sys
+import types
+
+import numpy as np
+import pytest
+
+from volpack import io as vio
+from volpack.atomic import OutputExistsError
+from volpack.errors import FormatError
+from volpack.volume import Volume
+
+SHAPE = (3, 5, 7)  # non-cubic: a transposition changes the shape
+SPACING = (2.5, 0.75, 0.5)
+ORIGIN = (-4.0, 10.0, 3.5)
+DTYPES = [np.uint8, np.int16, np.uint16, np.float32]
+# (file name, keeps spacing and origin)
+WRITABLE = [
+    ("v.npy", False),
+    ("v.raw", False),
+    ("v.nii", True),
+    ("v.nii.gz", True),
+    ("v.nrrd", True),
+    ("v.h5", True),
+    ("v.h5:/group/vol", True),
+    ("v.tif", True),
+]
+
+
+def _ramp(dtype, shape=SHAPE) -> np.ndarray:
+    """Distinct values along every axis so any axis swap or flip is caught."""
+    z, y, x = np.indices(shape)
+    a = z * 50 + y * 7 + x
+    if np.dtype(dtype).kind == "f":
+        return (a * 0.25 - 3.5).astype(dtype)
+    if np.dtype(dtype).kind == "i":
+        a = a - 60
+    return a.astype(dtype)
+
+
+def _raw_kw(name: str, dtype) -> dict:
+    return {"shape": SHAPE, "dtype": np.dtype(dtype).name} if name.endswith(".raw") else {}
+
+
+@pytest.mark.parametrize("dtype", DTYPES, ids=lambda d: np.dtype(d).name)
+@pytest.mark.parametrize(("name", "geometry"), WRITABLE, ids=[w[0] for w in WRITABLE])
+def test_round_trip(tmp_path, name, geometry, dtype):
+    a = _ramp(dtype)
+    spec = str(tmp_path / name)
+    vio.write_volume(Volume(a, spacing=SPACING, origin=ORIGIN), spec)
+    vol = vio.read_volume(spec, **_raw_kw(name, dtype))
+    assert vol.shape == SHAPE
+    assert vol.dtype == np.dtype(dtype)
+    assert vol.data.flags.c_contiguous and vol.data.dtype.isnative
+    np.testing.assert_array_equal(vol.data, a)
+    if geometry:
+        np.testing.assert_allclose(vol.spacing, SPACING)
+        np.testing.assert_allclose(vol.origin, ORIGIN)
+    else:
+        assert vol.spacing == (1.0, 1.0, 1.0)
+    hdr = vio.read_header(spec, **_raw_kw(name, dtype))
+    assert hdr["shape"] == list(vol.shape)
+    assert hdr["dtype"] == str(vol.dtype)
+    np.testing.assert_allclose(hdr["spacing"], vol.spacing)
+    np.testing.assert_allclose(hdr["origin"], vol.origin)
+
+
+@pytest.mark.parametrize("name", ["v.nii.gz", "v.nrrd", "v.h5", "v.tif", "v.npy"])
+def test_round_trip_4d(tmp_path, name):
+    a = np.stack([_ramp(np.int16) + 100 * t for t in range(2)])  # (t, z, y, x)
+    spec = str(tmp_path / name)
+    vio.write_volume(Volume(a, spacing=SPACING), spec)
+    vol = vio.read_volume(spec)
+    assert vol.shape == (2, *SHAPE)
+    np.testing.assert_array_equal(vol.data, a)
+    if name != "v.npy":
+        np.testing.assert_allclose(vol.spacing, SPACING)
+    assert vio.read_header(spec)["shape"] == [2, *SHAPE]
+
+
+@pytest.mark.parametrize("dtype", [np.int8, np.uint32, np.int64, np.float64])
+@pytest.mark.parametrize("name", ["v.npy", "v.nii.gz", "v.nrrd", "v.h5", "v.tif"])
+def test_wide_dtypes(tmp_path, name, dtype):
+    a = _ramp(dtype)
+    vio.write_volume(a, str(tmp_path / name))
+    vol = vio.read_volume(str(tmp_path / name))
+    assert vol.dtype == np.dtype(dtype)
+    np.testing.assert_array_equal(vol.data, a)
+
+
+def test_float16_refused_where_unsupported(tmp_path):
+    for name in ("v.nii", "v.nrrd"):
+        with pytest.raises(FormatError, match="found float16"):
+            vio.write_volume(_ramp(np.float16), str(tmp_path / name))
+    assert os.listdir(tmp_path) == []
+
+
+@pytest.mark.parametrize("name", ["v.nii", "v.nrrd", "v.h5", "v.tif"])
+def test_meta_travels(tmp_path, name):
+    meta = {"quantize": {"bits": 12, "scale": 0.5, "offset": -3.0}}
+    spec = str(tmp_path / name)
+    vio.write_volume(Volume(_ramp(np.uint16), meta=meta), spec)
+    vol = vio.read_volume(spec)
+    assert vol.meta["quantize"] == meta["quantize"]
+    assert vol.meta["source_format"] in name.replace("nii", "nifti").replace("h5", "hdf5").replace(
+        "tif", "tiff"
+    )
+
+
+def test_nifti_orientation_matches_nibabel(tmp_path):
+    """A file made by nibabel (x, y, z) comes back as (z, y, x) with reversed zooms."""
+    nib = pytest.importorskip("nibabel")
+    xyz = _ramp(np.int16).transpose(2, 1, 0).copy()  # (7, 5, 3) = (x, y, z)
+    img = nib.Nifti1Image(xyz, np.diag([0.5, 0.75, 2.5, 1.0]))
+    img.to_filename(str(tmp_path / "n.nii"))
+    vol = vio.read_volume(str(tmp_path / "n.nii"))
+    np.testing.assert_array_equal(vol.data, _ramp(np.int16))
+    assert vol.spacing == SPACING
+    # and back: what we write, nibabel sees in (x, y, z)
+    vio.write_volume(vol, str(tmp_path / "m.nii"))
+    back = nib.load(str(tmp_path / "m.nii"))
+    np.testing.assert_array_equal(np.asanyarray(back.dataobj), xyz)
+    np.testing.assert_allclose(back.header.get_zooms(), (0.5, 0.75, 2.5))
+
+
+def test_nifti_scl_slope_keeps_integers(tmp_path):
+    nib = pytest.importorskip("nibabel")
+    xyz = _ramp(np.int16).transpose(2, 1, 0).copy()
+    img = nib.Nifti1Image(xyz, np.eye(4))
+    img.header.set_data_dtype(np.int16)
+    img.header.set_slope_inter(0.5, -10.0)
+    img.to_filename(str(tmp_path / "s.nii.gz"))
+    vol = vio.read_volume(str(tmp_path / "s.nii.gz"))
+    assert vol.dtype == np.int16
+    np.testing.assert_array_equal(vol.data, _ramp(np.int16))
+    assert vol.meta["nifti_scl"] == [0.5, -10.0]
+    assert vio.read_header(str(tmp_path / "s.nii.gz"))["dtype"] == "int16"
+    # written back, the scaling survives and nibabel's scaled view agrees
+    vio.write_volume(vol, str(tmp_path / "t.nii.gz"))
+    again = nib.load(str(tmp_path / "t.nii.gz"))
+    np.testing.assert_allclose(again.get_fdata(), xyz * 0.5 - 10.0)
+
+
+def test_nrrd_fortran_file_is_read_as_zyx(tmp_path):
+    nrrd = pytest.importorskip("nrrd")
+    a = _ramp(np.uint16)
+    header = {"spacings": [0.5, 0.75, 2.5]}  # file order x, y, z
+    nrrd.write(str(tmp_path / "f.nrrd"), a.transpose(2, 1, 0).copy(), header)  # index_order F
+    vol = vio.read_volume(str(tmp_path / "f.nrrd"))
+    np.testing.assert_array_equal(vol.data, a)
+    assert vol.spacing == SPACING
+    assert vio.read_header(str(tmp_path / "f.nrrd"))["spacing"] == list(SPACING)
+
+
+def test_hdf5_dataset_choice_and_attrs(tmp_path):
+    h5py = pytest.importorskip("h5py")
+    path = str(tmp_path / "f.h5")
+    a = _ramp(np.uint8)
+    with h5py.File(path, "w") as f:
+        f["one/vol"] = a
+        f["one/vol"].attrs["element_size_um"] = SPACING
+    vol = vio.read_volume(path)  # the only dataset
+    np.testing.assert_array_equal(vol.data, a)
+    assert vol.spacing == SPACING
+    # writing another dataset with force keeps the first one
+    vio.write_volume(a * 2, path + ":/two", force=True)
+    np.testing.assert_array_equal(vio.read_volume(path + ":/one/vol").data, a)
+    np.testing.assert_array_equal(vio.read_volume(path + ":two").data, a * 2)
+    with pytest.raises(FormatError, match="expected one dataset"):
+        vio.read_volume(path)
+    with pytest.raises(FormatError, match="/nope"):
+        vio.read_volume(path + ":/nope")
+
+
+def test_parse_spec():
+    assert vio.parse_spec("a/b.h5:/g/ds") == ("a/b.h5", "/g/ds")
+    assert vio.parse_spec("b.HDF5:ds") == ("b.HDF5", "/ds")
+    assert vio.parse_spec("b.nc") == ("b.nc", None)
+    assert vio.parse_spec("c:/x.npy") == ("c:/x.npy", None)
+    assert vio.parse_spec("-") == ("-", None)
+
+
+def test_detect_format(tmp_path):
+    cases = {
+        "a.npy": "npy",
+        "a.RAW": "raw",
+        "a.bin": "raw",
+        "a.img": "raw",
+        "a.nii": "nifti",
+        "a.nii.gz": "nifti",
+        "a.hdr": "nifti",
+        "a.nrrd": "nrrd",
+        "a.nhdr": "nrrd",
+        "a.hdf5": "hdf5",
+        "a.h5:/x": "hdf5",
+        "a.tiff": "tiff",
+        "a.den": "den",
+        "a.vpk": "vpk",
+        "-": "npy",
+    }
+    for name, fmt in cases.items():
+        assert vio.detect_format(name) == fmt, name
+    (tmp_path / "an.hdr").write_bytes(b"")
+    assert vio.detect_format(str(tmp_path / "an.img")) == "nifti"  # Analyze pair
+    with pytest.raises(FormatError, match=r"\.nii\.gz.*found 'volume\.xyz'"):
+        vio.detect_format("volume.xyz")
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    with pytest.raises(FormatError, match="folder"):
+        vio.detect_format(str(empty))
+
+
+def test_unknown_extension_errors(tmp_path):
+    with pytest.raises(FormatError, match="extensions"):
+        vio.read_volume(str(tmp_path / "v.xyz"))
+    with pytest.raises(FormatError, match="extensions"):
+        vio.write_volume(_ramp(np.uint8), str(tmp_path / "v.xyz"))
+
+
+def test_raw_errors(tmp_path):
+    path = tmp_path / "v.raw"
+    _ramp(np.int16).tofile(path)
+    with pytest.raises(FormatError, match="expected 212 bytes for shape .* found 210"):
+        vio.read_volume(str(path), shape=SHAPE, dtype="int16", offset=2)
+    with pytest.raises(FormatError, match="found 210"):
+        vio.read_volume(str(path), shape=(3, 5, 8), dtype="int16")
+    with pytest.raises(FormatError, match="--shape"):
+        vio.read_volume(str(path), dtype="int16")
+    with pytest.raises(FormatError, match="--dtype"):
+        vio.read_volume(str(path), shape=SHAPE)
+    with pytest.raises(FormatError, match="at most 100 voxels"):
+        vio.read_volume(str(path), shape=SHAPE, dtype="int16", max_voxels=100)
+    with pytest.raises(FormatError, match="integer or float"):
+        vio.read_volume(str(path), shape=(3, 5, 7), dtype="complex64")
+
+
+def test_raw_offset_and_big_endian(tmp_path):
+    a = _ramp(np.uint16)
+    path = tmp_path / "be.bin"
+    path.write_bytes(b"HEADER" + a.astype(">u2").tobytes())
+    vol = vio.read_volume(str(path), shape=SHAPE, dtype="uint16", byteorder=">", offset=6)
+    np.testing.assert_array_equal(vol.data, a)
+    assert vol.dtype.isnative
+
+
+def test_options_rejected_for_non_raw(tmp_path):
+    spec = str(tmp_path / "v.npy")
+    vio.write_volume(_ramp(np.uint8), spec)
+    with pytest.raises(FormatError, match="only for raw"):
+        vio.read_volume(spec, shape=SHAPE, dtype="uint8")
+
+
+def test_missing_and_corrupt_files(tmp_path):
+    with pytest.raises(FormatError, match="found nothing"):
+        vio.read_volume(str(tmp_path / "absent.nii.gz"))
+    bad = tmp_path / "bad.nii.gz"
+    bad.write_bytes(b"not a nifti file at all")
+    with pytest.raises(FormatError, match="could not read nifti"):
+        vio.read_volume(str(bad))
+    bad = tmp_path / "bad.npy"
+    bad.write_bytes(b"garbage")
+    with pytest.raises(FormatError, match=r"\.npy header"):
+        vio.read_volume(str(bad))
+    bad = tmp_path / "bad.h5"
+    bad.write_bytes(b"garbage")
+    with pytest.raises(FormatError, match="could not read hdf5"):
+        vio.read_volume(str(bad))
+
+
+def test_unsupported_dtypes(tmp_path):
+    spec = str(tmp_path / "c.npy")
+    np.save(spec, np.zeros(SHAPE, np.complex64))
+    with pytest.raises(FormatError, match="integer or float voxels"):
+        vio.read_volume(spec)
+    np.save(spec, np.ones(SHAPE, bool))
+    vol = vio.read_volume(spec)  # bool becomes uint8, and says so
+    assert vol.dtype == np.uint8 and vol.meta["converted_from"] == "bool"
+
+
+def test_refuse_overwrite(tmp_path):
+    for name in ("v.npy", "v.nii.gz", "v.h5:/data", "v.tif", "v.raw"):
+        spec = str(tmp_path / name)
+        vio.write_volume(_ramp(np.uint8), spec)
+        with pytest.raises(OutputExistsError, match="force"):
+            vio.write_volume(_ramp(np.uint8) + 1, spec)
+        vio.write_volume(_ramp(np.uint8) + 1, spec, force=True)
+        kw = _raw_kw(name, np.uint8)
+        np.testing.assert_array_equal(vio.read_volume(spec, **kw).data, _ramp(np.uint8) + 1)
+
+
+def test_failed_write_leaves_nothing(tmp_path, monkeypatch):
+    import tifffile
+
+    def boom(*args, **kwargs):
+        with open(args[0], "wb") as f:  # a partial file in the temporary place
+            f.write(b"partial")
+        raise RuntimeError("disk full")
+
+    monkeypatch.setattr(tifffile, "imwrite", boom)
+    with pytest.raises(FormatError, match="could not write tiff.*disk full"):
+        vio.write_volume(_ramp(np.uint8), str(tmp_path / "v.tif"))
+    assert os.listdir(tmp_path) == []
+
+    # an existing file survives a failed replacement untouched
+    target = tmp_path / "keep.npy"
+    vio.write_volume(_ramp(np.uint8), str(target))
+
+    def half_save(f, arr, **kwargs):
+        f.write(b"\x93NUMPY partial")
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(np, "save", half_save)
+    with pytest.raises(FormatError, match="could not write npy.*No space left"):
+        vio.write_volume(_ramp(np.int16), str(target), force=True)
+    assert os.listdir(tmp_path) == ["keep.npy"]
+    np.testing.assert_array_equal(np.load(target), _ramp(np.uint8))
+
+
+def test_nan_mask_restored_on_write(tmp_path):
+    from volpack.prep import mask_special
+
+    a = _ramp(np.float32)
+    a[1, 2, 3] = np.nan
+    a[0, 0, 0] = np.inf
+    vol = mask_special(Volume(a))
+    spec = str(tmp_path / "m.npy")
+    vio.write_volume(vol, spec)
+    np.testing.assert_array_equal(np.load(spec), a)  # NaN == NaN in assert_array_equal
+
+
+def _stdio(monkeypatch, data: bytes = b""):
+    out = types.SimpleNamespace(buffer=io.BytesIO())
+    monkeypatch.setattr(sys, "stdin", types.SimpleNamespace(buffer=io.BytesIO(data)))
+    monkeypatch.setattr(sys, "stdout", out)
+    return out.buffer
+
+
+def test_stdin_stdout_npy(monkeypatch):
+    a = _ramp(np.int16)
+    out = _stdio(monkeypatch)
+    vio.write_volume(a, "-")
+    blob = out.getvalue()
+    np.testing.assert_array_equal(np.load(io.BytesIO(blob)), a)
+    _stdio(monkeypatch, blob)
+    vol = vio.read_volume("-")
+    np.testing.assert_array_equal(vol.data, a)
+    _stdio(monkeypatch, blob)
+    assert vio.read_header("-")["shape"] == list(SHAPE)
+    _stdio(monkeypatch, b"hello")
+    with pytest.raises(FormatError, match="npy stream"):
+        vio.read_volume("-")
+    _stdio(monkeypatch, a.tobytes())  # raw on stdin when shape and dtype are given
+    np.testing.assert_array_equal(vio.read_volume("-", shape=SHAPE, dtype="int16").data, a)
+
+
+def test_stdout_in_a_real_pipe(tmp_path):
+    code = (
+        "import numpy as np; from volpack import io;"
+        "io.write_volume(np.arange(105, dtype=np.uint16).reshape(3, 5, 7), '-')"
+    )
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, check=True)
+    np.testing.assert_array_equal(
+        np.load(io.BytesIO(res.stdout)), np.arange(105, dtype=np.uint16).reshape(SHAPE)
+    )
+
+
+def _den_bytes(a: np.ndarray) -> bytes:
+    """A VolPack .den file made from the layout: 29 little-endian int16 then an int32."""
+    nz, ny, nx = a.shape
+    lens = [nx, ny, nz]
+    shorts = [1]  # version
+    for _ in range(3):  # original, extracted, map: min, max, len (x, y, z each)
+        shorts += [0, 0, 0] + [n - 1 for n in lens] + lens
+    shorts.append(0)  # warps
+    head = np.array(shorts, "<i2").tobytes() + np.array([a.size], "<i4").tobytes()
+    assert len(head) == 62
+    return head + a.astype(np.uint8).tobytes()  # x fastest
+
+
+def test_den_by_hand(tmp_path):
+    a = _ramp(np.uint8)
+    path = tmp_path / "tiny.den"
+    path.write_bytes(_den_bytes(a))
+    vol = vio.read_volume(str(path))
+    np.testing.assert_array_equal(vol.data, a)
+    assert vol.meta["source_format"] == "den"
+    assert vio.read_header(str(path))["shape"] == list(SHAPE)
+    # our writer makes the same bytes
+    vio.write_volume(a, str(tmp_path / "ours.den"))
+    assert (tmp_path / "ours.den").read_bytes() == path.read_bytes()
+    # wrong sizes and limits
+    (tmp_path / "short.den").write_bytes(_den_bytes(a)[:-1])
+    with pytest.raises(FormatError, match="expected 167 bytes"):
+        vio.read_volume(str(tmp_path / "short.den"))
+    with pytest.raises(FormatError, match="at most 10 voxels"):
+        vio.read_volume(str(path), max_voxels=10)
+    (tmp_path / "v2.den").write_bytes(b"\x02\x00" + _den_bytes(a)[2:])
+    with pytest.raises(FormatError, match="version 1"):
+        vio.read_volume(str(tmp_path / "v2.den"))
+    with pytest.raises(FormatError, match="uint8"):
+        vio.write_volume(_ramp(np.int16), str(tmp_path / "i16.den"))
+
+
+def test_tiff_folder(tmp_path):
+    tifffile = pytest.importorskip("tifffile")
+    a = _ramp(np.uint16, (12, 5, 7))
+    folder = tmp_path / "stack"
+    folder.mkdir()
+    for i, sl in enumerate(a):  # natural order: slice_2 before slice_10
+        tifffile.imwrite(folder / f"slice_{i}.tif", sl, resolution=(1 / 0.5, 1 / 0.75))
+    (folder / "notes.txt").write_text("ignored")
+    assert vio.detect_format(str(folder)) == "tiff-folder"
+    vol = vio.read_volume(str(folder))
+    np.testing.assert_array_equal(vol.data, a)
+    np.testing.assert_allclose(vol.spacing, (1.0, 0.75, 0.5))
+    assert vio.read_header(str(folder))["shape"] == [12, 5, 7]
+    tifffile.imwrite(folder / "slice_99.tif", a[0, :4])
+    with pytest.raises(FormatError, match="slice_99"):
+        vio.read_volume(str(folder))
+
+
+def test_dicom_folder(tmp_path):
+    pytest.importorskip("pydicom")
+    from pydicom.dataset import FileDataset, FileMetaDataset
+    from pydicom.uid import ExplicitVRLittleEndian, generate_uid
+
+    stored = _ramp(np.uint16, (4, 5, 7)) * 10
+    folder = tmp_path / "series"
+    folder.mkdir()
+    order = [2, 0, 3, 1]  # files named out of order; positions decide
+    for n, k in enumerate(order):
+        meta = FileMetaDataset()
+        meta.MediaStorageSOPClassUID = "1.2.840.10008.5.1.4.1.1.2"
+        meta.MediaStorageSOPInstanceUID = generate_uid()
+        meta.TransferSyntaxUID = ExplicitVRLittleEndian
+        ds = FileDataset(str(folder / f"im{n}.dcm"), {}, file_meta=meta, preamble=b"\0" * 128)
+        ds.Modality = "CT"
+        ds.SOPClassUID = meta.MediaStorageSOPClassUID
+        ds.SOPInstanceUID = meta.MediaStorageSOPInstanceUID
+        ds.Rows, ds.Columns = 5, 7
+        ds.BitsAllocated, ds.BitsStored, ds.HighBit = 16, 16, 15
+        ds.PixelRepresentation = 0
+        ds.SamplesPerPixel = 1
+        ds.PhotometricInterpretation = "MONOCHROME2"
+        ds.PixelSpacing = [0.75, 0.5]
+        ds.ImageOrientationPatient = [1, 0, 0, 0, 1, 0]
+        ds.ImagePositionPatient = [3.5, 10.0, -4.0 + 2.5 * k]
+        ds.InstanceNumber = n + 1
+        ds.RescaleSlope = 1
+        ds.RescaleIntercept = -1024
+        ds.PixelData = stored[k].tobytes()
+        ds.save_as(str(folder / f"im{n}.dcm"), enforce_file_format=True)
+    assert vio.detect_format(str(folder)) == "dicom"
+    vol = vio.read_volume(str(folder))
+    expected = stored.astype(np.int32) - 1024
+    np.testing.assert_array_equal(vol.data, expected)
+    assert vol.dtype.kind == "i" and vol.dtype.itemsize <= 2
+    np.testing.assert_allclose(vol.spacing, SPACING)
+    np.testing.assert_allclose(vol.origin, ORIGIN)
+    assert vol.meta["dicom_rescale"] == {"slope": 1.0, "intercept": -1024.0, "applied": True}
+    assert vio.read_header(str(folder))["shape"] == [4, 5, 7]
+
+
+def test_dicom_missing_says_how_to_install(tmp_path, monkeypatch):
+    folder = tmp_path / "d"
+    folder.mkdir()
+    (folder / "x.dcm").write_bytes(b"\0" * 132)
+    monkeypatch.setitem(sys.modules, "pydicom", None)  # import pydicom -> ImportError
+    with pytest.raises(FormatError, match=r"pip install 'volpack\[dicom\]'"):
+        vio.read_volume(str(folder))
+
+
+def test_import_is_light():
+    code = (
+        "import sys, volpack.io;"
+        "heavy = {'nibabel', 'h5py', 'tifffile', 'nrrd', 'pydicom'} & set(sys.modules);"
+        "print(sorted(heavy))"
+    )
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert res.stdout.strip() == "[]"

@@ -1,0 +1,43 @@
+"""Plumbing shared by the coefficient coders (no coding logic lives here)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from ..errors import FormatError
+
+STATUS = {1: "the stream ends before the last coefficient", 2: "a code names an impossible value"}
+
+
+def flat_view(a: np.ndarray) -> np.ndarray:
+    """A 1-D view of a C-contiguous int32/int64 coefficient array (never a copy)."""
+    if a.dtype not in (np.int32, np.int64) or not a.flags.c_contiguous:
+        raise ValueError(f"expected a C-contiguous int32/int64 array, found {a.dtype}")
+    return a.reshape(-1)
+
+
+def max_bits(flat: np.ndarray) -> int:
+    """Largest bit length a mapped coefficient of this dtype can have."""
+    return 32 if flat.dtype == np.int32 else 63
+
+
+def encode_with_retry(run: Callable[[np.ndarray], int], n: int) -> bytes:
+    """Run an encoder kernel into a buffer sized for typical data, then the worst case.
+
+    Kernels return the byte count, or -1 when the buffer is too small; most bricks fit
+    the first guess, so the worst-case allocation is rarely paid.
+    """
+    for per_coef in (4, 20):
+        out = np.empty(n * per_coef + 1024, dtype=np.uint8)
+        used = run(out)
+        if used >= 0:
+            return out[:used].tobytes()
+    raise AssertionError("coefficient coder overflowed its worst-case buffer")
+
+
+def check_status(status: int, coder: str) -> None:
+    if status != 0:
+        why = STATUS.get(int(status), f"status {status}")
+        raise FormatError(f"corrupt {coder}-coded brick: {why}")

@@ -1,0 +1,193 @@
+"""How close a decoded volume is to its original, and what the compression cost.
+
+Errors are computed chunk by chunk in a type wide enough for every input: exact 64-bit
+integer differences for integer pairs (so ``uint8`` 0 against 255 is 255, never a wrapped
+1) and float64 otherwise. An optional ``mask`` (True = leave out, as ``Volume.mask``)
+removes voxels that hold no measurement. Among the voxels that remain, a float special
+value matching the same special in the other array (NaN with NaN, +Inf with +Inf) counts
+as an exact match; any other pairing with a special value is an infinite error.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+_CHUNK = 1 << 22  # voxels per pass: bounds the float64 temporaries to a few tens of MB
+
+
+def max_error(a, b, mask=None) -> float:
+    """Return the largest absolute difference ``max |a - b|`` over the valid voxels.
+
+    Parameters
+    ----------
+    a, b : array_like of the same shape
+        Original and reconstruction, any integer or float dtype.
+    mask : array_like of bool, optional
+        True marks voxels to leave out.
+
+    Returns
+    -------
+    float
+        0.0 when no voxel is valid; ``inf`` when a special value is not matched.
+    """
+    return _error_stats(a, b, mask)[0]
+
+
+def rmse(a, b, mask=None) -> float:
+    """Return the root mean square difference over the valid voxels (0.0 when none)."""
+    _, sq, n = _error_stats(a, b, mask)
+    return math.sqrt(sq / n) if n else 0.0
+
+
+def psnr(a, b, *, peak=None, mask=None) -> float:
+    """Return the peak signal-to-noise ratio ``20 log10(peak) - 10 log10(mse)`` in dB.
+
+    Parameters
+    ----------
+    a, b : array_like of the same shape
+        Original and reconstruction.
+    peak : float, optional
+        Signal peak. Default: the value range ``max - min`` of the finite valid voxels of
+        the original ``a``, the convention of scientific compressors (zfp, SZ, SPERR).
+        Image codecs use the dtype's maximum instead (255 for 8 bits); pass it here to
+        compare with them.
+    mask : array_like of bool, optional
+        True marks voxels to leave out.
+
+    Returns
+    -------
+    float
+        ``inf`` when the valid voxels are equal; ``-inf`` when the peak is 0 but they
+        differ.
+    """
+    _, sq, n = _error_stats(a, b, mask)
+    return _psnr(sq, n, a, peak, mask)
+
+
+def ratio(raw_nbytes: int, compressed_nbytes: int) -> float:
+    """Return the compression ratio ``raw / compressed``."""
+    if compressed_nbytes <= 0 or raw_nbytes < 0:
+        raise ValueError(
+            f"expected sizes raw >= 0 and compressed > 0, found {raw_nbytes!r}, {compressed_nbytes!r}"
+        )
+    return raw_nbytes / compressed_nbytes
+
+
+def bits_per_voxel(compressed_nbytes: int, nvoxels: int) -> float:
+    """Return the compressed size in bits per voxel."""
+    if nvoxels <= 0 or compressed_nbytes < 0:
+        raise ValueError(
+            f"expected nbytes >= 0 and nvoxels > 0, found {compressed_nbytes!r}, {nvoxels!r}"
+        )
+    return 8.0 * compressed_nbytes / nvoxels
+
+
+def throughput(nbytes: int, seconds: float) -> float:
+    """Return the speed in MB/s, with MB = 1e6 bytes (``inf`` for a zero duration)."""
+    if seconds < 0 or nbytes < 0:
+        raise ValueError(f"expected nbytes >= 0 and seconds >= 0, found {nbytes!r}, {seconds!r}")
+    return math.inf if seconds == 0 else nbytes / 1e6 / seconds
+
+
+def summary(a, b, compressed_nbytes=None, mask=None) -> dict[str, Any]:
+    """Return ``psnr``, ``rmse``, ``max_error`` (and ``ratio``, ``bpv`` when the compressed
+    size is given) as plain Python floats, from one pass over the data."""
+    a = np.asarray(a)
+    mx, sq, n = _error_stats(a, b, mask)
+    out: dict[str, Any] = {
+        "psnr": _psnr(sq, n, a, None, mask),
+        "rmse": math.sqrt(sq / n) if n else 0.0,
+        "max_error": mx,
+    }
+    if compressed_nbytes is not None:
+        out["ratio"] = ratio(a.nbytes, compressed_nbytes)
+        out["bpv"] = bits_per_voxel(compressed_nbytes, a.size)
+    return out
+
+
+# --- private ---------------------------------------------------------------------------
+
+
+def _prepare(a, b, mask):
+    a, b = np.asarray(a), np.asarray(b)
+    if a.shape != b.shape:
+        raise ValueError(f"expected arrays of the same shape, found {a.shape} and {b.shape}")
+    for x in (a, b):
+        if x.dtype.kind not in "biuf":
+            raise TypeError(f"expected integer or float arrays, found dtype {x.dtype}")
+    if mask is not None:
+        mask = np.asarray(mask, dtype=bool)
+        if mask.shape != a.shape:
+            raise ValueError(f"expected a mask of shape {a.shape}, found {mask.shape}")
+        mask = mask.reshape(-1)
+    return a.reshape(-1), b.reshape(-1), mask
+
+
+def _abs_diff(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Return ``|a - b|`` exactly for integers (uint64 or int64), in float64 otherwise."""
+    if a.dtype.kind in "biu" and b.dtype.kind in "biu":
+        small = a.dtype.itemsize < 8 and b.dtype.itemsize < 8
+        if small or a.dtype == b.dtype:
+            if small:
+                a, b = a.astype(np.int64), b.astype(np.int64)
+            # hi - lo lies in [0, 2**64): modular uint64 subtraction is exact
+            hi, lo = np.maximum(a, b), np.minimum(a, b)
+            return hi.astype(np.uint64) - lo.astype(np.uint64)
+    with np.errstate(invalid="ignore", over="ignore"):  # specials are sorted out below
+        d = np.abs(a.astype(np.float64) - b.astype(np.float64))
+    if a.dtype.kind == "f" or b.dtype.kind == "f":
+        bad = ~np.isfinite(d)
+        if bad.any():
+            same = (a == b) | (np.isnan(a) & np.isnan(b))
+            d[bad] = np.where(same[bad], 0.0, np.inf)
+    return d
+
+
+def _error_stats(a, b, mask) -> tuple[float, float, int]:
+    """Return (max abs error, sum of squared errors, valid voxel count)."""
+    a, b, mask = _prepare(a, b, mask)
+    mx, sq, n = 0.0, 0.0, 0
+    for s in range(0, a.size, _CHUNK):
+        ca, cb = a[s : s + _CHUNK], b[s : s + _CHUNK]
+        if mask is not None:
+            keep = ~mask[s : s + _CHUNK]
+            ca, cb = ca[keep], cb[keep]
+        if ca.size == 0:
+            continue
+        d = _abs_diff(ca, cb)
+        mx = max(mx, float(d.max()))
+        f = d.astype(np.float64)
+        sq += float(np.dot(f, f))
+        n += int(ca.size)
+    return mx, sq, n
+
+
+def _psnr(sq: float, n: int, a, peak, mask) -> float:
+    if n == 0 or sq == 0.0:
+        return math.inf
+    mse = sq / n
+    if mse == math.inf:
+        return -math.inf
+    if peak is None:
+        peak = _value_range(a, mask)
+    if peak <= 0:
+        return -math.inf
+    return 20.0 * math.log10(peak) - 10.0 * math.log10(mse)
+
+
+def _value_range(a, mask) -> float:
+    """Return ``max - min`` of the finite valid voxels of ``a`` (0.0 when none)."""
+    a = np.asarray(a).reshape(-1)
+    if mask is not None:
+        a = a[~np.asarray(mask, dtype=bool).reshape(-1)]
+    if a.dtype.kind == "f":
+        a = a[np.isfinite(a)]
+    if a.size == 0:
+        return 0.0
+    hi, lo = a.max(), a.min()
+    if a.dtype.kind in "biu":
+        return float(int(hi) - int(lo))
+    return float(hi) - float(lo)
