@@ -48,8 +48,51 @@ def make_container(folder: Path) -> Path:
     return path
 
 
+# -- wavelet codec examples: tests/golden/wavelet-*.vpk ------------------------------
+
+# (file stem, source recipe, codec options); every recipe cuts the bundled MRI.
+WAVELET_CASES = [
+    ("wavelet-53-arith-dfs-u8", "u8", {"wavelet": "53", "coder": "arith", "order": "dfs"}),
+    ("wavelet-53-huffman-dfs-i16", "i16", {"wavelet": "53", "coder": "huffman", "order": "dfs"}),
+    ("wavelet-53-rle-line-u8", "u8", {"wavelet": "53", "coder": "rle", "order": "line"}),
+    ("wavelet-26-arith-line-i16", "i16", {"wavelet": "26", "coder": "arith", "order": "line"}),
+    ("wavelet-haar-huffman-dfs-u8", "u8", {"wavelet": "haar", "coder": "huffman", "order": "dfs"}),
+    ("wavelet-97m-arith-dfs-i16", "i16", {"wavelet": "97m", "coder": "arith", "order": "dfs"}),
+    ("wavelet-53-arith-dfs-labels", "labels", {"wavelet": "53", "coder": "arith", "order": "dfs"}),
+]
+WAVELET_BRICK = 16
+
+
+def wavelet_source(recipe: str):
+    """The small volume a wavelet example codes: a (20, 24, 28) cut of the bundled MRI."""
+    import numpy as np
+
+    from volpack.demo import load_demo_volume
+
+    cut = load_demo_volume().data[30:50, 40:64, 40:68]
+    if recipe == "u8":
+        return cut
+    if recipe == "i16":
+        return cut.astype(np.int16) * 37 - 3000
+    if recipe == "labels":  # three tissue classes and a constant corner: modes 2 and 3
+        lab = np.digitize(cut, [40, 90]).astype(np.uint8)
+        lab[:16, :16, :16] = 0
+        return lab
+    raise ValueError(f"unknown recipe {recipe!r}")
+
+
+def make_wavelet(folder: Path) -> Path:
+    from volpack import api
+
+    for stem, recipe, opts in WAVELET_CASES:
+        path = folder / f"{stem}.vpk"
+        api.compress(wavelet_source(recipe), str(path), brick=WAVELET_BRICK, force=True, **opts)
+    return folder
+
+
 EXAMPLES: dict[str, Callable[[Path], Path]] = {
     "container": make_container,
+    "wavelet": make_wavelet,
 }
 
 

@@ -46,6 +46,10 @@ def test_atomic_open_leaves_nothing_on_failure(tmp_path):
     with atomic_open(target) as f:
         f.write(b"whole")
     assert target.read_bytes() == b"whole"
+    plain = tmp_path / "plain.bin"
+    plain.write_bytes(b"")  # the mode an ordinary open gives, umask applied
+    assert os.stat(target).st_mode & 0o777 == os.stat(plain).st_mode & 0o777
+    plain.unlink()
     with pytest.raises(OutputExistsError, match="--force"):
         with atomic_open(target) as f:
             f.write(b"again")

@@ -57,6 +57,15 @@ if CACHE and not os.environ.get("NUMBA_CACHE_DIR"):
 
 JIT_DISABLED = bool(numba.config.DISABLE_JIT)
 
+if JIT_DISABLED:
+
+    def leading_zeros(x):
+        """Count of leading zero bits of a 64-bit unsigned integer (64 for zero)."""
+        return 64 - int(x).bit_length()
+
+else:  # LLVM's ctlz: one instruction where the CPU has it
+    from numba.cpython.unsafe.numbers import leading_zeros  # noqa: F401
+
 
 def kernel(fn=None, /, *, parallel: bool = False, inline: bool = False):
     """Decorate a kernel: nopython, nogil, cached on disk, no fastmath (bit-exact)."""

@@ -56,6 +56,7 @@ def atomic_open(path: str | os.PathLike, *, force: bool = False) -> Iterator[Bin
             yield f
             f.flush()
             os.fsync(f.fileno())
+        os.chmod(tmp, _default_mode())  # mkstemp makes 0600; a plain open would not
         os.replace(tmp, p)
     except BaseException:
         with contextlib.suppress(FileNotFoundError):
@@ -80,3 +81,10 @@ def atomic_path(path: str | os.PathLike, *, force: bool = False, suffix: str = "
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
         raise
+
+
+def _default_mode() -> int:
+    """Permissions a newly created file gets from ``open``: 0666 less the umask."""
+    umask = os.umask(0)
+    os.umask(umask)
+    return 0o666 & ~umask

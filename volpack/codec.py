@@ -15,7 +15,13 @@ mode  payload after the mode byte
 0     coefficients coded by the configured entropy coder
 1     the raw voxels, little-endian, C order
 2     one voxel value (the whole brick is that value), little-endian
+3     the voxels as the ``zstd`` codec stores them (byte-shuffled zstd)
 ====  ===========================================================
+
+Mode 3 serves label maps and segmentations: piecewise-constant bricks whose long runs
+of one value a dictionary coder captures far better than a wavelet. It is tried only
+on bricks where most voxels equal their x-neighbour, so smooth or noisy data pays
+nothing for it.
 """
 
 from __future__ import annotations
@@ -28,7 +34,9 @@ import numpy as np
 
 from .errors import FormatError
 
-MODE_CODED, MODE_RAW, MODE_CONSTANT = 0, 1, 2
+MODE_CODED, MODE_RAW, MODE_CONSTANT, MODE_ZSTD = 0, 1, 2, 3
+PIECEWISE_CONSTANT = 0.5  # share of equal x-neighbours above which mode 3 is tried
+LABEL_ZSTD_LEVEL = 9
 
 WAVELET_NAMES = ("53", "26", "haar", "97m")
 CODER_NAMES = ("arith", "huffman", "rle")
@@ -112,12 +120,16 @@ class WaveletCodec:
         if brick.size and (brick.flat[0] == brick).all():
             return bytes([MODE_CONSTANT]) + raw[: brick.dtype.itemsize]
         levels, work = self._plan(brick.shape, brick.dtype)
-        coeffs = dwt3.forward(np.ascontiguousarray(brick, dtype=work), levels, self.wavelet)
+        coeffs = dwt3.forward(brick.astype(work), levels, self.wavelet, overwrite=True)
         scan = sigmap.scan(brick.shape, levels, self.order)
-        coded = CODERS[self.coder].encode(coeffs, scan)
-        if len(coded) >= len(raw):
+        best = bytes([MODE_CODED]) + CODERS[self.coder].encode(coeffs, scan)
+        if _piecewise_constant(brick):
+            z = bytes([MODE_ZSTD]) + ZstdCodec(level=LABEL_ZSTD_LEVEL).encode(brick)
+            if len(z) < len(best):
+                best = z
+        if len(best) > len(raw):
             return bytes([MODE_RAW]) + raw
-        return bytes([MODE_CODED]) + coded
+        return best
 
     def decode(self, data: bytes | memoryview, shape: tuple[int, ...], dtype: Any) -> np.ndarray:
         from . import sigmap
@@ -136,19 +148,20 @@ class WaveletCodec:
         if mode == MODE_CONSTANT:
             value = _from_stored(body, (1,), dtype)[0]
             return np.full(shape, value, dtype=dtype)
+        if mode == MODE_ZSTD:
+            return ZstdCodec(level=LABEL_ZSTD_LEVEL).decode(body, shape, dtype)
         if mode != MODE_CODED:
-            raise FormatError(f"wavelet brick payload: expected mode 0, 1 or 2, found {mode}")
+            raise FormatError(f"wavelet brick payload: expected mode 0 to 3, found {mode}")
         levels, work = self._plan(shape, dtype)
         scan = sigmap.scan(tuple(shape), levels, self.order)
         coeffs = np.empty(shape, dtype=work)
         CODERS[self.coder].decode(bytes(body), scan, coeffs)
-        out = dwt3.inverse(coeffs, levels, self.wavelet)
-        info = np.iinfo(dtype)
-        if out.size and (out.min() < info.min or out.max() > info.max):
+        out = dwt3.narrow(dwt3.inverse(coeffs, levels, self.wavelet, overwrite=True), dtype)
+        if out is None:
             raise FormatError(
                 f"corrupt wavelet brick: decoded values fall outside the {dtype} range"
             )
-        return out.astype(dtype, copy=False)
+        return out
 
 
 @dataclasses.dataclass(frozen=True)
@@ -219,6 +232,13 @@ def get_codec(config: Mapping[str, Any]):
         return cls(**config)
     except TypeError as e:
         raise FormatError(f"bad config for codec {codec_id!r}: {e}") from None
+
+
+def _piecewise_constant(brick: np.ndarray) -> bool:
+    if brick.shape[-1] < 2:
+        return False
+    same = np.count_nonzero(brick[..., 1:] == brick[..., :-1])
+    return same > PIECEWISE_CONSTANT * brick[..., 1:].size
 
 
 def check_wavelet_dtype(dtype: np.dtype) -> None:

@@ -9,13 +9,14 @@ unsigned integers ``m`` (``c >= 0 -> 2c``, ``c < 0 -> -2c - 1``). For each posit
    binary tree of adaptive probabilities, chosen by context: the subband class and a
    quantised estimate of the local magnitude from the parent and the two previously
    coded coefficients.
-3. The bit just below the leading one is coded with an adaptive probability per
-   ``(n, class)``; the remaining ``n - 2`` low bits (they hold the sign in the last
-   place) are coded at probability one half.
+3. The three bits below the leading one are coded with adaptive probabilities per
+   ``(n, bits so far, class)``: within one bit length, small values are likelier. The
+   remaining low bits (the sign in the last place) are coded at probability one half.
 
-The arithmetic coder is a binary range coder with 11-bit probabilities, a 32-bit range
-and byte-wise carry propagation: one multiply per decision and no division. The stream
-layout is given in ``formats/wavelet-1.md``.
+The arithmetic coder is a binary range coder with 12-bit probabilities, a 32-bit range
+and byte-wise carry propagation: one multiply per decision and no division. Each
+probability adapts fast while young and settles as it is used. The stream layout is given
+in ``formats/wavelet-1.md``.
 """
 
 from __future__ import annotations
@@ -27,12 +28,32 @@ from ..errors import FormatError
 from ..sigmap import N_CLASSES, Scan
 from .common import check_status, encode_with_retry, flat_view, max_bits
 
-PROB_BITS = 11
+PROB_BITS = 12
 PROB_INIT = 1 << (PROB_BITS - 1)
-MOVE_BITS = 4  # adaptation speed: bricks are small, so adapt fast
 TOP = 1 << 24
 TREE_BITS = 6  # bit lengths 0..63
 NQ = 12  # quantised local-magnitude contexts
+# A probability moves by 1/2**RATE[k] of its distance to 0 or 1 on its k-th use: fast
+# while it has seen little (a running average), then settling at 1/16 (bricks are small).
+RATE = np.array([1, 2, 2, 3, 3, 3, 3] + [4] * 24 + [5], dtype=np.int64)
+N_RATE = RATE.size - 1
+N_FLAG = N_CLASSES * NQ
+N_TREE = N_FLAG << TREE_BITS
+MANT_BITS = 3  # bits below the leading one that get adaptive probabilities
+N_MANT = (64 << MANT_BITS) * N_CLASSES
+
+
+@kernel(inline=True)
+def _adapt(prob, used, k, bit):
+    p = np.int64(prob[k])
+    u = used[k]
+    r = RATE[u]
+    if u < N_RATE:
+        used[k] = u + 1
+    if bit:
+        prob[k] = p - (p >> r)
+    else:
+        prob[k] = p + (((1 << PROB_BITS) - p) >> r)
 
 
 @kernel(inline=True)
@@ -54,6 +75,38 @@ def _shift_low(low, cache, csize, out, pos):
 
 
 @kernel(inline=True)
+def _put_bit(prob, used, k, bit, low, rng, cache, csize, out, pos):
+    bound = (rng >> PROB_BITS) * np.int64(prob[k])
+    if bit:
+        low += bound
+        rng -= bound
+    else:
+        rng = bound
+    _adapt(prob, used, k, bit)
+    while rng < TOP:
+        rng <<= 8
+        low, cache, csize, pos = _shift_low(low, cache, csize, out, pos)
+    return low, rng, cache, csize, pos
+
+
+@kernel(inline=True)
+def _get_bit(prob, used, k, code, rng, data, pos):
+    bound = (rng >> PROB_BITS) * np.int64(prob[k])
+    bit = code >= bound
+    if bit:
+        code -= bound
+        rng -= bound
+    else:
+        rng = bound
+    _adapt(prob, used, k, bit)
+    while rng < TOP:
+        rng <<= 8
+        code = ((code << 8) | (np.int64(data[pos]) if pos < data.size else 0)) & 0xFFFFFFFF
+        pos += 1
+    return bit, code, rng, pos
+
+
+@kernel(inline=True)
 def _context(i, parent, cls, nbits, nprev, nprev2):
     p = parent[i]
     npar = nbits[p] if p >= 0 else nprev
@@ -72,9 +125,8 @@ def _encode_kernel(flat, perm, end, parent, cls, out):
         c = np.int64(flat[perm[i]])
         m[i] = np.uint64((c << 1) ^ (c >> 63))
         nz[i + 1] = nz[i] + (c != 0)
-    ptree = np.full((N_CLASSES * NQ, 1 << TREE_BITS), PROB_INIT, dtype=np.uint16)
-    pflag = np.full(N_CLASSES * NQ, PROB_INIT, dtype=np.uint16)
-    pmant = np.full((64, N_CLASSES), PROB_INIT, dtype=np.uint16)
+    prob = np.full(N_FLAG + N_TREE + N_MANT, PROB_INIT, dtype=np.uint16)
+    used = np.zeros(prob.size, dtype=np.uint8)
     nbits = np.zeros(n, dtype=np.int64)
     cap = out.size
     low = np.int64(0)
@@ -92,18 +144,9 @@ def _encode_kernel(flat, perm, end, parent, cls, out):
         e = end[i]
         if e > i + 1:
             zero = nz[e] == nz[i]
-            p = np.int64(pflag[ctx])
-            bound = (rng >> PROB_BITS) * p
-            if zero:
-                rng = bound
-                pflag[ctx] = p + (((1 << PROB_BITS) - p) >> MOVE_BITS)
-            else:
-                low += bound
-                rng -= bound
-                pflag[ctx] = p - (p >> MOVE_BITS)
-            while rng < TOP:
-                rng <<= 8
-                low, cache, csize, pos = _shift_low(low, cache, csize, out, pos)
+            low, rng, cache, csize, pos = _put_bit(
+                prob, used, ctx, not zero, low, rng, cache, csize, out, pos
+            )
             if zero:
                 nprev2 = nprev
                 nprev = 0
@@ -114,43 +157,30 @@ def _encode_kernel(flat, perm, end, parent, cls, out):
         while nb < 64 and (v >> np.uint64(nb)) != 0:
             nb += 1
         node = 1
+        base = N_FLAG + (ctx << TREE_BITS)
         for b in range(TREE_BITS - 1, -1, -1):
             bit = (nb >> b) & 1
-            p = np.int64(ptree[ctx, node])
-            bound = (rng >> PROB_BITS) * p
-            if bit == 0:
-                rng = bound
-                ptree[ctx, node] = p + (((1 << PROB_BITS) - p) >> MOVE_BITS)
-            else:
-                low += bound
-                rng -= bound
-                ptree[ctx, node] = p - (p >> MOVE_BITS)
-            while rng < TOP:
-                rng <<= 8
-                low, cache, csize, pos = _shift_low(low, cache, csize, out, pos)
+            low, rng, cache, csize, pos = _put_bit(
+                prob, used, base + node, bit, low, rng, cache, csize, out, pos
+            )
             node = 2 * node + bit
-        if nb >= 2:
-            bit = np.int64((v >> np.uint64(nb - 2)) & np.uint64(1))
-            k = cls[i]
-            p = np.int64(pmant[nb, k])
-            bound = (rng >> PROB_BITS) * p
-            if bit == 0:
-                rng = bound
-                pmant[nb, k] = p + (((1 << PROB_BITS) - p) >> MOVE_BITS)
-            else:
-                low += bound
-                rng -= bound
-                pmant[nb, k] = p - (p >> MOVE_BITS)
-            while rng < TOP:
+        # The top bits below the leading one, modelled; the rest (sign last) at 1/2.
+        modelled = min(nb - 1, MANT_BITS)
+        prefix = 1
+        for b in range(nb - 2, nb - 2 - modelled, -1):
+            bit = np.int64((v >> np.uint64(b)) & np.uint64(1))
+            k = N_FLAG + N_TREE + ((nb << MANT_BITS) + prefix) * N_CLASSES + cls[i]
+            low, rng, cache, csize, pos = _put_bit(
+                prob, used, k, bit, low, rng, cache, csize, out, pos
+            )
+            prefix = 2 * prefix + bit
+        for b in range(nb - 2 - modelled, -1, -1):
+            rng >>= 1
+            if (v >> np.uint64(b)) & np.uint64(1):
+                low += rng
+            if rng < TOP:
                 rng <<= 8
                 low, cache, csize, pos = _shift_low(low, cache, csize, out, pos)
-            for b in range(nb - 3, -1, -1):
-                rng >>= 1
-                if (v >> np.uint64(b)) & np.uint64(1):
-                    low += rng
-                if rng < TOP:
-                    rng <<= 8
-                    low, cache, csize, pos = _shift_low(low, cache, csize, out, pos)
         nbits[i] = nb
         nprev2 = nprev
         nprev = nb
@@ -165,16 +195,14 @@ def _decode_kernel(data, perm, end, parent, cls, flat, nmax):
     """Return 0 on success, 1 when the stream ran short, 2 on an impossible symbol."""
     n = perm.size
     size = data.size
-    ptree = np.full((N_CLASSES * NQ, 1 << TREE_BITS), PROB_INIT, dtype=np.uint16)
-    pflag = np.full(N_CLASSES * NQ, PROB_INIT, dtype=np.uint16)
-    pmant = np.full((64, N_CLASSES), PROB_INIT, dtype=np.uint16)
+    prob = np.full(N_FLAG + N_TREE + N_MANT, PROB_INIT, dtype=np.uint16)
+    used = np.zeros(prob.size, dtype=np.uint8)
     nbits = np.zeros(n, dtype=np.int64)
     rng = np.int64(0xFFFFFFFF)
     code = np.int64(0)
     pos = 1  # the encoder's first byte is always zero
     for _ in range(4):
-        byte = np.int64(data[pos]) if pos < size else 0
-        code = (code << 8) | byte
+        code = (code << 8) | (np.int64(data[pos]) if pos < size else 0)
         pos += 1
     nprev = 0
     nprev2 = 0
@@ -185,21 +213,8 @@ def _decode_kernel(data, perm, end, parent, cls, flat, nmax):
         ctx = _context(i, parent, cls, nbits, nprev, nprev2)
         e = end[i]
         if e > i + 1:
-            p = np.int64(pflag[ctx])
-            bound = (rng >> PROB_BITS) * p
-            zero = code < bound
-            if zero:
-                rng = bound
-                pflag[ctx] = p + (((1 << PROB_BITS) - p) >> MOVE_BITS)
-            else:
-                code -= bound
-                rng -= bound
-                pflag[ctx] = p - (p >> MOVE_BITS)
-            while rng < TOP:
-                rng <<= 8
-                code = ((code << 8) | (np.int64(data[pos]) if pos < size else 0)) & 0xFFFFFFFF
-                pos += 1
-            if zero:
+            live, code, rng, pos = _get_bit(prob, used, ctx, code, rng, data, pos)
+            if not live:
                 for j in range(i, e):
                     flat[perm[j]] = 0
                 nprev2 = nprev
@@ -207,59 +222,32 @@ def _decode_kernel(data, perm, end, parent, cls, flat, nmax):
                 i = e
                 continue
         node = 1
+        base = N_FLAG + (ctx << TREE_BITS)
         for _ in range(TREE_BITS):
-            p = np.int64(ptree[ctx, node])
-            bound = (rng >> PROB_BITS) * p
-            if code < bound:
-                rng = bound
-                ptree[ctx, node] = p + (((1 << PROB_BITS) - p) >> MOVE_BITS)
-                node = 2 * node
-            else:
-                code -= bound
-                rng -= bound
-                ptree[ctx, node] = p - (p >> MOVE_BITS)
-                node = 2 * node + 1
-            while rng < TOP:
-                rng <<= 8
-                code = ((code << 8) | (np.int64(data[pos]) if pos < size else 0)) & 0xFFFFFFFF
-                pos += 1
+            bit, code, rng, pos = _get_bit(prob, used, base + node, code, rng, data, pos)
+            node = 2 * node + bit
         nb = node - (1 << TREE_BITS)
         if nb > nmax:
             return 2
-        v = np.uint64(0)
-        if nb >= 1:
-            v = np.uint64(1)
-        if nb >= 2:
-            k = cls[i]
-            p = np.int64(pmant[nb, k])
-            bound = (rng >> PROB_BITS) * p
-            bit = 0
-            if code < bound:
-                rng = bound
-                pmant[nb, k] = p + (((1 << PROB_BITS) - p) >> MOVE_BITS)
-            else:
-                code -= bound
-                rng -= bound
-                pmant[nb, k] = p - (p >> MOVE_BITS)
-                bit = 1
-            while rng < TOP:
+        v = np.uint64(1 if nb >= 1 else 0)
+        modelled = min(nb - 1, MANT_BITS)
+        prefix = 1
+        for _ in range(modelled):
+            k = N_FLAG + N_TREE + ((nb << MANT_BITS) + prefix) * N_CLASSES + cls[i]
+            bit, code, rng, pos = _get_bit(prob, used, k, code, rng, data, pos)
+            prefix = 2 * prefix + bit
+            v = (v << np.uint64(1)) | np.uint64(bit)
+        for _ in range(nb - 1 - modelled):
+            rng >>= 1
+            bit = code >= rng
+            if bit:
+                code -= rng
+            v = (v << np.uint64(1)) | np.uint64(bit)
+            if rng < TOP:
                 rng <<= 8
                 code = ((code << 8) | (np.int64(data[pos]) if pos < size else 0)) & 0xFFFFFFFF
                 pos += 1
-            v = (v << np.uint64(1)) | np.uint64(bit)
-            for _ in range(nb - 2):
-                rng >>= 1
-                bit = 0
-                if code >= rng:
-                    code -= rng
-                    bit = 1
-                v = (v << np.uint64(1)) | np.uint64(bit)
-                if rng < TOP:
-                    rng <<= 8
-                    code = ((code << 8) | (np.int64(data[pos]) if pos < size else 0)) & 0xFFFFFFFF
-                    pos += 1
-        half = np.int64(v >> np.uint64(1))
-        flat[perm[i]] = half ^ -(np.int64(v & np.uint64(1)))
+        flat[perm[i]] = np.int64(v >> np.uint64(1)) ^ -(np.int64(v & np.uint64(1)))
         nbits[i] = nb
         nprev2 = nprev
         nprev = nb

@@ -20,13 +20,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._jit import kernel
+from .._jit import kernel, leading_zeros
 from ..errors import FormatError
 from ..sigmap import Scan
 from .common import check_status, encode_with_retry, flat_view, max_bits
-
-# Leading one-bits of a byte, for the decoder's unary count.
-_LEAD = np.array([8 - len(f"{(~b) & 0xFF:08b}".lstrip("0")) for b in range(256)], np.int64)
 
 
 @kernel(inline=True)
@@ -82,52 +79,59 @@ def _flush(out, pos, acc, nacc):
 
 
 @kernel(inline=True)
-def _refill(data, pos, buf, nbuf):
-    while nbuf <= 48:
-        byte = np.int64(data[pos]) if pos < data.size else 0
-        buf = ((buf << 8) | byte) & ((np.int64(1) << (nbuf + 8)) - 1)
-        nbuf += 8
-        pos += 1
-    return pos, buf, nbuf
+def _peek(data, bitpos):
+    """The 64 bits from ``bitpos`` on, first bit on top; at least 57 are valid.
+
+    ``data`` carries 8 zero bytes of padding, and callers keep ``bitpos`` within the
+    real stream, so the byte loads never leave the array.
+    """
+    p = bitpos >> 3
+    w = np.uint64(0)
+    for k in range(8):
+        w = (w << np.uint64(8)) | np.uint64(data[p + k])
+    return w << np.uint64(bitpos & 7)
 
 
 @kernel(inline=True)
-def _get_code(data, pos, buf, nbuf, lead, nmax):
-    """Read one fixed code; returns (value, ok, pos, buf, nbuf)."""
-    pos, buf, nbuf = _refill(data, pos, buf, nbuf)
-    ones = lead[(buf >> (nbuf - 8)) & 0xFF]
-    if ones < 8 and ones <= nmax:  # short codes: one refill covers the whole code
-        if ones == 0:
-            return np.uint64(0), True, pos, buf, nbuf - 1
-        nbuf -= ones + ones
-        low = (buf >> nbuf) & ((np.int64(1) << (ones - 1)) - 1)
-        return np.uint64(low | (np.int64(1) << (ones - 1))), True, pos, buf, nbuf
+def _get_code(data, bitpos, limit, nmax):
+    """Read one fixed code at ``bitpos``; returns (value, ok, new bitpos)."""
+    w = _peek(data, bitpos)
+    ones = leading_zeros(~w)
+    if ones == 0:
+        return np.uint64(0), True, bitpos + 1
+    if ones <= 28:  # the whole 2n-bit code lies in this word
+        if ones > nmax:
+            return np.uint64(0), False, bitpos
+        v = np.uint64(1) << np.uint64(ones - 1)
+        if ones >= 2:
+            v |= (w << np.uint64(ones + 1)) >> np.uint64(65 - ones)
+        return v, True, bitpos + 2 * ones
     n = 0
     while True:
-        pos, buf, nbuf = _refill(data, pos, buf, nbuf)
-        ones = lead[(buf >> (nbuf - 8)) & 0xFF]
-        if ones < 8:
-            n += ones
-            nbuf -= ones + 1
+        if bitpos > limit:
+            return np.uint64(0), False, bitpos
+        k = leading_zeros(~_peek(data, bitpos))
+        if k < 56:
+            n += k
+            bitpos += k + 1
             break
-        n += 8
-        nbuf -= 8
+        n += 56
+        bitpos += 56
         if n > nmax:
-            return np.uint64(0), False, pos, buf, nbuf
-    if n == 0:
-        return np.uint64(0), True, pos, buf, nbuf
+            return np.uint64(0), False, bitpos
     if n > nmax:
-        return np.uint64(0), False, pos, buf, nbuf
+        return np.uint64(0), False, bitpos
     v = np.uint64(1)
     rest = n - 1
     while rest > 0:
-        k = min(rest, 24)
+        if bitpos > limit:
+            return np.uint64(0), False, bitpos
+        k = min(rest, 48)
         rest -= k
-        pos, buf, nbuf = _refill(data, pos, buf, nbuf)
-        nbuf -= k
-        bits = (buf >> nbuf) & ((np.int64(1) << k) - 1)
-        v = (v << np.uint64(k)) | np.uint64(bits)
-    return v, True, pos, buf, nbuf
+        bits = _peek(data, bitpos) >> np.uint64(64 - k)
+        bitpos += k
+        v = (v << np.uint64(k)) | bits
+    return v, True, bitpos
 
 
 @kernel(inline=True)
@@ -168,31 +172,29 @@ def _huffman_encode_kernel(flat, perm, end, out):
 
 
 @kernel
-def _huffman_decode_kernel(data, perm, end, flat, lead, nmax):
+def _huffman_decode_kernel(data, perm, end, flat, nmax):
     n = perm.size
-    pos = 0
-    buf = np.int64(0)
-    nbuf = 0
+    limit = (data.size - 8) * 8  # bits in the stream without its padding
+    bitpos = 0
     i = 0
     while i < n:
+        if bitpos > limit:
+            return 1
         e = end[i]
         if e > i + 1:
-            pos, buf, nbuf = _refill(data, pos, buf, nbuf)
-            nbuf -= 1
-            if (buf >> nbuf) & 1:
+            flag = _peek(data, bitpos) >> np.uint64(63)
+            bitpos += 1
+            if flag:
                 for j in range(i, e):
                     flat[perm[j]] = 0
                 i = e
                 continue
-        v, ok, pos, buf, nbuf = _get_code(data, pos, buf, nbuf, lead, nmax)
+        v, ok, bitpos = _get_code(data, bitpos, limit, nmax)
         if not ok:
             return 2
         flat[perm[i]] = _unmapped(v)
         i += 1
-    # Bits consumed must lie within the stream (refills read ahead up to 7 bytes).
-    if (pos * 8 - nbuf) > data.size * 8:
-        return 1
-    return 0
+    return 1 if bitpos > limit else 0
 
 
 @kernel
@@ -219,14 +221,15 @@ def _rle_encode_kernel(flat, perm, out):
 
 
 @kernel
-def _rle_decode_kernel(data, perm, flat, lead, nmax):
+def _rle_decode_kernel(data, perm, flat, nmax):
     n = perm.size
-    pos = 0
-    buf = np.int64(0)
-    nbuf = 0
+    limit = (data.size - 8) * 8
+    bitpos = 0
     i = 0
     while i < n:
-        run, ok, pos, buf, nbuf = _get_code(data, pos, buf, nbuf, lead, 40)
+        if bitpos > limit:
+            return 1
+        run, ok, bitpos = _get_code(data, bitpos, limit, 40)
         if not ok or run > np.uint64(n - i):
             return 2
         for j in range(i, i + np.int64(run)):
@@ -234,14 +237,14 @@ def _rle_decode_kernel(data, perm, flat, lead, nmax):
         i += np.int64(run)
         if i == n:
             break
-        v, ok, pos, buf, nbuf = _get_code(data, pos, buf, nbuf, lead, nmax)
-        if not ok or v == np.uint64(0xFFFFFFFFFFFFFFFF):
+        if bitpos > limit:
+            return 1
+        v, ok, bitpos = _get_code(data, bitpos, limit, nmax)
+        if not ok:
             return 2
         flat[perm[i]] = _unmapped(v + np.uint64(1))
         i += 1
-    if (pos * 8 - nbuf) > data.size * 8:
-        return 1
-    return 0
+    return 1 if bitpos > limit else 0
 
 
 def encode_huffman(coeffs: np.ndarray, scan: Scan) -> bytes:
@@ -254,9 +257,8 @@ def encode_huffman(coeffs: np.ndarray, scan: Scan) -> bytes:
 
 def decode_huffman(data: bytes, scan: Scan, out: np.ndarray) -> None:
     flat = _checked(out, scan)
-    buf = np.frombuffer(data, dtype=np.uint8)
     check_status(
-        _huffman_decode_kernel(buf, scan.perm, scan.end, flat, _LEAD, max_bits(flat)), "huffman"
+        _huffman_decode_kernel(_padded(data), scan.perm, scan.end, flat, max_bits(flat)), "huffman"
     )
 
 
@@ -268,8 +270,13 @@ def encode_rle(coeffs: np.ndarray, scan: Scan) -> bytes:
 
 def decode_rle(data: bytes, scan: Scan, out: np.ndarray) -> None:
     flat = _checked(out, scan)
-    buf = np.frombuffer(data, dtype=np.uint8)
-    check_status(_rle_decode_kernel(buf, scan.perm, flat, _LEAD, max_bits(flat)), "rle")
+    check_status(_rle_decode_kernel(_padded(data), scan.perm, flat, max_bits(flat)), "rle")
+
+
+def _padded(data: bytes) -> np.ndarray:
+    buf = np.zeros(len(data) + 8, dtype=np.uint8)
+    buf[: len(data)] = np.frombuffer(data, dtype=np.uint8)
+    return buf
 
 
 def _checked(out: np.ndarray, scan: Scan) -> np.ndarray:

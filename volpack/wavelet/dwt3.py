@@ -161,7 +161,7 @@ def _dwt3_kernel(a, tmp, lz, ly, lx, spec, backward):
                 _lift_planes_kernel(az, one, cz, cy, cx, tmp, spec, backward)
 
 
-def _run(x: np.ndarray, levels, wavelet: str, backward: bool) -> np.ndarray:
+def _run(x: np.ndarray, levels, wavelet: str, backward: bool, overwrite: bool) -> np.ndarray:
     spec = _check_wavelet(wavelet)
     x = np.asarray(x)
     if x.ndim != 3:
@@ -169,25 +169,57 @@ def _run(x: np.ndarray, levels, wavelet: str, backward: bool) -> np.ndarray:
     if x.dtype not in WORK_DTYPES:
         raise FormatError(f"expected an int32 or int64 work array, found {x.dtype}")
     lz, ly, lx = _check_levels(x.shape, levels)
-    out = np.array(x, dtype=x.dtype.newbyteorder("="), order="C", copy=True)
+    native = x.dtype.newbyteorder("=")
+    if overwrite and x.flags.c_contiguous and x.flags.writeable and x.dtype == native:
+        out = x
+    else:
+        out = np.array(x, dtype=native, order="C", copy=True)
     if out.size and max(lz, ly, lx) > 0:
         tmp = np.empty(out.size // 2 + 1, dtype=out.dtype)
         _dwt3_kernel(out, tmp, lz, ly, lx, spec, backward)
     return out
 
 
-def forward(x: np.ndarray, levels: tuple[int, int, int], wavelet: str) -> np.ndarray:
+def forward(
+    x: np.ndarray, levels: tuple[int, int, int], wavelet: str, *, overwrite: bool = False
+) -> np.ndarray:
     """Reversible integer transform of a 3-D int32/int64 array, in the Mallat layout.
 
-    Returns a new C-contiguous array of the same shape and dtype. The dtype must hold
-    every coefficient: choose it with :func:`work_dtype`.
+    Returns a C-contiguous array of the same shape and dtype: a new one, or ``x`` itself
+    transformed in place when ``overwrite`` is set and ``x`` allows it (saves a copy).
+    The dtype must hold every coefficient: choose it with :func:`work_dtype`.
     """
-    return _run(x, levels, wavelet, False)
+    return _run(x, levels, wavelet, False, overwrite)
 
 
-def inverse(c: np.ndarray, levels: tuple[int, int, int], wavelet: str) -> np.ndarray:
+def inverse(
+    c: np.ndarray, levels: tuple[int, int, int], wavelet: str, *, overwrite: bool = False
+) -> np.ndarray:
     """Exact inverse of :func:`forward`: ``inverse(forward(x, l, w), l, w) == x``."""
-    return _run(c, levels, wavelet, True)
+    return _run(c, levels, wavelet, True, overwrite)
+
+
+def narrow(c: np.ndarray, dtype: np.dtype) -> np.ndarray | None:
+    """Cast reconstructed voxels to ``dtype`` in one pass; None if any falls outside it.
+
+    A corrupt stream can decode to values no voxel of ``dtype`` has; this catches them
+    without a separate min/max pass.
+    """
+    dtype = np.dtype(dtype)
+    info = np.iinfo(dtype)
+    out = np.empty(c.shape, dtype=dtype)
+    ok = _narrow_kernel(c.reshape(-1), out.reshape(-1), int(info.min), int(info.max))
+    return out if ok else None
+
+
+@kernel
+def _narrow_kernel(src, dst, lo, hi):
+    bad = False
+    for i in range(src.size):
+        v = src[i]
+        bad |= (v < lo) | (v > hi)
+        dst[i] = v
+    return not bad
 
 
 # --- coefficient growth -----------------------------------------------------------------
