@@ -302,3 +302,94 @@ def wavelet_forward(a, levels, wavelet, seen=None):
                 moved[idx] = wavelet_lift_1d([int(v) for v in moved[idx]], wavelet, seen)
         cur = [(n + 1) // 2 if lv > k else n for n, lv in zip(cur, levels)]
     return out.astype(np.int64)
+
+
+def arith_encode(coeffs, perm, end, parent, cls):
+    """The arithmetic coder with ``low`` as an unbounded integer: no carry bookkeeping.
+
+    Follows formats/wavelet-1.md step by step; the bytes are the final ``low`` written
+    out big-endian after the leading zero byte.
+    """
+    nq, n_classes, mant_bits = 12, 25, 3
+    rate = [1, 2, 2, 3, 3, 3, 3, 4, 4, 4, 4, 4, 4, 4, 4, 5]
+    n_flag = n_classes * nq
+    n_tree = n_flag * 64
+    prob, used = {}, {}
+    low, rng, nbytes = 0, 0xFFFFFFFF, 0
+
+    def put(k, bit):
+        nonlocal low, rng, nbytes
+        p = prob.get(k, 2048)
+        u = used.get(k, 0)
+        bound = (rng >> 12) * p
+        if bit:
+            low, rng = low + bound, rng - bound
+            p -= p >> rate[u]
+        else:
+            rng = bound
+            p += (4096 - p) >> rate[u]
+        prob[k], used[k] = p, min(u + 1, 15)
+        while rng < 1 << 24:
+            rng <<= 8
+            low <<= 8
+            nbytes += 1
+
+    def put_half(bit):
+        nonlocal low, rng, nbytes
+        rng >>= 1
+        if bit:
+            low += rng
+        if rng < 1 << 24:
+            rng <<= 8
+            low <<= 8
+            nbytes += 1
+
+    flat = [int(v) for v in coeffs.ravel()]
+    vals = [flat[j] for j in perm]
+    nbits = [0] * len(vals)
+    nprev = nprev2 = 0
+    i = 0
+    while i < len(vals):
+        par = int(parent[i])
+        npar = nbits[par] if par >= 0 else nprev
+        q = min(nq - 1, (2 * npar + nprev + nprev2 + 2) >> 2)
+        ctx = int(cls[i]) * nq + q
+        e = int(end[i])
+        if e > i + 1:
+            live = any(vals[i:e])
+            put(ctx, int(live))
+            if not live:
+                nprev2, nprev = nprev, 0
+                i = e
+                continue
+        m = _zigzag(vals[i])
+        nb = m.bit_length()
+        base = n_flag + ctx * 64
+        put(base, int(nb >= q))
+        if nb >= q:
+            j = q
+            while j < 63:
+                put(base + 1 + min(j - q, 46), int(nb > j))
+                if nb == j:
+                    break
+                j += 1
+        else:
+            j = q - 1
+            while j > 0:
+                put(base + 48 + (q - 1 - j), int(nb < j))
+                if nb == j:
+                    break
+                j -= 1
+        below = format(m, "b")[1:] if nb else ""
+        modelled = min(nb - 1, mant_bits) if nb else 0
+        prefix = 1
+        for b in below[:modelled]:
+            put(n_flag + n_tree + ((nb << mant_bits) + prefix) * n_classes + int(cls[i]), int(b))
+            prefix = 2 * prefix + int(b)
+        for b in below[modelled:]:
+            put_half(int(b))
+        nbits[i] = nb
+        nprev2, nprev = nprev, nb
+        i += 1
+    total = 1 + nbytes + 4  # leading zero byte, the shifted-out bytes, the final low
+    return low.to_bytes(total, "big")

@@ -194,3 +194,13 @@ def test_scan_rejects_bad_arguments():
     with pytest.raises(ValueError):
         sigmap.scan((4, 4), (2, 2), "dfs")
     assert math.isfinite(_code_entropy_bits(np.zeros((2, 2, 2), np.int32)))
+
+
+@pytest.mark.parametrize("shape,levels", SHAPES)
+@pytest.mark.parametrize("order", sigmap.ORDERS)
+def test_arith_matches_the_unbounded_integer_reference(shape, levels, order):
+    s = sigmap.scan(shape, levels, order)
+    for seed, scale, zeros in ((1, 20, 0.0), (2, 0.4, 0.0), (3, 300, 0.9), (4, 1e5, 0.0)):
+        c = laplace(shape, scale, np.int32, seed, zeros)
+        want = naive.arith_encode(c, s.perm, s.end, s.parent, s.cls)
+        assert CODERS["arith"].encode(c, s) == want

@@ -15,6 +15,8 @@ import numpy as np
 from .errors import FormatError
 
 DEFAULT_BRICK = 64
+# Scan tables index a brick's coefficients with 32-bit integers.
+MAX_BRICK_VOXELS = 1 << 30
 
 
 def parse_brick(value: int | tuple[int, ...] | list[int]) -> tuple[int, int, int]:
@@ -26,6 +28,10 @@ def parse_brick(value: int | tuple[int, ...] | list[int]) -> tuple[int, int, int
     if len(t) != 3 or min(t) < 1 or max(t) > 4096:
         raise ValueError(
             f"expected a brick size of 1..4096 per axis (one number or z,y,x), found {value!r}"
+        )
+    if math.prod(t) > MAX_BRICK_VOXELS:
+        raise ValueError(
+            f"expected a brick of at most {MAX_BRICK_VOXELS} voxels (1024^3), found {t}"
         )
     return t  # type: ignore[return-value]
 

@@ -5,10 +5,10 @@ unsigned integers ``m`` (``c >= 0 -> 2c``, ``c < 0 -> -2c - 1``). For each posit
 
 1. If the position roots a subtree (dfs scan), one binary flag says whether the whole
    subtree is zero; if so it is skipped. These flags are the significance map.
-2. The bit length ``n`` of ``m`` (0 for a zero) is coded MSB first through a 6-level
-   binary tree of adaptive probabilities, chosen by context: the subband class and a
-   quantised estimate of the local magnitude from the parent and the two previously
-   coded coefficients.
+2. The bit length ``n`` of ``m`` (0 for a zero) is coded as a count up or down from an
+   estimate ``q`` made from the parent and the two previously coded coefficients, each
+   step a binary decision with its own adaptive probability in the context (subband
+   class, ``q``): about three decisions for a typical coefficient.
 3. The three bits below the leading one are coded with adaptive probabilities per
    ``(n, bits so far, class)``: within one bit length, small values are likelier. The
    remaining low bits (the sign in the last place) are coded at probability one half.
@@ -23,170 +23,165 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._jit import kernel
+from .._jit import kernel, leading_zeros
 from ..errors import FormatError
 from ..sigmap import N_CLASSES, Scan
 from .common import check_status, encode_with_retry, flat_view, max_bits
 
 PROB_BITS = 12
-PROB_INIT = 1 << (PROB_BITS - 1)
 TOP = 1 << 24
-TREE_BITS = 6  # bit lengths 0..63
+TREE_BITS = 6  # 2**6 models per context for the bit length
 NQ = 12  # quantised local-magnitude contexts
-# A probability moves by 1/2**RATE[k] of its distance to 0 or 1 on its k-th use: fast
-# while it has seen little (a running average), then settling at 1/16 (bricks are small).
-RATE = np.array([1, 2, 2, 3, 3, 3, 3] + [4] * 24 + [5], dtype=np.int64)
-N_RATE = RATE.size - 1
+MANT_BITS = 3  # bits below the leading one that get adaptive probabilities
+# Each model is one uint16: a 12-bit probability of a 0 above a 4-bit use count k. After
+# each use it moves by 1/2**RATE[k] of its distance to the bit seen: fast while young
+# (a running average), then settling (bricks are small, so not too slow).
+RATE = np.array([1, 2, 2, 3, 3, 3, 3, 4, 4, 4, 4, 4, 4, 4, 4, 5], dtype=np.int64)
+STATE_INIT = (1 << (PROB_BITS - 1)) << 4
 N_FLAG = N_CLASSES * NQ
 N_TREE = N_FLAG << TREE_BITS
-MANT_BITS = 3  # bits below the leading one that get adaptive probabilities
-N_MANT = (64 << MANT_BITS) * N_CLASSES
+N_MODELS = N_FLAG + N_TREE + ((64 << MANT_BITS) * N_CLASSES)
 
 
 @kernel(inline=True)
-def _adapt(prob, used, k, bit):
-    p = np.int64(prob[k])
-    u = used[k]
-    r = RATE[u]
-    if u < N_RATE:
-        used[k] = u + 1
-    if bit:
-        prob[k] = p - (p >> r)
-    else:
-        prob[k] = p + (((1 << PROB_BITS) - p) >> r)
-
-
-@kernel(inline=True)
-def _shift_low(low, cache, csize, out, pos):
-    if low < 0xFF000000 or low >= 0x100000000:
-        carry = low >> 32
-        temp = cache
-        while True:
-            out[pos] = (temp + carry) & 0xFF
-            pos += 1
-            temp = 0xFF
-            csize -= 1
-            if csize == 0:
-                break
-        cache = (low >> 24) & 0xFF
-    csize += 1
-    low = (low & 0x00FFFFFF) << 8
-    return low, cache, csize, pos
-
-
-@kernel(inline=True)
-def _put_bit(prob, used, k, bit, low, rng, cache, csize, out, pos):
-    bound = (rng >> PROB_BITS) * np.int64(prob[k])
-    if bit:
-        low += bound
-        rng -= bound
-    else:
-        rng = bound
-    _adapt(prob, used, k, bit)
-    while rng < TOP:
-        rng <<= 8
-        low, cache, csize, pos = _shift_low(low, cache, csize, out, pos)
-    return low, rng, cache, csize, pos
-
-
-@kernel(inline=True)
-def _get_bit(prob, used, k, code, rng, data, pos):
-    bound = (rng >> PROB_BITS) * np.int64(prob[k])
-    bit = code >= bound
-    if bit:
-        code -= bound
-        rng -= bound
-    else:
-        rng = bound
-    _adapt(prob, used, k, bit)
-    while rng < TOP:
-        rng <<= 8
-        code = ((code << 8) | (np.int64(data[pos]) if pos < data.size else 0)) & 0xFFFFFFFF
-        pos += 1
-    return bit, code, rng, pos
+def _carry(out, pos):
+    """Add one to the bytes written so far (the carry out of ``low``)."""
+    j = pos - 1
+    while out[j] == 0xFF:
+        out[j] = 0
+        j -= 1
+    out[j] += 1
 
 
 @kernel(inline=True)
 def _context(i, parent, cls, nbits, nprev, nprev2):
     p = parent[i]
-    npar = nbits[p] if p >= 0 else nprev
+    npar = np.int64(nbits[p]) if p >= 0 else nprev
     q = (2 * npar + nprev + nprev2 + 2) >> 2
     if q >= NQ:
         q = NQ - 1
-    return np.int64(cls[i]) * NQ + q
+    return np.int64(cls[i]) * NQ + q, q
+
+
+@kernel(inline=True)
+def _mant_model(nb, prefix, c):
+    return N_FLAG + N_TREE + ((nb << MANT_BITS) + prefix) * N_CLASSES + c
+
+
+# The bit coding below is written out in place rather than called: numba's inlining of
+# a helper that returns the coder state as a tuple (or keeps it in an array) ran these
+# loops at half to a third of the speed. Bits are coded without branches on their value,
+# which the branch predictor cannot guess.
 
 
 @kernel
 def _encode_kernel(flat, perm, end, parent, cls, out):
     n = perm.size
-    m = np.empty(n, dtype=np.uint64)
-    nz = np.zeros(n + 1, dtype=np.int64)
+    nz = np.zeros(n + 1, dtype=np.int32)  # non-zeros before each scan position
     for i in range(n):
-        c = np.int64(flat[perm[i]])
-        m[i] = np.uint64((c << 1) ^ (c >> 63))
-        nz[i + 1] = nz[i] + (c != 0)
-    prob = np.full(N_FLAG + N_TREE + N_MANT, PROB_INIT, dtype=np.uint16)
-    used = np.zeros(prob.size, dtype=np.uint8)
-    nbits = np.zeros(n, dtype=np.int64)
+        nz[i + 1] = nz[i] + (flat[perm[i]] != 0)
+    state = np.full(N_MODELS, STATE_INIT, dtype=np.uint16)
+    nbits = np.zeros(n, dtype=np.uint8)  # bit length at each scan position
+    keys = np.empty(72, dtype=np.int64)
+    bits = np.empty(72, dtype=np.int64)
     cap = out.size
-    low = np.int64(0)
+    low = np.int64(0)  # 32 bits; a carry out of them is added to the bytes already out
     rng = np.int64(0xFFFFFFFF)
-    cache = np.int64(0)
-    csize = np.int64(1)
-    pos = 0
+    out[0] = 0  # a leading zero byte takes the carry of the very first bits
+    pos = 1
     nprev = 0
     nprev2 = 0
     i = 0
     while i < n:
         if pos + 32 > cap:
             return -1
-        ctx = _context(i, parent, cls, nbits, nprev, nprev2)
+        ctx, q = _context(i, parent, cls, nbits, nprev, nprev2)
         e = end[i]
+        c = np.int64(flat[perm[i]])
+        v = np.uint64((c << 1) ^ (c >> 63))
+        nb = 64 - leading_zeros(v)
+        # The modelled decisions of this position: (model, bit) pairs, coded in one loop.
+        nd = 0
         if e > i + 1:
-            zero = nz[e] == nz[i]
-            low, rng, cache, csize, pos = _put_bit(
-                prob, used, ctx, not zero, low, rng, cache, csize, out, pos
-            )
-            if zero:
-                nprev2 = nprev
-                nprev = 0
-                i = e
-                continue
-        v = m[i]
-        nb = 0
-        while nb < 64 and (v >> np.uint64(nb)) != 0:
-            nb += 1
-        node = 1
-        base = N_FLAG + (ctx << TREE_BITS)
-        for b in range(TREE_BITS - 1, -1, -1):
-            bit = (nb >> b) & 1
-            low, rng, cache, csize, pos = _put_bit(
-                prob, used, base + node, bit, low, rng, cache, csize, out, pos
-            )
-            node = 2 * node + bit
-        # The top bits below the leading one, modelled; the rest (sign last) at 1/2.
-        modelled = min(nb - 1, MANT_BITS)
-        prefix = 1
-        for b in range(nb - 2, nb - 2 - modelled, -1):
-            bit = np.int64((v >> np.uint64(b)) & np.uint64(1))
-            k = N_FLAG + N_TREE + ((nb << MANT_BITS) + prefix) * N_CLASSES + cls[i]
-            low, rng, cache, csize, pos = _put_bit(
-                prob, used, k, bit, low, rng, cache, csize, out, pos
-            )
-            prefix = 2 * prefix + bit
-        for b in range(nb - 2 - modelled, -1, -1):
+            keys[0] = ctx
+            bits[0] = 0 if nz[e] == nz[i] else 1
+            nd = 1
+        if nd == 0 or bits[0] == 1:
+            base = N_FLAG + (ctx << TREE_BITS)
+            keys[nd] = base
+            bits[nd] = 1 if nb >= q else 0
+            nd += 1
+            if nb >= q:  # count up from the estimate q
+                j = q
+                while j < 63:
+                    keys[nd] = base + 1 + min(j - q, 46)
+                    bits[nd] = 1 if nb > j else 0
+                    nd += 1
+                    if nb == j:
+                        break
+                    j += 1
+            else:  # count down
+                j = q - 1
+                while j > 0:
+                    keys[nd] = base + 48 + (q - 1 - j)
+                    bits[nd] = 1 if nb < j else 0
+                    nd += 1
+                    if nb == j:
+                        break
+                    j -= 1
+            prefix = 1
+            for b in range(nb - 2, nb - 2 - min(nb - 1, MANT_BITS), -1):
+                bit = np.int64((v >> np.uint64(b)) & np.uint64(1))
+                keys[nd] = _mant_model(nb, prefix, cls[i])
+                bits[nd] = bit
+                nd += 1
+                prefix = 2 * prefix + bit
+        for d in range(nd):
+            k = keys[d]
+            st = np.int64(state[k])
+            p = st >> 4
+            u = st & 15
+            bound = (rng >> PROB_BITS) * p
+            mask = -bits[d]
+            low += bound & mask
+            if low > 0xFFFFFFFF:
+                _carry(out, pos)
+                low &= 0xFFFFFFFF
+            rng = bound + ((rng - 2 * bound) & mask)
+            r = RATE[u]
+            gain = ((1 << PROB_BITS) - p) >> r
+            p += gain - ((gain + (p >> r)) & mask)
+            state[k] = (p << 4) | (u + (u < 15))
+            while rng < TOP:
+                rng <<= 8
+                out[pos] = low >> 24
+                pos += 1
+                low = (low << 8) & 0xFFFFFFFF
+        if nd == 1:  # a zero subtree: skipped
+            nprev2 = nprev
+            nprev = 0
+            i = e
+            continue
+        for b in range(nb - 2 - min(nb - 1, MANT_BITS), -1, -1):
             rng >>= 1
             if (v >> np.uint64(b)) & np.uint64(1):
                 low += rng
+                if low > 0xFFFFFFFF:
+                    _carry(out, pos)
+                    low &= 0xFFFFFFFF
             if rng < TOP:
                 rng <<= 8
-                low, cache, csize, pos = _shift_low(low, cache, csize, out, pos)
+                out[pos] = low >> 24
+                pos += 1
+                low = (low << 8) & 0xFFFFFFFF
         nbits[i] = nb
         nprev2 = nprev
         nprev = nb
         i += 1
-    for _ in range(5):
-        low, cache, csize, pos = _shift_low(low, cache, csize, out, pos)
+    for _ in range(4):  # the final low pins the interval
+        out[pos] = low >> 24
+        pos += 1
+        low = (low << 8) & 0xFFFFFFFF
     return pos
 
 
@@ -195,9 +190,8 @@ def _decode_kernel(data, perm, end, parent, cls, flat, nmax):
     """Return 0 on success, 1 when the stream ran short, 2 on an impossible symbol."""
     n = perm.size
     size = data.size
-    prob = np.full(N_FLAG + N_TREE + N_MANT, PROB_INIT, dtype=np.uint16)
-    used = np.zeros(prob.size, dtype=np.uint8)
-    nbits = np.zeros(n, dtype=np.int64)
+    state = np.full(N_MODELS, STATE_INIT, dtype=np.uint16)
+    nbits = np.zeros(n, dtype=np.uint8)  # bit length at each scan position
     rng = np.int64(0xFFFFFFFF)
     code = np.int64(0)
     pos = 1  # the encoder's first byte is always zero
@@ -210,38 +204,109 @@ def _decode_kernel(data, perm, end, parent, cls, flat, nmax):
     while i < n:
         if pos > size + 4:
             return 1
-        ctx = _context(i, parent, cls, nbits, nprev, nprev2)
+        ctx, q = _context(i, parent, cls, nbits, nprev, nprev2)
         e = end[i]
-        if e > i + 1:
-            live, code, rng, pos = _get_bit(prob, used, ctx, code, rng, data, pos)
-            if not live:
+        if e > i + 1:  # the subtree flag
+            k = ctx
+            st = np.int64(state[k])
+            p = st >> 4
+            u = st & 15
+            bound = (rng >> PROB_BITS) * p
+            # Branch-free: the bit is a coin toss to the branch predictor.
+            bit = np.int64(code >= bound)
+            mask = -bit
+            code -= bound & mask
+            rng = bound + ((rng - 2 * bound) & mask)
+            r = RATE[u]
+            gain = ((1 << PROB_BITS) - p) >> r
+            p += gain - ((gain + (p >> r)) & mask)
+            state[k] = (p << 4) | (u + (u < 15))
+            while rng < TOP:
+                rng <<= 8
+                code = ((code << 8) | (np.int64(data[pos]) if pos < size else 0)) & 0xFFFFFFFF
+                pos += 1
+            if bit == 0:
                 for j in range(i, e):
                     flat[perm[j]] = 0
                 nprev2 = nprev
                 nprev = 0
                 i = e
                 continue
-        node = 1
         base = N_FLAG + (ctx << TREE_BITS)
-        for _ in range(TREE_BITS):
-            bit, code, rng, pos = _get_bit(prob, used, base + node, code, rng, data, pos)
-            node = 2 * node + bit
-        nb = node - (1 << TREE_BITS)
+        k = base
+        st = np.int64(state[k])
+        p = st >> 4
+        u = st & 15
+        bound = (rng >> PROB_BITS) * p
+        # Branch-free: the bit is a coin toss to the branch predictor.
+        bit = np.int64(code >= bound)
+        mask = -bit
+        code -= bound & mask
+        rng = bound + ((rng - 2 * bound) & mask)
+        r = RATE[u]
+        gain = ((1 << PROB_BITS) - p) >> r
+        p += gain - ((gain + (p >> r)) & mask)
+        state[k] = (p << 4) | (u + (u < 15))
+        while rng < TOP:
+            rng <<= 8
+            code = ((code << 8) | (np.int64(data[pos]) if pos < size else 0)) & 0xFFFFFFFF
+            pos += 1
+        up = bit == 1
+        nb = q if up else q - 1
+        while (up and nb < 63) or (not up and nb > 0):  # count from the estimate q
+            k = base + 1 + min(nb - q, 46) if up else base + 48 + (q - 1 - nb)
+            st = np.int64(state[k])
+            p = st >> 4
+            u = st & 15
+            bound = (rng >> PROB_BITS) * p
+            # Branch-free: the bit is a coin toss to the branch predictor.
+            bit = np.int64(code >= bound)
+            mask = -bit
+            code -= bound & mask
+            rng = bound + ((rng - 2 * bound) & mask)
+            r = RATE[u]
+            gain = ((1 << PROB_BITS) - p) >> r
+            p += gain - ((gain + (p >> r)) & mask)
+            state[k] = (p << 4) | (u + (u < 15))
+            while rng < TOP:
+                rng <<= 8
+                code = ((code << 8) | (np.int64(data[pos]) if pos < size else 0)) & 0xFFFFFFFF
+                pos += 1
+            if bit == 0:
+                break
+            nb += 1 if up else -1
         if nb > nmax:
             return 2
         v = np.uint64(1 if nb >= 1 else 0)
-        modelled = min(nb - 1, MANT_BITS)
         prefix = 1
-        for _ in range(modelled):
-            k = N_FLAG + N_TREE + ((nb << MANT_BITS) + prefix) * N_CLASSES + cls[i]
-            bit, code, rng, pos = _get_bit(prob, used, k, code, rng, data, pos)
+        c = cls[i]
+        for _ in range(min(nb - 1, MANT_BITS)):
+            k = _mant_model(nb, prefix, c)
+            st = np.int64(state[k])
+            p = st >> 4
+            u = st & 15
+            bound = (rng >> PROB_BITS) * p
+            # Branch-free: the bit is a coin toss to the branch predictor.
+            bit = np.int64(code >= bound)
+            mask = -bit
+            code -= bound & mask
+            rng = bound + ((rng - 2 * bound) & mask)
+            r = RATE[u]
+            gain = ((1 << PROB_BITS) - p) >> r
+            p += gain - ((gain + (p >> r)) & mask)
+            state[k] = (p << 4) | (u + (u < 15))
+            while rng < TOP:
+                rng <<= 8
+                code = ((code << 8) | (np.int64(data[pos]) if pos < size else 0)) & 0xFFFFFFFF
+                pos += 1
             prefix = 2 * prefix + bit
             v = (v << np.uint64(1)) | np.uint64(bit)
-        for _ in range(nb - 1 - modelled):
+        for _ in range(nb - 1 - min(nb - 1, MANT_BITS)):
             rng >>= 1
-            bit = code >= rng
-            if bit:
+            bit = 0
+            if code >= rng:
                 code -= rng
+                bit = 1
             v = (v << np.uint64(1)) | np.uint64(bit)
             if rng < TOP:
                 rng <<= 8

@@ -40,10 +40,7 @@ def _put(out, pos, acc, nacc, value, nbits):
 
 @kernel(inline=True)
 def _bitlen(v):
-    n = 0
-    while n < 64 and (v >> np.uint64(n)) != 0:
-        n += 1
-    return n
+    return 64 - leading_zeros(v)
 
 
 @kernel(inline=True)
@@ -79,17 +76,16 @@ def _flush(out, pos, acc, nacc):
 
 
 @kernel(inline=True)
-def _peek(data, bitpos):
-    """The 64 bits from ``bitpos`` on, first bit on top; at least 57 are valid.
+def _peek(words, bitpos):
+    """The 64 bits from ``bitpos`` on, first bit on top.
 
-    ``data`` carries 8 zero bytes of padding, and callers keep ``bitpos`` within the
-    real stream, so the byte loads never leave the array.
+    ``words`` is the stream as big-endian 64-bit words with two zero words of padding;
+    callers keep ``bitpos`` within the real stream, so both loads stay in the array.
     """
-    p = bitpos >> 3
-    w = np.uint64(0)
-    for k in range(8):
-        w = (w << np.uint64(8)) | np.uint64(data[p + k])
-    return w << np.uint64(bitpos & 7)
+    wi = bitpos >> 6
+    off = np.uint64(bitpos & 63)
+    # Two shifts for the low word: a shift by 64 (off == 0) is undefined.
+    return (words[wi] << off) | ((words[wi + 1] >> np.uint64(1)) >> (np.uint64(63) - off))
 
 
 @kernel(inline=True)
@@ -99,7 +95,7 @@ def _get_code(data, bitpos, limit, nmax):
     ones = leading_zeros(~w)
     if ones == 0:
         return np.uint64(0), True, bitpos + 1
-    if ones <= 28:  # the whole 2n-bit code lies in this word
+    if ones <= 32:  # the whole 2n-bit code lies in this word
         if ones > nmax:
             return np.uint64(0), False, bitpos
         v = np.uint64(1) << np.uint64(ones - 1)
@@ -148,7 +144,7 @@ def _unmapped(v):
 @kernel
 def _huffman_encode_kernel(flat, perm, end, out):
     n = perm.size
-    nz = np.zeros(n + 1, dtype=np.int64)
+    nz = np.zeros(n + 1, dtype=np.int32)
     for i in range(n):
         nz[i + 1] = nz[i] + (flat[perm[i]] != 0)
     cap = out.size
@@ -172,9 +168,8 @@ def _huffman_encode_kernel(flat, perm, end, out):
 
 
 @kernel
-def _huffman_decode_kernel(data, perm, end, flat, nmax):
+def _huffman_decode_kernel(data, limit, perm, end, flat, nmax):
     n = perm.size
-    limit = (data.size - 8) * 8  # bits in the stream without its padding
     bitpos = 0
     i = 0
     while i < n:
@@ -221,9 +216,8 @@ def _rle_encode_kernel(flat, perm, out):
 
 
 @kernel
-def _rle_decode_kernel(data, perm, flat, nmax):
+def _rle_decode_kernel(data, limit, perm, flat, nmax):
     n = perm.size
-    limit = (data.size - 8) * 8
     bitpos = 0
     i = 0
     while i < n:
@@ -258,7 +252,7 @@ def encode_huffman(coeffs: np.ndarray, scan: Scan) -> bytes:
 def decode_huffman(data: bytes, scan: Scan, out: np.ndarray) -> None:
     flat = _checked(out, scan)
     check_status(
-        _huffman_decode_kernel(_padded(data), scan.perm, scan.end, flat, max_bits(flat)), "huffman"
+        _huffman_decode_kernel(*_words(data), scan.perm, scan.end, flat, max_bits(flat)), "huffman"
     )
 
 
@@ -270,13 +264,16 @@ def encode_rle(coeffs: np.ndarray, scan: Scan) -> bytes:
 
 def decode_rle(data: bytes, scan: Scan, out: np.ndarray) -> None:
     flat = _checked(out, scan)
-    check_status(_rle_decode_kernel(_padded(data), scan.perm, flat, max_bits(flat)), "rle")
+    check_status(_rle_decode_kernel(*_words(data), scan.perm, flat, max_bits(flat)), "rle")
 
 
-def _padded(data: bytes) -> np.ndarray:
-    buf = np.zeros(len(data) + 8, dtype=np.uint8)
+def _words(data: bytes) -> tuple[np.ndarray, int]:
+    """The stream as native uint64 words read big-endian, plus two zero words; and its
+    length in bits."""
+    nw = (len(data) + 7) // 8 + 2
+    buf = np.zeros(nw * 8, dtype=np.uint8)
     buf[: len(data)] = np.frombuffer(data, dtype=np.uint8)
-    return buf
+    return buf.view(">u8").astype(np.uint64), len(data) * 8
 
 
 def _checked(out: np.ndarray, scan: Scan) -> np.ndarray:
