@@ -5,7 +5,7 @@ Each example is one function ``make_<name>(folder) -> path`` registered in ``EXA
 later format versions must still decode them, so regenerate one only when its format
 version changes, and then under a new name.
 
-    python scripts/make_examples.py                  # every example into tests/golden/
+    python scripts/make_examples.py                  # every example into formats/examples/
     python scripts/make_examples.py container --out /tmp/x
 """
 
@@ -17,9 +17,9 @@ from collections.abc import Callable
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-GOLDEN = ROOT / "tests" / "golden"
+GOLDEN = ROOT / "formats" / "examples"
 
-# -- the container example: tests/golden/tiny-v1.vpk ---------------------------------
+# -- the container example: formats/examples/tiny-v1.vpk ---------------------------------
 
 CONTAINER_NAME = "tiny-v1.vpk"
 CONTAINER_HEADER = {"kind": "test", "note": "golden vpk-1 container", "shape": [2, 3]}
@@ -48,7 +48,7 @@ def make_container(folder: Path) -> Path:
     return path
 
 
-# -- wavelet codec examples: tests/golden/wavelet-*.vpk ------------------------------
+# -- wavelet codec examples: formats/examples/wavelet-*.vpk ------------------------------
 
 # (file stem, source recipe, codec options); every recipe cuts the bundled MRI.
 WAVELET_CASES = [

@@ -27,9 +27,9 @@ from volpack.container import (
 )
 from volpack.errors import ChecksumError, FormatError, LimitError
 
-GOLDEN = Path(__file__).parent / "golden" / "tiny-v1.vpk"
+GOLDEN = Path(__file__).resolve().parent.parent / "formats" / "examples" / "tiny-v1.vpk"
 
-# The content of tests/golden/tiny-v1.vpk, written out here on purpose (not imported from
+# The content of formats/examples/tiny-v1.vpk, written out here on purpose (not imported from
 # scripts/make_examples.py) so that a change to the script cannot silently move the target.
 GOLDEN_HEADER = {"kind": "test", "note": "golden vpk-1 container", "shape": [2, 3]}
 GOLDEN_CHUNKS = [(0, 0, b"alpha", 0.0), (0, 1, b"", 0.25), (1, 7, bytes(range(16)), 1.5)]

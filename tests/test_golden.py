@@ -1,4 +1,4 @@
-"""Golden wavelet streams: the files in tests/golden/ decode to their source voxels, and
+"""Golden wavelet streams: the files in formats/examples/ decode to their source voxels, and
 today's encoder reproduces them byte for byte (a change of bytes needs a new codec id)."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import pytest
 from volpack import api
 from volpack.demo import load_demo_volume
 
-GOLDEN = Path(__file__).parent / "golden"
+GOLDEN = Path(__file__).resolve().parent.parent / "formats" / "examples"
 
 # The recipes of scripts/make_examples.py, written out again here on purpose: a test that
 # imported them would follow any change to the script.

@@ -484,3 +484,22 @@ def test_import_is_light():
     )
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert res.stdout.strip() == "[]"
+
+
+def test_a_2d_image_is_not_a_volume(tmp_path):
+    p = tmp_path / "img.npy"
+    np.save(p, np.zeros((5, 7), np.uint8))
+    with pytest.raises(FormatError, match=r"3-D .* found shape \(5, 7\)"):
+        vio.read_volume(str(p))
+
+
+def test_npy_and_raw_are_memory_mapped(tmp_path):
+    a = np.arange(3 * 4 * 5, dtype=np.int16).reshape(3, 4, 5)
+    np.save(tmp_path / "a.npy", a)
+    a.tofile(tmp_path / "a.raw")
+    for vol in (
+        vio.read_volume(str(tmp_path / "a.npy")),
+        vio.read_volume(str(tmp_path / "a.raw"), shape=(3, 4, 5), dtype="int16"),
+    ):
+        assert isinstance(vol.data, np.memmap) or isinstance(vol.data.base, np.memmap)
+        np.testing.assert_array_equal(vol.data, a)

@@ -296,8 +296,6 @@ def _as_volume_array(arr: np.ndarray, meta: dict, where: str) -> np.ndarray:
         raise FormatError(f"expected integer or float voxels in {where}, found dtype {arr.dtype}")
     while arr.ndim > 4 and arr.shape[-1] == 1:
         arr = arr[..., 0]
-    if arr.ndim == 2:
-        arr = arr[np.newaxis]
     if arr.ndim not in (3, 4):
         raise FormatError(
             f"expected a 3-D (z, y, x) or 4-D (t, z, y, x) volume in {where}, "
@@ -414,7 +412,8 @@ def _meta_from_json(text: Any) -> dict:
 def _read_npy(path: str, max_voxels: int) -> Volume:
     hdr = _npy_header(path)
     _check_voxels(hdr["shape"], max_voxels, path)
-    arr = np.load(path, allow_pickle=False)
+    # Memory-mapped: a large volume is paged in brick by brick as it is coded.
+    arr = np.load(path, allow_pickle=False, mmap_mode="r")
     meta: dict[str, Any] = {"source_format": "npy"}
     return Volume(_as_volume_array(arr, meta, path), meta=meta)
 
@@ -517,7 +516,10 @@ def _raw_check(shape, dtype, byteorder, offset, max_voxels, size: int, where: st
 
 def _read_raw(path, shape, dtype, byteorder, offset, max_voxels) -> Volume:
     sh, dt = _raw_check(shape, dtype, byteorder, offset, max_voxels, os.path.getsize(path), path)
-    arr = np.fromfile(path, dtype=dt, count=math.prod(sh), offset=int(offset)).reshape(sh)
+    if dt.isnative:  # memory-mapped, as for .npy
+        arr = np.memmap(path, dtype=dt, mode="r", offset=int(offset), shape=sh)
+    else:
+        arr = np.fromfile(path, dtype=dt, count=math.prod(sh), offset=int(offset)).reshape(sh)
     meta: dict[str, Any] = {"source_format": "raw"}
     return Volume(_as_volume_array(arr, meta, path), meta=meta)
 
