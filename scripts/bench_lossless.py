@@ -43,6 +43,7 @@ from __future__ import annotations
 import argparse
 import csv
 import datetime
+import json
 import os
 import platform
 import sys
@@ -462,45 +463,154 @@ def _cpu_model() -> str:
     return platform.processor() or "?"
 
 
-def write_table(rows, notes, path: Path, args, info: dict[str, str]) -> None:
+def _is_volpack(method: str) -> bool:
+    return method.startswith("volpack-")
+
+
+def _by_dataset(rows) -> dict[str, list[dict]]:
+    out: dict[str, list[dict]] = {}
+    for r in rows:
+        out.setdefault(r["dataset"], []).append(r)
+    return out
+
+
+def _peer_names(rows) -> list[str]:
+    return list(dict.fromkeys(r["method"] for r in rows if not _is_volpack(r["method"])))
+
+
+def _one(rows, method: str, workers: int = 1) -> dict | None:
+    for r in rows:
+        if r["method"] == method and r["workers"] == workers:
+            return r
+    return None
+
+
+def _bold_best(values: list[float | None], fmt: str = "{:.3f}") -> list[str]:
+    """Format values; the largest (ties at the printed precision included) in bold."""
+    shown = [None if v is None else fmt.format(v) for v in values]
+    best = max((float(x) for x in shown if x is not None), default=None)
+    return [
+        "—" if x is None else (f"**{x}**" if float(x) == best else x) for x in shown
+    ]
+
+
+def machine_line(info: dict[str, str]) -> str:
+    libs = ", ".join(
+        f"{k} {info[k]}" for k in ("volpack", "zstandard", "blosc2", "zfpy", "imagecodecs")
+    )
+    return (
+        f"Machine: {info['nproc']} cores ({info['cpu']}), Python {info['python']}, "
+        f"numpy {info['numpy']}, numba {info['numba']}; run {info['date']} "
+        f"(load average at start {info['load average at start']}). Libraries: {libs}."
+    )
+
+
+def write_table(rows, notes, skipped, path: Path, run: dict, info: dict[str, str]) -> None:
+    by_ds = _by_dataset(rows)
+    peers = _peer_names(rows)
+    base = [vp_name(*d) for d in VOLPACK_DEFAULTS]
     lines = [
-        "<!-- bench_lossless.py machine info",
-        *[f"  {k}: {v}" for k, v in info.items()],
-        f"  args: repeat={args.repeat} quick={args.quick} brick={args.brick}",
-        "-->",
+        "# Lossless benchmark",
+        "",
+        machine_line(info),
+        "",
+        f"Ratio = raw bytes in the volume's own dtype / compressed bytes. MB/s counts raw "
+        f"voxel bytes (1 MB = 10⁶ B), best of {run['repeat']} runs (best of "
+        f"{run['grid_repeat']} for the volpack wavelet × coder rows other than "
+        f"{' and '.join(base)})"
+        + (", on 128³ centre crops" if run["quick"] else "")
+        + ". Every row round-trips exactly (dtype, shape and values checked). Speeds are "
+        "from a shared machine: compare rows within one run, not across runs. All rows "
+        f"are in `lossless.csv`.",
+        "",
+        "## Ratio per dataset",
+        "",
+        f"Best of {', '.join(base)} and the peers in bold (1 worker; ratios do not depend "
+        "on the worker count). The last column, outside the comparison, is the best volpack "
+        "wavelet × coder on that dataset (see `wavelets.png`).",
         "",
     ]
-    lines.append(
-        f"Lossless compression, best of {args.repeat} runs"
-        + (" on 128³ centre crops" if args.quick else "")
-        + f", {info['nproc']} cores. Ratio = raw bytes in the volume's own dtype / compressed "
-        "bytes; MB/s counts raw voxel bytes (1 MB = 10⁶ B). Every row round-trips exactly. "
-        "Speeds are from a shared machine: compare rows within one run, not across runs."
-    )
-    lines.append("")
-    by_ds: dict[str, list] = {}
-    for r in rows:
-        by_ds.setdefault(r["dataset"], []).append(r)
+    cols = base + peers
+    lines.append("| dataset | " + " | ".join(cols) + " | best volpack wavelet×coder |")
+    lines.append("|---|" + "---:|" * len(cols) + "---|")
     for ds, rs in by_ds.items():
+        vals = [(_one(rs, m) or {}).get("ratio") for m in cols]
+        grid = [r for r in rs if _is_volpack(r["method"]) and r["workers"] == 1]
+        top = max(grid, key=lambda r: r["ratio"], default=None)
+        extra = "—" if top is None else f"{top['ratio']:.3f} ({top['method'][8:]})"
+        label = f"{ds} ({rs[0]['shape']} {rs[0]['dtype']})"
+        lines.append(f"| {label} | " + " | ".join(_bold_best(vals)) + f" | {extra} |")
+    lines.append("")
+
+    ds = run.get("speedup_dataset", SPEEDUP_DATASET)
+    if ds not in by_ds and by_ds:
+        ds = next(iter(by_ds))
+    if ds in by_ds:
+        rs = by_ds[ds]
+        r0 = rs[0]
         lines += [
-            f"**{ds}** ({rs[0]['shape']} {rs[0]['dtype']}, {rs[0]['raw_bytes'] / 1e6:.2f} MB)",
+            f"## Every method on {ds} ({r0['shape']} {r0['dtype']}, "
+            f"{r0['raw_bytes'] / 1e6:.2f} MB)",
             "",
+            "Ratio and speeds at 1 worker; 2-worker speed-up = MB/s at 2 workers / MB/s at "
+            "1 worker, for the volpack rows that ran at 2 workers. Sorted by ratio.",
+            "",
+            "| method | ratio | encode MB/s | decode MB/s | runs | 2-worker speed-up "
+            "encode | 2-worker speed-up decode |",
+            "|---|---:|---:|---:|---:|---:|---:|",
         ]
-        lines += [
-            "| method | workers | ratio | encode MB/s | decode MB/s |",
-            "|---|---:|---:|---:|---:|",
-        ]
-        for r in sorted(rs, key=lambda r: (-r["ratio"], r["method"], r["workers"])):
+        ones = sorted(
+            (r for r in rs if r["workers"] == 1), key=lambda r: (-r["ratio"], r["method"])
+        )
+        best = f"{ones[0]['ratio']:.3f}" if ones else None
+        for r in ones:
+            two = _one(rs, r["method"], 2) if _is_volpack(r["method"]) else None
+            up_e = up_d = "—"
+            if two is not None:
+                up_e = f"{two['encode_mb_s'] / r['encode_mb_s']:.2f}×"
+                up_d = f"{two['decode_mb_s'] / r['decode_mb_s']:.2f}×"
+            ratio = f"{r['ratio']:.3f}"
+            if ratio == best:
+                ratio = f"**{ratio}**"
             lines.append(
-                f"| {r['method']} | {r['workers']} | {r['ratio']:.3f} | "
-                f"{r['encode_mb_s']:.1f} | {r['decode_mb_s']:.1f} |"
+                f"| {r['method']} | {ratio} | {r['encode_mb_s']:.1f} | "
+                f"{r['decode_mb_s']:.1f} | {r['repeat'] or '?'} | {up_e} | {up_d} |"
             )
+        lines.append("")
+    if skipped:
+        lines += ["Skipped rows (the codec raised):", ""]
+        lines += [f"- {x}" for x in skipped]
         lines.append("")
     if notes:
         lines += ["Notes:", ""]
         lines += [f"- {k}: {v}" for k, v in sorted(notes.items())]
         lines.append("")
-    path.write_text("\n".join(lines))
+    lines.append(
+        f"<!-- args: repeat={run['repeat']} grid_repeat={run['grid_repeat']} "
+        f"quick={run['quick']} brick={run['brick']} -->"
+    )
+    path.write_text("\n".join(lines) + "\n")
+
+
+# Colours: volpack by coder, peers by family.
+_VP_COLORS = {"arith": "#c0392b", "huffman": "#e67e22", "rle": "#8e44ad"}
+_PEER_COLORS = [
+    "#9ecae1", "#6baed6", "#3182bd", "#08519c",  # zstd
+    "#31a354",  # blosc2
+    "#bdbdbd", "#737373",  # zfp
+    "#fdd0a2", "#a1d99b", "#fa9fb5",  # slice codecs
+    "#17becf", "#bcbd22", "#8c564b",
+]
+
+
+def _colors(rows) -> dict[str, str]:
+    colors = {}
+    for m in dict.fromkeys(r["method"] for r in rows):
+        if _is_volpack(m):
+            colors[m] = _VP_COLORS.get(m.rsplit("-", 1)[1], "#d62728")
+    for i, m in enumerate(_peer_names(rows)):
+        colors[m] = _PEER_COLORS[i % len(_PEER_COLORS)]
+    return colors
 
 
 def plot(rows, out: Path) -> None:
@@ -509,59 +619,137 @@ def plot(rows, out: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    dsets = list(dict.fromkeys(r["dataset"] for r in rows))
-    methods = list(dict.fromkeys(r["method"] for r in rows))
-    ratio = {(r["dataset"], r["method"]): r["ratio"] for r in rows if r["workers"] == 1}
-    cmap = plt.get_cmap("tab20")
-    colors = {m: cmap(i % 20) for i, m in enumerate(methods)}
-
-    fig, ax = plt.subplots(figsize=(min(16, max(7, 2.0 + len(dsets) * len(methods) * 0.12)), 4.8))
-    width = 0.85 / len(methods)
-    for i, m in enumerate(methods):
-        xs = [j + (i - (len(methods) - 1) / 2) * width for j in range(len(dsets))]
-        ys = [ratio.get((d, m), 0.0) for d in dsets]
-        ax.bar(xs, ys, width, label=m, color=colors[m])
-    ax.set_xticks(range(len(dsets)))
-    ax.set_xticklabels(dsets, rotation=20, ha="right")
-    ax.set_ylabel("compression ratio (raw / compressed)")
-    if max(ratio.values()) / max(min(ratio.values()), 1e-9) > 20:
-        ax.set_yscale("log")
-    ax.set_title("Lossless compression ratio (1 worker)")
-    ax.grid(axis="y", alpha=0.3)
-    ax.legend(fontsize=7, ncol=2, loc="upper left", bbox_to_anchor=(1.0, 1.0))
-    fig.tight_layout()
-    fig.savefig(out / "ratio.png", dpi=120)
-    plt.close(fig)
-
+    by_ds = _by_dataset(rows)
+    dsets = list(by_ds)
+    peers = _peer_names(rows)
+    colors = _colors(rows)
     n = len(dsets)
     cols = min(3, n)
     nrows = (n + cols - 1) // cols
+
+    # ratio.png: per dataset, the best wavelet for each volpack coder, then every peer.
+    labels = [f"volpack {c} (best wavelet)" for c in VOLPACK_CODERS] + peers
+    fig, axes = plt.subplots(
+        nrows, cols, figsize=(5.0 * cols + 1.6, 0.26 * len(labels) * nrows + 1.0 * nrows + 0.6),
+        squeeze=False, sharey=True,
+    )
+    for ax, d in zip(axes.flat, dsets):
+        rs = [r for r in by_ds[d] if r["workers"] == 1]
+        vals, cs, notes = [], [], []
+        for c in VOLPACK_CODERS:
+            cand = [r for r in rs if _is_volpack(r["method"]) and r["method"].endswith("-" + c)]
+            top = max(cand, key=lambda r: r["ratio"], default=None)
+            vals.append(top["ratio"] if top else 0.0)
+            cs.append(_VP_COLORS[c])
+            notes.append(f"{top['ratio']:.2f} ({top['method'].split('-')[1]})" if top else "—")
+        for m in peers:
+            r = _one(rs, m)
+            vals.append(r["ratio"] if r else 0.0)
+            cs.append(colors[m])
+            notes.append(f"{r['ratio']:.2f}" if r else "—")
+        ys = np.arange(len(labels))
+        ax.barh(ys, vals, color=cs, edgecolor="k", linewidth=0.3)
+        best = max(vals)
+        for y, v, t in zip(ys, vals, notes):
+            ax.text(v + best * 0.01, y, t, va="center", fontsize=7,
+                    fontweight="bold" if v == best else "normal")
+        ax.set_xlim(0, best * 1.25)
+        ax.axvline(best, color="k", lw=0.5, ls=":")
+        ax.set_yticks(ys)
+        ax.set_yticklabels(labels, fontsize=8)
+        r0 = by_ds[d][0]
+        ax.set_title(f"{d} ({r0['shape']} {r0['dtype']})", fontsize=9)
+        ax.tick_params(axis="x", labelsize=7)
+        ax.grid(axis="x", alpha=0.3)
+    axes.flat[0].invert_yaxis()  # shared: first label on top in every panel
+    for ax in list(axes.flat)[n:]:
+        ax.axis("off")
+    for ax in axes[-1]:
+        ax.set_xlabel("compression ratio (raw / compressed)", fontsize=8)
+    fig.suptitle(
+        "Lossless compression ratio, 1 worker (volpack: best of the 4 wavelets per coder, "
+        "wavelet in brackets)",
+        fontsize=10,
+    )
+    fig.tight_layout()
+    fig.savefig(out / "ratio.png", dpi=110)
+    plt.close(fig)
+
+    # wavelets.png: heat map, datasets x (coder, wavelet), colour = ratio / row best.
+    combos = [(w, c) for c in VOLPACK_CODERS for w in VOLPACK_WAVELETS]
+    grid = np.full((n, len(combos)), np.nan)
+    for i, d in enumerate(dsets):
+        for j, (w, c) in enumerate(combos):
+            r = _one(by_ds[d], vp_name(w, c))
+            if r is not None:
+                grid[i, j] = r["ratio"]
+    if np.isfinite(grid).any():
+        rel = grid / np.nanmax(grid, axis=1, keepdims=True)
+        fig, ax = plt.subplots(figsize=(1.0 + 0.72 * len(combos) + 2.6, 0.9 + 0.42 * n + 0.9))
+        vmin = max(0.0, float(np.nanmin(rel)) - 0.02)
+        im = ax.imshow(rel, cmap="viridis", vmin=vmin, vmax=1.0, aspect="auto")
+        for i in range(n):
+            for j in range(len(combos)):
+                if np.isfinite(grid[i, j]):
+                    dark = (rel[i, j] - vmin) / max(1.0 - vmin, 1e-9) < 0.6
+                    ax.text(j, i, f"{grid[i, j]:.2f}", ha="center", va="center", fontsize=7.5,
+                            color="w" if dark else "k",
+                            fontweight="bold" if rel[i, j] == 1.0 else "normal")
+                else:
+                    ax.text(j, i, "—", ha="center", va="center", fontsize=7.5)
+        ax.set_xticks(range(len(combos)))
+        ax.set_xticklabels([w for w, _ in combos], fontsize=8)
+        ax.set_yticks(range(n))
+        ax.set_yticklabels(
+            [f"{d} ({by_ds[d][0]['dtype']})" for d in dsets], fontsize=8
+        )
+        k = len(VOLPACK_WAVELETS)
+        for g, c in enumerate(VOLPACK_CODERS):
+            ax.text(g * k + (k - 1) / 2, -0.75, c, ha="center", va="bottom", fontsize=9,
+                    fontweight="bold")
+            if g:
+                ax.axvline(g * k - 0.5, color="w", lw=2.5)
+        ax.set_ylim(n - 0.5, -1.3)
+        ax.set_xlabel("wavelet (grouped by entropy coder)", fontsize=8)
+        cb = fig.colorbar(im, ax=ax, fraction=0.04, pad=0.02)
+        cb.set_label("ratio / best volpack ratio on the dataset", fontsize=8)
+        cb.ax.tick_params(labelsize=7)
+        ax.set_title("volpack lossless ratio per wavelet × coder (1 worker; best per row in bold)",
+                     fontsize=10, pad=18)
+        for sp in ax.spines.values():
+            sp.set_visible(False)
+        fig.tight_layout()
+        fig.savefig(out / "wavelets.png", dpi=120)
+        plt.close(fig)
+
+    # ratio_vs_decode.png: peers and the default volpack rows labelled; the other
+    # wavelet x coder rows as small unlabelled dots in their coder's colour.
+    base = {vp_name(*d) for d in VOLPACK_DEFAULTS}
     fig, axes = plt.subplots(
         nrows, cols, figsize=(max(7.0, 5.2 * cols), 4.4 * nrows), squeeze=False
     )
     for ax, d in zip(axes.flat, dsets):
-        rs = [r for r in rows if r["dataset"] == d]
+        rs = by_ds[d]
         for r in rs:
+            minor = _is_volpack(r["method"]) and r["method"] not in base
             ax.scatter(
                 r["decode_mb_s"],
                 r["ratio"],
                 color=colors[r["method"]],
                 marker="o" if r["workers"] == 1 else "s",
-                s=36,
-                edgecolors="k",
+                s=12 if minor else 36,
+                edgecolors="none" if minor else "k",
                 linewidths=0.4,
+                alpha=0.6 if minor else 1.0,
+                zorder=2 if minor else 3,
             )
         labelled = set()
         for r in sorted(rs, key=lambda r: r["workers"]):  # one label per method
-            if r["method"] not in labelled:
-                labelled.add(r["method"])
-                ax.annotate(
-                    r["method"],
-                    (r["decode_mb_s"], r["ratio"]),
-                    fontsize=6,
-                    xytext=(3, 3),
-                    textcoords="offset points",
-                )
+            if r["method"] in labelled or (_is_volpack(r["method"]) and r["method"] not in base):
+                continue
+            labelled.add(r["method"])
+            ax.annotate(r["method"], (r["decode_mb_s"], r["ratio"]), fontsize=6,
+                        xytext=(3, 3), textcoords="offset points")
         ax.set_xscale("log")
         ratios = [r["ratio"] for r in rs]
         if max(ratios) / min(ratios) > 8:
@@ -574,7 +762,8 @@ def plot(rows, out: Path) -> None:
     for ax in list(axes.flat)[n:]:
         ax.axis("off")
     fig.suptitle(
-        "Lossless: compression ratio vs decode speed\n(circle = 1 worker, square = 2 workers)",
+        "Lossless: compression ratio vs decode speed (circle = 1 worker, square = 2 workers;\n"
+        "small dots = other volpack wavelet × coder rows: red arith, orange huffman, purple rle)",
         fontsize=10,
     )
     fig.tight_layout()
@@ -588,19 +777,37 @@ def main(argv: list[str] | None = None) -> int:
         "--datasets", nargs="+", metavar="NAME", help="datasets to run (default: every fetched one)"
     )
     parser.add_argument("datasets_pos", nargs="*", metavar="NAME", help="same as --datasets")
-    parser.add_argument("--repeat", type=int, default=3, help="best of N runs (default 3)")
+    parser.add_argument(
+        "--repeat", type=int, default=3,
+        help="best of N runs for peers and the default volpack rows (default 3)",
+    )
+    parser.add_argument(
+        "--grid-repeat", type=int, default=2,
+        help="best of N runs for the other volpack wavelet x coder rows (default 2)",
+    )
     parser.add_argument("--quick", action="store_true", help="crop each volume to 128^3 centre")
     parser.add_argument("--out", type=Path, default=ROOT / "results" / "lossless")
     parser.add_argument("--brick", type=int, default=None, help="volpack brick size")
     parser.add_argument("--no-volpack", action="store_true", help="peers only")
     parser.add_argument("--no-peers", action="store_true", help="volpack only")
     parser.add_argument(
-        "--replot", action="store_true", help="redraw the charts from OUT/lossless.csv and exit"
+        "--speedup-dataset", default=SPEEDUP_DATASET,
+        help=f"dataset of the every-method table (default {SPEEDUP_DATASET})",
+    )
+    parser.add_argument(
+        "--replot", action="store_true",
+        help="redraw the charts and table.md from OUT/lossless.csv and OUT/run.json, and exit",
     )
     args = parser.parse_args(argv)
 
     if args.replot:
-        plot(read_csv(args.out / "lossless.csv"), args.out)
+        rows = read_csv(args.out / "lossless.csv")
+        plot(rows, args.out)
+        meta_path = args.out / "run.json"
+        if meta_path.is_file():
+            meta = json.loads(meta_path.read_text())
+            write_table(rows, meta["notes"], meta["skipped"], args.out / "table.md",
+                        meta["run"], meta["info"])
         return 0
 
     names = (args.datasets or []) + args.datasets_pos or datasets.names()
@@ -610,24 +817,45 @@ def main(argv: list[str] | None = None) -> int:
     if missing:
         parser.error(f"unknown dataset(s) {', '.join(missing)}")
     args.repeat = max(1, args.repeat)
+    args.grid_repeat = max(1, args.grid_repeat)
 
     info = machine_info()
-    rows, notes = run(
+    args.out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    rows, notes, skipped = run(
         names,
         args.repeat,
+        args.grid_repeat,
         args.quick,
         args.brick,
         peers=not args.no_peers,
         volpack=not args.no_volpack,
+        checkpoint=lambda rows: write_csv(rows, args.out / "lossless.csv"),
     )
     if not rows:
         print("nothing measured", file=sys.stderr)
         return 1
-    args.out.mkdir(parents=True, exist_ok=True)
+    run_meta = {
+        "repeat": args.repeat,
+        "grid_repeat": args.grid_repeat,
+        "quick": args.quick,
+        "brick": args.brick,
+        "speedup_dataset": args.speedup_dataset,
+        "seconds": round(time.perf_counter() - t0, 1),
+    }
     write_csv(rows, args.out / "lossless.csv")
-    write_table(rows, notes, args.out / "table.md", args, info)
+    (args.out / "run.json").write_text(
+        json.dumps(
+            {"run": run_meta, "info": info, "notes": notes, "skipped": skipped}, indent=1
+        )
+        + "\n"
+    )
+    write_table(rows, notes, skipped, args.out / "table.md", run_meta, info)
     plot(rows, args.out)
-    print(f"\nwrote {args.out}/lossless.csv, table.md, ratio.png, ratio_vs_decode.png")
+    print(
+        f"\nwrote {args.out}/lossless.csv, run.json, table.md, ratio.png, wavelets.png, "
+        f"ratio_vs_decode.png ({run_meta['seconds']:.0f} s)"
+    )
     return 0
 
 
