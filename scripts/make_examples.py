@@ -90,9 +90,42 @@ def make_wavelet(folder: Path) -> Path:
     return folder
 
 
+# -- lossy examples: formats/examples/lossy-*.vpk ------------------------------------
+
+LOSSY_CASES = [
+    ("lossy-bounded-f32", "f32", {"max_error": 0.5, "fill_value": -999.0}),
+    ("lossy-bounded-i16-huffman", "i16", {"max_error": 40, "coder": "huffman"}),
+    ("lossy-coef-q63-u8", "u8", {"quality": 63}),
+    ("lossy-coef-threshold-i16", "i16", {"threshold": 50.0, "order": "line"}),
+]
+
+
+def lossy_source(recipe: str):
+    """The volume a lossy example codes; ``f32`` adds NaN, -Inf and a fill value."""
+    import numpy as np
+
+    if recipe != "f32":
+        return wavelet_source(recipe)
+    f = wavelet_source("u8").astype(np.float32) / 3
+    f[2, 3:6, 4] = np.nan
+    f[5, 5, 5] = -np.inf
+    f[10:12, :, 20:] = -999.0
+    return f
+
+
+def make_lossy(folder: Path) -> Path:
+    from volpack import api
+
+    for stem, recipe, opts in LOSSY_CASES:
+        path = folder / f"{stem}.vpk"
+        api.compress(lossy_source(recipe), str(path), brick=WAVELET_BRICK, force=True, **opts)
+    return folder
+
+
 EXAMPLES: dict[str, Callable[[Path], Path]] = {
     "container": make_container,
     "wavelet": make_wavelet,
+    "lossy": make_lossy,
 }
 
 

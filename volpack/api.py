@@ -52,11 +52,25 @@ def compress(
     order: str | None = None,
     max_levels: int | None = None,
     brick: int | tuple[int, int, int] = bricks.DEFAULT_BRICK,
+    max_error: float | None = None,
+    rel_error: float | None = None,
+    psnr: float | None = None,
+    ratio: float | None = None,
+    quality: int | None = None,
+    threshold: float | None = None,
+    fill_value: float | None = None,
     workers: int | None = 1,
     force: bool = False,
     progress: Progress | None = None,
 ) -> dict[str, Any]:
     """Compress a volume into a ``.vpk`` file or stream; return what was measured.
+
+    Lossless unless one of the lossy settings is given (at most one of them):
+    ``max_error`` (every valid voxel within this absolute error), ``rel_error`` (the
+    same, as a fraction of the value range), ``psnr`` (dB, reached within 0.5 dB),
+    ``ratio`` (reached within 5 %), ``quality`` (the method's 255/127/63/31/15 scale) or
+    ``threshold`` (coefficients below it, in value units, are dropped). ``fill_value``
+    marks voxels that are no data; they, NaN and +-Inf are restored exactly.
 
     Parameters
     ----------
@@ -87,13 +101,29 @@ def compress(
     vol = source if isinstance(source, Volume) else Volume(np.asarray(source))
     brick_t = bricks.parse_brick(brick)
     nworkers = parse_workers(workers)
-    c = make_codec(
-        codec, vol.dtype, wavelet=wavelet, coder=coder, order=order, max_levels=max_levels
-    )
-    if c.codec_id == "wavelet":
-        from .codec import check_wavelet_dtype
+    inner = {"wavelet": wavelet, "coder": coder, "order": order, "max_levels": max_levels}
+    targets = {
+        "max_error": max_error,
+        "rel_error": rel_error,
+        "psnr": psnr,
+        "ratio": ratio,
+        "quality": quality,
+        "threshold": threshold,
+    }
+    asked = {k: v for k, v in targets.items() if v is not None}
+    if len(asked) > 1:
+        raise ValueError(f"expected at most one lossy setting, found {sorted(asked)}")
+    if asked:
+        from . import lossy_plan
 
-        check_wavelet_dtype(vol.dtype)
+        c, search = lossy_plan.plan(vol, brick_t, nworkers, asked, fill_value, inner)
+    else:
+        search = None
+        c = make_codec(codec, vol.dtype, **inner)
+        if c.codec_id == "wavelet":
+            from .codec import check_wavelet_dtype
+
+            check_wavelet_dtype(vol.dtype)
     header = {
         "kind": KIND_VOLUME,
         "volpack": __version__,
@@ -116,24 +146,29 @@ def compress(
 
     def encode(task):
         t, node, sl = task
-        return t, node, c.encode(np.ascontiguousarray(frames[(t, *sl)]))
+        return (t, node, *encode_measured(c, np.ascontiguousarray(frames[(t, *sl)])))
 
     t0 = time.perf_counter()
     nbytes = 0
+    worst, sse, nvalid = 0.0, 0.0, 0
     out = "-" if target == "-" else target
     with Writer(_stdout() if out == "-" else out, header, force=force) as w:
-        for done, (t, node, payload) in enumerate(ordered_map(encode, tasks, nworkers), 1):
-            w.write(t, node, payload, 0.0)
+        results = ordered_map(encode, tasks, nworkers)
+        for done, (t, node, payload, err, s2, n) in enumerate(results, 1):
+            w.write(t, node, payload, err)
             nbytes += len(payload)
+            worst, sse, nvalid = max(worst, err), sse + s2, nvalid + n
             if progress is not None:
                 progress(done, total)
-        seconds = time.perf_counter() - t0
+        quality_stats = measured_quality(c, worst, sse, nvalid)
         summary = {
             "raw_nbytes": int(vol.nbytes),
             "payload_nbytes": nbytes,
-            "lossless": True,
-            "max_error": 0.0,
+            "ratio": vol.nbytes / max(nbytes, 1),
+            **quality_stats,
         }
+        if search is not None:
+            summary["search"] = search
         w.close(summary=summary)
     seconds = time.perf_counter() - t0
     return {
@@ -145,7 +180,35 @@ def compress(
         "bricks": total,
         "workers": nworkers,
         "codec": c.get_config(),
+        **quality_stats,
+        **({"search": search} if search is not None else {}),
     }
+
+
+def encode_measured(c, brick: np.ndarray) -> tuple[bytes, float, float, int]:
+    """``(payload, max error, squared error sum, valid voxels)`` of one brick."""
+    if hasattr(c, "encode_measured"):
+        return c.encode_measured(brick)
+    return c.encode(brick), 0.0, 0.0, brick.size
+
+
+def measured_quality(c, worst: float, sse: float, nvalid: int) -> dict[str, Any]:
+    """The summary's accuracy fields: lossless or not, max error, RMSE and PSNR."""
+    lossless = c.codec_id in ("wavelet", "zstd")
+    rng = getattr(c, "value_range", None)
+    mse = sse / nvalid if nvalid else 0.0
+    psnr = float("inf") if mse == 0 else 10 * np.log10((rng or 1.0) ** 2 / mse)
+    out = {
+        "lossless": lossless,
+        "max_error": 0.0 if lossless else float(worst),
+        "rmse": float(np.sqrt(mse)),
+        "psnr": None if lossless or not np.isfinite(psnr) else float(psnr),
+    }
+    if not lossless:
+        out["mode"] = c.codec_id
+        if hasattr(c, "max_error"):
+            out["error_bound"] = c.max_error
+    return out
 
 
 def decompress(

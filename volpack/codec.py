@@ -224,10 +224,13 @@ def get_codec(config: Mapping[str, Any]):
         raise FormatError(f"expected a codec config with an 'id', found {config!r}")
     config = dict(config)
     codec_id = config.pop("id")
+    from .lossy import LOSSY_CODECS
+
+    known = {**CODECS, **LOSSY_CODECS}
     try:
-        cls = CODECS[codec_id]
+        cls = known[codec_id]
     except (KeyError, TypeError):
-        raise FormatError(f"unknown codec id {codec_id!r}; known: {sorted(CODECS)}") from None
+        raise FormatError(f"unknown codec id {codec_id!r}; known: {sorted(known)}") from None
     try:
         return cls(**config)
     except TypeError as e:

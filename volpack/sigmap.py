@@ -43,14 +43,14 @@ class Scan(NamedTuple):
     cls: np.ndarray  # uint8 (N,): subband class, 0..N_CLASSES-1
 
 
-class _Band(NamedTuple):
+class Band(NamedTuple):
     level: int  # 0 finest; the approximation has level == number of levels
     bits: tuple[int, int, int]  # 1 = high-pass along that axis
     start: tuple[int, int, int]
     size: tuple[int, int, int]
 
 
-def _bands(shape: tuple[int, int, int], levels: tuple[int, int, int]) -> list[_Band]:
+def subbands(shape: tuple[int, int, int], levels: tuple[int, int, int]) -> list[Band]:
     """Every subband of the Mallat layout, finest first, approximation last."""
     n = list(shape)
     out = []
@@ -63,9 +63,9 @@ def _bands(shape: tuple[int, int, int], levels: tuple[int, int, int]) -> list[_B
             start = tuple(lo[a] if bits[a] else 0 for a in range(3))
             size = tuple(n[a] - lo[a] if bits[a] else lo[a] for a in range(3))
             if min(size) > 0:
-                out.append(_Band(k, bits, start, size))
+                out.append(Band(k, bits, start, size))
         n = lo
-    out.append(_Band(max(levels, default=0), (0, 0, 0), (0, 0, 0), tuple(n)))
+    out.append(Band(max(levels, default=0), (0, 0, 0), (0, 0, 0), tuple(n)))
     return out
 
 
@@ -75,7 +75,7 @@ def _flat(shape, start, local):
     return (z * shape[1] + y) * shape[2] + x
 
 
-def _band_class(band: _Band, nlevels: int) -> int:
+def _band_class(band: Band, nlevels: int) -> int:
     if band.level == nlevels:
         return APPROX_CLASS
     return min(band.level, 5) * 4 + sum(band.bits)
@@ -91,7 +91,7 @@ def scan(shape: tuple[int, ...], levels: tuple[int, ...], order: str = "dfs") ->
     if len(shape) != 3 or len(levels) != 3 or min(shape) < 1:
         raise ValueError(f"expected a 3-D shape and 3 levels, found {shape} and {levels}")
     nlev = max(levels)
-    bands = _bands(shape, levels)
+    bands = subbands(shape, levels)
     key = {(b.level, b.bits): b for b in bands}
     total = int(np.prod(shape))
     parent_flat = np.full(total, -1, dtype=np.int64)

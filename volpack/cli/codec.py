@@ -74,6 +74,31 @@ def _brick(value: str) -> int | tuple[int, int, int]:
     show_default=True,
     help="Brick size N or Z,Y,X; bricks decode independently.",
 )
+@click.option(
+    "--max-error",
+    type=float,
+    help="Lossy: every voxel decodes within this absolute error (checked on every voxel).",
+)
+@click.option(
+    "--rel-error", type=float, help="Lossy: --max-error as a fraction of the value range."
+)
+@click.option("--psnr", type=float, help="Lossy: reach this PSNR in dB (within 0.5 dB).")
+@click.option("--ratio", type=float, help="Lossy: reach this compression ratio (within 5%).")
+@click.option(
+    "--quality",
+    type=click.IntRange(1, 65535),
+    help="Lossy, the method's scale: 255 (best), 127, 63, 31, 15 (integer volumes).",
+)
+@click.option(
+    "--threshold",
+    type=float,
+    help="Lossy: drop wavelet coefficients below this size, in value units (integer volumes).",
+)
+@click.option(
+    "--fill-value",
+    type=float,
+    help="A value meaning 'no data' (e.g. -2.56e33); restored exactly, like NaN and Inf.",
+)
 @workers_option
 @raw_options
 @force_option
@@ -89,6 +114,13 @@ def compress(
     order,
     max_levels,
     brick,
+    max_error,
+    rel_error,
+    psnr,
+    ratio,
+    quality,
+    threshold,
+    fill_value,
     workers,
     raw_shape,
     raw_dtype,
@@ -101,13 +133,19 @@ def compress(
 
     Lossless by default: every voxel decodes bit-exactly. Integer volumes (8, 16 and
     32 bit) use the integer lifting wavelet codec; floats are stored exactly by
-    byte-shuffled zstd.
+    byte-shuffled zstd. One lossy setting turns on lossy coding: --max-error and
+    --rel-error promise a bound on every voxel (integers and floats; NaN, Inf and
+    --fill-value voxels come back exactly); --psnr and --ratio search the setting that
+    reaches the target; --quality and --threshold are the method's own knobs.
 
     \b
     Examples:
       volpack compress ct.nii.gz ct.vpk
       volpack compress ct.nii.gz ct.vpk --wavelet 26 --coder huffman --brick 64
       volpack compress big.h5:/density big.vpk --workers 2
+      volpack compress sim.h5:/T T.vpk --max-error 0.01
+      volpack compress ct.nii.gz ct.vpk --psnr 50
+      volpack compress ct.nii.gz ct.vpk --quality 63
     """
     from .. import api
     from .. import io as vio
@@ -125,6 +163,13 @@ def compress(
             order=order,
             max_levels=max_levels,
             brick=_brick(brick),
+            max_error=max_error,
+            rel_error=rel_error,
+            psnr=psnr,
+            ratio=ratio,
+            quality=quality,
+            threshold=threshold,
+            fill_value=fill_value,
             workers=workers,
             force=force,
             progress=progress,
@@ -134,7 +179,7 @@ def compress(
     elif target != "-":
         click.echo(
             f"{target}: {fmt_bytes(stats['nbytes'])} from {fmt_bytes(stats['raw_nbytes'])}, "
-            f"ratio {stats['ratio']:.3f}:1, lossless, {stats['mb_per_s']:.1f} MB/s "
+            f"ratio {stats['ratio']:.3f}:1, {_accuracy(stats)}, {stats['mb_per_s']:.1f} MB/s "
             f"({stats['bricks']} bricks, {stats['workers']} worker{'s' if stats['workers'] != 1 else ''})",
             err=True,
         )
@@ -182,6 +227,13 @@ def decompress(ctx, source, target, roi, frame, workers, force, as_json) -> None
             f"{target}: {'x'.join(map(str, vol.shape))} {vol.dtype}, {stats['mb_per_s']:.1f} MB/s",
             err=True,
         )
+
+
+def _accuracy(stats: dict) -> str:
+    if stats.get("lossless", True):
+        return "lossless"
+    psnr = stats.get("psnr")
+    return f"max error {stats['max_error']:g}, PSNR {'inf' if psnr is None else f'{psnr:.2f}'} dB"
 
 
 COMMANDS = [compress, decompress]

@@ -80,6 +80,15 @@ def _human(d: dict, chunks: bool) -> str:
         ],
         ["max error", "0 (lossless)" if s.get("lossless") else f"{d['max_error']:g}"],
     ]
+    if not s.get("lossless", True):
+        if s.get("error_bound") is not None:
+            rows.append(["error bound", f"{s['error_bound']:g} (held on every voxel)"])
+        psnr = s.get("psnr")
+        rows.append(["PSNR", "inf" if psnr is None else f"{psnr:.2f} dB"])
+        rows.append(["RMSE", f"{s.get('rmse', 0.0):g}"])
+        if s.get("search"):
+            q = s["search"]
+            rows.append(["target", f"{q['target']} {q['value']:g}: reached {q['reached']:.4g}"])
     out = "\n".join(f"{k:<12} {v}" for k, v in rows)
     if chunks:
         trs = [

@@ -1,0 +1,429 @@
+"""Lossy brick codecs: an error bound kept on every voxel, and the thesis's knobs.
+
+``BoundedCodec`` (``--max-error``, ``--rel-error``, ``--psnr``, ``--ratio``)
+    The voxels are quantised before the transform: ``q = round((x - lo) / step)`` with
+    ``step = 2E`` (floats) or integer bins of ``2e + 1`` values (integers, ``e =
+    floor(E)``), so the reconstruction ``lo + q * step`` is within ``E`` of every voxel.
+    The integer field ``q`` is then coded by the lossless wavelet codec. The encoder
+    rebuilds the brick exactly as the decoder will and checks every voxel; any voxel
+    that rounding to the output dtype pushed past ``E`` is stored exactly in a correction
+    list, so the bound holds always. NaN, +-Inf and a declared fill value are taken out
+    into a mask (their exact bytes stored), and their places are filled with the
+    neighbouring quantised value so they do not disturb the transform.
+``CoefCodec`` (``--quality``, ``--threshold``)
+    The method's own lossy modes on integer voxels: the lifting coefficients are
+    thresholded or dead-zone quantised in the units of an orthonormal transform (the
+    integer lifting is not orthonormal, so each subband gets its own step). The error is
+    measured and recorded, not bounded.
+
+Both report, per brick, the largest error and the squared error sum; the container keeps
+the first in its index. Payloads are specified in ``formats/lossy-1.md``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+import struct
+from typing import Any, ClassVar
+
+import numpy as np
+
+from .codec import (
+    CODER_NAMES,
+    MODE_CODED,
+    MODE_CONSTANT,
+    MODE_RAW,
+    ORDER_NAMES,
+    WAVELET_NAMES,
+    WaveletCodec,
+    _as_stored,
+    _check_choice,
+    _from_stored,
+    storage_dtype,
+)
+from .errors import FormatError
+
+FLAG_MASK, FLAG_CORRECTIONS = 1, 2
+QUALITIES = (255, 127, 63, 31, 15)
+_U32 = struct.Struct("<I")
+
+
+# -- error-bounded quantisation ---------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True)
+class BoundedCodec:
+    """Every valid voxel decodes to within ``max_error`` of its input.
+
+    Build it with :meth:`plan` from the volume's valid value range; ``step`` and ``lo``
+    are shared by all bricks and stored in the header.
+    """
+
+    codec_id: ClassVar[str] = "bounded"
+    max_error: float
+    lo: float
+    step: float
+    integer: bool
+    qdtype: str
+    value_range: float = 0.0  # of the valid voxels: the PSNR peak
+    fill: float | None = None
+    wavelet: str = "53"
+    coder: str = "arith"
+    order: str = "dfs"
+    max_levels: int | None = None
+
+    @classmethod
+    def plan(cls, dtype: Any, lo: float, hi: float, max_error: float, **inner: Any) -> BoundedCodec:
+        dtype = np.dtype(dtype)
+        if not (max_error > 0 and math.isfinite(max_error)):
+            raise ValueError(f"expected a positive finite error bound, found {max_error!r}")
+        integer = dtype.kind in "iu"
+        if integer:
+            e = math.floor(max_error)
+            step = 2 * e + 1
+            qmax = (hi - lo + e) // step
+        else:
+            step = 2.0 * max_error
+            levels = (hi - lo) / step  # may overflow to inf: then it is refused below
+            qmax = math.floor(levels + 0.5) + 1 if levels < 2**40 else math.inf
+        for qd in ("uint8", "uint16", "int32"):
+            if qmax <= np.iinfo(qd).max:
+                break
+        else:
+            raise ValueError(
+                f"the bound {max_error:g} is too small for the value range {lo:g}..{hi:g}: "
+                "it needs more than 2^31 quantisation levels; raise the bound or store the "
+                "volume losslessly"
+            )
+        return cls(
+            max_error=float(max_error),
+            lo=float(lo),
+            step=float(step),
+            integer=integer,
+            qdtype=qd,
+            value_range=float(hi - lo),
+            **{k: v for k, v in inner.items() if v is not None},
+        )
+
+    def __post_init__(self) -> None:
+        _check_inner(self)
+
+    def get_config(self) -> dict[str, Any]:
+        return {"id": self.codec_id, **dataclasses.asdict(self)}
+
+    def _inner(self) -> WaveletCodec:
+        return WaveletCodec(self.wavelet, self.coder, self.order, self.max_levels)
+
+    # The quantiser and its inverse: the encoder checks the bound with the same code
+    # the decoder runs.
+    def _quantize(self, x: np.ndarray) -> np.ndarray:
+        if self.integer:
+            e = (int(self.step) - 1) // 2
+            q = (x.astype(np.int64) - int(self.lo) + e) // int(self.step)
+        else:
+            q = np.rint((x.astype(np.float64) - self.lo) / self.step)
+        qd = np.dtype(self.qdtype)
+        return np.clip(q, 0, np.iinfo(qd).max).astype(qd)
+
+    def _reconstruct(self, q: np.ndarray, dtype: np.dtype) -> np.ndarray:
+        if self.integer:
+            v = q.astype(np.int64) * int(self.step) + int(self.lo)
+            info = np.iinfo(dtype)
+            return np.clip(v, info.min, info.max).astype(dtype)
+        v = q.astype(np.float64) * self.step + self.lo
+        if dtype != np.float64:
+            big = float(np.finfo(dtype).max)
+            v = np.clip(v, -big, big)
+        return v.astype(dtype)
+
+    def _special(self, x: np.ndarray) -> np.ndarray | None:
+        if x.dtype.kind != "f" and self.fill is None:
+            return None
+        m = ~np.isfinite(x) if x.dtype.kind == "f" else np.zeros(x.shape, bool)
+        if self.fill is not None:
+            m |= x == self.fill
+        return m if m.any() else None
+
+    def encode_measured(self, brick: np.ndarray) -> tuple[bytes, float, float, int]:
+        """Return ``(payload, max error, squared error sum, valid voxels)``."""
+        x = np.ascontiguousarray(brick)
+        mask = self._special(x)
+        clean = x if mask is None else _fill_masked(x, mask)
+        q = self._quantize(clean)
+        if mask is not None:
+            q = _fill_masked(q, mask)  # masked voxels take their neighbour's value
+        rec = self._reconstruct(q, x.dtype)
+        err = np.abs(rec.astype(np.float64) - x.astype(np.float64))
+        if mask is not None:
+            err[mask] = 0.0
+        bad = np.flatnonzero(err > self.max_error)
+        flags = 0
+        parts = [b""]
+        inner = self._inner().encode(q)
+        parts.append(_U32.pack(len(inner)) + inner)
+        if mask is not None:
+            flags |= FLAG_MASK
+            body = np.packbits(mask.reshape(-1)).tobytes() + _as_stored(x[mask])
+            parts.append(_section(body))
+        if bad.size:
+            flags |= FLAG_CORRECTIONS
+            err.reshape(-1)[bad] = 0.0
+            flat = x.reshape(-1)
+            body = bad.astype("<u4").tobytes() + _as_stored(flat[bad])
+            parts.append(_section(body))
+        parts[0] = bytes([flags])
+        valid = x.size - (int(mask.sum()) if mask is not None else 0)
+        return b"".join(parts), float(err.max(initial=0.0)), float(np.sum(err * err)), valid
+
+    def encode(self, brick: np.ndarray) -> bytes:
+        return self.encode_measured(brick)[0]
+
+    def decode(self, data: bytes | memoryview, shape: tuple[int, ...], dtype: Any) -> np.ndarray:
+        dtype = np.dtype(dtype)
+        data = memoryview(data)
+        n = math.prod(shape)
+        if len(data) < 5:
+            raise FormatError(
+                f"bounded brick payload: expected at least 5 bytes, found {len(data)}"
+            )
+        flags = data[0]
+        if flags & ~(FLAG_MASK | FLAG_CORRECTIONS):
+            raise FormatError(f"bounded brick payload: unknown flags {flags:#x}")
+        pos = 1
+        inner, pos = _take(data, pos, len(data))
+        q = self._inner().decode(inner, shape, np.dtype(self.qdtype))
+        out = self._reconstruct(q, dtype)
+        flat = out.reshape(-1)
+        sd = storage_dtype(dtype)
+        if flags & FLAG_MASK:
+            body, pos = _take(data, pos, n // 8 + 1 + n * sd.itemsize, zstd=True)
+            nb = (n + 7) // 8
+            if len(body) < nb:
+                raise FormatError("bounded brick payload: mask section too short")
+            mask = np.unpackbits(np.frombuffer(body[:nb], np.uint8), count=n).astype(bool)
+            k = int(mask.sum())
+            flat[mask] = _from_stored(body[nb:], (k,), dtype)
+        if flags & FLAG_CORRECTIONS:
+            body, pos = _take(data, pos, n * (4 + sd.itemsize), zstd=True)
+            k = len(body) // (4 + sd.itemsize)
+            if k * (4 + sd.itemsize) != len(body):
+                raise FormatError("bounded brick payload: correction section has a ragged length")
+            idx = np.frombuffer(body[: 4 * k], "<u4").astype(np.int64)
+            if k and idx.max() >= n:
+                raise FormatError("bounded brick payload: a correction points outside the brick")
+            flat[idx] = _from_stored(body[4 * k :], (k,), dtype)
+        if pos != len(data):
+            raise FormatError(f"bounded brick payload: {len(data) - pos} stray bytes at the end")
+        return out
+
+
+def _fill_masked(a: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """Copy of ``a`` whose masked voxels take the last valid value before them (C order)."""
+    flat = a.reshape(-1)
+    m = mask.reshape(-1)
+    out = flat.copy()
+    if m.all():
+        out[:] = 0
+        return out.reshape(a.shape)
+    idx = np.where(~m, np.arange(flat.size), 0)
+    np.maximum.accumulate(idx, out=idx)
+    first = int(np.argmax(~m))
+    idx[:first] = first
+    out = flat[idx]
+    return out.reshape(a.shape)
+
+
+def _section(body: bytes) -> bytes:
+    import zstandard
+
+    z = zstandard.ZstdCompressor(level=9).compress(body)
+    return _U32.pack(len(z)) + z
+
+
+def _take(data: memoryview, pos: int, limit: int, zstd: bool = False) -> tuple[bytes, int]:
+    """One length-prefixed section from ``pos``; zstd sections are inflated to at most
+    ``limit`` bytes."""
+    if pos + 4 > len(data):
+        raise FormatError("lossy brick payload: a section length runs past the end")
+    (n,) = _U32.unpack(data[pos : pos + 4])
+    pos += 4
+    if n > len(data) - pos:
+        raise FormatError(
+            f"lossy brick payload: expected a section of {n} bytes, found {len(data) - pos}"
+        )
+    body = bytes(data[pos : pos + n])
+    if zstd:
+        import zstandard
+
+        try:
+            body = zstandard.ZstdDecompressor().decompress(body, max_output_size=limit)
+        except zstandard.ZstdError as e:
+            raise FormatError(f"lossy brick payload: corrupt section ({e})") from None
+    return body, pos + n
+
+
+# -- the thesis's coefficient modes -----------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True)
+class CoefCodec:
+    """Thresholding (``threshold``) or dead-zone quantisation (``quality``) of the
+    integer lifting coefficients, in orthonormal units (see ``formats/lossy-1.md``).
+
+    ``value_range`` is the volume's range; ``quality`` Q sets the orthonormal step to
+    ``value_range / (Q + 1)``. ``threshold`` T zeroes coefficients whose orthonormal
+    magnitude is below T and keeps the others exactly.
+    """
+
+    codec_id: ClassVar[str] = "coef"
+    value_range: float
+    quality: int | None = None
+    threshold: float | None = None
+    step: float | None = None  # the orthonormal step itself (what --psnr/--ratio search)
+    wavelet: str = "53"
+    coder: str = "arith"
+    order: str = "dfs"
+    max_levels: int | None = None
+
+    def __post_init__(self) -> None:
+        _check_inner(self)
+        if sum(v is not None for v in (self.quality, self.threshold, self.step)) != 1:
+            raise ValueError("expected exactly one of quality, threshold and step")
+        if self.step is not None and not (self.step > 0 and math.isfinite(self.step)):
+            raise ValueError(f"expected a positive step, found {self.step!r}")
+        if self.quality is not None and not 1 <= int(self.quality) <= 65535:
+            raise ValueError(f"expected a quality in 1..65535, found {self.quality!r}")
+        if self.threshold is not None and not (self.threshold >= 0):
+            raise ValueError(f"expected a threshold >= 0, found {self.threshold!r}")
+
+    def get_config(self) -> dict[str, Any]:
+        return {"id": self.codec_id, **dataclasses.asdict(self)}
+
+    def _steps(self, shape, levels) -> np.ndarray:
+        scale = band_scale(tuple(shape), tuple(levels))
+        if self.quality is not None:
+            return (self.value_range / (int(self.quality) + 1)) / scale
+        if self.step is not None:
+            return float(self.step) / scale
+        return float(self.threshold) / scale
+
+    @property
+    def _dead_zone(self) -> bool:
+        return self.threshold is None
+
+    def encode_measured(self, brick: np.ndarray) -> tuple[bytes, float, float, int]:
+        from . import sigmap
+        from .codec import check_wavelet_dtype
+        from .entropy import CODERS
+        from .wavelet import dwt3
+
+        x = np.ascontiguousarray(brick)
+        check_wavelet_dtype(x.dtype)
+        if x.size and (x.flat[0] == x).all():
+            return bytes([MODE_CONSTANT]) + _as_stored(x)[: x.dtype.itemsize], 0.0, 0.0, x.size
+        levels = dwt3.levels_for_shape(x.shape, self.max_levels)
+        c = dwt3.forward(x.astype(np.int64), levels, self.wavelet, overwrite=True)
+        steps = self._steps(x.shape, levels).reshape(x.shape)
+        q = _quantize_coefs(c, steps, self._dead_zone)
+        payload = bytes([MODE_CODED]) + CODERS[self.coder].encode(
+            q, sigmap.scan(x.shape, levels, self.order)
+        )
+        rec = self._rebuild(q, steps, levels, x.dtype)
+        err = np.abs(rec.astype(np.float64) - x)
+        if len(payload) > x.nbytes + 1:  # quantisation did not pay: store it exactly
+            return bytes([MODE_RAW]) + _as_stored(x), 0.0, 0.0, x.size
+        return payload, float(err.max(initial=0.0)), float(np.sum(err * err)), x.size
+
+    def encode(self, brick: np.ndarray) -> bytes:
+        return self.encode_measured(brick)[0]
+
+    def _rebuild(self, q, steps, levels, dtype) -> np.ndarray:
+        from .wavelet import dwt3
+
+        c = _dequantize_coefs(q, steps, self._dead_zone)
+        v = dwt3.inverse(c, levels, self.wavelet, overwrite=True)
+        info = np.iinfo(dtype)
+        return np.clip(v, info.min, info.max).astype(dtype)
+
+    def decode(self, data: bytes | memoryview, shape: tuple[int, ...], dtype: Any) -> np.ndarray:
+        from . import sigmap
+        from .entropy import CODERS
+        from .wavelet import dwt3
+
+        dtype = np.dtype(dtype)
+        data = memoryview(data)
+        if len(data) < 1:
+            raise FormatError("empty coef brick payload: expected at least a mode byte")
+        mode, body = data[0], data[1:]
+        if mode == MODE_RAW:
+            return _from_stored(body, shape, dtype)
+        if mode == MODE_CONSTANT:
+            return np.full(shape, _from_stored(body, (1,), dtype)[0], dtype=dtype)
+        if mode != MODE_CODED:
+            raise FormatError(f"coef brick payload: expected mode 0, 1 or 2, found {mode}")
+        levels = dwt3.levels_for_shape(shape, self.max_levels)
+        q = np.empty(shape, np.int64)
+        CODERS[self.coder].decode(bytes(body), sigmap.scan(tuple(shape), levels, self.order), q)
+        return self._rebuild(q, self._steps(shape, levels).reshape(shape), levels, dtype)
+
+
+# The dead-zone quantiser: bins of width ``step`` whose zero bin reaches 0.75 step on each
+# side (a plain rounder's reaches 0.5), values rebuilt 1/8 step above the bin's start.
+# At ``step`` = 1 it gives back every integer exactly, so rate and error change smoothly
+# as the step crosses 1 (steps at or below 1 keep the coefficient).
+DEAD_ZONE_OFFSET = 0.25
+REBUILD_OFFSET = 0.125
+
+
+def _quantize_coefs(c: np.ndarray, steps: np.ndarray, dead_zone: bool) -> np.ndarray:
+    if not dead_zone:  # threshold: small coefficients dropped, the rest kept
+        return np.where(np.abs(c) < steps, 0, c).astype(np.int64)
+    exact = steps <= 1.0
+    q = np.sign(c) * np.floor(np.abs(c) / np.where(exact, 1.0, steps) + DEAD_ZONE_OFFSET)
+    return np.where(exact, c, q).astype(np.int64)
+
+
+def _dequantize_coefs(q: np.ndarray, steps: np.ndarray, dead_zone: bool) -> np.ndarray:
+    if not dead_zone:
+        return np.ascontiguousarray(q, dtype=np.int64)
+    exact = steps <= 1.0
+    mag = np.floor((np.abs(q) + REBUILD_OFFSET) * steps + 0.5)
+    c = np.where(exact, q, np.where(q == 0, 0, np.sign(q) * mag))
+    return np.ascontiguousarray(c, dtype=np.int64)
+
+
+@functools.lru_cache(maxsize=32)
+def band_scale(shape: tuple[int, int, int], levels: tuple[int, int, int]) -> np.ndarray:
+    """Per-coefficient factor from the integer lifting's units to orthonormal units.
+
+    Each low-pass step of the reversible filters keeps the mean (orthonormal: times
+    sqrt 2), each high-pass step keeps a difference (orthonormal: divided by sqrt 2), so a
+    subband reached by ``l`` low and ``h`` high steps over the three axes scales by
+    ``2 ** ((l - h) / 2)``.
+    """
+    from .sigmap import subbands
+
+    out = np.empty(shape, np.float64)
+    for b in subbands(shape, levels):
+        ex = 0
+        for a in range(3):
+            if b.level < levels[a]:  # this axis was split at the band's level
+                ex += b.level + (0 if b.bits[a] else 1) - b.bits[a]
+            else:
+                ex += levels[a]
+        sl = tuple(slice(s, s + n) for s, n in zip(b.start, b.size))
+        out[sl] = 2.0 ** (ex / 2)
+    out = out.reshape(-1)
+    out.flags.writeable = False
+    return out
+
+
+def _check_inner(c) -> None:
+    _check_choice("wavelet", c.wavelet, WAVELET_NAMES)
+    _check_choice("coder", c.coder, CODER_NAMES)
+    _check_choice("order", c.order, ORDER_NAMES)
+
+
+LOSSY_CODECS = {c.codec_id: c for c in (BoundedCodec, CoefCodec)}
