@@ -489,9 +489,7 @@ def _bold_best(values: list[float | None], fmt: str = "{:.3f}") -> list[str]:
     """Format values; the largest (ties at the printed precision included) in bold."""
     shown = [None if v is None else fmt.format(v) for v in values]
     best = max((float(x) for x in shown if x is not None), default=None)
-    return [
-        "—" if x is None else (f"**{x}**" if float(x) == best else x) for x in shown
-    ]
+    return ["—" if x is None else (f"**{x}**" if float(x) == best else x) for x in shown]
 
 
 def machine_line(info: dict[str, str]) -> str:
@@ -501,7 +499,9 @@ def machine_line(info: dict[str, str]) -> str:
     return (
         f"Machine: {info['nproc']} cores ({info['cpu']}), Python {info['python']}, "
         f"numpy {info['numpy']}, numba {info['numba']}; run {info['date']} "
-        f"(load average at start {info['load average at start']}). Libraries: {libs}."
+        f"(load average at start {info['load average at start']}"
+        + (f", at end {info['load average at end']}" if "load average at end" in info else "")
+        + f"). Libraries: {libs}."
     )
 
 
@@ -521,7 +521,7 @@ def write_table(rows, notes, skipped, path: Path, run: dict, info: dict[str, str
         + (", on 128³ centre crops" if run["quick"] else "")
         + ". Every row round-trips exactly (dtype, shape and values checked). Speeds are "
         "from a shared machine: compare rows within one run, not across runs. All rows "
-        f"are in `lossless.csv`.",
+        "are in `lossless.csv`.",
         "",
         "## Ratio per dataset",
         "",
@@ -583,7 +583,16 @@ def write_table(rows, notes, skipped, path: Path, run: dict, info: dict[str, str
         lines.append("")
     if notes:
         lines += ["Notes:", ""]
-        lines += [f"- {k}: {v}" for k, v in sorted(notes.items())]
+        vp = [k for k in notes if _is_volpack(k)]
+        if vp:  # one line for the volpack grid instead of one per row
+            example = notes[vp[0]]
+            for key in ("wavelet=", "coder="):
+                i = example.find(key)
+                if i >= 0:
+                    j = example.find(",", i)
+                    example = example[: i + len(key)] + "..." + example[j:]
+            lines.append(f"- volpack-<wavelet>-<coder>: {example}")
+        lines += [f"- {k}: {v}" for k, v in sorted(notes.items()) if not _is_volpack(k)]
         lines.append("")
     lines.append(
         f"<!-- args: repeat={run['repeat']} grid_repeat={run['grid_repeat']} "
@@ -594,13 +603,11 @@ def write_table(rows, notes, skipped, path: Path, run: dict, info: dict[str, str
 
 # Colours: volpack by coder, peers by family.
 _VP_COLORS = {"arith": "#c0392b", "huffman": "#e67e22", "rle": "#8e44ad"}
-_PEER_COLORS = [
-    "#9ecae1", "#6baed6", "#3182bd", "#08519c",  # zstd
-    "#31a354",  # blosc2
-    "#bdbdbd", "#737373",  # zfp
-    "#fdd0a2", "#a1d99b", "#fa9fb5",  # slice codecs
-    "#17becf", "#bcbd22", "#8c564b",
-]
+# zstd (4 blues), blosc2 (green), zfp (2 greys), slice codecs (3 pastels), spares.
+_PEER_COLORS = (
+    "#9ecae1 #6baed6 #3182bd #08519c #31a354 #bdbdbd #737373 #fdd0a2 #a1d99b #fa9fb5 "
+    "#17becf #bcbd22 #8c564b"
+).split()
 
 
 def _colors(rows) -> dict[str, str]:
@@ -618,6 +625,7 @@ def plot(rows, out: Path) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import matplotlib.ticker
 
     by_ds = _by_dataset(rows)
     dsets = list(by_ds)
@@ -630,8 +638,11 @@ def plot(rows, out: Path) -> None:
     # ratio.png: per dataset, the best wavelet for each volpack coder, then every peer.
     labels = [f"volpack {c} (best wavelet)" for c in VOLPACK_CODERS] + peers
     fig, axes = plt.subplots(
-        nrows, cols, figsize=(5.0 * cols + 1.6, 0.26 * len(labels) * nrows + 1.0 * nrows + 0.6),
-        squeeze=False, sharey=True,
+        nrows,
+        cols,
+        figsize=(5.0 * cols + 1.6, 0.26 * len(labels) * nrows + 1.0 * nrows + 0.6),
+        squeeze=False,
+        sharey=True,
     )
     for ax, d in zip(axes.flat, dsets):
         rs = [r for r in by_ds[d] if r["workers"] == 1]
@@ -651,8 +662,14 @@ def plot(rows, out: Path) -> None:
         ax.barh(ys, vals, color=cs, edgecolor="k", linewidth=0.3)
         best = max(vals)
         for y, v, t in zip(ys, vals, notes):
-            ax.text(v + best * 0.01, y, t, va="center", fontsize=7,
-                    fontweight="bold" if v == best else "normal")
+            ax.text(
+                v + best * 0.01,
+                y,
+                t,
+                va="center",
+                fontsize=7,
+                fontweight="bold" if v == best else "normal",
+            )
         ax.set_xlim(0, best * 1.25)
         ax.axvline(best, color="k", lw=0.5, ls=":")
         ax.set_yticks(ys)
@@ -671,7 +688,7 @@ def plot(rows, out: Path) -> None:
         "wavelet in brackets)",
         fontsize=10,
     )
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0, 1, 0.985))
     fig.savefig(out / "ratio.png", dpi=110)
     plt.close(fig)
 
@@ -685,6 +702,7 @@ def plot(rows, out: Path) -> None:
                 grid[i, j] = r["ratio"]
     if np.isfinite(grid).any():
         rel = grid / np.nanmax(grid, axis=1, keepdims=True)
+        top = [f"{np.nanmax(row):.2f}" if np.isfinite(row).any() else "" for row in grid]
         fig, ax = plt.subplots(figsize=(1.0 + 0.72 * len(combos) + 2.6, 0.9 + 0.42 * n + 0.9))
         vmin = max(0.0, float(np.nanmin(rel)) - 0.02)
         im = ax.imshow(rel, cmap="viridis", vmin=vmin, vmax=1.0, aspect="auto")
@@ -692,21 +710,33 @@ def plot(rows, out: Path) -> None:
             for j in range(len(combos)):
                 if np.isfinite(grid[i, j]):
                     dark = (rel[i, j] - vmin) / max(1.0 - vmin, 1e-9) < 0.6
-                    ax.text(j, i, f"{grid[i, j]:.2f}", ha="center", va="center", fontsize=7.5,
-                            color="w" if dark else "k",
-                            fontweight="bold" if rel[i, j] == 1.0 else "normal")
+                    ax.text(
+                        j,
+                        i,
+                        f"{grid[i, j]:.2f}",
+                        ha="center",
+                        va="center",
+                        fontsize=7.5,
+                        color="w" if dark else "k",
+                        fontweight="bold" if f"{grid[i, j]:.2f}" == top[i] else "normal",
+                    )
                 else:
                     ax.text(j, i, "—", ha="center", va="center", fontsize=7.5)
         ax.set_xticks(range(len(combos)))
         ax.set_xticklabels([w for w, _ in combos], fontsize=8)
         ax.set_yticks(range(n))
-        ax.set_yticklabels(
-            [f"{d} ({by_ds[d][0]['dtype']})" for d in dsets], fontsize=8
-        )
+        ax.set_yticklabels([f"{d} ({by_ds[d][0]['dtype']})" for d in dsets], fontsize=8)
         k = len(VOLPACK_WAVELETS)
         for g, c in enumerate(VOLPACK_CODERS):
-            ax.text(g * k + (k - 1) / 2, -0.75, c, ha="center", va="bottom", fontsize=9,
-                    fontweight="bold")
+            ax.text(
+                g * k + (k - 1) / 2,
+                -0.75,
+                c,
+                ha="center",
+                va="bottom",
+                fontsize=9,
+                fontweight="bold",
+            )
             if g:
                 ax.axvline(g * k - 0.5, color="w", lw=2.5)
         ax.set_ylim(n - 0.5, -1.3)
@@ -714,8 +744,11 @@ def plot(rows, out: Path) -> None:
         cb = fig.colorbar(im, ax=ax, fraction=0.04, pad=0.02)
         cb.set_label("ratio / best volpack ratio on the dataset", fontsize=8)
         cb.ax.tick_params(labelsize=7)
-        ax.set_title("volpack lossless ratio per wavelet × coder (1 worker; best per row in bold)",
-                     fontsize=10, pad=18)
+        ax.set_title(
+            "volpack lossless ratio per wavelet × coder (1 worker; best per row in bold)",
+            fontsize=10,
+            pad=18,
+        )
         for sp in ax.spines.values():
             sp.set_visible(False)
         fig.tight_layout()
@@ -748,12 +781,20 @@ def plot(rows, out: Path) -> None:
             if r["method"] in labelled or (_is_volpack(r["method"]) and r["method"] not in base):
                 continue
             labelled.add(r["method"])
-            ax.annotate(r["method"], (r["decode_mb_s"], r["ratio"]), fontsize=6,
-                        xytext=(3, 3), textcoords="offset points")
+            ax.annotate(
+                r["method"],
+                (r["decode_mb_s"], r["ratio"]),
+                fontsize=6,
+                xytext=(3, 3),
+                textcoords="offset points",
+            )
         ax.set_xscale("log")
         ratios = [r["ratio"] for r in rs]
         if max(ratios) / min(ratios) > 8:
             ax.set_yscale("log")
+            ax.yaxis.set_major_locator(matplotlib.ticker.LogLocator(subs=(1.0, 2.0, 5.0)))
+            ax.yaxis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
+            ax.yaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
         ax.set_title(f"{d} ({rs[0]['shape']} {rs[0]['dtype']})", fontsize=9)
         ax.set_xlabel("decode MB/s (log)", fontsize=8)
         ax.set_ylabel("ratio", fontsize=8)
@@ -778,11 +819,15 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("datasets_pos", nargs="*", metavar="NAME", help="same as --datasets")
     parser.add_argument(
-        "--repeat", type=int, default=3,
+        "--repeat",
+        type=int,
+        default=3,
         help="best of N runs for peers and the default volpack rows (default 3)",
     )
     parser.add_argument(
-        "--grid-repeat", type=int, default=2,
+        "--grid-repeat",
+        type=int,
+        default=2,
         help="best of N runs for the other volpack wavelet x coder rows (default 2)",
     )
     parser.add_argument("--quick", action="store_true", help="crop each volume to 128^3 centre")
@@ -791,11 +836,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-volpack", action="store_true", help="peers only")
     parser.add_argument("--no-peers", action="store_true", help="volpack only")
     parser.add_argument(
-        "--speedup-dataset", default=SPEEDUP_DATASET,
+        "--speedup-dataset",
+        default=SPEEDUP_DATASET,
         help=f"dataset of the every-method table (default {SPEEDUP_DATASET})",
     )
     parser.add_argument(
-        "--replot", action="store_true",
+        "--replot",
+        action="store_true",
         help="redraw the charts and table.md from OUT/lossless.csv and OUT/run.json, and exit",
     )
     args = parser.parse_args(argv)
@@ -806,8 +853,14 @@ def main(argv: list[str] | None = None) -> int:
         meta_path = args.out / "run.json"
         if meta_path.is_file():
             meta = json.loads(meta_path.read_text())
-            write_table(rows, meta["notes"], meta["skipped"], args.out / "table.md",
-                        meta["run"], meta["info"])
+            write_table(
+                rows,
+                meta["notes"],
+                meta["skipped"],
+                args.out / "table.md",
+                meta["run"],
+                meta["info"],
+            )
         return 0
 
     names = (args.datasets or []) + args.datasets_pos or datasets.names()
@@ -835,6 +888,7 @@ def main(argv: list[str] | None = None) -> int:
     if not rows:
         print("nothing measured", file=sys.stderr)
         return 1
+    info["load average at end"] = " ".join(f"{x:.2f}" for x in os.getloadavg())
     run_meta = {
         "repeat": args.repeat,
         "grid_repeat": args.grid_repeat,
@@ -845,9 +899,7 @@ def main(argv: list[str] | None = None) -> int:
     }
     write_csv(rows, args.out / "lossless.csv")
     (args.out / "run.json").write_text(
-        json.dumps(
-            {"run": run_meta, "info": info, "notes": notes, "skipped": skipped}, indent=1
-        )
+        json.dumps({"run": run_meta, "info": info, "notes": notes, "skipped": skipped}, indent=1)
         + "\n"
     )
     write_table(rows, notes, skipped, args.out / "table.md", run_meta, info)
