@@ -12,6 +12,12 @@ Each dataset is a file (or a member of a package file) copied into the cache fol
 in the dtype the file stores (int16 CT stays int16; big-endian data is made native), the
 voxel spacing in mm as ``(dz, dy, dx)``, and one line saying what the volume is.
 
+Most datasets are integer volumes (``kind="int"``). A few are real float fields
+(``kind="float"``, for the lossy benchmark); ``load`` returns those as float32 (a float64
+file is cast down). ``names()`` lists only the integer ones unless asked
+(``names(kinds=("float",))`` or ``kinds=None`` for all), so scripts that expect integers
+keep working.
+
 Sources and formats are those of ``shared/notes/test-data.md`` (sections 1 and 5).
 """
 
@@ -37,7 +43,8 @@ class Dataset:
     ``source`` is ``"deb"`` (Debian package, unpacked with ``dpkg -x``) or ``"pypi"``
     (a wheel, or the installed copy of the package). ``member`` is the file's path inside
     the package; ``inner`` optionally names a member of a ``.tar.gz`` found there.
-    ``file`` is the name in the cache folder.
+    ``file`` is the name in the cache folder. ``kind`` is ``"int"`` (integer voxels, loaded
+    as stored) or ``"float"`` (float voxels, loaded as float32).
     """
 
     name: str
@@ -48,10 +55,12 @@ class Dataset:
     fmt: str
     description: str
     inner: str | None = None
+    kind: str = "int"
 
 
 _MRICRON = "usr/share/mricron/templates"
 _NIB = "nibabel/tests/data"
+_DIPY = "dipy/data/files"
 
 DATASETS: dict[str, Dataset] = {
     d.name: d
@@ -138,6 +147,26 @@ DATASETS: dict[str, Dataset] = {
             "nifti",
             "MNI ICBM152 2009a average T1 template (152 brains), uint8",
         ),
+        Dataset(
+            "zmap_neurovault",
+            "pypi",
+            "nilearn",
+            "nilearn/datasets/data/image_10426.nii.gz",
+            "image_10426.nii.gz",
+            "nifti",
+            "NeuroVault fMRI z-map (image 10426, shipped with nilearn), float32, 3 mm",
+            kind="float",
+        ),
+        Dataset(
+            "mri_dipy_float",
+            "pypi",
+            "dipy",
+            f"{_DIPY}/ascm_out_test.nii.gz",
+            "ascm_out_test.nii.gz",
+            "nifti",
+            "dipy denoised (ASCM) brain MRI slab, float64 on disk, loaded as float32",
+            kind="float",
+        ),
     ]
 }
 
@@ -153,9 +182,16 @@ def path_of(name: str) -> Path:
     return data_dir() / DATASETS[_check(name)].file
 
 
-def names(available_only: bool = True) -> list[str]:
-    """Dataset names; by default only those already in the cache."""
-    return [n for n in DATASETS if not available_only or path_of(n).is_file()]
+def names(available_only: bool = True, kinds: tuple[str, ...] | None = ("int",)) -> list[str]:
+    """Dataset names; by default only integer ones already in the cache.
+
+    ``kinds`` filters on :attr:`Dataset.kind` (``None``: every kind).
+    """
+    return [
+        n
+        for n, ds in DATASETS.items()
+        if (not available_only or path_of(n).is_file()) and (kinds is None or ds.kind in kinds)
+    ]
 
 
 def load(name: str) -> tuple[np.ndarray, tuple[float, float, float], str]:
@@ -170,7 +206,11 @@ def load(name: str) -> tuple[np.ndarray, tuple[float, float, float], str]:
     array = np.ascontiguousarray(array)
     if not array.dtype.isnative:
         array = array.astype(array.dtype.newbyteorder("="))
-    if array.dtype.kind not in "iu":
+    if ds.kind == "float":
+        if array.dtype.kind != "f":
+            raise TypeError(f"{name}: expected float voxels, found {array.dtype}")
+        array = np.ascontiguousarray(array, dtype=np.float32)
+    elif array.dtype.kind not in "iu":
         raise TypeError(f"{name}: expected integer voxels, found {array.dtype}")
     return array, tuple(float(s) for s in spacing), ds.description
 

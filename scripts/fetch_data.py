@@ -107,7 +107,9 @@ def fetch(name: str, tmp: Path, force: bool = False) -> tuple[Path, str]:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("names", nargs="*", help="datasets to fetch (default: all)")
+    parser.add_argument(
+        "names", nargs="*", help="datasets to fetch (default: all, integer and float)"
+    )
     parser.add_argument("--list", action="store_true", help="list datasets and exit")
     parser.add_argument("--force", action="store_true", help="fetch again even if cached")
     parser.add_argument("--no-check", action="store_true", help="skip loading each volume")
@@ -117,7 +119,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"cache: {datasets.data_dir()}")
         for ds in datasets.DATASETS.values():
             state = "cached " if datasets.path_of(ds.name).is_file() else "missing"
-            print(f"  {ds.name:16s} {state}  {ds.source}:{ds.package:26s} {ds.description}")
+            print(
+                f"  {ds.name:16s} {state}  {ds.kind:5s} {ds.source}:{ds.package:26s} "
+                f"{ds.description}"
+            )
         return 0
 
     wanted = args.names or list(datasets.DATASETS)

@@ -1,0 +1,643 @@
+"""Rate-distortion benchmark: volpack's lossy modes against zfp, SZ3 and SPERR.
+
+Every method runs in this one process on the same in-memory arrays, at the same absolute
+error bounds E. For each dataset the bounds are a sweep relative to its value range,
+``range * (1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2)``; integer volumes keep only bounds >= 0.5
+and add E = 1. volpack's ``quality=Q`` setting (integer volumes only) has no bound and is
+reported for its rate and distortion alone.
+
+    python scripts/bench_lossy.py                                # default datasets, full size
+    python scripts/bench_lossy.py --quick --datasets ct_head,zmap_neurovault
+    python scripts/bench_lossy.py --methods zfp,sz3,sperr        # peers only
+
+Methods (skipped with a warning when their package is missing or the call fails):
+
+* ``volpack``          ``api.compress_array(a, max_error=E)`` / ``api.decompress_array(blob)``
+* ``volpack-huffman``  the same with ``coder="huffman"``
+* ``volpack-quality``  ``api.compress_array(a, quality=Q)``, Q in 255, 127, 63, 31, 15
+* ``zfp``              ``zfpy.compress_numpy(x, tolerance=E)`` / ``zfpy.decompress_numpy``
+* ``sz3``              pysz: ``szConfig(shape)``, ``errorBoundMode = szErrorBoundMode.ABS``,
+                       ``absErrorBound = E``; ``sz.compress(x, conf)`` /
+                       ``sz.decompress(blob, x.dtype, shape)``
+* ``sperr``            ``h5py.File(io.BytesIO(), "w").create_dataset(..., chunks=c,
+                       **hdf5plugin.Sperr(absolute=E))``; c = the whole volume, each
+                       axis capped at 256
+
+Peers take float input: an integer volume is handed to them as a float32 copy (float64
+when the dtype is wider than 16 bits), made once outside the timed region; their decoded
+floats are compared with the original as they come (not rounded back to integers).
+volpack gets the original array. Every method runs single-threaded (volpack's default
+``workers=1``; zfp serial; SZ3 without OpenMP; hdf5plugin's SPERR build has no OpenMP).
+
+Measured for every (method, setting), on every voxel in float64: compressed bytes (for
+SPERR the HDF5 chunk payload, without the HDF5 file's own metadata), ratio = raw bytes of
+the ORIGINAL dtype / compressed bytes, bits per voxel, PSNR with peak = value range, RMSE,
+max abs error, ``bound_ok`` = max error <= E (strict for every method: none of the peers
+documents a tolerance on its absolute bound; ``excess`` records by how much a bound was
+missed), and encode / decode MB/s of raw original bytes (best of ``--repeat``).
+
+Writes ``lossy.csv``, ``psnr_vs_bpv.png``, ``maxerr_vs_ratio.png``, ``psnr_vs_decode.png`` and
+``table.md`` into ``--out`` (default ``results/lossy``; ``results/lossy/quick`` with ``--quick``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import io
+import math
+import platform
+import sys
+import time
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import datasets  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+DEFAULT_DATASETS = ["ct_head", "mri_ch2", "zmap_neurovault", "mri_dipy_float"]
+REL_BOUNDS = (1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2)
+QUALITIES = (255, 127, 63, 31, 15)
+BOUND_METHODS = ["volpack", "volpack-huffman", "zfp", "sz3", "sperr"]
+ALL_METHODS = [*BOUND_METHODS, "volpack-quality"]
+SPERR_CHUNK = 256
+
+CSV_FIELDS = [
+    "dataset",
+    "kind",
+    "dtype",
+    "shape",
+    "value_range",
+    "method",
+    "setting",
+    "bound",
+    "input_dtype",
+    "compressed_bytes",
+    "ratio",
+    "bits_per_voxel",
+    "psnr_db",
+    "rmse",
+    "max_abs_err",
+    "bound_ok",
+    "excess",
+    "encode_MBps",
+    "decode_MBps",
+]
+
+
+def warn(msg: str) -> None:
+    print(f"WARNING: {msg}", file=sys.stderr, flush=True)
+
+
+# ---------------------------------------------------------------------------------------
+# Methods: each is (encode(x, setting) -> (blob, nbytes), decode(blob, x) -> array)
+
+
+@dataclass
+class Method:
+    name: str
+    encode: Callable[[np.ndarray, float], tuple[object, int]]
+    decode: Callable[[object, np.ndarray], np.ndarray]
+    float_input: bool  # peers: hand them a float copy of integer data
+    settings: str = "bound"  # "bound": sweep E; "quality": sweep Q
+
+
+def _volpack_method(name: str, **extra) -> Method:
+    from volpack import api
+
+    if name == "volpack-quality":
+
+        def enc(x, q):
+            blob = api.compress_array(x, quality=int(q), **extra)
+            return blob, len(blob)
+
+        return Method(name, enc, lambda b, x: api.decompress_array(b), False, "quality")
+
+    def enc(x, e):
+        blob = api.compress_array(x, max_error=float(e), **extra)
+        return blob, len(blob)
+
+    return Method(name, enc, lambda b, x: api.decompress_array(b), False)
+
+
+def _zfp_method() -> Method:
+    import zfpy
+
+    def enc(x, e):
+        blob = zfpy.compress_numpy(x, tolerance=float(e))
+        return blob, len(blob)
+
+    return Method("zfp", enc, lambda b, x: zfpy.decompress_numpy(b), True)
+
+
+def _sz3_method() -> Method:
+    from pysz import sz, szConfig, szErrorBoundMode
+
+    def enc(x, e):
+        conf = szConfig(x.shape)
+        conf.errorBoundMode = szErrorBoundMode.ABS
+        conf.absErrorBound = float(e)
+        blob, _ratio = sz.compress(x, conf)
+        return blob, int(blob.nbytes)
+
+    def dec(b, x):
+        out, _conf = sz.decompress(b, x.dtype, x.shape)
+        return out
+
+    return Method("sz3", enc, dec, True)
+
+
+def _sperr_method() -> Method:
+    import h5py
+    import hdf5plugin
+
+    def enc(x, e):
+        chunks = tuple(min(s, SPERR_CHUNK) for s in x.shape)
+        bio = io.BytesIO()
+        with h5py.File(bio, "w") as f:
+            ds = f.create_dataset("v", data=x, chunks=chunks, **hdf5plugin.Sperr(absolute=float(e)))
+            nbytes = int(ds.id.get_storage_size())
+        return bio.getvalue(), nbytes
+
+    def dec(b, x):
+        with h5py.File(io.BytesIO(b), "r") as f:
+            return f["v"][...]
+
+    return Method("sperr", enc, dec, True)
+
+
+def build_methods(wanted: list[str]) -> tuple[list[Method], list[str]]:
+    """The methods that could be set up, and notes on those that could not."""
+    makers = {
+        "volpack": lambda: _volpack_method("volpack"),
+        "volpack-huffman": lambda: _volpack_method("volpack-huffman", coder="huffman"),
+        "volpack-quality": lambda: _volpack_method("volpack-quality"),
+        "zfp": _zfp_method,
+        "sz3": _sz3_method,
+        "sperr": _sperr_method,
+    }
+    methods, notes = [], []
+    for name in wanted:
+        try:
+            m = makers[name]()
+            if name.startswith("volpack"):
+                _probe_volpack(m)
+            methods.append(m)
+        except Exception as exc:  # a missing peer or an unfinished API: skip, keep the rest
+            note = f"{name}: skipped ({type(exc).__name__}: {exc})"
+            warn(note)
+            notes.append(note)
+    return methods, notes
+
+
+def _probe_volpack(m: Method) -> None:
+    """Fail early if volpack's lossy API is not there yet (a small int16 round trip)."""
+    rng = np.random.default_rng(0)
+    a = np.cumsum(rng.integers(-3, 4, size=(24, 24, 24)), axis=2).astype(np.int16)
+    setting = 63 if m.settings == "quality" else 1.0
+    blob, _ = m.encode(a, setting)
+    out = np.asarray(m.decode(blob, a))
+    if out.shape != a.shape:
+        raise ValueError(f"probe decoded shape {out.shape}, expected {a.shape}")
+    if m.settings == "bound":
+        err = np.abs(out.astype(np.float64) - a).max()
+        if err > 1.0:
+            warn(f"{m.name}: probe max_error=1.0 gave max abs error {err}")
+
+
+# ---------------------------------------------------------------------------------------
+# Data
+
+
+def center_crop(a: np.ndarray, size: int = 128) -> np.ndarray:
+    sl = tuple(
+        slice(max(0, (s - size) // 2), max(0, (s - size) // 2) + min(s, size)) for s in a.shape
+    )
+    return np.ascontiguousarray(a[sl])
+
+
+def float_copy(a: np.ndarray) -> np.ndarray:
+    """What the peers get: float data as is; integers as float32 (float64 past 16 bits)."""
+    if a.dtype.kind == "f":
+        return a
+    return a.astype(np.float32 if a.dtype.itemsize <= 2 else np.float64)
+
+
+def bounds_for(a: np.ndarray) -> list[float]:
+    vrange = float(a.max()) - float(a.min())
+    bounds = [float(f"{vrange * r:.4g}") for r in REL_BOUNDS]
+    if a.dtype.kind in "iu":
+        bounds = sorted({b for b in bounds if b >= 0.5} | {1.0})
+    return [b for b in bounds if b > 0]
+
+
+# ---------------------------------------------------------------------------------------
+# Measuring
+
+
+def measure(m: Method, x: np.ndarray, a: np.ndarray, setting: float, repeat: int) -> dict:
+    """Encode/decode ``x`` ``repeat`` times; errors against the original ``a`` in float64."""
+    raw = a.nbytes
+    t_enc, t_dec = math.inf, math.inf
+    blob = nbytes = out = None
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        blob, nbytes = m.encode(x, setting)
+        t_enc = min(t_enc, time.perf_counter() - t0)
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        out = m.decode(blob, x)
+        t_dec = min(t_dec, time.perf_counter() - t0)
+    out = np.asarray(out)
+    if out.shape != a.shape:
+        raise ValueError(f"decoded shape {out.shape}, expected {a.shape}")
+    ref = a.astype(np.float64)
+    diff = out.astype(np.float64) - ref
+    if not np.all(np.isfinite(diff)):
+        raise ValueError("decoded volume has non-finite values")
+    mse = float(np.mean(diff * diff))
+    max_err = float(np.abs(diff).max())
+    vrange = float(ref.max() - ref.min())
+    psnr = math.inf if mse == 0 else 20 * math.log10(vrange) - 10 * math.log10(mse)
+    row = {
+        "compressed_bytes": nbytes,
+        "ratio": raw / nbytes,
+        "bits_per_voxel": 8.0 * nbytes / a.size,
+        "psnr_db": psnr,
+        "rmse": math.sqrt(mse),
+        "max_abs_err": max_err,
+        "encode_MBps": raw / t_enc / 1e6,
+        "decode_MBps": raw / t_dec / 1e6,
+    }
+    if m.settings == "bound":
+        row["bound"] = setting
+        row["bound_ok"] = max_err <= setting
+        row["excess"] = max(0.0, max_err - setting)
+    else:
+        row["bound"] = ""
+        row["bound_ok"] = ""
+        row["excess"] = ""
+    return row
+
+
+def warm_up(m: Method, x: np.ndarray, setting: float) -> None:
+    """One untimed round trip on a small crop (numba compiles per dtype on first use)."""
+    m.decode(m.encode(center_crop(x, 16), setting)[0], center_crop(x, 16))
+
+
+def run_dataset(name: str, methods: list[Method], quick: bool, repeat: int) -> list[dict]:
+    a, _spacing, desc = datasets.load(name)
+    if quick:
+        a = center_crop(a)
+    ds_kind = "float" if a.dtype.kind == "f" else "int"
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name}: NaN/Inf voxels; this benchmark needs finite data")
+    vrange = float(a.max()) - float(a.min())
+    xf = float_copy(a)
+    bounds = bounds_for(a)
+    print(
+        f"\n== {name}: {a.shape} {a.dtype}, range {vrange:g}, {a.nbytes / 1e6:.1f} MB"
+        f" -- {desc}\n   bounds {bounds}",
+        flush=True,
+    )
+    base = {
+        "dataset": name,
+        "kind": ds_kind,
+        "dtype": str(a.dtype),
+        "shape": "x".join(map(str, a.shape)),
+        "value_range": vrange,
+    }
+    rows = []
+    for m in methods:
+        if m.settings == "quality":
+            if ds_kind != "int":
+                continue
+            settings = list(QUALITIES)
+        else:
+            settings = bounds
+        x = xf if m.float_input else a
+        try:
+            warm_up(m, x, settings[0])
+        except Exception as exc:
+            warn(f"{name}/{m.name}: warm-up failed ({type(exc).__name__}: {exc}); skipped")
+            continue
+        for s in settings:
+            label = f"quality={s}" if m.settings == "quality" else f"E={s:g}"
+            try:
+                r = measure(m, x, a, s, repeat)
+            except Exception as exc:
+                warn(f"{name}/{m.name} {label}: {type(exc).__name__}: {exc}")
+                continue
+            r.update(base, method=m.name, setting=label, input_dtype=str(x.dtype))
+            rows.append(r)
+            ok = "" if r["bound_ok"] == "" else ("  ok" if r["bound_ok"] else "  BOUND VIOLATED")
+            print(
+                f"   {m.name:16s} {label:14s} ratio {r['ratio']:8.2f}  {r['bits_per_voxel']:6.3f} bpv"
+                f"  PSNR {r['psnr_db']:6.2f}  maxerr {r['max_abs_err']:.4g}"
+                f"  enc {r['encode_MBps']:7.1f}  dec {r['decode_MBps']:7.1f} MB/s{ok}",
+                flush=True,
+            )
+    return rows
+
+
+# ---------------------------------------------------------------------------------------
+# Output
+
+
+def _fmt(v) -> str:
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, float):
+        return "inf" if math.isinf(v) else f"{v:.6g}"
+    return str(v)
+
+
+def write_csv(rows: list[dict], path: Path) -> None:
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=CSV_FIELDS)
+        w.writeheader()
+        for r in rows:
+            w.writerow({k: _fmt(r.get(k, "")) for k in CSV_FIELDS})
+
+
+_STYLE = {
+    "volpack": ("tab:red", "o"),
+    "volpack-huffman": ("tab:orange", "s"),
+    "volpack-quality": ("tab:purple", "D"),
+    "zfp": ("tab:blue", "^"),
+    "sz3": ("tab:green", "v"),
+    "sperr": ("tab:brown", "P"),
+}
+
+
+def _panels(
+    rows: list[dict],
+    names: list[str],
+    xkey: str,
+    ykey: str,
+    path: Path,
+    *,
+    title: str,
+    xlabel: str,
+    ylabel: str,
+    logx: bool = False,
+    logy: bool = False,
+) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.ticker import FuncFormatter, NullFormatter
+
+    n = len(names)
+    cols = min(n, 2)
+    nrows = math.ceil(n / cols)
+    fig, axes = plt.subplots(nrows, cols, figsize=(6 * cols, 4.3 * nrows), squeeze=False)
+    for ax, name in zip(axes.flat, names):
+        sub = [r for r in rows if r["dataset"] == name]
+        for method in ALL_METHODS:
+            pts = [(r[xkey], r[ykey]) for r in sub if r["method"] == method]
+            pts = [(x, y) for x, y in pts if math.isfinite(x) and math.isfinite(y)]
+            if logy:
+                pts = [(x, y) for x, y in pts if y > 0]
+            if not pts:
+                continue
+            pts.sort()
+            color, marker = _STYLE.get(method, ("k", "."))
+            ax.plot(*zip(*pts), marker=marker, color=color, label=method, ms=5, lw=1.3)
+        if sub:
+            ax.set_title(f"{name} {sub[0]['shape']} {sub[0]['dtype']}", fontsize=10)
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(ylabel)
+        for on, axis, setter in ((logx, ax.xaxis, ax.set_xscale), (logy, ax.yaxis, ax.set_yscale)):
+            if on:
+                setter("log")
+                axis.set_major_formatter(FuncFormatter(lambda v, _pos: f"{v:g}"))
+                axis.set_minor_formatter(NullFormatter())
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=8)
+    for ax in list(axes.flat)[n:]:
+        ax.set_visible(False)
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def write_charts(rows: list[dict], names: list[str], out: Path) -> None:
+    _panels(
+        rows,
+        names,
+        "bits_per_voxel",
+        "psnr_db",
+        out / "psnr_vs_bpv.png",
+        title="PSNR (peak = value range) vs bits per voxel",
+        xlabel="bits per voxel",
+        ylabel="PSNR (dB)",
+        logx=True,
+    )
+    _panels(
+        rows,
+        names,
+        "ratio",
+        "max_abs_err",
+        out / "maxerr_vs_ratio.png",
+        title="Max abs error vs compression ratio (raw original bytes / compressed)",
+        xlabel="ratio",
+        ylabel="max abs error",
+        logx=True,
+        logy=True,
+    )
+    _panels(
+        rows,
+        names,
+        "decode_MBps",
+        "psnr_db",
+        out / "psnr_vs_decode.png",
+        title="PSNR vs decode speed (MB/s of original raw bytes, single thread)",
+        xlabel="decode MB/s",
+        ylabel="PSNR (dB)",
+        logx=True,
+    )
+
+
+def _volpack_revision() -> str:
+    """Commit of the volpack checkout, and whether its working tree had local changes."""
+    import subprocess
+
+    try:
+        head = subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True
+        ).stdout.strip()
+        dirty = subprocess.run(
+            ["git", "status", "--porcelain", "--", "volpack"],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+        ).stdout.strip()
+    except OSError:
+        return "unknown"
+    return f"{head}{' + uncommitted changes in volpack/' if dirty else ''}" if head else "unknown"
+
+
+def write_table(rows: list[dict], names: list[str], notes: list[str], args, out: Path) -> None:
+    lines = [
+        "# Lossy benchmark: ratio at equal absolute error bounds",
+        "",
+        "`" + " ".join(["python scripts/bench_lossy.py", *sys.argv[1:]]) + "`",
+        "",
+        f"Machine: {platform.machine()}, {platform.python_implementation()} "
+        f"{platform.python_version()}, single thread per method, best of {args.repeat}."
+        f" volpack revision: {_volpack_revision()}.",
+        "Ratio = raw bytes of the original dtype / compressed bytes. Peers get integer volumes as a"
+        " float32 copy. Best ratio per bound in **bold** among methods that held the bound;"
+        " `✗` = max abs error above E (strict check, in float64 on every voxel).",
+        "",
+    ]
+    if notes:
+        lines += ["Skipped:", ""] + [f"- {n}" for n in notes] + [""]
+    for name in names:
+        sub = [r for r in rows if r["dataset"] == name]
+        if not sub:
+            lines += [f"## {name}", "", "no results", ""]
+            continue
+        r0 = sub[0]
+        lines += [
+            f"## {name}: {r0['shape']} {r0['dtype']}, value range {r0['value_range']:g}",
+            "",
+        ]
+        bounded = [r for r in sub if r["bound"] != ""]
+        methods = [m for m in BOUND_METHODS if any(r["method"] == m for r in bounded)]
+        if methods:
+            bounds = sorted({r["bound"] for r in bounded})
+            cell = {(r["method"], r["bound"]): r for r in bounded}
+            for what, key, fmt in (("ratio", "ratio", "{:.2f}"), ("PSNR dB", "psnr_db", "{:.1f}")):
+                lines.append(f"| E | E / range | {' | '.join(f'{m} {what}' for m in methods)} |")
+                lines.append("|---:|---:|" + "---:|" * len(methods))
+                for b in bounds:
+                    held = [
+                        cell[m, b][key]
+                        for m in methods
+                        if (m, b) in cell and cell[m, b]["bound_ok"]
+                    ]
+                    best = max(held) if held else None
+                    cells = []
+                    for m in methods:
+                        r = cell.get((m, b))
+                        if r is None:
+                            cells.append("–")
+                            continue
+                        txt = fmt.format(r[key])
+                        if not r["bound_ok"]:
+                            txt += " ✗"
+                        elif key == "ratio" and r[key] == best:
+                            txt = f"**{txt}**"
+                        cells.append(txt)
+                    lines.append(f"| {b:g} | {b / r0['value_range']:.0e} | {' | '.join(cells)} |")
+                if key == "ratio":
+                    held_all = []
+                    for m in methods:
+                        rs = [r for r in bounded if r["method"] == m]
+                        bad = [r for r in rs if not r["bound_ok"]]
+                        if not bad:
+                            held_all.append(f"yes ({len(rs)}/{len(rs)})")
+                        else:
+                            worst = max(r["max_abs_err"] - r["bound"] for r in bad)
+                            held_all.append(
+                                f"**no** ({len(rs) - len(bad)}/{len(rs)} held;"
+                                f" worst excess {worst:.3g})"
+                            )
+                    lines.append(f"| every bound held? | | {' | '.join(held_all)} |")
+                lines.append("")
+        qual = [r for r in sub if r["method"] == "volpack-quality"]
+        if qual:
+            lines += [
+                "volpack `quality=Q` (no bound):",
+                "",
+                "| Q | ratio | bits/voxel | PSNR dB | max abs error |",
+                "|---:|---:|---:|---:|---:|",
+            ]
+            for r in qual:
+                lines.append(
+                    f"| {r['setting'].split('=')[1]} | {r['ratio']:.2f} | {r['bits_per_voxel']:.3f} "
+                    f"| {r['psnr_db']:.1f} | {r['max_abs_err']:g} |"
+                )
+            lines.append("")
+    (out / "table.md").write_text("\n".join(lines))
+
+
+# ---------------------------------------------------------------------------------------
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument(
+        "--datasets",
+        default=",".join(DEFAULT_DATASETS),
+        help=f"comma-separated dataset names (default {','.join(DEFAULT_DATASETS)})",
+    )
+    p.add_argument(
+        "--methods",
+        default=",".join(ALL_METHODS),
+        help=f"comma-separated methods (default {','.join(ALL_METHODS)})",
+    )
+    p.add_argument("--quick", action="store_true", help="128^3 center crop of each volume")
+    p.add_argument("--repeat", type=int, default=2, help="timing repeats, best kept (default 2)")
+    p.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        help="output folder (default results/lossy, results/lossy/quick with --quick)",
+    )
+    args = p.parse_args(argv)
+
+    names = [n for n in args.datasets.replace(" ", ",").split(",") if n]
+    unknown = [n for n in names if n not in datasets.DATASETS]
+    if unknown:
+        p.error(f"unknown dataset(s) {', '.join(unknown)}; known: {', '.join(datasets.DATASETS)}")
+    wanted = [m for m in args.methods.replace(" ", ",").split(",") if m]
+    bad = [m for m in wanted if m not in ALL_METHODS]
+    if bad:
+        p.error(f"unknown method(s) {', '.join(bad)}; known: {', '.join(ALL_METHODS)}")
+    out = args.out or (ROOT / "results" / "lossy" / ("quick" if args.quick else ""))
+    out.mkdir(parents=True, exist_ok=True)
+    args.repeat = max(1, args.repeat)
+
+    warnings.filterwarnings("ignore", category=RuntimeWarning)
+    methods, notes = build_methods(wanted)
+    if not methods:
+        print("no method could be set up", file=sys.stderr)
+        return 1
+    rows = []
+    for name in names:
+        try:
+            rows += run_dataset(name, methods, args.quick, args.repeat)
+        except Exception as exc:
+            warn(f"{name}: skipped ({type(exc).__name__}: {exc})")
+            notes.append(f"dataset {name}: skipped ({exc})")
+
+    write_csv(rows, out / "lossy.csv")
+    done = [n for n in names if any(r["dataset"] == n for r in rows)]
+    write_table(rows, done, notes, args, out)
+    try:
+        write_charts(rows, done, out)
+    except Exception as exc:
+        warn(f"charts not written ({type(exc).__name__}: {exc})")
+    violated = [r for r in rows if r["bound_ok"] is False]
+    print(f"\nwrote {out}/lossy.csv, table.md and 3 charts ({len(rows)} rows)")
+    for r in violated:
+        print(
+            f"BOUND VIOLATED: {r['dataset']} {r['method']} {r['setting']}: "
+            f"max abs error {r['max_abs_err']:.6g}"
+        )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
