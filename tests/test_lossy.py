@@ -231,3 +231,32 @@ def run(a, **kw):
     buf = io.BytesIO()
     st = api.compress(a, buf, **kw)
     return st, buf.getvalue()
+
+
+def test_loose_bounds_take_the_coefficient_path_and_still_hold(scan16):
+    from volpack.codec import get_codec
+    from volpack.lossy import FLAG_COEF
+
+    for bound in (25, 120):
+        blob = api.compress_array(scan16, max_error=bound)
+        check_bound(scan16, api.decompress_array(blob), bound)
+        with Reader(blob) as r:
+            c = get_codec(r.header["codec"])
+            coef = [(node, p) for _, node, p in r if p[0] & FLAG_COEF]
+        assert coef, "a loose bound on smooth data should pick the coefficient path"
+    from volpack import bricks
+
+    node, payload = coef[0]
+    shape = tuple(s.stop - s.start for s in bricks.brick_slices(scan16.shape, (64,) * 3, node))
+    assert c.decode(payload, shape, scan16.dtype).shape == shape
+    rng = np.random.default_rng(3)
+    for i in range(150):  # corrupt coefficient-path payloads fail cleanly
+        bad = bytearray(payload)
+        if i % 3 == 0:
+            bad = bad[: int(rng.integers(len(bad)))]
+        else:
+            bad[int(rng.integers(len(bad)))] ^= 1 << int(rng.integers(8))
+        try:
+            c.decode(bytes(bad), shape, scan16.dtype)
+        except FormatError:
+            pass

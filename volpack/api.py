@@ -197,12 +197,14 @@ def measured_quality(c, worst: float, sse: float, nvalid: int) -> dict[str, Any]
     lossless = c.codec_id in ("wavelet", "zstd")
     rng = getattr(c, "value_range", None)
     mse = sse / nvalid if nvalid else 0.0
-    psnr = float("inf") if mse == 0 else 10 * np.log10((rng or 1.0) ** 2 / mse)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        peak2 = np.float64(rng or 1.0) ** 2
+        psnr = float("inf") if mse == 0 else float(10 * np.log10(peak2 / mse))
     out = {
         "lossless": lossless,
         "max_error": 0.0 if lossless else float(worst),
-        "rmse": float(np.sqrt(mse)),
-        "psnr": None if lossless or not np.isfinite(psnr) else float(psnr),
+        "rmse": float(np.sqrt(mse)) if np.isfinite(mse) else None,
+        "psnr": None if lossless or not np.isfinite(psnr) else psnr,
     }
     if not lossless:
         out["mode"] = c.codec_id
