@@ -260,3 +260,26 @@ def test_loose_bounds_take_the_coefficient_path_and_still_hold(scan16):
             c.decode(bytes(bad), shape, scan16.dtype)
         except FormatError:
             pass
+
+
+@pytest.mark.parametrize("wavelet", ["d4", "c6", "cdf97"])
+def test_float_wavelets_for_comparison(brain, wavelet):
+    a = brain[10:60, 20:100, 30:90]
+    st, blob = run(a, quality=63, wavelet=wavelet)
+    b = api.decompress_array(blob)
+    assert b.dtype == a.dtype and b.shape == a.shape
+    err = np.abs(b.astype(np.float64) - a)
+    assert err.max() == st["max_error"]
+    mse = np.mean(err**2)
+    assert st["psnr"] == pytest.approx(10 * math.log10(float(a.max() - a.min()) ** 2 / mse))
+    assert 35 < st["psnr"] < 60 and st["ratio"] > 2
+    f = a.astype(np.float32) / 3  # floats too
+    fb = api.decompress_array(api.compress_array(f, quality=255, wavelet=wavelet))
+    assert np.abs(fb - f).max() < 0.05 * float(f.max() - f.min())
+
+
+def test_float_wavelets_are_refused_where_they_cannot_serve(brain):
+    with pytest.raises(ValueError, match="lossy"):
+        api.compress_array(brain, wavelet="cdf97")
+    with pytest.raises(ValueError, match="error bound"):
+        api.compress_array(brain, wavelet="d4", max_error=2)

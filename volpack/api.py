@@ -36,6 +36,13 @@ def make_codec(codec: str = "auto", dtype: Any = None, **options: Any):
     if codec == "auto":
         codec = "wavelet" if dtype is None or np.dtype(dtype).name in WAVELET_DTYPES else "zstd"
     if codec == "wavelet":
+        from .floatwave import FLOAT_WAVELETS
+
+        if options.get("wavelet") in FLOAT_WAVELETS:
+            raise ValueError(
+                f"the {options['wavelet']} wavelet is a float (lossy) filter for comparison: "
+                "add --quality, --psnr or --ratio, or pick 53, 26, haar or 97m for lossless"
+            )
         return WaveletCodec(**{k: v for k, v in options.items() if v is not None})
     if codec == "zstd":
         return ZstdCodec()

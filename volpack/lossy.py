@@ -531,4 +531,10 @@ def _check_inner(c) -> None:
     _check_choice("order", c.order, ORDER_NAMES)
 
 
-LOSSY_CODECS = {c.codec_id: c for c in (BoundedCodec, CoefCodec)}
+def _lossy_codecs() -> dict[str, type]:
+    from .floatwave import FloatWaveletCodec
+
+    return {c.codec_id: c for c in (BoundedCodec, CoefCodec, FloatWaveletCodec)}
+
+
+LOSSY_CODECS = _lossy_codecs()

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from . import bricks
+from .floatwave import FLOAT_WAVELETS, FloatWaveletCodec
 from .lossy import BoundedCodec, CoefCodec
 from .parallel import ordered_map
 from .volume import Volume
@@ -61,6 +62,8 @@ def plan(
     lo, hi = value_range(vol.data, fill_value)
     rng = hi - lo
     inner = {k: v for k, v in inner.items() if v is not None}
+    if inner.get("wavelet") in FLOAT_WAVELETS:
+        return _plan_float_wavelet(vol, brick, workers, what, target, fill_value, inner, rng)
     if what in ("quality", "threshold"):
         if dtype.kind == "f" or fill_value is not None:
             raise ValueError(
@@ -193,3 +196,20 @@ def _search(vol, brick, workers, what, target, make: Callable, rng: float, knob:
         "steps": [{knob: a, what: b, "scope": sc} for a, b, sc in tried],
     }
     return make(best[0]), record
+
+
+def _plan_float_wavelet(vol, brick, workers, what, target, fill_value, inner, rng):
+    """The PyWavelets comparison filters: quality, or a PSNR/ratio search of the step."""
+    if what not in ("quality", "psnr", "ratio") or fill_value is not None:
+        raise ValueError(
+            f"the float wavelets {', '.join(FLOAT_WAVELETS)} take --quality, --psnr or --ratio "
+            "(no error bound, no fill value); use an integer wavelet for --max-error"
+        )
+    opts = {"wavelet": inner["wavelet"], "coder": inner.get("coder", "arith")}
+    if what == "quality":
+        return FloatWaveletCodec(value_range=max(rng, 1e-30), quality=int(target), **opts), None
+
+    def make(step: float) -> FloatWaveletCodec:
+        return FloatWaveletCodec(value_range=max(rng, 1e-30), step=step, **opts)
+
+    return _search(vol, brick, workers, what, float(target), make, max(rng, 1e-30), "step")

@@ -43,10 +43,11 @@ def _brick(value: str) -> int | tuple[int, int, int]:
 )
 @click.option(
     "--wavelet",
-    type=click.Choice(["53", "26", "haar", "97m"]),
+    type=click.Choice(["53", "26", "haar", "97m", "d4", "c6", "cdf97"]),
     default="53",
     show_default=True,
-    help="Reversible lifting filter: 5/3 (CDF 2,2), 2/6 (TS), Haar (S-transform), 9/7-M.",
+    help="Reversible lifting filter: 5/3 (CDF 2,2), 2/6 (TS), Haar (S-transform), 9/7-M; "
+    "or, lossy only, the float Daubechies-4, Coiflet-6 and CDF 9/7 (for comparison).",
 )
 @click.option(
     "--coder",
