@@ -334,15 +334,18 @@ def arith_encode(coeffs, perm, end, parent, cls):
             low <<= 8
             nbytes += 1
 
-    def put_half(bit):
+    def put_even(bits):
+        """Bits at one half each, up to 16 at a time: 2^t equal parts of the range."""
         nonlocal low, rng, nbytes
-        rng >>= 1
-        if bit:
-            low += rng
-        if rng < 1 << 24:
-            rng <<= 8
-            low <<= 8
-            nbytes += 1
+        while bits:
+            t = min(len(bits), 16)
+            chunk, bits = bits[:t], bits[t:]
+            rng >>= t
+            low += int(chunk, 2) * rng
+            while rng < 1 << 24:
+                rng <<= 8
+                low <<= 8
+                nbytes += 1
 
     flat = [int(v) for v in coeffs.ravel()]
     vals = [flat[j] for j in perm]
@@ -386,8 +389,7 @@ def arith_encode(coeffs, perm, end, parent, cls):
         for b in below[:modelled]:
             put(n_flag + n_tree + ((nb << mant_bits) + prefix) * n_classes + int(cls[i]), int(b))
             prefix = 2 * prefix + int(b)
-        for b in below[modelled:]:
-            put_half(int(b))
+        put_even(below[modelled:])
         nbits[i] = nb
         nprev2, nprev = nprev, nb
         i += 1

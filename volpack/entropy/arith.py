@@ -162,14 +162,17 @@ def _encode_kernel(flat, perm, end, parent, cls, out):
             nprev = 0
             i = e
             continue
-        for b in range(nb - 2 - min(nb - 1, MANT_BITS), -1, -1):
-            rng >>= 1
-            if (v >> np.uint64(b)) & np.uint64(1):
-                low += rng
-                if low > 0xFFFFFFFF:
-                    _carry(out, pos)
-                    low &= 0xFFFFFFFF
-            if rng < TOP:
+        # The low bits at one half, up to 16 at a time: the range splits into 2^t equal parts.
+        k = nb - 1 - min(nb - 1, MANT_BITS)
+        while k > 0:
+            t = min(k, 16)
+            k -= t
+            rng >>= t
+            low += np.int64((v >> np.uint64(k)) & np.uint64((1 << t) - 1)) * rng
+            if low > 0xFFFFFFFF:
+                _carry(out, pos)
+                low &= 0xFFFFFFFF
+            while rng < TOP:
                 rng <<= 8
                 out[pos] = low >> 24
                 pos += 1
@@ -301,14 +304,15 @@ def _decode_kernel(data, perm, end, parent, cls, flat, nmax):
                 pos += 1
             prefix = 2 * prefix + bit
             v = (v << np.uint64(1)) | np.uint64(bit)
-        for _ in range(nb - 1 - min(nb - 1, MANT_BITS)):
-            rng >>= 1
-            bit = 0
-            if code >= rng:
-                code -= rng
-                bit = 1
-            v = (v << np.uint64(1)) | np.uint64(bit)
-            if rng < TOP:
+        k = nb - 1 - min(nb - 1, MANT_BITS)
+        while k > 0:
+            t = min(k, 16)
+            k -= t
+            rng >>= t
+            r = min(code // rng, (1 << t) - 1)  # a corrupt stream may point past the end
+            code -= r * rng
+            v = (v << np.uint64(t)) | np.uint64(r)
+            while rng < TOP:
                 rng <<= 8
                 code = ((code << 8) | (np.int64(data[pos]) if pos < size else 0)) & 0xFFFFFFFF
                 pos += 1
