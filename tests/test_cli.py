@@ -184,6 +184,11 @@ def test_stdin_to_hdf5_and_stdout(tmp_path):
 def test_demo_runs_and_checks_every_round_trip(tmp_path):
     r = run("demo", "--out", tmp_path / "demo", "--repeat", "1", "--json")
     d = json.loads(r.stdout)
-    assert all(row["lossless"] for row in d["rows"]) and len(d["rows"]) >= 5
-    assert max(row["ratio"] for row in d["rows"]) > 2.0
+    lossless = [row for row in d["rows"] if row["lossless"]]
+    lossy = [row for row in d["rows"] if not row["lossless"]]
+    assert len(lossless) >= 5 and len(lossy) >= 3
+    assert all(row["psnr"] > 35 and row["ratio"] > row["psnr"] / 20 for row in lossy)
+    assert max(row["ratio"] for row in lossless) > 2.0
+    bounded = [row for row in lossy if "max error" in row["stage"]]
+    assert bounded and all(row["max_error"] <= 2 for row in bounded)
     assert os.path.exists(d["input"])

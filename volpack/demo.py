@@ -9,6 +9,7 @@ from __future__ import annotations
 import gzip
 import io
 import os
+import re
 import time
 from collections.abc import Callable
 from importlib import resources
@@ -52,7 +53,16 @@ def stages() -> list[tuple[str, dict[str, Any]]]:
         )
     )
     out.append(("zstd (byte-shuffled)", {"codec": "zstd"}))
+    out.append(("lossy: max error 2", {"max_error": 2}))
+    out.append(("lossy: quality 63", {"quality": 63}))
+    out.append(("lossy: PSNR 45 dB target", {"psnr": 45.0}))
+    out.append(("lossy: quality 63, CDF 9/7 (float)", {"quality": 63, "wavelet": "cdf97"}))
     return out
+
+
+def _is_lossless(opts: dict[str, Any]) -> bool:
+    lossy = ("max_error", "rel_error", "psnr", "ratio", "quality", "threshold")
+    return not any(k in opts for k in lossy)
 
 
 def run(
@@ -78,17 +88,8 @@ def run(
     todo = stages()
     rows = []
     for i, (label, opts) in enumerate(todo):
-        slug = (
-            label.split(",")[0]
-            .replace(" + ", "-")
-            .replace(" ", "-")
-            .replace("/", "")
-            .replace("(", "")
-            .replace(")", "")
-        )
-        path = os.path.join(
-            folder, f"{DEMO_NAME}-{slug}{'-line' if opts.get('order') == 'line' else ''}.vpk"
-        )
+        slug = re.sub(r"[^a-z0-9]+", "-", label.lower().replace("/", "")).strip("-")
+        path = os.path.join(folder, f"{DEMO_NAME}-{slug}.vpk")
         api.compress(vol, path, force=force, **opts)  # warms the kernels, writes the file
         blob, enc = _timed(lambda o=opts: api.compress_array(vol, **o), repeat)
         with open(path, "rb") as f:
@@ -99,8 +100,11 @@ def run(
         dec_vol, dec = _timed(lambda p=path: api.decompress(p), repeat)
         back = dec_vol.data
         lossless = bool(np.array_equal(back, vol.data))
-        if not lossless:
-            raise VolpackError(f"demo: {label} did not round-trip exactly")
+        bound = opts.get("max_error")
+        if lossless != _is_lossless(opts):
+            raise VolpackError(f"demo: {label} did not round-trip as expected")
+        if bound is not None and metrics.max_error(vol.data, back) > bound:
+            raise VolpackError(f"demo: {label} broke its error bound {bound}")
         rows.append(
             {
                 "stage": label,
