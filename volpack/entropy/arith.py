@@ -99,7 +99,7 @@ def _encode_kernel(flat, perm, end, parent, cls, out):
         e = end[i]
         c = np.int64(flat[perm[i]])
         v = np.uint64((c << 1) ^ (c >> 63))
-        nb = 64 - leading_zeros(v)
+        nb = 64 - np.int64(leading_zeros(v))
         # The modelled decisions of this position: (model, bit) pairs, coded in one loop.
         nd = 0
         if e > i + 1:
@@ -129,13 +129,13 @@ def _encode_kernel(flat, perm, end, parent, cls, out):
                     if nb == j:
                         break
                     j -= 1
-            prefix = 1
-            for b in range(nb - 2, nb - 2 - min(nb - 1, MANT_BITS), -1):
-                bit = np.int64((v >> np.uint64(b)) & np.uint64(1))
-                keys[nd] = _mant_model(nb, prefix, cls[i])
-                bits[nd] = bit
-                nd += 1
-                prefix = 2 * prefix + bit
+            nm = min(nb - 1, MANT_BITS)
+            if nm > 0:
+                top = np.int64(v >> np.uint64(nb - 1 - nm))  # the leading one and nm bits
+                for j in range(nm):
+                    keys[nd] = _mant_model(nb, top >> (nm - j), cls[i])
+                    bits[nd] = (top >> (nm - 1 - j)) & 1
+                    nd += 1
         for d in range(nd):
             k = keys[d]
             st = np.int64(state[k])

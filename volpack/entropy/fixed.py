@@ -40,7 +40,7 @@ def _put(out, pos, acc, nacc, value, nbits):
 
 @kernel(inline=True)
 def _bitlen(v):
-    return 64 - leading_zeros(v)
+    return 64 - np.int64(leading_zeros(v))
 
 
 @kernel(inline=True)
