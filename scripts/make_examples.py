@@ -95,6 +95,7 @@ def make_wavelet(folder: Path) -> Path:
 LOSSY_CASES = [
     ("lossy-bounded-f32", "f32", {"max_error": 0.5, "fill_value": -999.0}),
     ("lossy-bounded-i16-huffman", "i16", {"max_error": 40, "coder": "huffman"}),
+    ("lossy-bounded-i16-loose", "i16", {"max_error": 400}),
     ("lossy-coef-q63-u8", "u8", {"quality": 63}),
     ("lossy-coef-threshold-i16", "i16", {"threshold": 50.0, "order": "line"}),
 ]

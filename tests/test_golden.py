@@ -62,6 +62,7 @@ def test_golden_labels_use_every_brick_mode():
 LOSSY = [
     ("lossy-bounded-f32", "f32", {"max_error": 0.5, "fill_value": -999.0}),
     ("lossy-bounded-i16-huffman", "i16", {"max_error": 40, "coder": "huffman"}),
+    ("lossy-bounded-i16-loose", "i16", {"max_error": 400}),  # the coefficient path
     ("lossy-coef-q63-u8", "u8", {"quality": 63}),
     ("lossy-coef-threshold-i16", "i16", {"threshold": 50.0, "order": "line"}),
 ]

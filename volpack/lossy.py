@@ -48,7 +48,7 @@ from .errors import FormatError
 FLAG_MASK, FLAG_CORRECTIONS, FLAG_COEF, FLAG_RESIDUALS = 1, 2, 4, 8
 # Orthonormal coefficient step of the bounded codec's coefficient path, in units of the
 # error allowed on its grid (measured best on the head CT and the z-map).
-COEF_STEP = 1.5
+COEF_STEP = 2.0
 QUALITIES = (255, 127, 63, 31, 15)
 _U32 = struct.Struct("<I")
 
@@ -199,15 +199,22 @@ class BoundedCodec:
         off = g - rec
         if mask is not None:
             off[mask] = 0
-        stray = np.flatnonzero(np.abs(off) > slack)
-        rec.reshape(-1)[stray] += off.reshape(-1)[stray]  # residuals put them on the grid
+        # Voxels past the allowed grid error get a residual in units of 2s+1 grid steps,
+        # which brings them back within s: mostly zeros and +-1, coded as a sparse field.
+        width = 2 * slack + 1
+        res = np.where(np.abs(off) > slack, np.floor(off / width + 0.5), 0).astype(np.int64)
         body = CODERS[self.coder].encode(qc, sigmap.scan(x.shape, levels, self.order))
         extra = []
-        if stray.size:
+        if res.any():
+            rec += res * width
             extra.append(
-                stray.astype("<u4").tobytes() + off.reshape(-1)[stray].astype("<i8").tobytes()
+                CODERS[self._residual_coder].encode(res, sigmap.scan(x.shape, (0, 0, 0), "line"))
             )
         return self._finish(x, mask, self._from_grid(rec, x.dtype), FLAG_COEF, [body], extra)
+
+    @property
+    def _residual_coder(self) -> str:
+        return "arith" if self.coder == "arith" else "rle"
 
     def _coef_steps(self, shape, levels) -> np.ndarray:
         """Per-coefficient steps of the coefficient path, on the fine grid."""
@@ -239,7 +246,7 @@ class BoundedCodec:
         parts = [b""] + [_U32.pack(len(b)) + b for b in inner]
         for body in residuals:
             flags |= FLAG_RESIDUALS
-            parts.append(_section(body))
+            parts.append(_U32.pack(len(body)) + body)
         if mask is not None:
             flags |= FLAG_MASK
             body = np.packbits(mask.reshape(-1)).tobytes() + _as_stored(x[mask])
@@ -274,14 +281,15 @@ class BoundedCodec:
         if flags & FLAG_COEF:
             g = self._decode_coef(inner, tuple(shape))
             if flags & FLAG_RESIDUALS:
-                body, pos = _take(data, pos, n * 12, zstd=True)
-                k = len(body) // 12
-                if k * 12 != len(body):
-                    raise FormatError("bounded brick payload: residual section has a ragged length")
-                idx = np.frombuffer(body[: 4 * k], "<u4").astype(np.int64)
-                if k and idx.max() >= n:
-                    raise FormatError("bounded brick payload: a residual points outside the brick")
-                g.reshape(-1)[idx] += np.frombuffer(body[4 * k :], "<i8")
+                from . import sigmap
+                from .entropy import CODERS
+
+                body, pos = _take(data, pos, len(data))
+                res = np.empty(tuple(shape), np.int64)
+                CODERS[self._residual_coder].decode(
+                    body, sigmap.scan(tuple(shape), (0, 0, 0), "line"), res
+                )
+                g += res * (2 * self._fine()[1] + 1)
             out = self._from_grid(g, dtype)
         else:
             if flags & FLAG_RESIDUALS:
