@@ -276,3 +276,10 @@ def test_float_wavelets_are_refused_where_they_cannot_serve(brain):
         api.compress_array(brain, wavelet="cdf97")
     with pytest.raises(ValueError, match="error bound"):
         api.compress_array(brain, wavelet="d4", max_error=2)
+
+
+def test_64_bit_integers_are_refused_with_a_clear_error():
+    a = np.arange(4 * 4 * 4, dtype=np.uint64).reshape(4, 4, 4) + np.uint64(2**63)
+    with pytest.raises(ValueError, match="64-bit integers are stored exactly"):
+        api.compress_array(a, max_error=10)
+    np.testing.assert_array_equal(api.decompress_array(api.compress_array(a)), a)

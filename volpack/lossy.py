@@ -83,6 +83,11 @@ class BoundedCodec:
         if not (max_error > 0 and math.isfinite(max_error)):
             raise ValueError(f"expected a positive finite error bound, found {max_error!r}")
         integer = dtype.kind in "iu"
+        if integer and dtype.itemsize > 4:
+            raise ValueError(
+                f"error-bounded coding takes 8 to 32-bit integers or floats, found {dtype}; "
+                "64-bit integers are stored exactly by the lossless path"
+            )
         if integer:
             e = math.floor(max_error)
             step = 2 * e + 1
