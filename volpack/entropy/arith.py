@@ -77,13 +77,14 @@ def _mant_model(nb, prefix, c):
 @kernel
 def _encode_kernel(flat, perm, end, parent, cls, out):
     n = perm.size
+    vals = np.empty(n, dtype=np.int64)  # coefficients in scan order, gathered once
     nz = np.zeros(n + 1, dtype=np.int32)  # non-zeros before each scan position
     for i in range(n):
-        nz[i + 1] = nz[i] + (flat[perm[i]] != 0)
+        c = np.int64(flat[perm[i]])
+        vals[i] = c
+        nz[i + 1] = nz[i] + (c != 0)
     state = np.full(N_MODELS, STATE_INIT, dtype=np.uint16)
     nbits = np.zeros(n, dtype=np.uint8)  # bit length at each scan position
-    keys = np.empty(72, dtype=np.int64)
-    bits = np.empty(72, dtype=np.int64)
     cap = out.size
     low = np.int64(0)  # 32 bits; a carry out of them is added to the bytes already out
     rng = np.int64(0xFFFFFFFF)
@@ -97,52 +98,14 @@ def _encode_kernel(flat, perm, end, parent, cls, out):
             return -1
         ctx, q = _context(i, parent, cls, nbits, nprev, nprev2)
         e = end[i]
-        c = np.int64(flat[perm[i]])
-        v = np.uint64((c << 1) ^ (c >> 63))
-        nb = 64 - np.int64(leading_zeros(v))
-        # The modelled decisions of this position: (model, bit) pairs, coded in one loop.
-        nd = 0
-        if e > i + 1:
-            keys[0] = ctx
-            bits[0] = 0 if nz[e] == nz[i] else 1
-            nd = 1
-        if nd == 0 or bits[0] == 1:
-            base = N_FLAG + (ctx << TREE_BITS)
-            keys[nd] = base
-            bits[nd] = 1 if nb >= q else 0
-            nd += 1
-            if nb >= q:  # count up from the estimate q
-                j = q
-                while j < 63:
-                    keys[nd] = base + 1 + min(j - q, 46)
-                    bits[nd] = 1 if nb > j else 0
-                    nd += 1
-                    if nb == j:
-                        break
-                    j += 1
-            else:  # count down
-                j = q - 1
-                while j > 0:
-                    keys[nd] = base + 48 + (q - 1 - j)
-                    bits[nd] = 1 if nb < j else 0
-                    nd += 1
-                    if nb == j:
-                        break
-                    j -= 1
-            nm = min(nb - 1, MANT_BITS)
-            if nm > 0:
-                top = np.int64(v >> np.uint64(nb - 1 - nm))  # the leading one and nm bits
-                for j in range(nm):
-                    keys[nd] = _mant_model(nb, top >> (nm - j), cls[i])
-                    bits[nd] = (top >> (nm - 1 - j)) & 1
-                    nd += 1
-        for d in range(nd):
-            k = keys[d]
+        if e > i + 1:  # the subtree flag
+            bit = np.int64(nz[e] != nz[i])
+            k = ctx
             st = np.int64(state[k])
             p = st >> 4
             u = st & 15
             bound = (rng >> PROB_BITS) * p
-            mask = -bits[d]
+            mask = -bit
             low += bound & mask
             if low > 0xFFFFFFFF:
                 _carry(out, pos)
@@ -157,18 +120,95 @@ def _encode_kernel(flat, perm, end, parent, cls, out):
                 out[pos] = low >> 24
                 pos += 1
                 low = (low << 8) & 0xFFFFFFFF
-        if nd == 1:  # a zero subtree: skipped
-            nprev2 = nprev
-            nprev = 0
-            i = e
-            continue
+            if bit == 0:
+                nprev2 = nprev
+                nprev = 0
+                i = e
+                continue
+        c = vals[i]
+        v = np.uint64((c << 1) ^ (c >> 63))
+        nb = 64 - np.int64(leading_zeros(v))
+        base = N_FLAG + (ctx << TREE_BITS)
+        up = nb >= q
+        bit = np.int64(up)
+        k = base
+        st = np.int64(state[k])
+        p = st >> 4
+        u = st & 15
+        bound = (rng >> PROB_BITS) * p
+        mask = -bit
+        low += bound & mask
+        if low > 0xFFFFFFFF:
+            _carry(out, pos)
+            low &= 0xFFFFFFFF
+        rng = bound + ((rng - 2 * bound) & mask)
+        r = RATE[u]
+        gain = ((1 << PROB_BITS) - p) >> r
+        p += gain - ((gain + (p >> r)) & mask)
+        state[k] = (p << 4) | (u + (u < 15))
+        while rng < TOP:
+            rng <<= 8
+            out[pos] = low >> 24
+            pos += 1
+            low = (low << 8) & 0xFFFFFFFF
+        j = q if up else q - 1
+        while (up and j < 63) or (not up and j > 0):  # count from the estimate q
+            k = base + 1 + min(j - q, 46) if up else base + 48 + (q - 1 - j)
+            bit = np.int64(nb > j) if up else np.int64(nb < j)
+            st = np.int64(state[k])
+            p = st >> 4
+            u = st & 15
+            bound = (rng >> PROB_BITS) * p
+            mask = -bit
+            low += bound & mask
+            if low > 0xFFFFFFFF:
+                _carry(out, pos)
+                low &= 0xFFFFFFFF
+            rng = bound + ((rng - 2 * bound) & mask)
+            r = RATE[u]
+            gain = ((1 << PROB_BITS) - p) >> r
+            p += gain - ((gain + (p >> r)) & mask)
+            state[k] = (p << 4) | (u + (u < 15))
+            while rng < TOP:
+                rng <<= 8
+                out[pos] = low >> 24
+                pos += 1
+                low = (low << 8) & 0xFFFFFFFF
+            if nb == j:
+                break
+            j += 1 if up else -1
+        nm = min(nb - 1, MANT_BITS)
+        if nm > 0:
+            top = np.int64(v >> np.uint64(nb - 1 - nm))  # the leading one and nm bits
+            for jm in range(nm):
+                k = _mant_model(nb, top >> (nm - jm), cls[i])
+                bit = (top >> (nm - 1 - jm)) & 1
+                st = np.int64(state[k])
+                p = st >> 4
+                u = st & 15
+                bound = (rng >> PROB_BITS) * p
+                mask = -bit
+                low += bound & mask
+                if low > 0xFFFFFFFF:
+                    _carry(out, pos)
+                    low &= 0xFFFFFFFF
+                rng = bound + ((rng - 2 * bound) & mask)
+                r = RATE[u]
+                gain = ((1 << PROB_BITS) - p) >> r
+                p += gain - ((gain + (p >> r)) & mask)
+                state[k] = (p << 4) | (u + (u < 15))
+                while rng < TOP:
+                    rng <<= 8
+                    out[pos] = low >> 24
+                    pos += 1
+                    low = (low << 8) & 0xFFFFFFFF
         # The low bits at one half, up to 16 at a time: the range splits into 2^t equal parts.
-        k = nb - 1 - min(nb - 1, MANT_BITS)
-        while k > 0:
-            t = min(k, 16)
-            k -= t
+        kr = nb - 1 - max(nm, 0)
+        while kr > 0:
+            t = min(kr, 16)
+            kr -= t
             rng >>= t
-            low += np.int64((v >> np.uint64(k)) & np.uint64((1 << t) - 1)) * rng
+            low += np.int64((v >> np.uint64(kr)) & np.uint64((1 << t) - 1)) * rng
             if low > 0xFFFFFFFF:
                 _carry(out, pos)
                 low &= 0xFFFFFFFF
