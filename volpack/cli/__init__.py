@@ -83,9 +83,9 @@ def main(ctx: click.Context, verbose: int, quiet: bool, debug: bool) -> None:
 
 
 def _register() -> None:
-    from . import codec, convert, demo, info, jit
+    from . import batch, codec, convert, demo, info, jit
 
-    for module in (info, convert, codec, demo, jit):
+    for module in (info, convert, codec, batch, demo, jit):
         for cmd in module.COMMANDS:
             main.add_command(cmd)
 

@@ -191,11 +191,28 @@ def compress(
 @click.argument("target")
 @click.option("--roi", help="Decode only Z0:Z1,Y0:Y1,X0:X1 (reads only the bricks it touches).")
 @click.option("--frame", type=click.IntRange(min=0), help="Decode one time step of a 4-D volume.")
+@click.option(
+    "--batch",
+    "batch_mode",
+    is_flag=True,
+    help="SOURCE and TARGET are folders: decode every .vpk below SOURCE, mirroring the tree "
+    "(--workers files at once).",
+)
+@click.option(
+    "--format",
+    "out_format",
+    type=click.Choice(["npy", "nii", "nii.gz", "nrrd", "h5", "tif", "raw"]),
+    default="npy",
+    show_default=True,
+    help="With --batch: the format of the decoded files.",
+)
 @workers_option
 @force_option
 @json_option
 @click.pass_context
-def decompress(ctx, source, target, roi, frame, workers, force, as_json) -> None:
+def decompress(
+    ctx, source, target, roi, frame, batch_mode, out_format, workers, force, as_json
+) -> None:
     """Decode the .vpk file SOURCE ('-' for stdin) into TARGET (any writable format).
 
     \b
@@ -203,7 +220,29 @@ def decompress(ctx, source, target, roi, frame, workers, force, as_json) -> None
       volpack decompress ct.vpk ct.npy
       volpack decompress ct.vpk roi.npy --roi 40:80,100:200,100:200
       volpack decompress ct.vpk - | python -c "import numpy, sys; print(numpy.load(sys.stdin.buffer).shape)"
+      volpack decompress out/ restored/ --batch --format nii.gz --workers 4
     """
+    if batch_mode:
+        if roi or frame is not None:
+            raise click.UsageError("--roi and --frame do not apply with --batch")
+        from .. import batch
+        from .batch import run_batch
+
+        tasks = batch.plan([source], target, suffix="." + out_format, kind="decompress")
+        run_batch(
+            ctx,
+            tasks,
+            target,
+            workers=workers,
+            scheduler=None,
+            resume=False,
+            force=force,
+            fail_fast=False,
+            report_path=None,
+            as_json=as_json,
+            desc="decompress",
+        )
+        return
     from .. import api
     from .. import io as vio
     from ..atomic import check_output

@@ -1,0 +1,214 @@
+"""``volpack batch``: many volumes to ``.vpk`` files, here or on a Dask cluster; and the
+shared runner behind ``volpack decompress --batch``."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import sys
+import time
+from collections.abc import Iterator
+
+import click
+
+from .codec import compress as _compress_cmd
+from .options import emit_json, fmt_bytes, json_option, raw_options, read_kwargs
+
+# the codec and lossy options of `volpack compress`, shared as they are
+_SHARED = (
+    "codec",
+    "wavelet",
+    "coder",
+    "order",
+    "max_levels",
+    "brick",
+    "max_error",
+    "rel_error",
+    "psnr",
+    "ratio",
+    "quality",
+    "threshold",
+    "fill_value",
+)
+
+
+@contextlib.contextmanager
+def files_bar(ctx: click.Context, desc: str) -> Iterator:
+    """A ``progress(done, total, raw_bytes)`` callback drawing files and MB/s (terminal only)."""
+    root = ctx.find_root()
+    quiet = bool(root.obj.get("quiet")) if root.obj else False
+    if quiet or not sys.stderr.isatty():
+        yield None
+        return
+    from tqdm import tqdm
+
+    bar = tqdm(desc=desc, unit="file", file=sys.stderr, leave=False, dynamic_ncols=True)
+    t0 = time.perf_counter()
+
+    def update(done: int, total: int, nbytes: int) -> None:
+        bar.total = total
+        bar.n = done
+        bar.set_postfix_str(f"{nbytes / 1e6 / max(time.perf_counter() - t0, 1e-9):.1f} MB/s")
+        bar.refresh()
+
+    try:
+        yield update
+    finally:
+        bar.close()
+
+
+def run_batch(
+    ctx: click.Context,
+    tasks,
+    out_dir: str,
+    *,
+    workers: int,
+    scheduler: str | None,
+    resume: bool,
+    force: bool,
+    fail_fast: bool,
+    report_path: str | None,
+    as_json: bool,
+    desc: str,
+) -> None:
+    """Run planned tasks with a progress bar; report; exit 1 if any file failed."""
+    from .. import batch
+    from ..atomic import check_output
+
+    if report_path:  # refuse before the run, not after it: a resumed run may replace it
+        check_output(report_path, force=force or resume)
+    with files_bar(ctx, desc) as progress:
+        report = batch.run(
+            tasks,
+            workers=workers,
+            scheduler=scheduler,
+            resume=resume,
+            journal=os.path.join(out_dir, batch.JOURNAL_NAME),
+            fail_fast=fail_fast,
+            force=force,
+            progress=progress,
+        )
+    if report_path:
+        batch.write_report(report, report_path)
+    t = report["totals"]
+    if as_json:
+        emit_json(report)
+    for f in report["files"]:
+        if f["status"] == "failed":
+            click.echo(f"volpack: failed: {f['input']}: {f['error']}", err=True)
+    sizes = f"{fmt_bytes(t['raw_nbytes'])} -> {fmt_bytes(t['nbytes'])}"
+    if desc == "decompress":
+        sizes = f"{fmt_bytes(t['nbytes'])} -> {fmt_bytes(t['raw_nbytes'])}"
+    ratio = f"ratio {t['ratio']:.2f}:1, " if t["ratio"] else ""
+    summary = (
+        f"{out_dir}: {t['ok']} ok, {t['failed']} failed, {t['skipped']} skipped"
+        + (f", {t['cancelled']} cancelled" if t["cancelled"] else "")
+        + f" of {t['files']} files; {sizes}, "
+        f"{ratio}{t['seconds']:.1f} s, {t['files_per_s']:.2f} files/s, {t['mb_per_s']:.1f} MB/s"
+    )
+    if t["failed"] or t["cancelled"]:
+        click.echo(f"volpack: error: {summary}", err=True)
+        sys.exit(1)
+    if not as_json:
+        click.echo(summary, err=True)
+
+
+@click.command(context_settings={"help_option_names": ["-h", "--help"]})
+@click.argument("inputs", nargs=-1, required=True)
+@click.argument("out_dir")
+@click.option(
+    "-j",
+    "--workers",
+    type=click.IntRange(min=0),
+    default=1,
+    show_default=True,
+    help="Files converted at once (0 = every core); with --scheduler local, Dask workers.",
+)
+@click.option(
+    "--threads",
+    type=click.IntRange(min=0),
+    default=1,
+    show_default=True,
+    help="Threads for the bricks of each file (0 = every core).",
+)
+@click.option(
+    "--scheduler",
+    metavar="ADDRESS",
+    help="Run on Dask: a scheduler address (tcp://head:8786) or 'local' for a LocalCluster.",
+)
+@click.option("--resume", is_flag=True, help="Skip files the journal shows done and intact.")
+@click.option(
+    "--verify",
+    type=click.Choice(["decode", "checksum"]),
+    default="decode",
+    show_default=True,
+    help="decode: decode each output and compare with its input; checksum: check its CRCs.",
+)
+@click.option("--fail-fast", is_flag=True, help="Stop starting files after the first failure.")
+@click.option("--report", "report_path", metavar="FILE", help="Write the JSON report here.")
+@click.option("-f", "--force", is_flag=True, help="Replace existing outputs.")
+@raw_options
+@json_option
+@click.pass_context
+def batch(
+    ctx,
+    inputs,
+    out_dir,
+    workers,
+    threads,
+    scheduler,
+    resume,
+    verify,
+    fail_fast,
+    report_path,
+    force,
+    raw_shape,
+    raw_dtype,
+    byteorder,
+    offset,
+    as_json,
+    **codec_options,
+) -> None:
+    """Compress every volume of INPUTS into OUT_DIR, one .vpk per input.
+
+    INPUTS are globs ('**' recurses; quote them), folders (every readable volume below),
+    files, or a .csv/.json manifest (column 'input', optional 'output' and per-file
+    options such as max_error or coder). OUT_DIR mirrors the inputs' tree. Every output
+    is written atomically, verified, and logged in OUT_DIR/.volpack-batch.jsonl, so
+    --resume redoes only what is missing, changed or damaged. A file that fails is
+    reported and the others go on; the exit status is then 1.
+
+    \b
+    Examples:
+      volpack batch 'scans/**/*.nii.gz' out/ --max-error 0.5 --workers 8
+      volpack batch manifest.csv out/ --resume
+      volpack batch 'run/*.h5:/T' out/ --scheduler tcp://head:8786
+      volpack batch scans/ out/ --report report.json --json
+    """
+    from .. import batch as vbatch
+    from .codec import _brick
+
+    options = {k: v for k, v in codec_options.items() if v is not None}
+    if "brick" in options:
+        options["brick"] = _brick(options["brick"])
+    options["workers"] = threads
+    options.update(read_kwargs(raw_shape, raw_dtype, byteorder, offset))
+    tasks = vbatch.plan(list(inputs), out_dir, options=options, verify=verify)
+    run_batch(
+        ctx,
+        tasks,
+        out_dir,
+        workers=workers,
+        scheduler=scheduler,
+        resume=resume,
+        force=force,
+        fail_fast=fail_fast,
+        report_path=report_path,
+        as_json=as_json,
+        desc="batch",
+    )
+
+
+batch.params[2:2] = [p for p in _compress_cmd.params if p.name in _SHARED]
+
+COMMANDS = [batch]
