@@ -56,6 +56,7 @@ from collections.abc import Callable, Iterable, Sequence
 from typing import Any
 
 from .errors import VolpackError
+from .jsonsafe import finite_json
 
 log = logging.getLogger(__name__)
 
@@ -567,7 +568,7 @@ class Journal:
             self._f = open(self.path, "a", encoding="utf-8")  # noqa: SIM115 - closed in close()
         line = {"output": self.key(rec["output"]), "time": time.time()}
         line.update({k: rec.get(k) for k in self.FIELDS})
-        self._f.write(json.dumps(_finite(line), sort_keys=True) + "\n")
+        self._f.write(json.dumps(finite_json(line), sort_keys=True) + "\n")
         self._f.flush()
         os.fsync(self._f.fileno())
 
@@ -917,19 +918,9 @@ def _run_dask(todo, scheduler, workers, processes, on_result, state, func) -> st
     return where
 
 
-def _finite(o):
-    if isinstance(o, float):
-        return o if o == o and abs(o) != float("inf") else None
-    if isinstance(o, dict):
-        return {k: _finite(v) for k, v in o.items()}
-    if isinstance(o, (list, tuple)):
-        return [_finite(v) for v in o]
-    return o
-
-
 def write_report(report: dict, path: str) -> None:
     """Write the report as strict JSON, atomically (an existing report is replaced)."""
     from .atomic import atomic_open
 
     with atomic_open(path, force=True) as f:
-        f.write(json.dumps(_finite(report), indent=2, sort_keys=True, allow_nan=False).encode())
+        f.write(json.dumps(finite_json(report), indent=2, sort_keys=True, allow_nan=False).encode())

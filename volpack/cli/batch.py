@@ -11,25 +11,12 @@ from collections.abc import Iterator
 
 import click
 
+from ..batch import COMPRESS_KEYS
 from .codec import compress as _compress_cmd
 from .options import emit_json, fmt_bytes, json_option, raw_options, read_kwargs
 
 # the codec and lossy options of `volpack compress`, shared as they are
-_SHARED = (
-    "codec",
-    "wavelet",
-    "coder",
-    "order",
-    "max_levels",
-    "brick",
-    "max_error",
-    "rel_error",
-    "psnr",
-    "ratio",
-    "quality",
-    "threshold",
-    "fill_value",
-)
+_SHARED = tuple(k for k in COMPRESS_KEYS if k != "workers")
 
 
 @contextlib.contextmanager

@@ -9,6 +9,8 @@ from collections.abc import Iterator
 
 import click
 
+from ..jsonsafe import finite_json
+
 force_option = click.option("-f", "--force", is_flag=True, help="Replace an existing output file.")
 json_option = click.option(
     "--json", "as_json", is_flag=True, help="Print machine-readable JSON instead of a table."
@@ -90,18 +92,8 @@ def progress_bar(ctx: click.Context, desc: str, unit: str = "brick") -> Iterator
 def emit_json(obj) -> None:
     """Print ``obj`` as strict JSON (infinite or NaN numbers become null)."""
     click.echo(
-        json.dumps(_finite(obj), indent=2, sort_keys=True, default=_default, allow_nan=False)
+        json.dumps(finite_json(obj), indent=2, sort_keys=True, default=_default, allow_nan=False)
     )
-
-
-def _finite(o):
-    if isinstance(o, float):
-        return o if o == o and abs(o) != float("inf") else None
-    if isinstance(o, dict):
-        return {k: _finite(v) for k, v in o.items()}
-    if isinstance(o, (list, tuple)):
-        return [_finite(v) for v in o]
-    return o
 
 
 def _default(o):
