@@ -57,6 +57,31 @@ def test_scan_is_a_forest_in_preorder(shape, levels):
 
 
 @pytest.mark.parametrize("shape,levels", SHAPES)
+@pytest.mark.parametrize("order", sigmap.ORDERS)
+def test_band_neighbours(shape, levels, order):
+    s = sigmap.scan(shape, levels, order)
+    band_of = np.empty(int(np.prod(shape)), np.int64)
+    for k, b in enumerate(sigmap.subbands(shape, levels)):
+        sl = tuple(slice(st, st + n) for st, n in zip(b.start, b.size))
+        band_of[
+            np.ravel_multi_index(
+                np.indices(b.size).reshape(3, -1) + np.array(b.start)[:, None], shape
+            )
+        ] = k
+        assert sl  # every band is non-empty
+    strides = (shape[1] * shape[2], shape[2], 1)
+    for i, f in enumerate(s.perm):
+        for a in range(3):
+            j = s.nbr[i, a]
+            g = int(f) - strides[a]
+            coord = np.unravel_index(int(f), shape)[a]
+            same = coord > 0 and band_of[g] == band_of[f]
+            assert (j >= 0) == bool(same), (i, a)
+            if j >= 0:
+                assert s.perm[j] == g
+
+
+@pytest.mark.parametrize("shape,levels", SHAPES)
 def test_line_scan_is_bands_coarse_to_fine(shape, levels):
     s = sigmap.scan(shape, levels, "line")
     n = int(np.prod(shape))
@@ -204,5 +229,5 @@ def test_arith_matches_the_unbounded_integer_reference(shape, levels, order):
     s = sigmap.scan(shape, levels, order)
     for seed, scale, zeros in ((1, 20, 0.0), (2, 0.4, 0.0), (3, 300, 0.9), (4, 1e5, 0.0)):
         c = laplace(shape, scale, np.int32, seed, zeros)
-        want = naive.arith_encode(c, s.perm, s.end, s.parent, s.cls)
+        want = naive.arith_encode(c, s.perm, s.end, s.parent, s.cls, s.nbr)
         assert CODERS["arith"].encode(c, s) == want

@@ -41,6 +41,9 @@ class Scan(NamedTuple):
     end: np.ndarray  # int32 (N,): end (exclusive) of the subtree rooted at each position
     parent: np.ndarray  # int32 (N,): scan position of the parent, -1 for roots
     cls: np.ndarray  # uint8 (N,): subband class, 0..N_CLASSES-1
+    nbr: (
+        np.ndarray
+    )  # int32 (N, 3): scan positions of the z-1, y-1, x-1 neighbours in the band, -1 if none
 
 
 class Band(NamedTuple):
@@ -98,9 +101,15 @@ def scan(shape: tuple[int, ...], levels: tuple[int, ...], order: str = "dfs") ->
     cls_flat = np.zeros(total, dtype=np.uint8)
     level_flat = np.zeros(total, dtype=np.int64)
     band_order = []  # (sort key, flat indices): coarse levels first, approximation first
+    nbr_flat = np.full((total, 3), -1, dtype=np.int64)
+    strides = (shape[1] * shape[2], shape[2], 1)
     for b in bands:
         local = np.ix_(*(np.arange(s) for s in b.size))
         idx = _flat(shape, b.start, local).ravel()
+        grid = np.indices(b.size).reshape(3, -1)
+        for a in range(3):
+            has = grid[a] > 0
+            nbr_flat[idx[has], a] = idx[has] - strides[a]
         cls_flat[idx] = _band_class(b, nlev)
         level_flat[idx] = b.level
         band_order.append(((-b.level, b.bits), idx))
@@ -131,7 +140,15 @@ def scan(shape: tuple[int, ...], levels: tuple[int, ...], order: str = "dfs") ->
     pf = parent_flat[perm]
     parent = np.where(pf >= 0, pos[np.maximum(pf, 0)], -1)
     # 32-bit tables (bricks hold at most 2^30 voxels): half the memory traffic of int64.
-    out = Scan(perm.astype(np.int32), end.astype(np.int32), parent.astype(np.int32), cls_flat[perm])
+    nf = nbr_flat[perm]
+    nbr = np.where(nf >= 0, pos[np.maximum(nf, 0)], -1)
+    out = Scan(
+        perm.astype(np.int32),
+        end.astype(np.int32),
+        parent.astype(np.int32),
+        cls_flat[perm],
+        np.ascontiguousarray(nbr, dtype=np.int32),
+    )
     for a in out:
         a.flags.writeable = False
     return out

@@ -54,10 +54,17 @@ def _carry(out, pos):
 
 
 @kernel(inline=True)
-def _context(i, parent, cls, nbits, nprev, nprev2):
+def _context(i, parent, cls, nbits, nprev, nbr):
     p = parent[i]
     npar = np.int64(nbits[p]) if p >= 0 else nprev
-    q = (2 * npar + nprev + nprev2 + 2) >> 2
+    s = nprev
+    cnt = 1
+    for a in range(3):
+        j = nbr[i, a]
+        if j >= 0 and j < i:
+            s += np.int64(nbits[j])
+            cnt += 1
+    q = (npar * cnt + 7 * s + 4 * cnt) // (8 * cnt)
     if q >= NQ:
         q = NQ - 1
     return np.int64(cls[i]) * NQ + q, q
@@ -75,7 +82,7 @@ def _mant_model(nb, prefix, c):
 
 
 @kernel
-def _encode_kernel(flat, perm, end, parent, cls, out):
+def _encode_kernel(flat, perm, end, parent, cls, nbr, out):
     n = perm.size
     vals = np.empty(n, dtype=np.int64)  # coefficients in scan order, gathered once
     nz = np.zeros(n + 1, dtype=np.int32)  # non-zeros before each scan position
@@ -91,12 +98,11 @@ def _encode_kernel(flat, perm, end, parent, cls, out):
     out[0] = 0  # a leading zero byte takes the carry of the very first bits
     pos = 1
     nprev = 0
-    nprev2 = 0
     i = 0
     while i < n:
         if pos + 32 > cap:
             return -1
-        ctx, q = _context(i, parent, cls, nbits, nprev, nprev2)
+        ctx, q = _context(i, parent, cls, nbits, nprev, nbr)
         e = end[i]
         if e > i + 1:  # the subtree flag
             bit = np.int64(nz[e] != nz[i])
@@ -121,7 +127,6 @@ def _encode_kernel(flat, perm, end, parent, cls, out):
                 pos += 1
                 low = (low << 8) & 0xFFFFFFFF
             if bit == 0:
-                nprev2 = nprev
                 nprev = 0
                 i = e
                 continue
@@ -218,7 +223,6 @@ def _encode_kernel(flat, perm, end, parent, cls, out):
                 pos += 1
                 low = (low << 8) & 0xFFFFFFFF
         nbits[i] = nb
-        nprev2 = nprev
         nprev = nb
         i += 1
     for _ in range(4):  # the final low pins the interval
@@ -229,7 +233,7 @@ def _encode_kernel(flat, perm, end, parent, cls, out):
 
 
 @kernel
-def _decode_kernel(data, perm, end, parent, cls, flat, nmax):
+def _decode_kernel(data, perm, end, parent, cls, nbr, flat, nmax):
     """Return 0 on success, 1 when the stream ran short, 2 on an impossible symbol."""
     n = perm.size
     size = data.size
@@ -242,12 +246,11 @@ def _decode_kernel(data, perm, end, parent, cls, flat, nmax):
         code = (code << 8) | (np.int64(data[pos]) if pos < size else 0)
         pos += 1
     nprev = 0
-    nprev2 = 0
     i = 0
     while i < n:
         if pos > size + 4:
             return 1
-        ctx, q = _context(i, parent, cls, nbits, nprev, nprev2)
+        ctx, q = _context(i, parent, cls, nbits, nprev, nbr)
         e = end[i]
         if e > i + 1:  # the subtree flag
             k = ctx
@@ -271,7 +274,6 @@ def _decode_kernel(data, perm, end, parent, cls, flat, nmax):
             if bit == 0:
                 for j in range(i, e):
                     flat[perm[j]] = 0
-                nprev2 = nprev
                 nprev = 0
                 i = e
                 continue
@@ -358,7 +360,6 @@ def _decode_kernel(data, perm, end, parent, cls, flat, nmax):
                 pos += 1
         flat[perm[i]] = np.int64(v >> np.uint64(1)) ^ -(np.int64(v & np.uint64(1)))
         nbits[i] = nb
-        nprev2 = nprev
         nprev = nb
         i += 1
     if pos > size + 4:
@@ -370,7 +371,7 @@ def encode(coeffs: np.ndarray, scan: Scan) -> bytes:
     """Code a coefficient array (int32 or int64) in ``scan`` order."""
     flat = flat_view(coeffs)
     return encode_with_retry(
-        lambda out: _encode_kernel(flat, scan.perm, scan.end, scan.parent, scan.cls, out),
+        lambda out: _encode_kernel(flat, scan.perm, scan.end, scan.parent, scan.cls, scan.nbr, out),
         flat.size,
     )
 
@@ -381,5 +382,7 @@ def decode(data: bytes, scan: Scan, out: np.ndarray) -> None:
     if flat.size != scan.perm.size:
         raise FormatError(f"expected {scan.perm.size} coefficients, found room for {flat.size}")
     buf = np.frombuffer(data, dtype=np.uint8)
-    status = _decode_kernel(buf, scan.perm, scan.end, scan.parent, scan.cls, flat, max_bits(flat))
+    status = _decode_kernel(
+        buf, scan.perm, scan.end, scan.parent, scan.cls, scan.nbr, flat, max_bits(flat)
+    )
     check_status(status, "arithmetic")
