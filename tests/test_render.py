@@ -1,0 +1,317 @@
+"""The reference ray caster: camera, compositing against closed forms, the pre-integration
+claim, accelerations that must not change the image, edge cases, PNG output and the CLI."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from volpack.cli import main
+from volpack.render.camera import Camera
+from volpack.render.image import save_png, to_rgb8
+from volpack.render.raycast import render
+from volpack.render.transfer import TransferFunction
+
+GOLDEN = Path(__file__).resolve().parent / "golden_render"
+
+
+def flat_tf(a: float, rgb=(1.0, 0.5, 0.25)) -> TransferFunction:
+    return TransferFunction(points=((0.0, *rgb, a), (1.0, *rgb, a)), name="flat")
+
+
+def ball(n: int = 40, radius: float = 10.0) -> np.ndarray:
+    """Distance from the volume centre (a sphere is one of its level sets)."""
+    c = (n - 1) / 2
+    z, y, x = np.meshgrid(*(np.arange(n, dtype=np.float32) - c,) * 3, indexing="ij")
+    return np.sqrt(z * z + y * y + x * x)
+
+
+def blob_tf() -> TransferFunction:
+    """Distance field: opaque-ish inside radius 8, clear outside 10."""
+    return TransferFunction(
+        points=((0.0, 1.0, 0.8, 0.6, 0.3), (8.0, 0.9, 0.4, 0.2, 0.3), (10.0, 0.5, 0.2, 0.1, 0.0)),
+        name="blob",
+    )
+
+
+# --------------------------------------------------------------------------- camera
+
+
+@pytest.mark.parametrize("projection", ["orthographic", "perspective"])
+@pytest.mark.parametrize("az, el", [(0, 0), (37, 25), (200, -60), (90, 90)])
+def test_centre_ray_hits_the_volume_centre(projection, az, el):
+    shape, spacing = (20, 30, 40), (2.0, 1.0, 0.5)
+    cam = Camera(azimuth=az, elevation=el, projection=projection, size=(33, 21))
+    o, d = cam.rays(shape, spacing)
+    assert o.shape == d.shape == (21, 33, 3)
+    centre = (np.array(shape) - 1) / 2
+    # distance from the centre to the middle pixel's ray, in world units
+    sp = np.array(spacing)
+    ow, dw = o[10, 16] * sp, d[10, 16] * sp
+    dw = dw / np.linalg.norm(dw)
+    v = centre * sp - ow
+    assert np.linalg.norm(v - (v @ dw) * dw) < 1e-9
+    assert v @ dw > 0  # in front of the camera
+    # t counts reference lengths (the smallest spacing, 0.5): |d| in world = 0.5
+    np.testing.assert_allclose(np.linalg.norm(d * sp, axis=-1), 0.5)
+
+
+def test_whole_volume_in_view_and_axes():
+    vol = np.ones((10, 14, 18), np.float32)
+    for az, el, persp in [(0, 0, False), (45, 35, False), (120, -50, True)]:
+        cam = Camera(
+            azimuth=az,
+            elevation=el,
+            size=(40, 30),
+            projection=("perspective" if persp else "orthographic"),
+        )
+        img = render(vol, tf=flat_tf(0.9), camera=cam, shading="none", classification="post")
+        a = img[..., 3]
+        assert a[0].max() == a[-1].max() == a[:, 0].max() == a[:, -1].max() == 0
+        assert a.max() > 0.99
+    # az = 0, el = 0 looks along +y: image columns are x, rows run from high z down
+    vol = np.zeros((16, 16, 16), np.float32)
+    vol[12:, :, 12:] = 1.0  # high z, high x: the top right corner of the image
+    tf = TransferFunction(points=((0.0, 1, 1, 1, 0.0), (0.5, 1, 1, 1, 0.0), (1.0, 1, 1, 1, 1.0)))
+    img = render(vol, tf=tf, camera=Camera(0, 0, size=(32, 32)), classification="post")
+    a = img[..., 3]
+    assert a[:16, 16:].sum() > 0 and a[16:].sum() == 0 and a[:, :16].sum() == 0
+
+
+# --------------------------------------------------------------------------- compositing
+
+
+def test_empty_volume_is_black():
+    vol = np.zeros((12, 12, 12), np.float32)
+    tf = TransferFunction(points=((0.0, 1, 1, 1, 0.0), (1.0, 1, 1, 1, 0.5)))
+    for mode in ("post", "pre", "preintegrated"):
+        img = render(vol, tf=tf, camera=Camera(size=(16, 16)), classification=mode,
+                     shading="phong", value_range=(0, 1))  # fmt: skip
+        assert img.dtype == np.float32 and img.shape == (16, 16, 4)
+        assert not img.any()
+
+
+@pytest.mark.parametrize("mode", ["post", "preintegrated", "pre"])
+@pytest.mark.parametrize("step", [0.5, 0.3, 2.0])
+def test_constant_volume_matches_the_closed_form(mode, step):
+    a = 0.05
+    vol = np.full((16, 16, 16), 3.0, np.float32)
+    # anisotropic: along y (the view axis) the voxels are 2 long, the reference length is 1
+    spacing = (1.0, 2.0, 1.0)
+    cam = Camera(azimuth=0, elevation=0, size=(17, 17))
+    img = render(vol, spacing=spacing, tf=flat_tf(a), camera=cam, step=step,
+                 classification=mode, shading="none")  # fmt: skip
+    expect = 1 - (1 - a) ** (16 * 2.0)
+    assert img[8, 8, 3] == pytest.approx(expect, abs=2e-4)
+    np.testing.assert_allclose(img[8, 8, :3], np.array([1.0, 0.5, 0.25]) * expect, atol=5e-4)
+
+
+def comb_tf(n_teeth: int = 12) -> TransferFunction:
+    """A high-frequency TF: narrow opaque teeth of alternating colour over [0, 1]."""
+    pts = [(0.0, 0, 0, 0, 0.0)]
+    for k in range(n_teeth):
+        c = (k + 0.5) / n_teeth
+        rgb = (1.0, 0.2, 0.1) if k % 2 else (0.1, 0.5, 1.0)
+        pts += [(c - 0.012, *rgb, 0.0), (c, *rgb, 0.6), (c + 0.012, *rgb, 0.0)]
+    pts.append((1.0, 0, 0, 0, 0.0))
+    return TransferFunction(points=tuple(pts), name="comb")
+
+
+def test_preintegration_beats_post_classification_at_a_large_step():
+    n = 32
+    z, y, x = np.meshgrid(*(np.linspace(0, 1, n),) * 3, indexing="ij")
+    vol = (0.5 + 0.45 * np.sin(5.0 * y + 2.0 * x) * np.cos(3.0 * z)).astype(np.float32)
+    tf, cam = comb_tf(), Camera(azimuth=10, elevation=5, size=(24, 24))
+    kw = dict(tf=tf, camera=cam, shading="none", value_range=(0.0, 1.0))
+    ref = render(vol, classification="post", step=0.02, **kw)
+    pre = render(vol, classification="preintegrated", step=2.0, **kw)
+    post = render(vol, classification="post", step=2.0, **kw)
+    err_pre = np.abs(pre - ref).mean()
+    err_post = np.abs(post - ref).mean()
+    assert ref[..., 3].max() > 0.5
+    assert err_pre < 0.5 * err_post, (err_pre, err_post)
+
+
+# --------------------------------------------------------------------------- accelerations
+
+
+def test_early_ray_termination_stays_within_its_threshold():
+    vol = ball()
+    tf = TransferFunction(
+        points=((0.0, 1, 0.8, 0.6, 0.7), (8.0, 0.9, 0.4, 0.2, 0.7), (10.0, 0.5, 0.2, 0.1, 0.0))
+    )
+    kw = dict(tf=tf, camera=Camera(size=(32, 32), zoom=2.5), shading="phong")
+    for mode in ("post", "preintegrated"):
+        full, s_full = render(vol, ert=1.0, classification=mode, render_stats=True, **kw)
+        ert, s_ert = render(vol, ert=0.99, classification=mode, render_stats=True, **kw)
+        assert s_ert.samples < 0.8 * s_full.samples, (s_ert, s_full)
+        assert np.abs(full - ert).max() <= 0.011
+        assert np.abs(full[..., 3] - ert[..., 3]).max() <= 0.01
+
+
+@pytest.mark.parametrize("mode", ["post", "pre", "preintegrated"])
+def test_empty_space_skipping_leaves_the_image_unchanged(mode):
+    vol = ball(48, 10)
+    isos = [(6.0, (1.0, 1.0, 0.0), 0.5)] if mode == "preintegrated" else None
+    kw = dict(tf=blob_tf(), camera=Camera(azimuth=25, elevation=30, size=(40, 40)),
+              classification=mode, shading="phong", isos=isos)  # fmt: skip
+    a, sa = render(vol, skip_empty=False, render_stats=True, **kw)
+    b, sb = render(vol, skip_empty=True, render_stats=True, **kw)
+    np.testing.assert_allclose(a, b, atol=1e-6)
+    assert sb.samples < 0.6 * sa.samples
+
+
+def test_the_image_does_not_depend_on_the_thread_count():
+    vol = ball(36, 12)
+    kw = dict(tf=blob_tf(), camera=Camera(azimuth=70, size=(30, 26), projection="perspective"),
+              shading="phong")  # fmt: skip
+    one = render(vol, workers=1, **kw)
+    for w in (2, 3, 5):
+        assert np.array_equal(one, render(vol, workers=w, **kw))
+    assert np.array_equal(one, render(vol, workers=3, **kw, progress=lambda d, t: None))
+
+
+# --------------------------------------------------------------------------- edge cases
+
+
+def test_nan_voxels_are_empty():
+    vol = ball(32, 9)
+    clean = render(vol, tf=blob_tf(), camera=Camera(size=(24, 24)), shading="phong")
+    dirty = vol.copy()
+    dirty[:, :, :3] = np.nan  # far outside the ball: transparent there anyway
+    dirty[0, 0, 5] = np.inf
+    mn = float(np.nanmin(vol))  # (NaN replaced by the minimum, 0, is opaque: moved)
+    img = render(dirty, tf=blob_tf(), camera=Camera(size=(24, 24)), shading="phong",
+                 value_range=(mn, float(vol.max())))  # fmt: skip
+    assert np.all(np.isfinite(img))
+    np.testing.assert_allclose(img, clean, atol=1e-6)
+    all_nan = np.full((8, 8, 8), np.nan, np.float32)
+    assert not render(all_nan, tf=blob_tf(), camera=Camera(size=(8, 8))).any()
+
+
+def test_one_voxel_thick_volume_and_a_camera_looking_away():
+    sheet = np.zeros((1, 32, 32), np.float32)
+    sheet[0, 8:24, 8:24] = 1.0
+    tf = TransferFunction(points=((0.0, 1, 1, 1, 0.0), (1.0, 1, 1, 1, 0.5)))
+    for el in (90, 45, 0):
+        for mode in ("post", "pre", "preintegrated"):
+            img = render(sheet, tf=tf, camera=Camera(0, el, size=(20, 20)),
+                         classification=mode, shading="phong")  # fmt: skip
+            assert np.all(np.isfinite(img)) and img.min() >= 0
+            if el == 90:  # straight down through one voxel
+                assert img[10, 10, 3] == pytest.approx(0.5, abs=1e-3)
+    away = Camera(look_at=(0, 0, 5000), zoom=40, projection="perspective", size=(16, 16))
+    assert not render(ball(16, 4), tf=blob_tf(), camera=away).any()
+
+
+def test_isosurface_of_a_sphere_is_a_disc_of_its_radius():
+    n, r = 48, 12.0
+    cam = Camera(azimuth=15, elevation=20, size=(64, 64))
+    img = render(ball(n), tf=None, isos=[(r, (1.0, 1.0, 1.0), 1.0)], camera=cam, shading="phong")
+    covered = img[..., 3] > 0.5
+    half_view = 1.05 * 0.5 * np.sqrt(3) * n  # half the field at zoom 1 (box half diagonal)
+    r_px = np.sqrt(covered.sum() / np.pi) * (2 * half_view / 64)
+    assert r_px == pytest.approx(r, rel=0.04)
+    # shaded: brighter in the middle (facing the headlight) than at the rim
+    grey = img[..., 0]
+    assert grey[32, 32] > grey[covered].min() + 0.2
+
+
+# --------------------------------------------------------------------------- images, CLI
+
+
+def test_png_output_and_colour_bar(tmp_path):
+    rgba = np.zeros((10, 12, 4), np.float32)
+    rgba[2:5, 3:7] = (0.5, 0.25, 0.0, 0.5)
+    rgb = to_rgb8(rgba, background=(1.0, 1.0, 1.0))
+    assert rgb.shape == (10, 12, 3) and tuple(rgb[3, 4]) == (255, 191, 128)
+    from PIL import Image
+
+    save_png(tmp_path / "a.png", rgba)
+    with Image.open(tmp_path / "a.png") as f:
+        assert f.size == (12, 10)
+    save_png(tmp_path / "b.png", rgba, colorbar=(blob_tf(), 0.0, 20.0))
+    with Image.open(tmp_path / "b.png") as f:
+        w, h = f.size
+    assert w == 12 and h > 10
+    with pytest.raises(FileExistsError):
+        save_png(tmp_path / "a.png", rgba)
+    assert sorted(os.listdir(tmp_path)) == ["a.png", "b.png"]  # no temporary left
+
+
+def test_cli_render_png_orbit_iso_and_json(tmp_path):
+    import json
+
+    from PIL import Image
+
+    src = tmp_path / "ball.npy"
+    np.save(src, (ball(24, 8) * 10).astype(np.int16))
+    run = CliRunner()
+    r = run.invoke(main, ["render", str(src), str(tmp_path / "a.png"), "--size", "40x30"])
+    assert r.exit_code == 0, r.output
+    with Image.open(tmp_path / "a.png") as f:
+        im = np.asarray(f)
+    assert im.shape == (30, 40, 3) and im.max() > 0
+    out = tmp_path / "orbit"
+    r = run.invoke(main, ["render", str(src), str(out), "--orbit", "3", "--size", "16x16",
+                          "--iso", "60:bone,90:#ff0000@0.4", "--json"])  # fmt: skip
+    assert r.exit_code == 0, r.output
+    assert sorted(os.listdir(out)) == ["frame_000.png", "frame_001.png", "frame_002.png"]
+    rep = json.loads(r.output)
+    assert len(rep["frames"]) == 3 and rep["samples"] > 0 and rep["tf"] is None
+    r = run.invoke(main, ["render", str(src), str(tmp_path / "a.png"), "--colorbar",
+                          "--classification", "post", "--shading", "none", "--size", "20x20"])  # fmt: skip
+    assert r.exit_code == 1 and "exists" in r.output  # refused without --force
+    r = run.invoke(main, ["render", str(src), str(tmp_path / "a.png"), "--colorbar", "--force",
+                          "--tf", "generic", "--perspective", "--size", "20x20"])  # fmt: skip
+    assert r.exit_code == 0, r.output
+    with Image.open(tmp_path / "a.png") as f:
+        assert f.size[1] > 20
+    r = run.invoke(main, ["render", str(src), str(tmp_path / "c.png"), "--iso", "5:nocolour"])
+    assert r.exit_code == 2 and "colour" in r.output
+
+
+def test_cli_renders_a_vpk(tmp_path):
+    from volpack import api
+
+    vol = (ball(20, 6) * 10).astype(np.int16)
+    api.compress(vol, str(tmp_path / "b.vpk"), codec="zstd")  # no codec kernels to compile
+    r = CliRunner().invoke(
+        main, ["render", str(tmp_path / "b.vpk"), str(tmp_path / "b.png"), "--size", "16x16"]
+    )
+    assert r.exit_code == 0, r.output
+    assert (tmp_path / "b.png").stat().st_size > 0
+
+
+def golden_image(brain: np.ndarray) -> np.ndarray:
+    small = brain[::4, ::4, ::4].astype(np.float32)  # (21, 32, 32)
+    tf = TransferFunction(
+        points=(
+            (0, 0, 0, 0, 0),
+            (40, 0.9, 0.5, 0.4, 0),
+            (90, 1, 0.85, 0.7, 0.3),
+            (255, 1, 1, 1, 0.6),
+        ),
+        name="golden",
+    )
+    return render(small, tf=tf, value_range=(0.0, 255.0),
+                  camera=Camera(azimuth=30, elevation=20, size=(32, 32)),
+                  shading="phong", classification="preintegrated")  # fmt: skip
+
+
+def test_golden_demo_render(brain):
+    img = golden_image(brain)
+    path = GOLDEN / "brain_32.npy"
+    if os.environ.get("VOLPACK_REGEN_GOLDEN"):
+        GOLDEN.mkdir(exist_ok=True)
+        np.save(path, img)
+        save_png(GOLDEN / "brain_32.png", img, force=True)
+    gold = np.load(path)
+    assert img.shape == gold.shape == (32, 32, 4)
+    assert gold[..., 3].max() > 0.3
+    assert np.abs(img - gold).max() < 0.02
+    assert np.abs(img - gold).mean() < 2e-3

@@ -1,0 +1,127 @@
+"""Orbit camera for the reference ray caster.
+
+World space is voxel index times spacing, axes ``(z, y, x)`` like the arrays. The camera
+orbits the look-at point (the volume centre unless given) with ``+z`` as "up":
+
+* ``azimuth = 0, elevation = 0`` looks along ``+y``; image columns run along ``+x`` and
+  image rows from high ``z`` (top) to low ``z`` (bottom).
+* ``azimuth`` turns the camera about the ``z`` axis (degrees, counter-clockwise seen
+  from ``+z``), ``elevation`` lifts it above the ``x-y`` plane (positive: looking down).
+
+At ``zoom = 1`` the sphere around the volume's box ``[-0.5, n - 0.5]`` per axis (the box
+the ray caster uses), grown by 5 %, fits the shorter side of the image, so the whole
+volume is in view from every direction with a small margin. ``zoom = 2`` halves the field (orthographic) or the tangent of the
+half field of view (perspective; the eye stays where it is).
+
+:meth:`Camera.rays` returns rays in voxel index space: ``origin + t * direction`` with
+``t`` measured in *reference lengths*, the smallest voxel spacing, so ``t`` advances by
+one per voxel along the finest axis whatever the view direction. Transfer-function
+opacities and ray-casting step sizes are per reference length.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from ..errors import VolpackError
+
+PERSPECTIVE_FOV = 30.0  # degrees, across the shorter image side
+MARGIN = 1.05  # the bounding sphere, grown by this, fits the image at zoom 1
+
+
+@dataclasses.dataclass(frozen=True)
+class Camera:
+    """Where the viewer stands and what the image looks like.
+
+    Parameters
+    ----------
+    azimuth, elevation : float
+        Orbit angles in degrees (see the module docstring).
+    zoom : float
+        Magnification; 1 shows the whole volume.
+    projection : {"orthographic", "perspective"}
+        Parallel rays, or rays from an eye point with a 30 degree field of view.
+    look_at : (z, y, x) or None
+        The orbit centre in voxel index coordinates; the volume centre when None.
+    size : (w, h)
+        Image width and height in pixels.
+    """
+
+    azimuth: float = 30.0
+    elevation: float = 20.0
+    zoom: float = 1.0
+    projection: str = "orthographic"
+    look_at: tuple[float, float, float] | None = None
+    size: tuple[int, int] = (512, 512)
+
+    def __post_init__(self) -> None:
+        if self.projection not in ("orthographic", "perspective"):
+            raise VolpackError(
+                f"expected projection 'orthographic' or 'perspective', found {self.projection!r}"
+            )
+        if not (math.isfinite(self.zoom) and self.zoom > 0):
+            raise VolpackError(f"expected a finite zoom > 0, found {self.zoom}")
+        if not (math.isfinite(self.azimuth) and math.isfinite(self.elevation)):
+            raise VolpackError(
+                f"expected finite angles, found azimuth={self.azimuth}, elevation={self.elevation}"
+            )
+        if len(self.size) != 2 or min(int(s) for s in self.size) < 1:
+            raise VolpackError(f"expected an image size (w, h) >= 1, found {self.size}")
+        object.__setattr__(self, "size", (int(self.size[0]), int(self.size[1])))
+        if self.look_at is not None:
+            la = tuple(float(v) for v in self.look_at)
+            if len(la) != 3 or not all(math.isfinite(v) for v in la):
+                raise VolpackError(f"expected look_at as three finite (z, y, x), found {la}")
+            object.__setattr__(self, "look_at", la)
+
+    def basis(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Unit ``(forward, right, up)`` vectors in world ``(z, y, x)`` order."""
+        az, el = math.radians(self.azimuth), math.radians(self.elevation)
+        # Built in (x, y, z) then reordered; (right, up, -forward) is right-handed.
+        fwd = np.array([math.sin(az) * math.cos(el), math.cos(az) * math.cos(el), -math.sin(el)])
+        right = np.array([math.cos(az), -math.sin(az), 0.0])
+        up = np.cross(right, fwd)
+        return fwd[::-1].copy(), right[::-1].copy(), up[::-1].copy()
+
+    def rays(
+        self, shape_zyx: tuple[int, int, int], spacing: tuple[float, float, float] = (1, 1, 1)
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Return ``(origins, directions)``, each ``(h, w, 3)`` float64 in voxel index
+        space ``(z, y, x)``; ``t`` along a ray counts reference lengths (module docstring)."""
+        shape = np.array([int(n) for n in shape_zyx], dtype=np.float64)
+        sp = np.array([float(s) for s in spacing], dtype=np.float64)
+        if shape.size != 3 or np.any(shape < 1):
+            raise VolpackError(f"expected a (z, y, x) shape >= 1, found {tuple(shape_zyx)}")
+        if sp.size != 3 or not np.all(np.isfinite(sp)) or np.any(sp <= 0):
+            raise VolpackError(f"expected three spacings > 0, found {tuple(spacing)}")
+        w, h = self.size
+        centre_idx = (shape - 1) / 2 if self.look_at is None else np.array(self.look_at)
+        centre = centre_idx * sp
+        radius = 0.5 * float(np.linalg.norm(shape * sp))  # box [-0.5, n-0.5] half diagonal
+        if self.look_at is not None:  # keep the whole box in view around another centre
+            corners = np.array([[a, b, c] for a in (0, 1) for b in (0, 1) for c in (0, 1)])
+            corners = (corners * shape - 0.5) * sp
+            radius = float(np.max(np.linalg.norm(corners - centre, axis=1)))
+        radius *= MARGIN
+        fwd, right, up = self.basis()
+        # pixel centres in [-1, 1] along the shorter side, wider along the longer one
+        short = min(w, h)
+        u = ((np.arange(w) + 0.5) * 2 / short - w / short)[None, :, None]
+        v = (h / short - (np.arange(h) + 0.5) * 2 / short)[:, None, None]
+        if self.projection == "orthographic":
+            half = radius / self.zoom
+            origins = centre - (radius + 1.0) * fwd + half * (u * right + v * up)
+            dirs = np.broadcast_to(fwd, (h, w, 3)).copy()
+        else:
+            half_fov = math.radians(PERSPECTIVE_FOV) / 2
+            dist = radius / math.sin(half_fov)
+            eye = centre - dist * fwd
+            tan_half = math.tan(half_fov) / self.zoom
+            dirs = fwd + tan_half * (u * right + v * up)
+            dirs /= np.linalg.norm(dirs, axis=-1, keepdims=True)
+            origins = np.broadcast_to(eye, (h, w, 3)).copy()
+        ref = float(sp.min())
+        return origins / sp, dirs * (ref / sp)
