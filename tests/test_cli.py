@@ -192,3 +192,7 @@ def test_demo_runs_and_checks_every_round_trip(tmp_path):
     bounded = [row for row in lossy if "max error" in row["stage"]]
     assert bounded and all(row["max_error"] <= 2 for row in bounded)
     assert os.path.exists(d["input"])
+    from PIL import Image
+
+    with Image.open(d["preview"]["file"]) as im:  # the decoded MRI, rendered
+        assert im.size[0] >= 256 and max(im.convert("L").getextrema()) > 50

@@ -126,4 +126,27 @@ def run(
         "shape": list(vol.shape),
         "dtype": str(vol.dtype),
         "rows": rows,
+        "preview": _preview(rows[0]["file"], os.path.join(folder, f"{DEMO_NAME}.png")),
     }
+
+
+def _preview(vpk: str, png: str) -> dict[str, Any]:
+    """Decode the first stage's file and ray-cast it to a PNG (pre-integrated, Phong)."""
+    from . import api
+    from .render import transfer
+    from .render.camera import Camera
+    from .render.image import save_png
+    from .render.raycast import render
+
+    vol = api.decompress(vpk)
+    lo, hi = float(vol.data.min()), float(vol.data.max())
+    tf = transfer.auto_tf(lo, hi, vol.dtype)
+    image, stats = render(
+        vol,
+        tf=tf,
+        camera=Camera(azimuth=120, elevation=15, zoom=1.5, size=(256, 256)),
+        shading="phong",
+        render_stats=True,
+    )
+    save_png(png, image, colorbar=(tf, lo, hi), force=True)
+    return {"file": png, "seconds": stats.seconds, "samples_per_s": stats.samples_per_s}

@@ -55,7 +55,9 @@ def demo(ctx, folder: str, repeat: int, as_json: bool) -> None:
         f"volpack demo: {report['input']} ({'x'.join(map(str, report['shape']))} {report['dtype']})\n"
     )
     click.echo(table(rows, ["stage", "ratio", "quality", "enc MB/s", "dec MB/s", "bytes"]))
+    pv = report["preview"]
     click.echo(f"\nevery round trip checked; files in {report['folder']}/")
+    click.echo(f"preview: {pv['file']} (pre-integrated ray casting, {pv['seconds']:.2f} s)")
 
 
 COMMANDS = [demo]
