@@ -310,7 +310,7 @@ def arith_encode(coeffs, perm, end, parent, cls, nbr):
     Follows formats/wavelet-1.md step by step; the bytes are the final ``low`` written
     out big-endian after the leading zero byte.
     """
-    nq, n_classes, mant_bits = 12, 25, 3
+    nq, n_classes, mant_bits = 12, 25, 2
     rate = [1, 2, 2, 3, 3, 3, 3, 4, 4, 4, 4, 4, 4, 4, 4, 5]
     n_flag = n_classes * nq
     n_tree = n_flag * 64

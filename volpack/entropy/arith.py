@@ -9,7 +9,7 @@ unsigned integers ``m`` (``c >= 0 -> 2c``, ``c < 0 -> -2c - 1``). For each posit
    estimate ``q`` made from the parent and the two previously coded coefficients, each
    step a binary decision with its own adaptive probability in the context (subband
    class, ``q``): about three decisions for a typical coefficient.
-3. The three bits below the leading one are coded with adaptive probabilities per
+3. The two bits below the leading one are coded with adaptive probabilities per
    ``(n, bits so far, class)``: within one bit length, small values are likelier. The
    remaining low bits (the sign in the last place) are coded at probability one half.
 
@@ -32,7 +32,8 @@ PROB_BITS = 12
 TOP = 1 << 24
 TREE_BITS = 6  # 2**6 models per context for the bit length
 NQ = 12  # quantised local-magnitude contexts
-MANT_BITS = 3  # bits below the leading one that get adaptive probabilities
+SHARE = np.array([0, 12, 6, 4, 3], dtype=np.int64)  # 96 / (8 c)
+MANT_BITS = 2  # bits below the leading one that get adaptive probabilities
 # Each model is one uint16: a 12-bit probability of a 0 above a 4-bit use count k. After
 # each use it moves by 1/2**RATE[k] of its distance to the bit seen: fast while young
 # (a running average), then settling (bricks are small, so not too slow).
@@ -64,7 +65,8 @@ def _context(i, parent, cls, nbits, nprev, nbr):
         if j >= 0 and j < i:
             s += np.int64(nbits[j])
             cnt += 1
-    q = (npar * cnt + 7 * s + 4 * cnt) // (8 * cnt)
+    # (npar c + 7 s + 4 c) // (8 c) for c in 1..4, as one multiply: 8c divides 96.
+    q = ((npar * cnt + 7 * s + 4 * cnt) * SHARE[cnt]) // 96
     if q >= NQ:
         q = NQ - 1
     return np.int64(cls[i]) * NQ + q, q
