@@ -196,3 +196,25 @@ def test_demo_runs_and_checks_every_round_trip(tmp_path):
 
     with Image.open(d["preview"]["file"]) as im:  # the decoded MRI, rendered
         assert im.size[0] >= 256 and max(im.convert("L").getextrema()) > 50
+
+
+def test_lossy_compress_info_and_decompress(tmp_path):
+    a = smooth_volume((30, 40, 50), np.int16, seed=8, noise=4.0).astype(np.float32) / 3
+    a[0, 0, :5] = np.nan
+    src, vpk, back = tmp_path / "a.npy", tmp_path / "a.vpk", tmp_path / "b.npy"
+    np.save(src, a)
+    r = run("compress", src, vpk, "--max-error", "0.5", "--json")
+    stats = json.loads(r.stdout)
+    assert stats["lossless"] is False and stats["max_error"] <= 0.5 and stats["ratio"] > 1
+    info = json.loads(run("info", vpk, "--json").stdout)
+    assert info["summary"]["error_bound"] == 0.5 and info["summary"]["psnr"] > 40
+    text = run("info", vpk).output
+    assert "error bound" in text and "PSNR" in text
+    run("decompress", vpk, back)
+    b = np.load(back)
+    ok = np.isfinite(a)
+    assert np.abs(b[ok] - a[ok]).max() <= 0.5 and np.isnan(b[~ok]).all()
+    r = run("compress", src, tmp_path / "q.vpk", "--quality", "63", ok=False)
+    assert r.exit_code == 1 and "integer" in r.output  # quality is for integer volumes
+    r = run("compress", src, tmp_path / "two.vpk", "--psnr", "40", "--ratio", "9", ok=False)
+    assert r.exit_code == 1 and "at most one" in r.output
