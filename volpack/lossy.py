@@ -138,8 +138,7 @@ class BoundedCodec:
     def _reconstruct(self, q: np.ndarray, dtype: np.dtype) -> np.ndarray:
         if self.integer:
             v = q.astype(np.int64) * int(self.step) + int(self.lo)
-            info = np.iinfo(dtype)
-            return np.clip(v, info.min, info.max).astype(dtype)
+            return _clip_to(v, dtype)
         v = q.astype(np.float64) * self.step + self.lo
         if dtype != np.float64:
             big = float(np.finfo(dtype).max)
@@ -187,7 +186,6 @@ class BoundedCodec:
     def _coef_candidate(self, x, clean, mask):
         from . import sigmap
         from .entropy import CODERS
-        from .wavelet import dwt3
 
         fine, slack = self._fine()
         if self.integer:
@@ -196,11 +194,7 @@ class BoundedCodec:
             g = np.rint((clean.astype(np.float64) - self.lo) / fine).astype(np.int64)
         if mask is not None:
             g = _fill_masked(g, mask)
-        levels = dwt3.levels_for_shape(x.shape, self.max_levels)
-        steps = self._coef_steps(x.shape, levels)
-        c = dwt3.forward(g.copy(), levels, self.wavelet, overwrite=True)
-        qc = _quantize_coefs(c, steps, True)
-        rec = dwt3.inverse(_dequantize_coefs(qc, steps, True), levels, self.wavelet, overwrite=True)
+        body, rec = _code_coefficients(g.copy(), self, self._coef_steps, dead_zone=True)
         off = g - rec
         if mask is not None:
             off[mask] = 0
@@ -208,7 +202,6 @@ class BoundedCodec:
         # which brings them back within s: mostly zeros and +-1, coded as a sparse field.
         width = 2 * slack + 1
         res = np.where(np.abs(off) > slack, np.floor(off / width + 0.5), 0).astype(np.int64)
-        body = CODERS[self.coder].encode(qc, sigmap.scan(x.shape, levels, self.order))
         extra = []
         if res.any():
             rec += res * width
@@ -227,14 +220,10 @@ class BoundedCodec:
         base = COEF_STEP * max(self.max_error, 0.5) / fine
         return (base / band_scale(tuple(shape), tuple(levels))).reshape(shape)
 
-    def _decode_coef(self, inner: bytes, shape) -> np.ndarray:
-        return _decode_coef_grid(self, inner, shape)
-
     def _from_grid(self, g: np.ndarray, dtype: np.dtype) -> np.ndarray:
         fine, _ = self._fine()
         if self.integer:
-            info = np.iinfo(dtype)
-            return np.clip(g + int(self.lo), info.min, info.max).astype(dtype)
+            return _clip_to(g + int(self.lo), dtype)
         v = g.astype(np.float64) * fine + self.lo
         if dtype != np.float64:
             big = float(np.finfo(dtype).max)
@@ -284,7 +273,7 @@ class BoundedCodec:
         pos = 1
         inner, pos = _take(data, pos, len(data))
         if flags & FLAG_COEF:
-            g = self._decode_coef(inner, tuple(shape))
+            g = _decode_coefficients(inner, tuple(shape), self, self._coef_steps, dead_zone=True)
             if flags & FLAG_RESIDUALS:
                 from . import sigmap
                 from .entropy import CODERS
@@ -325,16 +314,41 @@ class BoundedCodec:
         return out
 
 
-def _decode_coef_grid(codec, inner: bytes, shape) -> np.ndarray:
+def _code_coefficients(g, codec, steps_of, *, dead_zone: bool):
+    """Transform ``g`` (int64, overwritten), quantise its coefficients with
+    ``steps_of(shape, levels)`` and code them with ``codec``'s wavelet, scan and coder.
+
+    Returns the coded bytes and the integers the decoder will rebuild from them.
+    """
+    from . import sigmap
+    from .entropy import CODERS
+    from .wavelet import dwt3
+
+    levels = dwt3.levels_for_shape(g.shape, codec.max_levels)
+    steps = steps_of(g.shape, levels)
+    c = dwt3.forward(g, levels, codec.wavelet, overwrite=True)
+    q = _quantize_coefs(c, steps, dead_zone)
+    body = CODERS[codec.coder].encode(q, sigmap.scan(g.shape, levels, codec.order))
+    return body, _rebuild_coefficients(q, steps, levels, codec.wavelet, dead_zone)
+
+
+def _decode_coefficients(body, shape, codec, steps_of, *, dead_zone: bool) -> np.ndarray:
+    """The decoding side of :func:`_code_coefficients`."""
     from . import sigmap
     from .entropy import CODERS
     from .wavelet import dwt3
 
     levels = dwt3.levels_for_shape(shape, codec.max_levels)
-    steps = codec._coef_steps(shape, levels)
-    qc = np.empty(shape, np.int64)
-    CODERS[codec.coder].decode(inner, sigmap.scan(shape, levels, codec.order), qc)
-    return dwt3.inverse(_dequantize_coefs(qc, steps, True), levels, codec.wavelet, overwrite=True)
+    q = np.empty(shape, np.int64)
+    CODERS[codec.coder].decode(bytes(body), sigmap.scan(shape, levels, codec.order), q)
+    return _rebuild_coefficients(q, steps_of(shape, levels), levels, codec.wavelet, dead_zone)
+
+
+def _rebuild_coefficients(q, steps, levels, wavelet: str, dead_zone: bool) -> np.ndarray:
+    from .wavelet import dwt3
+
+    c = _dequantize_coefs(q, steps, dead_zone)
+    return dwt3.inverse(c, levels, wavelet, overwrite=True)
 
 
 def _fill_masked(a: np.ndarray, mask: np.ndarray) -> np.ndarray:
@@ -420,7 +434,7 @@ class CoefCodec:
         return {"id": self.codec_id, **dataclasses.asdict(self)}
 
     def _steps(self, shape, levels) -> np.ndarray:
-        scale = band_scale(tuple(shape), tuple(levels))
+        scale = band_scale(tuple(shape), tuple(levels)).reshape(shape)
         if self.quality is not None:
             return (self.value_range / (int(self.quality) + 1)) / scale
         if self.step is not None:
@@ -432,44 +446,25 @@ class CoefCodec:
         return self.threshold is None
 
     def encode_measured(self, brick: np.ndarray) -> tuple[bytes, float, float, int]:
-        from . import sigmap
         from .codec import check_wavelet_dtype
-        from .entropy import CODERS
-        from .wavelet import dwt3
 
         x = np.ascontiguousarray(brick)
         check_wavelet_dtype(x.dtype)
         if x.size and (x.flat[0] == x).all():
             return bytes([MODE_CONSTANT]) + _as_stored(x)[: x.dtype.itemsize], 0.0, 0.0, x.size
-        levels = dwt3.levels_for_shape(x.shape, self.max_levels)
-        c = dwt3.forward(x.astype(np.int64), levels, self.wavelet, overwrite=True)
-        steps = self._steps(x.shape, levels).reshape(x.shape)
-        q = _quantize_coefs(c, steps, self._dead_zone)
-        payload = bytes([MODE_CODED]) + CODERS[self.coder].encode(
-            q, sigmap.scan(x.shape, levels, self.order)
+        body, rec = _code_coefficients(
+            x.astype(np.int64), self, self._steps, dead_zone=self._dead_zone
         )
-        rec = self._rebuild(q, steps, levels, x.dtype)
-        err = np.abs(rec.astype(np.float64) - x)
+        payload = bytes([MODE_CODED]) + body
         if len(payload) > x.nbytes + 1:  # quantisation did not pay: store it exactly
             return bytes([MODE_RAW]) + _as_stored(x), 0.0, 0.0, x.size
+        err = np.abs(_clip_to(rec, x.dtype).astype(np.float64) - x)
         return payload, float(err.max(initial=0.0)), float(np.sum(err * err)), x.size
 
     def encode(self, brick: np.ndarray) -> bytes:
         return self.encode_measured(brick)[0]
 
-    def _rebuild(self, q, steps, levels, dtype) -> np.ndarray:
-        from .wavelet import dwt3
-
-        c = _dequantize_coefs(q, steps, self._dead_zone)
-        v = dwt3.inverse(c, levels, self.wavelet, overwrite=True)
-        info = np.iinfo(dtype)
-        return np.clip(v, info.min, info.max).astype(dtype)
-
     def decode(self, data: bytes | memoryview, shape: tuple[int, ...], dtype: Any) -> np.ndarray:
-        from . import sigmap
-        from .entropy import CODERS
-        from .wavelet import dwt3
-
         dtype = np.dtype(dtype)
         data = memoryview(data)
         if len(data) < 1:
@@ -481,10 +476,13 @@ class CoefCodec:
             return np.full(shape, _from_stored(body, (1,), dtype)[0], dtype=dtype)
         if mode != MODE_CODED:
             raise FormatError(f"coef brick payload: expected mode 0, 1 or 2, found {mode}")
-        levels = dwt3.levels_for_shape(shape, self.max_levels)
-        q = np.empty(shape, np.int64)
-        CODERS[self.coder].decode(bytes(body), sigmap.scan(tuple(shape), levels, self.order), q)
-        return self._rebuild(q, self._steps(shape, levels).reshape(shape), levels, dtype)
+        rec = _decode_coefficients(body, tuple(shape), self, self._steps, dead_zone=self._dead_zone)
+        return _clip_to(rec, dtype)
+
+
+def _clip_to(v: np.ndarray, dtype: np.dtype) -> np.ndarray:
+    info = np.iinfo(dtype)
+    return np.clip(v, info.min, info.max).astype(dtype)
 
 
 # The dead-zone quantiser: bins of width ``step`` whose zero bin reaches 0.75 step on each
