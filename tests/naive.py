@@ -403,7 +403,7 @@ def arith_encode(coeffs, perm, end, parent, cls, nbr):
 # --- render tables ---
 
 
-def render_preint_reference(tf_table, length, steps=2000):
+def render_preint_reference(tf_table, length, steps=2000, lighting=False):
     """Pre-integration table by brute force: the volume rendering integral of every segment.
 
     Segment (i, j) is ``length`` voxels long, its scalar runs linearly from index i to j.
@@ -411,7 +411,8 @@ def render_preint_reference(tf_table, length, steps=2000):
     the scalar between entries; emission is ``c * tau``. The segment is cut into ``steps``
     equal slabs, each taken constant at its midpoint and composited front to back WITH
     the attenuation of everything in front of it. Returns (n, n, 4) float64
-    ``(C_r, C_g, C_b, A)``, premultiplied.
+    ``(C_r, C_g, C_b, A)``, premultiplied; with ``lighting`` (n, n, 7), adding the colour
+    with each slab weighted by its position along the segment (0 front, 1 back).
     """
     import numpy as np
 
@@ -423,7 +424,7 @@ def render_preint_reference(tf_table, length, steps=2000):
     idx = np.arange(n, dtype=np.float64)
     h = length / steps
     frac = (np.arange(steps) + 0.5) / steps
-    out = np.zeros((n, n, 4))
+    out = np.zeros((n, n, 7 if lighting else 4))
     for i in range(n):
         for j in range(n):
             s = i + (j - i) * frac
@@ -434,6 +435,8 @@ def render_preint_reference(tf_table, length, steps=2000):
             for ch in range(3):
                 c = np.interp(s, idx, tab[:, ch])
                 out[i, j, ch] = np.sum(trans[:-1] * slab_alpha * c)
+                if lighting:
+                    out[i, j, 4 + ch] = np.sum(frac * trans[:-1] * slab_alpha * c)
             out[i, j, 3] = 1.0 - trans[-1]
     return out
 

@@ -11,6 +11,7 @@ import pytest
 from click.testing import CliRunner
 
 from volpack.cli import main
+from volpack.errors import VolpackError
 from volpack.render.camera import Camera
 from volpack.render.image import save_png, to_rgb8
 from volpack.render.raycast import render
@@ -134,6 +135,28 @@ def test_preintegration_beats_post_classification_at_a_large_step():
     err_post = np.abs(post - ref).mean()
     assert ref[..., 3].max() > 0.5
     assert err_pre < 0.5 * err_post, (err_pre, err_post)
+
+
+@pytest.mark.parametrize("shading", ["preintegrated", "centroid"])
+def test_preintegrated_lighting_equals_phong_for_a_constant_normal(shading):
+    # v = z: the normal is the same everywhere inside; opacity only well inside in z
+    n = 24
+    vol = np.broadcast_to(np.arange(n, dtype=np.float32)[:, None, None], (n, n, n)).copy()
+    tf = TransferFunction(
+        points=((0, 1, 1, 1, 0.0), (6, 1, 1, 1, 0.0), (8, 0.2, 0.9, 0.5, 0.4),
+                (16, 0.9, 0.2, 0.3, 0.2), (18, 1, 1, 1, 0.0), (23, 1, 1, 1, 0.0))
+    )  # fmt: skip
+    kw = dict(tf=tf, camera=Camera(azimuth=20, elevation=35, size=(32, 32)), step=0.7,
+              classification="preintegrated", preint_method="exact", value_range=(0, n - 1))  # fmt: skip
+    phong = render(vol, shading="phong", **kw)
+    lit = render(vol, shading=shading, **kw)
+    assert phong[..., 3].max() > 0.5
+    np.testing.assert_allclose(lit, phong, atol=2e-5)
+
+
+def test_preintegrated_lighting_needs_preintegrated_classification():
+    with pytest.raises(VolpackError, match="classification='preintegrated'"):
+        render(ball(8), tf=blob_tf(), shading="preintegrated", classification="post")
 
 
 # --------------------------------------------------------------------------- accelerations

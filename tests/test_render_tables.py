@@ -15,7 +15,13 @@ from naive import render_iso_reference, render_preint_reference
 
 from volpack.errors import FormatError
 from volpack.render import preint
-from volpack.render.preint import iso_hits, iso_table, opacity_correct, preintegrate
+from volpack.render.preint import (
+    TableUpdater,
+    iso_hits,
+    iso_table,
+    opacity_correct,
+    preintegrate,
+)
 from volpack.render.transfer import (
     PRESETS,
     TransferFunction,
@@ -278,6 +284,65 @@ def test_single_entry_and_errors():
         preintegrate(np.zeros((4, 4)), 1.0, "slow")
     with pytest.raises(FormatError, match=r"\[0, 1\]"):
         preintegrate(np.full((4, 4), 2.0), 1.0)
+
+
+# -- pre-integrated lighting and table updates ---------------------------------------------
+
+
+@pytest.mark.parametrize("amax", [0.1, 0.9, 1.0])
+@pytest.mark.parametrize("length", [0.5, 2.0])
+def test_exact_lighting_table_matches_brute_force(rng, amax, length):
+    tab = random_table(rng, 8, amax)
+    ref = render_preint_reference(tab, length, steps=3000, lighting=True)
+    out = preintegrate(tab, length, "exact", lighting=True)
+    np.testing.assert_allclose(out, ref, atol=1.5e-3, rtol=0)
+    # the lighting channels ride along: the first four are the plain table, bit for bit
+    assert np.array_equal(out[..., :4], preintegrate(tab, length, "exact"))
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_lighting_table_invariants(rng, method):
+    out = preintegrate(random_table(rng, 33), 1.7, method, lighting=True)
+    c, b = out[..., :3], out[..., 4:]
+    assert np.all(b >= 0) and np.all(b <= c)
+    # rising and falling segments over the same constant-emission stretch put their
+    # emission centroid on opposite sides of the middle
+    flat = np.tile([[0.4, 0.6, 0.2, 0.05]], (9, 1))
+    t = preintegrate(flat, 1.0, method, lighting=True)
+    np.testing.assert_allclose(t[..., 4:], t[..., :3] / 2, rtol=2e-2 if method == "exact" else 1e-6)
+    # an emitting back end: the centroid sits near the back of the segment
+    ramp = np.zeros((5, 4))
+    ramp[:, :3] = 1.0
+    ramp[4, 3] = 0.5
+    t = preintegrate(ramp, 1.0, method, lighting=True)
+    assert t[0, 4, 4] > 0.6 * t[0, 4, 0] and t[4, 0, 4] < 0.4 * t[4, 0, 0]
+
+
+def test_fast_lighting_matches_reference_for_low_opacity(rng):
+    tab = random_table(rng, 9, 0.03)
+    ref = render_preint_reference(tab, 1.0, steps=1000, lighting=True)
+    out = preintegrate(tab, 1.0, "fast", lighting=True)
+    np.testing.assert_allclose(out[..., 4:], ref[..., 4:], atol=2e-3)
+
+
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("lighting", [False, True])
+def test_local_table_update_equals_a_fresh_build(rng, method, lighting):
+    n = 40
+    tab = random_table(rng, n, 0.9)
+    up = TableUpdater(tab, 1.3, method, lighting=lighting)
+    assert np.array_equal(up.table, preintegrate(tab, 1.3, method, lighting=lighting))
+    for k0, k1 in [(0, 1), (17, 19), (39, 40), (5, 33)]:
+        tab = tab.copy()
+        tab[k0:k1] = rng.uniform(0, 0.9, (k1 - k0, 4))
+        count = up.update(tab)
+        assert count == n * n - k0 * k0 - (n - k1) ** 2
+        assert np.array_equal(up.table, preintegrate(tab, 1.3, method, lighting=lighting))
+    assert up.update(tab) == 0
+    with pytest.raises(FormatError, match="shape"):
+        up.update(tab[:-1])
+    with pytest.raises(FormatError, match="method"):
+        TableUpdater(tab, 1.0, "engel")
 
 
 def test_opacity_correct():

@@ -113,8 +113,11 @@ def _load(source: str, frame: int | None, raw: dict):
 )
 @click.option("--preint", "preint_method", type=click.Choice(["fast", "exact"]), default="fast",
               show_default=True, help="Pre-integration table: fast (no self-attenuation) or exact.")  # fmt: skip
-@click.option("--shading", type=click.Choice(["phong", "none"]), default="phong",
-              show_default=True)  # fmt: skip
+@click.option("--shading", type=click.Choice(["phong", "centroid", "preintegrated", "none"]),
+              default="phong", show_default=True, help="phong: a headlight at the segment "
+              "midpoint; centroid: at the segment's emission centroid (most accurate); "
+              "preintegrated: lighting tables, n.l linear along the segment. The last two "
+              "need --classification preintegrated.")  # fmt: skip
 @click.option("--iso", "iso_spec", help="Isosurfaces VALUE:COLOUR[@OPACITY],... e.g. "
               "300:bone,1200:skull@0.4 (COLOUR: a name or #rrggbb).")  # fmt: skip
 @click.option("--orbit", type=click.IntRange(min=1), help="Render N views around the volume; "
@@ -164,6 +167,7 @@ def render(
       volpack render ct.vpk ct.png --tf ct-bone --azimuth 90 --elevation 10 --colorbar
       volpack render ct.nrrd bones.png --iso 300:bone,1200:skull@0.4
       volpack render mri.npy mri.png --classification post --step 0.25 --size 800x600
+      volpack render ct.npy ct.png --tf ct-bone --preint exact --shading preintegrated
       volpack render ct.nii.gz orbit/ --orbit 36 --perspective --zoom 1.3
     """
     import numpy as np

@@ -51,6 +51,23 @@ Methods
     Eq. (10) verbatim, ``C = L (K(j) - K(i)) / (j - i)`` and ``C = c tau L`` on the
     diagonal, for comparison only: it can exceed ``A`` and 1.
 
+Pre-integrated lighting
+-----------------------
+Shading inside a segment (seed 004 eq. 1.33, after Meissner et al.; seed 000 5.2): the
+diffuse factor ``l = n.l`` is taken linear along the segment, from ``l_f`` at the front
+sample to ``l_b`` at the back one, so the shaded colour is
+``ka C + kd (l_f (C - B) + l_b B)`` with one more table,
+
+    B = int_0^L w(x) c(s(x)) tau(s(x)) exp(-int_0^x tau) dx,   w = x / L,
+
+the colour weighted by the position along the segment (``C - B`` is the front-weighted
+part). ``B / C`` is the emission centroid ``w*``, which also places the one
+representative normal ``(1 - w*) n_f + w* n_b`` of the specular term (eq. 1.34). Both
+methods build ``B`` beside ``C``: ``fast`` from a first-moment prefix integral (again
+without self-attenuation in the colour, and equal to ``C / 2`` on the diagonal and for
+constant ``c tau``), ``exact`` with the attenuation, by extending the window composite
+with a position moment (see :func:`_window_over_kernel`).
+
 Isosurfaces
 -----------
 :func:`iso_table` gives, for each (front, back) pair, the first isosurface crossed from
@@ -69,7 +86,7 @@ import numpy as np
 from .._jit import kernel
 from ..errors import FormatError
 
-__all__ = ["TAU_MAX", "iso_hits", "iso_table", "opacity_correct", "preintegrate"]
+__all__ = ["TAU_MAX", "TableUpdater", "iso_hits", "iso_table", "opacity_correct", "preintegrate"]
 
 #: Extinction per voxel used for ``a = 1`` (and the largest one used): transmittance
 #: ``exp(-40) = 4e-18`` per voxel, opaque in any float32 sense.
@@ -78,7 +95,9 @@ TAU_MAX = 40.0
 _METHODS = {"fast": 0, "exact": 1, "engel": 2}
 
 
-def preintegrate(tf_table, length: float, method: str = "fast") -> np.ndarray:
+def preintegrate(
+    tf_table, length: float, method: str = "fast", *, lighting: bool = False
+) -> np.ndarray:
     """Pre-integrated colour and opacity of every linear segment between table entries.
 
     Parameters
@@ -90,20 +109,19 @@ def preintegrate(tf_table, length: float, method: str = "fast") -> np.ndarray:
         Segment length in voxels (>= 0); 0 gives an all-zero table.
     method : {"fast", "exact", "engel"}
         See the module docstring.
+    lighting : bool
+        Also return the back-weighted colour ``B`` (module docstring, "Pre-integrated
+        lighting") in channels 4-6.
 
     Returns
     -------
-    ndarray, shape (n, n, 4), float32
-        ``out[i, j] = (C_r, C_g, C_b, A)`` for front index ``i`` and back index ``j``,
-        with premultiplied colour ``0 <= C <= A <= 1`` (``engel`` excepted).
+    ndarray, shape (n, n, 4) or (n, n, 7) with ``lighting``, float32
+        ``out[i, j] = (C_r, C_g, C_b, A[, B_r, B_g, B_b])`` for front index ``i`` and
+        back index ``j``, with premultiplied colour ``0 <= B <= C <= A <= 1`` (``engel``
+        excepted).
     """
     tab = _check_table(tf_table)
-    try:
-        length = float(length)
-    except (TypeError, ValueError) as e:
-        raise FormatError(f"segment length: expected a number, found {length!r}") from e
-    if not math.isfinite(length) or length < 0:
-        raise FormatError(f"segment length: expected a finite number >= 0, found {length}")
+    length = _check_length(length)
     if method not in _METHODS:
         raise FormatError(
             f"pre-integration method: expected one of {list(_METHODS)}, found {method!r}"
@@ -111,12 +129,69 @@ def preintegrate(tf_table, length: float, method: str = "fast") -> np.ndarray:
     tau = _extinction(tab[:, 3])
     col = np.ascontiguousarray(tab[:, :3])
     n = len(tab)
-    out = np.empty((n, n, 4), dtype=np.float32)
+    out = np.empty((n, n, 7 if lighting else 4), dtype=np.float32)
     if method == "exact":
         _preint_exact_kernel(tau, col, length, out)
     else:
-        _preint_fast_kernel(tau, col, length, method == "engel", out)
+        _preint_fast_kernel(tau, col, length, method == "engel", out, 0, n - 1)
     return out
+
+
+class TableUpdater:
+    """A pre-integration table kept current while the transfer function is edited.
+
+    After a change, only the entries whose segment crosses a changed TF entry are
+    recomputed (seed 001's local update): with ``fast`` from the new prefix integrals,
+    with ``exact`` from a cache of every cell's integrals at every segment length, in
+    which only the changed cells are integrated again. The cache holds
+    ``14 (n - 1)^2`` float64 (7 MB for n = 256). The table equals a fresh
+    :func:`preintegrate` of the same TF.
+
+    >>> up = TableUpdater(tf, 1.0, "exact")   # full build
+    >>> n_entries = up.update(edited_tf)       # local update; ``up.table`` is current
+    """
+
+    def __init__(self, tf_table, length: float, method: str = "exact", *, lighting=False):
+        if method not in ("fast", "exact"):
+            raise FormatError(f"table update method: expected 'fast' or 'exact', found {method!r}")
+        tab = _check_table(tf_table)
+        self.length = _check_length(length)
+        self.method = method
+        self.lighting = bool(lighting)
+        n = len(tab)
+        self.table = np.empty((n, n, 7 if lighting else 4), dtype=np.float32)
+        if method == "exact":
+            nc = max(n - 1, 0)
+            self._c = np.zeros((max(n - 1, 1), 2, nc, 3))
+            self._f = np.zeros((max(n - 1, 1), 2, nc, 3))
+            self._t = np.zeros((max(n - 1, 1), 2, nc))
+        self._tab = np.full_like(tab, np.nan)  # forces a full build
+        self.update(tab)
+
+    def update(self, tf_table) -> int:
+        """Bring the table up to ``tf_table`` (same size); return the entries recomputed."""
+        tab = _check_table(tf_table)
+        n = len(self._tab)
+        if tab.shape != self._tab.shape:
+            raise FormatError(
+                f"table update: expected a TF of shape {self._tab.shape}, found {tab.shape}"
+            )
+        changed = np.flatnonzero(np.any(tab != self._tab, axis=1))
+        if changed.size == 0:
+            return 0
+        k0, k1 = int(changed[0]), int(changed[-1])
+        tau = _extinction(tab[:, 3])
+        col = np.ascontiguousarray(tab[:, :3])
+        if self.method == "exact":
+            _exact_update_kernel(
+                tau, col, self.length, k0, k1, self._c, self._f, self._t, self.table
+            )
+        else:
+            _preint_fast_kernel(tau, col, self.length, False, self.table, k0, k1)
+        self._tab = tab
+        # entries (i, j) with the segment [min, max] meeting [k0, k1]
+        below, above = k0, n - 1 - k1
+        return n * n - below * below - above * above
 
 
 def opacity_correct(alpha, ratio):
@@ -198,6 +273,16 @@ def _check_table(tf_table) -> np.ndarray:
     return tab
 
 
+def _check_length(length) -> float:
+    try:
+        length = float(length)
+    except (TypeError, ValueError) as e:
+        raise FormatError(f"segment length: expected a number, found {length!r}") from e
+    if not math.isfinite(length) or length < 0:
+        raise FormatError(f"segment length: expected a finite number >= 0, found {length}")
+    return length
+
+
 def _extinction(a: np.ndarray) -> np.ndarray:
     """Extinction per voxel ``-ln(1 - a)``, capped at :data:`TAU_MAX` (``a = 1`` included)."""
     a = np.asarray(a, dtype=np.float64)
@@ -247,21 +332,38 @@ def _iso_prepare(n, lo, hi, isos):
 
 
 @kernel
-def _preint_fast_kernel(tau, col, length, engel, out):
-    """Integral-function tables (see ``fast`` / ``engel`` in the module docstring)."""
+def _preint_fast_kernel(tau, col, length, engel, out, k0, k1):
+    """Integral-function tables (see ``fast`` / ``engel`` in the module docstring), the
+    entries whose segment touches table entries ``k0 .. k1`` (all for ``0, n - 1``).
+
+    With seven channels, ``B = C w`` where ``w`` is the emission-weighted mean position
+    of the segment (0 at the front, 1 at the back), from the first-moment prefix
+    integral ``M(s) = int s c tau`` (Simpson, exact for the cubic integrand).
+    """
     n = tau.shape[0]
+    lit = out.shape[2] == 7
     tp = np.zeros(n)  # prefix integral of tau over index units
     kp = np.zeros((n, 3))  # prefix integral of c * tau (exact for linear c and tau)
+    mp = np.zeros((n, 3))  # prefix integral of s * c * tau
     for k in range(n - 1):
         t0 = tau[k]
         t1 = tau[k + 1]
         tp[k + 1] = tp[k] + 0.5 * (t0 + t1)
+        th = 0.5 * (t0 + t1)
         for ch in range(3):
             c0 = col[k, ch]
             c1 = col[k + 1, ch]
             kp[k + 1, ch] = kp[k, ch] + (2.0 * c0 * t0 + c0 * t1 + c1 * t0 + 2.0 * c1 * t1) / 6.0
+            if lit:
+                ch_ = 0.5 * (c0 + c1)
+                f0 = k * c0 * t0
+                fh = (k + 0.5) * ch_ * th
+                f1 = (k + 1.0) * c1 * t1
+                mp[k + 1, ch] = mp[k, ch] + (f0 + 4.0 * fh + f1) / 6.0
     for i in range(n):
         for j in range(n):
+            if (i < k0 and j < k0) or (i > k1 and j > k1):
+                continue
             if i == j:
                 a = -math.expm1(-tau[i] * length)
                 out[i, j, 3] = a
@@ -270,6 +372,8 @@ def _preint_fast_kernel(tau, col, length, engel, out):
                         out[i, j, ch] = col[i, ch] * tau[i] * length
                     else:
                         out[i, j, ch] = col[i, ch] * a
+                    if lit:
+                        out[i, j, 4 + ch] = 0.5 * out[i, j, ch]
                 continue
             m = abs(j - i)
             dt = abs(tp[j] - tp[i])
@@ -286,16 +390,27 @@ def _preint_fast_kernel(tau, col, length, engel, out):
                     out[i, j, ch] = a * r
                 else:
                     out[i, j, ch] = 0.0
+                if lit:
+                    # int (s - i) c tau ds over the segment, divided by (j - i) int c tau
+                    den = (j - i) * (kp[j, ch] - kp[i, ch])
+                    w = 0.5
+                    if den > 0.0:
+                        w = ((mp[j, ch] - mp[i, ch]) - i * (kp[j, ch] - kp[i, ch])) / den
+                        w = min(max(w, 0.0), 1.0)
+                    out[i, j, 4 + ch] = out[i, j, ch] * w
 
 
 @kernel
 def _cell_integral_kernel(t_in, t_out, delta):
-    """Opacity ``alpha`` and ``J = int_0^1 1 - exp(-Phi(u)) du`` of one TF cell.
+    """Opacity ``alpha``, ``J = int_0^1 W(u) du`` and ``J1 = int_0^1 u W(u) du`` of one
+    TF cell, with ``W(u) = 1 - exp(-Phi(u))`` the opacity of its first ``u``.
 
     The cell is crossed over ``delta`` voxels with extinction going linearly from
     ``t_in`` to ``t_out``: ``Phi(u) = delta (t_in u + (t_out - t_in) u^2 / 2)``.
     Composite 3-point Gauss-Legendre, one sub-interval per unit of the largest
-    ``delta * tau`` (at most 256). ``0 <= J <= alpha`` is enforced.
+    ``delta * tau`` (at most 256). ``0 <= J <= alpha`` and ``0 <= J1 <= J`` are enforced.
+    ``W`` saturates smoothly, so it integrates well where ``tau exp(-Phi)``, peaked at
+    the entry of an opaque cell, would not; the colour integrals are taken by parts.
     """
     phi1 = delta * 0.5 * (t_in + t_out)
     alpha = -math.expm1(-phi1)
@@ -310,114 +425,244 @@ def _cell_integral_kernel(t_in, t_out, delta):
     x2 = 0.5 + 0.5 * math.sqrt(0.6)
     half_slope = 0.5 * (t_out - t_in)
     acc = 0.0
+    acc1 = 0.0
     for k in range(nsub):
         u = (k + x0) * h
-        acc += (5.0 / 18.0) * -math.expm1(-delta * u * (t_in + half_slope * u))
+        v = (5.0 / 18.0) * -math.expm1(-delta * u * (t_in + half_slope * u))
+        acc += v
+        acc1 += u * v
         u = (k + 0.5) * h
-        acc += (8.0 / 18.0) * -math.expm1(-delta * u * (t_in + half_slope * u))
+        v = (8.0 / 18.0) * -math.expm1(-delta * u * (t_in + half_slope * u))
+        acc += v
+        acc1 += u * v
         u = (k + x2) * h
-        acc += (5.0 / 18.0) * -math.expm1(-delta * u * (t_in + half_slope * u))
+        v = (5.0 / 18.0) * -math.expm1(-delta * u * (t_in + half_slope * u))
+        acc += v
+        acc1 += u * v
     j = acc * h
     if j < 0.0:
         j = 0.0
     if j > alpha:
         j = alpha
-    return alpha, j
+    j1 = acc1 * h
+    if j1 < 0.0:
+        j1 = 0.0
+    if j1 > j:
+        j1 = j
+    return alpha, j, j1
 
 
 @kernel
-def _window_over_kernel(ec, et, m, pre_c, pre_t, suf_c, suf_t, res):
+def _window_over_kernel(ec, et, ef, m, lit, pre_c, pre_t, pre_f, suf_c, suf_t, suf_f, res, resf):
     """Composite every window of ``m`` consecutive cells front to back ("over").
 
     ``ec[k]`` is the premultiplied colour and ``et[k]`` the transmittance of cell ``k``
     in ray order. ``res[f]`` receives the colour of cells ``f .. f+m-1``. Blocks of
     ``m`` cells get prefix and suffix composites; a window is one suffix over one
     prefix, so the whole pass is O(cells) and never divides.
+
+    With ``lit``, ``ef[k]`` is the cell's colour weighted by the position inside it
+    (0 at entry, 1 at exit) and ``resf[f]`` receives ``sum_q T_q (q ec + ef)`` over the
+    window's cells ``q = 0 .. m-1`` (``T_q`` the transmittance in front of cell ``q``):
+    ``m`` times the colour weighted by the position along the whole window. A run of
+    cells is ``(C, T, F, N)`` and ``X over Y`` is
+    ``(C_X + T_X C_Y, T_X T_Y, F_X + T_X (F_Y + N_X C_Y), N_X + N_Y)``, still associative.
     """
     nc = et.shape[0]
     for k in range(nc):
-        if k % m == 0:
+        q = k % m
+        if q == 0:
             pre_t[k] = et[k]
             for ch in range(3):
                 pre_c[k, ch] = ec[k, ch]
+                if lit:
+                    pre_f[k, ch] = ef[k, ch]
         else:
             pre_t[k] = pre_t[k - 1] * et[k]
             for ch in range(3):
                 pre_c[k, ch] = pre_c[k - 1, ch] + pre_t[k - 1] * ec[k, ch]
+                if lit:
+                    pre_f[k, ch] = pre_f[k - 1, ch] + pre_t[k - 1] * (q * ec[k, ch] + ef[k, ch])
     for k in range(nc - 1, -1, -1):
         if k % m == m - 1 or k == nc - 1:
             suf_t[k] = et[k]
             for ch in range(3):
                 suf_c[k, ch] = ec[k, ch]
+                if lit:
+                    suf_f[k, ch] = ef[k, ch]
         else:
             suf_t[k] = et[k] * suf_t[k + 1]
             for ch in range(3):
                 suf_c[k, ch] = ec[k, ch] + et[k] * suf_c[k + 1, ch]
+                if lit:
+                    suf_f[k, ch] = ef[k, ch] + et[k] * (suf_f[k + 1, ch] + suf_c[k + 1, ch])
     for f in range(nc - m + 1):
         e = f + m - 1
         if f % m == 0:
             for ch in range(3):
                 res[f, ch] = pre_c[e, ch]
+                if lit:
+                    resf[f, ch] = pre_f[e, ch]
         else:
+            nsuf = m - f % m  # cells of the suffix part
             for ch in range(3):
                 res[f, ch] = suf_c[f, ch] + suf_t[f] * pre_c[e, ch]
+                if lit:
+                    resf[f, ch] = suf_f[f, ch] + suf_t[f] * (pre_f[e, ch] + nsuf * pre_c[e, ch])
+
+
+@kernel
+def _exact_diagonal_kernel(tau, col, length, lit, lo, hi, out):
+    """Constant-scalar entries ``(i, i)`` for ``lo <= i < hi``."""
+    for i in range(lo, hi):
+        a = -math.expm1(-tau[i] * length)
+        out[i, i, 3] = a
+        back = 0.0  # share of the emission of a constant segment weighted by position
+        if lit:
+            _, jw, _ = _cell_integral_kernel(tau[i], tau[i], length)
+            back = (a - jw) / a if a > 0.0 else 0.5
+        for ch in range(3):
+            out[i, i, ch] = col[i, ch] * a
+            if lit:
+                out[i, i, 4 + ch] = col[i, ch] * a * back
+
+
+@kernel
+def _exact_cells_kernel(tau, col, delta, lit, lo, hi, up_c, up_f, up_t, dn_c, dn_f, dn_t):
+    """Colour, position moment and transmittance of TF cells ``lo <= k < hi`` crossed
+    over ``delta`` voxels, upward (enter at k) and downward (enter at k + 1).
+
+    Downward arrays are in ray order: entry ``nc - 1 - k`` is cell ``k``.
+    """
+    nc = up_t.shape[0]
+    for k in range(lo, hi):
+        t = math.exp(-delta * 0.5 * (tau[k] + tau[k + 1]))
+        alpha, jw, j1 = _cell_integral_kernel(tau[k], tau[k + 1], delta)
+        up_t[k] = t
+        for ch in range(3):
+            ci = col[k, ch]
+            co = col[k + 1, ch]
+            up_c[k, ch] = ci * jw + co * (alpha - jw)
+            if lit:  # int u c dW by parts
+                up_f[k, ch] = co * alpha - ci * jw - 2.0 * (co - ci) * j1
+        alpha, jw, j1 = _cell_integral_kernel(tau[k + 1], tau[k], delta)
+        r = nc - 1 - k
+        dn_t[r] = t
+        for ch in range(3):
+            ci = col[k + 1, ch]
+            co = col[k, ch]
+            dn_c[r, ch] = ci * jw + co * (alpha - jw)
+            if lit:
+                dn_f[r, ch] = co * alpha - ci * jw - 2.0 * (co - ci) * j1
+
+
+@kernel
+def _exact_windows_kernel(tp, length, m, lit, f_lo, f_hi, up_c, up_f, up_t, dn_c, dn_f, dn_t, out):
+    """Entries ``(f, f + m)`` and ``(f + m, f)`` for ``f_lo <= f < f_hi``: the windows of
+    ``m`` cells composited from the cell arrays (only the cells they cover are read)."""
+    nc = up_t.shape[0]
+    c_lo = f_lo
+    c_hi = f_hi + m - 1  # cells f_lo .. f_hi + m - 2
+    w = c_hi - c_lo
+    if w < m:
+        return
+    pre_c = np.empty((w, 3))
+    pre_f = np.empty((w, 3))
+    pre_t = np.empty(w)
+    suf_c = np.empty((w, 3))
+    suf_f = np.empty((w, 3))
+    suf_t = np.empty(w)
+    res_up = np.empty((w, 3))
+    res_dn = np.empty((w, 3))
+    resf_up = np.empty((w, 3))
+    resf_dn = np.empty((w, 3))
+    _window_over_kernel(
+        up_c[c_lo:c_hi], up_t[c_lo:c_hi], up_f[c_lo:c_hi], m, lit,
+        pre_c, pre_t, pre_f, suf_c, suf_t, suf_f, res_up, resf_up,
+    )  # fmt: skip
+    r_lo = nc - c_hi
+    r_hi = nc - c_lo
+    _window_over_kernel(
+        dn_c[r_lo:r_hi], dn_t[r_lo:r_hi], dn_f[r_lo:r_hi], m, lit,
+        pre_c, pre_t, pre_f, suf_c, suf_t, suf_f, res_dn, resf_dn,
+    )  # fmt: skip
+    for f in range(f_lo, f_hi):
+        # upward segment f -> f + m covers cells f .. f + m - 1
+        b = f + m
+        a = -math.expm1(-length * (tp[b] - tp[f]) / m)
+        out[f, b, 3] = a
+        out[b, f, 3] = a
+        # downward segment b -> f covers, in ray order, reversed cells nc - b ..
+        u = f - c_lo
+        d = nc - b - r_lo
+        for ch in range(3):
+            cu = min(max(res_up[u, ch], 0.0), a)
+            out[f, b, ch] = cu
+            cd = min(max(res_dn[d, ch], 0.0), a)
+            out[b, f, ch] = cd
+            if lit:
+                out[f, b, 4 + ch] = min(max(resf_up[u, ch] / m, 0.0), cu)
+                out[b, f, 4 + ch] = min(max(resf_dn[d, ch] / m, 0.0), cd)
+
+
+@kernel
+def _prefix_tau(tau):
+    n = tau.shape[0]
+    tp = np.zeros(n)
+    for k in range(n - 1):
+        tp[k + 1] = tp[k] + 0.5 * (tau[k] + tau[k + 1])
+    return tp
 
 
 @kernel
 def _preint_exact_kernel(tau, col, length, out):
     """Exact tables with self-attenuation (see ``exact`` in the module docstring)."""
     n = tau.shape[0]
-    tp = np.zeros(n)
-    for k in range(n - 1):
-        tp[k + 1] = tp[k] + 0.5 * (tau[k] + tau[k + 1])
-    for i in range(n):
-        a = -math.expm1(-tau[i] * length)
-        out[i, i, 3] = a
-        for ch in range(3):
-            out[i, i, ch] = col[i, ch] * a
+    lit = out.shape[2] == 7
+    tp = _prefix_tau(tau)
+    _exact_diagonal_kernel(tau, col, length, lit, 0, n, out)
     nc = n - 1
     if nc < 1:
         return
     up_c = np.empty((nc, 3))
+    up_f = np.zeros((nc, 3))
     up_t = np.empty(nc)
-    dn_c = np.empty((nc, 3))  # in ray order for downward rays: entry r is cell nc-1-r
+    dn_c = np.empty((nc, 3))
+    dn_f = np.zeros((nc, 3))
     dn_t = np.empty(nc)
-    pre_c = np.empty((nc, 3))
-    pre_t = np.empty(nc)
-    suf_c = np.empty((nc, 3))
-    suf_t = np.empty(nc)
-    res_up = np.empty((nc, 3))
-    res_dn = np.empty((nc, 3))
     for m in range(1, n):
-        delta = length / m
-        for k in range(nc):
-            t = math.exp(-delta * 0.5 * (tau[k] + tau[k + 1]))
-            # upward: enter at k, leave at k + 1
-            alpha, jw = _cell_integral_kernel(tau[k], tau[k + 1], delta)
-            up_t[k] = t
-            for ch in range(3):
-                up_c[k, ch] = col[k, ch] * jw + col[k + 1, ch] * (alpha - jw)
-            # downward: enter at k + 1, leave at k
-            alpha, jw = _cell_integral_kernel(tau[k + 1], tau[k], delta)
-            r = nc - 1 - k
-            dn_t[r] = t
-            for ch in range(3):
-                dn_c[r, ch] = col[k + 1, ch] * jw + col[k, ch] * (alpha - jw)
-        _window_over_kernel(up_c, up_t, m, pre_c, pre_t, suf_c, suf_t, res_up)
-        _window_over_kernel(dn_c, dn_t, m, pre_c, pre_t, suf_c, suf_t, res_dn)
-        for f in range(n - m):
-            # upward segment f -> f + m covers cells f .. f + m - 1
-            b = f + m
-            a = -math.expm1(-length * (tp[b] - tp[f]) / m)
-            out[f, b, 3] = a
-            out[b, f, 3] = a
-            # downward segment b -> f covers, in ray order, reversed cells nc - b ..
-            r = nc - b
-            for ch in range(3):
-                c = res_up[f, ch]
-                out[f, b, ch] = min(max(c, 0.0), a)
-                c = res_dn[r, ch]
-                out[b, f, ch] = min(max(c, 0.0), a)
+        _exact_cells_kernel(tau, col, length / m, lit, 0, nc, up_c, up_f, up_t, dn_c, dn_f, dn_t)
+        _exact_windows_kernel(tp, length, m, lit, 0, n - m, up_c, up_f, up_t, dn_c, dn_f, dn_t, out)
+
+
+@kernel
+def _exact_update_kernel(tau, col, length, k0, k1, cache_c, cache_f, cache_t, out):
+    """Exact entries whose segment touches table entries ``k0 .. k1`` (inclusive), from
+    the per-length cell cache (``cache_*[m - 1]``: upward then downward cells), whose
+    cells ``k0 - 1 .. k1`` are recomputed first."""
+    n = tau.shape[0]
+    lit = out.shape[2] == 7
+    tp = _prefix_tau(tau)
+    _exact_diagonal_kernel(tau, col, length, lit, k0, k1 + 1, out)
+    nc = n - 1
+    if nc < 1:
+        return
+    c_lo = max(k0 - 1, 0)
+    c_hi = min(k1 + 1, nc)
+    for m in range(1, n):
+        up_c, dn_c = cache_c[m - 1, 0], cache_c[m - 1, 1]
+        up_f, dn_f = cache_f[m - 1, 0], cache_f[m - 1, 1]
+        up_t, dn_t = cache_t[m - 1, 0], cache_t[m - 1, 1]
+        _exact_cells_kernel(
+            tau, col, length / m, lit, c_lo, c_hi, up_c, up_f, up_t, dn_c, dn_f, dn_t
+        )
+        # windows f .. f + m - 1 that meet cells c_lo .. c_hi - 1
+        f_lo = max(c_lo - m + 1, 0)
+        f_hi = min(c_hi, n - m)
+        if f_hi > f_lo:
+            _exact_windows_kernel(
+                tp, length, m, lit, f_lo, f_hi, up_c, up_f, up_t, dn_c, dn_f, dn_t, out
+            )
 
 
 @kernel
