@@ -231,6 +231,59 @@ def test_one_voxel_thick_volume_and_a_camera_looking_away():
     assert not render(ball(16, 4), tf=blob_tf(), camera=away).any()
 
 
+@pytest.mark.filterwarnings("error")
+@pytest.mark.parametrize("mode", ["post", "preintegrated"])
+def test_camera_inside_the_volume_sees_the_distance_to_the_box(mode):
+    # constant volume, eye at the centre looking along +y: the centre ray crosses half
+    # the box (from y = 15.5 to the face at 31.5), so alpha = 1 - (1 - a) ** 16
+    n, a = 32, 0.05
+    vol = np.full((n, n, n), 3.0, np.float32)
+    cam = Camera(azimuth=0, elevation=0, projection="perspective", distance=0.0, size=(9, 9))
+    img = render(vol, tf=flat_tf(a), camera=cam, classification=mode, step=0.5, ert=1.0)
+    assert np.all(np.isfinite(img)) and img[..., 3].min() > 0
+    assert img[4, 4, 3] == pytest.approx(1 - (1 - a) ** 16.0, rel=2e-3)
+    # orthographic: the distance is a near clipping plane through the centre
+    cam = Camera(azimuth=0, elevation=0, distance=0.0, size=(9, 9), zoom=2)
+    img = render(vol, tf=flat_tf(a), camera=cam, classification=mode, step=0.5, ert=1.0)
+    assert img[4, 4, 3] == pytest.approx(1 - (1 - a) ** 16.0, rel=2e-3)
+    with pytest.raises(VolpackError, match="distance"):
+        Camera(distance=-1.0)
+
+
+@pytest.mark.filterwarnings("error")
+@pytest.mark.parametrize("mode", ["post", "pre", "preintegrated"])
+def test_fully_transparent_and_fully_opaque_tfs(mode):
+    vol = ball(24, 8)
+    cam = Camera(size=(20, 20))
+    clear = render(vol, tf=flat_tf(0.0), camera=cam, classification=mode, shading="phong")
+    assert not clear.any()
+    solid = render(vol, tf=flat_tf(1.0, (0.2, 0.4, 0.6)), camera=cam, classification=mode)
+    hit = solid[..., 3] > 0
+    assert hit.sum() > 100 and np.all(np.isfinite(solid))
+    np.testing.assert_allclose(solid[hit][:, 3], 1.0, atol=1e-6)
+    np.testing.assert_allclose(
+        solid[hit][:, :3], np.tile([0.2, 0.4, 0.6], (hit.sum(), 1)), atol=1e-5
+    )
+
+
+@pytest.mark.filterwarnings("error")
+def test_a_spike_narrower_than_a_step_is_not_missed_by_preintegration():
+    # values run 0..1 along z; only [0.495, 0.505] is opaque: 0.3 voxels thick, while the
+    # step is 2 voxels. Post-classification samples straddle it; pre-integration does not.
+    n = 32
+    vol = np.broadcast_to(np.linspace(0, 1, n, dtype=np.float32)[:, None, None], (n, n, n)).copy()
+    tf = TransferFunction(
+        points=((0.0, 1, 1, 1, 0.0), (0.495, 1, 1, 1, 0.0), (0.5, 1, 0.5, 0.2, 0.9),
+                (0.505, 1, 1, 1, 0.0), (1.0, 1, 1, 1, 0.0))
+    )  # fmt: skip
+    kw = dict(tf=tf, camera=Camera(azimuth=0, elevation=80, size=(16, 16)), table_size=1024)
+    ref = render(vol, classification="post", step=0.01, **kw)
+    pre = render(vol, classification="preintegrated", step=2.0, **kw)
+    post = render(vol, classification="post", step=2.0, **kw)
+    assert ref[..., 3].mean() > 0.05
+    assert np.abs(pre - ref).max() < 0.25 * np.abs(post - ref).max()
+
+
 def test_isosurface_of_a_sphere_is_a_disc_of_its_radius():
     n, r = 48, 12.0
     cam = Camera(azimuth=15, elevation=20, size=(64, 64))

@@ -101,6 +101,9 @@ def _load(source: str, frame: int | None, raw: dict):
 @click.option("--elevation", type=float, default=20.0, show_default=True, help="Degrees up.")
 @click.option("--zoom", type=click.FloatRange(min=0, min_open=True), default=1.0, show_default=True)
 @click.option("--perspective", is_flag=True, help="Perspective projection (30 degree field).")
+@click.option("--distance", type=click.FloatRange(min=0), help="Eye (perspective) or near "
+              "plane (orthographic) distance from the volume centre, in spacing units; "
+              "small values put the camera inside the volume. Default: outside it.")  # fmt: skip
 @click.option("--size", "size_s", default="512x512", show_default=True, help="Image WxH.")
 @click.option("--step", type=click.FloatRange(min=0, min_open=True), default=0.5,
               show_default=True, help="Ray step in voxels (of the smallest spacing).")  # fmt: skip
@@ -139,6 +142,7 @@ def render(
     elevation,
     zoom,
     perspective,
+    distance,
     size_s,
     step,
     classification,
@@ -169,6 +173,7 @@ def render(
       volpack render mri.npy mri.png --classification post --step 0.25 --size 800x600
       volpack render ct.npy ct.png --tf ct-bone --preint exact --shading preintegrated
       volpack render ct.nii.gz orbit/ --orbit 36 --perspective --zoom 1.3
+      volpack render ct.nii.gz inside.png --perspective --distance 20   # from inside
     """
     import numpy as np
 
@@ -218,6 +223,7 @@ def render(
                 zoom=zoom,
                 projection="perspective" if perspective else "orthographic",
                 size=size,
+                distance=distance,
             )
             img, stats = raycast(
                 vol,

@@ -48,6 +48,11 @@ class Camera:
         The orbit centre in voxel index coordinates; the volume centre when None.
     size : (w, h)
         Image width and height in pixels.
+    distance : float or None
+        Distance from the look-at point, in world units (voxel index times spacing), of
+        the eye (perspective) or of the plane the rays start from (orthographic, which
+        makes it a near clipping plane). ``None`` stands outside the whole volume; a
+        small value puts the camera inside it.
     """
 
     azimuth: float = 30.0
@@ -56,6 +61,7 @@ class Camera:
     projection: str = "orthographic"
     look_at: tuple[float, float, float] | None = None
     size: tuple[int, int] = (512, 512)
+    distance: float | None = None
 
     def __post_init__(self) -> None:
         if self.projection not in ("orthographic", "perspective"):
@@ -71,6 +77,11 @@ class Camera:
         if len(self.size) != 2 or min(int(s) for s in self.size) < 1:
             raise VolpackError(f"expected an image size (w, h) >= 1, found {self.size}")
         object.__setattr__(self, "size", (int(self.size[0]), int(self.size[1])))
+        if self.distance is not None:
+            d = float(self.distance)
+            if not (math.isfinite(d) and d >= 0):
+                raise VolpackError(f"expected a finite camera distance >= 0, found {self.distance}")
+            object.__setattr__(self, "distance", d)
         if self.look_at is not None:
             la = tuple(float(v) for v in self.look_at)
             if len(la) != 3 or not all(math.isfinite(v) for v in la):
@@ -113,11 +124,12 @@ class Camera:
         v = (h / short - (np.arange(h) + 0.5) * 2 / short)[:, None, None]
         if self.projection == "orthographic":
             half = radius / self.zoom
-            origins = centre - (radius + 1.0) * fwd + half * (u * right + v * up)
+            back = radius + 1.0 if self.distance is None else self.distance
+            origins = centre - back * fwd + half * (u * right + v * up)
             dirs = np.broadcast_to(fwd, (h, w, 3)).copy()
         else:
             half_fov = math.radians(PERSPECTIVE_FOV) / 2
-            dist = radius / math.sin(half_fov)
+            dist = radius / math.sin(half_fov) if self.distance is None else self.distance
             eye = centre - dist * fwd
             tan_half = math.tan(half_fov) / self.zoom
             dirs = fwd + tan_half * (u * right + v * up)

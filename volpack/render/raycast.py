@@ -832,8 +832,8 @@ def _empty_bricks(vol, rgba, mode, has_vol, post_tab, pre2d, iso2d, has_iso, lo,
         vol_empty = np.ones(nb, bool)
     if has_iso:
         nonzero2 |= np.any(iso2d != 0, axis=2)
-    if not nonzero2.any():
-        return vol_empty
+    if not nonzero2.any():  # nothing visible through the 2-D tables anywhere
+        return np.ones(nb, np.bool_) if vol_empty is None else vol_empty
     sat = np.zeros((n + 1, n + 1), np.int64)
     sat[1:, 1:] = np.cumsum(np.cumsum(nonzero2, axis=0), axis=1)
     count = sat[i1 + 1, i1 + 1] - sat[i0, i1 + 1] - sat[i1 + 1, i0] + sat[i0, i0]
