@@ -183,6 +183,7 @@ def render(
     from ..render.camera import Camera
     from ..render.image import save_png
     from ..render.raycast import render as raycast
+    from ..volume import Volume
 
     size = _size(size_s)
     isos = parse_isos(iso_spec) if iso_spec else None
@@ -213,6 +214,9 @@ def render(
 
     if orbit:
         os.makedirs(output, exist_ok=True)
+        if data.dtype != np.float32:  # the ray caster samples float32: convert once, not per frame
+            vol = Volume(np.ascontiguousarray(data, np.float32), spacing=vol.spacing,
+                         origin=vol.origin, mask=vol.mask)  # fmt: skip
     frames = []
     samples, seconds = 0, 0.0
     with progress_bar(ctx, "render", unit="frame" if orbit else "row") as progress:

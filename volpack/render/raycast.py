@@ -235,28 +235,58 @@ def _box_hit(oz, oy, ox, dz, dy, dx, nz, ny, nx):
 
 
 @kernel
-def _brick_exit(pz, py, px, oz, oy, ox, dz, dy, dx, nz, ny, nx, nbz, nby, nbx, brick):
-    """(brick z, y, x, exit t) of the brick holding the (clamped) point p."""
-    bz = _cell(pz, nz)[0] // brick
-    by = _cell(py, ny)[0] // brick
-    bx = _cell(px, nx)[0] // brick
-    if bz >= nbz:
-        bz = nbz - 1
-    if by >= nby:
-        by = nby - 1
-    if bx >= nbx:
-        bx = nbx - 1
+def _brick_exit(pz, py, px, oz, oy, ox, dz, dy, dx, nz, ny, nx, leap, brick):
+    """(leap value, exit t) at the (clamped) point p: ``leap`` of its brick (0 visible,
+    k >= 1 empty with every brick within Chebyshev distance k - 1 empty too) and the
+    ``t`` where the ray leaves that brick, or that cube of empty bricks around it."""
+    nbz, nby, nbx = leap.shape
+    bz = min(_cell(pz, nz)[0] // brick, nbz - 1)
+    by = min(_cell(py, ny)[0] // brick, nby - 1)
+    bx = min(_cell(px, nx)[0] // brick, nbx - 1)
+    lv = leap[bz, by, bx]
+    r = lv - 1 if lv > 0 else 0
     te = np.inf
     for b, nb, o, d in ((bz, nbz, oz, dz), (by, nby, oy, dy), (bx, nbx, ox, dx)):
-        if d > 0.0 and b < nb - 1:
-            t = ((b + 1) * brick - o) / d
+        if d > 0.0 and b + r < nb - 1:
+            t = ((b + r + 1) * brick - o) / d
             if t < te:
                 te = t
-        elif d < 0.0 and b > 0:
-            t = (b * brick - o) / d
+        elif d < 0.0 and b - r > 0:
+            t = ((b - r) * brick - o) / d
             if t < te:
                 te = t
-    return bz, by, bx, te
+    return lv, te
+
+
+@kernel
+def _leap_kernel(empty, out):
+    """Chebyshev distance (in bricks) to the nearest visible brick, 0 on visible ones:
+    two raster passes over the 26-neighbourhood, exact for this metric."""
+    nbz, nby, nbx = empty.shape
+    big = nbz + nby + nbx + 1
+    for z in range(nbz):
+        for y in range(nby):
+            for x in range(nbx):
+                out[z, y, x] = big if empty[z, y, x] else 0
+    for rev in range(2):
+        for zz in range(nbz):
+            z = nbz - 1 - zz if rev else zz
+            for yy in range(nby):
+                y = nby - 1 - yy if rev else yy
+                for xx in range(nbx):
+                    x = nbx - 1 - xx if rev else xx
+                    v = out[z, y, x]
+                    if v == 0:
+                        continue
+                    for dz in range(-1, 2):
+                        for dy in range(-1, 2):
+                            for dx in range(-1, 2):
+                                qz, qy, qx = z + dz, y + dy, x + dx
+                                if 0 <= qz < nbz and 0 <= qy < nby and 0 <= qx < nbx:
+                                    w = out[qz, qy, qx] + 1
+                                    if w < v:
+                                        v = w
+                    out[z, y, x] = v
 
 
 @kernel
@@ -276,7 +306,7 @@ def _render_kernel(
     lo,
     scale,
     step,
-    empty,
+    leap,
     skip,
     ert,
     shade,
@@ -288,7 +318,6 @@ def _render_kernel(
     row_samples,
 ):
     nz, ny, nx = vol.shape
-    nbz, nby, nbx = empty.shape
     w = out.shape[1]
     niso = iso_vals.shape[0]
     ka, kd, ks, shin = shading[0], shading[1], shading[2], shading[3]
@@ -321,19 +350,24 @@ def _render_kernel(
             # front normal of the segment, carried over from the last one's back
             nfz, nfy, nfx, lf = 0.0, 0.0, 0.0, -1.0
             have_nf = False
+            next_check = -1.0  # ray parameter of the next empty-brick test
             i = 0
             while i < nseg:
                 t0 = tnear + i * step
-                if skip:
-                    bz, by, bx, te = _brick_exit(
+                if skip and t0 >= next_check:
+                    lv, te = _brick_exit(
                         oz + t0 * dz, oy + t0 * dy, ox + t0 * dx,
-                        oz, oy, ox, dz, dy, dx, nz, ny, nx, nbz, nby, nbx, 8,
+                        oz, oy, ox, dz, dy, dx, nz, ny, nx, leap, BRICK,
                     )  # fmt: skip
-                    if empty[bz, by, bx]:
+                    if lv == 0:
+                        next_check = te  # the ray stays in this (visible) brick until te
+                    else:
                         if te >= tfar:
                             break
                         inext = int(math.floor((te - tnear - 1e-7) / step))
                         if inext > i:
+                            # segment inext straddles the exit: it is marched, untested
+                            next_check = te
                             i = inext
                             have_front = False
                             have_nf = False
@@ -657,6 +691,9 @@ def render(
     empty = _empty_bricks(
         vol, rgba, mode, has_vol, post_tab, pre2d, iso2d, bool(isos), lo, scale, skip_empty
     )
+    leap = np.zeros(empty.shape, np.int64)
+    if skip_empty:
+        _leap_kernel(empty, leap)
     origins, dirs = camera.rays(vol.shape, sp)
     w, h = camera.size
     out = np.zeros((h, w, 4), np.float32)
@@ -674,7 +711,7 @@ def render(
         _render_kernel(
             vol, rgba, origins, dirs, np.arange(j, h, m, dtype=np.int64), mode, has_vol,
             post_tab, pre2d, iso2d, iso_vals, bool(isos), lo, scale, float(step),
-            empty, bool(skip_empty), float(ert), SHADINGS.index(shading), shading_k,
+            leap, bool(skip_empty), float(ert), SHADINGS.index(shading), shading_k,
             gscale, vscale, gmin, out, row_samples,
         )  # fmt: skip
         return len(range(j, h, m))
