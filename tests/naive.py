@@ -461,3 +461,32 @@ def render_iso_reference(values, isos):
                     best = q
             out[f][b] = -1 if best is None else best
     return out
+
+
+def render_field_reference(origins, dirs, inside, field, tf_table, lo, hi, unit, t_max, steps):
+    """Ray casting by brute force for the mesh renderer: ``steps`` midpoint samples per
+    ray over ``[0, t_max]``, each kept when ``inside(points)`` (the mesh's region, known
+    analytically), classified through ``tf_table`` (linear in value over [lo, hi]) with
+    opacity per ``unit`` of length, and composited front to back. World coordinates
+    (z, y, x). Returns (h, w, 4) premultiplied."""
+    import numpy as np
+
+    tab = np.asarray(tf_table, float)
+    n = len(tab)
+    h, w = origins.shape[:2]
+    dt = t_max / steps
+    ts = (np.arange(steps) + 0.5) * dt
+    out = np.zeros((h, w, 4))
+    tau = np.minimum(-np.log(np.maximum(1.0 - tab[:, 3], 1e-300)), 40.0)
+    grid = np.linspace(lo, hi, n)
+    for r in range(h):
+        for c in range(w):
+            pts = origins[r, c] + ts[:, None] * dirs[r, c]
+            ok = inside(pts)
+            s = field(pts)
+            a = np.where(ok, 1.0 - np.exp(-np.interp(s, grid, tau) * dt / unit), 0.0)
+            trans = np.concatenate([[1.0], np.cumprod(1.0 - a)])[:-1]
+            for ch in range(3):
+                out[r, c, ch] = np.sum(trans * a * np.interp(s, grid, tab[:, ch]))
+            out[r, c, 3] = 1.0 - trans[-1] * (1.0 - a[-1])
+    return out

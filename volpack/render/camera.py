@@ -97,6 +97,63 @@ class Camera:
         up = np.cross(right, fwd)
         return fwd[::-1].copy(), right[::-1].copy(), up[::-1].copy()
 
+    def _frame(self, centre, radius: float):
+        """Eye or ray-plane placement shared by :meth:`world_rays` and :meth:`project`."""
+        radius = float(radius) * MARGIN
+        fwd, right, up = self.basis()
+        w, h = self.size
+        if self.projection == "orthographic":
+            back = radius + 1.0 if self.distance is None else self.distance
+            return fwd, right, up, np.asarray(centre, float) - back * fwd, radius / self.zoom
+        half_fov = math.radians(PERSPECTIVE_FOV) / 2
+        dist = radius / math.sin(half_fov) if self.distance is None else self.distance
+        return (
+            fwd,
+            right,
+            up,
+            np.asarray(centre, float) - dist * fwd,
+            math.tan(half_fov) / self.zoom,
+        )
+
+    def world_rays(self, centre, radius: float) -> tuple[np.ndarray, np.ndarray]:
+        """Rays ``(origins, unit directions)``, each ``(h, w, 3)`` in world ``(z, y, x)``,
+        framing the sphere of ``radius`` around ``centre`` (module docstring)."""
+        fwd, right, up, base, half = self._frame(centre, radius)
+        w, h = self.size
+        # pixel centres in [-1, 1] along the shorter side, wider along the longer one
+        short = min(w, h)
+        u = ((np.arange(w) + 0.5) * 2 / short - w / short)[None, :, None]
+        v = (h / short - (np.arange(h) + 0.5) * 2 / short)[:, None, None]
+        if self.projection == "orthographic":
+            origins = base + half * (u * right + v * up)
+            dirs = np.broadcast_to(fwd, (h, w, 3)).copy()
+        else:
+            dirs = fwd + half * (u * right + v * up)
+            dirs /= np.linalg.norm(dirs, axis=-1, keepdims=True)
+            origins = np.broadcast_to(base, (h, w, 3)).copy()
+        return origins, dirs
+
+    def project(self, points, centre, radius: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Continuous pixel coordinates ``(column, row, depth)`` of world points ``(k, 3)``
+        (z, y, x) under the framing of :meth:`world_rays`; pixel ``(c, r)`` has its centre at
+        ``(c, r)``. ``depth`` is the distance along the view direction from the eye or ray
+        plane; perspective points at ``depth <= 0`` get NaN coordinates."""
+        fwd, right, up, base, half = self._frame(centre, radius)
+        w, h = self.size
+        short = min(w, h)
+        q = np.asarray(points, float) - base
+        depth = q @ fwd
+        if self.projection == "orthographic":
+            u = (q @ right) / half
+            v = (q @ up) / half
+        else:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                u = np.where(depth > 0, (q @ right) / (depth * half), np.nan)
+                v = np.where(depth > 0, (q @ up) / (depth * half), np.nan)
+        col = (u + w / short) * short / 2 - 0.5
+        row = (h / short - v) * short / 2 - 0.5
+        return col, row, depth
+
     def rays(
         self, shape_zyx: tuple[int, int, int], spacing: tuple[float, float, float] = (1, 1, 1)
     ) -> tuple[np.ndarray, np.ndarray]:
@@ -108,7 +165,6 @@ class Camera:
             raise VolpackError(f"expected a (z, y, x) shape >= 1, found {tuple(shape_zyx)}")
         if sp.size != 3 or not np.all(np.isfinite(sp)) or np.any(sp <= 0):
             raise VolpackError(f"expected three spacings > 0, found {tuple(spacing)}")
-        w, h = self.size
         centre_idx = (shape - 1) / 2 if self.look_at is None else np.array(self.look_at)
         centre = centre_idx * sp
         radius = 0.5 * float(np.linalg.norm(shape * sp))  # box [-0.5, n-0.5] half diagonal
@@ -116,24 +172,6 @@ class Camera:
             corners = np.array([[a, b, c] for a in (0, 1) for b in (0, 1) for c in (0, 1)])
             corners = (corners * shape - 0.5) * sp
             radius = float(np.max(np.linalg.norm(corners - centre, axis=1)))
-        radius *= MARGIN
-        fwd, right, up = self.basis()
-        # pixel centres in [-1, 1] along the shorter side, wider along the longer one
-        short = min(w, h)
-        u = ((np.arange(w) + 0.5) * 2 / short - w / short)[None, :, None]
-        v = (h / short - (np.arange(h) + 0.5) * 2 / short)[:, None, None]
-        if self.projection == "orthographic":
-            half = radius / self.zoom
-            back = radius + 1.0 if self.distance is None else self.distance
-            origins = centre - back * fwd + half * (u * right + v * up)
-            dirs = np.broadcast_to(fwd, (h, w, 3)).copy()
-        else:
-            half_fov = math.radians(PERSPECTIVE_FOV) / 2
-            dist = radius / math.sin(half_fov) if self.distance is None else self.distance
-            eye = centre - dist * fwd
-            tan_half = math.tan(half_fov) / self.zoom
-            dirs = fwd + tan_half * (u * right + v * up)
-            dirs /= np.linalg.norm(dirs, axis=-1, keepdims=True)
-            origins = np.broadcast_to(eye, (h, w, 3)).copy()
+        origins, dirs = self.world_rays(centre, radius)
         ref = float(sp.min())
         return origins / sp, dirs * (ref / sp)

@@ -703,24 +703,16 @@ def render(
     vscale = np.array([s / ref for s in sp], np.float64)
     gmin = 1e-6 * (hi - lo) / max(sp)
     shading_k = np.array([KA, KD, KS, SHININESS], np.float64)
-    # Interleaved row sets (rows j, j + m, j + 2m, ...) balance the threads whatever
-    # the image holds; each ray is computed alone, so the image is thread-independent.
-    m = min(h, 4 * nthreads if nthreads > 1 else (8 if progress is not None else 1))
 
-    def run(j: int) -> int:
+    def run(rows: np.ndarray) -> None:
         _render_kernel(
-            vol, rgba, origins, dirs, np.arange(j, h, m, dtype=np.int64), mode, has_vol,
+            vol, rgba, origins, dirs, rows, mode, has_vol,
             post_tab, pre2d, iso2d, iso_vals, bool(isos), lo, scale, float(step),
             leap, bool(skip_empty), float(ert), SHADINGS.index(shading), shading_k,
             gscale, vscale, gmin, out, row_samples,
         )  # fmt: skip
-        return len(range(j, h, m))
 
-    done = 0
-    for rows_done in ordered_map(run, range(m), workers=nthreads):
-        done += rows_done
-        if progress is not None:
-            progress(done, h)
+    run_row_sets(run, h, nthreads, progress)
     if not render_stats:
         return out
     hits = int(np.count_nonzero(out[..., 3] > 0))
@@ -734,6 +726,25 @@ def render(
 
 
 # --------------------------------------------------------------------------- helpers
+
+
+def run_row_sets(run, h: int, nthreads: int, progress=None) -> None:
+    """Call ``run(rows)`` on interleaved sets of image rows (``j, j + m, j + 2m, ...``)
+    over ``nthreads`` threads, reporting ``progress(rows done, h)``. Interleaving balances
+    the threads whatever the image holds; each ray is computed alone, so the image does
+    not depend on the thread count."""
+    m = min(h, 4 * nthreads if nthreads > 1 else (8 if progress is not None else 1))
+
+    def one(j: int) -> int:
+        rows = np.arange(j, h, m, dtype=np.int64)
+        run(rows)
+        return len(rows)
+
+    done = 0
+    for rows_done in ordered_map(one, range(m), workers=nthreads):
+        done += rows_done
+        if progress is not None:
+            progress(done, h)
 
 
 def _unpack(volume, spacing):
