@@ -385,14 +385,17 @@ def _push(v, fifo, fh, flen, pending, nv):
 
 
 @kernel
-def _apply(
-    T, head, deg, free, nfree, bump, gv, g, z, d, ex, tet, fifo, fh, flen, pending, nv, sit, scr
-):
+def _apply(T, head, deg, free, gv, g, z, d, ex, tet, fifo, pending, nv, ctr, scr):
     """Glue tetrahedron (gv, d) onto gate g; ``ex[k]`` = existing face (gv[k], gv[k+1], d).
 
-    Returns (nfree, bump, flen, ok). ``sit`` receives the number of cut-border spokes
-    found among edges (gv[k], d) whose two faces were both new (non-manifold edges).
+    ``ctr`` holds [free count, bump, fifo head, fifo length, situation]; the situation is
+    the number of cut-border spokes found among edges (gv[k], d) whose two faces were
+    both new (non-manifold edges). Returns False if the cut-border is inconsistent.
     """
+    nfree = ctr[0]
+    bump = ctr[1]
+    fh = ctr[2]
+    flen = ctr[3]
     scr[:] = -1
     P = scr[0:3]
     Q = scr[3:6]
@@ -404,7 +407,7 @@ def _apply(
         P[k] = T[g, A0 + (z + k) % 3]
         if ex[k] >= 0 and ex[k] != P[k]:
             Q[k] = _across(T, ex[k], gv[k], gv[(k + 1) % 3])
-    sit[0] = 0
+    ctr[4] = 0
     for m in range(3):  # spoke (gv[m], d) between faces i = m and j = m - 1
         i = m
         j = (m + 2) % 3
@@ -416,7 +419,7 @@ def _apply(
         if ex[i] < 0 and ex[j] < 0 and deg[d] > 0:
             X[m] = _edge_tri(T, head, deg, d, x)  # the direction of face i: d -> x
             if X[m] != -1:
-                sit[0] += 1
+                ctr[4] += 1
     # Remove the gate and the faces that become inner.
     for q in range(4):
         t = g if q == 0 else ex[q - 1]
@@ -472,7 +475,10 @@ def _apply(
     for k in range(3):
         flen = _push(gv[k], fifo, fh, flen, pending, nv)
     flen = _push(d, fifo, fh, flen, pending, nv)
-    return nfree, bump, flen, ok
+    ctr[0] = nfree
+    ctr[1] = bump
+    ctr[3] = flen
+    return ok
 
 
 @kernel
@@ -492,13 +498,20 @@ def _parity(row, ref):
 
 
 @kernel
-def _grow(T, tstamp, queue):
+def _grow(T, tstamp, free, nfree):
+    """Twice the triangle capacity (copied element-wise: no broadcasting code to compile)."""
     n = T.shape[0] * 2
     T2 = np.empty((n, TCOLS), dtype=np.int32)
-    T2[: T.shape[0]] = T
+    for i in range(T.shape[0]):
+        for j in range(TCOLS):
+            T2[i, j] = T[i, j]
     ts2 = np.zeros(n, dtype=np.int64)
-    ts2[: tstamp.size] = tstamp
-    return T2, ts2, np.empty(2 * n + 8, dtype=np.int32), np.empty(n, dtype=np.int32)
+    for i in range(tstamp.size):
+        ts2[i] = tstamp[i]
+    free2 = np.empty(n, dtype=np.int32)
+    for i in range(nfree):
+        free2[i] = free[i]
+    return T2, ts2, np.empty(2 * n + 8, dtype=np.int32), free2
 
 
 @kernel
@@ -550,14 +563,16 @@ def machine_kernel(
     ws = np.empty(4, dtype=np.int64)
     ref4 = np.empty(4, dtype=np.int64)
     scr = np.empty(18, dtype=np.int64)
-    sit = np.zeros(1, dtype=np.int64)
+    ctr = np.zeros(5, dtype=np.int64)
     coded = np.zeros(nt if not dec else 0, dtype=np.uint8)
+    NONE = np.int64(-1)  # typed, so that helpers compile once (not per literal)
+    THREE = np.int64(3)
     stamp = 0
     nfree = 0
     bump = 0
     fh = 0
     flen = 0
-    ntc = 0
+    ntc = nt - nt  # a run-time zero: helpers taking it compile once, not for a literal 0
     nvc = 0
     scan = 0
     prev_kind = 0
@@ -570,9 +585,7 @@ def machine_kernel(
         elif cs[2] + 256 > size:
             return E_OVERFLOW
         if bump + 4 > T.shape[0] and nfree < 4:
-            T, tstamp, queue, free2 = _grow(T, tstamp, queue)
-            free2[:nfree] = free[:nfree]
-            free = free2
+            T, tstamp, queue, free = _grow(T, tstamp, free, nfree)
         # --- the next gate: an unflagged triangle at the front vertex of the fifo
         g = -1
         while flen > 0:
@@ -610,10 +623,10 @@ def machine_kernel(
                     vi = tets_in[scan, m]
                     known = np.int64(vcode[vi] >= 0)
                 if nvc > 0:
-                    known = _bit(cs, buf, st, cost, M_KNOWN, known, dec)
+                    known = _bit(cs, buf, st, cost, np.int64(M_KNOWN), known, dec)
                 if known:
                     back = nvc - 1 - vcode[vi] if not dec else 0
-                    back = _uint(cs, buf, st, cost, M_FAR, back, dec)
+                    back = _uint(cs, buf, st, cost, np.int64(M_FAR), back, dec)
                     w = nvc - 1 - back
                     if back < 0 or w < 0:
                         return E_SYMBOL
@@ -652,13 +665,13 @@ def machine_kernel(
             for f1 in range(4):
                 for f2 in range(f1 + 1, 4):
                     # faces f1 and f2 share the edge of the two vertices other than f1, f2
-                    u = -1
+                    u = NONE
                     for m in range(4):
                         if m != f1 and m != f2:
                             if u < 0:
                                 u = ws[m]
                             else:
-                                _pair(T, bump - 4 + f1, bump - 4 + f2, u, ws[m])
+                                _pair(T, np.int64(f1), np.int64(f2), u, ws[m])
             for m in range(4):
                 flen = _push(ws[m], fifo, fh, flen, pending, nv)
             ntc += 1
@@ -687,7 +700,7 @@ def machine_kernel(
             t_out = nbr[t_in, lf]
             if t_out < 0:
                 kind = K_BORDER
-                _enumerate(T, g, z, -1, 2, tstamp, vstamp, stamp, queue, first)
+                _enumerate(T, g, z, NONE, THREE - 1, tstamp, vstamp, stamp, queue, first)
                 for j in range(3):
                     x = first[j]
                     if x < 0:
@@ -714,7 +727,7 @@ def machine_kernel(
                 elif deg[d] == 0:
                     kind = K_FAR
                 else:
-                    r = _enumerate(T, g, z, d, -1, tstamp, vstamp, stamp, queue, first)
+                    r = _enumerate(T, g, z, d, NONE, tstamp, vstamp, stamp, queue, first)
                     if r >= 0:
                         idx = r
                     else:
@@ -737,14 +750,14 @@ def machine_kernel(
         elif _bit(cs, buf, st, cost, ctx + 4, np.int64(kind == K_CONN), dec):
             kind = K_CONN
             cs[5] = C_IDX
-            idx = 3 + _uint(cs, buf, st, cost, M_IDX, idx - 3, dec)
+            idx = 3 + _uint(cs, buf, st, cost, np.int64(M_IDX), idx - 3, dec)
             if idx < 3:
                 return E_SYMBOL
         elif _bit(cs, buf, st, cost, ctx + 5, np.int64(kind == K_FAR), dec):
             kind = K_FAR
             cs[5] = C_FAR
             back = nvc - 1 - d if not dec else 0
-            back = _uint(cs, buf, st, cost, M_FAR, back, dec)
+            back = _uint(cs, buf, st, cost, np.int64(M_FAR), back, dec)
             if back < 0 or back >= nvc:
                 return E_SYMBOL
             d = nvc - 1 - back
@@ -756,7 +769,7 @@ def machine_kernel(
             hist[hist_i] += 1
         prev_kind = kind
         if dec and kind == K_CONN:
-            r = _enumerate(T, g, z, -1, idx, tstamp, vstamp, stamp, queue, first)
+            r = _enumerate(T, g, z, NONE, idx, tstamp, vstamp, stamp, queue, first)
             if r > -2:
                 return E_SYMBOL
             d = -2 - r
@@ -825,39 +838,26 @@ def machine_kernel(
             coded[t_out] = 1
         npresent = (ex[0] >= 0) + (ex[1] >= 0) + (ex[2] >= 0)
         on_border = deg[d] > 0
-        nfree, bump, flen, ok = _apply(
-            T,
-            head,
-            deg,
-            free,
-            nfree,
-            bump,
-            gv,
-            g,
-            z,
-            d,
-            ex,
-            ntc,
-            fifo,
-            fh,
-            flen,
-            pending,
-            nv,
-            sit,
-            scr,
-        )
+        ctr[0] = nfree
+        ctr[1] = bump
+        ctr[2] = fh
+        ctr[3] = flen
+        ok = _apply(T, head, deg, free, gv, g, z, d, ex, ntc, fifo, pending, nv, ctr, scr)
+        nfree = ctr[0]
+        bump = ctr[1]
+        flen = ctr[3]
         if not ok:
             return E_SYMBOL
         if kind == K_FAR and not on_border:
             stats[S_REVISIT] += 1
         elif npresent == 1:
-            stats[S_FLIP + (sit[0] > 0)] += 1
+            stats[S_FLIP + (ctr[4] > 0)] += 1
         elif npresent == 2:
             stats[S_TOP] += 1
         elif npresent == 3:
             stats[S_CLOSE] += 1
         elif on_border:
-            stats[S_JOIN0 + min(sit[0], 3)] += 1
+            stats[S_JOIN0 + min(ctr[4], 3)] += 1
         ntc += 1
     if nvc != nvu:
         return E_SYMBOL
