@@ -252,6 +252,6 @@ def _decode_kernel(data, refs, width, vals):
                 return 2
             vals[i, c] = _predict(vals, refs, i, c) + r
             prev[c] = cnt
-    if cs[2] > data.size + 4:
+    if cs[2] != data.size:  # the decoder ends exactly where the encoder's bytes end
         return 1
     return 0

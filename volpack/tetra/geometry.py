@@ -216,7 +216,7 @@ def _prediction_faces_kernel(t, adj, nv):
     return cnt, quads
 
 
-@kernel(inline=True)
+@kernel
 def _predict(xyz, k, ptr, quads, pred, normal):
     """Fill ``pred`` with the predicted position of vertex k and ``normal`` with the mean
     unit normal of its faces (zeros when unknown); return the mean face edge length L
@@ -276,7 +276,7 @@ def _predict(xyz, k, ptr, quads, pred, normal):
     return lsum / m
 
 
-@kernel(inline=True)
+@kernel
 def _lift_angles(normal):
     """Angles of the two plane rotations that turn ``normal`` onto the z axis: by -phi in
     the (x, y) plane, then by theta in the (x, z) plane."""
@@ -287,7 +287,7 @@ def _lift_angles(normal):
     return -phi, theta
 
 
-@kernel(inline=True)
+@kernel
 def _rotate(r, i, j, ang, inverse):
     """Rotate the integer pair (r[i], r[j]) by ``ang`` exactly invertibly: three lifting
     shears with rounding (a half turn, which is exact, first when |ang| > pi/2)."""
@@ -320,7 +320,7 @@ def _rotate(r, i, j, ang, inverse):
     r[j] = y
 
 
-@kernel(inline=True)
+@kernel
 def _to_int(x, mode, bits, f64, i64, f32, i32):
     """The integer the predicted coordinate ``x`` stands for in the coded domain."""
     if mode == 0:
@@ -339,7 +339,7 @@ def _to_int(x, mode, bits, f64, i64, f32, i32):
     return b ^ ((b >> 31) & np.int64(0x7FFFFFFF))
 
 
-@kernel(inline=True)
+@kernel
 def _context(mode, ln, p, bits, f64, i64, f32, i32):
     """Count context: the gate size in the coded domain's units, in bits, halved."""
     if ln < 0.0:
@@ -433,6 +433,6 @@ def _decode_kernel(data, ptr, quads, mode, bits, width, vals, xyz):
                     return 2
                 i32[0] = np.int32(v ^ ((v >> 31) & np.int64(0x7FFFFFFF)))
                 xyz[k, ax] = np.float64(f32[0])
-    if cs[2] > data.size + 4:
+    if cs[2] != data.size:  # the decoder ends exactly where the encoder's bytes end
         return 1
     return 0

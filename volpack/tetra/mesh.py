@@ -32,8 +32,8 @@ __all__ = [
     "validate",
 ]
 
-# Face i of a tet is the one opposite its vertex i, ordered so that its normal (right
-# hand) points out of a positively oriented tet.
+# Face i of a tet is the one opposite its vertex i, ordered so that (face, vertex i) has
+# the tet's orientation: in a positive tet the face's normal (right hand) points inwards.
 FACES = np.array([[1, 3, 2], [0, 2, 3], [0, 3, 1], [0, 1, 2]], dtype=np.int64)
 _EDGES = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]], dtype=np.int64)
 
@@ -131,26 +131,18 @@ def signed_volumes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
 
 def face_adjacency(tets: np.ndarray) -> tuple[np.ndarray, int]:
     """Return the tet across each face (``(nt, 4)``, -1 on the border) and the number of
-    faces shared by more than two tets (non-manifold; paired in sorted order).
+    faces met more than twice (non-manifold; their third and later tets stay unlinked).
 
-    Face ``i`` is the face opposite vertex ``i``.
+    Face ``i`` is the face opposite vertex ``i``. Faces are found through a hash table
+    of sorted vertex triples (linear probing), in one pass over the tets.
     """
-    nt = len(tets)
-    adj = np.full((nt, 4), -1, dtype=np.int64)
-    if nt == 0:
+    t = np.ascontiguousarray(tets, dtype=np.int64).reshape(-1, 4)
+    adj = np.full((len(t), 4), -1, dtype=np.int64)
+    if len(t) == 0:
         return adj, 0
-    keys = _face_keys(tets)
-    order = np.argsort(keys, kind="stable")
-    k = keys[order]
-    same = k[1:] == k[:-1]
-    # runs of equal keys: a run of two is an interior face; longer runs are non-manifold
-    starts = np.flatnonzero(np.r_[True, ~same])
-    lengths = np.diff(np.r_[starts, k.size])
-    first = order[:-1][same]
-    second = order[1:][same]
-    adj.reshape(-1)[first] = second // 4
-    adj.reshape(-1)[second] = first // 4
-    return adj, int((lengths > 2).sum())
+    size = 1 << int(4 * len(t)).bit_length()  # about 2 nt faces: load below one half
+    extra = int(_face_adjacency_kernel(t, adj, size))
+    return adj, extra
 
 
 def components(adj: np.ndarray) -> np.ndarray:
@@ -222,16 +214,6 @@ def _describe(a: np.ndarray) -> dict:
     return {"dtype": a.dtype.str, "shape": list(a.shape[1:])}
 
 
-def _face_keys(tets: np.ndarray) -> np.ndarray:
-    """One int64 key per face (sorted vertex triple), face ``4 j + i`` opposite vertex i."""
-    f = np.sort(tets[:, FACES], axis=2).reshape(-1, 3)
-    n = np.int64(int(tets.max()) + 1)
-    if n > 2_097_151:  # n**3 would overflow int64: rank the triples instead
-        _, inv = np.unique(f, axis=0, return_inverse=True)
-        return inv.reshape(-1).astype(np.int64)
-    return (f[:, 0] * n + f[:, 1]) * n + f[:, 2]
-
-
 def _nonmanifold_edges(t: np.ndarray, nv: int) -> int:
     """Count edges whose ring of tets is not one fan (a path or a cycle of tets)."""
     keys = edge_keys(t, nv)
@@ -251,6 +233,44 @@ def _find(parent, i):
         parent[i] = parent[parent[i]]
         i = parent[i]
     return i
+
+
+@kernel
+def _face_adjacency_kernel(t, adj, size):
+    mask = size - 1
+    # one row per slot, so a probe touches one cache line: a, b, c, 4 * (face id) + count
+    table = np.full((size, 4), -1, dtype=np.int64)
+    extra = 0
+    for j in range(t.shape[0]):
+        for i in range(4):
+            a = t[j, FACES[i, 0]]
+            b = t[j, FACES[i, 1]]
+            c = t[j, FACES[i, 2]]
+            if a > b:
+                a, b = b, a
+            if b > c:
+                b, c = c, b
+            if a > b:
+                a, b = b, a
+            h = (a * 0x1E3779B97F4A7C15 + b * 0x42B2AE3D27D4EB4F + c * 0x165667B19E3779F9) >> 17
+            h &= mask
+            while table[h, 0] >= 0 and (table[h, 0] != a or table[h, 1] != b or table[h, 2] != c):
+                h = (h + 1) & mask
+            if table[h, 0] < 0:
+                table[h, 0] = a
+                table[h, 1] = b
+                table[h, 2] = c
+                table[h, 3] = 4 * (4 * j + i) + 1
+            else:
+                seen = (table[h, 3] & 3) + 1
+                if seen == 2:
+                    f = table[h, 3] >> 2
+                    adj[j, i] = f // 4
+                    adj[f // 4, f % 4] = j
+                elif seen == 3:
+                    extra += 1
+                table[h, 3] = (table[h, 3] & ~np.int64(3)) | min(seen, 3)
+    return extra
 
 
 @kernel

@@ -114,7 +114,7 @@ def start_decoder(data):
     return cs
 
 
-@kernel(inline=True)
+@kernel
 def put_bit(cs, out, models, k, bit):
     """Code one binary decision with the adaptive model ``models[k]``."""
     st = np.int64(models[k])
@@ -144,7 +144,7 @@ def put_bit(cs, out, models, k, bit):
     cs[2] = pos
 
 
-@kernel(inline=True)
+@kernel
 def get_bit(cs, data, models, k):
     """Decode one binary decision coded by :func:`put_bit` (bytes past the end read 0)."""
     st = np.int64(models[k])
@@ -180,7 +180,7 @@ def _layout(n_ctx, cls):
     return base, base + n_ctx * N_COUNT, base + n_ctx * N_COUNT + 17 * 16
 
 
-@kernel(inline=True)
+@kernel
 def put_residual(cs, out, models, n_ctx, cls, ctx, r):
     """Code the int64 residual ``r``; return its package count (a context for later)."""
     u = np.uint64(r << 1) ^ np.uint64(r >> 63)
@@ -206,7 +206,7 @@ def put_residual(cs, out, models, n_ctx, cls, ctx, r):
     return n
 
 
-@kernel(inline=True)
+@kernel
 def get_residual(cs, data, models, n_ctx, cls, ctx, width):
     """Decode a residual coded by :func:`put_residual`; return ``(r, n, ok)``."""
     cnt, lead, rest = _layout(n_ctx, cls)
