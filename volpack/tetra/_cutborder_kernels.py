@@ -37,7 +37,7 @@ FLAG = 4
 
 # --- the stream's adaptive models (binary contexts) ---
 M_OP = 0  # six decisions of the operation tree
-N_OPCTX = 4  # operation contexts (see _op_context)
+N_OPCTX = 16  # operation contexts (see _op_context)
 M_IDX = M_OP + 6 * N_OPCTX  # connect index - 3: exp-Golomb, 64 models
 M_FAR = M_IDX + 64  # distance back to a known vertex: exp-Golomb, 64 models
 M_KNOWN = M_FAR + 64  # first tet of a component: is this vertex already known?
@@ -207,21 +207,24 @@ def _uint(cs, buf, st, cost, base, v, dec):
 
 
 @kernel
-def _link(T, head, deg, t):
+def _link(T, head, tail, deg, t):
+    """Append t to the triangle lists of its vertices (oldest first: the gate order)."""
     for k in range(3):
         v = T[t, k]
         s = 3 * t + k
-        h = head[v]
-        T[t, NX + k] = h
-        T[t, PV + k] = -1
-        if h >= 0:
-            T[h // 3, PV + h % 3] = s
-        head[v] = s
+        last = tail[v]
+        T[t, NX + k] = -1
+        T[t, PV + k] = last
+        if last >= 0:
+            T[last // 3, NX + last % 3] = s
+        else:
+            head[v] = s
+        tail[v] = s
         deg[v] += 1
 
 
 @kernel
-def _unlink(T, head, deg, t):
+def _unlink(T, head, tail, deg, t):
     for k in range(3):
         v = T[t, k]
         nx = T[t, NX + k]
@@ -232,6 +235,8 @@ def _unlink(T, head, deg, t):
             head[v] = nx
         if nx >= 0:
             T[nx // 3, PV + nx % 3] = pv
+        else:
+            tail[v] = pv
         deg[v] -= 1
 
 
@@ -385,7 +390,7 @@ def _push(v, fifo, fh, flen, pending, nv):
 
 
 @kernel
-def _apply(T, head, deg, free, gv, g, z, d, ex, tet, fifo, pending, nv, ctr, scr):
+def _apply(T, head, tail, deg, free, gv, g, z, d, ex, tet, fifo, pending, nv, ctr, scr):
     """Glue tetrahedron (gv, d) onto gate g; ``ex[k]`` = existing face (gv[k], gv[k+1], d).
 
     ``ctr`` holds [free count, bump, fifo head, fifo length, situation]; the situation is
@@ -424,7 +429,7 @@ def _apply(T, head, deg, free, gv, g, z, d, ex, tet, fifo, pending, nv, ctr, scr
     for q in range(4):
         t = g if q == 0 else ex[q - 1]
         if t >= 0:
-            _unlink(T, head, deg, t)
+            _unlink(T, head, tail, deg, t)
             T[t, 0] = -1
             free[nfree] = t
             nfree += 1
@@ -439,7 +444,7 @@ def _apply(T, head, deg, free, gv, g, z, d, ex, tet, fifo, pending, nv, ctr, scr
             T[t, A0 + 2] = -1
             T[t, INNER] = tet
             T[t, ZF] = 0
-            _link(T, head, deg, t)
+            _link(T, head, tail, deg, t)
             new[k] = t
     ok = True
     for k in range(3):  # gate edges
@@ -515,8 +520,23 @@ def _grow(T, tstamp, free, nfree):
 
 
 @kernel
-def _op_context(prev_kind):
-    return prev_kind
+def _op_context(T, head, deg, g, z, gv, prev_kind):
+    """Context of the operation: the previous kind, and what connect 0 would close.
+
+    The neighbour across the zero edge gives connect 0's vertex x0; if that neighbour is a
+    mesh border face, connect 0 means "border"; else count the other two gate edges that
+    already form a cut-border face with x0 (flip, top, close): 4 x 4 contexts.
+    """
+    n = T[g, A0 + z]
+    if n < 0 or (T[n, ZF] & FLAG) != 0:
+        return prev_kind
+    j = _edge_slot(T, n, gv[0], gv[1])
+    x0 = T[n, (j + 2) % 3]
+    c = 1
+    for k in range(1, 3):
+        if _find_face(T, head, deg, gv[k], gv[(k + 1) % 3], x0) >= 0:
+            c += 1
+    return 4 * c + prev_kind
 
 
 @kernel
@@ -553,6 +573,7 @@ def machine_kernel(
     queue = np.empty(2 * cap + 8, dtype=np.int32)
     free = np.empty(cap, dtype=np.int32)
     head = np.full(nv, -1, dtype=np.int32)
+    tail = np.full(nv, -1, dtype=np.int32)
     deg = np.zeros(nv, dtype=np.int32)
     vstamp = np.zeros(nv, dtype=np.int64)
     pending = np.zeros(nv, dtype=np.uint8)
@@ -608,6 +629,7 @@ def machine_kernel(
                 if T[t, 0] >= 0:
                     for k in range(3):
                         head[T[t, k]] = -1
+                        tail[T[t, k]] = -1
                         deg[T[t, k]] = 0
             bump = 0
             nfree = 0
@@ -661,7 +683,7 @@ def machine_kernel(
                     T[t, 0], T[t, 1], T[t, 2] = ws[0], ws[2], ws[1]
                 T[t, INNER] = ntc
                 T[t, ZF] = 0
-                _link(T, head, deg, t)
+                _link(T, head, tail, deg, t)
             for f1 in range(4):
                 for f2 in range(f1 + 1, 4):
                     # faces f1 and f2 share the edge of the two vertices other than f1, f2
@@ -733,7 +755,7 @@ def machine_kernel(
                     else:
                         kind = K_FAR
         # --- the operation symbol
-        ctx = M_OP + 6 * _op_context(prev_kind)
+        ctx = M_OP + 6 * _op_context(T, head, deg, g, z, gv, prev_kind)
         cs[5] = C_OP
         c0 = cost[C_OP] + cost[C_IDX] + cost[C_FAR]
         if _bit(cs, buf, st, cost, ctx, np.int64(kind == K_CONN and idx == 0), dec):
@@ -842,7 +864,7 @@ def machine_kernel(
         ctr[1] = bump
         ctr[2] = fh
         ctr[3] = flen
-        ok = _apply(T, head, deg, free, gv, g, z, d, ex, ntc, fifo, pending, nv, ctr, scr)
+        ok = _apply(T, head, tail, deg, free, gv, g, z, d, ex, ntc, fifo, pending, nv, ctr, scr)
         nfree = ctr[0]
         bump = ctr[1]
         flen = ctr[3]
