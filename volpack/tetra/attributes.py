@@ -65,7 +65,7 @@ def encode_attribute(
     """
     a = np.ascontiguousarray(values)
     n = a.shape[0]
-    flat = a.reshape(n, -1)
+    flat = a.reshape(n, int(np.prod(a.shape[1:], dtype=np.int64)))
     meta: dict = {"dtype": a.dtype.str, "shape": list(a.shape[1:])}
     if a.dtype.kind == "f" and max_error:
         q = _bounded(flat, float(max_error), meta)
