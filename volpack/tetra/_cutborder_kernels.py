@@ -520,21 +520,29 @@ def _grow(T, tstamp, free, nfree):
 
 
 @kernel
-def _op_context(T, head, deg, g, z, gv, prev_kind):
+def _op_context(T, head, deg, g, z, gv, prev_kind, near):
     """Context of the operation: the previous kind, and what connect 0 would close.
 
     The neighbour across the zero edge gives connect 0's vertex x0; if that neighbour is a
     mesh border face, connect 0 means "border"; else count the other two gate edges that
-    already form a cut-border face with x0 (flip, top, close): 4 x 4 contexts.
+    already form a cut-border face with x0 (flip, top, close): 4 x 4 contexts. ``near``
+    receives x0 and its faces with the gate edges (x0 = -1 when not computed).
     """
+    near[0] = -1
     n = T[g, A0 + z]
     if n < 0 or (T[n, ZF] & FLAG) != 0:
         return prev_kind
     j = _edge_slot(T, n, gv[0], gv[1])
+    if j < 0:
+        return prev_kind
     x0 = T[n, (j + 2) % 3]
+    near[0] = x0
+    near[1] = n
     c = 1
     for k in range(1, 3):
-        if _find_face(T, head, deg, gv[k], gv[(k + 1) % 3], x0) >= 0:
+        f = _find_face(T, head, deg, gv[k], gv[(k + 1) % 3], x0)
+        near[1 + k] = f
+        if f >= 0:
             c += 1
     return 4 * c + prev_kind
 
@@ -580,6 +588,7 @@ def machine_kernel(
     fifo = np.empty(nv, dtype=np.int32)
     first = np.empty(3, dtype=np.int64)
     ex = np.empty(3, dtype=np.int64)
+    near = np.empty(4, dtype=np.int64)
     gv = np.empty(3, dtype=np.int64)
     ws = np.empty(4, dtype=np.int64)
     ref4 = np.empty(4, dtype=np.int64)
@@ -711,6 +720,7 @@ def machine_kernel(
         ex[0] = -1
         ex[1] = -1
         ex[2] = -1
+        ctx = M_OP + 6 * _op_context(T, head, deg, g, z, gv, prev_kind, near)
         if not dec:
             # the tetrahedron across the gate, from the mesh
             t_in = tet_order[T[g, INNER]]
@@ -748,6 +758,8 @@ def machine_kernel(
                     kind = K_NEW
                 elif deg[d] == 0:
                     kind = K_FAR
+                elif d == near[0]:
+                    idx = 0
                 else:
                     r = _enumerate(T, g, z, d, NONE, tstamp, vstamp, stamp, queue, first)
                     if r >= 0:
@@ -755,7 +767,6 @@ def machine_kernel(
                     else:
                         kind = K_FAR
         # --- the operation symbol
-        ctx = M_OP + 6 * _op_context(T, head, deg, g, z, gv, prev_kind)
         cs[5] = C_OP
         c0 = cost[C_OP] + cost[C_IDX] + cost[C_FAR]
         if _bit(cs, buf, st, cost, ctx, np.int64(kind == K_CONN and idx == 0), dec):
@@ -790,18 +801,26 @@ def machine_kernel(
         if hist_i < hist.size:
             hist[hist_i] += 1
         prev_kind = kind
+        shortcut = kind == K_CONN and idx == 0 and near[0] >= 0  # d = x0, faces known
         if dec and kind == K_CONN:
-            r = _enumerate(T, g, z, NONE, idx, tstamp, vstamp, stamp, queue, first)
-            if r > -2:
-                return E_SYMBOL
-            d = -2 - r
+            if shortcut:
+                d = near[0]
+            else:
+                r = _enumerate(T, g, z, NONE, idx, tstamp, vstamp, stamp, queue, first)
+                if r > -2:
+                    return E_SYMBOL
+                d = -2 - r
         border = kind == K_BORDER
         if kind == K_CONN or kind == K_FAR:
             if d == gv[0] or d == gv[1] or d == gv[2]:
                 return E_SYMBOL
             if deg[d] > 0:
                 for k in range(3):
-                    f = _find_face(T, head, deg, gv[k], gv[(k + 1) % 3], d)
+                    f = (
+                        near[1 + k]
+                        if shortcut
+                        else _find_face(T, head, deg, gv[k], gv[(k + 1) % 3], d)
+                    )
                     ex[k] = f
                     if f >= 0 and (T[f, ZF] & FLAG) != 0:
                         border = True
