@@ -36,9 +36,11 @@ TCOLS = 14
 FLAG = 4
 
 # --- the stream's adaptive models (binary contexts) ---
-M_OP = 0  # six decisions of the operation tree
-N_OPCTX = 16  # operation contexts (see _op_context)
-M_IDX = M_OP + 6 * N_OPCTX  # connect index - 3: exp-Golomb, 64 models
+M_OP = 0  # decision 0 of the operation tree (connect 0?): 16 contexts, see _op_context
+N_OPCTX = 16
+M_OPR = M_OP + N_OPCTX  # decisions 1..5: 32 contexts (see _rest_context) x 5
+N_RESTCTX = 32
+M_IDX = M_OPR + 5 * N_RESTCTX  # connect index - 3: exp-Golomb, 64 models
 M_FAR = M_IDX + 64  # distance back to a known vertex: exp-Golomb, 64 models
 M_KNOWN = M_FAR + 64  # first tet of a component: is this vertex already known?
 M_ORI = M_KNOWN + 1  # orientation exception of a tet (2 contexts: previous flag)
@@ -72,10 +74,12 @@ N_COST = 6
 
 def initial_models() -> np.ndarray:
     st = np.full(N_MODELS, ((1 << (PROB_BITS - 1)) << 4), dtype=np.uint16)
-    for c in range(N_OPCTX):
-        for j in range(6):
-            p = int(round(OP_P0[j] * (1 << PROB_BITS)))
-            st[M_OP + 6 * c + j] = (p << 4) | INIT_USES
+    for j in range(6):
+        p = int(round(OP_P0[j] * (1 << PROB_BITS)))
+        if j == 0:
+            st[M_OP : M_OP + N_OPCTX] = (p << 4) | INIT_USES
+        else:
+            st[M_OPR + j - 1 : M_OPR + 5 * N_RESTCTX : 5] = (p << 4) | INIT_USES
     return st
 
 
@@ -520,6 +524,21 @@ def _grow(T, tstamp, free, nfree):
 
 
 @kernel
+def _near_class(T, head, deg, gv, x):
+    """What connecting to x would do: 0 nothing known, 1 flip, 2 top or close, 3 border."""
+    if x < 0:
+        return 0
+    c = 0
+    for k in range(3):
+        f = _find_face(T, head, deg, gv[k], gv[(k + 1) % 3], x)
+        if f >= 0:
+            if (T[f, ZF] & FLAG) != 0:
+                return 3
+            c += 1
+    return min(c, 2)
+
+
+@kernel
 def _op_context(T, head, deg, g, z, gv, prev_kind, near):
     """Context of the operation: the previous kind, and what connect 0 would close.
 
@@ -545,6 +564,19 @@ def _op_context(T, head, deg, g, z, gv, prev_kind, near):
         if f >= 0:
             c += 1
     return 4 * c + prev_kind
+
+
+@kernel
+def _rest_context(T, head, deg, g, z, gv, tstamp, vstamp, stamp, queue, first, prev_kind):
+    """Model of decision 1 (decisions 2..5 follow it), from what connect 1 and 2 would do.
+
+    Also leaves the model in ``first[3]``.
+    """
+    _enumerate(T, g, z, np.int64(-1), np.int64(2), tstamp, vstamp, stamp, queue, first)
+    c = 4 * _near_class(T, head, deg, gv, first[1]) + _near_class(T, head, deg, gv, first[2])
+    c = 2 * c + (prev_kind == K_NEW)
+    first[3] = M_OPR + 5 * c
+    return first[3]
 
 
 @kernel
@@ -586,7 +618,7 @@ def machine_kernel(
     vstamp = np.zeros(nv, dtype=np.int64)
     pending = np.zeros(nv, dtype=np.uint8)
     fifo = np.empty(nv, dtype=np.int32)
-    first = np.empty(3, dtype=np.int64)
+    first = np.empty(4, dtype=np.int64)
     ex = np.empty(3, dtype=np.int64)
     near = np.empty(4, dtype=np.int64)
     gv = np.empty(3, dtype=np.int64)
@@ -711,7 +743,7 @@ def machine_kernel(
         z = T[g, ZF] & 3
         for k in range(3):
             gv[k] = T[g, (z + k) % 3]
-        stamp += 1
+        stamp += 2  # one numbering for the operation, one for its context
         kind = K_CONN
         idx = 0
         d = -1
@@ -720,7 +752,7 @@ def machine_kernel(
         ex[0] = -1
         ex[1] = -1
         ex[2] = -1
-        ctx = M_OP + 6 * _op_context(T, head, deg, g, z, gv, prev_kind, near)
+        ctx = M_OP + _op_context(T, head, deg, g, z, gv, prev_kind, near)
         if not dec:
             # the tetrahedron across the gate, from the mesh
             t_in = tet_order[T[g, INNER]]
@@ -772,21 +804,31 @@ def machine_kernel(
         if _bit(cs, buf, st, cost, ctx, np.int64(kind == K_CONN and idx == 0), dec):
             kind = K_CONN
             idx = 0
-        elif _bit(cs, buf, st, cost, ctx + 1, np.int64(kind == K_NEW), dec):
+        elif _bit(
+            cs,
+            buf,
+            st,
+            cost,
+            _rest_context(
+                T, head, deg, g, z, gv, tstamp, vstamp, stamp + 1, queue, first, prev_kind
+            ),
+            np.int64(kind == K_NEW),
+            dec,
+        ):
             kind = K_NEW
-        elif _bit(cs, buf, st, cost, ctx + 2, np.int64(kind == K_CONN and idx == 1), dec):
+        elif _bit(cs, buf, st, cost, first[3] + 1, np.int64(kind == K_CONN and idx == 1), dec):
             kind = K_CONN
             idx = 1
-        elif _bit(cs, buf, st, cost, ctx + 3, np.int64(kind == K_CONN and idx == 2), dec):
+        elif _bit(cs, buf, st, cost, first[3] + 2, np.int64(kind == K_CONN and idx == 2), dec):
             kind = K_CONN
             idx = 2
-        elif _bit(cs, buf, st, cost, ctx + 4, np.int64(kind == K_CONN), dec):
+        elif _bit(cs, buf, st, cost, first[3] + 3, np.int64(kind == K_CONN), dec):
             kind = K_CONN
             cs[5] = C_IDX
             idx = 3 + _uint(cs, buf, st, cost, np.int64(M_IDX), idx - 3, dec)
             if idx < 3:
                 return E_SYMBOL
-        elif _bit(cs, buf, st, cost, ctx + 5, np.int64(kind == K_FAR), dec):
+        elif _bit(cs, buf, st, cost, first[3] + 4, np.int64(kind == K_FAR), dec):
             kind = K_FAR
             cs[5] = C_FAR
             back = nvc - 1 - d if not dec else 0
