@@ -296,3 +296,46 @@ def read_inr(path: Path):
 
 
 _READERS = {"inv3": read_inv3, "nifti": read_nifti, "den": read_den, "inr": read_inr}
+
+
+# --- tetrahedral meshes (scripts/bench_tetra.py) ----------------------------------------
+# Kept apart from DATASETS (whose entries ``load`` reads as volumes). Each file is read
+# with ``volpack.tetra.formats.read_mesh``; ``fmt`` is "meshio". Sources: test-data.md §3.
+
+_SFEPY = "usr/lib/python3/dist-packages/sfepy/meshes/3d"
+_DOLFIN = "usr/share/dolfin/demo/documented"
+
+
+def _mesh(name, package, member, file, description, inner=None):
+    return Dataset(name, "deb", package, member, file, "meshio", description, inner, "mesh")
+
+
+MESH_DATASETS: dict[str, Dataset] = {
+    d.name: d
+    for d in [
+        _mesh("cube_big_tetra", "python3-sfepy", f"{_SFEPY}/cube_big_tetra.mesh",
+              "cube_big_tetra.mesh", "sfepy: cube, 36,878 vertices, 202,596 tets (Medit)"),
+        _mesh("cube_cylinder", "python3-sfepy", f"{_SFEPY}/special/cube_cylinder.mesh",
+              "cube_cylinder.mesh", "sfepy: cube with a cylinder, 54,517 tets (Medit)"),
+        _mesh("piezo_micro", "python3-sfepy", f"{_SFEPY}/piezo_mesh_micro.vtk",
+              "piezo_mesh_micro.vtk", "sfepy: piezo micro-structure, 42,744 tets, mat_id (VTK)"),
+        _mesh("perfusion_micro3d", "python3-sfepy", f"{_SFEPY}/perfusion_micro3d.mesh",
+              "perfusion_micro3d.mesh", "sfepy: perfusion micro-structure, 18,161 tets (Medit)"),
+        _mesh("elbow2", "python3-sfepy", f"{_SFEPY}/elbow2.mesh", "elbow2.mesh",
+              "sfepy: pipe elbow, 8,161 tets (Medit)"),
+        _mesh("cube_sphere", "python3-sfepy", f"{_SFEPY}/special/cube_sphere.mesh",
+              "cube_sphere.mesh", "sfepy: cube with a sphere, 6,797 tets (Medit)"),
+        _mesh("aneurysm", "dolfin-doc", f"{_DOLFIN}/bcs/aneurysm.xml.gz", "aneurysm.xml.gz",
+              "DOLFIN demo: cerebral aneurysm, 37,548 tets (DOLFIN XML)"),
+        _mesh("dolfin_sphere", "dolfin-doc", "usr/share/dolfin/demo/undocumented/curl-curl/sphere.xml.gz",
+              "dolfin_sphere.xml.gz", "DOLFIN demo: sphere, 9,312 tets (DOLFIN XML)"),
+        _mesh("box_with_dent", "dolfin-doc", f"{_DOLFIN}/eigenvalue/box_with_dent.xml.gz",
+              "box_with_dent.xml.gz", "DOLFIN demo: box with a dent, 834 tets (DOLFIN XML)"),
+        _mesh("cgal_sphere", "libcgal-demo", "usr/share/doc/libcgal-dev/examples.tar.gz",
+              "cgal_sphere.mesh", "CGAL tetrahedral remeshing demo: sphere, 3,586 tets (Medit)",
+              inner="examples/Tetrahedral_remeshing/data/sphere.mesh"),
+        _mesh("segmenttet", "calculix-ccx-test",
+              "usr/share/doc/calculix-ccx-test/examples/test/segmenttet.inp.gz", "segmenttet.inp.gz",
+              "CalculiX test: machine segment, 1,489 quadratic tets, corners kept (Abaqus)"),
+    ]
+}  # fmt: skip

@@ -6,6 +6,7 @@ import time
 
 import click
 
+from . import mesh as mesh_cli
 from .options import (
     emit_json,
     fmt_bytes,
@@ -100,6 +101,7 @@ def _brick(value: str) -> int | tuple[int, int, int]:
     type=float,
     help="A value meaning 'no data' (e.g. -2.56e33); restored exactly, like NaN and Inf.",
 )
+@mesh_cli.mesh_options
 @workers_option
 @raw_options
 @force_option
@@ -129,8 +131,9 @@ def compress(
     offset,
     force,
     as_json,
+    **mesh_opts,
 ) -> None:
-    """Compress the volume SOURCE into the .vpk file TARGET ('-' for stdout).
+    """Compress the volume or tetrahedral mesh SOURCE into the .vpk file TARGET ('-' for stdout).
 
     Lossless by default: every voxel decodes bit-exactly. Integer volumes (8, 16 and
     32 bit) use the integer lifting wavelet codec; floats are stored exactly by
@@ -147,7 +150,11 @@ def compress(
       volpack compress sim.h5:/T T.vpk --max-error 0.01
       volpack compress ct.nii.gz ct.vpk --psnr 50
       volpack compress ct.nii.gz ct.vpk --quality 63
+      volpack compress mesh.vtu mesh.vpk --bits 16        (tetrahedral mesh: --bits,
+      volpack compress hex.msh mesh.vpk --tetrahedralize   --lossless-geometry, ...)
     """
+    if mesh_cli.is_mesh_source(source):
+        return mesh_cli.compress(source, target, force=force, as_json=as_json, **mesh_opts)
     from .. import api
     from .. import io as vio
     from ..atomic import check_output
@@ -222,6 +229,8 @@ def decompress(
       volpack decompress ct.vpk - | python -c "import numpy, sys; print(numpy.load(sys.stdin.buffer).shape)"
       volpack decompress out/ restored/ --batch --format nii.gz --workers 4
     """
+    if not batch_mode and mesh_cli.is_mesh_stream(source):
+        return mesh_cli.decompress(source, target, force=force, as_json=as_json)
     if batch_mode:
         if roi or frame is not None:
             raise click.UsageError("--roi and --frame do not apply with --batch")

@@ -27,6 +27,10 @@ def info(source: str, as_json: bool, chunks: bool, raw_shape, raw_dtype, byteord
       volpack info ct.vpk --json | jq .ratio
       volpack info scan.raw --shape 108,256,256 --dtype int16
     """
+    from . import mesh as mesh_cli
+
+    if mesh_cli.is_mesh_source(source) or mesh_cli.is_mesh_stream(source):
+        return mesh_cli.info(source, as_json)
     from .. import api
 
     d = api.info(source, **read_kwargs(raw_shape, raw_dtype, byteorder, offset))

@@ -1,0 +1,244 @@
+"""The tetrahedral-mesh side of ``volpack compress``, ``decompress`` and ``info``.
+
+``compress`` sends inputs with a mesh suffix (:data:`volpack.tetra.MESH_EXTENSIONS`)
+here; ``decompress`` and ``info`` send ``.vpk`` files whose header says
+``kind: "mesh"``, and ``info`` mesh files too. Only click and the light
+:mod:`volpack.tetra` package are imported at the top.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+
+import click
+
+from .options import emit_json, fmt_bytes
+
+
+def _attr_error(values: tuple[str, ...]) -> dict[str, float]:
+    out = {}
+    for v in values:
+        name, sep, err = v.rpartition("=")
+        try:
+            out[name] = float(err)
+            if not sep or not name or out[name] < 0:
+                raise ValueError
+        except ValueError:
+            raise click.BadParameter(
+                f"expected NAME=ERROR with ERROR >= 0, found {v!r}", param_hint="--attr-error"
+            ) from None
+    return out
+
+
+def mesh_options(f):
+    """The mesh-only options of ``volpack compress``."""
+    for opt in reversed(
+        [
+            click.option(
+                "--bits",
+                type=click.IntRange(1, 30),
+                default=16,
+                show_default=True,
+                help="Mesh: quantise vertex coordinates to this many bits of the bounding box diagonal.",
+            ),
+            click.option(
+                "--lossless-geometry",
+                is_flag=True,
+                help="Mesh: keep the float vertex coordinates bit for bit.",
+            ),
+            click.option(
+                "--keep-order",
+                is_flag=True,
+                help="Mesh: also store the vertex and tet order, so indices decode identically.",
+            ),
+            click.option(
+                "--tetrahedralize",
+                is_flag=True,
+                help="Mesh: split hexahedra, wedges and pyramids into tetrahedra (no new vertices).",
+            ),
+            click.option(
+                "--attr-error",
+                multiple=True,
+                metavar="NAME=E",
+                help="Mesh: code the float field NAME within absolute error E (default: exactly). Repeatable.",
+            ),
+        ]
+    ):
+        f = opt(f)
+    return f
+
+
+def is_mesh_source(path: str) -> bool:
+    from ..tetra import is_mesh_path
+
+    return path != "-" and is_mesh_path(path)
+
+
+def is_mesh_stream(path: str) -> bool:
+    """True for a ``.vpk`` file whose header says ``kind: "mesh"``."""
+    import os
+
+    from ..container import Reader, is_vpk
+
+    if path == "-" or not os.path.isfile(path):
+        return False
+    with open(path, "rb") as f:
+        if not is_vpk(f.read(16)):
+            return False
+    with Reader(path) as r:
+        return r.header.get("kind") == "mesh"
+
+
+def _read(source: str, tetrahedralize: bool):
+    from ..tetra.formats import read_mesh
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        mesh = read_mesh(source, tetrahedralize=tetrahedralize)
+    for w in caught:
+        click.echo(f"volpack: warning: {w.message}", err=True)
+    return mesh
+
+
+def compress(
+    source: str,
+    target: str,
+    *,
+    bits: int,
+    lossless_geometry: bool,
+    keep_order: bool,
+    tetrahedralize: bool,
+    attr_error: tuple[str, ...],
+    force: bool,
+    as_json: bool,
+) -> None:
+    """Compress the mesh file SOURCE into the .vpk TARGET and report the rates."""
+    from ..atomic import check_output
+    from ..tetra.stream import compress_mesh
+
+    check_output(target, force=force, inputs=(source,))
+    mesh = _read(source, tetrahedralize)
+    stats = compress_mesh(
+        mesh,
+        target,
+        bits=bits,
+        lossless_geometry=lossless_geometry,
+        keep_order=keep_order,
+        attr_error=_attr_error(attr_error),
+        force=force,
+    )
+    if as_json:
+        emit_json(stats)
+    elif target != "-":
+        geo = (
+            "lossless"
+            if lossless_geometry
+            else f"{bits}-bit, max error {stats['geometry_max_error']:.3g}"
+        )
+        click.echo(
+            f"{target}: {fmt_bytes(stats['payload_nbytes'])} from {fmt_bytes(stats['raw_nbytes'])} "
+            f"(ratio {stats['ratio']:.2f}:1); {stats['vertices']} vertices, {stats['tets']} tets; "
+            f"connectivity {stats['bits_per_tet']:.2f} bits/tet, geometry "
+            f"{stats['bits_per_vertex']:.2f} bits/vertex ({geo}); "
+            f"{stats['tets_per_s'] / 1e3:.0f}k tets/s",
+            err=True,
+        )
+
+
+def decompress(source: str, target: str, *, force: bool, as_json: bool) -> None:
+    """Decode the mesh .vpk SOURCE into the mesh file TARGET (format by suffix)."""
+    from ..atomic import check_output
+    from ..tetra.formats import write_mesh
+    from ..tetra.stream import decompress_mesh
+
+    check_output(target, force=force, inputs=(source,))
+    t0 = time.perf_counter()
+    mesh = decompress_mesh(source)
+    seconds = time.perf_counter() - t0
+    write_mesh(mesh, target, force=force)
+    stats = {
+        "target": target,
+        "vertices": mesh.n_vertices,
+        "tets": mesh.n_tets,
+        "point_data": sorted(mesh.point_data),
+        "cell_data": sorted(mesh.cell_data),
+        "seconds": seconds,
+        "tets_per_s": mesh.n_tets / max(seconds, 1e-9),
+    }
+    if as_json:
+        emit_json(stats)
+    else:
+        click.echo(
+            f"{target}: {mesh.n_vertices} vertices, {mesh.n_tets} tets, "
+            f"{stats['tets_per_s'] / 1e3:.0f}k tets/s",
+            err=True,
+        )
+
+
+def info(source: str, as_json: bool) -> None:
+    """Describe a mesh .vpk (rates per part) or a mesh file (the mesh report)."""
+    if is_mesh_stream(source):
+        from ..tetra.stream import mesh_info
+
+        d = mesh_info(source)
+    else:
+        from ..tetra.formats import read_mesh
+        from ..tetra.mesh import report
+
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            mesh = read_mesh(source, tetrahedralize=True)
+        d = {"format": "mesh", "path": source, **report(mesh)}
+        d["warnings"] = [str(w.message) for w in caught]
+    if as_json:
+        emit_json(d)
+        return
+    click.echo(_human(d))
+
+
+def _human(d: dict) -> str:
+    if d["format"] == "vpk":
+        g = d["geometry"]
+        geo = (
+            "lossless"
+            if g["mode"] == "lossless"
+            else f"{g['bits']}-bit, max error {g['max_error']:.3g}"
+        )
+        rows = [
+            ["path", d["path"]],
+            ["format", f"vpk (kind mesh, written by volpack {d['header'].get('volpack', '?')})"],
+            ["vertices", str(d["vertices"])],
+            ["tets", str(d["tets"])],
+            ["size", fmt_bytes(d["file_nbytes"])],
+            [
+                "connectivity",
+                f"{fmt_bytes(d['connectivity_nbytes'])}, {d['bits_per_tet']:.3f} bits/tet",
+            ],
+            [
+                "geometry",
+                f"{fmt_bytes(d['geometry_nbytes'])}, {d['bits_per_vertex']:.3f} bits/vertex ({geo}, {g['dtype']})",
+            ],
+            ["order", "kept" if d["keep_order"] else "coding order (not kept)"],
+        ]
+        for name, f in d["fields"].items():
+            err = "exact" if f["mode"] == "exact" else f"max error {f['max_error']:.3g}"
+            rows.append(
+                [
+                    name,
+                    f"{f['dtype']} {f['shape']}, {fmt_bytes(f['nbytes'])}, {f['bits_per_value']:.3f} bits/value ({err})",
+                ]
+            )
+        return "\n".join(f"{k:<14} {v}" for k, v in rows)
+    keys = [
+        "vertices", "tets", "edges", "faces", "border_faces", "border_vertices", "euler",
+        "components", "zero_volume", "inverted", "negative_volume", "unreferenced_vertices",
+        "duplicate_vertices", "nonmanifold_faces", "nonmanifold_edges", "nonmanifold_vertices",
+    ]  # fmt: skip
+    rows = [["path", d["path"]], ["format", "mesh (read with meshio)"]]
+    rows += [[k.replace("_", " "), str(d[k])] for k in keys]
+    for where in ("point_data", "cell_data"):
+        for name, f in d[where].items():
+            rows.append([f"{where.split('_')[0]}:{name}", f"{f['dtype']} {f['shape']}"])
+    rows += [["warning", w] for w in d.get("warnings", [])]
+    return "\n".join(f"{k:<22} {v}" for k, v in rows)

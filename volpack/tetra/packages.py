@@ -1,0 +1,227 @@
+"""Adaptive arithmetic coding of integer residuals in 4-bit packages (seed-004 §10.9 step 2).
+
+A residual ``r`` (int64, wrapping) is mapped to ``u = 2r`` or ``-2r - 1`` and cut into
+4-bit packages (nibbles). The coder sends
+
+1. ``n``, the number of significant packages (0 for a zero residual), as a 5-level
+   binary tree of adaptive decisions in the context ``(class, ctx)`` chosen by the
+   caller (geometry: the axis and the gate size; attributes: the component and the
+   previous residual's size);
+2. the leading package (1..15) as a 4-level tree with models per ``(class, n)``;
+3. the other packages, top down, as 4-level trees with models per ``(class, n, place)``:
+   each package position has its own adaptive frequencies, as in the thesis.
+
+The binary decisions use volpack's range coder (:mod:`volpack.entropy.arith`: 12-bit
+probabilities with a use count, 32-bit range, carry into the bytes already written).
+The helpers here keep the coder's state in a 3-element array so that several kernels
+(vertex coordinates, point data, cell data) share one implementation.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._jit import kernel
+from ..entropy.arith import PROB_BITS, RATE, STATE_INIT, TOP, _carry
+from ..errors import FormatError
+
+MAX_PACKAGES = 16  # 64 bits
+N_COUNT = 32  # tree nodes for the package count (5 levels)
+STATUS = {1: "the stream ends early", 2: "a residual is longer than its field"}
+
+
+def n_models(n_cls: int, n_ctx: int) -> int:
+    """Size of the model array for ``n_cls`` classes and ``n_ctx`` count contexts."""
+    return n_cls * (n_ctx * N_COUNT + 17 * 16 + 17 * 16 * 16)
+
+
+def new_models(n_cls: int, n_ctx: int) -> np.ndarray:
+    """Fresh adaptive models (every probability one half, use count zero)."""
+    return np.full(n_models(n_cls, n_ctx), STATE_INIT, dtype=np.uint16)
+
+
+def packages_for_bits(bits: int) -> int:
+    """Packages needed for a mapped residual of a ``bits``-bit field (sign included)."""
+    return max(1, min(MAX_PACKAGES, -(-(bits + 1) // 4)))
+
+
+def check_status(status: int, what: str) -> None:
+    """Raise :class:`FormatError` for a decoder's non-zero status."""
+    if status != 0:
+        raise FormatError(f"corrupt {what} stream: {STATUS.get(int(status), status)}")
+
+
+def worst_case_bytes(n_values: int, width: int) -> int:
+    """Bytes a stream of ``n_values`` residuals can take at most (12 bits a decision)."""
+    return (n_values * (5 + 4 * width) * 12) // 8 + 64
+
+
+def ordered_bits(x: np.ndarray) -> np.ndarray:
+    """Floats (2, 4 or 8 bytes) to int64 keeping their order (an involution on bits)."""
+    w = x.dtype.itemsize * 8
+    b = x.view(f"<i{x.dtype.itemsize}" if x.dtype.byteorder != ">" else f">i{x.dtype.itemsize}")
+    b = b.astype(np.int64)
+    return b ^ ((b >> (w - 1)) & np.int64((1 << (w - 1)) - 1))
+
+
+def from_ordered_bits(v: np.ndarray, dtype) -> np.ndarray:
+    """Inverse of :func:`ordered_bits`."""
+    dt = np.dtype(dtype)
+    w = dt.itemsize * 8
+    b = v ^ ((v >> (w - 1)) & np.int64((1 << (w - 1)) - 1))
+    return b.astype(f"i{dt.itemsize}").view(dt.newbyteorder("=")).astype(dt)
+
+
+# --- kernels (numba) --------------------------------------------------------------------
+# ``cs`` is the coder state: [low, range, position] for the encoder, [code, range,
+# position] for the decoder.
+
+
+@kernel(inline=True)
+def start_encoder(out):
+    """Return a fresh encoder state (the first byte takes the carry of the first bits)."""
+    out[0] = 0
+    cs = np.empty(3, dtype=np.int64)
+    cs[0] = 0
+    cs[1] = 0xFFFFFFFF
+    cs[2] = 1
+    return cs
+
+
+@kernel(inline=True)
+def finish_encoder(cs, out):
+    """Flush the final low (4 bytes) and return the stream length."""
+    low = cs[0]
+    pos = cs[2]
+    for _ in range(4):
+        out[pos] = low >> 24
+        pos += 1
+        low = (low << 8) & 0xFFFFFFFF
+    return pos
+
+
+@kernel(inline=True)
+def start_decoder(data):
+    cs = np.empty(3, dtype=np.int64)
+    code = np.int64(0)
+    pos = 1
+    for _ in range(4):
+        code = (code << 8) | (np.int64(data[pos]) if pos < data.size else 0)
+        pos += 1
+    cs[0] = code
+    cs[1] = 0xFFFFFFFF
+    cs[2] = pos
+    return cs
+
+
+@kernel
+def put_bit(cs, out, models, k, bit):
+    """Code one binary decision with the adaptive model ``models[k]``."""
+    st = np.int64(models[k])
+    p = st >> 4
+    u = st & 15
+    low = cs[0]
+    rng = cs[1]
+    pos = cs[2]
+    bound = (rng >> PROB_BITS) * p
+    mask = -np.int64(bit)
+    low += bound & mask
+    if low > 0xFFFFFFFF:
+        _carry(out, pos)
+        low &= 0xFFFFFFFF
+    rng = bound + ((rng - 2 * bound) & mask)
+    r = RATE[u]
+    gain = ((1 << PROB_BITS) - p) >> r
+    p += gain - ((gain + (p >> r)) & mask)
+    models[k] = (p << 4) | (u + (u < 15))
+    while rng < TOP:
+        rng <<= 8
+        out[pos] = low >> 24
+        pos += 1
+        low = (low << 8) & 0xFFFFFFFF
+    cs[0] = low
+    cs[1] = rng
+    cs[2] = pos
+
+
+@kernel
+def get_bit(cs, data, models, k):
+    """Decode one binary decision coded by :func:`put_bit` (bytes past the end read 0)."""
+    st = np.int64(models[k])
+    p = st >> 4
+    u = st & 15
+    code = cs[0]
+    rng = cs[1]
+    pos = cs[2]
+    bound = (rng >> PROB_BITS) * p
+    bit = np.int64(code >= bound)
+    mask = -bit
+    code -= bound & mask
+    rng = bound + ((rng - 2 * bound) & mask)
+    r = RATE[u]
+    gain = ((1 << PROB_BITS) - p) >> r
+    p += gain - ((gain + (p >> r)) & mask)
+    models[k] = (p << 4) | (u + (u < 15))
+    while rng < TOP:
+        rng <<= 8
+        code = ((code << 8) | (np.int64(data[pos]) if pos < data.size else 0)) & 0xFFFFFFFF
+        pos += 1
+    cs[0] = code
+    cs[1] = rng
+    cs[2] = pos
+    return bit
+
+
+@kernel(inline=True)
+def _layout(n_ctx, cls):
+    """Offsets of the count, leading-package and other-package models of a class."""
+    per = n_ctx * N_COUNT + 17 * 16 + 17 * 16 * 16
+    base = cls * per
+    return base, base + n_ctx * N_COUNT, base + n_ctx * N_COUNT + 17 * 16
+
+
+@kernel
+def put_residual(cs, out, models, n_ctx, cls, ctx, r):
+    """Code the int64 residual ``r``; return its package count (a context for later)."""
+    u = np.uint64(r << 1) ^ np.uint64(r >> 63)
+    n = 0
+    t = u
+    while t != 0:
+        n += 1
+        t >>= np.uint64(4)
+    cnt, lead, rest = _layout(n_ctx, cls)
+    node = 1
+    for lv in range(4, -1, -1):  # the count, 5 decisions down a binary tree
+        b = (n >> lv) & 1
+        put_bit(cs, out, models, cnt + ctx * N_COUNT + node, b)
+        node = 2 * node + b
+    for j in range(n - 1, -1, -1):
+        nib = np.int64((u >> np.uint64(4 * j)) & np.uint64(15))
+        base = lead + n * 16 if j == n - 1 else rest + (n * 16 + j) * 16
+        node = 1
+        for lv in range(3, -1, -1):
+            b = (nib >> lv) & 1
+            put_bit(cs, out, models, base + node, b)
+            node = 2 * node + b
+    return n
+
+
+@kernel
+def get_residual(cs, data, models, n_ctx, cls, ctx, width):
+    """Decode a residual coded by :func:`put_residual`; return ``(r, n, ok)``."""
+    cnt, lead, rest = _layout(n_ctx, cls)
+    node = 1
+    for _ in range(5):
+        node = 2 * node + get_bit(cs, data, models, cnt + ctx * N_COUNT + node)
+    n = node - 32
+    if n > width:
+        return np.int64(0), n, False
+    u = np.uint64(0)
+    for j in range(n - 1, -1, -1):
+        base = lead + n * 16 if j == n - 1 else rest + (n * 16 + j) * 16
+        node = 1
+        for _ in range(4):
+            node = 2 * node + get_bit(cs, data, models, base + node)
+        u = (u << np.uint64(4)) | np.uint64(node - 16)
+    r = np.int64(u >> np.uint64(1)) ^ -np.int64(u & np.uint64(1))
+    return r, n, True

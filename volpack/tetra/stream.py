@@ -1,0 +1,376 @@
+"""Tetrahedral meshes <-> ``.vpk``: the library calls behind ``volpack compress mesh.vtu``.
+
+A mesh stream is a ``.vpk`` container (``formats/vpk-1.md``) whose header has
+``kind: "mesh"``; its chunks, all at ``t = 0``, are keyed by ``node``:
+
+* 0: the connectivity (:mod:`.cutborder`), which fixes the coding order;
+* 1: the vertex coordinates in that order (:mod:`.geometry`);
+* 2: with ``keep_order``, the input order of vertices, tets and tet rows;
+* 3, 4, ...: one chunk per point or cell data field, in header order
+  (:mod:`.attributes`).
+
+The byte layout is ``formats/mesh-1.md``. The decoded mesh has the same tetrahedra (same
+orientation) with vertices and tets renumbered in coding order, unless the stream keeps
+the order, in which case every index comes back as it was.
+"""
+
+from __future__ import annotations
+
+import itertools
+import logging
+import time
+from collections.abc import Callable
+from typing import Any, BinaryIO
+
+import numpy as np
+
+from .. import __version__
+from ..errors import FormatError, LimitError
+from .mesh import TetMesh, validate
+
+__all__ = ["KIND_MESH", "compress_mesh", "decompress_mesh", "mesh_info"]
+
+log = logging.getLogger(__name__)
+
+KIND_MESH = "mesh"
+FORMAT = "mesh-1"
+NODE_CONNECTIVITY, NODE_GEOMETRY, NODE_ORDER, NODE_FIELDS = 0, 1, 2, 3
+DEFAULT_MAX_TETS = 1 << 27
+PERMS = np.array(list(itertools.permutations(range(4))), dtype=np.int64)  # 24 row orders
+
+Progress = Callable[[int, int], None]
+
+
+def compress_mesh(
+    mesh: TetMesh,
+    target: str | BinaryIO,
+    *,
+    bits: int = 16,
+    lossless_geometry: bool = False,
+    keep_order: bool = False,
+    attr_error: dict[str, float] | None = None,
+    force: bool = False,
+    progress: Progress | None = None,
+) -> dict[str, Any]:
+    """Compress ``mesh`` into the ``.vpk`` file or binary stream ``target``.
+
+    Parameters
+    ----------
+    bits : int
+        Quantisation of the coordinates (bits over the bounding box diagonal).
+    lossless_geometry : bool
+        Keep the float coordinates bit for bit instead.
+    keep_order : bool
+        Also store the vertex, tet and row order so indices decode identically.
+    attr_error : dict of str to float
+        Per float field, the largest error allowed (the default keeps fields exactly).
+
+    Returns
+    -------
+    dict
+        Sizes and rates: ``bits_per_tet`` (connectivity), ``bits_per_vertex``
+        (geometry), per-field ``bits_per_value`` and ``max_error``, ``tets_per_s``.
+    """
+    from ..container import Writer
+    from . import attributes, cutborder, geometry
+
+    validate(mesh)
+    attr_error = dict(attr_error or {})
+    names = set(mesh.point_data) | set(mesh.cell_data)
+    unknown = sorted(set(attr_error) - names)
+    if unknown:
+        raise ValueError(
+            f"--attr-error names {unknown}, expected fields of the mesh: {sorted(names) or 'none'}"
+        )
+    t0 = time.perf_counter()
+    nv, nt = mesh.n_vertices, mesh.n_tets
+    steps = 3 + len(mesh.point_data) + len(mesh.cell_data)
+    done = 0
+
+    def tick():
+        nonlocal done
+        done += 1
+        if progress is not None:
+            progress(done, steps)
+
+    conn, trav = cutborder.encode_connectivity(mesh.tets, nv)
+    t_conn = time.perf_counter() - t0
+    tick()
+    order = np.asarray(trav.vertex_order, dtype=np.int64)
+    ctets = np.asarray(trav.tets, dtype=np.int64)
+    t1 = time.perf_counter()
+    geo, gmeta = geometry.encode_geometry(
+        mesh.points[order], ctets, bits=bits, lossless=lossless_geometry
+    )
+    t_geo = time.perf_counter() - t1
+    tick()
+    geo_error = gmeta.pop("max_error")
+    chunks = [(NODE_CONNECTIVITY, conn, 0.0), (NODE_GEOMETRY, geo, geo_error)]
+    if keep_order:
+        chunks.append((NODE_ORDER, _encode_order(mesh.tets, trav), 0.0))
+    tick()
+    fields, summary_fields = [], {}
+    prefs = np.asarray(trav.gates, dtype=np.int64)
+    crefs = attributes.cell_refs(trav.tet_parent)
+    tet_order = np.asarray(trav.tet_order, dtype=np.int64)
+    node = NODE_FIELDS
+    for where, data, rows, refs in (
+        ("point", mesh.point_data, order, prefs),
+        ("cell", mesh.cell_data, tet_order, crefs),
+    ):
+        for name, values in data.items():
+            blob, meta = attributes.encode_attribute(
+                values[rows], refs, max_error=attr_error.get(name)
+            )
+            err = meta.pop("max_error")
+            fields.append({"name": name, "where": where, "node": node, **meta})
+            chunks.append((node, blob, err))
+            n = max(len(values), 1)
+            summary_fields[f"{where}:{name}"] = {
+                "nbytes": len(blob),
+                "bits_per_value": 8 * len(blob) / n,
+                "max_error": err,
+                "mode": meta["mode"],
+            }
+            node += 1
+            tick()
+    header = {
+        "kind": KIND_MESH,
+        "format": FORMAT,
+        "volpack": __version__,
+        "vertices": nv,
+        "tets": nt,
+        "geometry": gmeta,
+        "keep_order": bool(keep_order),
+        "fields": fields,
+    }
+    sizes = {n: len(b) for n, b, _ in chunks}
+    seconds = time.perf_counter() - t0
+    summary = {
+        "connectivity_nbytes": sizes[NODE_CONNECTIVITY],
+        "geometry_nbytes": sizes[NODE_GEOMETRY],
+        "order_nbytes": sizes.get(NODE_ORDER, 0),
+        "bits_per_tet": 8 * sizes[NODE_CONNECTIVITY] / nt if nt else 0.0,
+        "bits_per_vertex": 8 * sizes[NODE_GEOMETRY] / nv if nv else 0.0,
+        "geometry_max_error": geo_error,
+        "fields": summary_fields,
+    }
+    with Writer(target, header, force=force) as w:
+        for n, blob, err in chunks:
+            w.write(0, n, blob, error=err)
+        w.close(summary)
+    raw = mesh.points.nbytes + mesh.tets.astype(np.int32).nbytes
+    raw += sum(v.nbytes for v in mesh.point_data.values())
+    raw += sum(v.nbytes for v in mesh.cell_data.values())
+    nbytes = sum(sizes.values())
+    return {
+        **summary,
+        "vertices": nv,
+        "tets": nt,
+        "payload_nbytes": nbytes,
+        "raw_nbytes": raw,
+        "ratio": raw / max(nbytes, 1),
+        "seconds": seconds,
+        "connectivity_tets_per_s": nt / max(t_conn, 1e-9),
+        "geometry_tets_per_s": nt / max(t_geo, 1e-9),
+        "tets_per_s": nt / max(seconds, 1e-9),
+    }
+
+
+def decompress_mesh(
+    source: str | bytes | BinaryIO,
+    *,
+    max_tets: int = DEFAULT_MAX_TETS,
+    progress: Progress | None = None,
+) -> TetMesh:
+    """Decode a mesh stream written by :func:`compress_mesh`."""
+    import io
+
+    from ..container import Reader
+    from . import attributes, cutborder, geometry
+
+    src = io.BytesIO(source) if isinstance(source, bytes | bytearray) else source
+    with Reader(src) as r:
+        hdr = check_header(r.header, max_tets)
+        nv, nt = hdr["vertices"], hdr["tets"]
+        seekable = r.seekable
+        cache = None if seekable else {n: p for _, n, p in r}
+
+        def chunk(node: int) -> bytes:
+            if seekable:
+                if (0, node) not in r:
+                    raise FormatError(f"mesh stream has no chunk {node}")
+                return r.read(0, node)
+            if node not in cache:
+                raise FormatError(f"mesh stream has no chunk {node}")
+            return cache.pop(node)
+
+        steps = 2 + len(hdr["fields"])
+        trav = cutborder.decode_connectivity(chunk(NODE_CONNECTIVITY), max_tets=max_tets)
+        ctets = np.asarray(trav.tets, dtype=np.int64)
+        if ctets.shape != (nt, 4) or len(trav.gates) != nv:
+            raise FormatError(
+                f"mesh stream: the connectivity holds {len(ctets)} tets and {len(trav.gates)} "
+                f"vertices, the header says {nt} and {nv}"
+            )
+        if progress is not None:
+            progress(1, steps)
+        points = geometry.decode_geometry(chunk(NODE_GEOMETRY), hdr["geometry"], ctets, nv)
+        if progress is not None:
+            progress(2, steps)
+        prefs = np.asarray(trav.gates, dtype=np.int64)
+        crefs = attributes.cell_refs(trav.tet_parent)
+        point_data, cell_data = {}, {}
+        for i, f in enumerate(hdr["fields"]):
+            point = f["where"] == "point"
+            vals = attributes.decode_attribute(chunk(f["node"]), f, prefs if point else crefs)
+            (point_data if point else cell_data)[f["name"]] = vals
+            if progress is not None:
+                progress(3 + i, steps)
+        if hdr["keep_order"]:
+            vorder, torder, perm = _decode_order(chunk(NODE_ORDER), nv, nt)
+            out_pts = np.empty_like(points)
+            out_pts[vorder] = points
+            tets = np.empty((nt, 4), dtype=np.int64)
+            tets[torder] = np.take_along_axis(vorder[ctets], PERMS[perm], axis=1)
+            for d, rows in ((point_data, vorder), (cell_data, torder)):
+                for k, v in d.items():
+                    o = np.empty_like(v)
+                    o[rows] = v
+                    d[k] = o
+            return TetMesh(out_pts, tets, point_data, cell_data)
+    return TetMesh(points, ctets, point_data, cell_data)
+
+
+def mesh_info(source: str) -> dict[str, Any]:
+    """Describe a mesh ``.vpk`` (sizes, bits per tet and per vertex, fields) as JSON types."""
+    import os
+
+    from ..container import Reader
+
+    with Reader(source) as r:
+        hdr = check_header(r.header, DEFAULT_MAX_TETS)
+        sizes = {e.node: e.nbytes for e in r.entries}
+        summary = r.summary or {}
+    nv, nt = hdr["vertices"], hdr["tets"]
+    file_size = os.path.getsize(source)
+    geo = hdr["geometry"]
+    fields = {}
+    for f in hdr["fields"]:
+        n = nv if f["where"] == "point" else nt
+        nb = sizes.get(f["node"], 0)
+        fields[f"{f['where']}:{f['name']}"] = {
+            "dtype": f["dtype"],
+            "shape": f["shape"],
+            "mode": f["mode"],
+            "nbytes": nb,
+            "bits_per_value": 8 * nb / n if n else 0.0,
+            "max_error": (summary.get("fields") or {})
+            .get(f"{f['where']}:{f['name']}", {})
+            .get("max_error"),
+        }
+    conn, gbytes = sizes.get(NODE_CONNECTIVITY, 0), sizes.get(NODE_GEOMETRY, 0)
+    return {
+        "format": "vpk",
+        "kind": KIND_MESH,
+        "path": source,
+        "header": hdr,
+        "vertices": nv,
+        "tets": nt,
+        "file_nbytes": file_size,
+        "connectivity_nbytes": conn,
+        "geometry_nbytes": gbytes,
+        "order_nbytes": sizes.get(NODE_ORDER, 0),
+        "bits_per_tet": 8 * conn / nt if nt else 0.0,
+        "bits_per_vertex": 8 * gbytes / nv if nv else 0.0,
+        "geometry": {
+            "mode": geo["mode"],
+            "dtype": geo["dtype"],
+            "bits": geo.get("bits"),
+            "max_error": summary.get("geometry_max_error"),
+        },
+        "keep_order": hdr["keep_order"],
+        "fields": fields,
+    }
+
+
+def check_header(hdr: dict, max_tets: int) -> dict:
+    """Validate a mesh header (kind, counts within limits, fields); return it."""
+    if hdr.get("kind") != KIND_MESH:
+        raise FormatError(
+            f"expected a volpack mesh header (kind 'mesh'), found kind {hdr.get('kind')!r}"
+        )
+    try:
+        nv, nt = int(hdr["vertices"]), int(hdr["tets"])
+        geo = dict(hdr["geometry"])
+        fields = [dict(f) for f in hdr["fields"]]
+        for f in fields:
+            if f["where"] not in ("point", "cell") or not isinstance(f["name"], str):
+                raise ValueError(f)
+            f["node"] = int(f["node"])
+        keep = bool(hdr.get("keep_order", False))
+    except (KeyError, TypeError, ValueError) as e:
+        raise FormatError(f"bad mesh header: {e!r}") from None
+    if hdr.get("format") != FORMAT:
+        raise FormatError(f"expected mesh stream format {FORMAT!r}, found {hdr.get('format')!r}")
+    if nt < 0 or nv < 0 or nt > max_tets or nv > 4 * max_tets:
+        raise LimitError(
+            f"mesh of {nv} vertices and {nt} tets exceeds the limit of {max_tets} tets"
+        )
+    return {
+        **hdr,
+        "vertices": nv,
+        "tets": nt,
+        "geometry": geo,
+        "fields": fields,
+        "keep_order": keep,
+    }
+
+
+# --- the input order (keep_order) -------------------------------------------------------
+
+
+def _encode_order(tets: np.ndarray, trav) -> bytes:
+    """Vertex order, tet order and each row's vertex order (an index into PERMS), zstd'd."""
+    import zstandard
+
+    vorder = np.asarray(trav.vertex_order, dtype=np.int64)
+    torder = np.asarray(trav.tet_order, dtype=np.int64)
+    decoded = vorder[np.asarray(trav.tets, dtype=np.int64)]  # coded rows, input vertex ids
+    wanted = tets[torder]
+    perm = np.full(len(torder), -1, dtype=np.int64)
+    for i, p in enumerate(PERMS):
+        hit = (perm < 0) & (decoded[:, p] == wanted).all(axis=1)
+        perm[hit] = i
+    if (perm < 0).any():
+        raise AssertionError("a decoded tet row is no permutation of its input row")
+    width = "<u4" if len(vorder) < 1 << 32 and len(torder) < 1 << 32 else "<u8"
+    raw = (
+        vorder.astype(width).tobytes()
+        + torder.astype(width).tobytes()
+        + perm.astype(np.uint8).tobytes()
+    )
+    return zstandard.ZstdCompressor(level=9).compress(raw)
+
+
+def _decode_order(blob: bytes, nv: int, nt: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    import zstandard
+
+    width = 4 if nv < 1 << 32 and nt < 1 << 32 else 8
+    need = width * (nv + nt) + nt
+    try:
+        raw = zstandard.ZstdDecompressor().decompress(blob, max_output_size=need)
+    except zstandard.ZstdError as e:
+        raise FormatError(f"corrupt mesh order chunk: {e}") from None
+    if len(raw) != need:
+        raise FormatError(f"corrupt mesh order chunk: expected {need} bytes, found {len(raw)}")
+    dt = f"<u{width}"
+    vorder = np.frombuffer(raw, dtype=dt, count=nv).astype(np.int64)
+    torder = np.frombuffer(raw, dtype=dt, count=nt, offset=width * nv).astype(np.int64)
+    perm = np.frombuffer(raw, dtype=np.uint8, count=nt, offset=width * (nv + nt)).astype(np.int64)
+    for name, o, n in (("vertex", vorder, nv), ("tet", torder, nt)):
+        if n and not np.array_equal(np.sort(o), np.arange(n)):
+            raise FormatError(f"corrupt mesh order chunk: the {name} order is no permutation")
+    if (perm >= len(PERMS)).any():
+        raise FormatError("corrupt mesh order chunk: a row order index exceeds 23")
+    return vorder, torder, perm
