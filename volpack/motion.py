@@ -1,0 +1,516 @@
+"""Block motion estimation and (windowed) motion compensation between volumes.
+
+A frame is cut into 8^3 blocks (the last block on an axis may be shorter). Each block has
+a vector into a reference frame, in **half-voxel units**: an even component is a whole
+voxel shift, an odd one lands between two voxels, where the reference is the mean of the
+two (of four or eight on several axes). Positions outside the reference take the value
+at its nearest border voxel, in estimation and compensation alike.
+
+Estimation minimises the squared error of each block against the shifted reference:
+
+``fast``
+    starts from the zero vector (and from the vectors of the neighbouring blocks already
+    estimated), steps 8, 4, 2, 1 voxels around the best vector so far, then walks to a
+    local minimum one voxel at a time; static regions stop at once (zero error).
+``exhaustive``
+    tries every whole-voxel vector within the search range, nearest first, so of equal
+    errors the shortest vector wins.
+
+Both then try the 26 half-voxel vectors around the best whole one.
+
+Compensation builds the prediction of every voxel from the blocks whose windows cover
+it. In ``windowed`` mode each block's window is its 8^3 core widened by 2 voxels on each
+side (12^3), weighted by a separable cosine fall-off (sin^2 rise over 4 voxels, flat,
+cos^2 fall over 4); the windows of neighbouring blocks overlap so that the weights sum to
+one at every voxel, and neighbouring blocks with different vectors blend rather than
+leave an edge for the wavelet to pay for. ``block`` mode uses the 8^3 cores alone.
+
+Each block predicts in one of four modes: from the previous anchor (``MODE_FWD``), from
+the next anchor (``MODE_BWD``), from the mean of both (``MODE_BI``), or as a constant,
+the block's own mean (``MODE_INTRA``: new content that no vector predicts).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+
+import numpy as np
+
+from ._jit import kernel
+
+BLOCK = 8
+OVERLAP = 2  # 12^3 windows
+MODE_FWD, MODE_BWD, MODE_BI, MODE_INTRA = 0, 1, 2, 3
+SEARCH_METHODS = ("fast", "exhaustive")
+COMPENSATIONS = ("windowed", "block")
+DEFAULT_RADIUS = 15
+
+
+@dataclasses.dataclass(frozen=True)
+class MotionField:
+    """Per block: the mode, the vectors (half-voxel units) into the previous (``fwd``) and
+    next (``bwd``) anchor, and the constant of intra blocks."""
+
+    mode: np.ndarray  # (nbz, nby, nbx) uint8
+    fwd: np.ndarray  # (nbz, nby, nbx, 3) int64
+    bwd: np.ndarray  # (nbz, nby, nbx, 3) int64
+    mean: np.ndarray  # (nbz, nby, nbx) float64
+
+    def counts(self) -> dict[str, int]:
+        """How many blocks chose each mode (what the encoder reports)."""
+        names = ("forward", "backward", "bidirectional", "intra")
+        return {n: int(np.count_nonzero(self.mode == i)) for i, n in enumerate(names)}
+
+
+def block_grid(shape: tuple[int, ...]) -> tuple[int, int, int]:
+    """Blocks per axis for a ``(z, y, x)`` frame."""
+    return tuple(-(-int(n) // BLOCK) for n in shape[-3:])  # type: ignore[return-value]
+
+
+# -- sampling and block errors -----------------------------------------------------------
+
+
+@kernel(inline=True)
+def _clampi(i, n):
+    if i < 0:
+        return 0
+    if i >= n:
+        return n - 1
+    return i
+
+
+@kernel(inline=True)
+def _sample8(ref, z2, y2, x2):
+    """8 x the reference at the half-voxel position (z2, y2, x2) / 2, border clamped.
+
+    Eight times the mean of 1, 2, 4 or 8 voxels is a whole multiple of their sum, so for
+    integer voxels the value is exact in float64.
+    """
+    nz, ny, nx = ref.shape
+    z0 = z2 >> 1
+    y0 = y2 >> 1
+    x0 = x2 >> 1
+    fz = z2 & 1
+    fy = y2 & 1
+    fx = x2 & 1
+    s = 0.0
+    for a in range(fz + 1):
+        zi = _clampi(z0 + a, nz)
+        for b in range(fy + 1):
+            yi = _clampi(y0 + b, ny)
+            for c in range(fx + 1):
+                s += ref[zi, yi, _clampi(x0 + c, nx)]
+    return s * (8 >> (fz + fy + fx))
+
+
+@kernel(inline=True)
+def _block_sse(cur, ref, z0, y0, x0, vz, vy, vx, limit):
+    """Squared error (in units of 1/64) of the block at (z0, y0, x0) against ``ref``
+    shifted by the half-voxel vector; stops early once past ``limit``."""
+    nz, ny, nx = cur.shape
+    ez = min(z0 + 8, nz)
+    ey = min(y0 + 8, ny)
+    ex = min(x0 + 8, nx)
+    s = 0.0
+    whole = ((vz | vy | vx) & 1) == 0
+    dz = vz >> 1
+    dy = vy >> 1
+    dx = vx >> 1
+    inside = (
+        z0 + dz >= 0
+        and ez + dz <= nz
+        and y0 + dy >= 0
+        and ey + dy <= ny
+        and x0 + dx >= 0
+        and ex + dx <= nx
+    )
+    for z in range(z0, ez):
+        for y in range(y0, ey):
+            if whole and inside:
+                for x in range(x0, ex):
+                    d = 8.0 * (np.float64(cur[z, y, x]) - np.float64(ref[z + dz, y + dy, x + dx]))
+                    s += d * d
+            else:
+                for x in range(x0, ex):
+                    d = 8.0 * cur[z, y, x] - _sample8(ref, 2 * z + vz, 2 * y + vy, 2 * x + vx)
+                    s += d * d
+        if s > limit:
+            return s
+    return s
+
+
+@kernel(inline=True)
+def _try(cur, ref, z0, y0, x0, cz, cy, cx, lim2, pen, best, bv):
+    """Try the vector (cz, cy, cx) (half units): its cost is the block's squared error
+    plus ``pen`` per half voxel of length (so flat or noisy blocks keep short vectors);
+    keep it in ``bv`` if it beats ``best``. Vectors outside +-``lim2`` are skipped.
+    Returns the best cost."""
+    if abs(cz) > lim2 or abs(cy) > lim2 or abs(cx) > lim2:
+        return best
+    extra = pen * (abs(cz) + abs(cy) + abs(cx))
+    if extra >= best:
+        return best
+    s = _block_sse(cur, ref, z0, y0, x0, cz, cy, cx, best - extra) + extra
+    if s < best:
+        bv[0] = cz
+        bv[1] = cy
+        bv[2] = cx
+        return s
+    return best
+
+
+@kernel
+def _estimate_kernel(cur, ref, radius, pen, exhaustive, half, order, ring, out_v, out_sse):
+    nbz, nby, nbx = out_sse.shape
+    lim2 = 2 * radius
+    bv = np.zeros(3, np.int64)
+    for bz in range(nbz):
+        for by in range(nby):
+            for bx in range(nbx):
+                z0 = bz * 8
+                y0 = by * 8
+                x0 = bx * 8
+                bv[:] = 0
+                best = _block_sse(cur, ref, z0, y0, x0, 0, 0, 0, np.inf)
+                if best > 0.0 and exhaustive:
+                    for k in range(order.shape[0]):
+                        best = _try(
+                            cur, ref, z0, y0, x0, order[k, 0], order[k, 1], order[k, 2],
+                            lim2, pen, best, bv,
+                        )  # fmt: skip
+                elif best > 0.0:
+                    # neighbours' vectors (whole part) as starting points
+                    for nb in range(3):
+                        pz, py, px = bz - (nb == 0), by - (nb == 1), bx - (nb == 2)
+                        if pz >= 0 and py >= 0 and px >= 0:
+                            best = _try(
+                                cur, ref, z0, y0, x0,
+                                (out_v[pz, py, px, 0] >> 1) * 2,
+                                (out_v[pz, py, px, 1] >> 1) * 2,
+                                (out_v[pz, py, px, 2] >> 1) * 2,
+                                lim2, pen, best, bv,
+                            )  # fmt: skip
+                    step = 1
+                    while step * 2 <= radius // 2:
+                        step *= 2
+                    while step >= 1 and best > 0.0:
+                        cz, cy, cx = bv[0], bv[1], bv[2]
+                        for k in range(ring.shape[0]):
+                            best = _try(
+                                cur, ref, z0, y0, x0,
+                                cz + 2 * step * ring[k, 0],
+                                cy + 2 * step * ring[k, 1],
+                                cx + 2 * step * ring[k, 2],
+                                lim2, pen, best, bv,
+                            )  # fmt: skip
+                        step //= 2
+                    for _ in range(4 * radius + 1):  # walk to a local minimum
+                        cz, cy, cx = bv[0], bv[1], bv[2]
+                        for k in range(ring.shape[0]):
+                            best = _try(
+                                cur, ref, z0, y0, x0,
+                                cz + 2 * ring[k, 0], cy + 2 * ring[k, 1], cx + 2 * ring[k, 2],
+                                lim2, pen, best, bv,
+                            )  # fmt: skip
+                        if best == 0.0 or (bv[0] == cz and bv[1] == cy and bv[2] == cx):
+                            break
+                if half and best > 0.0:
+                    cz, cy, cx = bv[0], bv[1], bv[2]
+                    for k in range(ring.shape[0]):
+                        best = _try(
+                            cur, ref, z0, y0, x0,
+                            cz + ring[k, 0], cy + ring[k, 1], cx + ring[k, 2],
+                            lim2 + 1, pen, best, bv,
+                        )  # fmt: skip
+                out_v[bz, by, bx, 0] = bv[0]
+                out_v[bz, by, bx, 1] = bv[1]
+                out_v[bz, by, bx, 2] = bv[2]
+                out_sse[bz, by, bx] = best / 64.0
+
+
+@functools.lru_cache(maxsize=8)
+def search_order(radius: int) -> np.ndarray:
+    """Every whole-voxel vector within +-``radius`` (half units), nearest first, then by
+    ``(z, y, x)``: the order exhaustive search tries them, so ties go to the shortest."""
+    r = np.arange(-radius, radius + 1)
+    v = np.stack(np.meshgrid(r, r, r, indexing="ij"), -1).reshape(-1, 3)
+    key = (v * v).sum(1)
+    idx = np.lexsort((v[:, 2], v[:, 1], v[:, 0], key))
+    out = np.ascontiguousarray(2 * v[idx], dtype=np.int64)
+    out.flags.writeable = False
+    return out
+
+
+RING = search_order(1)[1:] // 2  # the 26 unit neighbours, nearest first
+
+
+def estimate(
+    cur: np.ndarray,
+    ref: np.ndarray,
+    *,
+    radius: int = DEFAULT_RADIUS,
+    method: str = "fast",
+    half: bool = True,
+    penalty: float = 0.0,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Best vector of every 8^3 block of ``cur`` into ``ref``.
+
+    ``penalty`` is added to a block's squared error per half voxel of vector length
+    (L1), so that where many vectors fit about equally well (flat or noisy regions) the
+    short one wins and costs few bits. Returns ``(vectors, cost)``: ``(nbz, nby, nbx,
+    3)`` int64 in half-voxel units and each block's squared error plus penalty.
+    """
+    cur, ref = _pair(cur, ref)
+    if method not in SEARCH_METHODS:
+        raise ValueError(f"expected a search method in {SEARCH_METHODS}, found {method!r}")
+    radius = int(radius)
+    if not 0 <= radius <= 64:
+        raise ValueError(f"expected a search range of 0..64 voxels, found {radius}")
+    grid = block_grid(cur.shape)
+    vec = np.zeros((*grid, 3), np.int64)
+    sse = np.zeros(grid, np.float64)
+    order = search_order(radius) if method == "exhaustive" else search_order(0)
+    if not (penalty >= 0 and math.isfinite(penalty)):
+        raise ValueError(f"expected a penalty >= 0, found {penalty!r}")
+    pen = 64.0 * float(penalty)  # the kernel counts errors of 8x values
+    _estimate_kernel(
+        cur, ref, radius, pen, method == "exhaustive", bool(half), order, RING, vec, sse
+    )
+    return vec, sse
+
+
+def _pair(cur, ref):
+    cur, ref = np.asarray(cur), np.asarray(ref)
+    if cur.ndim != 3 or cur.shape != ref.shape:
+        raise ValueError(f"expected two 3-D frames of one shape, found {cur.shape} and {ref.shape}")
+    if cur.dtype.kind not in "iuf" or ref.dtype.kind not in "iuf":
+        raise ValueError(f"expected numeric frames, found {cur.dtype} and {ref.dtype}")
+    return np.ascontiguousarray(cur), np.ascontiguousarray(ref)
+
+
+@kernel
+def _bi_sse_kernel(cur, ref0, ref1, v0, v1, out):
+    nz, ny, nx = cur.shape
+    nbz, nby, nbx = out.shape
+    for bz in range(nbz):
+        for by in range(nby):
+            for bx in range(nbx):
+                s = 0.0
+                for z in range(bz * 8, min(bz * 8 + 8, nz)):
+                    for y in range(by * 8, min(by * 8 + 8, ny)):
+                        for x in range(bx * 8, min(bx * 8 + 8, nx)):
+                            p = _sample8(
+                                ref0, 2 * z + v0[bz, by, bx, 0], 2 * y + v0[bz, by, bx, 1],
+                                2 * x + v0[bz, by, bx, 2],
+                            ) + _sample8(
+                                ref1, 2 * z + v1[bz, by, bx, 0], 2 * y + v1[bz, by, bx, 1],
+                                2 * x + v1[bz, by, bx, 2],
+                            )  # fmt: skip
+                            d = 8.0 * cur[z, y, x] - 0.5 * p
+                            s += d * d
+                out[bz, by, bx] = s / 64.0
+
+
+@kernel
+def _block_stats_kernel(cur, count, total, squares):
+    nz, ny, nx = cur.shape
+    for z in range(nz):
+        for y in range(ny):
+            for x in range(nx):
+                v = np.float64(cur[z, y, x])
+                b = (z >> 3, y >> 3, x >> 3)
+                count[b] += 1.0
+                total[b] += v
+                squares[b] += v * v
+
+
+def block_means(cur: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(count, sum, sum of squares)`` of every block's voxels."""
+    grid = block_grid(cur.shape)
+    out = [np.zeros(grid, np.float64) for _ in range(3)]
+    _block_stats_kernel(np.ascontiguousarray(cur), *out)
+    return out[0], out[1], out[2]
+
+
+def choose_modes(
+    cur: np.ndarray,
+    prev: np.ndarray,
+    nxt: np.ndarray | None,
+    *,
+    radius: int = DEFAULT_RADIUS,
+    method: str = "fast",
+    half: bool = True,
+    penalty: float = 0.0,
+    mean_unit: float = 1.0,
+) -> MotionField:
+    """Estimate vectors into ``prev`` (and ``nxt`` for a B-frame) and pick each block's
+    mode by its squared error: inter from either anchor, their mean, or intra (the
+    block's mean, rounded to a multiple of ``mean_unit``) where no vector predicts it
+    better."""
+    opts = {"radius": radius, "method": method, "half": half, "penalty": penalty}
+    fwd, e_fwd = estimate(cur, prev, **opts)
+    cands = [e_fwd]
+    if nxt is not None:
+        bwd, e_bwd = estimate(cur, nxt, **opts)
+        e_bi = np.zeros_like(e_fwd)
+        _bi_sse_kernel(np.ascontiguousarray(cur), prev, nxt, fwd, bwd, e_bi)
+        cands += [e_bwd, e_bi]
+    else:
+        bwd = np.zeros_like(fwd)
+        cands += [np.full_like(e_fwd, np.inf)] * 2
+    n, s, s2 = block_means(cur)
+    q = np.rint(s / n / mean_unit)
+    m = q * mean_unit
+    cands.append(np.maximum(s2 - 2 * m * s + n * m * m, 0.0))
+    # argmin keeps the first of equal errors: inter before intra
+    mode = np.argmin(np.stack(cands), axis=0).astype(np.uint8)
+    fwd[(mode == MODE_BWD) | (mode == MODE_INTRA)] = 0
+    bwd[(mode == MODE_FWD) | (mode == MODE_INTRA)] = 0
+    q[mode != MODE_INTRA] = 0
+    return MotionField(mode, fwd, bwd, q * mean_unit)
+
+
+# -- compensation --------------------------------------------------------------------
+
+
+def _window_weight(u: int) -> float:
+    """The 1-D window over its 12 positions: sin^2 rise, flat core, cos^2 fall."""
+    rise = 2 * OVERLAP
+    if u < rise:
+        return math.sin(math.pi * (u + 0.5) / (2 * rise)) ** 2
+    if u < BLOCK:
+        return 1.0
+    return math.cos(math.pi * (u - BLOCK + 0.5) / (2 * rise)) ** 2
+
+
+@functools.lru_cache(maxsize=32)
+def window_table(n: int, windowed: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """For each position along an axis of ``n`` voxels: the (up to) two blocks whose
+    windows cover it and their weights, which sum to one. At the volume's faces the
+    missing neighbour's share goes to the block that is there."""
+    nb = -(-n // BLOCK)
+    blocks = np.zeros((n, 2), np.int64)
+    weights = np.zeros((n, 2), np.float64)
+    for c in range(n):
+        b0, o = divmod(c, BLOCK)
+        blocks[c] = b0
+        weights[c, 0] = 1.0
+        if not windowed:
+            continue
+        u = o + OVERLAP
+        other = b0 - 1 if u < 2 * OVERLAP else b0 + 1 if u >= BLOCK else -1
+        if 0 <= other < nb:
+            w0 = _window_weight(u)
+            weights[c] = (w0, _window_weight(u + BLOCK if other < b0 else u - BLOCK))
+            blocks[c, 1] = other
+    for a in (blocks, weights):
+        a.flags.writeable = False
+    return blocks, weights
+
+
+@kernel
+def _compensate_kernel(ref0, ref1, mode, v0, v1, mean, zs, zw, ys, yw, xs, xw, out):
+    """Block by block: add each block's weighted prediction over its window. A whole
+    vector whose window stays inside the reference reads it directly."""
+    nz, ny, nx = out.shape
+    nbz, nby, nbx = mode.shape
+    out[:] = 0.0
+    for bz in range(nbz):
+        z0, z1 = zs[bz], min(zs[bz] + zw.shape[1], nz)
+        for by in range(nby):
+            y0, y1 = ys[by], min(ys[by] + yw.shape[1], ny)
+            for bx in range(nbx):
+                x0, x1 = xs[bx], min(xs[bx] + xw.shape[1], nx)
+                m = mode[bz, by, bx]
+                if m == 3:
+                    c = mean[bz, by, bx]
+                    for z in range(z0, z1):
+                        for y in range(y0, y1):
+                            w = zw[bz, z - z0] * yw[by, y - y0] * c
+                            for x in range(x0, x1):
+                                out[z, y, x] += w * xw[bx, x - x0]
+                    continue
+                ref = ref1 if m == 1 else ref0
+                v = v1 if m == 1 else v0
+                vz, vy, vx = v[bz, by, bx, 0], v[bz, by, bx, 1], v[bz, by, bx, 2]
+                dz, dy, dx = vz >> 1, vy >> 1, vx >> 1
+                fast = (
+                    m != 2
+                    and ((vz | vy | vx) & 1) == 0
+                    and z0 + dz >= 0
+                    and z1 + dz <= nz
+                    and y0 + dy >= 0
+                    and y1 + dy <= ny
+                    and x0 + dx >= 0
+                    and x1 + dx <= nx
+                )
+                for z in range(z0, z1):
+                    for y in range(y0, y1):
+                        w = zw[bz, z - z0] * yw[by, y - y0]
+                        if fast:
+                            for x in range(x0, x1):
+                                out[z, y, x] += w * xw[bx, x - x0] * ref[z + dz, y + dy, x + dx]
+                        elif m == 2:
+                            for x in range(x0, x1):
+                                p = _sample8(
+                                    ref0, 2 * z + vz, 2 * y + vy, 2 * x + vx
+                                ) + _sample8(
+                                    ref1, 2 * z + v1[bz, by, bx, 0], 2 * y + v1[bz, by, bx, 1],
+                                    2 * x + v1[bz, by, bx, 2],
+                                )  # fmt: skip
+                                out[z, y, x] += w * xw[bx, x - x0] * (0.0625 * p)
+                        else:
+                            for x in range(x0, x1):
+                                p = _sample8(ref, 2 * z + vz, 2 * y + vy, 2 * x + vx)
+                                out[z, y, x] += w * xw[bx, x - x0] * (0.125 * p)
+
+
+@functools.lru_cache(maxsize=32)
+def block_windows(n: int, windowed: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """Per block along an axis of ``n`` voxels: where its window starts and its weight
+    at each of the (up to 12) positions from there (:func:`window_table` regrouped)."""
+    blocks, weights = window_table(n, windowed)
+    nb = -(-n // BLOCK)
+    reach = OVERLAP if windowed else 0
+    starts = np.maximum(np.arange(nb, dtype=np.int64) * BLOCK - reach, 0)
+    wts = np.zeros((nb, BLOCK + 2 * reach), np.float64)
+    for c in range(n):
+        for i in range(2):
+            if weights[c, i] > 0:
+                b = blocks[c, i]
+                wts[b, c - starts[b]] += weights[c, i]
+    for a in (starts, wts):
+        a.flags.writeable = False
+    return starts, wts
+
+
+def compensate(
+    field: MotionField,
+    prev: np.ndarray,
+    nxt: np.ndarray | None = None,
+    *,
+    compensation: str = "windowed",
+) -> np.ndarray:
+    """The prediction (float64) of a frame from its anchors and motion field."""
+    if compensation not in COMPENSATIONS:
+        raise ValueError(f"expected compensation in {COMPENSATIONS}, found {compensation!r}")
+    prev = np.ascontiguousarray(prev)
+    nxt = prev if nxt is None else np.ascontiguousarray(nxt)
+    if prev.ndim != 3 or nxt.shape != prev.shape or nxt.dtype != prev.dtype:
+        raise ValueError(
+            f"expected anchors of one 3-D shape and dtype, found {prev.shape} {prev.dtype} "
+            f"and {nxt.shape} {nxt.dtype}"
+        )
+    if field.mode.shape != block_grid(prev.shape):
+        raise ValueError(
+            f"expected a motion field of {block_grid(prev.shape)} blocks, found {field.mode.shape}"
+        )
+    if nxt is prev and np.isin(field.mode, (MODE_BWD, MODE_BI)).any():
+        raise ValueError("a block predicts from the next anchor, but none was given")
+    windowed = compensation == "windowed"
+    tabs = [a for n in prev.shape for a in block_windows(n, windowed)]
+    out = np.empty(prev.shape, np.float64)
+    _compensate_kernel(prev, nxt, field.mode, field.fwd, field.bwd, field.mean, *tabs, out)
+    return out
