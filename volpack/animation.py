@@ -63,7 +63,7 @@ class Settings:
     max_levels: int | None = None
     search: int = motion.DEFAULT_RADIUS
     method: str = "fast"
-    half_voxel: bool = True
+    precision: str = "half"
     compensation: str = "windowed"
     b_residual: bool = True
 
@@ -78,6 +78,10 @@ class Settings:
             raise ValueError(f"expected a quality in 1..65535, found {self.quality!r}")
         if self.method not in motion.SEARCH_METHODS:
             raise ValueError(f"expected --motion in {motion.SEARCH_METHODS}, found {self.method!r}")
+        if self.precision not in motion.PRECISIONS:
+            raise ValueError(
+                f"expected a vector precision in {motion.PRECISIONS}, found {self.precision!r}"
+            )
         if self.compensation not in motion.COMPENSATIONS:
             raise ValueError(
                 f"expected --compensation in {motion.COMPENSATIONS}, found {self.compensation!r}"
@@ -94,7 +98,7 @@ class Settings:
         return {k: getattr(self, k) for k in keys}
 
     def motion_config(self) -> dict[str, Any]:
-        keys = ("search", "method", "half_voxel", "compensation", "b_residual")
+        keys = ("search", "method", "precision", "compensation", "b_residual")
         return {k: getattr(self, k) for k in keys}
 
     @classmethod
@@ -240,7 +244,7 @@ def decode_field(
             f"motion field: expected block modes in {allowed}, found {np.unique(mode)}"
         )
     vec = p[1 : nf - 1]
-    if np.abs(vec).max(initial=0) > 2 * radius + 1:
+    if np.abs(vec).max(initial=0) > 4 * radius + 3:
         raise FormatError(f"motion field: a vector exceeds the search range of {radius} voxels")
     fwd = np.ascontiguousarray(np.moveaxis(vec[:3], 0, -1))
     bwd = np.ascontiguousarray(np.moveaxis(vec[3:6], 0, -1)) if two_way else np.zeros_like(fwd)
@@ -286,8 +290,8 @@ def _planned_range(s: Settings, dtype: np.dtype, lo: float, hi: float) -> tuple[
 def encode_frame(
     x: np.ndarray,
     kind: str,
-    prev: np.ndarray | None,
-    nxt: np.ndarray | None,
+    prev: motion.Reference | None,
+    nxt: motion.Reference | None,
     s: Settings,
     brick: tuple[int, int, int],
 ) -> CodedFrame:
@@ -303,7 +307,7 @@ def encode_frame(
         pen = 0.01 * motion.BLOCK**3 * s.scale(vrange) ** 2
         field = motion.choose_modes(
             x, prev, nxt if kind == "B" else None, radius=s.search, method=s.method,
-            half=s.half_voxel, penalty=pen, mean_unit=mean_unit,
+            precision=s.precision, penalty=pen, mean_unit=mean_unit,
         )  # fmt: skip
         if np.mean(field.mode == motion.MODE_INTRA) >= INTRA_CUT:
             kind, field = "I", None  # a scene cut: nothing to predict from
@@ -363,8 +367,8 @@ def decode_frame(
     payload: bytes,
     shape: tuple[int, int, int],
     dtype: np.dtype,
-    prev: np.ndarray | None,
-    nxt: np.ndarray | None,
+    prev: motion.Reference | None,
+    nxt: motion.Reference | None,
     s: Settings,
     brick: tuple[int, int, int],
 ) -> tuple[str, np.ndarray]:
@@ -494,7 +498,7 @@ def compress(
     brick: int | tuple[int, int, int] = bricks.DEFAULT_BRICK,
     search: int = motion.DEFAULT_RADIUS,
     method: str = "fast",
-    half_voxel: bool = True,
+    precision: str = "half",
     compensation: str = "windowed",
     b_residual: bool = True,
     force: bool = False,
@@ -515,7 +519,7 @@ def compress(
     mode = "bounded" if max_error is not None else "coef" if quality is not None else "lossless"
     inner = {"wavelet": wavelet, "coder": coder, "order": order, "max_levels": max_levels}
     s = Settings(
-        mode, max_error, quality, search=int(search), method=method, half_voxel=bool(half_voxel),
+        mode, max_error, quality, search=int(search), method=method, precision=precision,
         compensation=compensation, b_residual=bool(b_residual),
         **{k: v for k, v in inner.items() if v is not None},
     )  # fmt: skip
@@ -564,7 +568,7 @@ def compress(
             )  # fmt: skip
             w.write(t, 0, f.payload, f.max_error)
             if types[t] in gop.ANCHORS:
-                anchors[t] = f.decoded
+                anchors[t] = motion.Reference(f.decoded)
             for a in [a for a in anchors if release[a] <= i]:
                 del anchors[a]
             flo, fhi = _frame_range(x)
@@ -649,7 +653,7 @@ class AnimationReader:
     def __init__(self, source: Any, *, max_voxels: int = 1 << 34) -> None:
         from .container import Reader
 
-        self._r = Reader(source)
+        self._r = source if isinstance(source, Reader) else Reader(source)
         try:
             self.header = check_header(self._r.header, max_voxels)
         except BaseException:
@@ -677,11 +681,12 @@ class AnimationReader:
     def summary(self) -> dict | None:
         return self._r.summary
 
-    def _decode(self, t: int, payload: bytes, prev, nxt) -> np.ndarray:
+    def _decode(self, t: int, payload: bytes, prev, nxt) -> motion.Reference:
         self.decoded += 1
-        return decode_frame(
+        frame = decode_frame(
             payload, self.shape[1:], self.dtype, prev, nxt, self.settings, self.brick
         )[1]
+        return motion.Reference(frame)
 
     def _read(self, t: int) -> bytes:
         return self._r.read(t, 0)
@@ -695,11 +700,12 @@ class AnimationReader:
         for f in gop.needed(self.types, t):
             p, n = self.refs[f]
             done[f] = self._decode(f, self._read(f), done.get(p), done.get(n))
-        return done[t]
+        return done[t].frame
 
     def play(self) -> Iterator[tuple[int, np.ndarray]]:
         """Frames in display order, one decode per step (seekable files)."""
-        return gop.play(self.types, lambda t, p, n: self._decode(t, self._read(t), p, n))
+        for t, ref in gop.play(self.types, lambda t, p, n: self._decode(t, self._read(t), p, n)):
+            yield t, ref.frame
 
     def frames(self, progress: Progress | None = None) -> np.ndarray:
         """All frames ``(t, z, y, x)``, decoded in storage order (streams work too)."""
@@ -718,9 +724,9 @@ class AnimationReader:
             p, n = self.refs[t]
             if (p is not None and p not in anchors) or (n is not None and n not in anchors):
                 raise FormatError(f"frame {t} comes before its anchors")
-            out[t] = self._decode(t, payload, anchors.get(p), anchors.get(n))
+            out[t] = self._decode(t, payload, anchors.get(p), anchors.get(n)).frame
             if self.types[t] in gop.ANCHORS:
-                anchors[t] = out[t]
+                anchors[t] = motion.Reference(out[t])
             for a in [a for a in anchors if release[a] <= i]:
                 del anchors[a]
             if progress is not None:
@@ -755,15 +761,24 @@ def check_header(hdr: dict, max_voxels: int) -> dict:
 
 
 def decompress(
-    source: Any, *, frame: int | None = None, progress: Progress | None = None
+    source: Any,
+    *,
+    frame: int | None = None,
+    roi: str | tuple[slice, ...] | None = None,
+    progress: Progress | None = None,
 ) -> Volume:
-    """Decode an animation ``.vpk``: all frames ``(t, z, y, x)``, or one frame."""
+    """Decode an animation ``.vpk`` (a path, bytes, a file or an open container
+    Reader): all frames ``(t, z, y, x)``, or one frame decoding only the anchors it
+    needs; ``roi`` crops the decoded frames."""
+    from .api import _parse_roi
+
     with AnimationReader(source) as r:
         data = r.frame(frame) if frame is not None else r.frames(progress)
         h = r.header
-    return Volume(
-        data, spacing=tuple(h["spacing"]), origin=tuple(h["origin"]), meta=dict(h.get("meta") or {})
-    )
+    region = _parse_roi(roi, data.shape[-3:])
+    data = np.ascontiguousarray(data[(..., *region)]) if roi is not None else data
+    origin = tuple(o + s.start * d for o, s, d in zip(h["origin"], region, h["spacing"]))
+    return Volume(data, spacing=tuple(h["spacing"]), origin=origin, meta=dict(h.get("meta") or {}))
 
 
 def _jsonable(meta: dict) -> dict:

@@ -6,6 +6,7 @@ import time
 
 import click
 
+from .animation import ANIMATION_KEYS, animation_options, wants_animation
 from .options import (
     emit_json,
     fmt_bytes,
@@ -100,6 +101,7 @@ def _brick(value: str) -> int | tuple[int, int, int]:
     type=float,
     help="A value meaning 'no data' (e.g. -2.56e33); restored exactly, like NaN and Inf.",
 )
+@animation_options
 @workers_option
 @raw_options
 @force_option
@@ -129,6 +131,7 @@ def compress(
     offset,
     force,
     as_json,
+    **anim,
 ) -> None:
     """Compress the volume SOURCE into the .vpk file TARGET ('-' for stdout).
 
@@ -147,7 +150,16 @@ def compress(
       volpack compress sim.h5:/T T.vpk --max-error 0.01
       volpack compress ct.nii.gz ct.vpk --psnr 50
       volpack compress ct.nii.gz ct.vpk --quality 63
+      volpack compress run.nii.gz run.vpk --gop IBBPBBPBB --quality 63
+      volpack compress 'frames/*.npy' run.vpk --gop IPPP --max-error 0.5
     """
+    if wants_animation(source, anim["gop"]):
+        from .animation import run_compress
+
+        opts = {k: anim[k] for k in ANIMATION_KEYS}
+        kw = dict(locals())
+        kw["read_options"] = read_kwargs(raw_shape, raw_dtype, byteorder, offset)
+        return run_compress(ctx, source, target, as_json, force, opts, **_shared(kw))
     from .. import api
     from .. import io as vio
     from ..atomic import check_output
@@ -267,6 +279,14 @@ def decompress(
             f"{target}: {'x'.join(map(str, vol.shape))} {vol.dtype}, {stats['mb_per_s']:.1f} MB/s",
             err=True,
         )
+
+
+def _shared(kw: dict) -> dict:
+    keys = ("codec", "wavelet", "coder", "order", "max_levels", "max_error", "rel_error")
+    keys += ("psnr", "ratio", "quality", "threshold", "fill_value", "read_options")
+    out = {k: kw[k] for k in keys}
+    out["brick"] = _brick(kw["brick"])
+    return out
 
 
 def _accuracy(stats: dict) -> str:
