@@ -180,6 +180,8 @@ def open_frames(source: Any, **read_options: Any) -> FrameSource:
     arrays stay on disk), a 4-D file, a glob pattern or a list of 3-D files."""
     from . import io as vio
 
+    if isinstance(source, FrameSource):
+        return source
     if isinstance(source, (str, os.PathLike)) and not is_pattern(str(source)):
         source = vio.read_volume(str(source), **read_options)
     if isinstance(source, Volume) or isinstance(source, np.ndarray):

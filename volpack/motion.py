@@ -106,7 +106,7 @@ def _sample8(up, z4, y4, x4):
     return s * (8 >> (fz + fy + fx))
 
 
-@kernel(inline=True)
+@kernel
 def _block_sse(cur, ref, up, z0, y0, x0, vz, vy, vx, limit):
     """Squared error (in units of 1/64) of the block at (z0, y0, x0) against the
     reference moved by the quarter-voxel vector; stops early once past ``limit``."""
@@ -115,40 +115,66 @@ def _block_sse(cur, ref, up, z0, y0, x0, vz, vy, vx, limit):
     ey = min(y0 + 8, ny)
     ex = min(x0 + 8, nx)
     s = 0.0
-    whole = ((vz | vy | vx) & 3) == 0
-    dz = vz >> 2
-    dy = vy >> 2
-    dx = vx >> 2
+    if ((vz | vy | vx) & 3) == 0:
+        dz = vz >> 2
+        dy = vy >> 2
+        dx = vx >> 2
+        inside = (
+            z0 + dz >= 0
+            and ez + dz <= nz
+            and y0 + dy >= 0
+            and ey + dy <= ny
+            and x0 + dx >= 0
+            and ex + dx <= nx
+        )
+        for z in range(z0, ez):
+            for y in range(y0, ey):
+                if inside:
+                    for x in range(x0, ex):
+                        d = np.float64(cur[z, y, x]) - np.float64(ref[z + dz, y + dy, x + dx])
+                        s += 64.0 * d * d
+                else:
+                    zi = _clampi(z + dz, nz)
+                    yi = _clampi(y + dy, ny)
+                    for x in range(x0, ex):
+                        d = np.float64(cur[z, y, x]) - np.float64(ref[zi, yi, _clampi(x + dx, nx)])
+                        s += 64.0 * d * d
+            if s > limit:
+                return s
+        return s
+    # on the half-voxel grid voxel z reads 2z + (vz >> 1), and its neighbour if vz is odd
+    hz, hy, hx = vz >> 1, vy >> 1, vx >> 1
+    fz, fy, fx = vz & 1, vy & 1, vx & 1
+    uz, uy, ux = up.shape
     inside = (
-        z0 + dz >= 0
-        and ez + dz <= nz
-        and y0 + dy >= 0
-        and ey + dy <= ny
-        and x0 + dx >= 0
-        and ex + dx <= nx
+        2 * z0 + hz >= 0
+        and 2 * (ez - 1) + hz + fz < uz
+        and 2 * y0 + hy >= 0
+        and 2 * (ey - 1) + hy + fy < uy
+        and 2 * x0 + hx >= 0
+        and 2 * (ex - 1) + hx + fx < ux
     )
+    scale = np.float64(8 >> (fz + fy + fx))
     for z in range(z0, ez):
         for y in range(y0, ey):
-            if whole and inside:
-                for x in range(x0, ex):
-                    d = 8.0 * (np.float64(cur[z, y, x]) - np.float64(ref[z + dz, y + dy, x + dx]))
-                    s += d * d
-            elif whole:  # clamped at the border
-                zi = _clampi(z + dz, nz)
-                yi = _clampi(y + dy, ny)
-                for x in range(x0, ex):
-                    d = np.float64(cur[z, y, x]) - np.float64(ref[zi, yi, _clampi(x + dx, nx)])
-                    s += 64.0 * d * d
-            else:
-                for x in range(x0, ex):
-                    d = 8.0 * cur[z, y, x] - _sample8(up, 4 * z + vz, 4 * y + vy, 4 * x + vx)
-                    s += d * d
+            for x in range(x0, ex):
+                if inside:
+                    p = 0.0
+                    for a in range(fz + 1):
+                        for b in range(fy + 1):
+                            for c in range(fx + 1):
+                                p += up[2 * z + hz + a, 2 * y + hy + b, 2 * x + hx + c]
+                    p *= scale
+                else:
+                    p = _sample8(up, 4 * z + vz, 4 * y + vy, 4 * x + vx)
+                d = 8.0 * cur[z, y, x] - p
+                s += d * d
         if s > limit:
             return s
     return s
 
 
-@kernel(inline=True)
+@kernel
 def _try(cur, ref, up, z0, y0, x0, cz, cy, cx, lim, pen, best, bv):
     """Try the vector (cz, cy, cx) (quarter units): its cost is the block's squared error
     plus ``pen`` per quarter voxel of length (so flat or noisy blocks keep short vectors);
@@ -252,34 +278,63 @@ def _upsample_axis_kernel(src, taps, out):
     """Along the last axis: even outputs copy ``src``, odd ones interpolate halfway
     (border clamped)."""
     n = src.shape[-1]
-    h = taps.size // 2
+    nt = taps.size
+    h = nt // 2
     for i in range(src.shape[0]):
         for j in range(src.shape[1]):
+            row = src[i, j]
+            dst = out[i, j]
             for x in range(n):
-                out[i, j, 2 * x] = src[i, j, x]
+                dst[2 * x] = row[x]
             for x in range(n - 1):
                 acc = 0.0
-                for k in range(taps.size):
-                    acc += taps[k] * src[i, j, _clampi(x + 1 - h + k, n)]
-                out[i, j, 2 * x + 1] = acc
+                if x + 1 - h >= 0 and x + nt - h < n:
+                    for k in range(nt):
+                        acc += taps[k] * row[x + 1 - h + k]
+                else:
+                    for k in range(nt):
+                        acc += taps[k] * row[_clampi(x + 1 - h + k, n)]
+                dst[2 * x + 1] = acc
+
+
+@kernel
+def _upsample_mid_kernel(src, taps, out):
+    """As :func:`_upsample_axis_kernel`, along the middle axis (rows stay contiguous)."""
+    n = src.shape[1]
+    nt = taps.size
+    h = nt // 2
+    for i in range(src.shape[0]):
+        for y in range(n):
+            out[i, 2 * y, :] = src[i, y, :]
+        for y in range(n - 1):
+            dst = out[i, 2 * y + 1]
+            dst[:] = 0.0
+            for k in range(nt):
+                row = src[i, _clampi(y + 1 - h + k, n)]
+                t = taps[k]
+                for x in range(dst.size):
+                    dst[x] += t * row[x]
 
 
 def upsample(ref: np.ndarray) -> np.ndarray:
     """The reference on its half-voxel grid, shape ``(2z-1, 2y-1, 2x-1)`` float64:
     even indices are the voxels, odd ones eight-tap interpolations between them."""
     a = np.ascontiguousarray(ref, dtype=np.float64)
-    for _ in range(3):  # x, then y, then z: each pass moves the next axis last
-        n = a.shape[-1]
-        out = np.empty((*a.shape[:2], max(2 * n - 1, 1)), np.float64)
-        _upsample_axis_kernel(a, HALF_TAPS, out)
-        a = np.ascontiguousarray(np.moveaxis(out, -1, 0))
-    return a
+    nz, ny, nx = a.shape
+    ox = np.empty((nz, ny, 2 * nx - 1), np.float64)
+    _upsample_axis_kernel(a, HALF_TAPS, ox)
+    oy = np.empty((nz, 2 * ny - 1, 2 * nx - 1), np.float64)
+    _upsample_mid_kernel(ox, HALF_TAPS, oy)
+    del ox
+    oz = np.empty((1, 2 * nz - 1, oy.shape[1] * oy.shape[2]), np.float64)
+    _upsample_mid_kernel(oy.reshape(1, nz, -1), HALF_TAPS, oz)
+    return oz.reshape(2 * nz - 1, 2 * ny - 1, 2 * nx - 1)
 
 
 @functools.lru_cache(maxsize=8)
 def search_order(radius: int) -> np.ndarray:
-    """Every whole-voxel vector within +-``radius`` (quarter units), nearest first, then by
-    ``(z, y, x)``: the order exhaustive search tries them, so ties go to the shortest."""
+    """Every whole-voxel vector within +-``radius`` (quarter units), nearest first, then
+    by ``(z, y, x)``: the order exhaustive search tries them, so ties go to the shortest."""
     r = np.arange(-radius, radius + 1)
     v = np.stack(np.meshgrid(r, r, r, indexing="ij"), -1).reshape(-1, 3)
     key = (v * v).sum(1)
@@ -290,7 +345,6 @@ def search_order(radius: int) -> np.ndarray:
 
 
 RING = search_order(1)[1:] // 4  # the 26 unit neighbours, nearest first (whole units)
-
 
 PRECISIONS = ("whole", "half", "quarter")
 
@@ -507,9 +561,64 @@ def window_table(n: int, windowed: bool = True) -> tuple[np.ndarray, np.ndarray]
 
 
 @kernel
+def _add_block(out, ref, up, z0, z1, y0, y1, x0, x1, wz, wy, wx, vz, vy, vx, share):
+    """``out += share * window * reference moved by the vector`` over one block's window;
+    the fractional part of a vector is the same for the whole block, so the reads are
+    direct unless the window reaches past the reference."""
+    nz, ny, nx = ref.shape
+    if ((vz | vy | vx) & 3) == 0:
+        dz, dy, dx = vz >> 2, vy >> 2, vx >> 2
+        inside = (
+            z0 + dz >= 0
+            and z1 + dz <= nz
+            and y0 + dy >= 0
+            and y1 + dy <= ny
+            and x0 + dx >= 0
+            and x1 + dx <= nx
+        )
+        for z in range(z0, z1):
+            for y in range(y0, y1):
+                w = share * wz[z - z0] * wy[y - y0]
+                if inside:
+                    for x in range(x0, x1):
+                        out[z, y, x] += w * wx[x - x0] * ref[z + dz, y + dy, x + dx]
+                else:
+                    zi = _clampi(z + dz, nz)
+                    yi = _clampi(y + dy, ny)
+                    for x in range(x0, x1):
+                        out[z, y, x] += w * wx[x - x0] * ref[zi, yi, _clampi(x + dx, nx)]
+        return
+    hz, hy, hx = vz >> 1, vy >> 1, vx >> 1
+    fz, fy, fx = vz & 1, vy & 1, vx & 1
+    uz, uy, ux = up.shape
+    inside = (
+        2 * z0 + hz >= 0
+        and 2 * (z1 - 1) + hz + fz < uz
+        and 2 * y0 + hy >= 0
+        and 2 * (y1 - 1) + hy + fy < uy
+        and 2 * x0 + hx >= 0
+        and 2 * (x1 - 1) + hx + fx < ux
+    )
+    mean = 1.0 / (1 << (fz + fy + fx))
+    for z in range(z0, z1):
+        for y in range(y0, y1):
+            w = share * wz[z - z0] * wy[y - y0]
+            for x in range(x0, x1):
+                if inside:
+                    p = 0.0
+                    for a in range(fz + 1):
+                        for b in range(fy + 1):
+                            for c in range(fx + 1):
+                                p += up[2 * z + hz + a, 2 * y + hy + b, 2 * x + hx + c]
+                    p *= mean
+                else:
+                    p = 0.125 * _sample8(up, 4 * z + vz, 4 * y + vy, 4 * x + vx)
+                out[z, y, x] += w * wx[x - x0] * p
+
+
+@kernel
 def _compensate_kernel(ref0, up0, ref1, up1, mode, v0, v1, mean, zs, zw, ys, yw, xs, xw, out):
-    """Block by block: add each block's weighted prediction over its window. A whole
-    vector whose window stays inside the reference reads it directly."""
+    """Block by block: add each block's weighted prediction over its window."""
     nz, ny, nx = out.shape
     nbz, nby, nbx = mode.shape
     out[:] = 0.0
@@ -528,38 +637,17 @@ def _compensate_kernel(ref0, up0, ref1, up1, mode, v0, v1, mean, zs, zw, ys, yw,
                             for x in range(x0, x1):
                                 out[z, y, x] += w * xw[bx, x - x0]
                     continue
-                one = m == 1
-                ref = ref1 if one else ref0
-                up = up1 if one else up0
-                v = v1 if one else v0
-                vz, vy, vx = v[bz, by, bx, 0], v[bz, by, bx, 1], v[bz, by, bx, 2]
-                dz, dy, dx = vz >> 2, vy >> 2, vx >> 2
-                fast = (
-                    m != 2
-                    and ((vz | vy | vx) & 3) == 0
-                    and z0 + dz >= 0
-                    and z1 + dz <= nz
-                    and y0 + dy >= 0
-                    and y1 + dy <= ny
-                    and x0 + dx >= 0
-                    and x1 + dx <= nx
-                )
-                cz, cy, cx = v1[bz, by, bx, 0], v1[bz, by, bx, 1], v1[bz, by, bx, 2]
-                for z in range(z0, z1):
-                    for y in range(y0, y1):
-                        w = zw[bz, z - z0] * yw[by, y - y0]
-                        if fast:
-                            for x in range(x0, x1):
-                                out[z, y, x] += w * xw[bx, x - x0] * ref[z + dz, y + dy, x + dx]
-                        elif m == 2:
-                            for x in range(x0, x1):
-                                p = _read(ref0, up0, z, y, x, vz, vy, vx)
-                                p += _read(ref1, up1, z, y, x, cz, cy, cx)
-                                out[z, y, x] += w * xw[bx, x - x0] * (0.0625 * p)
-                        else:
-                            for x in range(x0, x1):
-                                p = _read(ref, up, z, y, x, vz, vy, vx)
-                                out[z, y, x] += w * xw[bx, x - x0] * (0.125 * p)
+                share = 0.5 if m == 2 else 1.0
+                if m != 1:
+                    _add_block(
+                        out, ref0, up0, z0, z1, y0, y1, x0, x1, zw[bz], yw[by], xw[bx],
+                        v0[bz, by, bx, 0], v0[bz, by, bx, 1], v0[bz, by, bx, 2], share,
+                    )  # fmt: skip
+                if m != 0:
+                    _add_block(
+                        out, ref1, up1, z0, z1, y0, y1, x0, x1, zw[bz], yw[by], xw[bx],
+                        v1[bz, by, bx, 0], v1[bz, by, bx, 1], v1[bz, by, bx, 2], share,
+                    )  # fmt: skip
 
 
 @functools.lru_cache(maxsize=32)
