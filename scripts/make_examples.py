@@ -123,10 +123,36 @@ def make_lossy(folder: Path) -> Path:
     return folder
 
 
+ANIMATION_CASES = [
+    ("animation-ibbp-bounded-u8", {"gop_string": "IBBP", "max_error": 2}),
+    ("animation-ipp-coef-quarter-u8", {"gop_string": "IPP", "quality": 63, "precision": "quarter"}),
+]
+
+
+def animation_source():
+    """Five frames of a crop of the bundled MRI, rolled by whole voxels (exact integers)."""
+    import numpy as np
+
+    from volpack.demo import load_demo_volume
+
+    cut = load_demo_volume().data[30:46, 40:56, 40:64]
+    return np.stack([np.roll(cut, (t // 2, t, -t), (0, 1, 2)) for t in range(5)])
+
+
+def make_animation(folder: Path) -> Path:
+    from volpack import animation
+
+    for stem, opts in ANIMATION_CASES:
+        path = folder / f"{stem}.vpk"
+        animation.compress(animation_source(), str(path), force=True, **opts)
+    return folder
+
+
 EXAMPLES: dict[str, Callable[[Path], Path]] = {
     "container": make_container,
     "wavelet": make_wavelet,
     "lossy": make_lossy,
+    "animation": make_animation,
 }
 
 

@@ -240,6 +240,10 @@ def decompress(
     nworkers = parse_workers(workers)
     src = _stdin() if source == "-" else source
     with Reader(src) as r:
+        if r.header.get("kind") == "animation":
+            from .animation import decompress as decompress_animation
+
+            return decompress_animation(r, roi=roi, frame=frame, progress=progress)
         hdr = _check_volume_header(r.header, max_voxels)
         shape = tuple(hdr["shape"])
         dtype = np.dtype(hdr["dtype"]).newbyteorder("=")

@@ -7,6 +7,7 @@ import time
 import click
 
 from . import mesh as mesh_cli
+from .animation import ANIMATION_KEYS, animation_options, wants_animation
 from .options import (
     emit_json,
     fmt_bytes,
@@ -17,6 +18,9 @@ from .options import (
     read_kwargs,
     workers_option,
 )
+
+
+MESH_KEYS = ("bits", "lossless_geometry", "keep_order", "tetrahedralize", "attr_error")
 
 
 def _brick(value: str) -> int | tuple[int, int, int]:
@@ -102,6 +106,7 @@ def _brick(value: str) -> int | tuple[int, int, int]:
     help="A value meaning 'no data' (e.g. -2.56e33); restored exactly, like NaN and Inf.",
 )
 @mesh_cli.mesh_options
+@animation_options
 @workers_option
 @raw_options
 @force_option
@@ -131,7 +136,7 @@ def compress(
     offset,
     force,
     as_json,
-    **mesh_opts,
+    **extra,
 ) -> None:
     """Compress the volume or tetrahedral mesh SOURCE into the .vpk file TARGET ('-' for stdout).
 
@@ -150,11 +155,21 @@ def compress(
       volpack compress sim.h5:/T T.vpk --max-error 0.01
       volpack compress ct.nii.gz ct.vpk --psnr 50
       volpack compress ct.nii.gz ct.vpk --quality 63
+      volpack compress run.nii.gz run.vpk --gop IBBPBBPBB --quality 63
+      volpack compress 'frames/*.npy' run.vpk --gop IPPP --max-error 0.5
       volpack compress mesh.vtu mesh.vpk --bits 16        (tetrahedral mesh: --bits,
       volpack compress hex.msh mesh.vpk --tetrahedralize   --lossless-geometry, ...)
     """
     if mesh_cli.is_mesh_source(source):
+        mesh_opts = {k: extra[k] for k in MESH_KEYS}
         return mesh_cli.compress(source, target, force=force, as_json=as_json, **mesh_opts)
+    if wants_animation(source, extra["gop"]):
+        from .animation import run_compress
+
+        opts = {k: extra[k] for k in ANIMATION_KEYS}
+        kw = dict(locals())
+        kw["read_options"] = read_kwargs(raw_shape, raw_dtype, byteorder, offset)
+        return run_compress(ctx, source, target, as_json, force, opts, **_shared(kw))
     from .. import api
     from .. import io as vio
     from ..atomic import check_output
@@ -276,6 +291,14 @@ def decompress(
             f"{target}: {'x'.join(map(str, vol.shape))} {vol.dtype}, {stats['mb_per_s']:.1f} MB/s",
             err=True,
         )
+
+
+def _shared(kw: dict) -> dict:
+    keys = ("codec", "wavelet", "coder", "order", "max_levels", "max_error", "rel_error")
+    keys += ("psnr", "ratio", "quality", "threshold", "fill_value", "read_options")
+    out = {k: kw[k] for k in keys}
+    out["brick"] = _brick(kw["brick"])
+    return out
 
 
 def _accuracy(stats: dict) -> str:

@@ -94,6 +94,10 @@ def _human(d: dict, chunks: bool) -> str:
             q = s["search"]
             rows.append(["target", f"{q['target']} {q['value']:g}: reached {q['reached']:.4g}"])
     out = "\n".join(f"{k:<12} {v}" for k, v in rows)
+    if h.get("kind") == "animation":
+        from .animation import frame_table
+
+        out += "\n\n" + frame_table(d)
     if chunks:
         trs = [
             [str(e["t"]), str(e["node"]), str(e["offset"]), str(e["nbytes"]), f"{e['error']:g}"]

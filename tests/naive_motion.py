@@ -1,0 +1,123 @@
+"""Slow, obviously correct references for volpack.motion: block errors by numpy over
+every candidate vector, the half-voxel grid by explicit taps, and compensation voxel by
+voxel from the window formula."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+TAPS = np.array([-1, 4, -11, 40, 40, -11, 4, -1]) / 64.0
+
+
+def shifted(ref, z0, y0, x0, shape, v):
+    """The reference block at (z0, y0, x0) + whole-voxel vector v, border clamped."""
+    idx = [
+        np.clip(np.arange(o, o + n) + d, 0, s - 1)
+        for o, n, d, s in zip((z0, y0, x0), shape, v, ref.shape)
+    ]
+    return ref[np.ix_(*idx)].astype(np.float64)
+
+
+def exhaustive(cur, ref, radius, penalty=0.0):
+    """Every block's best whole vector (quarter units) and cost, trying every vector
+    and breaking ties by (length^2, z, y, x)."""
+    nb = [-(-n // 8) for n in cur.shape]
+    vecs = np.zeros((*nb, 3), np.int64)
+    costs = np.zeros(nb)
+    cands = [
+        (dz * dz + dy * dy + dx * dx, dz, dy, dx)
+        for dz in range(-radius, radius + 1)
+        for dy in range(-radius, radius + 1)
+        for dx in range(-radius, radius + 1)
+    ]
+    cands.sort()
+    for b in np.ndindex(*nb):
+        o = [8 * i for i in b]
+        blk = cur[tuple(slice(a, a + 8) for a in o)].astype(np.float64)
+        best = None
+        for _, dz, dy, dx in cands:
+            s = 64.0 * np.sum((blk - shifted(ref, *o, blk.shape, (dz, dy, dx))) ** 2)
+            c = s + 16.0 * penalty * 4 * (abs(dz) + abs(dy) + abs(dx))
+            if best is None or c < best[0]:
+                best = (c, (4 * dz, 4 * dy, 4 * dx))
+        costs[b] = best[0] / 64.0
+        vecs[b] = best[1]
+    return vecs, costs
+
+
+def upsample(ref):
+    """The half-voxel grid: voxels at even indices, 8-tap interpolations at odd ones."""
+    a = ref.astype(np.float64)
+    for axis in range(3):
+        a = np.moveaxis(a, axis, -1)
+        n = a.shape[-1]
+        out = np.zeros((*a.shape[:-1], 2 * n - 1))
+        out[..., 0::2] = a
+        for x in range(n - 1):
+            acc = 0.0
+            for k, t in enumerate(TAPS):
+                acc = acc + t * a[..., min(max(x - 3 + k, 0), n - 1)]
+            out[..., 2 * x + 1] = acc
+        a = np.moveaxis(out, -1, axis)
+    return a
+
+
+def window(u):
+    """The 1-D window at position u = 0..11 of a block's 12-voxel reach."""
+    if u < 4:
+        return math.sin(math.pi * (u + 0.5) / 8) ** 2
+    if u < 8:
+        return 1.0
+    return math.cos(math.pi * (u - 8 + 0.5) / 8) ** 2
+
+
+def read(ref, up, p, v):
+    """The reference seen from voxel p through the quarter-voxel vector v."""
+    if all(c % 4 == 0 for c in v):
+        return float(ref[tuple(min(max(a + c // 4, 0), n - 1) for a, c, n in zip(p, v, ref.shape))])
+    # position on the half-voxel grid: (4p + v) / 2, between two grid points when odd
+    axes = []
+    for a, c, n in zip(p, v, up.shape):
+        h = 4 * a + c
+        lo = h // 2
+        pts = [lo] if h % 2 == 0 else [lo, lo + 1]
+        axes.append([min(max(i, 0), n - 1) for i in pts])
+    vals = [up[i, j, k] for i in axes[0] for j in axes[1] for k in axes[2]]
+    return float(np.mean(vals))
+
+
+def compensate(mode, fwd, bwd, mean, prev, nxt, windowed=True):
+    """The prediction voxel by voxel: every block whose window covers the voxel, weighted
+    by the product of 1-D windows, normalised by the weights present."""
+    up0, up1 = upsample(prev), upsample(nxt)
+    out = np.zeros(prev.shape)
+    nb = mode.shape
+    for p in np.ndindex(*prev.shape):
+        acc, wsum = 0.0, 0.0
+        for b in np.ndindex(*nb):
+            w = 1.0
+            for a in range(3):
+                u = p[a] - 8 * b[a] + (2 if windowed else 0)
+                if windowed and 0 <= u < 12:
+                    w *= window(u)
+                elif not windowed and 0 <= u < 8:
+                    w *= 1.0
+                else:
+                    w = 0.0
+            if w == 0.0:
+                continue
+            m = mode[b]
+            if m == 3:
+                val = mean[b]
+            elif m == 0:
+                val = read(prev, up0, p, fwd[b])
+            elif m == 1:
+                val = read(nxt, up1, p, bwd[b])
+            else:
+                val = 0.5 * (read(prev, up0, p, fwd[b]) + read(nxt, up1, p, bwd[b]))
+            acc += w * val
+            wsum += w
+        out[p] = acc / wsum
+    return out

@@ -1,0 +1,258 @@
+"""Animations: round trips with the bound checked on every voxel of every frame, frame
+access, playback, streaming sources and the stability cases."""
+
+from __future__ import annotations
+
+import io
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from volpack import animation, gop, synth
+from volpack.cli import main
+from volpack.errors import FormatError
+
+SHAPE = (16, 16, 24)
+
+
+@pytest.fixture(scope="module")
+def moving():
+    """The head MRI moving by a sub-voxel step per frame."""
+    return synth.translate(synth.head(SHAPE), 7, step=(0.5, 0.25, 0.75))
+
+
+def _code(frames, **kw):
+    buf = io.BytesIO()
+    stats = animation.compress(frames, buf, **kw)
+    return buf.getvalue(), stats
+
+
+def _err(a, b):
+    return np.abs(a.astype(np.float64) - b.astype(np.float64))
+
+
+@pytest.mark.parametrize("g", ["I", "IPP", "IBB", "IBBPBBPBB"])
+@pytest.mark.parametrize("e", [1, 3])
+def test_bound_holds_on_every_voxel(moving, g, e):
+    blob, stats = _code(moving, gop_string=g, max_error=e)
+    out = animation.decompress(blob).data
+    assert out.dtype == moving.dtype and out.shape == moving.shape
+    assert _err(out, moving).max() <= e
+    assert stats["max_error"] == _err(out, moving).max()
+    for r in stats["frames"]:
+        assert r["max_error"] <= e
+    assert sum(stats["frame_types"].values()) == len(moving)
+
+
+def test_prediction_beats_intra_coding(moving):
+    ratios = {g: _code(moving, gop_string=g, max_error=3)[1]["ratio"] for g in ("I", "IBBPBB")}
+    assert ratios["IBBPBB"] > 1.15 * ratios["I"]
+
+
+@pytest.mark.parametrize("compensation", ["windowed", "block"])
+@pytest.mark.parametrize("precision", ["whole", "quarter"])
+def test_lossless_round_trip(moving, compensation, precision):
+    frames = moving.astype(np.int16) * 7 - 300
+    blob, stats = _code(frames, gop_string="IBBP", compensation=compensation, precision=precision)
+    assert stats["lossless"]
+    assert np.array_equal(animation.decompress(blob).data, frames)
+
+
+def test_quality_with_and_without_b_residual(moving):
+    with_res, s1 = _code(moving, gop_string="IBBP", quality=63)
+    without, s2 = _code(moving, gop_string="IBBP", quality=63, b_residual=False)
+    a = animation.decompress(with_res).data
+    b = animation.decompress(without).data
+    assert len(without) < len(with_res)
+    assert np.array_equal(a[[0, 3]], b[[0, 3]])  # anchors do not change
+    assert s1["psnr"] > s2["psnr"]
+    with pytest.raises(ValueError, match="quality"):
+        _code(moving, max_error=2, b_residual=False)
+
+
+def test_float_frames_within_bound():
+    a = synth.advect((16, 16, 16), 5, dtype=np.float32) / np.float32(7.0)
+    blob, stats = _code(a, gop_string="IBBP", max_error=0.05)
+    out = animation.decompress(blob).data
+    assert out.dtype == np.float32 and _err(out, a).max() <= 0.05
+
+
+def test_frame_access_decodes_only_needed_anchors(moving):
+    frames = np.concatenate([moving, moving[::-1]])  # 14 frames
+    blob, _ = _code(frames, gop_string="IBBPBBPBB", max_error=2)
+    with animation.AnimationReader(blob) as r:
+        full = r.frames()
+    types = gop.frame_types("IBBPBBPBB", len(frames))
+    for t in (0, 5, 8, 13):
+        with animation.AnimationReader(blob) as r:
+            one = r.frame(t)
+            assert r.decoded == len(gop.needed(types, t))
+        assert np.array_equal(one, full[t])
+    with animation.AnimationReader(blob) as r:
+        played = [f.copy() for _, f in r.play()]
+        assert r.decoded == len(frames)
+    assert np.array_equal(np.stack(played), full)
+    with pytest.raises(FormatError, match="frame in 0..13"):
+        animation.decompress(blob, frame=14)
+
+
+def test_static_regions_cost_almost_nothing():
+    still = np.repeat(synth.head(SHAPE)[None], 6, axis=0)
+    _, stats = _code(still, gop_string="IPPBBP", max_error=1)
+    sizes = [r["nbytes"] for r in stats["frames"]]
+    assert all(s < 0.02 * sizes[0] for s in sizes[1:])
+
+
+def test_scene_cut_becomes_an_i_frame():
+    a = synth.translate(synth.head(SHAPE), 6, step=(0, 0.5, 0))
+    b = synth.noise(SHAPE, 6, seed=3)
+    cut = synth.scene_cut(a, b, 3)
+    blob, stats = _code(cut, gop_string="IPPPPP", max_error=2)
+    assert stats["frames"][3]["type"] == "I" and stats["frames"][3]["planned"] == "P"
+    assert stats["scene_cuts"] >= 1
+    assert _err(animation.decompress(blob).data, cut).max() <= 2
+
+
+def test_noise_only_frames():
+    n = synth.noise(SHAPE, 4, seed=1)
+    blob, stats = _code(n, gop_string="IBBP", max_error=4)
+    assert _err(animation.decompress(blob).data, n).max() <= 4
+    assert stats["frame_types"]["I"] == 4  # nothing to predict from
+
+
+def test_motion_beyond_search_range():
+    a = synth.translate(synth.head((16, 24, 24)), 4, step=(0, 5, 0))
+    blob, stats = _code(a, gop_string="IPPP", max_error=2, search=2)
+    assert _err(animation.decompress(blob).data, a).max() <= 2
+
+
+@pytest.mark.parametrize("n", [1, 2])
+def test_one_and_two_frames(moving, n):
+    blob, stats = _code(moving[:n], gop_string="IBBPBB", max_error=2)
+    assert [r["type"] for r in stats["frames"]] == list("IP"[:n])
+    assert _err(animation.decompress(blob).data, moving[:n]).max() <= 2
+
+
+def test_same_bytes_every_run(moving):
+    assert _code(moving, max_error=2)[0] == _code(moving, max_error=2)[0]
+
+
+def test_streams_frames_in_storage_order(moving):
+    reads = []
+
+    def get(t):
+        reads.append(t)
+        return moving[t]
+
+    src = animation.FrameSource(moving.shape, moving.dtype, get)
+    buf = io.BytesIO()
+    animation.compress(src, buf, gop_string="IBBPBB", max_error=2)
+    assert reads == gop.storage_order(gop.frame_types("IBBPBB", len(moving)))
+    assert buf.getvalue() == _code(moving, gop_string="IBBPBB", max_error=2)[0]
+
+
+def test_file_list_and_glob(tmp_path, moving):
+    for t, f in enumerate(moving):
+        np.save(tmp_path / f"f{t}.npy", f)  # f10 would sort after f9: natural order
+    blob, _ = _code(str(tmp_path / "f*.npy"), gop_string="IBBP", max_error=1)
+    assert _err(animation.decompress(blob).data, moving).max() <= 1
+    np.save(tmp_path / "f7.npy", moving[0][:, :, :-1])
+    with pytest.raises(FormatError, match="expected every frame"):
+        _code(str(tmp_path / "f*.npy"), max_error=1)
+    np.save(tmp_path / "f7.npy", moving[0].astype(np.int16))
+    with pytest.raises(FormatError, match="int16"):
+        _code([str(tmp_path / f"f{t}.npy") for t in range(8)], max_error=1)
+    with pytest.raises(FormatError, match="matching"):
+        _code(str(tmp_path / "nothing*.npy"))
+
+
+def test_memory_mapped_source(tmp_path, moving):
+    np.save(tmp_path / "run.npy", moving)
+    mm = np.load(tmp_path / "run.npy", mmap_mode="r")
+    blob, _ = _code(mm, gop_string="IPP", max_error=1)
+    assert blob == _code(moving, gop_string="IPP", max_error=1)[0]
+
+
+def test_corrupt_streams_raise_format_errors(moving):
+    blob, _ = _code(moving[:3], gop_string="IPP", max_error=2)
+    bad = bytearray(blob)
+    bad[len(bad) // 2] ^= 0x40
+    with pytest.raises(FormatError):
+        animation.decompress(bytes(bad))
+    with pytest.raises(FormatError):
+        animation.decompress(blob[: len(blob) // 2])
+    f = animation.decode_frame
+    s = animation.Settings("bounded", 2.0)
+    with pytest.raises(FormatError):
+        f(b"\x01\x00" + bytes(40), SHAPE, np.dtype(np.uint8), None, None, s, (64, 64, 64))
+    with pytest.raises(FormatError):
+        f(b"\x07", SHAPE, np.dtype(np.uint8), None, None, s, (64, 64, 64))
+
+
+def test_refuses_what_it_cannot_code(moving):
+    with pytest.raises(FormatError, match="GOP"):
+        _code(moving, gop_string="PBB")
+    with pytest.raises(FormatError, match="max-error"):
+        _code(moving.astype(np.float32), quality=63)
+    with pytest.raises(FormatError, match="finite"):
+        f = moving.astype(np.float32)
+        f[2, 0, 0, 0] = np.nan
+        _code(f, max_error=1)
+
+
+def test_cli_round_trip(tmp_path, moving):
+    for t, f in enumerate(moving):
+        np.save(tmp_path / f"frame{t:02d}.npy", f)
+    run = CliRunner()
+    vpk, out, one = (str(tmp_path / n) for n in ("run.vpk", "all.npy", "f5.npy"))
+    pattern = str(tmp_path / "frame*.npy")
+    r = run.invoke(main, ["compress", pattern, vpk, "--gop", "IBBP", "--max-error", "2"])
+    assert r.exit_code == 0, r.output
+    r = run.invoke(main, ["info", vpk])
+    assert r.exit_code == 0 and "GOP IBBP" in r.output and "max error" in r.output
+    r = run.invoke(main, ["decompress", vpk, one, "--frame", "5"])
+    assert r.exit_code == 0, r.output
+    r = run.invoke(main, ["decompress", vpk, out])
+    assert r.exit_code == 0, r.output
+    full = np.load(out)
+    assert _err(full, moving).max() <= 2 and np.array_equal(np.load(one), full[5])
+    np.save(tmp_path / "run4d.npy", moving)
+    r = run.invoke(
+        main,
+        ["compress", str(tmp_path / "run4d.npy"), vpk, "-f", "--gop", "IPP", "--quality", "63",
+         "--no-half-voxel", "--compensation", "block", "--json"],
+    )  # fmt: skip
+    assert r.exit_code == 0 and '"frame_types"' in r.output
+    r = run.invoke(main, ["compress", pattern, vpk, "-f", "--gop", "IXP"])
+    assert r.exit_code != 0 and "GOP" in r.output
+
+
+# The recipes of scripts/make_examples.py written out again on purpose (a test importing
+# them would follow any change to the script).
+GOLDEN = [
+    ("animation-ibbp-bounded-u8", {"gop_string": "IBBP", "max_error": 2}),
+    ("animation-ipp-coef-quarter-u8", {"gop_string": "IPP", "quality": 63, "precision": "quarter"}),
+]
+
+
+@pytest.mark.parametrize("stem,opts", GOLDEN, ids=[g[0] for g in GOLDEN])
+def test_golden_animation_decodes_and_is_reproduced(stem, opts):
+    from pathlib import Path
+
+    from volpack.container import Reader
+    from volpack.demo import load_demo_volume
+
+    cut = load_demo_volume().data[30:46, 40:56, 40:64]
+    want = np.stack([np.roll(cut, (t // 2, t, -t), (0, 1, 2)) for t in range(5)])
+    path = Path(__file__).resolve().parent.parent / "formats" / "examples" / f"{stem}.vpk"
+    blob = path.read_bytes()
+    got = animation.decompress(blob).data
+    with Reader(blob) as r:
+        assert _err(got, want).max() == r.summary["max_error"]
+    if "max_error" in opts:
+        assert _err(got, want).max() <= opts["max_error"]
+    again, _ = _code(want, **opts)
+    with Reader(blob) as old, Reader(again) as new:
+        assert old.header == new.header
+        assert [(t, n, p) for t, n, p in old] == [(t, n, p) for t, n, p in new]

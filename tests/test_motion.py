@@ -1,0 +1,133 @@
+"""Motion estimation and compensation against slow references (tests/naive_motion.py)."""
+
+from __future__ import annotations
+
+import naive_motion
+import numpy as np
+import pytest
+
+from volpack import motion, synth
+
+
+@pytest.fixture(scope="module")
+def head16():
+    return synth.head((16, 16, 24))
+
+
+@pytest.mark.parametrize("n", [1, 5, 8, 12, 16, 21, 40])
+@pytest.mark.parametrize("windowed", [True, False])
+def test_window_weights_sum_to_one(n, windowed):
+    blocks, weights = motion.window_table(n, windowed)
+    assert np.allclose(weights.sum(1), 1.0, rtol=0, atol=1e-15)
+    for c in range(n):  # interior weights follow the 12-voxel window formula
+        b = blocks[c, 0]
+        u = c - 8 * b + 2
+        if windowed and weights[c, 1] > 0:
+            assert weights[c, 0] == pytest.approx(naive_motion.window(u), abs=1e-15)
+    starts, wts = motion.block_windows(n, windowed)
+    rebuilt = np.zeros(n)
+    for b in range(len(starts)):
+        for k in range(wts.shape[1]):
+            if starts[b] + k < n:
+                rebuilt[starts[b] + k] += wts[b, k]
+    assert np.allclose(rebuilt, 1.0, atol=1e-15)
+
+
+def _random_field(rng, grid, two_way, sub=True):
+    mode = rng.choice([0, 1, 2, 3] if two_way else [0, 3], size=grid).astype(np.uint8)
+    span = 9 if sub else 2
+    fwd = rng.integers(-span, span + 1, (*grid, 3)) * (1 if sub else 4)
+    bwd = rng.integers(-span, span + 1, (*grid, 3)) * (1 if sub else 4)
+    mean = rng.integers(0, 255, grid).astype(np.float64)
+    return motion.MotionField(mode, fwd.astype(np.int64), bwd.astype(np.int64), mean)
+
+
+@pytest.mark.parametrize("windowed", [True, False])
+@pytest.mark.parametrize("two_way", [True, False])
+def test_compensate_matches_naive(rng, windowed, two_way):
+    shape = (9, 13, 17)  # partial blocks on every axis
+    prev = rng.integers(0, 255, shape).astype(np.uint8)
+    nxt = rng.integers(0, 255, shape).astype(np.uint8)
+    f = _random_field(rng, motion.block_grid(shape), two_way)
+    comp = "windowed" if windowed else "block"
+    got = motion.compensate(f, prev, nxt if two_way else None, compensation=comp)
+    want = naive_motion.compensate(
+        f.mode, f.fwd, f.bwd, f.mean, prev, nxt if two_way else prev, windowed
+    )
+    assert np.allclose(got, want, rtol=0, atol=1e-9)
+
+
+def test_constant_reference_predicts_constant(rng):
+    shape = (20, 24, 19)
+    ref = np.full(shape, 77, np.int16)
+    f = _random_field(rng, motion.block_grid(shape), True)
+    f = motion.MotionField(np.minimum(f.mode, 2), f.fwd, f.bwd, f.mean)  # no intra
+    p = motion.compensate(f, ref, ref)
+    assert np.allclose(p, 77.0, rtol=0, atol=1e-9)
+
+
+def test_upsample_matches_naive(rng):
+    ref = rng.integers(-300, 300, (5, 7, 9)).astype(np.int16)
+    assert np.allclose(motion.upsample(ref), naive_motion.upsample(ref), rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("penalty", [0.0, 3.0])
+def test_exhaustive_matches_naive(head16, penalty):
+    ref = head16
+    cur = np.roll(head16, (1, -2, 1), (0, 1, 2))
+    cur[:, :3] = 17  # a region no vector predicts well
+    v, c = motion.estimate(
+        cur, ref, radius=3, method="exhaustive", precision="whole", penalty=penalty
+    )
+    nv, nc = naive_motion.exhaustive(cur, ref, 3, penalty)
+    assert np.array_equal(v, nv)
+    assert np.allclose(c, nc, rtol=1e-12)
+
+
+def test_fast_finds_translation_and_never_beats_exhaustive():
+    vol = synth.head((32, 32, 32))
+    ref = vol
+    cur = np.empty_like(vol)
+    cur[:] = vol[np.ix_(*(np.clip(np.arange(32) - d, 0, 31) for d in (2, -3, 1)))]
+    fast, cf = motion.estimate(cur, ref, radius=6, precision="whole")
+    full, ce = motion.estimate(cur, ref, radius=6, method="exhaustive", precision="whole")
+    assert np.all(cf >= ce - 1e-9)
+    inner = fast[1:-1, 1:-1, 1:-1].reshape(-1, 3)
+    textured = cf[1:-1, 1:-1, 1:-1].reshape(-1) == 0
+    assert textured.any()
+    assert (inner[textured] == (-8, 12, -4)).all()  # cur[p] = ref[p - d]: vector -d, in quarters
+
+
+def test_subvoxel_refinement_lowers_the_error():
+    a = synth.translate(synth.head((24, 24, 24)), 2, step=(0.5, 0.5, -0.5), dtype=np.float64)
+    costs = {}
+    for prec in motion.PRECISIONS:
+        v, costs[prec] = motion.estimate(a[1], a[0], radius=3, precision=prec)
+    assert np.all(costs["half"] <= costs["whole"]) and np.all(costs["quarter"] <= costs["half"])
+    assert costs["half"].sum() < 0.5 * costs["whole"].sum()
+    v, _ = motion.estimate(a[1], a[0], radius=3, precision="half")
+    vals, counts = np.unique(v.reshape(-1, 3), axis=0, return_counts=True)
+    assert tuple(vals[counts.argmax()]) == (-2, -2, 2)  # half a voxel back along the motion
+
+
+def test_intra_mode_where_nothing_predicts(rng):
+    ref = synth.head((16, 16, 16))
+    cur = ref.copy()
+    cur[:8, :8, :8] = rng.integers(0, 255, (8, 8, 8))  # new content in one block
+    f = motion.choose_modes(cur, ref, None, radius=2)
+    assert f.mode[0, 0, 0] == motion.MODE_INTRA
+    assert (f.mode.reshape(-1)[1:] == motion.MODE_FWD).all()
+    assert f.counts()["intra"] == 1
+
+
+def test_bad_arguments():
+    a = np.zeros((8, 8, 8), np.uint8)
+    with pytest.raises(ValueError, match="one shape"):
+        motion.estimate(a, np.zeros((8, 8, 9), np.uint8))
+    with pytest.raises(ValueError, match="search method"):
+        motion.estimate(a, a, method="diamond")
+    with pytest.raises(ValueError, match="precision"):
+        motion.estimate(a, a, precision="eighth")
+    f = motion.choose_modes(a, a, None)
+    with pytest.raises(ValueError, match="compensation"):
+        motion.compensate(f, a, compensation="overlapped")

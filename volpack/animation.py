@@ -1,0 +1,795 @@
+"""Animated volumes: I/P/B frames with windowed 3-D motion compensation in a ``.vpk``.
+
+Encoding walks the frames in storage order (:mod:`volpack.gop`). An I-frame is coded
+alone by one of volpack's brick codecs; a P-frame is predicted from the previous anchor,
+a B-frame from the previous and next anchors (:mod:`volpack.motion`), and the residual,
+frame minus rounded prediction, is coded by the same codecs. Predictions are always made
+from the *decoded* anchors, exactly as the decoder will, so errors do not build up along
+a chain of P-frames; with ``max_error`` the encoder checks every voxel of every decoded
+frame and stores any voxel past the bound exactly.
+
+The encoder holds the current frame and at most two decoded anchors: frames are read
+from their source one at a time, in storage order, so a sequence of any length streams
+through in the memory of a few frames (a memory-mapped ``.npy`` or a list of files is
+never loaded whole).
+
+Each frame is one chunk ``(t, 0)`` of the container; the byte layout is
+``formats/animation-1.md``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import glob
+import logging
+import math
+import os
+import re
+import struct
+import time
+from collections.abc import Callable, Iterator
+from typing import Any, BinaryIO
+
+import numpy as np
+
+from . import __version__, bricks, gop, motion
+from .errors import FormatError
+from .volume import Volume
+
+log = logging.getLogger(__name__)
+
+KIND_ANIMATION = "animation"
+TYPE_CODE = {"I": 0, "P": 1, "B": 2}
+FLAG_RESIDUAL, FLAG_CORRECTIONS = 1, 2
+INTRA_CUT = 0.5  # a frame with at least this share of intra blocks is coded as an I-frame
+_FRAME_HEAD = struct.Struct("<BBdddd")  # type, flags, lo, hi, value range, mean unit
+_U32 = struct.Struct("<I")
+ANIMATION_DTYPES = ("uint8", "int8", "uint16", "int16", "float32", "float64")
+
+
+# -- settings ----------------------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True)
+class Settings:
+    """How frames are coded; stored in the header (``codec`` and ``motion``)."""
+
+    mode: str = "lossless"  # lossless | bounded | coef
+    max_error: float | None = None
+    quality: int | None = None
+    wavelet: str = "53"
+    coder: str = "arith"
+    order: str = "dfs"
+    max_levels: int | None = None
+    search: int = motion.DEFAULT_RADIUS
+    method: str = "fast"
+    precision: str = "half"
+    compensation: str = "windowed"
+    b_residual: bool = True
+
+    def __post_init__(self) -> None:
+        if self.mode not in ("lossless", "bounded", "coef"):
+            raise ValueError(f"expected mode lossless, bounded or coef, found {self.mode!r}")
+        if self.mode == "bounded" and not (
+            self.max_error is not None and self.max_error > 0 and math.isfinite(self.max_error)
+        ):
+            raise ValueError(f"expected a positive finite max_error, found {self.max_error!r}")
+        if self.mode == "coef" and not (self.quality and 1 <= int(self.quality) <= 65535):
+            raise ValueError(f"expected a quality in 1..65535, found {self.quality!r}")
+        if self.method not in motion.SEARCH_METHODS:
+            raise ValueError(f"expected --motion in {motion.SEARCH_METHODS}, found {self.method!r}")
+        if self.precision not in motion.PRECISIONS:
+            raise ValueError(
+                f"expected a vector precision in {motion.PRECISIONS}, found {self.precision!r}"
+            )
+        if self.compensation not in motion.COMPENSATIONS:
+            raise ValueError(
+                f"expected --compensation in {motion.COMPENSATIONS}, found {self.compensation!r}"
+            )
+        if not 0 <= int(self.search) <= 64:
+            raise ValueError(f"expected a search range of 0..64 voxels, found {self.search}")
+        if not self.b_residual and self.mode != "coef":
+            raise ValueError(
+                "B-frames without a residual have no error bound: use them with --quality only"
+            )
+
+    def codec_config(self) -> dict[str, Any]:
+        keys = ("mode", "max_error", "quality", "wavelet", "coder", "order", "max_levels")
+        return {k: getattr(self, k) for k in keys}
+
+    def motion_config(self) -> dict[str, Any]:
+        keys = ("search", "method", "precision", "compensation", "b_residual")
+        return {k: getattr(self, k) for k in keys}
+
+    @classmethod
+    def from_header(cls, hdr: dict) -> Settings:
+        try:
+            return cls(**hdr["codec"], **hdr["motion"])
+        except (KeyError, TypeError, ValueError) as e:
+            raise FormatError(f"bad animation header settings: {e}") from None
+
+    def inner(self) -> dict[str, Any]:
+        d = {"wavelet": self.wavelet, "coder": self.coder, "order": self.order}
+        if self.max_levels is not None:
+            d["max_levels"] = self.max_levels
+        return d
+
+    def scale(self, vrange: float) -> float:
+        """The size of an error this setting treats as small (motion search penalty)."""
+        if self.mode == "bounded":
+            return float(self.max_error)
+        if self.mode == "coef":
+            return max(vrange, 1.0) / (int(self.quality) + 1)
+        return 1.0
+
+
+def _field_codec(s: Settings, dtype: np.dtype, lo: float, hi: float, vrange: float):
+    """The brick codec for one coded field (a frame or a residual) of ``dtype``."""
+    if s.mode == "lossless":
+        from .codec import WaveletCodec
+
+        return WaveletCodec(**s.inner())
+    if s.mode == "coef":
+        from .lossy import CoefCodec
+
+        return CoefCodec(value_range=max(vrange, 1.0), quality=int(s.quality), **s.inner())
+    from .lossy import BoundedCodec
+
+    return BoundedCodec.plan(dtype, lo, hi, s.max_error, **s.inner())
+
+
+def _residual_dtype(dtype: np.dtype) -> np.dtype:
+    if dtype.kind == "f":
+        return np.dtype(np.float64)
+    return np.dtype(np.int16 if dtype.itemsize == 1 else np.int32)
+
+
+# -- frame sources -----------------------------------------------------------------------
+
+
+@dataclasses.dataclass
+class FrameSource:
+    """A sequence of 3-D frames read one at a time."""
+
+    shape: tuple[int, int, int, int]
+    dtype: np.dtype
+    get: Callable[[int], np.ndarray]
+    spacing: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    origin: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    meta: dict = dataclasses.field(default_factory=dict)
+
+
+def _natural_key(path: str) -> list:
+    return [int(p) if p.isdigit() else p for p in re.split(r"(\d+)", path)]
+
+
+def frame_paths(pattern: str) -> list[str]:
+    """Files matching a glob pattern, in natural name order (``f2`` before ``f10``)."""
+    paths = sorted(glob.glob(pattern), key=_natural_key)
+    if not paths:
+        raise FormatError(f"expected files matching {pattern!r}, found none")
+    return paths
+
+
+def is_pattern(source: Any) -> bool:
+    return isinstance(source, str) and any(c in source for c in "*?[")
+
+
+def open_frames(source: Any, **read_options: Any) -> FrameSource:
+    """A :class:`FrameSource` over a ``(t, z, y, x)`` array or Volume (memory-mapped
+    arrays stay on disk), a 4-D file, a glob pattern or a list of 3-D files."""
+    from . import io as vio
+
+    if isinstance(source, FrameSource):
+        return source
+    if isinstance(source, (str, os.PathLike)) and not is_pattern(str(source)):
+        source = vio.read_volume(str(source), **read_options)
+    if isinstance(source, Volume) or isinstance(source, np.ndarray):
+        vol = source if isinstance(source, Volume) else Volume(source)
+        data = vol.data if vol.data.ndim == 4 else vol.data[None]
+        return FrameSource(
+            tuple(data.shape), data.dtype, lambda t: np.asarray(data[t]), vol.spacing,
+            vol.origin, dict(vol.meta),
+        )  # fmt: skip
+    paths = frame_paths(source) if is_pattern(source) else [str(p) for p in source]
+    if not paths:
+        raise FormatError("expected at least one frame file, found an empty list")
+    heads = [vio.read_header(p, **read_options) for p in paths]
+    first = heads[0]
+    for p, h in zip(paths, heads):
+        if tuple(h["shape"]) != tuple(first["shape"]) or np.dtype(h["dtype"]) != np.dtype(
+            first["dtype"]
+        ):
+            raise FormatError(
+                f"expected every frame to be {tuple(first['shape'])} {np.dtype(first['dtype'])} "
+                f"like {paths[0]!r}, found {tuple(h['shape'])} {np.dtype(h['dtype'])} in {p!r}"
+            )
+    if len(first["shape"]) != 3:
+        raise FormatError(f"expected 3-D frame files, found shape {first['shape']} in {paths[0]!r}")
+
+    def get(t: int) -> np.ndarray:
+        return vio.read_volume(paths[t], **read_options).data
+
+    return FrameSource(
+        (len(paths), *first["shape"]), np.dtype(first["dtype"]), get,
+        tuple(first["spacing"]), tuple(first["origin"]), {"frames": len(paths)},
+    )  # fmt: skip
+
+
+# -- motion field bytes ------------------------------------------------------------------
+
+
+def encode_field(field: motion.MotionField, two_way: bool, mean_unit: float) -> bytes:
+    """The motion field as stacked integer planes (mode, vectors, intra constants),
+    coded by the adaptive arithmetic coder in line order."""
+    from . import sigmap
+    from .entropy import arith
+
+    planes = _planes(field, two_way, mean_unit)
+    return arith.encode(planes, sigmap.scan(planes.shape, (0, 0, 0), "line"))
+
+
+def decode_field(
+    data: bytes, grid: tuple[int, int, int], two_way: bool, mean_unit: float, radius: int
+):
+    from . import sigmap
+    from .entropy import arith
+
+    nf = 8 if two_way else 5
+    planes = np.empty((nf * grid[0], grid[1], grid[2]), np.int64)
+    arith.decode(data, sigmap.scan(planes.shape, (0, 0, 0), "line"), planes)
+    p = planes.reshape(nf, *grid)
+    mode = p[0]
+    allowed = (0, 1, 2, 3) if two_way else (0, 3)
+    if not np.isin(mode, allowed).all():
+        raise FormatError(
+            f"motion field: expected block modes in {allowed}, found {np.unique(mode)}"
+        )
+    vec = p[1 : nf - 1]
+    if np.abs(vec).max(initial=0) > 4 * radius + 3:
+        raise FormatError(f"motion field: a vector exceeds the search range of {radius} voxels")
+    fwd = np.ascontiguousarray(np.moveaxis(vec[:3], 0, -1))
+    bwd = np.ascontiguousarray(np.moveaxis(vec[3:6], 0, -1)) if two_way else np.zeros_like(fwd)
+    return motion.MotionField(mode.astype(np.uint8), fwd, bwd, p[nf - 1] * mean_unit)
+
+
+def _planes(field: motion.MotionField, two_way: bool, mean_unit: float) -> np.ndarray:
+    parts = [field.mode.astype(np.int64)[None], np.moveaxis(field.fwd, -1, 0)]
+    if two_way:
+        parts.append(np.moveaxis(field.bwd, -1, 0))
+    parts.append(np.rint(field.mean / mean_unit).astype(np.int64)[None])
+    p = np.concatenate(parts)
+    return np.ascontiguousarray(p.reshape(-1, *p.shape[2:]))
+
+
+# -- one frame ---------------------------------------------------------------------------
+
+
+@dataclasses.dataclass
+class CodedFrame:
+    payload: bytes
+    decoded: np.ndarray
+    kind: str  # the type it was coded as
+    max_error: float
+    sse: float
+    motion_nbytes: int
+    modes: dict[str, int]
+
+
+def _frame_range(x: np.ndarray) -> tuple[float, float]:
+    return (float(x.min()), float(x.max())) if x.size else (0.0, 0.0)
+
+
+def _planned_range(s: Settings, dtype: np.dtype, lo: float, hi: float) -> tuple[float, float]:
+    """Lower end of the coded range moved onto the quantiser's grid, so that a zero
+    residual decodes to exactly zero."""
+    if s.mode != "bounded" or lo >= 0:
+        return lo, hi
+    step = 2 * math.floor(s.max_error) + 1 if dtype.kind in "iu" else 2.0 * s.max_error
+    return -math.ceil(-lo / step) * step, hi
+
+
+def encode_frame(
+    x: np.ndarray,
+    kind: str,
+    prev: motion.Reference | None,
+    nxt: motion.Reference | None,
+    s: Settings,
+    brick: tuple[int, int, int],
+) -> CodedFrame:
+    """Code one frame as ``kind`` (or as an I-frame where prediction does not pay)."""
+    from .api import encode_measured
+
+    dtype = x.dtype
+    lo0, hi0 = _frame_range(x)
+    vrange = hi0 - lo0
+    mean_unit = 1.0 if dtype.kind in "iu" else max(vrange / 4096.0, 1e-300)
+    field = None
+    if kind != "I":
+        pen = 0.01 * motion.BLOCK**3 * s.scale(vrange) ** 2
+        field = motion.choose_modes(
+            x, prev, nxt if kind == "B" else None, radius=s.search, method=s.method,
+            precision=s.precision, penalty=pen, mean_unit=mean_unit,
+        )  # fmt: skip
+        if np.mean(field.mode == motion.MODE_INTRA) >= INTRA_CUT:
+            kind, field = "I", None  # a scene cut: nothing to predict from
+    head_parts: list[bytes] = []
+    flags = 0
+    if field is None:
+        pred_int = None
+        target = x
+        fdtype = dtype
+    else:
+        head_parts.append(_section(encode_field(field, kind == "B", mean_unit)))
+        pred = motion.compensate(
+            field, prev, nxt if kind == "B" else None, compensation=s.compensation
+        )
+        if dtype.kind in "iu":
+            info = np.iinfo(dtype)
+            pred_int = np.clip(np.rint(pred), info.min, info.max).astype(np.int64)
+            target = (x.astype(np.int64) - pred_int).astype(_residual_dtype(dtype))
+        else:
+            pred_int = pred
+            target = x.astype(np.float64) - pred
+        fdtype = target.dtype
+    residual = kind != "B" or s.b_residual
+    lo, hi = _planned_range(s, fdtype, *_frame_range(target))
+    bodies = []
+    if residual:
+        flags |= FLAG_RESIDUAL
+        c = _field_codec(s, fdtype, lo, hi, vrange)
+        rec = np.empty(target.shape, fdtype)
+        for _, sl in bricks.iter_bricks(target.shape, brick):
+            b = np.ascontiguousarray(target[sl])
+            payload = encode_measured(c, b)[0]
+            bodies.append(_section(payload))
+            rec[sl] = c.decode(payload, b.shape, fdtype)
+        out = _combine(pred_int, rec, dtype)
+    else:
+        out = _combine(pred_int, None, dtype)
+    err = np.abs(out.astype(np.float64) - x.astype(np.float64))
+    corr = b""
+    if s.mode == "bounded":
+        bad = np.flatnonzero(err > s.max_error)
+        if bad.size:  # rounding to the output dtype pushed these past the bound
+            flags |= FLAG_CORRECTIONS
+            out.reshape(-1)[bad] = x.reshape(-1)[bad]
+            err.reshape(-1)[bad] = 0.0
+            corr = _corrections(bad, x)
+    head = _FRAME_HEAD.pack(TYPE_CODE[kind], flags, lo, hi, vrange, mean_unit)
+    payload = b"".join([head, *head_parts, *bodies, corr])
+    modes = field.counts() if field is not None else {}
+    mnb = len(head_parts[0]) if head_parts else 0
+    return CodedFrame(
+        payload, out, kind, float(err.max(initial=0.0)), float(np.sum(err * err)), mnb, modes
+    )
+
+
+def decode_frame(
+    payload: bytes,
+    shape: tuple[int, int, int],
+    dtype: np.dtype,
+    prev: motion.Reference | None,
+    nxt: motion.Reference | None,
+    s: Settings,
+    brick: tuple[int, int, int],
+) -> tuple[str, np.ndarray]:
+    """Decode one frame chunk; returns ``(type coded, frame)``."""
+    data = memoryview(payload)
+    if len(data) < _FRAME_HEAD.size:
+        raise FormatError(
+            f"animation frame: expected at least {_FRAME_HEAD.size} bytes, found {len(data)}"
+        )
+    code, flags, lo, hi, vrange, mean_unit = _FRAME_HEAD.unpack(data[: _FRAME_HEAD.size])
+    kinds = {v: k for k, v in TYPE_CODE.items()}
+    if code not in kinds or flags & ~(FLAG_RESIDUAL | FLAG_CORRECTIONS):
+        raise FormatError(f"animation frame: unknown type {code} or flags {flags:#x}")
+    kind = kinds[code]
+    if not all(math.isfinite(v) for v in (lo, hi, vrange, mean_unit)) or mean_unit <= 0:
+        raise FormatError("animation frame: a non-finite range or intra unit in the frame head")
+    pos = _FRAME_HEAD.size
+    if kind == "I":
+        pred_int, fdtype = None, dtype
+    else:
+        if prev is None or (kind == "B" and nxt is None):
+            raise FormatError(f"animation frame: a {kind}-frame needs its decoded anchors")
+        body, pos = _take(data, pos)
+        field = decode_field(body, motion.block_grid(shape), kind == "B", mean_unit, s.search)
+        pred = motion.compensate(
+            field, prev, nxt if kind == "B" else None, compensation=s.compensation
+        )
+        if dtype.kind in "iu":
+            info = np.iinfo(dtype)
+            pred_int = np.clip(np.rint(pred), info.min, info.max).astype(np.int64)
+        else:
+            pred_int = pred
+        fdtype = _residual_dtype(dtype)
+    rec = None
+    if flags & FLAG_RESIDUAL:
+        try:
+            c = _field_codec(s, fdtype, lo, hi, vrange)
+        except ValueError as e:
+            raise FormatError(f"animation frame: bad coded range ({e})") from None
+        rec = np.empty(shape, fdtype)
+        for _, sl in bricks.iter_bricks(shape, brick):
+            body, pos = _take(data, pos)
+            rec[sl] = c.decode(body, tuple(x.stop - x.start for x in sl), fdtype)
+    elif kind != "B":
+        raise FormatError(f"animation frame: an {kind}-frame without its coded field")
+    out = _combine(pred_int, rec, dtype)
+    if flags & FLAG_CORRECTIONS:
+        body, pos = _take(data, pos)
+        _apply_corrections(body, out)
+    if pos != len(data):
+        raise FormatError(f"animation frame: {len(data) - pos} stray bytes at the end")
+    return kind, out
+
+
+def _combine(pred_int, rec, dtype: np.dtype) -> np.ndarray:
+    """Prediction plus decoded residual, in the frame's dtype (clipped for integers)."""
+    if pred_int is None:
+        return np.ascontiguousarray(rec, dtype=dtype)
+    v = pred_int if rec is None else pred_int + rec
+    if dtype.kind in "iu":
+        info = np.iinfo(dtype)
+        return np.clip(v, info.min, info.max).astype(dtype)
+    return np.asarray(v, np.float64).astype(dtype)
+
+
+def _section(body: bytes) -> bytes:
+    return _U32.pack(len(body)) + body
+
+
+def _take(data: memoryview, pos: int) -> tuple[bytes, int]:
+    if pos + 4 > len(data):
+        raise FormatError("animation frame: a section length runs past the end")
+    (n,) = _U32.unpack(data[pos : pos + 4])
+    pos += 4
+    if n > len(data) - pos:
+        raise FormatError(
+            f"animation frame: expected a section of {n} bytes, found {len(data) - pos}"
+        )
+    return bytes(data[pos : pos + n]), pos + n
+
+
+def _corrections(idx: np.ndarray, x: np.ndarray) -> bytes:
+    import zstandard
+
+    from .codec import _as_stored
+
+    body = idx.astype("<u4").tobytes() + _as_stored(x.reshape(-1)[idx])
+    return _section(zstandard.ZstdCompressor(level=9).compress(body))
+
+
+def _apply_corrections(body: bytes, out: np.ndarray) -> None:
+    import zstandard
+
+    from .codec import _from_stored
+
+    item = 4 + out.dtype.itemsize
+    try:
+        raw = zstandard.ZstdDecompressor().decompress(body, max_output_size=out.size * item)
+    except zstandard.ZstdError as e:
+        raise FormatError(f"animation frame: corrupt corrections ({e})") from None
+    k = len(raw) // item
+    if k * item != len(raw):
+        raise FormatError("animation frame: corrections of a ragged length")
+    idx = np.frombuffer(raw[: 4 * k], "<u4").astype(np.int64)
+    if k and idx.max() >= out.size:
+        raise FormatError("animation frame: a correction points outside the frame")
+    out.reshape(-1)[idx] = _from_stored(raw[4 * k :], (k,), out.dtype)
+
+
+# -- whole animations -------------------------------------------------------------------
+
+
+Progress = Callable[[int, int], None]
+
+
+def compress(
+    source: Any,
+    target: str | BinaryIO,
+    *,
+    gop_string: str = "IBBPBBPBB",
+    max_error: float | None = None,
+    quality: int | None = None,
+    wavelet: str | None = None,
+    coder: str | None = None,
+    order: str | None = None,
+    max_levels: int | None = None,
+    brick: int | tuple[int, int, int] = bricks.DEFAULT_BRICK,
+    search: int = motion.DEFAULT_RADIUS,
+    method: str = "fast",
+    precision: str = "half",
+    compensation: str = "windowed",
+    b_residual: bool = True,
+    force: bool = False,
+    progress: Progress | None = None,
+    **read_options: Any,
+) -> dict[str, Any]:
+    """Compress a sequence of volumes (see :func:`open_frames`) as an animation.
+
+    Lossless unless ``max_error`` (every voxel of every frame within it) or ``quality``
+    (the coefficient codec's 255..15 scale, integer voxels) is given. Returns the
+    summary also stored in the file: sizes, ratio, max error, PSNR, and per frame the
+    type chosen, bytes, error and block modes.
+    """
+    from .container import Writer
+
+    if max_error is not None and quality is not None:
+        raise ValueError("expected at most one of max_error and quality")
+    mode = "bounded" if max_error is not None else "coef" if quality is not None else "lossless"
+    inner = {"wavelet": wavelet, "coder": coder, "order": order, "max_levels": max_levels}
+    s = Settings(
+        mode, max_error, quality, search=int(search), method=method, precision=precision,
+        compensation=compensation, b_residual=bool(b_residual),
+        **{k: v for k, v in inner.items() if v is not None},
+    )  # fmt: skip
+    src = open_frames(source, **read_options)
+    _check_dtype(src.dtype, s)
+    brick_t = bricks.parse_brick(brick)
+    nt = src.shape[0]
+    types = gop.frame_types(gop_string, nt)
+    refs = gop.references(types)
+    release = gop.last_use(types)
+    header = {
+        "kind": KIND_ANIMATION,
+        "volpack": __version__,
+        "shape": list(src.shape),
+        "dtype": np.dtype(src.dtype).newbyteorder("<").str,
+        "spacing": list(src.spacing),
+        "origin": list(src.origin),
+        "brick": list(brick_t),
+        "gop": gop.parse_gop(gop_string),
+        "types": types,
+        "codec": s.codec_config(),
+        "motion": s.motion_config(),
+        "meta": _jsonable(src.meta),
+    }
+    frame_shape = tuple(src.shape[1:])
+    anchors: dict[int, np.ndarray] = {}
+    rows: list[dict[str, Any]] = [{}] * nt
+    lo, hi = math.inf, -math.inf
+    sse_total, nbytes = 0.0, 0
+    t0 = time.perf_counter()
+    with Writer(_stdout() if target == "-" else target, header, force=force) as w:
+        for i, t in enumerate(gop.storage_order(types)):
+            x = np.ascontiguousarray(src.get(t))
+            if x.shape != frame_shape or x.dtype != src.dtype:
+                raise FormatError(
+                    f"expected frame {t} to be {frame_shape} {src.dtype}, found {x.shape} {x.dtype}"
+                )
+            if x.dtype.kind == "f" and not np.isfinite(x).all():
+                raise FormatError(
+                    f"expected finite voxels in an animation, found NaN or Inf in frame {t}"
+                )
+            p, n = refs[t]
+            f = encode_frame(
+                x, types[t], anchors.get(p) if p is not None else None,
+                anchors.get(n) if n is not None else None, s, brick_t,
+            )  # fmt: skip
+            w.write(t, 0, f.payload, f.max_error)
+            if types[t] in gop.ANCHORS:
+                anchors[t] = motion.Reference(f.decoded)
+            for a in [a for a in anchors if release[a] <= i]:
+                del anchors[a]
+            flo, fhi = _frame_range(x)
+            lo, hi = min(lo, flo), max(hi, fhi)
+            sse_total += f.sse
+            nbytes += len(f.payload)
+            rows[t] = {
+                "t": t,
+                "type": f.kind,
+                "planned": types[t],
+                "nbytes": len(f.payload),
+                "motion_nbytes": f.motion_nbytes,
+                "max_error": f.max_error,
+                "sse": f.sse,
+                "modes": f.modes,
+            }
+            if progress is not None:
+                progress(i + 1, nt)
+        summary = _summary(rows, src, nbytes, lo, hi, sse_total, s)
+        w.close(summary=summary)
+    seconds = time.perf_counter() - t0
+    raw = summary["raw_nbytes"]
+    return {
+        **summary,
+        "nbytes": nbytes,
+        "seconds": seconds,
+        "mb_per_s": raw / 1e6 / max(seconds, 1e-9),
+    }
+
+
+def _check_dtype(dtype: np.dtype, s: Settings) -> None:
+    name = np.dtype(dtype).name
+    if name not in ANIMATION_DTYPES:
+        raise FormatError(
+            f"expected animation voxels of {', '.join(ANIMATION_DTYPES)}, found {name}"
+        )
+    if np.dtype(dtype).kind == "f" and s.mode != "bounded":
+        raise FormatError(f"{name} animations are coded with --max-error; found {s.mode} coding")
+
+
+def _psnr(sse: float, n: int, peak: float) -> float | None:
+    if sse == 0 or n == 0:
+        return None
+    return float(10 * np.log10(max(peak, 1e-300) ** 2 / (sse / n)))
+
+
+def _summary(rows, src, nbytes, lo, hi, sse_total, s) -> dict[str, Any]:
+    nvox = int(np.prod(src.shape[1:]))
+    peak = hi - lo
+    for r in rows:
+        r["psnr"] = _psnr(r.pop("sse"), nvox, peak)
+    raw = int(np.prod(src.shape)) * np.dtype(src.dtype).itemsize
+    counts = {k: sum(r["type"] == k for r in rows) for k in "IPB"}
+    modes: dict[str, int] = {}
+    for r in rows:
+        for k, v in r["modes"].items():
+            modes[k] = modes.get(k, 0) + v
+    lossless = s.mode == "lossless"
+    return {
+        "raw_nbytes": raw,
+        "payload_nbytes": nbytes,
+        "ratio": raw / max(nbytes, 1),
+        "lossless": lossless,
+        "mode": s.mode,
+        "max_error": max((r["max_error"] for r in rows), default=0.0),
+        "error_bound": s.max_error,
+        "psnr": _psnr(sse_total, nvox * len(rows), peak),
+        "rmse": math.sqrt(sse_total / max(nvox * len(rows), 1)),
+        "value_range": [lo, hi],
+        "frame_types": counts,
+        "scene_cuts": sum(r["type"] == "I" and r["planned"] != "I" for r in rows),
+        "block_modes": modes,
+        "motion_nbytes": sum(r["motion_nbytes"] for r in rows),
+        "frames": rows,
+    }
+
+
+class AnimationReader:
+    """Decode frames of an animation ``.vpk``: one frame with only the anchors it needs
+    (:meth:`frame`), all frames (:meth:`frames`), or the playback schedule (:meth:`play`)."""
+
+    def __init__(self, source: Any, *, max_voxels: int = 1 << 34) -> None:
+        from .container import Reader
+
+        self._r = source if isinstance(source, Reader) else Reader(source)
+        try:
+            self.header = check_header(self._r.header, max_voxels)
+        except BaseException:
+            self._r.close()
+            raise
+        h = self.header
+        self.shape = tuple(h["shape"])
+        self.dtype = np.dtype(h["dtype"]).newbyteorder("=")
+        self.types = h["types"]
+        self.brick = tuple(h["brick"])
+        self.settings = Settings.from_header(h)
+        self.refs = gop.references(self.types)
+        self.decoded = 0  # frames decoded so far (what --frame promises to keep small)
+
+    def close(self) -> None:
+        self._r.close()
+
+    def __enter__(self) -> AnimationReader:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    @property
+    def summary(self) -> dict | None:
+        return self._r.summary
+
+    def _decode(self, t: int, payload: bytes, prev, nxt) -> motion.Reference:
+        self.decoded += 1
+        frame = decode_frame(
+            payload, self.shape[1:], self.dtype, prev, nxt, self.settings, self.brick
+        )[1]
+        return motion.Reference(frame)
+
+    def _read(self, t: int) -> bytes:
+        return self._r.read(t, 0)
+
+    def frame(self, t: int) -> np.ndarray:
+        """Frame ``t``, decoding only its chain of anchors."""
+        nt = self.shape[0]
+        if not 0 <= t < nt:
+            raise FormatError(f"expected a frame in 0..{nt - 1}, found {t}")
+        done: dict[int, np.ndarray] = {}
+        for f in gop.needed(self.types, t):
+            p, n = self.refs[f]
+            done[f] = self._decode(f, self._read(f), done.get(p), done.get(n))
+        return done[t].frame
+
+    def play(self) -> Iterator[tuple[int, np.ndarray]]:
+        """Frames in display order, one decode per step (seekable files)."""
+        for t, ref in gop.play(self.types, lambda t, p, n: self._decode(t, self._read(t), p, n)):
+            yield t, ref.frame
+
+    def frames(self, progress: Progress | None = None) -> np.ndarray:
+        """All frames ``(t, z, y, x)``, decoded in storage order (streams work too)."""
+        out = np.empty(self.shape, self.dtype)
+        anchors: dict[int, np.ndarray] = {}
+        release = gop.last_use(self.types)
+        order = gop.storage_order(self.types)
+        pos = {t: i for i, t in enumerate(order)}
+        count = 0
+        for i, (t, node, payload) in enumerate(self._r):
+            count += 1
+            if node != 0 or not 0 <= t < len(self.types) or pos.get(t) != i:
+                raise FormatError(
+                    f"expected frame {order[i] if i < len(order) else '-'} next, found chunk ({t}, {node})"
+                )
+            p, n = self.refs[t]
+            if (p is not None and p not in anchors) or (n is not None and n not in anchors):
+                raise FormatError(f"frame {t} comes before its anchors")
+            out[t] = self._decode(t, payload, anchors.get(p), anchors.get(n)).frame
+            if self.types[t] in gop.ANCHORS:
+                anchors[t] = motion.Reference(out[t])
+            for a in [a for a in anchors if release[a] <= i]:
+                del anchors[a]
+            if progress is not None:
+                progress(i + 1, len(order))
+        if count != len(order):
+            raise FormatError(f"expected {len(order)} frames, found {count}")
+        return out
+
+
+def check_header(hdr: dict, max_voxels: int) -> dict:
+    need = ("shape", "dtype", "brick", "types", "codec", "motion", "spacing", "origin")
+    if hdr.get("kind") != KIND_ANIMATION or any(k not in hdr for k in need):
+        raise FormatError(f"expected an animation header with {need}, found keys {sorted(hdr)}")
+    try:
+        shape = tuple(int(n) for n in hdr["shape"])
+        dtype = np.dtype(hdr["dtype"])
+        brick_t = bricks.parse_brick(hdr["brick"])
+    except (TypeError, ValueError) as e:
+        raise FormatError(f"bad animation header: {e}") from None
+    if len(shape) != 4 or min(shape) < 1:
+        raise FormatError(f"expected a (t, z, y, x) shape of positive sizes, found {shape}")
+    if math.prod(shape) > max_voxels:
+        raise FormatError(f"animation of shape {shape} exceeds the limit of {max_voxels} voxels")
+    if dtype.newbyteorder("=").name not in ANIMATION_DTYPES:
+        raise FormatError(f"expected animation voxels of {ANIMATION_DTYPES}, found {dtype}")
+    types = gop.check_types(hdr["types"])
+    if len(types) != shape[0]:
+        raise FormatError(f"expected {shape[0]} frame types, found {len(types)}")
+    hdr = dict(hdr)
+    hdr["shape"], hdr["brick"] = shape, brick_t
+    return hdr
+
+
+def decompress(
+    source: Any,
+    *,
+    frame: int | None = None,
+    roi: str | tuple[slice, ...] | None = None,
+    progress: Progress | None = None,
+) -> Volume:
+    """Decode an animation ``.vpk`` (a path, bytes, a file or an open container
+    Reader): all frames ``(t, z, y, x)``, or one frame decoding only the anchors it
+    needs; ``roi`` crops the decoded frames."""
+    from .api import _parse_roi
+
+    with AnimationReader(source) as r:
+        data = r.frame(frame) if frame is not None else r.frames(progress)
+        h = r.header
+    region = _parse_roi(roi, data.shape[-3:])
+    data = np.ascontiguousarray(data[(..., *region)]) if roi is not None else data
+    origin = tuple(o + s.start * d for o, s, d in zip(h["origin"], region, h["spacing"]))
+    return Volume(data, spacing=tuple(h["spacing"]), origin=origin, meta=dict(h.get("meta") or {}))
+
+
+def _jsonable(meta: dict) -> dict:
+    from .api import _jsonable as j
+
+    return j(meta)
+
+
+def _stdout():
+    import sys
+
+    return sys.stdout.buffer

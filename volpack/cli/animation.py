@@ -1,0 +1,184 @@
+"""The animation side of ``volpack compress`` and ``volpack info``: options, the call into
+:mod:`volpack.animation`, and the per-frame table.
+
+``compress`` takes the path into animations when ``--gop`` is given or SOURCE is a glob
+pattern of frame files; without them it behaves as before (4-D input coded frame by
+frame, each independently).
+"""
+
+from __future__ import annotations
+
+import functools
+
+import click
+
+from .options import emit_json, fmt_bytes, progress_bar, table
+
+ANIMATION_KEYS = (
+    "gop",
+    "search",
+    "motion",
+    "half_voxel",
+    "quarter_voxel",
+    "compensation",
+    "b_residual",
+)
+
+
+def animation_options(f):
+    """The animation options of ``volpack compress``."""
+    opts = [
+        click.option(
+            "--gop",
+            help="Code SOURCE as an animation with this group of pictures, e.g. IBBPBBPBB "
+            "(I: alone, P: from the previous anchor, B: from both neighbouring anchors), "
+            "IPP, or I (every frame alone). SOURCE is 4-D (t, z, y, x) or a quoted glob "
+            "of 3-D files ('frames/*.npy', natural name order).",
+        ),
+        click.option(
+            "--search",
+            type=click.IntRange(0, 64),
+            default=15,
+            show_default=True,
+            help="Animation: motion search range, voxels per axis.",
+        ),
+        click.option(
+            "--motion",
+            type=click.Choice(["fast", "exhaustive"]),
+            default="fast",
+            show_default=True,
+            help="Animation: fast search from the zero vector, or every whole-voxel vector.",
+        ),
+        click.option(
+            "--half-voxel/--no-half-voxel",
+            default=True,
+            show_default=True,
+            help="Animation: refine vectors to half voxels (interpolated reference).",
+        ),
+        click.option(
+            "--quarter-voxel",
+            is_flag=True,
+            help="Animation: refine vectors further, to quarter voxels.",
+        ),
+        click.option(
+            "--compensation",
+            type=click.Choice(["windowed", "block"]),
+            default="windowed",
+            show_default=True,
+            help="Animation: overlapping 12^3 cosine windows, or plain 8^3 blocks.",
+        ),
+        click.option(
+            "--b-residual/--no-b-residual",
+            default=True,
+            show_default=True,
+            help="Animation: code B-frames' residual (needed for --max-error; without it "
+            "B-frames are motion compensation only, as in the thesis, with --quality).",
+        ),
+    ]
+    return functools.reduce(lambda g, o: o(g), reversed(opts), f)
+
+
+def wants_animation(source: str, gop: str | None) -> bool:
+    """``--gop`` given, or SOURCE a glob pattern (the same test as
+    :func:`volpack.animation.is_pattern`, without importing the codecs)."""
+    return gop is not None or any(c in source for c in "*?[")
+
+
+def run_compress(ctx, source: str, target: str, as_json: bool, force: bool, opts: dict, **kw):
+    """Compress an animation; ``kw`` are the shared codec options of ``compress``."""
+    from .. import animation
+    from ..atomic import check_output
+
+    unsupported = [
+        k
+        for k in ("rel_error", "psnr", "ratio", "threshold", "fill_value")
+        if kw.get(k) is not None
+    ]
+    if unsupported:
+        raise click.UsageError(
+            f"animations take --max-error or --quality (or neither: lossless); found "
+            f"--{unsupported[0].replace('_', '-')}"
+        )
+    if kw.get("codec") not in (None, "auto", "wavelet"):
+        raise click.UsageError("animations code frames with the wavelet codecs; drop --codec")
+    inputs = () if animation.is_pattern(source) else (source,)
+    check_output(target, force=force, inputs=inputs)
+    precision = "quarter" if opts["quarter_voxel"] else "half" if opts["half_voxel"] else "whole"
+    if opts["quarter_voxel"] and not opts["half_voxel"]:
+        raise click.UsageError("--quarter-voxel refines half-voxel vectors: drop --no-half-voxel")
+    with progress_bar(ctx, "compress", unit="frame") as progress:
+        stats = animation.compress(
+            source,
+            target,
+            gop_string=opts["gop"] or "IBBPBBPBB",
+            max_error=kw.get("max_error"),
+            quality=kw.get("quality"),
+            wavelet=kw.get("wavelet"),
+            coder=kw.get("coder"),
+            order=kw.get("order"),
+            max_levels=kw.get("max_levels"),
+            brick=kw.get("brick"),
+            search=opts["search"],
+            method=opts["motion"],
+            precision=precision,
+            compensation=opts["compensation"],
+            b_residual=opts["b_residual"],
+            force=force,
+            progress=progress,
+            **kw.get("read_options", {}),
+        )
+    if as_json:
+        emit_json(stats)
+    elif target != "-":
+        counts = stats["frame_types"]
+        acc = (
+            "lossless"
+            if stats["lossless"]
+            else f"max error {stats['max_error']:g}, PSNR {_db(stats['psnr'])}"
+        )
+        click.echo(
+            f"{target}: {fmt_bytes(stats['nbytes'])} from {fmt_bytes(stats['raw_nbytes'])}, "
+            f"ratio {stats['ratio']:.3f}:1, {acc}; frames I {counts['I']}, P {counts['P']}, "
+            f"B {counts['B']} ({stats['scene_cuts']} scene cuts), {stats['mb_per_s']:.1f} MB/s",
+            err=True,
+        )
+
+
+def _db(v) -> str:
+    return "inf" if v is None else f"{v:.2f} dB"
+
+
+SHORT = {"forward": "fwd", "backward": "bwd", "bidirectional": "bi", "intra": "intra"}
+
+
+def frame_table(d: dict) -> str:
+    """The per-frame lines of ``volpack info`` for an animation."""
+    s = d.get("summary") or {}
+    rows = []
+    for r in s.get("frames", []):
+        modes = r.get("modes") or {}
+        used = ", ".join(f"{SHORT.get(k, k)} {v}" for k, v in modes.items() if v)
+        rows.append(
+            [
+                str(r["t"]),
+                r["type"] + ("" if r["type"] == r["planned"] else f" (was {r['planned']})"),
+                str(r["nbytes"]),
+                str(r["motion_nbytes"]),
+                _db(r.get("psnr")),
+                f"{r['max_error']:g}",
+                used,
+            ]
+        )
+    head = [
+        f"GOP {d['header'].get('gop')}; frame types I {s.get('frame_types', {}).get('I', 0)}, "
+        f"P {s.get('frame_types', {}).get('P', 0)}, B {s.get('frame_types', {}).get('B', 0)}; "
+        f"{s.get('scene_cuts', 0)} scene cuts; motion data {s.get('motion_nbytes', 0)} bytes",
+        f"block modes: {', '.join(f'{k} {v}' for k, v in (s.get('block_modes') or {}).items())}",
+    ]
+    return "\n".join(
+        head
+        + [
+            "",
+            table(rows, ["t", "type", "bytes", "motion", "PSNR", "max error", "blocks"]),
+        ]
+    )
