@@ -100,6 +100,19 @@ def _brick(value: str) -> int | tuple[int, int, int]:
     type=float,
     help="A value meaning 'no data' (e.g. -2.56e33); restored exactly, like NaN and Inf.",
 )
+@click.option(
+    "--octree",
+    is_flag=True,
+    help="Build a multiresolution octree (level-of-detail and region access; reads the "
+    "input box by box, so it may be larger than memory). Lossless or --max-error.",
+)
+@click.option(
+    "--block", type=int, default=16, show_default=True, help="--octree: node size k (k^3 voxels)."
+)
+@click.option(
+    "--scheduler",
+    help="--octree: run on Dask: 'local' (a LocalCluster of --workers) or a scheduler address.",
+)
 @workers_option
 @raw_options
 @force_option
@@ -122,6 +135,9 @@ def compress(
     quality,
     threshold,
     fill_value,
+    octree,
+    block,
+    scheduler,
     workers,
     raw_shape,
     raw_dtype,
@@ -147,7 +163,13 @@ def compress(
       volpack compress sim.h5:/T T.vpk --max-error 0.01
       volpack compress ct.nii.gz ct.vpk --psnr 50
       volpack compress ct.nii.gz ct.vpk --quality 63
+      volpack compress big.h5:/density big.vpk --octree --max-error 2 --workers 2
     """
+    if octree or scheduler:
+        from . import octree as octree_cli
+
+        octree_cli.compress(ctx, read_kwargs(raw_shape, raw_dtype, byteorder, offset))
+        return
     from .. import api
     from .. import io as vio
     from ..atomic import check_output
@@ -206,12 +228,33 @@ def compress(
     show_default=True,
     help="With --batch: the format of the decoded files.",
 )
+@click.option(
+    "--level",
+    type=click.IntRange(min=0),
+    help="Octree files: decode at 1/2^LEVEL resolution per axis (reads only those nodes).",
+)
+@click.option(
+    "--error",
+    type=float,
+    help="Octree files: the coarsest nodes whose voxels deviate at most this much.",
+)
 @workers_option
 @force_option
 @json_option
 @click.pass_context
 def decompress(
-    ctx, source, target, roi, frame, batch_mode, out_format, workers, force, as_json
+    ctx,
+    source,
+    target,
+    roi,
+    frame,
+    batch_mode,
+    out_format,
+    level,
+    error,
+    workers,
+    force,
+    as_json,
 ) -> None:
     """Decode the .vpk file SOURCE ('-' for stdin) into TARGET (any writable format).
 
@@ -221,6 +264,8 @@ def decompress(
       volpack decompress ct.vpk roi.npy --roi 40:80,100:200,100:200
       volpack decompress ct.vpk - | python -c "import numpy, sys; print(numpy.load(sys.stdin.buffer).shape)"
       volpack decompress out/ restored/ --batch --format nii.gz --workers 4
+      volpack decompress big.vpk coarse.npy --level 3
+      volpack decompress big.vpk approx.npy --error 10
     """
     if batch_mode:
         if roi or frame is not None:
@@ -241,6 +286,13 @@ def decompress(
             report_path=None,
             as_json=as_json,
             desc="decompress",
+        )
+        return
+    from . import octree as octree_cli
+
+    if level is not None or error is not None or octree_cli.is_octree(source):
+        octree_cli.decompress(
+            ctx, source, target, roi=roi, level=level, error=error, force=force, as_json=as_json
         )
         return
     from .. import api
