@@ -15,6 +15,7 @@ from volpack.errors import FormatError
 from volpack.octree import NodeDamaged, Octree, build, layout
 from volpack.octree import select as sel
 from volpack.octree.build import to_values
+from volpack.octree.source import SourceSpec
 
 
 def _build(vol, **kw) -> bytes:
@@ -320,7 +321,14 @@ def test_same_bytes_any_worker_count_and_from_files(vol, blob, tmp_path):
     build(str(tmp_path / "v.h5") + ":/d", str(tmp_path / "b.vpk"), block=4, workers=2)
     tifffile.imwrite(tmp_path / "v.tif", vol)
     build(str(tmp_path / "v.tif"), str(tmp_path / "c.vpk"), block=4)
-    for name in ("a", "b", "c"):
+    vol.astype(">i2").tofile(tmp_path / "v.raw")
+    raw = (("byteorder", ">"), ("dtype", "int16"), ("shape", vol.shape))
+    build(SourceSpec(str(tmp_path / "v.raw"), raw), str(tmp_path / "d.vpk"), block=4)
+    (tmp_path / "slices").mkdir()
+    for i, plane in enumerate(vol):
+        tifffile.imwrite(tmp_path / "slices" / f"s{i}.tif", plane)
+    build(str(tmp_path / "slices"), str(tmp_path / "e.vpk"), block=4)
+    for name in "abcde":
         with Octree(str(tmp_path / f"{name}.vpk")) as t:
             np.testing.assert_array_equal(t.decode(0).data, vol)
             assert t.decode(2).data.tobytes() == Octree(blob).decode(2).data.tobytes()

@@ -111,6 +111,37 @@ class _TiffSource:
         return np.ascontiguousarray(np.stack(out), dtype=self.dtype)
 
 
+class _FileSource:
+    """A ``.npy`` or ``.raw`` file read row by row with ``pread`` (no memory map, so the
+    process's resident memory stays the boxes it holds, whatever the file size)."""
+
+    def __init__(self, path: str, shape, dtype: np.dtype, offset: int, spacing, origin):
+        self._fd = os.open(path, os.O_RDONLY)
+        self.shape = tuple(int(n) for n in shape)
+        self._file_dtype = np.dtype(dtype)
+        self.dtype = self._file_dtype.newbyteorder("=")
+        self._offset = int(offset)
+        self.spacing, self.origin = spacing, origin
+
+    def read(self, box):
+        z, y, x = (range(*s.indices(n)) for s, n in zip(box, self.shape))
+        item = self._file_dtype.itemsize
+        ny, nx = self.shape[1], self.shape[2]
+        out = np.empty((len(z), len(y), len(x)), self._file_dtype)
+        nbytes = len(x) * item
+        for i, zi in enumerate(z):
+            for j, yj in enumerate(y):
+                pos = self._offset + ((zi * ny + yj) * nx + x.start) * item
+                row = os.pread(self._fd, nbytes, pos)
+                if len(row) != nbytes:
+                    raise FormatError(f"expected {nbytes} bytes at offset {pos}, found {len(row)}")
+                out[i, j] = np.frombuffer(row, self._file_dtype)
+        return out.astype(self.dtype, copy=False)
+
+    def __getstate__(self):
+        raise TypeError("a file source is opened where it is used; pass its SourceSpec")
+
+
 def open_source(source: Any) -> Any:
     """Return a block source (``shape``, ``dtype``, ``spacing``, ``origin``, ``read(box)``).
 
@@ -150,5 +181,27 @@ def _open_spec(s: SourceSpec):
     if fmt in ("tiff", "tiff-folder"):
         with vio._wrap(fmt, path):
             return _TiffSource(path)
-    vol = vio.read_volume(s.spec, **raw)  # npy and raw come back memory-mapped
+    if fmt == "npy":
+        with open(path, "rb") as f:
+            fmt_ = np.lib.format
+            v1 = fmt_.read_magic(f) == (1, 0)
+            hdr = fmt_.read_array_header_1_0 if v1 else fmt_.read_array_header_2_0
+            shape, fortran, dtype = hdr(f)
+            offset = f.tell()
+        if len(shape) == 3 and not fortran and np.dtype(dtype).kind in "biuf":
+            return _FileSource(path, shape, dtype, offset, (1.0,) * 3, (0.0,) * 3)
+    if fmt == "raw":
+        with vio._wrap(fmt, path):
+            sh, dt = vio._raw_check(
+                raw.get("shape"),
+                raw.get("dtype"),
+                raw.get("byteorder", "<"),
+                raw.get("offset", 0),
+                vio.DEFAULT_MAX_VOXELS,
+                os.path.getsize(path),
+                path,
+            )
+        if len(sh) == 3:
+            return _FileSource(path, sh, dt, raw.get("offset", 0), (1.0,) * 3, (0.0,) * 3)
+    vol = vio.read_volume(s.spec, **raw)  # other formats: read whole
     return ArraySource(vol.data, vol.spacing, vol.origin)
