@@ -421,3 +421,31 @@ def test_cli_octree_round_trip(vol, tmp_path):
         ],
     )
     assert r.exit_code == 2 and "--quality" in r.output
+
+
+# -- golden files ----------------------------------------------------------------------
+
+GOLDEN = [  # the recipes of scripts/make_examples.py, written out again on purpose
+    ("octree-53-arith-i16", "i16", {"block": 4}),
+    ("octree-bounded-u8", "u8", {"block": 4, "max_error": 3.0, "coder": "huffman"}),
+]
+
+
+@pytest.mark.parametrize(("stem", "recipe", "opts"), GOLDEN, ids=[g[0] for g in GOLDEN])
+def test_golden_octree_decodes_and_is_reproduced(stem, recipe, opts):
+    from pathlib import Path
+
+    from volpack.container import Reader
+    from volpack.demo import load_demo_volume
+
+    cut = load_demo_volume().data[30:50, 40:64, 40:68]
+    want = cut if recipe == "u8" else cut.astype(np.int16) * 37 - 3000
+    blob = (Path(__file__).parent.parent / "formats" / "examples" / f"{stem}.vpk").read_bytes()
+    with Octree(blob) as t:
+        got = t.decode(0).data
+    assert got.dtype == want.dtype
+    assert np.abs(got.astype(np.int64) - want).max() <= opts.get("max_error", 0)
+    again = _build(want, **opts)
+    with Reader(blob) as old, Reader(again) as new:
+        assert old.header == new.header
+        assert [(t, n, p) for t, n, p in old] == [(t, n, p) for t, n, p in new]
