@@ -205,7 +205,7 @@ def test_by_view_culls_and_stops_by_projection():
     from volpack.render.camera import Camera
     from volpack.render.transfer import TransferFunction
 
-    a = smooth_volume((32, 32, 32), np.uint8, seed=2, noise=10.0)
+    a = (smooth_volume((32, 32, 32), np.int16, seed=2, noise=10.0) // 4).astype(np.uint8)
     with Octree(_build(a, block=4)) as t:
         wide = Camera(azimuth=0, elevation=0, size=(64, 64))
         full, stats = sel.by_view(t, wide, voxels=10**6)
@@ -225,6 +225,14 @@ def test_by_view_culls_and_stops_by_projection():
         show = TransferFunction(((0.0, 1, 0, 0, 0.0), (255.0, 1, 1, 1, 0.5)))
         sel_tf, stats = sel.by_view(t, wide, tf=show, voxels=10**6, max_pixel_error=1e-9)
         assert len(sel_tf) > 1
+        # only bright voxels are visible: every one of them stays covered, down to leaves
+        bright = TransferFunction(((0.0, 1, 1, 1, 0.0), (200.0, 1, 1, 1, 0.0), (201, 1, 1, 1, 1)))
+        vis, stats = sel.by_view(t, wide, tf=bright, voxels=10**6, max_pixel_error=1e-9)
+        assert stats["transparent"] > 0 and min(lv for lv, _ in vis) == 0
+        cover = np.zeros(a.shape, bool)
+        for lv, b in vis:
+            cover[t.geometry.footprint(lv, b)] = True
+        assert cover[a > 200].all() and not cover.all()
 
 
 def test_tf_error_is_zero_for_constant_tf_and_grows_with_deviation():

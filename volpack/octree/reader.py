@@ -312,7 +312,8 @@ class Octree:
 
     def assemble(self, selection, level: int | None = None, roi=None, interp: str = "nearest"):
         """One array at ``level`` (default: the finest level in ``selection``) over
-        ``roi``, each selected node resampled from its own level.
+        ``roi`` (default: the box around the selection), each selected node resampled
+        from its own level.
 
         ``interp="nearest"`` repeats each coarse voxel over its footprint, so every
         output voxel deviates from the input by at most its node's ``maxdev``;
@@ -327,6 +328,11 @@ class Octree:
         if not sel:
             raise FormatError("expected a non-empty selection of nodes")
         m = min(lv for lv, _ in sel) if level is None else self.geometry.check_level(level)
+        if roi is None:  # the box around the selection
+            fps = [self.geometry.footprint(lv, b) for lv, b in sel]
+            roi = tuple(
+                slice(min(f[a].start for f in fps), max(f[a].stop for f in fps)) for a in range(3)
+            )
         region = parse_region(roi, self.shape)
         tbox = self.level_box(m, region)
         out = np.zeros(tuple(s.stop - s.start for s in tbox), self.dtype)

@@ -301,10 +301,7 @@ class _View:
         return float(max(du, 0.0) * max(dv, 0.0))
 
     def transparent(self, tree, lv, b) -> bool:
-        r = tree.row(lv, b)
-        lo = float(r["vmin"]) + float(r["hist"][:, 0].min())
-        hi = float(r["vmax"]) + float(r["hist"][:, 1].max())
-        return tf_range(self.tf, lo, hi)[1][3] <= 0.0
+        return tf_range(self.tf, *value_range(tree, lv, b))[1][3] <= 0.0
 
     def tf_error(self, tree, lv, b) -> float:
         """Eq. 2.7 bound on the colour + opacity error of a ray through the node."""
@@ -314,14 +311,31 @@ class _View:
 
 
 def tf_range(tf, lo: float, hi: float) -> tuple[np.ndarray, np.ndarray]:
-    """Component-wise (min, max) of the transfer function's RGBA over ``[lo, hi]``
-    (exact for a piecewise-linear function: the ends and the control points between)."""
+    """Component-wise (min, max) of the transfer function's RGBA over ``[lo, hi]``.
+
+    A piecewise-linear function takes its extremes at the interval's ends or at its
+    control points, so this is exact (at a step lying on an end both sides count, which
+    can only widen the range). This plays the thesis's 2-D range table.
+    """
     if hi < lo:
         lo, hi = hi, lo
-    pts = np.array([p[0] for p in tf.points], np.float64)
-    xs = np.concatenate([[lo, hi], pts[(pts > lo) & (pts < hi)]])
-    rgba = tf(xs)
+    pts = np.asarray(tf.points, np.float64)
+    xp = pts[:, 0]
+    inside = pts[(xp >= lo) & (xp <= hi), 1:]
+    ends = np.array([[np.interp(v, xp, pts[:, 1 + c]) for c in range(4)] for v in (lo, hi)])
+    rgba = np.concatenate([ends, inside]) if inside.size else ends
     return rgba.min(axis=0), rgba.max(axis=0)
+
+
+def value_range(tree: Octree, level: int, b) -> tuple[float, float]:
+    """Range of the input voxels under node (level, b), from the index alone: its values
+    widened by its deviations (a leaf uses its parent's row)."""
+    if level == 0 and tree.depth > 0:
+        level, b = 1, tuple(i // 2 for i in b)
+    r = tree.row(level, b)
+    lo = float(r["vmin"]) + float(r["hist"][:, 0].min())
+    hi = float(r["vmax"]) + float(r["hist"][:, 1].max())
+    return lo, hi
 
 
 def tf_node_error(tf, row, diag: float) -> float:
