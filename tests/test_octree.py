@@ -457,3 +457,17 @@ def test_golden_octree_decodes_and_is_reproduced(stem, recipe, opts):
     with Reader(blob) as old, Reader(again) as new:
         assert old.header == new.header
         assert [(t, n, p) for t, n, p in old] == [(t, n, p) for t, n, p in new]
+
+
+def test_budget_with_camera_refines_near_the_eye_first():
+    from volpack.render.camera import Camera
+
+    a = smooth_volume((32, 32, 32), np.int16, seed=4, noise=30.0)
+    with Octree(_build(a, block=4)) as t:
+        cam = Camera(azimuth=0, elevation=0, size=(64, 64), projection="perspective", zoom=1.0)
+        nodes = sel.by_budget(t, voxels=6000, camera=cam)
+        near = [lv for lv, b in nodes if t.geometry.footprint(lv, b)[1].stop <= 16]
+        far = [lv for lv, b in nodes if t.geometry.footprint(lv, b)[1].start >= 16]
+        assert near and far and np.mean(near) < np.mean(far)  # the eye is at y < 0
+        plain = sel.by_budget(t, voxels=6000)
+        assert sorted(plain) != sorted(nodes)
