@@ -125,6 +125,14 @@ def test_max_error_holds_on_every_voxel(vol, bound):
         assert st["psnr"] == pytest.approx(10 * math.log10(peak**2 / mse), rel=1e-9)
 
 
+def test_by_error_below_the_files_own_bound_is_refused(vol):
+    with Octree(_build(vol, block=4, max_error=3.0)) as t:
+        with pytest.raises(ValueError, match="at least 3"):
+            sel.by_error(t, 1.0)
+        out = t.assemble(sel.by_error(t, 3.0), level=0).data
+        assert np.abs(out.astype(np.float64) - vol).max() <= 3.0
+
+
 def test_max_error_float_with_corrections():
     r = np.random.default_rng(5)
     a = (1e6 + np.cumsum(r.normal(0, 0.02, (11, 13, 9)), axis=2)).astype(np.float32)

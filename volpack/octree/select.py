@@ -44,6 +44,12 @@ def by_error(tree: Octree, bound: float, roi=None) -> list[Node]:
     ``bound``; refining down to level 0 where nothing coarser qualifies."""
     if not bound >= 0:
         raise ValueError(f"expected an error bound >= 0, found {bound!r}")
+    finest = float(tree.summary.get("max_error") or 0.0)
+    if bound < finest:
+        raise ValueError(
+            f"expected an error bound of at least {finest:g} (the full-resolution level of "
+            f"this lossy file is only within that), found {bound:g}"
+        )
     region = parse_region(roi, tree.shape)
     out: list[Node] = []
     stack = [(tree.depth, (0, 0, 0))]
