@@ -148,11 +148,28 @@ def make_animation(folder: Path) -> Path:
     return folder
 
 
+# -- octree examples: formats/examples/octree-*.vpk ------------------------------------
+
+OCTREE_CASES = [
+    ("octree-53-arith-i16", "i16", {"block": 4}),
+    ("octree-bounded-u8", "u8", {"block": 4, "max_error": 3.0, "coder": "huffman"}),
+]
+
+
+def make_octree(folder: Path) -> Path:
+    from volpack.octree import build
+
+    for stem, recipe, opts in OCTREE_CASES:
+        build(wavelet_source(recipe), str(folder / f"{stem}.vpk"), force=True, **opts)
+    return folder
+
+
 EXAMPLES: dict[str, Callable[[Path], Path]] = {
     "container": make_container,
     "wavelet": make_wavelet,
     "lossy": make_lossy,
     "animation": make_animation,
+    "octree": make_octree,
 }
 
 

@@ -876,26 +876,12 @@ def _run_local(todo, workers, executor, memory_limit, on_result, state, func) ->
 
 
 def _run_dask(todo, scheduler, workers, processes, on_result, state, func) -> str:
-    from distributed import Client, LocalCluster, as_completed
+    from distributed import as_completed
 
-    owned: list = []
-    if isinstance(scheduler, str):
-        if scheduler == "local":
-            cluster = LocalCluster(
-                n_workers=workers,
-                threads_per_worker=1,
-                processes=processes,
-                dashboard_address=None,
-            )
-            owned.append(cluster)
-            client = Client(cluster)
-        else:
-            client = Client(scheduler)
-        owned.insert(0, client)
-    else:
-        client = scheduler
+    from .parallel import dask_client
+
     where = f"dask {scheduler if isinstance(scheduler, str) else 'client'}"
-    try:
+    with dask_client(scheduler, workers, processes) as client:
         index = {}
         futures = client.map(func, [t for _, t in todo], pure=False, retries=2)
         for f, (i, t) in zip(futures, todo):
@@ -912,9 +898,6 @@ def _run_dask(todo, scheduler, workers, processes, on_result, state, func) -> st
                 left = [g for g in futures if not g.done()]
                 client.cancel(left)
                 break
-    finally:
-        for o in owned:
-            o.close()
     return where
 
 

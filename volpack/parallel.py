@@ -8,6 +8,7 @@ caller writes do not depend on the number of workers.
 from __future__ import annotations
 
 import collections
+import contextlib
 import os
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ThreadPoolExecutor
@@ -57,3 +58,29 @@ def ordered_map(
         finally:
             for f in pending:
                 f.cancel()
+
+
+@contextlib.contextmanager
+def dask_client(scheduler, workers: int, processes: bool = True):
+    """A ``distributed.Client`` for ``scheduler``: ``"local"`` starts a ``LocalCluster``
+    of ``workers`` single-threaded workers (processes or threads), a string is a
+    scheduler address, anything else is a client used as it is. What is started here
+    is closed on exit."""
+    from distributed import Client, LocalCluster
+
+    if not isinstance(scheduler, str):
+        yield scheduler
+        return
+    with contextlib.ExitStack() as stack:
+        if scheduler == "local":
+            cluster = stack.enter_context(
+                LocalCluster(
+                    n_workers=workers,
+                    threads_per_worker=1,
+                    processes=processes,
+                    dashboard_address=None,
+                )
+            )
+            yield stack.enter_context(Client(cluster))
+        else:
+            yield stack.enter_context(Client(scheduler))

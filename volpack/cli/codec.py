@@ -19,7 +19,6 @@ from .options import (
     workers_option,
 )
 
-
 MESH_KEYS = ("bits", "lossless_geometry", "keep_order", "tetrahedralize", "attr_error")
 
 
@@ -107,6 +106,19 @@ def _brick(value: str) -> int | tuple[int, int, int]:
 )
 @mesh_cli.mesh_options
 @animation_options
+@click.option(
+    "--octree",
+    is_flag=True,
+    help="Build a multiresolution octree (level-of-detail and region access; reads the "
+    "input box by box, so it may be larger than memory). Lossless or --max-error.",
+)
+@click.option(
+    "--block", type=int, default=16, show_default=True, help="--octree: node size k (k^3 voxels)."
+)
+@click.option(
+    "--scheduler",
+    help="--octree: run on Dask: 'local' (a LocalCluster of --workers) or a scheduler address.",
+)
 @workers_option
 @raw_options
 @force_option
@@ -129,6 +141,9 @@ def compress(
     quality,
     threshold,
     fill_value,
+    octree,
+    block,
+    scheduler,
     workers,
     raw_shape,
     raw_dtype,
@@ -159,6 +174,7 @@ def compress(
       volpack compress 'frames/*.npy' run.vpk --gop IPPP --max-error 0.5
       volpack compress mesh.vtu mesh.vpk --bits 16        (tetrahedral mesh: --bits,
       volpack compress hex.msh mesh.vpk --tetrahedralize   --lossless-geometry, ...)
+      volpack compress big.h5:/density big.vpk --octree --max-error 2 --workers 2
     """
     if mesh_cli.is_mesh_source(source):
         mesh_opts = {k: extra[k] for k in MESH_KEYS}
@@ -170,6 +186,11 @@ def compress(
         kw = dict(locals())
         kw["read_options"] = read_kwargs(raw_shape, raw_dtype, byteorder, offset)
         return run_compress(ctx, source, target, as_json, force, opts, **_shared(kw))
+    if octree or scheduler:
+        from . import octree as octree_cli
+
+        octree_cli.compress(ctx, read_kwargs(raw_shape, raw_dtype, byteorder, offset))
+        return
     from .. import api
     from .. import io as vio
     from ..atomic import check_output
@@ -228,12 +249,33 @@ def compress(
     show_default=True,
     help="With --batch: the format of the decoded files.",
 )
+@click.option(
+    "--level",
+    type=click.IntRange(min=0),
+    help="Octree files: decode at 1/2^LEVEL resolution per axis (reads only those nodes).",
+)
+@click.option(
+    "--error",
+    type=float,
+    help="Octree files: the coarsest nodes whose voxels deviate at most this much.",
+)
 @workers_option
 @force_option
 @json_option
 @click.pass_context
 def decompress(
-    ctx, source, target, roi, frame, batch_mode, out_format, workers, force, as_json
+    ctx,
+    source,
+    target,
+    roi,
+    frame,
+    batch_mode,
+    out_format,
+    level,
+    error,
+    workers,
+    force,
+    as_json,
 ) -> None:
     """Decode the .vpk file SOURCE ('-' for stdin) into TARGET (any writable format).
 
@@ -243,6 +285,8 @@ def decompress(
       volpack decompress ct.vpk roi.npy --roi 40:80,100:200,100:200
       volpack decompress ct.vpk - | python -c "import numpy, sys; print(numpy.load(sys.stdin.buffer).shape)"
       volpack decompress out/ restored/ --batch --format nii.gz --workers 4
+      volpack decompress big.vpk coarse.npy --level 3
+      volpack decompress big.vpk approx.npy --error 10
     """
     if not batch_mode and mesh_cli.is_mesh_stream(source):
         return mesh_cli.decompress(source, target, force=force, as_json=as_json)
@@ -265,6 +309,13 @@ def decompress(
             report_path=None,
             as_json=as_json,
             desc="decompress",
+        )
+        return
+    from . import octree as octree_cli
+
+    if level is not None or error is not None or octree_cli.is_octree(source):
+        octree_cli.decompress(
+            ctx, source, target, roi=roi, level=level, error=error, force=force, as_json=as_json
         )
         return
     from .. import api

@@ -13,8 +13,13 @@ from .options import emit_json, fmt_bytes, json_option, raw_options, read_kwargs
 @click.option(
     "--chunks", is_flag=True, help="For .vpk: list every chunk (t, node, offset, bytes, error)."
 )
+@click.option(
+    "--levels", is_flag=True, help="For an octree .vpk: nodes, bytes and errors per level."
+)
 @raw_options
-def info(source: str, as_json: bool, chunks: bool, raw_shape, raw_dtype, byteorder, offset) -> None:
+def info(
+    source: str, as_json: bool, chunks: bool, levels: bool, raw_shape, raw_dtype, byteorder, offset
+) -> None:
     """Describe SOURCE: a .vpk file or any volume volpack reads.
 
     \b
@@ -26,7 +31,13 @@ def info(source: str, as_json: bool, chunks: bool, raw_shape, raw_dtype, byteord
       volpack info head.nii.gz
       volpack info ct.vpk --json | jq .ratio
       volpack info scan.raw --shape 108,256,256 --dtype int16
+      volpack info big.vpk --levels
     """
+    if levels:
+        from .octree import levels as octree_levels
+
+        octree_levels(source, as_json)
+        return
     from . import mesh as mesh_cli
 
     if mesh_cli.is_mesh_source(source) or mesh_cli.is_mesh_stream(source):

@@ -1,0 +1,199 @@
+"""Octree geometry, node keys, node payloads and the per-level node table.
+
+Geometry (``formats/octree-1.md`` steps 1-3). ``A_0`` is the volume; ``A_{L+1}`` is
+``A_L`` cut into blocks of ``2k`` voxels per axis (edge blocks smaller), each lifted one
+level, keeping the low-pass corner, so ``A_L`` has ``ceil(n / 2^L)`` voxels per axis. A
+node ``(L, b)`` is the ``k^3`` block ``b`` of ``A_L``; for ``L >= 1`` its chunk holds the
+detail coefficients that rebuild its ``(2k)^3`` block of ``A_{L-1}``, i.e. its eight
+children. The root (level ``D``, the first level that fits one block) also stores its
+low-pass voxels. Level-0 nodes are leaves and have no chunk.
+
+A node's chunk key is ``L << 56 | raster index`` within the level's node grid; the table
+of level ``L`` (one row per node: flags, subtree error, deviation range and histogram) is
+the chunk ``0xFF << 56 | L``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import struct
+from typing import Any
+
+import numpy as np
+
+from ..errors import FormatError
+
+KIND = "octree"
+DEFAULT_BLOCK = 16
+META_TAG = 0xFF
+LEVEL_SHIFT = 56
+HIST_BINS = 8
+# node flags in the level table
+PRESENT, SUBTREE_ZERO = 1, 2
+# payload section flags
+HAS_DETAILS, HAS_LOWPASS, HAS_CORRECTIONS = 1, 2, 4
+_U32 = struct.Struct("<I")
+
+META_DTYPE = np.dtype(
+    [
+        ("flags", "u1"),
+        ("E", "<f4"),  # L2 norm of the subtree's normalised detail coefficients
+        ("maxdev", "<f4"),  # largest |voxel - node value| over the node's footprint
+        ("vmin", "<f4"),
+        ("vmax", "<f4"),
+        ("hist", "<f4", (HIST_BINS, 2)),  # per value bin: most negative, most positive deviation
+    ]
+)
+
+
+@dataclasses.dataclass(frozen=True)
+class Geometry:
+    """Level shapes and node grids of an octree over a ``(z, y, x)`` volume."""
+
+    shape: tuple[int, int, int]
+    block: int
+
+    def __post_init__(self) -> None:
+        if len(self.shape) != 3 or min(self.shape) < 1:
+            raise FormatError(f"expected a 3-D shape of positive sizes, found {self.shape}")
+        if not 2 <= self.block <= 1024:
+            raise ValueError(f"expected an octree block of 2..1024 voxels, found {self.block}")
+
+    @property
+    def depth(self) -> int:
+        """Level of the root: the first level whose voxels fit one block."""
+        d, n = 0, list(self.shape)
+        while max(n) > self.block:
+            n = [(v + 1) // 2 for v in n]
+            d += 1
+        return d
+
+    def level_shape(self, level: int) -> tuple[int, int, int]:
+        n = self.shape
+        for _ in range(level):
+            n = tuple((v + 1) // 2 for v in n)
+        return n  # type: ignore[return-value]
+
+    def grid(self, level: int) -> tuple[int, int, int]:
+        return tuple(math.ceil(n / self.block) for n in self.level_shape(level))  # type: ignore[return-value]
+
+    def node_box(self, level: int, b: tuple[int, int, int]) -> tuple[slice, slice, slice]:
+        """The node's voxels in ``A_level`` coordinates."""
+        k = self.block
+        return tuple(slice(k * i, min(k * (i + 1), n)) for i, n in zip(b, self.level_shape(level)))  # type: ignore[return-value]
+
+    def footprint(self, level: int, b: tuple[int, int, int]) -> tuple[slice, slice, slice]:
+        """The node's region in full-resolution voxels."""
+        f = 1 << level
+        return tuple(
+            slice(s.start * f, min(s.stop * f, n))
+            for s, n in zip(self.node_box(level, b), self.shape)
+        )  # type: ignore[return-value]
+
+    def check_level(self, level: int) -> int:
+        d = self.depth
+        if not 0 <= int(level) <= d:
+            raise FormatError(
+                f"expected a level in 0..{d} (0 = full resolution, {d} = the root), found {level}"
+            )
+        return int(level)
+
+
+def node_key(level: int, index: int) -> int:
+    return (int(level) << LEVEL_SHIFT) | int(index)
+
+
+def meta_key(level: int) -> int:
+    return (META_TAG << LEVEL_SHIFT) | int(level)
+
+
+def split_key(key: int) -> tuple[int, int]:
+    return key >> LEVEL_SHIFT, key & ((1 << LEVEL_SHIFT) - 1)
+
+
+def lift_levels(shape: tuple[int, ...]) -> tuple[int, int, int]:
+    """One level along every axis that has at least two voxels."""
+    return tuple(1 if n >= 2 else 0 for n in shape)  # type: ignore[return-value]
+
+
+def low_shape(shape: tuple[int, ...]) -> tuple[int, int, int]:
+    return tuple((n + 1) // 2 for n in shape)  # type: ignore[return-value]
+
+
+# -- node payloads ---------------------------------------------------------------------
+
+
+def encode_payload(
+    details: bytes | None, lowpass: bytes | None, corrections: bytes | None
+) -> bytes:
+    """Flag byte, then each present section as ``u32 length + bytes``."""
+    flags = 0
+    parts = [b""]
+    for flag, body in (
+        (HAS_DETAILS, details),
+        (HAS_LOWPASS, lowpass),
+        (HAS_CORRECTIONS, corrections),
+    ):
+        if body is not None:
+            flags |= flag
+            parts.append(_U32.pack(len(body)) + body)
+    parts[0] = bytes([flags])
+    return b"".join(parts)
+
+
+def decode_payload(data: bytes) -> dict[int, bytes]:
+    """Sections of a node payload by flag; raises FormatError on a malformed one."""
+    mv = memoryview(data)
+    if len(mv) < 1:
+        raise FormatError("octree node payload: expected a flag byte, found nothing")
+    flags = mv[0]
+    if flags & ~(HAS_DETAILS | HAS_LOWPASS | HAS_CORRECTIONS):
+        raise FormatError(f"octree node payload: unknown flags {flags:#x}")
+    pos, out = 1, {}
+    for flag in (HAS_DETAILS, HAS_LOWPASS, HAS_CORRECTIONS):
+        if flags & flag:
+            if pos + 4 > len(mv):
+                raise FormatError("octree node payload: a section length runs past the end")
+            (n,) = _U32.unpack(mv[pos : pos + 4])
+            pos += 4
+            if n > len(mv) - pos:
+                raise FormatError(
+                    f"octree node payload: expected a section of {n} bytes, found {len(mv) - pos}"
+                )
+            out[flag] = bytes(mv[pos : pos + n])
+            pos += n
+    if pos != len(mv):
+        raise FormatError(f"octree node payload: {len(mv) - pos} stray bytes at the end")
+    return out
+
+
+def encode_table(rows: np.ndarray) -> bytes:
+    import zstandard
+
+    return zstandard.ZstdCompressor(level=9).compress(
+        np.ascontiguousarray(rows, META_DTYPE).tobytes()
+    )
+
+
+def decode_table(data: bytes, count: int) -> np.ndarray:
+    import zstandard
+
+    need = count * META_DTYPE.itemsize
+    try:
+        raw = zstandard.ZstdDecompressor().decompress(data, max_output_size=max(need, 1))
+    except zstandard.ZstdError as e:
+        raise FormatError(f"octree level table: corrupt ({e})") from None
+    if len(raw) != need:
+        raise FormatError(
+            f"octree level table: expected {need} bytes for {count} nodes, found {len(raw)}"
+        )
+    return np.frombuffer(raw, META_DTYPE).copy()
+
+
+def f4_up(x: Any) -> np.ndarray:
+    """Round to float32 without going below ``x`` (bounds stay bounds)."""
+    x = np.asarray(x, np.float64)
+    f = x.astype(np.float32)
+    low = f.astype(np.float64) < x
+    return np.where(low, np.nextafter(f, np.float32(np.inf)), f).astype(np.float32)
