@@ -161,3 +161,38 @@ def test_non_manifold_face_and_vertex_render_without_error():
     assert np.all(
         img[..., :3] <= img[..., 3:] * 1.6 + 1e-6
     )  # colour bounded by opacity (+ specular)
+
+
+def test_cli_renders_a_mesh_file_and_its_vpk(tmp_path):
+    import json
+
+    import meshio
+    from click.testing import CliRunner
+    from PIL import Image
+
+    from volpack.cli import main
+
+    pts, tets = kuhn_grid(5)
+    temp = linear(pts[:, ::-1])
+    src = tmp_path / "m.vtu"
+    meshio.write(src, meshio.Mesh(pts, [("tetra", tets)], point_data={"temperature": temp},
+                                  cell_data={"mat": [np.arange(len(tets)) % 3]}))  # fmt: skip
+    run = CliRunner().invoke
+    r = run(main, ["compress", str(src), str(tmp_path / "m.vpk")])
+    assert r.exit_code == 0, r.output
+    for name, extra in [("a.png", []), ("b.png", ["--field", "mat", "--shading", "none"])]:
+        r = run(main, ["render", str(tmp_path / "m.vpk"), str(tmp_path / name), "--size", "40x30",
+                       "--json", *extra])  # fmt: skip
+        assert r.exit_code == 0, r.output
+        rep = json.loads(r.stdout)
+        assert rep["mesh"]["tets"] == len(tets)
+        img = np.asarray(Image.open(tmp_path / name))
+        assert img.shape == (30, 40, 3) and img.max() > 40
+    # the file itself renders the same picture as its stream
+    r = run(main, ["render", str(src), str(tmp_path / "c.png"), "--size", "40x30"])
+    assert r.exit_code == 0, r.output
+    a = np.asarray(Image.open(tmp_path / "a.png")).astype(int)
+    c = np.asarray(Image.open(tmp_path / "c.png")).astype(int)
+    assert np.abs(a - c).max() <= 3  # geometry quantised to 16 bits in the stream
+    r = run(main, ["render", str(src), str(tmp_path / "d.png"), "--field", "pressure"])
+    assert r.exit_code != 0 and "pressure" in r.output

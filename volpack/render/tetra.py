@@ -179,24 +179,17 @@ def render_mesh(
 
 
 def _face_neighbours(cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Cell and face index across each face, -1 on the boundary. A face shared by more
-    than two cells (non-manifold) pairs its first two and leaves the rest as boundary."""
-    m = len(cells)
-    f = np.sort(cells[:, _FACES].reshape(-1, 3), axis=1)
-    order = np.lexsort((f[:, 2], f[:, 1], f[:, 0]))
-    fs = f[order]
-    same = np.all(fs[1:] == fs[:-1], axis=1)
-    # the first two of every run of equal faces are paired
-    first = np.concatenate([[True], ~same])  # a run starts here
-    pair = np.zeros(len(fs), bool)
-    pair[:-1] = first[:-1] & same
-    nb = np.full(m * 4, -1, np.int64)
-    nbf = np.full(m * 4, -1, np.int64)
-    k = np.flatnonzero(pair)
-    a, b = order[k], order[k + 1]
-    nb[a], nbf[a] = b // 4, b % 4
-    nb[b], nbf[b] = a // 4, a % 4
-    return nb.reshape(m, 4), nbf.reshape(m, 4)
+    """Cell and face index across each face, -1 on the boundary (faces of more than two
+    cells pair two of them: :func:`volpack.tetra.mesh.face_adjacency`)."""
+    from ..tetra.mesh import face_adjacency
+
+    nb, _ = face_adjacency(cells)
+    nbf = np.full(nb.shape, -1, np.int64)
+    t, k = np.nonzero(nb >= 0)
+    # the face of the neighbour that points back (two valid cells share one face at most)
+    back = nb[nb[t, k]] == t[:, None]
+    nbf[t, k] = np.argmax(back, axis=1)
+    return nb, nbf
 
 
 def _prefix_tables(tau: np.ndarray, col: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
