@@ -137,35 +137,47 @@ def _load(source: str, frame: int | None, raw: dict):
     return vol
 
 
+def view_options(f):
+    """Camera and ray-casting options shared by ``render`` and ``play``."""
+    opts = [
+        click.option("--azimuth", type=float, default=30.0, show_default=True,
+                     help="Degrees about z."),
+        click.option("--elevation", type=float, default=20.0, show_default=True,
+                     help="Degrees up."),
+        click.option("--zoom", type=click.FloatRange(min=0, min_open=True), default=1.0,
+                     show_default=True),
+        click.option("--perspective", is_flag=True,
+                     help="Perspective projection (30 degree field)."),
+        click.option("--distance", type=click.FloatRange(min=0), help="Eye (perspective) or "
+                     "near plane (orthographic) distance from the volume centre, in spacing "
+                     "units; small values put the camera inside the volume. Default: outside."),
+        click.option("--size", "size_s", default="512x512", show_default=True,
+                     help="Image WxH."),
+        click.option("--step", type=click.FloatRange(min=0, min_open=True), default=0.5,
+                     show_default=True, help="Ray step in voxels (of the smallest spacing)."),
+        click.option("--classification", type=click.Choice(["preintegrated", "post", "pre"]),
+                     default="preintegrated", show_default=True,
+                     help="Where the TF is applied: pre-integrated segments, samples, or voxels."),
+        click.option("--preint", "preint_method", type=click.Choice(["fast", "exact"]),
+                     default="fast", show_default=True,
+                     help="Pre-integration table: fast (no self-attenuation) or exact."),
+        click.option("--shading", type=click.Choice(["phong", "centroid", "preintegrated", "none"]),
+                     default="phong", show_default=True, help="phong: a headlight at the "
+                     "segment midpoint; centroid: at the segment's emission centroid (most "
+                     "accurate); preintegrated: lighting tables, n.l linear along the segment. "
+                     "The last two need --classification preintegrated."),
+    ]  # fmt: skip
+    for opt in reversed(opts):
+        f = opt(f)
+    return f
+
+
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})
 @click.argument("source")
 @click.argument("output")
 @click.option("--tf", "tf_spec", help="Transfer function: a preset (ct-bone, ct-soft, mri, "
               "generic), 'auto' or a JSON file. Default: auto, or none with --iso.")  # fmt: skip
-@click.option("--azimuth", type=float, default=30.0, show_default=True, help="Degrees about z.")
-@click.option("--elevation", type=float, default=20.0, show_default=True, help="Degrees up.")
-@click.option("--zoom", type=click.FloatRange(min=0, min_open=True), default=1.0, show_default=True)
-@click.option("--perspective", is_flag=True, help="Perspective projection (30 degree field).")
-@click.option("--distance", type=click.FloatRange(min=0), help="Eye (perspective) or near "
-              "plane (orthographic) distance from the volume centre, in spacing units; "
-              "small values put the camera inside the volume. Default: outside it.")  # fmt: skip
-@click.option("--size", "size_s", default="512x512", show_default=True, help="Image WxH.")
-@click.option("--step", type=click.FloatRange(min=0, min_open=True), default=0.5,
-              show_default=True, help="Ray step in voxels (of the smallest spacing).")  # fmt: skip
-@click.option(
-    "--classification",
-    type=click.Choice(["preintegrated", "post", "pre"]),
-    default="preintegrated",
-    show_default=True,
-    help="Where the TF is applied: pre-integrated segments, samples, or voxels.",
-)
-@click.option("--preint", "preint_method", type=click.Choice(["fast", "exact"]), default="fast",
-              show_default=True, help="Pre-integration table: fast (no self-attenuation) or exact.")  # fmt: skip
-@click.option("--shading", type=click.Choice(["phong", "centroid", "preintegrated", "none"]),
-              default="phong", show_default=True, help="phong: a headlight at the segment "
-              "midpoint; centroid: at the segment's emission centroid (most accurate); "
-              "preintegrated: lighting tables, n.l linear along the segment. The last two "
-              "need --classification preintegrated.")  # fmt: skip
+@view_options
 @click.option("--iso", "iso_spec", help="Isosurfaces VALUE:COLOUR[@OPACITY],... e.g. "
               "300:bone,1200:skull@0.4 (COLOUR: a name or #rrggbb).")  # fmt: skip
 @click.option("--orbit", type=click.IntRange(min=1), help="Render N views around the volume; "

@@ -1,0 +1,127 @@
+"""``volpack play``: decode an animation on its playback schedule and render every frame."""
+
+from __future__ import annotations
+
+import click
+
+from .options import emit_json, force_option, json_option, progress_bar, table
+from .render import _size, view_options
+
+
+@click.command(context_settings={"help_option_names": ["-h", "--help"]})
+@click.argument("source")
+@click.argument("output", required=False)
+@click.option("--tf", "tf_spec", help="Transfer function: a preset (ct-bone, ct-skin, mri, "
+              "generic), 'auto' or a JSON file. Fixed for the whole animation.")  # fmt: skip
+@click.option("--fps", type=click.FloatRange(min=0, min_open=True, max=1000), default=25.0,
+              show_default=True, help="Frames per second of the movie.")  # fmt: skip
+@click.option("--spin", type=float, default=0.0, show_default=True,
+              help="Degrees the camera turns about z per frame.")  # fmt: skip
+@click.option("--stats", "show_stats", is_flag=True, help="Print a per-frame table: type, "
+              "bytes, decode and render milliseconds.")  # fmt: skip
+@view_options
+@click.option("-j", "--workers", type=click.IntRange(min=0), default=0, show_default=True,
+              help="Render threads (0 = every core).")  # fmt: skip
+@force_option
+@json_option
+@click.pass_context
+def play(ctx, source, output, tf_spec, fps, spin, show_stats, azimuth, elevation, zoom,
+         perspective, distance, size_s, step, classification, preint_method, shading, workers,
+         force, as_json) -> None:  # fmt: skip
+    """Play the animation SOURCE (.vpk, or '-') into OUTPUT: an .mp4, a .gif or a folder of
+    PNGs; without OUTPUT, decode and render only (with --stats: a timing table).
+
+    Frames are decoded in storage order, one per displayed frame after the first (two
+    before it), exactly as a player keeps up with a stream; a damaged stream plays up to
+    the damage, then stops with an error naming the frame.
+
+    \b
+    Examples:
+      volpack play run.vpk run.mp4 --tf ct-skin --fps 25
+      volpack play run.vpk run.gif --size 256x256 --spin 3
+      volpack play run.vpk --stats
+    """
+    import numpy as np
+
+    from .. import player
+    from ..atomic import check_output
+    from ..render import transfer
+    from ..render.camera import Camera
+    from ..render.movie import MovieWriter
+    from ..render.raycast import render as raycast
+
+    size = _size(size_s)
+    if output is not None and not _is_folder(output):
+        check_output(output, force=force, inputs=(source,))
+    vr = player.recorded_range(source) if source != "-" else None
+    n_frames = player.frame_count(source) if source != "-" else None
+    state: dict = {"tf": None, "range": vr, "k": 0}
+
+    def render(frame: np.ndarray) -> np.ndarray:
+        if state["tf"] is None:
+            lo, hi = state["range"] or (float(frame.min()), float(frame.max()))
+            hi = hi if hi > lo else lo + 1.0
+            state["range"] = (lo, hi)
+            state["tf"] = transfer.load_tf(tf_spec or "auto", lo, hi, dtype=frame.dtype)
+        cam = Camera(azimuth=azimuth + spin * state["k"], elevation=elevation, zoom=zoom,
+                     projection="perspective" if perspective else "orthographic", size=size,
+                     distance=distance)  # fmt: skip
+        state["k"] += 1
+        return raycast(
+            np.ascontiguousarray(frame, np.float32), tf=state["tf"], camera=cam, step=step,
+            classification=classification, shading=shading, preint_method=preint_method,
+            value_range=state["range"], workers=workers,
+        )  # fmt: skip
+
+    writer = MovieWriter(output, fps=fps, force=force) if output is not None else None
+    rows = []
+    try:
+        with progress_bar(ctx, "play", unit="frame") as progress:
+
+            def sink(img):
+                if writer is not None:
+                    writer.write(img)
+                if progress is not None:
+                    progress(len(rows) + 1, n_frames)
+
+            for img, st in player.play_rendered(source, render):
+                sink(img)
+                rows.append(st)
+    except BaseException:
+        if writer is not None:
+            writer.abort()
+        raise
+    if writer is not None:
+        writer.close()
+    dec = sum(r.decode_ms for r in rows) / 1000
+    ren = sum(r.render_ms for r in rows) / 1000
+    report = {
+        "output": output,
+        "frames": len(rows),
+        "value_range": list(state["range"]) if state["range"] else None,
+        "tf": state["tf"].name if state["tf"] is not None else None,
+        "decode_fps": len(rows) / dec if dec > 0 else None,
+        "render_fps": len(rows) / ren if ren > 0 else None,
+        "fps": len(rows) / (dec + ren) if dec + ren > 0 else None,
+        "per_frame": [vars(r) for r in rows],
+    }
+    if as_json:
+        emit_json(report)
+        return
+    if show_stats:
+        click.echo(table([[r.t, r.type, r.nbytes, f"{r.decode_ms:.1f}", f"{r.render_ms:.1f}"]
+                          for r in rows], ["frame", "type", "bytes", "decode ms", "render ms"]))  # fmt: skip
+    click.echo(
+        f"{output or source}: {len(rows)} frames, decode {report['decode_fps'] or 0:.1f} "
+        f"frames/s, render {report['render_fps'] or 0:.1f} frames/s",
+        err=True,
+    )
+
+
+def _is_folder(path: str) -> bool:
+    from ..render.movie import movie_kind
+
+    return movie_kind(path) == "png"
+
+
+COMMANDS = [play]
