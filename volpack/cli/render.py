@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import time
 
 import click
 
@@ -68,6 +69,25 @@ def _size(value: str) -> tuple[int, int]:
     if not (1 <= w <= 16384 and 1 <= h <= 16384):
         raise click.BadParameter(f"expected 1..16384 per side, found {value!r}", "--size")
     return w, h
+
+
+def _open_octree(source: str):
+    """An open :class:`volpack.octree.Octree` when SOURCE is an octree .vpk, else None."""
+    import os
+
+    from ..container import Reader, is_vpk
+
+    if source == "-" or not os.path.isfile(source):
+        return None
+    with open(source, "rb") as f:
+        if not is_vpk(f.read(16)):
+            return None
+    with Reader(source) as r:
+        if r.header.get("kind") != "octree":
+            return None
+    from ..octree import Octree
+
+    return Octree(source, cache_bytes=1 << 30)
 
 
 def _load_mesh(source: str, field: str | None):
@@ -186,6 +206,9 @@ def view_options(f):
 @click.option("--frame", type=click.IntRange(min=0), help="Time step of a 4-D input (default 0).")
 @click.option("--field", help="Tetrahedral meshes: the point or cell field to draw (default the "
               "first point field; cell fields are averaged onto the points).")  # fmt: skip
+@click.option("--budget", type=click.IntRange(min=1), help="Octree .vpk: draw at most this many "
+              "nodes' worth of voxels, chosen for the view (default 2048; the thesis used "
+              "2048/1024/512).")  # fmt: skip
 @click.option("-j", "--workers", type=click.IntRange(min=0), default=0, show_default=True,
               help="Threads (0 = every core). The image does not depend on it.")  # fmt: skip
 @raw_options
@@ -212,6 +235,7 @@ def render(
     colorbar,
     frame,
     field,
+    budget,
     workers,
     raw_shape,
     raw_dtype,
@@ -238,6 +262,7 @@ def render(
       volpack render ct.nii.gz orbit/ --orbit 36 --perspective --zoom 1.3
       volpack render ct.nii.gz inside.png --perspective --distance 20   # from inside
       volpack render mesh.vpk mesh.png --field temperature --tf generic
+      volpack render big.vpk big.png --budget 2048 --tf ct-bone    # octree: level of detail
     """
     import numpy as np
 
@@ -246,6 +271,7 @@ def render(
     from ..render import transfer
     from ..render.camera import Camera
     from ..render.image import save_png
+    from ..render.raycast import RenderStats
     from ..render.raycast import render as raycast
     from ..volume import Volume
 
@@ -261,8 +287,19 @@ def render(
     for t in targets:
         check_output(t, force=force, inputs=inputs)
 
-    mesh = _load_mesh(source, field)
-    if mesh is not None:
+    tree = _open_octree(source)
+    if tree is not None:
+        ctx.call_on_close(tree.close)
+    elif budget is not None:
+        raise click.BadParameter("applies to octree .vpk files only", param_hint="--budget")
+    mesh = None if tree is not None else _load_mesh(source, field)
+    if tree is not None:
+        from ..render.lod import _tree_range
+
+        lo, hi = _tree_range(tree)
+        data = np.array([lo, hi], dtype=tree.dtype)
+        ok = np.ones(2, bool)
+    elif mesh is not None:
         if isos:
             raise click.BadParameter("isosurfaces are drawn for volumes only", param_hint="--iso")
         points, cells, data, field = mesh
@@ -285,11 +322,26 @@ def render(
 
     if orbit:
         os.makedirs(output, exist_ok=True)
-        if mesh is None and data.dtype != np.float32:  # converted once, not per frame
+        if (
+            mesh is None and tree is None and data.dtype != np.float32
+        ):  # converted once, not per frame
             vol = Volume(np.ascontiguousarray(data, np.float32), spacing=vol.spacing,
                          origin=vol.origin, mask=vol.mask)  # fmt: skip
 
+    lod_frames = []
+
     def draw(cam, progress_rows):
+        if tree is not None:
+            from ..render.lod import render_lod
+
+            t0 = time.perf_counter()
+            img, lst = render_lod(
+                tree, tf=tf, camera=cam, blocks=budget or 2048, value_range=(lo, hi),
+                step=step, classification=classification, shading=shading,
+                preint_method=preint_method, workers=workers, progress=progress_rows,
+            )  # fmt: skip
+            lod_frames.append(vars(lst))
+            return img, RenderStats(0, time.perf_counter() - t0, cam.size[0] * cam.size[1], 0)
         if mesh is not None:
             from ..render.tetra import render_mesh
 
@@ -327,7 +379,8 @@ def render(
         "output": output,
         "frames": frames,
         "size": list(size),
-        "shape": list(data.shape) if mesh is None else None,
+        "shape": list(tree.shape if tree is not None else data.shape) if mesh is None else None,
+        "lod": lod_frames or None,
         "mesh": None
         if mesh is None
         else {"points": len(points), "tets": len(cells), "field": field},

@@ -81,7 +81,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from .._jit import kernel
+from .._jit import JIT_DISABLED, kernel
 from ..errors import VolpackError
 from ..parallel import ordered_map, parse_workers
 from .camera import Camera
@@ -140,6 +140,77 @@ def _trilinear(vol, z, y, x):
     return c0 + (c1 - c0) * fz
 
 
+def _paged(atlas, page, meta, level, origin, fill, z, y, x):
+    """Trilinear sample of a paged multiresolution volume at level-0 index (z, y, x).
+
+    ``page`` maps cells of ``meta[3]`` level-0 voxels to a node (-1: none, which reads
+    ``fill[0]``); node ``i`` is ``atlas[i]``, its level-``level[i]`` voxels from
+    ``origin[i]`` on with one voxel of its neighbours around them.
+    """
+    nz, ny, nx, g = meta[0], meta[1], meta[2], meta[3]
+    pz = min(max(z, 0.0), nz - 1.0)
+    py = min(max(y, 0.0), ny - 1.0)
+    px = min(max(x, 0.0), nx - 1.0)
+    cz = min(int(pz) // g, page.shape[0] - 1)
+    cy = min(int(py) // g, page.shape[1] - 1)
+    cx = min(int(px) // g, page.shape[2] - 1)
+    node = page[cz, cy, cx]
+    if node < 0:
+        return fill[0]
+    s = 1 << level[node]
+    b = atlas.shape[1] - 1
+    qz = min(max((pz + 0.5) / s - 0.5 - origin[node, 0] + 1.0, 0.0), b)
+    qy = min(max((py + 0.5) / s - 0.5 - origin[node, 1] + 1.0, 0.0), b)
+    qx = min(max((px + 0.5) / s - 0.5 - origin[node, 2] + 1.0, 0.0), b)
+    z0, y0, x0 = min(int(qz), b - 1), min(int(qy), b - 1), min(int(qx), b - 1)
+    fz, fy, fx = qz - z0, qy - y0, qx - x0
+    a = atlas[node]
+    c00 = a[z0, y0, x0] + (a[z0, y0, x0 + 1] - a[z0, y0, x0]) * fx
+    c01 = a[z0, y0 + 1, x0] + (a[z0, y0 + 1, x0 + 1] - a[z0, y0 + 1, x0]) * fx
+    c10 = a[z0 + 1, y0, x0] + (a[z0 + 1, y0, x0 + 1] - a[z0 + 1, y0, x0]) * fx
+    c11 = a[z0 + 1, y0 + 1, x0] + (a[z0 + 1, y0 + 1, x0 + 1] - a[z0 + 1, y0 + 1, x0]) * fx
+    c0 = c00 + (c01 - c00) * fy
+    c1 = c10 + (c11 - c10) * fy
+    return c0 + (c1 - c0) * fz
+
+
+_paged_kernel = kernel(_paged)
+
+
+def sample(vol, z, y, x):
+    """Trilinear sample of a volume: a 3-D array, or a paged volume tuple (see
+    :func:`_paged`); in kernels the choice is made at compile time."""
+    if isinstance(vol, tuple):
+        return _paged(*vol, z, y, x)
+    return _trilinear(vol, z, y, x)
+
+
+def extent(vol):
+    """``(nz, ny, nx)`` of a volume in level-0 voxels (array or paged tuple)."""
+    if isinstance(vol, tuple):
+        return vol[2][0], vol[2][1], vol[2][2]
+    return vol.shape
+
+
+if not JIT_DISABLED:
+    from numba import types
+    from numba.extending import overload
+
+    @overload(sample, jit_options={"nogil": True})
+    def _sample_overload(vol, z, y, x):
+        if isinstance(vol, types.BaseTuple):
+            return lambda vol, z, y, x: _paged_kernel(
+                vol[0], vol[1], vol[2], vol[3], vol[4], vol[5], z, y, x
+            )
+        return lambda vol, z, y, x: _trilinear(vol, z, y, x)
+
+    @overload(extent, jit_options={"nogil": True})
+    def _extent_overload(vol):
+        if isinstance(vol, types.BaseTuple):
+            return lambda vol: (vol[2][0], vol[2][1], vol[2][2])
+        return lambda vol: (vol.shape[0], vol.shape[1], vol.shape[2])
+
+
 @kernel
 def _trilinear4(rgba, z, y, x, out):
     nz, ny, nx = rgba.shape[0], rgba.shape[1], rgba.shape[2]
@@ -192,9 +263,9 @@ def _normal(vol, z, y, x, gscale, vz, vy, vx, gmin):
 
     ``(0, 0, 0, -1)`` where the gradient vanishes.
     """
-    gz = (_trilinear(vol, z + 1.0, y, x) - _trilinear(vol, z - 1.0, y, x)) * gscale[0]
-    gy = (_trilinear(vol, z, y + 1.0, x) - _trilinear(vol, z, y - 1.0, x)) * gscale[1]
-    gx = (_trilinear(vol, z, y, x + 1.0) - _trilinear(vol, z, y, x - 1.0)) * gscale[2]
+    gz = (sample(vol, z + 1.0, y, x) - sample(vol, z - 1.0, y, x)) * gscale[0]
+    gy = (sample(vol, z, y + 1.0, x) - sample(vol, z, y - 1.0, x)) * gscale[1]
+    gx = (sample(vol, z, y, x + 1.0) - sample(vol, z, y, x - 1.0)) * gscale[2]
     g = math.sqrt(gz * gz + gy * gy + gx * gx)
     if g <= gmin:
         return 0.0, 0.0, 0.0, -1.0
@@ -307,6 +378,7 @@ def _render_kernel(
     scale,
     step,
     leap,
+    brick,
     skip,
     ert,
     shade,
@@ -317,7 +389,7 @@ def _render_kernel(
     out,
     row_samples,
 ):
-    nz, ny, nx = vol.shape
+    nz, ny, nx = extent(vol)
     w = out.shape[1]
     niso = iso_vals.shape[0]
     ka, kd, ks, shin = shading[0], shading[1], shading[2], shading[3]
@@ -357,7 +429,7 @@ def _render_kernel(
                 if skip and t0 >= next_check:
                     lv, te = _brick_exit(
                         oz + t0 * dz, oy + t0 * dy, ox + t0 * dx,
-                        oz, oy, ox, dz, dy, dx, nz, ny, nx, leap, BRICK,
+                        oz, oy, ox, dz, dy, dx, nz, ny, nx, leap, brick,
                     )  # fmt: skip
                     if lv == 0:
                         next_check = te  # the ray stays in this (visible) brick until te
@@ -381,8 +453,8 @@ def _render_kernel(
                 sb = 0.0
                 if need_ends:
                     if not have_front:
-                        sf = _trilinear(vol, oz + t0 * dz, oy + t0 * dy, ox + t0 * dx)
-                    sb = _trilinear(vol, oz + t1 * dz, oy + t1 * dy, ox + t1 * dx)
+                        sf = sample(vol, oz + t0 * dz, oy + t0 * dy, ox + t0 * dx)
+                    sb = sample(vol, oz + t1 * dz, oy + t1 * dy, ox + t1 * dx)
                     have_front = True
                 tm = 0.5 * (t0 + t1)
                 count += 1
@@ -424,7 +496,7 @@ def _render_kernel(
                         aa += wgt * ia
                 if has_vol:
                     if mode == 0:
-                        s = _trilinear(vol, oz + tm * dz, oy + tm * dy, ox + tm * dx)
+                        s = sample(vol, oz + tm * dz, oy + tm * dy, ox + tm * dx)
                         _lookup1(post_tab, (s - lo) * scale, c4)
                     elif mode == 1:
                         _trilinear4(rgba, oz + tm * dz, oy + tm * dy, ox + tm * dx, c4)
@@ -627,10 +699,19 @@ def render(
             "expected a transfer function (tf=) or isosurfaces (isos=), found neither"
         )
 
-    data, mask, sp = _unpack(volume, spacing)
-    vol = np.ascontiguousarray(data, dtype=np.float32)
+    paged = hasattr(volume, "page")  # a volpack.render.lod.PagedVolume
+    if paged:
+        if classification == "pre":
+            raise VolpackError("expected classification 'post' or 'preintegrated' for a "
+                               "multiresolution selection, found 'pre'")  # fmt: skip
+        data, mask = volume.atlas, None
+        sp = tuple(float(v) for v in (spacing or volume.spacing))
+        vol = data
+    else:
+        data, mask, sp = _unpack(volume, spacing)
+        vol = np.ascontiguousarray(data, dtype=np.float32)
     bad = None
-    if data.dtype.kind in "fc":
+    if data.dtype.kind in "fc" and not paged:
         bad = ~np.isfinite(vol)
     if mask is not None:
         bad = mask.copy() if bad is None else (bad | mask)
@@ -688,13 +769,21 @@ def render(
             rgba[bad] = 0.0
 
     nthreads = parse_workers(workers)
-    empty = _empty_bricks(
-        vol, rgba, mode, has_vol, post_tab, pre2d, iso2d, bool(isos), lo, scale, skip_empty
-    )
+    brick = BRICK
+    if paged:  # skip whole pages without a node; nodes are sampled through the page table
+        empty, brick = volume.page < 0, volume.cell
+        fill = np.array([_empty_value(base if has_vol else None, lo, hi, finite)])
+        vol = (volume.atlas, volume.page, volume.meta, volume.level, volume.origin, fill)
+        shape = volume.shape
+    else:
+        empty = _empty_bricks(
+            vol, rgba, mode, has_vol, post_tab, pre2d, iso2d, bool(isos), lo, scale, skip_empty
+        )
+        shape = vol.shape
     leap = np.zeros(empty.shape, np.int64)
     if skip_empty:
-        _leap_kernel(empty, leap)
-    origins, dirs = camera.rays(vol.shape, sp)
+        _leap_kernel(np.ascontiguousarray(empty), leap)
+    origins, dirs = camera.rays(shape, sp)
     w, h = camera.size
     out = np.zeros((h, w, 4), np.float32)
     row_samples = np.zeros(h, np.int64)
@@ -708,7 +797,7 @@ def render(
         _render_kernel(
             vol, rgba, origins, dirs, rows, mode, has_vol,
             post_tab, pre2d, iso2d, iso_vals, bool(isos), lo, scale, float(step),
-            leap, bool(skip_empty), float(ert), SHADINGS.index(shading), shading_k,
+            leap, brick, bool(skip_empty), float(ert), SHADINGS.index(shading), shading_k,
             gscale, vscale, gmin, out, row_samples,
         )  # fmt: skip
 
