@@ -18,7 +18,10 @@ Reproduces the measurements of seed-004 §2.3.8 that a CPU can make (digest §12
 
     python scripts/bench_octree.py [--sizes-mb 64,256,1024,4096] [--workers 2] [--limit-mb 1536]
 
-Writes ``results/octree/{build,levels,regions}.csv``, ``results/octree/octree.png`` and
+5. **compare** - ratio and MB/s of the octree against volpack's brick codec on the head
+   CT, same process, one worker (``--compare-only`` runs just this).
+
+Writes ``results/octree/{build,levels,regions,compare}.csv``, ``results/octree/octree.png`` and
 prints markdown tables. The volumes go to ``--tmp`` (default: a temporary folder) and
 are deleted afterwards.
 """
@@ -57,8 +60,10 @@ from volpack.octree import build
 t0 = time.perf_counter()
 st = build(sys.argv[1], sys.argv[2], workers=int(sys.argv[3]), force=True)
 st["wall"] = time.perf_counter() - t0
-st["maxrss"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
-print(json.dumps({k: st[k] for k in ("wall", "maxrss", "ratio", "raw_nbytes", "payload_nbytes",
+# VmHWM, not ru_maxrss: Linux carries the parent's peak across fork and exec into the latter
+st["maxrss"] = next(int(l.split()[1]) * 1024 for l in open("/proc/self/status") if l.startswith("VmHWM"))
+st["vmpeak"] = next(int(l.split()[1]) * 1024 for l in open("/proc/self/status") if l.startswith("VmPeak"))
+print(json.dumps({k: st[k] for k in ("wall", "maxrss", "vmpeak", "ratio", "raw_nbytes", "payload_nbytes",
                                       "depth", "tasks", "mb_per_s")}))
 """
 
@@ -111,6 +116,7 @@ def bench_build(sizes_mb, workers, limit_mb, tmp: Path) -> list[dict]:
                 "build_mb_s": round(st["raw_nbytes"] / 1e6 / st["wall"], 2),
                 "ratio": round(st["ratio"], 3),
                 "peak_rss_mb": round(st["maxrss"] / 1e6, 1),
+                "peak_vm_mb": round(st["vmpeak"] / 1e6, 1),
                 "as_limit_mb": limit_mb if limit else None,
                 "file_mb": round(dst.stat().st_size / 1e6, 2),
                 **first,
@@ -207,6 +213,49 @@ def bench_regions(path: Path) -> list[dict]:
     return rows
 
 
+def bench_compare() -> list[dict]:
+    """The octree against volpack's brick codec on the head CT: same process, one worker."""
+    import io
+
+    import datasets
+
+    from volpack import api
+
+    a, _, _ = datasets.load("ct_head")
+    rows = []
+    for bound in (None, 2.0):
+        for name in ("brick codec (64^3)", "octree (k = 16)"):
+            best = math.inf
+            for _ in range(2):
+                buf = io.BytesIO()
+                t0 = time.perf_counter()
+                if name.startswith("octree"):
+                    build(a, buf, max_error=bound, workers=1)
+                else:
+                    api.compress(a, buf, max_error=bound, workers=1)
+                best = min(best, time.perf_counter() - t0)
+            t0 = time.perf_counter()
+            if name.startswith("octree"):
+                with Octree(buf.getvalue()) as t:
+                    out = t.decode(0).data
+            else:
+                out = api.decompress(buf.getvalue()).data
+            dec = time.perf_counter() - t0
+            rows.append(
+                {
+                    "volume": "ct_head 108x256x256 int16",
+                    "method": name,
+                    "mode": "lossless" if bound is None else f"max-error {bound:g}",
+                    "ratio": round(a.nbytes / len(buf.getvalue()), 3),
+                    "encode_mb_s": round(a.nbytes / 1e6 / best, 1),
+                    "decode_mb_s": round(a.nbytes / 1e6 / dec, 1),
+                    "max_error": float(np.abs(out.astype(np.float64) - a).max()),
+                }
+            )
+            print(rows[-1], flush=True)
+    return rows
+
+
 def write_csv(name: str, rows: list[dict]) -> None:
     OUT.mkdir(parents=True, exist_ok=True)
     with open(OUT / name, "w", newline="") as f:
@@ -286,12 +335,22 @@ def main() -> None:
         help="RLIMIT_AS (MB) for build children whose volume exceeds it",
     )
     p.add_argument("--tmp", default=None)
+    p.add_argument(
+        "--compare-only",
+        action="store_true",
+        help="only the octree against the brick codec on the head CT",
+    )
     args = p.parse_args()
     sizes = [int(s) for s in args.sizes_mb.split(",")]
     with tempfile.TemporaryDirectory() as w:  # compile or load the kernels before timing
         build(np.arange(40**3, dtype=np.uint16).reshape(40, 40, 40), f"{w}/w.vpk")
         with Octree(f"{w}/w.vpk") as t:
             t.decode(0)
+    compare_rows = bench_compare()
+    write_csv("compare.csv", compare_rows)
+    print(markdown(compare_rows) + "\n")
+    if args.compare_only:
+        return
     with tempfile.TemporaryDirectory(dir=args.tmp) as d:
         tmp = Path(d)
         build_rows = bench_build(sizes, args.workers, args.limit_mb, tmp)

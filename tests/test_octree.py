@@ -282,6 +282,16 @@ def test_small_cache_gives_same_result(vol, blob):
         np.testing.assert_array_equal(t.decode(0).data, vol)
 
 
+def test_threads_decode_each_node_once_and_give_the_same_result(vol, blob):
+    with Octree(blob) as one, Octree(blob) as two:
+        np.testing.assert_array_equal(two.decode(0, workers=2).data, vol)
+        one.decode(0)
+        assert two.decoded_nodes == one.decoded_nodes
+        np.testing.assert_array_equal(
+            two.decode(1, "3:30,0:21,9:30", workers=2).data, one.decode(1, "3:30,0:21,9:30").data
+        )
+
+
 # -- stability -------------------------------------------------------------------------
 
 

@@ -315,7 +315,15 @@ def decompress(
 
     if level is not None or error is not None or octree_cli.is_octree(source):
         octree_cli.decompress(
-            ctx, source, target, roi=roi, level=level, error=error, force=force, as_json=as_json
+            ctx,
+            source,
+            target,
+            roi=roi,
+            level=level,
+            error=error,
+            force=force,
+            as_json=as_json,
+            workers=workers,
         )
         return
     from .. import api

@@ -72,7 +72,7 @@ def compress(ctx, read_options: dict) -> None:
     )
 
 
-def decompress(ctx, source, target, *, roi, level, error, force, as_json) -> None:
+def decompress(ctx, source, target, *, roi, level, error, force, as_json, workers=1) -> None:
     """Decode an octree at one level, or the coarsest nodes within an error bound."""
     from .. import io as vio
     from ..atomic import check_output
@@ -89,7 +89,7 @@ def decompress(ctx, source, target, *, roi, level, error, force, as_json) -> Non
             vol = tree.assemble(sel, level=0, roi=roi, interp="nearest")
             levels = sorted({lv for lv, _ in sel})
         else:
-            vol = tree.decode(level or 0, roi)
+            vol = tree.decode(level or 0, roi, workers=workers)
             levels = [level or 0]
         bytes_read = tree.bytes_read
         nodes = tree.decoded_nodes

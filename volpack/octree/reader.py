@@ -165,7 +165,8 @@ class Octree:
         if low.shape != ls:
             raise FormatError(f"octree node: expected a low-pass block {ls}, found {low.shape}")
         c[tuple(slice(0, v) for v in ls)] = low
-        self.decoded_nodes += 1
+        with self._lock:
+            self.decoded_nodes += 1
         return dwt3.inverse(c, lv, self.plan.wavelet, overwrite=True)
 
     def _damage(self, level, index, e) -> None:
@@ -185,19 +186,36 @@ class Octree:
         return tuple(slice(k2 * i, min(k2 * (i + 1), v)) for i, v in zip(index, n))  # type: ignore[return-value]
 
     def _children(self, level: int, index: tuple[int, int, int]):
-        """``(block of A_{level-1}, corrections)`` rebuilt by node (level, index)."""
+        """``(block of A_{level-1}, corrections)`` rebuilt by node (level, index).
+
+        Only the cache and the file are used under the lock; the decoding itself runs
+        outside it, so threads decode different nodes at once.
+        """
+        key = (level, index)
         with self._lock:
-            key = (level, index)
             hit = self._cache.get(key)
             if hit is not None:
                 self._cache.move_to_end(key)
                 return hit
-            low = self.node_block(level, index)
+        low = self.node_block(level, index)
+        with self._lock:
             sections = self._sections(level, index)
-            block = self._lift_up(level, index, low, sections)
-            entry = (block, (sections or {}).get(layout.HAS_CORRECTIONS))
+        block = self._lift_up(level, index, low, sections)
+        entry = (block, (sections or {}).get(layout.HAS_CORRECTIONS))
+        with self._lock:
             self._put(key, entry)
-            return entry
+        return entry
+
+    def _warm(self, level: int, nodes, workers: int) -> None:
+        """Decode the children of ``nodes`` (all of ``level``) on ``workers`` threads,
+        their ancestors first, so that no node is decoded twice."""
+        from ..parallel import ordered_map
+
+        nodes = sorted(set(nodes))
+        if level < self.depth:
+            self._warm(level + 1, {tuple(i // 2 for i in b) for b in nodes}, workers)
+        for _ in ordered_map(lambda b: self._children(level, b), nodes, workers):
+            pass
 
     def node_block(self, level: int, index: tuple[int, int, int]) -> np.ndarray:
         """The node's ``A_level`` voxels as work integers (before the output cast)."""
@@ -230,6 +248,9 @@ class Octree:
             return self._root
 
     def _put(self, key, entry) -> None:
+        old = self._cache.pop(key, None)  # two threads may decode the same node
+        if old is not None:
+            self._cached -= old[0].nbytes
         self._cache[key] = entry
         self._cached += entry[0].nbytes
         while self._cached > self.cache_bytes and len(self._cache) > 1:
@@ -246,8 +267,9 @@ class Octree:
         n = self.geometry.level_shape(level)
         return tuple(slice(s.start // f, min(-(-s.stop // f), v)) for s, v in zip(region, n))  # type: ignore[return-value]
 
-    def values(self, level: int, box: tuple[slice, slice, slice]) -> np.ndarray:
-        """Voxels of level ``level`` (output dtype) in ``box`` (level coordinates)."""
+    def values(self, level: int, box: tuple[slice, slice, slice], workers: int = 1) -> np.ndarray:
+        """Voxels of level ``level`` (output dtype) in ``box`` (level coordinates),
+        decoded on ``workers`` threads."""
         level = self.geometry.check_level(level)
         n = self.geometry.level_shape(level)
         for s, v in zip(box, n):
@@ -263,6 +285,8 @@ class Octree:
             return out
         k2 = 2 * self.plan.block
         ranges = [range(s.start // k2, (s.stop - 1) // k2 + 1) for s in box]
+        if workers > 1:
+            self._warm(level + 1, itertools.product(*ranges), workers)
         for p in itertools.product(*ranges):
             block, corr = self._children(level + 1, p)
             vals = to_values(self.plan, block)
@@ -276,14 +300,16 @@ class Octree:
             out[tuple(dst)] = vals[tuple(src)]
         return out
 
-    def decode(self, level: int = 0, roi=None):
+    def decode(self, level: int = 0, roi=None, workers: int = 1):
         """The volume (or ``roi``, full-resolution ``z0:z1,y0:y1,x0:x1``) at ``level``:
         ``1/2^level`` of the resolution per axis, as a :class:`~volpack.volume.Volume`
-        whose spacing and origin place it over the full-resolution grid."""
+        whose spacing and origin place it over the full-resolution grid. ``workers``
+        threads decode nodes at once (0: every core); the result does not depend on it."""
+        from ..parallel import parse_workers
         from ..volume import Volume
 
         box = self.level_box(level, roi)
-        data = self.values(level, box)
+        data = self.values(level, box, parse_workers(workers))
         return Volume(data, spacing=self._spacing(level), origin=self._origin(level, box))
 
     def _spacing(self, level):
