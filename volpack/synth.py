@@ -78,7 +78,9 @@ def translate(
     out = []
     for t in range(frames):
         phase = sum(k[a] * (t * step[a]) for a in range(3))
-        out.append(np.fft.irfftn(spec * np.exp(-2j * np.pi * phase), big.shape, axes=(0, 1, 2))[crop])
+        out.append(
+            np.fft.irfftn(spec * np.exp(-2j * np.pi * phase), big.shape, axes=(0, 1, 2))[crop]
+        )
     return _as(np.stack(out), dtype)
 
 
