@@ -48,7 +48,8 @@ def exhaustive(cur, ref, radius, penalty=0.0):
 
 
 def upsample(ref):
-    """The half-voxel grid: voxels at even indices, 8-tap interpolations at odd ones."""
+    """The half-voxel grid: voxels at even indices, 8-tap interpolations at odd ones,
+    each pass summed in float64 and stored as float32."""
     a = ref.astype(np.float64)
     for axis in range(3):
         a = np.moveaxis(a, axis, -1)
@@ -60,7 +61,7 @@ def upsample(ref):
             for k, t in enumerate(TAPS):
                 acc = acc + t * a[..., min(max(x - 3 + k, 0), n - 1)]
             out[..., 2 * x + 1] = acc
-        a = np.moveaxis(out, -1, axis)
+        a = np.moveaxis(out.astype(np.float32).astype(np.float64), -1, axis)
     return a
 
 

@@ -297,7 +297,9 @@ def encode_frame(
     s: Settings,
     brick: tuple[int, int, int],
 ) -> CodedFrame:
-    """Code one frame as ``kind`` (or as an I-frame where prediction does not pay)."""
+    """Code one frame as ``kind``, or as an I-frame where prediction does not pay: when
+    half the blocks or more are intra (a scene cut), or when the predicted frame comes
+    out longer than the frame coded alone (both are made and the shorter kept)."""
     from .api import encode_measured
 
     dtype = x.dtype
@@ -360,9 +362,14 @@ def encode_frame(
     payload = b"".join([head, *head_parts, *bodies, corr])
     modes = field.counts() if field is not None else {}
     mnb = len(head_parts[0]) if head_parts else 0
-    return CodedFrame(
+    coded = CodedFrame(
         payload, out, kind, float(err.max(initial=0.0)), float(np.sum(err * err)), mnb, modes
     )
+    if kind != "I":  # a prediction that costs more than the frame alone is dropped
+        alone = encode_frame(x, "I", None, None, s, brick)
+        if len(alone.payload) < len(payload):
+            return alone
+    return coded
 
 
 def decode_frame(

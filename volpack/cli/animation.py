@@ -139,7 +139,7 @@ def run_compress(ctx, source: str, target: str, as_json: bool, force: bool, opts
         click.echo(
             f"{target}: {fmt_bytes(stats['nbytes'])} from {fmt_bytes(stats['raw_nbytes'])}, "
             f"ratio {stats['ratio']:.3f}:1, {acc}; frames I {counts['I']}, P {counts['P']}, "
-            f"B {counts['B']} ({stats['scene_cuts']} scene cuts), {stats['mb_per_s']:.1f} MB/s",
+            f"B {counts['B']} ({stats['scene_cuts']} planned P/B coded as I), {stats['mb_per_s']:.1f} MB/s",
             err=True,
         )
 
@@ -172,7 +172,7 @@ def frame_table(d: dict) -> str:
     head = [
         f"GOP {d['header'].get('gop')}; frame types I {s.get('frame_types', {}).get('I', 0)}, "
         f"P {s.get('frame_types', {}).get('P', 0)}, B {s.get('frame_types', {}).get('B', 0)}; "
-        f"{s.get('scene_cuts', 0)} scene cuts; motion data {s.get('motion_nbytes', 0)} bytes",
+        f"{s.get('scene_cuts', 0)} planned P/B coded as I; motion data {s.get('motion_nbytes', 0)} bytes",
         f"block modes: {', '.join(f'{k} {v}' for k, v in (s.get('block_modes') or {}).items())}",
     ]
     return "\n".join(
