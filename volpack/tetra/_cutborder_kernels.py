@@ -955,28 +955,49 @@ def machine_kernel(
 
 
 @kernel
-def face_neighbours_kernel(tets, nbr, info):
-    """Fill nbr[t, lf] = tetrahedron across the face opposite vertex lf (-1: mesh border).
+def _match_face(tets, nbr, info, fi, fj):
+    """Pair faces fi = 4 t + l and fj (same vertex set); 0 or the error code."""
+    t, lf = fi // 4, fi % 4
+    s, m = fj // 4, fj % 4
+    if nbr[s, m] >= 0 or nbr[t, lf] >= 0:
+        return 1 + t
+    if tets[s, m] == tets[t, lf]:
+        return -(1 + t)
+    nbr[s, m] = t
+    nbr[t, lf] = s
+    return 0
 
-    Returns 0, or 1 + t for a face shared by more than two tetrahedra (at tet t), or
-    -(1 + t) for a tetrahedron that repeats another one's vertex set. ``info[0]`` counts
-    inner faces whose two tetrahedra are oppositely oriented.
+
+@kernel
+def face_neighbours_kernel(tets, nv, nbr, info):
+    """Fill nbr[t, l] = tetrahedron across the face opposite vertex l (-1: mesh border).
+
+    Faces are bucketed by their smallest vertex (a counting sort) and matched within a
+    bucket by their other two vertices: sequential memory, no hashing. Returns 0, or
+    1 + t for a face shared by more than two tetrahedra (at tet t), or -(1 + t) for a
+    tetrahedron that repeats another one's vertex set. ``info[0]`` counts inner faces
+    whose two tetrahedra are oppositely oriented.
     """
     nt = tets.shape[0]
-    size = 1
-    while size < 8 * nt + 16:
-        size *= 2
-    table = np.full(size, -1, dtype=np.int64)
-    mask = size - 1
+    start = np.zeros(nv + 1, dtype=np.int64)
     for t in range(nt):
         for lf in range(4):
             nbr[t, lf] = -1
+            a = tets[t, (lf + 1) % 4]
+            b = tets[t, (lf + 2) % 4]
+            c = tets[t, (lf + 3) % 4]
+            start[min(a, min(b, c)) + 1] += 1
+    for v in range(nv):
+        start[v + 1] += start[v]
+    fill = start[:nv].copy()
+    key = np.empty(4 * nt, dtype=np.int64)  # (mid << 32 | max) of each face, bucketed
+    fid = np.empty(4 * nt, dtype=np.int64)  # 4 t + l, with the orientation parity in bit 62
     for t in range(nt):
         for lf in range(4):
             a = np.int64(tets[t, (lf + 1) % 4])
             b = np.int64(tets[t, (lf + 2) % 4])
             c = np.int64(tets[t, (lf + 3) % 4])
-            o = lf & 1  # (lf+1, lf+2, lf+3) is the outward face for even lf
+            o = lf & 1  # (l+1, l+2, l+3) is the outward face for even l
             if a > b:
                 a, b = b, a
                 o ^= 1
@@ -986,36 +1007,35 @@ def face_neighbours_kernel(tets, nbr, info):
             if a > b:
                 a, b = b, a
                 o ^= 1
-            h = (a * 0x5851F42D4C957F2D + b * 0x14057B7EF767814F + c * 0x2545F4914F6CDD1D) & mask
-            h = (h ^ (h >> 17)) & mask
-            while True:
-                e = table[h]
-                if e < 0:
-                    table[h] = 4 * t + lf
-                    break
-                s = e // 4
-                m = e % 4
-                p = np.int64(tets[s, (m + 1) % 4])
-                q = np.int64(tets[s, (m + 2) % 4])
-                r = np.int64(tets[s, (m + 3) % 4])
-                o2 = m & 1
-                if p > q:
-                    p, q = q, p
-                    o2 ^= 1
-                if q > r:
-                    q, r = r, q
-                    o2 ^= 1
-                if p > q:
-                    p, q = q, p
-                    o2 ^= 1
-                if p == a and q == b and r == c:
-                    if nbr[s, m] >= 0:
-                        return 1 + t
-                    if tets[s, m] == tets[t, lf]:
-                        return -(1 + t)
-                    nbr[s, m] = t
-                    nbr[t, lf] = s
-                    info[0] += o == o2
-                    break
-                h = (h + 1) & mask
+            p = fill[a]
+            fill[a] += 1
+            key[p] = (b << 32) | c
+            fid[p] = (4 * t + lf) | (np.int64(o) << 62)
+    low = (np.int64(1) << 62) - 1
+    for v in range(nv):
+        lo = start[v]
+        hi = start[v + 1]
+        if hi - lo > 48:  # a hub vertex: sort its bucket instead of comparing all pairs
+            order = np.argsort(key[lo:hi], kind="mergesort")
+            k2 = key[lo:hi].copy()
+            f2 = fid[lo:hi].copy()
+            for i in range(hi - lo):
+                key[lo + i] = k2[order[i]]
+                fid[lo + i] = f2[order[i]]
+            for i in range(lo + 1, hi):
+                if key[i] == key[i - 1]:
+                    if i + 1 < hi and key[i + 1] == key[i]:
+                        return 1 + (fid[i + 1] & low) // 4
+                    r = _match_face(tets, nbr, info, fid[i] & low, fid[i - 1] & low)
+                    if r != 0:
+                        return r
+                    info[0] += (fid[i] >> 62) == (fid[i - 1] >> 62)
+            continue
+        for i in range(lo, hi):
+            for j in range(lo, i):
+                if key[i] == key[j]:
+                    r = _match_face(tets, nbr, info, fid[i] & low, fid[j] & low)
+                    if r != 0:
+                        return r
+                    info[0] += (fid[i] >> 62) == (fid[j] >> 62)
     return 0

@@ -137,7 +137,7 @@ def _validate(tets, n_vertices: int) -> tuple[np.ndarray, int]:
 def _neighbours(a: np.ndarray) -> tuple[np.ndarray, int]:
     nbr = np.empty(a.shape, dtype=np.int32)
     info = np.zeros(1, dtype=np.int64)
-    r = int(_kernels().face_neighbours_kernel(a, nbr, info))
+    r = int(_kernels().face_neighbours_kernel(a, int(a.max()) + 1 if a.size else 0, nbr, info))
     if r > 0:
         raise FormatError(
             f"expected each face in at most two tetrahedra, found a third at row {r - 1}"
