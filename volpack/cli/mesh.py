@@ -202,7 +202,7 @@ def _human(d: dict) -> str:
         g = d["geometry"]
         geo = (
             "lossless"
-            if g["mode"] == "lossless"
+            if g["mode"].startswith("lossless")
             else f"{g['bits']}-bit, max error {g['max_error']:.3g}"
         )
         rows = [
