@@ -28,7 +28,11 @@ import math
 import numpy as np
 
 from .._jit import kernel, leading_zeros
-from ..entropy.arith import PROB_BITS, RATE, TOP, _carry
+from ..entropy.arith import PROB_BITS, TOP, _carry
+
+# Adaptation rate by use count: as the wavelet coder's early on, but settling at 1/64:
+# one mesh is one long stationary stream (the wavelet coder's bricks are short).
+RATE = np.array([1, 2, 2, 3, 3, 3, 3, 4, 4, 4, 4, 5, 5, 5, 5, 6], dtype=np.int64)
 
 # --- triangle table columns ---
 V0, A0, INNER, ZF, NX, PV = 0, 3, 6, 7, 8, 11

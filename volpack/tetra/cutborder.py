@@ -34,8 +34,8 @@ from ..errors import FormatError, LimitError
 
 MAGIC = b"VTC1"
 DEFAULT_MAX_TETS = 1 << 27
-# Each tetrahedron costs at least one adaptive decision, and a 12-bit model never gets
-# more likely than 4065/4096 (0.011 bits): a stream of n bytes holds < 730 n tetrahedra.
+# Each tetrahedron costs at least one adaptive decision, and a model never gets more
+# likely than 4033/4096 (0.022 bits): a stream of n bytes holds < 370 n tetrahedra.
 TETS_PER_BYTE = 800
 
 STAT_NAMES = (
