@@ -36,12 +36,13 @@ RATE = np.array([1, 2, 2, 3, 3, 3, 3, 4, 4, 4, 4, 5, 5, 5, 5, 6], dtype=np.int64
 
 # --- triangle table columns ---
 V0, A0, INNER, ZF, NX, PV = 0, 3, 6, 7, 8, 11
-TCOLS = 14
+FAN = 14  # FAN0..FAN2: inner tetrahedra around edge k on this triangle's inner side
+TCOLS = 17
 FLAG = 4
 
 # --- the stream's adaptive models (binary contexts) ---
 M_OP = 0  # decision 0 of the operation tree (connect 0?): 16 contexts, see _op_context
-N_OPCTX = 16
+N_OPCTX = 64
 M_OPR = M_OP + N_OPCTX  # decisions 1..5: 32 contexts (see _rest_context) x 5
 N_RESTCTX = 32
 M_IDX = M_OPR + 5 * N_RESTCTX  # connect index - 3: exp-Golomb, 64 models
@@ -416,7 +417,10 @@ def _apply(T, head, tail, deg, free, gv, g, z, d, ex, tet, fifo, pending, nv, ct
     R2 = scr[9:12]
     X = scr[12:15]
     new = scr[15:18]
+    fan_gate = scr[18:21]  # fans read before any row is freed and reused
+    fan_spoke = scr[21:24]
     for k in range(3):
+        fan_gate[k] = T[g, FAN + (z + k) % 3]
         P[k] = T[g, A0 + (z + k) % 3]
         if ex[k] >= 0 and ex[k] != P[k]:
             Q[k] = _across(T, ex[k], gv[k], gv[(k + 1) % 3])
@@ -425,10 +429,13 @@ def _apply(T, head, tail, deg, free, gv, g, z, d, ex, tet, fifo, pending, nv, ct
         i = m
         j = (m + 2) % 3
         x = gv[m]
+        fan_spoke[m] = 0
         if ex[i] >= 0:
             R1[m] = _across(T, ex[i], x, d)
+            fan_spoke[m] = T[ex[i], FAN + _edge_slot(T, ex[i], x, d)]
         if ex[j] >= 0:
             R2[m] = _across(T, ex[j], x, d)
+            fan_spoke[m] = T[ex[j], FAN + _edge_slot(T, ex[j], x, d)]
         if ex[i] < 0 and ex[j] < 0 and deg[d] > 0:
             X[m] = _edge_tri(T, head, deg, d, x)  # the direction of face i: d -> x
             if X[m] != -1:
@@ -452,6 +459,9 @@ def _apply(T, head, tail, deg, free, gv, g, z, d, ex, tet, fifo, pending, nv, ct
             T[t, A0 + 2] = -1
             T[t, INNER] = tet
             T[t, ZF] = 0
+            T[t, FAN] = fan_gate[k] + 1
+            T[t, FAN + 1] = fan_spoke[(k + 1) % 3] + 1
+            T[t, FAN + 2] = fan_spoke[k] + 1
             _link(T, head, tail, deg, t)
             new[k] = t
     ok = True
@@ -552,12 +562,14 @@ def _op_context(T, head, deg, g, z, gv, prev_kind, near):
     receives x0 and its faces with the gate edges (x0 = -1 when not computed).
     """
     near[0] = -1
+    f = T[g, FAN + z]
+    fc = 0 if f <= 2 else (1 if f == 3 else (2 if f == 4 else 3))
     n = T[g, A0 + z]
     if n < 0 or (T[n, ZF] & FLAG) != 0:
-        return prev_kind
+        return 16 * fc + prev_kind
     j = _edge_slot(T, n, gv[0], gv[1])
     if j < 0:
-        return prev_kind
+        return 16 * fc + prev_kind
     x0 = T[n, (j + 2) % 3]
     near[0] = x0
     near[1] = n
@@ -567,7 +579,7 @@ def _op_context(T, head, deg, g, z, gv, prev_kind, near):
         near[1 + k] = f
         if f >= 0:
             c += 1
-    return 4 * c + prev_kind
+    return 16 * fc + 4 * c + prev_kind
 
 
 @kernel
@@ -628,7 +640,7 @@ def machine_kernel(
     gv = np.empty(3, dtype=np.int64)
     ws = np.empty(4, dtype=np.int64)
     ref4 = np.empty(4, dtype=np.int64)
-    scr = np.empty(18, dtype=np.int64)
+    scr = np.empty(24, dtype=np.int64)
     ctr = np.zeros(5, dtype=np.int64)
     coded = np.zeros(nt if not dec else 0, dtype=np.uint8)
     NONE = np.int64(-1)  # typed, so that helpers compile once (not per literal)
@@ -728,6 +740,9 @@ def machine_kernel(
                     T[t, 0], T[t, 1], T[t, 2] = ws[0], ws[2], ws[1]
                 T[t, INNER] = ntc
                 T[t, ZF] = 0
+                T[t, FAN] = 1
+                T[t, FAN + 1] = 1
+                T[t, FAN + 2] = 1
                 _link(T, head, tail, deg, t)
             for f1 in range(4):
                 for f2 in range(f1 + 1, 4):
