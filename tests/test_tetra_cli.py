@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import io
 import json
+import os
+from pathlib import Path
 
 import meshio
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from tetra_meshes import grid_mesh
+from tetra_meshes import golden_mesh, grid_mesh
 
 from volpack.cli import main
 from volpack.container import Reader
@@ -152,10 +154,34 @@ def test_refuses_bad_input():
         compress_mesh(TetMesh(UNIT, [[0, 1, 2, 3]]), io.BytesIO(), attr_error={"nope": 1.0})
 
 
-def test_fuzzed_streams_raise_clean_errors():
-    mesh = grid_mesh(2, jitter=0.1)
-    mesh.cell_data["m"] = np.arange(mesh.n_tets) % 2
-    _, _, _, blob = round_trip(mesh, keep_order=True)
+GOLDEN = Path(__file__).resolve().parent.parent / "formats" / "examples" / "mesh-1-grid.vpk"
+GOLDEN_OPTIONS = {"keep_order": True, "attr_error": {"T": 0.01}}
+
+
+def test_golden_stream_decodes_and_reencodes():
+    mesh = golden_mesh()
+    buf = io.BytesIO()
+    compress_mesh(mesh, buf, **GOLDEN_OPTIONS)
+    if os.environ.get("VOLPACK_REGEN_GOLDEN"):
+        GOLDEN.write_bytes(buf.getvalue())
+    blob = GOLDEN.read_bytes()
+    back = decompress_mesh(blob)
+    np.testing.assert_array_equal(back.tets, mesh.tets)
+    with Reader(io.BytesIO(blob)) as r:
+        np.testing.assert_array_equal(back.points, quantized(mesh.points, r.header))
+    np.testing.assert_array_equal(back.cell_data["mat"], mesh.cell_data["mat"])
+    assert np.abs(back.point_data["T"] - mesh.point_data["T"]).max() <= 0.01
+    # same input, same options -> same bytes (the container's version field aside)
+    assert _payloads(buf.getvalue()) == _payloads(blob)
+
+
+def _payloads(blob):
+    with Reader(io.BytesIO(blob)) as r:
+        return [(t, n, p) for t, n, p in r]
+
+
+def test_fuzzed_golden_stream_raises_clean_errors():
+    blob = GOLDEN.read_bytes()
     rng = np.random.default_rng(11)
     cuts = sorted(set(rng.integers(0, len(blob), 25).tolist()) | {0, 10, len(blob) - 1})
     for cut in cuts:

@@ -89,3 +89,12 @@ def random_delaunay(n: int = 300, seed: int = 0) -> TetMesh:
 
     pts = np.random.default_rng(seed).random((n, 3))
     return TetMesh(pts, Delaunay(pts).simplices)
+
+
+def golden_mesh() -> TetMesh:
+    """The mesh of ``formats/examples/mesh-1-grid.vpk``: a 2x2x2-hex grid in tets with
+    integer coordinates, a float point field and integer material ids."""
+    m = grid_mesh(2)
+    m.point_data["T"] = (m.points @ np.array([0.5, 0.25, 2.0])).astype(np.float32)
+    m.cell_data["mat"] = (np.arange(m.n_tets) // 12).astype(np.int32)
+    return m
