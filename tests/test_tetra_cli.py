@@ -11,7 +11,7 @@ import meshio
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from tetra_meshes import golden_mesh, grid_mesh
+from tetra_meshes import golden_mesh, grid_mesh, sphere_fan
 
 from volpack.cli import main
 from volpack.container import Reader
@@ -47,29 +47,6 @@ def round_trip(mesh, **options):
     with Reader(io.BytesIO(blob)) as r:
         hdr = r.header
     return decompress_mesh(blob), hdr, stats, blob
-
-
-def sphere_fan(n_lat=10, n_lon=24):
-    """One vertex shared by every tet: a centre coned to a latitude-longitude sphere."""
-    th = np.linspace(0, np.pi, n_lat + 1)[1:-1]
-    ph = np.linspace(0, 2 * np.pi, n_lon, endpoint=False)
-    ring = [[np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)] for t in th for p in ph]
-    pts = np.array([[0, 0, 0], [0, 0, 1], *ring, [0, 0, -1]], dtype=np.float64)
-    top, bottom = 1, len(pts) - 1
-
-    def r(i, j):
-        return 2 + i * n_lon + j % n_lon
-
-    tris = [(top, r(0, j), r(0, j + 1)) for j in range(n_lon)]
-    for i in range(n_lat - 2):
-        for j in range(n_lon):
-            tris += [
-                (r(i, j), r(i + 1, j), r(i + 1, j + 1)),
-                (r(i, j), r(i + 1, j + 1), r(i, j + 1)),
-            ]
-    tris += [(bottom, r(n_lat - 2, j + 1), r(n_lat - 2, j)) for j in range(n_lon)]
-    tets = np.array([[0, *t] for t in tris])
-    return TetMesh(pts, tets)
 
 
 def stability_cases():
