@@ -15,6 +15,8 @@ triangle, rows reused through a free list):
 ``INNER``   coding index of the inner tetrahedron (the parent of the next one)
 ``ZF``      zero edge (bits 0-1) and the mesh-border flag (bit 2)
 ``N0..N2``  next / ``P0..P2`` previous incidence in the vertex lists
+``F0..F2``  fan: coded tetrahedra around edge k on the triangle's inner side (a cheap
+            edge valence: a fan near five tetrahedra is about to be closed by connect 0)
 
 Each vertex keeps the list of its cut-border triangles (incidence slot ``3 t + k``), so
 that faces and edges are found by scanning the shorter list: that is the thesis's
@@ -41,7 +43,7 @@ TCOLS = 17
 FLAG = 4
 
 # --- the stream's adaptive models (binary contexts) ---
-M_OP = 0  # decision 0 of the operation tree (connect 0?): 16 contexts, see _op_context
+M_OP = 0  # decision 0 of the operation tree (connect 0?): 64 contexts, see _op_context
 N_OPCTX = 64
 M_OPR = M_OP + N_OPCTX  # decisions 1..5: 32 contexts (see _rest_context) x 5
 N_RESTCTX = 32
@@ -55,7 +57,7 @@ N_MODELS = M_ORI + 2
 # from the thesis's average operation frequencies (Table 3.6): connect 0 0.602, new vertex
 # 0.176, connect 1 0.084, connect 2 0.076, connect >2 0.060, border 0.001.
 OP_P0 = np.array([0.398, 0.558, 0.622, 0.449, 0.032, 0.5])
-INIT_USES = 6  # a prior worth a few dozen operations: adapts at 1/8, then 1/16, 1/32
+INIT_USES = 6  # a prior worth a few dozen operations: adapts at 1/8, then 1/16, ...
 
 # Enumeration limits (identical on both sides): beyond them a vertex is coded as "far".
 MAX_INDEX = 4096
@@ -554,12 +556,13 @@ def _near_class(T, head, deg, gv, x):
 
 @kernel
 def _op_context(T, head, deg, g, z, gv, prev_kind, near):
-    """Context of the operation: the previous kind, and what connect 0 would close.
+    """Context of decision 0: the zero edge's fan, what connect 0 would close, the last kind.
 
     The neighbour across the zero edge gives connect 0's vertex x0; if that neighbour is a
     mesh border face, connect 0 means "border"; else count the other two gate edges that
-    already form a cut-border face with x0 (flip, top, close): 4 x 4 contexts. ``near``
-    receives x0 and its faces with the gate edges (x0 = -1 when not computed).
+    already form a cut-border face with x0 (flip, top, close). With 4 fan classes and 4
+    previous kinds: 64 contexts. ``near`` receives x0 and its faces with the gate edges
+    (x0 = -1 when not computed), so that connect 0 needs no search.
     """
     near[0] = -1
     f = T[g, FAN + z]
