@@ -213,14 +213,16 @@ def main(argv: list[str] | None = None) -> int:
         w.writerows(rows)
     chart(rows, OUT / "tetra.png")
     real = [r for r in rows if r["real"]]
-    print(
+    lines = []
+    emit = lines.append  # the table goes to stdout and to table.md
+    emit(
         "| mesh | v | t | v:e:f:t | b | ν* | ν∞0 | conn. bits/tet entropy / adaptive | "
         "bits/vertex | bits/border face | zstd / xz of indices, bits/tet | coords 16-bit, bits/vertex "
         "| lossless (XOR+zstd) | encode / decode, ktets/s | VTU / vpk size |"
     )
-    print("|" + "---|" * 15)
+    emit("|" + "---|" * 15)
     for r in rows:
-        print(
+        emit(
             f"| {r['mesh']} | {r['v']} | {r['t']} | {r['vef_t']} | {r['b']} | {r['nu_new']:.3f} | "
             f"{r['nu_c0']:.3f} | {r['conn_entropy_bpt']:.2f} / {r['conn_adaptive_bpt']:.2f} | "
             f"{r['conn_adaptive_bpv']:.2f} | {r['border_bits_per_face']:.2f} | "
@@ -229,7 +231,7 @@ def main(argv: list[str] | None = None) -> int:
             f"{r['enc_tets_s'] / 1e3:.0f} / {r['dec_tets_s'] / 1e3:.0f} | {r['vtu_over_vpk']:.1f} |"
         )
     if real:
-        print(
+        emit(
             f"\nmean over {len(real)} real meshes: connectivity "
             f"{np.mean([r['conn_adaptive_bpt'] for r in real]):.3f} bits/tet (adaptive), "
             f"{np.mean([r['conn_entropy_bpt'] for r in real]):.3f} (entropy); coordinates "
@@ -239,6 +241,9 @@ def main(argv: list[str] | None = None) -> int:
             f"connectivity alone {np.mean([r['conn_enc_tets_s'] for r in real]) / 1e3:.0f}k / "
             f"{np.mean([r['conn_dec_tets_s'] for r in real]) / 1e3:.0f}k tets/s"
         )
+    text = "\n".join(lines) + "\n"
+    (OUT / "table.md").write_text(text)
+    sys.stdout.write(text)
     return 0
 
 
