@@ -150,8 +150,8 @@ def test_grid_with_random_holes(rng):
 
 
 def test_empty_and_unreferenced():
-    for nv in (0, 5):
-        data, trav = encode_connectivity(np.zeros((0, 4), dtype=np.int32), nv)
+    for nv, empty in ((0, np.zeros((0, 4), dtype=np.int32)), (5, [])):
+        data, trav = encode_connectivity(empty, nv)
         dec = decode_connectivity(data)
         assert dec.tets.shape == (0, 4) and dec.gates.shape == (nv, 3)
         assert trav.vertex_order.tolist() == list(range(nv))

@@ -110,6 +110,8 @@ def _read_varint(data: bytes, pos: int, what: str) -> tuple[int, int]:
 
 def _validate(tets, n_vertices: int) -> tuple[np.ndarray, int]:
     a = np.asarray(tets)
+    if a.size == 0 and a.ndim <= 2:
+        a = a.reshape(0, 4).astype(np.int32)  # [] or an empty array: no tetrahedra
     if a.ndim != 2 or a.shape[1] != 4:
         raise FormatError(f"expected tetrahedra as an (n, 4) array, found shape {a.shape}")
     if a.size and a.dtype.kind not in "iu":
