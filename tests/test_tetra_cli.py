@@ -16,7 +16,7 @@ from tetra_meshes import golden_mesh, grid_mesh, sphere_fan
 from volpack.cli import main
 from volpack.container import Reader
 from volpack.errors import FormatError
-from volpack.tetra.mesh import FACES, TetMesh, face_adjacency
+from volpack.tetra.mesh import FACES, TetMesh, face_adjacency, signed_volumes
 from volpack.tetra.stream import compress_mesh, decompress_mesh
 
 UNIT = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], dtype=np.float64)
@@ -265,3 +265,22 @@ def test_cli_bad_attr_error(tmp_path, vtu):
         main, ["compress", str(vtu), str(tmp_path / "x.vpk"), "--attr-error", "T"]
     )
     assert r.exit_code == 2 and "NAME=ERROR" in r.output
+
+
+def test_orient_saves_bits_and_keep_order_still_restores_rows():
+    mesh = grid_mesh(3, jitter=0.1)
+    rng = np.random.default_rng(2)
+    tets = mesh.tets.copy()
+    odd = rng.random(len(tets)) < 0.5  # no consistent orientation, as DOLFIN writes them
+    tets[odd] = tets[odd][:, [0, 2, 1, 3]]
+    mesh = TetMesh(mesh.points, tets)
+    plain = round_trip(mesh, lossless_geometry=True)
+    oriented = round_trip(mesh, lossless_geometry=True, orient=True)
+    assert oriented[2]["connectivity_nbytes"] < plain[2]["connectivity_nbytes"]
+    back = oriented[0]
+    assert (signed_volumes(back.points, back.tets) > 0).all()
+    assert sorted(
+        map(tuple, np.sort(back.points[back.tets], axis=1).reshape(len(tets), -1).tolist())
+    ) == sorted(map(tuple, np.sort(mesh.points[mesh.tets], axis=1).reshape(len(tets), -1).tolist()))
+    kept = round_trip(mesh, lossless_geometry=True, orient=True, keep_order=True)[0]
+    np.testing.assert_array_equal(kept.tets, mesh.tets)
