@@ -84,13 +84,6 @@ def grid_mesh(n: int = 4, jitter: float = 0.0, seed: int = 0) -> TetMesh:
     return TetMesh(pts, tetrahedralize("hexahedron", hexes, pts))
 
 
-def random_delaunay(n: int = 300, seed: int = 0) -> TetMesh:
-    from scipy.spatial import Delaunay
-
-    pts = np.random.default_rng(seed).random((n, 3))
-    return TetMesh(pts, Delaunay(pts).simplices)
-
-
 def golden_mesh() -> TetMesh:
     """The mesh of ``formats/examples/mesh-1-grid.vpk``: a 2x2x2-hex grid in tets with
     integer coordinates, a float point field and integer material ids."""
