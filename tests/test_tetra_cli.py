@@ -4,17 +4,19 @@ from __future__ import annotations
 
 import io
 import json
+import os
+from pathlib import Path
 
 import meshio
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from tetra_meshes import grid_mesh
+from tetra_meshes import golden_mesh, grid_mesh, sphere_fan
 
 from volpack.cli import main
 from volpack.container import Reader
 from volpack.errors import FormatError
-from volpack.tetra.mesh import FACES, TetMesh, face_adjacency
+from volpack.tetra.mesh import FACES, TetMesh, face_adjacency, signed_volumes
 from volpack.tetra.stream import compress_mesh, decompress_mesh
 
 UNIT = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], dtype=np.float64)
@@ -45,29 +47,6 @@ def round_trip(mesh, **options):
     with Reader(io.BytesIO(blob)) as r:
         hdr = r.header
     return decompress_mesh(blob), hdr, stats, blob
-
-
-def sphere_fan(n_lat=10, n_lon=24):
-    """One vertex shared by every tet: a centre coned to a latitude-longitude sphere."""
-    th = np.linspace(0, np.pi, n_lat + 1)[1:-1]
-    ph = np.linspace(0, 2 * np.pi, n_lon, endpoint=False)
-    ring = [[np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)] for t in th for p in ph]
-    pts = np.array([[0, 0, 0], [0, 0, 1], *ring, [0, 0, -1]], dtype=np.float64)
-    top, bottom = 1, len(pts) - 1
-
-    def r(i, j):
-        return 2 + i * n_lon + j % n_lon
-
-    tris = [(top, r(0, j), r(0, j + 1)) for j in range(n_lon)]
-    for i in range(n_lat - 2):
-        for j in range(n_lon):
-            tris += [
-                (r(i, j), r(i + 1, j), r(i + 1, j + 1)),
-                (r(i, j), r(i + 1, j + 1), r(i, j + 1)),
-            ]
-    tris += [(bottom, r(n_lat - 2, j + 1), r(n_lat - 2, j)) for j in range(n_lon)]
-    tets = np.array([[0, *t] for t in tris])
-    return TetMesh(pts, tets)
 
 
 def stability_cases():
@@ -152,10 +131,34 @@ def test_refuses_bad_input():
         compress_mesh(TetMesh(UNIT, [[0, 1, 2, 3]]), io.BytesIO(), attr_error={"nope": 1.0})
 
 
-def test_fuzzed_streams_raise_clean_errors():
-    mesh = grid_mesh(2, jitter=0.1)
-    mesh.cell_data["m"] = np.arange(mesh.n_tets) % 2
-    _, _, _, blob = round_trip(mesh, keep_order=True)
+GOLDEN = Path(__file__).resolve().parent.parent / "formats" / "examples" / "mesh-1-grid.vpk"
+GOLDEN_OPTIONS = {"keep_order": True, "attr_error": {"T": 0.01}}
+
+
+def test_golden_stream_decodes_and_reencodes():
+    mesh = golden_mesh()
+    buf = io.BytesIO()
+    compress_mesh(mesh, buf, **GOLDEN_OPTIONS)
+    if os.environ.get("VOLPACK_REGEN_GOLDEN"):
+        GOLDEN.write_bytes(buf.getvalue())
+    blob = GOLDEN.read_bytes()
+    back = decompress_mesh(blob)
+    np.testing.assert_array_equal(back.tets, mesh.tets)
+    with Reader(io.BytesIO(blob)) as r:
+        np.testing.assert_array_equal(back.points, quantized(mesh.points, r.header))
+    np.testing.assert_array_equal(back.cell_data["mat"], mesh.cell_data["mat"])
+    assert np.abs(back.point_data["T"] - mesh.point_data["T"]).max() <= 0.01
+    # same input, same options -> same bytes (the container's version field aside)
+    assert _payloads(buf.getvalue()) == _payloads(blob)
+
+
+def _payloads(blob):
+    with Reader(io.BytesIO(blob)) as r:
+        return [(t, n, p) for t, n, p in r]
+
+
+def test_fuzzed_golden_stream_raises_clean_errors():
+    blob = GOLDEN.read_bytes()
     rng = np.random.default_rng(11)
     cuts = sorted(set(rng.integers(0, len(blob), 25).tolist()) | {0, 10, len(blob) - 1})
     for cut in cuts:
@@ -262,3 +265,22 @@ def test_cli_bad_attr_error(tmp_path, vtu):
         main, ["compress", str(vtu), str(tmp_path / "x.vpk"), "--attr-error", "T"]
     )
     assert r.exit_code == 2 and "NAME=ERROR" in r.output
+
+
+def test_orient_saves_bits_and_keep_order_still_restores_rows():
+    mesh = grid_mesh(3, jitter=0.1)
+    rng = np.random.default_rng(2)
+    tets = mesh.tets.copy()
+    odd = rng.random(len(tets)) < 0.5  # no consistent orientation, as DOLFIN writes them
+    tets[odd] = tets[odd][:, [0, 2, 1, 3]]
+    mesh = TetMesh(mesh.points, tets)
+    plain = round_trip(mesh, lossless_geometry=True)
+    oriented = round_trip(mesh, lossless_geometry=True, orient=True)
+    assert oriented[2]["connectivity_nbytes"] < plain[2]["connectivity_nbytes"]
+    back = oriented[0]
+    assert (signed_volumes(back.points, back.tets) > 0).all()
+    assert sorted(
+        map(tuple, np.sort(back.points[back.tets], axis=1).reshape(len(tets), -1).tolist())
+    ) == sorted(map(tuple, np.sort(mesh.points[mesh.tets], axis=1).reshape(len(tets), -1).tolist()))
+    kept = round_trip(mesh, lossless_geometry=True, orient=True, keep_order=True)[0]
+    np.testing.assert_array_equal(kept.tets, mesh.tets)

@@ -192,3 +192,14 @@ def test_ordered_bits_is_monotone_and_invertible():
     )
     x32 = x.astype(np.float32)
     np.testing.assert_array_equal(from_ordered_bits(ordered_bits(x32), np.float32), x32)
+
+
+def test_lossless_takes_xor_zstd_for_repeating_coordinates():
+    m = grid_mesh(4)  # integer coordinates on a grid: exact repeats
+    trav = cutborder.encode_connectivity(m.tets, m.n_vertices)[1]
+    pts = m.points[trav.vertex_order]
+    data, meta = encode_geometry(pts, trav.tets, lossless=True)
+    assert meta["mode"] == "lossless-xor"
+    np.testing.assert_array_equal(decode_geometry(data, meta, trav.tets, len(pts)), pts)
+    with pytest.raises(FormatError, match="corrupt geometry"):
+        decode_geometry(data[:-3], meta, trav.tets, len(pts))

@@ -7,7 +7,7 @@ import warnings
 import meshio
 import numpy as np
 import pytest
-from tetra_meshes import grid_mesh
+from tetra_meshes import grid_mesh, sphere_fan
 
 from volpack.errors import FormatError
 from volpack.tetra import is_mesh_path
@@ -37,8 +37,9 @@ def test_faces_keep_the_orientation():
         assert np.dot(np.cross(b - a, c - a), UNIT[i] - a) > 0  # (face, vertex i) is positive
 
 
-def test_face_adjacency_matches_naive():
-    m = grid_mesh(3, jitter=0.1)
+@pytest.mark.parametrize("make", [lambda: grid_mesh(3, jitter=0.1), sphere_fan])
+def test_face_adjacency_matches_naive(make):
+    m = make()  # the fan's centre has a bucket of 1000+ faces (the sorted path)
     adj, nm = face_adjacency(m.tets)
     assert nm == 0
     np.testing.assert_array_equal(adj, naive_adjacency(m.tets))

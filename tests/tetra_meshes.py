@@ -84,8 +84,33 @@ def grid_mesh(n: int = 4, jitter: float = 0.0, seed: int = 0) -> TetMesh:
     return TetMesh(pts, tetrahedralize("hexahedron", hexes, pts))
 
 
-def random_delaunay(n: int = 300, seed: int = 0) -> TetMesh:
-    from scipy.spatial import Delaunay
+def golden_mesh() -> TetMesh:
+    """The mesh of ``formats/examples/mesh-1-grid.vpk``: a 2x2x2-hex grid in tets with
+    integer coordinates, a float point field and integer material ids."""
+    m = grid_mesh(2)
+    m.point_data["T"] = (m.points @ np.array([0.5, 0.25, 2.0])).astype(np.float32)
+    m.cell_data["mat"] = (np.arange(m.n_tets) // 12).astype(np.int32)
+    return m
 
-    pts = np.random.default_rng(seed).random((n, 3))
-    return TetMesh(pts, Delaunay(pts).simplices)
+
+def sphere_fan(n_lat=10, n_lon=24):
+    """One vertex shared by every tet: a centre coned to a latitude-longitude sphere."""
+    th = np.linspace(0, np.pi, n_lat + 1)[1:-1]
+    ph = np.linspace(0, 2 * np.pi, n_lon, endpoint=False)
+    ring = [[np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)] for t in th for p in ph]
+    pts = np.array([[0, 0, 0], [0, 0, 1], *ring, [0, 0, -1]], dtype=np.float64)
+    top, bottom = 1, len(pts) - 1
+
+    def r(i, j):
+        return 2 + i * n_lon + j % n_lon
+
+    tris = [(top, r(0, j), r(0, j + 1)) for j in range(n_lon)]
+    for i in range(n_lat - 2):
+        for j in range(n_lon):
+            tris += [
+                (r(i, j), r(i + 1, j), r(i + 1, j + 1)),
+                (r(i, j), r(i + 1, j + 1), r(i, j + 1)),
+            ]
+    tris += [(bottom, r(n_lat - 2, j + 1), r(n_lat - 2, j)) for j in range(n_lon)]
+    tets = np.array([[0, *t] for t in tris])
+    return TetMesh(pts, tets)

@@ -53,6 +53,13 @@ def mesh_options(f):
                 help="Mesh: also store the vertex and tet order, so indices decode identically.",
             ),
             click.option(
+                "--orient",
+                is_flag=True,
+                help="Mesh: turn inverted tets to positive volume before coding (about a bit "
+                "per tet less on meshes without a consistent orientation; --keep-order "
+                "still restores the rows as given).",
+            ),
+            click.option(
                 "--tetrahedralize",
                 is_flag=True,
                 help="Mesh: split hexahedra, wedges and pyramids into tetrahedra (no new vertices).",
@@ -108,6 +115,7 @@ def compress(
     bits: int,
     lossless_geometry: bool,
     keep_order: bool,
+    orient: bool,
     tetrahedralize: bool,
     attr_error: tuple[str, ...],
     force: bool,
@@ -125,6 +133,7 @@ def compress(
         bits=bits,
         lossless_geometry=lossless_geometry,
         keep_order=keep_order,
+        orient=orient,
         attr_error=_attr_error(attr_error),
         force=force,
     )
@@ -202,7 +211,7 @@ def _human(d: dict) -> str:
         g = d["geometry"]
         geo = (
             "lossless"
-            if g["mode"] == "lossless"
+            if g["mode"].startswith("lossless")
             else f"{g['bits']}-bit, max error {g['max_error']:.3g}"
         )
         rows = [

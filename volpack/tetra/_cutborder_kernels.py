@@ -15,6 +15,8 @@ triangle, rows reused through a free list):
 ``INNER``   coding index of the inner tetrahedron (the parent of the next one)
 ``ZF``      zero edge (bits 0-1) and the mesh-border flag (bit 2)
 ``N0..N2``  next / ``P0..P2`` previous incidence in the vertex lists
+``F0..F2``  fan: coded tetrahedra around edge k on the triangle's inner side (a cheap
+            edge valence: a fan near five tetrahedra is about to be closed by connect 0)
 
 Each vertex keeps the list of its cut-border triangles (incidence slot ``3 t + k``), so
 that faces and edges are found by scanning the shorter list: that is the thesis's
@@ -28,16 +30,21 @@ import math
 import numpy as np
 
 from .._jit import kernel, leading_zeros
-from ..entropy.arith import PROB_BITS, RATE, TOP, _carry
+from ..entropy.arith import PROB_BITS, TOP, _carry
+
+# Adaptation rate by use count: as the wavelet coder's early on, but settling at 1/64:
+# one mesh is one long stationary stream (the wavelet coder's bricks are short).
+RATE = np.array([1, 2, 2, 3, 3, 3, 3, 4, 4, 4, 4, 5, 5, 5, 5, 6], dtype=np.int64)
 
 # --- triangle table columns ---
 V0, A0, INNER, ZF, NX, PV = 0, 3, 6, 7, 8, 11
-TCOLS = 14
+FAN = 14  # FAN0..FAN2: inner tetrahedra around edge k on this triangle's inner side
+TCOLS = 17
 FLAG = 4
 
 # --- the stream's adaptive models (binary contexts) ---
-M_OP = 0  # decision 0 of the operation tree (connect 0?): 16 contexts, see _op_context
-N_OPCTX = 16
+M_OP = 0  # decision 0 of the operation tree (connect 0?): 64 contexts, see _op_context
+N_OPCTX = 64
 M_OPR = M_OP + N_OPCTX  # decisions 1..5: 32 contexts (see _rest_context) x 5
 N_RESTCTX = 32
 M_IDX = M_OPR + 5 * N_RESTCTX  # connect index - 3: exp-Golomb, 64 models
@@ -50,7 +57,7 @@ N_MODELS = M_ORI + 2
 # from the thesis's average operation frequencies (Table 3.6): connect 0 0.602, new vertex
 # 0.176, connect 1 0.084, connect 2 0.076, connect >2 0.060, border 0.001.
 OP_P0 = np.array([0.398, 0.558, 0.622, 0.449, 0.032, 0.5])
-INIT_USES = 6  # a prior worth a few dozen operations: adapts at 1/8, then 1/16, 1/32
+INIT_USES = 6  # a prior worth a few dozen operations: adapts at 1/8, then 1/16, ...
 
 # Enumeration limits (identical on both sides): beyond them a vertex is coded as "far".
 MAX_INDEX = 4096
@@ -412,7 +419,10 @@ def _apply(T, head, tail, deg, free, gv, g, z, d, ex, tet, fifo, pending, nv, ct
     R2 = scr[9:12]
     X = scr[12:15]
     new = scr[15:18]
+    fan_gate = scr[18:21]  # fans read before any row is freed and reused
+    fan_spoke = scr[21:24]
     for k in range(3):
+        fan_gate[k] = T[g, FAN + (z + k) % 3]
         P[k] = T[g, A0 + (z + k) % 3]
         if ex[k] >= 0 and ex[k] != P[k]:
             Q[k] = _across(T, ex[k], gv[k], gv[(k + 1) % 3])
@@ -421,10 +431,13 @@ def _apply(T, head, tail, deg, free, gv, g, z, d, ex, tet, fifo, pending, nv, ct
         i = m
         j = (m + 2) % 3
         x = gv[m]
+        fan_spoke[m] = 0
         if ex[i] >= 0:
             R1[m] = _across(T, ex[i], x, d)
+            fan_spoke[m] = T[ex[i], FAN + _edge_slot(T, ex[i], x, d)]
         if ex[j] >= 0:
             R2[m] = _across(T, ex[j], x, d)
+            fan_spoke[m] = T[ex[j], FAN + _edge_slot(T, ex[j], x, d)]
         if ex[i] < 0 and ex[j] < 0 and deg[d] > 0:
             X[m] = _edge_tri(T, head, deg, d, x)  # the direction of face i: d -> x
             if X[m] != -1:
@@ -448,6 +461,9 @@ def _apply(T, head, tail, deg, free, gv, g, z, d, ex, tet, fifo, pending, nv, ct
             T[t, A0 + 2] = -1
             T[t, INNER] = tet
             T[t, ZF] = 0
+            T[t, FAN] = fan_gate[k] + 1
+            T[t, FAN + 1] = fan_spoke[(k + 1) % 3] + 1
+            T[t, FAN + 2] = fan_spoke[k] + 1
             _link(T, head, tail, deg, t)
             new[k] = t
     ok = True
@@ -540,20 +556,23 @@ def _near_class(T, head, deg, gv, x):
 
 @kernel
 def _op_context(T, head, deg, g, z, gv, prev_kind, near):
-    """Context of the operation: the previous kind, and what connect 0 would close.
+    """Context of decision 0: the zero edge's fan, what connect 0 would close, the last kind.
 
     The neighbour across the zero edge gives connect 0's vertex x0; if that neighbour is a
     mesh border face, connect 0 means "border"; else count the other two gate edges that
-    already form a cut-border face with x0 (flip, top, close): 4 x 4 contexts. ``near``
-    receives x0 and its faces with the gate edges (x0 = -1 when not computed).
+    already form a cut-border face with x0 (flip, top, close). With 4 fan classes and 4
+    previous kinds: 64 contexts. ``near`` receives x0 and its faces with the gate edges
+    (x0 = -1 when not computed), so that connect 0 needs no search.
     """
     near[0] = -1
+    f = T[g, FAN + z]
+    fc = 0 if f <= 2 else (1 if f == 3 else (2 if f == 4 else 3))
     n = T[g, A0 + z]
     if n < 0 or (T[n, ZF] & FLAG) != 0:
-        return prev_kind
+        return 16 * fc + prev_kind
     j = _edge_slot(T, n, gv[0], gv[1])
     if j < 0:
-        return prev_kind
+        return 16 * fc + prev_kind
     x0 = T[n, (j + 2) % 3]
     near[0] = x0
     near[1] = n
@@ -563,7 +582,7 @@ def _op_context(T, head, deg, g, z, gv, prev_kind, near):
         near[1 + k] = f
         if f >= 0:
             c += 1
-    return 4 * c + prev_kind
+    return 16 * fc + 4 * c + prev_kind
 
 
 @kernel
@@ -624,7 +643,7 @@ def machine_kernel(
     gv = np.empty(3, dtype=np.int64)
     ws = np.empty(4, dtype=np.int64)
     ref4 = np.empty(4, dtype=np.int64)
-    scr = np.empty(18, dtype=np.int64)
+    scr = np.empty(24, dtype=np.int64)
     ctr = np.zeros(5, dtype=np.int64)
     coded = np.zeros(nt if not dec else 0, dtype=np.uint8)
     NONE = np.int64(-1)  # typed, so that helpers compile once (not per literal)
@@ -724,6 +743,9 @@ def machine_kernel(
                     T[t, 0], T[t, 1], T[t, 2] = ws[0], ws[2], ws[1]
                 T[t, INNER] = ntc
                 T[t, ZF] = 0
+                T[t, FAN] = 1
+                T[t, FAN + 1] = 1
+                T[t, FAN + 2] = 1
                 _link(T, head, tail, deg, t)
             for f1 in range(4):
                 for f2 in range(f1 + 1, 4):
@@ -955,28 +977,49 @@ def machine_kernel(
 
 
 @kernel
-def face_neighbours_kernel(tets, nbr, info):
-    """Fill nbr[t, lf] = tetrahedron across the face opposite vertex lf (-1: mesh border).
+def _match_face(tets, nbr, info, fi, fj):
+    """Pair faces fi = 4 t + l and fj (same vertex set); 0 or the error code."""
+    t, lf = fi // 4, fi % 4
+    s, m = fj // 4, fj % 4
+    if nbr[s, m] >= 0 or nbr[t, lf] >= 0:
+        return 1 + t
+    if tets[s, m] == tets[t, lf]:
+        return -(1 + t)
+    nbr[s, m] = t
+    nbr[t, lf] = s
+    return 0
 
-    Returns 0, or 1 + t for a face shared by more than two tetrahedra (at tet t), or
-    -(1 + t) for a tetrahedron that repeats another one's vertex set. ``info[0]`` counts
-    inner faces whose two tetrahedra are oppositely oriented.
+
+@kernel
+def face_neighbours_kernel(tets, nv, nbr, info):
+    """Fill nbr[t, l] = tetrahedron across the face opposite vertex l (-1: mesh border).
+
+    Faces are bucketed by their smallest vertex (a counting sort) and matched within a
+    bucket by their other two vertices: sequential memory, no hashing. Returns 0, or
+    1 + t for a face shared by more than two tetrahedra (at tet t), or -(1 + t) for a
+    tetrahedron that repeats another one's vertex set. ``info[0]`` counts inner faces
+    whose two tetrahedra are oppositely oriented.
     """
     nt = tets.shape[0]
-    size = 1
-    while size < 8 * nt + 16:
-        size *= 2
-    table = np.full(size, -1, dtype=np.int64)
-    mask = size - 1
+    start = np.zeros(nv + 1, dtype=np.int64)
     for t in range(nt):
         for lf in range(4):
             nbr[t, lf] = -1
+            a = tets[t, (lf + 1) % 4]
+            b = tets[t, (lf + 2) % 4]
+            c = tets[t, (lf + 3) % 4]
+            start[min(a, min(b, c)) + 1] += 1
+    for v in range(nv):
+        start[v + 1] += start[v]
+    fill = start[:nv].copy()
+    key = np.empty(4 * nt, dtype=np.int64)  # (mid << 32 | max) of each face, bucketed
+    fid = np.empty(4 * nt, dtype=np.int64)  # 4 t + l, with the orientation parity in bit 62
     for t in range(nt):
         for lf in range(4):
             a = np.int64(tets[t, (lf + 1) % 4])
             b = np.int64(tets[t, (lf + 2) % 4])
             c = np.int64(tets[t, (lf + 3) % 4])
-            o = lf & 1  # (lf+1, lf+2, lf+3) is the outward face for even lf
+            o = lf & 1  # (l+1, l+2, l+3) is the outward face for even l
             if a > b:
                 a, b = b, a
                 o ^= 1
@@ -986,36 +1029,35 @@ def face_neighbours_kernel(tets, nbr, info):
             if a > b:
                 a, b = b, a
                 o ^= 1
-            h = (a * 0x5851F42D4C957F2D + b * 0x14057B7EF767814F + c * 0x2545F4914F6CDD1D) & mask
-            h = (h ^ (h >> 17)) & mask
-            while True:
-                e = table[h]
-                if e < 0:
-                    table[h] = 4 * t + lf
-                    break
-                s = e // 4
-                m = e % 4
-                p = np.int64(tets[s, (m + 1) % 4])
-                q = np.int64(tets[s, (m + 2) % 4])
-                r = np.int64(tets[s, (m + 3) % 4])
-                o2 = m & 1
-                if p > q:
-                    p, q = q, p
-                    o2 ^= 1
-                if q > r:
-                    q, r = r, q
-                    o2 ^= 1
-                if p > q:
-                    p, q = q, p
-                    o2 ^= 1
-                if p == a and q == b and r == c:
-                    if nbr[s, m] >= 0:
-                        return 1 + t
-                    if tets[s, m] == tets[t, lf]:
-                        return -(1 + t)
-                    nbr[s, m] = t
-                    nbr[t, lf] = s
-                    info[0] += o == o2
-                    break
-                h = (h + 1) & mask
+            p = fill[a]
+            fill[a] += 1
+            key[p] = (b << 32) | c
+            fid[p] = (4 * t + lf) | (np.int64(o) << 62)
+    low = (np.int64(1) << 62) - 1
+    for v in range(nv):
+        lo = start[v]
+        hi = start[v + 1]
+        if hi - lo > 48:  # a hub vertex: sort its bucket instead of comparing all pairs
+            order = np.argsort(key[lo:hi], kind="mergesort")
+            k2 = key[lo:hi].copy()
+            f2 = fid[lo:hi].copy()
+            for i in range(hi - lo):
+                key[lo + i] = k2[order[i]]
+                fid[lo + i] = f2[order[i]]
+            for i in range(lo + 1, hi):
+                if key[i] == key[i - 1]:
+                    if i + 1 < hi and key[i + 1] == key[i]:
+                        return 1 + (fid[i + 1] & low) // 4
+                    r = _match_face(tets, nbr, info, fid[i] & low, fid[i - 1] & low)
+                    if r != 0:
+                        return r
+                    info[0] += (fid[i] >> 62) == (fid[i - 1] >> 62)
+            continue
+        for i in range(lo, hi):
+            for j in range(lo, i):
+                if key[i] == key[j]:
+                    r = _match_face(tets, nbr, info, fid[i] & low, fid[j] & low)
+                    if r != 0:
+                        return r
+                    info[0] += (fid[i] >> 62) == (fid[j] >> 62)
     return 0

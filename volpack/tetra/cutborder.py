@@ -34,8 +34,8 @@ from ..errors import FormatError, LimitError
 
 MAGIC = b"VTC1"
 DEFAULT_MAX_TETS = 1 << 27
-# Each tetrahedron costs at least one adaptive decision, and a 12-bit model never gets
-# more likely than 4065/4096 (0.011 bits): a stream of n bytes holds < 730 n tetrahedra.
+# Each tetrahedron costs at least one adaptive decision, and a model never gets more
+# likely than 4033/4096 (0.022 bits): a stream of n bytes holds < 370 n tetrahedra.
 TETS_PER_BYTE = 800
 
 STAT_NAMES = (
@@ -110,6 +110,8 @@ def _read_varint(data: bytes, pos: int, what: str) -> tuple[int, int]:
 
 def _validate(tets, n_vertices: int) -> tuple[np.ndarray, int]:
     a = np.asarray(tets)
+    if a.size == 0 and a.ndim <= 2:
+        a = a.reshape(0, 4).astype(np.int32)  # [] or an empty array: no tetrahedra
     if a.ndim != 2 or a.shape[1] != 4:
         raise FormatError(f"expected tetrahedra as an (n, 4) array, found shape {a.shape}")
     if a.size and a.dtype.kind not in "iu":
@@ -137,7 +139,7 @@ def _validate(tets, n_vertices: int) -> tuple[np.ndarray, int]:
 def _neighbours(a: np.ndarray) -> tuple[np.ndarray, int]:
     nbr = np.empty(a.shape, dtype=np.int32)
     info = np.zeros(1, dtype=np.int64)
-    r = int(_kernels().face_neighbours_kernel(a, nbr, info))
+    r = int(_kernels().face_neighbours_kernel(a, int(a.max()) + 1 if a.size else 0, nbr, info))
     if r > 0:
         raise FormatError(
             f"expected each face in at most two tetrahedra, found a third at row {r - 1}"
@@ -149,14 +151,14 @@ def _neighbours(a: np.ndarray) -> tuple[np.ndarray, int]:
     return nbr, int(info[0])
 
 
-def _run_encoder(a: np.ndarray, nv: int, measure: bool):
+def _run_encoder(a: np.ndarray, nv: int, measure: bool, keep_orientation: bool = True):
     k = _kernels()
     nt = a.shape[0]
     nbr, inconsistent = _neighbours(a)
     used = np.zeros(nv, dtype=bool)
     used[a.reshape(-1)] = True
     nvu = int(used.sum())
-    ori_mode = 1 if inconsistent else 0
+    ori_mode = 1 if inconsistent and keep_orientation else 0
     for per_tet in (2, 16, 96):
         buf = np.empty(nt * per_tet + 4096, dtype=np.uint8)
         cs = np.zeros(8, dtype=np.int64)
@@ -192,15 +194,21 @@ def _run_encoder(a: np.ndarray, nv: int, measure: bool):
     return header + payload, trav, stats, hist, cost, nbr
 
 
-def encode_connectivity(tets: np.ndarray, n_vertices: int) -> tuple[bytes, Traversal]:
+def encode_connectivity(
+    tets: np.ndarray, n_vertices: int, *, keep_orientation: bool = True
+) -> tuple[bytes, Traversal]:
     """Code the connectivity of a tetrahedral mesh; return the stream and its traversal.
 
     ``tets`` is an (nt, 4) integer array of vertex indices in ``[0, n_vertices)``. The
     stream reproduces the tetrahedra up to a renumbering of vertices and tetrahedra (given
-    by the returned :class:`Traversal`), each with its orientation.
+    by the returned :class:`Traversal`), each with the orientation of its input row: a
+    tetrahedron oriented against its face neighbours costs a flag. With
+    ``keep_orientation=False`` no flags are coded and every tetrahedron comes back
+    oriented like the first one of its component (rows whose source has no consistent
+    orientation, e.g. sorted vertex indices, then save up to a bit per tetrahedron).
     """
     a, nv = _validate(tets, n_vertices)
-    data, trav, *_ = _run_encoder(a, nv, measure=False)
+    data, trav, *_ = _run_encoder(a, nv, measure=False, keep_orientation=keep_orientation)
     return data, trav
 
 
@@ -275,7 +283,7 @@ def _entropy_bits(counts: np.ndarray) -> float:
     return float(-(c * np.log2(c / n)).sum()) if n else 0.0
 
 
-def connectivity_stats(tets: np.ndarray, n_vertices: int) -> dict:
+def connectivity_stats(tets: np.ndarray, n_vertices: int, *, keep_orientation: bool = True) -> dict:
     """The thesis's Tables 3.5-3.8 quantities for one mesh (connectivity part).
 
     Counts v, e, f, b, t; operation frequencies (``nu_*``, over the coded operations);
@@ -284,7 +292,7 @@ def connectivity_stats(tets: np.ndarray, n_vertices: int) -> dict:
     (``adaptive_*``, the stream size); bits per border face; baselines.
     """
     a, nv = _validate(tets, n_vertices)
-    data, trav, stats, hist, cost, nbr = _run_encoder(a, nv, measure=True)
+    data, trav, stats, hist, cost, nbr = _run_encoder(a, nv, True, keep_orientation)
     k = _kernels()
     nt = a.shape[0]
     v = int(np.unique(a).size) if nt else 0

@@ -60,9 +60,17 @@ def read_mesh(path: str, *, tetrahedralize: bool = False) -> TetMesh:
     """Read a tetrahedral mesh with meshio (see the module docstring for what is kept)."""
     import meshio
 
-    # meshio prints its warnings (one per unknown XML entry, thousands for DOLFIN files)
-    with contextlib.redirect_stdout(io.StringIO()):
-        return _read(meshio, path, tetrahedralize)
+    # meshio prints its warnings (one per unknown XML entry: thousands for DOLFIN files);
+    # keep them and say it once
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        mesh = _read(meshio, path, tetrahedralize)
+    said = [ln.strip() for ln in (out.getvalue() + err.getvalue()).splitlines() if ln.strip()]
+    if said:
+        warnings.warn(
+            f"{path}: meshio said {len(said)} line(s), e.g. {said[0]!r}", MeshWarning, stacklevel=2
+        )
+    return mesh
 
 
 def _read(meshio, path: str, tetrahedralize: bool) -> TetMesh:

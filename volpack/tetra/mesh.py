@@ -133,15 +133,14 @@ def face_adjacency(tets: np.ndarray) -> tuple[np.ndarray, int]:
     """Return the tet across each face (``(nt, 4)``, -1 on the border) and the number of
     faces met more than twice (non-manifold; their third and later tets stay unlinked).
 
-    Face ``i`` is the face opposite vertex ``i``. Faces are found through a hash table
-    of sorted vertex triples (linear probing), in one pass over the tets.
+    Face ``i`` is the face opposite vertex ``i``. Faces are bucketed by their smallest
+    vertex and matched inside their bucket.
     """
     t = np.ascontiguousarray(tets, dtype=np.int64).reshape(-1, 4)
     adj = np.full((len(t), 4), -1, dtype=np.int64)
     if len(t) == 0:
         return adj, 0
-    size = 1 << int(4 * len(t)).bit_length()  # about 2 nt faces: load below one half
-    extra = int(_face_adjacency_kernel(t, adj, size))
+    extra = int(_face_adjacency_kernel(t, adj, int(t.max()) + 1))
     return adj, extra
 
 
@@ -236,12 +235,21 @@ def _find(parent, i):
 
 
 @kernel
-def _face_adjacency_kernel(t, adj, size):
-    mask = size - 1
-    # one row per slot, so a probe touches one cache line: a, b, c, 4 * (face id) + count
-    table = np.full((size, 4), -1, dtype=np.int64)
-    extra = 0
-    for j in range(t.shape[0]):
+def _face_adjacency_kernel(t, adj, nv):
+    """Bucket the 4 nt faces by their smallest vertex (a counting sort), then pair equal
+    faces inside each bucket by their packed other two vertices: reads go in order, and
+    a hub vertex's bucket is sorted rather than compared pair by pair."""
+    nt = t.shape[0]
+    start = np.zeros(nv + 1, dtype=np.int64)
+    for j in range(nt):
+        for i in range(4):
+            start[min(t[j, FACES[i, 0]], t[j, FACES[i, 1]], t[j, FACES[i, 2]]) + 1] += 1
+    for v in range(nv):
+        start[v + 1] += start[v]
+    fill = start[:nv].copy()
+    key = np.empty(4 * nt, dtype=np.int64)  # mid << 32 | max
+    fid = np.empty(4 * nt, dtype=np.int64)  # 4 j + i
+    for j in range(nt):
         for i in range(4):
             a = t[j, FACES[i, 0]]
             b = t[j, FACES[i, 1]]
@@ -252,24 +260,49 @@ def _face_adjacency_kernel(t, adj, size):
                 b, c = c, b
             if a > b:
                 a, b = b, a
-            h = (a * 0x1E3779B97F4A7C15 + b * 0x42B2AE3D27D4EB4F + c * 0x165667B19E3779F9) >> 17
-            h &= mask
-            while table[h, 0] >= 0 and (table[h, 0] != a or table[h, 1] != b or table[h, 2] != c):
-                h = (h + 1) & mask
-            if table[h, 0] < 0:
-                table[h, 0] = a
-                table[h, 1] = b
-                table[h, 2] = c
-                table[h, 3] = 4 * (4 * j + i) + 1
-            else:
-                seen = (table[h, 3] & 3) + 1
-                if seen == 2:
-                    f = table[h, 3] >> 2
-                    adj[j, i] = f // 4
-                    adj[f // 4, f % 4] = j
-                elif seen == 3:
-                    extra += 1
-                table[h, 3] = (table[h, 3] & ~np.int64(3)) | min(seen, 3)
+            p = fill[a]
+            fill[a] += 1
+            key[p] = (b << 32) | c
+            fid[p] = 4 * j + i
+    extra = 0
+    for v in range(nv):
+        lo = start[v]
+        hi = start[v + 1]
+        if hi - lo > 32:
+            order = np.argsort(key[lo:hi], kind="mergesort")
+            k2 = key[lo:hi][order]
+            f2 = fid[lo:hi][order]
+            key[lo:hi] = k2
+            fid[lo:hi] = f2
+            run = 1
+            for q in range(lo + 1, hi):
+                if key[q] == key[q - 1]:
+                    run += 1
+                    if run == 2:
+                        f = fid[q - 1]
+                        g = fid[q]
+                        adj[f // 4, f % 4] = g // 4
+                        adj[g // 4, g % 4] = f // 4
+                    elif run == 3:
+                        extra += 1
+                else:
+                    run = 1
+            continue
+        for q in range(lo, hi):
+            g = fid[q]
+            if g < 0:
+                continue
+            seen = 1
+            for r in range(q + 1, hi):
+                if fid[r] >= 0 and key[r] == key[q]:
+                    seen += 1
+                    f = fid[r]
+                    if seen == 2:
+                        adj[f // 4, f % 4] = g // 4
+                        adj[g // 4, g % 4] = f // 4
+                    elif seen == 3:
+                        extra += 1
+                    fid[r] = -1
     return extra
 
 
