@@ -19,8 +19,6 @@ from .options import (
     workers_option,
 )
 
-MESH_KEYS = ("bits", "lossless_geometry", "keep_order", "tetrahedralize", "attr_error")
-
 
 def _brick(value: str) -> int | tuple[int, int, int]:
     parts = value.replace("x", ",").split(",")
@@ -177,7 +175,7 @@ def compress(
       volpack compress big.h5:/density big.vpk --octree --max-error 2 --workers 2
     """
     if mesh_cli.is_mesh_source(source):
-        mesh_opts = {k: extra[k] for k in MESH_KEYS}
+        mesh_opts = {k: v for k, v in extra.items() if k not in ANIMATION_KEYS}
         return mesh_cli.compress(source, target, force=force, as_json=as_json, **mesh_opts)
     if wants_animation(source, extra["gop"]):
         from .animation import run_compress
