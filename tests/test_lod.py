@@ -57,6 +57,13 @@ def test_budget_bounds_the_nodes_and_more_nodes_cost_less_error(tree_path):
         # the same view again decodes nothing: every node is in the cache
         _, st = render_lod(t, tf=tf, camera=cam, blocks=4096, value_range=vr)
         assert st.decoded == 0
+        # a walkthrough that enters the volume and leaves it again
+        for dist in (300.0, 20.0, 0.0, 20.0, 300.0):
+            cam_w = Camera(size=(16, 16), projection="perspective", distance=dist, azimuth=dist)
+            img, st = render_lod(t, tf=tf, camera=cam_w, blocks=64, value_range=vr)
+            assert np.all(np.isfinite(img)) and st.nodes >= 1
+            if dist == 0.0:  # inside: every ray starts in the volume
+                assert (img[..., 3] > 0).mean() > 0.5
         # a camera looking away from the volume (from inside, facing out) draws nothing odd
         away = Camera(size=(16, 16), projection="perspective", distance=0.0, elevation=-89)
         img, st = render_lod(t, tf=tf, camera=away, blocks=64, value_range=vr)
