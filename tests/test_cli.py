@@ -218,3 +218,10 @@ def test_lossy_compress_info_and_decompress(tmp_path):
     assert r.exit_code == 1 and "integer" in r.output  # quality is for integer volumes
     r = run("compress", src, tmp_path / "two.vpk", "--psnr", "40", "--ratio", "9", ok=False)
     assert r.exit_code == 1 and "at most one" in r.output
+
+
+def test_warmup_runs_every_kernel_path():
+    r = CliRunner().invoke(main, ["warmup", "--json"])
+    assert r.exit_code == 0, r.output
+    rep = json.loads(r.stdout)
+    assert rep["kernels"] > 0 and rep["paths"] == ["render", "animation", "octree", "mesh"]

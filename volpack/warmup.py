@@ -29,9 +29,68 @@ def warm() -> dict:
                     ):
                         raise AssertionError(f"warm-up round trip failed for {c}")
                     n += 1
+    paths = _warm_beyond_bricks()
     return {
         "kernels": n,
+        "paths": paths,
         "seconds": time.perf_counter() - t0,
         "cache_dir": str(_jit.cache_dir()),
         "cache": _jit.CACHE,
     }
+
+
+def _warm_beyond_bricks() -> list[str]:
+    """Run the renderer, animation, octree and mesh paths once on tiny inputs, each
+    checked against what it must give back; return their names."""
+    import io
+    import tempfile
+
+    from . import animation
+    from .octree import Octree, build
+    from .render.camera import Camera
+    from .render.lod import paged_volume
+    from .render.raycast import render
+    from .render.tetra import render_mesh
+    from .tetra.mesh import TetMesh
+    from .tetra.stream import compress_mesh, decompress_mesh
+
+    done = []
+    rng = np.random.default_rng(1)
+    vol = rng.integers(0, 200, size=(12, 13, 14)).astype(np.uint8)
+    tab = np.clip(rng.random((16, 4)), 0, 1)
+    tab[:2, 3] = 0.0  # a transparent end, as real transfer functions have
+    cam = Camera(size=(6, 5))
+    for cls in ("post", "pre", "preintegrated"):
+        for shading in ("none", "phong") + (
+            ("centroid", "preintegrated") if cls == "preintegrated" else ()
+        ):
+            img = render(vol, tf=tab, camera=cam, classification=cls, shading=shading)
+            if not np.all(np.isfinite(img)):
+                raise AssertionError(f"warm-up render {cls}/{shading} is not finite")
+    done.append("render")
+    frames = np.stack([np.roll(vol, t, axis=2) for t in range(3)])
+    buf = io.BytesIO()
+    animation.compress(frames, buf, gop_string="IBP", max_error=1)
+    with animation.AnimationReader(buf.getvalue()) as r:
+        if np.abs(r.frames().astype(int) - frames).max() > 1:
+            raise AssertionError("warm-up animation exceeded its bound")
+    done.append("animation")
+    with tempfile.TemporaryDirectory() as d:
+        build(vol, f"{d}/o.vpk", block=4)
+        with Octree(f"{d}/o.vpk") as t:
+            if not np.array_equal(t.decode(0).data, vol):
+                raise AssertionError("warm-up octree round trip failed")
+            from .octree import select
+
+            render(paged_volume(t, select.by_level(t, 1)), tf=tab, camera=cam, shading="phong")
+    done.append("octree")
+    pts = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1]], float)
+    tets = np.array([[0, 1, 2, 3], [1, 2, 3, 4]])
+    buf = io.BytesIO()
+    compress_mesh(TetMesh(pts, tets, point_data={"f": pts[:, 0]}), buf)
+    m = decompress_mesh(buf.getvalue())
+    if len(m.tets) != 2:
+        raise AssertionError("warm-up mesh round trip failed")
+    render_mesh(m.points, m.tets, m.point_data["f"], tf=tab, camera=cam, shading="phong")
+    done.append("mesh")
+    return done

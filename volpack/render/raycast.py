@@ -772,7 +772,7 @@ def render(
     brick = BRICK
     if paged:  # skip whole pages without a node; nodes are sampled through the page table
         empty, brick = volume.page < 0, volume.cell
-        fill = np.array([_empty_value(base if has_vol else None, lo, hi, finite)])
+        fill = np.array([_empty_value(base if has_vol else None, lo, hi, finite, quiet=True)])
         vol = (volume.atlas, volume.page, volume.meta, volume.level, volume.origin, fill)
         shape = volume.shape
     else:
@@ -914,15 +914,18 @@ def _check_isos(isos) -> list:
     return clean
 
 
-def _empty_value(base, lo, hi, finite) -> float:
-    """A value for non-finite voxels whose table entry is transparent."""
+def _empty_value(base, lo, hi, finite, quiet: bool = False) -> float:
+    """A value for non-finite voxels (or absent nodes) whose table entry is transparent."""
     dmin = float(finite.min()) if finite.size else lo
     if base is None:
         return dmin
     n = base.shape[0]
     clear = np.flatnonzero(np.all(base == 0, axis=1) | (base[:, 3] == 0))
     if clear.size == 0:
-        log.warning("no transparent value in the transfer function: NaN voxels take the minimum")
+        if not quiet:
+            log.warning(
+                "no transparent value in the transfer function: NaN voxels take the minimum"
+            )
         return dmin
     i_min = (dmin - lo) * (n - 1) / (hi - lo)
     if base[min(max(int(round(i_min)), 0), n - 1), 3] == 0 and (
