@@ -391,3 +391,24 @@ def test_golden_demo_render(brain):
     assert gold[..., 3].max() > 0.3
     assert np.abs(img - gold).max() < 0.02
     assert np.abs(img - gold).mean() < 2e-3
+
+
+def test_cli_look_at_moves_the_orbit_centre(tmp_path):
+    from PIL import Image
+
+    vol = ball(24, 6)
+    np.save(tmp_path / "b.npy", vol)
+    run = CliRunner().invoke
+    out = {}
+    for name, extra in [("c", []), ("off", ["--look-at", "11.5,11.5,2"])]:
+        r = run(main, ["render", str(tmp_path / "b.npy"), str(tmp_path / f"{name}.png"),
+                       "--size", "32x32", "--azimuth", "0", "--elevation", "0", *extra])  # fmt: skip
+        assert r.exit_code == 0, r.output
+        out[name] = np.asarray(Image.open(tmp_path / f"{name}.png")).sum(axis=(0, 2))
+    # looking at a point left of centre (smaller x) moves the ball to the right of the image
+    cols = np.arange(32)
+    assert (out["off"] * cols).sum() / out["off"].sum() > (out["c"] * cols).sum() / out[
+        "c"
+    ].sum() + 1
+    r = run(main, ["render", str(tmp_path / "b.npy"), str(tmp_path / "x.png"), "--look-at", "1,2"])
+    assert r.exit_code == 2 and "Z,Y,X" in r.output

@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from .options import emit_json, force_option, json_option, progress_bar, table
-from .render import _size, view_options
+from .render import _look_at, _size, view_options
 
 
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})
@@ -26,7 +26,7 @@ from .render import _size, view_options
 @json_option
 @click.pass_context
 def play(ctx, source, output, tf_spec, fps, spin, show_stats, azimuth, elevation, zoom,
-         perspective, distance, size_s, step, classification, preint_method, shading, workers,
+         perspective, distance, look_at_s, size_s, step, classification, preint_method, shading, workers,
          force, as_json) -> None:  # fmt: skip
     """Play the animation SOURCE (.vpk, or '-') into OUTPUT: an .mp4, a .gif or a folder of
     PNGs; without OUTPUT, decode and render only (with --stats: a timing table).
@@ -65,7 +65,7 @@ def play(ctx, source, output, tf_spec, fps, spin, show_stats, azimuth, elevation
             state["tf"] = transfer.load_tf(tf_spec or "auto", lo, hi, dtype=frame.dtype)
         cam = Camera(azimuth=azimuth + spin * state["k"], elevation=elevation, zoom=zoom,
                      projection="perspective" if perspective else "orthographic", size=size,
-                     distance=distance)  # fmt: skip
+                     distance=distance, look_at=_look_at(look_at_s))  # fmt: skip
         state["k"] += 1
         return raycast(
             np.ascontiguousarray(frame, np.float32), tf=state["tf"], camera=cam, step=step,
@@ -143,7 +143,7 @@ def _is_folder(path: str) -> bool:
 @json_option
 @click.pass_context
 def walk(ctx, source, output, orbit, budget, tf_spec, fps, compare, show_stats, azimuth,
-         elevation, zoom, perspective, distance, size_s, step, classification, preint_method,
+         elevation, zoom, perspective, distance, look_at_s, size_s, step, classification, preint_method,
          shading, workers, force, as_json) -> None:  # fmt: skip
     """Fly around the octree SOURCE (.vpk built with --octree) into OUTPUT (.mp4, .gif or a
     folder), drawing each view from the nodes it needs within --budget.
@@ -186,6 +186,7 @@ def walk(ctx, source, output, orbit, budget, tf_spec, fps, compare, show_stats, 
                 for k in range(orbit):
                     cam = Camera(azimuth=azimuth + 360.0 * k / orbit, elevation=elevation,
                                  zoom=zoom, size=size, distance=distance,
+                                 look_at=_look_at(look_at_s),
                                  projection="perspective" if perspective else "orthographic")  # fmt: skip
                     img, st = render_lod(tree, tf=tf, camera=cam, blocks=budget,
                                          value_range=(lo, hi), **opts)  # fmt: skip

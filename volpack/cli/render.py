@@ -61,6 +61,18 @@ def parse_isos(spec: str) -> list[tuple[float, tuple[float, float, float], float
     return isos
 
 
+def _look_at(value: str | None) -> tuple[float, float, float] | None:
+    if value is None:
+        return None
+    try:
+        z, y, x = (float(v) for v in value.split(","))
+    except ValueError:
+        raise click.BadParameter(
+            f"expected Z,Y,X, found {value!r}", param_hint="--look-at"
+        ) from None
+    return z, y, x
+
+
 def _size(value: str) -> tuple[int, int]:
     try:
         w, h = (int(v) for v in value.lower().replace(",", "x").split("x"))
@@ -171,6 +183,8 @@ def view_options(f):
         click.option("--distance", type=click.FloatRange(min=0), help="Eye (perspective) or "
                      "near plane (orthographic) distance from the volume centre, in spacing "
                      "units; small values put the camera inside the volume. Default: outside."),
+        click.option("--look-at", "look_at_s", help="Orbit centre Z,Y,X in voxel indices "
+                     "(default the volume centre)."),
         click.option("--size", "size_s", default="512x512", show_default=True,
                      help="Image WxH."),
         click.option("--step", type=click.FloatRange(min=0, min_open=True), default=0.5,
@@ -225,6 +239,7 @@ def render(
     zoom,
     perspective,
     distance,
+    look_at_s,
     size_s,
     step,
     classification,
@@ -367,6 +382,7 @@ def render(
                 projection="perspective" if perspective else "orthographic",
                 size=size,
                 distance=distance,
+                look_at=_look_at(look_at_s),
             )
             img, stats = draw(cam, None if (orbit or progress is None) else progress)
             save_png(target, img, colorbar=(tf, lo, hi) if (colorbar and tf) else None, force=force)
