@@ -57,6 +57,7 @@ def test_info_on_npy_and_vpk_json(tmp_path):
     run("compress", tmp_path / "a.npy", tmp_path / "a.vpk")
     d = json.loads(run("info", tmp_path / "a.vpk", "--json").stdout)
     assert d["format"] == "vpk" and d["chunks"] == 1 and d["ratio"] > 1
+    assert 0 < d["chunk_nbytes"]["min"] == d["chunk_nbytes"]["max"]  # one chunk: min is its size
     text = run("info", tmp_path / "a.vpk", "--chunks").output
     assert "ratio" in text and "node" in text
 

@@ -329,7 +329,7 @@ def info(source: str, **read_options: Any) -> dict[str, Any]:
                 "raw_nbytes": raw,
                 "ratio": raw / max(file_size, 1),
                 "chunk_nbytes": {
-                    "min": int(sizes.min(initial=0)),
+                    "min": int(sizes.min()) if sizes.size else 0,
                     "max": int(sizes.max(initial=0)),
                     "mean": float(sizes.mean()) if sizes.size else 0.0,
                 },
