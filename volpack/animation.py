@@ -33,6 +33,7 @@ from typing import Any, BinaryIO
 import numpy as np
 
 from . import __version__, bricks, gop, motion
+from .container import put_section, take_section
 from .errors import FormatError
 from .volume import Volume
 
@@ -43,7 +44,6 @@ TYPE_CODE = {"I": 0, "P": 1, "B": 2}
 FLAG_RESIDUAL, FLAG_CORRECTIONS = 1, 2
 INTRA_CUT = 0.5  # a frame with at least this share of intra blocks is coded as an I-frame
 _FRAME_HEAD = struct.Struct("<BBdddd")  # type, flags, lo, hi, value range, mean unit
-_U32 = struct.Struct("<I")
 ANIMATION_DTYPES = ("uint8", "int8", "uint16", "int16", "float32", "float64")
 
 
@@ -322,7 +322,7 @@ def encode_frame(
         target = x
         fdtype = dtype
     else:
-        head_parts.append(_section(encode_field(field, kind == "B", mean_unit)))
+        head_parts.append(put_section(encode_field(field, kind == "B", mean_unit)))
         pred = motion.compensate(
             field, prev, nxt if kind == "B" else None, compensation=s.compensation
         )
@@ -344,7 +344,7 @@ def encode_frame(
         for _, sl in bricks.iter_bricks(target.shape, brick):
             b = np.ascontiguousarray(target[sl])
             payload = encode_measured(c, b)[0]
-            bodies.append(_section(payload))
+            bodies.append(put_section(payload))
             rec[sl] = c.decode(payload, b.shape, fdtype)
         out = _combine(pred_int, rec, dtype)
     else:
@@ -400,7 +400,7 @@ def decode_frame(
     else:
         if prev is None or (kind == "B" and nxt is None):
             raise FormatError(f"animation frame: a {kind}-frame needs its decoded anchors")
-        body, pos = _take(data, pos)
+        body, pos = take_section(data, pos, "animation frame")
         field = decode_field(body, motion.block_grid(shape), kind == "B", mean_unit, s.search)
         pred = motion.compensate(
             field, prev, nxt if kind == "B" else None, compensation=s.compensation
@@ -419,13 +419,13 @@ def decode_frame(
             raise FormatError(f"animation frame: bad coded range ({e})") from None
         rec = np.empty(shape, fdtype)
         for _, sl in bricks.iter_bricks(shape, brick):
-            body, pos = _take(data, pos)
+            body, pos = take_section(data, pos, "animation frame")
             rec[sl] = c.decode(body, tuple(x.stop - x.start for x in sl), fdtype)
     elif kind != "B":
         raise FormatError(f"animation frame: an {kind}-frame without its coded field")
     out = _combine(pred_int, rec, dtype)
     if flags & FLAG_CORRECTIONS:
-        body, pos = _take(data, pos)
+        body, pos = take_section(data, pos, "animation frame")
         _apply_corrections(body, out)
     if pos != len(data):
         raise FormatError(f"animation frame: {len(data) - pos} stray bytes at the end")
@@ -443,29 +443,13 @@ def _combine(pred_int, rec, dtype: np.dtype) -> np.ndarray:
     return np.asarray(v, np.float64).astype(dtype)
 
 
-def _section(body: bytes) -> bytes:
-    return _U32.pack(len(body)) + body
-
-
-def _take(data: memoryview, pos: int) -> tuple[bytes, int]:
-    if pos + 4 > len(data):
-        raise FormatError("animation frame: a section length runs past the end")
-    (n,) = _U32.unpack(data[pos : pos + 4])
-    pos += 4
-    if n > len(data) - pos:
-        raise FormatError(
-            f"animation frame: expected a section of {n} bytes, found {len(data) - pos}"
-        )
-    return bytes(data[pos : pos + n]), pos + n
-
-
 def _corrections(idx: np.ndarray, x: np.ndarray) -> bytes:
     import zstandard
 
     from .codec import _as_stored
 
     body = idx.astype("<u4").tobytes() + _as_stored(x.reshape(-1)[idx])
-    return _section(zstandard.ZstdCompressor(level=9).compress(body))
+    return put_section(zstandard.ZstdCompressor(level=9).compress(body))
 
 
 def _apply_corrections(body: bytes, out: np.ndarray) -> None:

@@ -88,6 +88,38 @@ class Entry(NamedTuple):
     error: float
 
 
+_SECTION = struct.Struct("<I")
+
+
+def put_section(body: bytes) -> bytes:
+    """``body`` preceded by its length (u32, little-endian): the framing the codecs use
+    for the parts of one chunk payload."""
+    return _SECTION.pack(len(body)) + body
+
+
+def take_section(data: memoryview, pos: int, what: str) -> tuple[bytes, int]:
+    """The section :func:`put_section` wrote at ``pos`` and the position after it;
+    ``what`` names the payload in the error a truncated or overlong section raises."""
+    if pos + 4 > len(data):
+        raise FormatError(f"{what}: a section length runs past the end")
+    (n,) = _SECTION.unpack(data[pos : pos + 4])
+    pos += 4
+    if n > len(data) - pos:
+        raise FormatError(f"{what}: expected a section of {n} bytes, found {len(data) - pos}")
+    return bytes(data[pos : pos + n]), pos + n
+
+
+def vpk_kind(path) -> str | None:
+    """The header's ``kind`` when ``path`` is a readable ``.vpk`` file, else None."""
+    if path == "-" or not os.path.isfile(path):
+        return None
+    with open(path, "rb") as f:
+        if not is_vpk(f.read(len(MAGIC))):
+            return None
+    with Reader(path) as r:
+        return r.header.get("kind")
+
+
 def is_vpk(prefix: bytes) -> bool:
     """True when ``prefix`` (the first bytes of a file, at least 8) starts with :data:`MAGIC`."""
     return bytes(prefix[: len(MAGIC)]) == MAGIC

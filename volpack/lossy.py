@@ -25,7 +25,6 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-import struct
 from typing import Any, ClassVar
 
 import numpy as np
@@ -43,6 +42,7 @@ from .codec import (
     _from_stored,
     storage_dtype,
 )
+from .container import put_section, take_section
 from .errors import FormatError
 
 FLAG_MASK, FLAG_CORRECTIONS, FLAG_COEF, FLAG_RESIDUALS = 1, 2, 4, 8
@@ -50,7 +50,6 @@ FLAG_MASK, FLAG_CORRECTIONS, FLAG_COEF, FLAG_RESIDUALS = 1, 2, 4, 8
 # error allowed on its grid (measured best on the head CT and the z-map).
 COEF_STEP = 2.0
 QUALITIES = (255, 127, 63, 31, 15)
-_U32 = struct.Struct("<I")
 
 
 # -- error-bounded quantisation ---------------------------------------------------------
@@ -237,10 +236,10 @@ class BoundedCodec:
         if mask is not None:
             err[mask] = 0.0
         bad = np.flatnonzero(err > self.max_error)
-        parts = [b""] + [_U32.pack(len(b)) + b for b in inner]
+        parts = [b""] + [put_section(b) for b in inner]
         for body in residuals:
             flags |= FLAG_RESIDUALS
-            parts.append(_U32.pack(len(body)) + body)
+            parts.append(put_section(body))
         if mask is not None:
             flags |= FLAG_MASK
             body = np.packbits(mask.reshape(-1)).tobytes() + _as_stored(x[mask])
@@ -370,22 +369,13 @@ def _fill_masked(a: np.ndarray, mask: np.ndarray) -> np.ndarray:
 def _section(body: bytes) -> bytes:
     import zstandard
 
-    z = zstandard.ZstdCompressor(level=9).compress(body)
-    return _U32.pack(len(z)) + z
+    return put_section(zstandard.ZstdCompressor(level=9).compress(body))
 
 
 def _take(data: memoryview, pos: int, limit: int, zstd: bool = False) -> tuple[bytes, int]:
     """One length-prefixed section from ``pos``; zstd sections are inflated to at most
     ``limit`` bytes."""
-    if pos + 4 > len(data):
-        raise FormatError("lossy brick payload: a section length runs past the end")
-    (n,) = _U32.unpack(data[pos : pos + 4])
-    pos += 4
-    if n > len(data) - pos:
-        raise FormatError(
-            f"lossy brick payload: expected a section of {n} bytes, found {len(data) - pos}"
-        )
-    body = bytes(data[pos : pos + n])
+    body, end = take_section(data, pos, "lossy brick payload")
     if zstd:
         import zstandard
 
@@ -393,7 +383,7 @@ def _take(data: memoryview, pos: int, limit: int, zstd: bool = False) -> tuple[b
             body = zstandard.ZstdDecompressor().decompress(body, max_output_size=limit)
         except zstandard.ZstdError as e:
             raise FormatError(f"lossy brick payload: corrupt section ({e})") from None
-    return body, pos + n
+    return body, end
 
 
 # -- the thesis's coefficient modes -----------------------------------------------------

@@ -84,17 +84,9 @@ def is_mesh_source(path: str) -> bool:
 
 def is_mesh_stream(path: str) -> bool:
     """True for a ``.vpk`` file whose header says ``kind: "mesh"``."""
-    import os
+    from ..container import vpk_kind
 
-    from ..container import Reader, is_vpk
-
-    if path == "-" or not os.path.isfile(path):
-        return False
-    with open(path, "rb") as f:
-        if not is_vpk(f.read(16)):
-            return False
-    with Reader(path) as r:
-        return r.header.get("kind") == "mesh"
+    return vpk_kind(path) == "mesh"
 
 
 def _read(source: str, tetrahedralize: bool):

@@ -47,7 +47,6 @@ def play(ctx, source, output, tf_spec, fps, spin, show_stats, azimuth, elevation
     from ..atomic import check_output
     from ..render import transfer
     from ..render.camera import Camera
-    from ..render.movie import MovieWriter
     from ..render.raycast import render as raycast
 
     size = _size(size_s)
@@ -73,26 +72,14 @@ def play(ctx, source, output, tf_spec, fps, spin, show_stats, azimuth, elevation
             value_range=state["range"], workers=workers,
         )  # fmt: skip
 
-    writer = MovieWriter(output, fps=fps, force=force) if output is not None else None
     rows = []
-    try:
-        with progress_bar(ctx, "play", unit="frame") as progress:
-
-            def sink(img):
-                if writer is not None:
-                    writer.write(img)
-                if progress is not None:
-                    progress(len(rows) + 1, n_frames)
-
-            for img, st in player.play_rendered(source, render):
-                sink(img)
-                rows.append(st)
-    except BaseException:
-        if writer is not None:
-            writer.abort()
-        raise
-    if writer is not None:
-        writer.close()
+    with _movie(output, fps, force) as writer, progress_bar(ctx, "play", unit="frame") as progress:
+        for img, st in player.play_rendered(source, render):
+            if writer is not None:
+                writer.write(img)
+            rows.append(st)
+            if progress is not None:
+                progress(len(rows), n_frames)
     dec = sum(r.decode_ms for r in rows) / 1000
     ren = sum(r.render_ms for r in rows) / 1000
     report = {
@@ -116,6 +103,16 @@ def play(ctx, source, output, tf_spec, fps, spin, show_stats, azimuth, elevation
         f"frames/s, render {report['render_fps'] or 0:.1f} frames/s",
         err=True,
     )
+
+
+def _movie(output, fps: float, force: bool):
+    """A :class:`~volpack.render.movie.MovieWriter` for OUTPUT (finished on success,
+    discarded on error), or a stand-in yielding None when there is no OUTPUT."""
+    import contextlib
+
+    from ..render.movie import MovieWriter
+
+    return contextlib.nullcontext() if output is None else MovieWriter(output, fps=fps, force=force)
 
 
 def _is_folder(path: str) -> bool:
@@ -167,7 +164,6 @@ def walk(ctx, source, output, orbit, budget, tf_spec, fps, compare, show_stats, 
     from ..render import transfer
     from ..render.camera import Camera
     from ..render.lod import _tree_range, render_lod
-    from ..render.movie import MovieWriter
     from ..render.raycast import render as raycast
 
     size = _size(size_s)
@@ -180,33 +176,28 @@ def walk(ctx, source, output, orbit, budget, tf_spec, fps, compare, show_stats, 
         lo, hi = _tree_range(tree)
         tf = transfer.load_tf(tf_spec or "auto", lo, hi, dtype=tree.dtype)
         full = tree.decode(0).data.astype(np.float32) if compare else None
-        writer = MovieWriter(output, fps=fps, force=force) if output is not None else None
-        try:
-            with progress_bar(ctx, "walk", unit="frame") as progress:
-                for k in range(orbit):
-                    cam = Camera(azimuth=azimuth + 360.0 * k / orbit, elevation=elevation,
-                                 zoom=zoom, size=size, distance=distance,
-                                 look_at=_look_at(look_at_s),
-                                 projection="perspective" if perspective else "orthographic")  # fmt: skip
-                    img, st = render_lod(tree, tf=tf, camera=cam, blocks=budget,
-                                         value_range=(lo, hi), **opts)  # fmt: skip
-                    row = {"frame": k, "azimuth": cam.azimuth, **vars(st)}
-                    if full is not None:
-                        ref = raycast(full, tf=tf, camera=cam, value_range=(lo, hi), **opts)
-                        rmse = float(np.sqrt(np.mean((img[..., :3] - ref[..., :3]) ** 2)))
-                        row["rmse"] = rmse
-                        row["psnr"] = 20 * math.log10(1 / rmse) if rmse > 0 else None
-                    rows.append(row)
-                    if writer is not None:
-                        writer.write(img)
-                    if progress is not None:
-                        progress(k + 1, orbit)
-        except BaseException:
-            if writer is not None:
-                writer.abort()
-            raise
-        if writer is not None:
-            writer.close()
+        with (
+            _movie(output, fps, force) as writer,
+            progress_bar(ctx, "walk", unit="frame") as progress,
+        ):
+            for k in range(orbit):
+                cam = Camera(azimuth=azimuth + 360.0 * k / orbit, elevation=elevation,
+                             zoom=zoom, size=size, distance=distance,
+                             look_at=_look_at(look_at_s),
+                             projection="perspective" if perspective else "orthographic")  # fmt: skip
+                img, st = render_lod(tree, tf=tf, camera=cam, blocks=budget,
+                                     value_range=(lo, hi), **opts)  # fmt: skip
+                row = {"frame": k, "azimuth": cam.azimuth, **vars(st)}
+                if full is not None:
+                    ref = raycast(full, tf=tf, camera=cam, value_range=(lo, hi), **opts)
+                    rmse = float(np.sqrt(np.mean((img[..., :3] - ref[..., :3]) ** 2)))
+                    row["rmse"] = rmse
+                    row["psnr"] = 20 * math.log10(1 / rmse) if rmse > 0 else None
+                rows.append(row)
+                if writer is not None:
+                    writer.write(img)
+                if progress is not None:
+                    progress(k + 1, orbit)
     secs = sum(r["select_s"] + r["decode_s"] + r["render_s"] for r in rows)
     report = {"output": output, "frames": len(rows), "budget": budget, "tf": tf.name,
               "fps": len(rows) / secs if secs > 0 else None, "per_frame": rows}  # fmt: skip

@@ -85,18 +85,10 @@ def _size(value: str) -> tuple[int, int]:
 
 def _open_octree(source: str):
     """An open :class:`volpack.octree.Octree` when SOURCE is an octree .vpk, else None."""
-    import os
+    from ..container import vpk_kind
 
-    from ..container import Reader, is_vpk
-
-    if source == "-" or not os.path.isfile(source):
+    if vpk_kind(source) != "octree":
         return None
-    with open(source, "rb") as f:
-        if not is_vpk(f.read(16)):
-            return None
-    with Reader(source) as r:
-        if r.header.get("kind") != "octree":
-            return None
     from ..octree import Octree
 
     return Octree(source, cache_bytes=1 << 30)

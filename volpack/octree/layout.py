@@ -17,11 +17,11 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import struct
 from typing import Any
 
 import numpy as np
 
+from ..container import put_section, take_section
 from ..errors import FormatError
 
 KIND = "octree"
@@ -33,7 +33,6 @@ HIST_BINS = 8
 PRESENT, SUBTREE_ZERO = 1, 2
 # payload section flags
 HAS_DETAILS, HAS_LOWPASS, HAS_CORRECTIONS = 1, 2, 4
-_U32 = struct.Struct("<I")
 
 META_DTYPE = np.dtype(
     [
@@ -137,7 +136,7 @@ def encode_payload(
     ):
         if body is not None:
             flags |= flag
-            parts.append(_U32.pack(len(body)) + body)
+            parts.append(put_section(body))
     parts[0] = bytes([flags])
     return b"".join(parts)
 
@@ -153,16 +152,7 @@ def decode_payload(data: bytes) -> dict[int, bytes]:
     pos, out = 1, {}
     for flag in (HAS_DETAILS, HAS_LOWPASS, HAS_CORRECTIONS):
         if flags & flag:
-            if pos + 4 > len(mv):
-                raise FormatError("octree node payload: a section length runs past the end")
-            (n,) = _U32.unpack(mv[pos : pos + 4])
-            pos += 4
-            if n > len(mv) - pos:
-                raise FormatError(
-                    f"octree node payload: expected a section of {n} bytes, found {len(mv) - pos}"
-                )
-            out[flag] = bytes(mv[pos : pos + n])
-            pos += n
+            out[flag], pos = take_section(mv, pos, "octree node payload")
     if pos != len(mv):
         raise FormatError(f"octree node payload: {len(mv) - pos} stray bytes at the end")
     return out
