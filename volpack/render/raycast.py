@@ -62,8 +62,16 @@ composited in front of the segment's volume contribution (mixed mode); with
 Acceleration: early ray termination once the accumulated opacity exceeds ``ert``
 (0.99), and empty-space skipping over 8^3 bricks whose value range (the brick plus one
 voxel of overlap, everything trilinear samples inside it can reach) maps to table
-entries that are all zero: a ray jumps to the last segment that still lies wholly in
-the brick, so the sample grid, and the image, stay exactly those of the full march.
+entries that are all zero. A leap map holds, for each empty brick, its Chebyshev distance
+``d`` (in bricks) to the nearest visible one, so a ray jumps out of the whole cube of
+``2d - 1`` bricks around it at once, to the last segment that still starts inside; a
+visible brick is tested once per ray, not per sample. The sample grid, and the image,
+stay exactly those of the full march.
+
+Multiresolution volumes (:class:`volpack.render.lod.PagedVolume`) go through the same
+kernel: :func:`sample` is resolved at compile time to plain trilinear sampling or to a
+page-table lookup into an atlas of bordered node bricks (:func:`_paged`), and the leap
+map is built over the pages.
 
 Non-finite voxels (NaN, +-Inf) are empty: they are replaced before sampling by a value
 whose table entry is transparent (the data minimum when that is transparent, else the
