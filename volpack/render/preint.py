@@ -342,24 +342,7 @@ def _preint_fast_kernel(tau, col, length, engel, out, k0, k1):
     """
     n = tau.shape[0]
     lit = out.shape[2] == 7
-    tp = np.zeros(n)  # prefix integral of tau over index units
-    kp = np.zeros((n, 3))  # prefix integral of c * tau (exact for linear c and tau)
-    mp = np.zeros((n, 3))  # prefix integral of s * c * tau
-    for k in range(n - 1):
-        t0 = tau[k]
-        t1 = tau[k + 1]
-        tp[k + 1] = tp[k] + 0.5 * (t0 + t1)
-        th = 0.5 * (t0 + t1)
-        for ch in range(3):
-            c0 = col[k, ch]
-            c1 = col[k + 1, ch]
-            kp[k + 1, ch] = kp[k, ch] + (2.0 * c0 * t0 + c0 * t1 + c1 * t0 + 2.0 * c1 * t1) / 6.0
-            if lit:
-                ch_ = 0.5 * (c0 + c1)
-                f0 = k * c0 * t0
-                fh = (k + 0.5) * ch_ * th
-                f1 = (k + 1.0) * c1 * t1
-                mp[k + 1, ch] = mp[k, ch] + (f0 + 4.0 * fh + f1) / 6.0
+    tp, kp, mp = _prefix_kernel(tau, col, lit)
     for i in range(n):
         for j in range(n):
             if (i < k0 and j < k0) or (i > k1 and j > k1):
@@ -606,12 +589,30 @@ def _exact_windows_kernel(tp, length, m, lit, f_lo, f_hi, up_c, up_f, up_t, dn_c
 
 
 @kernel
-def _prefix_tau(tau):
+def _prefix_kernel(tau, col, moments):
+    """Prefix integrals over index units, exact for ``tau`` and ``c`` linear between
+    entries: ``T(s) = int tau``, ``K(s) = int c tau`` and, with ``moments``,
+    ``M(s) = int s c tau`` (Simpson, exact for the cubic integrand; zeros otherwise)."""
     n = tau.shape[0]
     tp = np.zeros(n)
+    kp = np.zeros((n, 3))
+    mp = np.zeros((n, 3))
     for k in range(n - 1):
-        tp[k + 1] = tp[k] + 0.5 * (tau[k] + tau[k + 1])
-    return tp
+        t0 = tau[k]
+        t1 = tau[k + 1]
+        tp[k + 1] = tp[k] + 0.5 * (t0 + t1)
+        th = 0.5 * (t0 + t1)
+        for ch in range(3):
+            c0 = col[k, ch]
+            c1 = col[k + 1, ch]
+            kp[k + 1, ch] = kp[k, ch] + (2.0 * c0 * t0 + c0 * t1 + c1 * t0 + 2.0 * c1 * t1) / 6.0
+            if moments:
+                f0 = k * c0 * t0
+                cm = 0.5 * (c0 + c1)
+                fh = (k + 0.5) * cm * th
+                f1 = (k + 1.0) * c1 * t1
+                mp[k + 1, ch] = mp[k, ch] + (f0 + 4.0 * fh + f1) / 6.0
+    return tp, kp, mp
 
 
 @kernel
@@ -619,7 +620,7 @@ def _preint_exact_kernel(tau, col, length, out):
     """Exact tables with self-attenuation (see ``exact`` in the module docstring)."""
     n = tau.shape[0]
     lit = out.shape[2] == 7
-    tp = _prefix_tau(tau)
+    tp = _prefix_kernel(tau, col, False)[0]
     _exact_diagonal_kernel(tau, col, length, lit, 0, n, out)
     nc = n - 1
     if nc < 1:
@@ -642,7 +643,7 @@ def _exact_update_kernel(tau, col, length, k0, k1, cache_c, cache_f, cache_t, ou
     cells ``k0 - 1 .. k1`` are recomputed first."""
     n = tau.shape[0]
     lit = out.shape[2] == 7
-    tp = _prefix_tau(tau)
+    tp = _prefix_kernel(tau, col, False)[0]
     _exact_diagonal_kernel(tau, col, length, lit, k0, k1 + 1, out)
     nc = n - 1
     if nc < 1:

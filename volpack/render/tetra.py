@@ -35,7 +35,7 @@ from .._jit import kernel
 from ..errors import VolpackError
 from ..parallel import parse_workers
 from .camera import Camera
-from .preint import _extinction
+from .preint import _extinction, _prefix_kernel
 
 TILE = 8
 # face k of a tetrahedron is the one opposite vertex k
@@ -137,7 +137,7 @@ def render_mesh(
     base = _tf_table(tf, lo, hi, n).astype(np.float64)
     tau = _extinction(base[:, 3])
     col = np.ascontiguousarray(base[:, :3])
-    tp, kp = _prefix_tables(tau, col)
+    tp, kp, _ = _prefix_kernel(tau, col, False)
 
     planes = np.empty((len(cells), 4, 4))
     grad = np.empty((len(cells), 4))
@@ -190,20 +190,6 @@ def _face_neighbours(cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     back = nb[nb[t, k]] == t[:, None]
     nbf[t, k] = np.argmax(back, axis=1)
     return nb, nbf
-
-
-def _prefix_tables(tau: np.ndarray, col: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    n = len(tau)
-    tp = np.zeros(n)
-    kp = np.zeros((n, 3))
-    t0, t1 = tau[:-1], tau[1:]
-    tp[1:] = np.cumsum(0.5 * (t0 + t1))
-    c0, c1 = col[:-1], col[1:]
-    kp[1:] = np.cumsum(
-        (2 * c0 * t0[:, None] + c0 * t1[:, None] + c1 * t0[:, None] + 2 * c1 * t1[:, None]) / 6,
-        axis=0,
-    )
-    return tp, kp
 
 
 def _bin_faces(col_px, row_px, ntx, nty):
