@@ -17,20 +17,30 @@ from volpack.cli import main
 from volpack.container import Reader
 from volpack.errors import FormatError
 from volpack.tetra.mesh import FACES, TetMesh, face_adjacency, signed_volumes
-from volpack.tetra.stream import compress_mesh, decompress_mesh
+from volpack.tetra.stream import check_header, compress_mesh, decompress_mesh
 
 UNIT = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], dtype=np.float64)
 
 
-def tet_keys(points, tets):
-    """Each tet as (sorted coordinate quadruple, orientation parity): order-free, sign-aware."""
+def tet_keys(points, tets, parity=True):
+    """Each tet as (sorted coordinate quadruple, orientation parity): order-free, sign-aware
+    (or sign-blind with ``parity=False``)."""
     keys = []
     for row in np.asarray(tets):
         corners = [tuple(points[v].tolist()) for v in row]
         order = sorted(range(4), key=lambda i: corners[i])
         inversions = sum(order[i] > order[j] for i in range(4) for j in range(i + 1, 4))
-        keys.append((tuple(corners[i] for i in order), inversions % 2))
+        keys.append((tuple(corners[i] for i in order), inversions % 2 if parity else 0))
     return sorted(keys)
+
+
+def same_tets(back, hdr, points, tets):
+    """The decoded tets are the input's: with their parity, or for ascending input rows
+    (``rows: sorted``) as ascending rows whose parity carries no meaning."""
+    parity = hdr.get("rows", "parity") != "sorted"
+    if not parity:
+        assert (back.tets[:, 1:] > back.tets[:, :-1]).all()
+    assert tet_keys(back.points, back.tets, parity) == tet_keys(points, tets, parity)
 
 
 def quantized(points, hdr):
@@ -89,7 +99,7 @@ def test_stability_case_round_trips(name):
     mesh.point_data["id"] = np.arange(mesh.n_vertices, dtype=np.int32)
     mesh.cell_data["mat"] = (np.arange(mesh.n_tets) % 3).astype(np.uint8)
     back, hdr, stats, _ = round_trip(mesh, lossless_geometry=True)
-    assert tet_keys(back.points, back.tets) == tet_keys(mesh.points, mesh.tets)
+    same_tets(back, hdr, mesh.points, mesh.tets)
     assert back.n_vertices == mesh.n_vertices
     # point data travel with their vertex, cell data with their tet
     np.testing.assert_array_equal(back.points, mesh.points[back.point_data["id"]])
@@ -98,7 +108,7 @@ def test_stability_case_round_trips(name):
     src = [order[tuple(r)] for r in np.sort(ids, axis=1).tolist()]
     np.testing.assert_array_equal(back.cell_data["mat"], mesh.cell_data["mat"][src])
     quant, qhdr, *_ = round_trip(mesh)
-    assert tet_keys(quant.points, quant.tets) == tet_keys(quantized(mesh.points, qhdr), mesh.tets)
+    same_tets(quant, qhdr, quantized(mesh.points, qhdr), mesh.tets)
 
 
 def test_keep_order_gives_identical_indices():
@@ -284,3 +294,29 @@ def test_orient_saves_bits_and_keep_order_still_restores_rows():
     ) == sorted(map(tuple, np.sort(mesh.points[mesh.tets], axis=1).reshape(len(tets), -1).tolist()))
     kept = round_trip(mesh, lossless_geometry=True, orient=True, keep_order=True)[0]
     np.testing.assert_array_equal(kept.tets, mesh.tets)
+
+
+def test_ascending_rows_code_no_orientation_and_decode_ascending():
+    # DOLFIN writes every cell's vertices ascending, so half the tets look inverted: the
+    # stream notices, codes no orientation and writes the rows ascending again
+    mesh = grid_mesh(4, jitter=0.1)
+    mesh = TetMesh(mesh.points, np.sort(mesh.tets, axis=1))
+    assert (signed_volumes(mesh.points, mesh.tets) < 0).mean() > 0.3
+    back, hdr, stats, _ = round_trip(mesh, lossless_geometry=True)
+    assert hdr["rows"] == stats["rows"] == "sorted"
+    same_tets(back, hdr, mesh.points, mesh.tets)
+    # one row out of order: every row's parity is coded, at about a bit per tet more
+    tets = mesh.tets.copy()
+    tets[0] = tets[0][[1, 0, 2, 3]]
+    parity = round_trip(TetMesh(mesh.points, tets), lossless_geometry=True)
+    assert parity[1]["rows"] == "parity"
+    assert parity[2]["bits_per_tet"] > stats["bits_per_tet"] + 0.5
+    same_tets(parity[0], parity[1], mesh.points, tets)
+    kept, khdr, kstats, _ = round_trip(mesh, keep_order=True)
+    np.testing.assert_array_equal(kept.tets, mesh.tets)
+    # the row orders are not stored: the order chunk holds the two permutations alone
+    full = round_trip(TetMesh(mesh.points, tets), keep_order=True)
+    np.testing.assert_array_equal(full[0].tets, tets)
+    assert kstats["order_nbytes"] < full[2]["order_nbytes"]
+    with pytest.raises(FormatError, match="rows 'upside-down'"):
+        check_header({**hdr, "rows": "upside-down"}, 1 << 20)

@@ -15,6 +15,12 @@ import click
 
 from .options import emit_json, fmt_bytes
 
+_ROWS = {
+    "parity": "each row's orientation kept",
+    "sorted": "ascending (as in the input; orientation not coded)",
+    "oriented": "turned to positive volume (--orient)",
+}
+
 
 def _attr_error(values: tuple[str, ...]) -> dict[str, float]:
     out = {}
@@ -56,8 +62,9 @@ def mesh_options(f):
                 "--orient",
                 is_flag=True,
                 help="Mesh: turn inverted tets to positive volume before coding (about a bit "
-                "per tet less on meshes without a consistent orientation; --keep-order "
-                "still restores the rows as given).",
+                "per tet less on meshes without a consistent orientation, e.g. Delaunay's; "
+                "--keep-order still restores the rows as given). Not needed when every row "
+                "ascends (DOLFIN's): such rows are detected and decode ascending.",
             ),
             click.option(
                 "--tetrahedralize",
@@ -221,6 +228,7 @@ def _human(d: dict) -> str:
                 f"{fmt_bytes(d['geometry_nbytes'])}, {d['bits_per_vertex']:.3f} bits/vertex ({geo}, {g['dtype']})",
             ],
             ["order", "kept" if d["keep_order"] else "coding order (not kept)"],
+            ["rows", _ROWS[d["rows"]]],
         ]
         for name, f in d["fields"].items():
             err = "exact" if f["mode"] == "exact" else f"max error {f['max_error']:.3g}"

@@ -9,9 +9,18 @@ A mesh stream is a ``.vpk`` container (``formats/vpk-1.md``) whose header has
 * 3, 4, ...: one chunk per point or cell data field, in header order
   (:mod:`.attributes`).
 
-The byte layout is ``formats/mesh-1.md``. The decoded mesh has the same tetrahedra (same
-orientation) with vertices and tets renumbered in coding order, unless the stream keeps
-the order, in which case every index comes back as it was.
+The byte layout is ``formats/mesh-1.md``. The decoded mesh has the same tetrahedra with
+vertices and tets renumbered in coding order, unless the stream keeps the order, in which
+case every index comes back as it was. How a tet's row is ordered follows the input's
+convention (header ``rows``):
+
+* ``"parity"``: each row keeps its input orientation; a tet oriented against its face
+  neighbours costs a flag, so a consistently oriented mesh pays nothing;
+* ``"sorted"``: every input row was ascending (DOLFIN's UFC numbering, which gives the
+  geometric orientation of each tet no meaning, so half of them look inverted); no
+  orientation is coded and the decoder writes every row ascending again, in its own
+  numbering, or exactly as given with ``keep_order``. About a bit per tet less;
+* ``"oriented"`` (``--orient``): tets of negative volume were turned before coding.
 """
 
 from __future__ import annotations
@@ -28,7 +37,7 @@ from .. import __version__
 from ..errors import FormatError, LimitError
 from .mesh import TetMesh, validate
 
-__all__ = ["KIND_MESH", "compress_mesh", "decompress_mesh", "mesh_info"]
+__all__ = ["KIND_MESH", "compress_mesh", "decompress_mesh", "mesh_info", "row_convention"]
 
 log = logging.getLogger(__name__)
 
@@ -37,6 +46,19 @@ FORMAT = "mesh-1"
 NODE_CONNECTIVITY, NODE_GEOMETRY, NODE_ORDER, NODE_FIELDS = 0, 1, 2, 3
 DEFAULT_MAX_TETS = 1 << 27
 PERMS = np.array(list(itertools.permutations(range(4))), dtype=np.int64)  # 24 row orders
+ROWS = ("parity", "sorted", "oriented")
+
+
+def row_convention(tets: np.ndarray, *, orient: bool = False) -> str:
+    """How the rows of ``tets`` are ordered: ``"sorted"`` if every row ascends, else
+    ``"parity"`` (``"oriented"`` when the caller turns tets by volume)."""
+    if orient:
+        return "oriented"
+    t = np.asarray(tets)
+    if len(t) and bool((t[:, 1:] > t[:, :-1]).all()):
+        return "sorted"
+    return "parity"
+
 
 Progress = Callable[[int, int], None]
 
@@ -65,9 +87,9 @@ def compress_mesh(
         Also store the vertex, tet and row order so indices decode identically.
     orient : bool
         Give every tet of negative volume the opposite vertex order before coding, so a
-        mesh without a consistent orientation (DOLFIN's, Delaunay's) codes no per-tet
-        orientation (about a bit per tet less). With ``keep_order`` the rows still come
-        back as given.
+        mesh without a consistent orientation (Delaunay's) codes no per-tet orientation
+        (about a bit per tet less). With ``keep_order`` the rows still come back as given.
+        Meshes whose rows all ascend (DOLFIN's) need no option: see the module docstring.
     attr_error : dict of str to float
         Per float field, the largest error allowed (the default keeps fields exactly).
 
@@ -100,13 +122,14 @@ def compress_mesh(
             progress(done, steps)
 
     tets = mesh.tets
+    convention = row_convention(tets, orient=orient)
     if orient and nt:
         from .mesh import signed_volumes
 
         tets = tets.copy()
         flip = signed_volumes(mesh.points, tets) < 0
         tets[flip] = tets[flip][:, [1, 0, 2, 3]]
-    conn, trav = cutborder.encode_connectivity(tets, nv)
+    conn, trav = cutborder.encode_connectivity(tets, nv, keep_orientation=convention != "sorted")
     t_conn = time.perf_counter() - t0
     tick()
     order = np.asarray(trav.vertex_order, dtype=np.int64)
@@ -120,7 +143,7 @@ def compress_mesh(
     geo_error = gmeta.pop("max_error")
     chunks = [(NODE_CONNECTIVITY, conn, 0.0), (NODE_GEOMETRY, geo, geo_error)]
     if keep_order:
-        chunks.append((NODE_ORDER, _encode_order(mesh.tets, trav), 0.0))
+        chunks.append((NODE_ORDER, _encode_order(mesh.tets, trav, convention == "sorted"), 0.0))
     tick()
     fields, summary_fields = [], {}
     prefs = np.asarray(trav.gates, dtype=np.int64)
@@ -156,6 +179,7 @@ def compress_mesh(
         "geometry": gmeta,
         "keep_order": bool(keep_order),
         "oriented": bool(orient),
+        "rows": convention,
         "fields": fields,
     }
     sizes = {n: len(b) for n, b, _ in chunks}
@@ -181,6 +205,7 @@ def compress_mesh(
         **summary,
         "vertices": nv,
         "tets": nt,
+        "rows": convention,
         "payload_nbytes": nbytes,
         "raw_nbytes": raw,
         "ratio": raw / max(nbytes, 1),
@@ -241,18 +266,24 @@ def decompress_mesh(
             (point_data if point else cell_data)[f["name"]] = vals
             if progress is not None:
                 progress(3 + i, steps)
+        sort_rows = hdr["rows"] == "sorted"
         if hdr["keep_order"]:
-            vorder, torder, perm = _decode_order(chunk(NODE_ORDER), nv, nt)
+            vorder, torder, perm = _decode_order(chunk(NODE_ORDER), nv, nt, not sort_rows)
             out_pts = np.empty_like(points)
             out_pts[vorder] = points
             tets = np.empty((nt, 4), dtype=np.int64)
-            tets[torder] = np.take_along_axis(vorder[ctets], PERMS[perm], axis=1)
+            if sort_rows:
+                tets[torder] = np.sort(vorder[ctets], axis=1)
+            else:
+                tets[torder] = np.take_along_axis(vorder[ctets], PERMS[perm], axis=1)
             for d, rows in ((point_data, vorder), (cell_data, torder)):
                 for k, v in d.items():
                     o = np.empty_like(v)
                     o[rows] = v
                     d[k] = o
             return TetMesh(out_pts, tets, point_data, cell_data)
+    if sort_rows:
+        ctets = np.sort(ctets, axis=1)
     return TetMesh(points, ctets, point_data, cell_data)
 
 
@@ -304,6 +335,7 @@ def mesh_info(source: str) -> dict[str, Any]:
             "max_error": summary.get("geometry_max_error"),
         },
         "keep_order": hdr["keep_order"],
+        "rows": hdr["rows"],
         "fields": fields,
     }
 
@@ -323,8 +355,11 @@ def check_header(hdr: dict, max_tets: int) -> dict:
                 raise ValueError(f)
             f["node"] = int(f["node"])
         keep = bool(hdr.get("keep_order", False))
+        rows = str(hdr.get("rows", "oriented" if hdr.get("oriented") else "parity"))
     except (KeyError, TypeError, ValueError) as e:
         raise FormatError(f"bad mesh header: {e!r}") from None
+    if rows not in ROWS:
+        raise FormatError(f"bad mesh header: rows {rows!r}, expected one of {list(ROWS)}")
     if hdr.get("format") != FORMAT:
         raise FormatError(f"expected mesh stream format {FORMAT!r}, found {hdr.get('format')!r}")
     if nt < 0 or nv < 0 or nt > max_tets or nv > 4 * max_tets:
@@ -338,14 +373,17 @@ def check_header(hdr: dict, max_tets: int) -> dict:
         "geometry": geo,
         "fields": fields,
         "keep_order": keep,
+        "rows": rows,
     }
 
 
 # --- the input order (keep_order) -------------------------------------------------------
 
 
-def _encode_order(tets: np.ndarray, trav) -> bytes:
-    """Vertex order, tet order and each row's vertex order (an index into PERMS), zstd'd."""
+def _encode_order(tets: np.ndarray, trav, sorted_rows: bool = False) -> bytes:
+    """Vertex order, tet order and each row's vertex order (an index into PERMS), zstd'd.
+
+    Ascending rows need no row order: the decoder sorts them."""
     import zstandard
 
     vorder = np.asarray(trav.vertex_order, dtype=np.int64)
@@ -359,19 +397,19 @@ def _encode_order(tets: np.ndarray, trav) -> bytes:
     if (perm < 0).any():
         raise AssertionError("a decoded tet row is no permutation of its input row")
     width = "<u4" if len(vorder) < 1 << 32 and len(torder) < 1 << 32 else "<u8"
-    raw = (
-        vorder.astype(width).tobytes()
-        + torder.astype(width).tobytes()
-        + perm.astype(np.uint8).tobytes()
-    )
+    raw = vorder.astype(width).tobytes() + torder.astype(width).tobytes()
+    if not sorted_rows:
+        raw += perm.astype(np.uint8).tobytes()
     return zstandard.ZstdCompressor(level=9).compress(raw)
 
 
-def _decode_order(blob: bytes, nv: int, nt: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _decode_order(
+    blob: bytes, nv: int, nt: int, with_rows: bool = True
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     import zstandard
 
     width = 4 if nv < 1 << 32 and nt < 1 << 32 else 8
-    need = width * (nv + nt) + nt
+    need = width * (nv + nt) + (nt if with_rows else 0)
     try:
         raw = zstandard.ZstdDecompressor().decompress(blob, max_output_size=need)
     except zstandard.ZstdError as e:
@@ -381,7 +419,9 @@ def _decode_order(blob: bytes, nv: int, nt: int) -> tuple[np.ndarray, np.ndarray
     dt = f"<u{width}"
     vorder = np.frombuffer(raw, dtype=dt, count=nv).astype(np.int64)
     torder = np.frombuffer(raw, dtype=dt, count=nt, offset=width * nv).astype(np.int64)
-    perm = np.frombuffer(raw, dtype=np.uint8, count=nt, offset=width * (nv + nt)).astype(np.int64)
+    perm = np.frombuffer(
+        raw, dtype=np.uint8, count=nt if with_rows else 0, offset=width * (nv + nt)
+    ).astype(np.int64)
     for name, o, n in (("vertex", vorder, nv), ("tet", torder, nt)):
         if n and not np.array_equal(np.sort(o), np.arange(n)):
             raise FormatError(f"corrupt mesh order chunk: the {name} order is no permutation")
