@@ -24,6 +24,8 @@ from volpack.container import (
     Reader,
     Writer,
     is_vpk,
+    stdin,
+    vpk_kind,
 )
 from volpack.errors import ChecksumError, FormatError, LimitError
 
@@ -184,6 +186,34 @@ def test_round_trip_os_pipe_both_ways():
             r.read(0, 0)
     th.join()
     assert not err
+
+
+@pytest.mark.parametrize("content", ["vpk", "npy", "empty"])
+def test_stdin_kind_is_peeked_from_a_pipe_without_losing_bytes(monkeypatch, content):
+    """`volpack decompress - ...` reads the header to choose a decoder, then decodes the
+    whole stream: the peeked bytes of a pipe are served again."""
+    buf = io.BytesIO()
+    with Writer(buf, {"kind": "mesh"}) as w:
+        for t, n, payload in CHUNKS:
+            w.write(t, n, payload)
+    blob = {"vpk": buf.getvalue(), "npy": b"\x93NUMPY" + bytes(300), "empty": b""}[content]
+    rfd, wfd = os.pipe()
+
+    def produce():
+        with os.fdopen(wfd, "wb") as f:
+            f.write(blob)
+
+    th = threading.Thread(target=produce)
+    th.start()
+    with os.fdopen(rfd, "rb") as pipe:
+        monkeypatch.setattr("sys.stdin", io.TextIOWrapper(pipe))
+        assert vpk_kind("-") == ("mesh" if content == "vpk" else None)
+        assert vpk_kind("-") == ("mesh" if content == "vpk" else None)  # and again
+        if content == "vpk":
+            assert list(Reader(stdin())) == CHUNKS
+        else:
+            assert stdin().read() == blob
+    th.join()
 
 
 def test_writer_to_sink_without_seek_or_tell():

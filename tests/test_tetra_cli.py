@@ -241,6 +241,11 @@ def test_cli_compress_info_decompress(tmp_path, vtu):
     )
     r = runner.invoke(main, ["info", str(vtu)])
     assert r.exit_code == 0 and "border faces" in r.output
+    # the same stream on standard input
+    piped = tmp_path / "piped.vtu"
+    r = runner.invoke(main, ["decompress", "-", str(piped)], input=out.read_bytes())
+    assert r.exit_code == 0, r.output
+    np.testing.assert_array_equal(meshio.read(str(piped)).points, back.points)
 
 
 def test_cli_hex_needs_tetrahedralize(tmp_path):

@@ -432,6 +432,7 @@ def _stdout():
 
 
 def _stdin():
-    import sys
 
-    return sys.stdin.buffer
+    from .container import stdin
+
+    return stdin()

@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from .container import stdin
 from .errors import FormatError
 from .volume import Volume
 
@@ -157,7 +158,7 @@ def read_volume(
     raw_given = shape is not None or dtype is not None
     if path == "-":
         if raw_given:
-            blob = sys.stdin.buffer.read()
+            blob = stdin().read()
             return _raw_from_bytes(blob, "<stdin>", shape, dtype, byteorder, offset, max_voxels)
         return _read_stdin_npy(max_voxels)
     fmt = detect_format(path)
@@ -438,7 +439,7 @@ def _npy_shape_dtype(f, where: str) -> tuple[tuple[int, ...], np.dtype]:
 
 
 def _read_stdin_npy(max_voxels: int) -> Volume:
-    blob = sys.stdin.buffer.read()
+    blob = stdin().read()
     if not blob.startswith(b"\x93NUMPY"):
         raise FormatError(
             f"expected a .npy stream on standard input, found {len(blob)} bytes starting "

@@ -81,9 +81,9 @@ def play(source: Any) -> Iterator[tuple[np.ndarray, FrameStats, dict]]:
         own = open(source, "rb")  # noqa: SIM115 - closed below
         src = _Stream(own)
     elif source == "-":
-        import sys
+        from .container import stdin
 
-        src = _Stream(sys.stdin.buffer)
+        src = _Stream(stdin())
     else:
         src = source
     try:

@@ -157,12 +157,13 @@ def compress(
 def decompress(source: str, target: str, *, force: bool, as_json: bool) -> None:
     """Decode the mesh .vpk SOURCE into the mesh file TARGET (format by suffix)."""
     from ..atomic import check_output
+    from ..container import stdin
     from ..tetra.formats import write_mesh
     from ..tetra.stream import decompress_mesh
 
     check_output(target, force=force, inputs=(source,))
     t0 = time.perf_counter()
-    mesh = decompress_mesh(source)
+    mesh = decompress_mesh(stdin() if source == "-" else source)
     seconds = time.perf_counter() - t0
     write_mesh(mesh, target, force=force)
     stats = {
