@@ -31,6 +31,7 @@ import numpy as np
 
 from .._jit import kernel, leading_zeros
 from ..entropy.arith import PROB_BITS, TOP, _carry
+from .mesh import HUB, PARITY, bucket_faces
 
 # Adaptation rate by use count: as the wavelet coder's early on, but settling at 1/64:
 # one mesh is one long stationary stream (the wavelet coder's bricks are short).
@@ -994,56 +995,19 @@ def _match_face(tets, nbr, info, fi, fj):
 def face_neighbours_kernel(tets, nv, nbr, info):
     """Fill nbr[t, l] = tetrahedron across the face opposite vertex l (-1: mesh border).
 
-    Faces are bucketed by their smallest vertex (a counting sort) and matched within a
-    bucket by their other two vertices: sequential memory, no hashing. Returns 0, or
-    1 + t for a face shared by more than two tetrahedra (at tet t), or -(1 + t) for a
-    tetrahedron that repeats another one's vertex set. ``info[0]`` counts inner faces
-    whose two tetrahedra are oppositely oriented.
+    Faces come bucketed by their smallest vertex (:func:`..mesh.bucket_faces`) and are
+    matched within a bucket. Returns 0, or 1 + t for a face shared by more than two
+    tetrahedra (at tet t), or -(1 + t) for a tetrahedron that repeats another one's
+    vertex set. ``info[0]`` counts inner faces whose two tetrahedra are oppositely
+    oriented.
     """
-    nt = tets.shape[0]
-    start = np.zeros(nv + 1, dtype=np.int64)
-    for t in range(nt):
-        for lf in range(4):
-            nbr[t, lf] = -1
-            a = tets[t, (lf + 1) % 4]
-            b = tets[t, (lf + 2) % 4]
-            c = tets[t, (lf + 3) % 4]
-            start[min(a, min(b, c)) + 1] += 1
-    for v in range(nv):
-        start[v + 1] += start[v]
-    fill = start[:nv].copy()
-    key = np.empty(4 * nt, dtype=np.int64)  # (mid << 32 | max) of each face, bucketed
-    fid = np.empty(4 * nt, dtype=np.int64)  # 4 t + l, with the orientation parity in bit 62
-    for t in range(nt):
-        for lf in range(4):
-            a = np.int64(tets[t, (lf + 1) % 4])
-            b = np.int64(tets[t, (lf + 2) % 4])
-            c = np.int64(tets[t, (lf + 3) % 4])
-            o = lf & 1  # (l+1, l+2, l+3) is the outward face for even l
-            if a > b:
-                a, b = b, a
-                o ^= 1
-            if b > c:
-                b, c = c, b
-                o ^= 1
-            if a > b:
-                a, b = b, a
-                o ^= 1
-            p = fill[a]
-            fill[a] += 1
-            key[p] = (b << 32) | c
-            fid[p] = (4 * t + lf) | (np.int64(o) << 62)
-    low = (np.int64(1) << 62) - 1
+    nbr[:] = -1
+    start, key, fid = bucket_faces(tets, nv)
+    low = PARITY - 1
     for v in range(nv):
         lo = start[v]
         hi = start[v + 1]
-        if hi - lo > 48:  # a hub vertex: sort its bucket instead of comparing all pairs
-            order = np.argsort(key[lo:hi], kind="mergesort")
-            k2 = key[lo:hi].copy()
-            f2 = fid[lo:hi].copy()
-            for i in range(hi - lo):
-                key[lo + i] = k2[order[i]]
-                fid[lo + i] = f2[order[i]]
+        if hi - lo > HUB:  # sorted: equal faces are neighbours
             for i in range(lo + 1, hi):
                 if key[i] == key[i - 1]:
                     if i + 1 < hi and key[i + 1] == key[i]:

@@ -8,8 +8,9 @@ tet); :func:`report` counts what is legal but worth knowing (zero-volume and inv
 tets, unreferenced and duplicate vertices, border faces, face-connected components,
 non-manifold faces, edges and vertices, the Euler characteristic; seed-004 §10.1).
 
-Face adjacency is found by sorting: each of the ``4 nt`` faces becomes a sorted vertex
-triple, equal triples end up side by side, and a face shared by two tets links them.
+Face adjacency is found by bucketing: each of the ``4 nt`` faces becomes a sorted vertex
+triple in the bucket of its smallest vertex (:func:`bucket_faces`, which the cut-border
+coder shares), and a face met twice in a bucket links its two tets.
 """
 
 from __future__ import annotations
@@ -234,53 +235,77 @@ def _find(parent, i):
     return i
 
 
+HUB = 32  # a bucket larger than this is sorted rather than compared pair by pair
+PARITY = np.int64(1) << 62
+
+
 @kernel
-def _face_adjacency_kernel(t, adj, nv):
-    """Bucket the 4 nt faces by their smallest vertex (a counting sort), then pair equal
-    faces inside each bucket by their packed other two vertices: reads go in order, and
-    a hub vertex's bucket is sorted rather than compared pair by pair."""
+def bucket_faces(t, nv):
+    """The ``4 nt`` faces of ``t`` bucketed by their smallest vertex (a counting sort:
+    reads go in order, no hashing). Returns ``start`` (bucket ``v`` is
+    ``start[v]:start[v + 1]``), ``key = mid << 32 | max`` and ``fid = 4 j + i`` (face
+    ``i`` of tet ``j``, opposite vertex ``i``) with bit 62 set when the sorted triple
+    has the orientation opposite to the face as seen from outside its tet; two tets
+    sharing a face with equal bits are oriented against each other. A bucket of more
+    than :data:`HUB` faces (a hub vertex) comes sorted by key, so equal faces are
+    neighbours there; smaller buckets are left in tet order."""
     nt = t.shape[0]
     start = np.zeros(nv + 1, dtype=np.int64)
     for j in range(nt):
         for i in range(4):
-            start[min(t[j, FACES[i, 0]], t[j, FACES[i, 1]], t[j, FACES[i, 2]]) + 1] += 1
+            start[min(t[j, (i + 1) % 4], t[j, (i + 2) % 4], t[j, (i + 3) % 4]) + 1] += 1
     for v in range(nv):
         start[v + 1] += start[v]
     fill = start[:nv].copy()
-    key = np.empty(4 * nt, dtype=np.int64)  # mid << 32 | max
-    fid = np.empty(4 * nt, dtype=np.int64)  # 4 j + i
+    key = np.empty(4 * nt, dtype=np.int64)
+    fid = np.empty(4 * nt, dtype=np.int64)
     for j in range(nt):
         for i in range(4):
-            a = t[j, FACES[i, 0]]
-            b = t[j, FACES[i, 1]]
-            c = t[j, FACES[i, 2]]
+            a = np.int64(t[j, (i + 1) % 4])
+            b = np.int64(t[j, (i + 2) % 4])
+            c = np.int64(t[j, (i + 3) % 4])
+            o = i & 1  # (i+1, i+2, i+3) faces out of the tet for even i
             if a > b:
                 a, b = b, a
+                o ^= 1
             if b > c:
                 b, c = c, b
+                o ^= 1
             if a > b:
                 a, b = b, a
+                o ^= 1
             p = fill[a]
             fill[a] += 1
             key[p] = (b << 32) | c
-            fid[p] = 4 * j + i
-    extra = 0
+            fid[p] = (4 * j + i) | (np.int64(o) << 62)
     for v in range(nv):
         lo = start[v]
         hi = start[v + 1]
-        if hi - lo > 32:
+        if hi - lo > HUB:
             order = np.argsort(key[lo:hi], kind="mergesort")
             k2 = key[lo:hi][order]
             f2 = fid[lo:hi][order]
             key[lo:hi] = k2
             fid[lo:hi] = f2
+    return start, key, fid
+
+
+@kernel
+def _face_adjacency_kernel(t, adj, nv):
+    start, key, fid = bucket_faces(t, nv)
+    low = PARITY - 1
+    extra = 0
+    for v in range(nv):
+        lo = start[v]
+        hi = start[v + 1]
+        if hi - lo > HUB:
             run = 1
             for q in range(lo + 1, hi):
                 if key[q] == key[q - 1]:
                     run += 1
                     if run == 2:
-                        f = fid[q - 1]
-                        g = fid[q]
+                        f = fid[q - 1] & low
+                        g = fid[q] & low
                         adj[f // 4, f % 4] = g // 4
                         adj[g // 4, g % 4] = f // 4
                     elif run == 3:
@@ -289,14 +314,14 @@ def _face_adjacency_kernel(t, adj, nv):
                     run = 1
             continue
         for q in range(lo, hi):
-            g = fid[q]
-            if g < 0:
+            if fid[q] < 0:
                 continue
+            g = fid[q] & low
             seen = 1
             for r in range(q + 1, hi):
                 if fid[r] >= 0 and key[r] == key[q]:
                     seen += 1
-                    f = fid[r]
+                    f = fid[r] & low
                     if seen == 2:
                         adj[f // 4, f % 4] = g // 4
                         adj[g // 4, g % 4] = f // 4
