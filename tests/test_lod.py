@@ -41,6 +41,24 @@ def test_full_resolution_selection_renders_exactly_like_the_volume(tree_path, cl
         assert np.array_equal(render(pv, **kw), render(vol, **kw))
 
 
+@pytest.mark.parametrize("cls", ["post", "preintegrated"])
+def test_empty_space_skipping_through_the_page_table_leaves_the_image_unchanged(tree_path, cls):
+    # a mixed-resolution selection: bricks are judged by the value range of the node
+    # voxels their samples read, so skipping them must not change a pixel
+    path, vol = tree_path
+    vr = (float(vol.min()), float(vol.max()))
+    cam = Camera(size=(48, 40), azimuth=60, elevation=15)
+    kw = dict(tf=tf_of(vol), camera=cam, value_range=vr, classification=cls, shading="phong")
+    with Octree(str(path)) as t:
+        sel, _ = select.by_view(t, cam, tf=kw["tf"], voxels=12 * 8**3)
+        pv = paged_volume(t, sel)
+        assert len({lv for lv, _ in sel}) > 1
+        a, sa = render(pv, skip_empty=False, render_stats=True, **kw)
+        b, sb = render(pv, skip_empty=True, render_stats=True, **kw)
+    np.testing.assert_array_equal(a, b)
+    assert sb.samples < sa.samples
+
+
 def test_budget_bounds_the_nodes_and_more_nodes_cost_less_error(tree_path):
     path, vol = tree_path
     vr = (float(vol.min()), float(vol.max()))

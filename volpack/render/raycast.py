@@ -584,6 +584,22 @@ def _render_kernel(
 
 
 @kernel
+def _box_range(a, z0, z1, y0, y1, x0, x1):
+    """Min and max of ``a[z0:z1, y0:y1, x0:x1]`` (inf and -inf when empty)."""
+    mn = np.inf
+    mx = -np.inf
+    for z in range(z0, z1):
+        for y in range(y0, y1):
+            for x in range(x0, x1):
+                v = a[z, y, x]
+                if v < mn:
+                    mn = v
+                if v > mx:
+                    mx = v
+    return mn, mx
+
+
+@kernel
 def _brick_range_kernel(vol, brick, mins, maxs):
     """Min and max of each brick's voxels plus one voxel of overlap on the high side."""
     nz, ny, nx = vol.shape
@@ -591,18 +607,47 @@ def _brick_range_kernel(vol, brick, mins, maxs):
     for bz in range(nbz):
         for by in range(nby):
             for bx in range(nbx):
-                mn = np.inf
-                mx = -np.inf
-                for z in range(bz * brick, min((bz + 1) * brick + 1, nz)):
-                    for y in range(by * brick, min((by + 1) * brick + 1, ny)):
-                        for x in range(bx * brick, min((bx + 1) * brick + 1, nx)):
-                            v = vol[z, y, x]
-                            if v < mn:
-                                mn = v
-                            if v > mx:
-                                mx = v
-                mins[bz, by, bx] = mn
-                maxs[bz, by, bx] = mx
+                mins[bz, by, bx], maxs[bz, by, bx] = _box_range(
+                    vol,
+                    bz * brick, min((bz + 1) * brick + 1, nz),
+                    by * brick, min((by + 1) * brick + 1, ny),
+                    bx * brick, min((bx + 1) * brick + 1, nx),
+                )  # fmt: skip
+
+
+@kernel
+def _paged_range_kernel(atlas, page, meta, level, origin, brick, mins, maxs):
+    """Min and max of the node voxels that trilinear samples inside each level-0 brick
+    of a paged volume read (NaN where no node covers the brick). A brick lies inside
+    one page cell, as ``brick`` divides the cell size."""
+    g = meta[3]
+    b = atlas.shape[1] - 1
+    nbz, nby, nbx = mins.shape
+    for bz in range(nbz):
+        for by in range(nby):
+            for bx in range(nbx):
+                node = page[min(bz * brick // g, page.shape[0] - 1),
+                            min(by * brick // g, page.shape[1] - 1),
+                            min(bx * brick // g, page.shape[2] - 1)]  # fmt: skip
+                if node < 0:
+                    mins[bz, by, bx] = np.nan
+                    maxs[bz, by, bx] = np.nan
+                    continue
+                s = 1 << level[node]
+                lo3 = np.empty(3, np.int64)
+                hi3 = np.empty(3, np.int64)
+                for a, c in enumerate((bz, by, bx)):
+                    # level-0 samples in [c brick - 0.5, (c + 1) brick + 0.5] (the
+                    # step may cross a border): their atlas cells, plus the next voxel
+                    p0 = c * brick - 0.5
+                    p1 = (c + 1) * brick + 0.5
+                    q0 = (p0 + 0.5) / s - 0.5 - origin[node, a] + 1.0
+                    q1 = (p1 + 0.5) / s - 0.5 - origin[node, a] + 1.0
+                    lo3[a] = min(max(int(math.floor(q0)), 0), b)
+                    hi3[a] = min(max(int(math.floor(q1)) + 1, 0), b)
+                mins[bz, by, bx], maxs[bz, by, bx] = _box_range(
+                    atlas[node], lo3[0], hi3[0] + 1, lo3[1], hi3[1] + 1, lo3[2], hi3[2] + 1
+                )
 
 
 @kernel
@@ -778,16 +823,17 @@ def render(
 
     nthreads = parse_workers(workers)
     brick = BRICK
-    if paged:  # skip whole pages without a node; nodes are sampled through the page table
-        empty, brick = volume.page < 0, volume.cell
+    if paged:  # nodes are sampled through the page table
         fill = np.array([_empty_value(base if has_vol else None, lo, hi, finite, quiet=True)])
         vol = (volume.atlas, volume.page, volume.meta, volume.level, volume.origin, fill)
         shape = volume.shape
     else:
-        empty = _empty_bricks(
-            vol, rgba, mode, has_vol, post_tab, pre2d, iso2d, bool(isos), lo, scale, skip_empty
-        )
         shape = vol.shape
+    if paged and volume.cell % BRICK:  # bricks must not straddle page cells: skip by cell
+        empty, brick = volume.page < 0, volume.cell
+    else:
+        empty = _empty_bricks(vol, shape, rgba, mode, has_vol, post_tab, pre2d, iso2d,
+                              bool(isos), lo, scale, skip_empty)  # fmt: skip
     leap = np.zeros(empty.shape, np.int64)
     if skip_empty:
         _leap_kernel(np.ascontiguousarray(empty), leap)
@@ -947,8 +993,13 @@ def _empty_value(base, lo, hi, finite, quiet: bool = False) -> float:
     return lo + i * (hi - lo) / (n - 1)
 
 
-def _empty_bricks(vol, rgba, mode, has_vol, post_tab, pre2d, iso2d, has_iso, lo, scale, skip):
-    nb = tuple(max(1, -(-s // BRICK)) for s in vol.shape)
+def _empty_bricks(
+    vol, shape, rgba, mode, has_vol, post_tab, pre2d, iso2d, has_iso, lo, scale, skip
+):
+    """Which ``BRICK``^3 bricks of level-0 space no sample can see: their value range
+    (with the voxels trilinear samples inside them reach) maps to zero in every table
+    in use; for a paged volume, also the bricks no node covers."""
+    nb = tuple(max(1, -(-s // BRICK)) for s in shape)
     if not skip:
         return np.zeros(nb, np.bool_)
     if has_vol and mode == 1:
@@ -961,7 +1012,24 @@ def _empty_bricks(vol, rgba, mode, has_vol, post_tab, pre2d, iso2d, has_iso, lo,
             return empty
     mins = np.empty(nb, np.float32)
     maxs = np.empty(nb, np.float32)
-    _brick_range_kernel(vol, BRICK, mins, maxs)
+    uncovered = np.zeros(nb, np.bool_)
+    if isinstance(vol, tuple):
+        _paged_range_kernel(*vol[:5], BRICK, mins, maxs)
+        uncovered = np.isnan(mins)
+        mins[uncovered] = maxs[uncovered] = lo
+    else:
+        _brick_range_kernel(vol, BRICK, mins, maxs)
+    invisible = uncovered | _invisible_range(
+        mins, maxs, mode, has_vol, post_tab, pre2d, iso2d, has_iso, lo, scale
+    )
+    if has_vol and mode == 1:
+        return invisible & empty
+    return invisible
+
+
+def _invisible_range(mins, maxs, mode, has_vol, post_tab, pre2d, iso2d, has_iso, lo, scale):
+    """True where the value range ``[mins, maxs]`` touches no visible table entry."""
+    nb = mins.shape
     n = post_tab.shape[0]
     # table entries a value range can touch (bilinear neighbours, with a little slack)
     i0 = np.clip(np.floor((mins.astype(np.float64) - lo) * scale - 1e-3), 0, n - 1).astype(int)
@@ -972,7 +1040,7 @@ def _empty_bricks(vol, rgba, mode, has_vol, post_tab, pre2d, iso2d, has_iso, lo,
         cum = np.concatenate([[0], np.cumsum(nz1)])
         vol_empty = (cum[i1 + 1] - cum[i0]) == 0
     elif has_vol and mode == 1:
-        vol_empty = empty
+        vol_empty = np.ones(nb, bool)  # the caller judges the classified volume
     elif has_vol:
         nonzero2 |= np.any(pre2d != 0, axis=2)
         vol_empty = None
