@@ -1,8 +1,9 @@
 """Tetrahedral mesh compression: the thesis's Tables 3.5-3.8 quantities on real meshes.
 
 For each mesh (``datasets.MESH_DATASETS``, fetched from Debian packages into the cache
-folder, plus the thesis's "Random" case: the Delaunay tetrahedralisation of 2,000 random
-points, with scipy) it measures
+folder; real surfaces filled with tets by tetgen or gmsh, ``mesh_surfaces.RECIPES``, named
+``<surface>_<mesher>`` and cached under ``<data>/meshed/``; plus the thesis's "Random"
+case: the Delaunay tetrahedralisation of 2,000 random points, with scipy) it measures
 
 * v:e:f:t, border faces, operation frequencies of the cut-border machine (Table 3.5/3.6);
 * connectivity bits per tet and per vertex, from the order-0 entropy of the operations
@@ -15,17 +16,17 @@ points, with scipy) it measures
   them, and meshio's zlib-compressed VTU file (the whole mesh: indices, coordinates,
   cell types and offsets).
 
-Writes ``results/tetra/tetra.csv`` and ``results/tetra/tetra.png`` and prints a
-markdown table.
+Writes ``results/tetra/tetra.csv``, ``tetra.png`` and ``table.md`` (or into ``--out``)
+and prints the markdown table.
 
     python scripts/bench_tetra.py                # every mesh (fetches what is missing)
     python scripts/bench_tetra.py --quick        # the small ones only
+    python scripts/bench_tetra.py --only femur_tetgen,aneurysm_gmsh --out /tmp/t
 """
 
 from __future__ import annotations
 
 import argparse
-import contextlib
 import csv
 import io
 import lzma
@@ -42,6 +43,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import datasets  # noqa: E402
 import fetch_data  # noqa: E402
+import mesh_surfaces  # noqa: E402
 
 from volpack.tetra import cutborder, geometry  # noqa: E402
 from volpack.tetra.formats import read_mesh, write_mesh  # noqa: E402
@@ -49,33 +51,26 @@ from volpack.tetra.mesh import TetMesh, signed_volumes  # noqa: E402
 from volpack.tetra.stream import compress_mesh, decompress_mesh, row_convention  # noqa: E402
 
 OUT = Path(__file__).resolve().parent.parent / "results" / "tetra"
-QUICK = ("elbow2", "cube_sphere", "box_with_dent", "cgal_sphere", "segmenttet")
+QUICK = ("elbow2", "cube_sphere", "box_with_dent", "cgal_sphere", "segmenttet", "t13_gmsh")
+MESHES = [*datasets.MESH_DATASETS, *mesh_surfaces.RECIPES]
 
 
-@contextlib.contextmanager
-def _registered(ds):
-    """Let fetch_data.fetch see a mesh dataset (it looks names up in DATASETS)."""
-    datasets.DATASETS[ds.name] = ds
-    try:
-        yield
-    finally:
-        del datasets.DATASETS[ds.name]
-
-
-def load_meshes(names, tmp: Path) -> dict[str, TetMesh]:
-    meshes = {}
+def load_meshes(names, tmp: Path) -> tuple[dict[str, TetMesh], dict[str, str]]:
+    """The meshes by name, and who made each meshed surface (e.g. ``"gmsh 4.15.2"``)."""
+    meshes, meshers = {}, {}
     for name in names:
-        ds = datasets.MESH_DATASETS[name]
         try:
-            with _registered(ds):
-                path, _ = fetch_data.fetch(name, tmp)
-        except Exception as exc:  # a missing package should not stop the others
+            if name in mesh_surfaces.RECIPES:
+                meshes[name], meshers[name] = mesh_surfaces.meshed(name, tmp)
+                continue
+            path, _ = fetch_data.fetch_dataset(datasets.MESH_DATASETS[name], tmp)
+        except Exception as exc:  # a missing package or mesher should not stop the others
             print(f"{name}: not available ({exc})", file=sys.stderr)
             continue
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             meshes[name] = read_mesh(str(path))
-    return meshes
+    return meshes, meshers
 
 
 def random_mesh(n: int = 2000, seed: int = 0) -> TetMesh:
@@ -204,28 +199,40 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="only the small meshes")
     ap.add_argument("names", nargs="*", help="meshes to run (default: all)")
+    ap.add_argument(
+        "--only", metavar="NAME[,NAME]", help="just these meshes (Random only if named)"
+    )
+    ap.add_argument("--out", type=Path, default=OUT, help=f"output folder (default {OUT})")
     args = ap.parse_args(argv)
-    names = args.names or (list(QUICK) if args.quick else list(datasets.MESH_DATASETS))
+    only = args.only.split(",") if args.only else []
+    names = only or args.names or (list(QUICK) if args.quick else MESHES)
+    unknown = [n for n in names if n not in MESHES and n != "Random"]
+    if unknown:
+        ap.error(f"unknown mesh(es) {', '.join(unknown)}; expected some of {', '.join(MESHES)}")
     with tempfile.TemporaryDirectory(prefix="volpack-fetch-") as tmp:
-        meshes = load_meshes([n for n in names if n != "Random"], Path(tmp))
-    meshes["Random"] = random_mesh()
-    cutborder.encode_connectivity(meshes["Random"].tets[:50], meshes["Random"].n_vertices)
-    compress_mesh(meshes["Random"], io.BytesIO())  # compile before timing
+        meshes, meshers = load_meshes([n for n in names if n != "Random"], Path(tmp))
+    random = random_mesh()
+    if not only or "Random" in only:
+        meshes["Random"] = random
+    cutborder.encode_connectivity(random.tets[:50], random.n_vertices)
+    compress_mesh(random, io.BytesIO())  # compile before timing
     rows = []
     for name, mesh in meshes.items():
         row = measure(name, mesh)
+        row["mesher"] = meshers.get(name, "")
         rows.append(row)
         print(
             f"{name:18s} t={row['t']:7d} conn {row['conn_adaptive_bpt']:.2f} b/t "
             f"geo {row['geo16_bpv']:.2f} b/v enc {row['enc_tets_s'] / 1e3:.0f}k/s",
             file=sys.stderr,
         )
-    OUT.mkdir(parents=True, exist_ok=True)
-    with open(OUT / "tetra.csv", "w", newline="") as f:
+    out = args.out
+    out.mkdir(parents=True, exist_ok=True)
+    with open(out / "tetra.csv", "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
-    chart(rows, OUT / "tetra.png")
+    chart(rows, out / "tetra.png")
     real = [r for r in rows if r["real"]]
     lines = []
     emit = lines.append  # the table goes to stdout and to table.md
@@ -261,7 +268,7 @@ def main(argv: list[str] | None = None) -> int:
             f"{np.mean([r['conn_dec_tets_s'] for r in real]) / 1e3:.0f}k tets/s"
         )
     text = "\n".join(lines) + "\n"
-    (OUT / "table.md").write_text(text)
+    (out / "table.md").write_text(text)
     sys.stdout.write(text)
     return 0
 

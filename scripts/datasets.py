@@ -40,8 +40,9 @@ __all__ = ["DATASETS", "Dataset", "data_dir", "load", "names", "path_of"]
 class Dataset:
     """Where a volume comes from and how it is stored in the cache.
 
-    ``source`` is ``"deb"`` (Debian package, unpacked with ``dpkg -x``) or ``"pypi"``
-    (a wheel, or the installed copy of the package). ``member`` is the file's path inside
+    ``source`` is ``"deb"`` (Debian package, unpacked with ``dpkg -x``), ``"pypi"``
+    (a wheel, or the installed copy of the package) or ``"pypi-data"`` (a file the wheel
+    installs under ``sys.prefix``). ``member`` is the file's path inside
     the package; ``inner`` optionally names a member of a ``.tar.gz`` found there.
     ``file`` is the name in the cache folder. ``kind`` is ``"int"`` (integer voxels, loaded
     as stored) or ``"float"`` (float voxels, loaded as float32).
@@ -337,5 +338,37 @@ MESH_DATASETS: dict[str, Dataset] = {
         _mesh("segmenttet", "calculix-ccx-test",
               "usr/share/doc/calculix-ccx-test/examples/test/segmenttet.inp.gz", "segmenttet.inp.gz",
               "CalculiX test: machine segment, 1,489 quadratic tets, corners kept (Abaqus)"),
+    ]
+}  # fmt: skip
+
+
+# --- triangle surfaces, meshed into tets (scripts/mesh_surfaces.py, bench_tetra.py) -----
+# Real surfaces of test-data.md §3 (S1-S4), read with meshio (OFF, STL). They are not
+# tetrahedral meshes: scripts/mesh_surfaces.py fills each with tets by a fixed recipe
+# (tetgen, gmsh) and caches the result under <data>/meshed/. Source "pypi-data" is a file
+# that a wheel installs under ``sys.prefix`` (gmsh's share/doc/gmsh/).
+
+_GMSH_DOC = "share/doc/gmsh"
+
+
+def _surface(name, source, package, member, file, description, inner=None):
+    return Dataset(name, source, package, member, file, "meshio", description, inner, "surface")
+
+
+SURFACE_DATASETS: dict[str, Dataset] = {
+    d.name: d
+    for d in [
+        _surface("femur", "deb", "libcgal-demo", "usr/share/doc/libcgal-dev/data.tar.gz",
+                 "femur.off", "CGAL: scanned femur, 3,897 vertices, 7,798 triangles, closed (OFF)",
+                 inner="data/meshes/femur.off"),
+        _surface("hinge", "deb", "netgen-doc", "usr/share/doc/netgen/examples/hinge.stl",
+                 "hinge.stl", "netgen example: CAD hinge, 1,212 triangles, closed (STL)"),
+        _surface("part1", "deb", "netgen-doc", "usr/share/doc/netgen/examples/part1.stl",
+                 "part1.stl", "netgen example: CAD part, 380 triangles, closed (STL)"),
+        _surface("t13", "pypi-data", "gmsh", f"{_GMSH_DOC}/tutorials/t13_data.stl",
+                 "t13_data.stl", "gmsh tutorial 13: remeshing surface, 1,580 triangles, closed (STL)"),
+        _surface("aneurysm_stl", "pypi-data", "gmsh", f"{_GMSH_DOC}/examples/api/aneurysm_data.stl",
+                 "aneurysm_data.stl", "gmsh example: aneurysm vessel surface, 20,294 triangles, "
+                 "open at the 3 vessel ends (STL)"),
     ]
 }  # fmt: skip

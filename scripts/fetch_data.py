@@ -55,6 +55,20 @@ def _pypi_root(package: str, tmp: Path) -> Path:
     spec = importlib.util.find_spec(package)
     if spec is not None and spec.origin:
         return Path(spec.origin).resolve().parent.parent
+    return _wheel_root(package, tmp)
+
+
+def _pypi_data_root(package: str, tmp: Path) -> Path:
+    """Where a wheel's ``<name>.data/data/`` files go: ``sys.prefix`` once installed, else
+    that folder of the unpacked wheel (gmsh ships its tutorials and examples there)."""
+    if importlib.util.find_spec(package) is not None:
+        return Path(sys.prefix)
+    (root,) = _wheel_root(package, tmp).glob("*.data/data")
+    return root
+
+
+def _wheel_root(package: str, tmp: Path) -> Path:
+    """``pip download --no-deps`` the package's wheel and unpack it; return the folder."""
     root = tmp / f"wheel-{package}"
     if not root.is_dir():
         (tmp / "wheels").mkdir(exist_ok=True)
@@ -79,13 +93,22 @@ def _pypi_root(package: str, tmp: Path) -> Path:
     return root
 
 
+_ROOTS = {"deb": _unpack_deb, "pypi": _pypi_root, "pypi-data": _pypi_data_root}
+
+
 def fetch(name: str, tmp: Path, force: bool = False) -> tuple[Path, str]:
     """Make sure dataset ``name`` is in the cache; return its path and what was done."""
-    ds = datasets.DATASETS[name]
-    target = datasets.path_of(name)
+    return fetch_dataset(datasets.DATASETS[name], tmp, force)
+
+
+def fetch_dataset(ds: datasets.Dataset, tmp: Path, force: bool = False) -> tuple[Path, str]:
+    """:func:`fetch` for any :class:`datasets.Dataset` (also those kept apart from
+    ``DATASETS``: meshes, surfaces)."""
+    name = ds.name
+    target = datasets.data_dir() / ds.file
     if target.is_file() and not force:
         return target, "cached"
-    root = _unpack_deb(ds.package, tmp) if ds.source == "deb" else _pypi_root(ds.package, tmp)
+    root = _ROOTS[ds.source](ds.package, tmp)
     src = root / ds.member
     if not src.is_file():
         raise FileNotFoundError(
