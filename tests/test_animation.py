@@ -256,3 +256,70 @@ def test_golden_animation_decodes_and_is_reproduced(stem, opts):
     with Reader(blob) as old, Reader(again) as new:
         assert old.header == new.header
         assert [(t, n, p) for t, n, p in old] == [(t, n, p) for t, n, p in new]
+
+
+# -- flat residual fields ----------------------------------------------------------------
+
+
+@pytest.mark.parametrize("dtype,step,bound", [(np.int16, 5.0, 2), (np.float64, 0.2, 0.1)])
+def test_flat_field_round_trip_within_half_a_bin(dtype, step, bound):
+    rng = np.random.default_rng(4)
+    r = rng.normal(0, 3 * step, (9, 10, 11))
+    r = np.rint(r).astype(dtype) if np.dtype(dtype).kind == "i" else r.astype(dtype)
+    body, dec = animation.encode_flat(r, step)
+    assert dec.dtype == r.dtype and _err(dec, r).max() <= bound  # every voxel
+    again = animation.decode_flat(body, r.shape, step, np.dtype(dtype))
+    assert np.array_equal(again, dec)
+    # the decoded values are the bin centres: multiples of the step
+    assert np.allclose(np.rint(dec / step) * step, dec)
+    with pytest.raises(FormatError):
+        animation.decode_flat(body[: len(body) // 3], r.shape, step, np.dtype(dtype))
+
+
+def test_flat_field_clips_at_the_dtype_end():
+    x = np.full((4, 4, 4), 255, np.uint8)  # bins of 13: the centre of 255's bin is 260
+    body, dec = animation.encode_flat(x, 13.0)
+    assert dec.max() == 255 and _err(dec, x).max() <= 6
+    assert np.array_equal(animation.decode_flat(body, x.shape, 13.0, np.dtype(np.uint8)), dec)
+
+
+def _flags(blob):
+    from volpack.container import Reader
+
+    with Reader(blob) as r:
+        return {t: p[1] for t, _, p in r}
+
+
+def test_noisy_residuals_are_coded_flat_and_stay_within_the_bound(moving):
+    blob, stats = _code(moving, gop_string="IBBP", max_error=2)
+    flags = _flags(blob)
+    flat = [t for t, f in flags.items() if f & animation.FLAG_FLAT]
+    assert flat  # a sub-voxel move at E = 2 leaves residuals of rounding noise
+    assert _err(animation.decompress(blob).data, moving).max() <= 2
+    # lossless: the flat field is the residual itself
+    noisy = moving[:4].astype(np.int16) * 3 + synth.noise(SHAPE, 4, seed=2).astype(np.int16)
+    blob, _ = _code(noisy, gop_string="IPPP")
+    assert any(f & animation.FLAG_FLAT for f in _flags(blob).values())
+    assert np.array_equal(animation.decompress(blob).data, noisy)
+
+
+def test_flat_flag_without_a_residual_is_refused(moving):
+    s = animation.Settings("bounded", 2.0)
+    head = animation._FRAME_HEAD.pack(0, animation.FLAG_FLAT, 0.0, 1.0, 1.0, 1.0)
+    with pytest.raises(FormatError, match="flags"):
+        animation.decode_frame(head, SHAPE, np.dtype(np.uint8), None, None, s, (64, 64, 64))
+
+
+def test_quarter_voxel_is_the_default_and_can_be_turned_off(tmp_path, moving):
+    from volpack.container import Reader
+
+    np.save(tmp_path / "run.npy", moving[:3])
+    run = CliRunner()
+    for extra, want in (([], "quarter"), (["--no-quarter-voxel"], "half"),
+                        (["--no-half-voxel"], "whole")):  # fmt: skip
+        vpk = str(tmp_path / f"{want}.vpk")
+        r = run.invoke(main, ["compress", str(tmp_path / "run.npy"), vpk, "--gop", "IPP",
+                              "--max-error", "2", *extra])  # fmt: skip
+        assert r.exit_code == 0, r.output
+        with Reader(vpk) as rd:
+            assert rd.header["motion"]["precision"] == want
