@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from volpack import animation, gop, synth
+from volpack import animation, gop, motion, synth
 from volpack.cli import main
 from volpack.errors import FormatError
 
@@ -323,3 +323,22 @@ def test_quarter_voxel_is_the_default_and_can_be_turned_off(tmp_path, moving):
         assert r.exit_code == 0, r.output
         with Reader(vpk) as rd:
             assert rd.header["motion"]["precision"] == want
+
+
+def test_diffusing_flow_smooths_its_prediction_and_stays_within_the_bound(monkeypatch):
+    a = synth.advect((24, 24, 24), 7)
+    blob, stats = _code(a, gop_string="IPPPPPP", max_error=2)
+    strengths = [f >> animation.SMOOTH_SHIFT & 7 for f in _flags(blob).values()]
+    assert any(strengths)  # the field blurs along the flow: some P-frame smooths
+    assert _err(animation.decompress(blob).data, a).max() <= 2
+    monkeypatch.setattr(motion, "SMOOTHING", (0,))  # the same coder, never smoothing
+    plain, _ = _code(a, gop_string="IPPPPPP", max_error=2)
+    assert len(blob) < 0.95 * len(plain)
+
+
+def test_smoothing_bits_on_an_i_frame_are_refused():
+    s = animation.Settings("bounded", 2.0)
+    flags = animation.FLAG_RESIDUAL | 1 << animation.SMOOTH_SHIFT
+    head = animation._FRAME_HEAD.pack(0, flags, 0.0, 1.0, 1.0, 1.0)
+    with pytest.raises(FormatError, match="flags"):
+        animation.decode_frame(head, SHAPE, np.dtype(np.uint8), None, None, s, (64, 64, 64))

@@ -42,6 +42,7 @@ log = logging.getLogger(__name__)
 KIND_ANIMATION = "animation"
 TYPE_CODE = {"I": 0, "P": 1, "B": 2}
 FLAG_RESIDUAL, FLAG_CORRECTIONS, FLAG_FLAT = 1, 2, 4
+SMOOTH_SHIFT, SMOOTH_MASK = 3, 0x38  # flag bits 3-5: index into motion.SMOOTHING
 INTRA_CUT = 0.5  # a frame with at least this share of intra blocks is coded as an I-frame
 _FRAME_HEAD = struct.Struct("<BBdddd")  # type, flags, lo, hi, value range, mean unit
 ANIMATION_DTYPES = ("uint8", "int8", "uint16", "int16", "float32", "float64")
@@ -397,13 +398,13 @@ def encode_frame(
         pred = motion.compensate(
             field, prev, nxt if kind == "B" else None, compensation=s.compensation
         )
+        strength = _choose_smoothing(x, pred, s)
+        flags |= motion.SMOOTHING.index(strength) << SMOOTH_SHIFT
+        pred_int = _rounded(motion.smooth(pred, strength), dtype)
         if dtype.kind in "iu":
-            info = np.iinfo(dtype)
-            pred_int = np.clip(np.rint(pred), info.min, info.max).astype(np.int64)
             target = (x.astype(np.int64) - pred_int).astype(_residual_dtype(dtype))
         else:
-            pred_int = pred
-            target = x.astype(np.float64) - pred
+            target = x.astype(np.float64) - pred_int
         fdtype = target.dtype
     residual = kind != "B" or s.b_residual
     lo, hi = _planned_range(s, fdtype, *_frame_range(target))
@@ -460,8 +461,9 @@ def decode_frame(
     kinds = {v: k for k, v in TYPE_CODE.items()}
     if (
         code not in kinds
-        or flags & ~(FLAG_RESIDUAL | FLAG_CORRECTIONS | FLAG_FLAT)
+        or flags & ~(FLAG_RESIDUAL | FLAG_CORRECTIONS | FLAG_FLAT | SMOOTH_MASK)
         or (flags & FLAG_FLAT and not flags & FLAG_RESIDUAL)
+        or (code == TYPE_CODE["I"] and flags & SMOOTH_MASK)
     ):
         raise FormatError(f"animation frame: unknown type {code} or flags {flags:#x}")
     kind = kinds[code]
@@ -478,11 +480,8 @@ def decode_frame(
         pred = motion.compensate(
             field, prev, nxt if kind == "B" else None, compensation=s.compensation
         )
-        if dtype.kind in "iu":
-            info = np.iinfo(dtype)
-            pred_int = np.clip(np.rint(pred), info.min, info.max).astype(np.int64)
-        else:
-            pred_int = pred
+        strength = motion.SMOOTHING[(flags & SMOOTH_MASK) >> SMOOTH_SHIFT]
+        pred_int = _rounded(motion.smooth(pred, strength), dtype)
         fdtype = _residual_dtype(dtype)
     rec = None
     if flags & FLAG_FLAT:
@@ -506,6 +505,47 @@ def decode_frame(
     if pos != len(data):
         raise FormatError(f"animation frame: {len(data) - pos} stray bytes at the end")
     return kind, out
+
+
+def _rounded(pred: np.ndarray, dtype: np.dtype) -> np.ndarray:
+    """The prediction as the residual is taken from it: rounded and clipped to an
+    integer dtype (int64), as is for floats."""
+    if dtype.kind in "iu":
+        info = np.iinfo(dtype)
+        return np.clip(np.rint(pred), info.min, info.max).astype(np.int64)
+    return pred
+
+
+def _choose_smoothing(x: np.ndarray, pred: np.ndarray, s: Settings) -> int:
+    """The strength of :func:`motion.smooth` whose residual, quantised as the coder will
+    (bins of 2E + 1, or 1 when lossless), has the least empirical entropy; 0 in
+    ``coef`` mode (its bytes do not follow the voxel-domain quantisation). The first of
+    equal costs wins, so the choice is deterministic and prefers weaker filters."""
+    if s.mode == "coef":
+        return 0
+    step = _flat_step(s, x.dtype)
+    xf = x.astype(np.float64)
+    best, best_bits = 0, math.inf
+    for k in motion.SMOOTHING:
+        p = _rounded(motion.smooth(pred, k), x.dtype)
+        r = xf - p
+        q = np.floor((r + (step - 1) / 2) / step) if x.dtype.kind in "iu" else np.rint(r / step)
+        bits = _entropy_bits(q)
+        if bits < best_bits:
+            best, best_bits = k, bits
+    return best
+
+
+def _entropy_bits(q: np.ndarray) -> float:
+    """Bits of ``q`` (integer-valued floats) at its empirical order-0 entropy."""
+    lo, hi = float(q.min()), float(q.max())
+    if hi - lo < 1 << 20:
+        counts = np.bincount((q - lo).astype(np.int64).ravel())
+        counts = counts[counts > 0]
+    else:
+        _, counts = np.unique(q, return_counts=True)
+    p = counts / q.size
+    return float(-(counts * np.log2(p)).sum())
 
 
 def _combine(pred_int, rec, dtype: np.dtype) -> np.ndarray:
