@@ -342,3 +342,20 @@ def test_smoothing_bits_on_an_i_frame_are_refused():
     head = animation._FRAME_HEAD.pack(0, flags, 0.0, 1.0, 1.0, 1.0)
     with pytest.raises(FormatError, match="flags"):
         animation.decode_frame(head, SHAPE, np.dtype(np.uint8), None, None, s, (64, 64, 64))
+
+
+def test_summary_is_stored_by_column_and_read_back_as_rows(moving):
+    from volpack.container import Reader
+
+    blob, stats = _code(moving, gop_string="IBBP", max_error=2)
+    with Reader(blob) as r:
+        assert "frames" not in r.summary and len(r.summary["frame_columns"]["type"]) == 7
+    with animation.AnimationReader(blob) as r:
+        rows = r.summary["frames"]
+    for got, want in zip(rows, stats["frames"], strict=True):
+        assert got["psnr"] == pytest.approx(want["psnr"], abs=1e-4)
+        assert {k: got[k] for k in want if k != "psnr"} == {k: want[k] for k in want if k != "psnr"}
+    old = {"frames": stats["frames"]}  # files written before stored their rows as they are
+    assert animation.frame_rows(old, "IBBPBBP") == stats["frames"]
+    with pytest.raises(FormatError, match="frame columns"):
+        animation.frame_rows({"frame_columns": {"type": "IP"}}, "IP")

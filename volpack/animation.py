@@ -697,7 +697,7 @@ def compress(
             if progress is not None:
                 progress(i + 1, nt)
         summary = _summary(rows, src, nbytes, lo, hi, sse_total, s)
-        w.close(summary=summary)
+        w.close(summary=stored_summary(summary))
     seconds = time.perf_counter() - t0
     raw = summary["raw_nbytes"]
     return {
@@ -755,6 +755,52 @@ def _summary(rows, src, nbytes, lo, hi, sse_total, s) -> dict[str, Any]:
     }
 
 
+# The per-frame rows are stored by column: on a short series of small frames the JSON
+# of one dict per frame (its keys repeated every time) outweighed the frames' data.
+MODE_NAMES = ("forward", "backward", "bidirectional", "intra")
+
+
+def stored_summary(summary: dict[str, Any]) -> dict[str, Any]:
+    """``summary`` as the file stores it: ``frames`` turned into ``frame_columns``."""
+    rows = summary["frames"]
+    out = {k: v for k, v in summary.items() if k != "frames"}
+    out["frame_columns"] = {
+        "type": "".join(r["type"] for r in rows),
+        "nbytes": [r["nbytes"] for r in rows],
+        "motion_nbytes": [r["motion_nbytes"] for r in rows],
+        "max_error": [r["max_error"] for r in rows],
+        "psnr": [None if r["psnr"] is None else round(r["psnr"], 4) for r in rows],
+        "modes": [[r["modes"].get(m, 0) for m in MODE_NAMES] if r["modes"] else [] for r in rows],
+    }
+    return out
+
+
+def frame_rows(summary: dict, planned: str) -> list[dict[str, Any]]:
+    """The per-frame rows of a stored summary (``t``, ``type``, ``planned``, ``nbytes``,
+    ``motion_nbytes``, ``max_error``, ``psnr``, ``modes``); files that stored rows
+    return them as they are."""
+    if "frames" in summary:
+        return list(summary["frames"])
+    c = summary.get("frame_columns") or {}
+    try:
+        n = len(c["type"])
+        return [
+            {
+                "t": t,
+                "type": c["type"][t],
+                "planned": planned[t] if t < len(planned) else c["type"][t],
+                "nbytes": c["nbytes"][t],
+                "motion_nbytes": c["motion_nbytes"][t],
+                "max_error": c["max_error"][t],
+                "psnr": c["psnr"][t],
+                "modes": dict(zip(MODE_NAMES, c["modes"][t])),
+            }
+            for t in range(n)
+        ]
+    except (KeyError, IndexError, TypeError) as e:
+        raise FormatError(f"animation summary: bad frame columns ({e!r})") from None
+
+
 class AnimationReader:
     """Decode frames of an animation ``.vpk``: one frame with only the anchors it needs
     (:meth:`frame`), all frames (:meth:`frames`), or the playback schedule (:meth:`play`)."""
@@ -788,7 +834,11 @@ class AnimationReader:
 
     @property
     def summary(self) -> dict | None:
-        return self._r.summary
+        """The stored summary, per-frame rows expanded (:func:`frame_rows`)."""
+        summ = self._r.summary
+        if summ is None:
+            return None
+        return {**summ, "frames": frame_rows(summ, self.types)}
 
     def _decode(self, t: int, payload: bytes, prev, nxt) -> motion.Reference:
         self.decoded += 1

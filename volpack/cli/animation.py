@@ -155,9 +155,11 @@ SHORT = {"forward": "fwd", "backward": "bwd", "bidirectional": "bi", "intra": "i
 
 def frame_table(d: dict) -> str:
     """The per-frame lines of ``volpack info`` for an animation."""
+    from ..animation import frame_rows
+
     s = d.get("summary") or {}
     rows = []
-    for r in s.get("frames", []):
+    for r in frame_rows(s, d["header"].get("types") or ""):
         modes = r.get("modes") or {}
         used = ", ".join(f"{SHORT.get(k, k)} {v}" for k, v in modes.items() if v)
         rows.append(
