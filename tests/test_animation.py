@@ -359,3 +359,11 @@ def test_summary_is_stored_by_column_and_read_back_as_rows(moving):
     assert animation.frame_rows(old, "IBBPBBP") == stats["frames"]
     with pytest.raises(FormatError, match="frame columns"):
         animation.frame_rows({"frame_columns": {"type": "IP"}}, "IP")
+
+
+def test_quarter_setting_falls_back_to_half_voxel_fields_when_they_cost_less():
+    half_steps = synth.translate(synth.head(SHAPE), 4, step=(0.5, 0.5, 0.0))
+    q, _ = _code(half_steps, gop_string="IPPP", max_error=2, precision="quarter")
+    h, _ = _code(half_steps, gop_string="IPPP", max_error=2, precision="half")
+    assert len(q) <= 1.02 * len(h)
+    assert _err(animation.decompress(q).data, half_steps).max() <= 2

@@ -381,12 +381,26 @@ def encode_frame(
     field = None
     if kind != "I":
         pen = 0.01 * motion.BLOCK**3 * s.scale(vrange) ** 2
-        field = motion.choose_modes(
-            x, prev, nxt if kind == "B" else None, radius=s.search, method=s.method,
-            precision=s.precision, penalty=pen, mean_unit=mean_unit,
-        )  # fmt: skip
-        if np.mean(field.mode == motion.MODE_INTRA) >= INTRA_CUT:
-            kind, field = "I", None  # a scene cut: nothing to predict from
+        best = None
+        for precision in _precisions(s):
+            f = motion.choose_modes(
+                x, prev, nxt if kind == "B" else None, radius=s.search, method=s.method,
+                precision=precision, penalty=pen, mean_unit=mean_unit,
+            )  # fmt: skip
+            if best is None and np.mean(f.mode == motion.MODE_INTRA) >= INTRA_CUT:
+                break  # a scene cut: nothing to predict from
+            motion_bytes = encode_field(f, kind == "B", mean_unit)
+            pred = motion.compensate(
+                f, prev, nxt if kind == "B" else None, compensation=s.compensation
+            )
+            strength, bits = _choose_smoothing(x, pred, s)
+            cost = bits + 8 * len(motion_bytes)
+            if best is None or cost < best[0]:
+                best = (cost, f, motion_bytes, pred, strength)
+        if best is None:
+            kind = "I"
+        else:
+            _, field, motion_bytes, pred, strength = best
     head_parts: list[bytes] = []
     flags = 0
     if field is None:
@@ -394,11 +408,7 @@ def encode_frame(
         target = x
         fdtype = dtype
     else:
-        head_parts.append(put_section(encode_field(field, kind == "B", mean_unit)))
-        pred = motion.compensate(
-            field, prev, nxt if kind == "B" else None, compensation=s.compensation
-        )
-        strength = _choose_smoothing(x, pred, s)
+        head_parts.append(put_section(motion_bytes))
         flags |= motion.SMOOTHING.index(strength) << SMOOTH_SHIFT
         pred_int = _rounded(motion.smooth(pred, strength), dtype)
         if dtype.kind in "iu":
@@ -516,13 +526,25 @@ def _rounded(pred: np.ndarray, dtype: np.dtype) -> np.ndarray:
     return pred
 
 
-def _choose_smoothing(x: np.ndarray, pred: np.ndarray, s: Settings) -> int:
+def _precisions(s: Settings) -> tuple[str, ...]:
+    """Vector precisions an encoder tries per P/B-frame. Quarter voxels win on sub-voxel
+    motion (+10-13 % on the 64^3 moving head and advected field) but lose where half
+    voxels already fit (-6 % on the advected field at 128^3, and twice the compensation
+    work): so with ``quarter`` the half-voxel field is tried too and the one whose
+    residual and vectors cost fewer bits is kept (``coef`` mode keeps the setting)."""
+    if s.precision == "quarter" and s.mode != "coef":
+        return ("quarter", "half")
+    return (s.precision,)
+
+
+def _choose_smoothing(x: np.ndarray, pred: np.ndarray, s: Settings) -> tuple[int, float]:
     """The strength of :func:`motion.smooth` whose residual, quantised as the coder will
-    (bins of 2E + 1, or 1 when lossless), has the least empirical entropy; 0 in
-    ``coef`` mode (its bytes do not follow the voxel-domain quantisation). The first of
-    equal costs wins, so the choice is deterministic and prefers weaker filters."""
+    (bins of 2E + 1, or 1 when lossless), has the least empirical entropy, and that
+    entropy in bits; 0 in ``coef`` mode (its bytes do not follow the voxel-domain
+    quantisation). The first of equal costs wins, so the choice is deterministic and
+    prefers weaker filters."""
     if s.mode == "coef":
-        return 0
+        return 0, 0.0
     step = _flat_step(s, x.dtype)
     xf = x.astype(np.float64)
     best, best_bits = 0, math.inf
@@ -533,7 +555,7 @@ def _choose_smoothing(x: np.ndarray, pred: np.ndarray, s: Settings) -> int:
         bits = _entropy_bits(q)
         if bits < best_bits:
             best, best_bits = k, bits
-    return best
+    return best, best_bits
 
 
 def _entropy_bits(q: np.ndarray) -> float:
