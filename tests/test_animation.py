@@ -308,6 +308,11 @@ def test_flat_flag_without_a_residual_is_refused(moving):
     head = animation._FRAME_HEAD.pack(0, animation.FLAG_FLAT, 0.0, 1.0, 1.0, 1.0)
     with pytest.raises(FormatError, match="flags"):
         animation.decode_frame(head, SHAPE, np.dtype(np.uint8), None, None, s, (64, 64, 64))
+    coef = animation.Settings("coef", quality=63)
+    flags = animation.FLAG_FLAT | animation.FLAG_RESIDUAL
+    head = animation._FRAME_HEAD.pack(0, flags, 0.0, 1.0, 1.0, 1.0) + bytes(8)
+    with pytest.raises(FormatError, match="coef"):
+        animation.decode_frame(head, SHAPE, np.dtype(np.uint8), None, None, coef, (64, 64, 64))
 
 
 def test_quarter_voxel_is_the_default_and_can_be_turned_off(tmp_path, moving):
@@ -367,3 +372,29 @@ def test_quarter_setting_falls_back_to_half_voxel_fields_when_they_cost_less():
     h, _ = _code(half_steps, gop_string="IPPP", max_error=2, precision="half")
     assert len(q) <= 1.02 * len(h)
     assert _err(animation.decompress(q).data, half_steps).max() <= 2
+
+
+def test_corrupt_flat_frames_raise_format_errors_only(moving):
+    from volpack.container import Reader
+
+    blob, _ = _code(moving[:4], gop_string="IBBP", max_error=2)
+    with Reader(blob) as r:
+        chunks = {t: p for t, _, p in r}
+    flat = [t for t, p in chunks.items() if p[1] & animation.FLAG_FLAT]
+    assert flat
+    t = flat[0]
+    frames = animation.decompress(blob).data
+    prev, nxt = motion.Reference(frames[0]), motion.Reference(frames[3])
+    s = animation.Settings("bounded", 2.0)
+    rng = np.random.default_rng(0)
+    p = chunks[t]
+    for _ in range(40):
+        bad = bytearray(p)
+        i = int(rng.integers(animation._FRAME_HEAD.size, len(bad)))
+        bad[i] ^= 1 << int(rng.integers(8))
+        try:
+            animation.decode_frame(bytes(bad), SHAPE, np.dtype(np.uint8), prev, nxt, s, (64,) * 3)
+        except FormatError:
+            pass
+    with pytest.raises(FormatError):
+        animation.decode_frame(p[:-3], SHAPE, np.dtype(np.uint8), prev, nxt, s, (64,) * 3)

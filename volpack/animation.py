@@ -161,7 +161,7 @@ def _code_bricks(s: Settings, target: np.ndarray, lo: float, hi: float, vrange: 
 # wavelet cannot compact. Quantised voxel by voxel with bins of 2E + 1 (integers; 2E for
 # floats) centred on zero and coded by the arithmetic coder in line order, whose contexts
 # are the neighbours already coded, it costs close to the entropy of the quantised noise
-# (on the advected field's P-frames about 0.7x the wavelet path's bytes). The encoder
+# (on the advected field's P-frames 0.7-0.8x the wavelet path's bytes). The encoder
 # makes both and keeps the shorter (lossless and bounded modes).
 
 FLAT_LIMIT = 1 << 31  # largest quantiser index a flat field may hold
@@ -495,6 +495,8 @@ def decode_frame(
         fdtype = _residual_dtype(dtype)
     rec = None
     if flags & FLAG_FLAT:
+        if s.mode == "coef":
+            raise FormatError("animation frame: a flat field in coef mode")
         body, pos = take_section(data, pos, "animation frame")
         rec = decode_flat(body, shape, _flat_step(s, fdtype), fdtype)
     elif flags & FLAG_RESIDUAL:
