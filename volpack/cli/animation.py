@@ -59,7 +59,8 @@ def animation_options(f):
             "--quarter-voxel/--no-quarter-voxel",
             default=True,
             show_default=True,
-            help="Animation: refine vectors further, to quarter voxels (needs --half-voxel).",
+            help="Animation: refine vectors further, to quarter voxels (needs --half-voxel; "
+            "with a max error each frame keeps the half- or quarter-voxel field that costs less).",
         ),
         click.option(
             "--compensation",
