@@ -60,7 +60,7 @@ def animation_options(f):
             default=True,
             show_default=True,
             help="Animation: refine vectors further, to quarter voxels (needs --half-voxel; "
-            "with a max error each frame keeps the half- or quarter-voxel field that costs less).",
+            "except with --quality each frame keeps the half- or quarter-voxel field costing less).",
         ),
         click.option(
             "--compensation",
