@@ -29,7 +29,10 @@ Parts, each a CSV in ``results/animation`` and a section of ``table.md``:
    zfp (tolerance E), SZ3 (ABS E), SPERR (absolute E) and SZ3 on the whole 4-D array:
    ratio, PSNR, max error (every voxel, float64). Equal-PSNR ratios are interpolated from
    the same sweep (log ratio linear in PSNR).
-5. ``motion.csv``    vector precision (whole / half / quarter), compensation (windowed /
+5. ``speed.csv``     decode frames/s (CPU and wall) of ``advect-128`` at max error 2,
+   IBBPBBPBB, with the default motion (quarter voxels, half tried per frame), half voxels,
+   and half voxels with block compensation.
+6. ``motion.csv``    vector precision (whole / half / quarter), compensation (windowed /
    block) and search (fast / exhaustive) at one max error.
 
 Charts: ``psnr_per_frame.png`` (PSNR of every frame per GOP), ``ratio_vs_psnr.png`` (per
@@ -256,6 +259,27 @@ def part_coders(quick):
     return rows
 
 
+SPEED_CONFIGS = {
+    "quarter/half, windowed": {},
+    "half, windowed": {"precision": "half"},
+    "half, block": {"precision": "half", "compensation": "block"},
+}
+
+
+def part_speed(quick):
+    """Decode speed of a bounded animation at 128^3 (the issue's 10 frames/s goal)."""
+    from volpack import synth
+
+    n = 64 if quick else 128
+    a = synth.advect((n, n, n), 9)
+    rows = []
+    for label, cfg in SPEED_CONFIGS.items():
+        r = run_volpack(a, decodes=2, gop_string="IBBPBBPBB", max_error=2, **cfg)
+        log(f"speed {label}: ratio {r['ratio']:.2f} {r['decode_fps']:.1f} fps (CPU)")
+        rows.append({"animation": f"advect-{n}", "motion": label, "bound": 2, **r})
+    return rows
+
+
 def part_peers(anims, quick):
     rows = []
     ps = peers()
@@ -425,6 +449,20 @@ def write_table(parts, out: Path, args) -> None:
                 cells = [_f(equal_psnr(sub, m, t)) for m in sorted({r["method"] for r in prs})]
                 lines.append(f"| {name} | {t} | " + " | ".join(cells) + " |")
         lines.append("")
+    spd = parts.get("speed", [])
+    if spd:
+        lines += [
+            "## Decode speed with a max error, IBBPBBPBB (frames/s of one thread's CPU time)",
+            "",
+            "| animation | E | motion | ratio | PSNR | decode fps (CPU) | decode fps (wall) |",
+            "|---|---:|---|---:|---:|---:|---:|",
+        ]
+        for r in spd:
+            wall = len(r["types"]) / r["decode_wall_s"]
+            lines.append(
+                f"| {r['animation']} | {r['bound']:g} | {r['motion']} | {_f(r['ratio'])} | {_f(r['psnr'])} | {_f(r['decode_fps'], 1)} | {_f(wall, 1)} |"
+            )
+        lines.append("")
     mot = parts.get("motion", [])
     if mot:
         lines += [
@@ -490,7 +528,7 @@ def write_charts(parts, out: Path) -> None:
         plt.close(fig)
 
 
-PARTS = ("gops", "wavelets", "coders", "peers", "motion")
+PARTS = ("gops", "wavelets", "coders", "speed", "peers", "motion")
 
 
 def main(argv=None) -> int:
@@ -512,6 +550,7 @@ def main(argv=None) -> int:
         "gops": lambda: part_gops(anims, args.quick),
         "wavelets": lambda: part_wavelets(anims, args.quick),
         "coders": lambda: part_coders(args.quick),
+        "speed": lambda: part_speed(args.quick),
         "peers": lambda: part_peers(anims, args.quick),
         "motion": lambda: part_motion(anims, args.quick),
     }

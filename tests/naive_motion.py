@@ -122,3 +122,21 @@ def compensate(mode, fwd, bwd, mean, prev, nxt, windowed=True):
             wsum += w
         out[p] = acc / wsum
     return out
+
+
+def smooth(pred, k):
+    """The prediction filter [k, 64 - 2k, k] / 64 voxel by voxel, x then y then z, each
+    neighbour index clamped to the frame."""
+    a = np.array(pred, np.float64)
+    for axis in (2, 1, 0):
+        out = np.empty_like(a)
+        n = a.shape[axis]
+        for idx in np.ndindex(*a.shape):
+            i = idx[axis]
+            lo = list(idx)
+            hi = list(idx)
+            lo[axis] = max(i - 1, 0)
+            hi[axis] = min(i + 1, n - 1)
+            out[idx] = (64 - 2 * k) / 64 * a[idx] + k / 64 * (a[tuple(lo)] + a[tuple(hi)])
+        a = out
+    return a

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from volpack import animation, gop, synth
+from volpack import animation, gop, motion, synth
 from volpack.cli import main
 from volpack.errors import FormatError
 
@@ -256,3 +256,145 @@ def test_golden_animation_decodes_and_is_reproduced(stem, opts):
     with Reader(blob) as old, Reader(again) as new:
         assert old.header == new.header
         assert [(t, n, p) for t, n, p in old] == [(t, n, p) for t, n, p in new]
+
+
+# -- flat residual fields ----------------------------------------------------------------
+
+
+@pytest.mark.parametrize("dtype,step,bound", [(np.int16, 5.0, 2), (np.float64, 0.2, 0.1)])
+def test_flat_field_round_trip_within_half_a_bin(dtype, step, bound):
+    rng = np.random.default_rng(4)
+    r = rng.normal(0, 3 * step, (9, 10, 11))
+    r = np.rint(r).astype(dtype) if np.dtype(dtype).kind == "i" else r.astype(dtype)
+    body, dec = animation.encode_flat(r, step)
+    assert dec.dtype == r.dtype and _err(dec, r).max() <= bound  # every voxel
+    again = animation.decode_flat(body, r.shape, step, np.dtype(dtype))
+    assert np.array_equal(again, dec)
+    # the decoded values are the bin centres: multiples of the step
+    assert np.allclose(np.rint(dec / step) * step, dec)
+    with pytest.raises(FormatError):
+        animation.decode_flat(body[: len(body) // 3], r.shape, step, np.dtype(dtype))
+
+
+def test_flat_field_clips_at_the_dtype_end():
+    x = np.full((4, 4, 4), 255, np.uint8)  # bins of 13: the centre of 255's bin is 260
+    body, dec = animation.encode_flat(x, 13.0)
+    assert dec.max() == 255 and _err(dec, x).max() <= 6
+    assert np.array_equal(animation.decode_flat(body, x.shape, 13.0, np.dtype(np.uint8)), dec)
+
+
+def _flags(blob):
+    from volpack.container import Reader
+
+    with Reader(blob) as r:
+        return {t: p[1] for t, _, p in r}
+
+
+def test_noisy_residuals_are_coded_flat_and_stay_within_the_bound(moving):
+    blob, stats = _code(moving, gop_string="IBBP", max_error=2)
+    flags = _flags(blob)
+    flat = [t for t, f in flags.items() if f & animation.FLAG_FLAT]
+    assert flat  # a sub-voxel move at E = 2 leaves residuals of rounding noise
+    assert _err(animation.decompress(blob).data, moving).max() <= 2
+    # lossless: the flat field is the residual itself
+    noisy = moving[:4].astype(np.int16) * 3 + synth.noise(SHAPE, 4, seed=2).astype(np.int16)
+    blob, _ = _code(noisy, gop_string="IPPP")
+    assert any(f & animation.FLAG_FLAT for f in _flags(blob).values())
+    assert np.array_equal(animation.decompress(blob).data, noisy)
+
+
+def test_flat_flag_without_a_residual_is_refused(moving):
+    s = animation.Settings("bounded", 2.0)
+    head = animation._FRAME_HEAD.pack(0, animation.FLAG_FLAT, 0.0, 1.0, 1.0, 1.0)
+    with pytest.raises(FormatError, match="flags"):
+        animation.decode_frame(head, SHAPE, np.dtype(np.uint8), None, None, s, (64, 64, 64))
+    coef = animation.Settings("coef", quality=63)
+    flags = animation.FLAG_FLAT | animation.FLAG_RESIDUAL
+    head = animation._FRAME_HEAD.pack(0, flags, 0.0, 1.0, 1.0, 1.0) + bytes(8)
+    with pytest.raises(FormatError, match="coef"):
+        animation.decode_frame(head, SHAPE, np.dtype(np.uint8), None, None, coef, (64, 64, 64))
+
+
+def test_quarter_voxel_is_the_default_and_can_be_turned_off(tmp_path, moving):
+    from volpack.container import Reader
+
+    np.save(tmp_path / "run.npy", moving[:3])
+    run = CliRunner()
+    for extra, want in (([], "quarter"), (["--no-quarter-voxel"], "half"),
+                        (["--no-half-voxel"], "whole")):  # fmt: skip
+        vpk = str(tmp_path / f"{want}.vpk")
+        r = run.invoke(main, ["compress", str(tmp_path / "run.npy"), vpk, "--gop", "IPP",
+                              "--max-error", "2", *extra])  # fmt: skip
+        assert r.exit_code == 0, r.output
+        with Reader(vpk) as rd:
+            assert rd.header["motion"]["precision"] == want
+
+
+def test_diffusing_flow_smooths_its_prediction_and_stays_within_the_bound(monkeypatch):
+    a = synth.advect((24, 24, 24), 7)
+    blob, stats = _code(a, gop_string="IPPPPPP", max_error=2)
+    strengths = [f >> animation.SMOOTH_SHIFT & 7 for f in _flags(blob).values()]
+    assert any(strengths)  # the field blurs along the flow: some P-frame smooths
+    assert _err(animation.decompress(blob).data, a).max() <= 2
+    monkeypatch.setattr(motion, "SMOOTHING", (0,))  # the same coder, never smoothing
+    plain, _ = _code(a, gop_string="IPPPPPP", max_error=2)
+    assert len(blob) < 0.95 * len(plain)
+
+
+def test_smoothing_bits_on_an_i_frame_are_refused():
+    s = animation.Settings("bounded", 2.0)
+    flags = animation.FLAG_RESIDUAL | 1 << animation.SMOOTH_SHIFT
+    head = animation._FRAME_HEAD.pack(0, flags, 0.0, 1.0, 1.0, 1.0)
+    with pytest.raises(FormatError, match="flags"):
+        animation.decode_frame(head, SHAPE, np.dtype(np.uint8), None, None, s, (64, 64, 64))
+
+
+def test_summary_is_stored_by_column_and_read_back_as_rows(moving):
+    from volpack.container import Reader
+
+    blob, stats = _code(moving, gop_string="IBBP", max_error=2)
+    with Reader(blob) as r:
+        assert "frames" not in r.summary and len(r.summary["frame_columns"]["type"]) == 7
+    with animation.AnimationReader(blob) as r:
+        rows = r.summary["frames"]
+    for got, want in zip(rows, stats["frames"], strict=True):
+        assert got["psnr"] == pytest.approx(want["psnr"], abs=1e-4)
+        assert {k: got[k] for k in want if k != "psnr"} == {k: want[k] for k in want if k != "psnr"}
+    old = {"frames": stats["frames"]}  # files written before stored their rows as they are
+    assert animation.frame_rows(old, "IBBPBBP") == stats["frames"]
+    with pytest.raises(FormatError, match="frame columns"):
+        animation.frame_rows({"frame_columns": {"type": "IP"}}, "IP")
+
+
+def test_quarter_setting_falls_back_to_half_voxel_fields_when_they_cost_less():
+    half_steps = synth.translate(synth.head(SHAPE), 4, step=(0.5, 0.5, 0.0))
+    q, _ = _code(half_steps, gop_string="IPPP", max_error=2, precision="quarter")
+    h, _ = _code(half_steps, gop_string="IPPP", max_error=2, precision="half")
+    assert len(q) <= 1.02 * len(h)
+    assert _err(animation.decompress(q).data, half_steps).max() <= 2
+
+
+def test_corrupt_flat_frames_raise_format_errors_only(moving):
+    from volpack.container import Reader
+
+    blob, _ = _code(moving[:4], gop_string="IBBP", max_error=2)
+    with Reader(blob) as r:
+        chunks = {t: p for t, _, p in r}
+    flat = [t for t, p in chunks.items() if p[1] & animation.FLAG_FLAT]
+    assert flat
+    t = flat[0]
+    frames = animation.decompress(blob).data
+    prev, nxt = motion.Reference(frames[0]), motion.Reference(frames[3])
+    s = animation.Settings("bounded", 2.0)
+    rng = np.random.default_rng(0)
+    p = chunks[t]
+    for _ in range(40):
+        bad = bytearray(p)
+        i = int(rng.integers(animation._FRAME_HEAD.size, len(bad)))
+        bad[i] ^= 1 << int(rng.integers(8))
+        try:
+            animation.decode_frame(bytes(bad), SHAPE, np.dtype(np.uint8), prev, nxt, s, (64,) * 3)
+        except FormatError:
+            pass
+    with pytest.raises(FormatError):
+        animation.decode_frame(p[:-3], SHAPE, np.dtype(np.uint8), prev, nxt, s, (64,) * 3)

@@ -131,3 +131,15 @@ def test_bad_arguments():
     f = motion.choose_modes(a, a, None)
     with pytest.raises(ValueError, match="compensation"):
         motion.compensate(f, a, compensation="overlapped")
+
+
+@pytest.mark.parametrize("k", [0, 6, 16])
+def test_smoothing_matches_the_voxel_by_voxel_filter(k):
+    rng = np.random.default_rng(k)
+    pred = rng.normal(100, 30, (5, 7, 9))
+    got = motion.smooth(pred, k)
+    assert np.allclose(got, naive_motion.smooth(pred, k), rtol=1e-13, atol=1e-10)
+    # the weights sum to one: a constant passes unchanged
+    assert np.allclose(motion.smooth(np.full((4, 5, 6), 7.5), k), 7.5, rtol=0, atol=1e-12)
+    with pytest.raises(ValueError, match="smoothing"):
+        motion.smooth(pred, 5)

@@ -715,3 +715,48 @@ def compensate(
         prev.frame, up0, nxt.frame, up1, field.mode, field.fwd, field.bwd, field.mean, *tabs, out
     )
     return out
+
+
+# -- smoothing the prediction ------------------------------------------------------------
+
+# Strengths k (in 64ths) of the filter [k, 64 - 2k, k] / 64 applied along each axis to a
+# prediction. Content carried by a flow that also diffuses (a semi-Lagrangian simulation,
+# a field resampled every step) blurs from frame to frame, which no vector predicts; on
+# the advected test field a strength of 10-12 cuts the bytes of a P-frame three anchors
+# on by 30 %, while sharp content (the moving head) keeps 0.
+SMOOTHING = (0, 2, 4, 6, 8, 10, 12, 16)
+
+
+@kernel
+def _smooth_pass_kernel(src, axis, k, out):
+    """One axis of the filter, border samples repeated: ``out = c x + s (left + right)``."""
+    nz, ny, nx = src.shape
+    c = (64.0 - 2.0 * k) / 64.0
+    w = k / 64.0
+    for z in range(nz):
+        for y in range(ny):
+            for x in range(nx):
+                if axis == 0:
+                    a = src[max(z - 1, 0), y, x]
+                    b = src[min(z + 1, nz - 1), y, x]
+                elif axis == 1:
+                    a = src[z, max(y - 1, 0), x]
+                    b = src[z, min(y + 1, ny - 1), x]
+                else:
+                    a = src[z, y, max(x - 1, 0)]
+                    b = src[z, y, min(x + 1, nx - 1)]
+                out[z, y, x] = c * src[z, y, x] + w * (a + b)
+
+
+def smooth(pred: np.ndarray, k: int) -> np.ndarray:
+    """``pred`` (float64, 3-D) filtered along x, then y, then z by ``[k, 64 - 2k, k] / 64``."""
+    if k not in SMOOTHING:
+        raise ValueError(f"expected a smoothing strength in {SMOOTHING}, found {k!r}")
+    if k == 0:
+        return pred
+    a = np.ascontiguousarray(pred, np.float64)
+    b, c = np.empty_like(a), np.empty_like(a)
+    _smooth_pass_kernel(a, 2, k, b)
+    _smooth_pass_kernel(b, 1, k, c)
+    _smooth_pass_kernel(c, 0, k, b)
+    return b

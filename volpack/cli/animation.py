@@ -56,9 +56,11 @@ def animation_options(f):
             help="Animation: refine vectors to half voxels (interpolated reference).",
         ),
         click.option(
-            "--quarter-voxel",
-            is_flag=True,
-            help="Animation: refine vectors further, to quarter voxels.",
+            "--quarter-voxel/--no-quarter-voxel",
+            default=True,
+            show_default=True,
+            help="Animation: refine vectors further, to quarter voxels (needs --half-voxel; "
+            "except with --quality each frame keeps the half- or quarter-voxel field costing less).",
         ),
         click.option(
             "--compensation",
@@ -103,9 +105,10 @@ def run_compress(ctx, source: str, target: str, as_json: bool, force: bool, opts
         raise click.UsageError("animations code frames with the wavelet codecs; drop --codec")
     inputs = () if animation.is_pattern(source) else (source,)
     check_output(target, force=force, inputs=inputs)
-    precision = "quarter" if opts["quarter_voxel"] else "half" if opts["half_voxel"] else "whole"
-    if opts["quarter_voxel"] and not opts["half_voxel"]:
-        raise click.UsageError("--quarter-voxel refines half-voxel vectors: drop --no-half-voxel")
+    # --no-half-voxel means whole voxels (quarter voxels refine half ones)
+    precision = (
+        "whole" if not opts["half_voxel"] else "quarter" if opts["quarter_voxel"] else "half"
+    )
     with progress_bar(ctx, "compress", unit="frame") as progress:
         stats = animation.compress(
             source,
@@ -153,9 +156,11 @@ SHORT = {"forward": "fwd", "backward": "bwd", "bidirectional": "bi", "intra": "i
 
 def frame_table(d: dict) -> str:
     """The per-frame lines of ``volpack info`` for an animation."""
+    from ..animation import frame_rows
+
     s = d.get("summary") or {}
     rows = []
-    for r in s.get("frames", []):
+    for r in frame_rows(s, d["header"].get("types") or ""):
         modes = r.get("modes") or {}
         used = ", ".join(f"{SHORT.get(k, k)} {v}" for k, v in modes.items() if v)
         rows.append(
