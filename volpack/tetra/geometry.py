@@ -337,6 +337,73 @@ def _surface(xyz, k, bptr, bidx, btri, vnorm, mark, point, snormal):
 
 
 @kernel
+def _flatness(xyz, k, bptr, bidx, btri, mark, point, snormal):
+    """Mean distance of k's decoded border neighbours (as marked by :func:`_surface`)
+    from their plane."""
+    dev = 0.0
+    cnt = 0
+    for e in range(bptr[k], bptr[k + 1]):
+        q = bidx[e]
+        for i in range(3):
+            v = btri[q, i]
+            if v >= k or mark[v] != k:
+                continue
+            mark[v] = -2 - k
+            cnt += 1
+            d = 0.0
+            for ax in range(3):
+                d += (xyz[v, ax] - point[ax]) * snormal[ax]
+            dev += abs(d)
+    return dev / cnt if cnt > 0 else 0.0
+
+
+@kernel
+def _parallelogram(xyz, k, bptr, bidx, btri, par):
+    """Mean of ``P[u] + P[v] - P[w]`` over k's border triangles ``(k, u, v)`` with ``u, v <
+    k`` and the decoded border triangles ``(u, v, w)`` across their edge ``uv``: on a
+    border surface the next vertex completes the parallelogram. Return their number."""
+    cnt = 0
+    for ax in range(3):
+        par[ax] = 0.0
+    for e in range(bptr[k], bptr[k + 1]):
+        q = bidx[e]
+        u = -1
+        v = -1
+        n = 0
+        for i in range(3):
+            x = btri[q, i]
+            if x != k:
+                n += 1
+                if u < 0:
+                    u = x
+                else:
+                    v = x
+        if n != 2 or u >= k or v >= k:
+            continue
+        for e2 in range(bptr[u], bptr[u + 1]):
+            q2 = bidx[e2]
+            if q2 == q:
+                continue
+            hit = 0
+            w = -1
+            for i in range(3):
+                x = btri[q2, i]
+                if x == u or x == v:
+                    hit += 1
+                else:
+                    w = x
+            if hit != 2 or w < 0 or w >= k:
+                continue
+            for ax in range(3):
+                par[ax] += xyz[u, ax] + xyz[v, ax] - xyz[w, ax]
+            cnt += 1
+    if cnt > 0:
+        for ax in range(3):
+            par[ax] /= cnt
+    return cnt
+
+
+@kernel
 def _add_border_normals(xyz, k, bptr, bidx, btri, vnorm):
     """Vertex k is decoded: add the unit normal of each border triangle it completes to
     the normals of its three vertices (signs made to agree with what they hold)."""
@@ -532,9 +599,10 @@ FORGET = 1.0 / 1024.0
 A_RATE = 1.0 / 512.0  # the mean sizes move slowly: the bit-length models do the rest
 COST_RATE = 1.0 / 16.0
 A_START = (0.12, 0.12, 0.2)  # starting mean |residual| / L: in-plane, in-plane, normal
-N_STATE = 20  # the last: the number of vertices
-N_SETS = 8  # model sets: class (in-plane, normal, no face, border normal) x half bit
-COST_APEX, COST_REFL = 17, 18
+N_STATE = 25  # the last: the number of vertices
+N_SETS = 10  # model sets: class (in-plane, normal, no face, border normal, flat) x half bit
+COST_APEX, COST_REFL, COST_BAPEX, COST_PAR = 20, 21, 22, 23
+FLAT = 0.01
 
 
 @kernel
@@ -545,7 +613,7 @@ def _new_state(nv):
     st[2] = PRIOR
     st[3] = PRIOR * H1
     st[4] = PRIOR * H2
-    for b in range(4):
+    for b in range(5):
         for ax in range(3):
             st[5 + 3 * b + ax] = A_START[ax]
     return st
@@ -633,6 +701,18 @@ def _learn(st, ln, bucket, xyz, k, cen, refl, far, normal, pred, err):
 
 
 @kernel
+def _learn_border(st, ln, xyz, k, apex, par):
+    """Update the running costs of the border predictions (apex and parallelogram)."""
+    ca = 0
+    cp = 0
+    for ax in range(3):
+        ca += _bits(abs(xyz[k, ax] - apex[ax]) * 256.0 / ln)
+        cp += _bits(abs(xyz[k, ax] - par[ax]) * 256.0 / ln)
+    st[COST_BAPEX] += (ca - st[COST_BAPEX]) * COST_RATE
+    st[COST_PAR] += (cp - st[COST_PAR]) * COST_RATE
+
+
+@kernel
 def _estimate(s):
     """For a residual of mean size ``s``: the half bit (1 when ``s`` lies in the upper
     half of its octave, ``s >= 1.5 * 2**(q-1)``) and the estimate ``q``, the bit length
@@ -665,7 +745,7 @@ def _scale(st, mode, ax, ln, bucket, p, bits, f64, i64, f32, i32):
         )
         s = float(abs(d))
     frac, q = _estimate(s)
-    cls = 3 if bucket == 3 and ax == 2 else _CLASS[ax]
+    cls = bucket if bucket >= 3 and ax == 2 else _CLASS[ax]
     return 2 * cls + frac, q
 
 
@@ -681,10 +761,21 @@ def _vertex_model(st, xyz, k, ptr, quads, bptr, bidx, btri, vnorm, mark, w, pred
         w[4, ax] = w[3, ax]
     if ln < 0.0:
         return ln, min(k, 1)
+    w[9, 0] = 0.0
     if _surface(xyz, k, bptr, bidx, btri, vnorm, mark, w[5], w[6]) > 0:
         _project(pred, w[5], w[6])
         for ax in range(3):
             w[4, ax] = w[6, ax]
+            w[7, ax] = pred[ax]
+        npar = _parallelogram(xyz, k, bptr, bidx, btri, w[8])
+        if npar > 0:
+            w[9, 0] = 1.0
+            _project(w[8], w[5], w[6])
+            if st[COST_PAR] < st[COST_BAPEX]:
+                for ax in range(3):
+                    pred[ax] = w[8, ax]
+        if _flatness(xyz, k, bptr, bidx, btri, mark, w[5], w[6]) <= FLAT * ln:
+            return ln, 4
         return ln, 3
     return ln, min(ptr[k + 1] - ptr[k], 3) - 1
 
@@ -695,7 +786,7 @@ def _encode_kernel(vals, xyz, ptr, quads, bptr, bidx, btri, mode, bits, out):
     models = np.full(N_SETS * pk.SCALED_SET, pk.STATE_INIT, dtype=np.uint16)
     cs = pk.start_encoder(out)
     st = _new_state(nv)
-    w = np.zeros((7, 3))
+    w = np.zeros((10, 3))
     vnorm = np.zeros((nv, 3))
     mark = np.full(nv, -1, dtype=np.int64)
     pred = np.empty(3)
@@ -721,6 +812,8 @@ def _encode_kernel(vals, xyz, ptr, quads, bptr, bidx, btri, mode, bits, out):
             pk.put_scaled(cs, out, models, s * pk.SCALED_SET, q, res[ax])
             err[ax] = float(res[ax]) if mode == 0 else xyz[k, ax] - pred[ax]
         _learn(st, ln, bucket, xyz, k, w[0], w[1], w[2], w[3], pred, err)
+        if w[9, 0] > 0.0:
+            _learn_border(st, ln, xyz, k, w[7], w[8])
         _add_border_normals(xyz, k, bptr, bidx, btri, vnorm)
     if cs[2] + 8 > cap:
         return -1
@@ -734,7 +827,7 @@ def _decode_kernel(data, ptr, quads, bptr, bidx, btri, mode, bits, vals, xyz):
     models = np.full(N_SETS * pk.SCALED_SET, pk.STATE_INIT, dtype=np.uint16)
     cs = pk.start_decoder(data)
     st = _new_state(nv)
-    w = np.zeros((7, 3))
+    w = np.zeros((10, 3))
     vnorm = np.zeros((nv, 3))
     mark = np.full(nv, -1, dtype=np.int64)
     pred = np.empty(3)
@@ -779,6 +872,8 @@ def _decode_kernel(data, ptr, quads, bptr, bidx, btri, mode, bits, vals, xyz):
             if mode != 0:
                 err[ax] = xyz[k, ax] - pred[ax]
         _learn(st, ln, bucket, xyz, k, w[0], w[1], w[2], w[3], pred, err)
+        if w[9, 0] > 0.0:
+            _learn_border(st, ln, xyz, k, w[7], w[8])
         _add_border_normals(xyz, k, bptr, bidx, btri, vnorm)
     if cs[2] != data.size:  # the decoder ends exactly where the encoder's bytes end
         return 1
