@@ -18,7 +18,11 @@ coordinates. A vertex ``k`` is predicted from what is decoded around it:
 * **Border.** A border vertex (on a face with no tet behind it) whose border neighbours
   are decoded lies, like them, on the border surface: the prediction is moved onto the
   plane through their mean, normal to the mean of their border normals. On planar
-  patches (boxes, cut planes) the residual along that normal is then zero.
+  patches (boxes, cut planes) the residual along that normal is then zero; such flat
+  neighbourhoods get their own scale and models. Across each decoded border edge the
+  vertex also completes a parallelogram with the border triangle on the other side; the
+  cheapest lately of the projected apex, the (projected) mean parallelogram and their
+  mean predicts.
 * Vertices that see no face (the first tet, new components, unreferenced vertices) are
   predicted by the previous vertex.
 
@@ -599,9 +603,9 @@ FORGET = 1.0 / 1024.0
 A_RATE = 1.0 / 512.0  # the mean sizes move slowly: the bit-length models do the rest
 COST_RATE = 1.0 / 16.0
 A_START = (0.12, 0.12, 0.2)  # starting mean |residual| / L: in-plane, in-plane, normal
-N_STATE = 25  # the last: the number of vertices
+N_STATE = 26  # the last: the number of vertices
 N_SETS = 10  # model sets: class (in-plane, normal, no face, border normal, flat) x half bit
-COST_APEX, COST_REFL, COST_BAPEX, COST_PAR = 20, 21, 22, 23
+COST_APEX, COST_REFL, COST_BAPEX, COST_PAR, COST_MID = 20, 21, 22, 23, 24
 FLAT = 0.01
 
 
@@ -705,11 +709,14 @@ def _learn_border(st, ln, xyz, k, apex, par):
     """Update the running costs of the border predictions (apex and parallelogram)."""
     ca = 0
     cp = 0
+    cm = 0
     for ax in range(3):
         ca += _bits(abs(xyz[k, ax] - apex[ax]) * 256.0 / ln)
         cp += _bits(abs(xyz[k, ax] - par[ax]) * 256.0 / ln)
+        cm += _bits(abs(xyz[k, ax] - 0.5 * (apex[ax] + par[ax])) * 256.0 / ln)
     st[COST_BAPEX] += (ca - st[COST_BAPEX]) * COST_RATE
     st[COST_PAR] += (cp - st[COST_PAR]) * COST_RATE
+    st[COST_MID] += (cm - st[COST_MID]) * COST_RATE
 
 
 @kernel
@@ -771,9 +778,13 @@ def _vertex_model(st, xyz, k, ptr, quads, bptr, bidx, btri, vnorm, mark, w, pred
         if npar > 0:
             w[9, 0] = 1.0
             _project(w[8], w[5], w[6])
-            if st[COST_PAR] < st[COST_BAPEX]:
+            best = min(st[COST_BAPEX], st[COST_PAR], st[COST_MID])
+            if st[COST_PAR] == best:
                 for ax in range(3):
                     pred[ax] = w[8, ax]
+            elif st[COST_MID] == best:
+                for ax in range(3):
+                    pred[ax] = 0.5 * (w[7, ax] + w[8, ax])
         if _flatness(xyz, k, bptr, bidx, btri, mark, w[5], w[6]) <= FLAT * ln:
             return ln, 4
         return ln, 3
