@@ -56,7 +56,7 @@ import math
 
 import numpy as np
 
-from .._jit import kernel
+from .._jit import kernel, leading_zeros
 from ..errors import FormatError
 from . import packages as pk
 from .mesh import FACES
@@ -151,7 +151,8 @@ def encode_geometry(
         meta.update(
             mode="quantized", bits=int(bits), origin=origin.tolist(), step=step, max_error=err
         )
-    for guess in (2 * nv + 64, pk.scaled_worst_case_bytes(3 * nv)):
+    raw_bits = bits + 2 if mode == 0 else 8 * pts.itemsize + 2  # the raw size first: rarely beaten
+    for guess in (3 * nv * raw_bits // 8 + 64, pk.scaled_worst_case_bytes(3 * nv)):
         out = np.empty(guess, dtype=np.uint8)
         used = _encode_kernel(vals, xyz, *hood, mode, int(bits), out)
         if used >= 0:
@@ -658,11 +659,7 @@ def _choose(st, ln, xyz, k, cen, refl, far, normal, pred):
 def _bits(x):
     """Bit length of the non-negative float ``x`` truncated to an integer."""
     t = np.int64(x) if x < 1e18 else np.int64(1) << 60
-    n = 0
-    while t > 0:
-        n += 1
-        t >>= 1
-    return n
+    return 64 - np.int64(leading_zeros(np.uint64(t)))
 
 
 @kernel
@@ -726,11 +723,7 @@ def _estimate(s):
     of ``floor(s)``; both from ``t = floor(16 s)``. No libm, so both sides agree on
     every machine."""
     t = np.int64(s * 16.0) if s < 1e15 else np.int64(1) << 54
-    n = 0
-    u = t
-    while u > 0:
-        n += 1
-        u >>= 1
+    n = 64 - np.int64(leading_zeros(np.uint64(t)))
     if n < 2:
         return 0, 0
     return (t >> (n - 2)) & 1, n - 4

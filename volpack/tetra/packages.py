@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._jit import kernel
+from .._jit import kernel, leading_zeros
 from ..entropy.arith import PROB_BITS, RATE, STATE_INIT, TOP, _carry
 from ..errors import FormatError
 
@@ -320,11 +320,7 @@ def put_scaled(cs, out, models, base, q, r):
     """
     q = min(max(q, 0), 64)
     a = np.uint64(-r) if r < 0 else np.uint64(r)
-    nb = 0
-    t = a
-    while t != 0:
-        nb += 1
-        t >>= np.uint64(1)
+    nb = 64 - np.int64(leading_zeros(a))
     up = nb > q
     put_bit(cs, out, models, base, np.int64(up))
     if up:
