@@ -47,7 +47,7 @@ def _bits_per_vertex(pts, tets, **kw):
 
 @pytest.mark.parametrize(
     ("planar_border", "before", "bound"),
-    [(False, 39.21, 38.6), (True, 39.12, 34.8)],  # measured: 38.11 and 34.14
+    [(False, 39.21, 38.6), (True, 39.12, 33.8)],  # measured: 38.07 and 33.15
 )
 def test_rate_on_a_jittered_grid_holds(planar_border, before, bound):
     pts, tets = _jittered(8, planar_border)
@@ -57,10 +57,11 @@ def test_rate_on_a_jittered_grid_holds(planar_border, before, bound):
 
 def test_flat_border_costs_little():
     """Border vertices on the cube's flat faces are predicted on the plane of their
-    decoded border neighbours: their offset from it costs next to nothing."""
+    decoded border neighbours (on its edges, on the line of two planes): their offset
+    from it costs next to nothing."""
     rough = _bits_per_vertex(*_jittered(8, False), bits=16)
     flat = _bits_per_vertex(*_jittered(8, True), bits=16)
-    assert flat < rough - 3.0  # about half the vertices are on the border
+    assert flat < rough - 4.0  # about half the vertices are on the border
 
 
 def test_lossless_rate_uses_the_prediction():

@@ -19,7 +19,9 @@ coordinates. A vertex ``k`` is predicted from what is decoded around it:
   are decoded lies, like them, on the border surface: the prediction is moved onto the
   plane through their mean, normal to the mean of their border normals. On planar
   patches (boxes, cut planes) the residual along that normal is then zero; such flat
-  neighbourhoods get their own scale and models. Across each decoded border edge the
+  neighbourhoods get their own scale and models. On a crease, where two flat patches
+  meet (a box's edge), the prediction goes to the line of the two planes instead, and
+  the frame's z axis along it. Across each decoded border edge the
   vertex also completes a parallelogram with the border triangle on the other side; the
   cheapest lately of the projected apex, the (projected) mean parallelogram and their
   mean predicts.
@@ -363,6 +365,112 @@ def _flatness(xyz, k, bptr, bidx, btri, mark, point, snormal):
 
 
 @kernel
+def _crease(xyz, k, bptr, bidx, btri, vnorm, mark, mark2, ln, pred, axis):
+    """Vertex k on a crease of the border (a box's edge): its decoded border neighbours
+    (as marked by :func:`_flatness`) fall into two groups with one normal each whose
+    points lie on their plane. Then move ``pred`` to the nearest point of the two planes'
+    line, set ``axis`` to that line and return True."""
+    u1x = 0.0
+    u1y = 0.0
+    u1z = 0.0
+    for e in range(bptr[k], bptr[k + 1]):  # the first neighbour's normal is the seed
+        q = bidx[e]
+        for i in range(3):
+            v = btri[q, i]
+            if v < k and mark[v] == -2 - k and u1x == 0.0 and u1y == 0.0 and u1z == 0.0:
+                nn = math.sqrt(vnorm[v, 0] ** 2 + vnorm[v, 1] ** 2 + vnorm[v, 2] ** 2)
+                if nn > 0.0:
+                    u1x = vnorm[v, 0] / nn
+                    u1y = vnorm[v, 1] / nn
+                    u1z = vnorm[v, 2] / nn
+    if u1x == 0.0 and u1y == 0.0 and u1z == 0.0:
+        return False
+    g1 = np.zeros(7)  # normal sum, point sum, count
+    g2 = np.zeros(7)
+    u2 = np.zeros(3)
+    for grp in range(2):
+        g = g1 if grp == 0 else g2
+        if grp == 0:
+            sx, sy, sz = u1x, u1y, u1z
+        else:
+            sx, sy, sz = u2[0], u2[1], u2[2]
+        for e in range(bptr[k], bptr[k + 1]):
+            q = bidx[e]
+            for i in range(3):
+                v = btri[q, i]
+                if v >= k or mark[v] != -2 - k or mark2[v] == 2 * k + grp:
+                    continue
+                mark2[v] = 2 * k + grp
+                nn = math.sqrt(vnorm[v, 0] ** 2 + vnorm[v, 1] ** 2 + vnorm[v, 2] ** 2)
+                if not nn > 0.0:
+                    continue
+                d = (vnorm[v, 0] * sx + vnorm[v, 1] * sy + vnorm[v, 2] * sz) / nn
+                if abs(d) > CREASE_SAME:
+                    sg = 1.0 if d > 0.0 else -1.0
+                    for ax in range(3):
+                        g[ax] += sg * vnorm[v, ax] / nn
+                        g[3 + ax] += xyz[v, ax]
+                    g[6] += 1.0
+                elif (
+                    grp == 0
+                    and abs(d) < CREASE_APART
+                    and u2[0] == 0.0
+                    and u2[1] == 0.0
+                    and u2[2] == 0.0
+                ):
+                    for ax in range(3):
+                        u2[ax] = vnorm[v, ax] / nn
+        if grp == 0 and u2[0] == 0.0 and u2[1] == 0.0 and u2[2] == 0.0:
+            return False
+    if g1[6] < 2.0 or g2[6] < 2.0:
+        return False
+    for g in (g1, g2):
+        nn = math.sqrt(g[0] ** 2 + g[1] ** 2 + g[2] ** 2)
+        for ax in range(3):
+            g[ax] /= nn
+            g[3 + ax] /= g[6]
+    # every member on its group's plane (else a curved border, not a crease)
+    for grp in range(2):
+        g = g1 if grp == 0 else g2
+        for e in range(bptr[k], bptr[k + 1]):
+            q = bidx[e]
+            for i in range(3):
+                v = btri[q, i]
+                if v >= k or mark2[v] != 2 * k + 1:
+                    continue
+                nn = math.sqrt(vnorm[v, 0] ** 2 + vnorm[v, 1] ** 2 + vnorm[v, 2] ** 2)
+                if not nn > 0.0:
+                    continue
+                d = (vnorm[v, 0] * g[0] + vnorm[v, 1] * g[1] + vnorm[v, 2] * g[2]) / nn
+                if abs(d) > CREASE_SAME:
+                    off = 0.0
+                    for ax in range(3):
+                        off += (xyz[v, ax] - g[3 + ax]) * g[ax]
+                    if abs(off) > FLAT * ln:
+                        return False
+    gg = g1[0] * g2[0] + g1[1] * g2[1] + g1[2] * g2[2]
+    den = 1.0 - gg * gg
+    if not den > 0.01:
+        return False
+    e1 = 0.0
+    e2 = 0.0
+    for ax in range(3):
+        e1 += (pred[ax] - g1[3 + ax]) * g1[ax]
+        e2 += (pred[ax] - g2[3 + ax]) * g2[ax]
+    a = (e1 - gg * e2) / den
+    b = (e2 - gg * e1) / den
+    for ax in range(3):
+        pred[ax] -= a * g1[ax] + b * g2[ax]
+    axis[0] = g1[1] * g2[2] - g1[2] * g2[1]
+    axis[1] = g1[2] * g2[0] - g1[0] * g2[2]
+    axis[2] = g1[0] * g2[1] - g1[1] * g2[0]
+    nn = math.sqrt(axis[0] ** 2 + axis[1] ** 2 + axis[2] ** 2)
+    for ax in range(3):
+        axis[ax] /= nn
+    return True
+
+
+@kernel
 def _parallelogram(xyz, k, bptr, bidx, btri, par):
     """Mean of ``P[u] + P[v] - P[w]`` over k's border triangles ``(k, u, v)`` with ``u, v <
     k`` and the decoded border triangles ``(u, v, w)`` across their edge ``uv``: on a
@@ -603,10 +711,20 @@ PRIOR = 4.0
 FORGET = 1.0 / 1024.0
 A_RATE = 1.0 / 512.0  # the mean sizes move slowly: the bit-length models do the rest
 COST_RATE = 1.0 / 16.0
-A_START = (0.12, 0.12, 0.2)  # starting mean |residual| / L: in-plane, in-plane, normal
-N_STATE = 26  # the last: the number of vertices
-N_SETS = 10  # model sets: class (in-plane, normal, no face, border normal, flat) x half bit
-COST_APEX, COST_REFL, COST_BAPEX, COST_PAR, COST_MID = 20, 21, 22, 23, 24
+# starting mean |residual| / L per bucket (in-plane, in-plane, normal): the bench
+# meshes' typical values
+A_START = (
+    (0.25, 0.25, 0.2),
+    (0.19, 0.19, 0.15),
+    (0.11, 0.11, 0.13),
+    (0.07, 0.07, 0.2),
+    (0.08, 0.08, 0.01),
+    (0.02, 0.02, 0.2),
+)
+N_STATE = 29  # the last: the number of vertices
+N_SETS = 12  # model sets: class (in-plane, normal, no face, border normal, flat, crease) x half bit
+CREASE_SAME, CREASE_APART = 0.995, 0.9
+COST_APEX, COST_REFL, COST_BAPEX, COST_PAR, COST_MID = 23, 24, 25, 26, 27
 FLAT = 0.01
 
 
@@ -618,9 +736,9 @@ def _new_state(nv):
     st[2] = PRIOR
     st[3] = PRIOR * H1
     st[4] = PRIOR * H2
-    for b in range(5):
+    for b in range(6):
         for ax in range(3):
-            st[5 + 3 * b + ax] = A_START[ax]
+            st[5 + 3 * b + ax] = A_START[b][ax]
     return st
 
 
@@ -745,12 +863,15 @@ def _scale(st, mode, ax, ln, bucket, p, bits, f64, i64, f32, i32):
         )
         s = float(abs(d))
     frac, q = _estimate(s)
-    cls = bucket if bucket >= 3 and ax == 2 else _CLASS[ax]
+    if bucket == 5:  # a crease: the line is z, the planes' normals x and y
+        cls = 5 if ax == 2 else 4
+    else:
+        cls = bucket if bucket >= 3 and ax == 2 else _CLASS[ax]
     return 2 * cls + frac, q
 
 
 @kernel
-def _vertex_model(st, xyz, k, ptr, quads, bptr, bidx, btri, vnorm, mark, w, pred):
+def _vertex_model(st, xyz, k, ptr, quads, bptr, bidx, btri, vnorm, mark, mark2, w, pred):
     """Predict vertex k into ``pred``; ``w`` rows are scratch: 0 the faces' centre, 1 the
     reflection, 2 the far term, 3 the faces' normal, 4 the frame's z axis (the border
     plane's normal for a border vertex, else the faces' normal), 5 and 6 the plane.
@@ -780,6 +901,8 @@ def _vertex_model(st, xyz, k, ptr, quads, bptr, bidx, btri, vnorm, mark, w, pred
                     pred[ax] = 0.5 * (w[7, ax] + w[8, ax])
         if _flatness(xyz, k, bptr, bidx, btri, mark, w[5], w[6]) <= FLAT * ln:
             return ln, 4
+        if _crease(xyz, k, bptr, bidx, btri, vnorm, mark, mark2, ln, pred, w[4]):
+            return ln, 5
         return ln, 3
     return ln, min(ptr[k + 1] - ptr[k], 3) - 1
 
@@ -793,6 +916,7 @@ def _encode_kernel(vals, xyz, ptr, quads, bptr, bidx, btri, mode, bits, out):
     w = np.zeros((10, 3))
     vnorm = np.zeros((nv, 3))
     mark = np.full(nv, -1, dtype=np.int64)
+    mark2 = np.full(nv, -1, dtype=np.int64)
     pred = np.empty(3)
     f64 = np.empty(1, dtype=np.float64)
     i64 = f64.view(np.int64)
@@ -804,7 +928,9 @@ def _encode_kernel(vals, xyz, ptr, quads, bptr, bidx, btri, mode, bits, out):
     for k in range(nv):
         if cs[2] + 3 * pk.SCALED_MAX_BYTES + 16 > cap:
             return -1
-        ln, bucket = _vertex_model(st, xyz, k, ptr, quads, bptr, bidx, btri, vnorm, mark, w, pred)
+        ln, bucket = _vertex_model(
+            st, xyz, k, ptr, quads, bptr, bidx, btri, vnorm, mark, mark2, w, pred
+        )
         for ax in range(3):
             res[ax] = vals[k, ax] - _to_int(pred[ax], mode, bits, f64, i64, f32, i32)
         if mode == 0:  # into the frame of the plane: z along its normal (seed-004 §10.9 step 4)
@@ -834,6 +960,7 @@ def _decode_kernel(data, ptr, quads, bptr, bidx, btri, mode, bits, vals, xyz):
     w = np.zeros((10, 3))
     vnorm = np.zeros((nv, 3))
     mark = np.full(nv, -1, dtype=np.int64)
+    mark2 = np.full(nv, -1, dtype=np.int64)
     pred = np.empty(3)
     f64 = np.empty(1, dtype=np.float64)
     i64 = f64.view(np.int64)
@@ -846,7 +973,9 @@ def _decode_kernel(data, ptr, quads, bptr, bidx, btri, mode, bits, vals, xyz):
     for k in range(nv):
         if cs[2] > data.size + 4:
             return 1
-        ln, bucket = _vertex_model(st, xyz, k, ptr, quads, bptr, bidx, btri, vnorm, mark, w, pred)
+        ln, bucket = _vertex_model(
+            st, xyz, k, ptr, quads, bptr, bidx, btri, vnorm, mark, mark2, w, pred
+        )
         for ax in range(3):
             s, q = _scale(st, mode, ax, ln, bucket, pred[ax], bits, f64, i64, f32, i32)
             r, ok = pk.get_scaled(cs, data, models, s * pk.SCALED_SET, q, nmax)
