@@ -1,15 +1,23 @@
-"""Adaptive arithmetic coding of integer residuals in 4-bit packages (seed-004 §10.9 step 2).
+"""Adaptive arithmetic coding of integer residuals: 4-bit packages and scaled residuals.
 
-A residual ``r`` (int64, wrapping) is mapped to ``u = 2r`` or ``-2r - 1`` and cut into
-4-bit packages (nibbles). The coder sends
+Two codes share one binary range coder here.
+
+**Packages** (seed-004 §10.9 step 2; the point and cell data use them). A residual ``r``
+(int64, wrapping) is mapped to ``u = 2r`` or ``-2r - 1`` and cut into 4-bit packages
+(nibbles). The coder sends
 
 1. ``n``, the number of significant packages (0 for a zero residual), as a 5-level
    binary tree of adaptive decisions in the context ``(class, ctx)`` chosen by the
-   caller (geometry: the axis and the gate size; attributes: the component and the
-   previous residual's size);
+   caller (attributes: the component and the previous residual's size);
 2. the leading package (1..15) as a 4-level tree with models per ``(class, n)``;
 3. the other packages, top down, as 4-level trees with models per ``(class, n, place)``:
    each package position has its own adaptive frequencies, as in the thesis.
+
+**Scaled residuals** (:func:`put_scaled`; the vertex coordinates use them). When the
+caller can estimate a residual's size, its bit length is coded as steps from that
+estimate, then the sign, two adaptive bits below the leading one, and the rest raw: the
+low bits of a well predicted coordinate are noise, and learning frequencies for them
+only costs bits on small meshes.
 
 The binary decisions use volpack's range coder (:mod:`volpack.entropy.arith`: 12-bit
 probabilities with a use count, 32-bit range, carry into the bytes already written).
@@ -21,7 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._jit import kernel
+from .._jit import kernel, leading_zeros
 from ..entropy.arith import PROB_BITS, RATE, STATE_INIT, TOP, _carry
 from ..errors import FormatError
 
@@ -225,3 +233,153 @@ def get_residual(cs, data, models, n_ctx, cls, ctx, width):
         u = (u << np.uint64(4)) | np.uint64(node - 16)
     r = np.int64(u >> np.uint64(1)) ^ -np.int64(u & np.uint64(1))
     return r, n, True
+
+
+# --- scaled residuals: bit length from an estimate, two adaptive bits, the rest raw ---------
+# A residual whose size the caller can estimate (vertex coordinates: from the local edge
+# length) is better served by coding its bit length relative to that estimate than by
+# 4-bit packages: the packages below the leading one are nearly uniform, and learning
+# their frequencies costs bits on small meshes.
+
+SCALED_SET = 64  # models per context set of :func:`put_scaled`
+_UP, _DOWN, _MANT, _SIGN = 1, 17, 33, 63  # offsets within a set (0: "above the estimate?")
+MANT_ADAPTIVE = 2  # bits below the leading one with adaptive probabilities
+# at most 68 adaptive decisions (12 bits each at worst) and 64 raw bits, plus slack
+SCALED_MAX_BYTES = (68 * 12 + 64) // 8 + 2
+
+
+def scaled_worst_case_bytes(n_values: int) -> int:
+    """Bytes a stream of ``n_values`` scaled residuals can take at most."""
+    return n_values * SCALED_MAX_BYTES + 64
+
+
+@kernel
+def put_raw(cs, out, v, n):
+    """Code the ``n`` low bits of ``v`` (uint64) at probability one half, top first."""
+    low = cs[0]
+    rng = cs[1]
+    pos = cs[2]
+    while n > 0:
+        t = min(n, 16)
+        n -= t
+        rng >>= t
+        low += np.int64((v >> np.uint64(n)) & np.uint64((1 << t) - 1)) * rng
+        if low > 0xFFFFFFFF:
+            _carry(out, pos)
+            low &= 0xFFFFFFFF
+        while rng < TOP:
+            rng <<= 8
+            out[pos] = low >> 24
+            pos += 1
+            low = (low << 8) & 0xFFFFFFFF
+    cs[0] = low
+    cs[1] = rng
+    cs[2] = pos
+
+
+@kernel
+def get_raw(cs, data, n):
+    """Decode ``n`` bits coded by :func:`put_raw` (uint64)."""
+    code = cs[0]
+    rng = cs[1]
+    pos = cs[2]
+    v = np.uint64(0)
+    while n > 0:
+        t = min(n, 16)
+        n -= t
+        rng >>= t
+        d = min(code // rng, np.int64((1 << t) - 1))
+        code -= d * rng
+        v = (v << np.uint64(t)) | np.uint64(d)
+        while rng < TOP:
+            rng <<= 8
+            code = ((code << 8) | (np.int64(data[pos]) if pos < data.size else 0)) & 0xFFFFFFFF
+            pos += 1
+    cs[0] = code
+    cs[1] = rng
+    cs[2] = pos
+    return v
+
+
+@kernel(inline=True)
+def _mant_ctx(nb, q):
+    """Mantissa model row: how far the bit length landed from the estimate (5 rows)."""
+    return min(max(nb - q + 2, 0), 4)
+
+
+@kernel
+def put_scaled(cs, out, models, base, q, r):
+    """Code the int64 residual ``r`` given the estimate ``q`` of its bit length.
+
+    ``models[base:base + SCALED_SET]`` is the context set; ``q`` is clamped to 0..64.
+    The bit length ``nb`` of
+    ``|r|`` is coded as one decision (``nb > q``?) and then steps up or down from ``q``,
+    each step with its own model; then the sign, the ``MANT_ADAPTIVE`` bits below the
+    leading one (models per distance from the estimate and the bits so far), and the
+    remaining low bits raw.
+    """
+    q = min(max(q, 0), 64)
+    a = np.uint64(-r) if r < 0 else np.uint64(r)
+    nb = 64 - np.int64(leading_zeros(a))
+    up = nb > q
+    put_bit(cs, out, models, base, np.int64(up))
+    if up:
+        j = q + 1
+        while j < 64:  # is it longer than j?
+            put_bit(cs, out, models, base + _UP + min(j - q - 1, 15), np.int64(nb > j))
+            if nb == j:
+                break
+            j += 1
+    else:
+        j = q
+        while j > 0:  # is it shorter than j?
+            put_bit(cs, out, models, base + _DOWN + min(q - j, 15), np.int64(nb < j))
+            if nb == j:
+                break
+            j -= 1
+    if nb == 0:
+        return
+    put_bit(cs, out, models, base + _SIGN, np.int64(r < 0))
+    nm = min(nb - 1, MANT_ADAPTIVE)
+    row = base + _MANT + 6 * _mant_ctx(nb, q)
+    node = 1
+    for jm in range(nm):
+        b = np.int64((a >> np.uint64(nb - 2 - jm)) & np.uint64(1))
+        put_bit(cs, out, models, row + node - 1, b)
+        node = 2 * node + b
+    put_raw(cs, out, a, nb - 1 - nm)
+
+
+@kernel
+def get_scaled(cs, data, models, base, q, nmax):
+    """Decode a residual coded by :func:`put_scaled`; return ``(r, ok)`` (``ok`` is
+    false when the bit length exceeds ``nmax``)."""
+    q = min(max(q, 0), 64)
+    up = get_bit(cs, data, models, base)
+    if up:
+        nb = q + 1
+        while nb < 64:
+            if get_bit(cs, data, models, base + _UP + min(nb - q - 1, 15)) == 0:
+                break
+            nb += 1
+            if nb > nmax:
+                return np.int64(0), False
+    else:
+        nb = q
+        while nb > 0:
+            if get_bit(cs, data, models, base + _DOWN + min(q - nb, 15)) == 0:
+                break
+            nb -= 1
+    if nb > nmax:
+        return np.int64(0), False
+    if nb == 0:
+        return np.int64(0), True
+    neg = get_bit(cs, data, models, base + _SIGN)
+    nm = min(nb - 1, MANT_ADAPTIVE)
+    row = base + _MANT + 6 * _mant_ctx(nb, q)
+    node = 1
+    for _ in range(nm):
+        node = 2 * node + get_bit(cs, data, models, row + node - 1)
+    a = (np.uint64(node) << np.uint64(nb - 1 - nm)) | get_raw(cs, data, nb - 1 - nm)
+    r = np.int64(a)
+    return (-r if neg else r), True
