@@ -30,7 +30,8 @@ import math
 import numpy as np
 
 from .._jit import kernel, leading_zeros
-from ..entropy.arith import PROB_BITS, TOP, _carry
+from ..entropy.arith import PROB_BITS
+from ..entropy.rangecoder import get_decision, get_raw, put_decision, put_raw
 from .mesh import HUB, PARITY, bucket_faces
 
 # Adaptation rate by use count: as the wavelet coder's early on, but settling at 1/64:
@@ -97,85 +98,27 @@ def initial_models() -> np.ndarray:
 
 @kernel
 def _bit(cs, buf, st, cost, k, bit, dec):
-    """Encode ``bit`` with model ``k`` (or decode one when ``dec``); return the bit."""
-    rng = cs[1]
-    s = np.int64(st[k])
-    p = s >> 4
-    u = s & 15
-    bound = (rng >> PROB_BITS) * p
-    pos = cs[2]
+    """Encode ``bit`` with model ``k`` (or decode one when ``dec``); return the bit.
+    When measuring (``cs[4]``), the bit's cost under the model before it adapts is
+    added to category ``cs[5]``."""
+    p = np.int64(st[k]) >> 4
     if dec:
-        code = cs[0]
-        bit = np.int64(code >= bound)
-        if bit:
-            code -= bound
-            rng -= bound
-        else:
-            rng = bound
-        size = cs[3]
-        while rng < TOP:
-            rng <<= 8
-            code = ((code << 8) | (np.int64(buf[pos]) if pos < size else 0)) & 0xFFFFFFFF
-            pos += 1
-        cs[0] = code
+        bit = get_decision(cs, buf, st, k, RATE)
     else:
-        low = cs[0]
-        if bit:
-            low += bound
-            rng -= bound
-        else:
-            rng = bound
-        if low > 0xFFFFFFFF:
-            _carry(buf, pos)
-            low &= 0xFFFFFFFF
-        while rng < TOP:
-            rng <<= 8
-            buf[pos] = low >> 24
-            pos += 1
-            low = (low << 8) & 0xFFFFFFFF
-        cs[0] = low
+        put_decision(cs, buf, st, k, bit, RATE)
     if cs[4]:
         q = p / (1 << PROB_BITS)
         cost[cs[5]] -= math.log2(1.0 - q if bit else q)
-    r = RATE[u]
-    if bit:
-        p -= p >> r
-    else:
-        p += ((1 << PROB_BITS) - p) >> r
-    st[k] = (p << 4) | (u + (u < 15))
-    cs[1] = rng
-    cs[2] = pos
     return bit
 
 
 @kernel
 def _flat(cs, buf, v, t, dec):
     """Encode (or decode) ``t`` <= 16 bits at probability one half."""
-    rng = cs[1] >> t
-    pos = cs[2]
     if dec:
-        code = cs[0]
-        v = min(code // rng, (1 << t) - 1)
-        code -= v * rng
-        size = cs[3]
-        while rng < TOP:
-            rng <<= 8
-            code = ((code << 8) | (np.int64(buf[pos]) if pos < size else 0)) & 0xFFFFFFFF
-            pos += 1
-        cs[0] = code
+        v = np.int64(get_raw(cs, buf, t))
     else:
-        low = cs[0] + v * rng
-        if low > 0xFFFFFFFF:
-            _carry(buf, pos)
-            low &= 0xFFFFFFFF
-        while rng < TOP:
-            rng <<= 8
-            buf[pos] = low >> 24
-            pos += 1
-            low = (low << 8) & 0xFFFFFFFF
-        cs[0] = low
-    cs[1] = rng
-    cs[2] = pos
+        put_raw(cs, buf, np.uint64(v), t)
     if cs[4]:
         cs[6] += t  # flat bits are counted in whole bits (category of the caller)
     return v

@@ -19,10 +19,9 @@ estimate, then the sign, two adaptive bits below the leading one, and the rest r
 low bits of a well predicted coordinate are noise, and learning frequencies for them
 only costs bits on small meshes.
 
-The binary decisions use volpack's range coder (:mod:`volpack.entropy.arith`: 12-bit
-probabilities with a use count, 32-bit range, carry into the bytes already written).
-The helpers here keep the coder's state in a 3-element array so that several kernels
-(vertex coordinates, point data, cell data) share one implementation.
+The binary decisions and raw bits go through :mod:`volpack.entropy.rangecoder` (the
+range coder of :mod:`volpack.entropy.arith` with its state in a 3-element array), which
+the connectivity coder shares.
 """
 
 from __future__ import annotations
@@ -30,7 +29,16 @@ from __future__ import annotations
 import numpy as np
 
 from .._jit import kernel, leading_zeros
-from ..entropy.arith import PROB_BITS, RATE, STATE_INIT, TOP, _carry
+from ..entropy.arith import STATE_INIT
+from ..entropy.rangecoder import (  # noqa: F401 - the primitives the coders here build on
+    finish_encoder,
+    get_bit,
+    get_raw,
+    put_bit,
+    put_raw,
+    start_decoder,
+    start_encoder,
+)
 from ..errors import FormatError
 
 MAX_PACKAGES = 16  # 64 bits
@@ -81,103 +89,7 @@ def from_ordered_bits(v: np.ndarray, dtype) -> np.ndarray:
 
 
 # --- kernels (numba) --------------------------------------------------------------------
-# ``cs`` is the coder state: [low, range, position] for the encoder, [code, range,
-# position] for the decoder.
-
-
-@kernel(inline=True)
-def start_encoder(out):
-    """Return a fresh encoder state (the first byte takes the carry of the first bits)."""
-    out[0] = 0
-    cs = np.empty(3, dtype=np.int64)
-    cs[0] = 0
-    cs[1] = 0xFFFFFFFF
-    cs[2] = 1
-    return cs
-
-
-@kernel(inline=True)
-def finish_encoder(cs, out):
-    """Flush the final low (4 bytes) and return the stream length."""
-    low = cs[0]
-    pos = cs[2]
-    for _ in range(4):
-        out[pos] = low >> 24
-        pos += 1
-        low = (low << 8) & 0xFFFFFFFF
-    return pos
-
-
-@kernel(inline=True)
-def start_decoder(data):
-    cs = np.empty(3, dtype=np.int64)
-    code = np.int64(0)
-    pos = 1
-    for _ in range(4):
-        code = (code << 8) | (np.int64(data[pos]) if pos < data.size else 0)
-        pos += 1
-    cs[0] = code
-    cs[1] = 0xFFFFFFFF
-    cs[2] = pos
-    return cs
-
-
-@kernel
-def put_bit(cs, out, models, k, bit):
-    """Code one binary decision with the adaptive model ``models[k]``."""
-    st = np.int64(models[k])
-    p = st >> 4
-    u = st & 15
-    low = cs[0]
-    rng = cs[1]
-    pos = cs[2]
-    bound = (rng >> PROB_BITS) * p
-    mask = -np.int64(bit)
-    low += bound & mask
-    if low > 0xFFFFFFFF:
-        _carry(out, pos)
-        low &= 0xFFFFFFFF
-    rng = bound + ((rng - 2 * bound) & mask)
-    r = RATE[u]
-    gain = ((1 << PROB_BITS) - p) >> r
-    p += gain - ((gain + (p >> r)) & mask)
-    models[k] = (p << 4) | (u + (u < 15))
-    while rng < TOP:
-        rng <<= 8
-        out[pos] = low >> 24
-        pos += 1
-        low = (low << 8) & 0xFFFFFFFF
-    cs[0] = low
-    cs[1] = rng
-    cs[2] = pos
-
-
-@kernel
-def get_bit(cs, data, models, k):
-    """Decode one binary decision coded by :func:`put_bit` (bytes past the end read 0)."""
-    st = np.int64(models[k])
-    p = st >> 4
-    u = st & 15
-    code = cs[0]
-    rng = cs[1]
-    pos = cs[2]
-    bound = (rng >> PROB_BITS) * p
-    bit = np.int64(code >= bound)
-    mask = -bit
-    code -= bound & mask
-    rng = bound + ((rng - 2 * bound) & mask)
-    r = RATE[u]
-    gain = ((1 << PROB_BITS) - p) >> r
-    p += gain - ((gain + (p >> r)) & mask)
-    models[k] = (p << 4) | (u + (u < 15))
-    while rng < TOP:
-        rng <<= 8
-        code = ((code << 8) | (np.int64(data[pos]) if pos < data.size else 0)) & 0xFFFFFFFF
-        pos += 1
-    cs[0] = code
-    cs[1] = rng
-    cs[2] = pos
-    return bit
+# The coder state ``cs`` and the binary primitives are :mod:`volpack.entropy.rangecoder`'s.
 
 
 @kernel(inline=True)
@@ -251,54 +163,6 @@ SCALED_MAX_BYTES = (68 * 12 + 64) // 8 + 2
 def scaled_worst_case_bytes(n_values: int) -> int:
     """Bytes a stream of ``n_values`` scaled residuals can take at most."""
     return n_values * SCALED_MAX_BYTES + 64
-
-
-@kernel
-def put_raw(cs, out, v, n):
-    """Code the ``n`` low bits of ``v`` (uint64) at probability one half, top first."""
-    low = cs[0]
-    rng = cs[1]
-    pos = cs[2]
-    while n > 0:
-        t = min(n, 16)
-        n -= t
-        rng >>= t
-        low += np.int64((v >> np.uint64(n)) & np.uint64((1 << t) - 1)) * rng
-        if low > 0xFFFFFFFF:
-            _carry(out, pos)
-            low &= 0xFFFFFFFF
-        while rng < TOP:
-            rng <<= 8
-            out[pos] = low >> 24
-            pos += 1
-            low = (low << 8) & 0xFFFFFFFF
-    cs[0] = low
-    cs[1] = rng
-    cs[2] = pos
-
-
-@kernel
-def get_raw(cs, data, n):
-    """Decode ``n`` bits coded by :func:`put_raw` (uint64)."""
-    code = cs[0]
-    rng = cs[1]
-    pos = cs[2]
-    v = np.uint64(0)
-    while n > 0:
-        t = min(n, 16)
-        n -= t
-        rng >>= t
-        d = min(code // rng, np.int64((1 << t) - 1))
-        code -= d * rng
-        v = (v << np.uint64(t)) | np.uint64(d)
-        while rng < TOP:
-            rng <<= 8
-            code = ((code << 8) | (np.int64(data[pos]) if pos < data.size else 0)) & 0xFFFFFFFF
-            pos += 1
-    cs[0] = code
-    cs[1] = rng
-    cs[2] = pos
-    return v
 
 
 @kernel(inline=True)

@@ -1,0 +1,202 @@
+"""The binary range coder as callable steps, for coders that interleave many models.
+
+The volume codec (:mod:`volpack.entropy.arith`) writes its coding steps out in place for
+speed. The mesh coders (connectivity, coordinates, fields) call these instead, with the
+coder's state in a small int64 array ``cs``: ``[low, range, position]`` when encoding,
+``[code, range, position]`` when decoding (callers may keep more entries after those).
+The arithmetic is the same: 12-bit probabilities of a 0 with a 4-bit use count in each
+model, a 32-bit range, carries added to the bytes already written, renormalisation by
+bytes below ``2^24``, and a first byte of 0 that takes the carry of the first bits. A
+decoder reads bytes past the end of its data as 0.
+
+A model adapts by ``1 / 2^rate[use count]`` of its distance to each bit seen;
+:func:`put_bit` and :func:`get_bit` use the volume codec's schedule
+(:data:`volpack.entropy.arith.RATE`), :func:`put_decision` and :func:`get_decision`
+take the schedule as an argument.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._jit import kernel
+from .arith import PROB_BITS, RATE, TOP, _carry
+
+__all__ = [
+    "finish_encoder",
+    "get_bit",
+    "get_decision",
+    "get_raw",
+    "put_bit",
+    "put_decision",
+    "put_raw",
+    "start_decoder",
+    "start_encoder",
+]
+
+
+@kernel(inline=True)
+def start_encoder(out):
+    """Return a fresh encoder state (the first byte takes the carry of the first bits)."""
+    out[0] = 0
+    cs = np.empty(3, dtype=np.int64)
+    cs[0] = 0
+    cs[1] = 0xFFFFFFFF
+    cs[2] = 1
+    return cs
+
+
+@kernel(inline=True)
+def finish_encoder(cs, out):
+    """Flush the final low (4 bytes) and return the stream length."""
+    low = cs[0]
+    pos = cs[2]
+    for _ in range(4):
+        out[pos] = low >> 24
+        pos += 1
+        low = (low << 8) & 0xFFFFFFFF
+    return pos
+
+
+@kernel(inline=True)
+def start_decoder(data):
+    """Return a decoder state for a stream written from :func:`start_encoder` on."""
+    cs = np.empty(3, dtype=np.int64)
+    code = np.int64(0)
+    pos = 1
+    for _ in range(4):
+        code = (code << 8) | (np.int64(data[pos]) if pos < data.size else 0)
+        pos += 1
+    cs[0] = code
+    cs[1] = 0xFFFFFFFF
+    cs[2] = pos
+    return cs
+
+
+@kernel(inline=True)
+def _push(out, low, rng, pos):
+    """After ``low`` grew and ``rng`` shrank: carry into the bytes written, then shift
+    out whole bytes until the range is back above ``2^24``."""
+    if low > 0xFFFFFFFF:
+        _carry(out, pos)
+        low &= 0xFFFFFFFF
+    while rng < TOP:
+        rng <<= 8
+        out[pos] = low >> 24
+        pos += 1
+        low = (low << 8) & 0xFFFFFFFF
+    return low, rng, pos
+
+
+@kernel(inline=True)
+def _pull(data, code, rng, pos):
+    """The decoder's side of :func:`_push`: shift in whole bytes (0 past the end)."""
+    while rng < TOP:
+        rng <<= 8
+        code = ((code << 8) | (np.int64(data[pos]) if pos < data.size else 0)) & 0xFFFFFFFF
+        pos += 1
+    return code, rng, pos
+
+
+@kernel(inline=True)
+def _adapt(models, k, p, u, mask, rate):
+    """Move model ``k`` (probability ``p`` of a 0, use count ``u``) towards the bit
+    coded (``mask``: -1 for a 1, 0 for a 0) and count the use."""
+    r = rate[u]
+    gain = ((1 << PROB_BITS) - p) >> r
+    p += gain - ((gain + (p >> r)) & mask)
+    models[k] = (p << 4) | (u + (u < 15))
+
+
+@kernel
+def put_decision(cs, out, models, k, bit, rate):
+    """Code one binary decision with the adaptive model ``models[k]`` (branch-free: the
+    bit is a coin toss to the branch predictor)."""
+    st = np.int64(models[k])
+    p = st >> 4
+    u = st & 15
+    low = cs[0]
+    rng = cs[1]
+    pos = cs[2]
+    bound = (rng >> PROB_BITS) * p
+    mask = -np.int64(bit)
+    low += bound & mask
+    rng = bound + ((rng - 2 * bound) & mask)
+    _adapt(models, k, p, u, mask, rate)
+    low, rng, pos = _push(out, low, rng, pos)
+    cs[0] = low
+    cs[1] = rng
+    cs[2] = pos
+
+
+@kernel
+def get_decision(cs, data, models, k, rate):
+    """Decode one binary decision coded by :func:`put_decision`."""
+    st = np.int64(models[k])
+    p = st >> 4
+    u = st & 15
+    code = cs[0]
+    rng = cs[1]
+    pos = cs[2]
+    bound = (rng >> PROB_BITS) * p
+    bit = np.int64(code >= bound)
+    mask = -bit
+    code -= bound & mask
+    rng = bound + ((rng - 2 * bound) & mask)
+    _adapt(models, k, p, u, mask, rate)
+    code, rng, pos = _pull(data, code, rng, pos)
+    cs[0] = code
+    cs[1] = rng
+    cs[2] = pos
+    return bit
+
+
+@kernel
+def put_bit(cs, out, models, k, bit):
+    """:func:`put_decision` with the volume codec's adaptation schedule."""
+    put_decision(cs, out, models, k, bit, RATE)
+
+
+@kernel
+def get_bit(cs, data, models, k):
+    """Decode one binary decision coded by :func:`put_bit`."""
+    return get_decision(cs, data, models, k, RATE)
+
+
+@kernel
+def put_raw(cs, out, v, n):
+    """Code the ``n`` low bits of ``v`` (uint64) at probability one half, top first,
+    up to 16 at a time (the range splits into ``2^t`` equal parts)."""
+    low = cs[0]
+    rng = cs[1]
+    pos = cs[2]
+    while n > 0:
+        t = min(n, 16)
+        n -= t
+        rng >>= t
+        low += np.int64((v >> np.uint64(n)) & np.uint64((1 << t) - 1)) * rng
+        low, rng, pos = _push(out, low, rng, pos)
+    cs[0] = low
+    cs[1] = rng
+    cs[2] = pos
+
+
+@kernel
+def get_raw(cs, data, n):
+    """Decode ``n`` bits coded by :func:`put_raw` (uint64)."""
+    code = cs[0]
+    rng = cs[1]
+    pos = cs[2]
+    v = np.uint64(0)
+    while n > 0:
+        t = min(n, 16)
+        n -= t
+        rng >>= t
+        d = min(code // rng, np.int64((1 << t) - 1))
+        code -= d * rng
+        v = (v << np.uint64(t)) | np.uint64(d)
+        code, rng, pos = _pull(data, code, rng, pos)
+    cs[0] = code
+    cs[1] = rng
+    cs[2] = pos
+    return v
