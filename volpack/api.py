@@ -432,7 +432,6 @@ def _stdout():
 
 
 def _stdin():
-
     from .container import stdin
 
     return stdin()
