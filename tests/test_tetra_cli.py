@@ -14,7 +14,7 @@ from click.testing import CliRunner
 from tetra_meshes import golden_mesh, grid_mesh, sphere_fan
 
 from volpack.cli import main
-from volpack.container import Reader
+from volpack.container import Reader, Writer
 from volpack.errors import FormatError
 from volpack.tetra.mesh import FACES, TetMesh, face_adjacency, signed_volumes
 from volpack.tetra.stream import check_header, compress_mesh, decompress_mesh
@@ -160,6 +160,20 @@ def test_golden_stream_decodes_and_reencodes():
     assert np.abs(back.point_data["T"] - mesh.point_data["T"]).max() <= 0.01
     # same input, same options -> same bytes (the container's version field aside)
     assert _payloads(buf.getvalue()) == _payloads(blob)
+
+
+def test_coordinates_of_an_earlier_coder_are_refused_with_the_reason():
+    # streams from before the scaled residual code carry no geometry "coder"
+    with Reader(io.BytesIO(GOLDEN.read_bytes())) as r:
+        hdr = dict(r.header)
+        payloads = {n: p for _, n, p in r}
+    hdr["geometry"] = {k: v for k, v in hdr["geometry"].items() if k != "coder"}
+    buf = io.BytesIO()
+    with Writer(buf, hdr) as w:
+        for n, p in payloads.items():
+            w.write(0, n, p)
+    with pytest.raises(FormatError, match="earlier volpack"):
+        decompress_mesh(buf.getvalue())
 
 
 def _payloads(blob):

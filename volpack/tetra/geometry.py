@@ -68,6 +68,8 @@ __all__ = ["encode_geometry", "decode_geometry", "prediction_faces"]
 
 _CLASS = np.array([0, 0, 1], dtype=np.int64)  # model class per coded axis: in-plane, normal
 MODES = {"quantized": 0, "lossless": 1, "lossless-xor": 2}
+CODER = "scaled"  # the residual code (header ``geometry.coder``); streams without it used
+# the 4-bit packages of volpack before 2026-11-26 and are refused with that reason
 
 
 def prediction_faces(tets: np.ndarray, nv: int) -> tuple[np.ndarray, np.ndarray]:
@@ -126,7 +128,7 @@ def encode_geometry(
         )
     nv = len(pts)
     hood = _neighbourhood(tets, nv)
-    meta: dict = {"dtype": pts.dtype.str}
+    meta: dict = {"dtype": pts.dtype.str, "coder": CODER}
     if lossless:
         meta.update(mode="lossless", max_error=0.0)
         vals = ordered_bits(pts)
@@ -188,6 +190,12 @@ def decode_geometry(data: bytes, meta: dict, tets: np.ndarray, nv: int) -> np.nd
         raise FormatError(f"bad geometry parameters in the mesh header: {e!r}") from None
     if mode == 2:
         return _decode_xor(data, dtype, nv)
+    if meta.get("coder") != CODER:
+        raise FormatError(
+            f"this mesh stream's coordinates use the coder {meta.get('coder', 'packages')!r} "
+            f"of an earlier volpack; this version reads {CODER!r} only (re-encode the mesh "
+            "with the volpack that wrote it)"
+        )
     hood = _neighbourhood(tets, nv)
     if mode == 1:
         mode = 1 if dtype == np.float64 else 2
