@@ -341,3 +341,15 @@ def test_orientation_can_be_left_to_the_coder(rng):
             sb = shared + [v for v in b if v not in shared]
             assert same_orientation(sa, a) != same_orientation(sb, b)
     assert len(order) == nv
+
+
+@settings(max_examples=60)
+@given(soups())
+def test_coding_order_adjacency_matches_naive(soup):
+    # the encoder hands its face neighbours, renumbered into coding order, to the
+    # coordinate coder: they must be the neighbours of the coded tets
+    tets, nv = soup
+    _, trav = encode_connectivity(tets, nv)
+    naive, _ = face_neighbours(np.asarray(trav.tets).tolist())
+    got = {(t, lf): int(trav.adjacency[t, lf]) for t in range(len(tets)) for lf in range(4)}
+    assert got == naive

@@ -935,6 +935,25 @@ def _match_face(tets, nbr, info, fi, fj):
 
 
 @kernel
+def coding_adjacency_kernel(tets, nbr, tets_out, tet_order, vcode, out):
+    """The face neighbours ``nbr`` (input rows and vertex places) in coding order: for
+    coded tet j and place p, the coded tet across the face opposite ``tets_out[j, p]``."""
+    nt = tets_out.shape[0]
+    coded = np.empty(nt, np.int64)
+    for j in range(nt):
+        coded[tet_order[j]] = j
+    for j in range(nt):
+        t = tet_order[j]
+        for p in range(4):
+            out[j, p] = -1
+            for m in range(4):
+                if vcode[tets[t, m]] == tets_out[j, p]:
+                    n = nbr[t, m]
+                    out[j, p] = coded[n] if n >= 0 else -1
+                    break
+
+
+@kernel
 def face_neighbours_kernel(tets, nv, nbr, info):
     """Fill nbr[t, l] = tetrahedron across the face opposite vertex l (-1: mesh border).
 

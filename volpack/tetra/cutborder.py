@@ -70,6 +70,10 @@ class Traversal:
     edge first (a -> b) and oriented towards the new vertex: (a, b, c, k) has the
     orientation of the gate's new tetrahedron. -1 for vertices without a gate.
     ``tet_parent[j]``: coded tetrahedron across the gate tetrahedron j was added at, or -1.
+    ``adjacency`` (encoder only, else None): int64 (nt, 4), the coded tetrahedron across
+    the face opposite vertex i of coded tetrahedron j, or -1 (what
+    :func:`.mesh.face_adjacency` of ``tets`` gives, from the neighbours the encoder
+    found anyway).
     """
 
     tets: np.ndarray
@@ -77,6 +81,7 @@ class Traversal:
     tet_order: np.ndarray
     gates: np.ndarray
     tet_parent: np.ndarray
+    adjacency: np.ndarray | None = None
 
 
 def _kernels():
@@ -190,7 +195,9 @@ def _run_encoder(a: np.ndarray, nv: int, measure: bool, keep_orientation: bool =
     vorder[nvu:] = np.flatnonzero(~used)
     counts = MAGIC + _varint(nt) + _varint(nv) + _varint(nvu) + bytes([ori_mode])
     header = counts + zlib.crc32(payload, zlib.crc32(counts)).to_bytes(4, "little")
-    trav = Traversal(tets_out, vorder, tet_order, gates, parent)
+    adj = np.empty((nt, 4), dtype=np.int64)
+    k.coding_adjacency_kernel(a, nbr, tets_out, tet_order, vcode, adj)
+    trav = Traversal(tets_out, vorder, tet_order, gates, parent, adj)
     return header + payload, trav, stats, hist, cost, nbr
 
 

@@ -81,7 +81,7 @@ def prediction_faces(tets: np.ndarray, nv: int) -> tuple[np.ndarray, np.ndarray]
     return _neighbourhood(tets, nv)[:2]
 
 
-def _neighbourhood(tets: np.ndarray, nv: int):
+def _neighbourhood(tets: np.ndarray, nv: int, adj: np.ndarray | None = None):
     """What the predictor of each vertex looks at: its faces (:func:`prediction_faces`)
     and the border triangles around it (``bptr``, ``bidx``: the triangles of vertex
     ``k`` are ``btri[bidx[bptr[k]:bptr[k + 1]]]``, rows ``a, b, c, max(a, b, c)``)."""
@@ -90,7 +90,8 @@ def _neighbourhood(tets: np.ndarray, nv: int):
     t = np.ascontiguousarray(tets, dtype=np.int64).reshape(-1, 4)
     if t.size and (t.min() < 0 or t.max() >= nv):
         raise FormatError(f"expected tet vertex indices in 0..{nv - 1}")
-    adj, _ = face_adjacency(t)
+    if adj is None:
+        adj, _ = face_adjacency(t)
     ptr, quads = _prediction_faces_kernel(t, adj, nv)
     bptr, bidx, btri = _border_kernel(t, adj, nv)
     return ptr, quads, bptr, bidx, btri
@@ -102,8 +103,10 @@ def encode_geometry(
     *,
     bits: int = 16,
     lossless: bool = False,
+    adjacency: np.ndarray | None = None,
 ) -> tuple[bytes, dict]:
-    """Code vertex coordinates given in coding order.
+    """Code vertex coordinates given in coding order (``adjacency``: the tets' face
+    neighbours when the caller has them, see ``cutborder.Traversal``).
 
     Parameters
     ----------
@@ -127,7 +130,7 @@ def encode_geometry(
             f"expected float32/float64 points of shape (nv, 3), found {pts.dtype} {pts.shape}"
         )
     nv = len(pts)
-    hood = _neighbourhood(tets, nv)
+    hood = _neighbourhood(tets, nv, adjacency)
     meta: dict = {"dtype": pts.dtype.str, "coder": CODER}
     if lossless:
         meta.update(mode="lossless", max_error=0.0)

@@ -136,8 +136,9 @@ def compress_mesh(
     ctets = np.asarray(trav.tets, dtype=np.int64)
     t1 = time.perf_counter()
     geo, gmeta = geometry.encode_geometry(
-        mesh.points[order], ctets, bits=bits, lossless=lossless_geometry
-    )
+        mesh.points[order], ctets, bits=bits, lossless=lossless_geometry,
+        adjacency=trav.adjacency,
+    )  # fmt: skip
     t_geo = time.perf_counter() - t1
     tick()
     geo_error = gmeta.pop("max_error")
