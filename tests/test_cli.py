@@ -60,6 +60,10 @@ def test_info_on_npy_and_vpk_json(tmp_path):
     assert 0 < d["chunk_nbytes"]["min"] == d["chunk_nbytes"]["max"]  # one chunk: min is its size
     text = run("info", tmp_path / "a.vpk", "--chunks").output
     assert "ratio" in text and "node" in text
+    # the same stream on standard input (its index comes last: it is read whole)
+    piped = json.loads(run("info", "-", "--json", input=(tmp_path / "a.vpk").read_bytes()).stdout)
+    assert piped["path"] == "-" and piped["file_nbytes"] == d["file_nbytes"]
+    assert piped["ratio"] == d["ratio"] and piped["header"] == d["header"]
 
 
 def test_compress_decompress_roi_and_codec_options(tmp_path):

@@ -260,6 +260,9 @@ def test_cli_compress_info_decompress(tmp_path, vtu):
     r = runner.invoke(main, ["decompress", "-", str(piped)], input=out.read_bytes())
     assert r.exit_code == 0, r.output
     np.testing.assert_array_equal(meshio.read(str(piped)).points, back.points)
+    r = runner.invoke(main, ["info", "-", "--json"], input=out.read_bytes())
+    assert r.exit_code == 0, r.output
+    assert {**json.loads(r.stdout), "path": str(out)} == info
 
 
 def test_cli_hex_needs_tetrahedralize(tmp_path):

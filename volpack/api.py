@@ -303,24 +303,24 @@ def decompress_array(blob: bytes, **options: Any) -> np.ndarray:
     return decompress(bytes(blob), **options).data
 
 
-def info(source: str, **read_options: Any) -> dict[str, Any]:
-    """Describe a ``.vpk`` file or any volume volpack reads, as plain JSON types."""
+def info(source: str | BinaryIO, **read_options: Any) -> dict[str, Any]:
+    """Describe a ``.vpk`` file (a path, or a seekable binary file such as
+    :func:`volpack.container.spool` of a pipe) or any volume volpack reads, as plain
+    JSON types."""
     from . import container
     from . import io as vio
 
-    if source != "-" and _looks_vpk(source):
+    if not isinstance(source, str) or (source != "-" and _looks_vpk(source)):
         with container.Reader(source) as r:
             hdr = r.header
             entries = r.entries
             sizes = np.array([e.nbytes for e in entries], dtype=np.int64)
             errors = np.array([e.error for e in entries], dtype=np.float64)
             raw = int(np.prod(hdr.get("shape", [0]))) * np.dtype(hdr.get("dtype", "u1")).itemsize
-            import os
-
-            file_size = os.path.getsize(source)
+            file_size = container.source_size(source)
             return {
                 "format": "vpk",
-                "path": source,
+                "path": source if isinstance(source, str) else "-",
                 "header": hdr,
                 "summary": r.summary,
                 "chunks": len(entries),

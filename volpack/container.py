@@ -156,6 +156,29 @@ def stdin() -> BinaryIO:
     return _STDIN
 
 
+def spool(f: BinaryIO, memory: int = 64 << 20) -> BinaryIO:
+    """The rest of stream ``f`` in a seekable temporary file (in memory up to ``memory``
+    bytes, on disk past that), positioned at its start: what reading a pipe's index
+    (written last) needs."""
+    import shutil
+    import tempfile
+
+    out = tempfile.SpooledTemporaryFile(max_size=memory)  # noqa: SIM115 - the caller closes it
+    shutil.copyfileobj(f, out, 1 << 20)
+    out.seek(0)
+    return out
+
+
+def source_size(source) -> int:
+    """Bytes of a path, or of a seekable binary file from its start."""
+    if isinstance(source, (str, os.PathLike)):
+        return os.path.getsize(source)
+    pos = source.tell()
+    end = source.seek(0, io.SEEK_END)
+    source.seek(pos)
+    return end
+
+
 def _peek_stdin_kind() -> str | None:
     f = stdin()
     if isinstance(f, _Rewindable):

@@ -32,6 +32,7 @@ def info(
       volpack info ct.vpk --json | jq .ratio
       volpack info scan.raw --shape 108,256,256 --dtype int16
       volpack info big.vpk --levels
+      volpack compress ct.nii.gz - | volpack info -
     """
     if levels:
         from .octree import levels as octree_levels
@@ -40,11 +41,25 @@ def info(
         return
     from . import mesh as mesh_cli
 
+    if source == "-":
+        from ..container import spool, stdin, vpk_kind
+
+        kind = vpk_kind("-")
+        if kind is not None:  # a .vpk on a pipe: its index comes last, so keep it whole
+            with spool(stdin()) as f:
+                if kind == "mesh":
+                    return mesh_cli.info(source, as_json, stream=f)
+                from .. import api
+
+                return _show(api.info(f), as_json, chunks)
     if mesh_cli.is_mesh_source(source) or mesh_cli.is_mesh_stream(source):
         return mesh_cli.info(source, as_json)
     from .. import api
 
-    d = api.info(source, **read_kwargs(raw_shape, raw_dtype, byteorder, offset))
+    _show(api.info(source, **read_kwargs(raw_shape, raw_dtype, byteorder, offset)), as_json, chunks)
+
+
+def _show(d: dict, as_json: bool, chunks: bool) -> None:
     if not (as_json and chunks) and "entries" in d and not chunks:
         d = {k: v for k, v in d.items() if k != "entries"}
     if as_json:

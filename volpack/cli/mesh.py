@@ -185,12 +185,13 @@ def decompress(source: str, target: str, *, force: bool, as_json: bool) -> None:
         )
 
 
-def info(source: str, as_json: bool) -> None:
-    """Describe a mesh .vpk (rates per part) or a mesh file (the mesh report)."""
-    if is_mesh_stream(source):
+def info(source: str, as_json: bool, stream=None) -> None:
+    """Describe a mesh .vpk (rates per part; ``stream``: its seekable copy when
+    ``source`` is a pipe) or a mesh file (the mesh report)."""
+    if stream is not None or is_mesh_stream(source):
         from ..tetra.stream import mesh_info
 
-        d = mesh_info(source)
+        d = mesh_info(source if stream is None else stream)
     else:
         from ..tetra.formats import read_mesh
         from ..tetra.mesh import report

@@ -288,18 +288,17 @@ def decompress_mesh(
     return TetMesh(points, ctets, point_data, cell_data)
 
 
-def mesh_info(source: str) -> dict[str, Any]:
-    """Describe a mesh ``.vpk`` (sizes, bits per tet and per vertex, fields) as JSON types."""
-    import os
-
-    from ..container import Reader
+def mesh_info(source: str | BinaryIO) -> dict[str, Any]:
+    """Describe a mesh ``.vpk`` (a path or a seekable binary file: sizes, bits per tet
+    and per vertex, fields) as JSON types."""
+    from ..container import Reader, source_size
 
     with Reader(source) as r:
         hdr = check_header(r.header, DEFAULT_MAX_TETS)
         sizes = {e.node: e.nbytes for e in r.entries}
         summary = r.summary or {}
     nv, nt = hdr["vertices"], hdr["tets"]
-    file_size = os.path.getsize(source)
+    file_size = source_size(source)
     geo = hdr["geometry"]
     fields = {}
     for f in hdr["fields"]:
@@ -319,7 +318,7 @@ def mesh_info(source: str) -> dict[str, Any]:
     return {
         "format": "vpk",
         "kind": KIND_MESH,
-        "path": source,
+        "path": source if isinstance(source, str) else "-",
         "header": hdr,
         "vertices": nv,
         "tets": nt,
