@@ -437,7 +437,9 @@ def encode_frame(
             flags |= FLAG_CORRECTIONS
             out.reshape(-1)[bad] = x.reshape(-1)[bad]
             err.reshape(-1)[bad] = 0.0
-            corr = _corrections(bad, x)
+            from .lossy import pack_corrections
+
+            corr = put_section(pack_corrections(x, bad))
     head = _FRAME_HEAD.pack(TYPE_CODE[kind], flags, lo, hi, vrange, mean_unit)
     payload = b"".join([head, *head_parts, *bodies, corr])
     modes = field.counts() if field is not None else {}
@@ -513,7 +515,9 @@ def decode_frame(
     out = _combine(pred_int, rec, dtype)
     if flags & FLAG_CORRECTIONS:
         body, pos = take_section(data, pos, "animation frame")
-        _apply_corrections(body, out)
+        from .lossy import apply_corrections
+
+        apply_corrections(body, out, "animation frame")
     if pos != len(data):
         raise FormatError(f"animation frame: {len(data) - pos} stray bytes at the end")
     return kind, out
@@ -581,34 +585,6 @@ def _combine(pred_int, rec, dtype: np.dtype) -> np.ndarray:
         info = np.iinfo(dtype)
         return np.clip(v, info.min, info.max).astype(dtype)
     return np.asarray(v, np.float64).astype(dtype)
-
-
-def _corrections(idx: np.ndarray, x: np.ndarray) -> bytes:
-    import zstandard
-
-    from .codec import _as_stored
-
-    body = idx.astype("<u4").tobytes() + _as_stored(x.reshape(-1)[idx])
-    return put_section(zstandard.ZstdCompressor(level=9).compress(body))
-
-
-def _apply_corrections(body: bytes, out: np.ndarray) -> None:
-    import zstandard
-
-    from .codec import _from_stored
-
-    item = 4 + out.dtype.itemsize
-    try:
-        raw = zstandard.ZstdDecompressor().decompress(body, max_output_size=out.size * item)
-    except zstandard.ZstdError as e:
-        raise FormatError(f"animation frame: corrupt corrections ({e})") from None
-    k = len(raw) // item
-    if k * item != len(raw):
-        raise FormatError("animation frame: corrections of a ragged length")
-    idx = np.frombuffer(raw[: 4 * k], "<u4").astype(np.int64)
-    if k and idx.max() >= out.size:
-        raise FormatError("animation frame: a correction points outside the frame")
-    out.reshape(-1)[idx] = _from_stored(raw[4 * k :], (k,), out.dtype)
 
 
 # -- whole animations -------------------------------------------------------------------

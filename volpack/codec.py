@@ -51,6 +51,23 @@ def storage_dtype(dtype: Any) -> np.dtype:
     return np.dtype(dtype).newbyteorder("<")
 
 
+def inflate(data, limit: int, what: str, *, exact: bool = False) -> bytes:
+    """zstd-decompress ``data`` into at most ``limit`` bytes (exactly ``limit`` with
+    ``exact``); a corrupt or mis-sized stream raises FormatError naming ``what``, and a
+    false size never allocates more than ``limit``."""
+    import zstandard
+
+    try:
+        raw = zstandard.ZstdDecompressor().decompress(bytes(data), max_output_size=max(limit, 1))
+    except zstandard.ZstdError as e:
+        raise FormatError(f"corrupt {what}: {e}") from None
+    if exact and len(raw) != limit:
+        raise FormatError(
+            f"corrupt {what}: expected {limit} bytes after decompression, found {len(raw)}"
+        )
+    return raw
+
+
 def _as_stored(a: np.ndarray) -> bytes:
     return np.ascontiguousarray(a, dtype=storage_dtype(a.dtype)).tobytes()
 
@@ -191,19 +208,9 @@ class ZstdCodec:
         )
 
     def decode(self, data: bytes | memoryview, shape: tuple[int, ...], dtype: Any) -> np.ndarray:
-        import zstandard
-
         dtype = np.dtype(dtype)
         n = int(np.prod(shape))
-        need = n * dtype.itemsize
-        try:
-            raw = zstandard.ZstdDecompressor().decompress(bytes(data), max_output_size=need)
-        except zstandard.ZstdError as e:
-            raise FormatError(f"corrupt zstd brick payload: {e}") from None
-        if len(raw) != need:
-            raise FormatError(
-                f"zstd brick payload: expected {need} bytes after decompression, found {len(raw)}"
-            )
+        raw = inflate(data, n * dtype.itemsize, "zstd brick payload", exact=True)
         b = np.frombuffer(raw, dtype=np.uint8)
         if self.shuffle and dtype.itemsize > 1:
             b = b.reshape(dtype.itemsize, n).T

@@ -40,6 +40,7 @@ from .codec import (
     _as_stored,
     _check_choice,
     _from_stored,
+    inflate,
     storage_dtype,
 )
 from .container import put_section, take_section
@@ -247,8 +248,7 @@ class BoundedCodec:
         if bad.size:
             flags |= FLAG_CORRECTIONS
             err.reshape(-1)[bad] = 0.0
-            body = bad.astype("<u4").tobytes() + _as_stored(x.reshape(-1)[bad])
-            parts.append(_section(body))
+            parts.append(put_section(pack_corrections(x, bad)))
         parts[0] = bytes([flags])
         valid = x.size - (int(mask.sum()) if mask is not None else 0)
         with np.errstate(over="ignore"):  # errors near 1e300 square to inf: PSNR unknown
@@ -300,14 +300,8 @@ class BoundedCodec:
             k = int(mask.sum())
             flat[mask] = _from_stored(body[nb:], (k,), dtype)
         if flags & FLAG_CORRECTIONS:
-            body, pos = _take(data, pos, n * (4 + sd.itemsize), zstd=True)
-            k = len(body) // (4 + sd.itemsize)
-            if k * (4 + sd.itemsize) != len(body):
-                raise FormatError("bounded brick payload: correction section has a ragged length")
-            idx = np.frombuffer(body[: 4 * k], "<u4").astype(np.int64)
-            if k and idx.max() >= n:
-                raise FormatError("bounded brick payload: a correction points outside the brick")
-            flat[idx] = _from_stored(body[4 * k :], (k,), dtype)
+            body, pos = _take(data, pos, len(data))
+            apply_corrections(body, out, "bounded brick payload")
         if pos != len(data):
             raise FormatError(f"bounded brick payload: {len(data) - pos} stray bytes at the end")
         return out
@@ -377,13 +371,34 @@ def _take(data: memoryview, pos: int, limit: int, zstd: bool = False) -> tuple[b
     ``limit`` bytes."""
     body, end = take_section(data, pos, "lossy brick payload")
     if zstd:
-        import zstandard
-
-        try:
-            body = zstandard.ZstdDecompressor().decompress(body, max_output_size=limit)
-        except zstandard.ZstdError as e:
-            raise FormatError(f"lossy brick payload: corrupt section ({e})") from None
+        body = inflate(body, limit, "lossy brick payload section")
     return body, end
+
+
+def pack_corrections(x: np.ndarray, idx: np.ndarray) -> bytes:
+    """The voxels ``x.flat[idx]`` stored exactly (uint32 indices, then the values as
+    stored), zstd'd: what a bounded coder keeps where rounding to the output dtype
+    pushed a voxel past its bound (the lossy bricks, the animation frames and the
+    octree nodes share this layout)."""
+    import zstandard
+
+    body = idx.astype("<u4").tobytes() + _as_stored(x.reshape(-1)[idx])
+    return zstandard.ZstdCompressor(level=9).compress(body)
+
+
+def apply_corrections(data, out: np.ndarray, what: str) -> None:
+    """Put the voxels of :func:`pack_corrections` back into ``out`` (C-contiguous);
+    a corrupt section raises FormatError naming ``what``."""
+    n = out.size
+    item = 4 + storage_dtype(out.dtype).itemsize
+    body = inflate(data, n * item, f"{what} corrections")
+    k = len(body) // item
+    if k * item != len(body):
+        raise FormatError(f"{what}: the corrections have a ragged length")
+    idx = np.frombuffer(body[: 4 * k], "<u4").astype(np.int64)
+    if k and idx.max() >= n:
+        raise FormatError(f"{what}: a correction points outside the data")
+    out.reshape(-1)[idx] = _from_stored(body[4 * k :], (k,), out.dtype)
 
 
 # -- the thesis's coefficient modes -----------------------------------------------------

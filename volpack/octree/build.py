@@ -316,8 +316,7 @@ def _corrections(plan: Plan, q: np.ndarray, x: np.ndarray, out: TaskResult) -> b
     rounding to the output dtype pushed past the bound (as BoundedCodec does)."""
     if plan.codec is None:
         return None
-    from ..codec import _as_stored
-    from ..lossy import _section
+    from ..lossy import pack_corrections
 
     rec = plan.codec._reconstruct(q, x.dtype)
     err = np.abs(rec.astype(np.float64) - x.astype(np.float64))
@@ -325,7 +324,7 @@ def _corrections(plan: Plan, q: np.ndarray, x: np.ndarray, out: TaskResult) -> b
     body = None
     if bad.size:
         err.reshape(-1)[bad] = 0.0
-        body = _section(bad.astype("<u4").tobytes() + _as_stored(x.reshape(-1)[bad]))[4:]
+        body = pack_corrections(x, bad)
     out.sse += float(np.sum(err * err))
     out.max_error = max(out.max_error, float(err.max(initial=0.0)))
     return body
@@ -333,23 +332,9 @@ def _corrections(plan: Plan, q: np.ndarray, x: np.ndarray, out: TaskResult) -> b
 
 def apply_corrections(plan: Plan, data: bytes, values: np.ndarray) -> None:
     """Put the exactly stored voxels of a level-1 node back into its level-0 values."""
-    import zstandard
+    from ..lossy import apply_corrections as apply
 
-    from ..codec import _from_stored, storage_dtype
-
-    n = values.size
-    item = 4 + storage_dtype(values.dtype).itemsize
-    try:
-        body = zstandard.ZstdDecompressor().decompress(data, max_output_size=n * item)
-    except zstandard.ZstdError as e:
-        raise FormatError(f"octree corrections: corrupt ({e})") from None
-    k = len(body) // item
-    if k * item != len(body):
-        raise FormatError("octree corrections: ragged length")
-    idx = np.frombuffer(body[: 4 * k], "<u4").astype(np.int64)
-    if k and idx.max() >= n:
-        raise FormatError("octree corrections: an index points outside the node")
-    values.reshape(-1)[idx] = _from_stored(body[4 * k :], (k,), values.dtype)
+    apply(data, values, "octree node")
 
 
 def _pool(a: np.ndarray, op) -> np.ndarray:

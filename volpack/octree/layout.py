@@ -167,17 +167,11 @@ def encode_table(rows: np.ndarray) -> bytes:
 
 
 def decode_table(data: bytes, count: int) -> np.ndarray:
-    import zstandard
+    from ..codec import inflate
 
-    need = count * META_DTYPE.itemsize
-    try:
-        raw = zstandard.ZstdDecompressor().decompress(data, max_output_size=max(need, 1))
-    except zstandard.ZstdError as e:
-        raise FormatError(f"octree level table: corrupt ({e})") from None
-    if len(raw) != need:
-        raise FormatError(
-            f"octree level table: expected {need} bytes for {count} nodes, found {len(raw)}"
-        )
+    raw = inflate(
+        data, count * META_DTYPE.itemsize, f"octree level table of {count} nodes", exact=True
+    )
     return np.frombuffer(raw, META_DTYPE).copy()
 
 

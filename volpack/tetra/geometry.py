@@ -225,15 +225,9 @@ def _encode_xor(pts: np.ndarray) -> bytes:
 
 
 def _decode_xor(data: bytes, dtype: np.dtype, nv: int) -> np.ndarray:
-    import zstandard
+    from ..codec import inflate
 
-    need = nv * 3 * dtype.itemsize
-    try:
-        raw = zstandard.ZstdDecompressor().decompress(data, max_output_size=need)
-    except zstandard.ZstdError as e:
-        raise FormatError(f"corrupt geometry stream: {e}") from None
-    if len(raw) != need:
-        raise FormatError(f"corrupt geometry stream: expected {need} bytes, found {len(raw)}")
+    raw = inflate(data, nv * 3 * dtype.itemsize, "geometry stream", exact=True)
     x = np.frombuffer(raw, dtype=f"<u{dtype.itemsize}").reshape(nv, 3)
     return np.bitwise_xor.accumulate(x, axis=0).view(dtype.newbyteorder("<")).astype(dtype)
 

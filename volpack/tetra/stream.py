@@ -406,16 +406,11 @@ def _encode_order(tets: np.ndarray, trav, sorted_rows: bool = False) -> bytes:
 def _decode_order(
     blob: bytes, nv: int, nt: int, with_rows: bool = True
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    import zstandard
+    from ..codec import inflate
 
     width = 4 if nv < 1 << 32 and nt < 1 << 32 else 8
     need = width * (nv + nt) + (nt if with_rows else 0)
-    try:
-        raw = zstandard.ZstdDecompressor().decompress(blob, max_output_size=need)
-    except zstandard.ZstdError as e:
-        raise FormatError(f"corrupt mesh order chunk: {e}") from None
-    if len(raw) != need:
-        raise FormatError(f"corrupt mesh order chunk: expected {need} bytes, found {len(raw)}")
+    raw = inflate(blob, need, "mesh order chunk", exact=True)
     dt = f"<u{width}"
     vorder = np.frombuffer(raw, dtype=dt, count=nv).astype(np.int64)
     torder = np.frombuffer(raw, dtype=dt, count=nt, offset=width * nv).astype(np.int64)
