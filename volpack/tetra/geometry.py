@@ -521,6 +521,22 @@ def _parallelogram(xyz, k, bptr, bidx, btri, par):
     return cnt
 
 
+@kernel(inline=True)
+def _triangle(xyz, a, b, c):
+    """Edges ``b - a`` and ``c - a`` of triangle (a, b, c) and their cross product (the
+    unnormalised normal), in that order."""
+    e10 = xyz[b, 0] - xyz[a, 0]
+    e11 = xyz[b, 1] - xyz[a, 1]
+    e12 = xyz[b, 2] - xyz[a, 2]
+    e20 = xyz[c, 0] - xyz[a, 0]
+    e21 = xyz[c, 1] - xyz[a, 1]
+    e22 = xyz[c, 2] - xyz[a, 2]
+    n0 = e11 * e22 - e12 * e21
+    n1 = e12 * e20 - e10 * e22
+    n2 = e10 * e21 - e11 * e20
+    return e10, e11, e12, e20, e21, e22, n0, n1, n2
+
+
 @kernel
 def _add_border_normals(xyz, k, bptr, bidx, btri, vnorm):
     """Vertex k is decoded: add the unit normal of each border triangle it completes to
@@ -532,15 +548,7 @@ def _add_border_normals(xyz, k, bptr, bidx, btri, vnorm):
         a = btri[q, 0]
         b = btri[q, 1]
         c = btri[q, 2]
-        e10 = xyz[b, 0] - xyz[a, 0]
-        e11 = xyz[b, 1] - xyz[a, 1]
-        e12 = xyz[b, 2] - xyz[a, 2]
-        e20 = xyz[c, 0] - xyz[a, 0]
-        e21 = xyz[c, 1] - xyz[a, 1]
-        e22 = xyz[c, 2] - xyz[a, 2]
-        n0 = e11 * e22 - e12 * e21
-        n1 = e12 * e20 - e10 * e22
-        n2 = e10 * e21 - e11 * e20
+        n0, n1, n2 = _triangle(xyz, a, b, c)[6:]
         nn = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
         if not nn > 0.0:
             continue
@@ -587,15 +595,7 @@ def _predict(xyz, k, ptr, quads, cen, refl, far, normal):
         b = quads[f, 1]
         c = quads[f, 2]
         w = quads[f, 3]
-        e10 = xyz[b, 0] - xyz[a, 0]
-        e11 = xyz[b, 1] - xyz[a, 1]
-        e12 = xyz[b, 2] - xyz[a, 2]
-        e20 = xyz[c, 0] - xyz[a, 0]
-        e21 = xyz[c, 1] - xyz[a, 1]
-        e22 = xyz[c, 2] - xyz[a, 2]
-        n0 = e11 * e22 - e12 * e21
-        n1 = e12 * e20 - e10 * e22
-        n2 = e10 * e21 - e11 * e20
+        e10, e11, e12, e20, e21, e22, n0, n1, n2 = _triangle(xyz, a, b, c)
         l1 = math.sqrt(e10 * e10 + e11 * e11 + e12 * e12)
         l2 = math.sqrt(e20 * e20 + e21 * e21 + e22 * e22)
         l3 = math.sqrt((e20 - e10) ** 2 + (e21 - e11) ** 2 + (e22 - e12) ** 2)
