@@ -106,6 +106,21 @@ def _sample8(up, z4, y4, x4):
     return s * (8 >> (fz + fy + fx))
 
 
+@kernel(inline=True)
+def _on_grid(up, z0, z1, y0, y1, x0, x1, vz, vy, vx):
+    """Whether every half-voxel grid sample the box ``[z0, z1) x [y0, y1) x [x0, x1)``
+    reads through the sub-voxel vector lies inside ``up`` (no clamping needed)."""
+    uz, uy, ux = up.shape
+    return (
+        2 * z0 + (vz >> 1) >= 0
+        and 2 * (z1 - 1) + (vz >> 1) + (vz & 1) < uz
+        and 2 * y0 + (vy >> 1) >= 0
+        and 2 * (y1 - 1) + (vy >> 1) + (vy & 1) < uy
+        and 2 * x0 + (vx >> 1) >= 0
+        and 2 * (x1 - 1) + (vx >> 1) + (vx & 1) < ux
+    )
+
+
 @kernel
 def _block_sse(cur, ref, up, z0, y0, x0, vz, vy, vx, limit):
     """Squared error (in units of 1/64) of the block at (z0, y0, x0) against the
@@ -145,15 +160,7 @@ def _block_sse(cur, ref, up, z0, y0, x0, vz, vy, vx, limit):
     # on the half-voxel grid voxel z reads 2z + (vz >> 1), and its neighbour if vz is odd
     hz, hy, hx = vz >> 1, vy >> 1, vx >> 1
     fz, fy, fx = vz & 1, vy & 1, vx & 1
-    uz, uy, ux = up.shape
-    inside = (
-        2 * z0 + hz >= 0
-        and 2 * (ez - 1) + hz + fz < uz
-        and 2 * y0 + hy >= 0
-        and 2 * (ey - 1) + hy + fy < uy
-        and 2 * x0 + hx >= 0
-        and 2 * (ex - 1) + hx + fx < ux
-    )
+    inside = _on_grid(up, z0, ez, y0, ey, x0, ex, vz, vy, vx)
     scale = np.float64(8 >> (fz + fy + fx))
     for z in range(z0, ez):
         for y in range(y0, ey):
@@ -594,15 +601,7 @@ def _add_block(out, ref, up, z0, z1, y0, y1, x0, x1, wz, wy, wx, vz, vy, vx, sha
         return
     hz, hy, hx = vz >> 1, vy >> 1, vx >> 1
     fz, fy, fx = vz & 1, vy & 1, vx & 1
-    uz, uy, ux = up.shape
-    inside = (
-        2 * z0 + hz >= 0
-        and 2 * (z1 - 1) + hz + fz < uz
-        and 2 * y0 + hy >= 0
-        and 2 * (y1 - 1) + hy + fy < uy
-        and 2 * x0 + hx >= 0
-        and 2 * (x1 - 1) + hx + fx < ux
-    )
+    inside = _on_grid(up, z0, z1, y0, y1, x0, x1, vz, vy, vx)
     mean = 1.0 / (1 << (fz + fy + fx))
     for z in range(z0, z1):
         for y in range(y0, y1):
