@@ -388,17 +388,17 @@ def _encode_order(tets: np.ndarray, trav, sorted_rows: bool = False) -> bytes:
 
     vorder = np.asarray(trav.vertex_order, dtype=np.int64)
     torder = np.asarray(trav.tet_order, dtype=np.int64)
-    decoded = vorder[np.asarray(trav.tets, dtype=np.int64)]  # coded rows, input vertex ids
-    wanted = tets[torder]
-    perm = np.full(len(torder), -1, dtype=np.int64)
-    for i, p in enumerate(PERMS):
-        hit = (perm < 0) & (decoded[:, p] == wanted).all(axis=1)
-        perm[hit] = i
-    if (perm < 0).any():
-        raise AssertionError("a decoded tet row is no permutation of its input row")
     width = "<u4" if len(vorder) < 1 << 32 and len(torder) < 1 << 32 else "<u8"
     raw = vorder.astype(width).tobytes() + torder.astype(width).tobytes()
     if not sorted_rows:
+        decoded = vorder[np.asarray(trav.tets, dtype=np.int64)]  # coded rows, input ids
+        wanted = tets[torder]
+        perm = np.full(len(torder), -1, dtype=np.int64)
+        for i, p in enumerate(PERMS):
+            hit = (perm < 0) & (decoded[:, p] == wanted).all(axis=1)
+            perm[hit] = i
+        if (perm < 0).any():
+            raise AssertionError("a decoded tet row is no permutation of its input row")
         raw += perm.astype(np.uint8).tobytes()
     return zstandard.ZstdCompressor(level=9).compress(raw)
 
