@@ -86,10 +86,21 @@ def _clampi(i, n):
 
 
 @kernel(inline=True)
+def _half(up, iz, iy, ix):
+    """The half-voxel grid sample at index (iz, iy, ix), border clamped. ``up`` holds the
+    grid split by index parity, ``up[pz, py, px, i, j, k] = grid[2i + pz, 2j + py, 2k + px]``
+    (:func:`upsample`), whose last odd entries repeat the border."""
+    nz, ny, nx = up.shape[3], up.shape[4], up.shape[5]
+    iz = _clampi(iz, 2 * nz)
+    iy = _clampi(iy, 2 * ny)
+    ix = _clampi(ix, 2 * nx)
+    return up[iz & 1, iy & 1, ix & 1, iz >> 1, iy >> 1, ix >> 1]
+
+
+@kernel(inline=True)
 def _sample8(up, z4, y4, x4):
     """8 x the reference at the quarter-voxel position (z4, y4, x4) / 4, read from its
     half-voxel grid ``up`` (border clamped): one sample, or the mean of 2, 4 or 8."""
-    nz, ny, nx = up.shape
     z0 = z4 >> 1
     y0 = y4 >> 1
     x0 = x4 >> 1
@@ -98,19 +109,17 @@ def _sample8(up, z4, y4, x4):
     fx = x4 & 1
     s = 0.0
     for a in range(fz + 1):
-        zi = _clampi(z0 + a, nz)
         for b in range(fy + 1):
-            yi = _clampi(y0 + b, ny)
             for c in range(fx + 1):
-                s += up[zi, yi, _clampi(x0 + c, nx)]
+                s += _half(up, z0 + a, y0 + b, x0 + c)
     return s * (8 >> (fz + fy + fx))
 
 
 @kernel(inline=True)
 def _on_grid(up, z0, z1, y0, y1, x0, x1, vz, vy, vx):
     """Whether every half-voxel grid sample the box ``[z0, z1) x [y0, y1) x [x0, x1)``
-    reads through the sub-voxel vector lies inside ``up`` (no clamping needed)."""
-    uz, uy, ux = up.shape
+    reads through the sub-voxel vector is stored in ``up`` (no clamping needed)."""
+    uz, uy, ux = 2 * up.shape[3], 2 * up.shape[4], 2 * up.shape[5]
     return (
         2 * z0 + (vz >> 1) >= 0
         and 2 * (z1 - 1) + (vz >> 1) + (vz & 1) < uz
@@ -168,9 +177,12 @@ def _block_sse(cur, ref, up, z0, y0, x0, vz, vy, vx, limit):
                 if inside:
                     p = 0.0
                     for a in range(fz + 1):
+                        za = z + ((hz + a) >> 1)
                         for b in range(fy + 1):
+                            yb = y + ((hy + b) >> 1)
                             for c in range(fx + 1):
-                                p += up[2 * z + hz + a, 2 * y + hy + b, 2 * x + hx + c]
+                                p += up[(hz + a) & 1, (hy + b) & 1, (hx + c) & 1, za, yb,
+                                        x + ((hx + c) >> 1)]  # fmt: skip
                     p *= scale
                 else:
                     p = _sample8(up, 4 * z + vz, 4 * y + vy, 4 * x + vx)
@@ -281,18 +293,19 @@ HALF_TAPS = np.array([-1.0, 4.0, -11.0, 40.0, 40.0, -11.0, 4.0, -1.0]) / 64.0
 
 
 @kernel
-def _upsample_axis_kernel(src, taps, out):
-    """Along the last axis: even outputs copy ``src``, odd ones interpolate halfway
-    (border clamped)."""
+def _upsample_axis_kernel(src, taps, even, odd):
+    """Along the last axis: ``even`` copies ``src``, ``odd`` interpolates halfway to the
+    next sample (border clamped); its last entry repeats the border sample."""
     n = src.shape[-1]
     nt = taps.size
     h = nt // 2
     for i in range(src.shape[0]):
         for j in range(src.shape[1]):
             row = src[i, j]
-            dst = out[i, j]
+            e = even[i, j]
+            o = odd[i, j]
             for x in range(n):
-                dst[2 * x] = row[x]
+                e[x] = row[x]
             for x in range(n - 1):
                 acc = 0.0
                 if x + 1 - h >= 0 and x + nt - h < n:
@@ -301,11 +314,12 @@ def _upsample_axis_kernel(src, taps, out):
                 else:
                     for k in range(nt):
                         acc += taps[k] * row[_clampi(x + 1 - h + k, n)]
-                dst[2 * x + 1] = acc
+                o[x] = acc
+            o[n - 1] = row[n - 1]
 
 
 @kernel
-def _upsample_mid_kernel(src, taps, out):
+def _upsample_mid_kernel(src, taps, even, odd):
     """As :func:`_upsample_axis_kernel`, along the middle axis (rows stay contiguous)."""
     n = src.shape[1]
     nt = taps.size
@@ -313,7 +327,7 @@ def _upsample_mid_kernel(src, taps, out):
     acc = np.empty(src.shape[2], np.float64)
     for i in range(src.shape[0]):
         for y in range(n):
-            out[i, 2 * y, :] = src[i, y, :]
+            even[i, y, :] = src[i, y, :]
         for y in range(n - 1):
             acc[:] = 0.0
             for k in range(nt):
@@ -321,25 +335,47 @@ def _upsample_mid_kernel(src, taps, out):
                 t = taps[k]
                 for x in range(acc.size):
                     acc[x] += t * row[x]
-            dst = out[i, 2 * y + 1]
+            dst = odd[i, y]
             for x in range(acc.size):
                 dst[x] = acc[x]
+        odd[i, n - 1, :] = src[i, n - 1, :]
 
 
 def upsample(ref: np.ndarray) -> np.ndarray:
-    """The reference on its half-voxel grid, shape ``(2z-1, 2y-1, 2x-1)`` float32 (half
-    the memory traffic of float64; each pass sums in float64): even indices are the
-    voxels, odd ones eight-tap interpolations between them."""
+    """The reference on its half-voxel grid, float32 (half the memory traffic of float64;
+    each pass sums in float64), split by index parity: ``out[pz, py, px, i, j, k]`` is grid
+    sample ``(2i + pz, 2j + py, 2k + px)``, so that a window moved by a sub-voxel vector
+    reads contiguous rows. Even grid indices are the voxels, odd ones eight-tap
+    interpolations between them; the odd index past the last voxel repeats it (the
+    grid's border clamp). :func:`interleave` gives the ``(2z-1, 2y-1, 2x-1)`` grid."""
     a = np.ascontiguousarray(ref)
     nz, ny, nx = a.shape
-    ox = np.empty((nz, ny, 2 * nx - 1), np.float32)
-    _upsample_axis_kernel(a, HALF_TAPS, ox)
-    oy = np.empty((nz, 2 * ny - 1, 2 * nx - 1), np.float32)
-    _upsample_mid_kernel(ox, HALF_TAPS, oy)
+    ox = np.empty((2, nz, ny, nx), np.float32)
+    _upsample_axis_kernel(a, HALF_TAPS, ox[0], ox[1])
+    oy = np.empty((2, 2, nz, ny, nx), np.float32)
+    for px in range(2):
+        _upsample_mid_kernel(ox[px], HALF_TAPS, oy[0, px], oy[1, px])
     del ox
-    oz = np.empty((1, 2 * nz - 1, oy.shape[1] * oy.shape[2]), np.float32)
-    _upsample_mid_kernel(oy.reshape(1, nz, -1), HALF_TAPS, oz)
-    return oz.reshape(2 * nz - 1, 2 * ny - 1, 2 * nx - 1)
+    out = np.empty((2, 2, 2, nz, ny, nx), np.float32)
+    for py in range(2):
+        for px in range(2):
+            flat = (1, nz, ny * nx)
+            _upsample_mid_kernel(
+                oy[py, px].reshape(flat), HALF_TAPS,
+                out[0, py, px].reshape(flat), out[1, py, px].reshape(flat),
+            )  # fmt: skip
+    return out
+
+
+def interleave(up: np.ndarray) -> np.ndarray:
+    """The half-voxel grid ``(2z-1, 2y-1, 2x-1)`` from :func:`upsample`'s parity split."""
+    nz, ny, nx = up.shape[3:]
+    out = np.empty((2 * nz, 2 * ny, 2 * nx), up.dtype)
+    for pz in range(2):
+        for py in range(2):
+            for px in range(2):
+                out[pz::2, py::2, px::2] = up[pz, py, px]
+    return out[:-1, :-1, :-1]
 
 
 @functools.lru_cache(maxsize=8)
@@ -377,7 +413,7 @@ class Reference:
         return self._up
 
 
-_NO_GRID = np.zeros((1, 1, 1), np.float32)
+_NO_GRID = np.zeros((2, 2, 2, 1, 1, 1), np.float32)
 
 
 def _as_reference(ref) -> Reference:
@@ -606,16 +642,18 @@ def _add_block(out, ref, up, z0, z1, y0, y1, x0, x1, wz, wy, wx, vz, vy, vx, sha
     for z in range(z0, z1):
         for y in range(y0, y1):
             w = share * wz[z - z0] * wy[y - y0]
-            if inside:  # the 1, 2, 4 or 8 grid samples added row by row
+            if inside:  # the 1, 2, 4 or 8 grid samples added row by row, each contiguous
                 for x in range(x0, x1):
                     row[x - x0] = 0.0
                 for a in range(fz + 1):
+                    za = z + ((hz + a) >> 1)
                     for b in range(fy + 1):
-                        src = up[2 * z + hz + a, 2 * y + hy + b]
+                        yb = y + ((hy + b) >> 1)
                         for c in range(fx + 1):
-                            base = hx + c
+                            src = up[(hz + a) & 1, (hy + b) & 1, (hx + c) & 1, za, yb]
+                            base = (hx + c) >> 1
                             for x in range(x0, x1):
-                                row[x - x0] += src[2 * x + base]
+                                row[x - x0] += src[x + base]
                 for x in range(x0, x1):
                     out[z, y, x] += w * wx[x - x0] * (row[x - x0] * mean)
             else:
