@@ -51,7 +51,7 @@ def upsample(ref):
     """The half-voxel grid: voxels at even indices, 8-tap interpolations at odd ones,
     each pass summed in float64 and stored as float32."""
     a = ref.astype(np.float64)
-    for axis in range(3):
+    for axis in (2, 1, 0):  # x, then y, then z (float32 rounding makes order matter)
         a = np.moveaxis(a, axis, -1)
         n = a.shape[-1]
         out = np.zeros((*a.shape[:-1], 2 * n - 1))
@@ -78,15 +78,14 @@ def read(ref, up, p, v):
     """The reference seen from voxel p through the quarter-voxel vector v."""
     if all(c % 4 == 0 for c in v):
         return float(ref[tuple(min(max(a + c // 4, 0), n - 1) for a, c, n in zip(p, v, ref.shape))])
-    # position on the half-voxel grid: (4p + v) / 2, between two grid points when odd
-    axes = []
+    # position on the half-voxel grid: (4p + v) / 2, between two grid points on each odd
+    # axis; a quarter-voxel sample is the mean of the two ends of that box's diagonal
+    lo, hi = [], []
     for a, c, n in zip(p, v, up.shape):
         h = 4 * a + c
-        lo = h // 2
-        pts = [lo] if h % 2 == 0 else [lo, lo + 1]
-        axes.append([min(max(i, 0), n - 1) for i in pts])
-    vals = [up[i, j, k] for i in axes[0] for j in axes[1] for k in axes[2]]
-    return float(np.mean(vals))
+        lo.append(min(max(h // 2, 0), n - 1))
+        hi.append(min(max(h // 2 + h % 2, 0), n - 1))
+    return float(np.mean([up[tuple(lo)], up[tuple(hi)]]))
 
 
 def compensate(mode, fwd, bwd, mean, prev, nxt, windowed=True):

@@ -398,3 +398,17 @@ def test_corrupt_flat_frames_raise_format_errors_only(moving):
             pass
     with pytest.raises(FormatError):
         animation.decode_frame(p[:-3], SHAPE, np.dtype(np.uint8), prev, nxt, s, (64,) * 3)
+
+
+def test_streams_of_the_earlier_prediction_rule_are_refused_with_the_reason():
+    """Headers written before ``motion.rule`` predicted quarter-voxel samples as box
+    means: decoding them with the diagonal rule would silently differ, so they are
+    refused by name; an unknown rule is refused too."""
+    codec = {"mode": "bounded", "max_error": 2.0}
+    good = {"codec": codec, "motion": {"precision": "quarter", "rule": motion.RULE}}
+    assert animation.Settings.from_header(good).rule == motion.RULE
+    old = {"codec": codec, "motion": {"precision": "quarter", "search": 15}}
+    with pytest.raises(FormatError, match="earlier prediction rule"):
+        animation.Settings.from_header(old)
+    with pytest.raises(FormatError, match="prediction rule"):
+        animation.Settings.from_header({"codec": codec, "motion": {**old["motion"], "rule": "box"}})

@@ -33,9 +33,9 @@ def test_window_weights_sum_to_one(n, windowed):
     assert np.allclose(rebuilt, 1.0, atol=1e-15)
 
 
-def _random_field(rng, grid, two_way, sub=True):
+def _random_field(rng, grid, two_way, sub=True, span=None):
     mode = rng.choice([0, 1, 2, 3] if two_way else [0, 3], size=grid).astype(np.uint8)
-    span = 9 if sub else 2
+    span = span or (9 if sub else 2)
     fwd = rng.integers(-span, span + 1, (*grid, 3)) * (1 if sub else 4)
     bwd = rng.integers(-span, span + 1, (*grid, 3)) * (1 if sub else 4)
     mean = rng.integers(0, 255, grid).astype(np.float64)
@@ -57,6 +57,46 @@ def test_compensate_matches_naive(rng, windowed, two_way):
     assert np.allclose(got, want, rtol=0, atol=1e-9)
 
 
+@pytest.mark.parametrize(
+    "vectors,dtype",
+    [("whole", "u1"), ("far sub-voxel", "u1"), ("far whole", "u1"), ("mixed", "u1"),
+     ("mixed", "f8"), ("far sub-voxel", "f8")],
+)  # fmt: skip
+def test_compensate_matches_naive_on_every_path(rng, vectors, dtype):
+    """Whole vectors in both directions, vectors reaching past the stored grid margin
+    (clamped reads), and bidirectional blocks mixing a whole and a sub-voxel vector (read
+    from the grid for 8-bit frames, which it holds exactly, from the frame for float64)."""
+    shape = (19, 13, 17)
+    prev = rng.integers(0, 255, shape).astype(dtype)
+    nxt = rng.integers(0, 255, shape).astype(dtype)
+    if dtype == "f8":
+        prev += rng.random(shape) / 3  # not representable in float32
+    grid = motion.block_grid(shape)
+    if vectors == "mixed":
+        f = _random_field(rng, grid, True)
+        whole = rng.random(grid) < 0.5
+        f.fwd[whole] &= ~3
+    else:
+        sub = vectors == "far sub-voxel"
+        span = {"whole": 2, "far sub-voxel": 40, "far whole": 9}[vectors]
+        f = _random_field(rng, grid, True, sub=sub, span=span)
+    got = motion.compensate(f, prev, nxt)
+    want = naive_motion.compensate(f.mode, f.fwd, f.bwd, f.mean, prev, nxt, True)
+    assert np.allclose(got, want, rtol=0, atol=1e-9)
+
+
+def test_grid_margin_holds_clamped_samples(rng):
+    ref = rng.integers(-300, 300, (5, 7, 9)).astype(np.int16)
+    up, want = motion.upsample(ref), naive_motion.upsample(ref)
+    m = motion.MARGIN
+    for pz, py, px in np.ndindex(2, 2, 2):
+        idx = [
+            np.clip(2 * (np.arange(n + 2 * m) - m) + p, 0, 2 * n - 2)
+            for n, p in zip(ref.shape, (pz, py, px))
+        ]
+        assert np.array_equal(up[pz, py, px], want[np.ix_(*idx)].astype(np.float32))
+
+
 def test_constant_reference_predicts_constant(rng):
     shape = (20, 24, 19)
     ref = np.full(shape, 77, np.int16)
@@ -66,8 +106,11 @@ def test_constant_reference_predicts_constant(rng):
     assert np.allclose(p, 77.0, rtol=0, atol=1e-9)
 
 
-def test_upsample_matches_naive(rng):
-    ref = rng.integers(-300, 300, (5, 7, 9)).astype(np.int16)
+@pytest.mark.parametrize("dtype", ["i2", "f8"])
+def test_upsample_matches_naive(rng, dtype):
+    ref = rng.integers(-300, 300, (5, 7, 9)).astype(dtype)
+    if dtype == "f8":
+        ref += rng.random(ref.shape)  # each pass rounds to float32: the order of axes shows
     up = motion.interleave(motion.upsample(ref))
     assert np.allclose(up, naive_motion.upsample(ref), rtol=0, atol=1e-9)
 

@@ -33,6 +33,7 @@ from typing import Any, BinaryIO
 import numpy as np
 
 from . import __version__, bricks, gop, motion
+from ._jit import kernel
 from .container import put_section, take_section
 from .errors import FormatError
 from .volume import Volume
@@ -67,6 +68,7 @@ class Settings:
     precision: str = "quarter"
     compensation: str = "windowed"
     b_residual: bool = True
+    rule: str = motion.RULE
 
     def __post_init__(self) -> None:
         if self.mode not in ("lossless", "bounded", "coef"):
@@ -87,6 +89,8 @@ class Settings:
             raise ValueError(
                 f"expected --compensation in {motion.COMPENSATIONS}, found {self.compensation!r}"
             )
+        if self.rule != motion.RULE:
+            raise ValueError(f"expected the prediction rule {motion.RULE!r}, found {self.rule!r}")
         if not 0 <= int(self.search) <= 64:
             raise ValueError(f"expected a search range of 0..64 voxels, found {self.search}")
         if not self.b_residual and self.mode != "coef":
@@ -99,11 +103,17 @@ class Settings:
         return {k: getattr(self, k) for k in keys}
 
     def motion_config(self) -> dict[str, Any]:
-        keys = ("search", "method", "precision", "compensation", "b_residual")
+        keys = ("search", "method", "precision", "compensation", "b_residual", "rule")
         return {k: getattr(self, k) for k in keys}
 
     @classmethod
     def from_header(cls, hdr: dict) -> Settings:
+        if isinstance(hdr.get("motion"), dict) and "rule" not in hdr["motion"]:
+            raise FormatError(
+                "animation coded with an earlier prediction rule (no motion.rule in its "
+                f"header; quarter-voxel samples were box means): this volpack predicts by "
+                f"rule {motion.RULE!r} only, so encode the frames again"
+            )
         try:
             return cls(**hdr["codec"], **hdr["motion"])
         except (KeyError, TypeError, ValueError) as e:
@@ -493,7 +503,8 @@ def decode_frame(
             field, prev, nxt if kind == "B" else None, compensation=s.compensation
         )
         strength = motion.SMOOTHING[(flags & SMOOTH_MASK) >> SMOOTH_SHIFT]
-        pred_int = _rounded(motion.smooth(pred, strength), dtype)
+        pred = motion.smooth(pred, strength)
+        pred_int = pred if _fused(dtype) else _rounded(pred, dtype)  # see _combine
         fdtype = _residual_dtype(dtype)
     rec = None
     if flags & FLAG_FLAT:
@@ -576,10 +587,36 @@ def _entropy_bits(q: np.ndarray) -> float:
     return float(-(counts * np.log2(p)).sum())
 
 
+def _fused(dtype: np.dtype) -> bool:
+    """Whether :func:`_combine` rounds the prediction itself (integers of up to 32 bits)."""
+    return dtype.kind in "iu" and dtype.itemsize <= 4
+
+
+@kernel
+def _combine_kernel(pred, rec, lo, hi, out):
+    """``out = clip(clip(rint(pred), lo, hi) + rec, lo, hi)`` in one pass (an empty
+    ``rec`` adds nothing): :func:`_rounded` and :func:`_combine` for integer frames,
+    without their four temporary frames."""
+    p, o = pred.ravel(), out.ravel()
+    r = rec.ravel()
+    for i in range(p.size):
+        v = min(max(np.int64(np.rint(p[i])), lo), hi)
+        if r.size:
+            v = min(max(v + np.int64(r[i]), lo), hi)
+        o[i] = v
+
+
 def _combine(pred_int, rec, dtype: np.dtype) -> np.ndarray:
-    """Prediction plus decoded residual, in the frame's dtype (clipped for integers)."""
+    """Prediction plus decoded residual, in the frame's dtype (clipped for integers).
+    A float64 ``pred_int`` of an integer frame is the prediction before rounding."""
     if pred_int is None:
         return np.ascontiguousarray(rec, dtype=dtype)
+    if _fused(dtype) and pred_int.dtype == np.float64:
+        info = np.iinfo(dtype)
+        out = np.empty(pred_int.shape, dtype)
+        r = np.zeros(0, np.int64) if rec is None else np.ascontiguousarray(rec)
+        _combine_kernel(np.ascontiguousarray(pred_int), r, int(info.min), int(info.max), out)
+        return out
     v = pred_int if rec is None else pred_int + rec
     if dtype.kind in "iu":
         info = np.iinfo(dtype)
