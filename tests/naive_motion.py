@@ -49,7 +49,8 @@ def exhaustive(cur, ref, radius, penalty=0.0):
 
 def upsample(ref):
     """The half-voxel grid: voxels at even indices, 8-tap interpolations at odd ones,
-    each pass summed in float64 and stored as float32."""
+    each pass summed in float64 and stored as float32; for 8-bit frames the last pass
+    stores 64ths instead (rounded half to even, clamped to int16)."""
     a = ref.astype(np.float64)
     for axis in (2, 1, 0):  # x, then y, then z (float32 rounding makes order matter)
         a = np.moveaxis(a, axis, -1)
@@ -61,7 +62,11 @@ def upsample(ref):
             for k, t in enumerate(TAPS):
                 acc = acc + t * a[..., min(max(x - 3 + k, 0), n - 1)]
             out[..., 2 * x + 1] = acc
-        a = np.moveaxis(out.astype(np.float32).astype(np.float64), -1, axis)
+        if axis == 0 and ref.dtype.itemsize == 1:
+            out = np.clip(np.rint(out * 64), -32768, 32767) / 64
+        else:
+            out = out.astype(np.float32).astype(np.float64)
+        a = np.moveaxis(out, -1, axis)
     return a
 
 
