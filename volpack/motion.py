@@ -144,6 +144,30 @@ def _on_grid(up, z0, z1, y0, y1, x0, x1, vz, vy, vx):
     )
 
 
+@kernel(inline=True)
+def _inside(ref, up, z0, z1, y0, y1, x0, x1, vz, vy, vx):
+    """Whether the box moved by the vector reads only stored samples (no clamping)."""
+    if ((vz | vy | vx) & 3) == 0:
+        nz, ny, nx = ref.shape
+        dz, dy, dx = vz >> 2, vy >> 2, vx >> 2
+        return (
+            z0 + dz >= 0
+            and z1 + dz <= nz
+            and y0 + dy >= 0
+            and y1 + dy <= ny
+            and x0 + dx >= 0
+            and x1 + dx <= nx
+        )
+    return _on_grid(up, z0, z1, y0, y1, x0, x1, vz, vy, vx)
+
+
+@kernel(inline=True)
+def _grid_row(up, z, y, hz, hy, hx):
+    """The row of stored grid samples holding grid index (2z + hz, 2y + hy, 2x + hx) at
+    position ``x + (hx >> 1) + MARGIN``."""
+    return up[hz & 1, hy & 1, hx & 1, z + (hz >> 1) + MARGIN, y + (hy >> 1) + MARGIN]
+
+
 @kernel
 def _block_sse(cur, ref, up, z0, y0, x0, vz, vy, vx, limit):
     """Squared error (in units of 1/64) of the block at (z0, y0, x0) against the
@@ -153,18 +177,11 @@ def _block_sse(cur, ref, up, z0, y0, x0, vz, vy, vx, limit):
     ey = min(y0 + 8, ny)
     ex = min(x0 + 8, nx)
     s = 0.0
+    inside = _inside(ref, up, z0, ez, y0, ey, x0, ex, vz, vy, vx)
     if ((vz | vy | vx) & 3) == 0:
         dz = vz >> 2
         dy = vy >> 2
         dx = vx >> 2
-        inside = (
-            z0 + dz >= 0
-            and ez + dz <= nz
-            and y0 + dy >= 0
-            and ey + dy <= ny
-            and x0 + dx >= 0
-            and ex + dx <= nx
-        )
         for z in range(z0, ez):
             for y in range(y0, ey):
                 if inside:
@@ -183,7 +200,6 @@ def _block_sse(cur, ref, up, z0, y0, x0, vz, vy, vx, limit):
     # on the half-voxel grid voxel z reads 2z + (vz >> 1), and its neighbour if vz is odd
     hz, hy, hx = vz >> 1, vy >> 1, vx >> 1
     fz, fy, fx = vz & 1, vy & 1, vx & 1
-    inside = _on_grid(up, z0, ez, y0, ey, x0, ex, vz, vy, vx)
     quarter = (fz | fy | fx) != 0
     scale = (4.0 if quarter else 8.0) * _unit(up)
     b0, b1 = (hx >> 1) + MARGIN, ((hx + fx) >> 1) + MARGIN
@@ -675,30 +691,6 @@ def window_table(n: int, windowed: bool = True) -> tuple[np.ndarray, np.ndarray]
     for a in (blocks, weights):
         a.flags.writeable = False
     return blocks, weights
-
-
-@kernel(inline=True)
-def _inside(ref, up, z0, z1, y0, y1, x0, x1, vz, vy, vx):
-    """Whether the box moved by the vector reads only stored samples (no clamping)."""
-    if ((vz | vy | vx) & 3) == 0:
-        nz, ny, nx = ref.shape
-        dz, dy, dx = vz >> 2, vy >> 2, vx >> 2
-        return (
-            z0 + dz >= 0
-            and z1 + dz <= nz
-            and y0 + dy >= 0
-            and y1 + dy <= ny
-            and x0 + dx >= 0
-            and x1 + dx <= nx
-        )
-    return _on_grid(up, z0, z1, y0, y1, x0, x1, vz, vy, vx)
-
-
-@kernel(inline=True)
-def _grid_row(up, z, y, hz, hy, hx):
-    """The row of stored grid samples holding grid index (2z + hz, 2y + hy, 2x + hx) at
-    position ``x + (hx >> 1) + MARGIN``."""
-    return up[hz & 1, hy & 1, hx & 1, z + (hz >> 1) + MARGIN, y + (hy >> 1) + MARGIN]
 
 
 @kernel
