@@ -330,10 +330,9 @@ def _upsample_axis_kernel(src, taps, even, odd):
     n = src.shape[-1]
     nt = taps.size
     h = nt // 2
-    # interior outputs [lo, hi) read no clamped sample; they are summed tap by tap over
-    # the whole row (the same order per output, vectorised across the row)
+    # interior outputs [lo, hi) read no clamped sample: eight shifted slices of the row,
+    # summed per output in tap order (vectorised across the row)
     lo, hi = h - 1, max(n - nt + h, h - 1)
-    acc = np.empty(max(hi - lo, 0), np.float64)
     for i in range(src.shape[0]):
         for j in range(src.shape[1]):
             row = src[i, j]
@@ -351,15 +350,22 @@ def _upsample_axis_kernel(src, taps, even, odd):
                 for k in range(nt):
                     a += taps[k] * row[_clampi(x + 1 - h + k, n)]
                 o[MARGIN + x] = a
-            acc[:] = 0.0
-            for k in range(nt):
-                t = taps[k]
-                seg = row[lo + 1 - h + k : hi + 1 - h + k]
-                for x in range(acc.size):
-                    acc[x] += t * seg[x]
+            m = hi - lo
+            s0, s1, s2, s3 = (
+                row[lo - 3 : hi - 3],
+                row[lo - 2 : hi - 2],
+                row[lo - 1 : hi - 1],
+                row[lo:hi],
+            )
+            s4, s5, s6, s7 = (
+                row[lo + 1 : hi + 1],
+                row[lo + 2 : hi + 2],
+                row[lo + 3 : hi + 3],
+                row[lo + 4 : hi + 4],
+            )
             dst = o[MARGIN + lo : MARGIN + hi]
-            for x in range(acc.size):
-                dst[x] = acc[x]
+            for x in range(m):
+                dst[x] = _taps8(taps, s0[x], s1[x], s2[x], s3[x], s4[x], s5[x], s6[x], s7[x])
             for x in range(max(hi, lo), n - 1):
                 a = 0.0
                 for k in range(nt):
@@ -380,14 +386,27 @@ def _put(dst, vals):
             dst[x] = vals[x]
 
 
+@kernel(inline=True)
+def _taps8(t, a0, a1, a2, a3, a4, a5, a6, a7):
+    """``sum_k t[k] a_k`` accumulated from 0 in tap order, in float64."""
+    v = 0.0
+    v += t[0] * np.float64(a0)
+    v += t[1] * np.float64(a1)
+    v += t[2] * np.float64(a2)
+    v += t[3] * np.float64(a3)
+    v += t[4] * np.float64(a4)
+    v += t[5] * np.float64(a5)
+    v += t[6] * np.float64(a6)
+    v += t[7] * np.float64(a7)
+    return v
+
+
 @kernel
 def _upsample_mid_kernel(src, taps, even, odd):
-    """As :func:`_upsample_axis_kernel`, along the middle axis (rows stay contiguous)."""
+    """As :func:`_upsample_axis_kernel`, along the middle axis: each output row is summed
+    in one pass over its eight source rows (contiguous; for the z pass, whole planes)."""
     n = src.shape[1]
-    nt = taps.size
-    h = nt // 2
-    tile = 2048  # rows (whole planes, for the z pass) summed a tile at a time in L1
-    acc = np.empty(min(src.shape[2], tile), np.float64)
+    fixed = odd.itemsize == 2
     for i in range(src.shape[0]):
         for y in range(MARGIN):
             _put(even[i, y], src[i, 0])
@@ -396,16 +415,18 @@ def _upsample_mid_kernel(src, taps, even, odd):
             _put(odd[i, MARGIN + n + y], src[i, n - 1])
         for y in range(n):
             _put(even[i, MARGIN + y], src[i, y])
-        for x0 in range(0, src.shape[2], tile):
-            m = min(tile, src.shape[2] - x0)
-            for y in range(n - 1):
-                acc[:m] = 0.0
-                for k in range(nt):
-                    row = src[i, _clampi(y + 1 - h + k, n), x0 : x0 + m]
-                    t = taps[k]
-                    for x in range(m):
-                        acc[x] += t * row[x]
-                _put(odd[i, MARGIN + y, x0 : x0 + m], acc)
+        for y in range(n - 1):
+            s0, s1 = src[i, _clampi(y - 3, n)], src[i, _clampi(y - 2, n)]
+            s2, s3 = src[i, _clampi(y - 1, n)], src[i, y]
+            s4, s5 = src[i, _clampi(y + 1, n)], src[i, _clampi(y + 2, n)]
+            s6, s7 = src[i, _clampi(y + 3, n)], src[i, _clampi(y + 4, n)]
+            d = odd[i, MARGIN + y]
+            for x in range(d.size):
+                v = _taps8(taps, s0[x], s1[x], s2[x], s3[x], s4[x], s5[x], s6[x], s7[x])
+                if fixed:  # as _put: int16 64ths
+                    d[x] = min(max(np.rint(v * 64.0), -32768.0), 32767.0)
+                else:
+                    d[x] = v
         _put(odd[i, MARGIN + n - 1], src[i, n - 1])
 
 
