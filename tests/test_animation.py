@@ -412,3 +412,20 @@ def test_streams_of_the_earlier_prediction_rule_are_refused_with_the_reason():
         animation.Settings.from_header(old)
     with pytest.raises(FormatError, match="prediction rule"):
         animation.Settings.from_header({"codec": codec, "motion": {**old["motion"], "rule": "box"}})
+
+
+@pytest.mark.parametrize("dtype,step", [(np.uint8, 5.0), (np.int16, 1.0), (np.uint16, 9.0)])
+def test_residual_histogram_matches_the_numpy_quantiser(dtype, step):
+    """The one-pass histogram the smoothing choice uses for 8/16-bit frames counts the
+    same quantised residuals as rounding, clipping and quantising with numpy."""
+    rng = np.random.default_rng(7)
+    info = np.iinfo(dtype)
+    x = rng.integers(info.min, int(info.max) + 1, (6, 7, 9)).astype(dtype)
+    pred = rng.normal(0, 1.0, x.shape) * (float(info.max) - float(info.min))  # past both ends
+    counts = animation._residual_counts(x, pred, step)
+    r = x.astype(np.float64) - animation._rounded(pred, x.dtype)
+    q = np.floor((r + (step - 1) / 2) / step)
+    base = int(np.floor((float(info.min) - float(info.max) + (step - 1) / 2) / step))
+    want = np.bincount((q - base).astype(np.int64).ravel(), minlength=counts.size)
+    assert np.array_equal(counts, want)
+    assert animation._counts_bits(counts, x.size) == animation._entropy_bits(q)

@@ -563,16 +563,53 @@ def _choose_smoothing(x: np.ndarray, pred: np.ndarray, s: Settings) -> tuple[int
     if s.mode == "coef":
         return 0, 0.0
     step = _flat_step(s, x.dtype)
-    xf = x.astype(np.float64)
+    small = x.dtype.kind in "iu" and x.dtype.itemsize <= 2  # a histogram of every bin
+    xf = None if small else x.astype(np.float64)
     best, best_bits = 0, math.inf
     for k in motion.SMOOTHING:
-        p = _rounded(motion.smooth(pred, k), x.dtype)
-        r = xf - p
-        q = np.floor((r + (step - 1) / 2) / step) if x.dtype.kind in "iu" else np.rint(r / step)
-        bits = _entropy_bits(q)
+        sm = motion.smooth(pred, k)
+        if small:
+            bits = _counts_bits(_residual_counts(x, sm, step), x.size)
+        else:
+            r = xf - _rounded(sm, x.dtype)
+            q = np.floor((r + (step - 1) / 2) / step) if x.dtype.kind in "iu" else np.rint(r / step)
+            bits = _entropy_bits(q)
         if bits < best_bits:
             best, best_bits = k, bits
     return best, best_bits
+
+
+@kernel
+def _residual_counts_kernel(x, pred, lo, hi, step, base, counts):
+    """``counts[q - base] += 1`` for each voxel's quantised residual ``q``: the prediction
+    rounded and clipped as :func:`_rounded` does, the bins as :func:`_choose_smoothing`
+    (one pass, no temporary frames)."""
+    xs, ps = x.ravel(), pred.ravel()
+    e = (step - 1.0) / 2.0
+    for i in range(xs.size):
+        r = np.float64(xs[i]) - min(max(np.rint(ps[i]), lo), hi)
+        counts[np.int64(np.floor((r + e) / step)) - base] += 1
+
+
+def _residual_counts(x: np.ndarray, pred: np.ndarray, step: float) -> np.ndarray:
+    """Histogram of the quantised residual of an 8/16-bit integer frame, every bin from
+    the lowest possible index (zeros kept)."""
+    info = np.iinfo(x.dtype)
+    span = float(info.max) - float(info.min)
+    base = math.floor((-span + (step - 1) / 2) / step)
+    top = math.floor((span + (step - 1) / 2) / step)
+    counts = np.zeros(top - base + 1, np.int64)
+    _residual_counts_kernel(
+        np.ascontiguousarray(x), np.ascontiguousarray(pred, np.float64),
+        float(info.min), float(info.max), float(step), base, counts,
+    )  # fmt: skip
+    return counts
+
+
+def _counts_bits(counts: np.ndarray, n: int) -> float:
+    """Bits of ``n`` symbols with these counts at their empirical order-0 entropy."""
+    counts = counts[counts > 0]
+    return float(-(counts * np.log2(counts / n)).sum())
 
 
 def _entropy_bits(q: np.ndarray) -> float:
@@ -580,11 +617,9 @@ def _entropy_bits(q: np.ndarray) -> float:
     lo, hi = float(q.min()), float(q.max())
     if hi - lo < 1 << 20:
         counts = np.bincount((q - lo).astype(np.int64).ravel())
-        counts = counts[counts > 0]
     else:
         _, counts = np.unique(q, return_counts=True)
-    p = counts / q.size
-    return float(-(counts * np.log2(p)).sum())
+    return _counts_bits(counts, q.size)
 
 
 def _fused(dtype: np.dtype) -> bool:

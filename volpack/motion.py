@@ -185,8 +185,10 @@ def _block_sse(cur, ref, up, z0, y0, x0, vz, vy, vx, limit):
         for z in range(z0, ez):
             for y in range(y0, ey):
                 if inside:
-                    for x in range(x0, ex):
-                        d = np.float64(cur[z, y, x]) - np.float64(ref[z + dz, y + dy, x + dx])
+                    c = cur[z, y, x0:ex]
+                    r = ref[z + dz, y + dy, x0 + dx : ex + dx]
+                    for i in range(ex - x0):
+                        d = np.float64(c[i]) - np.float64(r[i])
                         s += 64.0 * d * d
                 else:
                     zi = _clampi(z + dz, nz)
@@ -202,22 +204,28 @@ def _block_sse(cur, ref, up, z0, y0, x0, vz, vy, vx, limit):
     fz, fy, fx = vz & 1, vy & 1, vx & 1
     quarter = (fz | fy | fx) != 0
     scale = (4.0 if quarter else 8.0) * _unit(up)
-    b0, b1 = (hx >> 1) + MARGIN, ((hx + fx) >> 1) + MARGIN
+    m = ex - x0
+    b0, b1 = x0 + (hx >> 1) + MARGIN, x0 + ((hx + fx) >> 1) + MARGIN
     for z in range(z0, ez):
         for y in range(y0, ey):
-            if inside:  # the two ends of the diagonal (one sample if there is none)
-                src0 = _grid_row(up, z, y, hz, hy, hx)
-                src1 = _grid_row(up, z, y, hz + fz, hy + fy, hx + fx)
-            for x in range(x0, ex):
-                if inside:
-                    p = np.float64(src0[x + b0])
-                    if quarter:
-                        p += src1[x + b1]
-                    p *= scale
-                else:
-                    p = _sample8(up, 4 * z + vz, 4 * y + vy, 4 * x + vx)
-                d = 8.0 * cur[z, y, x] - p
-                s += d * d
+            c = cur[z, y, x0:ex]
+            if not inside:
+                for i in range(m):
+                    d = 8.0 * c[i] - _sample8(up, 4 * z + vz, 4 * y + vy, 4 * (x0 + i) + vx)
+                    s += d * d
+                continue
+            # rows of the two ends of the diagonal (one sample if there is none), loops
+            # without branches (the sum runs in x order as before: the same errors)
+            src0 = _grid_row(up, z, y, hz, hy, hx)[b0 : b0 + m]
+            if quarter:
+                src1 = _grid_row(up, z, y, hz + fz, hy + fy, hx + fx)[b1 : b1 + m]
+                for i in range(m):
+                    d = 8.0 * c[i] - (np.float64(src0[i]) + src1[i]) * scale
+                    s += d * d
+            else:
+                for i in range(m):
+                    d = 8.0 * c[i] - np.float64(src0[i]) * scale
+                    s += d * d
         if s > limit:
             return s
     return s
