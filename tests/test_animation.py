@@ -211,6 +211,7 @@ def test_cli_round_trip(tmp_path, moving):
     assert r.exit_code == 0, r.output
     r = run.invoke(main, ["info", vpk])
     assert r.exit_code == 0 and "GOP IBBP" in r.output and "max error" in r.output
+    assert f"rule={motion.RULE}" in r.output and "precision=quarter" in r.output
     r = run.invoke(main, ["decompress", vpk, one, "--frame", "5"])
     assert r.exit_code == 0, r.output
     r = run.invoke(main, ["decompress", vpk, out])

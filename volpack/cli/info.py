@@ -98,6 +98,11 @@ def _human(d: dict, chunks: bool) -> str:
         ["dtype", str(h.get("dtype"))],
         ["spacing", ", ".join(f"{v:g}" for v in h.get("spacing", []))],
         ["codec", ", ".join(f"{k}={v}" for k, v in (h.get("codec") or {}).items())],
+        *(
+            [["motion", ", ".join(f"{k}={v}" for k, v in h["motion"].items())]]
+            if isinstance(h.get("motion"), dict)
+            else []
+        ),
         ["bricks", f"{d['chunks']} chunks of up to {'x'.join(map(str, h.get('brick', [])))}"],
         ["size", f"{fmt_bytes(d['file_nbytes'])} (raw {fmt_bytes(d['raw_nbytes'])})"],
         [
