@@ -55,6 +55,73 @@ def _carry(out, pos):
 
 
 @kernel(inline=True)
+def _push(out, low, rng, pos):
+    """After ``low`` grew and ``rng`` shrank: carry into the bytes written, then shift
+    out whole bytes until the range is back above ``2^24``."""
+    if low > 0xFFFFFFFF:
+        _carry(out, pos)
+        low &= 0xFFFFFFFF
+    while rng < TOP:
+        rng <<= 8
+        out[pos] = low >> 24
+        pos += 1
+        low = (low << 8) & 0xFFFFFFFF
+    return low, rng, pos
+
+
+@kernel(inline=True)
+def _pull(data, code, rng, pos):
+    """The decoder's side of :func:`_push`: shift in whole bytes (0 past the end)."""
+    while rng < TOP:
+        rng <<= 8
+        code = ((code << 8) | (np.int64(data[pos]) if pos < data.size else 0)) & 0xFFFFFFFF
+        pos += 1
+    return code, rng, pos
+
+
+@kernel(inline=True)
+def _adapt(models, k, p, u, mask, rate):
+    """Move model ``k`` (probability ``p`` of a 0, use count ``u``) towards the bit
+    coded (``mask``: -1 for a 1, 0 for a 0) and count the use."""
+    r = rate[u]
+    gain = ((1 << PROB_BITS) - p) >> r
+    p += gain - ((gain + (p >> r)) & mask)
+    models[k] = (p << 4) | (u + (u < 15))
+
+
+@kernel(inline=True)
+def _put(out, models, k, bit, low, rng, pos, rate):
+    """Code one binary decision with the adaptive model ``models[k]``; returns the new
+    ``(low, rng, pos)``. Branch-free: the bit is a coin toss to the branch predictor."""
+    st = np.int64(models[k])
+    p = st >> 4
+    u = st & 15
+    bound = (rng >> PROB_BITS) * p
+    mask = -np.int64(bit)
+    low += bound & mask
+    rng = bound + ((rng - 2 * bound) & mask)
+    _adapt(models, k, p, u, mask, rate)
+    return _push(out, low, rng, pos)
+
+
+@kernel(inline=True)
+def _get(data, models, k, code, rng, pos, rate):
+    """Decode one binary decision coded by :func:`_put`; returns
+    ``(bit, code, rng, pos)``."""
+    st = np.int64(models[k])
+    p = st >> 4
+    u = st & 15
+    bound = (rng >> PROB_BITS) * p
+    bit = np.int64(code >= bound)
+    mask = -bit
+    code -= bound & mask
+    rng = bound + ((rng - 2 * bound) & mask)
+    _adapt(models, k, p, u, mask, rate)
+    code, rng, pos = _pull(data, code, rng, pos)
+    return bit, code, rng, pos
+
+
+@kernel(inline=True)
 def _context(i, parent, cls, nbits, nprev, nbr):
     p = parent[i]
     npar = np.int64(nbits[p]) if p >= 0 else nprev
@@ -109,25 +176,7 @@ def _encode_kernel(flat, perm, end, parent, cls, nbr, out):
         if e > i + 1:  # the subtree flag
             bit = np.int64(nz[e] != nz[i])
             k = ctx
-            st = np.int64(state[k])
-            p = st >> 4
-            u = st & 15
-            bound = (rng >> PROB_BITS) * p
-            mask = -bit
-            low += bound & mask
-            if low > 0xFFFFFFFF:
-                _carry(out, pos)
-                low &= 0xFFFFFFFF
-            rng = bound + ((rng - 2 * bound) & mask)
-            r = RATE[u]
-            gain = ((1 << PROB_BITS) - p) >> r
-            p += gain - ((gain + (p >> r)) & mask)
-            state[k] = (p << 4) | (u + (u < 15))
-            while rng < TOP:
-                rng <<= 8
-                out[pos] = low >> 24
-                pos += 1
-                low = (low << 8) & 0xFFFFFFFF
+            low, rng, pos = _put(out, state, k, bit, low, rng, pos, RATE)
             if bit == 0:
                 nprev = 0
                 i = e
@@ -139,48 +188,12 @@ def _encode_kernel(flat, perm, end, parent, cls, nbr, out):
         up = nb >= q
         bit = np.int64(up)
         k = base
-        st = np.int64(state[k])
-        p = st >> 4
-        u = st & 15
-        bound = (rng >> PROB_BITS) * p
-        mask = -bit
-        low += bound & mask
-        if low > 0xFFFFFFFF:
-            _carry(out, pos)
-            low &= 0xFFFFFFFF
-        rng = bound + ((rng - 2 * bound) & mask)
-        r = RATE[u]
-        gain = ((1 << PROB_BITS) - p) >> r
-        p += gain - ((gain + (p >> r)) & mask)
-        state[k] = (p << 4) | (u + (u < 15))
-        while rng < TOP:
-            rng <<= 8
-            out[pos] = low >> 24
-            pos += 1
-            low = (low << 8) & 0xFFFFFFFF
+        low, rng, pos = _put(out, state, k, bit, low, rng, pos, RATE)
         j = q if up else q - 1
         while (up and j < 63) or (not up and j > 0):  # count from the estimate q
             k = base + 1 + min(j - q, 46) if up else base + 48 + (q - 1 - j)
             bit = np.int64(nb > j) if up else np.int64(nb < j)
-            st = np.int64(state[k])
-            p = st >> 4
-            u = st & 15
-            bound = (rng >> PROB_BITS) * p
-            mask = -bit
-            low += bound & mask
-            if low > 0xFFFFFFFF:
-                _carry(out, pos)
-                low &= 0xFFFFFFFF
-            rng = bound + ((rng - 2 * bound) & mask)
-            r = RATE[u]
-            gain = ((1 << PROB_BITS) - p) >> r
-            p += gain - ((gain + (p >> r)) & mask)
-            state[k] = (p << 4) | (u + (u < 15))
-            while rng < TOP:
-                rng <<= 8
-                out[pos] = low >> 24
-                pos += 1
-                low = (low << 8) & 0xFFFFFFFF
+            low, rng, pos = _put(out, state, k, bit, low, rng, pos, RATE)
             if nb == j:
                 break
             j += 1 if up else -1
@@ -190,25 +203,7 @@ def _encode_kernel(flat, perm, end, parent, cls, nbr, out):
             for jm in range(nm):
                 k = _mant_model(nb, top >> (nm - jm), cls[i])
                 bit = (top >> (nm - 1 - jm)) & 1
-                st = np.int64(state[k])
-                p = st >> 4
-                u = st & 15
-                bound = (rng >> PROB_BITS) * p
-                mask = -bit
-                low += bound & mask
-                if low > 0xFFFFFFFF:
-                    _carry(out, pos)
-                    low &= 0xFFFFFFFF
-                rng = bound + ((rng - 2 * bound) & mask)
-                r = RATE[u]
-                gain = ((1 << PROB_BITS) - p) >> r
-                p += gain - ((gain + (p >> r)) & mask)
-                state[k] = (p << 4) | (u + (u < 15))
-                while rng < TOP:
-                    rng <<= 8
-                    out[pos] = low >> 24
-                    pos += 1
-                    low = (low << 8) & 0xFFFFFFFF
+                low, rng, pos = _put(out, state, k, bit, low, rng, pos, RATE)
         # The low bits at one half, up to 16 at a time: the range splits into 2^t equal parts.
         kr = nb - 1 - max(nm, 0)
         while kr > 0:
@@ -216,14 +211,7 @@ def _encode_kernel(flat, perm, end, parent, cls, nbr, out):
             kr -= t
             rng >>= t
             low += np.int64((v >> np.uint64(kr)) & np.uint64((1 << t) - 1)) * rng
-            if low > 0xFFFFFFFF:
-                _carry(out, pos)
-                low &= 0xFFFFFFFF
-            while rng < TOP:
-                rng <<= 8
-                out[pos] = low >> 24
-                pos += 1
-                low = (low << 8) & 0xFFFFFFFF
+            low, rng, pos = _push(out, low, rng, pos)
         nbits[i] = nb
         nprev = nb
         i += 1
@@ -256,23 +244,7 @@ def _decode_kernel(data, perm, end, parent, cls, nbr, flat, nmax):
         e = end[i]
         if e > i + 1:  # the subtree flag
             k = ctx
-            st = np.int64(state[k])
-            p = st >> 4
-            u = st & 15
-            bound = (rng >> PROB_BITS) * p
-            # Branch-free: the bit is a coin toss to the branch predictor.
-            bit = np.int64(code >= bound)
-            mask = -bit
-            code -= bound & mask
-            rng = bound + ((rng - 2 * bound) & mask)
-            r = RATE[u]
-            gain = ((1 << PROB_BITS) - p) >> r
-            p += gain - ((gain + (p >> r)) & mask)
-            state[k] = (p << 4) | (u + (u < 15))
-            while rng < TOP:
-                rng <<= 8
-                code = ((code << 8) | (np.int64(data[pos]) if pos < size else 0)) & 0xFFFFFFFF
-                pos += 1
+            bit, code, rng, pos = _get(data, state, k, code, rng, pos, RATE)
             if bit == 0:
                 for j in range(i, e):
                     flat[perm[j]] = 0
@@ -281,44 +253,12 @@ def _decode_kernel(data, perm, end, parent, cls, nbr, flat, nmax):
                 continue
         base = N_FLAG + (ctx << TREE_BITS)
         k = base
-        st = np.int64(state[k])
-        p = st >> 4
-        u = st & 15
-        bound = (rng >> PROB_BITS) * p
-        # Branch-free: the bit is a coin toss to the branch predictor.
-        bit = np.int64(code >= bound)
-        mask = -bit
-        code -= bound & mask
-        rng = bound + ((rng - 2 * bound) & mask)
-        r = RATE[u]
-        gain = ((1 << PROB_BITS) - p) >> r
-        p += gain - ((gain + (p >> r)) & mask)
-        state[k] = (p << 4) | (u + (u < 15))
-        while rng < TOP:
-            rng <<= 8
-            code = ((code << 8) | (np.int64(data[pos]) if pos < size else 0)) & 0xFFFFFFFF
-            pos += 1
+        bit, code, rng, pos = _get(data, state, k, code, rng, pos, RATE)
         up = bit == 1
         nb = q if up else q - 1
         while (up and nb < 63) or (not up and nb > 0):  # count from the estimate q
             k = base + 1 + min(nb - q, 46) if up else base + 48 + (q - 1 - nb)
-            st = np.int64(state[k])
-            p = st >> 4
-            u = st & 15
-            bound = (rng >> PROB_BITS) * p
-            # Branch-free: the bit is a coin toss to the branch predictor.
-            bit = np.int64(code >= bound)
-            mask = -bit
-            code -= bound & mask
-            rng = bound + ((rng - 2 * bound) & mask)
-            r = RATE[u]
-            gain = ((1 << PROB_BITS) - p) >> r
-            p += gain - ((gain + (p >> r)) & mask)
-            state[k] = (p << 4) | (u + (u < 15))
-            while rng < TOP:
-                rng <<= 8
-                code = ((code << 8) | (np.int64(data[pos]) if pos < size else 0)) & 0xFFFFFFFF
-                pos += 1
+            bit, code, rng, pos = _get(data, state, k, code, rng, pos, RATE)
             if bit == 0:
                 break
             nb += 1 if up else -1
@@ -329,23 +269,7 @@ def _decode_kernel(data, perm, end, parent, cls, nbr, flat, nmax):
         c = cls[i]
         for _ in range(min(nb - 1, MANT_BITS)):
             k = _mant_model(nb, prefix, c)
-            st = np.int64(state[k])
-            p = st >> 4
-            u = st & 15
-            bound = (rng >> PROB_BITS) * p
-            # Branch-free: the bit is a coin toss to the branch predictor.
-            bit = np.int64(code >= bound)
-            mask = -bit
-            code -= bound & mask
-            rng = bound + ((rng - 2 * bound) & mask)
-            r = RATE[u]
-            gain = ((1 << PROB_BITS) - p) >> r
-            p += gain - ((gain + (p >> r)) & mask)
-            state[k] = (p << 4) | (u + (u < 15))
-            while rng < TOP:
-                rng <<= 8
-                code = ((code << 8) | (np.int64(data[pos]) if pos < size else 0)) & 0xFFFFFFFF
-                pos += 1
+            bit, code, rng, pos = _get(data, state, k, code, rng, pos, RATE)
             prefix = 2 * prefix + bit
             v = (v << np.uint64(1)) | np.uint64(bit)
         k = nb - 1 - min(nb - 1, MANT_BITS)
@@ -356,10 +280,7 @@ def _decode_kernel(data, perm, end, parent, cls, nbr, flat, nmax):
             r = min(code // rng, (1 << t) - 1)  # a corrupt stream may point past the end
             code -= r * rng
             v = (v << np.uint64(t)) | np.uint64(r)
-            while rng < TOP:
-                rng <<= 8
-                code = ((code << 8) | (np.int64(data[pos]) if pos < size else 0)) & 0xFFFFFFFF
-                pos += 1
+            code, rng, pos = _pull(data, code, rng, pos)
         flat[perm[i]] = np.int64(v >> np.uint64(1)) ^ -(np.int64(v & np.uint64(1)))
         nbits[i] = nb
         nprev = nb

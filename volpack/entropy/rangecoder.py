@@ -1,7 +1,7 @@
 """The binary range coder as callable steps, for coders that interleave many models.
 
-The volume codec (:mod:`volpack.entropy.arith`) writes its coding steps out in place for
-speed. The mesh coders (connectivity, coordinates, fields) call these instead, with the
+The volume codec (:mod:`volpack.entropy.arith`) inlines the same steps (``_put``,
+``_get``, ``_push``, ``_pull``) into its kernels. The mesh coders (connectivity, coordinates, fields) call these instead, with the
 coder's state in a small int64 array ``cs``: ``[low, range, position]`` when encoding,
 ``[code, range, position]`` when decoding (callers may keep more entries after those).
 The arithmetic is the same: 12-bit probabilities of a 0 with a 4-bit use count in each
@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._jit import kernel
-from .arith import PROB_BITS, RATE, TOP, _carry
+from .arith import RATE, _get, _pull, _push, _put
 
 __all__ = [
     "finish_encoder",
@@ -73,81 +73,16 @@ def start_decoder(data):
     return cs
 
 
-@kernel(inline=True)
-def _push(out, low, rng, pos):
-    """After ``low`` grew and ``rng`` shrank: carry into the bytes written, then shift
-    out whole bytes until the range is back above ``2^24``."""
-    if low > 0xFFFFFFFF:
-        _carry(out, pos)
-        low &= 0xFFFFFFFF
-    while rng < TOP:
-        rng <<= 8
-        out[pos] = low >> 24
-        pos += 1
-        low = (low << 8) & 0xFFFFFFFF
-    return low, rng, pos
-
-
-@kernel(inline=True)
-def _pull(data, code, rng, pos):
-    """The decoder's side of :func:`_push`: shift in whole bytes (0 past the end)."""
-    while rng < TOP:
-        rng <<= 8
-        code = ((code << 8) | (np.int64(data[pos]) if pos < data.size else 0)) & 0xFFFFFFFF
-        pos += 1
-    return code, rng, pos
-
-
-@kernel(inline=True)
-def _adapt(models, k, p, u, mask, rate):
-    """Move model ``k`` (probability ``p`` of a 0, use count ``u``) towards the bit
-    coded (``mask``: -1 for a 1, 0 for a 0) and count the use."""
-    r = rate[u]
-    gain = ((1 << PROB_BITS) - p) >> r
-    p += gain - ((gain + (p >> r)) & mask)
-    models[k] = (p << 4) | (u + (u < 15))
-
-
 @kernel
 def put_decision(cs, out, models, k, bit, rate):
-    """Code one binary decision with the adaptive model ``models[k]`` (branch-free: the
-    bit is a coin toss to the branch predictor)."""
-    st = np.int64(models[k])
-    p = st >> 4
-    u = st & 15
-    low = cs[0]
-    rng = cs[1]
-    pos = cs[2]
-    bound = (rng >> PROB_BITS) * p
-    mask = -np.int64(bit)
-    low += bound & mask
-    rng = bound + ((rng - 2 * bound) & mask)
-    _adapt(models, k, p, u, mask, rate)
-    low, rng, pos = _push(out, low, rng, pos)
-    cs[0] = low
-    cs[1] = rng
-    cs[2] = pos
+    """Code one binary decision with the adaptive model ``models[k]``."""
+    cs[0], cs[1], cs[2] = _put(out, models, k, bit, cs[0], cs[1], cs[2], rate)
 
 
 @kernel
 def get_decision(cs, data, models, k, rate):
     """Decode one binary decision coded by :func:`put_decision`."""
-    st = np.int64(models[k])
-    p = st >> 4
-    u = st & 15
-    code = cs[0]
-    rng = cs[1]
-    pos = cs[2]
-    bound = (rng >> PROB_BITS) * p
-    bit = np.int64(code >= bound)
-    mask = -bit
-    code -= bound & mask
-    rng = bound + ((rng - 2 * bound) & mask)
-    _adapt(models, k, p, u, mask, rate)
-    code, rng, pos = _pull(data, code, rng, pos)
-    cs[0] = code
-    cs[1] = rng
-    cs[2] = pos
+    bit, cs[0], cs[1], cs[2] = _get(data, models, k, cs[0], cs[1], cs[2], rate)
     return bit
 
 
