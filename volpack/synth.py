@@ -58,28 +58,40 @@ def translate(
     frames: int = 8,
     step: tuple[float, float, float] = (0.5, 0.25, 0.75),
     dtype=np.uint8,
+    crop: tuple[int, int, int] | None = None,
 ) -> np.ndarray:
     """``vol`` moving by ``step`` voxels per frame along ``(z, y, x)``: frame ``t`` at
-    position ``p`` shows the source at ``p - t * step``.
+    position ``p`` shows the source at ``p - t * step``. With ``crop`` the frames show
+    the centred ``crop`` of the moving volume, so content from outside enters the view
+    as it would a scanner's field of view (without it, what enters is the reflection the
+    volume is padded with).
 
     The shift is band-limited (a phase ramp in the Fourier domain, on the volume padded
     by reflection), so a sub-voxel step moves the content without blurring it, as a
     scanner would see an object that moved; interpolating instead would blur every frame
-    by a different amount.
+    by a different amount. The padded lengths are odd: an even length has a Nyquist
+    frequency, which a real frame cannot move (its phase factor would be complex), so
+    that component would fade as ``cos(pi t step)`` and frames would blur after all.
     """
     vol = head() if vol is None else np.asarray(vol)
     reach = int(np.ceil(np.abs(np.asarray(step)).max() * max(frames - 1, 0))) + 8
     pad = [min(reach, n - 1) for n in vol.shape]
-    big = np.pad(vol.astype(np.float64), [(p, p) for p in pad], mode="reflect")
+    widths = [(p, p + 1 - (n + 2 * p) % 2) for p, n in zip(pad, vol.shape)]
+    big = np.pad(vol.astype(np.float64), widths, mode="reflect")
     spec = np.fft.rfftn(big)
     freqs = [np.fft.fftfreq(n) for n in big.shape[:2]] + [np.fft.rfftfreq(big.shape[2])]
     k = np.meshgrid(*freqs, indexing="ij", sparse=True)
-    crop = tuple(slice(p, p + n) for p, n in zip(pad, vol.shape))
+    if crop is None:
+        crop = vol.shape
+    if len(crop) != 3 or any(not 0 < c <= n for c, n in zip(crop, vol.shape)):
+        raise ValueError(f"expected a crop within {vol.shape}, found {crop}")
+    lo = [p + (n - c) // 2 for p, n, c in zip(pad, vol.shape, crop)]
+    view = tuple(slice(a, a + c) for a, c in zip(lo, crop))
     out = []
     for t in range(frames):
         phase = sum(k[a] * (t * step[a]) for a in range(3))
         out.append(
-            np.fft.irfftn(spec * np.exp(-2j * np.pi * phase), big.shape, axes=(0, 1, 2))[crop]
+            np.fft.irfftn(spec * np.exp(-2j * np.pi * phase), big.shape, axes=(0, 1, 2))[view]
         )
     return _as(np.stack(out), dtype)
 
