@@ -124,8 +124,13 @@ def make_lossy(folder: Path) -> Path:
 
 
 ANIMATION_CASES = [
-    ("animation-ibbp-bounded-u8", {"gop_string": "IBBP", "max_error": 2}),
-    ("animation-ipp-coef-quarter-u8", {"gop_string": "IPP", "quality": 63, "precision": "quarter"}),
+    ("animation-ibbp-bounded-u8", {"gop_string": "IBBP", "max_error": 2}, "roll"),
+    (
+        "animation-ipp-coef-quarter-u8",
+        {"gop_string": "IPP", "quality": 63, "precision": "quarter"},
+        "roll",
+    ),
+    ("animation-ibbp-whole-frame-u8", {"gop_string": "IBBP"}, "translate"),
 ]
 
 
@@ -139,12 +144,22 @@ def animation_source():
     return np.stack([np.roll(cut, (t // 2, t, -t), (0, 1, 2)) for t in range(5)])
 
 
+def translated_source():
+    """Five frames of a crop of the bundled MRI moving (0.5, 0.25, -0.75) voxels a frame
+    (band-limited): lossless, two of the three predicted frames are whole-frame shifts."""
+    from volpack import synth
+
+    head = synth.head((28, 32, 36))
+    return synth.translate(head, 5, step=(0.5, 0.25, -0.75), crop=(16, 20, 24))
+
+
 def make_animation(folder: Path) -> Path:
     from volpack import animation
 
-    for stem, opts in ANIMATION_CASES:
+    sources = {"roll": animation_source, "translate": translated_source}
+    for stem, opts, source in ANIMATION_CASES:
         path = folder / f"{stem}.vpk"
-        animation.compress(animation_source(), str(path), force=True, **opts)
+        animation.compress(sources[source](), str(path), force=True, **opts)
     return folder
 
 

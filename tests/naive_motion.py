@@ -144,3 +144,22 @@ def smooth(pred, k):
             out[idx] = (64 - 2 * k) / 64 * a[idx] + k / 64 * (a[tuple(lo)] + a[tuple(hi)])
         a = out
     return a
+
+
+def whole_frame_shift(frame, v):
+    """The frame sampled at ``p + v`` as ``formats/animation-1.md`` defines a whole-frame
+    shift, computed without transforms: pad by reflection to the odd lengths, then per
+    axis a circular sum of the Kaiser-windowed sinc taps, then crop."""
+    from volpack import shift
+
+    a = np.asarray(frame, np.float64)
+    widths = [(shift.PAD, shift.padded_length(n) - n - shift.PAD) for n in a.shape]
+    a = np.pad(a, widths, mode="reflect")
+    for axis, d in enumerate(v):
+        whole = math.floor(d)
+        taps = shift.kernel_taps(d - whole)
+        acc = np.zeros_like(a)
+        for m, w in zip(range(1 - shift.TAPS, shift.TAPS + 1), taps):
+            acc += w * np.roll(a, -(whole + m), axis=axis)  # acc[p] += w a[p + whole + m]
+        a = acc
+    return a[tuple(slice(shift.PAD, shift.PAD + n) for n in frame.shape)]

@@ -232,20 +232,29 @@ def test_cli_round_trip(tmp_path, moving):
 # The recipes of scripts/make_examples.py written out again on purpose (a test importing
 # them would follow any change to the script).
 GOLDEN = [
-    ("animation-ibbp-bounded-u8", {"gop_string": "IBBP", "max_error": 2}),
-    ("animation-ipp-coef-quarter-u8", {"gop_string": "IPP", "quality": 63, "precision": "quarter"}),
+    ("animation-ibbp-bounded-u8", {"gop_string": "IBBP", "max_error": 2}, "roll"),
+    (
+        "animation-ipp-coef-quarter-u8",
+        {"gop_string": "IPP", "quality": 63, "precision": "quarter"},
+        "roll",
+    ),
+    ("animation-ibbp-whole-frame-u8", {"gop_string": "IBBP"}, "translate"),
 ]
 
 
-@pytest.mark.parametrize("stem,opts", GOLDEN, ids=[g[0] for g in GOLDEN])
-def test_golden_animation_decodes_and_is_reproduced(stem, opts):
+@pytest.mark.parametrize("stem,opts,source", GOLDEN, ids=[g[0] for g in GOLDEN])
+def test_golden_animation_decodes_and_is_reproduced(stem, opts, source):
     from pathlib import Path
 
     from volpack.container import Reader
     from volpack.demo import load_demo_volume
 
-    cut = load_demo_volume().data[30:46, 40:56, 40:64]
-    want = np.stack([np.roll(cut, (t // 2, t, -t), (0, 1, 2)) for t in range(5)])
+    if source == "roll":
+        cut = load_demo_volume().data[30:46, 40:56, 40:64]
+        want = np.stack([np.roll(cut, (t // 2, t, -t), (0, 1, 2)) for t in range(5)])
+    else:
+        head = synth.head((28, 32, 36))
+        want = synth.translate(head, 5, step=(0.5, 0.25, -0.75), crop=(16, 20, 24))
     path = Path(__file__).resolve().parent.parent / "formats" / "examples" / f"{stem}.vpk"
     blob = path.read_bytes()
     got = animation.decompress(blob).data
@@ -257,6 +266,8 @@ def test_golden_animation_decodes_and_is_reproduced(stem, opts):
     with Reader(blob) as old, Reader(again) as new:
         assert old.header == new.header
         assert [(t, n, p) for t, n, p in old] == [(t, n, p) for t, n, p in new]
+        if source == "translate":  # the case pins the whole-frame shift's bytes
+            assert old.summary["block_modes"].get("global", 0) > 0
 
 
 # -- flat residual fields ----------------------------------------------------------------
@@ -430,3 +441,154 @@ def test_residual_histogram_matches_the_numpy_quantiser(dtype, step):
     want = np.bincount((q - base).astype(np.int64).ravel(), minlength=counts.size)
     assert np.array_equal(counts, want)
     assert animation._counts_bits(counts, x.size) == animation._entropy_bits(q)
+
+
+# -- whole-frame shifts and the I-frame bound ----------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def rigid():
+    """The head moving (0.5, 0.25, -0.75) voxels a frame (band-limited), seen through a
+    window that new content enters."""
+    head = synth.head((28, 32, 36))
+    return synth.translate(head, 5, step=(0.5, 0.25, -0.75), crop=(16, 20, 24))
+
+
+@pytest.mark.parametrize("e", [None, 1, 2])
+def test_whole_frame_shifts_round_trip(rigid, e):
+    opts = {"gop_string": "IBBP"} if e is None else {"gop_string": "IBBP", "max_error": e}
+    blob, stats = _code(rigid, **opts)
+    assert stats["block_modes"].get("global", 0) > 0
+    out = animation.decompress(blob).data
+    assert _err(out, rigid).max() <= (e or 0)
+    off, stats_off = _code(rigid, whole_frame=False, **opts)
+    assert stats_off["block_modes"]["global"] == 0
+    assert _err(animation.decompress(off).data, rigid).max() <= (e or 0)
+    assert len(blob) < len(off)
+
+
+def test_decoders_whose_transform_rounds_differently_agree(rigid, monkeypatch):
+    """A decoder's FFT may differ from the encoder's in the last bits: the encoder stores
+    exactly every voxel whose prediction lies within the guard of a rounding half, so a
+    decoder off by less than the guard decodes the same frames. The guard is widened
+    here and the decoder's prediction jittered by 0.01 (2 % of voxels lie that close to a
+    half: without the stored voxels many would round the other way)."""
+    from volpack import shift
+
+    monkeypatch.setattr(shift, "GUARD", 2.0**-12)  # 0.025 and up for peaks past 100
+    blob, stats = _code(rigid, gop_string="IBBP")
+    assert stats["block_modes"].get("global", 0) > 0
+    clean = animation.decompress(blob).data
+    assert np.array_equal(clean, rigid)
+    exact = shift.shifted
+    rng = np.random.default_rng(5)
+
+    def jittered(terms, shape):
+        out = exact(terms, shape)
+        return out + rng.uniform(-0.01, 0.01, out.shape)
+
+    monkeypatch.setattr(shift, "shifted", jittered)
+    assert np.array_equal(animation.decompress(blob).data, clean)
+
+
+def test_corrupt_whole_frame_sections_raise_format_errors(rigid):
+    from volpack.container import Reader, put_section, take_section
+
+    blob, _ = _code(rigid, gop_string="IBBP", max_error=1)
+    with Reader(blob) as r:
+        chunks = {t: p for t, _, p in r}
+        s = animation.Settings.from_header(r.header)
+    frames = animation.decompress(blob).data
+    prev, nxt = motion.Reference(frames[0]), motion.Reference(frames[3])
+    glob = [t for t, p in chunks.items() if p[1] & animation.FLAG_GLOBAL]
+    assert glob
+    t = glob[0]
+    p = chunks[t]
+    kind = "B" if p[0] == animation.TYPE_CODE["B"] else "P"
+    head = animation._FRAME_HEAD.size
+    body, end = take_section(memoryview(p), head, "test")
+    vals = np.frombuffer(bytes(body), "<f8")
+
+    def decode(payload, settings=s):
+        return animation.decode_frame(
+            payload, rigid.shape[1:], rigid.dtype, prev, nxt, settings, (64,) * 3
+        )
+
+    assert np.array_equal(decode(p)[1], frames[t])
+
+    def with_section(new):
+        return p[:head] + put_section(np.asarray(new, "<f8").tobytes()) + p[end:]
+
+    bad = {
+        "bytes": with_section(vals[:-1]),
+        "within": with_section(np.where(np.arange(vals.size) == vals.size - 1, 99.0, vals)),
+        "nan": with_section(np.where(np.arange(vals.size) == vals.size - 1, np.nan, vals)),
+    }
+    if kind == "B":
+        bad["weight"] = with_section(np.concatenate([[1.5], vals[1:]]))
+    for why, payload in bad.items():
+        with pytest.raises(FormatError, match=why if why != "nan" else "within"):
+            decode(payload)
+    as_i = bytes([animation.TYPE_CODE["I"]]) + p[1:]
+    with pytest.raises(FormatError, match="flags"):
+        decode(as_i)
+    off = animation.Settings("bounded", 1.0, whole_frame=False)
+    with pytest.raises(FormatError, match="whole-frame"):
+        decode(p, off)
+    with pytest.raises(FormatError, match="flags"):  # the I-frame bound on a P/B-frame
+        decode(p[:1] + bytes([p[1] | animation.FLAG_I_BOUND]) + p[2:])
+
+
+def test_anchoring_i_frames_are_coded_tighter(moving):
+    from volpack.container import Reader
+
+    blob, stats = _code(moving[:4], gop_string="IBBP", max_error=4, i_max_error=2)
+    out = animation.decompress(blob).data
+    with Reader(blob) as r:
+        assert r.header["codec"]["i_max_error"] == 2.0
+        first = next(iter(r))[2]
+    assert first[1] & animation.FLAG_I_BOUND
+    assert _err(out[0], moving[0]).max() <= 2 and _err(out, moving[:4]).max() <= 4
+    same, _ = _code(moving[:4], gop_string="IBBP", max_error=4, i_max_error=4)
+    with Reader(same) as r:
+        assert "i_max_error" not in r.header["codec"]
+    alone, _ = _code(moving[:3], gop_string="I", max_error=4)
+    with Reader(alone) as r:
+        assert "i_max_error" not in r.header["codec"]
+    # by default the first GOP segment (I, P and the B-frames between) is coded both
+    # ways and the shorter kept: the frames are those of one of the explicit runs
+    for frames, e in ((moving, 4), (synth.advect((16, 16, 16), 7), 2)):
+        auto, _ = _code(frames, gop_string="IBBP", max_error=e)
+        runs = [
+            _code(frames, gop_string="IBBP", max_error=e, i_max_error=b)[0] for b in (e, 2 * e // 3)
+        ]
+        chunks = []
+        for b in (auto, *runs):
+            with Reader(b) as r:
+                chunks.append([p for _, _, p in r])
+        seg = [sum(map(len, c[:4])) for c in chunks[1:]]  # I, P and the B-frames between
+        assert chunks[0] == chunks[1 + int(seg[1] < seg[0])]
+    assert animation.default_i_max_error(1.0, np.uint8, "IBBP") == 1.0
+    assert animation.default_i_max_error(9.0, np.int16, "IPP") == 6.0
+    assert animation.default_i_max_error(3.0, np.float32, "IB") == pytest.approx(2.0)
+    with pytest.raises(ValueError, match="I-frame bound"):
+        _code(moving[:3], gop_string="IPP", max_error=2, i_max_error=3)
+    with pytest.raises(ValueError, match="i_max_error"):
+        _code(moving[:3], gop_string="IPP", i_max_error=1)
+    # the flag in a stream whose header lacks the bound is refused
+    s = animation.Settings("bounded", 4.0, i_max_error=2.0)
+    i_payload = first
+    with pytest.raises(FormatError, match="bound the header lacks"):
+        animation.decode_frame(
+            i_payload,
+            SHAPE,
+            np.dtype(np.uint8),
+            None,
+            None,
+            animation.Settings("bounded", 4.0),
+            (64,) * 3,
+        )
+    assert np.array_equal(
+        animation.decode_frame(i_payload, SHAPE, np.dtype(np.uint8), None, None, s, (64,) * 3)[1],
+        out[0],
+    )

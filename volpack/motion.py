@@ -44,6 +44,7 @@ import math
 
 import numpy as np
 
+from . import shift
 from ._jit import kernel
 
 BLOCK = 8
@@ -503,7 +504,7 @@ PRECISIONS = ("whole", "half", "quarter")
 
 
 class Reference:
-    """An anchor frame and, made when first needed, its half-voxel grid."""
+    """An anchor frame and, made when first needed, its half-voxel grid and spectrum."""
 
     def __init__(self, frame: np.ndarray) -> None:
         frame = np.asarray(frame)
@@ -511,12 +512,20 @@ class Reference:
             raise ValueError(f"expected a numeric 3-D frame, found {frame.shape} {frame.dtype}")
         self.frame = np.ascontiguousarray(frame)
         self._up: np.ndarray | None = None
+        self._spec: np.ndarray | None = None
 
     @property
     def up(self) -> np.ndarray:
         if self._up is None:
             self._up = upsample(self.frame)
         return self._up
+
+    @property
+    def spectrum(self) -> np.ndarray:
+        """The padded half spectrum that whole-frame shifts read (:mod:`volpack.shift`)."""
+        if self._spec is None:
+            self._spec = shift.spectrum(self.frame)
+        return self._spec
 
     def grid(self, needed) -> np.ndarray:
         """The half-voxel grid if ``needed``, else an empty one of the same kind (so the

@@ -22,6 +22,8 @@ ANIMATION_KEYS = (
     "quarter_voxel",
     "compensation",
     "b_residual",
+    "whole_frame",
+    "i_max_error",
 )
 
 
@@ -76,6 +78,23 @@ def animation_options(f):
             help="Animation: code B-frames' residual (needed for --max-error; without it "
             "B-frames are motion compensation only, as in the thesis, with --quality).",
         ),
+        click.option(
+            "--whole-frame/--no-whole-frame",
+            default=True,
+            show_default=True,
+            help="Animation: where the blocks move as one (a rigid translation), also try "
+            "moving the whole anchor through its spectrum (no blur at sub-voxel steps; "
+            "8/16-bit frames, lossless or --max-error).",
+        ),
+        click.option(
+            "--i-max-error",
+            type=click.FloatRange(min=0, min_open=True),
+            default=None,
+            help="Animation with --max-error: the bound of I-frames that anchor P/B-frames "
+            "[default: 2/3 of --max-error, floored for integer voxels, at least 1]. "
+            "Predicted frames inherit their anchors' error, so cleaner anchors make them "
+            "cheaper; give the --max-error value to code every frame to it.",
+        ),
     ]
     return functools.reduce(lambda g, o: o(g), reversed(opts), f)
 
@@ -126,6 +145,8 @@ def run_compress(ctx, source: str, target: str, as_json: bool, force: bool, opts
             precision=precision,
             compensation=opts["compensation"],
             b_residual=opts["b_residual"],
+            whole_frame=opts["whole_frame"],
+            i_max_error=opts["i_max_error"],
             force=force,
             progress=progress,
             **kw.get("read_options", {}),
