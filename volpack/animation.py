@@ -828,8 +828,8 @@ def compress(
     ``whole_frame`` a P/B-frame whose blocks move as one also tries the anchors moved
     whole through their spectra (:mod:`volpack.shift`). I-frames that anchor predictions
     are coded to ``i_max_error`` when given (``max_error`` turns it off); by default to
-    :func:`default_i_max_error` if the first GOP segment, coded both ways, came out
-    shorter so.
+    :func:`default_i_max_error` where the first GOP segment, coded both ways, says it
+    pays (:func:`_tight_pays`).
     """
     from .container import Writer
 
@@ -938,8 +938,7 @@ def compress(
             n = _trial_length(types, order)
             held = {order[i]: read(order[i]) for i in range(n)}
             runs = {k: (list(coded(range(n), a, k, held)), a) for k, a in ((False, {}), (True, {}))}
-            size = {k: sum(len(c[3].payload) for c in r) for k, (r, _) in runs.items()}
-            tight = size[True] < size[False]
+            tight = _tight_pays(types, {k: [c[3] for c in r] for k, (r, _) in runs.items()})
             for c in runs[tight][0]:
                 commit(*c)
             anchors, done = runs[tight][1], n
@@ -968,6 +967,20 @@ def _trial_length(types: str, order: list[int]) -> int:
     return len(order)
 
 
+def _tight_pays(types: str, runs: dict[bool, list[CodedFrame]]) -> bool:
+    """Whether the tighter I-frame bound pays, from the first GOP segment coded both ways
+    (``runs[tight]``, storage order, the I-frame first): its extra bytes against the
+    predicted frames' saving per frame, times the frames each I-frame anchors (all
+    planned P and B up to the next planned I). The segment alone holds only the first
+    P-frame and its B-frames; the saving recurs over the rest of the GOP."""
+    extra = len(runs[True][0].payload) - len(runs[False][0].payload)
+    saved = sum(len(f.payload) for f in runs[False][1:]) - sum(
+        len(f.payload) for f in runs[True][1:]
+    )
+    anchored = len(types[1:].split("I")[0])
+    return extra < saved * anchored / max(len(runs[True]) - 1, 1)
+
+
 def default_i_max_error(max_error: float, dtype, types: str) -> float:
     """The candidate bound of I-frames that anchor predictions: two thirds of
     ``max_error`` (floored for integer voxels, never below 1), when some frame is
@@ -977,7 +990,7 @@ def default_i_max_error(max_error: float, dtype, types: str) -> float:
     (I at 1), 13 % at E = 4 (I at 2) and 16 % at E = 9 (I at 6), and coding the P anchors
     tighter too lost at every bound. But on the advected field it lost 8-20 % and on a
     growing blob 11 % at E = 2, so :func:`compress` codes the first GOP segment both
-    ways and keeps the bound that came out shorter."""
+    ways and decides by :func:`_tight_pays`."""
     if not any(k in "PB" for k in types):
         return max_error
     if np.dtype(dtype).kind in "iu":

