@@ -227,6 +227,17 @@ def test_cli_round_trip(tmp_path, moving):
     assert r.exit_code == 0 and '"frame_types"' in r.output
     r = run.invoke(main, ["compress", pattern, vpk, "-f", "--gop", "IXP"])
     assert r.exit_code != 0 and "GOP" in r.output
+    r = run.invoke(
+        main,
+        ["compress", pattern, vpk, "-f", "--gop", "IBBP", "--max-error", "3",
+         "--i-max-error", "1", "--no-whole-frame", "--json"],
+    )  # fmt: skip
+    assert r.exit_code == 0, r.output
+    assert '"global": 0' in r.output
+    r = run.invoke(main, ["info", vpk])
+    assert "whole_frame=False" in r.output and "i_max_error" in r.output
+    r = run.invoke(main, ["compress", pattern, vpk, "-f", "--gop", "IBBP", "--i-max-error", "1"])
+    assert r.exit_code != 0 and "i_max_error" in r.output
 
 
 # The recipes of scripts/make_examples.py written out again on purpose (a test importing

@@ -7,8 +7,10 @@ and loses the top octave of the spectrum (on the 64^3 head moving (0.5, 0.25, 0.
 voxels a frame, the quantised residual at max error 2 costs 1.12 bits/voxel from an
 8-tap filter, 0.90 from 16 taps, 0.51 from the phase ramp). This module shifts a whole
 frame through its spectrum: the frame is padded by reflection to an odd length per axis
-(odd, so there is no Nyquist bin and the shifted frame is real for every shift), moved
-by a phase ramp per axis, and cropped back.
+(odd, so there is no Nyquist bin and the shifted frame is real for every shift),
+multiplied per axis by the frequency response of a 64-tap windowed sinc at the wanted
+offset (:func:`kernel_taps`; nearly the phase ramp, but of finite reach), and cropped
+back.
 
 Different FFT implementations agree to about 1e-15 of the peak value, not bit for bit;
 the encoder therefore stores exactly every voxel whose prediction lies within

@@ -90,10 +90,11 @@ def animation_options(f):
             "--i-max-error",
             type=click.FloatRange(min=0, min_open=True),
             default=None,
-            help="Animation with --max-error: the bound of I-frames that anchor P/B-frames "
-            "[default: 2/3 of --max-error, floored for integer voxels, at least 1]. "
-            "Predicted frames inherit their anchors' error, so cleaner anchors make them "
-            "cheaper; give the --max-error value to code every frame to it.",
+            help="Animation with --max-error: the bound of I-frames that anchor P/B-frames. "
+            "Predicted frames inherit their anchors' error, so cleaner anchors can make them "
+            "cheaper [default: 2/3 of --max-error (floored for integer voxels, at least 1), "
+            "kept if the first GOP segment coded both ways says it pays]; give the "
+            "--max-error value to code every frame to it.",
         ),
     ]
     return functools.reduce(lambda g, o: o(g), reversed(opts), f)
