@@ -553,6 +553,29 @@ def test_corrupt_whole_frame_sections_raise_format_errors(rigid):
         decode(p[:1] + bytes([p[1] | animation.FLAG_I_BOUND]) + p[2:])
 
 
+def test_flipped_bits_in_whole_frame_frames_raise_format_errors_only(rigid):
+    from volpack.container import Reader
+
+    blob, _ = _code(rigid, gop_string="IBBP", max_error=1)
+    with Reader(blob) as r:
+        chunks = {t: p for t, _, p in r}
+        s = animation.Settings.from_header(r.header)
+    frames = animation.decompress(blob).data
+    prev, nxt = motion.Reference(frames[0]), motion.Reference(frames[3])
+    rng = np.random.default_rng(1)
+    for t in [t for t, p in chunks.items() if p[1] & animation.FLAG_GLOBAL]:
+        for _ in range(30):
+            bad = bytearray(chunks[t])
+            i = int(rng.integers(1, min(len(bad), animation._FRAME_HEAD.size + 64)))
+            bad[i] ^= 1 << int(rng.integers(8))
+            try:
+                animation.decode_frame(
+                    bytes(bad), rigid.shape[1:], rigid.dtype, prev, nxt, s, (64,) * 3
+                )
+            except FormatError:
+                pass
+
+
 def test_anchoring_i_frames_are_coded_tighter(moving):
     from volpack.container import Reader
 
