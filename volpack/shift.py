@@ -66,8 +66,9 @@ def kernel_taps(frac: float) -> np.ndarray:
     """The ``2 TAPS`` weights of offsets ``1 - TAPS .. TAPS`` that sample a frame ``frac``
     (in [0, 1)) past a voxel: sinc windowed by a Kaiser window, normalised to sum 1.
     Finite support keeps a wrong guess of what lies past the frame's border (its
-    padding) from ringing far into the frame; the pure phase ramp, whose kernel decays
-    as 1/distance, predicted 4-6 % worse on the moving head at max error 2."""
+    padding) from ringing far into the frame; with the pure phase ramp, whose kernel
+    decays as 1/distance, the quantised residual of P-frames of the moving head at max
+    error 2 had 4-7 % more entropy (the whole file: 1.6 % larger)."""
     x = np.arange(1 - TAPS, TAPS + 1) - float(frac)
     w = np.i0(BETA * np.sqrt(np.clip(1.0 - (x / TAPS) ** 2, 0.0, None))) / np.i0(BETA)
     h = np.sinc(x) * w
