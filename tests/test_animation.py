@@ -505,15 +505,24 @@ def test_decoders_whose_transform_rounds_differently_agree(monkeypatch):
     assert np.array_equal(animation.decompress(blob).data, clean)
 
 
-def test_corrupt_whole_frame_sections_raise_format_errors(rigid):
-    from volpack.container import Reader, put_section, take_section
+@pytest.fixture(scope="module")
+def rigid_chunks(rigid):
+    """``rigid`` coded IBBP at max error 1: its chunks by frame, settings, decoded frames
+    and the anchors of its predicted frames."""
+    from volpack.container import Reader
 
     blob, _ = _code(rigid, gop_string="IBBP", max_error=1)
     with Reader(blob) as r:
         chunks = {t: p for t, _, p in r}
         s = animation.Settings.from_header(r.header)
     frames = animation.decompress(blob).data
-    prev, nxt = motion.Reference(frames[0]), motion.Reference(frames[3])
+    return chunks, s, frames, motion.Reference(frames[0]), motion.Reference(frames[3])
+
+
+def test_corrupt_whole_frame_sections_raise_format_errors(rigid, rigid_chunks):
+    from volpack.container import put_section, take_section
+
+    chunks, s, frames, prev, nxt = rigid_chunks
     glob = [t for t, p in chunks.items() if p[1] & animation.FLAG_GLOBAL]
     assert glob
     t = glob[0]
@@ -553,15 +562,8 @@ def test_corrupt_whole_frame_sections_raise_format_errors(rigid):
         decode(p[:1] + bytes([p[1] | animation.FLAG_I_BOUND]) + p[2:])
 
 
-def test_flipped_bits_in_whole_frame_frames_raise_format_errors_only(rigid):
-    from volpack.container import Reader
-
-    blob, _ = _code(rigid, gop_string="IBBP", max_error=1)
-    with Reader(blob) as r:
-        chunks = {t: p for t, _, p in r}
-        s = animation.Settings.from_header(r.header)
-    frames = animation.decompress(blob).data
-    prev, nxt = motion.Reference(frames[0]), motion.Reference(frames[3])
+def test_flipped_bits_in_whole_frame_frames_raise_format_errors_only(rigid, rigid_chunks):
+    chunks, s, _, prev, nxt = rigid_chunks
     rng = np.random.default_rng(1)
     for t in [t for t, p in chunks.items() if p[1] & animation.FLAG_GLOBAL]:
         for _ in range(30):

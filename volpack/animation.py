@@ -86,8 +86,9 @@ class Settings:
             self.mode == "bounded" and 0 < self.i_max_error <= self.max_error
         ):
             raise ValueError(
-                f"expected an I-frame bound in (0, max_error = {self.max_error}] with "
-                f"--max-error, found {self.i_max_error!r}"
+                f"expected i_max_error, an I-frame bound, in (0, max_error = "
+                f"{self.max_error}] with --max-error, found {self.i_max_error!r} in "
+                f"{self.mode} coding"
             )
         if self.mode == "coef" and not (self.quality and 1 <= int(self.quality) <= 65535):
             raise ValueError(f"expected a quality in 1..65535, found {self.quality!r}")
@@ -504,6 +505,9 @@ def encode_frame(
                 reach = s.search + 0.75
                 vecs = [shift.estimate(x, r.spectrum, v, reach) for r, v in zip(refs, starts)]
                 w = _choose_weight(x, refs, vecs, s) if kind == "B" else 1.0
+                # made again through the spectra, as the decoder makes it (not mixed
+                # from the weight search's two frames), so the rounding guard sees the
+                # decoder's own arithmetic
                 pred = _global_prediction(refs, vecs, w)
                 head = [w] if kind == "B" else []
                 motion_bytes = np.asarray(head + [d for v in vecs for d in v], "<f8").tobytes()
@@ -838,9 +842,6 @@ def compress(
     mode = "bounded" if max_error is not None else "coef" if quality is not None else "lossless"
     src = open_frames(source, **read_options)
     types = gop.frame_types(gop_string, src.shape[0])
-    if mode != "bounded":
-        if i_max_error is not None:
-            raise ValueError(f"expected i_max_error with max_error only, found {mode} coding")
     trial_i = mode == "bounded" and i_max_error is None
     if trial_i:
         i_max_error = default_i_max_error(float(max_error), src.dtype, types)
