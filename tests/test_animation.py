@@ -9,7 +9,9 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from volpack import animation, gop, motion, synth
+from volpack import synth
+from volpack.animation import gop, motion
+from volpack.animation import stream as animation
 from volpack.cli import main
 from volpack.errors import FormatError
 
@@ -257,8 +259,8 @@ GOLDEN = [
 def test_golden_animation_decodes_and_is_reproduced(stem, opts, source):
     from pathlib import Path
 
-    from volpack.container import Reader
     from volpack.demo import load_demo_volume
+    from volpack.format.container import Reader
 
     if source == "roll":
         cut = load_demo_volume().data[30:46, 40:56, 40:64]
@@ -307,7 +309,7 @@ def test_flat_field_clips_at_the_dtype_end():
 
 
 def _flags(blob):
-    from volpack.container import Reader
+    from volpack.format.container import Reader
 
     with Reader(blob) as r:
         return {t: p[1] for t, _, p in r}
@@ -339,7 +341,7 @@ def test_flat_flag_without_a_residual_is_refused(moving):
 
 
 def test_quarter_voxel_is_the_default_and_can_be_turned_off(tmp_path, moving):
-    from volpack.container import Reader
+    from volpack.format.container import Reader
 
     np.save(tmp_path / "run.npy", moving[:3])
     run = CliRunner()
@@ -373,7 +375,7 @@ def test_smoothing_bits_on_an_i_frame_are_refused():
 
 
 def test_summary_is_stored_by_column_and_read_back_as_rows(moving):
-    from volpack.container import Reader
+    from volpack.format.container import Reader
 
     blob, stats = _code(moving, gop_string="IBBP", max_error=2)
     with Reader(blob) as r:
@@ -398,7 +400,7 @@ def test_quarter_setting_falls_back_to_half_voxel_fields_when_they_cost_less():
 
 
 def test_corrupt_flat_frames_raise_format_errors_only(moving):
-    from volpack.container import Reader
+    from volpack.format.container import Reader
 
     blob, _ = _code(moving[:4], gop_string="IBBP", max_error=2)
     with Reader(blob) as r:
@@ -484,7 +486,7 @@ def test_decoders_whose_transform_rounds_differently_agree(monkeypatch):
     decoder off by less than the guard decodes the same frames. The guard is widened
     here and the decoder's prediction jittered by 0.001 (0.2 % of voxels lie that close to
     a half: without the stored voxels some would round the other way)."""
-    from volpack import shift
+    from volpack.animation import shift
 
     frames = synth.translate(
         synth.head((40, 44, 48)), 4, step=(0.5, 0.25, -0.75), crop=(20, 24, 28)
@@ -509,7 +511,7 @@ def test_decoders_whose_transform_rounds_differently_agree(monkeypatch):
 def rigid_chunks(rigid):
     """``rigid`` coded IBBP at max error 1: its chunks by frame, settings, decoded frames
     and the anchors of its predicted frames."""
-    from volpack.container import Reader
+    from volpack.format.container import Reader
 
     blob, _ = _code(rigid, gop_string="IBBP", max_error=1)
     with Reader(blob) as r:
@@ -520,7 +522,7 @@ def rigid_chunks(rigid):
 
 
 def test_corrupt_whole_frame_sections_raise_format_errors(rigid, rigid_chunks):
-    from volpack.container import put_section, take_section
+    from volpack.format.container import put_section, take_section
 
     chunks, s, frames, prev, nxt = rigid_chunks
     glob = [t for t, p in chunks.items() if p[1] & animation.FLAG_GLOBAL]
@@ -579,7 +581,7 @@ def test_flipped_bits_in_whole_frame_frames_raise_format_errors_only(rigid, rigi
 
 
 def test_anchoring_i_frames_are_coded_tighter(moving):
-    from volpack.container import Reader
+    from volpack.format.container import Reader
 
     blob, stats = _code(moving[:4], gop_string="IBBP", max_error=4, i_max_error=2)
     out = animation.decompress(blob).data

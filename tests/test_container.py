@@ -14,8 +14,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from volpack.atomic import OutputExistsError
-from volpack.container import (
+from volpack.errors import ChecksumError, FormatError, LimitError
+from volpack.format.atomic import OutputExistsError
+from volpack.format.container import (
     FOOTER_SIZE,
     MAGIC,
     PREAMBLE_SIZE,
@@ -28,7 +29,6 @@ from volpack.container import (
     stdin,
     vpk_kind,
 )
-from volpack.errors import ChecksumError, FormatError, LimitError
 
 GOLDEN = Path(__file__).resolve().parent.parent / "formats" / "examples" / "tiny-v1.vpk"
 

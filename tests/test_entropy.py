@@ -11,9 +11,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from volpack import sigmap
 from volpack.entropy import CODERS
 from volpack.errors import FormatError
+from volpack.wavelet import sigmap
 
 SHAPES = [
     ((1, 1, 1), (0, 0, 0)),

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from volpack import io as vio
-from volpack.atomic import OutputExistsError
 from volpack.errors import FormatError
+from volpack.format.atomic import OutputExistsError
 from volpack.volume import Volume
 
 SHAPE = (3, 5, 7)  # non-cubic: a transposition changes the shape

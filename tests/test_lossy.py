@@ -12,9 +12,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from volpack import api
-from volpack.container import Reader
 from volpack.errors import FormatError
-from volpack.lossy import BoundedCodec, CoefCodec, band_scale
+from volpack.format.container import Reader
+from volpack.volume_codec.lossy import BoundedCodec, CoefCodec, band_scale
 
 
 def field(kind: str, shape, dtype, seed: int) -> np.ndarray:
@@ -208,7 +208,7 @@ def test_corrupt_lossy_bricks_never_crash(kw):
     with Reader(blob) as r:
         ((t, node, payload),) = list(r)
         codec_cfg = r.header["codec"]
-    from volpack.codec import get_codec
+    from volpack.volume_codec.codec import get_codec
 
     decode_damaged(get_codec(codec_cfg), payload, a.shape, a.dtype, seed=1, count=200)
 
@@ -221,7 +221,7 @@ def test_band_scale_is_orthonormal_units():
 
 
 def test_codec_configs_round_trip():
-    from volpack.codec import get_codec
+    from volpack.volume_codec.codec import get_codec
 
     for c in (BoundedCodec.plan("float32", -1, 1, 0.01), CoefCodec(value_range=255.0, quality=63)):
         assert get_codec(c.get_config()) == c
@@ -237,8 +237,8 @@ def run(a, **kw):
 
 
 def test_loose_bounds_take_the_coefficient_path_and_still_hold(scan16):
-    from volpack.codec import get_codec
-    from volpack.lossy import FLAG_COEF
+    from volpack.volume_codec.codec import get_codec
+    from volpack.volume_codec.lossy import FLAG_COEF
 
     for bound in (25, 120):
         blob = api.compress_array(scan16, max_error=bound)
@@ -247,7 +247,7 @@ def test_loose_bounds_take_the_coefficient_path_and_still_hold(scan16):
             c = get_codec(r.header["codec"])
             coef = [(node, p) for _, node, p in r if p[0] & FLAG_COEF]
         assert coef, "a loose bound on smooth data should pick the coefficient path"
-    from volpack import bricks
+    from volpack.volume_codec import bricks
 
     node, payload = coef[0]
     shape = tuple(s.stop - s.start for s in bricks.brick_slices(scan16.shape, (64,) * 3, node))

@@ -6,7 +6,8 @@ import naive_motion
 import numpy as np
 import pytest
 
-from volpack import motion, synth
+from volpack import synth
+from volpack.animation import motion
 
 
 @pytest.fixture(scope="module")

@@ -461,8 +461,8 @@ GOLDEN = [  # the recipes of scripts/make_examples.py, written out again on purp
 def test_golden_octree_decodes_and_is_reproduced(stem, recipe, opts):
     from pathlib import Path
 
-    from volpack.container import Reader
     from volpack.demo import load_demo_volume
+    from volpack.format.container import Reader
 
     cut = load_demo_volume().data[30:50, 40:64, 40:68]
     want = cut if recipe == "u8" else cut.astype(np.int16) * 37 - 3000

@@ -8,7 +8,9 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from volpack import animation, player, synth
+from volpack import synth
+from volpack.animation import player
+from volpack.animation import stream as animation
 from volpack.cli import main
 from volpack.errors import FormatError
 

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 from naive_motion import whole_frame_shift
 
-from volpack import shift, synth
+from volpack import synth
+from volpack.animation import shift
 
 
 def _smooth(n):

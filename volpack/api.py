@@ -1,7 +1,7 @@
 """Volume <-> ``.vpk``: the library calls behind ``volpack compress``, ``decompress`` and ``info``.
 
-A volume is cut into independent bricks (``volpack.bricks``); each brick is coded by a
-brick codec (``volpack.codec``) into one chunk of the container (``volpack.container``),
+A volume is cut into independent bricks (``volpack.volume_codec.bricks``); each brick is coded by a
+brick codec (``volpack.volume_codec.codec``) into one chunk of the container (``volpack.format.container``),
 keyed ``(t, node)`` with ``node`` the brick number. Bricks are coded in parallel threads
 and written in order, so the file is the same whatever the worker count.
 """
@@ -17,11 +17,12 @@ from typing import Any, BinaryIO
 
 import numpy as np
 
-from . import __version__, bricks
-from .codec import WAVELET_DTYPES, WaveletCodec, ZstdCodec, get_codec, storage_dtype
+from . import __version__
 from .errors import FormatError
 from .parallel import ordered_map, parse_workers
 from .volume import Volume
+from .volume_codec import bricks
+from .volume_codec.codec import WAVELET_DTYPES, WaveletCodec, ZstdCodec, get_codec, storage_dtype
 
 log = logging.getLogger(__name__)
 
@@ -36,7 +37,7 @@ def make_codec(codec: str = "auto", dtype: Any = None, **options: Any):
     if codec == "auto":
         codec = "wavelet" if dtype is None or np.dtype(dtype).name in WAVELET_DTYPES else "zstd"
     if codec == "wavelet":
-        from .floatwave import FLOAT_WAVELETS
+        from .volume_codec.floatwave import FLOAT_WAVELETS
 
         if options.get("wavelet") in FLOAT_WAVELETS:
             raise ValueError(
@@ -89,7 +90,7 @@ def compress(
     codec : {"auto", "wavelet", "zstd"}
         ``auto``: the lossless wavelet codec for 8/16/32-bit integers, zstd for the rest.
     wavelet, coder, order, max_levels
-        Wavelet codec settings (see :class:`volpack.codec.WaveletCodec`).
+        Wavelet codec settings (see :class:`volpack.volume_codec.codec.WaveletCodec`).
     brick : int or (int, int, int)
         Brick size; bricks are coded independently and decoded one by one.
     workers : int or None
@@ -103,7 +104,7 @@ def compress(
         ``raw_nbytes``, ``nbytes`` (compressed payload bytes), ``ratio``, ``seconds``,
         ``mb_per_s``, ``bricks``, ``codec``.
     """
-    from .container import Writer
+    from .format.container import Writer
 
     vol = source if isinstance(source, Volume) else Volume(np.asarray(source))
     brick_t = bricks.parse_brick(brick)
@@ -121,14 +122,14 @@ def compress(
     if len(asked) > 1:
         raise ValueError(f"expected at most one lossy setting, found {sorted(asked)}")
     if asked:
-        from . import lossy_plan
+        from .volume_codec import search as lossy_plan
 
         c, search = lossy_plan.plan(vol, brick_t, nworkers, asked, fill_value, inner)
     else:
         search = None
         c = make_codec(codec, vol.dtype, **inner)
         if c.codec_id == "wavelet":
-            from .codec import check_wavelet_dtype
+            from .volume_codec.codec import check_wavelet_dtype
 
             check_wavelet_dtype(vol.dtype)
     header = {
@@ -235,13 +236,13 @@ def decompress(
     ``roi`` is ``"z0:z1,y0:y1,x0:x1"`` or three slices; ``frame`` picks one time step of
     an animation. The result keeps dtype, spacing and the origin of the region.
     """
-    from .container import Reader
+    from .format.container import Reader
 
     nworkers = parse_workers(workers)
     src = _stdin() if source == "-" else source
     with Reader(src) as r:
         if r.header.get("kind") == "animation":
-            from .animation import decompress as decompress_animation
+            from .animation.stream import decompress as decompress_animation
 
             return decompress_animation(r, roi=roi, frame=frame, progress=progress)
         hdr = _check_volume_header(r.header, max_voxels)
@@ -305,10 +306,10 @@ def decompress_array(blob: bytes, **options: Any) -> np.ndarray:
 
 def info(source: str | BinaryIO, **read_options: Any) -> dict[str, Any]:
     """Describe a ``.vpk`` file (a path, or a seekable binary file such as
-    :func:`volpack.container.spool` of a pipe) or any volume volpack reads, as plain
+    :func:`volpack.format.container.spool` of a pipe) or any volume volpack reads, as plain
     JSON types."""
-    from . import container
     from . import io as vio
+    from .format import container
 
     if not isinstance(source, str) or (source != "-" and _looks_vpk(source)):
         with container.Reader(source) as r:
@@ -356,7 +357,7 @@ def info(source: str | BinaryIO, **read_options: Any) -> dict[str, Any]:
 
 
 def _looks_vpk(path: str) -> bool:
-    from .container import is_vpk
+    from .format.container import is_vpk
 
     try:
         with open(path, "rb") as f:
@@ -432,6 +433,6 @@ def _stdout():
 
 
 def _stdin():
-    from .container import stdin
+    from .format.container import stdin
 
     return stdin()

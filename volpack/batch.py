@@ -431,7 +431,7 @@ def _decompress_one(task: Task) -> dict[str, Any]:
 
 
 def _check_chunks(path: str) -> None:
-    from .container import Reader
+    from .format.container import Reader
 
     with Reader(path, verify=True) as r:
         for _ in r:  # every payload read, every CRC checked
@@ -615,7 +615,7 @@ def estimate_nbytes(task: Task) -> int:
 
     try:
         if task.kind == "decompress":
-            from .container import Reader
+            from .format.container import Reader
 
             with Reader(task.input) as r:
                 shape, dtype = r.header["shape"], r.header["dtype"]
@@ -903,7 +903,7 @@ def _run_dask(todo, scheduler, workers, processes, on_result, state, func) -> st
 
 def write_report(report: dict, path: str) -> None:
     """Write the report as strict JSON, atomically (an existing report is replaced)."""
-    from .atomic import atomic_open
+    from .format.atomic import atomic_open
 
     with atomic_open(path, force=True) as f:
         f.write(json.dumps(finite_json(report), indent=2, sort_keys=True, allow_nan=False).encode())

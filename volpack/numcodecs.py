@@ -46,9 +46,10 @@ from numcodecs.abc import Codec
 from numcodecs.compat import ensure_contiguous_ndarray, ensure_ndarray_like, ndarray_copy
 from numcodecs.registry import register_codec
 
-from . import api, bricks
-from .codec import CODER_NAMES, ORDER_NAMES, WAVELET_NAMES
+from . import api
 from .volume import Volume
+from .volume_codec import bricks
+from .volume_codec.codec import CODER_NAMES, ORDER_NAMES, WAVELET_NAMES
 
 __all__ = ["CODEC_ID", "VolpackCodec"]
 

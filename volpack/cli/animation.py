@@ -108,8 +108,8 @@ def wants_animation(source: str, gop: str | None) -> bool:
 
 def run_compress(ctx, source: str, target: str, as_json: bool, force: bool, opts: dict, **kw):
     """Compress an animation; ``kw`` are the shared codec options of ``compress``."""
-    from .. import animation
-    from ..atomic import check_output
+    from ..animation import stream as animation
+    from ..format.atomic import check_output
 
     unsupported = [
         k
@@ -178,7 +178,7 @@ SHORT = {"forward": "fwd", "backward": "bwd", "bidirectional": "bi", "intra": "i
 
 def frame_table(d: dict) -> str:
     """The per-frame lines of ``volpack info`` for an animation."""
-    from ..animation import frame_rows
+    from ..animation.stream import frame_rows
 
     s = d.get("summary") or {}
     rows = []

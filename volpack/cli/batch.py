@@ -60,7 +60,7 @@ def run_batch(
 ) -> None:
     """Run planned tasks with a progress bar; report; exit 1 if any file failed."""
     from .. import batch
-    from ..atomic import check_output
+    from ..format.atomic import check_output
 
     if report_path:  # refuse before the run, not after it: a resumed run may replace it
         check_output(report_path, force=force or resume)

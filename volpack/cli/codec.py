@@ -191,7 +191,7 @@ def compress(
         return
     from .. import api
     from .. import io as vio
-    from ..atomic import check_output
+    from ..format.atomic import check_output
 
     check_output(target, force=force, inputs=(vio.parse_spec(source)[0],))
     vol = vio.read_volume(source, **read_kwargs(raw_shape, raw_dtype, byteorder, offset))
@@ -326,7 +326,7 @@ def decompress(
         return
     from .. import api
     from .. import io as vio
-    from ..atomic import check_output
+    from ..format.atomic import check_output
 
     check_output(vio.parse_spec(target)[0], force=force, inputs=(source,))
     t0 = time.perf_counter()

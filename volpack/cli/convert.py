@@ -92,7 +92,7 @@ def convert(
     """
     from .. import api, prep
     from .. import io as vio
-    from ..atomic import check_output
+    from ..format.atomic import check_output
 
     check_output(vio.parse_spec(target)[0], force=force, inputs=(source,))
     if _is_vpk_path(source):

@@ -42,7 +42,7 @@ def info(
     from . import mesh as mesh_cli
 
     if source == "-":
-        from ..container import spool, stdin, vpk_kind
+        from ..format.container import spool, stdin, vpk_kind
 
         kind = vpk_kind("-")
         if kind is not None:  # a .vpk on a pipe: its index comes last, so keep it whole

@@ -91,7 +91,7 @@ def is_mesh_source(path: str) -> bool:
 
 def is_mesh_stream(path: str) -> bool:
     """True for a ``.vpk`` file whose header says ``kind: "mesh"``."""
-    from ..container import vpk_kind
+    from ..format.container import vpk_kind
 
     return vpk_kind(path) == "mesh"
 
@@ -121,7 +121,7 @@ def compress(
     as_json: bool,
 ) -> None:
     """Compress the mesh file SOURCE into the .vpk TARGET and report the rates."""
-    from ..atomic import check_output
+    from ..format.atomic import check_output
     from ..tetra.stream import compress_mesh
 
     check_output(target, force=force, inputs=(source,))
@@ -156,8 +156,8 @@ def compress(
 
 def decompress(source: str, target: str, *, force: bool, as_json: bool) -> None:
     """Decode the mesh .vpk SOURCE into the mesh file TARGET (format by suffix)."""
-    from ..atomic import check_output
-    from ..container import stdin
+    from ..format.atomic import check_output
+    from ..format.container import stdin
     from ..tetra.formats import write_mesh
     from ..tetra.stream import decompress_mesh
 

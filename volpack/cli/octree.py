@@ -14,7 +14,7 @@ def is_octree(path: str) -> bool:
     """True when ``path`` is a ``.vpk`` of kind octree (reads only the header)."""
     if path == "-":
         return False
-    from ..container import Reader, is_vpk
+    from ..format.container import Reader, is_vpk
 
     try:
         with open(path, "rb") as f:
@@ -32,7 +32,7 @@ REFUSED = ("rel_error", "psnr", "ratio", "quality", "threshold", "fill_value")
 def compress(ctx, read_options: dict) -> None:
     """Build the octree of SOURCE into TARGET (``ctx.params`` of ``volpack compress``),
     reading SOURCE box by box."""
-    from ..atomic import check_output
+    from ..format.atomic import check_output
     from ..io import parse_spec
     from ..octree import build
     from ..octree.source import SourceSpec
@@ -75,7 +75,7 @@ def compress(ctx, read_options: dict) -> None:
 def decompress(ctx, source, target, *, roi, level, error, force, as_json, workers=1) -> None:
     """Decode an octree at one level, or the coarsest nodes within an error bound."""
     from .. import io as vio
-    from ..atomic import check_output
+    from ..format.atomic import check_output
     from ..octree import Octree
     from ..octree.select import by_error
 

@@ -43,8 +43,8 @@ def play(ctx, source, output, tf_spec, fps, spin, show_stats, azimuth, elevation
     """
     import numpy as np
 
-    from .. import player
-    from ..atomic import check_output
+    from ..animation import player
+    from ..format.atomic import check_output
     from ..render import transfer
     from ..render.camera import Camera
     from ..render.raycast import render as raycast
@@ -159,7 +159,7 @@ def walk(ctx, source, output, orbit, budget, tf_spec, fps, compare, show_stats, 
 
     import numpy as np
 
-    from ..atomic import check_output
+    from ..format.atomic import check_output
     from ..octree import Octree
     from ..render import transfer
     from ..render.camera import Camera

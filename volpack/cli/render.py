@@ -85,7 +85,7 @@ def _size(value: str) -> tuple[int, int]:
 
 def _open_octree(source: str):
     """An open :class:`volpack.octree.Octree` when SOURCE is an octree .vpk, else None."""
-    from ..container import vpk_kind
+    from ..format.container import vpk_kind
 
     if vpk_kind(source) != "octree":
         return None
@@ -273,7 +273,7 @@ def render(
     """
     import numpy as np
 
-    from ..atomic import check_output
+    from ..format.atomic import check_output
     from ..io import parse_spec
     from ..render import transfer
     from ..render.camera import Camera

@@ -1,6 +1,6 @@
 """Significance map + adaptive binary arithmetic coding (the best-ratio coder).
 
-Coefficients are visited in the scan order of :mod:`volpack.sigmap` and mapped to
+Coefficients are visited in the scan order of :mod:`volpack.wavelet.sigmap` and mapped to
 unsigned integers ``m`` (``c >= 0 -> 2c``, ``c < 0 -> -2c - 1``). For each position:
 
 1. If the position roots a subtree (dfs scan), one binary flag says whether the whole
@@ -25,7 +25,7 @@ import numpy as np
 
 from .._jit import kernel, leading_zeros
 from ..errors import FormatError
-from ..sigmap import N_CLASSES, Scan
+from ..wavelet.sigmap import N_CLASSES, Scan
 from .common import check_status, encode_with_retry, flat_view, max_bits
 
 PROB_BITS = 12

@@ -13,7 +13,7 @@ Peak memory is a few super-bricks per worker plus ``A_s`` and the node tables (a
 1/400 of the volume for 8-bit data), never the volume itself.
 
 Lossless (integer volumes): the lifting is exact. ``max_error``: voxels are first
-quantised as :class:`volpack.lossy.BoundedCodec` does (bins of ``2E`` for floats,
+quantised as :class:`volpack.volume_codec.lossy.BoundedCodec` does (bins of ``2E`` for floats,
 ``2e + 1`` values for integers) and the quantised field is coded exactly, so every voxel
 of the full-resolution decode is within the bound; the encoder rebuilds each voxel as the
 decoder will and stores any that rounding pushed past the bound exactly.
@@ -64,7 +64,7 @@ class Plan:
     def codec(self):
         if self.bounded is None:
             return None
-        from ..codec import get_codec
+        from ..volume_codec.codec import get_codec
 
         return get_codec(dict(self.bounded))
 
@@ -129,7 +129,7 @@ def make_plan(
     value_range: tuple[float, float] | None = None,
 ) -> Plan:
     """Check the options against the volume and fix the work dtype and the quantiser."""
-    from ..codec import CODER_NAMES, ORDER_NAMES, WAVELET_DTYPES, _check_choice
+    from ..volume_codec.codec import CODER_NAMES, ORDER_NAMES, WAVELET_DTYPES, _check_choice
     from ..wavelet import dwt3
 
     _check_choice("wavelet", wavelet, ("53", "26", "haar", "97m"))
@@ -151,7 +151,7 @@ def make_plan(
         info = np.iinfo(dtype)
         lo, hi = int(info.min), int(info.max)
     else:
-        from ..lossy import BoundedCodec
+        from ..volume_codec.lossy import BoundedCodec
 
         if value_range is None:
             raise ValueError("expected the value range for an error-bounded octree")
@@ -228,9 +228,9 @@ def _build_levels(plan, a, mn, mx, e2, l0, l1, origin, out, x0=None):
     """Lift ``a`` (``A_l0`` of a region starting at node ``origin`` of level ``l0``) up
     to level ``l1``, emitting each node's chunk and table row into ``out``."""
     from ..entropy import CODERS
-    from ..lossy import band_scale
-    from ..sigmap import scan as make_scan
+    from ..volume_codec.lossy import band_scale
     from ..wavelet import dwt3
+    from ..wavelet.sigmap import scan as make_scan
 
     geo = plan.geometry
     k = plan.block
@@ -289,7 +289,7 @@ def _build_levels(plan, a, mn, mx, e2, l0, l1, origin, out, x0=None):
 
 
 def _encode_lowpass(plan: Plan, low: np.ndarray) -> bytes:
-    from ..codec import WaveletCodec, ZstdCodec
+    from ..volume_codec.codec import WaveletCodec, ZstdCodec
 
     info = np.iinfo(np.int32)
     if low.size and info.min <= low.min() and low.max() <= info.max:
@@ -299,7 +299,7 @@ def _encode_lowpass(plan: Plan, low: np.ndarray) -> bytes:
 
 
 def decode_lowpass(plan: Plan, data: bytes, shape) -> np.ndarray:
-    from ..codec import WaveletCodec, ZstdCodec
+    from ..volume_codec.codec import WaveletCodec, ZstdCodec
 
     if not data:
         raise FormatError("octree root: empty low-pass section")
@@ -316,7 +316,7 @@ def _corrections(plan: Plan, q: np.ndarray, x: np.ndarray, out: TaskResult) -> b
     rounding to the output dtype pushed past the bound (as BoundedCodec does)."""
     if plan.codec is None:
         return None
-    from ..lossy import pack_corrections
+    from ..volume_codec.lossy import pack_corrections
 
     rec = plan.codec._reconstruct(q, x.dtype)
     err = np.abs(rec.astype(np.float64) - x.astype(np.float64))
@@ -332,7 +332,7 @@ def _corrections(plan: Plan, q: np.ndarray, x: np.ndarray, out: TaskResult) -> b
 
 def apply_corrections(plan: Plan, data: bytes, values: np.ndarray) -> None:
     """Put the exactly stored voxels of a level-1 node back into its level-0 values."""
-    from ..lossy import apply_corrections as apply
+    from ..volume_codec.lossy import apply_corrections as apply
 
     apply(data, values, "octree node")
 
@@ -399,7 +399,7 @@ def build(
     dict
         Sizes, ratio, MB/s, accuracy and the per-level node counts and bytes.
     """
-    from ..container import Writer
+    from ..format.container import Writer
 
     t0 = time.perf_counter()
     src = open_source(source)

@@ -21,8 +21,8 @@ from typing import Any
 
 import numpy as np
 
-from ..container import put_section, take_section
 from ..errors import FormatError
+from ..format.container import put_section, take_section
 
 KIND = "octree"
 DEFAULT_BLOCK = 16
@@ -167,7 +167,7 @@ def encode_table(rows: np.ndarray) -> bytes:
 
 
 def decode_table(data: bytes, count: int) -> np.ndarray:
-    from ..codec import inflate
+    from ..volume_codec.codec import inflate
 
     raw = inflate(
         data, count * META_DTYPE.itemsize, f"octree level table of {count} nodes", exact=True

@@ -55,7 +55,7 @@ class Octree:
     def __init__(
         self, source: Any, *, cache_bytes: int = DEFAULT_CACHE, on_damage: str = "raise"
     ) -> None:
-        from ..container import Reader
+        from ..format.container import Reader
 
         if on_damage not in ("raise", "approximate"):
             raise ValueError(f"expected on_damage 'raise' or 'approximate', found {on_damage!r}")
@@ -146,8 +146,8 @@ class Octree:
         """Inverse-lift node (level, index): its low-pass voxels plus its decoded details
         give its (2k)^3 block of the next finer level."""
         from ..entropy import CODERS
-        from ..sigmap import scan as make_scan
         from ..wavelet import dwt3
+        from ..wavelet.sigmap import scan as make_scan
 
         box = self._child_box(level, index)
         shape = tuple(s.stop - s.start for s in box)

@@ -229,7 +229,7 @@ def write_mesh(mesh: TetMesh, path: str, *, force: bool = False) -> None:
     """Write ``mesh`` with meshio, atomically (a temporary file beside ``path``, renamed)."""
     import meshio
 
-    from ..atomic import atomic_path
+    from ..format.atomic import atomic_path
 
     p = os.fspath(path)
     low = p.lower()

@@ -225,7 +225,7 @@ def _encode_xor(pts: np.ndarray) -> bytes:
 
 
 def _decode_xor(data: bytes, dtype: np.dtype, nv: int) -> np.ndarray:
-    from ..codec import inflate
+    from ..volume_codec.codec import inflate
 
     raw = inflate(data, nv * 3 * dtype.itemsize, "geometry stream", exact=True)
     x = np.frombuffer(raw, dtype=f"<u{dtype.itemsize}").reshape(nv, 3)

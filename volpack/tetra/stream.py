@@ -99,7 +99,7 @@ def compress_mesh(
         Sizes and rates: ``bits_per_tet`` (connectivity), ``bits_per_vertex``
         (geometry), per-field ``bits_per_value`` and ``max_error``, ``tets_per_s``.
     """
-    from ..container import Writer
+    from ..format.container import Writer
     from . import attributes, cutborder, geometry
 
     validate(mesh)
@@ -226,7 +226,7 @@ def decompress_mesh(
     """Decode a mesh stream written by :func:`compress_mesh`."""
     import io
 
-    from ..container import Reader
+    from ..format.container import Reader
     from . import attributes, cutborder, geometry
 
     src = io.BytesIO(source) if isinstance(source, bytes | bytearray) else source
@@ -291,7 +291,7 @@ def decompress_mesh(
 def mesh_info(source: str | BinaryIO) -> dict[str, Any]:
     """Describe a mesh ``.vpk`` (a path or a seekable binary file: sizes, bits per tet
     and per vertex, fields) as JSON types."""
-    from ..container import Reader, source_size
+    from ..format.container import Reader, source_size
 
     with Reader(source) as r:
         hdr = check_header(r.header, DEFAULT_MAX_TETS)
@@ -406,7 +406,7 @@ def _encode_order(tets: np.ndarray, trav, sorted_rows: bool = False) -> bytes:
 def _decode_order(
     blob: bytes, nv: int, nt: int, with_rows: bool = True
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    from ..codec import inflate
+    from ..volume_codec.codec import inflate
 
     width = 4 if nv < 1 << 32 and nt < 1 << 32 else 8
     need = width * (nv + nt) + (nt if with_rows else 0)

@@ -14,7 +14,7 @@ import tempfile
 from collections.abc import Iterator
 from typing import BinaryIO
 
-from .errors import VolpackError
+from ..errors import VolpackError
 
 
 class OutputExistsError(VolpackError, FileExistsError):

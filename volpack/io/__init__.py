@@ -25,9 +25,9 @@ from typing import Any
 
 import numpy as np
 
-from .container import stdin
-from .errors import FormatError
-from .volume import Volume
+from ..errors import FormatError
+from ..format.container import stdin
+from ..volume import Volume
 
 __all__ = ["parse_spec", "detect_format", "read_volume", "write_volume", "read_header"]
 
@@ -240,7 +240,7 @@ def write_volume(vol: Volume | np.ndarray, spec: str, *, force: bool = False) ->
         _write_hdf5(vol, path, inner or DEFAULT_H5_DATASET, force)
         return
     if fmt == "vpk":
-        from . import api
+        from .. import api
 
         api.compress(vol, path, force=force)
         return
@@ -373,7 +373,7 @@ def _native(dtype: Any) -> np.dtype:
 
 def _prepare_for_write(vol: Volume) -> Volume:
     if vol.mask is not None and vol.dtype.kind == "f" and "special" in vol.meta:
-        from .prep import unmask_special
+        from ..prep import unmask_special
 
         vol = unmask_special(vol)
     if vol.dtype.kind == "b":
@@ -458,7 +458,7 @@ def _read_stdin_npy(max_voxels: int) -> Volume:
 
 
 def _write_npy(vol: Volume, path: str, force: bool) -> None:
-    from .atomic import atomic_open
+    from ..format.atomic import atomic_open
 
     with atomic_open(path, force=force) as f:
         np.save(f, vol.data, allow_pickle=False)
@@ -538,7 +538,7 @@ def _raw_header(path, shape, dtype, byteorder, offset, max_voxels) -> dict[str, 
 
 
 def _write_raw(vol: Volume, path: str, force: bool) -> None:
-    from .atomic import atomic_open
+    from ..format.atomic import atomic_open
 
     data = vol.data.astype(vol.dtype.newbyteorder("<"), copy=False)
     with atomic_open(path, force=force) as f:
@@ -602,7 +602,7 @@ def _den_header(path: str) -> dict[str, Any]:
 
 
 def _write_den(vol: Volume, path: str, force: bool) -> None:
-    from .atomic import atomic_open
+    from ..format.atomic import atomic_open
 
     if vol.dtype != np.uint8 or vol.data.ndim != 3:
         raise FormatError(
@@ -712,7 +712,7 @@ def _nifti_header(path: str) -> dict[str, Any]:
 def _write_nifti(vol: Volume, path: str, force: bool) -> None:
     import nibabel as nib
 
-    from .atomic import atomic_path
+    from ..format.atomic import atomic_path
 
     sz, sy, sx = vol.spacing
     oz, oy, ox = vol.origin
@@ -829,7 +829,7 @@ def _nrrd_header(path: str) -> dict[str, Any]:
 def _write_nrrd(vol: Volume, path: str, force: bool) -> None:
     import nrrd
 
-    from .atomic import atomic_path
+    from ..format.atomic import atomic_path
 
     _refuse_float16(vol, "NRRD")
     ndim = vol.data.ndim
@@ -934,7 +934,7 @@ def _hdf5_header(path: str, inner: str | None) -> dict[str, Any]:
 def _write_hdf5(vol: Volume, path: str, inner: str, force: bool) -> None:
     import h5py
 
-    from .atomic import atomic_path
+    from ..format.atomic import atomic_path
 
     with _wrap("hdf5", path, writing=True), atomic_path(path, force=force, suffix=".h5") as tmp:
         keep = os.path.exists(path) and h5py.is_hdf5(path)
@@ -1029,7 +1029,7 @@ def _tiff_header(path: str) -> dict[str, Any]:
 def _write_tiff(vol: Volume, path: str, force: bool) -> None:
     import tifffile
 
-    from .atomic import atomic_path
+    from ..format.atomic import atomic_path
 
     metadata: dict[str, Any] = {
         "axes": "ZYX" if vol.data.ndim == 3 else "TZYX",
@@ -1204,7 +1204,7 @@ def _smallest_int(lo: int, hi: int) -> np.dtype:
 
 
 def _read_vpk(path: str, max_voxels: int) -> Volume:
-    from . import api
+    from .. import api
 
     return api.decompress(path, max_voxels=max_voxels)
 

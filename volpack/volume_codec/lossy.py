@@ -29,6 +29,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from ..errors import FormatError
+from ..format.container import put_section, take_section
 from .codec import (
     CODER_NAMES,
     MODE_CODED,
@@ -43,8 +45,6 @@ from .codec import (
     inflate,
     storage_dtype,
 )
-from .container import put_section, take_section
-from .errors import FormatError
 
 FLAG_MASK, FLAG_CORRECTIONS, FLAG_COEF, FLAG_RESIDUALS = 1, 2, 4, 8
 # Orthonormal coefficient step of the bounded codec's coefficient path, in units of the
@@ -184,8 +184,8 @@ class BoundedCodec:
         return self.step / 32, 15
 
     def _coef_candidate(self, x, clean, mask):
-        from . import sigmap
-        from .entropy import CODERS
+        from ..entropy import CODERS
+        from ..wavelet import sigmap
 
         fine, slack = self._fine()
         if self.integer:
@@ -274,8 +274,8 @@ class BoundedCodec:
         if flags & FLAG_COEF:
             g = _decode_coefficients(inner, tuple(shape), self, self._coef_steps, dead_zone=True)
             if flags & FLAG_RESIDUALS:
-                from . import sigmap
-                from .entropy import CODERS
+                from ..entropy import CODERS
+                from ..wavelet import sigmap
 
                 body, pos = _take(data, pos, len(data))
                 res = np.empty(tuple(shape), np.int64)
@@ -313,9 +313,8 @@ def _code_coefficients(g, codec, steps_of, *, dead_zone: bool):
 
     Returns the coded bytes and the integers the decoder will rebuild from them.
     """
-    from . import sigmap
-    from .entropy import CODERS
-    from .wavelet import dwt3
+    from ..entropy import CODERS
+    from ..wavelet import dwt3, sigmap
 
     levels = dwt3.levels_for_shape(g.shape, codec.max_levels)
     steps = steps_of(g.shape, levels)
@@ -327,9 +326,8 @@ def _code_coefficients(g, codec, steps_of, *, dead_zone: bool):
 
 def _decode_coefficients(body, shape, codec, steps_of, *, dead_zone: bool) -> np.ndarray:
     """The decoding side of :func:`_code_coefficients`."""
-    from . import sigmap
-    from .entropy import CODERS
-    from .wavelet import dwt3
+    from ..entropy import CODERS
+    from ..wavelet import dwt3, sigmap
 
     levels = dwt3.levels_for_shape(shape, codec.max_levels)
     q = np.empty(shape, np.int64)
@@ -338,7 +336,7 @@ def _decode_coefficients(body, shape, codec, steps_of, *, dead_zone: bool) -> np
 
 
 def _rebuild_coefficients(q, steps, levels, wavelet: str, dead_zone: bool) -> np.ndarray:
-    from .wavelet import dwt3
+    from ..wavelet import dwt3
 
     c = _dequantize_coefs(q, steps, dead_zone)
     return dwt3.inverse(c, levels, wavelet, overwrite=True)
@@ -524,7 +522,7 @@ def band_scale(shape: tuple[int, int, int], levels: tuple[int, int, int]) -> np.
     subband reached by ``l`` low and ``h`` high steps over the three axes scales by
     ``2 ** ((l - h) / 2)``.
     """
-    from .sigmap import subbands
+    from ..wavelet.sigmap import subbands
 
     out = np.empty(shape, np.float64)
     for b in subbands(shape, levels):

@@ -12,7 +12,7 @@ from collections.abc import Iterator
 
 import numpy as np
 
-from .errors import FormatError
+from ..errors import FormatError
 
 DEFAULT_BRICK = 64
 # Scan tables index a brick's coefficients with 32-bit integers.

@@ -27,7 +27,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ._jit import kernel
+from .._jit import kernel
 
 ORDERS = ("dfs", "line")
 # Subband classes: 4 per level for the 6 finest levels (by the count of high-pass axes)

@@ -25,7 +25,7 @@ import functools
 
 import numpy as np
 
-from ._jit import kernel
+from .._jit import kernel
 
 PAD = 16  # reflected voxels on each side before the transform (shifts are a few voxels)
 GUARD = 2.0**-32  # relative to the peak value: far above FFT round-off (~1e-15)

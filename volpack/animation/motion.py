@@ -44,8 +44,8 @@ import math
 
 import numpy as np
 
+from .._jit import kernel
 from . import shift
-from ._jit import kernel
 
 BLOCK = 8
 OVERLAP = 2  # 12^3 windows
@@ -522,7 +522,7 @@ class Reference:
 
     @property
     def spectrum(self) -> np.ndarray:
-        """The padded half spectrum that whole-frame shifts read (:mod:`volpack.shift`)."""
+        """The padded half spectrum that whole-frame shifts read (:mod:`volpack.animation.shift`)."""
         if self._spec is None:
             self._spec = shift.spectrum(self.frame)
         return self._spec

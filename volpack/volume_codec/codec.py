@@ -32,7 +32,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from .errors import FormatError
+from ..errors import FormatError
 
 MODE_CODED, MODE_RAW, MODE_CONSTANT, MODE_ZSTD = 0, 1, 2, 3
 PIECEWISE_CONSTANT = 0.5  # share of equal x-neighbours above which mode 3 is tried
@@ -117,7 +117,7 @@ class WaveletCodec:
         return {"id": self.codec_id, **dataclasses.asdict(self)}
 
     def _plan(self, shape: tuple[int, ...], dtype: np.dtype):
-        from .wavelet import dwt3
+        from ..wavelet import dwt3
 
         levels = dwt3.levels_for_shape(shape, self.max_levels)
         info = np.iinfo(dtype)
@@ -125,9 +125,8 @@ class WaveletCodec:
         return levels, work
 
     def encode(self, brick: np.ndarray) -> bytes:
-        from . import sigmap
-        from .entropy import CODERS
-        from .wavelet import dwt3
+        from ..entropy import CODERS
+        from ..wavelet import dwt3, sigmap
 
         brick = np.asarray(brick)
         check_wavelet_dtype(brick.dtype)
@@ -149,9 +148,8 @@ class WaveletCodec:
         return best
 
     def decode(self, data: bytes | memoryview, shape: tuple[int, ...], dtype: Any) -> np.ndarray:
-        from . import sigmap
-        from .entropy import CODERS
-        from .wavelet import dwt3
+        from ..entropy import CODERS
+        from ..wavelet import dwt3, sigmap
 
         dtype = np.dtype(dtype)
         check_wavelet_dtype(dtype)

@@ -1,7 +1,7 @@
 """Play an animation ``.vpk``: decode on the playback schedule, render, write a movie.
 
 The stream is read front to back, in storage order, whether it is a file or a pipe, so
-frames follow the one-decode-per-step schedule of :func:`volpack.gop.play` (two decodes
+frames follow the one-decode-per-step schedule of :func:`volpack.animation.gop.play` (two decodes
 before the first frame, then one per displayed frame) and a truncated or damaged stream
 plays up to the damage and then raises :class:`~volpack.errors.FormatError` naming the
 frame. The transfer function's value range is fixed for the whole animation: the range
@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import FormatError
+from ..errors import FormatError
 
 
 @dataclasses.dataclass
@@ -46,7 +46,7 @@ class _Stream:
 
 def recorded_range(path: str) -> tuple[float, float] | None:
     """The value range in the summary of an intact animation file, else None."""
-    from .container import Reader
+    from ..format.container import Reader
 
     try:
         with Reader(path) as r:
@@ -60,7 +60,7 @@ def recorded_range(path: str) -> tuple[float, float] | None:
 
 def frame_count(path: str) -> int | None:
     """The number of frames the header of ``path`` announces (None if unreadable)."""
-    from .container import Reader
+    from ..format.container import Reader
 
     try:
         with open(path, "rb") as f, Reader(_Stream(f)) as r:
@@ -74,14 +74,14 @@ def play(source: Any) -> Iterator[tuple[np.ndarray, FrameStats, dict]]:
     """Yield ``(frame, stats, header)`` in display order; ``stats.decode_ms`` is the
     decoding done during that step (the first step holds the two start-up decodes)."""
     from . import gop
-    from .animation import AnimationReader, decode_frame, motion
+    from .stream import AnimationReader, decode_frame, motion
 
     own = None
     if isinstance(source, str) and source != "-":
         own = open(source, "rb")  # noqa: SIM115 - closed below
         src = _Stream(own)
     elif source == "-":
-        from .container import stdin
+        from ..format.container import stdin
 
         src = _Stream(stdin())
     else:

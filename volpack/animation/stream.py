@@ -1,8 +1,8 @@
 """Animated volumes: I/P/B frames with windowed 3-D motion compensation in a ``.vpk``.
 
-Encoding walks the frames in storage order (:mod:`volpack.gop`). An I-frame is coded
+Encoding walks the frames in storage order (:mod:`volpack.animation.gop`). An I-frame is coded
 alone by one of volpack's brick codecs; a P-frame is predicted from the previous anchor,
-a B-frame from the previous and next anchors (:mod:`volpack.motion`), and the residual,
+a B-frame from the previous and next anchors (:mod:`volpack.animation.motion`), and the residual,
 frame minus rounded prediction, is coded by the same codecs. Predictions are always made
 from the *decoded* anchors, exactly as the decoder will, so errors do not build up along
 a chain of P-frames; with ``max_error`` the encoder checks every voxel of every decoded
@@ -32,11 +32,13 @@ from typing import Any, BinaryIO
 
 import numpy as np
 
-from . import __version__, bricks, gop, motion, shift
-from ._jit import kernel
-from .container import put_section, take_section
-from .errors import FormatError
-from .volume import Volume
+from .. import __version__
+from .._jit import kernel
+from ..errors import FormatError
+from ..format.container import put_section, take_section
+from ..volume import Volume
+from ..volume_codec import bricks
+from . import gop, motion, shift
 
 log = logging.getLogger(__name__)
 
@@ -158,14 +160,14 @@ class Settings:
 def _field_codec(s: Settings, dtype: np.dtype, lo: float, hi: float, vrange: float):
     """The brick codec for one coded field (a frame or a residual) of ``dtype``."""
     if s.mode == "lossless":
-        from .codec import WaveletCodec
+        from ..volume_codec.codec import WaveletCodec
 
         return WaveletCodec(**s.inner())
     if s.mode == "coef":
-        from .lossy import CoefCodec
+        from ..volume_codec.lossy import CoefCodec
 
         return CoefCodec(value_range=max(vrange, 1.0), quality=int(s.quality), **s.inner())
-    from .lossy import BoundedCodec
+    from ..volume_codec.lossy import BoundedCodec
 
     return BoundedCodec.plan(dtype, lo, hi, s.max_error, **s.inner())
 
@@ -173,7 +175,7 @@ def _field_codec(s: Settings, dtype: np.dtype, lo: float, hi: float, vrange: flo
 def _code_bricks(s: Settings, target: np.ndarray, lo: float, hi: float, vrange: float, brick):
     """Every brick of ``target`` coded by the field codec (length-prefixed sections),
     and the field decoded back."""
-    from .api import encode_measured
+    from ..api import encode_measured
 
     c = _field_codec(s, target.dtype, lo, hi, vrange)
     rec = np.empty(target.shape, target.dtype)
@@ -207,15 +209,15 @@ def _flat_step(s: Settings, dtype: np.dtype) -> float:
 
 
 def _arith_line(values: np.ndarray) -> bytes:
-    from . import sigmap
-    from .entropy import arith
+    from ..entropy import arith
+    from ..wavelet import sigmap
 
     return arith.encode(values, sigmap.scan(values.shape, (0, 0, 0), "line"))
 
 
 def _arith_line_decode(data, shape: tuple[int, ...]) -> np.ndarray:
-    from . import sigmap
-    from .entropy import arith
+    from ..entropy import arith
+    from ..wavelet import sigmap
 
     out = np.empty(shape, np.int64)
     arith.decode(data, sigmap.scan(shape, (0, 0, 0), "line"), out)
@@ -292,7 +294,7 @@ def is_pattern(source: Any) -> bool:
 def open_frames(source: Any, **read_options: Any) -> FrameSource:
     """A :class:`FrameSource` over a ``(t, z, y, x)`` array or Volume (memory-mapped
     arrays stay on disk), a 4-D file, a glob pattern or a list of 3-D files."""
-    from . import io as vio
+    from .. import io as vio
 
     if isinstance(source, FrameSource):
         return source
@@ -565,7 +567,7 @@ def encode_frame(
         flags |= FLAG_CORRECTIONS
         out.reshape(-1)[bad] = x.reshape(-1)[bad]
         err.reshape(-1)[bad] = 0.0
-        from .lossy import pack_corrections
+        from ..volume_codec.lossy import pack_corrections
 
         corr = put_section(pack_corrections(x, bad))
     head = _FRAME_HEAD.pack(TYPE_CODE[kind], flags, lo, hi, vrange, mean_unit)
@@ -661,7 +663,7 @@ def decode_frame(
     out = _combine(pred_int, rec, dtype)
     if flags & FLAG_CORRECTIONS:
         body, pos = take_section(data, pos, "animation frame")
-        from .lossy import apply_corrections
+        from ..volume_codec.lossy import apply_corrections
 
         apply_corrections(body, out, "animation frame")
     if pos != len(data):
@@ -830,12 +832,12 @@ def compress(
     summary also stored in the file: sizes, ratio, max error, PSNR, and per frame the
     type chosen, bytes, error and block modes (``global``: a whole-frame shift). With
     ``whole_frame`` a P/B-frame whose blocks move as one also tries the anchors moved
-    whole through their spectra (:mod:`volpack.shift`). I-frames that anchor predictions
+    whole through their spectra (:mod:`volpack.animation.shift`). I-frames that anchor predictions
     are coded to ``i_max_error`` when given (``max_error`` turns it off); by default to
     :func:`default_i_max_error` where the first GOP segment, coded both ways, says it
     pays (:func:`_tight_pays`).
     """
-    from .container import Writer
+    from ..format.container import Writer
 
     if max_error is not None and quality is not None:
         raise ValueError("expected at most one of max_error and quality")
@@ -1098,7 +1100,7 @@ class AnimationReader:
     (:meth:`frame`), all frames (:meth:`frames`), or the playback schedule (:meth:`play`)."""
 
     def __init__(self, source: Any, *, max_voxels: int = 1 << 34) -> None:
-        from .container import Reader
+        from ..format.container import Reader
 
         self._r = source if isinstance(source, Reader) else Reader(source)
         try:
@@ -1221,7 +1223,7 @@ def decompress(
     """Decode an animation ``.vpk`` (a path, bytes, a file or an open container
     Reader): all frames ``(t, z, y, x)``, or one frame decoding only the anchors it
     needs; ``roi`` crops the decoded frames."""
-    from .api import _parse_roi
+    from ..api import _parse_roi
 
     with AnimationReader(source) as r:
         data = r.frame(frame) if frame is not None else r.frames(progress)
@@ -1233,7 +1235,7 @@ def decompress(
 
 
 def _jsonable(meta: dict) -> dict:
-    from .api import _jsonable as j
+    from ..api import _jsonable as j
 
     return j(meta)
 

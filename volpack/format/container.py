@@ -29,7 +29,7 @@ import zlib
 from collections.abc import Iterator
 from typing import BinaryIO, NamedTuple
 
-from .errors import ChecksumError, FormatError, LimitError
+from ..errors import ChecksumError, FormatError, LimitError
 
 __all__ = [
     "MAGIC",
@@ -271,7 +271,7 @@ class Writer:
         The JSON header (stored with sorted keys, so equal dicts give equal bytes).
     force : bool
         Replace an existing file at ``target`` (otherwise
-        :class:`~volpack.atomic.OutputExistsError`).
+        :class:`~volpack.format.atomic.OutputExistsError`).
     max_header : int
         Refuse a header whose JSON is longer than this many bytes.
 

@@ -23,7 +23,7 @@ from collections.abc import Callable, Iterator
 
 import numpy as np
 
-from .errors import FormatError
+from ..errors import FormatError
 
 TYPES = "IPB"
 ANCHORS = "IP"

@@ -16,8 +16,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from ..errors import FormatError
 from .codec import CODER_NAMES, MODE_CODED, MODE_CONSTANT, _as_stored, _check_choice, _from_stored
-from .errors import FormatError
 
 FLOAT_WAVELETS = {"d4": "db2", "c6": "coif1", "cdf97": "bior4.4"}
 MAX_LEVELS = 6
@@ -50,8 +50,8 @@ class FloatWaveletCodec:
     def encode_measured(self, brick: np.ndarray) -> tuple[bytes, float, float, int]:
         import pywt
 
-        from . import sigmap
-        from .entropy import CODERS
+        from ..entropy import CODERS
+        from ..wavelet import sigmap
 
         x = np.ascontiguousarray(brick)
         if x.dtype.kind == "f" and not np.isfinite(x).all():
@@ -90,8 +90,8 @@ class FloatWaveletCodec:
         return v.astype(dtype)
 
     def decode(self, data: bytes | memoryview, shape: tuple[int, ...], dtype: Any) -> np.ndarray:
-        from . import sigmap
-        from .entropy import CODERS
+        from ..entropy import CODERS
+        from ..wavelet import sigmap
 
         dtype = np.dtype(dtype)
         data = memoryview(data)

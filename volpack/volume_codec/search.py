@@ -1,7 +1,7 @@
 """Choosing a lossy codec for a volume: its value range, and the error bound that meets a
 PSNR or ratio target.
 
-A target is met by searching the error bound of :class:`volpack.lossy.BoundedCodec`:
+A target is met by searching the error bound of :class:`volpack.volume_codec.lossy.BoundedCodec`:
 PSNR falls and ratio rises as the bound grows (not strictly: the bins of a quantiser can
 split a noise floor unevenly), so the search brackets the target geometrically, scoring
 each bound on an evenly spread sample of bricks first and on the whole volume at the
@@ -16,11 +16,11 @@ from typing import Any
 
 import numpy as np
 
+from ..parallel import ordered_map
+from ..volume import Volume
 from . import bricks
 from .floatwave import FLOAT_WAVELETS, FloatWaveletCodec
 from .lossy import BoundedCodec, CoefCodec
-from .parallel import ordered_map
-from .volume import Volume
 
 PSNR_TOL = 0.5  # dB
 RATIO_TOL = 0.05  # relative
