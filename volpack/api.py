@@ -22,7 +22,9 @@ from .errors import FormatError
 from .parallel import ordered_map, parse_workers
 from .volume import Volume
 from .volume_codec import bricks
-from .volume_codec.codec import WAVELET_DTYPES, WaveletCodec, ZstdCodec, get_codec, storage_dtype
+from .volume_codec.codec import WAVELET_DTYPES, WaveletCodec, ZstdCodec
+from .volume_codec.protocol import storage_dtype
+from .volume_codec.registry import get_codec
 
 log = logging.getLogger(__name__)
 

@@ -64,7 +64,7 @@ class Plan:
     def codec(self):
         if self.bounded is None:
             return None
-        from ..volume_codec.codec import get_codec
+        from ..volume_codec.registry import get_codec
 
         return get_codec(dict(self.bounded))
 
@@ -129,12 +129,13 @@ def make_plan(
     value_range: tuple[float, float] | None = None,
 ) -> Plan:
     """Check the options against the volume and fix the work dtype and the quantiser."""
-    from ..volume_codec.codec import CODER_NAMES, ORDER_NAMES, WAVELET_DTYPES, _check_choice
+    from ..volume_codec.codec import CODER_NAMES, ORDER_NAMES, WAVELET_DTYPES, WAVELET_NAMES
+    from ..volume_codec.protocol import check_choice
     from ..wavelet import dwt3
 
-    _check_choice("wavelet", wavelet, ("53", "26", "haar", "97m"))
-    _check_choice("coder", coder, CODER_NAMES)
-    _check_choice("order", order, ORDER_NAMES)
+    check_choice("wavelet", wavelet, WAVELET_NAMES)
+    check_choice("coder", coder, CODER_NAMES)
+    check_choice("order", order, ORDER_NAMES)
     shape = tuple(int(n) for n in shape)
     if len(shape) != 3:
         raise FormatError(f"expected a 3-D (z, y, x) volume for an octree, found shape {shape}")
