@@ -19,6 +19,8 @@ import numpy as np
 
 from . import __version__
 from .errors import FormatError
+from .jsonsafe import jsonable
+from .metrics import psnr_from_sse, throughput
 from .parallel import ordered_map, parse_workers
 from .volume import Volume
 from .volume_codec import bricks
@@ -143,7 +145,7 @@ def compress(
         "origin": list(vol.origin),
         "brick": list(brick_t),
         "codec": c.get_config(),
-        "meta": _jsonable(vol.meta),
+        "meta": jsonable(vol.meta),
     }
     data = vol.data
     frames = data[None] if data.ndim == 3 else data
@@ -186,7 +188,7 @@ def compress(
         "nbytes": nbytes,
         "ratio": vol.nbytes / max(nbytes, 1),
         "seconds": seconds,
-        "mb_per_s": vol.nbytes / 1e6 / max(seconds, 1e-9),
+        "mb_per_s": throughput(vol.nbytes, seconds),
         "bricks": total,
         "workers": nworkers,
         "codec": c.get_config(),
@@ -207,9 +209,7 @@ def measured_quality(c, worst: float, sse: float, nvalid: int) -> dict[str, Any]
     lossless = c.codec_id in ("wavelet", "zstd")
     rng = getattr(c, "value_range", None)
     mse = sse / nvalid if nvalid else 0.0
-    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        peak2 = np.float64(rng or 1.0) ** 2
-        psnr = float("inf") if mse == 0 else float(10 * np.log10(peak2 / mse))
+    psnr = psnr_from_sse(sse, nvalid, rng or 1.0)
     out = {
         "lossless": lossless,
         "max_error": 0.0 if lossless else float(worst),
@@ -414,18 +414,6 @@ def _intersect(brick_sl, region):
         src.append(slice(lo - b.start, hi - b.start))
         dst.append(slice(lo - r.start, hi - r.start))
     return tuple(src), tuple(dst)
-
-
-def _jsonable(meta: dict) -> dict:
-    import json
-
-    try:
-        json.dumps(meta)
-        return meta
-    except TypeError:
-        return json.loads(
-            json.dumps(meta, default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o))
-        )
 
 
 def _stdout():

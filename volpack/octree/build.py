@@ -34,6 +34,7 @@ import numpy as np
 from .. import __version__
 from .._jit import kernel
 from ..errors import FormatError
+from ..metrics import psnr_from_sse, throughput
 from ..parallel import ordered_map, parse_workers
 from . import layout
 from .layout import Geometry
@@ -474,7 +475,7 @@ def build(
     return {
         **summary,
         "seconds": seconds,
-        "mb_per_s": summary["raw_nbytes"] / 1e6 / max(seconds, 1e-9),
+        "mb_per_s": throughput(summary["raw_nbytes"], seconds),
         "tasks": len(tasks),
         "workers": nworkers,
         "executor": "threads" if scheduler is None else "dask",
@@ -554,7 +555,7 @@ def _summary(plan, entries, tables, stats) -> dict[str, Any]:
         "lossless": lossless,
         "max_error": 0.0 if lossless else stats["max_error"],
         "rmse": math.sqrt(mse),
-        "psnr": None if lossless or mse == 0 else 10 * math.log10(max(peak, 1e-300) ** 2 / mse),
+        "psnr": None if lossless or mse == 0 else psnr_from_sse(mse, 1, max(peak, 1e-300)),
         "value_range": [stats["lo"], stats["hi"]],
         "depth": geo.depth,
         "block": plan.block,

@@ -516,7 +516,7 @@ def band_scale(shape: tuple[int, int, int], levels: tuple[int, int, int]) -> np.
     subband reached by ``l`` low and ``h`` high steps over the three axes scales by
     ``2 ** ((l - h) / 2)``.
     """
-    from ..wavelet.sigmap import subbands
+    from ..wavelet.dwt3 import subbands
 
     out = np.empty(shape, np.float64)
     for b in subbands(shape, levels):
@@ -526,8 +526,7 @@ def band_scale(shape: tuple[int, int, int], levels: tuple[int, int, int]) -> np.
                 ex += b.level + (0 if b.bits[a] else 1) - b.bits[a]
             else:
                 ex += levels[a]
-        sl = tuple(slice(s, s + n) for s, n in zip(b.start, b.size))
-        out[sl] = 2.0 ** (ex / 2)
+        out[b.slices] = 2.0 ** (ex / 2)
     out = out.reshape(-1)
     out.flags.writeable = False
     return out
