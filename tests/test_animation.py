@@ -522,7 +522,7 @@ def rigid_chunks(rigid):
 
 
 def test_corrupt_whole_frame_sections_raise_format_errors(rigid, rigid_chunks):
-    from volpack.format.container import put_section, take_section
+    from volpack.format.sections import put_section, take_section
 
     chunks, s, frames, prev, nxt = rigid_chunks
     glob = [t for t, p in chunks.items() if p[1] & animation.FLAG_GLOBAL]

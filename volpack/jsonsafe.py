@@ -1,4 +1,5 @@
-"""Strict JSON for reports: NaN and infinities become null (JSON has no spelling for them)."""
+"""JSON for reports and headers: NaN and infinities become null (JSON has no spelling for
+them); metadata becomes JSON types."""
 
 from __future__ import annotations
 
@@ -14,3 +15,17 @@ def finite_json(o: Any) -> Any:
     if isinstance(o, (list, tuple)):
         return [finite_json(v) for v in o]
     return o
+
+
+def jsonable(meta: dict) -> dict:
+    """``meta`` as JSON types (arrays become lists, anything else unknown its ``str``), for
+    a header; ``meta`` itself when it already is."""
+    import json
+
+    try:
+        json.dumps(meta)
+        return meta
+    except TypeError:
+        return json.loads(
+            json.dumps(meta, default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o))
+        )

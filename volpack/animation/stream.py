@@ -35,7 +35,9 @@ import numpy as np
 from .. import __version__
 from .._jit import kernel
 from ..errors import FormatError
-from ..format.container import put_section, take_section
+from ..format.checked import CheckedReader
+from ..format.sections import put_section, take_section
+from ..jsonsafe import jsonable
 from ..volume import Volume
 from ..volume_codec import bricks
 from . import gop, motion, shift
@@ -175,7 +177,7 @@ def _field_codec(s: Settings, dtype: np.dtype, lo: float, hi: float, vrange: flo
 def _code_bricks(s: Settings, target: np.ndarray, lo: float, hi: float, vrange: float, brick):
     """Every brick of ``target`` coded by the field codec (length-prefixed sections),
     and the field decoded back."""
-    from ..api import encode_measured
+    from ..volume_codec.stream import encode_measured
 
     c = _field_codec(s, target.dtype, lo, hi, vrange)
     rec = np.empty(target.shape, target.dtype)
@@ -821,9 +823,11 @@ def compress(
     b_residual: bool = True,
     whole_frame: bool = True,
     i_max_error: float | None = None,
+    codec: str = "auto",
     force: bool = False,
     progress: Progress | None = None,
-    **read_options: Any,
+    read_options: dict | None = None,
+    **refused: Any,
 ) -> dict[str, Any]:
     """Compress a sequence of volumes (see :func:`open_frames`) as an animation.
 
@@ -839,10 +843,15 @@ def compress(
     """
     from ..format.container import Writer
 
+    _refuse(codec, refused)
     if max_error is not None and quality is not None:
         raise ValueError("expected at most one of max_error and quality")
     mode = "bounded" if max_error is not None else "coef" if quality is not None else "lossless"
-    src = open_frames(source, **read_options)
+    if isinstance(source, str) and isinstance(target, (str, os.PathLike)):
+        from ..format.atomic import check_output
+
+        check_output(target, force=force, inputs=() if is_pattern(source) else (source,))
+    src = open_frames(source, **(read_options or {}))
     types = gop.frame_types(gop_string, src.shape[0])
     trial_i = mode == "bounded" and i_max_error is None
     if trial_i:
@@ -873,7 +882,7 @@ def compress(
         "types": types,
         "codec": s.codec_config(),
         "motion": s.motion_config(),
-        "meta": _jsonable(src.meta),
+        "meta": jsonable(src.meta),
     }
     frame_shape = tuple(src.shape[1:])
     order = gop.storage_order(types)
@@ -957,6 +966,24 @@ def compress(
         "seconds": seconds,
         "mb_per_s": raw / 1e6 / max(seconds, 1e-9),
     }
+
+
+LOSSY_REFUSED = ("rel_error", "psnr", "ratio", "threshold", "fill_value")
+
+
+def _refuse(codec: str | None, refused: dict) -> None:
+    """Animations code frames with the wavelet codecs, lossless, to ``max_error`` or to
+    ``quality``: the volume kind's other settings are refused by name."""
+    unknown = sorted(set(refused) - set(LOSSY_REFUSED))
+    if unknown:
+        raise TypeError(f"compress() of an animation got unexpected options {unknown}")
+    given = [k for k in LOSSY_REFUSED if refused.get(k) is not None]
+    if given:
+        raise ValueError(
+            f"animations take max_error or quality (or neither: lossless); found {given[0]}"
+        )
+    if codec not in (None, "auto", "wavelet"):
+        raise ValueError(f"animations code frames with the wavelet codecs; found codec {codec!r}")
 
 
 def _trial_length(types: str, order: list[int]) -> int:
@@ -1095,19 +1122,12 @@ def frame_rows(summary: dict, planned: str) -> list[dict[str, Any]]:
         raise FormatError(f"animation summary: bad frame columns ({e!r})") from None
 
 
-class AnimationReader:
+class AnimationReader(CheckedReader):
     """Decode frames of an animation ``.vpk``: one frame with only the anchors it needs
     (:meth:`frame`), all frames (:meth:`frames`), or the playback schedule (:meth:`play`)."""
 
     def __init__(self, source: Any, *, max_voxels: int = 1 << 34) -> None:
-        from ..format.container import Reader
-
-        self._r = source if isinstance(source, Reader) else Reader(source)
-        try:
-            self.header = check_header(self._r.header, max_voxels)
-        except BaseException:
-            self._r.close()
-            raise
+        super().__init__(source, check_header, max_voxels)
         h = self.header
         self.shape = tuple(h["shape"])
         self.dtype = np.dtype(h["dtype"]).newbyteorder("=")
@@ -1116,15 +1136,6 @@ class AnimationReader:
         self.settings = Settings.from_header(h)
         self.refs = gop.references(self.types)
         self.decoded = 0  # frames decoded so far (what --frame promises to keep small)
-
-    def close(self) -> None:
-        self._r.close()
-
-    def __enter__(self) -> AnimationReader:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()
 
     @property
     def summary(self) -> dict | None:
@@ -1189,7 +1200,8 @@ class AnimationReader:
         return out
 
 
-def check_header(hdr: dict, max_voxels: int) -> dict:
+def check_header(hdr: dict, max_voxels: int = 1 << 34) -> dict:
+    """Validate an animation header (kind, keys, shape, dtype, frame types); return it."""
     need = ("shape", "dtype", "brick", "types", "codec", "motion", "spacing", "origin")
     if hdr.get("kind") != KIND_ANIMATION or any(k not in hdr for k in need):
         raise FormatError(f"expected an animation header with {need}, found keys {sorted(hdr)}")
@@ -1213,31 +1225,45 @@ def check_header(hdr: dict, max_voxels: int) -> dict:
     return hdr
 
 
+def open(source: Any, *, max_voxels: int = 1 << 34) -> AnimationReader:  # noqa: A001
+    """Open an animation ``.vpk`` (a path, ``'-'``, bytes, a file or a container Reader)."""
+    if isinstance(source, str) and source == "-":
+        from ..format.streams import stdin
+
+        source = stdin()
+    return AnimationReader(source, max_voxels=max_voxels)
+
+
 def decompress(
     source: Any,
     *,
     frame: int | None = None,
     roi: str | tuple[slice, ...] | None = None,
     progress: Progress | None = None,
+    max_voxels: int = 1 << 34,
+    workers: int | None = None,
 ) -> Volume:
     """Decode an animation ``.vpk`` (a path, bytes, a file or an open container
     Reader): all frames ``(t, z, y, x)``, or one frame decoding only the anchors it
-    needs; ``roi`` crops the decoded frames."""
-    from ..api import _parse_roi
+    needs; ``roi`` crops the decoded frames. Frames decode one after another
+    (``workers`` is accepted for the common signature of the stream kinds)."""
+    from ..volume_codec.stream import parse_roi
 
-    with AnimationReader(source) as r:
+    with open(source, max_voxels=max_voxels) as r:
         data = r.frame(frame) if frame is not None else r.frames(progress)
         h = r.header
-    region = _parse_roi(roi, data.shape[-3:])
+    region = parse_roi(roi, data.shape[-3:])
     data = np.ascontiguousarray(data[(..., *region)]) if roi is not None else data
     origin = tuple(o + s.start * d for o, s, d in zip(h["origin"], region, h["spacing"]))
     return Volume(data, spacing=tuple(h["spacing"]), origin=origin, meta=dict(h.get("meta") or {}))
 
 
-def _jsonable(meta: dict) -> dict:
-    from ..api import _jsonable as j
+def info(source: str | BinaryIO) -> dict[str, Any]:
+    """Describe an animation ``.vpk`` as the container sees it (header with the frame
+    types, the summary with its per-frame columns, chunk sizes)."""
+    from ..format.describe import describe
 
-    return j(meta)
+    return describe(source)
 
 
 def _stdout():

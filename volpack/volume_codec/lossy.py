@@ -30,7 +30,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ..errors import FormatError
-from ..format.container import put_section, take_section
+from ..format.sections import put_section, take_section
 from .codec import (
     CODER_NAMES,
     MODE_CODED,
