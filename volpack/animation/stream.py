@@ -38,6 +38,7 @@ from ..errors import FormatError
 from ..format.checked import CheckedReader
 from ..format.sections import put_section, take_section
 from ..jsonsafe import jsonable
+from ..metrics import psnr_from_sse, throughput
 from ..volume import Volume
 from ..volume_codec import bricks
 from . import gop, motion, shift
@@ -964,7 +965,7 @@ def compress(
         **summary,
         "nbytes": nbytes,
         "seconds": seconds,
-        "mb_per_s": raw / 1e6 / max(seconds, 1e-9),
+        "mb_per_s": throughput(raw, seconds),
     }
 
 
@@ -1042,7 +1043,7 @@ def _check_dtype(dtype: np.dtype, s: Settings) -> None:
 def _psnr(sse: float, n: int, peak: float) -> float | None:
     if sse == 0 or n == 0:
         return None
-    return float(10 * np.log10(max(peak, 1e-300) ** 2 / (sse / n)))
+    return psnr_from_sse(sse, n, max(peak, 1e-300))
 
 
 def _summary(rows, src, nbytes, lo, hi, sse_total, s) -> dict[str, Any]:

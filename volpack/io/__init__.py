@@ -27,6 +27,7 @@ import numpy as np
 
 from ..errors import FormatError
 from ..format.streams import stdin
+from ..jsonsafe import jsonable
 from ..volume import Volume
 
 __all__ = ["parse_spec", "detect_format", "read_volume", "write_volume", "read_header"]
@@ -349,23 +350,6 @@ def _origin3(values) -> tuple[float, float, float]:
     return tuple(out)  # type: ignore[return-value]
 
 
-def _jsonable(value: Any) -> Any:
-    """Plain JSON types from numpy scalars/arrays and nested containers."""
-    if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_jsonable(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return _jsonable(value.tolist())
-    if isinstance(value, np.generic):
-        return _jsonable(value.item())
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, (str, int, float, bool)) or value is None:
-        return value
-    return str(value)
-
-
 def _header_dict(fmt, shape, dtype, spacing, origin, meta=None) -> dict[str, Any]:
     d: dict[str, Any] = {
         "format": fmt,
@@ -375,7 +359,7 @@ def _header_dict(fmt, shape, dtype, spacing, origin, meta=None) -> dict[str, Any
         "origin": [float(o) for o in origin],
     }
     if meta:
-        d["meta"] = _jsonable(meta)
+        d["meta"] = jsonable(meta)
     return d
 
 
@@ -409,7 +393,7 @@ def _refuse_float16(vol: Volume, fmt: str) -> None:
 def _meta_json(vol: Volume) -> str | None:
     if not vol.meta:
         return None
-    return json.dumps(_jsonable(vol.meta), sort_keys=True)
+    return json.dumps(jsonable(vol.meta), sort_keys=True)
 
 
 def _meta_from_json(text: Any) -> dict:
@@ -690,7 +674,7 @@ def _nifti_geometry(img) -> tuple[tuple, tuple, dict]:
             found = _meta_from_json(ext.get_content()).get("volpack_meta")
             if isinstance(found, dict):
                 meta.update(found)
-    meta.update(source_format="nifti", nifti_affine=_jsonable(affine))
+    meta.update(source_format="nifti", nifti_affine=jsonable(affine))
     meta.pop("nifti_scl", None)
     meta.pop("nifti_tr", None)
     if len(img.shape) >= 4 and len(zooms) >= 4 and img.shape[3] > 1:
@@ -757,7 +741,7 @@ def _write_nifti(vol: Volume, path: str, force: bool) -> None:
         img.header.set_slope_inter(float(scl[0]), float(scl[1]))
     keep = {k: v for k, v in vol.meta.items() if k not in ("nifti_affine", "nifti_scl", "nifti_tr")}
     if keep:
-        text = json.dumps({"volpack_meta": _jsonable(keep)}, sort_keys=True)
+        text = json.dumps({"volpack_meta": jsonable(keep)}, sort_keys=True)
         img.header.extensions.append(nib.nifti1.Nifti1Extension(_NIFTI_COMMENT, text.encode()))
     suffix = ".nii.gz" if path.lower().endswith(".gz") else ".nii"
     with atomic_path(path, force=force, suffix=suffix) as tmp:
@@ -813,7 +797,7 @@ def _nrrd_geometry(header: dict, path: str) -> tuple[tuple[int, ...], tuple, tup
     meta["source_format"] = "nrrd"
     for key in ("space", "kinds"):
         if key in header:
-            meta[f"nrrd_{key.replace(' ', '_')}"] = _jsonable(header[key])
+            meta[f"nrrd_{key.replace(' ', '_')}"] = jsonable(header[key])
     return shape, spacing, origin, meta
 
 
@@ -1052,7 +1036,7 @@ def _write_tiff(vol: Volume, path: str, force: bool) -> None:
         "origin": list(vol.origin),
     }
     if vol.meta:
-        metadata["volpack_meta"] = _jsonable(vol.meta)
+        metadata["volpack_meta"] = jsonable(vol.meta)
     sy, sx = vol.spacing[1], vol.spacing[2]
     with atomic_path(path, force=force, suffix=".tif") as tmp:
         tifffile.imwrite(

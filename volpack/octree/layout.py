@@ -159,15 +159,13 @@ def decode_payload(data: bytes) -> dict[int, bytes]:
 
 
 def encode_table(rows: np.ndarray) -> bytes:
-    import zstandard
+    from ..format.deflate import deflate
 
-    return zstandard.ZstdCompressor(level=9).compress(
-        np.ascontiguousarray(rows, META_DTYPE).tobytes()
-    )
+    return deflate(np.ascontiguousarray(rows, META_DTYPE).tobytes())
 
 
 def decode_table(data: bytes, count: int) -> np.ndarray:
-    from ..volume_codec.codec import inflate
+    from ..format.deflate import inflate
 
     raw = inflate(
         data, count * META_DTYPE.itemsize, f"octree level table of {count} nodes", exact=True

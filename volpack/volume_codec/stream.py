@@ -26,10 +26,13 @@ from ..format.checked import CheckedReader
 from ..format.describe import describe
 from ..format.streams import stdin
 from ..jsonsafe import jsonable
+from ..metrics import psnr_from_sse, throughput
 from ..parallel import ordered_map, parse_workers
 from ..volume import Volume
 from . import bricks
-from .codec import WAVELET_DTYPES, WaveletCodec, ZstdCodec, get_codec, storage_dtype
+from .codec import WAVELET_DTYPES, WaveletCodec, ZstdCodec
+from .protocol import storage_dtype
+from .registry import get_codec
 
 log = logging.getLogger(__name__)
 
@@ -201,7 +204,7 @@ def compress(
         "nbytes": nbytes,
         "ratio": vol.nbytes / max(nbytes, 1),
         "seconds": seconds,
-        "mb_per_s": vol.nbytes / 1e6 / max(seconds, 1e-9),
+        "mb_per_s": throughput(vol.nbytes, seconds),
         "bricks": total,
         "workers": nworkers,
         "codec": c.get_config(),
@@ -222,9 +225,7 @@ def measured_quality(c, worst: float, sse: float, nvalid: int) -> dict[str, Any]
     lossless = c.codec_id in ("wavelet", "zstd")
     rng = getattr(c, "value_range", None)
     mse = sse / nvalid if nvalid else 0.0
-    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        peak2 = np.float64(rng or 1.0) ** 2
-        psnr = float("inf") if mse == 0 else float(10 * np.log10(peak2 / mse))
+    psnr = psnr_from_sse(sse, nvalid, rng or 1.0)
     out = {
         "lossless": lossless,
         "max_error": 0.0 if lossless else float(worst),
