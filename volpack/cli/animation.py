@@ -90,7 +90,7 @@ def animation_options(f):
 
 def wants_animation(source: str, gop: str | None) -> bool:
     """``--gop`` given, or SOURCE a glob pattern (the same test as
-    :func:`volpack.animation.is_pattern`, without importing the codecs)."""
+    :func:`volpack.animation.frames.is_pattern`, without importing the codecs)."""
     return gop is not None or any(c in source for c in "*?[")
 
 
