@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import FormatError
-from ..format.container import stdin
+from ..format.streams import stdin
 from ..jsonsafe import jsonable
 from ..volume import Volume
 
@@ -170,6 +170,11 @@ def read_volume(
         )
     if not os.path.exists(path):
         raise FormatError(f"expected an existing {fmt} file, found nothing at {path!r}")
+    if fmt == "vpk":  # decoding needs the stream kinds, a layer above this one
+        raise FormatError(
+            f"expected a volume file, found the .vpk {path!r}: read it with "
+            "volpack.read_volume or volpack.decompress"
+        )
     reader = _READERS[fmt]
     with _wrap(fmt, path):
         if fmt == "raw":
@@ -191,7 +196,17 @@ def read_header(spec: str, **raw_options: Any) -> dict[str, Any]:
     path, inner = parse_spec(spec)
     max_voxels = raw_options.get("max_voxels", DEFAULT_MAX_VOXELS)
     fmt = "npy" if path == "-" else detect_format(path)
-    if path == "-" or fmt in ("dicom", "vpk", "tiff-folder"):
+    if fmt == "vpk":
+        from ..format.container import Reader
+
+        with Reader(path) as r:
+            h = r.header
+        try:
+            dtype = np.dtype(h["dtype"]).newbyteorder("=")
+            return _header_dict(fmt, tuple(h["shape"]), dtype, h["spacing"], h["origin"], {})
+        except (KeyError, TypeError, ValueError) as e:
+            raise FormatError(f"expected a volume header in {path!r}, found {e!r}") from None
+    if path == "-" or fmt in ("dicom", "tiff-folder"):
         vol = read_volume(spec, **raw_options)
         return _header_dict(fmt, vol.shape, vol.dtype, vol.spacing, vol.origin, vol.meta)
     if fmt != "raw" and any(raw_options.get(k) for k in ("shape", "dtype", "offset")):
@@ -241,10 +256,10 @@ def write_volume(vol: Volume | np.ndarray, spec: str, *, force: bool = False) ->
         _write_hdf5(vol, path, inner or DEFAULT_H5_DATASET, force)
         return
     if fmt == "vpk":
-        from .. import api
-
-        api.compress(vol, path, force=force)
-        return
+        raise FormatError(
+            f"expected a volume file to write, found the .vpk {path!r}: write it with "
+            "volpack.write_volume or volpack.compress"
+        )
     writer = _WRITERS.get(fmt)
     if writer is None or (fmt == "nifti" and not path.lower().endswith((".nii", ".nii.gz"))):
         raise FormatError(
@@ -1184,15 +1199,6 @@ def _smallest_int(lo: int, hi: int) -> np.dtype:
     return np.dtype(np.int64)
 
 
-# -- .vpk ------------------------------------------------------------------------------
-
-
-def _read_vpk(path: str, max_voxels: int) -> Volume:
-    from .. import api
-
-    return api.decompress(path, max_voxels=max_voxels)
-
-
 _READERS = {
     "npy": _read_npy,
     "raw": _read_raw,
@@ -1203,7 +1209,6 @@ _READERS = {
     "tiff": _read_tiff,
     "tiff-folder": _read_tiff_folder,
     "dicom": _read_dicom,
-    "vpk": _read_vpk,
 }
 _HEADERS = {
     "npy": _npy_header,
