@@ -77,6 +77,10 @@ Non-finite voxels (NaN, +-Inf) are empty: they are replaced before sampling by a
 whose table entry is transparent (the data minimum when that is transparent, else the
 value in range nearest to it that is); when no value is transparent they take the data
 minimum and a warning is logged.
+
+It stays one file of about 1,050 lines on purpose: the three classification modes,
+shading and empty-space skipping are branches of one march kernel and its inline
+sampling kernels, kept beside the public :func:`render` that sets them up.
 """
 
 from __future__ import annotations
