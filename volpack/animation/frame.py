@@ -24,6 +24,7 @@ from ..volume_codec import bricks
 from . import motion, shift
 from .settings import Settings
 
+# Frame type codes and flag bits (formats/animation-1.md, "Frame payload").
 TYPE_CODE = {"I": 0, "P": 1, "B": 2}
 FLAG_RESIDUAL, FLAG_CORRECTIONS, FLAG_FLAT, FLAG_GLOBAL, FLAG_I_BOUND = 1, 2, 4, 0x40, 0x80
 SMOOTH_SHIFT, SMOOTH_MASK = 3, 0x38  # flag bits 3-5: index into motion.SMOOTHING
@@ -53,14 +54,12 @@ def _field_codec(s: Settings, dtype: np.dtype, lo: float, hi: float, vrange: flo
 def _code_bricks(s: Settings, target: np.ndarray, lo: float, hi: float, vrange: float, brick):
     """Every brick of ``target`` coded by the field codec (length-prefixed sections),
     and the field decoded back."""
-    from ..volume_codec.stream import encode_measured
-
     c = _field_codec(s, target.dtype, lo, hi, vrange)
     rec = np.empty(target.shape, target.dtype)
     bodies = []
     for _, sl in bricks.iter_bricks(target.shape, brick):
         b = np.ascontiguousarray(target[sl])
-        payload = encode_measured(c, b)[0]
+        payload = c.encode_measured(b).payload
         bodies.append(put_section(payload))
         rec[sl] = c.decode(payload, b.shape, target.dtype)
     return bodies, rec

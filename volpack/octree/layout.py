@@ -26,12 +26,13 @@ from ..format.sections import put_section, take_section
 
 KIND = "octree"
 DEFAULT_BLOCK = 16
+# Level tables live at node 0xFF << 56 | L (formats/octree-1.md, "Node tables").
 META_TAG = 0xFF
 LEVEL_SHIFT = 56
 HIST_BINS = 8
-# node flags in the level table
+# node flags in the level table (formats/octree-1.md, "Node tables")
 PRESENT, SUBTREE_ZERO = 1, 2
-# payload section flags
+# payload section flags (formats/octree-1.md, "Chunks")
 HAS_DETAILS, HAS_LOWPASS, HAS_CORRECTIONS = 1, 2, 4
 
 META_DTYPE = np.dtype(

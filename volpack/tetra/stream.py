@@ -57,6 +57,7 @@ log = logging.getLogger(__name__)
 KIND_MESH = "mesh"
 KIND = KIND_MESH
 FORMAT = "mesh-1"
+# Chunk nodes (formats/mesh-1.md, section 2).
 NODE_CONNECTIVITY, NODE_GEOMETRY, NODE_ORDER, NODE_FIELDS = 0, 1, 2, 3
 DEFAULT_MAX_TETS = 1 << 27
 PERMS = np.array(list(itertools.permutations(range(4))), dtype=np.int64)  # 24 row orders

@@ -44,6 +44,7 @@ from .protocol import (
     storage_dtype,
 )
 
+# The payload's first byte (formats/wavelet-1.md, section 1).
 MODE_CODED, MODE_RAW, MODE_CONSTANT, MODE_ZSTD = 0, 1, 2, 3
 PIECEWISE_CONSTANT = 0.5  # share of equal x-neighbours above which mode 3 is tried
 

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..errors import FormatError
 from .codec import CODER_NAMES, MODE_CODED, MODE_CONSTANT
-from .protocol import BrickCodec, check_choice, constant_value, from_stored
+from .protocol import BrickCodec, Measured, check_choice, constant_value, from_stored
 
 FLOAT_WAVELETS = {"d4": "db2", "c6": "coif1", "cdf97": "bior4.4"}
 MAX_LEVELS = 6
@@ -45,7 +45,7 @@ class FloatWaveletCodec(BrickCodec):
             return self.value_range / (int(self.quality) + 1)
         return float(self.step)
 
-    def encode_measured(self, brick: np.ndarray) -> tuple[bytes, float, float, int]:
+    def encode_measured(self, brick: np.ndarray) -> Measured:
         import pywt
 
         from ..entropy import CODERS
@@ -56,7 +56,7 @@ class FloatWaveletCodec(BrickCodec):
             raise ValueError("float wavelets take finite voxels; use --max-error for NaN/Inf")
         value = constant_value(x)
         if value is not None:
-            return bytes([MODE_CONSTANT]) + value, 0.0, 0.0, x.size
+            return Measured(bytes([MODE_CONSTANT]) + value, 0.0, 0.0, x.size)
         arr, _ = _layout(x.shape, self.wavelet)
         coeffs = pywt.wavedecn(
             x.astype(np.float64),
@@ -70,7 +70,7 @@ class FloatWaveletCodec(BrickCodec):
         body = CODERS[self.coder].encode(q, sigmap.scan(q.shape, (0, 0, 0), "line"))
         rec = self._rebuild(q, x.shape, x.dtype)
         err = np.abs(rec.astype(np.float64) - x)
-        return bytes([MODE_CODED]) + body, float(err.max()), float(np.sum(err * err)), x.size
+        return Measured(bytes([MODE_CODED]) + body, float(err.max()), float(np.sum(err * err)), x.size)
 
     def encode(self, brick: np.ndarray) -> bytes:
         return self.encode_measured(brick)[0]

@@ -43,6 +43,7 @@ from .codec import (
 )
 from .protocol import (
     BrickCodec,
+    Measured,
     as_stored,
     check_choice,
     constant_value,
@@ -50,6 +51,7 @@ from .protocol import (
     storage_dtype,
 )
 
+# The bounded payload's flag byte (formats/lossy-1.md, `bounded`).
 FLAG_MASK, FLAG_CORRECTIONS, FLAG_COEF, FLAG_RESIDUALS = 1, 2, 4, 8
 # Orthonormal coefficient step of the bounded codec's coefficient path, in units of the
 # error allowed on its grid (measured best on the head CT and the z-map).
@@ -154,7 +156,7 @@ class BoundedCodec(BrickCodec):
             m |= x == self.fill
         return m if m.any() else None
 
-    def encode_measured(self, brick: np.ndarray) -> tuple[bytes, float, float, int]:
+    def encode_measured(self, brick: np.ndarray) -> Measured:
         """Return ``(payload, max error, squared error sum, valid voxels)``.
 
         Two codings are made and the shorter kept: the quantised voxels coded losslessly
@@ -254,7 +256,7 @@ class BoundedCodec(BrickCodec):
         valid = x.size - (int(mask.sum()) if mask is not None else 0)
         with np.errstate(over="ignore"):  # errors near 1e300 square to inf: PSNR unknown
             sse = float(np.sum(err * err))
-        return b"".join(parts), float(err.max(initial=0.0)), sse, valid
+        return Measured(b"".join(parts), float(err.max(initial=0.0)), sse, valid)
 
     def encode(self, brick: np.ndarray) -> bytes:
         return self.encode_measured(brick)[0]
@@ -441,22 +443,22 @@ class CoefCodec(BrickCodec):
     def _dead_zone(self) -> bool:
         return self.threshold is None
 
-    def encode_measured(self, brick: np.ndarray) -> tuple[bytes, float, float, int]:
+    def encode_measured(self, brick: np.ndarray) -> Measured:
         from .codec import check_wavelet_dtype
 
         x = np.ascontiguousarray(brick)
         check_wavelet_dtype(x.dtype)
         value = constant_value(x)
         if value is not None:
-            return bytes([MODE_CONSTANT]) + value, 0.0, 0.0, x.size
+            return Measured(bytes([MODE_CONSTANT]) + value, 0.0, 0.0, x.size)
         body, rec = _code_coefficients(
             x.astype(np.int64), self, self._steps, dead_zone=self._dead_zone
         )
         payload = bytes([MODE_CODED]) + body
         if len(payload) > x.nbytes + 1:  # quantisation did not pay: store it exactly
-            return bytes([MODE_RAW]) + as_stored(x), 0.0, 0.0, x.size
+            return Measured(bytes([MODE_RAW]) + as_stored(x), 0.0, 0.0, x.size)
         err = np.abs(_clip_to(rec, x.dtype).astype(np.float64) - x)
-        return payload, float(err.max(initial=0.0)), float(np.sum(err * err)), x.size
+        return Measured(payload, float(err.max(initial=0.0)), float(np.sum(err * err)), x.size)
 
     def encode(self, brick: np.ndarray) -> bytes:
         return self.encode_measured(brick)[0]
@@ -486,6 +488,7 @@ def _clip_to(v: np.ndarray, dtype: np.dtype) -> np.ndarray:
 # side (a plain rounder's reaches 0.5), values rebuilt 1/8 step above the bin's start.
 # At ``step`` = 1 it gives back every integer exactly, so rate and error change smoothly
 # as the step crosses 1 (steps at or below 1 keep the coefficient).
+# The coefficient quantiser (formats/lossy-1.md, `coef`).
 DEAD_ZONE_OFFSET = 0.25
 REBUILD_OFFSET = 0.125
 

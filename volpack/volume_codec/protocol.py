@@ -13,11 +13,20 @@ from __future__ import annotations
 import dataclasses
 import json
 from collections.abc import Mapping
-from typing import Any, ClassVar
+from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
 
 from ..errors import FormatError
+
+
+class Measured(NamedTuple):
+    """A coded brick and the accuracy the encoder checked on every voxel."""
+
+    payload: bytes
+    max_error: float
+    sse: float  # sum of squared errors over the valid voxels
+    nvalid: int  # voxels that are not NaN, Inf or the fill value
 
 
 class BrickCodec:
@@ -27,6 +36,11 @@ class BrickCodec:
 
     def encode(self, brick: np.ndarray) -> bytes:
         raise NotImplementedError
+
+    def encode_measured(self, brick: np.ndarray) -> Measured:
+        """The payload and its accuracy; lossless codecs are exact on every voxel (lossy
+        codecs override this and measure)."""
+        return Measured(self.encode(brick), 0.0, 0.0, int(np.asarray(brick).size))
 
     def decode(self, data: bytes | memoryview, shape: tuple[int, ...], dtype: Any) -> np.ndarray:
         raise NotImplementedError

@@ -175,7 +175,7 @@ def compress(
 
     def encode(task):
         t, node, sl = task
-        return (t, node, *encode_measured(c, np.ascontiguousarray(frames[(t, *sl)])))
+        return (t, node, *c.encode_measured(np.ascontiguousarray(frames[(t, *sl)])))
 
     t0 = time.perf_counter()
     nbytes = 0
@@ -211,13 +211,6 @@ def compress(
         **quality_stats,
         **({"search": search} if search is not None else {}),
     }
-
-
-def encode_measured(c, brick: np.ndarray) -> tuple[bytes, float, float, int]:
-    """``(payload, max error, squared error sum, valid voxels)`` of one brick."""
-    if hasattr(c, "encode_measured"):
-        return c.encode_measured(brick)
-    return c.encode(brick), 0.0, 0.0, brick.size
 
 
 def measured_quality(c, worst: float, sse: float, nvalid: int) -> dict[str, Any]:
