@@ -791,7 +791,7 @@ def render(
     # tables
     mode = MODES[classification]
     has_vol = tf is not None
-    base = _tf_table(tf, lo, hi, n) if has_vol else np.zeros((n, 4), np.float32)
+    base = transfer_table(tf, lo, hi, n) if has_vol else np.zeros((n, 4), np.float32)
     post_tab = _corrected_table(base, step)
     pre2d = np.zeros((1, 1, 4), np.float32)
     if has_vol and mode == 2:
@@ -922,7 +922,7 @@ def _unpack(volume, spacing):
     return data, (None if mask is None else np.asarray(mask, bool)), sp
 
 
-def _tf_table(tf, lo, hi, n) -> np.ndarray:
+def transfer_table(tf, lo, hi, n) -> np.ndarray:
     if hasattr(tf, "table"):
         tab = tf.table(lo, hi, n)
     else:

@@ -34,8 +34,7 @@ import math
 import numpy as np
 
 from .._jit import kernel, leading_zeros
-from ..entropy.arith import PROB_BITS
-from ..entropy.rangecoder import get_decision, get_raw, put_decision, put_raw
+from ..entropy.rangecoder import PROB_BITS, get_decision, get_raw, put_decision, put_raw
 from .mesh import HUB, PARITY, bucket_faces
 
 # Adaptation rate by use count: as the wavelet coder's early on, but settling at 1/64:
