@@ -76,6 +76,9 @@ def main(ctx: click.Context, verbose: int, quiet: bool, debug: bool) -> None:
     """
     ctx.ensure_object(dict)
     ctx.obj.update(quiet=quiet, debug=debug, verbose=verbose)
+    from .notices import install
+
+    install(ctx, quiet)
     level = logging.WARNING - 10 * min(verbose, 2)
     logging.basicConfig(
         level=level, format="volpack: %(levelname)s: %(message)s", stream=sys.stderr

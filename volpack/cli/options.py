@@ -68,10 +68,19 @@ def read_kwargs(raw_shape: str | None, raw_dtype: str | None, byteorder: str, of
 
 @contextlib.contextmanager
 def progress_bar(ctx: click.Context, desc: str, unit: str = "brick") -> Iterator:
-    """Yield a ``progress(done, total)`` callback drawing a tqdm bar on a terminal."""
-    quiet = bool(ctx.find_root().obj.get("quiet")) if ctx.find_root().obj else False
+    """Yield a ``progress(done, total)`` callback: a tqdm bar on a terminal, else lines
+    every few seconds (:mod:`.notices`)."""
+    obj = ctx.find_root().obj or {}
+    quiet = bool(obj.get("quiet"))
+    notices = obj.get("notices")
     if quiet or not sys.stderr.isatty():
-        yield None
+        if notices is None or quiet:
+            yield None
+            return
+        try:  # no bar: a line every few seconds instead
+            yield notices.task(desc, unit)
+        finally:
+            notices.end_task()
         return
     from tqdm import tqdm
 
