@@ -19,10 +19,14 @@ import numpy as np
 
 from . import __version__
 from .errors import FormatError
+from .jsonsafe import jsonable
+from .metrics import psnr_from_sse, throughput
 from .parallel import ordered_map, parse_workers
 from .volume import Volume
 from .volume_codec import bricks
-from .volume_codec.codec import WAVELET_DTYPES, WaveletCodec, ZstdCodec, get_codec, storage_dtype
+from .volume_codec.codec import WAVELET_DTYPES, WaveletCodec, ZstdCodec
+from .volume_codec.protocol import storage_dtype
+from .volume_codec.registry import get_codec
 
 log = logging.getLogger(__name__)
 
@@ -141,7 +145,7 @@ def compress(
         "origin": list(vol.origin),
         "brick": list(brick_t),
         "codec": c.get_config(),
-        "meta": _jsonable(vol.meta),
+        "meta": jsonable(vol.meta),
     }
     data = vol.data
     frames = data[None] if data.ndim == 3 else data
@@ -154,7 +158,7 @@ def compress(
 
     def encode(task):
         t, node, sl = task
-        return (t, node, *encode_measured(c, np.ascontiguousarray(frames[(t, *sl)])))
+        return (t, node, *c.encode_measured(np.ascontiguousarray(frames[(t, *sl)])))
 
     t0 = time.perf_counter()
     nbytes = 0
@@ -184,7 +188,7 @@ def compress(
         "nbytes": nbytes,
         "ratio": vol.nbytes / max(nbytes, 1),
         "seconds": seconds,
-        "mb_per_s": vol.nbytes / 1e6 / max(seconds, 1e-9),
+        "mb_per_s": throughput(vol.nbytes, seconds),
         "bricks": total,
         "workers": nworkers,
         "codec": c.get_config(),
@@ -193,21 +197,12 @@ def compress(
     }
 
 
-def encode_measured(c, brick: np.ndarray) -> tuple[bytes, float, float, int]:
-    """``(payload, max error, squared error sum, valid voxels)`` of one brick."""
-    if hasattr(c, "encode_measured"):
-        return c.encode_measured(brick)
-    return c.encode(brick), 0.0, 0.0, brick.size
-
-
 def measured_quality(c, worst: float, sse: float, nvalid: int) -> dict[str, Any]:
     """The summary's accuracy fields: lossless or not, max error, RMSE and PSNR."""
     lossless = c.codec_id in ("wavelet", "zstd")
     rng = getattr(c, "value_range", None)
     mse = sse / nvalid if nvalid else 0.0
-    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        peak2 = np.float64(rng or 1.0) ** 2
-        psnr = float("inf") if mse == 0 else float(10 * np.log10(peak2 / mse))
+    psnr = psnr_from_sse(sse, nvalid, rng or 1.0)
     out = {
         "lossless": lossless,
         "max_error": 0.0 if lossless else float(worst),
@@ -412,18 +407,6 @@ def _intersect(brick_sl, region):
         src.append(slice(lo - b.start, hi - b.start))
         dst.append(slice(lo - r.start, hi - r.start))
     return tuple(src), tuple(dst)
-
-
-def _jsonable(meta: dict) -> dict:
-    import json
-
-    try:
-        json.dumps(meta)
-        return meta
-    except TypeError:
-        return json.loads(
-            json.dumps(meta, default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o))
-        )
 
 
 def _stdout():

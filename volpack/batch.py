@@ -49,6 +49,7 @@ import glob
 import hashlib
 import json
 import logging
+import math
 import os
 import tempfile
 import time
@@ -56,7 +57,8 @@ from collections.abc import Callable, Iterable, Sequence
 from typing import Any
 
 from .errors import VolpackError
-from .jsonsafe import finite_json
+from .jsonsafe import jsonable
+from .metrics import psnr_from_sse, throughput
 
 log = logging.getLogger(__name__)
 
@@ -471,10 +473,8 @@ def compare(a, b, stats: dict, block: int = 1 << 22) -> tuple[float | None, floa
     bound = stats.get("error_bound")
     if bound is not None and worst > bound * (1 + 1e-12):
         raise VerifyError(f"expected every voxel within {bound:g}, found an error of {worst:g}")
-    mse = sse / n if n else 0.0
-    peak = (hi - lo) if n and hi > lo else 1.0
-    psnr = None if mse == 0 else float(10 * np.log10(peak * peak / mse))
-    return worst, psnr
+    psnr = psnr_from_sse(sse, n, (hi - lo) if n and hi > lo else 1.0)
+    return worst, None if psnr == math.inf else psnr
 
 
 def input_stat(spec: str) -> dict[str, int]:
@@ -568,7 +568,7 @@ class Journal:
             self._f = open(self.path, "a", encoding="utf-8")  # noqa: SIM115 - closed in close()
         line = {"output": self.key(rec["output"]), "time": time.time()}
         line.update({k: rec.get(k) for k in self.FIELDS})
-        self._f.write(json.dumps(finite_json(line), sort_keys=True) + "\n")
+        self._f.write(json.dumps(jsonable(line), sort_keys=True) + "\n")
         self._f.flush()
         os.fsync(self._f.fileno())
 
@@ -769,7 +769,7 @@ def totals(files: list[dict], seconds: float) -> dict[str, Any]:
         "ratio": raw / packed if packed else None,
         "seconds": seconds,
         "files_per_s": count.get("ok", 0) / max(seconds, 1e-9),
-        "mb_per_s": done_raw / 1e6 / max(seconds, 1e-9),
+        "mb_per_s": throughput(done_raw, seconds),
     }
 
 
@@ -906,4 +906,4 @@ def write_report(report: dict, path: str) -> None:
     from .format.atomic import atomic_open
 
     with atomic_open(path, force=True) as f:
-        f.write(json.dumps(finite_json(report), indent=2, sort_keys=True, allow_nan=False).encode())
+        f.write(json.dumps(jsonable(report), indent=2, sort_keys=True, allow_nan=False).encode())

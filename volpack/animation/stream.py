@@ -36,6 +36,8 @@ from .. import __version__
 from .._jit import kernel
 from ..errors import FormatError
 from ..format.container import put_section, take_section
+from ..jsonsafe import jsonable
+from ..metrics import psnr_from_sse, throughput
 from ..volume import Volume
 from ..volume_codec import bricks
 from . import gop, motion, shift
@@ -43,6 +45,7 @@ from . import gop, motion, shift
 log = logging.getLogger(__name__)
 
 KIND_ANIMATION = "animation"
+# Frame type codes and flag bits (formats/animation-1.md, "Frame payload").
 TYPE_CODE = {"I": 0, "P": 1, "B": 2}
 FLAG_RESIDUAL, FLAG_CORRECTIONS, FLAG_FLAT, FLAG_GLOBAL, FLAG_I_BOUND = 1, 2, 4, 0x40, 0x80
 SMOOTH_SHIFT, SMOOTH_MASK = 3, 0x38  # flag bits 3-5: index into motion.SMOOTHING
@@ -175,14 +178,12 @@ def _field_codec(s: Settings, dtype: np.dtype, lo: float, hi: float, vrange: flo
 def _code_bricks(s: Settings, target: np.ndarray, lo: float, hi: float, vrange: float, brick):
     """Every brick of ``target`` coded by the field codec (length-prefixed sections),
     and the field decoded back."""
-    from ..api import encode_measured
-
     c = _field_codec(s, target.dtype, lo, hi, vrange)
     rec = np.empty(target.shape, target.dtype)
     bodies = []
     for _, sl in bricks.iter_bricks(target.shape, brick):
         b = np.ascontiguousarray(target[sl])
-        payload = encode_measured(c, b)[0]
+        payload = c.encode_measured(b).payload
         bodies.append(put_section(payload))
         rec[sl] = c.decode(payload, b.shape, target.dtype)
     return bodies, rec
@@ -873,7 +874,7 @@ def compress(
         "types": types,
         "codec": s.codec_config(),
         "motion": s.motion_config(),
-        "meta": _jsonable(src.meta),
+        "meta": jsonable(src.meta),
     }
     frame_shape = tuple(src.shape[1:])
     order = gop.storage_order(types)
@@ -955,7 +956,7 @@ def compress(
         **summary,
         "nbytes": nbytes,
         "seconds": seconds,
-        "mb_per_s": raw / 1e6 / max(seconds, 1e-9),
+        "mb_per_s": throughput(raw, seconds),
     }
 
 
@@ -1015,7 +1016,7 @@ def _check_dtype(dtype: np.dtype, s: Settings) -> None:
 def _psnr(sse: float, n: int, peak: float) -> float | None:
     if sse == 0 or n == 0:
         return None
-    return float(10 * np.log10(max(peak, 1e-300) ** 2 / (sse / n)))
+    return psnr_from_sse(sse, n, max(peak, 1e-300))
 
 
 def _summary(rows, src, nbytes, lo, hi, sse_total, s) -> dict[str, Any]:
@@ -1232,12 +1233,6 @@ def decompress(
     data = np.ascontiguousarray(data[(..., *region)]) if roi is not None else data
     origin = tuple(o + s.start * d for o, s, d in zip(h["origin"], region, h["spacing"]))
     return Volume(data, spacing=tuple(h["spacing"]), origin=origin, meta=dict(h.get("meta") or {}))
-
-
-def _jsonable(meta: dict) -> dict:
-    from ..api import _jsonable as j
-
-    return j(meta)
 
 
 def _stdout():

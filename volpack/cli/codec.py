@@ -327,6 +327,7 @@ def decompress(
     from .. import api
     from .. import io as vio
     from ..format.atomic import check_output
+    from ..metrics import throughput
 
     check_output(vio.parse_spec(target)[0], force=force, inputs=(source,))
     t0 = time.perf_counter()
@@ -339,7 +340,7 @@ def decompress(
         "shape": list(vol.shape),
         "dtype": str(vol.dtype),
         "seconds": seconds,
-        "mb_per_s": vol.nbytes / 1e6 / max(seconds, 1e-9),
+        "mb_per_s": throughput(vol.nbytes, seconds),
     }
     if as_json:
         emit_json(stats)

@@ -9,7 +9,7 @@ from collections.abc import Iterator
 
 import click
 
-from ..jsonsafe import finite_json
+from ..jsonsafe import jsonable
 
 force_option = click.option("-f", "--force", is_flag=True, help="Replace an existing output file.")
 json_option = click.option(
@@ -101,14 +101,8 @@ def progress_bar(ctx: click.Context, desc: str, unit: str = "brick") -> Iterator
 def emit_json(obj) -> None:
     """Print ``obj`` as strict JSON (infinite or NaN numbers become null)."""
     click.echo(
-        json.dumps(finite_json(obj), indent=2, sort_keys=True, default=_default, allow_nan=False)
+        json.dumps(jsonable(obj), indent=2, sort_keys=True, allow_nan=False)
     )
-
-
-def _default(o):
-    if hasattr(o, "tolist"):
-        return o.tolist()
-    return str(o)
 
 
 def fmt_bytes(n: float) -> str:

@@ -42,6 +42,7 @@ __all__ = [
 
 MAGIC = b"VPK\x00\r\n\x1a\n"
 """First 8 bytes of every ``.vpk`` file (the CR LF / ^Z bytes catch text-mode mangling)."""
+# Format version and record tags (formats/vpk-1.md, section 3).
 VERSION = 1
 RECORD_MAGIC = b"CHNK"
 INDEX_MAGIC = b"VIDX"

@@ -13,6 +13,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from ..errors import FormatError, VolpackError
+from ..jsonsafe import jsonable
 from ..volume import Volume
 
 DEFAULT_MAX_VOXELS = 1 << 34
@@ -101,23 +102,6 @@ def origin3(values) -> tuple[float, float, float]:
     while len(out) < 3:
         out.insert(0, 0.0)
     return tuple(out)  # type: ignore[return-value]
-
-
-def jsonable(value: Any) -> Any:
-    """Plain JSON types from numpy scalars/arrays and nested containers."""
-    if isinstance(value, dict):
-        return {str(k): jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [jsonable(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return jsonable(value.tolist())
-    if isinstance(value, np.generic):
-        return jsonable(value.item())
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, (str, int, float, bool)) or value is None:
-        return value
-    return str(value)
 
 
 def header_dict(fmt, shape, dtype, spacing, origin, meta=None) -> dict[str, Any]:

@@ -8,13 +8,13 @@ from typing import Any
 import numpy as np
 
 from ..errors import FormatError
+from ..jsonsafe import jsonable
 from ..volume import Volume
 from .common import (
     ReadOptions,
     as_volume_array,
     check_voxels,
     header_dict,
-    jsonable,
     meta_from_json,
     meta_json,
     native,

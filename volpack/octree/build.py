@@ -34,6 +34,7 @@ import numpy as np
 from .. import __version__
 from .._jit import kernel
 from ..errors import FormatError
+from ..metrics import psnr_from_sse, throughput
 from ..parallel import ordered_map, parse_workers
 from . import layout
 from .layout import Geometry
@@ -64,7 +65,7 @@ class Plan:
     def codec(self):
         if self.bounded is None:
             return None
-        from ..volume_codec.codec import get_codec
+        from ..volume_codec.registry import get_codec
 
         return get_codec(dict(self.bounded))
 
@@ -129,12 +130,13 @@ def make_plan(
     value_range: tuple[float, float] | None = None,
 ) -> Plan:
     """Check the options against the volume and fix the work dtype and the quantiser."""
-    from ..volume_codec.codec import CODER_NAMES, ORDER_NAMES, WAVELET_DTYPES, _check_choice
+    from ..volume_codec.codec import CODER_NAMES, ORDER_NAMES, WAVELET_DTYPES, WAVELET_NAMES
+    from ..volume_codec.protocol import check_choice
     from ..wavelet import dwt3
 
-    _check_choice("wavelet", wavelet, ("53", "26", "haar", "97m"))
-    _check_choice("coder", coder, CODER_NAMES)
-    _check_choice("order", order, ORDER_NAMES)
+    check_choice("wavelet", wavelet, WAVELET_NAMES)
+    check_choice("coder", coder, CODER_NAMES)
+    check_choice("order", order, ORDER_NAMES)
     shape = tuple(int(n) for n in shape)
     if len(shape) != 3:
         raise FormatError(f"expected a 3-D (z, y, x) volume for an octree, found shape {shape}")
@@ -473,7 +475,7 @@ def build(
     return {
         **summary,
         "seconds": seconds,
-        "mb_per_s": summary["raw_nbytes"] / 1e6 / max(seconds, 1e-9),
+        "mb_per_s": throughput(summary["raw_nbytes"], seconds),
         "tasks": len(tasks),
         "workers": nworkers,
         "executor": "threads" if scheduler is None else "dask",
@@ -553,7 +555,7 @@ def _summary(plan, entries, tables, stats) -> dict[str, Any]:
         "lossless": lossless,
         "max_error": 0.0 if lossless else stats["max_error"],
         "rmse": math.sqrt(mse),
-        "psnr": None if lossless or mse == 0 else 10 * math.log10(max(peak, 1e-300) ** 2 / mse),
+        "psnr": None if lossless or mse == 0 else psnr_from_sse(mse, 1, max(peak, 1e-300)),
         "value_range": [stats["lo"], stats["hi"]],
         "depth": geo.depth,
         "block": plan.block,

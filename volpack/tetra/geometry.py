@@ -216,16 +216,16 @@ def decode_geometry(data: bytes, meta: dict, tets: np.ndarray, nv: int) -> np.nd
 
 def _encode_xor(pts: np.ndarray) -> bytes:
     """Each vertex's bit patterns XOR the previous vertex's, then zstd."""
-    import zstandard
+    from ..format.deflate import deflate
 
     bits = pts.view(f"<u{pts.itemsize}")
     x = bits.copy()
     x[1:] ^= bits[:-1]
-    return zstandard.ZstdCompressor(level=9).compress(x.tobytes())
+    return deflate(x.tobytes())
 
 
 def _decode_xor(data: bytes, dtype: np.dtype, nv: int) -> np.ndarray:
-    from ..volume_codec.codec import inflate
+    from ..format.deflate import inflate
 
     raw = inflate(data, nv * 3 * dtype.itemsize, "geometry stream", exact=True)
     x = np.frombuffer(raw, dtype=f"<u{dtype.itemsize}").reshape(nv, 3)

@@ -43,6 +43,7 @@ log = logging.getLogger(__name__)
 
 KIND_MESH = "mesh"
 FORMAT = "mesh-1"
+# Chunk nodes (formats/mesh-1.md, section 2).
 NODE_CONNECTIVITY, NODE_GEOMETRY, NODE_ORDER, NODE_FIELDS = 0, 1, 2, 3
 DEFAULT_MAX_TETS = 1 << 27
 PERMS = np.array(list(itertools.permutations(range(4))), dtype=np.int64)  # 24 row orders
@@ -384,7 +385,7 @@ def _encode_order(tets: np.ndarray, trav, sorted_rows: bool = False) -> bytes:
     """Vertex order, tet order and each row's vertex order (an index into PERMS), zstd'd.
 
     Ascending rows need no row order: the decoder sorts them."""
-    import zstandard
+    from ..format.deflate import deflate
 
     vorder = np.asarray(trav.vertex_order, dtype=np.int64)
     torder = np.asarray(trav.tet_order, dtype=np.int64)
@@ -400,13 +401,13 @@ def _encode_order(tets: np.ndarray, trav, sorted_rows: bool = False) -> bytes:
         if (perm < 0).any():
             raise AssertionError("a decoded tet row is no permutation of its input row")
         raw += perm.astype(np.uint8).tobytes()
-    return zstandard.ZstdCompressor(level=9).compress(raw)
+    return deflate(raw)
 
 
 def _decode_order(
     blob: bytes, nv: int, nt: int, with_rows: bool = True
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    from ..volume_codec.codec import inflate
+    from ..format.deflate import inflate
 
     width = 4 if nv < 1 << 32 and nt < 1 << 32 else 8
     need = width * (nv + nt) + (nt if with_rows else 0)
