@@ -230,3 +230,36 @@ def test_warmup_runs_every_kernel_path():
     assert r.exit_code == 0, r.output
     rep = json.loads(r.stdout)
     assert rep["kernels"] > 0 and rep["paths"] == ["render", "animation", "octree", "mesh"]
+
+
+def test_convert_sets_spacing_and_origin_and_resample_has_its_own_name(tmp_path):
+    a = smooth_volume((6, 8, 10), np.int16)
+    np.save(tmp_path / "a.npy", a)
+    out = tmp_path / "a.nii.gz"
+    run("convert", tmp_path / "a.npy", out, "--spacing", "2,1,0.5", "--origin", "1,2,3")
+    from volpack import io as vio
+
+    vol = vio.read_volume(str(out))
+    np.testing.assert_array_equal(vol.data, a)  # metadata only: the voxels are untouched
+    assert vol.spacing == (2.0, 1.0, 0.5) and vol.origin == (1.0, 2.0, 3.0)
+    run("convert", out, tmp_path / "iso.npy", "--resample", "1")
+    assert np.load(tmp_path / "iso.npy").shape == (11, 8, 5)  # (n - 1) * spacing + 1 per axis
+    r = run("convert", tmp_path / "a.npy", tmp_path / "b.npy", "--spacing", "1,0,1", ok=False)
+    assert r.exit_code == 2 and "expected three positive numbers Z,Y,X" in r.output
+
+
+def test_raw_shape_is_echoed_in_z_y_x_order(tmp_path):
+    a = smooth_volume((3, 5, 7), np.int16)
+    (tmp_path / "grads.dat").write_bytes(a.tobytes())
+    r = run(
+        "convert",
+        tmp_path / "grads.dat",
+        tmp_path / "g.npy",
+        "--shape",
+        "3,5,7",
+        "--dtype",
+        "int16",
+    )
+    assert "raw input of shape (z, y, x) = (3, 5, 7), x fastest, int16" in r.stderr
+    np.testing.assert_array_equal(np.load(tmp_path / "g.npy"), a)
+    assert "zfp" in run("convert", "--help").output  # the help says which way round

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import need
 
 from volpack import io as vio
 from volpack.errors import FormatError
@@ -448,7 +449,7 @@ def test_tiff_folder(tmp_path):
 
 
 def test_dicom_folder(tmp_path):
-    pytest.importorskip("pydicom")
+    need("pydicom", "dicom")
     from pydicom.dataset import FileDataset, FileMetaDataset
     from pydicom.uid import ExplicitVRLittleEndian, generate_uid
 

@@ -2,15 +2,16 @@
 
 from __future__ import annotations
 
-import numcodecs
 import numpy as np
 import pytest
-import zarr
-from conftest import smooth_volume
+from conftest import need, smooth_volume
 
-import volpack.numcodecs as vnc
-from volpack import api
-from volpack.numcodecs import VolpackCodec
+numcodecs = need("numcodecs", "zarr")
+zarr = need("zarr", "zarr")
+
+import volpack.numcodecs as vnc  # noqa: E402 (after the skip for a missing zarr extra)
+from volpack import api  # noqa: E402
+from volpack.numcodecs import VolpackCodec  # noqa: E402
 
 # zarr warns whenever a numcodecs codec is wrapped for a zarr_format=3 array.
 ZARR3_WRAPPER_WARNING = "ignore:Numcodecs codecs are not in the Zarr version 3 specification"

@@ -7,6 +7,7 @@ import json
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from conftest import need
 
 from volpack import synth
 from volpack.animation import player
@@ -61,7 +62,7 @@ def test_cli_play_writes_gif_and_folder_and_stats(anim, tmp_path):
 
 
 def test_mp4_output(anim, tmp_path):
-    pytest.importorskip("imageio_ffmpeg")
+    need("imageio_ffmpeg", "video")
     path, frames = anim
     r = CliRunner().invoke(main, ["play", str(path), str(tmp_path / "a.mp4"), "--size", "32x32"])
     assert r.exit_code == 0, r.output
