@@ -6,14 +6,15 @@ time does not. Used to choose the tests marked ``slow``:
     PYTHONPATH=scripts pytest -p pytest_cputime -n 2 -p no:cacheprovider    # -> results/test_cpu.csv
 
 Each xdist worker appends its rows to ``$VOLPACK_TEST_CPU`` (default
-``results/test_cpu.csv``): nodeid, cpu seconds (setup, call and teardown), of which
-compiling. A test's own cost is the difference; the compile share lands on whichever test
+``results/test_cpu.csv``): nodeid, cpu seconds (setup, call and teardown, child processes
+included), of which compiling (in this process). A test's own cost is the difference; the compile share lands on whichever test
 first used a kernel.
 """
 
 from __future__ import annotations
 
 import os
+import resource
 import time
 
 import pytest
@@ -35,11 +36,17 @@ def pytest_configure(config):
     jitwatch.subscribe(_on_compile)
 
 
+def _children() -> float:
+    """CPU seconds of finished child processes (CLI runs in a subprocess, dask workers)."""
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
 @pytest.hookimpl(hookwrapper=True)
 def pytest_runtest_protocol(item, nextitem):
-    c0, k0 = time.process_time(), _compile[0]
+    c0, k0, s0 = time.process_time(), _compile[0], _children()
     yield
-    cpu, comp = time.process_time() - c0, _compile[0] - k0
+    cpu, comp = time.process_time() - c0 + _children() - s0, _compile[0] - k0
     path = os.environ.get("VOLPACK_TEST_CPU", "results/test_cpu.csv")
     with open(path, "a") as f:
         f.write(f'"{item.nodeid}",{cpu:.3f},{comp:.3f}\n')

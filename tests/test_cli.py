@@ -263,3 +263,24 @@ def test_raw_shape_is_echoed_in_z_y_x_order(tmp_path):
     assert "raw input of shape (z, y, x) = (3, 5, 7), x fastest, int16" in r.stderr
     np.testing.assert_array_equal(np.load(tmp_path / "g.npy"), a)
     assert "zfp" in run("convert", "--help").output  # the help says which way round
+
+
+def test_info_over_many_files_is_one_table_and_ratios_agree(tmp_path):
+    a = smooth_volume((12, 14, 16), np.int16)
+    np.save(tmp_path / "a.npy", a)
+    r = run("compress", tmp_path / "a.npy", tmp_path / "a.vpk")
+    printed = float(r.stderr.split("ratio ")[1].split(":")[0])
+    d = json.loads(run("info", tmp_path / "a.vpk", "--json").output)
+    assert printed == pytest.approx(d["ratio"], abs=5e-4)  # compress and info agree
+    assert f"{os.path.getsize(tmp_path / 'a.vpk') / 1000:.2f} kB" in r.stderr
+    assert "int16" in run("info", tmp_path / "a.vpk").output  # numpy's name, not '<i2'
+    (tmp_path / "b.nii").write_bytes(b"not a nifti")
+    r = run("info", tmp_path / "a.npy", tmp_path / "a.vpk", tmp_path / "b.nii", ok=False)
+    assert r.exit_code == 1
+    lines = r.output.splitlines()
+    assert lines[0].split()[:4] == ["file", "format", "shape", "(z,y,x)"]
+    assert "12x14x16" in lines[2] and "int16" in lines[2] and "npy" in lines[2]
+    assert "vpk/volume" in lines[3] and f"{d['ratio']:.3f}" in lines[3]
+    assert "error" in lines[4] and "b.nii: could not read nifti" in r.output
+    rows = json.loads(run("info", tmp_path / "a.npy", tmp_path / "a.vpk", "--json").output)
+    assert [row["format"] for row in rows] == ["npy", "vpk/volume"]

@@ -220,9 +220,9 @@ def compress(
         emit_json(stats)
     elif target != "-":
         click.echo(
-            f"{target}: {fmt_bytes(stats['nbytes'])} from {fmt_bytes(stats['raw_nbytes'])}, "
-            f"ratio {stats['ratio']:.3f}:1, {_accuracy(stats)}, {stats['mb_per_s']:.1f} MB/s "
-            f"({stats['bricks']} bricks, {stats['workers']} worker{'s' if stats['workers'] != 1 else ''})",
+            f"{target}: {fmt_bytes(stats['file_nbytes'])} from {fmt_bytes(stats['raw_nbytes'])}, "
+            f"ratio {stats['file_ratio']:.3f}:1, {_accuracy(stats)}, {stats['mb_per_s']:.1f} MB/s "
+            f"({stats['bricks']} brick{'s' if stats['bricks'] != 1 else ''}, {stats['workers']} worker{'s' if stats['workers'] != 1 else ''})",
             err=True,
         )
 

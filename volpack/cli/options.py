@@ -116,6 +116,16 @@ def emit_json(obj) -> None:
     click.echo(json.dumps(jsonable(obj), indent=2, sort_keys=True, allow_nan=False))
 
 
+def dtype_name(dtype) -> str:
+    """One spelling of a voxel type everywhere: numpy's name (``uint8``, not ``|u1``)."""
+    import numpy as np
+
+    try:
+        return np.dtype(dtype).name
+    except TypeError:
+        return str(dtype)
+
+
 def fmt_bytes(n: float) -> str:
     for unit in ("B", "kB", "MB", "GB", "TB"):
         if abs(n) < 1000 or unit == "TB":
