@@ -381,11 +381,10 @@ def convert_one(task: Task) -> dict[str, Any]:
 
 def _compress_one(task: Task) -> dict[str, Any]:
     from . import api
-    from . import io as vio
 
     read_kw = {k: task.options[k] for k in READ_KEYS if k in task.options}
     comp_kw = {k: task.options[k] for k in COMPRESS_KEYS if k in task.options}
-    vol = vio.read_volume(task.input, **read_kw)
+    vol = api.read_volume(task.input, **read_kw)
     os.makedirs(os.path.dirname(os.path.abspath(task.output)), exist_ok=True)
     stats = api.compress(vol, task.output, force=task.force, **comp_kw)
     try:

@@ -111,10 +111,7 @@ def convert(
     from ..format.atomic import check_output
 
     check_output(vio.parse_spec(target)[0], force=force, inputs=(source,))
-    if _is_vpk_path(source):
-        vol = api.decompress(source)
-    else:
-        vol = vio.read_volume(source, **read_kwargs(raw_shape, raw_dtype, byteorder, offset))
+    vol = api.read_volume(source, **read_kwargs(raw_shape, raw_dtype, byteorder, offset))
     steps = []
     if set_spacing or set_origin:
         vol = vol.replace(
@@ -195,14 +192,6 @@ def _triple(text: str, flag: str, positive: bool = False) -> tuple[float, float,
             f"expected three {what}numbers Z,Y,X, found {text!r}", param_hint=flag
         )
     return values  # type: ignore[return-value]
-
-
-def _is_vpk_path(path: str) -> bool:
-    if path == "-":
-        return False
-    from ..api import _looks_vpk
-
-    return _looks_vpk(path)
 
 
 def _has_special(vol) -> bool:

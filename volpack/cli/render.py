@@ -85,7 +85,7 @@ def _size(value: str) -> tuple[int, int]:
 
 def _open_octree(source: str):
     """An open :class:`volpack.octree.Octree` when SOURCE is an octree .vpk, else None."""
-    from ..format.container import vpk_kind
+    from ..format.streams import vpk_kind
 
     if vpk_kind(source) != "octree":
         return None

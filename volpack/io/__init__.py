@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import FormatError
-from ..format.container import stdin
+from ..format.streams import stdin
 from ..volume import Volume
 from .common import DEFAULT_MAX_VOXELS, ReadOptions, header_dict, prepare_for_write, wrap_errors
 from .registry import FORMATS, detect_format, parse_spec, writable

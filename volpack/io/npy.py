@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import FormatError
-from ..format.container import stdin
+from ..format.streams import stdin
 from ..volume import Volume
 from .common import ReadOptions, as_volume_array, check_voxels, header_dict, native
 

@@ -58,7 +58,7 @@ for _f in (
     Format("inr", "inr", (".inr", ".inr.gz"), (".inr", ".inr.gz")),
     Format("den", "den", (".den",), (".den",)),
     Format("dicom", "dicom", (".dcm",), header=None),
-    Format("vpk", "vpk", (".vpk",), (".vpk",), header=None),
+    Format("vpk", "vpk", (".vpk",), (".vpk",)),
 ):
     register(_f)
 

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import FormatError
-from ..format.container import put_section, take_section
+from ..format.sections import put_section, take_section
 
 KIND = "octree"
 DEFAULT_BLOCK = 16

@@ -59,7 +59,7 @@ class Octree:
 
         if on_damage not in ("raise", "approximate"):
             raise ValueError(f"expected on_damage 'raise' or 'approximate', found {on_damage!r}")
-        self._r = Reader(source)
+        self._r = source if isinstance(source, Reader) else Reader(source)
         try:
             if self._r.header.get("kind") != layout.KIND:
                 raise FormatError(

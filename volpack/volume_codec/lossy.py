@@ -30,8 +30,8 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ..errors import FormatError
-from ..format.container import put_section, take_section
 from ..format.deflate import deflate, inflate
+from ..format.sections import put_section, take_section
 from .codec import (
     CODER_NAMES,
     MODE_CODED,
