@@ -284,3 +284,21 @@ def test_info_over_many_files_is_one_table_and_ratios_agree(tmp_path):
     assert "error" in lines[4] and "b.nii: could not read nifti" in r.output
     rows = json.loads(run("info", tmp_path / "a.npy", tmp_path / "a.vpk", "--json").output)
     assert [row["format"] for row in rows] == ["npy", "vpk/volume"]
+
+
+def test_compare_reports_what_a_compress_and_decompress_measure(tmp_path):
+    a = smooth_volume((20, 24, 28), np.int16, noise=8.0)
+    np.save(tmp_path / "a.npy", a)
+    r = json.loads(run("compare", tmp_path / "a.npy", "--max-error", "3", "--json").output)
+    run("compress", tmp_path / "a.npy", tmp_path / "a.vpk", "--max-error", "3")
+    assert r["file_nbytes"] == os.path.getsize(tmp_path / "a.vpk")  # same bytes as a file
+    run("decompress", tmp_path / "a.vpk", tmp_path / "b.npy")
+    b = np.load(tmp_path / "b.npy").astype(np.int64)
+    err = np.abs(b - a).max()
+    assert r["max_error"] == err <= 3 and not r["lossless"]
+    mse = ((b - a) ** 2).mean()
+    assert r["psnr"] == pytest.approx(10 * np.log10(float(a.max() - a.min()) ** 2 / mse))
+    assert r["ratio"] == pytest.approx(a.nbytes / r["file_nbytes"])
+    assert r["enc_mb_s"] > 0 and r["dec_mb_s"] > 0
+    text = run("compare", tmp_path / "a.npy").output
+    assert "0 (lossless)" in text and "ratio" in text and "decode" in text

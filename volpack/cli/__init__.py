@@ -86,9 +86,9 @@ def main(ctx: click.Context, verbose: int, quiet: bool, debug: bool) -> None:
 
 
 def _register() -> None:
-    from . import batch, codec, convert, demo, info, jit, play, render
+    from . import batch, codec, compare, convert, demo, info, jit, play, render
 
-    for module in (info, convert, codec, batch, demo, jit, render, play):
+    for module in (info, convert, codec, compare, batch, demo, jit, render, play):
         for cmd in module.COMMANDS:
             main.add_command(cmd)
 
