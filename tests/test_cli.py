@@ -159,6 +159,7 @@ def test_convert_crop_downsample_quantize(tmp_path):
     assert np.abs(deq - f).max() <= meta["max_error"] + 1e-9
 
 
+@pytest.mark.slow
 def test_stdin_to_hdf5_and_stdout(tmp_path):
     import io
 
@@ -186,6 +187,7 @@ def test_stdin_to_hdf5_and_stdout(tmp_path):
     np.testing.assert_array_equal(np.load(io.BytesIO(npy)), a)
 
 
+@pytest.mark.slow
 def test_demo_runs_and_checks_every_round_trip(tmp_path):
     r = run("demo", "--out", tmp_path / "demo", "--repeat", "1", "--json")
     d = json.loads(r.stdout)
@@ -225,6 +227,7 @@ def test_lossy_compress_info_and_decompress(tmp_path):
     assert r.exit_code == 1 and "at most one" in r.output
 
 
+@pytest.mark.slow
 def test_warmup_runs_every_kernel_path():
     r = CliRunner().invoke(main, ["warmup", "--json"])
     assert r.exit_code == 0, r.output

@@ -293,6 +293,7 @@ def _fresh_python(code: str, extra_path: str) -> None:
     assert r.returncode == 0, r.stderr
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fmt", [2, 3])
 def test_fresh_process_finds_the_codec_without_importing_volpack(tmp_path, fmt):
     path = str(tmp_path / "z.zarr")
@@ -349,6 +350,7 @@ def test_numcodecs_test_helpers(tmp_path, monkeypatch):
     common.check_backwards_compatibility(VolpackCodec.codec_id, arrays, codecs[:2])  # re-read
 
 
+@pytest.mark.slow
 def test_import_after_zarr_registers_the_zarr3_codec(tmp_path):
     import subprocess
     import sys

@@ -15,6 +15,9 @@ from volpack.animation import stream as animation
 from volpack.cli import main
 from volpack.errors import FormatError
 
+# slow: decodes animations: the animation kernels compile (pytest -m slow runs them; .ci/run does)
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def anim(tmp_path_factory):
