@@ -18,6 +18,9 @@ from volpack.animation import stream as animation
 from volpack.cli import main
 from volpack.errors import FormatError
 
+# slow: the animation coder: its motion search compiles many kernels (pytest -m slow runs them; .ci/run does)
+pytestmark = pytest.mark.slow
+
 SHAPE = (16, 16, 24)
 
 

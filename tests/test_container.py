@@ -242,6 +242,7 @@ def test_container_inside_a_larger_seekable_file():
     ),
     st.dictionaries(st.text(max_size=5), st.integers() | st.text(max_size=5), max_size=3),
 )
+@pytest.mark.slow
 def test_round_trip_property(chunks, header):
     items = [(t, n, p) for (t, n), p in chunks.items()]
     data = build(items, header=header, summary={"k": len(items)})

@@ -150,6 +150,7 @@ def test_ratio_target_is_reached(scan16, target):
     assert abs(st["ratio"] / target - 1) <= 0.05, st["search"]
 
 
+@pytest.mark.slow
 def test_unreachable_target_reports_the_closest(brain):
     # 8-bit noise makes the rate jump where a whole band's |c| = 8 leaves the zero bin:
     # no step gives 8:1 within 5 %, so the closest is used and reported as reached.
@@ -164,6 +165,7 @@ def test_float_psnr_target_uses_the_bounded_path():
     assert st["codec"]["id"] == "bounded" and abs(st["psnr"] - 50) <= 0.5
 
 
+@pytest.mark.slow
 def test_quality_scale_orders_ratio_and_psnr(brain):
     rows = []
     for q in (255, 127, 63, 31, 15):
@@ -183,6 +185,7 @@ def test_threshold_zero_is_lossless_and_grows_the_error(brain):
     assert st["ratio"] > run(a)[0]["ratio"] and st["max_error"] > 0
 
 
+@pytest.mark.slow
 def test_lossy_bytes_do_not_depend_on_workers(brain):
     for kw in ({"max_error": 2}, {"quality": 63}, {"psnr": 48}):
         one = api.compress_array(brain, workers=1, **kw)

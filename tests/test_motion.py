@@ -9,6 +9,9 @@ import pytest
 from volpack import synth
 from volpack.animation import motion
 
+# slow: motion estimation kernels: long to compile (pytest -m slow runs them; .ci/run does)
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def head16():

@@ -9,7 +9,7 @@ import math
 import naive_octree
 import numpy as np
 import pytest
-from conftest import smooth_volume
+from conftest import need, smooth_volume
 
 from volpack.errors import FormatError
 from volpack.octree import NodeDamaged, Octree, build, layout
@@ -375,6 +375,7 @@ def test_super_bricks_give_the_same_tree_as_one_task(vol, blob, monkeypatch):
 
 
 def test_dask_local_cluster_gives_the_same_bytes(vol, blob):
+    need("distributed", "dask")
     from distributed import Client, LocalCluster
 
     with (

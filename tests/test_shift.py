@@ -10,6 +10,9 @@ from naive_motion import whole_frame_shift
 from volpack import synth
 from volpack.animation import shift
 
+# slow: animation kernels: long to compile (pytest -m slow runs them; .ci/run does)
+pytestmark = pytest.mark.slow
+
 
 def _smooth(n):
     for p in (3, 5, 7, 11):

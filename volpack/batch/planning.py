@@ -182,10 +182,10 @@ def normalize_options(options: dict) -> dict:
 
 def strip_volume_ext(path: str) -> str:
     """``a/b.nii.gz`` -> ``a/b`` (the longest known volume extension, if any)."""
-    from ..io import _EXTENSIONS
+    from ..io.registry import extensions
 
     low = path.lower()
-    for ext in sorted(_EXTENSIONS, key=len, reverse=True):
+    for ext in sorted(extensions(), key=len, reverse=True):
         if low.endswith(ext):
             return path[: -len(ext)]
     return path

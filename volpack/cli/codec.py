@@ -288,9 +288,9 @@ def _refuse(message: str, given: dict, refused: tuple[str, ...]) -> None:
 def _volume_line(target: str, stats: dict) -> str:
     w = stats["workers"]
     return (
-        f"{target}: {fmt_bytes(stats['nbytes'])} from {fmt_bytes(stats['raw_nbytes'])}, "
-        f"ratio {stats['ratio']:.3f}:1, {_accuracy(stats)}, {stats['mb_per_s']:.1f} MB/s "
-        f"({stats['bricks']} bricks, {w} worker{'s' if w != 1 else ''})"
+        f"{target}: {fmt_bytes(stats['file_nbytes'])} from {fmt_bytes(stats['raw_nbytes'])}, "
+        f"ratio {stats['file_ratio']:.3f}:1, {_accuracy(stats)}, {stats['mb_per_s']:.1f} MB/s "
+        f"({stats['bricks']} brick{'s' if stats['bricks'] != 1 else ''}, {w} worker{'s' if w != 1 else ''})"
     )
 
 

@@ -32,7 +32,7 @@ def raw_options(f):
         "--offset",
         type=click.IntRange(min=0),
         default=0,
-        help="Raw input: bytes to skip (a header).",
+        help="Raw input: bytes to skip (a header, e.g. 256 for an INRIMAGE file).",
     )(f)
     f = click.option(
         "--byteorder",
@@ -44,7 +44,11 @@ def raw_options(f):
         "--dtype", "raw_dtype", help="Raw input: voxel type, e.g. uint8, int16, float32."
     )(f)
     f = click.option(
-        "--shape", "raw_shape", help="Raw input: Z,Y,X (or T,Z,Y,X) voxels, e.g. 108,256,256."
+        "--shape",
+        "raw_shape",
+        help="Raw input, whatever the file's name: Z,Y,X (or T,Z,Y,X) voxels, slowest axis "
+        "first and x fastest in the file, e.g. 108,256,256 (zfp's and SZ3's sizes are x first: "
+        "reverse them).",
     )(f)
     return f
 
@@ -60,6 +64,15 @@ def read_kwargs(raw_shape: str | None, raw_dtype: str | None, byteorder: str, of
             ) from None
     if raw_dtype:
         kw["dtype"] = raw_dtype
+    ctx = click.get_current_context(silent=True)
+    quiet = bool(ctx and (ctx.find_root().obj or {}).get("quiet"))
+    if raw_shape and not quiet:  # say how the shape was understood: reversed, it reads as noise
+        axes = "(t, z, y, x)" if len(kw["shape"]) == 4 else "(z, y, x)"
+        click.echo(
+            f"volpack: raw input of shape {axes} = {tuple(kw['shape'])}, x fastest"
+            + (f", {raw_dtype}" if raw_dtype else ""),
+            err=True,
+        )
     if byteorder != "<" or raw_dtype:
         kw["byteorder"] = {"little": "<", "big": ">"}.get(byteorder, byteorder)
     if offset:
@@ -69,11 +82,19 @@ def read_kwargs(raw_shape: str | None, raw_dtype: str | None, byteorder: str, of
 
 @contextlib.contextmanager
 def progress_bar(ctx: click.Context, desc: str, unit: str | None = "brick") -> Iterator:
-    """Yield a ``progress(done, total)`` callback drawing a tqdm bar on a terminal (None
-    with ``unit=None``: nothing to count)."""
-    quiet = bool(ctx.find_root().obj.get("quiet")) if ctx.find_root().obj else False
+    """Yield a ``progress(done, total)`` callback: a tqdm bar on a terminal, else lines
+    every few seconds (:mod:`.notices`); None with ``unit=None`` (nothing to count)."""
+    obj = ctx.find_root().obj or {}
+    quiet = bool(obj.get("quiet"))
+    notices = obj.get("notices")
     if quiet or unit is None or not sys.stderr.isatty():
-        yield None
+        if notices is None or quiet or unit is None:
+            yield None
+            return
+        try:  # no bar: a line every few seconds instead
+            yield notices.task(desc, unit)
+        finally:
+            notices.end_task()
         return
     from tqdm import tqdm
 
@@ -94,6 +115,16 @@ def progress_bar(ctx: click.Context, desc: str, unit: str | None = "brick") -> I
 def emit_json(obj) -> None:
     """Print ``obj`` as strict JSON (infinite or NaN numbers become null)."""
     click.echo(json.dumps(jsonable(obj), indent=2, sort_keys=True, allow_nan=False))
+
+
+def dtype_name(dtype) -> str:
+    """One spelling of a voxel type everywhere: numpy's name (``uint8``, not ``|u1``)."""
+    import numpy as np
+
+    try:
+        return np.dtype(dtype).name
+    except TypeError:
+        return str(dtype)
 
 
 def fmt_bytes(n: float) -> str:

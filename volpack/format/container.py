@@ -190,6 +190,11 @@ class Writer:
         """The chunks written so far, in file order."""
         return list(self._entries)
 
+    @property
+    def nbytes(self) -> int:
+        """Bytes written so far: the whole file's size once closed."""
+        return self._pos
+
     def _put(self, data: bytes) -> None:
         self._file.write(data)
         self._pos += len(data)

@@ -116,8 +116,10 @@ def compress(
     Returns
     -------
     dict
-        ``raw_nbytes``, ``nbytes`` (compressed payload bytes), ``ratio``, ``seconds``,
-        ``mb_per_s``, ``bricks``, ``codec``.
+        ``raw_nbytes``, ``nbytes`` (compressed payload bytes), ``ratio``, ``file_nbytes``
+        and ``file_ratio`` (the whole stream, as :func:`volpack.api.info` reports),
+        ``seconds`` and ``mb_per_s`` (the coding, a setting search included), ``bricks``,
+        ``codec``.
     """
     from ..format.container import Writer
 
@@ -128,6 +130,7 @@ def compress(
         check_output(target, force=force, inputs=(vio.parse_spec(source)[0],))
         source = vio.read_volume(source, **(read_options or {}))
     vol = source if isinstance(source, Volume) else Volume(np.asarray(source))
+    t0 = time.perf_counter()  # the setting search counts: the speed is the whole coding's
     brick_t = bricks.parse_brick(brick)
     nworkers = parse_workers(workers)
     inner = {"wavelet": wavelet, "coder": coder, "order": order, "max_levels": max_levels}
@@ -177,7 +180,6 @@ def compress(
         t, node, sl = task
         return (t, node, *c.encode_measured(np.ascontiguousarray(frames[(t, *sl)])))
 
-    t0 = time.perf_counter()
     nbytes = 0
     worst, sse, nvalid = 0.0, 0.0, 0
     with Writer(_stdout() if target == "-" else target, header, force=force) as w:
@@ -203,6 +205,8 @@ def compress(
         "raw_nbytes": int(vol.nbytes),
         "nbytes": nbytes,
         "ratio": vol.nbytes / max(nbytes, 1),
+        "file_nbytes": w.nbytes,  # header and index included, as `volpack info` counts
+        "file_ratio": vol.nbytes / max(w.nbytes, 1),
         "seconds": seconds,
         "mb_per_s": throughput(vol.nbytes, seconds),
         "bricks": total,
