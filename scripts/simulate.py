@@ -6,7 +6,10 @@ periodic box of side 2 pi, which rolls up into small-scale turbulence by t ~ 9. 
 pseudo-spectral incompressible Navier-Stokes solver (rotational form, 2/3 de-aliasing,
 classical RK4), run on 64^3 points to t = 6: under-resolved for the peak dissipation at
 t ~ 9, resolved enough at t = 6 that the fields carry fine vortex sheets beside smooth
-regions, as CFD output does.
+regions, as CFD output does. The initial field gets a small seeded divergence-free
+perturbation (5 % of the peak velocity, wavenumbers 1 to 4): the exact vortex keeps its
+mirror symmetries for ever, so 90 % of its values repeat exactly, which a codec's
+lossless back end (SZ3's zstd) turns into ratios no real flow gives.
 
     python scripts/simulate.py OUTDIR        # writes vorticity.npy, pressure.npy, u.npy
 """
@@ -21,7 +24,9 @@ import numpy as np
 FIELDS = ("vorticity", "pressure", "u")
 
 
-def taylor_green(n: int = 64, t_end: float = 6.0, re: float = 1600.0, dt: float = 0.02):
+def taylor_green(
+    n: int = 64, t_end: float = 6.0, re: float = 1600.0, dt: float = 0.02, noise: float = 0.05
+):
     """``{name: float32 (z, y, x) array}`` of the vortex at ``t_end``."""
     from scipy import fft
 
@@ -58,7 +63,11 @@ def taylor_green(n: int = 64, t_end: float = 6.0, re: float = 1600.0, dt: float 
                        vel[0] * w[1] - vel[1] * w[0]])
         return project(spec(nl) * keep) - nu * k2 * uh
 
-    uh = spec(u)
+    rng = np.random.default_rng(1600)
+    shape = (3, *kx.shape)
+    bump = (rng.standard_normal(shape) + 1j * rng.standard_normal(shape)) * (k2 <= 16) * (k2 > 0)
+    bump = phys(project(bump))
+    uh = spec(u + noise * bump / np.abs(bump).max())
     for _ in range(int(round(t_end / dt))):
         a = rhs(uh)
         b = rhs(uh + 0.5 * dt * a)
