@@ -58,7 +58,7 @@ def compress(
     coder: str | None = None,
     order: str | None = None,
     max_levels: int | None = None,
-    brick: int | tuple[int, int, int] = bricks.DEFAULT_BRICK,
+    brick: int | tuple[int, int, int] | None = None,
     max_error: float | None = None,
     rel_error: float | None = None,
     psnr: float | None = None,
@@ -90,8 +90,10 @@ def compress(
         ``auto``: the lossless wavelet codec for 8/16/32-bit integers, zstd for the rest.
     wavelet, coder, order, max_levels
         Wavelet codec settings (see :class:`volpack.codec.WaveletCodec`).
-    brick : int or (int, int, int)
-        Brick size; bricks are coded independently and decoded one by one.
+    brick : int or (int, int, int), optional
+        Brick size; bricks are coded independently and decoded one by one. Default
+        :func:`volpack.bricks.default_brick`: 64, but a float volume under an error bound
+        (or a PSNR or ratio target) is one brick up to 4M voxels, else 128^3 bricks.
     workers : int or None
         Threads; ``None`` or 0 uses every core. The output does not depend on it.
     progress : callable(done, total), optional
@@ -106,7 +108,6 @@ def compress(
     from .container import Writer
 
     vol = source if isinstance(source, Volume) else Volume(np.asarray(source))
-    brick_t = bricks.parse_brick(brick)
     nworkers = parse_workers(workers)
     inner = {"wavelet": wavelet, "coder": coder, "order": order, "max_levels": max_levels}
     targets = {
@@ -120,6 +121,10 @@ def compress(
     asked = {k: v for k, v in targets.items() if v is not None}
     if len(asked) > 1:
         raise ValueError(f"expected at most one lossy setting, found {sorted(asked)}")
+    if brick is None:
+        bounded = bool(asked) and not ({"quality", "threshold"} & set(asked))
+        brick = bricks.default_brick(vol.shape, vol.dtype, bounded)
+    brick_t = bricks.parse_brick(brick)
     if asked:
         from . import lossy_plan
 

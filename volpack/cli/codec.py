@@ -73,9 +73,9 @@ def _brick(value: str) -> int | tuple[int, int, int]:
 )
 @click.option(
     "--brick",
-    default="64",
-    show_default=True,
-    help="Brick size N or Z,Y,X; bricks decode independently.",
+    default=None,
+    help="Brick size N or Z,Y,X; bricks decode independently. Default 64; a float volume "
+    "under an error bound is one brick up to 4M voxels, else 128.",
 )
 @click.option(
     "--max-error",
@@ -204,7 +204,7 @@ def compress(
             coder=coder,
             order=order,
             max_levels=max_levels,
-            brick=_brick(brick),
+            brick=None if brick is None else _brick(brick),
             max_error=max_error,
             rel_error=rel_error,
             psnr=psnr,
@@ -354,7 +354,7 @@ def _shared(kw: dict) -> dict:
     keys = ("codec", "wavelet", "coder", "order", "max_levels", "max_error", "rel_error")
     keys += ("psnr", "ratio", "quality", "threshold", "fill_value", "read_options")
     out = {k: kw[k] for k in keys}
-    out["brick"] = _brick(kw["brick"])
+    out["brick"] = None if kw["brick"] is None else _brick(kw["brick"])
     return out
 
 
