@@ -683,7 +683,7 @@ def write_lead(rows: list[dict], out: Path) -> None:
         "",
         "`" + " ".join(["python scripts/bench_lossy.py", *sys.argv[1:]]) + "`",
         "",
-        "lead = volpack ratio / best ratio of sperr, sz3, sz3-best that held the bound "
+        "lead = volpack ratio / best ratio of sperr, sz3 and sz3-best "
         "(goal >= 1.1, floor 1.0); ✗ marks a ratio whose bound was missed (counted all the "
         "same). Fields marked (v) are kept aside: no setting was tuned on them.",
         "",

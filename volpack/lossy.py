@@ -185,11 +185,11 @@ class BoundedCodec:
         """The float CDF 9/7 path at each step it tries; each checked on every voxel."""
         from . import bounded_cdf97 as w
 
-        g = clean.astype(np.float64)
         xf = x.reshape(-1).astype(np.float64)
         coder = self._residual_coder
         out = []
-        for inner, rec in w.encode(g, self.max_error, self.coder, self.max_levels):
+
+        def finish(inner, rec):
             err = np.abs(_to_float(rec, x.dtype).reshape(-1).astype(np.float64) - xf)
             if mask is not None:
                 err[mask.reshape(-1)] = 0.0
@@ -198,10 +198,14 @@ class BoundedCodec:
             keep = (r != 0) & (np.abs(r) < 2**31)  # the rest: exact corrections
             extra = []
             if keep.any():
-                extra.append(w.pack_outliers(bad[keep], r[keep].astype(np.int64), x.shape, coder))
-                w.apply_outliers(extra[0], rec, self.step, coder)  # as the decoder will
+                idx, bins = bad[keep], r[keep].astype(np.int64)
+                extra.append(w.pack_outliers(idx, bins, x.shape, coder))
+                w.add_bins(rec, idx, bins, self.step)  # as the decoder will
             y = _to_float(rec, x.dtype)
             out.append(self._finish(x, mask, y, FLAG_CDF97, [inner], extra, FLAG_OUTLIERS))
+            return len(out[-1][0])
+
+        w.encode(clean.astype(np.float64), self.max_error, self.coder, self.max_levels, finish)
         return out
 
     # The coefficient path works on a fine integer grid: the voxels themselves for
