@@ -709,6 +709,61 @@ def write_lead(rows: list[dict], out: Path) -> None:
     (out / "lead.md").write_text("\n".join(lines) + "\n")
 
 
+def write_speed(rows: list[dict], out: Path) -> None:
+    """Encode and decode MB/s (raw original bytes, one thread, best of the repeats) of
+    volpack, SPERR and SZ3 per field: the median over its bounds, and volpack's speed over
+    each peer's, bound by bound, as a median."""
+    import statistics
+
+    names = list(dict.fromkeys(r["dataset"] for r in rows if r["bound"] != ""))
+    methods = ["volpack", "sperr", "sz3"]
+    lines = [
+        "# Speed: MB/s of raw original bytes, one thread, same process and arrays",
+        "",
+        "`" + " ".join(["python scripts/bench_lossy.py", *sys.argv[1:]]) + "`",
+        "",
+        "Median over the field's bounds; `x/peer` = median of volpack's MB/s over the "
+        "peer's at the same bound.",
+        "",
+        "| field | " + " | ".join(f"{m} enc | {m} dec" for m in methods)
+        + " | dec x/sperr | dec x/sz3 | enc x/sperr | enc x/sz3 |",
+        "|---|" + "---:|" * (2 * len(methods) + 4),
+    ]
+    for name in names:
+        cell = {(r["method"], r["bound"]): r for r in rows if r["dataset"] == name}
+        bounds = sorted({b for m, b in cell if m == "volpack"})
+        cols = []
+        for m in methods:
+            for k in ("encode_MBps", "decode_MBps"):
+                v = [cell[m, b][k] for b in bounds if (m, b) in cell]
+                cols.append(f"{statistics.median(v):.1f}" if v else "–")
+        for k in ("decode_MBps", "encode_MBps"):
+            for m in ("sperr", "sz3"):
+                v = [cell["volpack", b][k] / cell[m, b][k] for b in bounds if (m, b) in cell]
+                cols.append(f"{statistics.median(v):.2f}" if v else "–")
+        lines.append(f"| {name} | " + " | ".join(cols) + " |")
+    (out / "speed.md").write_text("\n".join(lines) + "\n")
+
+
+def read_csv(path: Path) -> list[dict]:
+    """Rows of a ``lossy.csv`` back as :func:`measure` made them (numbers, booleans)."""
+    rows = []
+    with open(path, newline="") as f:
+        for r in csv.DictReader(f):
+            for k, v in r.items():
+                if k == "bound_ok":
+                    r[k] = "" if v == "" else v == "yes"
+                elif k in ("bound", "excess") and v == "":
+                    continue
+                else:
+                    try:
+                        r[k] = float(v)
+                    except ValueError:
+                        pass
+            rows.append(r)
+    return rows
+
+
 def write_field_charts(rows: list[dict], names: list[str], out: Path) -> None:
     """Per field: ratio against max error, and PSNR against bits per voxel (all methods)."""
     import matplotlib
@@ -857,7 +912,24 @@ def main(argv: list[str] | None = None) -> int:
         default=None,
         help="output folder (default results/lossy, results/lossy/quick with --quick)",
     )
+    p.add_argument(
+        "--from-csv",
+        type=Path,
+        default=None,
+        help="only redraw the tables and charts of an existing lossy.csv (into --out)",
+    )
     args = p.parse_args(argv)
+    if args.from_csv:
+        rows = read_csv(args.from_csv)
+        out = args.out or args.from_csv.parent
+        done = list(dict.fromkeys(r["dataset"] for r in rows))
+        write_table(rows, done, [], args, out)
+        write_lead(rows, out)
+        write_speed(rows, out)
+        write_charts(rows, done, out)
+        write_field_charts(rows, done, out)
+        print(f"redrew {out} from {args.from_csv} ({len(rows)} rows)")
+        return 0
 
     names = []
     for n in args.datasets.replace(" ", ",").split(","):
@@ -890,6 +962,7 @@ def main(argv: list[str] | None = None) -> int:
     done = [n for n in names if any(r["dataset"] == n for r in rows)]
     write_table(rows, done, notes, args, out)
     write_lead(rows, out)
+    write_speed(rows, out)
     try:
         write_charts(rows, done, out)
         write_field_charts(rows, done, out)
