@@ -76,9 +76,13 @@ def encode(g: np.ndarray, max_error: float, coder: str, max_levels: int | None, 
     if not choices or not np.isfinite(g).all():
         return []
     probe = PROBE_FACTOR * max_error
-    coefs = {lv: cdf97.forward(g, lv) for lv in choices}
-    lv = min(choices, key=lambda lv: (_cost(coefs[lv], probe), lv))
-    c = coefs[lv]
+    best = None  # (cost, levels, coefficients): one candidate's array held at a time
+    for lv in choices:
+        c = cdf97.forward(g, lv)
+        cost = _cost(c, probe)
+        if best is None or cost < best[0]:
+            best = (cost, lv, c)
+    _, lv, c = best
     peak = float(np.abs(c).max(initial=0.0))
 
     orders = list(range(len(ORDERS)))  # both at the first step, then the shorter one
