@@ -98,7 +98,7 @@ def _update(s, d, ns, nd, w, c):
 @kernel
 def _cdf97_kernel(a, regions, lz, ly, lx, s, d, backward):
     """The multilevel transform of ``a`` in place; ``regions[k]`` is the low-pass region
-    that level ``k`` lifts (``dwt3._region_lengths``)."""
+    that level ``k`` lifts."""
     top = regions.shape[0] - 1
     for i in range(top):
         k = top - 1 - i if backward else i
@@ -122,16 +122,22 @@ def _run(x: np.ndarray, levels, backward: bool) -> np.ndarray:
     x = np.asarray(x)
     if x.ndim != 3:
         raise FormatError(f"expected a 3-D array, found {x.ndim} dimensions")
-    lz, ly, lx = dwt3._check_levels(x.shape, levels)
+    full = dwt3.levels_for_shape(x.shape, None)
+    lv = tuple(int(v) for v in levels)
+    if len(lv) != 3 or any(not 0 <= v <= f for v, f in zip(lv, full)):
+        raise FormatError(f"expected levels between (0, 0, 0) and {full}, found {levels!r}")
     out = np.array(x, dtype=np.float64, order="C", copy=True)
-    if out.size and max(lz, ly, lx) > 0:
+    if out.size and max(lv) > 0:
         # A block is n rows (along the lifted axis) of w <= max(ny, nx) values.
         width = max(out.shape[1], out.shape[2])
         rows = (max(out.shape) + 1) // 2
         s = np.empty(rows * width, np.float64)
         d = np.empty(rows * width, np.float64)
-        regions = np.array(dwt3._region_lengths(out.shape, (lz, ly, lx)), np.int64)
-        _cdf97_kernel(out, regions, lz, ly, lx, s, d, backward)
+        regions = np.empty((max(lv) + 1, 3), np.int64)  # the low-pass region at each level
+        regions[0] = out.shape
+        for k in range(max(lv)):
+            regions[k + 1] = [(n + 1) // 2 if v > k else n for n, v in zip(regions[k], lv)]
+        _cdf97_kernel(out, regions, *lv, s, d, backward)
     return out
 
 
