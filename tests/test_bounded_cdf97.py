@@ -8,8 +8,8 @@ import pytest
 from naive import cdf97_transform
 
 from volpack import api
-from volpack.format.container import Reader
 from volpack.errors import FormatError
+from volpack.format.container import Reader
 from volpack.volume_codec.lossy import FLAG_CDF97, FLAG_OUTLIERS, BoundedCodec
 from volpack.wavelet import cdf97, dwt3
 
