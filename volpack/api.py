@@ -31,10 +31,18 @@ KIND_VOLUME = "volume"
 
 
 def make_codec(codec: str = "auto", dtype: Any = None, **options: Any):
-    """Choose the brick codec: ``auto`` takes the wavelet codec for the integer dtypes it
-    codes exactly and byte-shuffled zstd for floats and 64-bit integers."""
+    """Choose the brick codec: ``auto`` takes the lossless codec (wavelet or 3-D
+    prediction per brick) for the 8/16/32-bit integers and 16/32-bit floats it codes
+    exactly, and byte-shuffled zstd for the rest (64-bit values)."""
+    from .floatbits import FLOAT_DTYPES
+
     if codec == "auto":
-        codec = "wavelet" if dtype is None or np.dtype(dtype).name in WAVELET_DTYPES else "zstd"
+        known = dtype is None or np.dtype(dtype).name in WAVELET_DTYPES + FLOAT_DTYPES
+        codec = "lossless" if known else "zstd"
+    if codec == "lossless":
+        from .lossless import LosslessCodec
+
+        return LosslessCodec(**{k: v for k, v in options.items() if v is not None})
     if codec == "wavelet":
         from .floatwave import FLOAT_WAVELETS
 
@@ -46,7 +54,9 @@ def make_codec(codec: str = "auto", dtype: Any = None, **options: Any):
         return WaveletCodec(**{k: v for k, v in options.items() if v is not None})
     if codec == "zstd":
         return ZstdCodec()
-    raise ValueError(f"expected codec 'auto', 'wavelet' or 'zstd', found {codec!r}")
+    raise ValueError(
+        f"expected codec 'auto', 'lossless', 'wavelet' or 'zstd', found {codec!r}"
+    )
 
 
 def compress(
@@ -86,8 +96,9 @@ def compress(
     target : str or binary file
         Output path (written atomically; an existing file needs ``force``), ``'-'`` for
         standard output, or an open binary file.
-    codec : {"auto", "wavelet", "zstd"}
-        ``auto``: the lossless wavelet codec for 8/16/32-bit integers, zstd for the rest.
+    codec : {"auto", "lossless", "wavelet", "zstd"}
+        ``auto``: the ``lossless`` codec (per brick, the wavelet or 3-D prediction) for
+        8/16/32-bit integers and 16/32-bit floats, zstd for the rest.
     wavelet, coder, order, max_levels
         Wavelet codec settings (see :class:`volpack.codec.WaveletCodec`).
     brick : int or (int, int, int)
@@ -131,6 +142,10 @@ def compress(
             from .codec import check_wavelet_dtype
 
             check_wavelet_dtype(vol.dtype)
+        elif c.codec_id == "lossless":
+            from .lossless import check_dtype
+
+            check_dtype(vol.dtype)
     header = {
         "kind": KIND_VOLUME,
         "volpack": __version__,
@@ -159,10 +174,15 @@ def compress(
     nbytes = 0
     worst, sse, nvalid = 0.0, 0.0, 0
     out = "-" if target == "-" else target
+    tools: dict[str, int] = {}  # lossless codec: bricks per tool chosen
+    describe = getattr(c, "describe", None)
     with Writer(_stdout() if out == "-" else out, header, force=force) as w:
         results = ordered_map(encode, tasks, nworkers)
         for done, (t, node, payload, err, s2, n) in enumerate(results, 1):
             w.write(t, node, payload, err)
+            if describe is not None:
+                tool = describe(payload)
+                tools[tool] = tools.get(tool, 0) + 1
             nbytes += len(payload)
             worst, sse, nvalid = max(worst, err), sse + s2, nvalid + n
             if progress is not None:
@@ -176,6 +196,8 @@ def compress(
         }
         if search is not None:
             summary["search"] = search
+        if tools:
+            summary["tools"] = dict(sorted(tools.items()))
         w.close(summary=summary)
     seconds = time.perf_counter() - t0
     return {

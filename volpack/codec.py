@@ -231,9 +231,10 @@ def get_codec(config: Mapping[str, Any]):
         raise FormatError(f"expected a codec config with an 'id', found {config!r}")
     config = dict(config)
     codec_id = config.pop("id")
+    from .lossless import LosslessCodec
     from .lossy import LOSSY_CODECS
 
-    known = {**CODECS, **LOSSY_CODECS}
+    known = {**CODECS, LosslessCodec.codec_id: LosslessCodec, **LOSSY_CODECS}
     try:
         cls = known[codec_id]
     except (KeyError, TypeError):

@@ -38,10 +38,11 @@ def _brick(value: str) -> int | tuple[int, int, int]:
 @click.argument("target")
 @click.option(
     "--codec",
-    type=click.Choice(["auto", "wavelet", "zstd"]),
+    type=click.Choice(["auto", "lossless", "wavelet", "zstd"]),
     default="auto",
     show_default=True,
-    help="auto: the wavelet codec for 8/16/32-bit integers, byte-shuffled zstd (exact) for floats.",
+    help="auto: lossless (per brick, the wavelet or 3-D prediction with a palette) for "
+    "8/16/32-bit integers and 16/32-bit floats, byte-shuffled zstd (exact) for the rest.",
 )
 @click.option(
     "--wavelet",
