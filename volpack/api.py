@@ -54,9 +54,7 @@ def make_codec(codec: str = "auto", dtype: Any = None, **options: Any):
         return WaveletCodec(**{k: v for k, v in options.items() if v is not None})
     if codec == "zstd":
         return ZstdCodec()
-    raise ValueError(
-        f"expected codec 'auto', 'lossless', 'wavelet' or 'zstd', found {codec!r}"
-    )
+    raise ValueError(f"expected codec 'auto', 'lossless', 'wavelet' or 'zstd', found {codec!r}")
 
 
 def compress(
@@ -68,6 +66,7 @@ def compress(
     coder: str | None = None,
     order: str | None = None,
     max_levels: int | None = None,
+    tools: str | None = None,
     brick: int | tuple[int, int, int] = bricks.DEFAULT_BRICK,
     max_error: float | None = None,
     rel_error: float | None = None,
@@ -101,6 +100,8 @@ def compress(
         8/16/32-bit integers and 16/32-bit floats, zstd for the rest.
     wavelet, coder, order, max_levels
         Wavelet codec settings (see :class:`volpack.codec.WaveletCodec`).
+    tools : {"auto", "wavelet", "predict"}, optional
+        The lossless codec's tools (see :class:`volpack.lossless.LosslessCodec`).
     brick : int or (int, int, int)
         Brick size; bricks are coded independently and decoded one by one.
     workers : int or None
@@ -137,7 +138,7 @@ def compress(
         c, search = lossy_plan.plan(vol, brick_t, nworkers, asked, fill_value, inner)
     else:
         search = None
-        c = make_codec(codec, vol.dtype, **inner)
+        c = make_codec(codec, vol.dtype, **inner, **({"tools": tools} if tools else {}))
         if c.codec_id == "wavelet":
             from .codec import check_wavelet_dtype
 

@@ -10,8 +10,9 @@ The payload's first byte says what was chosen:
 mode  payload after the mode byte
 ====  ===============================================================================
 0-3   as the ``wavelet`` codec's modes (coefficients, raw, constant, byte-shuffled zstd)
-4     3-D prediction: a flags byte (1: palette, 2: float bits), then the palette or
-      the value range, then the predictive stream
+4     3-D prediction: a flags byte (1: palette, 2: float bits, 4: floats split into
+      exponent and mantissa), then the palette or the value range (none when split),
+      then the predictive stream
 ====  ===============================================================================
 
 Floats (float16, float32) are coded exactly through the ordered integer image of their
@@ -43,7 +44,7 @@ from .errors import FormatError
 from .floatbits import FLOAT_DTYPES, from_ordered, to_ordered
 
 MODE_PREDICT = 4
-FLAG_PALETTE, FLAG_FLOAT = 1, 2
+FLAG_PALETTE, FLAG_FLOAT, FLAG_SPLIT = 1, 2, 4
 TOOLS = ("auto", "wavelet", "predict")
 FLOAT_ZSTD_LEVEL = 9
 
@@ -140,6 +141,8 @@ def describe(payload: bytes) -> str:
     """The tool a brick payload used, as ``volpack info`` lists it."""
     mode = payload[0] if payload else -1
     if mode == MODE_PREDICT and len(payload) > 1:
+        if payload[1] & FLAG_SPLIT:
+            return "predict-float"
         return "predict+palette" if payload[1] & FLAG_PALETTE else "predict"
     return {0: "wavelet", 1: "raw", 2: "constant", 3: "zstd"}.get(mode, f"mode {mode}")
 
@@ -153,12 +156,17 @@ def _encode_predict(brick: np.ndarray) -> list[bytes]:
     values = to_ordered(brick) if is_float else brick.astype(np.int64)
     flags = FLAG_FLOAT if is_float else 0
     lo, hi = int(values.min()), int(values.max())
-    out = [
-        bytes([MODE_PREDICT, flags])
-        + pal._uleb(_zigzag(lo))
-        + pal._uleb(hi - lo)
-        + predict.encode(values, lo, hi)
-    ]
+    if is_float:  # exponent and mantissa apart: whole images leap at binade changes
+        from . import floatcode
+
+        out = [bytes([MODE_PREDICT, flags | FLAG_SPLIT]) + floatcode.encode(values, brick.itemsize)]
+    else:
+        out = [
+            bytes([MODE_PREDICT, flags])
+            + pal._uleb(_zigzag(lo))
+            + pal._uleb(hi - lo)
+            + predict.encode(values, lo, hi)
+        ]
     if hi - lo + 1 > 2:
         p = pal.build(values)
         if len(p) < hi - lo + 1 and len(p) <= pal.MAX_PALETTE:
@@ -178,14 +186,22 @@ def _decode_predict(body: memoryview, shape: tuple[int, ...], dtype: np.dtype) -
         raise FormatError("predictive brick payload: missing flags byte")
     flags = body[0]
     is_float = dtype.kind == "f"
-    if flags & ~(FLAG_PALETTE | FLAG_FLOAT) or bool(flags & FLAG_FLOAT) != is_float:
-        raise FormatError(
-            f"predictive brick payload: flags {flags:#x} do not fit {dtype} voxels"
-        )
+    split = bool(flags & FLAG_SPLIT)
+    if (
+        flags & ~(FLAG_PALETTE | FLAG_FLOAT | FLAG_SPLIT)
+        or bool(flags & FLAG_FLOAT) != is_float
+        or (split and flags & FLAG_PALETTE)
+        or (split and not is_float)
+    ):
+        raise FormatError(f"predictive brick payload: flags {flags:#x} do not fit {dtype} voxels")
     vmin, vmax = _value_range(dtype)
     rest = body[1:]
     n = int(np.prod(shape))
-    if flags & FLAG_PALETTE:
+    if split:
+        from . import floatcode
+
+        values = floatcode.decode(rest, shape, dtype.itemsize)
+    elif flags & FLAG_PALETTE:
         p, used = pal.unpack(rest, min(pal.MAX_PALETTE, max(n, 1)))
         if p[0] < vmin or p[-1] > vmax:
             raise FormatError(f"corrupt palette: values outside the range of {dtype}")

@@ -56,6 +56,7 @@ M_SIGN = M_ZERO + NCTX
 M_LEN = M_SIGN + NCTX * 3
 M_MANT = M_LEN + NCTX * NLEN
 N_MODELS = M_MANT + NLEN * 4 * 4
+NO_RESIDUAL = np.int64(-(1 << 62))  # _get_residual's answer to an impossible length
 BIAS_LIMIT = 64  # halve a context's error sum and count when the count reaches this
 # 2^24 // t for t < 256: predictor weights without a division (see _weight).
 RECIP = np.array([0] + [(1 << 24) // t for t in range(1, 256)], dtype=np.int64)
@@ -75,6 +76,97 @@ def _activity_class(a):
     b = _bitlen(a)
     c = 2 * b - 2 + ((a >> (b - 2)) & 1)
     return min(c, NCTX - 1)
+
+
+@kernel(inline=True)
+def _put_residual(out, state, base, ctx, sctx, r, low, rng, pos):
+    """Code residual ``r`` in context ``ctx`` (sign context ``sctx``) with the models
+    from ``base`` on: a zero flag, the sign, the bit length of ``|r| - 1`` in unary, two
+    bits below its leading one with adaptive probabilities, the rest at one half."""
+    bit = np.int64(r != 0)
+    low, rng, pos = _put(out, state, base + M_ZERO + ctx, bit, low, rng, pos, RATE)
+    if r == 0:
+        return low, rng, pos
+    bit = np.int64(r < 0)
+    low, rng, pos = _put(out, state, base + M_SIGN + ctx * 3 + sctx, bit, low, rng, pos, RATE)
+    u = abs(r) - 1
+    nb = _bitlen(u)
+    k0 = base + M_LEN + ctx * NLEN
+    for j in range(min(nb + 1, NLEN - 1)):
+        low, rng, pos = _put(out, state, k0 + j, np.int64(nb > j), low, rng, pos, RATE)
+    nm = min(nb - 1, 2)
+    prefix = 1
+    for jm in range(nm):
+        bit = (u >> (nb - 2 - jm)) & 1
+        k = base + M_MANT + (nb * 4 + prefix) * 4 + min(ctx >> 3, 3)
+        low, rng, pos = _put(out, state, k, bit, low, rng, pos, RATE)
+        prefix = 2 * prefix + bit
+    kr = nb - 1 - max(nm, 0)
+    while kr > 0:
+        t = min(kr, 16)
+        kr -= t
+        rng >>= t
+        low += ((u >> kr) & ((1 << t) - 1)) * rng
+        low, rng, pos = _push(out, low, rng, pos)
+    return low, rng, pos
+
+
+@kernel(inline=True)
+def _get_residual(data, state, base, ctx, sctx, code, rng, pos):
+    """Decode what :func:`_put_residual` coded; ``NO_RESIDUAL`` for an impossible one."""
+    bit, code, rng, pos = _get(data, state, base + M_ZERO + ctx, code, rng, pos, RATE)
+    if bit == 0:
+        return np.int64(0), code, rng, pos
+    k = base + M_SIGN + ctx * 3 + sctx
+    neg, code, rng, pos = _get(data, state, k, code, rng, pos, RATE)
+    k0 = base + M_LEN + ctx * NLEN
+    nb = 0
+    while nb < NLEN - 1:
+        bit, code, rng, pos = _get(data, state, k0 + nb, code, rng, pos, RATE)
+        if bit == 0:
+            break
+        nb += 1
+    if nb > 62:
+        return NO_RESIDUAL, code, rng, pos
+    u = np.int64(1 if nb >= 1 else 0)
+    nm = min(nb - 1, 2)
+    prefix = 1
+    for _ in range(nm):
+        k = base + M_MANT + (nb * 4 + prefix) * 4 + min(ctx >> 3, 3)
+        bit, code, rng, pos = _get(data, state, k, code, rng, pos, RATE)
+        prefix = 2 * prefix + bit
+        u = (u << 1) | bit
+    kr = nb - 1 - max(nm, 0)
+    while kr > 0:
+        t = min(kr, 16)
+        kr -= t
+        rng >>= t
+        q = min(code // rng, (1 << t) - 1)
+        code -= q * rng
+        u = (u << t) | q
+        code, rng, pos = _pull(data, code, rng, pos)
+    return (-(u + 1) if neg else u + 1), code, rng, pos
+
+
+@kernel(inline=True)
+def _finish(out, low, pos):
+    """End a stream: the final ``low`` pins the interval. Returns the byte count."""
+    for _ in range(4):
+        out[pos] = low >> 24
+        pos += 1
+        low = (low << 8) & 0xFFFFFFFF
+    return pos
+
+
+@kernel(inline=True)
+def _open(data):
+    """Start decoding: ``(code, rng, pos)`` after the leading zero byte and four more."""
+    code = np.int64(0)
+    pos = 1
+    for _ in range(4):
+        code = (code << 8) | (np.int64(data[pos]) if pos < data.size else 0)
+        pos += 1
+    return code, np.int64(0xFFFFFFFF), pos
 
 
 @kernel(inline=True)
@@ -218,42 +310,10 @@ def _encode_kernel(v, shape, lo, hi, out):
                 pred, ctx, sctx = _predict_kernel(
                     v, err, perr, i, z, y, x, ny, nx, lo, hi, bias_sum, bias_cnt, preds
                 )
-                r = v[i] - pred
-                bit = np.int64(r != 0)
-                low, rng, pos = _put(out, state, M_ZERO + ctx, bit, low, rng, pos, RATE)
-                if r != 0:
-                    bit = np.int64(r < 0)
-                    k = M_SIGN + ctx * 3 + sctx
-                    low, rng, pos = _put(out, state, k, bit, low, rng, pos, RATE)
-                    u = abs(r) - 1
-                    nb = _bitlen(u)
-                    base = M_LEN + ctx * NLEN
-                    for j in range(nb + 1):
-                        if j == NLEN - 1:
-                            break
-                        bit = np.int64(nb > j)
-                        low, rng, pos = _put(out, state, base + j, bit, low, rng, pos, RATE)
-                    nm = min(nb - 1, 2)
-                    prefix = 1
-                    for jm in range(nm):
-                        bit = (u >> (nb - 2 - jm)) & 1
-                        k = M_MANT + (nb * 4 + prefix) * 4 + min(ctx >> 3, 3)
-                        low, rng, pos = _put(out, state, k, bit, low, rng, pos, RATE)
-                        prefix = 2 * prefix + bit
-                    kr = nb - 1 - max(nm, 0)
-                    while kr > 0:
-                        t = min(kr, 16)
-                        kr -= t
-                        rng >>= t
-                        low += ((u >> kr) & ((1 << t) - 1)) * rng
-                        low, rng, pos = _push(out, low, rng, pos)
+                low, rng, pos = _put_residual(out, state, 0, ctx, sctx, v[i] - pred, low, rng, pos)
                 _learn(v, err, perr, i, pred, ctx, bias_sum, bias_cnt, preds)
                 i += 1
-    for _ in range(4):
-        out[pos] = low >> 24
-        pos += 1
-        low = (low << 8) & 0xFFFFFFFF
-    return pos
+    return _finish(out, low, pos)
 
 
 @kernel
@@ -268,12 +328,7 @@ def _decode_kernel(data, shape, lo, hi, v):
     bias_sum = np.zeros(NCTX, dtype=np.int64)
     bias_cnt = np.zeros(NCTX, dtype=np.int64)
     state = np.full(N_MODELS, STATE_INIT, dtype=np.uint16)
-    rng = np.int64(0xFFFFFFFF)
-    code = np.int64(0)
-    pos = 1
-    for _ in range(4):
-        code = (code << 8) | (np.int64(data[pos]) if pos < size else 0)
-        pos += 1
+    code, rng, pos = _open(data)
     i = 0
     for z in range(nz):
         for y in range(ny):
@@ -283,38 +338,9 @@ def _decode_kernel(data, shape, lo, hi, v):
                 pred, ctx, sctx = _predict_kernel(
                     v, err, perr, i, z, y, x, ny, nx, lo, hi, bias_sum, bias_cnt, preds
                 )
-                bit, code, rng, pos = _get(data, state, M_ZERO + ctx, code, rng, pos, RATE)
-                r = np.int64(0)
-                if bit:
-                    k = M_SIGN + ctx * 3 + sctx
-                    neg, code, rng, pos = _get(data, state, k, code, rng, pos, RATE)
-                    base = M_LEN + ctx * NLEN
-                    nb = 0
-                    while nb < NLEN - 1:
-                        bit, code, rng, pos = _get(data, state, base + nb, code, rng, pos, RATE)
-                        if bit == 0:
-                            break
-                        nb += 1
-                    if nb > 64:
-                        return 2
-                    u = np.int64(1 if nb >= 1 else 0)
-                    nm = min(nb - 1, 2)
-                    prefix = 1
-                    for _ in range(nm):
-                        k = M_MANT + (nb * 4 + prefix) * 4 + min(ctx >> 3, 3)
-                        bit, code, rng, pos = _get(data, state, k, code, rng, pos, RATE)
-                        prefix = 2 * prefix + bit
-                        u = (u << 1) | bit
-                    kr = nb - 1 - max(nm, 0)
-                    while kr > 0:
-                        t = min(kr, 16)
-                        kr -= t
-                        rng >>= t
-                        q = min(code // rng, (1 << t) - 1)
-                        code -= q * rng
-                        u = (u << t) | q
-                        code, rng, pos = _pull(data, code, rng, pos)
-                    r = -(u + 1) if neg else u + 1
+                r, code, rng, pos = _get_residual(data, state, 0, ctx, sctx, code, rng, pos)
+                if r == NO_RESIDUAL:
+                    return 2
                 val = pred + r
                 if val < lo or val > hi:
                     return 2
