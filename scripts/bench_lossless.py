@@ -20,8 +20,11 @@ each named with its package in the table. Peers, as their authors run them:
 * floats: zstd-19 byte-shuffled, blosc2, zfp reversible, fpzip (``precision=0``,
   lossless) and pcodec (``standalone.simple_compress``, default level).
 
-volpack rows: ``volpack`` (the default options, 1 and 2 workers), ``volpack-huffman``
-and whatever ``VOLPACK_ROWS`` lists; ``--grid`` adds every wavelet x coder.
+volpack rows: ``volpack`` (the default: the ``lossless`` codec, per brick the wavelet,
+3-D prediction, labels or floats split; 1 and 2 workers), ``volpack-wavelet`` (the
+wavelet codec alone, the previous default) and ``volpack-wavelet-huffman`` (its fast
+coder); floats: ``volpack`` and ``volpack-zstd`` (byte-shuffled zstd, the previous float
+path). ``--grid`` adds every wavelet x coder of the wavelet codec.
 
     python scripts/fetch_data.py                       # once
     python scripts/bench_lossless.py --quick           # 128^3 centre crops, fast
@@ -73,7 +76,10 @@ FIELDS = [
 ]
 JPEGXL_EFFORTS = (3, 7, 9)
 # volpack rows beyond the default: (row name, api options). Integer and float volumes.
-VOLPACK_ROWS_INT = (("volpack-huffman", {"coder": "huffman"}),)
+VOLPACK_ROWS_INT = (
+    ("volpack-wavelet", {"codec": "wavelet"}),  # the wavelet codec alone (the old default)
+    ("volpack-wavelet-huffman", {"codec": "wavelet", "coder": "huffman"}),
+)
 VOLPACK_ROWS_FLOAT = (("volpack-zstd", {"codec": "zstd"}),)
 GRID_WAVELETS = ("53", "26", "haar", "97m")
 GRID_CODERS = ("arith", "huffman", "rle")
@@ -334,7 +340,7 @@ def volpack_methods(dtype: np.dtype, shape, brick: int | None, grid: bool) -> li
     rows += list(VOLPACK_ROWS_FLOAT if dtype.kind == "f" else VOLPACK_ROWS_INT)
     if grid and dtype.kind != "f":
         rows += [
-            (f"volpack-{w}-{c}", {"wavelet": w, "coder": c})
+            (f"volpack-{w}-{c}", {"codec": "wavelet", "wavelet": w, "coder": c})
             for w in GRID_WAVELETS
             for c in GRID_CODERS
         ]
@@ -671,7 +677,8 @@ def _bold_best(values: list[float | None], fmt: str = "{:.3f}") -> list[str]:
 
 _COLORS = {
     "volpack": "#c0392b",
-    "volpack-huffman": "#e67e22",
+    "volpack-wavelet": "#e67e22",
+    "volpack-wavelet-huffman": "#f0b27a",
     "volpack-zstd": "#f5b7b1",
     "zstd-19": "#6baed6",
     "zstd-19+shuffle": "#6baed6",

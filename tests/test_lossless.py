@@ -14,6 +14,7 @@ from volpack.errors import FormatError
 from volpack.floatbits import from_ordered, to_ordered
 from volpack.lossless import (
     FLAG_FLOAT,
+    FLAG_LABELS,
     FLAG_PALETTE,
     FLAG_SPLIT,
     MODE_PREDICT,
@@ -112,7 +113,7 @@ def test_palette_volumes_roundtrip(k, dtype):
     roundtrip(a, brick=(shape[0], 32, 32), tools="predict")
     # Both predictive payloads, with and without the palette, decode exactly.
     payloads = _encode_predict(a)
-    assert [p[1] & FLAG_PALETTE for p in payloads] == [0, FLAG_PALETTE]
+    assert [p[1] & FLAG_PALETTE for p in payloads[:2]] == [0, FLAG_PALETTE]
     for p in payloads:
         back = LosslessCodec().decode(p, a.shape, a.dtype)
         np.testing.assert_array_equal(back, a)
@@ -164,6 +165,28 @@ def test_flat_background_costs_little():
     alone, _ = roundtrip(np.ascontiguousarray(a[10:20, 10:20, 10:20]), brick=32, tools="predict")
     # 31,768 background voxels cost well under a tenth of a bit each
     assert len(blob) - len(alone) < 0.1 * (a.size - 1000) / 8
+
+
+def label_map(shape=(24, 28, 32), seed=4):
+    """Nested shells of 7 labels around two centres, as an atlas draws regions."""
+    z, y, x = np.indices(shape)
+    d1 = np.sqrt((z - 8) ** 2 + (y - 9) ** 2 + (x - 10) ** 2)
+    d2 = np.sqrt((z - 16) ** 2 + (y - 20) ** 2 + (x - 22) ** 2)
+    lab = np.minimum(d1 // 3, 3) * 2 + (d2 < 7) * 11
+    return (lab * 9 + 5).astype(np.uint8)
+
+
+def test_label_maps_copy_neighbours():
+    from volpack.codec import WaveletCodec, ZstdCodec
+
+    a = label_map()
+    blob, tools = roundtrip(a, brick=32)
+    assert tools == {"labels": 1}
+    ours = len(LosslessCodec().encode(a))
+    assert ours < 0.7 * min(len(ZstdCodec().encode(a)), len(WaveletCodec().encode(a)))
+    a16 = a.astype(np.int16) * 300 - 20000  # the same labels as wide values
+    blob16, tools16 = roundtrip(a16, brick=32)
+    assert tools16 == {"labels": 1} and len(LosslessCodec().encode(a16)) < ours + 16
 
 
 # --- floats ------------------------------------------------------------------------------
@@ -268,6 +291,7 @@ def test_golden_lossless_streams_use_the_new_sections():
     assert (MODE_PREDICT, FLAG_PALETTE) in seen
     assert (MODE_PREDICT, FLAG_FLOAT | FLAG_PALETTE) in seen
     assert (MODE_PREDICT, FLAG_FLOAT | FLAG_SPLIT) in seen
+    assert (MODE_PREDICT, FLAG_PALETTE | FLAG_LABELS) in seen
 
 
 # --- corrupt payloads --------------------------------------------------------------------
@@ -291,6 +315,8 @@ def test_corrupt_sections_raise_format_error():
         good[:3],  # the value range cut short
         bytes([MODE_PREDICT, 0]) + palette._uleb(0) + palette._uleb(1000),  # past uint8
         bytes([MODE_PREDICT, FLAG_PALETTE]) + palette._uleb(0),  # empty palette
+        bytes([MODE_PREDICT, FLAG_LABELS]) + good[2:],  # labels without a palette
+        bytes([MODE_PREDICT, FLAG_PALETTE | FLAG_LABELS]) + palette._uleb(2) + b"\x00\x00",
         bytes([MODE_PREDICT, FLAG_PALETTE]) + palette._uleb(5000),  # more values than voxels
         bytes([MODE_PREDICT, FLAG_PALETTE]) + palette._uleb(3) + b"\x00\x80",  # cut short
         bytes([MODE_PREDICT, FLAG_PALETTE]) + palette._uleb(2) + palette._uleb(600) + b"\x00",

@@ -11,8 +11,8 @@ mode  payload after the mode byte
 ====  ===============================================================================
 0-3   as the ``wavelet`` codec's modes (coefficients, raw, constant, byte-shuffled zstd)
 4     3-D prediction: a flags byte (1: palette, 2: float bits, 4: floats split into
-      exponent and mantissa), then the palette or the value range (none when split),
-      then the predictive stream
+      exponent and mantissa, 8: labels copied from neighbours), then the palette or the
+      value range (none when split), then the predictive or label stream
 ====  ===============================================================================
 
 Floats (float16, float32) are coded exactly through the ordered integer image of their
@@ -39,12 +39,13 @@ from .codec import (
     _as_stored,
     _check_choice,
     _from_stored,
+    _piecewise_constant,
 )
 from .errors import FormatError
 from .floatbits import FLOAT_DTYPES, from_ordered, to_ordered
 
 MODE_PREDICT = 4
-FLAG_PALETTE, FLAG_FLOAT, FLAG_SPLIT = 1, 2, 4
+FLAG_PALETTE, FLAG_FLOAT, FLAG_SPLIT, FLAG_LABELS = 1, 2, 4, 8
 TOOLS = ("auto", "wavelet", "predict")
 FLOAT_ZSTD_LEVEL = 9
 
@@ -143,6 +144,8 @@ def describe(payload: bytes) -> str:
     if mode == MODE_PREDICT and len(payload) > 1:
         if payload[1] & FLAG_SPLIT:
             return "predict-float"
+        if payload[1] & FLAG_LABELS:
+            return "labels"
         return "predict+palette" if payload[1] & FLAG_PALETTE else "predict"
     return {0: "wavelet", 1: "raw", 2: "constant", 3: "zstd"}.get(mode, f"mode {mode}")
 
@@ -176,6 +179,16 @@ def _encode_predict(brick: np.ndarray) -> list[bytes]:
                 + pal.pack(p)
                 + predict.encode(ranks, 0, len(p) - 1)
             )
+    if _piecewise_constant(brick):
+        from . import labels
+
+        p = pal.build(values)
+        if len(p) <= pal.MAX_PALETTE:
+            out.append(
+                bytes([MODE_PREDICT, flags | FLAG_PALETTE | FLAG_LABELS])
+                + pal.pack(p)
+                + labels.encode(pal.to_ranks(values, p), len(p))
+            )
     return out
 
 
@@ -188,10 +201,11 @@ def _decode_predict(body: memoryview, shape: tuple[int, ...], dtype: np.dtype) -
     is_float = dtype.kind == "f"
     split = bool(flags & FLAG_SPLIT)
     if (
-        flags & ~(FLAG_PALETTE | FLAG_FLOAT | FLAG_SPLIT)
+        flags & ~(FLAG_PALETTE | FLAG_FLOAT | FLAG_SPLIT | FLAG_LABELS)
         or bool(flags & FLAG_FLOAT) != is_float
-        or (split and flags & FLAG_PALETTE)
+        or (split and flags & (FLAG_PALETTE | FLAG_LABELS))
         or (split and not is_float)
+        or (flags & FLAG_LABELS and not flags & FLAG_PALETTE)
     ):
         raise FormatError(f"predictive brick payload: flags {flags:#x} do not fit {dtype} voxels")
     vmin, vmax = _value_range(dtype)
@@ -205,7 +219,13 @@ def _decode_predict(body: memoryview, shape: tuple[int, ...], dtype: np.dtype) -
         p, used = pal.unpack(rest, min(pal.MAX_PALETTE, max(n, 1)))
         if p[0] < vmin or p[-1] > vmax:
             raise FormatError(f"corrupt palette: values outside the range of {dtype}")
-        values = pal.from_ranks(predict.decode(rest[used:], shape, 0, len(p) - 1), p)
+        if flags & FLAG_LABELS:
+            from . import labels
+
+            ranks = labels.decode(rest[used:], shape, len(p))
+        else:
+            ranks = predict.decode(rest[used:], shape, 0, len(p) - 1)
+        values = pal.from_ranks(ranks, p)
     else:
         z, pos = pal._read_uleb(rest, 0)
         span, pos = pal._read_uleb(rest, pos)

@@ -178,7 +178,7 @@ def _weight(t):
     return max(RECIP[t >> sh] >> sh, 1)
 
 
-@kernel
+@kernel(inline=True)
 def _predict_kernel(v, err, perr, i, z, y, x, ny, nx, lo, hi, bias_sum, bias_cnt, preds):
     """Prediction and contexts of voxel ``i`` = (z, y, x) from the decoded ``v``, the
     final errors ``err`` and the per-predictor errors ``perr`` of earlier voxels.
@@ -260,9 +260,10 @@ def _predict_kernel(v, err, perr, i, z, y, x, ny, nx, lo, hi, bias_sum, bias_cnt
         den += w
     pred = (num + (den >> 1)) // den
     cnt = bias_cnt[ctx]
-    if cnt > 0:
+    if cnt > 0:  # the context's mean error, rounded, by a reciprocal (cnt < 64)
         s = bias_sum[ctx]
-        pred += (s + (cnt >> 1)) // cnt if s >= 0 else -((-s + (cnt >> 1)) // cnt)
+        m = RECIP[cnt]
+        pred += (s * m + (1 << 23)) >> 24 if s >= 0 else -((-s * m + (1 << 23)) >> 24)
     if pred < lo:
         pred = lo
     elif pred > hi:
