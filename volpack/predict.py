@@ -215,7 +215,6 @@ def _predict_kernel(v, err, perr, i, z, y, x, ny, nx, lo, hi, bias_sum, bias_cnt
     # Each predictor's error sum at the neighbours, and the activity of the final errors.
     act2 = np.int64(0)  # twice the activity
     esum = np.int64(0)
-    npos = 0
     for k in range(NPRED):
         preds[NPRED + k] = 0
     if hw:
@@ -224,14 +223,12 @@ def _predict_kernel(v, err, perr, i, z, y, x, ny, nx, lo, hi, bias_sum, bias_cnt
         esum += err[j]
         for k in range(NPRED):
             preds[NPRED + k] += perr[j * NPRED + k]
-        npos += 1
     if hn:
         j = i - sy
         act2 += 2 * abs(err[j])
         esum += err[j]
         for k in range(NPRED):
             preds[NPRED + k] += perr[j * NPRED + k]
-        npos += 1
         if hw:
             j = i - sy - 1
             act2 += abs(err[j])
@@ -248,7 +245,6 @@ def _predict_kernel(v, err, perr, i, z, y, x, ny, nx, lo, hi, bias_sum, bias_cnt
         esum += err[j]
         for k in range(NPRED):
             preds[NPRED + k] += perr[j * NPRED + k]
-        npos += 1
     ctx = _activity_class(act2 >> 1)
     # Blend with weights ~ 2^24 / (1 + s_k) (at least 1); the sums stay below 2^63 for
     # a value range below 2^32.
