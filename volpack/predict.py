@@ -27,7 +27,8 @@ is the prediction.
 The residual is coded with the adaptive binary range coder of
 :mod:`volpack.entropy.arith` in a context ``c`` that measures how large the errors
 around the voxel were (``|e_W| + |e_N| + |e_U| + (|e_NW| + |e_NE|) / 2`` on a
-logarithmic scale, 48 classes): a zero flag, the sign, the bit length of ``|r| - 1``
+logarithmic scale, 48 classes) and how far the six predictors disagree (3 classes
+against that activity): a zero flag, the sign, the bit length of ``|r| - 1``
 in unary, two bits below its leading one with adaptive probabilities, the rest at one
 half. A flat background costs a few hundredths of a bit a voxel; an edge costs its
 jump once.
@@ -43,12 +44,14 @@ from __future__ import annotations
 import numpy as np
 
 from ._jit import kernel, leading_zeros
-from .entropy.arith import RATE, STATE_INIT, _get, _pull, _push, _put
+from .entropy.arith import STATE_INIT, _get, _pull, _push, _put
 from .entropy.common import check_status
 from .errors import FormatError
 
 NPRED = 6
-NCTX = 48
+NACT = 48  # activity classes
+NSPREAD = 3  # classes of the predictors' spread relative to the activity
+NCTX = NACT * NSPREAD
 NLEN = 66  # bit lengths 0..65 of |r| - 1 (residuals of 64-bit values fit)
 # Model layout: zero flags, signs (3 sign contexts), unary bit lengths, mantissa bits.
 M_ZERO = 0
@@ -57,6 +60,9 @@ M_LEN = M_SIGN + NCTX * 3
 M_MANT = M_LEN + NCTX * NLEN
 N_MODELS = M_MANT + NLEN * 4 * 4
 NO_RESIDUAL = np.int64(-(1 << 62))  # _get_residual's answer to an impossible length
+# Adaptation rates by use count (as arith.RATE, but settling slower: a brick of
+# prediction residuals is long and its statistics steady).
+RATE = np.array([1, 2, 2, 3, 3, 3, 4, 4, 4, 5, 5, 5, 6, 6, 6, 7], dtype=np.int64)
 BIAS_LIMIT = 64  # halve a context's error sum and count when the count reaches this
 # 2^24 // t for t < 256: predictor weights without a division (see _weight).
 RECIP = np.array([0] + [(1 << 24) // t for t in range(1, 256)], dtype=np.int64)
@@ -75,7 +81,7 @@ def _activity_class(a):
         return a
     b = _bitlen(a)
     c = 2 * b - 2 + ((a >> (b - 2)) & 1)
-    return min(c, NCTX - 1)
+    return min(c, NACT - 1)
 
 
 @kernel(inline=True)
@@ -245,7 +251,7 @@ def _predict_kernel(v, err, perr, i, z, y, x, ny, nx, lo, hi, bias_sum, bias_cnt
         esum += err[j]
         for k in range(NPRED):
             preds[NPRED + k] += perr[j * NPRED + k]
-    ctx = _activity_class(act2 >> 1)
+    act = act2 >> 1
     # Blend with weights ~ 2^24 / (1 + s_k) (at least 1); the sums stay below 2^63 for
     # a value range below 2^32.
     num = np.int64(0)
@@ -255,6 +261,15 @@ def _predict_kernel(v, err, perr, i, z, y, x, ny, nx, lo, hi, bias_sum, bias_cnt
         num += w * preds[k]
         den += w
     pred = (num + (den >> 1)) // den
+    pmin = preds[0]
+    pmax = preds[0]
+    for k in range(1, NPRED):
+        pmin = min(pmin, preds[k])
+        pmax = max(pmax, preds[k])
+    spread = pmax - pmin
+    # Context: the activity class, split by how far the predictors disagree.
+    wide = 0 if 2 * spread <= act else (1 if spread <= 2 * act + 1 else 2)
+    ctx = _activity_class(act) * NSPREAD + wide
     cnt = bias_cnt[ctx]
     if cnt > 0:  # the context's mean error, rounded, by a reciprocal (cnt < 64)
         s = bias_sum[ctx]
