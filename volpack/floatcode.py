@@ -13,7 +13,8 @@ each part is predictable on its own:
   middle of the range in a context of its own. Its residual is coded in a context of
   the neighbours' low residuals.
 
-Both residuals use the coding of :func:`volpack.predict._put_residual`. Mantissa bits
+Both residuals use the coding of :func:`volpack.predict._put_residual`, adapting at
+the faster rates of :mod:`volpack.entropy.arith` (exponent statistics move more). Mantissa bits
 below the noise stay costly (they are the data), but zero backgrounds, signs and
 exponents cost little. The byte layout is in ``formats/lossless-1.md``.
 """
@@ -23,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._jit import kernel
-from .entropy.arith import STATE_INIT, _push  # noqa: F401  (kept beside _put_residual)
+from .entropy.arith import RATE, STATE_INIT
 from .entropy.common import check_status
 from .errors import FormatError
 from .predict import (
@@ -117,10 +118,10 @@ def _encode_kernel(o, shape, mb, out):
                     return -1
                 ph, ch, jw, jn, ju = _high_context(o, eh, i, x, y, z, ny, nx, mb, first)
                 h = o[i] >> mb
-                low, rng, pos = _put_residual(out, state, 0, ch, 0, h - ph, low, rng, pos)
+                low, rng, pos = _put_residual(out, state, 0, ch, 0, h - ph, low, rng, pos, RATE)
                 pl, cl = _low_context(o, el, i, h, jw, jn, ju, x, nx, mb, mask)
                 r = (o[i] & mask) - pl
-                low, rng, pos = _put_residual(out, state, N_MODELS, cl, 0, r, low, rng, pos)
+                low, rng, pos = _put_residual(out, state, N_MODELS, cl, 0, r, low, rng, pos, RATE)
                 eh[i] = abs(h - ph)
                 el[i] = abs(r)
                 i += 1
@@ -147,12 +148,14 @@ def _decode_kernel(data, shape, mb, o):
                 if pos > size + 4:
                     return 1
                 ph, ch, jw, jn, ju = _high_context(o, eh, i, x, y, z, ny, nx, mb, first)
-                r, code, rng, pos = _get_residual(data, state, 0, ch, 0, code, rng, pos)
+                r, code, rng, pos = _get_residual(data, state, 0, ch, 0, code, rng, pos, RATE)
                 h = ph + r
                 if r == NO_RESIDUAL or h < 0 or h > hmax:
                     return 2
                 pl, cl = _low_context(o, el, i, h, jw, jn, ju, x, nx, mb, mask)
-                r2, code, rng, pos = _get_residual(data, state, N_MODELS, cl, 0, code, rng, pos)
+                r2, code, rng, pos = _get_residual(
+                    data, state, N_MODELS, cl, 0, code, rng, pos, RATE
+                )
                 lo = pl + r2
                 if r2 == NO_RESIDUAL or lo < 0 or lo > mask:
                     return 2

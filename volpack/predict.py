@@ -85,27 +85,27 @@ def _activity_class(a):
 
 
 @kernel(inline=True)
-def _put_residual(out, state, base, ctx, sctx, r, low, rng, pos):
+def _put_residual(out, state, base, ctx, sctx, r, low, rng, pos, rate):
     """Code residual ``r`` in context ``ctx`` (sign context ``sctx``) with the models
-    from ``base`` on: a zero flag, the sign, the bit length of ``|r| - 1`` in unary, two
+    from ``base`` on, adapting at ``rate``: a zero flag, the sign, the bit length of ``|r| - 1`` in unary, two
     bits below its leading one with adaptive probabilities, the rest at one half."""
     bit = np.int64(r != 0)
-    low, rng, pos = _put(out, state, base + M_ZERO + ctx, bit, low, rng, pos, RATE)
+    low, rng, pos = _put(out, state, base + M_ZERO + ctx, bit, low, rng, pos, rate)
     if r == 0:
         return low, rng, pos
     bit = np.int64(r < 0)
-    low, rng, pos = _put(out, state, base + M_SIGN + ctx * 3 + sctx, bit, low, rng, pos, RATE)
+    low, rng, pos = _put(out, state, base + M_SIGN + ctx * 3 + sctx, bit, low, rng, pos, rate)
     u = abs(r) - 1
     nb = _bitlen(u)
     k0 = base + M_LEN + ctx * NLEN
     for j in range(min(nb + 1, NLEN - 1)):
-        low, rng, pos = _put(out, state, k0 + j, np.int64(nb > j), low, rng, pos, RATE)
+        low, rng, pos = _put(out, state, k0 + j, np.int64(nb > j), low, rng, pos, rate)
     nm = min(nb - 1, 2)
     prefix = 1
     for jm in range(nm):
         bit = (u >> (nb - 2 - jm)) & 1
         k = base + M_MANT + (nb * 4 + prefix) * 4 + min(ctx >> 3, 3)
-        low, rng, pos = _put(out, state, k, bit, low, rng, pos, RATE)
+        low, rng, pos = _put(out, state, k, bit, low, rng, pos, rate)
         prefix = 2 * prefix + bit
     kr = nb - 1 - max(nm, 0)
     while kr > 0:
@@ -118,17 +118,17 @@ def _put_residual(out, state, base, ctx, sctx, r, low, rng, pos):
 
 
 @kernel(inline=True)
-def _get_residual(data, state, base, ctx, sctx, code, rng, pos):
+def _get_residual(data, state, base, ctx, sctx, code, rng, pos, rate):
     """Decode what :func:`_put_residual` coded; ``NO_RESIDUAL`` for an impossible one."""
-    bit, code, rng, pos = _get(data, state, base + M_ZERO + ctx, code, rng, pos, RATE)
+    bit, code, rng, pos = _get(data, state, base + M_ZERO + ctx, code, rng, pos, rate)
     if bit == 0:
         return np.int64(0), code, rng, pos
     k = base + M_SIGN + ctx * 3 + sctx
-    neg, code, rng, pos = _get(data, state, k, code, rng, pos, RATE)
+    neg, code, rng, pos = _get(data, state, k, code, rng, pos, rate)
     k0 = base + M_LEN + ctx * NLEN
     nb = 0
     while nb < NLEN - 1:
-        bit, code, rng, pos = _get(data, state, k0 + nb, code, rng, pos, RATE)
+        bit, code, rng, pos = _get(data, state, k0 + nb, code, rng, pos, rate)
         if bit == 0:
             break
         nb += 1
@@ -139,7 +139,7 @@ def _get_residual(data, state, base, ctx, sctx, code, rng, pos):
     prefix = 1
     for _ in range(nm):
         k = base + M_MANT + (nb * 4 + prefix) * 4 + min(ctx >> 3, 3)
-        bit, code, rng, pos = _get(data, state, k, code, rng, pos, RATE)
+        bit, code, rng, pos = _get(data, state, k, code, rng, pos, rate)
         prefix = 2 * prefix + bit
         u = (u << 1) | bit
     kr = nb - 1 - max(nm, 0)
@@ -322,7 +322,9 @@ def _encode_kernel(v, shape, lo, hi, out):
                 pred, ctx, sctx = _predict_kernel(
                     v, err, perr, i, z, y, x, ny, nx, lo, hi, bias_sum, bias_cnt, preds
                 )
-                low, rng, pos = _put_residual(out, state, 0, ctx, sctx, v[i] - pred, low, rng, pos)
+                low, rng, pos = _put_residual(
+                    out, state, 0, ctx, sctx, v[i] - pred, low, rng, pos, RATE
+                )
                 _learn(v, err, perr, i, pred, ctx, bias_sum, bias_cnt, preds)
                 i += 1
     return _finish(out, low, pos)
@@ -350,7 +352,7 @@ def _decode_kernel(data, shape, lo, hi, v):
                 pred, ctx, sctx = _predict_kernel(
                     v, err, perr, i, z, y, x, ny, nx, lo, hi, bias_sum, bias_cnt, preds
                 )
-                r, code, rng, pos = _get_residual(data, state, 0, ctx, sctx, code, rng, pos)
+                r, code, rng, pos = _get_residual(data, state, 0, ctx, sctx, code, rng, pos, RATE)
                 if r == NO_RESIDUAL:
                     return 2
                 val = pred + r
