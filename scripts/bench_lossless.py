@@ -602,6 +602,7 @@ def machine_line(info: dict[str, str]) -> str:
 def write_table(rows, notes, skipped, path: Path, run: dict, info: dict[str, str]) -> None:
     by_ds = _by_dataset(rows)
     vp_cols = list(dict.fromkeys(r["method"] for r in rows if _is_volpack(r["method"])))
+    vp_cols.sort(key=lambda m: m != "volpack")  # the default first
     peers = _peer_columns(rows)
     lines = [
         "# Lossless benchmark",
