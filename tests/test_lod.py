@@ -59,6 +59,7 @@ def test_empty_space_skipping_through_the_page_table_leaves_the_image_unchanged(
     assert sb.samples < sa.samples
 
 
+@pytest.mark.slow
 def test_budget_bounds_the_nodes_and_more_nodes_cost_less_error(tree_path):
     path, vol = tree_path
     vr = (float(vol.min()), float(vol.max()))

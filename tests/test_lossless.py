@@ -8,11 +8,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from volpack import api, palette, predict
-from volpack.container import Reader
+from volpack import api
 from volpack.errors import FormatError
-from volpack.floatbits import from_ordered, to_ordered
-from volpack.lossless import (
+from volpack.format.container import Reader
+from volpack.volume_codec import palette, predict
+from volpack.volume_codec.floatbits import from_ordered, to_ordered
+from volpack.volume_codec.lossless import (
     FLAG_FLOAT,
     FLAG_LABELS,
     FLAG_PALETTE,
@@ -177,7 +178,7 @@ def label_map(shape=(24, 28, 32), seed=4):
 
 
 def test_label_maps_copy_neighbours():
-    from volpack.codec import WaveletCodec, ZstdCodec
+    from volpack.volume_codec.codec import WaveletCodec, ZstdCodec
 
     a = label_map()
     blob, tools = roundtrip(a, brick=32)
