@@ -314,13 +314,13 @@ def test_corrupt_sections_raise_format_error():
         bytes([MODE_PREDICT, FLAG_FLOAT]) + good[2:],  # float flag on integers
         bytes([9]) + good[1:],  # unknown mode
         good[:3],  # the value range cut short
-        bytes([MODE_PREDICT, 0]) + palette._uleb(0) + palette._uleb(1000),  # past uint8
-        bytes([MODE_PREDICT, FLAG_PALETTE]) + palette._uleb(0),  # empty palette
+        bytes([MODE_PREDICT, 0]) + palette.uleb(0) + palette.uleb(1000),  # past uint8
+        bytes([MODE_PREDICT, FLAG_PALETTE]) + palette.uleb(0),  # empty palette
         bytes([MODE_PREDICT, FLAG_LABELS]) + good[2:],  # labels without a palette
-        bytes([MODE_PREDICT, FLAG_PALETTE | FLAG_LABELS]) + palette._uleb(2) + b"\x00\x00",
-        bytes([MODE_PREDICT, FLAG_PALETTE]) + palette._uleb(5000),  # more values than voxels
-        bytes([MODE_PREDICT, FLAG_PALETTE]) + palette._uleb(3) + b"\x00\x80",  # cut short
-        bytes([MODE_PREDICT, FLAG_PALETTE]) + palette._uleb(2) + palette._uleb(600) + b"\x00",
+        bytes([MODE_PREDICT, FLAG_PALETTE | FLAG_LABELS]) + palette.uleb(2) + b"\x00\x00",
+        bytes([MODE_PREDICT, FLAG_PALETTE]) + palette.uleb(5000),  # more values than voxels
+        bytes([MODE_PREDICT, FLAG_PALETTE]) + palette.uleb(3) + b"\x00\x80",  # cut short
+        bytes([MODE_PREDICT, FLAG_PALETTE]) + palette.uleb(2) + palette.uleb(600) + b"\x00",
     ]
     for data in bad:
         with pytest.raises(FormatError):

@@ -13,7 +13,7 @@ each part is predictable on its own:
   middle of the range in a context of its own. Its residual is coded in a context of
   the neighbours' low residuals.
 
-Both residuals use the coding of :func:`.predict._put_residual`, adapting at
+Both residuals use the coding of :func:`.predict.put_residual`, adapting at
 the faster rates of :mod:`volpack.entropy.rangecoder` (exponent statistics move more). Mantissa bits
 below the noise stay costly (they are the data), but zero backgrounds, signs and
 exponents cost little. The byte layout is in ``formats/lossless-1.md``.
@@ -31,11 +31,11 @@ from .predict import (
     N_MODELS,
     NCTX,
     NO_RESIDUAL,
-    _activity_class,
-    _finish,
-    _get_residual,
-    _open,
-    _put_residual,
+    activity_class,
+    finish_stream,
+    get_residual,
+    open_stream,
+    put_residual,
 )
 
 MANTISSA_BITS = {2: 10, 4: 23}  # by itemsize
@@ -65,7 +65,7 @@ def _high_context(o, eh, i, x, y, z, ny, nx, mb, first):
         act += eh[jn]
     if ju >= 0:
         act += eh[ju]
-    return pred, _activity_class(act), jw, jn, ju
+    return pred, activity_class(act), jw, jn, ju
 
 
 @kernel(inline=True)
@@ -93,7 +93,7 @@ def _low_context(o, el, i, h, jw, jn, ju, x, nx, mb, mask):
         act = 2 * el[ju]
     else:
         return (mask + 1) >> 1, NCTX - 1
-    return pred, min(_activity_class(act >> 1), NCTX - 2)
+    return pred, min(activity_class(act >> 1), NCTX - 2)
 
 
 @kernel
@@ -118,14 +118,14 @@ def _encode_kernel(o, shape, mb, out):
                     return -1
                 ph, ch, jw, jn, ju = _high_context(o, eh, i, x, y, z, ny, nx, mb, first)
                 h = o[i] >> mb
-                low, rng, pos = _put_residual(out, state, 0, ch, 0, h - ph, low, rng, pos, RATE)
+                low, rng, pos = put_residual(out, state, 0, ch, 0, h - ph, low, rng, pos, RATE)
                 pl, cl = _low_context(o, el, i, h, jw, jn, ju, x, nx, mb, mask)
                 r = (o[i] & mask) - pl
-                low, rng, pos = _put_residual(out, state, N_MODELS, cl, 0, r, low, rng, pos, RATE)
+                low, rng, pos = put_residual(out, state, N_MODELS, cl, 0, r, low, rng, pos, RATE)
                 eh[i] = abs(h - ph)
                 el[i] = abs(r)
                 i += 1
-    return _finish(out, low, pos)
+    return finish_stream(out, low, pos)
 
 
 @kernel
@@ -140,7 +140,7 @@ def _decode_kernel(data, shape, mb, o):
     eh = np.zeros(n, dtype=np.int64)
     el = np.zeros(n, dtype=np.int64)
     state = np.full(2 * N_MODELS, STATE_INIT, dtype=np.uint16)
-    code, rng, pos = _open(data)
+    code, rng, pos = open_stream(data)
     i = 0
     for z in range(nz):
         for y in range(ny):
@@ -148,12 +148,12 @@ def _decode_kernel(data, shape, mb, o):
                 if pos > size + 4:
                     return 1
                 ph, ch, jw, jn, ju = _high_context(o, eh, i, x, y, z, ny, nx, mb, first)
-                r, code, rng, pos = _get_residual(data, state, 0, ch, 0, code, rng, pos, RATE)
+                r, code, rng, pos = get_residual(data, state, 0, ch, 0, code, rng, pos, RATE)
                 h = ph + r
                 if r == NO_RESIDUAL or h < 0 or h > hmax:
                     return 2
                 pl, cl = _low_context(o, el, i, h, jw, jn, ju, x, nx, mb, mask)
-                r2, code, rng, pos = _get_residual(
+                r2, code, rng, pos = get_residual(
                     data, state, N_MODELS, cl, 0, code, rng, pos, RATE
                 )
                 lo = pl + r2

@@ -23,7 +23,7 @@ from ..entropy.rangecoder import RATE, STATE_INIT
 from ..entropy.rangecoder import get as _get
 from ..entropy.rangecoder import put as _put
 from ..errors import FormatError
-from .predict import _bitlen, _finish, _open
+from .predict import bitlen, finish_stream, open_stream
 
 NCAND = 5
 N_PATTERN = 1 << 7
@@ -97,7 +97,7 @@ def _encode_kernel(v, shape, nbits, out):
                         low, rng, pos = _put(out, state, M_TREE + node, bit, low, rng, pos, RATE)
                         node = 2 * node + bit
                 i += 1
-    return _finish(out, low, pos)
+    return finish_stream(out, low, pos)
 
 
 @kernel
@@ -107,7 +107,7 @@ def _decode_kernel(data, shape, nbits, kmax, v):
     size = data.size
     state = np.full(M_TREE + (2 << nbits), STATE_INIT, dtype=np.uint16)
     cand = np.zeros(NCAND, dtype=np.int64)
-    code, rng, pos = _open(data)
+    code, rng, pos = open_stream(data)
     i = 0
     for z in range(nz):
         for y in range(ny):
@@ -140,7 +140,7 @@ def _decode_kernel(data, shape, nbits, kmax, v):
 def encode(ranks: np.ndarray, k: int) -> bytes:
     """Code a 3-D array of ranks in ``0..k-1``."""
     v = np.ascontiguousarray(ranks, dtype=np.int64)
-    nbits = int(_bitlen(max(k - 1, 1)))
+    nbits = int(bitlen(max(k - 1, 1)))
     shape = np.array(v.shape, dtype=np.int64)
     for per_voxel in (1, 4):
         out = np.empty(v.size * per_voxel + 64 * nbits + 1024, dtype=np.uint8)
@@ -155,7 +155,7 @@ def decode(data: bytes | memoryview, shape: tuple[int, int, int], k: int) -> np.
     buf = np.frombuffer(bytes(data), dtype=np.uint8)
     if buf.size < 1:
         raise FormatError("label payload: empty stream")
-    nbits = int(_bitlen(max(k - 1, 1)))
+    nbits = int(bitlen(max(k - 1, 1)))
     v = np.empty(int(np.prod(shape)), dtype=np.int64)
     status = _decode_kernel(
         buf, np.array(shape, dtype=np.int64), np.int64(nbits), np.int64(k - 1), v

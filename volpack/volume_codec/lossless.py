@@ -37,7 +37,7 @@ from .codec import (
     WAVELET_DTYPES,
     WaveletCodec,
     ZstdCodec,
-    _piecewise_constant,
+    piecewise_constant,
 )
 from .floatbits import FLOAT_DTYPES, from_ordered, to_ordered
 from .protocol import BrickCodec
@@ -164,8 +164,8 @@ def _encode_predict(brick: np.ndarray) -> list[bytes]:
     else:
         out = [
             bytes([MODE_PREDICT, flags])
-            + pal._uleb(_zigzag(lo))
-            + pal._uleb(hi - lo)
+            + pal.uleb(_zigzag(lo))
+            + pal.uleb(hi - lo)
             + predict.encode(values, lo, hi)
         ]
     if hi - lo + 1 > 2:
@@ -177,7 +177,7 @@ def _encode_predict(brick: np.ndarray) -> list[bytes]:
                 + pal.pack(p)
                 + predict.encode(ranks, 0, len(p) - 1)
             )
-    if _piecewise_constant(brick):
+    if piecewise_constant(brick):
         from . import labels
 
         p = pal.build(values)
@@ -225,8 +225,8 @@ def _decode_predict(body: memoryview, shape: tuple[int, ...], dtype: np.dtype) -
             ranks = predict.decode(rest[used:], shape, 0, len(p) - 1)
         values = pal.from_ranks(ranks, p)
     else:
-        z, pos = pal._read_uleb(rest, 0)
-        span, pos = pal._read_uleb(rest, pos)
+        z, pos = pal.read_uleb(rest, 0)
+        span, pos = pal.read_uleb(rest, pos)
         lo = (z >> 1) ^ -(z & 1)
         if lo < vmin or lo + span > vmax:
             raise FormatError(

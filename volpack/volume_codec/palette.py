@@ -40,9 +40,9 @@ def pack(palette: np.ndarray) -> bytes:
     gaps = np.diff(palette) - 1
     first = int(palette[0])
     return (
-        _uleb(len(palette))
-        + _uleb((first << 1) ^ (first >> 63))
-        + b"".join(_uleb(int(g)) for g in gaps)
+        uleb(len(palette))
+        + uleb((first << 1) ^ (first >> 63))
+        + b"".join(uleb(int(g)) for g in gaps)
     )
 
 
@@ -50,15 +50,15 @@ def unpack(data: memoryview, limit: int) -> tuple[np.ndarray, int]:
     """Read a palette of at most ``limit`` values from ``data``; return it and the bytes
     it used. A palette that is too long, runs past ``data`` or leaves the 64-bit range
     raises FormatError."""
-    k, pos = _read_uleb(data, 0)
+    k, pos = read_uleb(data, 0)
     if not 1 <= k <= limit:
         raise FormatError(f"corrupt palette: expected 1..{limit} values, found {k}")
-    z, pos = _read_uleb(data, pos)
+    z, pos = read_uleb(data, pos)
     out = np.empty(k, dtype=np.int64)
     value = (z >> 1) ^ -(z & 1)
     out[0] = value
     for i in range(1, k):
-        g, pos = _read_uleb(data, pos)
+        g, pos = read_uleb(data, pos)
         value += g + 1
         if value >= 1 << 63:
             raise FormatError("corrupt palette: a value leaves the 64-bit range")
@@ -66,7 +66,7 @@ def unpack(data: memoryview, limit: int) -> tuple[np.ndarray, int]:
     return out, pos
 
 
-def _uleb(v: int) -> bytes:
+def uleb(v: int) -> bytes:
     out = bytearray()
     while True:
         b = v & 0x7F
@@ -78,7 +78,7 @@ def _uleb(v: int) -> bytes:
             return bytes(out)
 
 
-def _read_uleb(data: memoryview, pos: int) -> tuple[int, int]:
+def read_uleb(data: memoryview, pos: int) -> tuple[int, int]:
     v = 0
     shift = 0
     while True:

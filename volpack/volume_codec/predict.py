@@ -63,7 +63,7 @@ M_SIGN = M_ZERO + NCTX
 M_LEN = M_SIGN + NCTX * 3
 M_MANT = M_LEN + NCTX * NLEN
 N_MODELS = M_MANT + NLEN * 4 * 4
-NO_RESIDUAL = np.int64(-(1 << 62))  # _get_residual's answer to an impossible length
+NO_RESIDUAL = np.int64(-(1 << 62))  # get_residual's answer to an impossible length
 # Adaptation rates by use count (as rangecoder.RATE, but settling slower: a brick of
 # prediction residuals is long and its statistics steady).
 RATE = np.array([1, 2, 2, 3, 3, 3, 4, 4, 4, 5, 5, 5, 6, 6, 6, 7], dtype=np.int64)
@@ -73,23 +73,23 @@ RECIP = np.array([0] + [(1 << 24) // t for t in range(1, 256)], dtype=np.int64)
 
 
 @kernel(inline=True)
-def _bitlen(u):
+def bitlen(u):
     return 64 - np.int64(leading_zeros(np.uint64(u)))
 
 
 @kernel(inline=True)
-def _activity_class(a):
+def activity_class(a):
     """Logarithmic class of a non-negative error sum: 0..3 exactly, then two classes
     per power of two, capped at NCTX - 1."""
     if a < 4:
         return a
-    b = _bitlen(a)
+    b = bitlen(a)
     c = 2 * b - 2 + ((a >> (b - 2)) & 1)
     return min(c, NACT - 1)
 
 
 @kernel(inline=True)
-def _put_residual(out, state, base, ctx, sctx, r, low, rng, pos, rate):
+def put_residual(out, state, base, ctx, sctx, r, low, rng, pos, rate):
     """Code residual ``r`` in context ``ctx`` (sign context ``sctx``) with the models
     from ``base`` on, adapting at ``rate``: a zero flag, the sign, the bit length of ``|r| - 1`` in unary, two
     bits below its leading one with adaptive probabilities, the rest at one half."""
@@ -100,7 +100,7 @@ def _put_residual(out, state, base, ctx, sctx, r, low, rng, pos, rate):
     bit = np.int64(r < 0)
     low, rng, pos = _put(out, state, base + M_SIGN + ctx * 3 + sctx, bit, low, rng, pos, rate)
     u = abs(r) - 1
-    nb = _bitlen(u)
+    nb = bitlen(u)
     k0 = base + M_LEN + ctx * NLEN
     for j in range(min(nb + 1, NLEN - 1)):
         low, rng, pos = _put(out, state, k0 + j, np.int64(nb > j), low, rng, pos, rate)
@@ -122,8 +122,8 @@ def _put_residual(out, state, base, ctx, sctx, r, low, rng, pos, rate):
 
 
 @kernel(inline=True)
-def _get_residual(data, state, base, ctx, sctx, code, rng, pos, rate):
-    """Decode what :func:`_put_residual` coded; ``NO_RESIDUAL`` for an impossible one."""
+def get_residual(data, state, base, ctx, sctx, code, rng, pos, rate):
+    """Decode what :func:`put_residual` coded; ``NO_RESIDUAL`` for an impossible one."""
     bit, code, rng, pos = _get(data, state, base + M_ZERO + ctx, code, rng, pos, rate)
     if bit == 0:
         return np.int64(0), code, rng, pos
@@ -159,7 +159,7 @@ def _get_residual(data, state, base, ctx, sctx, code, rng, pos, rate):
 
 
 @kernel(inline=True)
-def _finish(out, low, pos):
+def finish_stream(out, low, pos):
     """End a stream: the final ``low`` pins the interval. Returns the byte count."""
     for _ in range(4):
         out[pos] = low >> 24
@@ -169,7 +169,7 @@ def _finish(out, low, pos):
 
 
 @kernel(inline=True)
-def _open(data):
+def open_stream(data):
     """Start decoding: ``(code, rng, pos)`` after the leading zero byte and four more."""
     code = np.int64(0)
     pos = 1
@@ -184,7 +184,7 @@ def _weight(t):
     """About ``2^24 / t`` for ``t >= 1`` from eight bits of ``t`` (no division); >= 1."""
     if t < 256:
         return RECIP[t]
-    sh = _bitlen(t) - 8
+    sh = bitlen(t) - 8
     return max(RECIP[t >> sh] >> sh, 1)
 
 
@@ -273,7 +273,7 @@ def _predict_kernel(v, err, perr, i, z, y, x, ny, nx, lo, hi, bias_sum, bias_cnt
     spread = pmax - pmin
     # Context: the activity class, split by how far the predictors disagree.
     wide = 0 if 2 * spread <= act else (1 if spread <= 2 * act + 1 else 2)
-    ctx = _activity_class(act) * NSPREAD + wide
+    ctx = activity_class(act) * NSPREAD + wide
     cnt = bias_cnt[ctx]
     if cnt > 0:  # the context's mean error, rounded, by a reciprocal (cnt < 64)
         s = bias_sum[ctx]
@@ -326,12 +326,12 @@ def _encode_kernel(v, shape, lo, hi, out):
                 pred, ctx, sctx = _predict_kernel(
                     v, err, perr, i, z, y, x, ny, nx, lo, hi, bias_sum, bias_cnt, preds
                 )
-                low, rng, pos = _put_residual(
+                low, rng, pos = put_residual(
                     out, state, 0, ctx, sctx, v[i] - pred, low, rng, pos, RATE
                 )
                 _learn(v, err, perr, i, pred, ctx, bias_sum, bias_cnt, preds)
                 i += 1
-    return _finish(out, low, pos)
+    return finish_stream(out, low, pos)
 
 
 @kernel
@@ -346,7 +346,7 @@ def _decode_kernel(data, shape, lo, hi, v):
     bias_sum = np.zeros(NCTX, dtype=np.int64)
     bias_cnt = np.zeros(NCTX, dtype=np.int64)
     state = np.full(N_MODELS, STATE_INIT, dtype=np.uint16)
-    code, rng, pos = _open(data)
+    code, rng, pos = open_stream(data)
     i = 0
     for z in range(nz):
         for y in range(ny):
@@ -356,7 +356,7 @@ def _decode_kernel(data, shape, lo, hi, v):
                 pred, ctx, sctx = _predict_kernel(
                     v, err, perr, i, z, y, x, ny, nx, lo, hi, bias_sum, bias_cnt, preds
                 )
-                r, code, rng, pos = _get_residual(data, state, 0, ctx, sctx, code, rng, pos, RATE)
+                r, code, rng, pos = get_residual(data, state, 0, ctx, sctx, code, rng, pos, RATE)
                 if r == NO_RESIDUAL:
                     return 2
                 val = pred + r
