@@ -179,7 +179,91 @@ DATASETS: dict[str, Dataset] = {
             kind="float",
         ),
         Dataset(
-            "mri_piesno_noise",
+            "mri_dipy_s0",
+            "pypi",
+            "dipy",
+            f"{_DIPY}/S0_10slices.nii.gz",
+            "S0_10slices.nii.gz",
+            "nifti",
+            "dipy b0 brain MRI slab, 10 slices, uint16 holding 12 bits (0..4095)",
+        ),
+        Dataset(
+            "mri_epi_nibabel",
+            "pypi",
+            "nibabel",
+            f"{_NIB}/example4d.nii.gz",
+            "example4d.nii.gz",
+            "nifti4d0",
+            "nibabel example4d: first volume of a real EPI fMRI series, int16 0..1162",
+        ),
+        Dataset(
+            "mni152_gm",
+            "pypi",
+            "nilearn",
+            "nilearn/datasets/data/mni_icbm152_gm_tal_nlin_sym_09a_converted.nii.gz",
+            "mni_icbm152_gm_tal_nlin_sym_09a_converted.nii.gz",
+            "nifti",
+            "MNI ICBM152 2009a grey-matter probability map, uint8",
+        ),
+        Dataset(
+            "mri_ch2bet_07mm",
+            "deb",
+            "mricron-data",
+            f"{_MRICRON}/ch2bet.nii.gz",
+            "ch2bet.nii.gz",
+            "nifti-zoom15",
+            "Colin27 skull-stripped T1 (mricron 'ch2bet') resampled to 0.67 mm "
+            "(trilinear x1.5, rounded), uint8",
+        ),
+        Dataset(
+            "atlas_harvardoxford",
+            "deb",
+            "mricron-data",
+            f"{_MRICRON}/HarvardOxford-cort-maxprob-thr0-1mm.nii.gz",
+            "HarvardOxford-cort-maxprob-thr0-1mm.nii.gz",
+            "nifti",
+            "Harvard-Oxford cortical atlas (max. probability, 1 mm), uint8 labels",
+        ),
+        Dataset(
+            "frog_labels",
+            "pypi",
+            "pyvista",
+            "pyvista/examples/frog_tissues.vti",
+            "frog_tissues.vti",
+            "vti",
+            "pyvista frog tissue segmentation of a real frog scan, uint8 labels 0..29",
+        ),
+        Dataset(
+            "nuclei_stardist",
+            "pypi",
+            "stardist",
+            "stardist/data/images/img3d.tif",
+            "stardist_img3d.tif",
+            "tiff",
+            "StarDist 3-D nuclei test stack (fluorescence microscopy look, synthetic), uint16",
+        ),
+        Dataset(
+            "dwi_piesno_float",
+            "pypi",
+            "dipy",
+            f"{_DIPY}/test_piesno.nii.gz",
+            "test_piesno.nii.gz",
+            "nifti",
+            "dipy PIESNO test: noisy brain diffusion MRI slab, float64 on disk, as float32",
+            kind="float",
+        ),
+        Dataset(
+            "heart_mayavi_float",
+            "deb",
+            "mayavi2",
+            "usr/share/doc/mayavi2/examples/mayavi/data/heart.vti",
+            "heart.vti",
+            "vti",
+            "mayavi heart scan, float32 holding 0..255",
+            kind="float",
+        ),
+        Dataset(
+            "mri_piesno_noise",  # the same slab, as the lossy benchmark names it
             "pypi",
             "dipy",
             f"{_DIPY}/test_piesno.nii.gz",
@@ -374,13 +458,59 @@ def read_netcdf(path: Path, variable: str):
 
 def read_npy(path: Path):
     return np.load(path), (1.0, 1.0, 1.0)
+def read_nifti_first(path: Path):
+    """A 4-D NIfTI series: its first volume, as (z, y, x)."""
+    import nibabel as nib
+
+    img = nib.load(str(path))
+    array = np.asanyarray(img.dataobj.get_unscaled())
+    if array.ndim != 4:
+        raise ValueError(f"{path}: expected a 4-D series, found shape {array.shape}")
+    zooms = img.header.get_zooms()[:3]
+    return array[..., 0].T.copy(), tuple(reversed(zooms))
+
+
+def read_nifti_zoom15(path: Path):
+    """A NIfTI volume resampled by 1.5 along each axis (trilinear, rounded to the dtype):
+    a resampled scan as a user makes one, with a sparse histogram and a flat background."""
+    from scipy import ndimage
+
+    array, spacing = read_nifti(path)
+    up = ndimage.zoom(array.astype(np.float32), 1.5, order=1, mode="nearest")
+    return np.rint(up).astype(array.dtype), tuple(s / 1.5 for s in spacing)
+
+
+def read_vti(path: Path):
+    """VTK XML ImageData: its first point array, as (z, y, x)."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkIOXML import vtkXMLImageDataReader
+
+    reader = vtkXMLImageDataReader()
+    reader.SetFileName(str(path))
+    reader.Update()
+    img = reader.GetOutput()
+    nx, ny, nz = img.GetDimensions()
+    array = vtk_to_numpy(img.GetPointData().GetArray(0)).reshape(nz, ny, nx)
+    sx, sy, sz = img.GetSpacing()
+    return array.copy(), (sz, sy, sx)
+
+
+def read_tiff(path: Path):
+    """A multi-page TIFF stack (z, y, x) via tifffile; unit spacing."""
+    import tifffile
+
+    return tifffile.imread(str(path)), (1.0, 1.0, 1.0)
 
 
 _READERS = {
     "inv3": read_inv3,
     "nifti": read_nifti,
+    "nifti4d0": read_nifti_first,
+    "nifti-zoom15": read_nifti_zoom15,
     "den": read_den,
     "inr": read_inr,
+    "vti": read_vti,
+    "tiff": read_tiff,
     "npy": read_npy,
 }
 

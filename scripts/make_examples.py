@@ -52,13 +52,41 @@ def make_container(folder: Path) -> Path:
 
 # (file stem, source recipe, codec options); every recipe cuts the bundled MRI.
 WAVELET_CASES = [
-    ("wavelet-53-arith-dfs-u8", "u8", {"wavelet": "53", "coder": "arith", "order": "dfs"}),
-    ("wavelet-53-huffman-dfs-i16", "i16", {"wavelet": "53", "coder": "huffman", "order": "dfs"}),
-    ("wavelet-53-rle-line-u8", "u8", {"wavelet": "53", "coder": "rle", "order": "line"}),
-    ("wavelet-26-arith-line-i16", "i16", {"wavelet": "26", "coder": "arith", "order": "line"}),
-    ("wavelet-haar-huffman-dfs-u8", "u8", {"wavelet": "haar", "coder": "huffman", "order": "dfs"}),
-    ("wavelet-97m-arith-dfs-i16", "i16", {"wavelet": "97m", "coder": "arith", "order": "dfs"}),
-    ("wavelet-53-arith-dfs-labels", "labels", {"wavelet": "53", "coder": "arith", "order": "dfs"}),
+    (
+        "wavelet-53-arith-dfs-u8",
+        "u8",
+        {"codec": "wavelet", "wavelet": "53", "coder": "arith", "order": "dfs"},
+    ),
+    (
+        "wavelet-53-huffman-dfs-i16",
+        "i16",
+        {"codec": "wavelet", "wavelet": "53", "coder": "huffman", "order": "dfs"},
+    ),
+    (
+        "wavelet-53-rle-line-u8",
+        "u8",
+        {"codec": "wavelet", "wavelet": "53", "coder": "rle", "order": "line"},
+    ),
+    (
+        "wavelet-26-arith-line-i16",
+        "i16",
+        {"codec": "wavelet", "wavelet": "26", "coder": "arith", "order": "line"},
+    ),
+    (
+        "wavelet-haar-huffman-dfs-u8",
+        "u8",
+        {"codec": "wavelet", "wavelet": "haar", "coder": "huffman", "order": "dfs"},
+    ),
+    (
+        "wavelet-97m-arith-dfs-i16",
+        "i16",
+        {"codec": "wavelet", "wavelet": "97m", "coder": "arith", "order": "dfs"},
+    ),
+    (
+        "wavelet-53-arith-dfs-labels",
+        "labels",
+        {"codec": "wavelet", "wavelet": "53", "coder": "arith", "order": "dfs"},
+    ),
 ]
 WAVELET_BRICK = 16
 
@@ -87,6 +115,51 @@ def make_wavelet(folder: Path) -> Path:
     for stem, recipe, opts in WAVELET_CASES:
         path = folder / f"{stem}.vpk"
         api.compress(wavelet_source(recipe), str(path), brick=WAVELET_BRICK, force=True, **opts)
+    return folder
+
+
+# -- lossless codec examples: formats/examples/lossless-*.vpk ----------------------------
+
+LOSSLESS_CASES = [
+    ("lossless-auto-u8", "u8-background", {}),
+    ("lossless-auto-i16-palette", "i16", {}),
+    ("lossless-predict-u8", "u8", {"tools": "predict"}),
+    ("lossless-auto-f32-special", "f32-special", {}),
+    ("lossless-auto-f32-field", "f32-field", {}),
+]
+
+
+def lossless_source(recipe: str):
+    """The volume a lossless example codes: the wavelet cut with a zeroed background, the
+    scaled int16 cut (a sparse histogram: a palette), or floats with NaN, -0.0, Inf and
+    denormals."""
+    import numpy as np
+
+    if recipe == "u8-background":
+        cut = wavelet_source("u8").copy()
+        cut[cut < 60] = 0
+        return cut
+    if recipe == "f32-field":  # full mantissas: exponent and mantissa coded apart
+        z, y, x = np.indices((20, 24, 28))
+        f = wavelet_source("u8") * 1.37 - 40.0 + z * 0.011 + y * y * 0.0007 - x * 0.05
+        return f.astype(np.float32)
+    if recipe != "f32-special":
+        return wavelet_source(recipe)
+    f = wavelet_source("u8").astype(np.float32) / 3
+    f[2, 3:6, 4] = np.nan
+    f[5, 5, 5] = -np.inf
+    f[6, 6, 6] = np.inf
+    f[7, 7, 7:9] = -0.0
+    f[8, 8, 8] = np.float32(1e-42)  # a denormal
+    return f
+
+
+def make_lossless(folder: Path) -> Path:
+    from volpack import api
+
+    for stem, recipe, opts in LOSSLESS_CASES:
+        path = folder / f"{stem}.vpk"
+        api.compress(lossless_source(recipe), str(path), brick=WAVELET_BRICK, force=True, **opts)
     return folder
 
 
@@ -195,6 +268,7 @@ def make_octree(folder: Path) -> Path:
 EXAMPLES: dict[str, Callable[[Path], Path]] = {
     "container": make_container,
     "wavelet": make_wavelet,
+    "lossless": make_lossless,
     "lossy": make_lossy,
     "animation": make_animation,
     "octree": make_octree,

@@ -17,13 +17,41 @@ GOLDEN = Path(__file__).resolve().parent.parent / "formats" / "examples"
 # The recipes of scripts/make_examples.py, written out again here on purpose: a test that
 # imported them would follow any change to the script.
 CASES = [
-    ("wavelet-53-arith-dfs-u8", "u8", {"wavelet": "53", "coder": "arith", "order": "dfs"}),
-    ("wavelet-53-huffman-dfs-i16", "i16", {"wavelet": "53", "coder": "huffman", "order": "dfs"}),
-    ("wavelet-53-rle-line-u8", "u8", {"wavelet": "53", "coder": "rle", "order": "line"}),
-    ("wavelet-26-arith-line-i16", "i16", {"wavelet": "26", "coder": "arith", "order": "line"}),
-    ("wavelet-haar-huffman-dfs-u8", "u8", {"wavelet": "haar", "coder": "huffman", "order": "dfs"}),
-    ("wavelet-97m-arith-dfs-i16", "i16", {"wavelet": "97m", "coder": "arith", "order": "dfs"}),
-    ("wavelet-53-arith-dfs-labels", "labels", {"wavelet": "53", "coder": "arith", "order": "dfs"}),
+    (
+        "wavelet-53-arith-dfs-u8",
+        "u8",
+        {"codec": "wavelet", "wavelet": "53", "coder": "arith", "order": "dfs"},
+    ),
+    (
+        "wavelet-53-huffman-dfs-i16",
+        "i16",
+        {"codec": "wavelet", "wavelet": "53", "coder": "huffman", "order": "dfs"},
+    ),
+    (
+        "wavelet-53-rle-line-u8",
+        "u8",
+        {"codec": "wavelet", "wavelet": "53", "coder": "rle", "order": "line"},
+    ),
+    (
+        "wavelet-26-arith-line-i16",
+        "i16",
+        {"codec": "wavelet", "wavelet": "26", "coder": "arith", "order": "line"},
+    ),
+    (
+        "wavelet-haar-huffman-dfs-u8",
+        "u8",
+        {"codec": "wavelet", "wavelet": "haar", "coder": "huffman", "order": "dfs"},
+    ),
+    (
+        "wavelet-97m-arith-dfs-i16",
+        "i16",
+        {"codec": "wavelet", "wavelet": "97m", "coder": "arith", "order": "dfs"},
+    ),
+    (
+        "wavelet-53-arith-dfs-labels",
+        "labels",
+        {"codec": "wavelet", "wavelet": "53", "coder": "arith", "order": "dfs"},
+    ),
 ]
 
 

@@ -114,6 +114,11 @@ def _human(d: dict, chunks: bool) -> str:
             else []
         ),
         ["bricks", f"{d['chunks']} chunks of up to {'x'.join(map(str, h.get('brick', [])))}"],
+        *(
+            [["tools", ", ".join(f"{k} {v}" for k, v in s["tools"].items()) + " (bricks)"]]
+            if isinstance(s.get("tools"), dict)
+            else []
+        ),
         ["size", f"{fmt_bytes(d['file_nbytes'])} (raw {fmt_bytes(d['raw_nbytes'])})"],
         [
             "ratio",

@@ -169,10 +169,12 @@ def parse_brick(value: str | None) -> int | tuple[int, int, int] | None:
 CODEC_OPTIONS = [
     click.option(
         "--codec",
-        type=click.Choice(["auto", "wavelet", "zstd"]),
+        type=click.Choice(["auto", "lossless", "wavelet", "zstd"]),
         default="auto",
         show_default=True,
-        help="auto: the wavelet codec for 8/16/32-bit integers, byte-shuffled zstd (exact) for floats.",
+        help="auto: lossless (per brick, the wavelet, 3-D prediction with a palette, labels or "
+        "split floats) for 8/16/32-bit integers and 16/32-bit floats, byte-shuffled zstd for "
+        "the rest.",
     ),
     click.option(
         "--wavelet",

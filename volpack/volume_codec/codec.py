@@ -111,7 +111,7 @@ class WaveletCodec(BrickCodec):
         coeffs = dwt3.forward(brick.astype(work), levels, self.wavelet, overwrite=True)
         scan = sigmap.scan(brick.shape, levels, self.order)
         best = bytes([MODE_CODED]) + CODERS[self.coder].encode(coeffs, scan)
-        if _piecewise_constant(brick):
+        if piecewise_constant(brick):
             z = bytes([MODE_ZSTD]) + ZstdCodec(level=ZSTD_LEVEL).encode(brick)
             if len(z) < len(best):
                 best = z
@@ -189,7 +189,7 @@ class ZstdCodec(BrickCodec):
         )
 
 
-def _piecewise_constant(brick: np.ndarray) -> bool:
+def piecewise_constant(brick: np.ndarray) -> bool:
     if brick.shape[-1] < 2:
         return False
     same = np.count_nonzero(brick[..., 1:] == brick[..., :-1])

@@ -9,11 +9,20 @@ from typing import Any
 from ..errors import FormatError
 from .codec import WaveletCodec, ZstdCodec
 from .floatwave import FloatWaveletCodec
+from .lossless import LosslessCodec
 from .lossy import BoundedCodec, CoefCodec
 from .protocol import BrickCodec
 
 CODECS: dict[str, type[BrickCodec]] = {
-    c.codec_id: c for c in (WaveletCodec, ZstdCodec, BoundedCodec, CoefCodec, FloatWaveletCodec)
+    c.codec_id: c
+    for c in (
+        WaveletCodec,
+        ZstdCodec,
+        LosslessCodec,
+        BoundedCodec,
+        CoefCodec,
+        FloatWaveletCodec,
+    )
 }
 
 

@@ -44,10 +44,18 @@ LOSSY_KEYS = ("max_error", "rel_error", "psnr", "ratio", "quality", "threshold")
 
 
 def make_codec(codec: str = "auto", dtype: Any = None, **options: Any):
-    """Choose the brick codec: ``auto`` takes the wavelet codec for the integer dtypes it
-    codes exactly and byte-shuffled zstd for floats and 64-bit integers."""
+    """Choose the brick codec: ``auto`` takes the lossless codec (per brick the wavelet,
+    3-D prediction, labels or split floats) for the 8/16/32-bit integers and 16/32-bit
+    floats it codes exactly, and byte-shuffled zstd for the rest (64-bit values)."""
+    from .floatbits import FLOAT_DTYPES
+
     if codec == "auto":
-        codec = "wavelet" if dtype is None or np.dtype(dtype).name in WAVELET_DTYPES else "zstd"
+        known = dtype is None or np.dtype(dtype).name in WAVELET_DTYPES + FLOAT_DTYPES
+        codec = "lossless" if known else "zstd"
+    if codec == "lossless":
+        from .lossless import LosslessCodec
+
+        return LosslessCodec(**{k: v for k, v in options.items() if v is not None})
     if codec == "wavelet":
         from .floatwave import FLOAT_WAVELETS
 
@@ -59,7 +67,7 @@ def make_codec(codec: str = "auto", dtype: Any = None, **options: Any):
         return WaveletCodec(**{k: v for k, v in options.items() if v is not None})
     if codec == "zstd":
         return ZstdCodec()
-    raise ValueError(f"expected codec 'auto', 'wavelet' or 'zstd', found {codec!r}")
+    raise ValueError(f"expected codec 'auto', 'lossless', 'wavelet' or 'zstd', found {codec!r}")
 
 
 def compress(
@@ -71,6 +79,7 @@ def compress(
     coder: str | None = None,
     order: str | None = None,
     max_levels: int | None = None,
+    tools: str | None = None,
     brick: int | tuple[int, int, int] | None = None,
     max_error: float | None = None,
     rel_error: float | None = None,
@@ -102,10 +111,13 @@ def compress(
     target : str or binary file
         Output path (written atomically; an existing file needs ``force``), ``'-'`` for
         standard output, or an open binary file.
-    codec : {"auto", "wavelet", "zstd"}
-        ``auto``: the lossless wavelet codec for 8/16/32-bit integers, zstd for the rest.
+    codec : {"auto", "lossless", "wavelet", "zstd"}
+        ``auto``: the ``lossless`` codec (per brick the wavelet, 3-D prediction, labels
+        or split floats) for 8/16/32-bit integers and 16/32-bit floats, zstd for the rest.
     wavelet, coder, order, max_levels
         Wavelet codec settings (see :class:`volpack.volume_codec.codec.WaveletCodec`).
+    tools : {"auto", "wavelet", "predict"}, optional
+        The lossless codec's tools (:class:`volpack.volume_codec.lossless.LosslessCodec`).
     brick : int or (int, int, int), optional
         Brick size; bricks are coded independently and decoded one by one. Default
         :func:`volpack.volume_codec.bricks.default_brick`: 64, but a float volume under an
@@ -156,11 +168,15 @@ def compress(
         c, search = lossy_plan.plan(vol, brick_t, nworkers, asked, fill_value, inner)
     else:
         search = None
-        c = make_codec(codec, vol.dtype, **inner)
+        c = make_codec(codec, vol.dtype, **inner, **({"tools": tools} if tools else {}))
         if c.codec_id == "wavelet":
             from .codec import check_wavelet_dtype
 
             check_wavelet_dtype(vol.dtype)
+        elif c.codec_id == "lossless":
+            from .lossless import check_dtype
+
+            check_dtype(vol.dtype)
     header = {
         "kind": KIND,
         "volpack": __version__,
@@ -187,10 +203,15 @@ def compress(
 
     nbytes = 0
     worst, sse, nvalid = 0.0, 0.0, 0
+    tools_used: dict[str, int] = {}  # lossless codec: bricks per tool chosen
+    tool_of = getattr(c, "describe", None)
     with Writer(_stdout() if target == "-" else target, header, force=force) as w:
         results = ordered_map(encode, tasks, nworkers)
         for done, (t, node, payload, err, s2, n) in enumerate(results, 1):
             w.write(t, node, payload, err)
+            if tool_of is not None:
+                tool = tool_of(payload)
+                tools_used[tool] = tools_used.get(tool, 0) + 1
             nbytes += len(payload)
             worst, sse, nvalid = max(worst, err), sse + s2, nvalid + n
             if progress is not None:
@@ -204,6 +225,8 @@ def compress(
         }
         if search is not None:
             summary["search"] = search
+        if tools_used:
+            summary["tools"] = dict(sorted(tools_used.items()))
         w.close(summary=summary)
     seconds = time.perf_counter() - t0
     return {

@@ -1,0 +1,164 @@
+"""Label maps coded as copies of a neighbour: the lossless tool for segmentations.
+
+In a label map almost every voxel repeats a neighbour, and which neighbour it repeats
+follows from which neighbours agree with each other. Voxels are visited in C order and
+work on palette ranks (:mod:`.palette`). For each voxel, the distinct labels
+among its causal neighbours W, N, U, NE, NW (in that order; a missing neighbour is
+skipped) are candidates; one adaptive binary decision per candidate says "it is this
+one", in a context made of the candidate's position and the equalities among W, N, U,
+NW and NE (which tell an edge from a flat region). A voxel that is none of them (a new
+label arriving) has its rank coded bit by bit, most significant first, on a binary tree
+of adaptive probabilities. A flat region costs about a thousandth of a bit a voxel.
+
+The byte layout is in ``formats/lossless-1.md``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._jit import kernel
+from ..entropy.common import check_status
+from ..entropy.rangecoder import RATE, STATE_INIT
+from ..entropy.rangecoder import get as _get
+from ..entropy.rangecoder import put as _put
+from ..errors import FormatError
+from .predict import bitlen, finish_stream, open_stream
+
+NCAND = 5
+N_PATTERN = 1 << 7
+M_TREE = NCAND * N_PATTERN  # first model of the rank tree
+
+
+@kernel(inline=True)
+def _candidates(v, i, x, y, z, ny, nx, cand):
+    """Fill ``cand`` with the distinct neighbour labels (W, N, U, NE, NW order); return
+    their count and the context pattern of the neighbours' equalities."""
+    sy = nx
+    sz = ny * nx
+    w = v[i - 1] if x > 0 else -1
+    n = v[i - sy] if y > 0 else -1
+    u = v[i - sz] if z > 0 else -1
+    ne = v[i - sy + 1] if y > 0 and x + 1 < nx else -1
+    nw = v[i - sy - 1] if y > 0 and x > 0 else -1
+    pattern = (
+        np.int64(w == n)
+        | (np.int64(w == u) << 1)
+        | (np.int64(n == u) << 2)
+        | (np.int64(n == ne) << 3)
+        | (np.int64(w == nw) << 4)
+        | (np.int64(n == nw) << 5)
+        | (np.int64(x > 0 and y > 0) << 6)
+    )
+    k = 0
+    for c in (w, n, u, ne, nw):
+        if c < 0:
+            continue
+        dup = False
+        for j in range(k):
+            if cand[j] == c:
+                dup = True
+        if not dup:
+            cand[k] = c
+            k += 1
+    return k, pattern
+
+
+@kernel
+def _encode_kernel(v, shape, nbits, out):
+    nz, ny, nx = shape[0], shape[1], shape[2]
+    state = np.full(M_TREE + (2 << nbits), STATE_INIT, dtype=np.uint16)
+    cand = np.zeros(NCAND, dtype=np.int64)
+    cap = out.size
+    low = np.int64(0)
+    rng = np.int64(0xFFFFFFFF)
+    out[0] = 0
+    pos = 1
+    i = 0
+    for z in range(nz):
+        for y in range(ny):
+            for x in range(nx):
+                if pos + 16 + nbits > cap:
+                    return -1
+                k, pattern = _candidates(v, i, x, y, z, ny, nx, cand)
+                val = v[i]
+                found = False
+                for j in range(k):
+                    bit = np.int64(cand[j] == val)
+                    m = j * N_PATTERN + pattern
+                    low, rng, pos = _put(out, state, m, bit, low, rng, pos, RATE)
+                    if bit:
+                        found = True
+                        break
+                if not found:
+                    node = 1
+                    for b in range(nbits - 1, -1, -1):
+                        bit = (val >> b) & 1
+                        low, rng, pos = _put(out, state, M_TREE + node, bit, low, rng, pos, RATE)
+                        node = 2 * node + bit
+                i += 1
+    return finish_stream(out, low, pos)
+
+
+@kernel
+def _decode_kernel(data, shape, nbits, kmax, v):
+    """Return 0 on success, 1 when the stream ran short, 2 on an impossible label."""
+    nz, ny, nx = shape[0], shape[1], shape[2]
+    size = data.size
+    state = np.full(M_TREE + (2 << nbits), STATE_INIT, dtype=np.uint16)
+    cand = np.zeros(NCAND, dtype=np.int64)
+    code, rng, pos = open_stream(data)
+    i = 0
+    for z in range(nz):
+        for y in range(ny):
+            for x in range(nx):
+                if pos > size + 4:
+                    return 1
+                k, pattern = _candidates(v, i, x, y, z, ny, nx, cand)
+                val = np.int64(-1)
+                for j in range(k):
+                    m = j * N_PATTERN + pattern
+                    bit, code, rng, pos = _get(data, state, m, code, rng, pos, RATE)
+                    if bit:
+                        val = cand[j]
+                        break
+                if val < 0:
+                    node = 1
+                    for _ in range(nbits):
+                        bit, code, rng, pos = _get(data, state, M_TREE + node, code, rng, pos, RATE)
+                        node = 2 * node + bit
+                    val = node - (np.int64(1) << nbits)
+                    if val > kmax:
+                        return 2
+                v[i] = val
+                i += 1
+    if pos > size + 4:
+        return 1
+    return 0
+
+
+def encode(ranks: np.ndarray, k: int) -> bytes:
+    """Code a 3-D array of ranks in ``0..k-1``."""
+    v = np.ascontiguousarray(ranks, dtype=np.int64)
+    nbits = int(bitlen(max(k - 1, 1)))
+    shape = np.array(v.shape, dtype=np.int64)
+    for per_voxel in (1, 4):
+        out = np.empty(v.size * per_voxel + 64 * nbits + 1024, dtype=np.uint8)
+        used = _encode_kernel(v.reshape(-1), shape, np.int64(nbits), out)
+        if used >= 0:
+            return out[:used].tobytes()
+    raise AssertionError("label coder overflowed its worst-case buffer")
+
+
+def decode(data: bytes | memoryview, shape: tuple[int, int, int], k: int) -> np.ndarray:
+    """Decode :func:`encode`'s bytes into ranks (int64) of ``shape``."""
+    buf = np.frombuffer(bytes(data), dtype=np.uint8)
+    if buf.size < 1:
+        raise FormatError("label payload: empty stream")
+    nbits = int(bitlen(max(k - 1, 1)))
+    v = np.empty(int(np.prod(shape)), dtype=np.int64)
+    status = _decode_kernel(
+        buf, np.array(shape, dtype=np.int64), np.int64(nbits), np.int64(k - 1), v
+    )
+    check_status(status, "label")
+    return v.reshape(shape)

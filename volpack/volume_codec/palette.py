@@ -1,0 +1,94 @@
+"""Value palettes: a brick's distinct values replaced by their ranks, and back.
+
+A rescaled or resampled scan, or a skull-stripped one, often uses few of the values its
+dtype allows (an 8-bit MRI with 81 levels; a 12-bit scan scaled by 16 uses every 16th
+value). A predictor working on the ranks ``0..K-1`` sees the steps between used values
+as steps of one, so a jump of 51 grey levels at the brain's edge, or a constant stride,
+costs no more than a step of one.
+
+The palette is stored as ``K`` (unsigned LEB128), the smallest value (signed: zig-zag,
+then LEB128) and the ``K - 1`` gaps between consecutive values less one (LEB128 each);
+see ``formats/lossless-1.md``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import FormatError
+
+MAX_PALETTE = 1 << 16  # a palette beyond this costs more than it can save
+
+
+def build(values: np.ndarray) -> np.ndarray:
+    """The sorted distinct values of ``values`` (int64)."""
+    return np.unique(np.asarray(values, dtype=np.int64))
+
+
+def to_ranks(values: np.ndarray, palette: np.ndarray) -> np.ndarray:
+    """Each value's index in ``palette`` (which holds every value)."""
+    return np.searchsorted(palette, np.asarray(values, dtype=np.int64)).astype(np.int64)
+
+
+def from_ranks(ranks: np.ndarray, palette: np.ndarray) -> np.ndarray:
+    """The values of ``ranks`` (each in ``0..len(palette)-1``, checked by the caller)."""
+    return palette[ranks]
+
+
+def pack(palette: np.ndarray) -> bytes:
+    """The bytes of a palette (strictly increasing int64 values, at least one)."""
+    gaps = np.diff(palette) - 1
+    first = int(palette[0])
+    return (
+        uleb(len(palette))
+        + uleb((first << 1) ^ (first >> 63))
+        + b"".join(uleb(int(g)) for g in gaps)
+    )
+
+
+def unpack(data: memoryview, limit: int) -> tuple[np.ndarray, int]:
+    """Read a palette of at most ``limit`` values from ``data``; return it and the bytes
+    it used. A palette that is too long, runs past ``data`` or leaves the 64-bit range
+    raises FormatError."""
+    k, pos = read_uleb(data, 0)
+    if not 1 <= k <= limit:
+        raise FormatError(f"corrupt palette: expected 1..{limit} values, found {k}")
+    z, pos = read_uleb(data, pos)
+    out = np.empty(k, dtype=np.int64)
+    value = (z >> 1) ^ -(z & 1)
+    out[0] = value
+    for i in range(1, k):
+        g, pos = read_uleb(data, pos)
+        value += g + 1
+        if value >= 1 << 63:
+            raise FormatError("corrupt palette: a value leaves the 64-bit range")
+        out[i] = value
+    return out, pos
+
+
+def uleb(v: int) -> bytes:
+    out = bytearray()
+    while True:
+        b = v & 0x7F
+        v >>= 7
+        if v:
+            out.append(b | 0x80)
+        else:
+            out.append(b)
+            return bytes(out)
+
+
+def read_uleb(data: memoryview, pos: int) -> tuple[int, int]:
+    v = 0
+    shift = 0
+    while True:
+        if pos >= len(data):
+            raise FormatError("corrupt palette: the stream ends inside a number")
+        b = data[pos]
+        pos += 1
+        v |= (b & 0x7F) << shift
+        if not b & 0x80:
+            return v, pos
+        shift += 7
+        if shift > 63:
+            raise FormatError("corrupt palette: a number longer than 64 bits")
