@@ -382,3 +382,19 @@ def test_dask_scheduler_and_worker_processes_with_one_worker_killed(tree, tmp_pa
     assert report["totals"]["ok"] == 2, report["files"]
     for a, b in zip(here["files"], report["files"]):
         assert Path(a["output"]).read_bytes() == Path(b["output"]).read_bytes()
+
+
+def test_batch_says_what_it_left_out(tree, tmp_path):
+    root, _ = tree
+    (root / "c" / "mesh.vtu").write_text("<VTKFile/>")
+    (root / "c" / "notes.txt").write_text("scanner notes")
+    (root / "c" / "old.vpk").write_bytes(b"")
+    (root / "c" / ".hidden.npy").write_bytes(b"")
+    skipped: list = []
+    tasks = batch.plan(str(root), str(tmp_path / "out"), skipped=skipped)
+    assert len(tasks) == 4
+    why = {os.path.basename(p): w for p, w in skipped}
+    assert set(why) == {"mesh.vtu", "notes.txt", "old.vpk"}
+    assert why["mesh.vtu"].startswith("a mesh") and why["old.vpk"] == "already a .vpk"
+    r = cli("-q", "batch", root, tmp_path / "out2")
+    assert "left out 3 file(s)" in r.stderr and "notes.txt: not a volume format" in r.stderr
