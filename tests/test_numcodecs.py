@@ -351,15 +351,15 @@ def test_numcodecs_test_helpers(tmp_path, monkeypatch):
 
 
 @pytest.mark.slow
-def test_import_after_zarr_registers_the_zarr3_codec(tmp_path):
+def test_import_registers_the_zarr3_codec(tmp_path):
     import subprocess
     import sys
 
     code = (
-        "import zarr, volpack.numcodecs, zarr.registry, numpy as np\n"
+        "import zarr, volpack.zarr3, zarr.registry, numpy as np\n"
         "zarr.registry.get_codec_class('volpack.wavelet')\n"
         f"z = zarr.create_array(store={str(tmp_path / 'z.zarr')!r}, shape=(9, 10, 11), chunks=(8, 8, 8),"
-        " dtype='int16', serializer=volpack.numcodecs.zarr_serializer(), compressors=None)\n"
+        " dtype='int16', serializer=volpack.zarr3.serializer(), compressors=None)\n"
         "a = (np.arange(990) % 97).astype('int16').reshape(9, 10, 11); z[:] = a\n"
         "assert (zarr.open_array(z.store, mode='r')[:] == a).all()\n"
     )

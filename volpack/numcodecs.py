@@ -42,7 +42,6 @@ flat ``uint8`` line, which is exact but forfeits the 3-D transform.
 from __future__ import annotations
 
 import math
-import sys
 from typing import Any
 
 import numpy as np
@@ -216,21 +215,4 @@ def _brick_for(spatial: tuple[int, ...]) -> tuple[int, int, int]:
     return bricks.parse_brick(tuple(b))
 
 
-def zarr3_codec() -> type:
-    """The zarr 3 array-to-bytes codec class (:class:`volpack.zarr3.VolpackWavelet`)."""
-    from .zarr3 import VolpackWavelet
-
-    return VolpackWavelet
-
-
-def zarr_serializer(**config: Any):
-    """``serializer=`` for ``zarr.create_array`` (zarr format 3)."""
-    return zarr3_codec()(**config)
-
-
 register_codec(VolpackCodec)
-if "zarr" in sys.modules:  # registers the zarr 3 codec where no entry point is installed
-    try:
-        zarr3_codec()
-    except ImportError:  # zarr 2
-        pass

@@ -70,5 +70,10 @@ class VolpackWavelet(ArrayBytesCodec):
         raise NotImplementedError  # variable-size output, as every entropy coder's
 
 
+def serializer(**config: Any) -> VolpackWavelet:
+    """``serializer=`` for ``zarr.create_array`` (zarr format 3)."""
+    return VolpackWavelet(**config)
+
+
 register_codec(NAME, VolpackWavelet)
 register_codec(LEGACY_NAME, VolpackWavelet)

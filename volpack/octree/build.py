@@ -22,7 +22,6 @@ decoder will and stores any that rounding pushed past the bound exactly.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import itertools
 import math
 import time
@@ -31,91 +30,16 @@ from typing import Any
 
 import numpy as np
 
-from .. import __version__
 from .._jit import kernel
 from ..errors import FormatError
 from ..metrics import psnr_from_sse, throughput
 from ..parallel import ordered_map, parse_workers
 from . import layout
 from .layout import Geometry
+from .plan import Plan, encode_lowpass, to_values
 from .source import SourceSpec, open_source
 
 SUPER_BRICK = 256  # voxels per axis a task reads at once (for k = 16: s = 4 levels)
-
-
-@dataclasses.dataclass(frozen=True)
-class Plan:
-    """Everything a build task needs besides its input (picklable, for Dask)."""
-
-    shape: tuple[int, int, int]
-    dtype: str
-    block: int
-    wavelet: str
-    coder: str
-    order: str
-    work: str
-    sb_levels: int
-    bounded: tuple[tuple[str, Any], ...] | None = None  # BoundedCodec config
-
-    @property
-    def geometry(self) -> Geometry:
-        return Geometry(self.shape, self.block)
-
-    @functools.cached_property
-    def codec(self):
-        if self.bounded is None:
-            return None
-        from ..volume_codec.registry import get_codec
-
-        return get_codec(dict(self.bounded))
-
-    def header(self, spacing, origin) -> dict[str, Any]:
-        return {
-            "kind": layout.KIND,
-            "volpack": __version__,
-            "shape": list(self.shape),
-            "dtype": np.dtype(self.dtype).newbyteorder("<").str,
-            "spacing": list(spacing),
-            "origin": list(origin),
-            "octree": {
-                "block": self.block,
-                "depth": self.geometry.depth,
-                "wavelet": self.wavelet,
-                "coder": self.coder,
-                "order": self.order,
-                "work": self.work,
-                "super_levels": self.sb_levels,
-            },
-            "codec": None if self.bounded is None else dict(self.bounded),
-        }
-
-    @classmethod
-    def from_header(cls, h: dict) -> Plan:
-        try:
-            o = h["octree"]
-            codec = h.get("codec")
-            return cls(
-                shape=tuple(int(n) for n in h["shape"]),  # type: ignore[arg-type]
-                dtype=np.dtype(h["dtype"]).newbyteorder("=").str,
-                block=int(o["block"]),
-                wavelet=str(o["wavelet"]),
-                coder=str(o["coder"]),
-                order=str(o["order"]),
-                work=np.dtype(o["work"]).str,
-                sb_levels=int(o["super_levels"]),
-                bounded=None if codec is None else tuple(sorted(codec.items())),
-            )
-        except (KeyError, TypeError, ValueError) as e:
-            raise FormatError(f"expected an octree header, found a bad one: {e!r}") from None
-
-
-def to_values(plan: Plan, a: np.ndarray) -> np.ndarray:
-    """Voxels of the output dtype from ``A_L`` integers (clipped into the dtype)."""
-    dtype = np.dtype(plan.dtype)
-    if plan.codec is not None:
-        return plan.codec._reconstruct(a, dtype)
-    info = np.iinfo(dtype)
-    return np.clip(a, info.min, info.max).astype(dtype)
 
 
 def make_plan(
@@ -215,7 +139,7 @@ def build_task(source: Any, plan: Plan, index: tuple[int, int, int]) -> TaskResu
 def _emit_root_only(plan: Plan, a0: np.ndarray, x: np.ndarray, out: TaskResult) -> None:
     """A volume no larger than one block: the root is the volume itself."""
     corr = _corrections(plan, a0, x, out)
-    lowpass = _encode_lowpass(plan, a0.astype(plan.work))
+    lowpass = encode_lowpass(plan, a0.astype(plan.work))
     payload = layout.encode_payload(None, lowpass, corr)
     out.chunks.append((layout.node_key(0, 0), payload, out.max_error))
     row = np.zeros(1, layout.META_DTYPE)
@@ -272,7 +196,7 @@ def _build_levels(plan, a, mn, mx, e2, l0, l1, origin, out, x0=None):
             corr = None
             if level == 1 and plan.codec is not None:
                 corr = _corrections(plan, blk, x0[box], out)
-            lowpass = _encode_lowpass(plan, low) if is_root else None
+            lowpass = encode_lowpass(plan, low) if is_root else None
             vals = to_values(plan, low)
             row = rows[j : j + 1]
             _node_stats(vals, mn[dst], mx[dst], row)
@@ -288,29 +212,6 @@ def _build_levels(plan, a, mn, mx, e2, l0, l1, origin, out, x0=None):
         out.rows[level] = (idx, rows)
         a, e2 = new_a, new_e2
     return a, mn, mx, e2
-
-
-def _encode_lowpass(plan: Plan, low: np.ndarray) -> bytes:
-    from ..volume_codec.codec import WaveletCodec, ZstdCodec
-
-    info = np.iinfo(np.int32)
-    if low.size and info.min <= low.min() and low.max() <= info.max:
-        body = WaveletCodec(plan.wavelet, plan.coder, plan.order).encode(low.astype(np.int32))
-        return b"\x00" + body
-    return b"\x01" + ZstdCodec().encode(low.astype(np.int64))
-
-
-def decode_lowpass(plan: Plan, data: bytes, shape) -> np.ndarray:
-    from ..volume_codec.codec import WaveletCodec, ZstdCodec
-
-    if not data:
-        raise FormatError("octree root: empty low-pass section")
-    if data[0] == 0:
-        c = WaveletCodec(plan.wavelet, plan.coder, plan.order)
-        return c.decode(data[1:], tuple(shape), np.int32).astype(plan.work)
-    if data[0] == 1:
-        return ZstdCodec().decode(data[1:], tuple(shape), np.int64).astype(plan.work)
-    raise FormatError(f"octree root: expected low-pass mode 0 or 1, found {data[0]}")
 
 
 def _corrections(plan: Plan, q: np.ndarray, x: np.ndarray, out: TaskResult) -> bytes | None:
@@ -330,13 +231,6 @@ def _corrections(plan: Plan, q: np.ndarray, x: np.ndarray, out: TaskResult) -> b
     out.sse += float(np.sum(err * err))
     out.max_error = max(out.max_error, float(err.max(initial=0.0)))
     return body
-
-
-def apply_corrections(plan: Plan, data: bytes, values: np.ndarray) -> None:
-    """Put the exactly stored voxels of a level-1 node back into its level-0 values."""
-    from ..volume_codec.lossy import apply_corrections as apply
-
-    apply(data, values, "octree node")
 
 
 def _pool(a: np.ndarray, op) -> np.ndarray:

@@ -27,7 +27,7 @@ import numpy as np
 
 from ..errors import FormatError
 from . import layout
-from .build import Plan, apply_corrections, decode_lowpass, to_values
+from .plan import Plan, apply_corrections, decode_lowpass, to_values
 
 DEFAULT_CACHE = 256 << 20
 

@@ -125,7 +125,7 @@ def decompress(source: Any, *, roi=None, level=None, error=None, workers=1, **_:
 
 def check_header(hdr: dict, max_voxels: int = 1 << 40) -> dict:
     """Validate an octree header (kind, the octree plan, size limit); return it."""
-    from .build import Plan
+    from .plan import Plan
 
     if hdr.get("kind") != KIND:
         raise FormatError(f"expected an octree header (kind {KIND!r}), found {hdr.get('kind')!r}")

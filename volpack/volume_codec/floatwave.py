@@ -70,7 +70,9 @@ class FloatWaveletCodec(BrickCodec):
         body = CODERS[self.coder].encode(q, sigmap.scan(q.shape, (0, 0, 0), "line"))
         rec = self._rebuild(q, x.shape, x.dtype)
         err = np.abs(rec.astype(np.float64) - x)
-        return Measured(bytes([MODE_CODED]) + body, float(err.max()), float(np.sum(err * err)), x.size)
+        return Measured(
+            bytes([MODE_CODED]) + body, float(err.max()), float(np.sum(err * err)), x.size
+        )
 
     def encode(self, brick: np.ndarray) -> bytes:
         return self.encode_measured(brick)[0]

@@ -31,7 +31,7 @@ import numpy as np
 
 from volpack._jit import kernel
 from volpack.errors import FormatError
-from volpack.wavelet.lifting import SPECS, _lift_planes_kernel, _lift_rows_kernel
+from volpack.wavelet.lifting import SPECS, lift_planes_kernel, lift_rows_kernel
 
 WAVELETS = tuple(SPECS)
 WORK_DTYPES = (np.dtype(np.int32), np.dtype(np.int64))
@@ -161,18 +161,18 @@ def _dwt3_kernel(a, tmp, lz, ly, lx, spec, backward):
         cz, cy, cx = rz[k], ry[k], rx[k]
         if not backward:
             if lz > k:
-                _lift_planes_kernel(az, one, cz, cy, cx, tmp, spec, backward)
+                lift_planes_kernel(az, one, cz, cy, cx, tmp, spec, backward)
             if ly > k:
-                _lift_planes_kernel(ay, cz, cy, one, cx, tmp, spec, backward)
+                lift_planes_kernel(ay, cz, cy, one, cx, tmp, spec, backward)
             if lx > k:
-                _lift_rows_kernel(a, cz, cy, cx, tmp, spec, backward)
+                lift_rows_kernel(a, cz, cy, cx, tmp, spec, backward)
         else:
             if lx > k:
-                _lift_rows_kernel(a, cz, cy, cx, tmp, spec, backward)
+                lift_rows_kernel(a, cz, cy, cx, tmp, spec, backward)
             if ly > k:
-                _lift_planes_kernel(ay, cz, cy, one, cx, tmp, spec, backward)
+                lift_planes_kernel(ay, cz, cy, one, cx, tmp, spec, backward)
             if lz > k:
-                _lift_planes_kernel(az, one, cz, cy, cx, tmp, spec, backward)
+                lift_planes_kernel(az, one, cz, cy, cx, tmp, spec, backward)
 
 
 def _run(x: np.ndarray, levels, wavelet: str, backward: bool, overwrite: bool) -> np.ndarray:

@@ -22,28 +22,17 @@ the brick shape and levels, so they are built once and cached.
 from __future__ import annotations
 
 import functools
-from typing import NamedTuple
 
 import numpy as np
 
 from .._jit import kernel
+from ..entropy.scan import Scan
 from .dwt3 import Band, subbands
 
 ORDERS = ("dfs", "line")
 # Subband classes: 4 per level for the 6 finest levels (by the count of high-pass axes)
 # and one for the approximation; coarser levels share the sixth.
-N_CLASSES = 25
 APPROX_CLASS = 24
-
-
-class Scan(NamedTuple):
-    perm: np.ndarray  # int32 (N,): flat coefficient index coded at each scan position
-    end: np.ndarray  # int32 (N,): end (exclusive) of the subtree rooted at each position
-    parent: np.ndarray  # int32 (N,): scan position of the parent, -1 for roots
-    cls: np.ndarray  # uint8 (N,): subband class, 0..N_CLASSES-1
-    nbr: (
-        np.ndarray
-    )  # int32 (N, 3): scan positions of the z-1, y-1, x-1 neighbours in the band, -1 if none
 
 
 def _flat(shape, start, local):
