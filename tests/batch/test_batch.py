@@ -322,7 +322,10 @@ def test_dask_scheduler_and_worker_processes_with_one_worker_killed(tree, tmp_pa
     here = batch.run(batch.plan(str(root / "a"), str(tmp_path / "here")))
     tasks = batch.plan(str(root / "a"), str(tmp_path / "out"))
     env = dict(os.environ)  # the workers unpickle die_once from this file
-    env["PYTHONPATH"] = os.pathsep.join([str(Path(__file__).parent), env.get("PYTHONPATH", "")])
+    folder = Path(__file__).parent  # this file (die_once) and tests/ (conftest) for the workers
+    env["PYTHONPATH"] = os.pathsep.join(
+        [str(folder), str(folder.parent), env.get("PYTHONPATH", "")]
+    )
     sched_file = tmp_path / "scheduler.json"
     dask = [sys.executable, "-m", "dask"]
     common = ["--no-dashboard"]
