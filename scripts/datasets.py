@@ -41,8 +41,8 @@ class Dataset:
     """Where a volume comes from and how it is stored in the cache.
 
     ``source`` is ``"deb"`` (Debian package, unpacked with ``dpkg -x``), ``"pypi"``
-    (a wheel, or the installed copy of the package) or ``"pypi-data"`` (a file the wheel
-    installs under ``sys.prefix``). ``member`` is the file's path inside
+    (a wheel, or the installed copy of the package), ``"pypi-data"`` (a file the wheel
+    installs under ``sys.prefix``) or ``"sim"`` (a field ``simulate.py`` computes). ``member`` is the file's path inside
     the package; ``inner`` optionally names a member of a ``.tar.gz`` found there.
     ``file`` is the name in the cache folder. ``kind`` is ``"int"`` (integer voxels, loaded
     as stored) or ``"float"`` (float voxels, loaded as float32).
@@ -57,9 +57,19 @@ class Dataset:
     description: str
     inner: str | None = None
     kind: str = "int"
+    variable: str | None = None  # netCDF: the variable to read
 
 
 _MRICRON = "usr/share/mricron/templates"
+
+
+def _climate(name: str, member: str, variable: str, description: str) -> Dataset:
+    """A float field of a netCDF example file that NCL ships (Debian libncarg-data)."""
+    file = f"ncarg_{member.rsplit('/', 1)[-1]}"
+    return Dataset(name, "deb", "libncarg-data", f"{_NCARG}/{member}", file, "netcdf",
+                   description, kind="float", variable=variable)
+
+_NCARG = "usr/share/ncarg/data"
 _NIB = "nibabel/tests/data"
 _DIPY = "dipy/data/files"
 
@@ -168,8 +178,51 @@ DATASETS: dict[str, Dataset] = {
             "dipy denoised (ASCM) brain MRI slab, float64 on disk, loaded as float32",
             kind="float",
         ),
+        Dataset(
+            "mri_piesno_noise",
+            "pypi",
+            "dipy",
+            f"{_DIPY}/test_piesno.nii.gz",
+            "test_piesno.nii.gz",
+            "nifti",
+            "dipy PIESNO test slab: raw brain MRI magnitudes with their noise, float64 on disk",
+            kind="float",
+        ),
+        _climate("climate_t", "nug/rectilinear_grid_3D.nc", "t",
+                 "NCL example: air temperature (K) on 17 pressure levels, 96x192 global grid"),
+        _climate("climate_rh", "nug/rectilinear_grid_3D.nc", "rhumidity",
+                 "NCL example: relative humidity on 17 pressure levels, 96x192 global grid"),
+        _climate("cam_t", "cdf/vinth2p.nc", "T",
+                 "NCL example: CAM temperature (K) on 18 hybrid levels, 64x128 (first time)"),
+        _climate("cam_u", "cdf/nc4uvt.nc", "U",
+                 "NCL example: zonal wind (m/s) on 14 levels, 64x128 (netCDF-4)"),
+        _climate("hgt_500", "cdf/hgt.nc", "HGT",
+                 "NCL example: 500 hPa geopotential height (gpm), 21 times x 73x144"),
+        _climate("tas_monthly", "nug/tas_rectilinear_grid_2D.nc", "tas",
+                 "NCL example: near-surface air temperature (K), 12 months x 96x192"),
+        _climate("sea_ice", "cdf/fice.nc", "fice",
+                 "NCL example: sea-ice concentration (0..1), 120 months x 49x100"),
     ]
-}
+}  # fmt: skip
+
+
+def _sim(name: str, field: str, description: str) -> Dataset:
+    return Dataset(name, "sim", "taylor_green", field, f"taylor_green_{field}.npy", "npy",
+                   description, kind="float")
+
+
+# Fields a solver makes here (scripts/simulate.py: a pseudo-spectral Navier-Stokes run of
+# the Taylor-Green vortex at Re 1600, the standard CFD benchmark case; 64^3 at t = 6).
+DATASETS.update({
+    d.name: d
+    for d in [
+        _sim("tgv_vorticity", "vorticity", "Taylor-Green vortex DNS (Re 1600, 64^3, t = 6): "
+             "vorticity magnitude, float32"),
+        _sim("tgv_pressure", "pressure", "Taylor-Green vortex DNS (Re 1600, 64^3, t = 6): "
+             "pressure, float32"),
+        _sim("tgv_u", "u", "Taylor-Green vortex DNS (Re 1600, 64^3, t = 6): x velocity, float32"),
+    ]
+})  # fmt: skip
 
 
 def data_dir() -> Path:
@@ -203,7 +256,10 @@ def load(name: str) -> tuple[np.ndarray, tuple[float, float, float], str]:
         raise FileNotFoundError(
             f"{name}: {path} is missing; run `python scripts/fetch_data.py {name}` first"
         )
-    array, spacing = _READERS[ds.fmt](path)
+    if ds.fmt == "netcdf":
+        array, spacing = read_netcdf(path, ds.variable)
+    else:
+        array, spacing = _READERS[ds.fmt](path)
     array = np.ascontiguousarray(array)
     if not array.dtype.isnative:
         array = array.astype(array.dtype.newbyteorder("="))
@@ -296,7 +352,37 @@ def read_inr(path: Path):
     return array.copy(), spacing
 
 
-_READERS = {"inv3": read_inv3, "nifti": read_nifti, "den": read_den, "inr": read_inr}
+def read_netcdf(path: Path, variable: str):
+    """One variable of a netCDF-3 (scipy) or netCDF-4 (h5py) file; leading axes of length 1
+    are dropped, and a 4-D field keeps its first time step."""
+    try:
+        from scipy.io import netcdf_file
+
+        with netcdf_file(path, "r", mmap=False) as f:
+            array = np.array(f.variables[variable].data)
+    except TypeError:  # not netCDF-3: netCDF-4 is HDF5
+        import h5py
+
+        with h5py.File(path, "r") as f:
+            array = f[variable][...]
+    while array.ndim > 3:
+        array = array[0]
+    if array.ndim != 3:
+        raise ValueError(f"{path}: {variable} is not 3-D (shape {array.shape})")
+    return array, (1.0, 1.0, 1.0)
+
+
+def read_npy(path: Path):
+    return np.load(path), (1.0, 1.0, 1.0)
+
+
+_READERS = {
+    "inv3": read_inv3,
+    "nifti": read_nifti,
+    "den": read_den,
+    "inr": read_inr,
+    "npy": read_npy,
+}
 
 
 # --- tetrahedral meshes (scripts/bench_tetra.py) ----------------------------------------

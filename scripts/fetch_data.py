@@ -93,7 +93,25 @@ def _wheel_root(package: str, tmp: Path) -> Path:
     return root
 
 
-_ROOTS = {"deb": _unpack_deb, "pypi": _pypi_root, "pypi-data": _pypi_data_root}
+def _sim_root(package: str, tmp: Path) -> Path:
+    """Run the solver of ``simulate.py`` named ``package`` (a few minutes); its fields are
+    written into ``tmp/package`` as the members ``datasets`` names."""
+    import simulate
+
+    root = tmp / package
+    if not root.is_dir():
+        if package != "taylor_green":
+            raise ValueError(f"unknown simulation {package!r}; expected taylor_green")
+        simulate.write(root)
+    return root
+
+
+_ROOTS = {
+    "deb": _unpack_deb,
+    "pypi": _pypi_root,
+    "pypi-data": _pypi_data_root,
+    "sim": _sim_root,
+}
 
 
 def fetch(name: str, tmp: Path, force: bool = False) -> tuple[Path, str]:

@@ -490,3 +490,61 @@ def render_field_reference(origins, dirs, inside, field, tf_table, lo, hi, unit,
                 out[r, c, ch] = np.sum(trans * a * np.interp(s, grid, tab[:, ch]))
             out[r, c, 3] = 1.0 - trans[-1] * (1.0 - a[-1])
     return out
+
+
+# --- float CDF 9/7 (formats/lossy-1.md, float wavelet path) ---
+
+
+def cdf97_lift_1d(x, backward=False):
+    """One level of the float CDF 9/7 on a Python list, sample by sample as the spec reads."""
+    a, b, g, d_, z = (-1.586134342059924, -0.052980118572961, 0.882911075530934,
+                      0.443506852043971, 1.149604398860241)  # fmt: skip
+    n = len(x)
+    ns, nd = (n + 1) // 2, n // 2
+
+    def predict(s, d, c):
+        for i in range(nd):
+            right = s[i + 1] if i + 1 < ns else s[i]
+            d[i] += c * (s[i] + right)
+
+    def update(s, d, c):
+        for i in range(ns):
+            left = d[i - 1] if i > 0 else d[0]
+            right = d[i] if i < nd else d[nd - 1]
+            s[i] += c * (left + right)
+
+    if not backward:
+        s, d = [float(v) for v in x[0::2]], [float(v) for v in x[1::2]]
+        predict(s, d, a)
+        update(s, d, b)
+        predict(s, d, g)
+        update(s, d, d_)
+        return [v * z for v in s] + [v / z for v in d]
+    s, d = [v / z for v in x[:ns]], [v * z for v in x[ns:]]
+    update(s, d, -d_)
+    predict(s, d, -g)
+    update(s, d, -b)
+    predict(s, d, -a)
+    out = [0.0] * n
+    out[0::2], out[1::2] = s, d
+    return out
+
+
+def cdf97_transform(arr, levels, backward=False):
+    """The 3-D float CDF 9/7 in the Mallat layout, one line at a time."""
+    import numpy as np
+
+    a = np.array(arr, dtype=np.float64)
+    regions = [a.shape]
+    for k in range(max(levels)):
+        regions.append(tuple((n + 1) // 2 if lv > k else n for n, lv in zip(regions[-1], levels)))
+    ks = range(max(levels) - 1, -1, -1) if backward else range(max(levels))
+    for k in ks:
+        cur = regions[k]
+        for axis in ((2, 1, 0) if backward else (0, 1, 2)):
+            if levels[axis] <= k:
+                continue
+            view = np.moveaxis(a[tuple(slice(0, n) for n in cur)], axis, -1)
+            for idx in np.ndindex(*view.shape[:-1]):
+                view[idx] = cdf97_lift_1d(list(view[idx]), backward)
+    return a

@@ -12,19 +12,6 @@ import pytest
 
 PACKAGE = Path(__file__).resolve().parent.parent / "volpack"
 
-# The io package's helpers that octree sources and batch planning still take by their
-# private names; the io split (one module per format) gives them public ones.
-PENDING = {
-    ("volpack.batch.planning", "volpack.io._EXTENSIONS"),
-    ("volpack.octree.source", "volpack.io._h5_pick"),
-    ("volpack.octree.source", "volpack.io._h5_geometry"),
-    ("volpack.octree.source", "volpack.io._tiff_geometry"),
-    ("volpack.octree.source", "volpack.io._tiff_xy_spacing"),
-    ("volpack.octree.source", "volpack.io._natural_key"),
-    ("volpack.octree.source", "volpack.io._wrap"),
-    ("volpack.octree.source", "volpack.io._raw_check"),
-}
-
 
 def _modules() -> dict[str, Path]:
     out = {}
@@ -88,7 +75,7 @@ def private_uses(modules: dict[str, Path]) -> list[tuple[str, int, str]]:
 
 
 def test_no_module_imports_another_modules_private_names():
-    bad = [u for u in private_uses(_modules()) if (u[0], u[2]) not in PENDING]
+    bad = private_uses(_modules())
     assert not bad, "private names used across modules: " + "; ".join(
         f"{m}:{line} {what}" for m, line, what in bad
     )

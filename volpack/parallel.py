@@ -78,7 +78,7 @@ def dask_client(scheduler, workers: int, processes: bool = True):
                     n_workers=workers,
                     threads_per_worker=1,
                     processes=processes,
-                    dashboard_address=None,
+                    dashboard_address=":0",
                 )
             )
             yield stack.enter_context(Client(cluster))

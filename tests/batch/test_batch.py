@@ -261,7 +261,7 @@ def test_dask_worker_killed_mid_task_is_retried(tree, tmp_path):
     root, _ = tree
     tasks = batch.plan(str(root / "a"), str(tmp_path / "out"))
     with (
-        LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None) as cluster,
+        LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=":0") as cluster,
         Client(cluster) as client,
     ):
         report = batch.run(tasks, scheduler=client, func=die_once)

@@ -63,7 +63,7 @@ def compress(
     coder: str | None = None,
     order: str | None = None,
     max_levels: int | None = None,
-    brick: int | tuple[int, int, int] = bricks.DEFAULT_BRICK,
+    brick: int | tuple[int, int, int] | None = bricks.DEFAULT_BRICK,
     search: int = motion.DEFAULT_RADIUS,
     method: str = "fast",
     precision: str = "quarter",
@@ -114,7 +114,7 @@ def compress(
         **{k: v for k, v in inner.items() if v is not None},
     )  # fmt: skip
     _check_dtype(src.dtype, s)
-    brick_t = bricks.parse_brick(brick)
+    brick_t = bricks.parse_brick(bricks.DEFAULT_BRICK if brick is None else brick)
     nt = src.shape[0]
     refs = gop.references(types)
     release = gop.last_use(types)

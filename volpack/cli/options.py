@@ -151,7 +151,9 @@ def table(rows: list[list[str]], header: list[str]) -> str:
     return "\n".join(lines)
 
 
-def parse_brick(value: str) -> int | tuple[int, int, int]:
+def parse_brick(value: str | None) -> int | tuple[int, int, int] | None:
+    if value is None:  # the codec's default (volume_codec.bricks.default_brick)
+        return None
     parts = value.replace("x", ",").split(",")
     try:
         nums = [int(p) for p in parts]
@@ -202,9 +204,9 @@ CODEC_OPTIONS = [
     ),
     click.option(
         "--brick",
-        default="64",
-        show_default=True,
-        help="Brick size N or Z,Y,X; bricks decode independently.",
+        default=None,
+        help="Brick size N or Z,Y,X; bricks decode independently. Default 64; a float "
+        "volume under an error bound is one brick up to 4M voxels, else 128.",
     ),
     click.option(
         "--max-error",

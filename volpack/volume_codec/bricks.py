@@ -17,6 +17,22 @@ from ..errors import FormatError
 DEFAULT_BRICK = 64
 # Scan tables index a brick's coefficients with 32-bit integers.
 MAX_BRICK_VOXELS = 1 << 30
+# Float volumes under an error bound: the float wavelet codes long extents better (many
+# levels, no brick edges), so up to this many voxels the volume is one brick, else
+# LOSSY_FLOAT_BRICK^3 (a brick's scan tables take ~25 bytes a voxel).
+LOSSY_FLOAT_VOXELS = 1 << 22
+LOSSY_FLOAT_BRICK = 128
+
+
+def default_brick(shape: tuple[int, ...], dtype, bounded: bool) -> tuple[int, int, int]:
+    """The brick used when none is asked for: DEFAULT_BRICK, or for a float volume under
+    an error bound (``bounded``) the whole volume if it is small, else LOSSY_FLOAT_BRICK."""
+    spatial = tuple(int(n) for n in shape[-3:])
+    if not (bounded and np.dtype(dtype).kind == "f"):
+        return (DEFAULT_BRICK,) * 3
+    if math.prod(spatial) <= LOSSY_FLOAT_VOXELS:
+        return tuple(max(1, n) for n in spatial)  # type: ignore[return-value]
+    return (LOSSY_FLOAT_BRICK,) * 3
 
 
 def parse_brick(value: int | tuple[int, ...] | list[int]) -> tuple[int, int, int]:

@@ -53,6 +53,10 @@ from .protocol import (
 
 # The bounded payload's flag byte (formats/lossy-1.md, `bounded`).
 FLAG_MASK, FLAG_CORRECTIONS, FLAG_COEF, FLAG_RESIDUALS = 1, 2, 4, 8
+FLAG_CDF97, FLAG_OUTLIERS = 16, 32  # the float wavelet path (bounded_cdf97)
+_KNOWN_FLAGS = (
+    FLAG_MASK | FLAG_CORRECTIONS | FLAG_COEF | FLAG_RESIDUALS | FLAG_CDF97 | FLAG_OUTLIERS
+)
 # Orthonormal coefficient step of the bounded codec's coefficient path, in units of the
 # error allowed on its grid (measured best on the head CT and the z-map).
 COEF_STEP = 2.0
@@ -159,10 +163,11 @@ class BoundedCodec(BrickCodec):
     def encode_measured(self, brick: np.ndarray) -> Measured:
         """Return ``(payload, max error, squared error sum, valid voxels)``.
 
-        Two codings are made and the shorter kept: the quantised voxels coded losslessly
-        (best for tight bounds), and quantised wavelet coefficients plus the voxels that
-        strayed past the bound (best for loose ones, where wide bins in the voxel domain
-        waste the transform's energy compaction).
+        Several codings are made and the shortest kept: the quantised voxels coded
+        losslessly (best for tight bounds), and quantised wavelet coefficients plus the
+        voxels that strayed past the bound (best for loose ones, where wide bins in the
+        voxel domain waste the transform's energy compaction): integer lifting on a fine
+        grid, and for floats the float CDF 9/7 (:mod:`volpack.volume_codec.bounded_cdf97`).
         """
         x = np.ascontiguousarray(brick)
         mask = self._special(x)
@@ -175,7 +180,38 @@ class BoundedCodec(BrickCodec):
             coef = self._coef_candidate(x, clean, mask)
             if len(coef[0]) < len(best[0]):
                 best = coef
+        if x.size >= 64 and x.dtype.kind == "f":
+            for cand in self._cdf97_candidates(x, clean, mask):
+                if len(cand[0]) < len(best[0]):
+                    best = cand
         return best
+
+    def _cdf97_candidates(self, x, clean, mask):
+        """The float CDF 9/7 path at each step it tries; each checked on every voxel."""
+        from . import bounded_cdf97 as w
+
+        xf = x.reshape(-1).astype(np.float64)
+        coder = self._residual_coder
+        out = []
+
+        def finish(inner, rec):
+            err = np.abs(_to_float(rec, x.dtype).reshape(-1).astype(np.float64) - xf)
+            if mask is not None:
+                err[mask.reshape(-1)] = 0.0
+            bad = np.flatnonzero(err > self.max_error)
+            r = np.floor((xf[bad] - rec.reshape(-1)[bad]) / self.step + 0.5)
+            keep = (r != 0) & (np.abs(r) < 2**31)  # the rest: exact corrections
+            extra = []
+            if keep.any():
+                idx, bins = bad[keep], r[keep].astype(np.int64)
+                extra.append(w.pack_outliers(idx, bins, x.shape, coder))
+                w.add_bins(rec, idx, bins, self.step)  # as the decoder will
+            y = _to_float(rec, x.dtype)
+            out.append(self._finish(x, mask, y, FLAG_CDF97, [inner], extra, FLAG_OUTLIERS))
+            return len(out[-1][0])
+
+        w.encode(clean.astype(np.float64), self.max_error, self.coder, self.max_levels, finish)
+        return out
 
     # The coefficient path works on a fine integer grid: the voxels themselves for
     # integers, steps of E/16 for floats, leaving 15 of those steps (31E/32 with the
@@ -233,7 +269,7 @@ class BoundedCodec(BrickCodec):
             v = np.clip(v, -big, big)
         return v.astype(dtype)
 
-    def _finish(self, x, mask, rec, flags, inner, residuals=()):
+    def _finish(self, x, mask, rec, flags, inner, residuals=(), residual_flag=FLAG_RESIDUALS):
         """Check every voxel of ``rec``, add the exact corrections and the mask, and
         assemble the payload; returns what :meth:`encode_measured` returns."""
         err = np.abs(rec.astype(np.float64) - x.astype(np.float64))
@@ -242,7 +278,7 @@ class BoundedCodec(BrickCodec):
         bad = np.flatnonzero(err > self.max_error)
         parts = [b""] + [put_section(b) for b in inner]
         for body in residuals:
-            flags |= FLAG_RESIDUALS
+            flags |= residual_flag
             parts.append(put_section(body))
         if mask is not None:
             flags |= FLAG_MASK
@@ -270,11 +306,17 @@ class BoundedCodec(BrickCodec):
                 f"bounded brick payload: expected at least 5 bytes, found {len(data)}"
             )
         flags = data[0]
-        if flags & ~(FLAG_MASK | FLAG_CORRECTIONS | FLAG_COEF | FLAG_RESIDUALS):
+        if flags & ~_KNOWN_FLAGS:
             raise FormatError(f"bounded brick payload: unknown flags {flags:#x}")
         pos = 1
         inner, pos = _take(data, pos, len(data))
-        if flags & FLAG_COEF:
+        if flags & FLAG_CDF97:
+            out = self._decode_cdf97(flags, data, inner, pos, tuple(shape), dtype)
+            pos = out[1]
+            out = out[0]
+        elif flags & FLAG_OUTLIERS:
+            raise FormatError("bounded brick payload: outliers without the cdf97 path")
+        elif flags & FLAG_COEF:
             g = _decode_coefficients(inner, tuple(shape), self, self._coef_steps, dead_zone=True)
             if flags & FLAG_RESIDUALS:
                 from ..entropy import CODERS
@@ -308,6 +350,28 @@ class BoundedCodec(BrickCodec):
         if pos != len(data):
             raise FormatError(f"bounded brick payload: {len(data) - pos} stray bytes at the end")
         return out
+
+    def _decode_cdf97(self, flags, data, inner, pos, shape, dtype):
+        from . import bounded_cdf97 as w
+
+        if flags & (FLAG_COEF | FLAG_RESIDUALS) or dtype.kind != "f":
+            raise FormatError(
+                "bounded brick payload: the cdf97 path is for float voxels, without the "
+                "coefficient path's flags"
+            )
+        rec = w.decode(inner, shape, self.coder, self.max_levels)
+        if flags & FLAG_OUTLIERS:
+            body, pos = _take(data, pos, len(data))
+            w.apply_outliers(body, rec, self.step, self._residual_coder)
+        return _to_float(rec, dtype), pos
+
+
+def _to_float(v: np.ndarray, dtype: np.dtype) -> np.ndarray:
+    """Float64 values cast to the float ``dtype``, clipped to its finite range."""
+    if dtype != np.float64:
+        big = float(np.finfo(dtype).max)
+        v = np.clip(v, -big, big)
+    return v.astype(dtype)
 
 
 def _code_coefficients(g, codec, steps_of, *, dead_zone: bool):

@@ -71,7 +71,7 @@ def compress(
     coder: str | None = None,
     order: str | None = None,
     max_levels: int | None = None,
-    brick: int | tuple[int, int, int] = bricks.DEFAULT_BRICK,
+    brick: int | tuple[int, int, int] | None = None,
     max_error: float | None = None,
     rel_error: float | None = None,
     psnr: float | None = None,
@@ -106,8 +106,10 @@ def compress(
         ``auto``: the lossless wavelet codec for 8/16/32-bit integers, zstd for the rest.
     wavelet, coder, order, max_levels
         Wavelet codec settings (see :class:`volpack.volume_codec.codec.WaveletCodec`).
-    brick : int or (int, int, int)
-        Brick size; bricks are coded independently and decoded one by one.
+    brick : int or (int, int, int), optional
+        Brick size; bricks are coded independently and decoded one by one. Default
+        :func:`volpack.volume_codec.bricks.default_brick`: 64, but a float volume under an
+        error bound (or a PSNR or ratio target) is one brick up to 4M voxels, else 128^3.
     workers : int or None
         Threads; ``None`` or 0 uses every core. The output does not depend on it.
     progress : callable(done, total), optional
@@ -131,7 +133,6 @@ def compress(
         source = vio.read_volume(source, **(read_options or {}))
     vol = source if isinstance(source, Volume) else Volume(np.asarray(source))
     t0 = time.perf_counter()  # the setting search counts: the speed is the whole coding's
-    brick_t = bricks.parse_brick(brick)
     nworkers = parse_workers(workers)
     inner = {"wavelet": wavelet, "coder": coder, "order": order, "max_levels": max_levels}
     targets = {
@@ -146,6 +147,10 @@ def compress(
     if len(asked) > 1:
         found = ", ".join(f"{k}={v}" for k, v in sorted(asked.items()))
         raise ValueError(f"expected at most one lossy setting, found {found}")
+    if brick is None:
+        bounded = bool(asked) and not ({"quality", "threshold"} & set(asked))
+        brick = bricks.default_brick(vol.shape, vol.dtype, bounded)
+    brick_t = bricks.parse_brick(brick)
     if asked:
         from . import search as lossy_plan
 
