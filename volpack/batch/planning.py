@@ -72,6 +72,7 @@ def plan(
     options: dict | None = None,
     kind: str = "compress",
     verify: str = "decode",
+    skipped: list[tuple[str, str]] | None = None,
 ) -> list[Task]:
     """Expand ``inputs`` into tasks writing under ``out_dir``.
 
@@ -83,7 +84,9 @@ def plan(
     ``out_dir``, optional per-file options overriding ``options``; inputs relative to
     the manifest's folder). Outputs mirror the inputs' tree below their common root,
     the volume extension replaced by ``suffix``. An input named twice is planned once;
-    two inputs mapping to one output raise :class:`BatchError`.
+    two inputs mapping to one output raise :class:`BatchError`. Files a glob or a folder
+    finds but leaves out (meshes, files of no known format, ``.vpk`` or raw files that
+    cannot be taken) are appended to ``skipped`` as ``(path, reason)`` when it is given.
     """
     from .. import io as vio
 
@@ -107,13 +110,13 @@ def plan(
             found = [
                 m + tail
                 for m in sorted(glob.glob(path, recursive=True))
-                if _selectable(m, kind, base_opts, out_abs, tree=False)
+                if _selectable(m, kind, base_opts, out_abs, tree=False, skipped=skipped)
             ]
             if not found:
                 raise BatchError(f"expected volumes matching {inp!r}, found none")
             entries += [(m, _glob_root(path), {}, None) for m in found]
         elif os.path.isdir(path):
-            found = _walk(path, kind, base_opts, out_abs)
+            found = _walk(path, kind, base_opts, out_abs, skipped)
             if not found:
                 raise BatchError(f"expected readable volumes under the folder {path!r}, found none")
             entries += [(m, path, {}, None) for m in found]
@@ -203,30 +206,43 @@ def _glob_root(pattern: str) -> str:
     return root or ("/" if pattern.startswith(os.sep) else ".")
 
 
-def _selectable(path: str, kind: str, opts: dict, out_abs: str, tree: bool) -> bool:
-    """Whether a path found by a glob (``tree=False``) or a walk is an input to take."""
+def _selectable(path: str, kind: str, opts: dict, out_abs: str, tree: bool, skipped=None) -> bool:
+    """Whether a path found by a glob (``tree=False``) or a walk is an input to take;
+    a file left out that a user may have meant is noted in ``skipped``."""
+    why = _left_out(path, kind, opts, out_abs, tree)
+    if why and skipped is not None and os.path.isfile(path):
+        skipped.append((path, why))
+    return why is None
+
+
+def _left_out(path: str, kind: str, opts: dict, out_abs: str, tree: bool) -> str | None:
+    """Why a found path is not an input ('' for ones not worth saying: hidden files, the
+    output folder, the .img of an Analyze pair), or None to take it."""
     from .. import io as vio
+    from ..tetra import is_mesh_path
 
     if os.path.basename(path).startswith("."):
-        return False
+        return ""
     try:
         fmt = vio.detect_format(path)
     except (VolpackError, OSError):
-        return False
+        if is_mesh_path(path):
+            return "a mesh (compress it on its own: volpack compress)"
+        return "not a volume format volpack reads"
     if kind == "decompress":
-        return fmt == "vpk" and os.path.isfile(path)
+        return None if fmt == "vpk" and os.path.isfile(path) else "not a .vpk"
     if os.path.isdir(path):
-        return not tree
+        return None if not tree else ""
     if tree and fmt == "vpk":
-        return False
+        return "already a .vpk"
     if fmt == "raw" and "shape" not in opts:
-        return False
+        return "raw voxels without --shape and --dtype"
     if path.lower().endswith(".img") and os.path.exists(path[:-4] + ".hdr"):
-        return False  # the Analyze pair is read through its .hdr
-    return not os.path.abspath(path).startswith(out_abs + os.sep)
+        return ""  # the Analyze pair is read through its .hdr
+    return "" if os.path.abspath(path).startswith(out_abs + os.sep) else None
 
 
-def _walk(folder: str, kind: str, opts: dict, out_abs: str) -> list[str]:
+def _walk(folder: str, kind: str, opts: dict, out_abs: str, skipped=None) -> list[str]:
     found = []
     for here, dirs, files in os.walk(folder):
         dirs[:] = sorted(
@@ -236,7 +252,7 @@ def _walk(folder: str, kind: str, opts: dict, out_abs: str) -> list[str]:
         )
         for name in sorted(files):
             p = os.path.join(here, name)
-            if _selectable(p, kind, opts, out_abs, tree=True):
+            if _selectable(p, kind, opts, out_abs, tree=True, skipped=skipped):
                 found.append(p)
     return found
 

@@ -48,6 +48,9 @@ class VolpackGroup(click.Group):
                 msg = str(e) or type(e).__name__
                 if isinstance(e, OSError) and e.filename and e.strerror:
                     msg = f"{e.filename}: {e.strerror}"
+                from .words import flag_words, subcommand
+
+                msg = flag_words(msg, subcommand(ctx))
                 click.echo(f"volpack: error: {msg}", err=True)
                 sys.exit(1)
             raise

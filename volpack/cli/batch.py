@@ -183,7 +183,14 @@ def batch(
         options["brick"] = parse_brick(options["brick"])
     options["workers"] = threads
     options.update(read_kwargs(raw_shape, raw_dtype, byteorder, offset))
-    tasks = vbatch.plan(list(inputs), out_dir, options=options, verify=verify)
+    skipped: list[tuple[str, str]] = []
+    tasks = vbatch.plan(list(inputs), out_dir, options=options, verify=verify, skipped=skipped)
+    if skipped and not as_json:  # say what was found and left out, and why
+        click.echo(
+            f"volpack: batch: left out {len(skipped)} file(s) found among the inputs:", err=True
+        )
+        for path, why in skipped:
+            click.echo(f"  {path}: {why}", err=True)
     run_batch(
         ctx,
         tasks,

@@ -40,6 +40,10 @@ __all__ = [
 ]
 
 
+# libraries meshio imports for one format -> the volpack extra that installs them
+_EXTRAS = {"netCDF4": "exodus", "h5py": "", "lxml": ""}
+
+
 class MeshWarning(UserWarning):
     """Something of the input mesh was dropped or changed on reading."""
 
@@ -85,8 +89,22 @@ def _read(meshio, path: str, tetrahedralize: bool) -> TetMesh:
             m = meshio.read(path)
     except (OSError, FormatError):
         raise
-    except Exception as e:  # meshio raises ReadError, KeyError, ValueError, ...
-        raise FormatError(f"{path}: expected a mesh meshio can read, found an error: {e}") from None
+    except ModuleNotFoundError as e:  # meshio imports a format's library when it reads one
+        extra = _EXTRAS.get(e.name or "", "")
+        hint = f": pip install 'volpack[{extra}]'" if extra else ""
+        raise FormatError(
+            f"{path}: expected {e.name} to read this mesh format, found it missing{hint}"
+        ) from None
+    except KeyError as e:  # meshio looks up the fields it needs by name
+        raise FormatError(
+            f"{path}: expected the field {e} in this {os.path.splitext(path)[1]} mesh, found it "
+            f"missing (a damaged or unsupported file)"
+        ) from None
+    except Exception as e:  # meshio raises ReadError, ValueError, IndexError, ...
+        said = str(e).strip() or "no message"
+        raise FormatError(
+            f"{path}: expected a mesh meshio can read, found {type(e).__name__}: {said}"
+        ) from None
     return from_meshio(m, tetrahedralize=tetrahedralize, source=os.fspath(path))
 
 
@@ -136,7 +154,7 @@ def from_meshio(m, *, tetrahedralize: bool = False, source: str = "mesh") -> Tet
     if others and not tetrahedralize:
         raise FormatError(
             f"{source}: expected tetrahedra only, found {', '.join(sorted(set(others)))} cells; "
-            "pass --tetrahedralize (tetrahedralize=True) to split them into tetrahedra"
+            "pass tetrahedralize=True to split them into tetrahedra"
         )
     tets, rows = [], []
     for kind, data, bi in blocks:

@@ -157,7 +157,8 @@ def compress(
     }
     asked = {k: v for k, v in targets.items() if v is not None}
     if len(asked) > 1:
-        raise ValueError(f"expected at most one lossy setting, found {sorted(asked)}")
+        found = ", ".join(f"{k}={v}" for k, v in sorted(asked.items()))
+        raise ValueError(f"expected at most one lossy setting, found {found}")
     if brick is None:
         bounded = bool(asked) and not ({"quality", "threshold"} & set(asked))
         brick = bricks.default_brick(vol.shape, vol.dtype, bounded)

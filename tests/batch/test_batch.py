@@ -304,3 +304,100 @@ def test_cli_batch_help():
     r = cli("batch", "--help")
     for opt in ("--max-error", "--coder", "--scheduler", "--resume", "--verify", "--report"):
         assert opt in r.output
+
+
+@pytest.mark.slow
+def test_dask_scheduler_and_worker_processes_with_one_worker_killed(tree, tmp_path):
+    """A real deployment: 'dask scheduler' and two 'dask worker' processes on 127.0.0.1
+    (no nanny, so a dead worker stays dead); one worker dies in the middle of a task and
+    the batch still finishes on the other, with the bytes a local run gives."""
+    need("distributed", "dask")
+    import subprocess
+    import sys
+    import time
+
+    from distributed import Client
+
+    root, _ = tree
+    here = batch.run(batch.plan(str(root / "a"), str(tmp_path / "here")))
+    tasks = batch.plan(str(root / "a"), str(tmp_path / "out"))
+    env = dict(os.environ)  # the workers unpickle die_once from this file
+    folder = Path(__file__).parent  # this file (die_once) and tests/ (conftest) for the workers
+    env["PYTHONPATH"] = os.pathsep.join(
+        [str(folder), str(folder.parent), env.get("PYTHONPATH", "")]
+    )
+    sched_file = tmp_path / "scheduler.json"
+    dask = [sys.executable, "-m", "dask"]
+    common = ["--no-dashboard"]
+    procs = [
+        subprocess.Popen(
+            [
+                *dask,
+                "scheduler",
+                "--host",
+                "127.0.0.1",
+                "--port",
+                "0",
+                "--scheduler-file",
+                str(sched_file),
+                *common,
+            ],
+            env=env,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )  # fmt: skip
+    ]
+    try:
+        t = time.monotonic()
+        while not sched_file.exists() and time.monotonic() - t < 120:
+            time.sleep(0.2)
+        for _ in range(2):
+            procs.append(
+                subprocess.Popen(
+                    [
+                        *dask,
+                        "worker",
+                        "--scheduler-file",
+                        str(sched_file),
+                        "--host",
+                        "127.0.0.1",
+                        "--nthreads",
+                        "1",
+                        "--no-nanny",
+                        *common,
+                    ],
+                    env=env,
+                    stdout=subprocess.DEVNULL,
+                    stderr=subprocess.DEVNULL,
+                )  # fmt: skip
+            )
+        with Client(scheduler_file=str(sched_file), timeout=120) as client:
+            client.wait_for_workers(2, timeout=120)
+            report = batch.run(tasks, scheduler=client, func=die_once)
+            assert len(client.scheduler_info()["workers"]) == 1  # the killed one stayed dead
+        dead = [p for p in procs[1:] if p.poll() is not None]
+        assert len(dead) == 1
+    finally:
+        for p in procs:
+            p.kill()
+            p.wait()
+    assert os.path.exists(str(root / "a" / "x.npy") + ".killed")
+    assert report["totals"]["ok"] == 2, report["files"]
+    for a, b in zip(here["files"], report["files"]):
+        assert Path(a["output"]).read_bytes() == Path(b["output"]).read_bytes()
+
+
+def test_batch_says_what_it_left_out(tree, tmp_path):
+    root, _ = tree
+    (root / "c" / "mesh.vtu").write_text("<VTKFile/>")
+    (root / "c" / "notes.txt").write_text("scanner notes")
+    (root / "c" / "old.vpk").write_bytes(b"")
+    (root / "c" / ".hidden.npy").write_bytes(b"")
+    skipped: list = []
+    tasks = batch.plan(str(root), str(tmp_path / "out"), skipped=skipped)
+    assert len(tasks) == 4
+    why = {os.path.basename(p): w for p, w in skipped}
+    assert set(why) == {"mesh.vtu", "notes.txt", "old.vpk"}
+    assert why["mesh.vtu"].startswith("a mesh") and why["old.vpk"] == "already a .vpk"
+    r = cli("-q", "batch", root, tmp_path / "out2")
+    assert "left out 3 file(s)" in r.stderr and "notes.txt: not a volume format" in r.stderr

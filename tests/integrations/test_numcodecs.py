@@ -270,7 +270,7 @@ def _entry_points_on_path(tmp_path) -> str:
     if "volpack.numcodecs:VolpackCodec" in have and "volpack.zarr3:VolpackWavelet" in have:
         return ""
     tomllib = pytest.importorskip("tomllib", reason="reading pyproject.toml needs Python 3.11")
-    project = tomllib.loads((Path(__file__).parents[1] / "pyproject.toml").read_text())
+    project = tomllib.loads((Path(__file__).parents[2] / "pyproject.toml").read_text())
     eps = project["project"]["entry-points"]
     info = tmp_path / "ep" / "volpack_entry_points-0.dist-info"
     info.mkdir(parents=True)

@@ -307,3 +307,13 @@ def test_compare_reports_what_a_compress_and_decompress_measure(tmp_path):
     assert r["enc_mb_s"] > 0 and r["dec_mb_s"] > 0
     text = run("compare", tmp_path / "a.npy").output
     assert "0 (lossless)" in text and "ratio" in text and "decode" in text
+
+
+def test_messages_name_flags_only(tmp_path):
+    np.save(tmp_path / "a.npy", smooth_volume((6, 7, 8)))
+    run("compress", tmp_path / "a.npy", tmp_path / "a.vpk")
+    r = run("compress", tmp_path / "a.npy", tmp_path / "a.vpk", ok=False)
+    assert r.exit_code == 1 and "pass --force to replace it" in r.stderr and "=True" not in r.stderr
+    r = run("compress", tmp_path / "a.npy", tmp_path / "b.vpk", "--max-error", "2", "--psnr", "45",
+            ok=False)  # fmt: skip
+    assert "found --max-error 2.0, --psnr 45.0" in r.stderr and "[" not in r.stderr

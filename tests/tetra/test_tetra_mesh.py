@@ -7,6 +7,7 @@ import warnings
 import meshio
 import numpy as np
 import pytest
+from conftest import need
 from tetra_meshes import grid_mesh, sphere_fan
 
 from volpack.errors import FormatError
@@ -204,3 +205,20 @@ def test_lower_dimensional_cells_dropped_with_warning(tmp_path):
 def test_is_mesh_path():
     assert is_mesh_path("a.vtu") and is_mesh_path("b.XML.gz") and is_mesh_path("c.msh")
     assert not is_mesh_path("ct.nii.gz") and not is_mesh_path("x.vpk") and not is_mesh_path("s.stl")
+
+
+def test_exodus_through_its_extra_and_meshio_failures_say_what_was_expected(tmp_path, monkeypatch):
+    need("netCDF4", "exodus")
+    mesh = grid_mesh(2)
+    m = meshio.Mesh(mesh.points, [("tetra", mesh.tets)],
+                    point_data={"temperature": np.arange(len(mesh.points), dtype=float)})  # fmt: skip
+    meshio.write(tmp_path / "disk.e", m)
+    back = read_mesh(str(tmp_path / "disk.e"))
+    np.testing.assert_array_equal(back.tets, mesh.tets)
+    np.testing.assert_allclose(back.points, mesh.points)
+    (tmp_path / "bad.e").write_bytes(b"CDF\x01" + bytes(60))  # a netCDF file without Exodus fields
+    with pytest.raises(FormatError, match=r"expected the field 'num_nodes' in this \.e mesh"):
+        read_mesh(str(tmp_path / "bad.e"))
+    monkeypatch.setitem(__import__("sys").modules, "netCDF4", None)  # as if not installed
+    with pytest.raises(FormatError, match=r"expected netCDF4 .* pip install 'volpack\[exodus\]'"):
+        read_mesh(str(tmp_path / "disk.e"))

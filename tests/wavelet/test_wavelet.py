@@ -229,9 +229,11 @@ def test_kernels_run_as_plain_python(tmp_path):
         print("ok")
         """
     )
-    here = os.path.dirname(os.path.abspath(__file__))
+    tests = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     env = dict(
-        os.environ, NUMBA_DISABLE_JIT="1", PYTHONPATH=os.pathsep.join([here, os.path.dirname(here)])
+        os.environ,
+        NUMBA_DISABLE_JIT="1",
+        PYTHONPATH=os.pathsep.join([tests, os.path.dirname(tests)]),
     )
     out = subprocess.run(
         [sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120

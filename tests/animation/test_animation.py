@@ -274,7 +274,7 @@ def test_golden_animation_decodes_and_is_reproduced(stem, opts, source):
     else:
         head = synth.head((28, 32, 36))
         want = synth.translate(head, 5, step=(0.5, 0.25, -0.75), crop=(16, 20, 24))
-    path = Path(__file__).resolve().parent.parent / "formats" / "examples" / f"{stem}.vpk"
+    path = Path(__file__).resolve().parents[2] / "formats" / "examples" / f"{stem}.vpk"
     blob = path.read_bytes()
     got = animation.decompress(blob).data
     with Reader(blob) as r:

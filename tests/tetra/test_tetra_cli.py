@@ -141,7 +141,7 @@ def test_refuses_bad_input():
         compress_mesh(TetMesh(UNIT, [[0, 1, 2, 3]]), io.BytesIO(), attr_error={"nope": 1.0})
 
 
-GOLDEN = Path(__file__).resolve().parent.parent / "formats" / "examples" / "mesh-1-grid.vpk"
+GOLDEN = Path(__file__).resolve().parents[2] / "formats" / "examples" / "mesh-1-grid.vpk"
 GOLDEN_OPTIONS = {"keep_order": True, "attr_error": {"T": 0.01}}
 
 

@@ -467,7 +467,7 @@ def test_golden_octree_decodes_and_is_reproduced(stem, recipe, opts):
 
     cut = load_demo_volume().data[30:50, 40:64, 40:68]
     want = cut if recipe == "u8" else cut.astype(np.int16) * 37 - 3000
-    blob = (Path(__file__).parent.parent / "formats" / "examples" / f"{stem}.vpk").read_bytes()
+    blob = (Path(__file__).parents[2] / "formats" / "examples" / f"{stem}.vpk").read_bytes()
     with Octree(blob) as t:
         got = t.decode(0).data
     assert got.dtype == want.dtype

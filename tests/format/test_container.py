@@ -28,7 +28,7 @@ from volpack.format.container import (
 )
 from volpack.format.streams import spool, stdin, vpk_kind
 
-GOLDEN = Path(__file__).resolve().parent.parent / "formats" / "examples" / "tiny-v1.vpk"
+GOLDEN = Path(__file__).resolve().parents[2] / "formats" / "examples" / "tiny-v1.vpk"
 
 # The content of formats/examples/tiny-v1.vpk, written out here on purpose (not imported from
 # scripts/make_examples.py) so that a change to the script cannot silently move the target.
@@ -479,7 +479,7 @@ def test_verify_false_skips_payload_crc_only():
 
 
 def test_spec_worked_example_matches_the_writer():
-    spec = (Path(__file__).parent.parent / "formats" / "vpk-1.md").read_text()
+    spec = (Path(__file__).parents[2] / "formats" / "vpk-1.md").read_text()
     dump = spec.split("## 6. Worked example")[1].split("```")[1]
     # xxd lines: "00000000: " then 8 groups of 4 hex digits in columns 10..49, then ASCII
     expected = bytes.fromhex("".join(line[10:49] for line in dump.strip().splitlines()))
