@@ -23,7 +23,7 @@ from volpack.volume_codec.lossless import (
     _encode_predict,
 )
 
-GOLDEN = Path(__file__).resolve().parent.parent / "formats" / "examples"
+GOLDEN = Path(__file__).resolve().parents[2] / "formats" / "examples"
 
 
 def roundtrip(a, **opts):
