@@ -38,7 +38,9 @@ def test_full_resolution_selection_renders_exactly_like_the_volume(tree_path, cl
     kw = dict(tf=tf_of(vol), camera=cam, value_range=vr, classification=cls, shading="phong")
     with Octree(str(path)) as t:
         pv = paged_volume(t, select.by_level(t, 0))
-        assert np.array_equal(render(pv, **kw), render(vol, **kw))
+        # the plain volume takes the fast path (volpack.render.march) with precomputed
+        # gradients: the same samples and sums, rounded differently
+        np.testing.assert_allclose(render(pv, **kw), render(vol, **kw), atol=1e-5)
 
 
 @pytest.mark.parametrize("cls", ["post", "preintegrated"])

@@ -93,6 +93,7 @@ from .._jit import JIT_DISABLED, kernel
 from ..errors import VolpackError
 from ..parallel import ordered_map, parse_workers
 from .camera import Camera
+from .prepared import prepare_volume
 
 log = logging.getLogger(__name__)
 
@@ -100,6 +101,9 @@ MODES = {"post": 0, "pre": 1, "preintegrated": 2}
 SHADINGS = ("none", "phong", "preintegrated", "centroid")
 BRICK = 8
 TABLE_SIZE = 256
+#: Send the common case through :mod:`volpack.render.march` (tests turn it off to
+#: compare the two kernels).
+FAST_PATH = True
 # Phong constants (headlight)
 KA, KD, KS, SHININESS = 0.25, 0.75, 0.35, 24.0
 
@@ -134,15 +138,60 @@ def _cell(p, n):
 
 
 @kernel
+def _cell3(nz, ny, nx, z, y, x):
+    """Corner indices (unsigned, so indexing needs no wrap-around test) and float32
+    weights of the trilinear cell at (z, y, x), positions clamped to ``[0, n - 1]``."""
+    if 0.0 <= z < nz - 1 and 0.0 <= y < ny - 1 and 0.0 <= x < nx - 1:  # the usual case
+        iz, iy, ix = int(z), int(y), int(x)
+        z0, y0, x0 = np.uint64(iz), np.uint64(iy), np.uint64(ix)
+        one = np.uint64(1)
+        return (z0, z0 + one, np.float32(z - iz), y0, y0 + one, np.float32(y - iy),
+                x0, x0 + one, np.float32(x - ix))  # fmt: skip
+    a0, a1, fa = _cell(z, nz)
+    b0, b1, fb = _cell(y, ny)
+    c0, c1, fc = _cell(x, nx)
+    return (np.uint64(a0), np.uint64(a1), np.float32(fa), np.uint64(b0), np.uint64(b1),
+            np.float32(fb), np.uint64(c0), np.uint64(c1), np.float32(fc))  # fmt: skip
+
+
+@kernel
 def _trilinear(vol, z, y, x):
+    """Trilinear sample (float32) of a volume of any real dtype, read as it is stored."""
     nz, ny, nx = vol.shape
-    z0, z1, fz = _cell(z, nz)
-    y0, y1, fy = _cell(y, ny)
-    x0, x1, fx = _cell(x, nx)
-    c00 = vol[z0, y0, x0] + (vol[z0, y0, x1] - vol[z0, y0, x0]) * fx
-    c01 = vol[z0, y1, x0] + (vol[z0, y1, x1] - vol[z0, y1, x0]) * fx
-    c10 = vol[z1, y0, x0] + (vol[z1, y0, x1] - vol[z1, y0, x0]) * fx
-    c11 = vol[z1, y1, x0] + (vol[z1, y1, x1] - vol[z1, y1, x0]) * fx
+    z0, z1, fz, y0, y1, fy, x0, x1, fx = _cell3(nz, ny, nx, z, y, x)
+    c000 = np.float32(vol[z0, y0, x0])
+    c00 = c000 + (np.float32(vol[z0, y0, x1]) - c000) * fx
+    c010 = np.float32(vol[z0, y1, x0])
+    c01 = c010 + (np.float32(vol[z0, y1, x1]) - c010) * fx
+    c100 = np.float32(vol[z1, y0, x0])
+    c10 = c100 + (np.float32(vol[z1, y0, x1]) - c100) * fx
+    c110 = np.float32(vol[z1, y1, x0])
+    c11 = c110 + (np.float32(vol[z1, y1, x1]) - c110) * fx
+    c0 = c00 + (c01 - c00) * fy
+    c1 = c10 + (c11 - c10) * fy
+    return c0 + (c1 - c0) * fz
+
+
+@kernel
+def _trilinear3(grad, z, y, x):
+    """Trilinear sample of the three channels of a ``(nz, ny, nx, 3)`` gradient volume."""
+    nz, ny, nx = grad.shape[0], grad.shape[1], grad.shape[2]
+    z0, z1, fz, y0, y1, fy, x0, x1, fx = _cell3(nz, ny, nx, z, y, x)
+    return (_lerp8(grad, 0, z0, z1, fz, y0, y1, fy, x0, x1, fx),
+            _lerp8(grad, 1, z0, z1, fz, y0, y1, fy, x0, x1, fx),
+            _lerp8(grad, 2, z0, z1, fz, y0, y1, fy, x0, x1, fx))  # fmt: skip
+
+
+@kernel
+def _lerp8(grad, ch, z0, z1, fz, y0, y1, fy, x0, x1, fx):
+    c000 = np.float32(grad[z0, y0, x0, ch])
+    c00 = c000 + (np.float32(grad[z0, y0, x1, ch]) - c000) * fx
+    c010 = np.float32(grad[z0, y1, x0, ch])
+    c01 = c010 + (np.float32(grad[z0, y1, x1, ch]) - c010) * fx
+    c100 = np.float32(grad[z1, y0, x0, ch])
+    c10 = c100 + (np.float32(grad[z1, y0, x1, ch]) - c100) * fx
+    c110 = np.float32(grad[z1, y1, x0, ch])
+    c11 = c110 + (np.float32(grad[z1, y1, x1, ch]) - c110) * fx
     c0 = c00 + (c01 - c00) * fy
     c1 = c10 + (c11 - c10) * fy
     return c0 + (c1 - c0) * fz
@@ -236,29 +285,31 @@ def _trilinear4(rgba, z, y, x, out):
 
 
 @kernel
+def _ucell(p, n):
+    """:func:`_cell` with unsigned indices and a float32 weight (table look-ups)."""
+    if p <= 0.0:
+        return np.uint64(0), np.uint64(0), np.float32(0.0)
+    if p >= n - 1:
+        return np.uint64(n - 1), np.uint64(n - 1), np.float32(0.0)
+    i = int(p)
+    return np.uint64(i), np.uint64(i + 1), np.float32(p - i)
+
+
+@kernel
 def _lookup1(tab, x, out):
     """Linear lookup of the (n, 4) table at fractional index ``x``."""
-    n = tab.shape[0]
-    if x <= 0.0:
-        for ch in range(4):
-            out[ch] = tab[0, ch]
-        return
-    if x >= n - 1:
-        for ch in range(4):
-            out[ch] = tab[n - 1, ch]
-        return
-    i = int(x)
-    f = x - i
+    i0, i1, f = _ucell(x, tab.shape[0])
     for ch in range(4):
-        out[ch] = tab[i, ch] + (tab[i + 1, ch] - tab[i, ch]) * f
+        a = tab[i0, ch]
+        out[ch] = a + (tab[i1, ch] - a) * f
 
 
 @kernel
 def _lookup2(tab, xf, xb, out):
     """Bilinear lookup of the (n, n, k) table at fractional indices (front, back)."""
     n = tab.shape[0]
-    i0, i1, fi = _cell(xf, n)
-    j0, j1, fj = _cell(xb, n)
+    i0, i1, fi = _ucell(xf, n)
+    j0, j1, fj = _ucell(xb, n)
     for ch in range(tab.shape[2]):
         a = tab[i0, j0, ch] + (tab[i0, j1, ch] - tab[i0, j0, ch]) * fj
         b = tab[i1, j0, ch] + (tab[i1, j1, ch] - tab[i1, j0, ch]) * fj
@@ -266,14 +317,26 @@ def _lookup2(tab, xf, xb, out):
 
 
 @kernel
-def _normal(vol, z, y, x, gscale, vz, vy, vx, gmin):
+def _normal(vol, grad, has_grad, z, y, x, gscale, vz, vy, vx, gmin):
     """Unit world gradient at (z, y, x) turned towards the eye, and ``|n.v|``.
 
+    The gradient is the central difference (one voxel either way) of the trilinear
+    field; with ``has_grad`` it is read from the per-voxel central differences in
+    ``grad`` (:func:`volpack.render.gradients.gradient_volume`), which is the same
+    thing inside ``[0, n - 1]``, at three trilinear look-ups fewer (in the half-voxel
+    shell outside, where positions are clamped, it is taken on the fly as without it).
     ``(0, 0, 0, -1)`` where the gradient vanishes.
     """
-    gz = (sample(vol, z + 1.0, y, x) - sample(vol, z - 1.0, y, x)) * gscale[0]
-    gy = (sample(vol, z, y + 1.0, x) - sample(vol, z, y - 1.0, x)) * gscale[1]
-    gx = (sample(vol, z, y, x + 1.0) - sample(vol, z, y, x - 1.0)) * gscale[2]
+    if has_grad and (0.0 <= z <= grad.shape[0] - 1 and 0.0 <= y <= grad.shape[1] - 1
+                     and 0.0 <= x <= grad.shape[2] - 1):  # fmt: skip
+        g0, g1, g2 = _trilinear3(grad, z, y, x)
+        gz = g0 * gscale[0]
+        gy = g1 * gscale[1]
+        gx = g2 * gscale[2]
+    else:
+        gz = (sample(vol, z + 1.0, y, x) - sample(vol, z - 1.0, y, x)) * gscale[0]
+        gy = (sample(vol, z, y + 1.0, x) - sample(vol, z, y - 1.0, x)) * gscale[1]
+        gx = (sample(vol, z, y, x + 1.0) - sample(vol, z, y, x - 1.0)) * gscale[2]
     g = math.sqrt(gz * gz + gy * gy + gx * gx)
     if g <= gmin:
         return 0.0, 0.0, 0.0, -1.0
@@ -285,9 +348,9 @@ def _normal(vol, z, y, x, gscale, vz, vy, vx, gmin):
 
 
 @kernel
-def _headlight(vol, z, y, x, gscale, vz, vy, vx, gmin):
+def _headlight(vol, grad, has_grad, z, y, x, gscale, vz, vy, vx, gmin):
     """|n.v| for the world gradient at (z, y, x); -1 where the gradient vanishes."""
-    return _normal(vol, z, y, x, gscale, vz, vy, vx, gmin)[3]
+    return _normal(vol, grad, has_grad, z, y, x, gscale, vz, vy, vx, gmin)[3]
 
 
 @kernel
@@ -371,6 +434,8 @@ def _leap_kernel(empty, out):
 @kernel
 def _render_kernel(
     vol,
+    grad,
+    has_grad,
     rgba,
     origins,
     dirs,
@@ -404,7 +469,7 @@ def _render_kernel(
     need_ends = mode == 2 or has_iso
     for k in range(rows.shape[0]):
         r = rows[k]
-        c4 = np.zeros(7, dtype=np.float64)
+        c4 = np.zeros(7, dtype=np.float32)
         count = 0
         for c in range(w):
             oz, oy, ox = origins[r, c, 0], origins[r, c, 1], origins[r, c, 2]
@@ -491,7 +556,7 @@ def _render_kernel(
                         spec = 0.0
                         if shade > 0:
                             ndv = _headlight(
-                                vol, oz + th * dz, oy + th * dy, ox + th * dx,
+                                vol, grad, has_grad, oz + th * dz, oy + th * dy, ox + th * dx,
                                 gscale, vz, vy, vx, gmin,
                             )  # fmt: skip
                             if ndv >= 0.0:
@@ -525,11 +590,11 @@ def _render_kernel(
                             # pre-integrated lighting: n.l linear from front to back
                             if not have_nf:
                                 nfz, nfy, nfx, lf = _normal(
-                                    vol, oz + t0 * dz, oy + t0 * dy, ox + t0 * dx,
+                                    vol, grad, has_grad, oz + t0 * dz, oy + t0 * dy, ox + t0 * dx,
                                     gscale, vz, vy, vx, gmin,
                                 )  # fmt: skip
                             qbz, qby, qbx, lb = _normal(
-                                vol, oz + t1 * dz, oy + t1 * dy, ox + t1 * dx,
+                                vol, grad, has_grad, oz + t1 * dz, oy + t1 * dy, ox + t1 * dx,
                                 gscale, vz, vy, vx, gmin,
                             )  # fmt: skip
                             lit_now = True
@@ -560,7 +625,7 @@ def _render_kernel(
                                 if csum > 0.0:
                                     tc = t0 + (c4[4] + c4[5] + c4[6]) / csum * seglen
                             ndv = _headlight(
-                                vol, oz + tc * dz, oy + tc * dy, ox + tc * dx,
+                                vol, grad, has_grad, oz + tc * dz, oy + tc * dy, ox + tc * dx,
                                 gscale, vz, vy, vx, gmin,
                             )  # fmt: skip
                             if ndv >= 0.0:
@@ -753,29 +818,21 @@ def render(
         )
 
     paged = hasattr(volume, "page")  # a volpack.render.lod.PagedVolume
+    prep = None
     if paged:
         if classification == "pre":
             raise VolpackError("expected classification 'post' or 'preintegrated' for a "
                                "multiresolution selection, found 'pre'")  # fmt: skip
-        data, mask = volume.atlas, None
         sp = tuple(float(v) for v in (spacing or volume.spacing))
-        vol = data
+        vol = volume.atlas
+        frange = (float(vol.min()), float(vol.max()))
     else:
-        data, mask, sp = _unpack(volume, spacing)
-        vol = np.ascontiguousarray(data, dtype=np.float32)
-    bad = None
-    if data.dtype.kind in "fc" and not paged:
-        bad = ~np.isfinite(vol)
-    if mask is not None:
-        bad = mask.copy() if bad is None else (bad | mask)
-    if bad is not None and not bad.any():
-        bad = None
-    finite = vol if bad is None else vol[~bad]
+        prep = prepare_volume(volume, spacing)
+        sp = prep.spacing if spacing is None else _unpack(prep.data[:1, :1, :1], spacing)[2]
+        vol = prep.data
+        frange = prep.finite_range
     if value_range is None:
-        if finite.size:
-            lo, hi = float(finite.min()), float(finite.max())
-        else:
-            lo, hi = 0.0, 1.0
+        lo, hi = frange if frange is not None else (0.0, 1.0)
     else:
         lo, hi = (float(v) for v in value_range)
         if not (math.isfinite(lo) and math.isfinite(hi)):
@@ -804,36 +861,47 @@ def render(
         iso_vals = np.array(sorted(v for v, _, _ in isos), np.float64)
         iso2d = np.ascontiguousarray(iso_table(n, lo, hi, isos), np.float32)
 
-    if not finite.size and not isos:  # nothing but non-finite voxels: nothing to see
+    if frange is None and not isos:  # nothing but non-finite voxels: nothing to see
         w, h = camera.size
         out = np.zeros((h, w, 4), np.float32)
         stats = RenderStats(0, time.perf_counter() - t_start, w * h, 0)
         return (out, stats) if render_stats else out
-    if bad is not None:
-        if vol is data:
-            vol = vol.copy()
-        vol[bad] = _empty_value(base if has_vol else None, lo, hi, finite)
+    dmin = None if frange is None else frange[0]
+    nthreads = parse_workers(workers)
+    fill = None
+    if prep is not None and prep.bad is not None:
+        fill = _empty_value(base if has_vol else None, lo, hi, dmin)
+        vol = prep.filled(fill)
 
     rgba = np.zeros((1, 1, 1, 4), np.float32)
     if has_vol and mode == 1:
         rgba = np.empty((*vol.shape, 4), np.float32)
         _classify_kernel(vol, post_tab, lo, scale, rgba)
-        if bad is not None:
-            rgba[bad] = 0.0
+        if prep is not None and prep.bad is not None:
+            rgba[prep.bad] = 0.0
 
-    nthreads = parse_workers(workers)
+    grad = np.zeros((1, 1, 1, 3), np.float32)
+    has_grad = False
+    if prep is not None and shading != "none":
+        g = prep.gradients(fill, nthreads)
+        if g is not None:
+            grad, has_grad = g, True
     brick = BRICK
+    ranges = None
     if paged:  # nodes are sampled through the page table
-        fill = np.array([_empty_value(base if has_vol else None, lo, hi, finite, quiet=True)])
-        vol = (volume.atlas, volume.page, volume.meta, volume.level, volume.origin, fill)
+        fill_p = _empty_value(base if has_vol else None, lo, hi, dmin, quiet=True)
+        vol = (volume.atlas, volume.page, volume.meta, volume.level, volume.origin,
+               np.array([fill_p]))  # fmt: skip
         shape = volume.shape
     else:
         shape = vol.shape
+        if skip_empty:
+            ranges = prep.brick_ranges(fill, BRICK, _brick_range_kernel)
     if paged and volume.cell % BRICK:  # bricks must not straddle page cells: skip by cell
         empty, brick = volume.page < 0, volume.cell
     else:
         empty = _empty_bricks(vol, shape, rgba, mode, has_vol, post_tab, pre2d, iso2d,
-                              bool(isos), lo, scale, skip_empty)  # fmt: skip
+                              bool(isos), lo, scale, skip_empty, ranges)  # fmt: skip
     leap = np.zeros(empty.shape, np.int64)
     if skip_empty:
         _leap_kernel(np.ascontiguousarray(empty), leap)
@@ -847,23 +915,41 @@ def render(
     gmin = 1e-6 * (hi - lo) / max(sp)
     shading_k = np.array([KA, KD, KS, SHININESS], np.float64)
 
+    fast = FAST_PATH and not paged and has_vol and not isos and mode != 1
+    if fast and shading in ("none", "phong"):
+        from .march import march_kernel  # the fast path (its module docstring)
+
+        def run(rows: np.ndarray) -> None:
+            march_kernel(
+                vol, grad, has_grad, origins, dirs, rows, mode, post_tab, pre2d, lo, scale,
+                float(step), leap, brick, bool(skip_empty), float(ert),
+                SHADINGS.index(shading), shading_k, gscale, vscale, gmin, out, row_samples,
+            )  # fmt: skip
+
+        run_row_sets(run, h, nthreads, progress)
+        return _finish(out, row_samples, t_start, render_stats)
+
     def run(rows: np.ndarray) -> None:
         _render_kernel(
-            vol, rgba, origins, dirs, rows, mode, has_vol,
+            vol, grad, has_grad, rgba, origins, dirs, rows, mode, has_vol,
             post_tab, pre2d, iso2d, iso_vals, bool(isos), lo, scale, float(step),
             leap, brick, bool(skip_empty), float(ert), SHADINGS.index(shading), shading_k,
             gscale, vscale, gmin, out, row_samples,
         )  # fmt: skip
 
     run_row_sets(run, h, nthreads, progress)
+    return _finish(out, row_samples, t_start, render_stats)
+
+
+def _finish(out, row_samples, t_start, render_stats):
     if not render_stats:
         return out
-    hits = int(np.count_nonzero(out[..., 3] > 0))
+    h, w = out.shape[:2]
     stats = RenderStats(
         samples=int(row_samples.sum()),
         seconds=time.perf_counter() - t_start,
         rays=w * h,
-        hits=hits,
+        hits=int(np.count_nonzero(out[..., 3] > 0)),
     )
     return out, stats
 
@@ -968,9 +1054,10 @@ def _check_isos(isos) -> list:
     return clean
 
 
-def _empty_value(base, lo, hi, finite, quiet: bool = False) -> float:
-    """A value for non-finite voxels (or absent nodes) whose table entry is transparent."""
-    dmin = float(finite.min()) if finite.size else lo
+def _empty_value(base, lo, hi, dmin, quiet: bool = False) -> float:
+    """A value for non-finite voxels (or absent nodes) whose table entry is transparent
+    (``dmin``: the smallest finite value, None when there is none)."""
+    dmin = lo if dmin is None else float(dmin)
     if base is None:
         return dmin
     n = base.shape[0]
@@ -994,11 +1081,12 @@ def _empty_value(base, lo, hi, finite, quiet: bool = False) -> float:
 
 
 def _empty_bricks(
-    vol, shape, rgba, mode, has_vol, post_tab, pre2d, iso2d, has_iso, lo, scale, skip
-):
+    vol, shape, rgba, mode, has_vol, post_tab, pre2d, iso2d, has_iso, lo, scale, skip,
+    ranges=None,
+):  # fmt: skip
     """Which ``BRICK``^3 bricks of level-0 space no sample can see: their value range
-    (with the voxels trilinear samples inside them reach) maps to zero in every table
-    in use; for a paged volume, also the bricks no node covers."""
+    (with the voxels trilinear samples inside them reach; ``ranges`` when given) maps to
+    zero in every table in use; for a paged volume, also the bricks no node covers."""
     nb = tuple(max(1, -(-s // BRICK)) for s in shape)
     if not skip:
         return np.zeros(nb, np.bool_)
@@ -1017,6 +1105,8 @@ def _empty_bricks(
         _paged_range_kernel(*vol[:5], BRICK, mins, maxs)
         uncovered = np.isnan(mins)
         mins[uncovered] = maxs[uncovered] = lo
+    elif ranges is not None:
+        mins, maxs = ranges
     else:
         _brick_range_kernel(vol, BRICK, mins, maxs)
     invisible = uncovered | _invisible_range(

@@ -1,0 +1,162 @@
+"""The ray caster's fast path: the common case in a small kernel of its own.
+
+:func:`volpack.render.raycast.render` sends here every image of a plain volume (not a
+multiresolution selection) with post-classification or pre-integration, unshaded or
+Phong-shaded, and no isosurfaces; everything else goes through the general kernel.
+Both march the same segments (``t0 = tnear + i * step``), sample the same positions,
+use the same tables, leap the same empty bricks and composite in the same order, so
+they give the same image up to float rounding (``tests/test_render_fast.py`` holds
+them to 1e-5). What makes this one faster (issue 22, ``scripts/profile_render.py``):
+
+* only the branches its case needs, so the loop keeps its values in registers;
+* the volume read as it is stored (uint8, int16, ...) and interpolated in float32;
+* the gradient read from the per-voxel gradient volume of
+  :class:`volpack.render.prepared.PreparedVolume` when there is one;
+* the specular power by repeated squaring when the exponent is a whole number.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .._jit import kernel
+from .raycast import _box_hit, _brick_exit, _lookup1, _lookup2, _normal, _trilinear, _trilinear3
+
+
+@kernel
+def _powi(x, n):
+    """``x ** n`` for a whole ``n >= 0`` by repeated squaring."""
+    r = 1.0
+    while n > 0:
+        if n & 1:
+            r *= x
+        x *= x
+        n >>= 1
+    return r
+
+
+@kernel
+def _ndv(grad, z, y, x, gscale, vz, vy, vx, gmin):
+    """``|n.v|`` from the gradient volume (inside ``[0, n - 1]``; -1 where the gradient
+    vanishes): :func:`volpack.render.raycast._normal` without the normal itself."""
+    g0, g1, g2 = _trilinear3(grad, z, y, x)
+    gz = g0 * gscale[0]
+    gy = g1 * gscale[1]
+    gx = g2 * gscale[2]
+    g = math.sqrt(gz * gz + gy * gy + gx * gx)
+    if g <= gmin:
+        return -1.0
+    return abs(gz * vz + gy * vy + gx * vx) / g
+
+
+@kernel
+def march_kernel(
+    vol, grad, has_grad, origins, dirs, rows, mode, post_tab, pre2d, lo, scale, step,
+    leap, brick, skip, ert, shade, shading, gscale, vscale, gmin, out, row_samples,
+):  # fmt: skip
+    """Rays of image rows ``rows``; ``mode`` 0 (post) or 2 (pre-integrated), ``shade``
+    0 (none) or 1 (Phong at the segment midpoint). Arguments as for the general
+    kernel of :mod:`volpack.render.raycast`."""
+    nz, ny, nx = vol.shape
+    w = out.shape[1]
+    ka, kd, ks, shin = shading[0], shading[1], shading[2], shading[3]
+    ishin = int(shin)
+    whole = ishin == shin and ishin >= 0
+    pre = mode == 2
+    c4 = np.zeros(4, dtype=np.float32)
+    for k in range(rows.shape[0]):
+        r = rows[k]
+        count = 0
+        for c in range(w):
+            oz, oy, ox = origins[r, c, 0], origins[r, c, 1], origins[r, c, 2]
+            dz, dy, dx = dirs[r, c, 0], dirs[r, c, 1], dirs[r, c, 2]
+            tnear, tfar = _box_hit(oz, oy, ox, dz, dy, dx, nz, ny, nx)
+            if tnear < 0.0:
+                tnear = 0.0
+            if not tfar > tnear:
+                continue
+            vz, vy, vx = -dz * vscale[0], -dy * vscale[1], -dx * vscale[2]
+            vn = math.sqrt(vz * vz + vy * vy + vx * vx)
+            vz, vy, vx = vz / vn, vy / vn, vx / vn
+            nseg = int(math.ceil((tfar - tnear) / step))
+            if nseg < 1:
+                nseg = 1
+            ar = 0.0
+            ag = 0.0
+            ab = 0.0
+            aa = 0.0
+            xf = 0.0
+            have_front = False
+            next_check = -1.0
+            i = 0
+            while i < nseg:
+                t0 = tnear + i * step
+                if skip and t0 >= next_check:
+                    lv, te = _brick_exit(
+                        oz + t0 * dz, oy + t0 * dy, ox + t0 * dx,
+                        oz, oy, ox, dz, dy, dx, nz, ny, nx, leap, brick,
+                    )  # fmt: skip
+                    if lv == 0:
+                        next_check = te
+                    else:
+                        if te >= tfar:
+                            break
+                        inext = int(math.floor((te - tnear - 1e-7) / step))
+                        if inext > i:
+                            next_check = te
+                            i = inext
+                            have_front = False
+                            continue
+                t1 = t0 + step
+                if t1 > tfar:
+                    t1 = tfar
+                seglen = t1 - t0
+                if seglen <= 0.0:
+                    break
+                tm = 0.5 * (t0 + t1)
+                count += 1
+                if pre:
+                    if not have_front:
+                        xf = (_trilinear(vol, oz + t0 * dz, oy + t0 * dy, ox + t0 * dx) - lo) * scale
+                        have_front = True
+                    xb = (_trilinear(vol, oz + t1 * dz, oy + t1 * dy, ox + t1 * dx) - lo) * scale
+                    _lookup2(pre2d, xf, xb, c4)
+                    xf = xb
+                else:
+                    s = _trilinear(vol, oz + tm * dz, oy + tm * dy, ox + tm * dx)
+                    _lookup1(post_tab, (s - lo) * scale, c4)
+                a = c4[3]
+                if a > 0.0:
+                    cr, cg, cb = c4[0], c4[1], c4[2]
+                    if seglen < step:  # last, shorter segment
+                        a2 = 1.0 - (1.0 - min(a, 1.0)) ** (seglen / step)
+                        g = a2 / a
+                        cr, cg, cb, a = cr * g, cg * g, cb * g, a2
+                    f = 1.0
+                    spec = 0.0
+                    if shade:
+                        pz, py, px = oz + tm * dz, oy + tm * dy, ox + tm * dx
+                        if has_grad and (0.0 <= pz <= nz - 1 and 0.0 <= py <= ny - 1
+                                         and 0.0 <= px <= nx - 1):  # fmt: skip
+                            ndv = _ndv(grad, pz, py, px, gscale, vz, vy, vx, gmin)
+                        else:
+                            ndv = _normal(vol, grad, False, pz, py, px, gscale, vz, vy, vx,
+                                          gmin)[3]  # fmt: skip
+                        if ndv >= 0.0:
+                            f = ka + kd * ndv
+                            spec = ks * (_powi(ndv, ishin) if whole else ndv**shin) * a
+                    wgt = 1.0 - aa
+                    ar += wgt * (cr * f + spec)
+                    ag += wgt * (cg * f + spec)
+                    ab += wgt * (cb * f + spec)
+                    aa += wgt * a
+                    if aa > ert:
+                        break
+                i += 1
+            out[r, c, 0] = ar
+            out[r, c, 1] = ag
+            out[r, c, 2] = ab
+            out[r, c, 3] = aa
+        row_samples[r] = count
