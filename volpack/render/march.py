@@ -22,7 +22,7 @@ import math
 import numpy as np
 
 from .._jit import kernel
-from .raycast import _box_hit, _brick_exit, _lookup1, _lookup2, _normal, _trilinear, _trilinear3
+from .raycast import _leap, _lookup1, _lookup2, _normal, _ray_span, _trilinear, _trilinear3
 
 
 @kernel
@@ -72,17 +72,11 @@ def march_kernel(
         for c in range(w):
             oz, oy, ox = origins[r, c, 0], origins[r, c, 1], origins[r, c, 2]
             dz, dy, dx = dirs[r, c, 0], dirs[r, c, 1], dirs[r, c, 2]
-            tnear, tfar = _box_hit(oz, oy, ox, dz, dy, dx, nz, ny, nx)
-            if tnear < 0.0:
-                tnear = 0.0
-            if not tfar > tnear:
+            tnear, tfar, nseg, vz, vy, vx = _ray_span(
+                oz, oy, ox, dz, dy, dx, nz, ny, nx, vscale, step
+            )
+            if nseg == 0:
                 continue
-            vz, vy, vx = -dz * vscale[0], -dy * vscale[1], -dx * vscale[2]
-            vn = math.sqrt(vz * vz + vy * vy + vx * vx)
-            vz, vy, vx = vz / vn, vy / vn, vx / vn
-            nseg = int(math.ceil((tfar - tnear) / step))
-            if nseg < 1:
-                nseg = 1
             ar = 0.0
             ag = 0.0
             ab = 0.0
@@ -94,21 +88,15 @@ def march_kernel(
             while i < nseg:
                 t0 = tnear + i * step
                 if skip and t0 >= next_check:
-                    lv, te = _brick_exit(
-                        oz + t0 * dz, oy + t0 * dy, ox + t0 * dx,
+                    state, i, next_check = _leap(
+                        i, t0, tnear, tfar, step, next_check,
                         oz, oy, ox, dz, dy, dx, nz, ny, nx, leap, brick,
                     )  # fmt: skip
-                    if lv == 0:
-                        next_check = te
-                    else:
-                        if te >= tfar:
-                            break
-                        inext = int(math.floor((te - tnear - 1e-7) / step))
-                        if inext > i:
-                            next_check = te
-                            i = inext
-                            have_front = False
-                            continue
+                    if state == 2:
+                        break
+                    if state == 1:
+                        have_front = False
+                        continue
                 t1 = t0 + step
                 if t1 > tfar:
                     t1 = tfar

@@ -401,6 +401,40 @@ def _brick_exit(pz, py, px, oz, oy, ox, dz, dy, dx, nz, ny, nx, leap, brick):
 
 
 @kernel
+def _ray_span(oz, oy, ox, dz, dy, dx, nz, ny, nx, vscale, step):
+    """``(tnear, tfar, nseg, vz, vy, vx)`` of one ray: its part inside the box from the
+    eye on, its number of segments (0 when it misses) and the unit view vector (towards
+    the eye) in world space."""
+    tnear, tfar = _box_hit(oz, oy, ox, dz, dy, dx, nz, ny, nx)
+    if tnear < 0.0:
+        tnear = 0.0
+    if not tfar > tnear:
+        return tnear, tfar, 0, 0.0, 0.0, 0.0
+    vz, vy, vx = -dz * vscale[0], -dy * vscale[1], -dx * vscale[2]
+    vn = math.sqrt(vz * vz + vy * vy + vx * vx)
+    nseg = int(math.ceil((tfar - tnear) / step))
+    return tnear, tfar, max(nseg, 1), vz / vn, vy / vn, vx / vn
+
+
+@kernel
+def _leap(i, t0, tnear, tfar, step, next_check, oz, oy, ox, dz, dy, dx, nz, ny, nx, leap, brick):
+    """Empty-space test at segment ``i`` (starting at ``t0``): ``(state, i, next_check)``
+    with state 0 (march segment ``i``), 1 (jumped to segment ``i``, test again) or 2
+    (the ray leaves the volume through empty space)."""
+    lv, te = _brick_exit(
+        oz + t0 * dz, oy + t0 * dy, ox + t0 * dx, oz, oy, ox, dz, dy, dx, nz, ny, nx, leap, brick
+    )
+    if lv == 0:
+        return 0, i, te  # the ray stays in this (visible) brick until te
+    if te >= tfar:
+        return 2, i, next_check
+    inext = int(math.floor((te - tnear - 1e-7) / step))
+    if inext > i:  # segment inext straddles the exit: it is marched, untested
+        return 1, inext, te
+    return 0, i, next_check
+
+
+@kernel
 def _leap_kernel(empty, out):
     """Chebyshev distance (in bricks) to the nearest visible brick, 0 on visible ones:
     two raster passes over the 26-neighbourhood, exact for this metric."""
@@ -474,18 +508,11 @@ def _render_kernel(
         for c in range(w):
             oz, oy, ox = origins[r, c, 0], origins[r, c, 1], origins[r, c, 2]
             dz, dy, dx = dirs[r, c, 0], dirs[r, c, 1], dirs[r, c, 2]
-            tnear, tfar = _box_hit(oz, oy, ox, dz, dy, dx, nz, ny, nx)
-            if tnear < 0.0:
-                tnear = 0.0
-            if not tfar > tnear:
+            tnear, tfar, nseg, vz, vy, vx = _ray_span(
+                oz, oy, ox, dz, dy, dx, nz, ny, nx, vscale, step
+            )
+            if nseg == 0:
                 continue
-            # view vector (towards the eye) in world space
-            vz, vy, vx = -dz * vscale[0], -dy * vscale[1], -dx * vscale[2]
-            vn = math.sqrt(vz * vz + vy * vy + vx * vx)
-            vz, vy, vx = vz / vn, vy / vn, vx / vn
-            nseg = int(math.ceil((tfar - tnear) / step))
-            if nseg < 1:
-                nseg = 1
             ar = 0.0
             ag = 0.0
             ab = 0.0
@@ -500,23 +527,16 @@ def _render_kernel(
             while i < nseg:
                 t0 = tnear + i * step
                 if skip and t0 >= next_check:
-                    lv, te = _brick_exit(
-                        oz + t0 * dz, oy + t0 * dy, ox + t0 * dx,
+                    state, i, next_check = _leap(
+                        i, t0, tnear, tfar, step, next_check,
                         oz, oy, ox, dz, dy, dx, nz, ny, nx, leap, brick,
                     )  # fmt: skip
-                    if lv == 0:
-                        next_check = te  # the ray stays in this (visible) brick until te
-                    else:
-                        if te >= tfar:
-                            break
-                        inext = int(math.floor((te - tnear - 1e-7) / step))
-                        if inext > i:
-                            # segment inext straddles the exit: it is marched, untested
-                            next_check = te
-                            i = inext
-                            have_front = False
-                            have_nf = False
-                            continue
+                    if state == 2:
+                        break
+                    if state == 1:
+                        have_front = False
+                        have_nf = False
+                        continue
                 t1 = t0 + step
                 if t1 > tfar:
                     t1 = tfar
