@@ -12,17 +12,16 @@ them to 1e-5). What makes this one faster (issue 22, ``scripts/profile_render.py
 * the volume read as it is stored (uint8, int16, ...) and interpolated in float32;
 * the gradient read from the per-voxel gradient volume of
   :class:`volpack.render.prepared.PreparedVolume` when there is one;
-* the specular power by repeated squaring when the exponent is a whole number.
+* the specular power by repeated squaring when the exponent is a whole number;
+* table look-ups returned as values, not written to a scratch array.
 """
 
 from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from .._jit import kernel
-from .raycast import _leap, _lookup1, _lookup2, _normal, _ray_span, _trilinear, _trilinear3
+from .raycast import _leap, _normal, _ray_span, _trilinear, _trilinear3, _ucell
 
 
 @kernel
@@ -35,6 +34,32 @@ def _powi(x, n):
         x *= x
         n >>= 1
     return r
+
+
+@kernel
+def _rgba1(tab, x):
+    """Linear lookup of the (n, 4) table at fractional index ``x``, as a tuple."""
+    i0, i1, f = _ucell(x, tab.shape[0])
+    a0, a1, a2, a3 = tab[i0, 0], tab[i0, 1], tab[i0, 2], tab[i0, 3]
+    return (a0 + (tab[i1, 0] - a0) * f, a1 + (tab[i1, 1] - a1) * f,
+            a2 + (tab[i1, 2] - a2) * f, a3 + (tab[i1, 3] - a3) * f)  # fmt: skip
+
+
+@kernel
+def _rgba2(tab, xf, xb):
+    """Bilinear lookup of the (n, n, 4) table at (front, back), as a tuple."""
+    n = tab.shape[0]
+    i0, i1, fi = _ucell(xf, n)
+    j0, j1, fj = _ucell(xb, n)
+    return (_bilerp(tab, 0, i0, i1, fi, j0, j1, fj), _bilerp(tab, 1, i0, i1, fi, j0, j1, fj),
+            _bilerp(tab, 2, i0, i1, fi, j0, j1, fj), _bilerp(tab, 3, i0, i1, fi, j0, j1, fj))  # fmt: skip
+
+
+@kernel
+def _bilerp(tab, ch, i0, i1, fi, j0, j1, fj):
+    a = tab[i0, j0, ch] + (tab[i0, j1, ch] - tab[i0, j0, ch]) * fj
+    b = tab[i1, j0, ch] + (tab[i1, j1, ch] - tab[i1, j0, ch]) * fj
+    return a + (b - a) * fi
 
 
 @kernel
@@ -65,7 +90,6 @@ def march_kernel(
     ishin = int(shin)
     whole = ishin == shin and ishin >= 0
     pre = mode == 2
-    c4 = np.zeros(4, dtype=np.float32)
     for k in range(rows.shape[0]):
         r = rows[k]
         count = 0
@@ -110,14 +134,12 @@ def march_kernel(
                         xf = (_trilinear(vol, oz + t0 * dz, oy + t0 * dy, ox + t0 * dx) - lo) * scale
                         have_front = True
                     xb = (_trilinear(vol, oz + t1 * dz, oy + t1 * dy, ox + t1 * dx) - lo) * scale
-                    _lookup2(pre2d, xf, xb, c4)
+                    cr, cg, cb, a = _rgba2(pre2d, xf, xb)
                     xf = xb
                 else:
                     s = _trilinear(vol, oz + tm * dz, oy + tm * dy, ox + tm * dx)
-                    _lookup1(post_tab, (s - lo) * scale, c4)
-                a = c4[3]
+                    cr, cg, cb, a = _rgba1(post_tab, (s - lo) * scale)
                 if a > 0.0:
-                    cr, cg, cb = c4[0], c4[1], c4[2]
                     if seglen < step:  # last, shorter segment
                         a2 = 1.0 - (1.0 - min(a, 1.0)) ** (seglen / step)
                         g = a2 / a
