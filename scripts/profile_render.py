@@ -56,6 +56,7 @@ def main(argv=None) -> int:
     ap.add_argument("--step", type=float, default=0.5)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--repeat", type=int, default=2)
+    ap.add_argument("--label", default="", help="a label for the rows (e.g. the commit)")
     ap.add_argument("--out", type=Path, default=ROOT / "results" / "render" / "profile.csv")
     args = ap.parse_args(argv)
     a, sp, _ = datasets.load(args.dataset)
@@ -87,14 +88,14 @@ def main(argv=None) -> int:
             if dc < best:
                 best, wall, st = dc, dt, s
         ns = best / max(st.samples, 1) * 1e9
-        row = {"dataset": args.dataset, "variant": name, "wall_s": round(wall, 4),
+        row = {"label": args.label, "dataset": args.dataset, "variant": name, "wall_s": round(wall, 4),
                "cpu_s": round(best, 4),
                "samples": st.samples, "hit_pixels": st.hits,
                "samples_per_hit": round(st.samples / max(st.hits, 1), 1),
-               "ns_per_sample_thread": round(ns, 1)}  # fmt: skip
+               "cpu_ns_per_sample": round(ns, 1)}  # fmt: skip
         rows.append(row)
         print(f"  {name:24s} {wall:7.3f} s wall {best:7.3f} s cpu  {st.samples / 1e6:7.2f} M samples  "
-              f"{row['samples_per_hit']:6.1f} /hit px  {ns:6.1f} ns/sample/thread", flush=True)  # fmt: skip
+              f"{row['samples_per_hit']:6.1f} /hit px  {ns:6.1f} CPU ns/sample", flush=True)  # fmt: skip
     args.out.parent.mkdir(parents=True, exist_ok=True)
     new = not args.out.exists()
     with open(args.out, "a", newline="") as f:
