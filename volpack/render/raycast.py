@@ -214,11 +214,11 @@ def _paged(atlas, page, meta, level, origin, fill, z, y, x):
     node = page[cz, cy, cx]
     if node < 0:
         return fill[0]
-    s = 1 << level[node]
+    inv = math.ldexp(1.0, -level[node])  # 1 / 2^level, exact: no division per sample
     b = atlas.shape[1] - 1
-    qz = min(max((pz + 0.5) / s - 0.5 - origin[node, 0] + 1.0, 0.0), b)
-    qy = min(max((py + 0.5) / s - 0.5 - origin[node, 1] + 1.0, 0.0), b)
-    qx = min(max((px + 0.5) / s - 0.5 - origin[node, 2] + 1.0, 0.0), b)
+    qz = min(max((pz + 0.5) * inv - 0.5 - origin[node, 0] + 1.0, 0.0), b)
+    qy = min(max((py + 0.5) * inv - 0.5 - origin[node, 1] + 1.0, 0.0), b)
+    qx = min(max((px + 0.5) * inv - 0.5 - origin[node, 2] + 1.0, 0.0), b)
     z0, y0, x0 = min(int(qz), b - 1), min(int(qy), b - 1), min(int(qx), b - 1)
     fz, fy, fx = qz - z0, qy - y0, qx - x0
     a = atlas[node]
