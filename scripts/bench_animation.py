@@ -114,7 +114,7 @@ def run_volpack(a: np.ndarray, decodes: int = 1, **kw) -> dict:
     """Code ``a`` with ``animation.compress(**kw)``, decode it ``decodes`` times and
     measure. Decode speed is the CPU time of this single-threaded process (the best
     run): on a shared machine wall time mostly measures the neighbours."""
-    from volpack import animation
+    from volpack.animation import stream as animation
 
     buf = io.BytesIO()
     t0 = time.perf_counter()

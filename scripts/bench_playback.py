@@ -5,7 +5,7 @@ Animation player (thesis Table 2.10 in spirit)
     The bundled MRI (84 x 128 x 128, u8) moving by a sub-voxel step each frame
     (``volpack.synth.translate``, 12 frames), coded with GOPs ``I``, ``IPP`` and
     ``IBBPBBPBB`` at max error 1, 4 and 16 with the arithmetic and the Huffman coder.
-    :func:`volpack.player.play` decodes on the playback schedule; each frame is rendered at
+    :func:`volpack.animation.player.play` decodes on the playback schedule; each frame is rendered at
     256 x 256 (pre-integrated, Phong, 2 threads). Reported: ratio, PSNR over all frames,
     decode frames/s, render frames/s, and both together.
 Level of detail (thesis §2.3)
@@ -43,7 +43,9 @@ def psnr(a, b, peak) -> float:
 
 
 def bench_player(tmp: Path) -> list[dict]:
-    from volpack import animation, player, synth
+    from volpack import synth
+    from volpack.animation import player
+    from volpack.animation import stream as animation
     from volpack.demo import load_demo_volume
     from volpack.render.camera import Camera
     from volpack.render.raycast import render

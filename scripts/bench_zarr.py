@@ -57,8 +57,9 @@ ROOT = Path(__file__).resolve().parent.parent
 def volpack_serializer_class() -> type:
     """``VolpackCodec`` as a zarr 3 array-to-bytes codec, registered with zarr."""
     import volpack.numcodecs
+    import volpack.zarr3
 
-    return volpack.numcodecs.zarr3_codec()
+    return volpack.zarr3.VolpackWavelet
 
 
 @dataclass

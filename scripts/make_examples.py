@@ -34,7 +34,7 @@ CONTAINER_SUMMARY = {"chunks": 3, "payload_nbytes": 21, "max_error": 1.5}
 
 def write_container_example(target) -> None:
     """Write the tiny container to ``target`` (a path or a binary file)."""
-    from volpack.container import Writer
+    from volpack.format.container import Writer
 
     with Writer(target, CONTAINER_HEADER, force=True) as w:
         for t, node, payload, error in CONTAINER_CHUNKS:
@@ -154,7 +154,7 @@ def translated_source():
 
 
 def make_animation(folder: Path) -> Path:
-    from volpack import animation
+    from volpack.animation import stream as animation
 
     sources = {"roll": animation_source, "translate": translated_source}
     for stem, opts, source in ANIMATION_CASES:

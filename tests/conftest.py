@@ -13,6 +13,13 @@ settings.register_profile(
 settings.load_profile("volpack")
 
 
+def need(module: str, extra: str):
+    """Import an optional dependency or skip the test, naming the extra that installs it."""
+    return pytest.importorskip(
+        module, reason=f"{module} is missing: pip install 'volpack[{extra}]' installs it"
+    )
+
+
 @pytest.fixture
 def rng() -> np.random.Generator:
     return np.random.default_rng(20261124)

@@ -1,4 +1,4 @@
-"""Slow, obviously correct references for volpack.motion: block errors by numpy over
+"""Slow, obviously correct references for volpack.animation.motion: block errors by numpy over
 every candidate vector, the half-voxel grid by explicit taps, and compensation voxel by
 voxel from the window formula."""
 
@@ -150,7 +150,7 @@ def whole_frame_shift(frame, v):
     """The frame sampled at ``p + v`` as ``formats/animation-1.md`` defines a whole-frame
     shift, computed without transforms: pad by reflection to the odd lengths, then per
     axis a circular sum of the Kaiser-windowed sinc taps, then crop."""
-    from volpack import shift
+    from volpack.animation import shift
 
     a = np.asarray(frame, np.float64)
     widths = [(shift.PAD, shift.padded_length(n) - n - shift.PAD) for n in a.shape]

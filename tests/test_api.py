@@ -10,10 +10,11 @@ from conftest import smooth_volume
 from hypothesis import given
 from hypothesis import strategies as st
 
-from volpack import api, bricks
-from volpack.codec import CODER_NAMES, WAVELET_NAMES, WaveletCodec
+from volpack import api
 from volpack.errors import FormatError
 from volpack.volume import Volume
+from volpack.volume_codec import bricks
+from volpack.volume_codec.codec import CODER_NAMES, WAVELET_NAMES, WaveletCodec
 
 INT_DTYPES = [np.uint8, np.int8, np.uint16, np.int16, np.uint32, np.int32]
 
@@ -72,7 +73,7 @@ def test_constant_and_zero_volumes_cost_a_few_bytes_per_brick():
 
 
 def api_reader(blob):
-    from volpack.container import Reader
+    from volpack.format.container import Reader
 
     return Reader(blob)
 

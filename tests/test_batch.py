@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from conftest import smooth_volume
+from conftest import need, smooth_volume
 
 from volpack import api, batch
 from volpack import io as vio
@@ -255,6 +255,7 @@ def die_once(task):
 
 
 def test_dask_worker_killed_mid_task_is_retried(tree, tmp_path):
+    need("distributed", "dask")
     from distributed import Client, LocalCluster
 
     root, _ = tree

@@ -14,8 +14,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from volpack.atomic import OutputExistsError
-from volpack.container import (
+from volpack.errors import ChecksumError, FormatError, LimitError
+from volpack.format.atomic import OutputExistsError
+from volpack.format.container import (
     FOOTER_SIZE,
     MAGIC,
     PREAMBLE_SIZE,
@@ -24,11 +25,8 @@ from volpack.container import (
     Reader,
     Writer,
     is_vpk,
-    spool,
-    stdin,
-    vpk_kind,
 )
-from volpack.errors import ChecksumError, FormatError, LimitError
+from volpack.format.streams import spool, stdin, vpk_kind
 
 GOLDEN = Path(__file__).resolve().parent.parent / "formats" / "examples" / "tiny-v1.vpk"
 
@@ -244,6 +242,7 @@ def test_container_inside_a_larger_seekable_file():
     ),
     st.dictionaries(st.text(max_size=5), st.integers() | st.text(max_size=5), max_size=3),
 )
+@pytest.mark.slow
 def test_round_trip_property(chunks, header):
     items = [(t, n, p) for (t, n), p in chunks.items()]
     data = build(items, header=header, summary={"k": len(items)})

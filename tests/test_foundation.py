@@ -10,11 +10,11 @@ import sys
 import numpy as np
 import pytest
 
-from volpack import bricks
-from volpack.atomic import OutputExistsError, atomic_open, check_output
 from volpack.errors import FormatError
+from volpack.format.atomic import OutputExistsError, atomic_open, check_output
 from volpack.parallel import ordered_map
 from volpack.volume import Volume
+from volpack.volume_codec import bricks
 
 
 def test_volume_checks_and_describe():

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from volpack import api
-from volpack.container import Reader
 from volpack.demo import load_demo_volume
+from volpack.format.container import Reader
 
 GOLDEN = Path(__file__).resolve().parent.parent / "formats" / "examples"
 

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from volpack import gop
+from volpack.animation import gop
 from volpack.errors import FormatError
 
 

@@ -7,13 +7,15 @@ import os
 import subprocess
 import sys
 import types
+from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import need
 
 from volpack import io as vio
-from volpack.atomic import OutputExistsError
 from volpack.errors import FormatError
+from volpack.format.atomic import OutputExistsError
 from volpack.volume import Volume
 
 SHAPE = (3, 5, 7)  # non-cubic: a transposition changes the shape
@@ -30,6 +32,11 @@ WRITABLE = [
     ("v.h5", True),
     ("v.h5:/group/vol", True),
     ("v.tif", True),
+    ("v.mha", True),
+    ("v.mhd", True),
+    ("v.vti", True),
+    ("v.inr", True),
+    ("v.inr.gz", True),
 ]
 
 
@@ -249,11 +256,27 @@ def test_raw_offset_and_big_endian(tmp_path):
     assert vol.dtype.isnative
 
 
-def test_options_rejected_for_non_raw(tmp_path):
+def test_shape_and_dtype_read_any_file_as_raw(tmp_path):
+    # an INRIMAGE, a GrADS .dat, a .npy: shape and dtype given means raw, whatever the name
+    a = _ramp(np.int16)
+    for name in ("v.inr", "v.dat", "v.npy"):
+        path = tmp_path / name
+        path.write_bytes(b"H" * 256 + a.astype("<i2").tobytes())
+        vol = vio.read_volume(str(path), shape=SHAPE, dtype="int16", offset=256)
+        np.testing.assert_array_equal(vol.data, a)
+        assert vol.meta["source_format"] == "raw"
+        assert vio.read_header(str(path), shape=SHAPE, dtype="int16", offset=256)["shape"] == list(
+            SHAPE
+        )
+    with pytest.raises(FormatError, match=r"raw shape of 3 \(z, y, x\) or 4"):
+        vio.read_volume(str(path), shape=(5, 7), dtype="int16", offset=256)
+
+
+def test_offset_alone_rejected_for_non_raw(tmp_path):
     spec = str(tmp_path / "v.npy")
     vio.write_volume(_ramp(np.uint8), spec)
-    with pytest.raises(FormatError, match="only for raw"):
-        vio.read_volume(spec, shape=SHAPE, dtype="uint8")
+    with pytest.raises(FormatError, match="found only offset=16"):
+        vio.read_volume(spec, offset=16)
 
 
 def test_missing_and_corrupt_files(tmp_path):
@@ -426,7 +449,7 @@ def test_tiff_folder(tmp_path):
 
 
 def test_dicom_folder(tmp_path):
-    pytest.importorskip("pydicom")
+    need("pydicom", "dicom")
     from pydicom.dataset import FileDataset, FileMetaDataset
     from pydicom.uid import ExplicitVRLittleEndian, generate_uid
 
@@ -503,3 +526,139 @@ def test_npy_and_raw_are_memory_mapped(tmp_path):
     ):
         assert isinstance(vol.data, np.memmap) or isinstance(vol.data.base, np.memmap)
         np.testing.assert_array_equal(vol.data, a)
+
+
+# -- MetaImage, VTK image data, INRIMAGE: variants our writers do not produce -----------
+
+
+def _vti_text(a, fmt: str, compressed: bool, header="UInt32", block=64) -> bytes:
+    """A .vti written the way VTK does, built here independently of volpack's writer."""
+    import base64
+    import zlib
+
+    hdt = "<u4" if header == "UInt32" else "<u8"
+    raw = a.astype("<i2").tobytes()
+    if compressed:
+        blocks = [raw[i : i + block] for i in range(0, len(raw), block)]
+        packed = [zlib.compress(b) for b in blocks]
+        head = np.asarray([len(blocks), block, len(blocks[-1]), *map(len, packed)], hdt).tobytes()
+        body = b"".join(packed)
+        enc = base64.b64encode(head) + base64.b64encode(body)
+        rawbin = head + body
+    else:
+        head = np.asarray([len(raw)], hdt).tobytes()
+        enc = base64.b64encode(head + raw)
+        rawbin = head + raw
+    nz, ny, nx = a.shape
+    comp = ' compressor="vtkZLibDataCompressor"' if compressed else ""
+    arr = {
+        "ascii": f'format="ascii">{" ".join(map(str, a.ravel()))}</DataArray>',
+        "binary": f'format="binary">{enc.decode()}</DataArray>',
+        "appended": 'format="appended" offset="0"/>',
+    }[fmt]
+    text = (
+        f'<?xml version="1.0"?>\n<VTKFile type="ImageData" version="1.0" byte_order="LittleEndian" '
+        f'header_type="{header}"{comp}>\n<ImageData WholeExtent="2 {nx + 1} 0 {ny - 1} 0 {nz - 1}" '
+        f'Origin="1 2 3" Spacing="0.5 0.75 2.5">\n<Piece Extent="2 {nx + 1} 0 {ny - 1} 0 {nz - 1}">\n'
+        f'<PointData Scalars="density"><DataArray type="Float32" Name="other" format="ascii">'
+        f"{' '.join(['0'] * a.size)}</DataArray>\n"
+        f'<DataArray type="Int16" Name="density" {arr}\n</PointData></Piece></ImageData>\n'
+    ).encode()
+    if fmt == "appended":
+        text += b'<AppendedData encoding="raw">_' + rawbin + b"</AppendedData>\n"
+    return text + b"</VTKFile>\n"
+
+
+@pytest.mark.parametrize(
+    ("fmt", "compressed", "header"),
+    [
+        ("ascii", False, "UInt32"),
+        ("binary", False, "UInt32"),
+        ("binary", True, "UInt32"),
+        ("binary", True, "UInt64"),
+        ("appended", False, "UInt64"),
+        ("appended", True, "UInt32"),
+    ],
+)
+def test_vti_variants(tmp_path, fmt, compressed, header):
+    a = _ramp(np.int16)
+    path = tmp_path / "v.vti"
+    path.write_bytes(_vti_text(a, fmt, compressed, header))
+    vol = vio.read_volume(str(path))
+    np.testing.assert_array_equal(vol.data, a)
+    assert vol.spacing == (2.5, 0.75, 0.5)
+    assert vol.origin == (3.0, 2.0, 1.0 + 2 * 0.5)  # extent starting at x=2 moves the origin
+    assert vol.meta["vti_array"] == "density" and vol.meta["vti_arrays"] == ["other"]
+    assert vio.read_header(str(path))["dtype"] == "int16"
+
+
+def test_metaimage_compressed_big_endian_and_detached(tmp_path):
+    import zlib
+
+    a = _ramp(np.uint16)
+    head = (
+        "ObjectType = Image\nNDims = 3\nBinaryData = True\nBinaryDataByteOrderMSB = True\n"
+        "CompressedData = True\nElementSpacing = 0.5 0.75 2.5\nOffset = 1 2 3\n"
+        f"DimSize = {SHAPE[2]} {SHAPE[1]} {SHAPE[0]}\nElementType = MET_USHORT\n"
+    )
+    (tmp_path / "c.mha").write_bytes(
+        (head + "ElementDataFile = LOCAL\n").encode() + zlib.compress(a.astype(">u2").tobytes())
+    )
+    vol = vio.read_volume(str(tmp_path / "c.mha"))
+    np.testing.assert_array_equal(vol.data, a)
+    assert vol.spacing == (2.5, 0.75, 0.5) and vol.origin == (3.0, 2.0, 1.0)
+    # a detached header whose data file has a header of its own (HeaderSize = -1: at the end)
+    head = head.replace("CompressedData = True", "CompressedData = False")
+    (tmp_path / "d.mhd").write_text(head + "HeaderSize = -1\nElementDataFile = d.dat\n")
+    (tmp_path / "d.dat").write_bytes(b"junk" * 10 + a.astype(">u2").tobytes())
+    np.testing.assert_array_equal(vio.read_volume(str(tmp_path / "d.mhd")).data, a)
+    (tmp_path / "e.mhd").write_text(head + "ElementDataFile = LIST\n")
+    with pytest.raises(FormatError, match="LOCAL or one file"):
+        vio.read_volume(str(tmp_path / "e.mhd"))
+
+
+def test_inr_header_checks(tmp_path):
+    path = tmp_path / "v.inr"
+    text = "#INRIMAGE-4#{\nXDIM=7\nYDIM=5\nZDIM=3\nVDIM=3\nTYPE=float\nPIXSIZE=32 bits\nCPU=sun\n"
+    path.write_bytes(text.encode() + b"\n" * (252 - len(text)) + b"##}\n" + bytes(105 * 12))
+    with pytest.raises(FormatError, match="VDIM=1"):
+        vio.read_volume(str(path))
+    path.write_bytes(path.read_bytes().replace(b"VDIM=3", b"VDIM=1"))
+    with pytest.raises(FormatError, match="expected 420 bytes .*, found more"):
+        vio.read_volume(str(path))
+    path.write_bytes(path.read_bytes()[: 256 + 400])
+    with pytest.raises(FormatError, match="expected 420 bytes .*, found 400"):
+        vio.read_volume(str(path))
+
+
+_DATA = os.path.expanduser(os.environ.get("VOLPACK_DATA", "~/.cache/volpack/data"))
+
+
+def _cached(name: str) -> str:
+    path = os.path.join(_DATA, name)
+    if not os.path.exists(path):
+        pytest.skip(f"{name} is not cached (python scripts/fetch_data.py fetches it)")
+    return path
+
+
+def test_real_inrimage_liver():
+    import gzip
+
+    path = _cached("liver.inr.gz")
+    blob = gzip.open(path).read()
+    vol = vio.read_volume(path)
+    assert vol.shape == (165, 353, 438) and vol.dtype == np.uint8
+    np.testing.assert_array_equal(vol.data.ravel(), np.frombuffer(blob[256:], np.uint8))
+    assert vol.spacing == pytest.approx((1.33333, 0.617188, 0.617188))
+    assert set(np.unique(vol.data)) == {0, 84, 85, 127, 255}
+
+
+def test_real_vti_heart_ascii():
+    import re
+
+    path = _cached("heart.vti")
+    text = Path(path).read_text()
+    values = re.search(r'format="ascii">(.*?)</DataArray>', text, re.S).group(1).split()
+    vol = vio.read_volume(path)
+    assert vol.shape == (12, 32, 32) and vol.spacing == (4.0, 1.0, 1.0)
+    np.testing.assert_array_equal(vol.data.ravel(), np.asarray(values, np.float32))

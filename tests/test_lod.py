@@ -38,7 +38,7 @@ def test_full_resolution_selection_renders_exactly_like_the_volume(tree_path, cl
     kw = dict(tf=tf_of(vol), camera=cam, value_range=vr, classification=cls, shading="phong")
     with Octree(str(path)) as t:
         pv = paged_volume(t, select.by_level(t, 0))
-        # the plain volume takes the fast path (volpack.render.march) with precomputed
+        # the plain volume takes the fast path (raycast._march_kernel) with precomputed
         # gradients: the same samples and sums, rounded differently
         np.testing.assert_allclose(render(pv, **kw), render(vol, **kw), atol=1e-5)
 
@@ -61,6 +61,7 @@ def test_empty_space_skipping_through_the_page_table_leaves_the_image_unchanged(
     assert sb.samples < sa.samples
 
 
+@pytest.mark.slow
 def test_budget_bounds_the_nodes_and_more_nodes_cost_less_error(tree_path):
     path, vol = tree_path
     vr = (float(vol.min()), float(vol.max()))

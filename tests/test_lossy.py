@@ -12,9 +12,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from volpack import api
-from volpack.container import Reader
 from volpack.errors import FormatError
-from volpack.lossy import BoundedCodec, CoefCodec, band_scale
+from volpack.format.container import Reader
+from volpack.volume_codec.lossy import BoundedCodec, CoefCodec, band_scale
 
 
 def field(kind: str, shape, dtype, seed: int) -> np.ndarray:
@@ -150,6 +150,7 @@ def test_ratio_target_is_reached(scan16, target):
     assert abs(st["ratio"] / target - 1) <= 0.05, st["search"]
 
 
+@pytest.mark.slow
 def test_unreachable_target_reports_the_closest(brain):
     # 8-bit noise makes the rate jump where a whole band's |c| = 8 leaves the zero bin:
     # no step gives 8:1 within 5 %, so the closest is used and reported as reached.
@@ -164,6 +165,7 @@ def test_float_psnr_target_uses_the_bounded_path():
     assert st["codec"]["id"] == "bounded" and abs(st["psnr"] - 50) <= 0.5
 
 
+@pytest.mark.slow
 def test_quality_scale_orders_ratio_and_psnr(brain):
     rows = []
     for q in (255, 127, 63, 31, 15):
@@ -183,6 +185,7 @@ def test_threshold_zero_is_lossless_and_grows_the_error(brain):
     assert st["ratio"] > run(a)[0]["ratio"] and st["max_error"] > 0
 
 
+@pytest.mark.slow
 def test_lossy_bytes_do_not_depend_on_workers(brain):
     for kw in ({"max_error": 2}, {"quality": 63}, {"psnr": 48}):
         one = api.compress_array(brain, workers=1, **kw)
@@ -208,7 +211,7 @@ def test_corrupt_lossy_bricks_never_crash(kw):
     with Reader(blob) as r:
         ((t, node, payload),) = list(r)
         codec_cfg = r.header["codec"]
-    from volpack.codec import get_codec
+    from volpack.volume_codec.registry import get_codec
 
     decode_damaged(get_codec(codec_cfg), payload, a.shape, a.dtype, seed=1, count=200)
 
@@ -221,7 +224,7 @@ def test_band_scale_is_orthonormal_units():
 
 
 def test_codec_configs_round_trip():
-    from volpack.codec import get_codec
+    from volpack.volume_codec.registry import get_codec
 
     for c in (BoundedCodec.plan("float32", -1, 1, 0.01), CoefCodec(value_range=255.0, quality=63)):
         assert get_codec(c.get_config()) == c
@@ -237,8 +240,8 @@ def run(a, **kw):
 
 
 def test_loose_bounds_take_the_coefficient_path_and_still_hold(scan16):
-    from volpack.codec import get_codec
-    from volpack.lossy import FLAG_COEF
+    from volpack.volume_codec.lossy import FLAG_COEF
+    from volpack.volume_codec.registry import get_codec
 
     for bound in (25, 120):
         blob = api.compress_array(scan16, max_error=bound)
@@ -247,7 +250,7 @@ def test_loose_bounds_take_the_coefficient_path_and_still_hold(scan16):
             c = get_codec(r.header["codec"])
             coef = [(node, p) for _, node, p in r if p[0] & FLAG_COEF]
         assert coef, "a loose bound on smooth data should pick the coefficient path"
-    from volpack import bricks
+    from volpack.volume_codec import bricks
 
     node, payload = coef[0]
     shape = tuple(s.stop - s.start for s in bricks.brick_slices(scan16.shape, (64,) * 3, node))

@@ -6,7 +6,11 @@ import naive_motion
 import numpy as np
 import pytest
 
-from volpack import motion, synth
+from volpack import synth
+from volpack.animation import motion
+
+# slow: motion estimation kernels: long to compile (pytest -m slow runs them; .ci/run does)
+pytestmark = pytest.mark.slow
 
 
 @pytest.fixture(scope="module")

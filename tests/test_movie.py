@@ -6,6 +6,7 @@ import os
 
 import numpy as np
 import pytest
+from conftest import need
 
 from volpack.errors import VolpackError
 from volpack.render.movie import MovieWriter, movie_kind
@@ -30,7 +31,7 @@ def test_kinds():
 
 
 def test_mp4_round_trip(tmp_path):
-    imageio_ffmpeg = pytest.importorskip("imageio_ffmpeg")
+    imageio_ffmpeg = need("imageio_ffmpeg", "video")
     target = tmp_path / "run.mp4"
     with MovieWriter(target, fps=10) as mw:
         for f in frames():

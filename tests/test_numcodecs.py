@@ -2,15 +2,16 @@
 
 from __future__ import annotations
 
-import numcodecs
 import numpy as np
 import pytest
-import zarr
-from conftest import smooth_volume
+from conftest import need, smooth_volume
 
-import volpack.numcodecs as vnc
-from volpack import api
-from volpack.numcodecs import VolpackCodec
+numcodecs = need("numcodecs", "zarr")
+zarr = need("zarr", "zarr")
+
+import volpack.numcodecs as vnc  # noqa: E402 (after the skip for a missing zarr extra)
+from volpack import api  # noqa: E402
+from volpack.numcodecs import VolpackCodec  # noqa: E402
 
 # zarr warns whenever a numcodecs codec is wrapped for a zarr_format=3 array.
 ZARR3_WRAPPER_WARNING = "ignore:Numcodecs codecs are not in the Zarr version 3 specification"
@@ -162,7 +163,9 @@ def test_max_error_other_dtypes(rng, dtype):
 
 
 def zarr3_wrapper() -> type:
-    return vnc.zarr3_codec()
+    from volpack.zarr3 import VolpackWavelet
+
+    return VolpackWavelet
 
 
 def check_zarr_array(path, a, chunks, make):
@@ -209,8 +212,8 @@ def test_zarr3_array_on_disk(tmp_path, coder):
     meta = zarr.open_array(path, mode="r").metadata
     assert meta.zarr_format == 3
     (c,) = meta.codecs
-    assert c.codec_name == "numcodecs.volpack.wavelet"
-    assert VolpackCodec.from_config(c.codec_config) == codec
+    assert c.to_dict()["name"] == "volpack.wavelet"
+    assert VolpackCodec(**c.to_dict()["configuration"]) == codec
 
 
 @pytest.mark.parametrize(
@@ -256,15 +259,107 @@ def test_zarr2_max_error(tmp_path, rng):
     assert np.abs(back.astype(np.float64) - a).max() <= 0.01
 
 
-def test_import_after_zarr_registers_the_zarr3_codec(tmp_path):
+def _entry_points_on_path(tmp_path) -> str:
+    """A folder whose dist-info declares pyproject.toml's entry points, for a checkout
+    that is not pip-installed (an installed volpack declares them itself)."""
+    import importlib.metadata as md
+    from pathlib import Path
+
+    groups = ("numcodecs.codecs", "zarr.codecs")
+    have = {e.value for g in groups for e in md.entry_points(group=g)}
+    if "volpack.numcodecs:VolpackCodec" in have and "volpack.zarr3:VolpackWavelet" in have:
+        return ""
+    tomllib = pytest.importorskip("tomllib", reason="reading pyproject.toml needs Python 3.11")
+    project = tomllib.loads((Path(__file__).parents[1] / "pyproject.toml").read_text())
+    eps = project["project"]["entry-points"]
+    info = tmp_path / "ep" / "volpack_entry_points-0.dist-info"
+    info.mkdir(parents=True)
+    (info / "METADATA").write_text(
+        "Metadata-Version: 2.1\nName: volpack-entry-points\nVersion: 0\n"
+    )
+    text = "".join(f"[{g}]\n" + "".join(f"{k} = {v}\n" for k, v in eps[g].items()) for g in groups)
+    (info / "entry_points.txt").write_text(text)
+    return str(tmp_path / "ep")
+
+
+def _fresh_python(code: str, extra_path: str) -> None:
+    import os
+    import subprocess
+    import sys
+
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (extra_path, env.get("PYTHONPATH", "")) if p)
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert r.returncode == 0, r.stderr
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("fmt", [2, 3])
+def test_fresh_process_finds_the_codec_without_importing_volpack(tmp_path, fmt):
+    path = str(tmp_path / "z.zarr")
+    a = smooth_volume((9, 10, 11), np.int16)
+    np.save(tmp_path / "a.npy", a)
+    if fmt == 3:
+        from volpack.zarr3 import VolpackWavelet
+
+        z = zarr.create_array(store=path, shape=a.shape, chunks=(8, 8, 8), dtype=a.dtype,
+                              serializer=VolpackWavelet(coder="huffman"), compressors=None)  # fmt: skip
+    else:
+        z = zarr.create_array(store=path, shape=a.shape, chunks=(8, 8, 8), dtype=a.dtype,
+                              zarr_format=2, compressors=[VolpackCodec(coder="huffman")])  # fmt: skip
+    z[:] = a
+    code = (
+        "import sys, warnings, numpy as np, zarr, numcodecs\n"
+        "warnings.simplefilter('error')\n"  # no warning from a private zarr class
+        f"z = zarr.open_array({path!r}, mode='r')\n"
+        f"assert (z[:] == np.load({str(tmp_path / 'a.npy')!r})).all()\n"
+        "assert numcodecs.get_codec({'id': 'volpack.wavelet'}).coder == 'arith'\n"
+    )
+    _fresh_python(code, _entry_points_on_path(tmp_path))
+
+
+def test_numcodecs_test_helpers(tmp_path, monkeypatch):
+    """numcodecs' own codec checks: repr, config, buffers, object buffers, stored fixtures
+    in C and Fortran order."""
+    from numcodecs.tests import common
+
+    monkeypatch.setattr(common, "VolpackCodec", VolpackCodec, raising=False)
+    for stmt in ("VolpackCodec()", "VolpackCodec(coder='huffman', max_levels=2)",
+                 "VolpackCodec(wavelet='97m', max_error=0.5)"):  # fmt: skip
+        common.check_repr(stmt)
+    codecs = [
+        VolpackCodec(),
+        VolpackCodec(coder="huffman", order="line"),
+        VolpackCodec(max_error=0.5),
+    ]
+    arrays = [
+        np.arange(1000, dtype="i4"),
+        np.linspace(1000, 1001, 1000, dtype="f8"),
+        np.random.default_rng(3).integers(0, 200, size=(20, 30, 7)).astype("u1"),
+        np.asfortranarray(smooth_volume((12, 9, 7), np.int16)),
+        np.asfortranarray(np.arange(600, dtype="u2").reshape(20, 30)),
+    ]
+    for codec in codecs:
+        common.check_config(codec)
+        common.check_err_decode_object_buffer(codec)
+        common.check_err_encode_object_buffer(codec)
+        for a in arrays[2:4]:
+            common.check_encode_decode(a, codec, precision=0 if codec.max_error else None)
+    monkeypatch.chdir(tmp_path)  # the helper writes its fixtures under ./fixture
+    common.check_backwards_compatibility(VolpackCodec.codec_id, arrays, codecs[:2])
+    common.check_backwards_compatibility(VolpackCodec.codec_id, arrays, codecs[:2])  # re-read
+
+
+@pytest.mark.slow
+def test_import_registers_the_zarr3_codec(tmp_path):
     import subprocess
     import sys
 
     code = (
-        "import zarr, volpack.numcodecs, zarr.registry, numpy as np\n"
-        "zarr.registry.get_codec_class('numcodecs.volpack.wavelet')\n"
+        "import zarr, volpack.zarr3, zarr.registry, numpy as np\n"
+        "zarr.registry.get_codec_class('volpack.wavelet')\n"
         f"z = zarr.create_array(store={str(tmp_path / 'z.zarr')!r}, shape=(9, 10, 11), chunks=(8, 8, 8),"
-        " dtype='int16', serializer=volpack.numcodecs.zarr_serializer(), compressors=None)\n"
+        " dtype='int16', serializer=volpack.zarr3.serializer(), compressors=None)\n"
         "a = (np.arange(990) % 97).astype('int16').reshape(9, 10, 11); z[:] = a\n"
         "assert (zarr.open_array(z.store, mode='r')[:] == a).all()\n"
     )

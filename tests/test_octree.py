@@ -9,12 +9,12 @@ import math
 import naive_octree
 import numpy as np
 import pytest
-from conftest import smooth_volume
+from conftest import need, smooth_volume
 
 from volpack.errors import FormatError
 from volpack.octree import NodeDamaged, Octree, build, layout
 from volpack.octree import select as sel
-from volpack.octree.build import to_values
+from volpack.octree.plan import to_values
 from volpack.octree.source import SourceSpec
 
 
@@ -375,6 +375,7 @@ def test_super_bricks_give_the_same_tree_as_one_task(vol, blob, monkeypatch):
 
 
 def test_dask_local_cluster_gives_the_same_bytes(vol, blob):
+    need("distributed", "dask")
     from distributed import Client, LocalCluster
 
     with (
@@ -461,8 +462,8 @@ GOLDEN = [  # the recipes of scripts/make_examples.py, written out again on purp
 def test_golden_octree_decodes_and_is_reproduced(stem, recipe, opts):
     from pathlib import Path
 
-    from volpack.container import Reader
     from volpack.demo import load_demo_volume
+    from volpack.format.container import Reader
 
     cut = load_demo_volume().data[30:50, 40:64, 40:68]
     want = cut if recipe == "u8" else cut.astype(np.int16) * 37 - 3000

@@ -7,10 +7,16 @@ import json
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from conftest import need
 
-from volpack import animation, player, synth
+from volpack import synth
+from volpack.animation import player
+from volpack.animation import stream as animation
 from volpack.cli import main
 from volpack.errors import FormatError
+
+# slow: decodes animations: the animation kernels compile (pytest -m slow runs them; .ci/run does)
+pytestmark = pytest.mark.slow
 
 
 @pytest.fixture(scope="module")
@@ -59,7 +65,7 @@ def test_cli_play_writes_gif_and_folder_and_stats(anim, tmp_path):
 
 
 def test_mp4_output(anim, tmp_path):
-    pytest.importorskip("imageio_ffmpeg")
+    need("imageio_ffmpeg", "video")
     path, frames = anim
     r = CliRunner().invoke(main, ["play", str(path), str(tmp_path / "a.mp4"), "--size", "32x32"])
     assert r.exit_code == 0, r.output

@@ -213,6 +213,7 @@ def _inside_tets(pts_zyx, tets):
     return inside
 
 
+@pytest.mark.slow
 def test_a_visibility_cycle_of_three_rods():
     # three thin rods around a triangle, each passing above the next: seen from above,
     # no back-to-front order of the cells exists; the ray walk needs none

@@ -7,7 +7,11 @@ import numpy as np
 import pytest
 from naive_motion import whole_frame_shift
 
-from volpack import shift, synth
+from volpack import synth
+from volpack.animation import shift
+
+# slow: animation kernels: long to compile (pytest -m slow runs them; .ci/run does)
+pytestmark = pytest.mark.slow
 
 
 def _smooth(n):

@@ -14,8 +14,8 @@ from click.testing import CliRunner
 from tetra_meshes import golden_mesh, grid_mesh, sphere_fan
 
 from volpack.cli import main
-from volpack.container import Reader, Writer
 from volpack.errors import FormatError
+from volpack.format.container import Reader, Writer
 from volpack.tetra.mesh import FACES, TetMesh, face_adjacency, signed_volumes
 from volpack.tetra.stream import check_header, compress_mesh, decompress_mesh
 

@@ -55,6 +55,40 @@ def cache_dir() -> pathlib.Path:
 if CACHE and not os.environ.get("NUMBA_CACHE_DIR"):
     numba.config.CACHE_DIR = str(cache_dir())
 
+
+def _watch_compiles() -> None:
+    """Forward numba's compile events to :mod:`volpack.jitwatch` (the CLI's notices)."""
+    import time
+
+    from numba.core import event
+
+    from . import jitwatch
+
+    where = pathlib.Path(numba.config.CACHE_DIR) if CACHE else None
+    jitwatch.cache_dir = str(where) if where else None
+    jitwatch.fresh_cache = where is None or not where.is_dir() or not any(where.iterdir())
+
+    class _Listener(event.Listener):
+        def __init__(self):
+            self._t0: list[float] = []
+
+        def _name(self, ev) -> str:
+            fn = getattr(ev.data.get("dispatcher"), "py_func", None)
+            return getattr(fn, "__qualname__", "?")
+
+        def on_start(self, ev):
+            self._t0.append(time.thread_time())  # CPU: wall time would count the neighbours
+            jitwatch.notify("start", self._name(ev))
+
+        def on_end(self, ev):
+            dt = time.thread_time() - self._t0.pop() if self._t0 else 0.0
+            jitwatch.notify("end", self._name(ev), dt)
+
+    event.register("numba:compile", _Listener())
+
+
+_watch_compiles()
+
 JIT_DISABLED = bool(numba.config.DISABLE_JIT)
 
 if JIT_DISABLED:

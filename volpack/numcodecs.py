@@ -1,9 +1,10 @@
 """volpack's wavelet coding as a numcodecs codec, for zarr (and anything else that takes
 numcodecs codecs).
 
-Importing this module registers :class:`VolpackCodec` under the id ``"volpack.wavelet"``
-with ``numcodecs.registry``, so ``numcodecs.get_codec({"id": "volpack.wavelet", ...})``
-rebuilds it from a stored config (as zarr does when it reopens an array).
+:class:`VolpackCodec` is registered under the id ``"volpack.wavelet"`` with
+``numcodecs.registry`` (by entry point, and on import of this module), so
+``numcodecs.get_codec({"id": "volpack.wavelet", ...})`` rebuilds it from a stored config
+(as zarr does when it reopens an array).
 
 Each chunk is encoded as a complete, small ``.vpk`` container held in memory (one brick
 covering the whole chunk, split only where an axis exceeds the brick limits). The
@@ -29,16 +30,18 @@ Coding follows ``volpack compress``:
 With zarr 3 the codec must see the chunk as an array, so use it where the chunk is
 still an array: the ``compressor`` of a ``zarr_format=2`` array (zarr hands the chunk
 ndarray to the compressor), or the array-to-bytes ``serializer`` of a ``zarr_format=3``
-array through a wrapper around ``zarr.codecs.numcodecs``. As a zarr 3 ``compressors``
+array, :class:`volpack.zarr3.VolpackWavelet`.
+
+Both are found by name in a fresh process without importing volpack: ``pip install
+volpack`` declares the entry points ``numcodecs.codecs`` and ``zarr.codecs``. A Fortran-
+ordered chunk is coded as its C-ordered transpose and decoded in Fortran order again. As a zarr 3 ``compressors``
 entry (a bytes-to-bytes codec) it would receive the serialised bytes and code them as a
 flat ``uint8`` line, which is exact but forfeits the 3-D transform.
 """
 
 from __future__ import annotations
 
-import functools
 import math
-import sys
 from typing import Any
 
 import numpy as np
@@ -46,9 +49,10 @@ from numcodecs.abc import Codec
 from numcodecs.compat import ensure_contiguous_ndarray, ensure_ndarray_like, ndarray_copy
 from numcodecs.registry import register_codec
 
-from . import api, bricks
-from .codec import CODER_NAMES, ORDER_NAMES, WAVELET_NAMES
+from . import api
 from .volume import Volume
+from .volume_codec import bricks
+from .volume_codec.codec import CODER_NAMES, ORDER_NAMES, WAVELET_NAMES
 
 __all__ = ["CODEC_ID", "VolpackCodec"]
 
@@ -128,7 +132,15 @@ class VolpackCodec(Codec):
         return cls(**config)
 
     def __repr__(self) -> str:
-        args = ", ".join(f"{k}={v!r}" for k, v in self.get_config().items() if k != "id")
+        # the parameters that differ from their defaults, in signature order, so that
+        # ``VolpackCodec()`` and ``VolpackCodec(coder='huffman')`` read back as written
+        default = VolpackCodec().get_config()
+        config = self.get_config()
+        args = ", ".join(
+            f"{k}={config[k]!r}"
+            for k in ("wavelet", "coder", "order", "max_levels", "max_error")
+            if k in config and config[k] != default.get(k)
+        )
         return f"{type(self).__name__}({args})"
 
     def encode(self, buf: Any) -> bytes:
@@ -138,11 +150,16 @@ class VolpackCodec(Codec):
         if arr.size == 0:
             raise ValueError(f"{CODEC_ID} cannot code an empty chunk (shape {arr.shape})")
         dtype = arr.dtype
+        fortran = arr.ndim > 1 and arr.flags.f_contiguous and not arr.flags.c_contiguous
+        if fortran:  # code the C-ordered transpose; decode hands back Fortran order again
+            arr = arr.T
         data = arr.astype(dtype.newbyteorder("="), copy=False)
         if dtype.kind == "b":
             data = data.view(np.uint8)  # stored as 0/1 bytes, restored to bool on decode
         data = np.ascontiguousarray(data.reshape(_volume_shape(arr.shape)))
         meta = {META_KEY: {"shape": list(arr.shape), "dtype": dtype.str}}
+        if fortran:
+            meta[META_KEY]["order"] = "F"
         options = {
             "wavelet": self.wavelet,
             "coder": self.coder,
@@ -164,6 +181,8 @@ class VolpackCodec(Codec):
         return api.compress_array(vol, codec="auto", **options)
 
     def decode(self, buf: Any, out: Any = None) -> np.ndarray:
+        if out is not None and ensure_ndarray_like(out).dtype == object:
+            raise TypeError(f"{CODEC_ID} decodes numbers; expected a numeric out, found object")
         blob = ensure_contiguous_ndarray(buf).view(np.uint8).tobytes()
         vol = api.decompress(blob, workers=1)
         info = vol.meta.get(META_KEY)
@@ -175,6 +194,8 @@ class VolpackCodec(Codec):
         if dtype.kind == "b":
             data = data.view(np.bool_)
         arr = data.reshape(shape).astype(dtype, copy=False)
+        if info.get("order") == "F":
+            arr = arr.T
         return ndarray_copy(arr, out)
 
 
@@ -194,36 +215,4 @@ def _brick_for(spatial: tuple[int, ...]) -> tuple[int, int, int]:
     return bricks.parse_brick(tuple(b))
 
 
-@functools.cache
-def zarr3_codec() -> type:
-    """The codec as a zarr 3 array-to-bytes codec (it must see the chunk array, not bytes).
-
-    zarr 3.1 wraps numcodecs codecs in ``zarr.codecs.numcodecs`` but has no public class for
-    third-party ones, so this subclasses its (private) array-to-bytes base; it registers
-    the metadata name ``numcodecs.volpack.wavelet``, so reopening an array finds it.
-    """
-    from zarr.codecs.numcodecs._codecs import _NumcodecsArrayBytesCodec
-    from zarr.registry import register_codec as register_zarr_codec
-
-    class VolpackWavelet(_NumcodecsArrayBytesCodec, codec_name="volpack.wavelet"):
-        pass
-
-    register_zarr_codec(VolpackWavelet.codec_name, VolpackWavelet)
-    return VolpackWavelet
-
-
-def zarr_serializer(**config: Any):
-    """``serializer=`` for ``zarr.create_array`` (zarr format 3)."""
-    import warnings
-
-    with warnings.catch_warnings():  # zarr warns that numcodecs wrappers may change
-        warnings.simplefilter("ignore")
-        return zarr3_codec()(**VolpackCodec(**config).get_config())
-
-
 register_codec(VolpackCodec)
-if "zarr" in sys.modules:  # 'import zarr, volpack.numcodecs': zarr 3 arrays work at once
-    try:
-        zarr3_codec()
-    except ImportError:  # zarr 2, or a zarr 3 without the numcodecs wrappers
-        pass

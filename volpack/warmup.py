@@ -10,7 +10,7 @@ import numpy as np
 def warm() -> dict:
     """Run each codec path on tiny bricks of each integer dtype; return what was done."""
     from . import _jit
-    from .codec import CODER_NAMES, ORDER_NAMES, WAVELET_NAMES, WaveletCodec
+    from .volume_codec.codec import CODER_NAMES, ORDER_NAMES, WAVELET_NAMES, WaveletCodec
 
     t0 = time.perf_counter()
     rng = np.random.default_rng(0)
@@ -45,7 +45,7 @@ def _warm_beyond_bricks() -> list[str]:
     import io
     import tempfile
 
-    from . import animation
+    from .animation import stream as animation
     from .octree import Octree, build
     from .render.camera import Camera
     from .render.lod import paged_volume

@@ -32,7 +32,16 @@ from .options import emit_json, force_option, json_option, raw_options, read_kwa
     "--isotropic", is_flag=True, help="Resample to isotropic spacing (the finest axis), trilinear."
 )
 @click.option(
-    "--spacing", "new_spacing", type=float, help="Resample to this isotropic spacing, trilinear."
+    "--resample", "new_spacing", type=float, help="Resample to this isotropic spacing, trilinear."
+)
+@click.option(
+    "--spacing",
+    "set_spacing",
+    help="Set the voxel spacing SZ,SY,SX (z, y, x order) in the output's metadata; the voxels "
+    "stay as they are (to change them use --resample).",
+)
+@click.option(
+    "--origin", "set_origin", help="Set the origin OZ,OY,OX (z, y, x order) in the metadata."
 )
 @click.option("--window", help="Clamp values to LO:HI.")
 @click.option(
@@ -69,6 +78,8 @@ def convert(
     method,
     isotropic,
     new_spacing,
+    set_spacing,
+    set_origin,
     window,
     mask_fill,
     bits,
@@ -89,17 +100,30 @@ def convert(
       volpack convert map.nii.gz map_u16.npy --quantize 16
       cat vol.npy | volpack convert - out.h5:/data
       volpack convert scan.raw scan.nii.gz --shape 108,256,256 --dtype int16
+      volpack convert liver.inr liver.nii.gz --shape 165,353,438 --dtype uint8 --offset 256
+      volpack convert ct.npy ct.nii.gz --spacing 1.5,0.957,0.957
+
+    Shapes, spacings and origins are given slowest axis first: (z, y, x), x varying
+    fastest in the file (zfp and SZ3 list them x first: reverse them).
     """
     from .. import api, prep
     from .. import io as vio
-    from ..atomic import check_output
+    from ..format.atomic import check_output
 
     check_output(vio.parse_spec(target)[0], force=force, inputs=(source,))
-    if _is_vpk_path(source):
-        vol = api.decompress(source)
-    else:
-        vol = vio.read_volume(source, **read_kwargs(raw_shape, raw_dtype, byteorder, offset))
+    vol = api.read_volume(source, **read_kwargs(raw_shape, raw_dtype, byteorder, offset))
     steps = []
+    if set_spacing or set_origin:
+        vol = vol.replace(
+            spacing=_triple(set_spacing, "--spacing", positive=True)
+            if set_spacing
+            else vol.spacing,
+            origin=_triple(set_origin, "--origin") if set_origin else vol.origin,
+        )
+        steps.append(
+            "set "
+            + " and ".join(n for n, v in (("spacing", set_spacing), ("origin", set_origin)) if v)
+        )
     if crop:
         vol = prep.crop(vol, crop)
         steps.append(f"crop {crop}")
@@ -155,12 +179,19 @@ def convert(
             )
 
 
-def _is_vpk_path(path: str) -> bool:
-    if path == "-":
-        return False
-    from ..api import _looks_vpk
+def _triple(text: str, flag: str, positive: bool = False) -> tuple[float, float, float]:
+    import math
 
-    return _looks_vpk(path)
+    try:
+        values = tuple(float(v) for v in text.replace("x", ",").split(","))
+    except ValueError:
+        values = ()
+    if len(values) != 3 or not all(math.isfinite(v) and (v > 0 or not positive) for v in values):
+        what = "positive " if positive else ""
+        raise click.BadParameter(
+            f"expected three {what}numbers Z,Y,X, found {text!r}", param_hint=flag
+        )
+    return values  # type: ignore[return-value]
 
 
 def _has_special(vol) -> bool:

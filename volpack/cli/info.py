@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import click
 
-from .options import emit_json, fmt_bytes, json_option, raw_options, read_kwargs, table
+from .listing import listing_table
+from .options import dtype_name, emit_json, fmt_bytes, json_option, raw_options, read_kwargs, table
 
 
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})
-@click.argument("source")
+@click.argument("sources", nargs=-1, required=True, metavar="SOURCE...")
 @json_option
 @click.option(
     "--chunks", is_flag=True, help="For .vpk: list every chunk (t, node, offset, bytes, error)."
@@ -18,13 +19,15 @@ from .options import emit_json, fmt_bytes, json_option, raw_options, read_kwargs
 )
 @raw_options
 def info(
-    source: str, as_json: bool, chunks: bool, levels: bool, raw_shape, raw_dtype, byteorder, offset
+    sources, as_json: bool, chunks: bool, levels: bool, raw_shape, raw_dtype, byteorder, offset
 ) -> None:
-    """Describe SOURCE: a .vpk file or any volume volpack reads.
+    """Describe SOURCE: a .vpk file or any volume volpack reads; several: one table.
 
     \b
     For a volume: format, shape (z, y, x), dtype, spacing, value range, size.
     For a .vpk: its header, chunk count, sizes, ratio and per-chunk error.
+    For several files: one line each (format, shape, dtype, spacing, size, ratio, max
+    error), read from the headers only, as nib-ls does.
 
     \b
     Examples:
@@ -33,33 +36,40 @@ def info(
       volpack info scan.raw --shape 108,256,256 --dtype int16
       volpack info big.vpk --levels
       volpack compress ct.nii.gz - | volpack info -
+      volpack info scans/*.nii.gz out/*.vpk
     """
+    if len(sources) > 1:
+        from .listing import listing
+
+        rows = listing(sources, read_kwargs(raw_shape, raw_dtype, byteorder, offset))
+        if as_json:
+            emit_json(rows)
+        else:
+            click.echo(listing_table(rows))
+        if any("error" in r for r in rows):
+            raise SystemExit(1)  # every file listed; the status says one could not be read
+        return
+    (source,) = sources
     if levels:
         from .octree import levels as octree_levels
 
         octree_levels(source, as_json)
         return
-    from . import mesh as mesh_cli
-
-    if source == "-":
-        from ..container import spool, stdin, vpk_kind
-
-        kind = vpk_kind("-")
-        if kind is not None:  # a .vpk on a pipe: its index comes last, so keep it whole
-            with spool(stdin()) as f:
-                if kind == "mesh":
-                    return mesh_cli.info(source, as_json, stream=f)
-                from .. import api
-
-                return _show(api.info(f), as_json, chunks)
-    if mesh_cli.is_mesh_source(source) or mesh_cli.is_mesh_stream(source):
-        return mesh_cli.info(source, as_json)
     from .. import api
 
+    if source == "-" and api.kind_of("-") is not None:
+        from ..format.streams import spool, stdin
+
+        with spool(stdin()) as f:  # a .vpk on a pipe: its index comes last, so keep it whole
+            return _show(api.info(f), as_json, chunks)
     _show(api.info(source, **read_kwargs(raw_shape, raw_dtype, byteorder, offset)), as_json, chunks)
 
 
 def _show(d: dict, as_json: bool, chunks: bool) -> None:
+    if d["format"] == "mesh" or d.get("kind") == "mesh":
+        from .mesh import show_info
+
+        return show_info(d, as_json)
     if not (as_json and chunks) and "entries" in d and not chunks:
         d = {k: v for k, v in d.items() if k != "entries"}
     if as_json:
@@ -95,7 +105,7 @@ def _human(d: dict, chunks: bool) -> str:
         ["path", d["path"]],
         ["format", f"vpk (kind {h.get('kind')}, written by volpack {h.get('volpack', '?')})"],
         ["shape", " x ".join(map(str, h.get("shape", [])))],
-        ["dtype", str(h.get("dtype"))],
+        ["dtype", dtype_name(h.get("dtype"))],
         ["spacing", ", ".join(f"{v:g}" for v in h.get("spacing", []))],
         ["codec", ", ".join(f"{k}={v}" for k, v in (h.get("codec") or {}).items())],
         *(

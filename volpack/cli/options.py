@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import contextlib
+import functools
 import json
 import sys
 from collections.abc import Iterator
 
 import click
 
-from ..jsonsafe import finite_json
+from ..jsonsafe import jsonable
 
 force_option = click.option("-f", "--force", is_flag=True, help="Replace an existing output file.")
 json_option = click.option(
@@ -31,7 +32,7 @@ def raw_options(f):
         "--offset",
         type=click.IntRange(min=0),
         default=0,
-        help="Raw input: bytes to skip (a header).",
+        help="Raw input: bytes to skip (a header, e.g. 256 for an INRIMAGE file).",
     )(f)
     f = click.option(
         "--byteorder",
@@ -43,7 +44,11 @@ def raw_options(f):
         "--dtype", "raw_dtype", help="Raw input: voxel type, e.g. uint8, int16, float32."
     )(f)
     f = click.option(
-        "--shape", "raw_shape", help="Raw input: Z,Y,X (or T,Z,Y,X) voxels, e.g. 108,256,256."
+        "--shape",
+        "raw_shape",
+        help="Raw input, whatever the file's name: Z,Y,X (or T,Z,Y,X) voxels, slowest axis "
+        "first and x fastest in the file, e.g. 108,256,256 (zfp's and SZ3's sizes are x first: "
+        "reverse them).",
     )(f)
     return f
 
@@ -59,6 +64,15 @@ def read_kwargs(raw_shape: str | None, raw_dtype: str | None, byteorder: str, of
             ) from None
     if raw_dtype:
         kw["dtype"] = raw_dtype
+    ctx = click.get_current_context(silent=True)
+    quiet = bool(ctx and (ctx.find_root().obj or {}).get("quiet"))
+    if raw_shape and not quiet:  # say how the shape was understood: reversed, it reads as noise
+        axes = "(t, z, y, x)" if len(kw["shape"]) == 4 else "(z, y, x)"
+        click.echo(
+            f"volpack: raw input of shape {axes} = {tuple(kw['shape'])}, x fastest"
+            + (f", {raw_dtype}" if raw_dtype else ""),
+            err=True,
+        )
     if byteorder != "<" or raw_dtype:
         kw["byteorder"] = {"little": "<", "big": ">"}.get(byteorder, byteorder)
     if offset:
@@ -67,11 +81,20 @@ def read_kwargs(raw_shape: str | None, raw_dtype: str | None, byteorder: str, of
 
 
 @contextlib.contextmanager
-def progress_bar(ctx: click.Context, desc: str, unit: str = "brick") -> Iterator:
-    """Yield a ``progress(done, total)`` callback drawing a tqdm bar on a terminal."""
-    quiet = bool(ctx.find_root().obj.get("quiet")) if ctx.find_root().obj else False
-    if quiet or not sys.stderr.isatty():
-        yield None
+def progress_bar(ctx: click.Context, desc: str, unit: str | None = "brick") -> Iterator:
+    """Yield a ``progress(done, total)`` callback: a tqdm bar on a terminal, else lines
+    every few seconds (:mod:`.notices`); None with ``unit=None`` (nothing to count)."""
+    obj = ctx.find_root().obj or {}
+    quiet = bool(obj.get("quiet"))
+    notices = obj.get("notices")
+    if quiet or unit is None or not sys.stderr.isatty():
+        if notices is None or quiet or unit is None:
+            yield None
+            return
+        try:  # no bar: a line every few seconds instead
+            yield notices.task(desc, unit)
+        finally:
+            notices.end_task()
         return
     from tqdm import tqdm
 
@@ -91,15 +114,17 @@ def progress_bar(ctx: click.Context, desc: str, unit: str = "brick") -> Iterator
 
 def emit_json(obj) -> None:
     """Print ``obj`` as strict JSON (infinite or NaN numbers become null)."""
-    click.echo(
-        json.dumps(finite_json(obj), indent=2, sort_keys=True, default=_default, allow_nan=False)
-    )
+    click.echo(json.dumps(jsonable(obj), indent=2, sort_keys=True, allow_nan=False))
 
 
-def _default(o):
-    if hasattr(o, "tolist"):
-        return o.tolist()
-    return str(o)
+def dtype_name(dtype) -> str:
+    """One spelling of a voxel type everywhere: numpy's name (``uint8``, not ``|u1``)."""
+    import numpy as np
+
+    try:
+        return np.dtype(dtype).name
+    except TypeError:
+        return str(dtype)
 
 
 def fmt_bytes(n: float) -> str:
@@ -124,3 +149,92 @@ def table(rows: list[list[str]], header: list[str]) -> str:
         for r in rows
     ]
     return "\n".join(lines)
+
+
+def parse_brick(value: str) -> int | tuple[int, int, int]:
+    parts = value.replace("x", ",").split(",")
+    try:
+        nums = [int(p) for p in parts]
+    except ValueError:
+        raise click.BadParameter(
+            f"expected N or Z,Y,X, found {value!r}", param_hint="--brick"
+        ) from None
+    if len(nums) not in (1, 3):
+        raise click.BadParameter(f"expected N or Z,Y,X, found {value!r}", param_hint="--brick")
+    return nums[0] if len(nums) == 1 else tuple(nums)  # type: ignore[return-value]
+
+
+CODEC_OPTIONS = [
+    click.option(
+        "--codec",
+        type=click.Choice(["auto", "wavelet", "zstd"]),
+        default="auto",
+        show_default=True,
+        help="auto: the wavelet codec for 8/16/32-bit integers, byte-shuffled zstd (exact) for floats.",
+    ),
+    click.option(
+        "--wavelet",
+        type=click.Choice(["53", "26", "haar", "97m", "d4", "c6", "cdf97"]),
+        default="53",
+        show_default=True,
+        help="Reversible lifting filter: 5/3 (CDF 2,2), 2/6 (TS), Haar (S-transform), 9/7-M; "
+        "or, lossy only, the float Daubechies-4, Coiflet-6 and CDF 9/7 (for comparison).",
+    ),
+    click.option(
+        "--coder",
+        type=click.Choice(["arith", "huffman", "rle"]),
+        default="arith",
+        show_default=True,
+        help="arith: best ratio; huffman: fixed code, fastest decode; rle: run-length Huffman for sparse data.",
+    ),
+    click.option(
+        "--order",
+        type=click.Choice(["dfs", "line"]),
+        default="dfs",
+        show_default=True,
+        help="Coefficient scan: octree depth-first with zero-subtree stripping, or line by line.",
+    ),
+    click.option(
+        "--levels",
+        "max_levels",
+        type=click.IntRange(0, 16),
+        help="Cap the decomposition levels per axis.",
+    ),
+    click.option(
+        "--brick",
+        default="64",
+        show_default=True,
+        help="Brick size N or Z,Y,X; bricks decode independently.",
+    ),
+    click.option(
+        "--max-error",
+        type=float,
+        help="Lossy: every voxel decodes within this absolute error (checked on every voxel).",
+    ),
+    click.option(
+        "--rel-error", type=float, help="Lossy: --max-error as a fraction of the value range."
+    ),
+    click.option("--psnr", type=float, help="Lossy: reach this PSNR in dB (within 0.5 dB)."),
+    click.option("--ratio", type=float, help="Lossy: reach this compression ratio (within 5%)."),
+    click.option(
+        "--quality",
+        type=click.IntRange(1, 65535),
+        help="Lossy, the method's scale: 255 (best), 127, 63, 31, 15 (integer volumes).",
+    ),
+    click.option(
+        "--threshold",
+        type=float,
+        help="Lossy: drop wavelet coefficients below this size, in value units (integer volumes).",
+    ),
+    click.option(
+        "--fill-value",
+        type=float,
+        help="A value meaning 'no data' (e.g. -2.56e33); restored exactly, like NaN and Inf.",
+    ),
+]
+"""The codec and lossy options of ``volpack compress``, which ``volpack batch`` shares."""
+
+
+def codec_options(f):
+    """Decorate a command with :data:`CODEC_OPTIONS`."""
+    return functools.reduce(lambda g, o: o(g), reversed(CODEC_OPTIONS), f)

@@ -27,7 +27,7 @@ import numpy as np
 
 from ..errors import FormatError
 from . import layout
-from .build import Plan, apply_corrections, decode_lowpass, to_values
+from .plan import Plan, apply_corrections, decode_lowpass, to_values
 
 DEFAULT_CACHE = 256 << 20
 
@@ -55,11 +55,11 @@ class Octree:
     def __init__(
         self, source: Any, *, cache_bytes: int = DEFAULT_CACHE, on_damage: str = "raise"
     ) -> None:
-        from ..container import Reader
+        from ..format.container import Reader
 
         if on_damage not in ("raise", "approximate"):
             raise ValueError(f"expected on_damage 'raise' or 'approximate', found {on_damage!r}")
-        self._r = Reader(source)
+        self._r = source if isinstance(source, Reader) else Reader(source)
         try:
             if self._r.header.get("kind") != layout.KIND:
                 raise FormatError(
@@ -146,8 +146,8 @@ class Octree:
         """Inverse-lift node (level, index): its low-pass voxels plus its decoded details
         give its (2k)^3 block of the next finer level."""
         from ..entropy import CODERS
-        from ..sigmap import scan as make_scan
         from ..wavelet import dwt3
+        from ..wavelet.sigmap import scan as make_scan
 
         box = self._child_box(level, index)
         shape = tuple(s.stop - s.start for s in box)

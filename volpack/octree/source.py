@@ -48,13 +48,13 @@ class _H5Source:
     def __init__(self, path: str, inner: str | None):
         import h5py
 
-        from .. import io as vio
+        from ..io import hdf5
 
         self._file = h5py.File(path, "r")
-        self._ds = vio._h5_pick(self._file, inner, path)
+        self._ds = hdf5.pick_dataset(self._file, inner, path)
         self.shape = tuple(int(n) for n in self._ds.shape)
         self.dtype = np.dtype(self._ds.dtype).newbyteorder("=")
-        self.spacing, self.origin, _ = vio._h5_geometry(self._ds)
+        self.spacing, self.origin, _ = hdf5.geometry(self._ds)
         self._lock = threading.Lock()  # h5py serialises anyway; be explicit
 
     def read(self, box):
@@ -68,13 +68,14 @@ class _TiffSource:
     def __init__(self, path: str):
         import tifffile
 
-        from .. import io as vio
+        from ..io import tiff
+        from ..io.common import natural_key
 
         self._lock = threading.Lock()
         if os.path.isdir(path):
             names = sorted(
                 (n for n in os.listdir(path) if n.lower().endswith((".tif", ".tiff"))),
-                key=vio._natural_key,
+                key=natural_key,
             )
             if not names:
                 raise FormatError(f"expected .tif/.tiff slices in {path!r}, found none")
@@ -83,7 +84,7 @@ class _TiffSource:
                 page = tif.series[0]
                 yx = tuple(int(s) for s in page.shape)
                 self.dtype = np.dtype(page.dtype).newbyteorder("=")
-                ys, xs = vio._tiff_xy_spacing(tif.pages[0])
+                ys, xs = tiff.xy_spacing(tif.pages[0])
             if len(yx) != 2:
                 raise FormatError(f"expected 2-D slices in {path!r}, found shape {yx}")
             self.shape = (len(self._files), *yx)
@@ -91,7 +92,7 @@ class _TiffSource:
             self._tif = None
         else:
             self._tif = tifffile.TiffFile(path)
-            shape, dtype, self.spacing, self.origin, _ = vio._tiff_geometry(self._tif, path)
+            shape, dtype, self.spacing, self.origin, _ = tiff.geometry(self._tif, path)
             if len(shape) != 3 or len(self._tif.pages) != shape[0]:
                 raise FormatError(
                     f"expected a TIFF stack with one page per z slice in {path!r}, found "
@@ -169,17 +170,20 @@ def open_source(source: Any) -> Any:
 def _open_spec(s: SourceSpec):
     """One open source per spec and process (Dask workers reuse it across tasks)."""
     from .. import io as vio
+    from ..io import raw as raw_io
+    from ..io.common import ReadOptions, wrap_errors
 
     path, inner = vio.parse_spec(s.spec)
     if path == "-":
         raise FormatError("expected a file for the octree build (it reads boxes), found '-'")
-    fmt = vio.detect_format(path)
     raw = dict(s.raw)
+    given = raw.get("shape") is not None or raw.get("dtype") is not None
+    fmt = "raw" if given and not os.path.isdir(path) else vio.detect_format(path)
     if fmt == "hdf5":
-        with vio._wrap(fmt, path):
+        with wrap_errors(fmt, path):
             return _H5Source(path, inner)
     if fmt in ("tiff", "tiff-folder"):
-        with vio._wrap(fmt, path):
+        with wrap_errors(fmt, path):
             return _TiffSource(path)
     if fmt == "npy":
         with open(path, "rb") as f:
@@ -191,16 +195,8 @@ def _open_spec(s: SourceSpec):
         if len(shape) == 3 and not fortran and np.dtype(dtype).kind in "biuf":
             return _FileSource(path, shape, dtype, offset, (1.0,) * 3, (0.0,) * 3)
     if fmt == "raw":
-        with vio._wrap(fmt, path):
-            sh, dt = vio._raw_check(
-                raw.get("shape"),
-                raw.get("dtype"),
-                raw.get("byteorder", "<"),
-                raw.get("offset", 0),
-                vio.DEFAULT_MAX_VOXELS,
-                os.path.getsize(path),
-                path,
-            )
+        with wrap_errors(fmt, path):
+            sh, dt = raw_io.layout(ReadOptions(None, **raw), os.path.getsize(path), path)
         if len(sh) == 3:
             return _FileSource(path, sh, dt, raw.get("offset", 0), (1.0,) * 3, (0.0,) * 3)
     vol = vio.read_volume(s.spec, **raw)  # other formats: read whole

@@ -14,8 +14,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ..atomic import atomic_open
 from ..errors import VolpackError
+from ..format.atomic import atomic_open
 
 
 def to_rgb8(rgba: np.ndarray, background: Sequence[float] = (0.0, 0.0, 0.0)) -> np.ndarray:

@@ -14,8 +14,8 @@ import os
 
 import numpy as np
 
-from ..atomic import atomic_path, check_output
 from ..errors import VolpackError
+from ..format.atomic import atomic_path, check_output
 from .image import save_png, to_rgb8
 
 KINDS = ("mp4", "gif", "png")

@@ -102,9 +102,7 @@ def prepare_volume(volume, spacing=None, *, gradient_budget: int = GRADIENT_BUDG
     :class:`volpack.volume.Volume`; a PreparedVolume is returned as it is)."""
     if isinstance(volume, PreparedVolume):
         return volume
-    from .raycast import _unpack
-
-    data, mask, sp = _unpack(volume, spacing)
+    data, mask, sp = unpack_volume(volume, spacing)
     if data.dtype == bool:
         data = data.view(np.uint8)
     dt = data.dtype if data.dtype.type in SAMPLED else np.float32
@@ -156,3 +154,33 @@ def _gradient_kernel(vol, z0, z1, out):
                 out[z, y, x, 0] = np.float64(vol[zp, y, x]) - np.float64(vol[zm, y, x])
                 out[z, y, x, 1] = np.float64(vol[z, yp, x]) - np.float64(vol[z, ym, x])
                 out[z, y, x, 2] = np.float64(vol[z, y, xp]) - np.float64(vol[z, y, xm])
+
+
+def unpack_volume(volume, spacing):
+    """``(array, mask or None, spacing)`` of an array or a :class:`volpack.volume.Volume`,
+    checked (3-D, non-empty, real numbers, three finite spacings > 0)."""
+    mask = None
+    sp = spacing
+    if hasattr(volume, "data") and hasattr(volume, "spacing"):
+        if volume.data.ndim != 3:
+            raise VolpackError(
+                f"expected a 3-D (z, y, x) volume, found shape {volume.data.shape}; "
+                "pick one time step first"
+            )
+        mask = volume.mask
+        if sp is None:
+            sp = volume.spacing
+        volume = volume.data
+    data = np.asarray(volume)
+    if data.ndim != 3:
+        raise VolpackError(f"expected a 3-D (z, y, x) array, found shape {data.shape}")
+    if data.size == 0:
+        raise VolpackError(f"expected a non-empty volume, found shape {data.shape}")
+    if not (np.issubdtype(data.dtype, np.number) or data.dtype == bool):
+        raise VolpackError(f"expected numeric voxels, found dtype {data.dtype}")
+    if np.iscomplexobj(data):
+        raise VolpackError(f"expected real voxels, found dtype {data.dtype}")
+    sp = (1.0, 1.0, 1.0) if sp is None else tuple(float(s) for s in sp)
+    if len(sp) != 3 or not all(math.isfinite(s) and s > 0 for s in sp):
+        raise VolpackError(f"expected three finite spacings > 0, found {sp}")
+    return data, (None if mask is None else np.asarray(mask, bool)), sp

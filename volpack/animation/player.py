@@ -1,0 +1,146 @@
+"""Play an animation ``.vpk``: decode on the playback schedule, render, write a movie.
+
+The stream is read front to back, in storage order, whether it is a file or a pipe, so
+frames follow the one-decode-per-step schedule of :func:`volpack.animation.gop.play` (two decodes
+before the first frame, then one per displayed frame) and a truncated or damaged stream
+plays up to the damage and then raises :class:`~volpack.errors.FormatError` naming the
+frame. The transfer function's value range is fixed for the whole animation: the range
+recorded in the file's summary, else the first frame's.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Callable, Iterator
+from typing import Any
+
+import numpy as np
+
+from ..errors import FormatError
+
+
+@dataclasses.dataclass
+class FrameStats:
+    """One displayed frame: its type as coded, its chunk size, and the time spent."""
+
+    t: int
+    type: str
+    nbytes: int
+    decode_ms: float
+    render_ms: float = 0.0
+
+
+class _Stream:
+    """A file read strictly forward (the container then streams it record by record)."""
+
+    def __init__(self, f) -> None:
+        self._f = f
+
+    def read(self, n: int = -1) -> bytes:
+        return self._f.read(n)
+
+    def seekable(self) -> bool:
+        return False
+
+
+def recorded_range(path: str) -> tuple[float, float] | None:
+    """The value range in the summary of an intact animation file, else None."""
+    from ..format.container import Reader
+
+    try:
+        with Reader(path) as r:
+            vr = (r.summary or {}).get("value_range")
+    except (FormatError, OSError):
+        return None
+    if vr is None or len(vr) != 2:
+        return None
+    return float(vr[0]), float(vr[1])
+
+
+def frame_count(path: str) -> int | None:
+    """The number of frames the header of ``path`` announces (None if unreadable)."""
+    from ..format.container import Reader
+
+    try:
+        with open(path, "rb") as f, Reader(_Stream(f)) as r:
+            shape = r.header.get("shape")
+    except (FormatError, OSError):
+        return None
+    return int(shape[0]) if isinstance(shape, list) and shape else None
+
+
+def play(source: Any) -> Iterator[tuple[np.ndarray, FrameStats, dict]]:
+    """Yield ``(frame, stats, header)`` in display order; ``stats.decode_ms`` is the
+    decoding done during that step (the first step holds the two start-up decodes)."""
+    from . import gop
+    from .stream import AnimationReader, decode_frame, motion
+
+    own = None
+    if isinstance(source, str) and source != "-":
+        own = open(source, "rb")  # noqa: SIM115 - closed below
+        src = _Stream(own)
+    elif source == "-":
+        from ..format.streams import stdin
+
+        src = _Stream(stdin())
+    else:
+        src = source
+    try:
+        reader = AnimationReader(src)
+        records = iter(reader._r)
+        coded: dict[int, tuple[str, int]] = {}
+        spent = [0.0]
+
+        def decode(t: int, prev, nxt):
+            t0 = time.perf_counter()
+            try:
+                tt, node, payload = next(records)
+            except StopIteration:
+                raise FormatError(f"stream ends before frame {t}") from None
+            except FormatError as e:
+                raise FormatError(f"frame {t}: {e}") from None
+            if (tt, node) != (t, 0):
+                raise FormatError(
+                    f"expected frame {t} next in the stream, found chunk ({tt}, {node})"
+                )
+            try:
+                kind, frame = decode_frame(
+                    payload,
+                    reader.shape[1:],
+                    reader.dtype,
+                    prev,
+                    nxt,
+                    reader.settings,
+                    reader.brick,
+                )
+            except FormatError as e:
+                raise FormatError(f"frame {t}: {e}") from None
+            coded[t] = (kind, len(payload))
+            spent[0] += time.perf_counter() - t0
+            return motion.Reference(frame)
+
+        steps = gop.play(reader.types, decode)
+        while True:
+            spent[0] = 0.0
+            try:
+                t, ref = next(steps)
+            except StopIteration:
+                break
+            kind, nbytes = coded.pop(t, (reader.types[t], 0))
+            yield ref.frame, FrameStats(t, kind, nbytes, 1000.0 * spent[0]), reader.header
+    finally:
+        if own is not None:
+            own.close()
+
+
+def play_rendered(
+    source: Any, render: Callable[[np.ndarray], np.ndarray]
+) -> Iterator[tuple[np.ndarray, FrameStats]]:
+    """Yield ``(image, stats)`` per displayed frame: :func:`play`, then ``render(frame)``
+    timed into ``stats.render_ms``."""
+    for frame, st, _ in play(source):
+        t0 = time.perf_counter()
+        img = render(frame)
+        st.render_ms = 1000.0 * (time.perf_counter() - t0)
+        yield img, st

@@ -1,0 +1,61 @@
+"""Compress, decompress and measure in one call (as zfp's ``-s`` and SZ3's ``-a`` do).
+
+The stream is held in memory; the voxels come back from the decoder and are compared
+with the input on every voxel: ratio (of the whole stream, as ``volpack info`` counts),
+maximum error, PSNR, RMSE, and encode and decode speed in MB/s of raw voxels.
+"""
+
+from __future__ import annotations
+
+import io
+import time
+from typing import Any
+
+import numpy as np
+
+from .volume import Volume
+
+
+def compare(vol: Volume | np.ndarray, **options: Any) -> dict[str, Any]:
+    """Code ``vol`` with ``options`` (as for :func:`volpack.api.compress` of a volume),
+    decode it and return ``ratio``, ``file_nbytes``, ``raw_nbytes``, ``max_error``,
+    ``psnr``, ``rmse``, ``lossless``, ``enc_mb_s``, ``dec_mb_s``, ``enc_seconds``,
+    ``dec_seconds`` and the encoder's own report under ``compress``."""
+    from . import api, metrics
+
+    vol = vol if isinstance(vol, Volume) else Volume(np.asarray(vol))
+    buf = io.BytesIO()
+    t0 = time.perf_counter()
+    stats = api.compress(vol, buf, kind="volume", **options)
+    enc = time.perf_counter() - t0
+    blob = buf.getvalue()
+    t0 = time.perf_counter()
+    back = api.decompress(blob, workers=options.get("workers", 1))
+    dec = time.perf_counter() - t0
+    valid = None if vol.mask is None else ~vol.mask
+    a, b = vol.data, back.data
+    if a.dtype.kind == "f":  # NaN/Inf come back exactly; the error is over finite voxels
+        finite = np.isfinite(a)
+        if not np.array_equal(finite, np.isfinite(b)) or not np.array_equal(
+            a[~finite], b[~finite], equal_nan=True
+        ):
+            raise AssertionError("the decoder did not give back the NaN/Inf voxels exactly")
+        valid = finite if valid is None else valid & finite
+    m = metrics.summary(a, b, len(blob), mask=valid)
+    return {
+        "shape": list(vol.shape),
+        "dtype": vol.dtype.name,
+        "raw_nbytes": int(vol.nbytes),
+        "file_nbytes": len(blob),
+        "ratio": m["ratio"],
+        "bpv": m["bpv"],
+        "max_error": m["max_error"],
+        "psnr": m["psnr"],
+        "rmse": m["rmse"],
+        "lossless": bool(np.array_equal(a, b, equal_nan=a.dtype.kind == "f")),
+        "enc_seconds": enc,
+        "dec_seconds": dec,
+        "enc_mb_s": metrics.throughput(vol.nbytes, enc),
+        "dec_mb_s": metrics.throughput(vol.nbytes, dec),
+        "compress": stats,
+    }

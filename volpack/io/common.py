@@ -1,0 +1,164 @@
+"""What every format module shares: options, error wrapping, the checks and conversions
+a reader applies before it hands back a :class:`~volpack.volume.Volume`."""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import re
+from collections.abc import Iterator
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from ..errors import FormatError, VolpackError
+from ..jsonsafe import jsonable
+from ..volume import Volume
+
+DEFAULT_MAX_VOXELS = 1 << 34
+
+
+class ReadOptions(NamedTuple):
+    """What a reader may be told besides the path: the HDF5 dataset, the raw layout
+    (``shape`` in ``(z, y, x)`` or ``(t, z, y, x)`` order) and the size limit."""
+
+    inner: str | None = None
+    shape: tuple[int, ...] | None = None
+    dtype: Any = None
+    byteorder: str = "<"
+    offset: int = 0
+    max_voxels: int = DEFAULT_MAX_VOXELS
+
+
+@contextlib.contextmanager
+def wrap_errors(fmt: str, path: str, writing: bool = False) -> Iterator[None]:
+    """Turn library exceptions into one-line FormatErrors (ours pass through)."""
+    try:
+        yield
+    except VolpackError:  # ours say what they expected already
+        raise
+    except FileExistsError:
+        raise
+    except MemoryError:
+        raise
+    except Exception as e:  # every library failure becomes a FormatError
+        what = "write" if writing else "read"
+        msg = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+        raise FormatError(f"could not {what} {fmt} file {path!r}: {msg}") from e
+
+
+def check_voxels(shape: tuple[int, ...], max_voxels: int, where: str) -> None:
+    n = math.prod(int(s) for s in shape)
+    if n > max_voxels:
+        raise FormatError(
+            f"expected at most {max_voxels} voxels, found shape {tuple(shape)} "
+            f"({n} voxels) in {where}; raise max_voxels to read it"
+        )
+
+
+def as_volume_array(arr: np.ndarray, meta: dict, where: str) -> np.ndarray:
+    """Make ``arr`` 3-D or 4-D, native byte order, C-contiguous and of a supported type."""
+    arr = np.asarray(arr)
+    if arr.dtype.kind == "b":
+        arr = arr.astype(np.uint8)
+        meta["converted_from"] = "bool"
+    elif arr.dtype.kind not in "iuf":
+        raise FormatError(f"expected integer or float voxels in {where}, found dtype {arr.dtype}")
+    while arr.ndim > 4 and arr.shape[-1] == 1:
+        arr = arr[..., 0]
+    if arr.ndim not in (3, 4):
+        raise FormatError(
+            f"expected a 3-D (z, y, x) or 4-D (t, z, y, x) volume in {where}, "
+            f"found shape {arr.shape}"
+        )
+    if not arr.dtype.isnative:
+        arr = arr.astype(arr.dtype.newbyteorder("="))
+    return np.ascontiguousarray(arr)
+
+
+def spacing3(values, default: float = 1.0) -> tuple[float, float, float]:
+    """Three positive finite numbers, anything else replaced by ``default``."""
+    out = []
+    for v in list(values)[:3]:
+        try:
+            f = float(v)
+        except (TypeError, ValueError):
+            f = default
+        out.append(f if math.isfinite(f) and f > 0 else default)
+    while len(out) < 3:
+        out.insert(0, default)
+    return tuple(out)  # type: ignore[return-value]
+
+
+def origin3(values) -> tuple[float, float, float]:
+    out = []
+    for v in list(values)[:3]:
+        try:
+            f = float(v)
+        except (TypeError, ValueError):
+            f = 0.0
+        out.append(f if math.isfinite(f) else 0.0)
+    while len(out) < 3:
+        out.insert(0, 0.0)
+    return tuple(out)  # type: ignore[return-value]
+
+
+def header_dict(fmt, shape, dtype, spacing, origin, meta=None) -> dict[str, Any]:
+    d: dict[str, Any] = {
+        "format": fmt,
+        "shape": [int(s) for s in shape],
+        "dtype": str(np.dtype(dtype).newbyteorder("=")),
+        "spacing": [float(s) for s in spacing],
+        "origin": [float(o) for o in origin],
+    }
+    if meta:
+        d["meta"] = jsonable(meta)
+    return d
+
+
+def native(dtype: Any) -> np.dtype:
+    dt = np.dtype(dtype)
+    if dt.kind == "b":
+        return np.dtype(np.uint8)
+    return dt.newbyteorder("=")
+
+
+def prepare_for_write(vol: Volume) -> Volume:
+    if vol.mask is not None and vol.dtype.kind == "f" and "special" in vol.meta:
+        from ..prep import unmask_special
+
+        vol = unmask_special(vol)
+    if vol.dtype.kind == "b":
+        vol = vol.replace(data=vol.data.astype(np.uint8))
+    if not vol.data.dtype.isnative or not vol.data.flags.c_contiguous:
+        vol = vol.replace(data=np.ascontiguousarray(vol.data, dtype=native(vol.dtype)))
+    return vol
+
+
+def refuse_float16(vol: Volume, fmt: str) -> None:
+    if vol.dtype == np.float16:
+        raise FormatError(
+            f"expected a dtype {fmt} stores (8-64 bit integers, float32, float64), found "
+            f"float16; convert it first (e.g. volpack convert --astype float32)"
+        )
+
+
+def meta_json(vol: Volume) -> str | None:
+    if not vol.meta:
+        return None
+    return json.dumps(jsonable(vol.meta), sort_keys=True)
+
+
+def meta_from_json(text: Any) -> dict:
+    if isinstance(text, bytes):
+        text = text.decode("utf-8", "replace")
+    try:
+        m = json.loads(text)
+    except (TypeError, ValueError):
+        return {}
+    return m if isinstance(m, dict) else {}
+
+
+def natural_key(name: str) -> list:
+    return [int(p) if p.isdigit() else p.lower() for p in re.split(r"(\d+)", name)]

@@ -1,0 +1,131 @@
+"""HDF5 datasets through h5py: ``file.h5:/group/dataset``."""
+
+from __future__ import annotations
+
+import os
+import shutil
+from typing import Any
+
+import numpy as np
+
+from ..errors import FormatError
+from ..volume import Volume
+from .common import (
+    ReadOptions,
+    as_volume_array,
+    check_voxels,
+    header_dict,
+    meta_from_json,
+    meta_json,
+    native,
+    origin3,
+    spacing3,
+    wrap_errors,
+)
+
+DEFAULT_DATASET = "/data"
+
+
+def pick_dataset(f, inner: str | None, path: str):
+    import h5py
+
+    if inner is not None:
+        if inner not in f:
+            raise FormatError(f"expected a dataset {inner!r} in {path!r}, found none there")
+        ds = f[inner]
+        if not isinstance(ds, h5py.Dataset):
+            raise FormatError(f"expected {inner!r} in {path!r} to be a dataset, found a group")
+        return ds
+    found: list[str] = []
+    f.visititems(
+        lambda name, obj: found.append("/" + name) if isinstance(obj, h5py.Dataset) else None
+    )
+    if DEFAULT_DATASET in found:
+        return f[DEFAULT_DATASET]
+    if len(found) == 1:
+        return f[found[0]]
+    listed = ", ".join(found[:10]) or "none"
+    raise FormatError(
+        f"expected one dataset or {DEFAULT_DATASET!r} in {path!r} (name it as "
+        f"{path}:/path), found {listed}"
+    )
+
+
+def geometry(ds) -> tuple[tuple, tuple, dict]:
+    attrs = ds.attrs
+    meta: dict[str, Any] = {}
+    if "volpack_meta" in attrs:
+        meta.update(meta_from_json(attrs["volpack_meta"]))
+    meta["source_format"] = "hdf5"
+    meta["hdf5_dataset"] = ds.name
+    spacing: tuple = (1.0, 1.0, 1.0)
+    for key in ("spacing", "element_size_um"):
+        if key in attrs:
+            spacing = spacing3(np.atleast_1d(attrs[key])[-3:])
+            if key == "element_size_um":
+                meta["spacing_unit"] = "um"
+            break
+    origin = origin3(np.atleast_1d(attrs["origin"])[-3:]) if "origin" in attrs else (0.0,) * 3
+    return spacing, origin, meta
+
+
+def _h5_shape(ds, path: str) -> tuple[int, ...]:
+    shape = tuple(int(s) for s in ds.shape)
+    if len(shape) == 2:
+        shape = (1, *shape)
+    if len(shape) not in (3, 4):
+        raise FormatError(
+            f"expected a 3-D (z, y, x) or 4-D (t, z, y, x) dataset {ds.name!r} in {path!r}, "
+            f"found shape {tuple(ds.shape)}"
+        )
+    return shape
+
+
+def read(path: str, opts: ReadOptions) -> Volume:
+    inner = opts.inner
+    import h5py
+
+    with h5py.File(path, "r") as f:
+        ds = pick_dataset(f, inner, path)
+        shape = _h5_shape(ds, path)
+        check_voxels(shape, opts.max_voxels, path)
+        spacing, origin, meta = geometry(ds)
+        arr = ds[()]
+    arr = np.asarray(arr).reshape(shape)
+    return Volume(as_volume_array(arr, meta, path), spacing=spacing, origin=origin, meta=meta)
+
+
+def header(path: str, opts: ReadOptions) -> dict[str, Any]:
+    inner = opts.inner
+    import h5py
+
+    with wrap_errors("hdf5", path), h5py.File(path, "r") as f:
+        ds = pick_dataset(f, inner, path)
+        spacing, origin, meta = geometry(ds)
+        if ds.dtype.kind not in "biuf":
+            raise FormatError(f"expected integer or float voxels in {path!r}, found {ds.dtype}")
+        return header_dict("hdf5", _h5_shape(ds, path), native(ds.dtype), spacing, origin, meta)
+
+
+def write(vol: Volume, path: str, force: bool, inner: str | None = None) -> None:
+    inner = inner or DEFAULT_DATASET
+    import h5py
+
+    from ..format.atomic import atomic_path
+
+    with (
+        wrap_errors("hdf5", path, writing=True),
+        atomic_path(path, force=force, suffix=".h5") as tmp,
+    ):
+        keep = os.path.exists(path) and h5py.is_hdf5(path)
+        if keep:  # replace one dataset, keep the rest of the file
+            shutil.copyfile(path, tmp)
+        with h5py.File(tmp, "a" if keep else "w") as f:
+            if inner in f:
+                del f[inner]
+            ds = f.create_dataset(inner, data=vol.data)
+            ds.attrs["spacing"] = np.asarray(vol.spacing, dtype=np.float64)
+            ds.attrs["origin"] = np.asarray(vol.origin, dtype=np.float64)
+            text = meta_json(vol)
+            if text is not None:
+                ds.attrs["volpack_meta"] = text

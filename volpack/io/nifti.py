@@ -1,0 +1,137 @@
+"""NIfTI-1/2 and Analyze 7.5 through nibabel; stored values, never scaled."""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+import numpy as np
+
+from ..errors import FormatError
+from ..jsonsafe import jsonable
+from ..volume import Volume
+from .common import (
+    ReadOptions,
+    as_volume_array,
+    check_voxels,
+    header_dict,
+    meta_from_json,
+    native,
+    origin3,
+    refuse_float16,
+    spacing3,
+)
+
+_NIFTI_COMMENT = 6  # NIFTI_ECODE_COMMENT: carries volpack's meta as JSON
+
+
+def _xyz_to_zyx(arr: np.ndarray) -> np.ndarray:
+    """nibabel (x, y, z[, t]) -> (z, y, x) / (t, z, y, x)."""
+    if arr.ndim <= 4:
+        return arr.transpose(tuple(range(arr.ndim - 1, -1, -1)))
+    return arr
+
+
+def _nifti_load(path: str):
+    import nibabel as nib
+
+    return nib.load(path)
+
+
+def _nifti_shape(img) -> tuple[int, ...]:
+    shape = tuple(int(s) for s in img.shape)
+    while len(shape) > 3 and shape[-1] == 1:
+        shape = shape[:-1]
+    if len(shape) > 4:
+        raise FormatError(
+            f"expected a 3-D or 4-D NIfTI image, found shape {shape} (x, y, z, t, ...)"
+        )
+    if len(shape) < 3:
+        shape = shape + (1,) * (3 - len(shape))
+    return shape[:3][::-1] if len(shape) == 3 else (shape[3], *shape[:3][::-1])
+
+
+def _nifti_geometry(img) -> tuple[tuple, tuple, dict]:
+    hdr = img.header
+    zooms = list(hdr.get_zooms())
+    spacing = spacing3((zooms + [1.0, 1.0, 1.0])[:3][::-1])
+    affine = np.asarray(img.affine, dtype=float)
+    origin = origin3(affine[:3, 3][::-1])
+    meta: dict[str, Any] = {}
+    for ext in getattr(hdr, "extensions", ()):
+        if ext.get_code() == _NIFTI_COMMENT:
+            found = meta_from_json(ext.get_content()).get("volpack_meta")
+            if isinstance(found, dict):
+                meta.update(found)
+    meta.update(source_format="nifti", nifti_affine=jsonable(affine))
+    meta.pop("nifti_scl", None)
+    meta.pop("nifti_tr", None)
+    if len(img.shape) >= 4 and len(zooms) >= 4 and img.shape[3] > 1:
+        meta["nifti_tr"] = float(zooms[3])
+    slope = getattr(img.dataobj, "slope", 1.0)
+    inter = getattr(img.dataobj, "inter", 0.0)
+    if slope is not None and inter is not None and (float(slope), float(inter)) != (1.0, 0.0):
+        meta["nifti_scl"] = [float(slope), float(inter)]
+    return spacing, origin, meta
+
+
+def read(path: str, opts: ReadOptions) -> Volume:
+    """Stored values, never scaled: ``meta['nifti_scl'] = [slope, inter]`` says how to get
+    the physical value (``stored * slope + inter``) and is written back on output."""
+    img = _nifti_load(path)
+    shape = _nifti_shape(img)
+    check_voxels(shape, opts.max_voxels, path)
+    spacing, origin, meta = _nifti_geometry(img)
+    obj = img.dataobj
+    arr = np.asanyarray(obj.get_unscaled() if hasattr(obj, "get_unscaled") else obj)
+    arr = arr.reshape(shape[::-1] if len(shape) == 3 else (*shape[1:][::-1], shape[0]))
+    arr = _xyz_to_zyx(arr)
+    return Volume(as_volume_array(arr, meta, path), spacing=spacing, origin=origin, meta=meta)
+
+
+def header(path: str, opts: ReadOptions) -> dict[str, Any]:
+    img = _nifti_load(path)
+    spacing, origin, meta = _nifti_geometry(img)
+    return header_dict(
+        "nifti", _nifti_shape(img), native(img.header.get_data_dtype()), spacing, origin, meta
+    )
+
+
+def write(vol: Volume, path: str, force: bool, inner: str | None = None) -> None:
+    import nibabel as nib
+
+    from ..format.atomic import atomic_path
+
+    sz, sy, sx = vol.spacing
+    oz, oy, ox = vol.origin
+    affine = np.diag([sx, sy, sz, 1.0])
+    affine[:3, 3] = (ox, oy, oz)
+    old = vol.meta.get("nifti_affine")
+    if old is not None:  # keep the orientation when geometry is unchanged
+        try:
+            a = np.asarray(old, dtype=float)
+            zooms = np.sqrt((a[:3, :3] ** 2).sum(axis=0))
+            if (
+                a.shape == (4, 4)
+                and np.allclose(zooms, (sx, sy, sz))
+                and np.allclose(a[:3, 3], (ox, oy, oz))
+            ):
+                affine = a
+        except (TypeError, ValueError):
+            pass
+    data = vol.data.transpose(tuple(range(vol.data.ndim - 1, -1, -1)))
+    refuse_float16(vol, "NIfTI")
+    img = nib.Nifti1Image(data, affine, dtype=vol.dtype)
+    img.header.set_data_dtype(vol.dtype)
+    if vol.data.ndim == 4:
+        img.header.set_zooms((sx, sy, sz, float(vol.meta.get("nifti_tr", 1.0))))
+    scl = vol.meta.get("nifti_scl")
+    if scl is not None and vol.dtype.kind in "iu":
+        img.header.set_slope_inter(float(scl[0]), float(scl[1]))
+    keep = {k: v for k, v in vol.meta.items() if k not in ("nifti_affine", "nifti_scl", "nifti_tr")}
+    if keep:
+        text = json.dumps({"volpack_meta": jsonable(keep)}, sort_keys=True)
+        img.header.extensions.append(nib.nifti1.Nifti1Extension(_NIFTI_COMMENT, text.encode()))
+    suffix = ".nii.gz" if path.lower().endswith(".gz") else ".nii"
+    with atomic_path(path, force=force, suffix=suffix) as tmp:
+        img.to_filename(tmp)

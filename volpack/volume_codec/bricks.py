@@ -1,0 +1,82 @@
+"""The brick grid: how a volume is cut into independent bricks, and back.
+
+Bricks are numbered in raster order over the brick grid (z slowest, x fastest). That
+number is the ``node`` of the brick's ``.vpk`` chunk; ``t`` is the time step.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Iterator
+
+import numpy as np
+
+from ..errors import FormatError
+
+DEFAULT_BRICK = 64
+# Scan tables index a brick's coefficients with 32-bit integers.
+MAX_BRICK_VOXELS = 1 << 30
+
+
+def parse_brick(value: int | tuple[int, ...] | list[int]) -> tuple[int, int, int]:
+    """Return a brick size ``(bz, by, bx)`` from an int or three ints, each >= 1."""
+    if isinstance(value, (int, np.integer)):
+        t = (int(value),) * 3
+    else:
+        t = tuple(int(v) for v in value)
+    if len(t) != 3 or min(t) < 1 or max(t) > 4096:
+        raise ValueError(
+            f"expected a brick size of 1..4096 per axis (one number or z,y,x), found {value!r}"
+        )
+    if math.prod(t) > MAX_BRICK_VOXELS:
+        raise ValueError(
+            f"expected a brick of at most {MAX_BRICK_VOXELS} voxels (1024^3), found {t}"
+        )
+    return t  # type: ignore[return-value]
+
+
+def grid_shape(shape: tuple[int, ...], brick: tuple[int, int, int]) -> tuple[int, int, int]:
+    """Number of bricks along each spatial axis."""
+    return tuple(max(1, math.ceil(n / b)) for n, b in zip(shape[-3:], brick))  # type: ignore[return-value]
+
+
+def brick_slices(
+    shape: tuple[int, ...], brick: tuple[int, int, int], node: int
+) -> tuple[slice, slice, slice]:
+    """The region of brick number ``node`` (edge bricks are smaller, never padded)."""
+    g = grid_shape(shape, brick)
+    if not 0 <= node < math.prod(g):
+        raise FormatError(f"expected a brick number in 0..{math.prod(g) - 1}, found {node}")
+    idx = np.unravel_index(node, g)
+    return tuple(
+        slice(int(i) * b, min((int(i) + 1) * b, n)) for i, b, n in zip(idx, brick, shape[-3:])
+    )  # type: ignore[return-value]
+
+
+def iter_bricks(
+    shape: tuple[int, ...], brick: tuple[int, int, int]
+) -> Iterator[tuple[int, tuple[slice, slice, slice]]]:
+    """Yield ``(node, slices)`` for every brick in node order."""
+    g = grid_shape(shape, brick)
+    for node, idx in enumerate(itertools.product(*(range(n) for n in g))):
+        yield (
+            node,
+            tuple(slice(i * b, min((i + 1) * b, n)) for i, b, n in zip(idx, brick, shape[-3:])),
+        )
+
+
+def bricks_in_roi(
+    shape: tuple[int, ...], brick: tuple[int, int, int], roi: tuple[slice, slice, slice]
+) -> list[int]:
+    """Numbers of the bricks that intersect the region ``roi`` (slices with step 1)."""
+    g = grid_shape(shape, brick)
+    ranges = []
+    for s, b, n, gn in zip(roi, brick, shape[-3:], g):
+        start, stop, step = s.indices(n)
+        if step != 1:
+            raise ValueError(f"expected a region with step 1, found {s}")
+        if stop <= start:
+            return []
+        ranges.append(range(start // b, min(gn, (stop - 1) // b + 1)))
+    return [int(np.ravel_multi_index(idx, g)) for idx in itertools.product(*ranges)]

@@ -1,0 +1,541 @@
+"""Lossy brick codecs: an error bound kept on every voxel, and the thesis's knobs.
+
+``BoundedCodec`` (``--max-error``, ``--rel-error``, ``--psnr``, ``--ratio``)
+    The voxels are quantised before the transform: ``q = round((x - lo) / step)`` with
+    ``step = 2E`` (floats) or integer bins of ``2e + 1`` values (integers, ``e =
+    floor(E)``), so the reconstruction ``lo + q * step`` is within ``E`` of every voxel.
+    The integer field ``q`` is then coded by the lossless wavelet codec. The encoder
+    rebuilds the brick exactly as the decoder will and checks every voxel; any voxel
+    that rounding to the output dtype pushed past ``E`` is stored exactly in a correction
+    list, so the bound holds always. NaN, +-Inf and a declared fill value are taken out
+    into a mask (their exact bytes stored), and their places are filled with the
+    neighbouring quantised value so they do not disturb the transform.
+``CoefCodec`` (``--quality``, ``--threshold``)
+    The method's own lossy modes on integer voxels: the lifting coefficients are
+    thresholded or dead-zone quantised in the units of an orthonormal transform (the
+    integer lifting is not orthonormal, so each subband gets its own step). The error is
+    measured and recorded, not bounded.
+
+Both report, per brick, the largest error and the squared error sum; the container keeps
+the first in its index. Payloads are specified in ``formats/lossy-1.md``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+from typing import Any, ClassVar
+
+import numpy as np
+
+from ..errors import FormatError
+from ..format.deflate import deflate, inflate
+from ..format.sections import put_section, take_section
+from .codec import (
+    CODER_NAMES,
+    MODE_CODED,
+    MODE_CONSTANT,
+    MODE_RAW,
+    ORDER_NAMES,
+    WAVELET_NAMES,
+    WaveletCodec,
+)
+from .protocol import (
+    BrickCodec,
+    Measured,
+    as_stored,
+    check_choice,
+    constant_value,
+    from_stored,
+    storage_dtype,
+)
+
+# The bounded payload's flag byte (formats/lossy-1.md, `bounded`).
+FLAG_MASK, FLAG_CORRECTIONS, FLAG_COEF, FLAG_RESIDUALS = 1, 2, 4, 8
+# Orthonormal coefficient step of the bounded codec's coefficient path, in units of the
+# error allowed on its grid (measured best on the head CT and the z-map).
+COEF_STEP = 2.0
+QUALITIES = (255, 127, 63, 31, 15)
+
+
+# -- error-bounded quantisation ---------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True, eq=False, repr=False)
+class BoundedCodec(BrickCodec):
+    """Every valid voxel decodes to within ``max_error`` of its input.
+
+    Build it with :meth:`plan` from the volume's valid value range; ``step`` and ``lo``
+    are shared by all bricks and stored in the header.
+    """
+
+    codec_id: ClassVar[str] = "bounded"
+    max_error: float
+    lo: float
+    step: float
+    integer: bool
+    qdtype: str
+    value_range: float = 0.0  # of the valid voxels: the PSNR peak
+    fill: float | None = None
+    wavelet: str = "53"
+    coder: str = "arith"
+    order: str = "dfs"
+    max_levels: int | None = None
+
+    @classmethod
+    def plan(cls, dtype: Any, lo: float, hi: float, max_error: float, **inner: Any) -> BoundedCodec:
+        dtype = np.dtype(dtype)
+        if not (max_error > 0 and math.isfinite(max_error)):
+            raise ValueError(f"expected a positive finite error bound, found {max_error!r}")
+        integer = dtype.kind in "iu"
+        if integer and dtype.itemsize > 4:
+            raise ValueError(
+                f"error-bounded coding takes 8 to 32-bit integers or floats, found {dtype}; "
+                "64-bit integers are stored exactly by the lossless path"
+            )
+        if integer:
+            e = math.floor(max_error)
+            step = 2 * e + 1
+            qmax = (hi - lo + e) // step
+        else:
+            step = 2.0 * max_error
+            levels = (hi - lo) / step  # may overflow to inf: then it is refused below
+            qmax = math.floor(levels + 0.5) + 1 if levels < 2**40 else math.inf
+        for qd in ("uint8", "uint16", "int32"):
+            if qmax <= np.iinfo(qd).max:
+                break
+        else:
+            raise ValueError(
+                f"the bound {max_error:g} is too small for the value range {lo:g}..{hi:g}: "
+                "it needs more than 2^31 quantisation levels; raise the bound or store the "
+                "volume losslessly"
+            )
+        return cls(
+            max_error=float(max_error),
+            lo=float(lo),
+            step=float(step),
+            integer=integer,
+            qdtype=qd,
+            value_range=float(hi - lo),
+            **{k: v for k, v in inner.items() if v is not None},
+        )
+
+    def __post_init__(self) -> None:
+        _check_inner(self)
+
+    def _inner(self) -> WaveletCodec:
+        return WaveletCodec(self.wavelet, self.coder, self.order, self.max_levels)
+
+    # The quantiser and its inverse: the encoder checks the bound with the same code
+    # the decoder runs.
+    def _quantize(self, x: np.ndarray) -> np.ndarray:
+        if self.integer:
+            e = (int(self.step) - 1) // 2
+            q = (x.astype(np.int64) - int(self.lo) + e) // int(self.step)
+        else:
+            q = np.rint((x.astype(np.float64) - self.lo) / self.step)
+        qd = np.dtype(self.qdtype)
+        return np.clip(q, 0, np.iinfo(qd).max).astype(qd)
+
+    def _reconstruct(self, q: np.ndarray, dtype: np.dtype) -> np.ndarray:
+        if self.integer:
+            v = q.astype(np.int64) * int(self.step) + int(self.lo)
+            return _clip_to(v, dtype)
+        v = q.astype(np.float64) * self.step + self.lo
+        if dtype != np.float64:
+            big = float(np.finfo(dtype).max)
+            v = np.clip(v, -big, big)
+        return v.astype(dtype)
+
+    def _special(self, x: np.ndarray) -> np.ndarray | None:
+        if x.dtype.kind != "f" and self.fill is None:
+            return None
+        m = ~np.isfinite(x) if x.dtype.kind == "f" else np.zeros(x.shape, bool)
+        if self.fill is not None:
+            m |= x == self.fill
+        return m if m.any() else None
+
+    def encode_measured(self, brick: np.ndarray) -> Measured:
+        """Return ``(payload, max error, squared error sum, valid voxels)``.
+
+        Two codings are made and the shorter kept: the quantised voxels coded losslessly
+        (best for tight bounds), and quantised wavelet coefficients plus the voxels that
+        strayed past the bound (best for loose ones, where wide bins in the voxel domain
+        waste the transform's energy compaction).
+        """
+        x = np.ascontiguousarray(brick)
+        mask = self._special(x)
+        clean = x if mask is None else _fill_masked(x, mask)
+        q = self._quantize(clean)
+        if mask is not None:
+            q = _fill_masked(q, mask)  # masked voxels take their neighbour's value
+        best = self._finish(x, mask, self._reconstruct(q, x.dtype), 0, [self._inner().encode(q)])
+        if x.size >= 64:
+            coef = self._coef_candidate(x, clean, mask)
+            if len(coef[0]) < len(best[0]):
+                best = coef
+        return best
+
+    # The coefficient path works on a fine integer grid: the voxels themselves for
+    # integers, steps of E/16 for floats, leaving 15 of those steps (31E/32 with the
+    # grid's rounding) for the coefficient quantisation.
+    def _fine(self) -> tuple[float, int]:
+        """(grid step, largest error allowed on the grid, in grid steps)."""
+        if self.integer:
+            return 1.0, (int(self.step) - 1) // 2
+        return self.step / 32, 15
+
+    def _coef_candidate(self, x, clean, mask):
+        from ..entropy import CODERS
+        from ..wavelet import sigmap
+
+        fine, slack = self._fine()
+        if self.integer:
+            g = clean.astype(np.int64) - int(self.lo)
+        else:
+            g = np.rint((clean.astype(np.float64) - self.lo) / fine).astype(np.int64)
+        if mask is not None:
+            g = _fill_masked(g, mask)
+        body, rec = _code_coefficients(g.copy(), self, self._coef_steps, dead_zone=True)
+        off = g - rec
+        if mask is not None:
+            off[mask] = 0
+        # Voxels past the allowed grid error get a residual in units of 2s+1 grid steps,
+        # which brings them back within s: mostly zeros and +-1, coded as a sparse field.
+        width = 2 * slack + 1
+        res = np.where(np.abs(off) > slack, np.floor(off / width + 0.5), 0).astype(np.int64)
+        extra = []
+        if res.any():
+            rec += res * width
+            extra.append(
+                CODERS[self._residual_coder].encode(res, sigmap.scan(x.shape, (0, 0, 0), "line"))
+            )
+        return self._finish(x, mask, self._from_grid(rec, x.dtype), FLAG_COEF, [body], extra)
+
+    @property
+    def _residual_coder(self) -> str:
+        return "arith" if self.coder == "arith" else "rle"
+
+    def _coef_steps(self, shape, levels) -> np.ndarray:
+        """Per-coefficient steps of the coefficient path, on the fine grid."""
+        fine, _ = self._fine()
+        base = COEF_STEP * max(self.max_error, 0.5) / fine
+        return (base / band_scale(tuple(shape), tuple(levels))).reshape(shape)
+
+    def _from_grid(self, g: np.ndarray, dtype: np.dtype) -> np.ndarray:
+        fine, _ = self._fine()
+        if self.integer:
+            return _clip_to(g + int(self.lo), dtype)
+        v = g.astype(np.float64) * fine + self.lo
+        if dtype != np.float64:
+            big = float(np.finfo(dtype).max)
+            v = np.clip(v, -big, big)
+        return v.astype(dtype)
+
+    def _finish(self, x, mask, rec, flags, inner, residuals=()):
+        """Check every voxel of ``rec``, add the exact corrections and the mask, and
+        assemble the payload; returns what :meth:`encode_measured` returns."""
+        err = np.abs(rec.astype(np.float64) - x.astype(np.float64))
+        if mask is not None:
+            err[mask] = 0.0
+        bad = np.flatnonzero(err > self.max_error)
+        parts = [b""] + [put_section(b) for b in inner]
+        for body in residuals:
+            flags |= FLAG_RESIDUALS
+            parts.append(put_section(body))
+        if mask is not None:
+            flags |= FLAG_MASK
+            body = np.packbits(mask.reshape(-1)).tobytes() + as_stored(x[mask])
+            parts.append(_section(body))
+        if bad.size:
+            flags |= FLAG_CORRECTIONS
+            err.reshape(-1)[bad] = 0.0
+            parts.append(put_section(pack_corrections(x, bad)))
+        parts[0] = bytes([flags])
+        valid = x.size - (int(mask.sum()) if mask is not None else 0)
+        with np.errstate(over="ignore"):  # errors near 1e300 square to inf: PSNR unknown
+            sse = float(np.sum(err * err))
+        return Measured(b"".join(parts), float(err.max(initial=0.0)), sse, valid)
+
+    def encode(self, brick: np.ndarray) -> bytes:
+        return self.encode_measured(brick)[0]
+
+    def decode(self, data: bytes | memoryview, shape: tuple[int, ...], dtype: Any) -> np.ndarray:
+        dtype = np.dtype(dtype)
+        data = memoryview(data)
+        n = math.prod(shape)
+        if len(data) < 5:
+            raise FormatError(
+                f"bounded brick payload: expected at least 5 bytes, found {len(data)}"
+            )
+        flags = data[0]
+        if flags & ~(FLAG_MASK | FLAG_CORRECTIONS | FLAG_COEF | FLAG_RESIDUALS):
+            raise FormatError(f"bounded brick payload: unknown flags {flags:#x}")
+        pos = 1
+        inner, pos = _take(data, pos, len(data))
+        if flags & FLAG_COEF:
+            g = _decode_coefficients(inner, tuple(shape), self, self._coef_steps, dead_zone=True)
+            if flags & FLAG_RESIDUALS:
+                from ..entropy import CODERS
+                from ..wavelet import sigmap
+
+                body, pos = _take(data, pos, len(data))
+                res = np.empty(tuple(shape), np.int64)
+                CODERS[self._residual_coder].decode(
+                    body, sigmap.scan(tuple(shape), (0, 0, 0), "line"), res
+                )
+                g += res * (2 * self._fine()[1] + 1)
+            out = self._from_grid(g, dtype)
+        else:
+            if flags & FLAG_RESIDUALS:
+                raise FormatError("bounded brick payload: residuals without coefficients")
+            q = self._inner().decode(inner, shape, np.dtype(self.qdtype))
+            out = self._reconstruct(q, dtype)
+        flat = out.reshape(-1)
+        sd = storage_dtype(dtype)
+        if flags & FLAG_MASK:
+            body, pos = _take(data, pos, n // 8 + 1 + n * sd.itemsize, zstd=True)
+            nb = (n + 7) // 8
+            if len(body) < nb:
+                raise FormatError("bounded brick payload: mask section too short")
+            mask = np.unpackbits(np.frombuffer(body[:nb], np.uint8), count=n).astype(bool)
+            k = int(mask.sum())
+            flat[mask] = from_stored(body[nb:], (k,), dtype)
+        if flags & FLAG_CORRECTIONS:
+            body, pos = _take(data, pos, len(data))
+            apply_corrections(body, out, "bounded brick payload")
+        if pos != len(data):
+            raise FormatError(f"bounded brick payload: {len(data) - pos} stray bytes at the end")
+        return out
+
+
+def _code_coefficients(g, codec, steps_of, *, dead_zone: bool):
+    """Transform ``g`` (int64, overwritten), quantise its coefficients with
+    ``steps_of(shape, levels)`` and code them with ``codec``'s wavelet, scan and coder.
+
+    Returns the coded bytes and the integers the decoder will rebuild from them.
+    """
+    from ..entropy import CODERS
+    from ..wavelet import dwt3, sigmap
+
+    levels = dwt3.levels_for_shape(g.shape, codec.max_levels)
+    steps = steps_of(g.shape, levels)
+    c = dwt3.forward(g, levels, codec.wavelet, overwrite=True)
+    q = _quantize_coefs(c, steps, dead_zone)
+    body = CODERS[codec.coder].encode(q, sigmap.scan(g.shape, levels, codec.order))
+    return body, _rebuild_coefficients(q, steps, levels, codec.wavelet, dead_zone)
+
+
+def _decode_coefficients(body, shape, codec, steps_of, *, dead_zone: bool) -> np.ndarray:
+    """The decoding side of :func:`_code_coefficients`."""
+    from ..entropy import CODERS
+    from ..wavelet import dwt3, sigmap
+
+    levels = dwt3.levels_for_shape(shape, codec.max_levels)
+    q = np.empty(shape, np.int64)
+    CODERS[codec.coder].decode(bytes(body), sigmap.scan(shape, levels, codec.order), q)
+    return _rebuild_coefficients(q, steps_of(shape, levels), levels, codec.wavelet, dead_zone)
+
+
+def _rebuild_coefficients(q, steps, levels, wavelet: str, dead_zone: bool) -> np.ndarray:
+    from ..wavelet import dwt3
+
+    c = _dequantize_coefs(q, steps, dead_zone)
+    return dwt3.inverse(c, levels, wavelet, overwrite=True)
+
+
+def _fill_masked(a: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """Copy of ``a`` whose masked voxels take the last valid value before them (C order)."""
+    flat = a.reshape(-1)
+    m = mask.reshape(-1)
+    out = flat.copy()
+    if m.all():
+        out[:] = 0
+        return out.reshape(a.shape)
+    idx = np.where(~m, np.arange(flat.size), 0)
+    np.maximum.accumulate(idx, out=idx)
+    first = int(np.argmax(~m))
+    idx[:first] = first
+    out = flat[idx]
+    return out.reshape(a.shape)
+
+
+def _section(body: bytes) -> bytes:
+    return put_section(deflate(body))
+
+
+def _take(data: memoryview, pos: int, limit: int, zstd: bool = False) -> tuple[bytes, int]:
+    """One length-prefixed section from ``pos``; zstd sections are inflated to at most
+    ``limit`` bytes."""
+    body, end = take_section(data, pos, "lossy brick payload")
+    if zstd:
+        body = inflate(body, limit, "lossy brick payload section")
+    return body, end
+
+
+def pack_corrections(x: np.ndarray, idx: np.ndarray) -> bytes:
+    """The voxels ``x.flat[idx]`` stored exactly (uint32 indices, then the values as
+    stored), zstd'd: what a bounded coder keeps where rounding to the output dtype
+    pushed a voxel past its bound (the lossy bricks, the animation frames and the
+    octree nodes share this layout)."""
+    return deflate(idx.astype("<u4").tobytes() + as_stored(x.reshape(-1)[idx]))
+
+
+def apply_corrections(data, out: np.ndarray, what: str) -> None:
+    """Put the voxels of :func:`pack_corrections` back into ``out`` (C-contiguous);
+    a corrupt section raises FormatError naming ``what``."""
+    n = out.size
+    item = 4 + storage_dtype(out.dtype).itemsize
+    body = inflate(data, n * item, f"{what} corrections")
+    k = len(body) // item
+    if k * item != len(body):
+        raise FormatError(f"{what}: the corrections have a ragged length")
+    idx = np.frombuffer(body[: 4 * k], "<u4").astype(np.int64)
+    if k and idx.max() >= n:
+        raise FormatError(f"{what}: a correction points outside the data")
+    out.reshape(-1)[idx] = from_stored(body[4 * k :], (k,), out.dtype)
+
+
+# -- the thesis's coefficient modes -----------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True, eq=False, repr=False)
+class CoefCodec(BrickCodec):
+    """Thresholding (``threshold``) or dead-zone quantisation (``quality``) of the
+    integer lifting coefficients, in orthonormal units (see ``formats/lossy-1.md``).
+
+    ``value_range`` is the volume's range; ``quality`` Q sets the orthonormal step to
+    ``value_range / (Q + 1)``. ``threshold`` T zeroes coefficients whose orthonormal
+    magnitude is below T and keeps the others exactly.
+    """
+
+    codec_id: ClassVar[str] = "coef"
+    value_range: float
+    quality: int | None = None
+    threshold: float | None = None
+    step: float | None = None  # the orthonormal step itself (what --psnr/--ratio search)
+    wavelet: str = "53"
+    coder: str = "arith"
+    order: str = "dfs"
+    max_levels: int | None = None
+
+    def __post_init__(self) -> None:
+        _check_inner(self)
+        if sum(v is not None for v in (self.quality, self.threshold, self.step)) != 1:
+            raise ValueError("expected exactly one of quality, threshold and step")
+        if self.step is not None and not (self.step > 0 and math.isfinite(self.step)):
+            raise ValueError(f"expected a positive step, found {self.step!r}")
+        if self.quality is not None and not 1 <= int(self.quality) <= 65535:
+            raise ValueError(f"expected a quality in 1..65535, found {self.quality!r}")
+        if self.threshold is not None and not (self.threshold >= 0):
+            raise ValueError(f"expected a threshold >= 0, found {self.threshold!r}")
+
+    def _steps(self, shape, levels) -> np.ndarray:
+        scale = band_scale(tuple(shape), tuple(levels)).reshape(shape)
+        if self.quality is not None:
+            return (self.value_range / (int(self.quality) + 1)) / scale
+        if self.step is not None:
+            return float(self.step) / scale
+        return float(self.threshold) / scale
+
+    @property
+    def _dead_zone(self) -> bool:
+        return self.threshold is None
+
+    def encode_measured(self, brick: np.ndarray) -> Measured:
+        from .codec import check_wavelet_dtype
+
+        x = np.ascontiguousarray(brick)
+        check_wavelet_dtype(x.dtype)
+        value = constant_value(x)
+        if value is not None:
+            return Measured(bytes([MODE_CONSTANT]) + value, 0.0, 0.0, x.size)
+        body, rec = _code_coefficients(
+            x.astype(np.int64), self, self._steps, dead_zone=self._dead_zone
+        )
+        payload = bytes([MODE_CODED]) + body
+        if len(payload) > x.nbytes + 1:  # quantisation did not pay: store it exactly
+            return Measured(bytes([MODE_RAW]) + as_stored(x), 0.0, 0.0, x.size)
+        err = np.abs(_clip_to(rec, x.dtype).astype(np.float64) - x)
+        return Measured(payload, float(err.max(initial=0.0)), float(np.sum(err * err)), x.size)
+
+    def encode(self, brick: np.ndarray) -> bytes:
+        return self.encode_measured(brick)[0]
+
+    def decode(self, data: bytes | memoryview, shape: tuple[int, ...], dtype: Any) -> np.ndarray:
+        dtype = np.dtype(dtype)
+        data = memoryview(data)
+        if len(data) < 1:
+            raise FormatError("empty coef brick payload: expected at least a mode byte")
+        mode, body = data[0], data[1:]
+        if mode == MODE_RAW:
+            return from_stored(body, shape, dtype)
+        if mode == MODE_CONSTANT:
+            return np.full(shape, from_stored(body, (1,), dtype)[0], dtype=dtype)
+        if mode != MODE_CODED:
+            raise FormatError(f"coef brick payload: expected mode 0, 1 or 2, found {mode}")
+        rec = _decode_coefficients(body, tuple(shape), self, self._steps, dead_zone=self._dead_zone)
+        return _clip_to(rec, dtype)
+
+
+def _clip_to(v: np.ndarray, dtype: np.dtype) -> np.ndarray:
+    info = np.iinfo(dtype)
+    return np.clip(v, info.min, info.max).astype(dtype)
+
+
+# The dead-zone quantiser: bins of width ``step`` whose zero bin reaches 0.75 step on each
+# side (a plain rounder's reaches 0.5), values rebuilt 1/8 step above the bin's start.
+# At ``step`` = 1 it gives back every integer exactly, so rate and error change smoothly
+# as the step crosses 1 (steps at or below 1 keep the coefficient).
+# The coefficient quantiser (formats/lossy-1.md, `coef`).
+DEAD_ZONE_OFFSET = 0.25
+REBUILD_OFFSET = 0.125
+
+
+def _quantize_coefs(c: np.ndarray, steps: np.ndarray, dead_zone: bool) -> np.ndarray:
+    if not dead_zone:  # threshold: small coefficients dropped, the rest kept
+        return np.where(np.abs(c) < steps, 0, c).astype(np.int64)
+    exact = steps <= 1.0
+    q = np.sign(c) * np.floor(np.abs(c) / np.where(exact, 1.0, steps) + DEAD_ZONE_OFFSET)
+    return np.where(exact, c, q).astype(np.int64)
+
+
+def _dequantize_coefs(q: np.ndarray, steps: np.ndarray, dead_zone: bool) -> np.ndarray:
+    if not dead_zone:
+        return np.ascontiguousarray(q, dtype=np.int64)
+    exact = steps <= 1.0
+    mag = np.floor((np.abs(q) + REBUILD_OFFSET) * steps + 0.5)
+    c = np.where(exact, q, np.where(q == 0, 0, np.sign(q) * mag))
+    return np.ascontiguousarray(c, dtype=np.int64)
+
+
+@functools.lru_cache(maxsize=32)
+def band_scale(shape: tuple[int, int, int], levels: tuple[int, int, int]) -> np.ndarray:
+    """Per-coefficient factor from the integer lifting's units to orthonormal units.
+
+    Each low-pass step of the reversible filters keeps the mean (orthonormal: times
+    sqrt 2), each high-pass step keeps a difference (orthonormal: divided by sqrt 2), so a
+    subband reached by ``l`` low and ``h`` high steps over the three axes scales by
+    ``2 ** ((l - h) / 2)``.
+    """
+    from ..wavelet.dwt3 import subbands
+
+    out = np.empty(shape, np.float64)
+    for b in subbands(shape, levels):
+        ex = 0
+        for a in range(3):
+            if b.level < levels[a]:  # this axis was split at the band's level
+                ex += b.level + (0 if b.bits[a] else 1) - b.bits[a]
+            else:
+                ex += levels[a]
+        out[b.slices] = 2.0 ** (ex / 2)
+    out = out.reshape(-1)
+    out.flags.writeable = False
+    return out
+
+
+def _check_inner(c) -> None:
+    check_choice("wavelet", c.wavelet, WAVELET_NAMES)
+    check_choice("coder", c.coder, CODER_NAMES)
+    check_choice("order", c.order, ORDER_NAMES)

@@ -1,0 +1,215 @@
+"""Choosing a lossy codec for a volume: its value range, and the error bound that meets a
+PSNR or ratio target.
+
+A target is met by searching the error bound of :class:`volpack.volume_codec.lossy.BoundedCodec`:
+PSNR falls and ratio rises as the bound grows (not strictly: the bins of a quantiser can
+split a noise floor unevenly), so the search brackets the target geometrically, scoring
+each bound on an evenly spread sample of bricks first and on the whole volume at the
+end. It is deterministic: the same volume and target give the same bound.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from ..metrics import psnr_from_sse
+from ..parallel import ordered_map
+from ..volume import Volume
+from . import bricks
+from .floatwave import FLOAT_WAVELETS, FloatWaveletCodec
+from .lossy import BoundedCodec, CoefCodec
+
+PSNR_TOL = 0.5  # dB
+RATIO_TOL = 0.05  # relative
+SAMPLE_BRICKS = 48
+MAX_STEPS = 14
+
+
+def value_range(data: np.ndarray, fill_value: float | None) -> tuple[float, float]:
+    """Smallest and largest valid voxel (finite, not the fill value), slab by slab so a
+    memory-mapped volume is never loaded whole."""
+    lo, hi = math.inf, -math.inf
+    flat = data.reshape(-1, *data.shape[-2:])
+    for i in range(0, flat.shape[0], 16):
+        slab = np.asarray(flat[i : i + 16])
+        ok = np.isfinite(slab) if slab.dtype.kind == "f" else np.ones(slab.shape, bool)
+        if fill_value is not None:
+            ok &= slab != fill_value
+        if ok.any():
+            v = slab[ok]
+            lo, hi = min(lo, float(v.min())), max(hi, float(v.max()))
+    if lo > hi:  # nothing valid: any range will do
+        lo = hi = 0.0
+    return lo, hi
+
+
+def plan(
+    vol: Volume,
+    brick: tuple[int, int, int],
+    workers: int,
+    asked: dict[str, float],
+    fill_value: float | None,
+    inner: dict[str, Any],
+) -> tuple[Any, dict[str, Any] | None]:
+    """Return ``(codec, search record or None)`` for one lossy setting in ``asked``."""
+    ((what, target),) = asked.items()
+    dtype = vol.dtype
+    if dtype.kind not in "iuf":
+        raise ValueError(f"expected integer or float voxels, found {dtype}")
+    lo, hi = value_range(vol.data, fill_value)
+    rng = hi - lo
+    inner = {k: v for k, v in inner.items() if v is not None}
+    if inner.get("wavelet") in FLOAT_WAVELETS:
+        return _plan_float_wavelet(vol, brick, workers, what, target, fill_value, inner, rng)
+    if what in ("quality", "threshold"):
+        if dtype.kind == "f" or fill_value is not None:
+            raise ValueError(
+                f"--{what} works on integer volumes without a fill value; use --max-error "
+                f"(or --rel-error, --psnr, --ratio) for {dtype} data"
+            )
+        if dtype.itemsize > 4:
+            raise ValueError(f"--{what} takes 8 to 32-bit integers, found {dtype}")
+        return CoefCodec(value_range=max(rng, 1.0), **{what: target}, **inner), None
+
+    def bounded(e: float) -> BoundedCodec:
+        return BoundedCodec.plan(dtype, lo, hi, e, fill=fill_value, **inner)
+
+    if what in ("max_error", "rel_error"):
+        e = float(target) * (rng if what == "rel_error" else 1.0)
+        if not (e >= 0 and math.isfinite(e)):
+            raise ValueError(
+                f"expected a non-negative finite --{what.replace('_', '-')}, found {target!r}"
+            )
+        if e == 0 and dtype.kind == "f":
+            raise ValueError(
+                "an error bound of 0 on float voxels is lossless coding: leave out the lossy "
+                "settings (floats are then stored exactly)"
+            )
+        return bounded(e if e > 0 else 0.25), None
+    if what == "psnr":
+        if not target > 0:
+            raise ValueError(f"expected a positive --psnr in dB, found {target!r}")
+    elif what == "ratio":
+        if not target > 1:
+            raise ValueError(f"expected a --ratio above 1, found {target!r}")
+    else:
+        raise ValueError(f"unknown lossy setting {what!r}")
+    if dtype.kind in "iu" and dtype.itemsize <= 4 and fill_value is None:
+        # Integers: quantise the coefficients (a better PSNR per bit than a bound).
+        def make(step: float) -> CoefCodec:
+            return CoefCodec(value_range=max(rng, 1.0), step=step, **inner)
+
+        return _search(vol, brick, workers, what, float(target), make, max(rng, 1.0), "step")
+    return _search(
+        vol, brick, workers, what, float(target), bounded, max(rng, 1e-300), "error_bound"
+    )
+
+
+def _search(vol, brick, workers, what, target, make: Callable, rng: float, knob: str):
+    data = vol.data
+    frames = data[None] if data.ndim == 3 else data
+    every = [
+        (t, sl) for t in range(frames.shape[0]) for _, sl in bricks.iter_bricks(data.shape, brick)
+    ]
+    pick = np.linspace(0, len(every) - 1, min(SAMPLE_BRICKS, len(every))).round().astype(int)
+    sample = [every[i] for i in sorted(set(pick.tolist()))]
+
+    def score(e: float, tasks) -> float:
+        c = make(e)
+
+        def one(task):
+            t, sl = task
+            b = np.ascontiguousarray(frames[(t, *sl)])
+            payload, _, sse, n = c.encode_measured(b)
+            return len(payload), sse, n, b.nbytes
+
+        size = sse = n = raw = 0
+        for a, b2, c2, d in ordered_map(one, tasks, workers):
+            size, sse, n, raw = size + a, sse + b2, n + c2, raw + d
+        if what == "ratio":
+            return raw / max(size, 1)
+        return psnr_from_sse(sse, n, rng)
+
+    def ok(m: float) -> bool:
+        if what == "psnr":
+            return abs(m - target) <= PSNR_TOL * 0.8
+        return abs(m / target - 1) <= RATIO_TOL * 0.8
+
+    # Uniform quantisation with bound E has MSE E^2 / 3: the first guess for a PSNR.
+    e = rng * math.sqrt(3) * 10 ** (-target / 20) if what == "psnr" else rng * 1e-3
+    # Larger bounds: PSNR down, ratio up. ``low``/``high`` bracket the bound sought.
+    low = high = None
+    tried: list[tuple[float, float, str]] = []
+    best = None
+    for step in range(MAX_STEPS):
+        tasks = sample if step < MAX_STEPS // 2 and len(sample) < len(every) else every
+        m = score(e, tasks)
+        scope = "sample" if tasks is sample else "all"
+        tried.append((e, m, scope))
+        if ok(m):
+            if scope == "all":
+                best = (e, m)
+                break
+            m_all = score(e, every)  # confirm on the whole volume
+            tried.append((e, m_all, "all"))
+            if (
+                ok(m_all)
+                or (what == "psnr" and abs(m_all - target) <= PSNR_TOL)
+                or (what == "ratio" and abs(m_all / target - 1) <= RATIO_TOL)
+            ):
+                best = (e, m_all)
+                break
+            m = m_all
+        need_larger = (m > target) if what == "psnr" else (m < target)
+        if need_larger:
+            low = e
+        else:
+            high = e
+        if low is not None and high is not None:
+            e = math.sqrt(low * high)
+        elif what == "psnr" and math.isfinite(m):
+            e = e * 10 ** ((m - target) / 20)
+        else:
+            e = e * 4 if need_larger else e / 4
+        e = min(max(e, rng * 1e-9), rng * 4)
+    if best is None:  # report the closest whole-volume result
+        whole = [
+            (abs((m - target) if what == "psnr" else math.log(m / target)), e, m)
+            for e, m, s in tried
+            if s == "all"
+        ]
+        if not whole:
+            m_all = score(e, every)
+            tried.append((e, m_all, "all"))
+            whole = [(0.0, e, m_all)]
+        _, e, m = min(whole)
+        best = (e, m)
+    record = {
+        "target": what,
+        "value": target,
+        knob: best[0],
+        "reached": best[1],
+        "steps": [{knob: a, what: b, "scope": sc} for a, b, sc in tried],
+    }
+    return make(best[0]), record
+
+
+def _plan_float_wavelet(vol, brick, workers, what, target, fill_value, inner, rng):
+    """The PyWavelets comparison filters: quality, or a PSNR/ratio search of the step."""
+    if what not in ("quality", "psnr", "ratio") or fill_value is not None:
+        raise ValueError(
+            f"the float wavelets {', '.join(FLOAT_WAVELETS)} take --quality, --psnr or --ratio "
+            "(no error bound, no fill value); use an integer wavelet for --max-error"
+        )
+    opts = {"wavelet": inner["wavelet"], "coder": inner.get("coder", "arith")}
+    if what == "quality":
+        return FloatWaveletCodec(value_range=max(rng, 1e-30), quality=int(target), **opts), None
+
+    def make(step: float) -> FloatWaveletCodec:
+        return FloatWaveletCodec(value_range=max(rng, 1e-30), step=step, **opts)
+
+    return _search(vol, brick, workers, what, float(target), make, max(rng, 1e-30), "step")
