@@ -1,27 +1,42 @@
-"""volpack's ray caster against VTK's CPU ray caster, same data, view, TF and threads.
+"""volpack's ray caster against VTK's CPU ray caster at equal settings and equal quality.
 
 Peer: ``vtkFixedPointVolumeRayCastMapper`` (VTK's CPU ray caster: 15-bit fixed point,
-pre-computed gradient normals, space leaping, early ray termination), headless through
-EGL, ``pip install vtk``. Both render the head CT resampled to 256^3 (linear along z from
-108 x 256 x 256, isotropic unit spacing) into a 512 x 512 image, orthographic, azimuth 30,
-elevation 20, with the ``ct-bone`` preset (semi-transparent), sample distance 0.5 voxel,
-unshaded and shaded (ambient 0.25, diffuse 0.75, specular 0.35, power 24), on the same
-number of threads (``--workers``, default 2: VTK's multithreader and volpack's row sets).
+per-voxel quantised normals, space leaping, early ray termination), headless through
+EGL, ``pip install vtk``. For each volume x transfer function x shading:
 
-For each renderer: the first image (VTK builds its gradient tables there; volpack builds
-its TF tables and brick ranges on every call) and the median of ``--repeat`` re-renders
-(orbit steps of 10 degrees, so neither renders the same view twice). volpack runs post,
-pre-integrated, and pre-integrated with centroid shading. The ratio is VTK's time over
-volpack's (above 1: volpack is faster). Both images are saved for a visual check; their
-pixels are not compared (the renderers differ in opacity units and colour blending).
+* the same array (its own dtype and spacing), the same control points (colour and
+  opacity, opacity per smallest spacing: VTK's ``ScalarOpacityUnitDistance``), the same
+  orthographic view and image size, the same number of threads (``--workers``);
+* VTK **matched**: ``AutoAdjustSampleDistances`` off, ``SampleDistance`` = the step in
+  world units (``--step`` times the smallest spacing), ``ImageSampleDistance`` 1;
+  VTK **default**: its defaults (auto-adjusted sampling);
+* volpack ``preintegrated`` (its default) and ``post`` (classification as VTK's) at
+  the same step, and ``preintegrated`` at ``--coarse-step`` (1 voxel): the same
+  quality in fewer samples is what pre-integration is for;
+* the first image (everything built from scratch: VTK's gradient tables, volpack's
+  :func:`~volpack.render.prepared.prepare_volume` and tables) and then ``--frames``
+  further orbit views 10 degrees apart (volpack re-renders the prepared volume; VTK
+  re-renders its mapper), timed as wall seconds and process CPU seconds, the
+  renderers taking turns frame by frame so machine load hits them alike;
+* each renderer's first image scored by PSNR (RGB on black) against its own render of
+  the same view at a fine step (``--ref-step``, 0.125 voxel); VTK's default is scored
+  against VTK's fine reference.
 
-    python scripts/bench_render_peers.py [--out results/render] [--repeat 5] [--workers 2]
+Volumes: ``ct_head`` (int16 CT, 108 x 256 x 256, anisotropic), ``mri_mni152`` (uint8
+MRI, 189 x 233 x 197), ``zmap_neurovault`` (float32 z-map, 46 x 63 x 53). Transfer
+functions over the range from the median voxel to the maximum: ``semi`` (clear below
+10 % of it, opacity 0.02 at 40 %, 0.15 at the top) and ``opaque`` (clear below 30 %,
+0.9 at 45 %, 1 at the top). Writes
+``peers.csv`` and ``peers.png`` (time per frame against PSNR) under ``--out``.
+
+    python scripts/bench_render_peers.py [--quick] [--out results/render] [--workers 2]
 """
 
 from __future__ import annotations
 
 import argparse
 import csv
+import math
 import os
 import statistics
 import sys
@@ -34,48 +49,63 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "scripts"))
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 
-SIZE = 512
-STEP = 0.5
 KA, KD, KS, SHIN = 0.25, 0.75, 0.35, 24.0
+VOLUMES = ("ct_head", "mri_mni152", "zmap_neurovault")
+ELEVATION = 20.0
 
 
-def ct256() -> np.ndarray:
-    import datasets
-
-    a, _, _ = datasets.load("ct_head")
-    a = a.astype(np.float32)
-    zi = np.linspace(0, a.shape[0] - 1, 256)
-    z0 = np.floor(zi).astype(int)
-    z1 = np.minimum(z0 + 1, a.shape[0] - 1)
-    f = (zi - z0)[:, None, None]
-    return np.ascontiguousarray(a[z0] * (1 - f) + a[z1] * f, dtype=np.float32)
+def tf_points(kind: str, lo: float, hi: float) -> tuple:
+    """Control points over ``[lo, hi]`` (``lo``: the median voxel, see :func:`tf_base`)."""
+    r = hi - lo
+    if kind == "semi":
+        return ((lo + 0.1 * r, 0.0, 0.0, 0.0, 0.0), (lo + 0.4 * r, 0.9, 0.6, 0.5, 0.02),
+                (hi, 1.0, 1.0, 1.0, 0.15))  # fmt: skip
+    return ((lo + 0.3 * r, 0.0, 0.0, 0.0, 0.0), (lo + 0.45 * r, 0.9, 0.75, 0.6, 0.9),
+            (hi, 1.0, 1.0, 1.0, 1.0))  # fmt: skip
 
 
-class VtkRenderer:
-    """The same scene in VTK; ``render(azimuth)`` returns seconds for one image."""
+def tf_base(vol: np.ndarray) -> tuple[float, float]:
+    """The range the TFs span: the median voxel (the background of a z-map or an MRI,
+    so the TFs show what stands out of it) to the maximum."""
+    hi = float(np.nanmax(vol))
+    lo = float(np.nanmedian(vol))
+    return (lo, hi) if lo < hi else (float(np.nanmin(vol)), hi)
 
-    def __init__(self, vol: np.ndarray, tf, lo: float, hi: float, shade: bool, workers: int):
+
+def view_frame(shape, spacing, azimuth):
+    """volpack's orthographic framing in world (x, y, z): centre, eye direction, scale."""
+    from volpack.render.camera import MARGIN
+
+    sp = np.array(spacing, float)
+    shp = np.array(shape, float)
+    centre_zyx = (shp - 1) / 2 * sp
+    radius = 0.5 * float(np.linalg.norm(shp * sp)) * MARGIN
+    az, el = math.radians(azimuth), math.radians(ELEVATION)
+    fwd_xyz = np.array([math.sin(az) * math.cos(el), math.cos(az) * math.cos(el), -math.sin(el)])
+    return centre_zyx[::-1], fwd_xyz, radius
+
+
+class Vtk:
+    """One VTK scene; :meth:`frame` renders one view and returns (wall s, cpu s)."""
+
+    def __init__(self, vol, spacing, points, shade, workers, size, sample_distance):
         import vtk
         from vtk.util import numpy_support as ns
 
-        # unsigned short keeps VTK on its fast fixed-point path; the TF is mapped alike
-        self.offset = lo
-        u16 = np.round(vol - lo).astype(np.uint16)
-        img = vtk.vtkImageData()
         nz, ny, nx = vol.shape
+        img = vtk.vtkImageData()
         img.SetDimensions(nx, ny, nz)
-        img.GetPointData().SetScalars(ns.numpy_to_vtk(u16.ravel(), deep=True))
-        table = tf.table(lo, hi, 256)
-        values = np.linspace(0, hi - lo, 256)
+        img.SetSpacing(spacing[2], spacing[1], spacing[0])
+        img.GetPointData().SetScalars(ns.numpy_to_vtk(np.ascontiguousarray(vol).ravel(), deep=True))
         ctf = vtk.vtkColorTransferFunction()
         otf = vtk.vtkPiecewiseFunction()
-        for v, (r, g, b, a) in zip(values, table):
-            ctf.AddRGBPoint(float(v), float(r), float(g), float(b))
-            otf.AddPoint(float(v), float(a))
+        for v, r, g, b, a in points:
+            ctf.AddRGBPoint(v, r, g, b)
+            otf.AddPoint(v, a)
         prop = vtk.vtkVolumeProperty()
         prop.SetColor(ctf)
         prop.SetScalarOpacity(otf)
-        prop.SetScalarOpacityUnitDistance(1.0)  # opacity per voxel, as in volpack
+        prop.SetScalarOpacityUnitDistance(min(spacing))  # opacity per smallest spacing
         prop.SetInterpolationTypeToLinear()
         if shade:
             prop.ShadeOn()
@@ -85,45 +115,36 @@ class VtkRenderer:
             prop.SetSpecularPower(SHIN)
         mapper = vtk.vtkFixedPointVolumeRayCastMapper()
         mapper.SetInputData(img)
-        mapper.SetSampleDistance(STEP)
-        mapper.SetAutoAdjustSampleDistances(0)
+        if sample_distance is not None:  # matched; None keeps VTK's defaults
+            mapper.SetAutoAdjustSampleDistances(0)
+            mapper.SetSampleDistance(sample_distance)
+            mapper.SetImageSampleDistance(1.0)
         mapper.SetNumberOfThreads(workers)
-        volume = vtk.vtkVolume()
-        volume.SetMapper(mapper)
-        volume.SetProperty(prop)
+        actor = vtk.vtkVolume()
+        actor.SetMapper(mapper)
+        actor.SetProperty(prop)
         ren = vtk.vtkRenderer()
-        ren.AddVolume(volume)
+        ren.AddVolume(actor)
         ren.SetBackground(0, 0, 0)
         win = vtk.vtkRenderWindow()
         win.SetOffScreenRendering(1)
         win.AddRenderer(ren)
-        win.SetSize(SIZE, SIZE)
+        win.SetSize(size, size)
         cam = ren.GetActiveCamera()
         cam.ParallelProjectionOn()
-        centre = [(n - 1) / 2 for n in (nx, ny, nz)]
-        cam.SetFocalPoint(*centre)
-        cam.SetViewUp(0, 0, 1)
-        self.vtk, self.win, self.ren, self.cam, self.centre = vtk, win, ren, cam, centre
-        self.radius = 0.5 * float(np.linalg.norm(vol.shape)) * 1.05
+        self.vtk, self.win, self.ren, self.cam = vtk, win, ren, cam
+        self.shape, self.spacing, self.size = vol.shape, spacing, size
 
-    def place(self, azimuth: float, elevation: float) -> None:
-        import math
-
-        az, el = math.radians(azimuth), math.radians(elevation)
-        # volpack's convention: azimuth 0 looks along +y, elevation lifts the eye above
-        fwd = np.array([math.sin(az) * math.cos(el), math.cos(az) * math.cos(el), -math.sin(el)])
-        eye = np.array(self.centre) - 4 * self.radius * fwd
-        self.cam.SetPosition(*eye)
-        self.cam.SetFocalPoint(*self.centre)
+    def frame(self, azimuth: float):
+        centre, fwd, radius = view_frame(self.shape, self.spacing, azimuth)
+        self.cam.SetFocalPoint(*centre)
+        self.cam.SetPosition(*(centre - 4 * radius * fwd))
         self.cam.SetViewUp(0, 0, 1)
-        self.cam.SetParallelScale(self.radius)
+        self.cam.SetParallelScale(radius)
         self.ren.ResetCameraClippingRange()
-
-    def render(self, azimuth: float, elevation: float) -> float:
-        self.place(azimuth, elevation)
-        t = time.perf_counter()
+        t, c = time.perf_counter(), time.process_time()
         self.win.Render()
-        return time.perf_counter() - t
+        return time.perf_counter() - t, time.process_time() - c
 
     def image(self) -> np.ndarray:
         from vtk.util import numpy_support as ns
@@ -133,67 +154,176 @@ class VtkRenderer:
         w2i.ReadFrontBufferOff()
         w2i.Update()
         arr = ns.vtk_to_numpy(w2i.GetOutput().GetPointData().GetScalars())
-        return arr.reshape(SIZE, SIZE, -1)[::-1, :, :3]
+        return arr.reshape(self.size, self.size, -1)[::-1, :, :3].astype(np.float32) / 255
+
+
+class Volpack:
+    """volpack with the same scene; the first frame starts from the raw array."""
+
+    def __init__(self, vol, spacing, points, shade, workers, size, step, classification):
+        from volpack.render.transfer import TransferFunction
+
+        self.vol, self.spacing, self.size, self.step = vol, spacing, size, step
+        self.tf = TransferFunction(points=points)
+        self.kw = dict(classification=classification, shading="phong" if shade else "none",
+                       workers=workers)  # fmt: skip
+        self.prep = None
+        self.img = None
+
+    def frame(self, azimuth: float, step=None):
+        from volpack.render.camera import Camera
+        from volpack.render.prepared import prepare_volume
+        from volpack.render.raycast import render
+
+        cam = Camera(azimuth=azimuth, elevation=ELEVATION, size=(self.size, self.size))
+        t, c = time.perf_counter(), time.process_time()
+        if self.prep is None:
+            self.prep = prepare_volume(self.vol, self.spacing)
+        img = render(self.prep, tf=self.tf, camera=cam, step=step or self.step, **self.kw)
+        dt, dc = time.perf_counter() - t, time.process_time() - c
+        self.img = img
+        return dt, dc
+
+    def image(self) -> np.ndarray:
+        return self.img[..., :3]
+
+
+def psnr(img: np.ndarray, ref: np.ndarray) -> float:
+    mse = float(np.mean((img.astype(np.float64) - ref) ** 2))
+    return 99.0 if mse == 0 else 10 * math.log10(1.0 / mse)
+
+
+def run_case(name, vol, spacing, tfk, shade, args, rows):
+    points = tf_points(tfk, *tf_base(vol))
+    make = {
+        "vtk-matched": lambda s: Vtk(vol, spacing, points, shade, args.workers, args.size,
+                                     s * min(spacing)),  # fmt: skip
+        "vtk-default": lambda s: Vtk(vol, spacing, points, shade, args.workers, args.size, None),
+        "volpack-preint": lambda s: Volpack(vol, spacing, points, shade, args.workers,
+                                            args.size, s, "preintegrated"),  # fmt: skip
+        "volpack-post": lambda s: Volpack(vol, spacing, points, shade, args.workers,
+                                          args.size, s, "post"),  # fmt: skip
+    }
+    rens = {k: f(args.step) for k, f in make.items()}
+    # pre-integration at a coarser step, scored against the same fine reference
+    rens["volpack-preint-coarse"] = make["volpack-preint"](args.coarse_step)
+    angles = [30.0 + 10.0 * k for k in range(args.frames + 1)]
+    times = {k: [] for k in rens}
+    images = {}
+    for j, az in enumerate(angles):  # turn by turn, so load hits all alike
+        for k, r in rens.items():
+            times[k].append(r.frame(az))
+            if j == 0:
+                images[k] = r.image()
+    refs = {}
+    for fam, k in (("vtk", "vtk-matched"), ("volpack-preint", "volpack-preint"),
+                   ("volpack-post", "volpack-post")):  # fmt: skip
+        rr = make[k](args.ref_step)
+        rr.frame(angles[0])
+        refs[fam] = rr.image()
+    for k, ts in times.items():
+        ref = refs["vtk" if k.startswith("vtk") else k.replace("-coarse", "")]
+        later = ts[1:]
+        row = {
+            "volume": name, "dtype": str(vol.dtype), "tf": tfk,
+            "shading": "phong" if shade else "none", "renderer": k,
+            "step_world": "auto" if k == "vtk-default" else round(
+                (args.coarse_step if k.endswith("coarse") else args.step) * min(spacing), 4),
+            "first_s": round(ts[0][0], 4),
+            "frame_s": round(statistics.median(t for t, _ in later), 4),
+            "frame_cpu_s": round(statistics.median(c for _, c in later), 4),
+            "psnr_db": round(psnr(images[k], ref), 2),
+        }  # fmt: skip
+        rows.append(row)
+    vt = next(r for r in rows[-len(rens):] if r["renderer"] == "vtk-matched")
+    for r in rows[-len(rens):]:
+        r["vs_vtk_matched"] = round(r["frame_s"] / vt["frame_s"], 2)
+        print(f"  {name:16s} {tfk:6s} {r['shading']:5s} {r['renderer']:15s} first "
+              f"{r['first_s']:6.3f} s  frame {r['frame_s']:6.3f} s (cpu {r['frame_cpu_s']:6.3f})"
+              f"  x{r['vs_vtk_matched']:5.2f} of VTK matched  PSNR {r['psnr_db']:5.1f} dB"
+              f"  step {r['step_world']}",
+              flush=True)  # fmt: skip
+
+
+def chart(rows, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    colours = {"vtk-matched": "tab:blue", "vtk-default": "tab:cyan",
+               "volpack-preint": "tab:red", "volpack-post": "tab:orange",
+               "volpack-preint-coarse": "tab:purple"}  # fmt: skip
+    markers = {v: m for v, m in zip(VOLUMES, "o^s")}
+    fig, ax = plt.subplots(figsize=(7.5, 5))
+    for r in rows:
+        ax.scatter(r["frame_s"], r["psnr_db"], c=colours[r["renderer"]],
+                   marker=markers.get(r["volume"], "x"),
+                   edgecolors="k" if r["shading"] == "phong" else "none", s=40)  # fmt: skip
+    for k, c in colours.items():
+        ax.scatter([], [], c=c, label=k)
+    for v, m in markers.items():
+        ax.scatter([], [], c="grey", marker=m, label=v)
+    ax.set_xscale("log")
+    ax.set_xlabel("seconds per frame (median of later frames; black edge: shaded)")
+    ax.set_ylabel("PSNR against the renderer's own step-0.125 image (dB)")
+    ax.set_title("Ray casting: volpack vs VTK fixed-point, same TF, view, threads")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="lower right")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
 
 
 def main(argv=None) -> int:
-    from volpack.render.camera import Camera
-    from volpack.render.image import save_png
-    from volpack.render.raycast import render
-    from volpack.render.transfer import preset
+    import datasets
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=ROOT / "results" / "render")
-    ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--size", type=int, default=512)
+    ap.add_argument("--step", type=float, default=0.5)
+    ap.add_argument("--ref-step", type=float, default=0.125)
+    ap.add_argument("--coarse-step", type=float, default=1.0,
+                    help="step of the extra pre-integrated volpack run")  # fmt: skip
+    ap.add_argument("--frames", type=int, default=3, help="further frames after the first")
+    ap.add_argument("--volumes", nargs="+", default=list(VOLUMES))
+    ap.add_argument("--quick", action="store_true", help="256^2 images, 2 further frames")
     args = ap.parse_args(argv)
+    if args.quick:
+        args.size, args.frames = 256, 2
     args.out.mkdir(parents=True, exist_ok=True)
-    vol = ct256()
-    lo, hi = float(vol.min()), float(vol.max())
-    tf = preset("ct-bone", lo, hi)
-    rows = []
-    angles = [30.0 + 10.0 * k for k in range(args.repeat + 1)]
-    for shade in (False, True):
-        vr = VtkRenderer(vol, tf, lo, hi, shade, args.workers)
-        times = [vr.render(a, 20.0) for a in angles]
-        vr.render(30.0, 20.0)
-        from PIL import Image
+    # compile volpack's kernels outside the timings (VTK's code is compiled already)
+    from volpack.render.camera import Camera
+    from volpack.render.raycast import render
 
-        Image.fromarray(np.ascontiguousarray(vr.image())).save(
-            args.out / f"peer_vtk_{'shaded' if shade else 'unshaded'}.png"
-        )
-        vtk_first, vtk_re = times[0], statistics.median(times[1:])
-        rows.append({"renderer": "vtk-fixedpoint", "mode": "post",
-                     "shading": "phong" if shade else "none", "first_s": round(vtk_first, 4),
-                     "rerender_s": round(vtk_re, 4), "vtk_over_volpack": 1.0})  # fmt: skip
-        print(f"vtk shade={shade}: first {vtk_first:.3f} s, re-render {vtk_re:.3f} s", flush=True)
-        modes = [("post", "phong"), ("preintegrated", "phong"), ("preintegrated", "centroid")]
-        for cls, shading in modes:
-            shading = shading if shade else "none"
-            if not shade and cls == "preintegrated" and rows[-1]["mode"] == "preintegrated":
-                continue
-            render(vol, tf=tf, camera=Camera(size=(16, 16)), classification=cls, shading=shading)
-            times = []
-            for a in angles:
-                cam = Camera(azimuth=a, elevation=20.0, size=(SIZE, SIZE))
-                t = time.perf_counter()
-                img = render(vol, tf=tf, camera=cam, step=STEP, classification=cls,
-                             shading=shading, workers=args.workers)  # fmt: skip
-                times.append(time.perf_counter() - t)
-                if a == angles[0]:
-                    save_png(args.out / f"peer_volpack_{cls}_{shading}.png", img, force=True)
-            first, re = times[0], statistics.median(times[1:])
-            rows.append({"renderer": "volpack", "mode": cls, "shading": shading,
-                         "first_s": round(first, 4), "rerender_s": round(re, 4),
-                         "vtk_over_volpack": round(vtk_re / re, 3)})  # fmt: skip
-            print(f"volpack {cls}/{shading}: first {first:.3f} s, re-render {re:.3f} s, "
-                  f"VTK/volpack {vtk_re / re:.2f}", flush=True)  # fmt: skip
+    rows: list[dict] = []
+    for name in args.volumes:
+        vol, spacing, _ = datasets.load(name)
+        spacing = tuple(float(s) for s in spacing)
+        print(f"{name} {vol.shape} {vol.dtype} spacing {spacing}", flush=True)
+        small = vol[:9, :9, :9]
+        for cls in ("preintegrated", "post"):
+            for sh in ("none", "phong"):
+                render(small, spacing=spacing, tf=_tf(small), classification=cls,
+                       shading=sh, camera=Camera(size=(4, 4)), workers=args.workers)  # fmt: skip
+        for tfk in ("semi", "opaque"):
+            for shade in (False, True):
+                run_case(name, vol, spacing, tfk, shade, args, rows)
     with open(args.out / "peers.csv", "w", newline="") as f:
         wr = csv.DictWriter(f, fieldnames=list(rows[0]))
         wr.writeheader()
         wr.writerows(rows)
-    print(f"wrote {args.out / 'peers.csv'}")
+    chart(rows, args.out / "peers.png")
+    print(f"wrote {args.out / 'peers.csv'} and peers.png")
     return 0
+
+
+def _tf(vol):
+    from volpack.render.transfer import TransferFunction
+
+    lo, hi = float(vol.min()), float(vol.max())
+    return TransferFunction(points=tf_points("semi", lo, hi if hi > lo else lo + 1))
 
 
 if __name__ == "__main__":

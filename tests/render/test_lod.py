@@ -38,7 +38,9 @@ def test_full_resolution_selection_renders_exactly_like_the_volume(tree_path, cl
     kw = dict(tf=tf_of(vol), camera=cam, value_range=vr, classification=cls, shading="phong")
     with Octree(str(path)) as t:
         pv = paged_volume(t, select.by_level(t, 0))
-        assert np.array_equal(render(pv, **kw), render(vol, **kw))
+        # the plain volume takes the fast path (raycast._march_kernel) with precomputed
+        # gradients: the same samples and sums, rounded differently
+        np.testing.assert_allclose(render(pv, **kw), render(vol, **kw), atol=1e-5)
 
 
 @pytest.mark.parametrize("cls", ["post", "preintegrated"])
@@ -76,10 +78,15 @@ def test_budget_bounds_the_nodes_and_more_nodes_cost_less_error(tree_path):
         # the same view again decodes nothing: every node is in the cache
         _, st = render_lod(t, tf=tf, camera=cam, blocks=4096, value_range=vr)
         assert st.decoded == 0
-        # a walkthrough that enters the volume and leaves it again
+        # a walkthrough that enters the volume and leaves it again; the bricks kept
+        # from frame to frame give the atlas a fresh assembly gives
+        bricks: dict = {}
         for dist in (300.0, 20.0, 0.0, 20.0, 300.0):
             cam_w = Camera(size=(16, 16), projection="perspective", distance=dist, azimuth=dist)
             img, st = render_lod(t, tf=tf, camera=cam_w, blocks=64, value_range=vr)
+            kept, _ = render_lod(t, tf=tf, camera=cam_w, blocks=64, value_range=vr,
+                                 bricks=bricks)  # fmt: skip
+            assert np.array_equal(img, kept) and 1 <= len(bricks) <= st.nodes
             assert np.all(np.isfinite(img)) and st.nodes >= 1
             if dist == 0.0:  # inside: every ray starts in the volume
                 assert (img[..., 3] > 0).mean() > 0.5

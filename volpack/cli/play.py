@@ -67,7 +67,7 @@ def play(ctx, source, output, tf_spec, fps, spin, show_stats, azimuth, elevation
                      distance=distance, look_at=parse_look_at(look_at_s))  # fmt: skip
         state["k"] += 1
         return raycast(
-            np.ascontiguousarray(frame, np.float32), tf=state["tf"], camera=cam, step=step,
+            frame, tf=state["tf"], camera=cam, step=step,
             classification=classification, shading=shading, preint_method=preint_method,
             value_range=state["range"], workers=workers,
         )  # fmt: skip
@@ -164,6 +164,7 @@ def walk(ctx, source, output, orbit, budget, tf_spec, fps, compare, show_stats, 
     from ..render import transfer
     from ..render.camera import Camera
     from ..render.lod import render_lod, tree_range
+    from ..render.prepared import prepare_volume
     from ..render.raycast import render as raycast
 
     size = parse_size(size_s)
@@ -175,7 +176,8 @@ def walk(ctx, source, output, orbit, budget, tf_spec, fps, compare, show_stats, 
     with Octree(source, cache_bytes=1 << 30) as tree:
         lo, hi = tree_range(tree)
         tf = transfer.load_tf(tf_spec or "auto", lo, hi, dtype=tree.dtype)
-        full = tree.decode(0).data.astype(np.float32) if compare else None
+        full = prepare_volume(tree.decode(0).data) if compare else None
+        bricks: dict = {}  # assembled node bricks, kept while they stay in view
         with (
             _movie(output, fps, force) as writer,
             progress_bar(ctx, "walk", unit="frame") as progress,
@@ -186,7 +188,7 @@ def walk(ctx, source, output, orbit, budget, tf_spec, fps, compare, show_stats, 
                              look_at=parse_look_at(look_at_s),
                              projection="perspective" if perspective else "orthographic")  # fmt: skip
                 img, st = render_lod(tree, tf=tf, camera=cam, blocks=budget,
-                                     value_range=(lo, hi), **opts)  # fmt: skip
+                                     value_range=(lo, hi), bricks=bricks, **opts)  # fmt: skip
                 row = {"frame": k, "azimuth": cam.azimuth, **vars(st)}
                 if full is not None:
                     ref = raycast(full, tf=tf, camera=cam, value_range=(lo, hi), **opts)

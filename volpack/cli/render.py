@@ -280,7 +280,6 @@ def render(
     from ..render.image import save_png
     from ..render.raycast import RenderStats
     from ..render.raycast import render as raycast
-    from ..volume import Volume
 
     size = parse_size(size_s)
     isos = parse_isos(iso_spec) if iso_spec else None
@@ -329,11 +328,10 @@ def render(
 
     if orbit:
         os.makedirs(output, exist_ok=True)
-        if (
-            mesh is None and tree is None and data.dtype != np.float32
-        ):  # converted once, not per frame
-            vol = Volume(np.ascontiguousarray(data, np.float32), spacing=vol.spacing,
-                         origin=vol.origin, mask=vol.mask)  # fmt: skip
+    if mesh is None and tree is None:  # sampled array, gradients, brick ranges: built once
+        from ..render.prepared import prepare_volume
+
+        vol = prepare_volume(vol)
 
     lod_frames = []
 

@@ -56,9 +56,13 @@ class LodStats:
     levels: dict  # nodes per level
 
 
-def paged_volume(tree, selection) -> PagedVolume:
+def paged_volume(tree, selection, bricks: dict | None = None) -> PagedVolume:
     """Decode ``selection`` (``[(level, (bz, by, bx)), ...]``) of an open
-    :class:`~volpack.octree.Octree` into a :class:`PagedVolume`."""
+    :class:`~volpack.octree.Octree` into a :class:`PagedVolume`.
+
+    ``bricks``, a dict kept by the caller from frame to frame, holds each node's
+    bordered float32 brick, so a walkthrough assembles a node once while it stays in
+    view (the nodes the selection no longer holds are dropped from it)."""
     sel = [(int(lv), tuple(int(i) for i in b)) for lv, b in selection]
     if not sel:
         raise VolpackError("expected at least one node to draw, found none")
@@ -71,14 +75,22 @@ def paged_volume(tree, selection) -> PagedVolume:
     atlas = np.empty((len(sel), k + 2, k + 2, k + 2), np.float32)
     level = np.empty(len(sel), np.int64)
     origin = np.empty((len(sel), 3), np.int64)
+    kept = {}
     for i, (lv, b) in enumerate(sel):
-        brick = tree.brick(lv, b, border=1).astype(np.float32)
-        pad = [(0, k + 2 - n) for n in brick.shape]
-        atlas[i] = np.pad(brick, pad, mode="edge") if any(p[1] for p in pad) else brick
+        padded = None if bricks is None else bricks.get((lv, b))
+        if padded is None:
+            brick = tree.brick(lv, b, border=1).astype(np.float32)
+            pad = [(0, k + 2 - n) for n in brick.shape]
+            padded = np.pad(brick, pad, mode="edge") if any(p[1] for p in pad) else brick
+        atlas[i] = padded
+        kept[(lv, b)] = padded
         level[i] = lv
         origin[i] = [s.start for s in g.node_box(lv, b)]
         fp = g.footprint(lv, b)
         page[tuple(slice(s.start // cell, -(-s.stop // cell)) for s in fp)] = i
+    if bricks is not None:
+        bricks.clear()
+        bricks.update(kept)
     return PagedVolume(atlas, page, level, origin, shape, tuple(tree.spacing), cell)
 
 
@@ -91,12 +103,14 @@ def render_lod(
     blocks: int | None = None,
     max_pixel_error: float = 1.0 / 128,
     value_range: tuple[float, float] | None = None,
+    bricks: dict | None = None,
     **render_options: Any,
 ) -> tuple[np.ndarray, LodStats]:
     """Render an open octree for ``camera`` within a budget of ``voxels`` (``blocks``
     full nodes' worth: nodes at the volume's edge are smaller and count for what they
     hold); ``render_options`` go to :func:`volpack.render.raycast.render`.
-    The value range defaults to the octree's recorded one."""
+    The value range defaults to the octree's recorded one; ``bricks`` (a dict kept
+    across the frames of a walk) is passed to :func:`paged_volume`."""
     from ..octree import select
     from .raycast import render
 
@@ -113,7 +127,7 @@ def render_lod(
         img = np.zeros((h, w, 4), np.float32)
         t2 = t3 = time.perf_counter()
     else:
-        pv = paged_volume(tree, sel)
+        pv = paged_volume(tree, sel, bricks)
         t2 = time.perf_counter()
         img = render(pv, tf=tf, camera=camera, value_range=value_range, **render_options)
         t3 = time.perf_counter()

@@ -78,9 +78,10 @@ whose table entry is transparent (the data minimum when that is transparent, els
 value in range nearest to it that is); when no value is transparent they take the data
 minimum and a warning is logged.
 
-It stays one file of about 1,050 lines on purpose: the three classification modes,
-shading and empty-space skipping are branches of one march kernel and its inline
-sampling kernels, kept beside the public :func:`render` that sets them up.
+It stays one file on purpose: the three classification modes, shading and empty-space
+skipping are branches of one march kernel, and the common case has a lean copy of that
+march (:func:`_march_kernel`, the fast path), both with their inline sampling kernels,
+kept beside the public :func:`render` that sets them up.
 """
 
 from __future__ import annotations
@@ -97,6 +98,7 @@ from .._jit import JIT_DISABLED, kernel
 from ..errors import VolpackError
 from ..parallel import ordered_map, parse_workers
 from .camera import Camera
+from .prepared import prepare_volume, unpack_volume
 
 log = logging.getLogger(__name__)
 
@@ -104,6 +106,9 @@ MODES = {"post": 0, "pre": 1, "preintegrated": 2}
 SHADINGS = ("none", "phong", "preintegrated", "centroid")
 BRICK = 8
 TABLE_SIZE = 256
+#: Send the common case through the fast path, :func:`_march_kernel` (tests turn it
+#: off to compare the two kernels).
+FAST_PATH = True
 # Phong constants (headlight)
 KA, KD, KS, SHININESS = 0.25, 0.75, 0.35, 24.0
 
@@ -138,15 +143,60 @@ def _cell(p, n):
 
 
 @kernel
+def _cell3(nz, ny, nx, z, y, x):
+    """Corner indices (unsigned, so indexing needs no wrap-around test) and float32
+    weights of the trilinear cell at (z, y, x), positions clamped to ``[0, n - 1]``."""
+    if 0.0 <= z < nz - 1 and 0.0 <= y < ny - 1 and 0.0 <= x < nx - 1:  # the usual case
+        iz, iy, ix = int(z), int(y), int(x)
+        z0, y0, x0 = np.uint64(iz), np.uint64(iy), np.uint64(ix)
+        one = np.uint64(1)
+        return (z0, z0 + one, np.float32(z - iz), y0, y0 + one, np.float32(y - iy),
+                x0, x0 + one, np.float32(x - ix))  # fmt: skip
+    a0, a1, fa = _cell(z, nz)
+    b0, b1, fb = _cell(y, ny)
+    c0, c1, fc = _cell(x, nx)
+    return (np.uint64(a0), np.uint64(a1), np.float32(fa), np.uint64(b0), np.uint64(b1),
+            np.float32(fb), np.uint64(c0), np.uint64(c1), np.float32(fc))  # fmt: skip
+
+
+@kernel
 def _trilinear(vol, z, y, x):
+    """Trilinear sample (float32) of a volume of any real dtype, read as it is stored."""
     nz, ny, nx = vol.shape
-    z0, z1, fz = _cell(z, nz)
-    y0, y1, fy = _cell(y, ny)
-    x0, x1, fx = _cell(x, nx)
-    c00 = vol[z0, y0, x0] + (vol[z0, y0, x1] - vol[z0, y0, x0]) * fx
-    c01 = vol[z0, y1, x0] + (vol[z0, y1, x1] - vol[z0, y1, x0]) * fx
-    c10 = vol[z1, y0, x0] + (vol[z1, y0, x1] - vol[z1, y0, x0]) * fx
-    c11 = vol[z1, y1, x0] + (vol[z1, y1, x1] - vol[z1, y1, x0]) * fx
+    z0, z1, fz, y0, y1, fy, x0, x1, fx = _cell3(nz, ny, nx, z, y, x)
+    c000 = np.float32(vol[z0, y0, x0])
+    c00 = c000 + (np.float32(vol[z0, y0, x1]) - c000) * fx
+    c010 = np.float32(vol[z0, y1, x0])
+    c01 = c010 + (np.float32(vol[z0, y1, x1]) - c010) * fx
+    c100 = np.float32(vol[z1, y0, x0])
+    c10 = c100 + (np.float32(vol[z1, y0, x1]) - c100) * fx
+    c110 = np.float32(vol[z1, y1, x0])
+    c11 = c110 + (np.float32(vol[z1, y1, x1]) - c110) * fx
+    c0 = c00 + (c01 - c00) * fy
+    c1 = c10 + (c11 - c10) * fy
+    return c0 + (c1 - c0) * fz
+
+
+@kernel
+def _trilinear3(grad, z, y, x):
+    """Trilinear sample of the three channels of a ``(nz, ny, nx, 3)`` gradient volume."""
+    nz, ny, nx = grad.shape[0], grad.shape[1], grad.shape[2]
+    z0, z1, fz, y0, y1, fy, x0, x1, fx = _cell3(nz, ny, nx, z, y, x)
+    return (_lerp8(grad, 0, z0, z1, fz, y0, y1, fy, x0, x1, fx),
+            _lerp8(grad, 1, z0, z1, fz, y0, y1, fy, x0, x1, fx),
+            _lerp8(grad, 2, z0, z1, fz, y0, y1, fy, x0, x1, fx))  # fmt: skip
+
+
+@kernel
+def _lerp8(grad, ch, z0, z1, fz, y0, y1, fy, x0, x1, fx):
+    c000 = np.float32(grad[z0, y0, x0, ch])
+    c00 = c000 + (np.float32(grad[z0, y0, x1, ch]) - c000) * fx
+    c010 = np.float32(grad[z0, y1, x0, ch])
+    c01 = c010 + (np.float32(grad[z0, y1, x1, ch]) - c010) * fx
+    c100 = np.float32(grad[z1, y0, x0, ch])
+    c10 = c100 + (np.float32(grad[z1, y0, x1, ch]) - c100) * fx
+    c110 = np.float32(grad[z1, y1, x0, ch])
+    c11 = c110 + (np.float32(grad[z1, y1, x1, ch]) - c110) * fx
     c0 = c00 + (c01 - c00) * fy
     c1 = c10 + (c11 - c10) * fy
     return c0 + (c1 - c0) * fz
@@ -169,11 +219,11 @@ def _paged(atlas, page, meta, level, origin, fill, z, y, x):
     node = page[cz, cy, cx]
     if node < 0:
         return fill[0]
-    s = 1 << level[node]
+    inv = math.ldexp(1.0, -level[node])  # 1 / 2^level, exact: no division per sample
     b = atlas.shape[1] - 1
-    qz = min(max((pz + 0.5) / s - 0.5 - origin[node, 0] + 1.0, 0.0), b)
-    qy = min(max((py + 0.5) / s - 0.5 - origin[node, 1] + 1.0, 0.0), b)
-    qx = min(max((px + 0.5) / s - 0.5 - origin[node, 2] + 1.0, 0.0), b)
+    qz = min(max((pz + 0.5) * inv - 0.5 - origin[node, 0] + 1.0, 0.0), b)
+    qy = min(max((py + 0.5) * inv - 0.5 - origin[node, 1] + 1.0, 0.0), b)
+    qx = min(max((px + 0.5) * inv - 0.5 - origin[node, 2] + 1.0, 0.0), b)
     z0, y0, x0 = min(int(qz), b - 1), min(int(qy), b - 1), min(int(qx), b - 1)
     fz, fy, fx = qz - z0, qy - y0, qx - x0
     a = atlas[node]
@@ -240,29 +290,31 @@ def _trilinear4(rgba, z, y, x, out):
 
 
 @kernel
+def _ucell(p, n):
+    """:func:`_cell` with unsigned indices and a float32 weight (table look-ups)."""
+    if p <= 0.0:
+        return np.uint64(0), np.uint64(0), np.float32(0.0)
+    if p >= n - 1:
+        return np.uint64(n - 1), np.uint64(n - 1), np.float32(0.0)
+    i = int(p)
+    return np.uint64(i), np.uint64(i + 1), np.float32(p - i)
+
+
+@kernel
 def _lookup1(tab, x, out):
     """Linear lookup of the (n, 4) table at fractional index ``x``."""
-    n = tab.shape[0]
-    if x <= 0.0:
-        for ch in range(4):
-            out[ch] = tab[0, ch]
-        return
-    if x >= n - 1:
-        for ch in range(4):
-            out[ch] = tab[n - 1, ch]
-        return
-    i = int(x)
-    f = x - i
+    i0, i1, f = _ucell(x, tab.shape[0])
     for ch in range(4):
-        out[ch] = tab[i, ch] + (tab[i + 1, ch] - tab[i, ch]) * f
+        a = tab[i0, ch]
+        out[ch] = a + (tab[i1, ch] - a) * f
 
 
 @kernel
 def _lookup2(tab, xf, xb, out):
     """Bilinear lookup of the (n, n, k) table at fractional indices (front, back)."""
     n = tab.shape[0]
-    i0, i1, fi = _cell(xf, n)
-    j0, j1, fj = _cell(xb, n)
+    i0, i1, fi = _ucell(xf, n)
+    j0, j1, fj = _ucell(xb, n)
     for ch in range(tab.shape[2]):
         a = tab[i0, j0, ch] + (tab[i0, j1, ch] - tab[i0, j0, ch]) * fj
         b = tab[i1, j0, ch] + (tab[i1, j1, ch] - tab[i1, j0, ch]) * fj
@@ -270,14 +322,26 @@ def _lookup2(tab, xf, xb, out):
 
 
 @kernel
-def _normal(vol, z, y, x, gscale, vz, vy, vx, gmin):
+def _normal(vol, grad, has_grad, z, y, x, gscale, vz, vy, vx, gmin):
     """Unit world gradient at (z, y, x) turned towards the eye, and ``|n.v|``.
 
+    The gradient is the central difference (one voxel either way) of the trilinear
+    field; with ``has_grad`` it is read from the per-voxel central differences in
+    ``grad`` (:func:`volpack.render.gradients.gradient_volume`), which is the same
+    thing inside ``[0, n - 1]``, at three trilinear look-ups fewer (in the half-voxel
+    shell outside, where positions are clamped, it is taken on the fly as without it).
     ``(0, 0, 0, -1)`` where the gradient vanishes.
     """
-    gz = (sample(vol, z + 1.0, y, x) - sample(vol, z - 1.0, y, x)) * gscale[0]
-    gy = (sample(vol, z, y + 1.0, x) - sample(vol, z, y - 1.0, x)) * gscale[1]
-    gx = (sample(vol, z, y, x + 1.0) - sample(vol, z, y, x - 1.0)) * gscale[2]
+    if has_grad and (0.0 <= z <= grad.shape[0] - 1 and 0.0 <= y <= grad.shape[1] - 1
+                     and 0.0 <= x <= grad.shape[2] - 1):  # fmt: skip
+        g0, g1, g2 = _trilinear3(grad, z, y, x)
+        gz = g0 * gscale[0]
+        gy = g1 * gscale[1]
+        gx = g2 * gscale[2]
+    else:
+        gz = (sample(vol, z + 1.0, y, x) - sample(vol, z - 1.0, y, x)) * gscale[0]
+        gy = (sample(vol, z, y + 1.0, x) - sample(vol, z, y - 1.0, x)) * gscale[1]
+        gx = (sample(vol, z, y, x + 1.0) - sample(vol, z, y, x - 1.0)) * gscale[2]
     g = math.sqrt(gz * gz + gy * gy + gx * gx)
     if g <= gmin:
         return 0.0, 0.0, 0.0, -1.0
@@ -289,9 +353,9 @@ def _normal(vol, z, y, x, gscale, vz, vy, vx, gmin):
 
 
 @kernel
-def _headlight(vol, z, y, x, gscale, vz, vy, vx, gmin):
+def _headlight(vol, grad, has_grad, z, y, x, gscale, vz, vy, vx, gmin):
     """|n.v| for the world gradient at (z, y, x); -1 where the gradient vanishes."""
-    return _normal(vol, z, y, x, gscale, vz, vy, vx, gmin)[3]
+    return _normal(vol, grad, has_grad, z, y, x, gscale, vz, vy, vx, gmin)[3]
 
 
 @kernel
@@ -342,6 +406,40 @@ def _brick_exit(pz, py, px, oz, oy, ox, dz, dy, dx, nz, ny, nx, leap, brick):
 
 
 @kernel
+def _ray_span(oz, oy, ox, dz, dy, dx, nz, ny, nx, vscale, step):
+    """``(tnear, tfar, nseg, vz, vy, vx)`` of one ray: its part inside the box from the
+    eye on, its number of segments (0 when it misses) and the unit view vector (towards
+    the eye) in world space."""
+    tnear, tfar = _box_hit(oz, oy, ox, dz, dy, dx, nz, ny, nx)
+    if tnear < 0.0:
+        tnear = 0.0
+    if not tfar > tnear:
+        return tnear, tfar, 0, 0.0, 0.0, 0.0
+    vz, vy, vx = -dz * vscale[0], -dy * vscale[1], -dx * vscale[2]
+    vn = math.sqrt(vz * vz + vy * vy + vx * vx)
+    nseg = int(math.ceil((tfar - tnear) / step))
+    return tnear, tfar, max(nseg, 1), vz / vn, vy / vn, vx / vn
+
+
+@kernel
+def _leap(i, t0, tnear, tfar, step, next_check, oz, oy, ox, dz, dy, dx, nz, ny, nx, leap, brick):
+    """Empty-space test at segment ``i`` (starting at ``t0``): ``(state, i, next_check)``
+    with state 0 (march segment ``i``), 1 (jumped to segment ``i``, test again) or 2
+    (the ray leaves the volume through empty space)."""
+    lv, te = _brick_exit(
+        oz + t0 * dz, oy + t0 * dy, ox + t0 * dx, oz, oy, ox, dz, dy, dx, nz, ny, nx, leap, brick
+    )
+    if lv == 0:
+        return 0, i, te  # the ray stays in this (visible) brick until te
+    if te >= tfar:
+        return 2, i, next_check
+    inext = int(math.floor((te - tnear - 1e-7) / step))
+    if inext > i:  # segment inext straddles the exit: it is marched, untested
+        return 1, inext, te
+    return 0, i, next_check
+
+
+@kernel
 def _leap_kernel(empty, out):
     """Chebyshev distance (in bricks) to the nearest visible brick, 0 on visible ones:
     two raster passes over the 26-neighbourhood, exact for this metric."""
@@ -375,6 +473,8 @@ def _leap_kernel(empty, out):
 @kernel
 def _render_kernel(
     vol,
+    grad,
+    has_grad,
     rgba,
     origins,
     dirs,
@@ -408,23 +508,16 @@ def _render_kernel(
     need_ends = mode == 2 or has_iso
     for k in range(rows.shape[0]):
         r = rows[k]
-        c4 = np.zeros(7, dtype=np.float64)
+        c4 = np.zeros(7, dtype=np.float32)
         count = 0
         for c in range(w):
             oz, oy, ox = origins[r, c, 0], origins[r, c, 1], origins[r, c, 2]
             dz, dy, dx = dirs[r, c, 0], dirs[r, c, 1], dirs[r, c, 2]
-            tnear, tfar = _box_hit(oz, oy, ox, dz, dy, dx, nz, ny, nx)
-            if tnear < 0.0:
-                tnear = 0.0
-            if not tfar > tnear:
+            tnear, tfar, nseg, vz, vy, vx = _ray_span(
+                oz, oy, ox, dz, dy, dx, nz, ny, nx, vscale, step
+            )
+            if nseg == 0:
                 continue
-            # view vector (towards the eye) in world space
-            vz, vy, vx = -dz * vscale[0], -dy * vscale[1], -dx * vscale[2]
-            vn = math.sqrt(vz * vz + vy * vy + vx * vx)
-            vz, vy, vx = vz / vn, vy / vn, vx / vn
-            nseg = int(math.ceil((tfar - tnear) / step))
-            if nseg < 1:
-                nseg = 1
             ar = 0.0
             ag = 0.0
             ab = 0.0
@@ -439,23 +532,16 @@ def _render_kernel(
             while i < nseg:
                 t0 = tnear + i * step
                 if skip and t0 >= next_check:
-                    lv, te = _brick_exit(
-                        oz + t0 * dz, oy + t0 * dy, ox + t0 * dx,
+                    state, i, next_check = _leap(
+                        i, t0, tnear, tfar, step, next_check,
                         oz, oy, ox, dz, dy, dx, nz, ny, nx, leap, brick,
                     )  # fmt: skip
-                    if lv == 0:
-                        next_check = te  # the ray stays in this (visible) brick until te
-                    else:
-                        if te >= tfar:
-                            break
-                        inext = int(math.floor((te - tnear - 1e-7) / step))
-                        if inext > i:
-                            # segment inext straddles the exit: it is marched, untested
-                            next_check = te
-                            i = inext
-                            have_front = False
-                            have_nf = False
-                            continue
+                    if state == 2:
+                        break
+                    if state == 1:
+                        have_front = False
+                        have_nf = False
+                        continue
                 t1 = t0 + step
                 if t1 > tfar:
                     t1 = tfar
@@ -495,7 +581,7 @@ def _render_kernel(
                         spec = 0.0
                         if shade > 0:
                             ndv = _headlight(
-                                vol, oz + th * dz, oy + th * dy, ox + th * dx,
+                                vol, grad, has_grad, oz + th * dz, oy + th * dy, ox + th * dx,
                                 gscale, vz, vy, vx, gmin,
                             )  # fmt: skip
                             if ndv >= 0.0:
@@ -529,11 +615,11 @@ def _render_kernel(
                             # pre-integrated lighting: n.l linear from front to back
                             if not have_nf:
                                 nfz, nfy, nfx, lf = _normal(
-                                    vol, oz + t0 * dz, oy + t0 * dy, ox + t0 * dx,
+                                    vol, grad, has_grad, oz + t0 * dz, oy + t0 * dy, ox + t0 * dx,
                                     gscale, vz, vy, vx, gmin,
                                 )  # fmt: skip
                             qbz, qby, qbx, lb = _normal(
-                                vol, oz + t1 * dz, oy + t1 * dy, ox + t1 * dx,
+                                vol, grad, has_grad, oz + t1 * dz, oy + t1 * dy, ox + t1 * dx,
                                 gscale, vz, vy, vx, gmin,
                             )  # fmt: skip
                             lit_now = True
@@ -564,7 +650,7 @@ def _render_kernel(
                                 if csum > 0.0:
                                     tc = t0 + (c4[4] + c4[5] + c4[6]) / csum * seglen
                             ndv = _headlight(
-                                vol, oz + tc * dz, oy + tc * dy, ox + tc * dx,
+                                vol, grad, has_grad, oz + tc * dz, oy + tc * dy, ox + tc * dx,
                                 gscale, vz, vy, vx, gmin,
                             )  # fmt: skip
                             if ndv >= 0.0:
@@ -579,6 +665,168 @@ def _render_kernel(
                 sf = sb
                 if aa > ert:
                     break
+                i += 1
+            out[r, c, 0] = ar
+            out[r, c, 1] = ag
+            out[r, c, 2] = ab
+            out[r, c, 3] = aa
+        row_samples[r] = count
+
+
+# --------------------------------------------------------------------------- fast path
+# The common case in a small kernel of its own: every image of a plain volume (not a
+# multiresolution selection) with post-classification or pre-integration, unshaded or
+# Phong-shaded, and no isosurfaces; everything else goes through _render_kernel. Both
+# march the same segments, sample the same positions, use the same tables, leap the
+# same empty bricks and composite in the same order, so they give the same image up to
+# float rounding (tests/test_render_fast.py holds them to 1e-5). What makes this one
+# faster (issue 22, scripts/profile_render.py): only the branches its case needs, so
+# the loop keeps its values in registers; the volume read as stored and interpolated in
+# float32; the gradient read from the PreparedVolume's gradient volume when there is
+# one; the specular power by repeated squaring when the exponent is a whole number;
+# table look-ups returned as values, not written to a scratch array.
+
+
+@kernel
+def _powi(x, n):
+    """``x ** n`` for a whole ``n >= 0`` by repeated squaring."""
+    r = 1.0
+    while n > 0:
+        if n & 1:
+            r *= x
+        x *= x
+        n >>= 1
+    return r
+
+
+@kernel
+def _rgba1(tab, x):
+    """Linear lookup of the (n, 4) table at fractional index ``x``, as a tuple."""
+    i0, i1, f = _ucell(x, tab.shape[0])
+    a0, a1, a2, a3 = tab[i0, 0], tab[i0, 1], tab[i0, 2], tab[i0, 3]
+    return (a0 + (tab[i1, 0] - a0) * f, a1 + (tab[i1, 1] - a1) * f,
+            a2 + (tab[i1, 2] - a2) * f, a3 + (tab[i1, 3] - a3) * f)  # fmt: skip
+
+
+@kernel
+def _rgba2(tab, xf, xb):
+    """Bilinear lookup of the (n, n, 4) table at (front, back), as a tuple."""
+    n = tab.shape[0]
+    i0, i1, fi = _ucell(xf, n)
+    j0, j1, fj = _ucell(xb, n)
+    return (_bilerp(tab, 0, i0, i1, fi, j0, j1, fj), _bilerp(tab, 1, i0, i1, fi, j0, j1, fj),
+            _bilerp(tab, 2, i0, i1, fi, j0, j1, fj), _bilerp(tab, 3, i0, i1, fi, j0, j1, fj))  # fmt: skip
+
+
+@kernel
+def _bilerp(tab, ch, i0, i1, fi, j0, j1, fj):
+    a = tab[i0, j0, ch] + (tab[i0, j1, ch] - tab[i0, j0, ch]) * fj
+    b = tab[i1, j0, ch] + (tab[i1, j1, ch] - tab[i1, j0, ch]) * fj
+    return a + (b - a) * fi
+
+
+@kernel
+def _ndv(grad, z, y, x, gscale, vz, vy, vx, gmin):
+    """``|n.v|`` from the gradient volume (inside ``[0, n - 1]``; -1 where the gradient
+    vanishes): :func:`_normal` without the normal itself."""
+    g0, g1, g2 = _trilinear3(grad, z, y, x)
+    gz = g0 * gscale[0]
+    gy = g1 * gscale[1]
+    gx = g2 * gscale[2]
+    g = math.sqrt(gz * gz + gy * gy + gx * gx)
+    if g <= gmin:
+        return -1.0
+    return abs(gz * vz + gy * vy + gx * vx) / g
+
+
+@kernel
+def _march_kernel(
+    vol, grad, has_grad, origins, dirs, rows, mode, post_tab, pre2d, lo, scale, step,
+    leap, brick, skip, ert, shade, shading, gscale, vscale, gmin, out, row_samples,
+):  # fmt: skip
+    """Rays of image rows ``rows``; ``mode`` 0 (post) or 2 (pre-integrated), ``shade``
+    0 (none) or 1 (Phong at the segment midpoint). Arguments as for
+    :func:`_render_kernel`."""
+    nz, ny, nx = vol.shape
+    w = out.shape[1]
+    ka, kd, ks, shin = shading[0], shading[1], shading[2], shading[3]
+    ishin = int(shin)
+    whole = ishin == shin and ishin >= 0
+    pre = mode == 2
+    for k in range(rows.shape[0]):
+        r = rows[k]
+        count = 0
+        for c in range(w):
+            oz, oy, ox = origins[r, c, 0], origins[r, c, 1], origins[r, c, 2]
+            dz, dy, dx = dirs[r, c, 0], dirs[r, c, 1], dirs[r, c, 2]
+            tnear, tfar, nseg, vz, vy, vx = _ray_span(
+                oz, oy, ox, dz, dy, dx, nz, ny, nx, vscale, step
+            )
+            if nseg == 0:
+                continue
+            ar = 0.0
+            ag = 0.0
+            ab = 0.0
+            aa = 0.0
+            xf = 0.0
+            have_front = False
+            next_check = -1.0
+            i = 0
+            while i < nseg:
+                t0 = tnear + i * step
+                if skip and t0 >= next_check:
+                    state, i, next_check = _leap(
+                        i, t0, tnear, tfar, step, next_check,
+                        oz, oy, ox, dz, dy, dx, nz, ny, nx, leap, brick,
+                    )  # fmt: skip
+                    if state == 2:
+                        break
+                    if state == 1:
+                        have_front = False
+                        continue
+                t1 = t0 + step
+                if t1 > tfar:
+                    t1 = tfar
+                seglen = t1 - t0
+                if seglen <= 0.0:
+                    break
+                tm = 0.5 * (t0 + t1)
+                count += 1
+                if pre:
+                    if not have_front:
+                        xf = (_trilinear(vol, oz + t0 * dz, oy + t0 * dy, ox + t0 * dx) - lo) * scale
+                        have_front = True
+                    xb = (_trilinear(vol, oz + t1 * dz, oy + t1 * dy, ox + t1 * dx) - lo) * scale
+                    cr, cg, cb, a = _rgba2(pre2d, xf, xb)
+                    xf = xb
+                else:
+                    s = _trilinear(vol, oz + tm * dz, oy + tm * dy, ox + tm * dx)
+                    cr, cg, cb, a = _rgba1(post_tab, (s - lo) * scale)
+                if a > 0.0:
+                    if seglen < step:  # last, shorter segment
+                        a2 = 1.0 - (1.0 - min(a, 1.0)) ** (seglen / step)
+                        g = a2 / a
+                        cr, cg, cb, a = cr * g, cg * g, cb * g, a2
+                    f = 1.0
+                    spec = 0.0
+                    if shade:
+                        pz, py, px = oz + tm * dz, oy + tm * dy, ox + tm * dx
+                        if has_grad and (0.0 <= pz <= nz - 1 and 0.0 <= py <= ny - 1
+                                         and 0.0 <= px <= nx - 1):  # fmt: skip
+                            ndv = _ndv(grad, pz, py, px, gscale, vz, vy, vx, gmin)
+                        else:
+                            ndv = _normal(vol, grad, False, pz, py, px, gscale, vz, vy, vx,
+                                          gmin)[3]  # fmt: skip
+                        if ndv >= 0.0:
+                            f = ka + kd * ndv
+                            spec = ks * (_powi(ndv, ishin) if whole else ndv**shin) * a
+                    wgt = 1.0 - aa
+                    ar += wgt * (cr * f + spec)
+                    ag += wgt * (cg * f + spec)
+                    ab += wgt * (cb * f + spec)
+                    aa += wgt * a
+                    if aa > ert:
+                        break
                 i += 1
             out[r, c, 0] = ar
             out[r, c, 1] = ag
@@ -757,29 +1005,21 @@ def render(
         )
 
     paged = hasattr(volume, "page")  # a volpack.render.lod.PagedVolume
+    prep = None
     if paged:
         if classification == "pre":
             raise VolpackError("expected classification 'post' or 'preintegrated' for a "
                                "multiresolution selection, found 'pre'")  # fmt: skip
-        data, mask = volume.atlas, None
         sp = tuple(float(v) for v in (spacing or volume.spacing))
-        vol = data
+        vol = volume.atlas
+        frange = (float(vol.min()), float(vol.max()))
     else:
-        data, mask, sp = _unpack(volume, spacing)
-        vol = np.ascontiguousarray(data, dtype=np.float32)
-    bad = None
-    if data.dtype.kind in "fc" and not paged:
-        bad = ~np.isfinite(vol)
-    if mask is not None:
-        bad = mask.copy() if bad is None else (bad | mask)
-    if bad is not None and not bad.any():
-        bad = None
-    finite = vol if bad is None else vol[~bad]
+        prep = prepare_volume(volume, spacing)
+        sp = prep.spacing if spacing is None else unpack_volume(prep.data[:1, :1, :1], spacing)[2]
+        vol = prep.data
+        frange = prep.finite_range
     if value_range is None:
-        if finite.size:
-            lo, hi = float(finite.min()), float(finite.max())
-        else:
-            lo, hi = 0.0, 1.0
+        lo, hi = frange if frange is not None else (0.0, 1.0)
     else:
         lo, hi = (float(v) for v in value_range)
         if not (math.isfinite(lo) and math.isfinite(hi)):
@@ -808,36 +1048,47 @@ def render(
         iso_vals = np.array(sorted(v for v, _, _ in isos), np.float64)
         iso2d = np.ascontiguousarray(iso_table(n, lo, hi, isos), np.float32)
 
-    if not finite.size and not isos:  # nothing but non-finite voxels: nothing to see
+    if frange is None and not isos:  # nothing but non-finite voxels: nothing to see
         w, h = camera.size
         out = np.zeros((h, w, 4), np.float32)
         stats = RenderStats(0, time.perf_counter() - t_start, w * h, 0)
         return (out, stats) if render_stats else out
-    if bad is not None:
-        if vol is data:
-            vol = vol.copy()
-        vol[bad] = _empty_value(base if has_vol else None, lo, hi, finite)
+    dmin = None if frange is None else frange[0]
+    nthreads = parse_workers(workers)
+    fill = None
+    if prep is not None and prep.bad is not None:
+        fill = _empty_value(base if has_vol else None, lo, hi, dmin)
+        vol = prep.filled(fill)
 
     rgba = np.zeros((1, 1, 1, 4), np.float32)
     if has_vol and mode == 1:
         rgba = np.empty((*vol.shape, 4), np.float32)
         _classify_kernel(vol, post_tab, lo, scale, rgba)
-        if bad is not None:
-            rgba[bad] = 0.0
+        if prep is not None and prep.bad is not None:
+            rgba[prep.bad] = 0.0
 
-    nthreads = parse_workers(workers)
+    grad = np.zeros((1, 1, 1, 3), np.float32)
+    has_grad = False
+    if prep is not None and shading != "none":
+        g = prep.gradients(fill, nthreads)
+        if g is not None:
+            grad, has_grad = g, True
     brick = BRICK
+    ranges = None
     if paged:  # nodes are sampled through the page table
-        fill = np.array([_empty_value(base if has_vol else None, lo, hi, finite, quiet=True)])
-        vol = (volume.atlas, volume.page, volume.meta, volume.level, volume.origin, fill)
+        fill_p = _empty_value(base if has_vol else None, lo, hi, dmin, quiet=True)
+        vol = (volume.atlas, volume.page, volume.meta, volume.level, volume.origin,
+               np.array([fill_p]))  # fmt: skip
         shape = volume.shape
     else:
         shape = vol.shape
+        if skip_empty:
+            ranges = prep.brick_ranges(fill, BRICK, _brick_range_kernel)
     if paged and volume.cell % BRICK:  # bricks must not straddle page cells: skip by cell
         empty, brick = volume.page < 0, volume.cell
     else:
         empty = _empty_bricks(vol, shape, rgba, mode, has_vol, post_tab, pre2d, iso2d,
-                              bool(isos), lo, scale, skip_empty)  # fmt: skip
+                              bool(isos), lo, scale, skip_empty, ranges)  # fmt: skip
     leap = np.zeros(empty.shape, np.int64)
     if skip_empty:
         _leap_kernel(np.ascontiguousarray(empty), leap)
@@ -851,23 +1102,39 @@ def render(
     gmin = 1e-6 * (hi - lo) / max(sp)
     shading_k = np.array([KA, KD, KS, SHININESS], np.float64)
 
+    fast = FAST_PATH and not paged and has_vol and not isos and mode != 1
+    if fast and shading in ("none", "phong"):
+        def run(rows: np.ndarray) -> None:  # the fast path (see _march_kernel)
+            _march_kernel(
+                vol, grad, has_grad, origins, dirs, rows, mode, post_tab, pre2d, lo, scale,
+                float(step), leap, brick, bool(skip_empty), float(ert),
+                SHADINGS.index(shading), shading_k, gscale, vscale, gmin, out, row_samples,
+            )  # fmt: skip
+
+        run_row_sets(run, h, nthreads, progress)
+        return _finish(out, row_samples, t_start, render_stats)
+
     def run(rows: np.ndarray) -> None:
         _render_kernel(
-            vol, rgba, origins, dirs, rows, mode, has_vol,
+            vol, grad, has_grad, rgba, origins, dirs, rows, mode, has_vol,
             post_tab, pre2d, iso2d, iso_vals, bool(isos), lo, scale, float(step),
             leap, brick, bool(skip_empty), float(ert), SHADINGS.index(shading), shading_k,
             gscale, vscale, gmin, out, row_samples,
         )  # fmt: skip
 
     run_row_sets(run, h, nthreads, progress)
+    return _finish(out, row_samples, t_start, render_stats)
+
+
+def _finish(out, row_samples, t_start, render_stats):
     if not render_stats:
         return out
-    hits = int(np.count_nonzero(out[..., 3] > 0))
+    h, w = out.shape[:2]
     stats = RenderStats(
         samples=int(row_samples.sum()),
         seconds=time.perf_counter() - t_start,
         rays=w * h,
-        hits=hits,
+        hits=int(np.count_nonzero(out[..., 3] > 0)),
     )
     return out, stats
 
@@ -892,34 +1159,6 @@ def run_row_sets(run, h: int, nthreads: int, progress=None) -> None:
         done += rows_done
         if progress is not None:
             progress(done, h)
-
-
-def _unpack(volume, spacing):
-    mask = None
-    sp = spacing
-    if hasattr(volume, "data") and hasattr(volume, "spacing"):
-        if volume.data.ndim != 3:
-            raise VolpackError(
-                f"expected a 3-D (z, y, x) volume, found shape {volume.data.shape}; "
-                "pick one time step first"
-            )
-        mask = volume.mask
-        if sp is None:
-            sp = volume.spacing
-        volume = volume.data
-    data = np.asarray(volume)
-    if data.ndim != 3:
-        raise VolpackError(f"expected a 3-D (z, y, x) array, found shape {data.shape}")
-    if data.size == 0:
-        raise VolpackError(f"expected a non-empty volume, found shape {data.shape}")
-    if not (np.issubdtype(data.dtype, np.number) or data.dtype == bool):
-        raise VolpackError(f"expected numeric voxels, found dtype {data.dtype}")
-    if np.iscomplexobj(data):
-        raise VolpackError(f"expected real voxels, found dtype {data.dtype}")
-    sp = (1.0, 1.0, 1.0) if sp is None else tuple(float(s) for s in sp)
-    if len(sp) != 3 or not all(math.isfinite(s) and s > 0 for s in sp):
-        raise VolpackError(f"expected three finite spacings > 0, found {sp}")
-    return data, (None if mask is None else np.asarray(mask, bool)), sp
 
 
 def transfer_table(tf, lo, hi, n) -> np.ndarray:
@@ -972,9 +1211,10 @@ def _check_isos(isos) -> list:
     return clean
 
 
-def _empty_value(base, lo, hi, finite, quiet: bool = False) -> float:
-    """A value for non-finite voxels (or absent nodes) whose table entry is transparent."""
-    dmin = float(finite.min()) if finite.size else lo
+def _empty_value(base, lo, hi, dmin, quiet: bool = False) -> float:
+    """A value for non-finite voxels (or absent nodes) whose table entry is transparent
+    (``dmin``: the smallest finite value, None when there is none)."""
+    dmin = lo if dmin is None else float(dmin)
     if base is None:
         return dmin
     n = base.shape[0]
@@ -998,11 +1238,12 @@ def _empty_value(base, lo, hi, finite, quiet: bool = False) -> float:
 
 
 def _empty_bricks(
-    vol, shape, rgba, mode, has_vol, post_tab, pre2d, iso2d, has_iso, lo, scale, skip
-):
+    vol, shape, rgba, mode, has_vol, post_tab, pre2d, iso2d, has_iso, lo, scale, skip,
+    ranges=None,
+):  # fmt: skip
     """Which ``BRICK``^3 bricks of level-0 space no sample can see: their value range
-    (with the voxels trilinear samples inside them reach) maps to zero in every table
-    in use; for a paged volume, also the bricks no node covers."""
+    (with the voxels trilinear samples inside them reach; ``ranges`` when given) maps to
+    zero in every table in use; for a paged volume, also the bricks no node covers."""
     nb = tuple(max(1, -(-s // BRICK)) for s in shape)
     if not skip:
         return np.zeros(nb, np.bool_)
@@ -1021,6 +1262,8 @@ def _empty_bricks(
         _paged_range_kernel(*vol[:5], BRICK, mins, maxs)
         uncovered = np.isnan(mins)
         mins[uncovered] = maxs[uncovered] = lo
+    elif ranges is not None:
+        mins, maxs = ranges
     else:
         _brick_range_kernel(vol, BRICK, mins, maxs)
     invisible = uncovered | _invisible_range(
