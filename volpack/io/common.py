@@ -104,6 +104,31 @@ def origin3(values) -> tuple[float, float, float]:
     return tuple(out)  # type: ignore[return-value]
 
 
+def geometry_xyz(spacing_xyz, origin_xyz) -> tuple[tuple, tuple]:
+    """``(z, y, x)`` spacing and origin from a header's x-first lists (their first three
+    values; missing or unusable ones become 1 and 0)."""
+    return spacing3(list(spacing_xyz)[:3][::-1]), origin3(list(origin_xyz)[:3][::-1])
+
+
+def stored_meta(fields, fmt: str) -> dict[str, Any]:
+    """A reader's ``meta``: what a volpack writer stored as JSON under ``volpack_meta`` in
+    ``fields`` (a header or a dataset's attributes), then the ``source_format``."""
+    meta: dict[str, Any] = {}
+    if "volpack_meta" in fields:
+        meta.update(meta_from_json(fields["volpack_meta"]))
+    meta["source_format"] = fmt
+    return meta
+
+
+def to_volume(
+    arr, meta: dict, where: str, shape=None, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0)
+) -> Volume:
+    """The Volume a reader hands back: ``arr`` (reshaped to ``shape`` when given) checked
+    and converted by :func:`as_volume_array`, with its geometry and ``meta``."""
+    arr = np.asarray(arr) if shape is None else np.asarray(arr).reshape(shape)
+    return Volume(as_volume_array(arr, meta, where), spacing=spacing, origin=origin, meta=meta)
+
+
 def header_dict(fmt, shape, dtype, spacing, origin, meta=None) -> dict[str, Any]:
     d: dict[str, Any] = {
         "format": fmt,

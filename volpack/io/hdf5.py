@@ -12,14 +12,14 @@ from ..errors import FormatError
 from ..volume import Volume
 from .common import (
     ReadOptions,
-    as_volume_array,
     check_voxels,
     header_dict,
-    meta_from_json,
     meta_json,
     native,
     origin3,
     spacing3,
+    stored_meta,
+    to_volume,
     wrap_errors,
 )
 
@@ -53,10 +53,7 @@ def pick_dataset(f, inner: str | None, path: str):
 
 def geometry(ds) -> tuple[tuple, tuple, dict]:
     attrs = ds.attrs
-    meta: dict[str, Any] = {}
-    if "volpack_meta" in attrs:
-        meta.update(meta_from_json(attrs["volpack_meta"]))
-    meta["source_format"] = "hdf5"
+    meta = stored_meta(attrs, "hdf5")
     meta["hdf5_dataset"] = ds.name
     spacing: tuple = (1.0, 1.0, 1.0)
     for key in ("spacing", "element_size_um"):
@@ -91,8 +88,7 @@ def read(path: str, opts: ReadOptions) -> Volume:
         check_voxels(shape, opts.max_voxels, path)
         spacing, origin, meta = geometry(ds)
         arr = ds[()]
-    arr = np.asarray(arr).reshape(shape)
-    return Volume(as_volume_array(arr, meta, path), spacing=spacing, origin=origin, meta=meta)
+    return to_volume(arr, meta, path, shape, spacing, origin)
 
 
 def header(path: str, opts: ReadOptions) -> dict[str, Any]:

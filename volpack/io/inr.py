@@ -17,15 +17,7 @@ import numpy as np
 
 from ..errors import FormatError
 from ..volume import Volume
-from .common import (
-    ReadOptions,
-    as_volume_array,
-    check_voxels,
-    header_dict,
-    native,
-    origin3,
-    spacing3,
-)
+from .common import ReadOptions, check_voxels, geometry_xyz, header_dict, native, to_volume
 
 _MAGIC = b"#INRIMAGE-4#{"
 _END = b"##}\n"
@@ -90,8 +82,9 @@ def _parse(f, path: str) -> dict[str, Any]:
         )
     order = "<" if cpu in _LITTLE else ">"
     dtype = np.dtype(f"{order}{code}{bits // 8}")
-    spacing = spacing3([fields.get(k) for k in ("VZ", "VY", "VX")])
-    origin = origin3([fields.get(k, 0) for k in ("TZ", "TY", "TX")])
+    spacing, origin = geometry_xyz(
+        [fields.get(k) for k in ("VX", "VY", "VZ")], [fields.get(k, 0) for k in ("TX", "TY", "TZ")]
+    )
     return {"shape": (nz, ny, nx), "dtype": dtype, "spacing": spacing, "origin": origin, "cpu": cpu}
 
 
@@ -107,10 +100,9 @@ def read(path: str, opts: ReadOptions) -> Volume:
             f"expected {n} bytes of {h['dtype']} voxels for {h['shape']} after the header "
             f"of {path!r}, found {found}"
         )
-    arr = np.frombuffer(blob, h["dtype"]).reshape(h["shape"])
     meta: dict[str, Any] = {"source_format": "inr", "inr_cpu": h["cpu"]}
-    return Volume(
-        as_volume_array(arr, meta, path), spacing=h["spacing"], origin=h["origin"], meta=meta
+    return to_volume(
+        np.frombuffer(blob, h["dtype"]), meta, path, h["shape"], h["spacing"], h["origin"]
     )
 
 

@@ -18,15 +18,7 @@ import numpy as np
 
 from ..errors import FormatError
 from ..volume import Volume
-from .common import (
-    ReadOptions,
-    as_volume_array,
-    check_voxels,
-    header_dict,
-    native,
-    origin3,
-    spacing3,
-)
+from .common import ReadOptions, check_voxels, geometry_xyz, header_dict, native, to_volume
 
 _TYPES = {
     "MET_CHAR": "i1",
@@ -98,12 +90,13 @@ def _parse(path: str) -> dict[str, Any]:
     origin_xyz = (
         fields.get("Offset") or fields.get("Origin") or fields.get("Position") or ""
     ).split()
+    spacing, origin = geometry_xyz(spacing_xyz, origin_xyz)
     return {
         "fields": fields,
         "shape": shape,
         "dtype": np.dtype((">" if msb else "<") + code),
-        "spacing": spacing3(spacing_xyz[:3][::-1]),
-        "origin": origin3(origin_xyz[:3][::-1]),
+        "spacing": spacing,
+        "origin": origin,
         "data_start": data_start,
     }
 
@@ -146,13 +139,12 @@ def read(path: str, opts: ReadOptions) -> Volume:
         raise FormatError(
             f"expected {n} bytes of {h['dtype']} voxels for {h['shape']} in {data!r}, found {len(blob)}"
         )
-    arr = np.frombuffer(blob, h["dtype"]).reshape(h["shape"])
     meta: dict[str, Any] = {"source_format": "metaimage"}
     matrix = h["fields"].get("TransformMatrix")
     if matrix and [float(v) for v in matrix.split()] != [1, 0, 0, 0, 1, 0, 0, 0, 1]:
         meta["metaimage_transform"] = [float(v) for v in matrix.split()]
-    return Volume(
-        as_volume_array(arr, meta, path), spacing=h["spacing"], origin=h["origin"], meta=meta
+    return to_volume(
+        np.frombuffer(blob, h["dtype"]), meta, path, h["shape"], h["spacing"], h["origin"]
     )
 
 

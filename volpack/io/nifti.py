@@ -12,7 +12,6 @@ from ..jsonsafe import jsonable
 from ..volume import Volume
 from .common import (
     ReadOptions,
-    as_volume_array,
     check_voxels,
     header_dict,
     meta_from_json,
@@ -20,6 +19,7 @@ from .common import (
     origin3,
     refuse_float16,
     spacing3,
+    to_volume,
 )
 
 _NIFTI_COMMENT = 6  # NIFTI_ECODE_COMMENT: carries volpack's meta as JSON
@@ -86,7 +86,7 @@ def read(path: str, opts: ReadOptions) -> Volume:
     arr = np.asanyarray(obj.get_unscaled() if hasattr(obj, "get_unscaled") else obj)
     arr = arr.reshape(shape[::-1] if len(shape) == 3 else (*shape[1:][::-1], shape[0]))
     arr = _xyz_to_zyx(arr)
-    return Volume(as_volume_array(arr, meta, path), spacing=spacing, origin=origin, meta=meta)
+    return to_volume(arr, meta, path, spacing=spacing, origin=origin)
 
 
 def header(path: str, opts: ReadOptions) -> dict[str, Any]:

@@ -12,15 +12,14 @@ from ..jsonsafe import jsonable
 from ..volume import Volume
 from .common import (
     ReadOptions,
-    as_volume_array,
     check_voxels,
+    geometry_xyz,
     header_dict,
-    meta_from_json,
     meta_json,
     native,
-    origin3,
     refuse_float16,
-    spacing3,
+    stored_meta,
+    to_volume,
 )
 
 _NRRD_TYPES = {
@@ -62,12 +61,8 @@ def _nrrd_geometry(header: dict, path: str) -> tuple[tuple[int, ...], tuple, tup
     shape = tuple(sizes[::-1])
     if len(shape) == 2:
         shape = (1, *shape)
-    spacing = spacing3(spacing_xyz[:3][::-1])
-    origin = origin3(origin_xyz[::-1]) if origin_xyz else (0.0, 0.0, 0.0)
-    meta: dict[str, Any] = {}
-    if "volpack_meta" in header:
-        meta.update(meta_from_json(header["volpack_meta"]))
-    meta["source_format"] = "nrrd"
+    spacing, origin = geometry_xyz(spacing_xyz, origin_xyz)
+    meta = stored_meta(header, "nrrd")
     for key in ("space", "kinds"):
         if key in header:
             meta[f"nrrd_{key.replace(' ', '_')}"] = jsonable(header[key])
@@ -82,8 +77,7 @@ def read(path: str, opts: ReadOptions) -> Volume:
         shape, spacing, origin, meta = _nrrd_geometry(header, path)
         check_voxels(shape, opts.max_voxels, path)
         arr = nrrd.read_data(header, fh, filename=path, index_order="C")
-    arr = np.asarray(arr).reshape(shape)
-    return Volume(as_volume_array(arr, meta, path), spacing=spacing, origin=origin, meta=meta)
+    return to_volume(arr, meta, path, shape, spacing, origin)
 
 
 def header(path: str, opts: ReadOptions) -> dict[str, Any]:

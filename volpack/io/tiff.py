@@ -12,13 +12,13 @@ from ..jsonsafe import jsonable
 from ..volume import Volume
 from .common import (
     ReadOptions,
-    as_volume_array,
     check_voxels,
     header_dict,
     native,
     natural_key,
     origin3,
     spacing3,
+    to_volume,
 )
 
 _TIFF_EXTS = (".tif", ".tiff")
@@ -86,8 +86,7 @@ def read(path: str, opts: ReadOptions) -> Volume:
         shape, _, spacing, origin, meta = geometry(tif, path)
         check_voxels(shape, opts.max_voxels, path)
         arr = tif.series[0].asarray()
-    arr = np.asarray(arr).reshape(shape)
-    return Volume(as_volume_array(arr, meta, path), spacing=spacing, origin=origin, meta=meta)
+    return to_volume(arr, meta, path, shape, spacing, origin)
 
 
 def header(path: str, opts: ReadOptions) -> dict[str, Any]:
@@ -148,4 +147,4 @@ def read_folder(path: str, opts: ReadOptions) -> Volume:
             )
         out[i] = sl
     meta: dict[str, Any] = {"source_format": "tiff-folder", "slices": len(names)}
-    return Volume(as_volume_array(out, meta, path), spacing=spacing3((1.0, ys, xs)), meta=meta)
+    return to_volume(out, meta, path, spacing=spacing3((1.0, ys, xs)))

@@ -22,15 +22,7 @@ import numpy as np
 
 from ..errors import FormatError
 from ..volume import Volume
-from .common import (
-    ReadOptions,
-    as_volume_array,
-    check_voxels,
-    header_dict,
-    native,
-    origin3,
-    spacing3,
-)
+from .common import ReadOptions, check_voxels, geometry_xyz, header_dict, native, to_volume
 
 _TYPES = {
     "Int8": "i1",
@@ -84,7 +76,7 @@ def _geometry(root: ET.Element, path: str):
         raise FormatError(f"expected a 6-number extent and 3-number spacing/origin in {path!r}")
     org = [o + e * s for o, e, s in zip(org, ext[::2], sp)]  # the first voxel's position
     points = tuple(ext[2 * a + 1] - ext[2 * a] + 1 for a in (2, 1, 0))
-    return pieces[0], img, points, spacing3(sp[::-1]), origin3(org[::-1])
+    return pieces[0], img, points, *geometry_xyz(sp, org)
 
 
 def _pick(piece: ET.Element, points: tuple, path: str):
@@ -217,9 +209,7 @@ def read(path: str, opts: ReadOptions) -> Volume:
     direction = img.get("Direction") if img is not None else None
     if direction and [float(v) for v in direction.split()] != [1, 0, 0, 0, 1, 0, 0, 0, 1]:
         meta["vti_direction"] = [float(v) for v in direction.split()]
-    return Volume(
-        as_volume_array(data.reshape(shape), meta, path), spacing=spacing, origin=origin, meta=meta
-    )
+    return to_volume(data, meta, path, shape, spacing, origin)
 
 
 def header(path: str, opts: ReadOptions) -> dict[str, Any]:

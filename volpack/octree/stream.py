@@ -6,7 +6,6 @@ reader, :func:`decompress` decodes one level or the coarsest nodes within an err
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
 from typing import Any, BinaryIO, NamedTuple
 
 import numpy as np
@@ -25,27 +24,22 @@ def compress(
     source: Any,
     target: str,
     *,
-    block: int = layout.DEFAULT_BLOCK,
-    wavelet: str = "53",
-    coder: str = "arith",
-    order: str = "dfs",
-    max_error: float | None = None,
-    workers: int | None = 1,
-    scheduler: Any = None,
     force: bool = False,
-    progress: Callable[[int, int], None] | None = None,
     read_options: dict | None = None,
-    **refused: Any,
+    **options: Any,
 ) -> dict[str, Any]:
     """Build the octree of ``source`` (an array, a Volume, or a volume file spec read box
-    by box with ``read_options``) into the seekable file ``target``; see
-    :func:`volpack.octree.build.build` for the parameters and the returned summary.
+    by box with ``read_options``) into the seekable file ``target``; ``options`` are those
+    of :func:`volpack.octree.build.build`, which lists them and the returned summary.
     Lossless, or within ``max_error``: the other lossy settings are refused."""
+    import inspect
+
     from ..format.atomic import check_output
     from .build import build
 
-    given = [k for k in REFUSED if refused.get(k) is not None]
-    unknown = sorted(set(refused) - set(REFUSED))
+    accepted = set(inspect.signature(build).parameters) - {"source", "target", "force"}
+    given = [k for k in REFUSED if options.get(k) is not None]
+    unknown = sorted(set(options) - accepted - set(REFUSED))
     if unknown:
         raise TypeError(f"compress() of an octree got unexpected options {unknown}")
     if given:
@@ -58,19 +52,8 @@ def compress(
 
         check_output(target, force=force, inputs=(parse_spec(source)[0],))
         source = SourceSpec(source, tuple(sorted((read_options or {}).items())))
-    return build(
-        source,
-        target,
-        block=block,
-        wavelet=wavelet,
-        coder=coder,
-        order=order,
-        max_error=max_error,
-        workers=workers,
-        scheduler=scheduler,
-        force=force,
-        progress=progress,
-    )
+    kept = {k: v for k, v in options.items() if k in accepted}  # the refused ones are None
+    return build(source, target, force=force, **kept)
 
 
 def open(source: Any, **options: Any) -> Octree:  # noqa: A001

@@ -211,14 +211,21 @@ def _predict(vals, refs, i, c):
     return s + rem // m
 
 
-@kernel
-def _encode_kernel(vals, refs, width, out):
-    n, nc = vals.shape
+@kernel(inline=True)  # numba IR inlining: the kernels compile as if written out
+def _coder_state(nc):
+    """What encoder and decoder start from alike: the residual models of each class
+    (channels past MAX_CLASSES share the last) and each channel's previous count."""
     ncls = min(nc, MAX_CLASSES)
     models = np.full(
         ncls * (N_CTX * pk.N_COUNT + 17 * 16 + 17 * 256), pk.STATE_INIT, dtype=np.uint16
     )
-    prev = np.zeros(nc, dtype=np.int64)
+    return models, np.zeros(nc, dtype=np.int64)
+
+
+@kernel
+def _encode_kernel(vals, refs, width, out):
+    n, nc = vals.shape
+    models, prev = _coder_state(nc)
     cs = pk.start_encoder(out)
     cap = out.size
     for i in range(n):
@@ -235,11 +242,7 @@ def _encode_kernel(vals, refs, width, out):
 @kernel
 def _decode_kernel(data, refs, width, vals):
     n, nc = vals.shape
-    ncls = min(nc, MAX_CLASSES)
-    models = np.full(
-        ncls * (N_CTX * pk.N_COUNT + 17 * 16 + 17 * 256), pk.STATE_INIT, dtype=np.uint16
-    )
-    prev = np.zeros(nc, dtype=np.int64)
+    models, prev = _coder_state(nc)
     cs = pk.start_decoder(data)
     for i in range(n):
         if cs[2] > data.size + 4:

@@ -789,6 +789,12 @@ def _bits(x):
     return 64 - np.int64(leading_zeros(np.uint64(t)))
 
 
+@kernel(inline=True)
+def _miss_bits(xyz, k, ax, guess, ln):
+    """Bits by which ``guess`` misses vertex ``k`` along ``ax``, in 1/256 of the length ``ln``."""
+    return _bits(abs(xyz[k, ax] - guess) * 256.0 / ln)
+
+
 @kernel
 def _learn(st, ln, bucket, xyz, k, cen, refl, far, normal, pred, err):
     """Update the adaptive state from decoded vertex k and its residual ``err`` per coded
@@ -807,8 +813,8 @@ def _learn(st, ln, bucket, xyz, k, cen, refl, far, normal, pred, err):
     y1 = 0.0
     y2 = 0.0
     for ax in range(3):
-        ca += _bits(abs(xyz[k, ax] - pred[ax]) * 256.0 / ln)
-        cr += _bits(abs(xyz[k, ax] - refl[ax]) * 256.0 / ln)
+        ca += _miss_bits(xyz, k, ax, pred[ax], ln)
+        cr += _miss_bits(xyz, k, ax, refl[ax], ln)
         f1 = normal[ax]
         f2 = far[ax] / ln
         y = (xyz[k, ax] - cen[ax]) / ln
@@ -835,9 +841,9 @@ def _learn_border(st, ln, xyz, k, apex, par):
     cp = 0
     cm = 0
     for ax in range(3):
-        ca += _bits(abs(xyz[k, ax] - apex[ax]) * 256.0 / ln)
-        cp += _bits(abs(xyz[k, ax] - par[ax]) * 256.0 / ln)
-        cm += _bits(abs(xyz[k, ax] - 0.5 * (apex[ax] + par[ax])) * 256.0 / ln)
+        ca += _miss_bits(xyz, k, ax, apex[ax], ln)
+        cp += _miss_bits(xyz, k, ax, par[ax], ln)
+        cm += _miss_bits(xyz, k, ax, 0.5 * (apex[ax] + par[ax]), ln)
     st[COST_BAPEX] += (ca - st[COST_BAPEX]) * COST_RATE
     st[COST_PAR] += (cp - st[COST_PAR]) * COST_RATE
     st[COST_MID] += (cm - st[COST_MID]) * COST_RATE
@@ -916,24 +922,45 @@ def _vertex_model(st, xyz, k, ptr, quads, bptr, bidx, btri, vnorm, mark, mark2, 
     return ln, min(ptr[k + 1] - ptr[k], 3) - 1
 
 
-@kernel
-def _encode_kernel(vals, xyz, ptr, quads, bptr, bidx, btri, mode, bits, out):
-    nv = vals.shape[0]
+@kernel(inline=True)  # numba IR inlining: the kernels compile as if written out
+def _coder_state(nv):
+    """What encoder and decoder start from alike: the adaptive models, the predictor's
+    state and scratch, and the float/int views that ``_to_int`` and ``_scale`` reinterpret
+    bits through."""
     models = np.full(N_SETS * pk.SCALED_SET, pk.STATE_INIT, dtype=np.uint16)
-    cs = pk.start_encoder(out)
     st = _new_state(nv)
     w = np.zeros((10, 3))
     vnorm = np.zeros((nv, 3))
     mark = np.full(nv, -1, dtype=np.int64)
     mark2 = np.full(nv, -1, dtype=np.int64)
     pred = np.empty(3)
-    f64 = np.empty(1, dtype=np.float64)
-    i64 = f64.view(np.int64)
-    f32 = np.empty(1, dtype=np.float32)
-    i32 = f32.view(np.int32)
-    cap = out.size
     res = np.empty(3, dtype=np.int64)
     err = np.empty(3)
+    f64 = np.empty(1, dtype=np.float64)
+    f32 = np.empty(1, dtype=np.float32)
+    return (
+        models,
+        st,
+        w,
+        vnorm,
+        mark,
+        mark2,
+        pred,
+        res,
+        err,
+        f64,
+        f64.view(np.int64),
+        f32,
+        f32.view(np.int32),
+    )
+
+
+@kernel
+def _encode_kernel(vals, xyz, ptr, quads, bptr, bidx, btri, mode, bits, out):
+    nv = vals.shape[0]
+    models, st, w, vnorm, mark, mark2, pred, res, err, f64, i64, f32, i32 = _coder_state(nv)
+    cs = pk.start_encoder(out)
+    cap = out.size
     for k in range(nv):
         if cs[2] + 3 * pk.SCALED_MAX_BYTES + 16 > cap:
             return -1
@@ -963,22 +990,10 @@ def _encode_kernel(vals, xyz, ptr, quads, bptr, bidx, btri, mode, bits, out):
 def _decode_kernel(data, ptr, quads, bptr, bidx, btri, mode, bits, vals, xyz):
     """Return 0, or 1 when the stream ran short, 2 on an impossible value."""
     nv = vals.shape[0]
-    models = np.full(N_SETS * pk.SCALED_SET, pk.STATE_INIT, dtype=np.uint16)
+    models, st, w, vnorm, mark, mark2, pred, res, err, f64, i64, f32, i32 = _coder_state(nv)
     cs = pk.start_decoder(data)
-    st = _new_state(nv)
-    w = np.zeros((10, 3))
-    vnorm = np.zeros((nv, 3))
-    mark = np.full(nv, -1, dtype=np.int64)
-    mark2 = np.full(nv, -1, dtype=np.int64)
-    pred = np.empty(3)
-    f64 = np.empty(1, dtype=np.float64)
-    i64 = f64.view(np.int64)
-    f32 = np.empty(1, dtype=np.float32)
-    i32 = f32.view(np.int32)
     hi = np.int64((1 << bits) - 1) if mode == 0 else np.int64(0)
     nmax = bits + 2 if mode == 0 else 64  # rotated: up to sqrt(3) longer, and a sign
-    res = np.empty(3, dtype=np.int64)
-    err = np.empty(3)
     for k in range(nv):
         if cs[2] > data.size + 4:
             return 1

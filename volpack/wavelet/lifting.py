@@ -151,15 +151,23 @@ def _step_row_kernel(row, n, ns, step, backward):
         _edge_row_kernel(row, n, k, t0, s0, ms, parity, sign, step)
 
 
-@kernel
-def _edge_row_kernel(row, n, k, t0, s0, ms, parity, sign, step):
-    """Update target sample ``k`` of a split line, mirroring source indices as needed."""
+@kernel(inline=True)  # numba IR inlining: the callers compile as if written out
+def _sources_kernel(k, step, ms, n, parity):
+    """The four source indices of target sample ``k``, mirrored per the step's mode, and
+    whether all four have a value (else the sample is left as it is)."""
     mode = step[4]
     j0 = _resolve_kernel(k + step[5], ms, mode, n, parity)
     j1 = _resolve_kernel(k + step[6], ms, mode, n, parity)
     j2 = _resolve_kernel(k + step[7], ms, mode, n, parity)
     j3 = _resolve_kernel(k + step[8], ms, mode, n, parity)
-    if j0 < 0 or j1 < 0 or j2 < 0 or j3 < 0:
+    return j0, j1, j2, j3, j0 >= 0 and j1 >= 0 and j2 >= 0 and j3 >= 0
+
+
+@kernel
+def _edge_row_kernel(row, n, k, t0, s0, ms, parity, sign, step):
+    """Update target sample ``k`` of a split line, mirroring source indices as needed."""
+    j0, j1, j2, j3, ok = _sources_kernel(k, step, ms, n, parity)
+    if not ok:
         return
     v = _value_kernel(
         step[1], row[s0 + j0], row[s0 + j1], row[s0 + j2], row[s0 + j3], step[2], step[3]
@@ -208,13 +216,10 @@ def _step_planes_kernel(b, n, ns, nq, nr, step, backward):
     The inner loops run over whole ``(nq, nr)`` slabs, contiguous in the last axis.
     """
     t0, mt, s0, ms, parity, sign = _halves_kernel(step, n, ns, backward)
-    kind, add, shift, mode = step[1], step[2], step[3], step[4]
+    kind, add, shift = step[1], step[2], step[3]
     for k in range(mt):
-        j0 = _resolve_kernel(k + step[5], ms, mode, n, parity)
-        j1 = _resolve_kernel(k + step[6], ms, mode, n, parity)
-        j2 = _resolve_kernel(k + step[7], ms, mode, n, parity)
-        j3 = _resolve_kernel(k + step[8], ms, mode, n, parity)
-        if j0 < 0 or j1 < 0 or j2 < 0 or j3 < 0:
+        j0, j1, j2, j3, ok = _sources_kernel(k, step, ms, n, parity)
+        if not ok:
             continue
         t = b[t0 + k]
         x0 = b[s0 + j0]
