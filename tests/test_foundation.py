@@ -50,7 +50,7 @@ def test_atomic_open_leaves_nothing_on_failure(tmp_path):
     plain.write_bytes(b"")  # the mode an ordinary open gives, umask applied
     assert os.stat(target).st_mode & 0o777 == os.stat(plain).st_mode & 0o777
     plain.unlink()
-    with pytest.raises(OutputExistsError, match="--force"):
+    with pytest.raises(OutputExistsError, match="force=True"):
         with atomic_open(target) as f:
             f.write(b"again")
     assert target.read_bytes() == b"whole"

@@ -18,7 +18,7 @@ from typing import Any, BinaryIO
 import numpy as np
 
 from . import __version__
-from .errors import FormatError
+from .errors import FormatError, OptionError
 from .parallel import ordered_map, parse_workers
 from .volume import Volume
 from .volume_codec import bricks
@@ -40,14 +40,14 @@ def make_codec(codec: str = "auto", dtype: Any = None, **options: Any):
         from .volume_codec.floatwave import FLOAT_WAVELETS
 
         if options.get("wavelet") in FLOAT_WAVELETS:
-            raise ValueError(
+            raise OptionError(
                 f"the {options['wavelet']} wavelet is a float (lossy) filter for comparison: "
-                "add --quality, --psnr or --ratio, or pick 53, 26, haar or 97m for lossless"
+                "add quality=, psnr= or ratio=, or pick 53, 26, haar or 97m for lossless"
             )
         return WaveletCodec(**{k: v for k, v in options.items() if v is not None})
     if codec == "zstd":
         return ZstdCodec()
-    raise ValueError(f"expected codec 'auto', 'wavelet' or 'zstd', found {codec!r}")
+    raise OptionError(f"expected codec 'auto', 'wavelet' or 'zstd', found {codec!r}")
 
 
 def compress(
@@ -120,7 +120,7 @@ def compress(
     }
     asked = {k: v for k, v in targets.items() if v is not None}
     if len(asked) > 1:
-        raise ValueError(f"expected at most one lossy setting, found {sorted(asked)}")
+        raise OptionError(f"expected at most one lossy setting, found {sorted(asked)}")
     if asked:
         from .volume_codec import search as lossy_plan
 

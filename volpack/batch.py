@@ -55,7 +55,7 @@ import time
 from collections.abc import Callable, Iterable, Sequence
 from typing import Any
 
-from .errors import VolpackError
+from .errors import OptionError, VolpackError
 from .jsonsafe import finite_json
 
 log = logging.getLogger(__name__)
@@ -145,9 +145,9 @@ def plan(
     from . import io as vio
 
     if kind not in ("compress", "decompress"):
-        raise ValueError(f"expected kind 'compress' or 'decompress', found {kind!r}")
+        raise OptionError(f"expected kind 'compress' or 'decompress', found {kind!r}")
     if verify not in ("decode", "checksum"):
-        raise ValueError(f"expected verify 'decode' or 'checksum', found {verify!r}")
+        raise OptionError(f"expected verify 'decode' or 'checksum', found {verify!r}")
     if isinstance(inputs, (str, os.PathLike)):
         inputs = [os.fspath(inputs)]
     base_opts = normalize_options(options or {})
@@ -368,7 +368,7 @@ def convert_one(task: Task) -> dict[str, Any]:
         elif task.kind == "decompress":
             rec.update(_decompress_one(task))
         else:
-            raise ValueError(f"expected kind 'compress' or 'decompress', found {task.kind!r}")
+            raise OptionError(f"expected kind 'compress' or 'decompress', found {task.kind!r}")
         rec.update(output_stat(task.output))
         rec["status"] = "ok"
     except Exception as e:  # one file's problem is its record, not the run's
@@ -707,8 +707,8 @@ def run(
         todo.append((i, dataclasses.replace(t, force=t.force or force or present)))
     if exists:
         raise BatchError(
-            f"{len(exists)} output(s) exist already (first: {exists[0]!r}); pass --resume "
-            "to continue a run or --force to redo them"
+            f"{len(exists)} output(s) exist already (first: {exists[0]!r}); pass resume=True "
+            "to continue a run or force=True to redo them"
         )
     if resume:
         _remove_stale_parts(t.output for _, t in todo)
@@ -820,7 +820,7 @@ def _run_local(todo, workers, executor, memory_limit, on_result, state, func) ->
             on_result(i, func(t))
         return "inline"
     if kind not in ("thread", "process"):
-        raise ValueError(f"expected executor auto, inline, thread or process, found {kind!r}")
+        raise OptionError(f"expected executor auto, inline, thread or process, found {kind!r}")
     budget = memory_limit if memory_limit is not None else memory_budget()
     need = {i: estimate_nbytes(t) for i, t in todo}
     queue = collections.deque(todo)

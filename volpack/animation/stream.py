@@ -34,7 +34,7 @@ import numpy as np
 
 from .. import __version__
 from .._jit import kernel
-from ..errors import FormatError
+from ..errors import FormatError, OptionError
 from ..format.container import put_section, take_section
 from ..volume import Volume
 from ..volume_codec import bricks
@@ -79,38 +79,40 @@ class Settings:
 
     def __post_init__(self) -> None:
         if self.mode not in ("lossless", "bounded", "coef"):
-            raise ValueError(f"expected mode lossless, bounded or coef, found {self.mode!r}")
+            raise OptionError(f"expected mode lossless, bounded or coef, found {self.mode!r}")
         if self.mode == "bounded" and not (
             self.max_error is not None and self.max_error > 0 and math.isfinite(self.max_error)
         ):
-            raise ValueError(f"expected a positive finite max_error, found {self.max_error!r}")
+            raise OptionError(f"expected a positive finite max_error, found {self.max_error!r}")
         if self.i_max_error is not None and not (
             self.mode == "bounded" and 0 < self.i_max_error <= self.max_error
         ):
-            raise ValueError(
+            raise OptionError(
                 f"expected i_max_error, an I-frame bound, in (0, max_error = "
-                f"{self.max_error}] with --max-error, found {self.i_max_error!r} in "
+                f"{self.max_error}] with max_error=, found {self.i_max_error!r} in "
                 f"{self.mode} coding"
             )
         if self.mode == "coef" and not (self.quality and 1 <= int(self.quality) <= 65535):
-            raise ValueError(f"expected a quality in 1..65535, found {self.quality!r}")
+            raise OptionError(f"expected a quality in 1..65535, found {self.quality!r}")
         if self.method not in motion.SEARCH_METHODS:
-            raise ValueError(f"expected --motion in {motion.SEARCH_METHODS}, found {self.method!r}")
+            raise OptionError(
+                f"expected a motion search method in {motion.SEARCH_METHODS}, found {self.method!r}"
+            )
         if self.precision not in motion.PRECISIONS:
-            raise ValueError(
+            raise OptionError(
                 f"expected a vector precision in {motion.PRECISIONS}, found {self.precision!r}"
             )
         if self.compensation not in motion.COMPENSATIONS:
-            raise ValueError(
-                f"expected --compensation in {motion.COMPENSATIONS}, found {self.compensation!r}"
+            raise OptionError(
+                f"expected compensation in {motion.COMPENSATIONS}, found {self.compensation!r}"
             )
         if self.rule != motion.RULE:
-            raise ValueError(f"expected the prediction rule {motion.RULE!r}, found {self.rule!r}")
+            raise OptionError(f"expected the prediction rule {motion.RULE!r}, found {self.rule!r}")
         if not 0 <= int(self.search) <= 64:
-            raise ValueError(f"expected a search range of 0..64 voxels, found {self.search}")
+            raise OptionError(f"expected a search range of 0..64 voxels, found {self.search}")
         if not self.b_residual and self.mode != "coef":
-            raise ValueError(
-                "B-frames without a residual have no error bound: use them with --quality only"
+            raise OptionError(
+                "B-frames without a residual have no error bound: use them with quality= only"
             )
 
     def codec_config(self) -> dict[str, Any]:
@@ -840,7 +842,7 @@ def compress(
     from ..format.container import Writer
 
     if max_error is not None and quality is not None:
-        raise ValueError("expected at most one of max_error and quality")
+        raise OptionError("expected at most one of max_error and quality")
     mode = "bounded" if max_error is not None else "coef" if quality is not None else "lossless"
     src = open_frames(source, **read_options)
     types = gop.frame_types(gop_string, src.shape[0])
@@ -1009,7 +1011,7 @@ def _check_dtype(dtype: np.dtype, s: Settings) -> None:
             f"expected animation voxels of {', '.join(ANIMATION_DTYPES)}, found {name}"
         )
     if np.dtype(dtype).kind == "f" and s.mode != "bounded":
-        raise FormatError(f"{name} animations are coded with --max-error; found {s.mode} coding")
+        raise FormatError(f"{name} animations are coded with max_error=; found {s.mode} coding")
 
 
 def _psnr(sse: float, n: int, peak: float) -> float | None:

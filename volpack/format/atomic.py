@@ -33,7 +33,7 @@ def check_output(path: str | os.PathLike, *, force: bool = False, inputs: tuple 
                 f"refusing to overwrite the input {ip!r}; choose another output"
             )
     if os.path.exists(p) and not force:
-        raise OutputExistsError(f"output {p!r} exists; pass --force (force=True) to replace it")
+        raise OutputExistsError(f"output {p!r} exists; pass force=True to replace it")
 
 
 @contextlib.contextmanager

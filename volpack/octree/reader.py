@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import FormatError
+from ..errors import FormatError, OptionError
 from . import layout
 from .build import Plan, apply_corrections, decode_lowpass, to_values
 
@@ -58,13 +58,13 @@ class Octree:
         from ..format.container import Reader
 
         if on_damage not in ("raise", "approximate"):
-            raise ValueError(f"expected on_damage 'raise' or 'approximate', found {on_damage!r}")
+            raise OptionError(f"expected on_damage 'raise' or 'approximate', found {on_damage!r}")
         self._r = Reader(source)
         try:
             if self._r.header.get("kind") != layout.KIND:
                 raise FormatError(
                     f"expected an octree .vpk (kind {layout.KIND!r}), found kind "
-                    f"{self._r.header.get('kind')!r}; build one with --octree"
+                    f"{self._r.header.get('kind')!r}; build one with octree=True"
                 )
             if not self._r.seekable:
                 raise FormatError("expected a seekable octree file, found a stream")
@@ -349,7 +349,7 @@ class Octree:
         from ..volume import Volume
 
         if interp not in ("nearest", "linear"):
-            raise ValueError(f"expected interp 'nearest' or 'linear', found {interp!r}")
+            raise OptionError(f"expected interp 'nearest' or 'linear', found {interp!r}")
         sel = [(int(lv), tuple(int(i) for i in b)) for lv, b in selection]
         if not sel:
             raise FormatError("expected a non-empty selection of nodes")

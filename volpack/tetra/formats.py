@@ -136,7 +136,7 @@ def from_meshio(m, *, tetrahedralize: bool = False, source: str = "mesh") -> Tet
     if others and not tetrahedralize:
         raise FormatError(
             f"{source}: expected tetrahedra only, found {', '.join(sorted(set(others)))} cells; "
-            "pass --tetrahedralize (tetrahedralize=True) to split them into tetrahedra"
+            "pass tetrahedralize=True to split them into tetrahedra"
         )
     tets, rows = [], []
     for kind, data, bi in blocks:

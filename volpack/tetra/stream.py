@@ -34,7 +34,7 @@ from typing import Any, BinaryIO
 import numpy as np
 
 from .. import __version__
-from ..errors import FormatError, LimitError
+from ..errors import FormatError, LimitError, OptionError
 from .mesh import TetMesh, validate
 
 __all__ = ["KIND_MESH", "compress_mesh", "decompress_mesh", "mesh_info", "row_convention"]
@@ -107,8 +107,8 @@ def compress_mesh(
     names = set(mesh.point_data) | set(mesh.cell_data)
     unknown = sorted(set(attr_error) - names)
     if unknown:
-        raise ValueError(
-            f"--attr-error names {unknown}, expected fields of the mesh: {sorted(names) or 'none'}"
+        raise OptionError(
+            f"attr_error names {unknown}, expected fields of the mesh: {sorted(names) or 'none'}"
         )
     t0 = time.perf_counter()
     nv, nt = mesh.n_vertices, mesh.n_tets

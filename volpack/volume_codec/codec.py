@@ -32,7 +32,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from ..errors import FormatError
+from ..errors import FormatError, OptionError
 
 MODE_CODED, MODE_RAW, MODE_CONSTANT, MODE_ZSTD = 0, 1, 2, 3
 PIECEWISE_CONSTANT = 0.5  # share of equal x-neighbours above which mode 3 is tried
@@ -111,7 +111,7 @@ class WaveletCodec:
         _check_choice("coder", self.coder, CODER_NAMES)
         _check_choice("order", self.order, ORDER_NAMES)
         if self.max_levels is not None and not (0 <= int(self.max_levels) <= 16):
-            raise ValueError(f"expected max_levels in 0..16, found {self.max_levels!r}")
+            raise OptionError(f"expected max_levels in 0..16, found {self.max_levels!r}")
 
     def get_config(self) -> dict[str, Any]:
         return {"id": self.codec_id, **dataclasses.asdict(self)}
@@ -131,7 +131,7 @@ class WaveletCodec:
         brick = np.asarray(brick)
         check_wavelet_dtype(brick.dtype)
         if brick.ndim != 3:
-            raise ValueError(f"expected a 3-D brick, found shape {brick.shape}")
+            raise OptionError(f"expected a 3-D brick, found shape {brick.shape}")
         raw = _as_stored(brick)
         if brick.size and (brick.flat[0] == brick).all():
             return bytes([MODE_CONSTANT]) + raw[: brick.dtype.itemsize]
@@ -254,14 +254,14 @@ def check_wavelet_dtype(dtype: np.dtype) -> None:
         if np.dtype(dtype).kind == "f":
             raise FormatError(
                 f"the lossless wavelet codec takes integer voxels, found {np.dtype(dtype)}; "
-                "use --max-error for error-bounded float coding, or --codec zstd to store floats exactly"
+                "use max_error= for error-bounded float coding, or codec='zstd' to store floats exactly"
             )
         raise FormatError(
             f"the wavelet codec takes {', '.join(WAVELET_DTYPES)} voxels, found {np.dtype(dtype)}; "
-            "use --codec zstd for this dtype"
+            "use codec='zstd' for this dtype"
         )
 
 
 def _check_choice(name: str, value: Any, allowed: tuple[str, ...]) -> None:
     if value not in allowed:
-        raise ValueError(f"expected {name} in {allowed}, found {value!r}")
+        raise OptionError(f"expected {name} in {allowed}, found {value!r}")

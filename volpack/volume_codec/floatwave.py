@@ -16,7 +16,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from ..errors import FormatError
+from ..errors import FormatError, OptionError
 from .codec import CODER_NAMES, MODE_CODED, MODE_CONSTANT, _as_stored, _check_choice, _from_stored
 
 FLOAT_WAVELETS = {"d4": "db2", "c6": "coif1", "cdf97": "bior4.4"}
@@ -36,7 +36,7 @@ class FloatWaveletCodec:
         _check_choice("wavelet", self.wavelet, tuple(FLOAT_WAVELETS))
         _check_choice("coder", self.coder, CODER_NAMES)
         if (self.quality is None) == (self.step is None):
-            raise ValueError("expected exactly one of quality and step")
+            raise OptionError("expected exactly one of quality and step")
 
     def get_config(self) -> dict[str, Any]:
         return {"id": self.codec_id, **dataclasses.asdict(self)}
@@ -55,7 +55,7 @@ class FloatWaveletCodec:
 
         x = np.ascontiguousarray(brick)
         if x.dtype.kind == "f" and not np.isfinite(x).all():
-            raise ValueError("float wavelets take finite voxels; use --max-error for NaN/Inf")
+            raise OptionError("float wavelets take finite voxels; use max_error= for NaN/Inf")
         if x.size and (x.flat[0] == x).all():
             return bytes([MODE_CONSTANT]) + _as_stored(x)[: x.itemsize], 0.0, 0.0, x.size
         arr, _ = _layout(x.shape, self.wavelet)

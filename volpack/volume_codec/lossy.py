@@ -29,7 +29,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from ..errors import FormatError
+from ..errors import FormatError, OptionError
 from ..format.container import put_section, take_section
 from .codec import (
     CODER_NAMES,
@@ -81,10 +81,10 @@ class BoundedCodec:
     def plan(cls, dtype: Any, lo: float, hi: float, max_error: float, **inner: Any) -> BoundedCodec:
         dtype = np.dtype(dtype)
         if not (max_error > 0 and math.isfinite(max_error)):
-            raise ValueError(f"expected a positive finite error bound, found {max_error!r}")
+            raise OptionError(f"expected a positive finite error bound, found {max_error!r}")
         integer = dtype.kind in "iu"
         if integer and dtype.itemsize > 4:
-            raise ValueError(
+            raise OptionError(
                 f"error-bounded coding takes 8 to 32-bit integers or floats, found {dtype}; "
                 "64-bit integers are stored exactly by the lossless path"
             )
@@ -100,7 +100,7 @@ class BoundedCodec:
             if qmax <= np.iinfo(qd).max:
                 break
         else:
-            raise ValueError(
+            raise OptionError(
                 f"the bound {max_error:g} is too small for the value range {lo:g}..{hi:g}: "
                 "it needs more than 2^31 quantisation levels; raise the bound or store the "
                 "volume losslessly"
@@ -425,13 +425,13 @@ class CoefCodec:
     def __post_init__(self) -> None:
         _check_inner(self)
         if sum(v is not None for v in (self.quality, self.threshold, self.step)) != 1:
-            raise ValueError("expected exactly one of quality, threshold and step")
+            raise OptionError("expected exactly one of quality, threshold and step")
         if self.step is not None and not (self.step > 0 and math.isfinite(self.step)):
-            raise ValueError(f"expected a positive step, found {self.step!r}")
+            raise OptionError(f"expected a positive step, found {self.step!r}")
         if self.quality is not None and not 1 <= int(self.quality) <= 65535:
-            raise ValueError(f"expected a quality in 1..65535, found {self.quality!r}")
+            raise OptionError(f"expected a quality in 1..65535, found {self.quality!r}")
         if self.threshold is not None and not (self.threshold >= 0):
-            raise ValueError(f"expected a threshold >= 0, found {self.threshold!r}")
+            raise OptionError(f"expected a threshold >= 0, found {self.threshold!r}")
 
     def get_config(self) -> dict[str, Any]:
         return {"id": self.codec_id, **dataclasses.asdict(self)}

@@ -28,6 +28,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .._jit import kernel
+from ..errors import OptionError
 
 ORDERS = ("dfs", "line")
 # Subband classes: 4 per level for the 6 finest levels (by the count of high-pass axes)
@@ -90,9 +91,9 @@ def scan(shape: tuple[int, ...], levels: tuple[int, ...], order: str = "dfs") ->
     shape = tuple(int(s) for s in shape)
     levels = tuple(int(v) for v in levels)
     if order not in ORDERS:
-        raise ValueError(f"expected order in {ORDERS}, found {order!r}")
+        raise OptionError(f"expected order in {ORDERS}, found {order!r}")
     if len(shape) != 3 or len(levels) != 3 or min(shape) < 1:
-        raise ValueError(f"expected a 3-D shape and 3 levels, found {shape} and {levels}")
+        raise OptionError(f"expected a 3-D shape and 3 levels, found {shape} and {levels}")
     nlev = max(levels)
     bands = subbands(shape, levels)
     key = {(b.level, b.bits): b for b in bands}
