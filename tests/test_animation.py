@@ -195,7 +195,7 @@ def test_corrupt_streams_raise_format_errors(moving):
 def test_refuses_what_it_cannot_code(moving):
     with pytest.raises(FormatError, match="GOP"):
         _code(moving, gop_string="PBB")
-    with pytest.raises(FormatError, match="max-error"):
+    with pytest.raises(FormatError, match="max_error"):
         _code(moving.astype(np.float32), quality=63)
     with pytest.raises(FormatError, match="finite"):
         f = moving.astype(np.float32)

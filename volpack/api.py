@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import io as _io
 import logging
+import math
 import threading
 import time
 from collections.abc import Callable
@@ -317,7 +318,7 @@ def info(source: str | BinaryIO, **read_options: Any) -> dict[str, Any]:
             entries = r.entries
             sizes = np.array([e.nbytes for e in entries], dtype=np.int64)
             errors = np.array([e.error for e in entries], dtype=np.float64)
-            raw = int(np.prod(hdr.get("shape", [0]))) * np.dtype(hdr.get("dtype", "u1")).itemsize
+            raw = _raw_nbytes(hdr)
             file_size = container.source_size(source)
             return {
                 "format": "vpk",
@@ -366,21 +367,34 @@ def _looks_vpk(path: str) -> bool:
         return False
 
 
+def _raw_nbytes(hdr: dict) -> int:
+    """Bytes of the decoded volume a header describes (0 for kinds without a shape)."""
+    from .format import header as h
+
+    if "shape" not in hdr:
+        return 0
+    shape = h.shape(hdr["shape"], "shape", (3, 4), 1 << 62)
+    return math.prod(shape) * h.dtype(hdr.get("dtype")).itemsize
+
+
 def _check_volume_header(hdr: dict, max_voxels: int) -> dict:
+    from .format import header as h
+
     need = ("shape", "dtype", "spacing", "origin", "brick", "codec")
     if hdr.get("kind") != KIND_VOLUME or any(k not in hdr for k in need):
         raise FormatError(f"expected a volpack volume header with {need}, found keys {sorted(hdr)}")
+    shape = h.shape(hdr["shape"], "shape", (3, 4), max_voxels)
+    h.dtype(hdr["dtype"])
     try:
-        shape = tuple(int(n) for n in hdr["shape"])
-        np.dtype(hdr["dtype"])
         brick_t = bricks.parse_brick(hdr["brick"])
-    except (TypeError, ValueError) as e:
+    except (TypeError, ValueError, OverflowError) as e:
         raise FormatError(f"bad volume header: {e}") from None
-    if len(shape) not in (3, 4) or min(shape) < 1:
-        raise FormatError(f"expected a 3-D or 4-D shape of positive sizes, found {shape}")
-    if int(np.prod(shape, dtype=np.float64)) > max_voxels:
-        raise FormatError(f"volume of shape {shape} exceeds the limit of {max_voxels} voxels")
     hdr = dict(hdr)
+    hdr["spacing"] = h.vector(hdr["spacing"], "spacing", 3, positive=True)
+    hdr["origin"] = h.vector(hdr["origin"], "origin", 3)
+    if not isinstance(hdr.get("meta", {}), dict):
+        raise FormatError(f"expected meta as a JSON object, found {hdr['meta']!r:.60}")
+    get_codec(hdr["codec"])
     hdr["shape"], hdr["brick"] = shape, brick_t
     return hdr
 

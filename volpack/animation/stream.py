@@ -139,9 +139,13 @@ class Settings:
                 f"header; quarter-voxel samples were box means): this volpack predicts by "
                 f"rule {motion.RULE!r} only, so encode the frames again"
             )
+        from ..format.header import dataclass_config
+
+        codec = dataclass_config(cls, hdr["codec"], "animation codec settings")
+        moves = dataclass_config(cls, hdr["motion"], "animation motion settings")
         try:
-            return cls(**hdr["codec"], **hdr["motion"])
-        except (KeyError, TypeError, ValueError) as e:
+            return cls(**codec, **moves)
+        except (KeyError, TypeError, ValueError, ArithmeticError) as e:
             raise FormatError(f"bad animation header settings: {e}") from None
 
     def inner(self) -> dict[str, Any]:
@@ -1195,22 +1199,24 @@ def check_header(hdr: dict, max_voxels: int) -> dict:
     need = ("shape", "dtype", "brick", "types", "codec", "motion", "spacing", "origin")
     if hdr.get("kind") != KIND_ANIMATION or any(k not in hdr for k in need):
         raise FormatError(f"expected an animation header with {need}, found keys {sorted(hdr)}")
+    from ..format import header as h
+
+    shape = h.shape(hdr["shape"], "shape", (4,), max_voxels)
+    dtype = h.dtype(hdr["dtype"])
     try:
-        shape = tuple(int(n) for n in hdr["shape"])
-        dtype = np.dtype(hdr["dtype"])
         brick_t = bricks.parse_brick(hdr["brick"])
-    except (TypeError, ValueError) as e:
+    except (TypeError, ValueError, OverflowError) as e:
         raise FormatError(f"bad animation header: {e}") from None
-    if len(shape) != 4 or min(shape) < 1:
-        raise FormatError(f"expected a (t, z, y, x) shape of positive sizes, found {shape}")
-    if math.prod(shape) > max_voxels:
-        raise FormatError(f"animation of shape {shape} exceeds the limit of {max_voxels} voxels")
     if dtype.newbyteorder("=").name not in ANIMATION_DTYPES:
         raise FormatError(f"expected animation voxels of {ANIMATION_DTYPES}, found {dtype}")
     types = gop.check_types(hdr["types"])
     if len(types) != shape[0]:
         raise FormatError(f"expected {shape[0]} frame types, found {len(types)}")
     hdr = dict(hdr)
+    hdr["spacing"] = h.vector(hdr["spacing"], "spacing", 3, positive=True)
+    hdr["origin"] = h.vector(hdr["origin"], "origin", 3)
+    if not isinstance(hdr.get("meta", {}), dict):
+        raise FormatError(f"expected meta as a JSON object, found {hdr['meta']!r:.60}")
     hdr["shape"], hdr["brick"] = shape, brick_t
     return hdr
 

@@ -254,6 +254,8 @@ def write_volume(vol: Volume | np.ndarray, spec: str, *, force: bool = False) ->
         raise FormatError(
             f"expected an .nrrd output (detached .nhdr headers are read-only), found {path!r}"
         )
+    if vol.dtype.kind == "b" and fmt != "npy":  # .npy, .h5 and .vpk keep bool; others have none
+        vol = vol.replace(data=vol.data.astype(np.uint8))
     with _wrap(fmt, path, writing=True):
         writer(vol, path, force)
 
@@ -290,10 +292,7 @@ def _check_voxels(shape: tuple[int, ...], max_voxels: int, where: str) -> None:
 def _as_volume_array(arr: np.ndarray, meta: dict, where: str) -> np.ndarray:
     """Make ``arr`` 3-D or 4-D, native byte order, C-contiguous and of a supported type."""
     arr = np.asarray(arr)
-    if arr.dtype.kind == "b":
-        arr = arr.astype(np.uint8)
-        meta["converted_from"] = "bool"
-    elif arr.dtype.kind not in "iuf":
+    if arr.dtype.kind not in "biuf":  # bool stays bool: the codecs store it as it is
         raise FormatError(f"expected integer or float voxels in {where}, found dtype {arr.dtype}")
     while arr.ndim > 4 and arr.shape[-1] == 1:
         arr = arr[..., 0]
@@ -365,10 +364,7 @@ def _header_dict(fmt, shape, dtype, spacing, origin, meta=None) -> dict[str, Any
 
 
 def _native(dtype: Any) -> np.dtype:
-    dt = np.dtype(dtype)
-    if dt.kind == "b":
-        return np.dtype(np.uint8)
-    return dt.newbyteorder("=")
+    return np.dtype(dtype).newbyteorder("=")
 
 
 def _prepare_for_write(vol: Volume) -> Volume:
@@ -376,8 +372,6 @@ def _prepare_for_write(vol: Volume) -> Volume:
         from ..prep import unmask_special
 
         vol = unmask_special(vol)
-    if vol.dtype.kind == "b":
-        vol = vol.replace(data=vol.data.astype(np.uint8))
     if not vol.data.dtype.isnative or not vol.data.flags.c_contiguous:
         vol = vol.replace(data=np.ascontiguousarray(vol.data, dtype=_native(vol.dtype)))
     return vol

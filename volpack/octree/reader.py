@@ -55,6 +55,7 @@ class Octree:
     def __init__(
         self, source: Any, *, cache_bytes: int = DEFAULT_CACHE, on_damage: str = "raise"
     ) -> None:
+        from ..format import header as hh
         from ..format.container import Reader
 
         if on_damage not in ("raise", "approximate"):
@@ -70,6 +71,9 @@ class Octree:
                 raise FormatError("expected a seekable octree file, found a stream")
             self.plan = Plan.from_header(self._r.header)
             self.geometry = self.plan.geometry
+            h = self._r.header
+            self.spacing = hh.vector(h.get("spacing", (1, 1, 1)), "spacing", 3, positive=True)
+            self.origin = hh.vector(h.get("origin", (0, 0, 0)), "origin", 3)
         except BaseException:
             self._r.close()
             raise
@@ -78,8 +82,6 @@ class Octree:
         self.depth = self.geometry.depth
         self.shape = self.plan.shape
         self.dtype = np.dtype(self.plan.dtype)
-        self.spacing = tuple(float(v) for v in self.header.get("spacing", (1, 1, 1)))
-        self.origin = tuple(float(v) for v in self.header.get("origin", (0, 0, 0)))
         self.on_damage = on_damage
         self.damaged: list[dict[str, Any]] = []
         self.cache_bytes = int(cache_bytes)

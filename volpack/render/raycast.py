@@ -93,6 +93,7 @@ from .._jit import JIT_DISABLED, kernel
 from ..errors import VolpackError
 from ..parallel import ordered_map, parse_workers
 from .camera import Camera
+from .transfer import nonempty_range
 
 log = logging.getLogger(__name__)
 
@@ -412,7 +413,7 @@ def _render_kernel(
             tnear, tfar = _box_hit(oz, oy, ox, dz, dy, dx, nz, ny, nx)
             if tnear < 0.0:
                 tnear = 0.0
-            if not tfar > tnear:
+            if not (tfar > tnear and tfar < np.inf):  # NaN or unbounded rays index nothing
                 continue
             # view vector (towards the eye) in world space
             vz, vy, vx = -dz * vscale[0], -dy * vscale[1], -dx * vscale[2]
@@ -780,8 +781,7 @@ def render(
         lo, hi = (float(v) for v in value_range)
         if not (math.isfinite(lo) and math.isfinite(hi)):
             raise VolpackError(f"expected a finite value range, found {value_range}")
-    if hi <= lo:
-        hi = lo + 1.0
+    lo, hi = nonempty_range(lo, hi)
     scale = (n - 1) / (hi - lo)
 
     # tables

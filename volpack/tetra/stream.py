@@ -342,6 +342,9 @@ def mesh_info(source: str | BinaryIO) -> dict[str, Any]:
 
 def check_header(hdr: dict, max_tets: int) -> dict:
     """Validate a mesh header (kind, counts within limits, fields); return it."""
+    from ..format import header as h
+    from .geometry import MODES
+
     if hdr.get("kind") != KIND_MESH:
         raise FormatError(
             f"expected a volpack mesh header (kind 'mesh'), found kind {hdr.get('kind')!r}"
@@ -349,15 +352,21 @@ def check_header(hdr: dict, max_tets: int) -> dict:
     try:
         nv, nt = int(hdr["vertices"]), int(hdr["tets"])
         geo = dict(hdr["geometry"])
+        if not isinstance(geo["mode"], str) or geo["mode"] not in MODES:
+            raise ValueError(f"geometry mode {geo['mode']!r}")
+        h.dtype(geo["dtype"], "geometry dtype", "f")
         fields = [dict(f) for f in hdr["fields"]]
         for f in fields:
             if f["where"] not in ("point", "cell") or not isinstance(f["name"], str):
                 raise ValueError(f)
+            if f["mode"] not in ("exact", "bounded") or not isinstance(f["shape"], list):
+                raise ValueError(f)
+            h.dtype(f["dtype"], "field dtype")
             f["node"] = int(f["node"])
         keep = bool(hdr.get("keep_order", False))
         rows = str(hdr.get("rows", "oriented" if hdr.get("oriented") else "parity"))
-    except (KeyError, TypeError, ValueError) as e:
-        raise FormatError(f"bad mesh header: {e!r}") from None
+    except (KeyError, TypeError, ValueError, OverflowError) as e:  # FormatError is a ValueError
+        raise FormatError(f"bad mesh header: {e}") from None
     if rows not in ROWS:
         raise FormatError(f"bad mesh header: rows {rows!r}, expected one of {list(ROWS)}")
     if hdr.get("format") != FORMAT:

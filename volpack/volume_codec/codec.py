@@ -236,9 +236,12 @@ def get_codec(config: Mapping[str, Any]):
         cls = known[codec_id]
     except (KeyError, TypeError):
         raise FormatError(f"unknown codec id {codec_id!r}; known: {sorted(known)}") from None
+    from ..format.header import dataclass_config
+
+    dataclass_config(cls, config, f"config for codec {codec_id!r}")
     try:
         return cls(**config)
-    except TypeError as e:
+    except (TypeError, ValueError, ArithmeticError) as e:  # OptionError from the checks too
         raise FormatError(f"bad config for codec {codec_id!r}: {e}") from None
 
 

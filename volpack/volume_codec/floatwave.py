@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import math
 from typing import Any, ClassVar
 
 import numpy as np
@@ -37,6 +38,12 @@ class FloatWaveletCodec:
         _check_choice("coder", self.coder, CODER_NAMES)
         if (self.quality is None) == (self.step is None):
             raise OptionError("expected exactly one of quality and step")
+        if self.quality is not None and not 1 <= int(self.quality) <= 65535:
+            raise OptionError(f"expected a quality in 1..65535, found {self.quality!r}")
+        if self.step is not None and not 0 < self.step < math.inf:
+            raise OptionError(f"expected a positive finite step, found {self.step!r}")
+        if not 0 <= self.value_range < math.inf:
+            raise OptionError(f"expected a finite value_range >= 0, found {self.value_range!r}")
 
     def get_config(self) -> dict[str, Any]:
         return {"id": self.codec_id, **dataclasses.asdict(self)}

@@ -117,6 +117,23 @@ class BoundedCodec:
 
     def __post_init__(self) -> None:
         _check_inner(self)
+        # what the quantiser's arithmetic needs (a stored config may hold anything)
+        if self.qdtype not in ("uint8", "uint16", "int32"):
+            raise OptionError(f"expected qdtype uint8, uint16 or int32, found {self.qdtype!r}")
+        finite = (self.max_error, self.lo, self.step, self.value_range)
+        if not all(math.isfinite(v) for v in finite):
+            raise OptionError(
+                f"expected finite max_error, lo, step and value_range, found {finite}"
+            )
+        if not (self.max_error > 0 and self.step > 0):
+            raise OptionError(f"expected a positive bound and step, found {finite[:3]}")
+        if self.integer and not (
+            abs(self.lo) < 2**53 and self.step < 2**33 and self.step == int(self.step)
+            and self.lo == int(self.lo)
+        ):  # fmt: skip
+            raise OptionError(f"expected an integer lo and step, found {self.lo}, {self.step}")
+        if self.fill is not None and not math.isfinite(self.fill):
+            raise OptionError(f"expected a finite fill value, found {self.fill!r}")
 
     def get_config(self) -> dict[str, Any]:
         return {"id": self.codec_id, **dataclasses.asdict(self)}
@@ -430,8 +447,10 @@ class CoefCodec:
             raise OptionError(f"expected a positive step, found {self.step!r}")
         if self.quality is not None and not 1 <= int(self.quality) <= 65535:
             raise OptionError(f"expected a quality in 1..65535, found {self.quality!r}")
-        if self.threshold is not None and not (self.threshold >= 0):
-            raise OptionError(f"expected a threshold >= 0, found {self.threshold!r}")
+        if self.threshold is not None and not (0 <= self.threshold < math.inf):
+            raise OptionError(f"expected a finite threshold >= 0, found {self.threshold!r}")
+        if not (0 <= self.value_range < 2**53):
+            raise OptionError(f"expected a finite value_range >= 0, found {self.value_range!r}")
 
     def get_config(self) -> dict[str, Any]:
         return {"id": self.codec_id, **dataclasses.asdict(self)}
