@@ -10,7 +10,10 @@ import pytest
 from click.testing import CliRunner
 
 from volpack import synth
+from volpack.animation import frame as aframe
+from volpack.animation import frames as aframes
 from volpack.animation import gop, motion
+from volpack.animation import settings as asettings
 from volpack.animation import stream as animation
 from volpack.cli import main
 from volpack.errors import FormatError
@@ -147,7 +150,7 @@ def test_streams_frames_in_storage_order(moving):
         reads.append(t)
         return moving[t]
 
-    src = animation.FrameSource(moving.shape, moving.dtype, get)
+    src = aframes.FrameSource(moving.shape, moving.dtype, get)
     buf = io.BytesIO()
     animation.compress(src, buf, gop_string="IBBPBB", max_error=2)
     assert reads == gop.storage_order(gop.frame_types("IBBPBB", len(moving)))
@@ -184,8 +187,8 @@ def test_corrupt_streams_raise_format_errors(moving):
         animation.decompress(bytes(bad))
     with pytest.raises(FormatError):
         animation.decompress(blob[: len(blob) // 2])
-    f = animation.decode_frame
-    s = animation.Settings("bounded", 2.0)
+    f = aframe.decode_frame
+    s = asettings.Settings("bounded", 2.0)
     with pytest.raises(FormatError):
         f(b"\x01\x00" + bytes(40), SHAPE, np.dtype(np.uint8), None, None, s, (64, 64, 64))
     with pytest.raises(FormatError):
@@ -239,7 +242,7 @@ def test_cli_round_trip(tmp_path, moving):
     r = run.invoke(main, ["info", vpk])
     assert "whole_frame=False" in r.output and "i_max_error" in r.output
     r = run.invoke(main, ["compress", pattern, vpk, "-f", "--gop", "IBBP", "--i-max-error", "1"])
-    assert r.exit_code != 0 and "i_max_error" in r.output
+    assert r.exit_code != 0 and "--i-max-error" in r.output
 
 
 # The recipes of scripts/make_examples.py written out again on purpose (a test importing
@@ -291,21 +294,21 @@ def test_flat_field_round_trip_within_half_a_bin(dtype, step, bound):
     rng = np.random.default_rng(4)
     r = rng.normal(0, 3 * step, (9, 10, 11))
     r = np.rint(r).astype(dtype) if np.dtype(dtype).kind == "i" else r.astype(dtype)
-    body, dec = animation.encode_flat(r, step)
+    body, dec = aframe.encode_flat(r, step)
     assert dec.dtype == r.dtype and _err(dec, r).max() <= bound  # every voxel
-    again = animation.decode_flat(body, r.shape, step, np.dtype(dtype))
+    again = aframe.decode_flat(body, r.shape, step, np.dtype(dtype))
     assert np.array_equal(again, dec)
     # the decoded values are the bin centres: multiples of the step
     assert np.allclose(np.rint(dec / step) * step, dec)
     with pytest.raises(FormatError):
-        animation.decode_flat(body[: len(body) // 3], r.shape, step, np.dtype(dtype))
+        aframe.decode_flat(body[: len(body) // 3], r.shape, step, np.dtype(dtype))
 
 
 def test_flat_field_clips_at_the_dtype_end():
     x = np.full((4, 4, 4), 255, np.uint8)  # bins of 13: the centre of 255's bin is 260
-    body, dec = animation.encode_flat(x, 13.0)
+    body, dec = aframe.encode_flat(x, 13.0)
     assert dec.max() == 255 and _err(dec, x).max() <= 6
-    assert np.array_equal(animation.decode_flat(body, x.shape, 13.0, np.dtype(np.uint8)), dec)
+    assert np.array_equal(aframe.decode_flat(body, x.shape, 13.0, np.dtype(np.uint8)), dec)
 
 
 def _flags(blob):
@@ -318,26 +321,26 @@ def _flags(blob):
 def test_noisy_residuals_are_coded_flat_and_stay_within_the_bound(moving):
     blob, stats = _code(moving, gop_string="IBBP", max_error=2)
     flags = _flags(blob)
-    flat = [t for t, f in flags.items() if f & animation.FLAG_FLAT]
+    flat = [t for t, f in flags.items() if f & aframe.FLAG_FLAT]
     assert flat  # a sub-voxel move at E = 2 leaves residuals of rounding noise
     assert _err(animation.decompress(blob).data, moving).max() <= 2
     # lossless: the flat field is the residual itself
     noisy = moving[:4].astype(np.int16) * 3 + synth.noise(SHAPE, 4, seed=2).astype(np.int16)
     blob, _ = _code(noisy, gop_string="IPPP")
-    assert any(f & animation.FLAG_FLAT for f in _flags(blob).values())
+    assert any(f & aframe.FLAG_FLAT for f in _flags(blob).values())
     assert np.array_equal(animation.decompress(blob).data, noisy)
 
 
 def test_flat_flag_without_a_residual_is_refused(moving):
-    s = animation.Settings("bounded", 2.0)
-    head = animation._FRAME_HEAD.pack(0, animation.FLAG_FLAT, 0.0, 1.0, 1.0, 1.0)
+    s = asettings.Settings("bounded", 2.0)
+    head = aframe._FRAME_HEAD.pack(0, aframe.FLAG_FLAT, 0.0, 1.0, 1.0, 1.0)
     with pytest.raises(FormatError, match="flags"):
-        animation.decode_frame(head, SHAPE, np.dtype(np.uint8), None, None, s, (64, 64, 64))
-    coef = animation.Settings("coef", quality=63)
-    flags = animation.FLAG_FLAT | animation.FLAG_RESIDUAL
-    head = animation._FRAME_HEAD.pack(0, flags, 0.0, 1.0, 1.0, 1.0) + bytes(8)
+        aframe.decode_frame(head, SHAPE, np.dtype(np.uint8), None, None, s, (64, 64, 64))
+    coef = asettings.Settings("coef", quality=63)
+    flags = aframe.FLAG_FLAT | aframe.FLAG_RESIDUAL
+    head = aframe._FRAME_HEAD.pack(0, flags, 0.0, 1.0, 1.0, 1.0) + bytes(8)
     with pytest.raises(FormatError, match="coef"):
-        animation.decode_frame(head, SHAPE, np.dtype(np.uint8), None, None, coef, (64, 64, 64))
+        aframe.decode_frame(head, SHAPE, np.dtype(np.uint8), None, None, coef, (64, 64, 64))
 
 
 def test_quarter_voxel_is_the_default_and_can_be_turned_off(tmp_path, moving):
@@ -358,7 +361,7 @@ def test_quarter_voxel_is_the_default_and_can_be_turned_off(tmp_path, moving):
 def test_diffusing_flow_smooths_its_prediction_and_stays_within_the_bound(monkeypatch):
     a = synth.advect((24, 24, 24), 7)
     blob, stats = _code(a, gop_string="IPPPPPP", max_error=2)
-    strengths = [f >> animation.SMOOTH_SHIFT & 7 for f in _flags(blob).values()]
+    strengths = [f >> aframe.SMOOTH_SHIFT & 7 for f in _flags(blob).values()]
     assert any(strengths)  # the field blurs along the flow: some P-frame smooths
     assert _err(animation.decompress(blob).data, a).max() <= 2
     monkeypatch.setattr(motion, "SMOOTHING", (0,))  # the same coder, never smoothing
@@ -367,11 +370,11 @@ def test_diffusing_flow_smooths_its_prediction_and_stays_within_the_bound(monkey
 
 
 def test_smoothing_bits_on_an_i_frame_are_refused():
-    s = animation.Settings("bounded", 2.0)
-    flags = animation.FLAG_RESIDUAL | 1 << animation.SMOOTH_SHIFT
-    head = animation._FRAME_HEAD.pack(0, flags, 0.0, 1.0, 1.0, 1.0)
+    s = asettings.Settings("bounded", 2.0)
+    flags = aframe.FLAG_RESIDUAL | 1 << aframe.SMOOTH_SHIFT
+    head = aframe._FRAME_HEAD.pack(0, flags, 0.0, 1.0, 1.0, 1.0)
     with pytest.raises(FormatError, match="flags"):
-        animation.decode_frame(head, SHAPE, np.dtype(np.uint8), None, None, s, (64, 64, 64))
+        aframe.decode_frame(head, SHAPE, np.dtype(np.uint8), None, None, s, (64, 64, 64))
 
 
 def test_summary_is_stored_by_column_and_read_back_as_rows(moving):
@@ -405,24 +408,24 @@ def test_corrupt_flat_frames_raise_format_errors_only(moving):
     blob, _ = _code(moving[:4], gop_string="IBBP", max_error=2)
     with Reader(blob) as r:
         chunks = {t: p for t, _, p in r}
-    flat = [t for t, p in chunks.items() if p[1] & animation.FLAG_FLAT]
+    flat = [t for t, p in chunks.items() if p[1] & aframe.FLAG_FLAT]
     assert flat
     t = flat[0]
     frames = animation.decompress(blob).data
     prev, nxt = motion.Reference(frames[0]), motion.Reference(frames[3])
-    s = animation.Settings("bounded", 2.0)
+    s = asettings.Settings("bounded", 2.0)
     rng = np.random.default_rng(0)
     p = chunks[t]
     for _ in range(40):
         bad = bytearray(p)
-        i = int(rng.integers(animation._FRAME_HEAD.size, len(bad)))
+        i = int(rng.integers(aframe._FRAME_HEAD.size, len(bad)))
         bad[i] ^= 1 << int(rng.integers(8))
         try:
-            animation.decode_frame(bytes(bad), SHAPE, np.dtype(np.uint8), prev, nxt, s, (64,) * 3)
+            aframe.decode_frame(bytes(bad), SHAPE, np.dtype(np.uint8), prev, nxt, s, (64,) * 3)
         except FormatError:
             pass
     with pytest.raises(FormatError):
-        animation.decode_frame(p[:-3], SHAPE, np.dtype(np.uint8), prev, nxt, s, (64,) * 3)
+        aframe.decode_frame(p[:-3], SHAPE, np.dtype(np.uint8), prev, nxt, s, (64,) * 3)
 
 
 def test_streams_of_the_earlier_prediction_rule_are_refused_with_the_reason():
@@ -431,12 +434,12 @@ def test_streams_of_the_earlier_prediction_rule_are_refused_with_the_reason():
     refused by name; an unknown rule is refused too."""
     codec = {"mode": "bounded", "max_error": 2.0}
     good = {"codec": codec, "motion": {"precision": "quarter", "rule": motion.RULE}}
-    assert animation.Settings.from_header(good).rule == motion.RULE
+    assert asettings.Settings.from_header(good).rule == motion.RULE
     old = {"codec": codec, "motion": {"precision": "quarter", "search": 15}}
     with pytest.raises(FormatError, match="earlier prediction rule"):
-        animation.Settings.from_header(old)
+        asettings.Settings.from_header(old)
     with pytest.raises(FormatError, match="prediction rule"):
-        animation.Settings.from_header({"codec": codec, "motion": {**old["motion"], "rule": "box"}})
+        asettings.Settings.from_header({"codec": codec, "motion": {**old["motion"], "rule": "box"}})
 
 
 @pytest.mark.parametrize("dtype,step", [(np.uint8, 5.0), (np.int16, 1.0), (np.uint16, 9.0)])
@@ -447,13 +450,13 @@ def test_residual_histogram_matches_the_numpy_quantiser(dtype, step):
     info = np.iinfo(dtype)
     x = rng.integers(info.min, int(info.max) + 1, (6, 7, 9)).astype(dtype)
     pred = rng.normal(0, 1.0, x.shape) * (float(info.max) - float(info.min))  # past both ends
-    counts = animation._residual_counts(x, pred, step)
-    r = x.astype(np.float64) - animation._rounded(pred, x.dtype)
+    counts = aframe._residual_counts(x, pred, step)
+    r = x.astype(np.float64) - aframe._rounded(pred, x.dtype)
     q = np.floor((r + (step - 1) / 2) / step)
     base = int(np.floor((float(info.min) - float(info.max) + (step - 1) / 2) / step))
     want = np.bincount((q - base).astype(np.int64).ravel(), minlength=counts.size)
     assert np.array_equal(counts, want)
-    assert animation._counts_bits(counts, x.size) == animation._entropy_bits(q)
+    assert aframe._counts_bits(counts, x.size) == aframe._entropy_bits(q)
 
 
 # -- whole-frame shifts and the I-frame bound ----------------------------------------------
@@ -516,26 +519,26 @@ def rigid_chunks(rigid):
     blob, _ = _code(rigid, gop_string="IBBP", max_error=1)
     with Reader(blob) as r:
         chunks = {t: p for t, _, p in r}
-        s = animation.Settings.from_header(r.header)
+        s = asettings.Settings.from_header(r.header)
     frames = animation.decompress(blob).data
     return chunks, s, frames, motion.Reference(frames[0]), motion.Reference(frames[3])
 
 
 def test_corrupt_whole_frame_sections_raise_format_errors(rigid, rigid_chunks):
-    from volpack.format.container import put_section, take_section
+    from volpack.format.sections import put_section, take_section
 
     chunks, s, frames, prev, nxt = rigid_chunks
-    glob = [t for t, p in chunks.items() if p[1] & animation.FLAG_GLOBAL]
+    glob = [t for t, p in chunks.items() if p[1] & aframe.FLAG_GLOBAL]
     assert glob
     t = glob[0]
     p = chunks[t]
-    kind = "B" if p[0] == animation.TYPE_CODE["B"] else "P"
-    head = animation._FRAME_HEAD.size
+    kind = "B" if p[0] == aframe.TYPE_CODE["B"] else "P"
+    head = aframe._FRAME_HEAD.size
     body, end = take_section(memoryview(p), head, "test")
     vals = np.frombuffer(bytes(body), "<f8")
 
     def decode(payload, settings=s):
-        return animation.decode_frame(
+        return aframe.decode_frame(
             payload, rigid.shape[1:], rigid.dtype, prev, nxt, settings, (64,) * 3
         )
 
@@ -554,26 +557,26 @@ def test_corrupt_whole_frame_sections_raise_format_errors(rigid, rigid_chunks):
     for why, payload in bad.items():
         with pytest.raises(FormatError, match=why if why != "nan" else "within"):
             decode(payload)
-    as_i = bytes([animation.TYPE_CODE["I"]]) + p[1:]
+    as_i = bytes([aframe.TYPE_CODE["I"]]) + p[1:]
     with pytest.raises(FormatError, match="flags"):
         decode(as_i)
-    off = animation.Settings("bounded", 1.0, whole_frame=False)
+    off = asettings.Settings("bounded", 1.0, whole_frame=False)
     with pytest.raises(FormatError, match="whole-frame"):
         decode(p, off)
     with pytest.raises(FormatError, match="flags"):  # the I-frame bound on a P/B-frame
-        decode(p[:1] + bytes([p[1] | animation.FLAG_I_BOUND]) + p[2:])
+        decode(p[:1] + bytes([p[1] | aframe.FLAG_I_BOUND]) + p[2:])
 
 
 def test_flipped_bits_in_whole_frame_frames_raise_format_errors_only(rigid, rigid_chunks):
     chunks, s, _, prev, nxt = rigid_chunks
     rng = np.random.default_rng(1)
-    for t in [t for t, p in chunks.items() if p[1] & animation.FLAG_GLOBAL]:
+    for t in [t for t, p in chunks.items() if p[1] & aframe.FLAG_GLOBAL]:
         for _ in range(30):
             bad = bytearray(chunks[t])
-            i = int(rng.integers(1, min(len(bad), animation._FRAME_HEAD.size + 64)))
+            i = int(rng.integers(1, min(len(bad), aframe._FRAME_HEAD.size + 64)))
             bad[i] ^= 1 << int(rng.integers(8))
             try:
-                animation.decode_frame(
+                aframe.decode_frame(
                     bytes(bad), rigid.shape[1:], rigid.dtype, prev, nxt, s, (64,) * 3
                 )
             except FormatError:
@@ -588,7 +591,7 @@ def test_anchoring_i_frames_are_coded_tighter(moving):
     with Reader(blob) as r:
         assert r.header["codec"]["i_max_error"] == 2.0
         first = next(iter(r))[2]
-    assert first[1] & animation.FLAG_I_BOUND
+    assert first[1] & aframe.FLAG_I_BOUND
     assert _err(out[0], moving[0]).max() <= 2 and _err(out, moving[:4]).max() <= 4
     same, _ = _code(moving[:4], gop_string="IBBP", max_error=4, i_max_error=4)
     with Reader(same) as r:
@@ -617,19 +620,19 @@ def test_anchoring_i_frames_are_coded_tighter(moving):
     with pytest.raises(ValueError, match="i_max_error"):
         _code(moving[:3], gop_string="IPP", i_max_error=1)
     # the flag in a stream whose header lacks the bound is refused
-    s = animation.Settings("bounded", 4.0, i_max_error=2.0)
+    s = asettings.Settings("bounded", 4.0, i_max_error=2.0)
     i_payload = first
     with pytest.raises(FormatError, match="bound the header lacks"):
-        animation.decode_frame(
+        aframe.decode_frame(
             i_payload,
             SHAPE,
             np.dtype(np.uint8),
             None,
             None,
-            animation.Settings("bounded", 4.0),
+            asettings.Settings("bounded", 4.0),
             (64,) * 3,
         )
     assert np.array_equal(
-        animation.decode_frame(i_payload, SHAPE, np.dtype(np.uint8), None, None, s, (64,) * 3)[1],
+        aframe.decode_frame(i_payload, SHAPE, np.dtype(np.uint8), None, None, s, (64,) * 3)[1],
         out[0],
     )

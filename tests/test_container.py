@@ -25,10 +25,8 @@ from volpack.format.container import (
     Reader,
     Writer,
     is_vpk,
-    spool,
-    stdin,
-    vpk_kind,
 )
+from volpack.format.streams import spool, stdin, vpk_kind
 
 GOLDEN = Path(__file__).resolve().parent.parent / "formats" / "examples" / "tiny-v1.vpk"
 

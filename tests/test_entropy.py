@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 from volpack.entropy import CODERS
 from volpack.errors import FormatError
-from volpack.wavelet import sigmap
+from volpack.wavelet import dwt3, sigmap
 
 SHAPES = [
     ((1, 1, 1), (0, 0, 0)),
@@ -61,7 +61,7 @@ def test_scan_is_a_forest_in_preorder(shape, levels):
 def test_band_neighbours(shape, levels, order):
     s = sigmap.scan(shape, levels, order)
     band_of = np.empty(int(np.prod(shape)), np.int64)
-    for k, b in enumerate(sigmap.subbands(shape, levels)):
+    for k, b in enumerate(dwt3.subbands(shape, levels)):
         sl = tuple(slice(st, st + n) for st, n in zip(b.start, b.size))
         band_of[
             np.ravel_multi_index(

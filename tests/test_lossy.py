@@ -208,7 +208,7 @@ def test_corrupt_lossy_bricks_never_crash(kw):
     with Reader(blob) as r:
         ((t, node, payload),) = list(r)
         codec_cfg = r.header["codec"]
-    from volpack.volume_codec.codec import get_codec
+    from volpack.volume_codec.registry import get_codec
 
     decode_damaged(get_codec(codec_cfg), payload, a.shape, a.dtype, seed=1, count=200)
 
@@ -221,7 +221,7 @@ def test_band_scale_is_orthonormal_units():
 
 
 def test_codec_configs_round_trip():
-    from volpack.volume_codec.codec import get_codec
+    from volpack.volume_codec.registry import get_codec
 
     for c in (BoundedCodec.plan("float32", -1, 1, 0.01), CoefCodec(value_range=255.0, quality=63)):
         assert get_codec(c.get_config()) == c
@@ -237,8 +237,8 @@ def run(a, **kw):
 
 
 def test_loose_bounds_take_the_coefficient_path_and_still_hold(scan16):
-    from volpack.volume_codec.codec import get_codec
     from volpack.volume_codec.lossy import FLAG_COEF
+    from volpack.volume_codec.registry import get_codec
 
     for bound in (25, 120):
         blob = api.compress_array(scan16, max_error=bound)

@@ -14,7 +14,7 @@ from conftest import smooth_volume
 from volpack.errors import FormatError
 from volpack.octree import NodeDamaged, Octree, build, layout
 from volpack.octree import select as sel
-from volpack.octree.build import to_values
+from volpack.octree.plan import to_values
 from volpack.octree.source import SourceSpec
 
 

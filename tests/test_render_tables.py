@@ -263,7 +263,7 @@ def test_zero_length_gives_zeros(rng, method):
 
 def test_interpreted_exact_kernel_agrees(rng):
     tab = random_table(rng, 6, 0.9)
-    tau = preint._extinction(tab[:, 3])
+    tau = preint.extinction(tab[:, 3])
     col = np.ascontiguousarray(tab[:, :3])
     want = np.empty((6, 6, 4), np.float32)
     preint._preint_exact_kernel(tau, col, 1.3, want)

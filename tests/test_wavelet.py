@@ -63,12 +63,12 @@ def test_subbands_tile_the_array(shape, cap):
     levels = dwt3.levels_for_shape(shape, cap)
     bands = dwt3.subbands(shape, levels)
     count = np.zeros(shape, dtype=int)
-    for _, _, sl in bands:
-        count[sl] += 1
+    for b in bands:
+        count[b.slices] += 1
     assert (count == 1).all()
-    top, bits, _ = bands[0]
+    top, bits = bands[0].level, bands[0].bits
     assert top == max(levels) and bits == (0, 0, 0)
-    for level, bits, _ in bands[1:]:
+    for level, bits, _, _ in bands[1:]:
         assert any(bits)
         assert all(b == 0 or levels[a] > level for a, b in enumerate(bits))
     assert [b[0] for b in bands[1:]] == sorted((b[0] for b in bands[1:]), reverse=True)

@@ -114,8 +114,8 @@ def run(
                 "psnr": None if lossless else metrics.psnr(vol.data, back),
                 "max_error": metrics.max_error(vol.data, back),
                 "lossless": lossless,
-                "enc_mb_s": vol.nbytes / 1e6 / enc,
-                "dec_mb_s": vol.nbytes / 1e6 / dec,
+                "enc_mb_s": metrics.throughput(vol.nbytes, enc),
+                "dec_mb_s": metrics.throughput(vol.nbytes, dec),
             }
         )
         if progress is not None:

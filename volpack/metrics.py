@@ -167,17 +167,26 @@ def _error_stats(a, b, mask) -> tuple[float, float, int]:
     return mx, sq, n
 
 
-def _psnr(sq: float, n: int, a, peak, mask) -> float:
-    if n == 0 or sq == 0.0:
+def psnr_from_sse(sse: float, n: int, peak: float) -> float:
+    """Return the PSNR in dB of ``n`` voxels whose squared errors sum to ``sse``, for
+    ``peak`` (the value range): ``inf`` when nothing differs, ``-inf`` when voxels differ
+    and the peak is 0 (or the error is infinite). Every summary volpack writes takes its
+    PSNR from here."""
+    if n == 0 or sse == 0.0:
         return math.inf
-    mse = sq / n
-    if mse == math.inf:
+    mse = sse / n
+    if mse == math.inf or not peak > 0:
         return -math.inf
-    if peak is None:
+    peak = float(peak)
+    if peak * peak == math.inf:  # the square overflows: the same value in two logarithms
+        return 20.0 * math.log10(peak) - 10.0 * math.log10(mse)
+    return 10.0 * math.log10(peak * peak / mse)
+
+
+def _psnr(sq: float, n: int, a, peak, mask) -> float:
+    if peak is None and n and sq:
         peak = _value_range(a, mask)
-    if peak <= 0:
-        return -math.inf
-    return 20.0 * math.log10(peak) - 10.0 * math.log10(mse)
+    return psnr_from_sse(sq, n, peak)
 
 
 def _value_range(a, mask) -> float:

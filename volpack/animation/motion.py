@@ -34,6 +34,10 @@ leave an edge for the wavelet to pay for. ``block`` mode uses the 8^3 cores alon
 Each block predicts in one of four modes: from the previous anchor (``MODE_FWD``), from
 the next anchor (``MODE_BWD``), from the mean of both (``MODE_BI``), or as a constant,
 the block's own mean (``MODE_INTRA``: new content that no vector predicts).
+
+It stays one file of about 1,000 lines on purpose: estimation and compensation read the
+same parity-split upsampled grid through the same inline sampling kernels, and the
+encoder's search must predict exactly as the decoder's compensation does.
 """
 
 from __future__ import annotations

@@ -81,7 +81,7 @@ def play(source: Any) -> Iterator[tuple[np.ndarray, FrameStats, dict]]:
         own = open(source, "rb")  # noqa: SIM115 - closed below
         src = _Stream(own)
     elif source == "-":
-        from ..format.container import stdin
+        from ..format.streams import stdin
 
         src = _Stream(stdin())
     else:

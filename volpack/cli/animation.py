@@ -12,19 +12,7 @@ import functools
 
 import click
 
-from .options import emit_json, fmt_bytes, progress_bar, table
-
-ANIMATION_KEYS = (
-    "gop",
-    "search",
-    "motion",
-    "half_voxel",
-    "quarter_voxel",
-    "compensation",
-    "b_residual",
-    "whole_frame",
-    "i_max_error",
-)
+from .options import fmt_bytes, table
 
 
 def animation_options(f):
@@ -102,71 +90,41 @@ def animation_options(f):
 
 def wants_animation(source: str, gop: str | None) -> bool:
     """``--gop`` given, or SOURCE a glob pattern (the same test as
-    :func:`volpack.animation.is_pattern`, without importing the codecs)."""
+    :func:`volpack.animation.frames.is_pattern`, without importing the codecs)."""
     return gop is not None or any(c in source for c in "*?[")
 
 
-def run_compress(ctx, source: str, target: str, as_json: bool, force: bool, opts: dict, **kw):
-    """Compress an animation; ``kw`` are the shared codec options of ``compress``."""
-    from ..animation import stream as animation
-    from ..format.atomic import check_output
-
-    unsupported = [
-        k
-        for k in ("rel_error", "psnr", "ratio", "threshold", "fill_value")
-        if kw.get(k) is not None
-    ]
-    if unsupported:
-        raise click.UsageError(
-            f"animations take --max-error or --quality (or neither: lossless); found "
-            f"--{unsupported[0].replace('_', '-')}"
-        )
-    if kw.get("codec") not in (None, "auto", "wavelet"):
-        raise click.UsageError("animations code frames with the wavelet codecs; drop --codec")
-    inputs = () if animation.is_pattern(source) else (source,)
-    check_output(target, force=force, inputs=inputs)
-    # --no-half-voxel means whole voxels (quarter voxels refine half ones)
+def animation_compress_options(extra: dict) -> dict:
+    """The animation options of ``volpack compress`` as :func:`volpack.animation.stream.compress`
+    names them (``--no-half-voxel`` means whole voxels: quarter voxels refine half ones)."""
     precision = (
-        "whole" if not opts["half_voxel"] else "quarter" if opts["quarter_voxel"] else "half"
+        "whole" if not extra["half_voxel"] else "quarter" if extra["quarter_voxel"] else "half"
     )
-    with progress_bar(ctx, "compress", unit="frame") as progress:
-        stats = animation.compress(
-            source,
-            target,
-            gop_string=opts["gop"] or "IBBPBBPBB",
-            max_error=kw.get("max_error"),
-            quality=kw.get("quality"),
-            wavelet=kw.get("wavelet"),
-            coder=kw.get("coder"),
-            order=kw.get("order"),
-            max_levels=kw.get("max_levels"),
-            brick=kw.get("brick"),
-            search=opts["search"],
-            method=opts["motion"],
-            precision=precision,
-            compensation=opts["compensation"],
-            b_residual=opts["b_residual"],
-            whole_frame=opts["whole_frame"],
-            i_max_error=opts["i_max_error"],
-            force=force,
-            progress=progress,
-            **kw.get("read_options", {}),
-        )
-    if as_json:
-        emit_json(stats)
-    elif target != "-":
-        counts = stats["frame_types"]
-        acc = (
-            "lossless"
-            if stats["lossless"]
-            else f"max error {stats['max_error']:g}, PSNR {_db(stats['psnr'])}"
-        )
-        click.echo(
-            f"{target}: {fmt_bytes(stats['nbytes'])} from {fmt_bytes(stats['raw_nbytes'])}, "
-            f"ratio {stats['ratio']:.3f}:1, {acc}; frames I {counts['I']}, P {counts['P']}, "
-            f"B {counts['B']} ({stats['scene_cuts']} planned P/B coded as I), {stats['mb_per_s']:.1f} MB/s",
-            err=True,
-        )
+    return {
+        "gop_string": extra["gop"] or "IBBPBBPBB",
+        "search": extra["search"],
+        "method": extra["motion"],
+        "precision": precision,
+        "compensation": extra["compensation"],
+        "b_residual": extra["b_residual"],
+        "whole_frame": extra["whole_frame"],
+        "i_max_error": extra["i_max_error"],
+    }
+
+
+def animation_line(target: str, stats: dict) -> str:
+    """The line ``volpack compress`` prints for an animation."""
+    counts = stats["frame_types"]
+    acc = (
+        "lossless"
+        if stats["lossless"]
+        else f"max error {stats['max_error']:g}, PSNR {_db(stats['psnr'])}"
+    )
+    return (
+        f"{target}: {fmt_bytes(stats['nbytes'])} from {fmt_bytes(stats['raw_nbytes'])}, "
+        f"ratio {stats['ratio']:.3f}:1, {acc}; frames I {counts['I']}, P {counts['P']}, "
+        f"B {counts['B']} ({stats['scene_cuts']} planned P/B coded as I), {stats['mb_per_s']:.1f} MB/s"
+    )
 
 
 def _db(v) -> str:

@@ -11,12 +11,15 @@ from collections.abc import Iterator
 
 import click
 
-from ..batch import COMPRESS_KEYS
-from .codec import compress as _compress_cmd
-from .options import emit_json, fmt_bytes, json_option, raw_options, read_kwargs
-
-# the codec and lossy options of `volpack compress`, shared as they are
-_SHARED = tuple(k for k in COMPRESS_KEYS if k != "workers")
+from .options import (
+    codec_options,
+    emit_json,
+    fmt_bytes,
+    json_option,
+    parse_brick,
+    raw_options,
+    read_kwargs,
+)
 
 
 @contextlib.contextmanager
@@ -103,6 +106,7 @@ def run_batch(
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})
 @click.argument("inputs", nargs=-1, required=True)
 @click.argument("out_dir")
+@codec_options
 @click.option(
     "-j",
     "--workers",
@@ -154,7 +158,7 @@ def batch(
     byteorder,
     offset,
     as_json,
-    **codec_options,
+    **codec,
 ) -> None:
     """Compress every volume of INPUTS into OUT_DIR, one .vpk per input.
 
@@ -173,11 +177,10 @@ def batch(
       volpack batch scans/ out/ --report report.json --json
     """
     from .. import batch as vbatch
-    from .codec import _brick
 
-    options = {k: v for k, v in codec_options.items() if v is not None}
+    options = {k: v for k, v in codec.items() if v is not None}
     if "brick" in options:
-        options["brick"] = _brick(options["brick"])
+        options["brick"] = parse_brick(options["brick"])
     options["workers"] = threads
     options.update(read_kwargs(raw_shape, raw_dtype, byteorder, offset))
     tasks = vbatch.plan(list(inputs), out_dir, options=options, verify=verify)
@@ -195,7 +198,5 @@ def batch(
         desc="batch",
     )
 
-
-batch.params[2:2] = [p for p in _compress_cmd.params if p.name in _SHARED]
 
 COMMANDS = [batch]

@@ -7,12 +7,21 @@ import time
 import click
 
 from . import mesh as mesh_cli
-from .animation import ANIMATION_KEYS, animation_options, wants_animation
+from .animation import (
+    animation_compress_options,
+    animation_line,
+    animation_options,
+    wants_animation,
+)
+from .mesh import mesh_line
+from .octree import octree_decoded_line, octree_line
 from .options import (
+    codec_options,
     emit_json,
     fmt_bytes,
     force_option,
     json_option,
+    parse_brick,
     progress_bar,
     raw_options,
     read_kwargs,
@@ -20,88 +29,10 @@ from .options import (
 )
 
 
-def _brick(value: str) -> int | tuple[int, int, int]:
-    parts = value.replace("x", ",").split(",")
-    try:
-        nums = [int(p) for p in parts]
-    except ValueError:
-        raise click.BadParameter(
-            f"expected N or Z,Y,X, found {value!r}", param_hint="--brick"
-        ) from None
-    if len(nums) not in (1, 3):
-        raise click.BadParameter(f"expected N or Z,Y,X, found {value!r}", param_hint="--brick")
-    return nums[0] if len(nums) == 1 else tuple(nums)  # type: ignore[return-value]
-
-
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})
 @click.argument("source")
 @click.argument("target")
-@click.option(
-    "--codec",
-    type=click.Choice(["auto", "wavelet", "zstd"]),
-    default="auto",
-    show_default=True,
-    help="auto: the wavelet codec for 8/16/32-bit integers, byte-shuffled zstd (exact) for floats.",
-)
-@click.option(
-    "--wavelet",
-    type=click.Choice(["53", "26", "haar", "97m", "d4", "c6", "cdf97"]),
-    default="53",
-    show_default=True,
-    help="Reversible lifting filter: 5/3 (CDF 2,2), 2/6 (TS), Haar (S-transform), 9/7-M; "
-    "or, lossy only, the float Daubechies-4, Coiflet-6 and CDF 9/7 (for comparison).",
-)
-@click.option(
-    "--coder",
-    type=click.Choice(["arith", "huffman", "rle"]),
-    default="arith",
-    show_default=True,
-    help="arith: best ratio; huffman: fixed code, fastest decode; rle: run-length Huffman for sparse data.",
-)
-@click.option(
-    "--order",
-    type=click.Choice(["dfs", "line"]),
-    default="dfs",
-    show_default=True,
-    help="Coefficient scan: octree depth-first with zero-subtree stripping, or line by line.",
-)
-@click.option(
-    "--levels",
-    "max_levels",
-    type=click.IntRange(0, 16),
-    help="Cap the decomposition levels per axis.",
-)
-@click.option(
-    "--brick",
-    default="64",
-    show_default=True,
-    help="Brick size N or Z,Y,X; bricks decode independently.",
-)
-@click.option(
-    "--max-error",
-    type=float,
-    help="Lossy: every voxel decodes within this absolute error (checked on every voxel).",
-)
-@click.option(
-    "--rel-error", type=float, help="Lossy: --max-error as a fraction of the value range."
-)
-@click.option("--psnr", type=float, help="Lossy: reach this PSNR in dB (within 0.5 dB).")
-@click.option("--ratio", type=float, help="Lossy: reach this compression ratio (within 5%).")
-@click.option(
-    "--quality",
-    type=click.IntRange(1, 65535),
-    help="Lossy, the method's scale: 255 (best), 127, 63, 31, 15 (integer volumes).",
-)
-@click.option(
-    "--threshold",
-    type=float,
-    help="Lossy: drop wavelet coefficients below this size, in value units (integer volumes).",
-)
-@click.option(
-    "--fill-value",
-    type=float,
-    help="A value meaning 'no data' (e.g. -2.56e33); restored exactly, like NaN and Inf.",
-)
+@codec_options
 @mesh_cli.mesh_options
 @animation_options
 @click.option(
@@ -174,57 +105,53 @@ def compress(
       volpack compress hex.msh mesh.vpk --tetrahedralize   --lossless-geometry, ...)
       volpack compress big.h5:/density big.vpk --octree --max-error 2 --workers 2
     """
-    if mesh_cli.is_mesh_source(source):
-        mesh_opts = {k: v for k, v in extra.items() if k not in ANIMATION_KEYS}
-        return mesh_cli.compress(source, target, force=force, as_json=as_json, **mesh_opts)
-    if wants_animation(source, extra["gop"]):
-        from .animation import run_compress
-
-        opts = {k: extra[k] for k in ANIMATION_KEYS}
-        kw = dict(locals())
-        kw["read_options"] = read_kwargs(raw_shape, raw_dtype, byteorder, offset)
-        return run_compress(ctx, source, target, as_json, force, opts, **_shared(kw))
-    if octree or scheduler:
-        from . import octree as octree_cli
-
-        octree_cli.compress(ctx, read_kwargs(raw_shape, raw_dtype, byteorder, offset))
-        return
     from .. import api
-    from .. import io as vio
-    from ..format.atomic import check_output
 
-    check_output(target, force=force, inputs=(vio.parse_spec(source)[0],))
-    vol = vio.read_volume(source, **read_kwargs(raw_shape, raw_dtype, byteorder, offset))
-    with progress_bar(ctx, "compress") as progress:
-        stats = api.compress(
-            vol,
-            target,
-            codec=codec,
-            wavelet=wavelet,
-            coder=coder,
-            order=order,
-            max_levels=max_levels,
-            brick=_brick(brick),
-            max_error=max_error,
-            rel_error=rel_error,
-            psnr=psnr,
-            ratio=ratio,
-            quality=quality,
-            threshold=threshold,
-            fill_value=fill_value,
-            workers=workers,
-            force=force,
-            progress=progress,
+    shared = {
+        "codec": codec, "wavelet": wavelet, "coder": coder, "order": order,
+        "max_error": max_error, "rel_error": rel_error, "psnr": psnr, "ratio": ratio,
+        "quality": quality, "threshold": threshold, "fill_value": fill_value,
+    }  # fmt: skip
+    lossy = {k: v for k, v in shared.items() if k not in ("codec", "wavelet", "coder", "order")}
+    read_options = read_kwargs(raw_shape, raw_dtype, byteorder, offset)
+    if mesh_cli.is_mesh_source(source):
+        kind, unit = "mesh", None
+        opts = mesh_cli.compress_options(extra)
+    elif wants_animation(source, extra["gop"]):
+        from ..animation.stream import LOSSY_REFUSED
+
+        _refuse(
+            "animations take --max-error or --quality (or neither: lossless); found",
+            lossy,
+            LOSSY_REFUSED,
         )
+        if codec not in ("auto", "wavelet"):
+            raise click.UsageError("animations code frames with the wavelet codecs; drop --codec")
+        kind, unit = "animation", "frame"
+        opts = {**shared, **animation_compress_options(extra), "max_levels": max_levels}
+        opts.update(brick=parse_brick(brick), read_options=read_options)
+    elif octree or scheduler:
+        from ..octree.stream import REFUSED
+
+        _refuse("--octree takes --max-error or nothing (lossless), found", lossy, REFUSED)
+        if target == "-":
+            raise click.UsageError("--octree writes a seekable file, not '-'")
+        kind, unit = "octree", "super-brick"
+        opts = {k: v for k, v in lossy.items() if v is not None}
+        opts.update(wavelet=wavelet, coder=coder, order=order, block=block)
+        opts.update(scheduler=scheduler, workers=workers, read_options=read_options)
+    else:
+        kind, unit = "volume", "brick"
+        opts = {**shared, "max_levels": max_levels, "brick": parse_brick(brick)}
+        opts.update(workers=workers, read_options=read_options)
+    with mesh_cli.echo_warnings(), progress_bar(ctx, "compress", unit=unit) as progress:
+        if unit is not None:
+            opts["progress"] = progress
+        stats = api.compress(source, target, kind=kind, force=force, **opts)
     if as_json:
         emit_json(stats)
     elif target != "-":
-        click.echo(
-            f"{target}: {fmt_bytes(stats['nbytes'])} from {fmt_bytes(stats['raw_nbytes'])}, "
-            f"ratio {stats['ratio']:.3f}:1, {_accuracy(stats)}, {stats['mb_per_s']:.1f} MB/s "
-            f"({stats['bricks']} bricks, {stats['workers']} worker{'s' if stats['workers'] != 1 else ''})",
-            err=True,
-        )
+        click.echo(SUMMARIES[kind](target, stats), err=True)
 
 
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})
@@ -286,8 +213,6 @@ def decompress(
       volpack decompress big.vpk coarse.npy --level 3
       volpack decompress big.vpk approx.npy --error 10
     """
-    if not batch_mode and mesh_cli.is_mesh_stream(source):
-        return mesh_cli.decompress(source, target, force=force, as_json=as_json)
     if batch_mode:
         if roi or frame is not None:
             raise click.UsageError("--roi and --frame do not apply with --batch")
@@ -309,37 +234,40 @@ def decompress(
             desc="decompress",
         )
         return
-    from . import octree as octree_cli
-
-    if level is not None or error is not None or octree_cli.is_octree(source):
-        octree_cli.decompress(
-            ctx,
-            source,
-            target,
-            roi=roi,
-            level=level,
-            error=error,
-            force=force,
-            as_json=as_json,
-            workers=workers,
-        )
-        return
     from .. import api
     from .. import io as vio
     from ..format.atomic import check_output
+    from ..metrics import throughput
 
+    kind = api.kind_of(source)
+    if kind == "mesh":
+        return mesh_cli.decompress(source, target, force=force, as_json=as_json)
+    if level is not None or error is not None or kind == "octree":
+        from ..octree.stream import decode
+
+        check_output(vio.parse_spec(target)[0], force=force, inputs=(source,))
+        d = decode(source, level=level, error=error, roi=roi, workers=workers)
+        api.write_volume(d.volume, target, force=force)
+        stats = {"target": target, "shape": list(d.volume.shape), "dtype": str(d.volume.dtype)}
+        stats.update(levels=d.levels, bytes_read=d.bytes_read, nodes_decoded=d.nodes_decoded)
+        stats["seconds"] = d.seconds
+        if as_json:
+            emit_json(stats)
+        elif target != "-":
+            click.echo(octree_decoded_line(target, stats), err=True)
+        return
     check_output(vio.parse_spec(target)[0], force=force, inputs=(source,))
     t0 = time.perf_counter()
     with progress_bar(ctx, "decompress") as progress:
-        vol = api.decompress(source, roi=roi, frame=frame, workers=workers, progress=progress)
+        vol = api.read_volume_from(source, roi=roi, frame=frame, workers=workers, progress=progress)
     seconds = time.perf_counter() - t0
-    vio.write_volume(vol, target, force=force)
+    api.write_volume(vol, target, force=force)
     stats = {
         "target": target,
         "shape": list(vol.shape),
         "dtype": str(vol.dtype),
         "seconds": seconds,
-        "mb_per_s": vol.nbytes / 1e6 / max(seconds, 1e-9),
+        "mb_per_s": throughput(vol.nbytes, seconds),
     }
     if as_json:
         emit_json(stats)
@@ -350,12 +278,20 @@ def decompress(
         )
 
 
-def _shared(kw: dict) -> dict:
-    keys = ("codec", "wavelet", "coder", "order", "max_levels", "max_error", "rel_error")
-    keys += ("psnr", "ratio", "quality", "threshold", "fill_value", "read_options")
-    out = {k: kw[k] for k in keys}
-    out["brick"] = _brick(kw["brick"])
-    return out
+def _refuse(message: str, given: dict, refused: tuple[str, ...]) -> None:
+    """A usage error naming the flags of ``refused`` options that were given."""
+    flags = ["--" + k.replace("_", "-") for k in refused if given.get(k) is not None]
+    if flags:
+        raise click.UsageError(f"{message} {', '.join(flags)}")
+
+
+def _volume_line(target: str, stats: dict) -> str:
+    w = stats["workers"]
+    return (
+        f"{target}: {fmt_bytes(stats['nbytes'])} from {fmt_bytes(stats['raw_nbytes'])}, "
+        f"ratio {stats['ratio']:.3f}:1, {_accuracy(stats)}, {stats['mb_per_s']:.1f} MB/s "
+        f"({stats['bricks']} bricks, {w} worker{'s' if w != 1 else ''})"
+    )
 
 
 def _accuracy(stats: dict) -> str:
@@ -363,6 +299,15 @@ def _accuracy(stats: dict) -> str:
         return "lossless"
     psnr = stats.get("psnr")
     return f"max error {stats['max_error']:g}, PSNR {'inf' if psnr is None else f'{psnr:.2f}'} dB"
+
+
+SUMMARIES = {
+    "volume": _volume_line,
+    "animation": animation_line,
+    "octree": octree_line,
+    "mesh": mesh_line,
+}
+"""The one line ``volpack compress`` prints on standard error, per stream kind."""
 
 
 COMMANDS = [compress, decompress]

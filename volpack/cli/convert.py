@@ -95,10 +95,7 @@ def convert(
     from ..format.atomic import check_output
 
     check_output(vio.parse_spec(target)[0], force=force, inputs=(source,))
-    if _is_vpk_path(source):
-        vol = api.decompress(source)
-    else:
-        vol = vio.read_volume(source, **read_kwargs(raw_shape, raw_dtype, byteorder, offset))
+    vol = api.read_volume(source, **read_kwargs(raw_shape, raw_dtype, byteorder, offset))
     steps = []
     if crop:
         vol = prep.crop(vol, crop)
@@ -153,14 +150,6 @@ def convert(
                 f"  quantized: scale {q['scale']:.6g}, offset {q['offset']:.6g}, max error {q['max_error']:.6g}",
                 err=True,
             )
-
-
-def _is_vpk_path(path: str) -> bool:
-    if path == "-":
-        return False
-    from ..api import _looks_vpk
-
-    return _looks_vpk(path)
 
 
 def _has_special(vol) -> bool:

@@ -39,27 +39,21 @@ def info(
 
         octree_levels(source, as_json)
         return
-    from . import mesh as mesh_cli
-
-    if source == "-":
-        from ..format.container import spool, stdin, vpk_kind
-
-        kind = vpk_kind("-")
-        if kind is not None:  # a .vpk on a pipe: its index comes last, so keep it whole
-            with spool(stdin()) as f:
-                if kind == "mesh":
-                    return mesh_cli.info(source, as_json, stream=f)
-                from .. import api
-
-                return _show(api.info(f), as_json, chunks)
-    if mesh_cli.is_mesh_source(source) or mesh_cli.is_mesh_stream(source):
-        return mesh_cli.info(source, as_json)
     from .. import api
 
+    if source == "-" and api.kind_of("-") is not None:
+        from ..format.streams import spool, stdin
+
+        with spool(stdin()) as f:  # a .vpk on a pipe: its index comes last, so keep it whole
+            return _show(api.info(f), as_json, chunks)
     _show(api.info(source, **read_kwargs(raw_shape, raw_dtype, byteorder, offset)), as_json, chunks)
 
 
 def _show(d: dict, as_json: bool, chunks: bool) -> None:
+    if d["format"] == "mesh" or d.get("kind") == "mesh":
+        from .mesh import show_info
+
+        return show_info(d, as_json)
     if not (as_json and chunks) and "entries" in d and not chunks:
         d = {k: v for k, v in d.items() if k != "entries"}
     if as_json:

@@ -8,6 +8,7 @@ here; ``decompress`` and ``info`` send ``.vpk`` files whose header says
 
 from __future__ import annotations
 
+import contextlib
 import time
 import warnings
 
@@ -91,79 +92,60 @@ def is_mesh_source(path: str) -> bool:
 
 def is_mesh_stream(path: str) -> bool:
     """True for a ``.vpk`` file whose header says ``kind: "mesh"``."""
-    from ..format.container import vpk_kind
+    from ..format.streams import vpk_kind
 
     return vpk_kind(path) == "mesh"
 
 
-def _read(source: str, tetrahedralize: bool):
-    from ..tetra.formats import read_mesh
+MESH_KEYS = ("bits", "lossless_geometry", "keep_order", "orient", "tetrahedralize", "attr_error")
 
+
+def compress_options(extra: dict) -> dict:
+    """The mesh options of ``volpack compress`` as :func:`volpack.tetra.stream.compress`
+    takes them."""
+    opts = {k: extra[k] for k in MESH_KEYS}
+    opts["attr_error"] = _attr_error(opts["attr_error"])
+    return opts
+
+
+@contextlib.contextmanager
+def echo_warnings():
+    """Print the library's warnings (e.g. meshio's) as ``volpack: warning:`` lines."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        mesh = read_mesh(source, tetrahedralize=tetrahedralize)
-    for w in caught:
-        click.echo(f"volpack: warning: {w.message}", err=True)
-    return mesh
+        try:
+            yield
+        finally:
+            for w in caught:
+                click.echo(f"volpack: warning: {w.message}", err=True)
 
 
-def compress(
-    source: str,
-    target: str,
-    *,
-    bits: int,
-    lossless_geometry: bool,
-    keep_order: bool,
-    orient: bool,
-    tetrahedralize: bool,
-    attr_error: tuple[str, ...],
-    force: bool,
-    as_json: bool,
-) -> None:
-    """Compress the mesh file SOURCE into the .vpk TARGET and report the rates."""
-    from ..format.atomic import check_output
-    from ..tetra.stream import compress_mesh
-
-    check_output(target, force=force, inputs=(source,))
-    mesh = _read(source, tetrahedralize)
-    stats = compress_mesh(
-        mesh,
-        target,
-        bits=bits,
-        lossless_geometry=lossless_geometry,
-        keep_order=keep_order,
-        orient=orient,
-        attr_error=_attr_error(attr_error),
-        force=force,
+def mesh_line(target: str, stats: dict) -> str:
+    """The line ``volpack compress`` prints for a mesh."""
+    g = stats["geometry"]
+    geo = (
+        "lossless"
+        if g["mode"].startswith("lossless")
+        else f"{g['bits']}-bit, max error {stats['geometry_max_error']:.3g}"
     )
-    if as_json:
-        emit_json(stats)
-    elif target != "-":
-        geo = (
-            "lossless"
-            if lossless_geometry
-            else f"{bits}-bit, max error {stats['geometry_max_error']:.3g}"
-        )
-        click.echo(
-            f"{target}: {fmt_bytes(stats['payload_nbytes'])} from {fmt_bytes(stats['raw_nbytes'])} "
-            f"(ratio {stats['ratio']:.2f}:1); {stats['vertices']} vertices, {stats['tets']} tets; "
-            f"connectivity {stats['bits_per_tet']:.2f} bits/tet, geometry "
-            f"{stats['bits_per_vertex']:.2f} bits/vertex ({geo}); "
-            f"{stats['tets_per_s'] / 1e3:.0f}k tets/s",
-            err=True,
-        )
+    return (
+        f"{target}: {fmt_bytes(stats['payload_nbytes'])} from {fmt_bytes(stats['raw_nbytes'])} "
+        f"(ratio {stats['ratio']:.2f}:1); {stats['vertices']} vertices, {stats['tets']} tets; "
+        f"connectivity {stats['bits_per_tet']:.2f} bits/tet, geometry "
+        f"{stats['bits_per_vertex']:.2f} bits/vertex ({geo}); "
+        f"{stats['tets_per_s'] / 1e3:.0f}k tets/s"
+    )
 
 
 def decompress(source: str, target: str, *, force: bool, as_json: bool) -> None:
     """Decode the mesh .vpk SOURCE into the mesh file TARGET (format by suffix)."""
+    from .. import api
     from ..format.atomic import check_output
-    from ..format.container import stdin
     from ..tetra.formats import write_mesh
-    from ..tetra.stream import decompress_mesh
 
     check_output(target, force=force, inputs=(source,))
     t0 = time.perf_counter()
-    mesh = decompress_mesh(stdin() if source == "-" else source)
+    mesh = api.decompress(source)
     seconds = time.perf_counter() - t0
     write_mesh(mesh, target, force=force)
     stats = {
@@ -185,22 +167,8 @@ def decompress(source: str, target: str, *, force: bool, as_json: bool) -> None:
         )
 
 
-def info(source: str, as_json: bool, stream=None) -> None:
-    """Describe a mesh .vpk (rates per part; ``stream``: its seekable copy when
-    ``source`` is a pipe) or a mesh file (the mesh report)."""
-    if stream is not None or is_mesh_stream(source):
-        from ..tetra.stream import mesh_info
-
-        d = mesh_info(source if stream is None else stream)
-    else:
-        from ..tetra.formats import read_mesh
-        from ..tetra.mesh import report
-
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            mesh = read_mesh(source, tetrahedralize=True)
-        d = {"format": "mesh", "path": source, **report(mesh)}
-        d["warnings"] = [str(w.message) for w in caught]
+def show_info(d: dict, as_json: bool) -> None:
+    """Print what ``volpack info`` says of a mesh .vpk or a mesh file."""
     if as_json:
         emit_json(d)
         return

@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import contextlib
+import functools
 import json
 import sys
 from collections.abc import Iterator
 
 import click
 
-from ..jsonsafe import finite_json
+from ..jsonsafe import jsonable
 
 force_option = click.option("-f", "--force", is_flag=True, help="Replace an existing output file.")
 json_option = click.option(
@@ -67,10 +68,11 @@ def read_kwargs(raw_shape: str | None, raw_dtype: str | None, byteorder: str, of
 
 
 @contextlib.contextmanager
-def progress_bar(ctx: click.Context, desc: str, unit: str = "brick") -> Iterator:
-    """Yield a ``progress(done, total)`` callback drawing a tqdm bar on a terminal."""
+def progress_bar(ctx: click.Context, desc: str, unit: str | None = "brick") -> Iterator:
+    """Yield a ``progress(done, total)`` callback drawing a tqdm bar on a terminal (None
+    with ``unit=None``: nothing to count)."""
     quiet = bool(ctx.find_root().obj.get("quiet")) if ctx.find_root().obj else False
-    if quiet or not sys.stderr.isatty():
+    if quiet or unit is None or not sys.stderr.isatty():
         yield None
         return
     from tqdm import tqdm
@@ -91,15 +93,7 @@ def progress_bar(ctx: click.Context, desc: str, unit: str = "brick") -> Iterator
 
 def emit_json(obj) -> None:
     """Print ``obj`` as strict JSON (infinite or NaN numbers become null)."""
-    click.echo(
-        json.dumps(finite_json(obj), indent=2, sort_keys=True, default=_default, allow_nan=False)
-    )
-
-
-def _default(o):
-    if hasattr(o, "tolist"):
-        return o.tolist()
-    return str(o)
+    click.echo(json.dumps(jsonable(obj), indent=2, sort_keys=True, allow_nan=False))
 
 
 def fmt_bytes(n: float) -> str:
@@ -124,3 +118,92 @@ def table(rows: list[list[str]], header: list[str]) -> str:
         for r in rows
     ]
     return "\n".join(lines)
+
+
+def parse_brick(value: str) -> int | tuple[int, int, int]:
+    parts = value.replace("x", ",").split(",")
+    try:
+        nums = [int(p) for p in parts]
+    except ValueError:
+        raise click.BadParameter(
+            f"expected N or Z,Y,X, found {value!r}", param_hint="--brick"
+        ) from None
+    if len(nums) not in (1, 3):
+        raise click.BadParameter(f"expected N or Z,Y,X, found {value!r}", param_hint="--brick")
+    return nums[0] if len(nums) == 1 else tuple(nums)  # type: ignore[return-value]
+
+
+CODEC_OPTIONS = [
+    click.option(
+        "--codec",
+        type=click.Choice(["auto", "wavelet", "zstd"]),
+        default="auto",
+        show_default=True,
+        help="auto: the wavelet codec for 8/16/32-bit integers, byte-shuffled zstd (exact) for floats.",
+    ),
+    click.option(
+        "--wavelet",
+        type=click.Choice(["53", "26", "haar", "97m", "d4", "c6", "cdf97"]),
+        default="53",
+        show_default=True,
+        help="Reversible lifting filter: 5/3 (CDF 2,2), 2/6 (TS), Haar (S-transform), 9/7-M; "
+        "or, lossy only, the float Daubechies-4, Coiflet-6 and CDF 9/7 (for comparison).",
+    ),
+    click.option(
+        "--coder",
+        type=click.Choice(["arith", "huffman", "rle"]),
+        default="arith",
+        show_default=True,
+        help="arith: best ratio; huffman: fixed code, fastest decode; rle: run-length Huffman for sparse data.",
+    ),
+    click.option(
+        "--order",
+        type=click.Choice(["dfs", "line"]),
+        default="dfs",
+        show_default=True,
+        help="Coefficient scan: octree depth-first with zero-subtree stripping, or line by line.",
+    ),
+    click.option(
+        "--levels",
+        "max_levels",
+        type=click.IntRange(0, 16),
+        help="Cap the decomposition levels per axis.",
+    ),
+    click.option(
+        "--brick",
+        default="64",
+        show_default=True,
+        help="Brick size N or Z,Y,X; bricks decode independently.",
+    ),
+    click.option(
+        "--max-error",
+        type=float,
+        help="Lossy: every voxel decodes within this absolute error (checked on every voxel).",
+    ),
+    click.option(
+        "--rel-error", type=float, help="Lossy: --max-error as a fraction of the value range."
+    ),
+    click.option("--psnr", type=float, help="Lossy: reach this PSNR in dB (within 0.5 dB)."),
+    click.option("--ratio", type=float, help="Lossy: reach this compression ratio (within 5%)."),
+    click.option(
+        "--quality",
+        type=click.IntRange(1, 65535),
+        help="Lossy, the method's scale: 255 (best), 127, 63, 31, 15 (integer volumes).",
+    ),
+    click.option(
+        "--threshold",
+        type=float,
+        help="Lossy: drop wavelet coefficients below this size, in value units (integer volumes).",
+    ),
+    click.option(
+        "--fill-value",
+        type=float,
+        help="A value meaning 'no data' (e.g. -2.56e33); restored exactly, like NaN and Inf.",
+    ),
+]
+"""The codec and lossy options of ``volpack compress``, which ``volpack batch`` shares."""
+
+
+def codec_options(f):
+    """Decorate a command with :data:`CODEC_OPTIONS`."""
+    return functools.reduce(lambda g, o: o(g), reversed(CODEC_OPTIONS), f)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from .options import emit_json, force_option, json_option, progress_bar, table
-from .render import _look_at, _size, view_options
+from .render import parse_look_at, parse_size, view_options
 
 
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})
@@ -49,7 +49,7 @@ def play(ctx, source, output, tf_spec, fps, spin, show_stats, azimuth, elevation
     from ..render.camera import Camera
     from ..render.raycast import render as raycast
 
-    size = _size(size_s)
+    size = parse_size(size_s)
     if output is not None and not _is_folder(output):
         check_output(output, force=force, inputs=(source,))
     vr = player.recorded_range(source) if source != "-" else None
@@ -64,7 +64,7 @@ def play(ctx, source, output, tf_spec, fps, spin, show_stats, azimuth, elevation
             state["tf"] = transfer.load_tf(tf_spec or "auto", lo, hi, dtype=frame.dtype)
         cam = Camera(azimuth=azimuth + spin * state["k"], elevation=elevation, zoom=zoom,
                      projection="perspective" if perspective else "orthographic", size=size,
-                     distance=distance, look_at=_look_at(look_at_s))  # fmt: skip
+                     distance=distance, look_at=parse_look_at(look_at_s))  # fmt: skip
         state["k"] += 1
         return raycast(
             np.ascontiguousarray(frame, np.float32), tf=state["tf"], camera=cam, step=step,
@@ -163,17 +163,17 @@ def walk(ctx, source, output, orbit, budget, tf_spec, fps, compare, show_stats, 
     from ..octree import Octree
     from ..render import transfer
     from ..render.camera import Camera
-    from ..render.lod import _tree_range, render_lod
+    from ..render.lod import render_lod, tree_range
     from ..render.raycast import render as raycast
 
-    size = _size(size_s)
+    size = parse_size(size_s)
     if output is not None and not _is_folder(output):
         check_output(output, force=force, inputs=(source,))
     opts = dict(step=step, classification=classification, shading=shading,
                 preint_method=preint_method, workers=workers)  # fmt: skip
     rows = []
     with Octree(source, cache_bytes=1 << 30) as tree:
-        lo, hi = _tree_range(tree)
+        lo, hi = tree_range(tree)
         tf = transfer.load_tf(tf_spec or "auto", lo, hi, dtype=tree.dtype)
         full = tree.decode(0).data.astype(np.float32) if compare else None
         with (
@@ -183,7 +183,7 @@ def walk(ctx, source, output, orbit, budget, tf_spec, fps, compare, show_stats, 
             for k in range(orbit):
                 cam = Camera(azimuth=azimuth + 360.0 * k / orbit, elevation=elevation,
                              zoom=zoom, size=size, distance=distance,
-                             look_at=_look_at(look_at_s),
+                             look_at=parse_look_at(look_at_s),
                              projection="perspective" if perspective else "orthographic")  # fmt: skip
                 img, st = render_lod(tree, tf=tf, camera=cam, blocks=budget,
                                      value_range=(lo, hi), **opts)  # fmt: skip

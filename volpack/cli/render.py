@@ -61,7 +61,7 @@ def parse_isos(spec: str) -> list[tuple[float, tuple[float, float, float], float
     return isos
 
 
-def _look_at(value: str | None) -> tuple[float, float, float] | None:
+def parse_look_at(value: str | None) -> tuple[float, float, float] | None:
     if value is None:
         return None
     try:
@@ -73,7 +73,7 @@ def _look_at(value: str | None) -> tuple[float, float, float] | None:
     return z, y, x
 
 
-def _size(value: str) -> tuple[int, int]:
+def parse_size(value: str) -> tuple[int, int]:
     try:
         w, h = (int(v) for v in value.lower().replace(",", "x").split("x"))
     except ValueError:
@@ -85,7 +85,7 @@ def _size(value: str) -> tuple[int, int]:
 
 def _open_octree(source: str):
     """An open :class:`volpack.octree.Octree` when SOURCE is an octree .vpk, else None."""
-    from ..format.container import vpk_kind
+    from ..format.streams import vpk_kind
 
     if vpk_kind(source) != "octree":
         return None
@@ -283,7 +283,7 @@ def render(
     from ..render.raycast import render as raycast
     from ..volume import Volume
 
-    size = _size(size_s)
+    size = parse_size(size_s)
     isos = parse_isos(iso_spec) if iso_spec else None
     if orbit:
         if os.path.exists(output) and not os.path.isdir(output):
@@ -302,9 +302,9 @@ def render(
         raise click.BadParameter("applies to octree .vpk files only", param_hint="--budget")
     mesh = None if tree is not None else _load_mesh(source, field)
     if tree is not None:
-        from ..render.lod import _tree_range
+        from ..render.lod import tree_range
 
-        lo, hi = _tree_range(tree)
+        lo, hi = tree_range(tree)
         data = np.array([lo, hi], dtype=tree.dtype)
         ok = np.ones(2, bool)
     elif mesh is not None:
@@ -374,7 +374,7 @@ def render(
                 projection="perspective" if perspective else "orthographic",
                 size=size,
                 distance=distance,
-                look_at=_look_at(look_at_s),
+                look_at=parse_look_at(look_at_s),
             )
             img, stats = draw(cam, None if (orbit or progress is None) else progress)
             save_png(target, img, colorbar=(tf, lo, hi) if (colorbar and tf) else None, force=force)

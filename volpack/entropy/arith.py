@@ -25,100 +25,17 @@ import numpy as np
 
 from .._jit import kernel, leading_zeros
 from ..errors import FormatError
-from ..wavelet.sigmap import N_CLASSES, Scan
 from .common import check_status, encode_with_retry, flat_view, max_bits
+from .rangecoder import RATE, STATE_INIT, get, pull, push, put
+from .scan import N_CLASSES, Scan
 
-PROB_BITS = 12
-TOP = 1 << 24
 TREE_BITS = 6  # 2**6 models per context for the bit length
 NQ = 12  # quantised local-magnitude contexts
 SHARE = np.array([0, 12, 6, 4, 3], dtype=np.int64)  # 96 / (8 c)
 MANT_BITS = 2  # bits below the leading one that get adaptive probabilities
-# Each model is one uint16: a 12-bit probability of a 0 above a 4-bit use count k. After
-# each use it moves by 1/2**RATE[k] of its distance to the bit seen: fast while young
-# (a running average), then settling (bricks are small, so not too slow).
-RATE = np.array([1, 2, 2, 3, 3, 3, 3, 4, 4, 4, 4, 4, 4, 4, 4, 5], dtype=np.int64)
-STATE_INIT = (1 << (PROB_BITS - 1)) << 4
 N_FLAG = N_CLASSES * NQ
 N_TREE = N_FLAG << TREE_BITS
 N_MODELS = N_FLAG + N_TREE + ((64 << MANT_BITS) * N_CLASSES)
-
-
-@kernel(inline=True)
-def _carry(out, pos):
-    """Add one to the bytes written so far (the carry out of ``low``)."""
-    j = pos - 1
-    while out[j] == 0xFF:
-        out[j] = 0
-        j -= 1
-    out[j] += 1
-
-
-@kernel(inline=True)
-def _push(out, low, rng, pos):
-    """After ``low`` grew and ``rng`` shrank: carry into the bytes written, then shift
-    out whole bytes until the range is back above ``2^24``."""
-    if low > 0xFFFFFFFF:
-        _carry(out, pos)
-        low &= 0xFFFFFFFF
-    while rng < TOP:
-        rng <<= 8
-        out[pos] = low >> 24
-        pos += 1
-        low = (low << 8) & 0xFFFFFFFF
-    return low, rng, pos
-
-
-@kernel(inline=True)
-def _pull(data, code, rng, pos):
-    """The decoder's side of :func:`_push`: shift in whole bytes (0 past the end)."""
-    while rng < TOP:
-        rng <<= 8
-        code = ((code << 8) | (np.int64(data[pos]) if pos < data.size else 0)) & 0xFFFFFFFF
-        pos += 1
-    return code, rng, pos
-
-
-@kernel(inline=True)
-def _adapt(models, k, p, u, mask, rate):
-    """Move model ``k`` (probability ``p`` of a 0, use count ``u``) towards the bit
-    coded (``mask``: -1 for a 1, 0 for a 0) and count the use."""
-    r = rate[u]
-    gain = ((1 << PROB_BITS) - p) >> r
-    p += gain - ((gain + (p >> r)) & mask)
-    models[k] = (p << 4) | (u + (u < 15))
-
-
-@kernel(inline=True)
-def _put(out, models, k, bit, low, rng, pos, rate):
-    """Code one binary decision with the adaptive model ``models[k]``; returns the new
-    ``(low, rng, pos)``. Branch-free: the bit is a coin toss to the branch predictor."""
-    st = np.int64(models[k])
-    p = st >> 4
-    u = st & 15
-    bound = (rng >> PROB_BITS) * p
-    mask = -np.int64(bit)
-    low += bound & mask
-    rng = bound + ((rng - 2 * bound) & mask)
-    _adapt(models, k, p, u, mask, rate)
-    return _push(out, low, rng, pos)
-
-
-@kernel(inline=True)
-def _get(data, models, k, code, rng, pos, rate):
-    """Decode one binary decision coded by :func:`_put`; returns
-    ``(bit, code, rng, pos)``."""
-    st = np.int64(models[k])
-    p = st >> 4
-    u = st & 15
-    bound = (rng >> PROB_BITS) * p
-    bit = np.int64(code >= bound)
-    mask = -bit
-    code -= bound & mask
-    rng = bound + ((rng - 2 * bound) & mask)
-    _adapt(models, k, p, u, mask, rate)
-    code, rng, pos = _pull(data, code, rng, pos)
-    return bit, code, rng, pos
 
 
 @kernel(inline=True)
@@ -176,7 +93,7 @@ def _encode_kernel(flat, perm, end, parent, cls, nbr, out):
         if e > i + 1:  # the subtree flag
             bit = np.int64(nz[e] != nz[i])
             k = ctx
-            low, rng, pos = _put(out, state, k, bit, low, rng, pos, RATE)
+            low, rng, pos = put(out, state, k, bit, low, rng, pos, RATE)
             if bit == 0:
                 nprev = 0
                 i = e
@@ -188,12 +105,12 @@ def _encode_kernel(flat, perm, end, parent, cls, nbr, out):
         up = nb >= q
         bit = np.int64(up)
         k = base
-        low, rng, pos = _put(out, state, k, bit, low, rng, pos, RATE)
+        low, rng, pos = put(out, state, k, bit, low, rng, pos, RATE)
         j = q if up else q - 1
         while (up and j < 63) or (not up and j > 0):  # count from the estimate q
             k = base + 1 + min(j - q, 46) if up else base + 48 + (q - 1 - j)
             bit = np.int64(nb > j) if up else np.int64(nb < j)
-            low, rng, pos = _put(out, state, k, bit, low, rng, pos, RATE)
+            low, rng, pos = put(out, state, k, bit, low, rng, pos, RATE)
             if nb == j:
                 break
             j += 1 if up else -1
@@ -203,7 +120,7 @@ def _encode_kernel(flat, perm, end, parent, cls, nbr, out):
             for jm in range(nm):
                 k = _mant_model(nb, top >> (nm - jm), cls[i])
                 bit = (top >> (nm - 1 - jm)) & 1
-                low, rng, pos = _put(out, state, k, bit, low, rng, pos, RATE)
+                low, rng, pos = put(out, state, k, bit, low, rng, pos, RATE)
         # The low bits at one half, up to 16 at a time: the range splits into 2^t equal parts.
         kr = nb - 1 - max(nm, 0)
         while kr > 0:
@@ -211,7 +128,7 @@ def _encode_kernel(flat, perm, end, parent, cls, nbr, out):
             kr -= t
             rng >>= t
             low += np.int64((v >> np.uint64(kr)) & np.uint64((1 << t) - 1)) * rng
-            low, rng, pos = _push(out, low, rng, pos)
+            low, rng, pos = push(out, low, rng, pos)
         nbits[i] = nb
         nprev = nb
         i += 1
@@ -244,7 +161,7 @@ def _decode_kernel(data, perm, end, parent, cls, nbr, flat, nmax):
         e = end[i]
         if e > i + 1:  # the subtree flag
             k = ctx
-            bit, code, rng, pos = _get(data, state, k, code, rng, pos, RATE)
+            bit, code, rng, pos = get(data, state, k, code, rng, pos, RATE)
             if bit == 0:
                 for j in range(i, e):
                     flat[perm[j]] = 0
@@ -253,12 +170,12 @@ def _decode_kernel(data, perm, end, parent, cls, nbr, flat, nmax):
                 continue
         base = N_FLAG + (ctx << TREE_BITS)
         k = base
-        bit, code, rng, pos = _get(data, state, k, code, rng, pos, RATE)
+        bit, code, rng, pos = get(data, state, k, code, rng, pos, RATE)
         up = bit == 1
         nb = q if up else q - 1
         while (up and nb < 63) or (not up and nb > 0):  # count from the estimate q
             k = base + 1 + min(nb - q, 46) if up else base + 48 + (q - 1 - nb)
-            bit, code, rng, pos = _get(data, state, k, code, rng, pos, RATE)
+            bit, code, rng, pos = get(data, state, k, code, rng, pos, RATE)
             if bit == 0:
                 break
             nb += 1 if up else -1
@@ -269,7 +186,7 @@ def _decode_kernel(data, perm, end, parent, cls, nbr, flat, nmax):
         c = cls[i]
         for _ in range(min(nb - 1, MANT_BITS)):
             k = _mant_model(nb, prefix, c)
-            bit, code, rng, pos = _get(data, state, k, code, rng, pos, RATE)
+            bit, code, rng, pos = get(data, state, k, code, rng, pos, RATE)
             prefix = 2 * prefix + bit
             v = (v << np.uint64(1)) | np.uint64(bit)
         k = nb - 1 - min(nb - 1, MANT_BITS)
@@ -280,7 +197,7 @@ def _decode_kernel(data, perm, end, parent, cls, nbr, flat, nmax):
             r = min(code // rng, (1 << t) - 1)  # a corrupt stream may point past the end
             code -= r * rng
             v = (v << np.uint64(t)) | np.uint64(r)
-            code, rng, pos = _pull(data, code, rng, pos)
+            code, rng, pos = pull(data, code, rng, pos)
         flat[perm[i]] = np.int64(v >> np.uint64(1)) ^ -(np.int64(v & np.uint64(1)))
         nbits[i] = nb
         nprev = nb

@@ -22,8 +22,8 @@ import numpy as np
 
 from .._jit import kernel, leading_zeros
 from ..errors import FormatError
-from ..wavelet.sigmap import Scan
 from .common import check_status, encode_with_retry, flat_view, max_bits
+from .scan import Scan
 
 
 @kernel(inline=True)

@@ -1,7 +1,8 @@
 """The binary range coder as callable steps, for coders that interleave many models.
 
-The volume codec (:mod:`volpack.entropy.arith`) inlines the same steps (``_put``,
-``_get``, ``_push``, ``_pull``) into its kernels. The mesh coders (connectivity, coordinates, fields) call these instead, with the
+The steps themselves (:func:`put`, :func:`get`, :func:`push`, :func:`pull`, inline
+kernels) live here, and the volume codec (:mod:`volpack.entropy.arith`) inlines them into
+its kernels. The mesh coders (connectivity, coordinates, fields) call the wrappers below, with the
 coder's state in a small int64 array ``cs``: ``[low, range, position]`` when encoding,
 ``[code, range, position]`` when decoding (callers may keep more entries after those).
 The arithmetic is the same: 12-bit probabilities of a 0 with a 4-bit use count in each
@@ -11,7 +12,7 @@ decoder reads bytes past the end of its data as 0.
 
 A model adapts by ``1 / 2^rate[use count]`` of its distance to each bit seen;
 :func:`put_bit` and :func:`get_bit` use the volume codec's schedule
-(:data:`volpack.entropy.arith.RATE`), :func:`put_decision` and :func:`get_decision`
+(:data:`RATE`), :func:`put_decision` and :func:`get_decision`
 take the schedule as an argument.
 """
 
@@ -20,19 +21,113 @@ from __future__ import annotations
 import numpy as np
 
 from .._jit import kernel
-from .arith import RATE, _get, _pull, _push, _put
+
+PROB_BITS = 12
+TOP = 1 << 24
+# Each model is one uint16: a 12-bit probability of a 0 above a 4-bit use count k. After
+# each use it moves by 1/2**RATE[k] of its distance to the bit seen: fast while young
+# (a running average), then settling (bricks are small, so not too slow).
+RATE = np.array([1, 2, 2, 3, 3, 3, 3, 4, 4, 4, 4, 4, 4, 4, 4, 5], dtype=np.int64)
+STATE_INIT = (1 << (PROB_BITS - 1)) << 4
 
 __all__ = [
+    "PROB_BITS",
+    "RATE",
+    "STATE_INIT",
+    "TOP",
+    "adapt",
+    "carry",
     "finish_encoder",
+    "get",
     "get_bit",
     "get_decision",
     "get_raw",
+    "pull",
+    "push",
+    "put",
     "put_bit",
     "put_decision",
     "put_raw",
     "start_decoder",
     "start_encoder",
 ]
+
+
+@kernel(inline=True)
+def carry(out, pos):
+    """Add one to the bytes written so far (the carry out of ``low``)."""
+    j = pos - 1
+    while out[j] == 0xFF:
+        out[j] = 0
+        j -= 1
+    out[j] += 1
+
+
+@kernel(inline=True)
+def push(out, low, rng, pos):
+    """After ``low`` grew and ``rng`` shrank: carry into the bytes written, then shift
+    out whole bytes until the range is back above ``2^24``."""
+    if low > 0xFFFFFFFF:
+        carry(out, pos)
+        low &= 0xFFFFFFFF
+    while rng < TOP:
+        rng <<= 8
+        out[pos] = low >> 24
+        pos += 1
+        low = (low << 8) & 0xFFFFFFFF
+    return low, rng, pos
+
+
+@kernel(inline=True)
+def pull(data, code, rng, pos):
+    """The decoder's side of :func:`push`: shift in whole bytes (0 past the end)."""
+    while rng < TOP:
+        rng <<= 8
+        code = ((code << 8) | (np.int64(data[pos]) if pos < data.size else 0)) & 0xFFFFFFFF
+        pos += 1
+    return code, rng, pos
+
+
+@kernel(inline=True)
+def adapt(models, k, p, u, mask, rate):
+    """Move model ``k`` (probability ``p`` of a 0, use count ``u``) towards the bit
+    coded (``mask``: -1 for a 1, 0 for a 0) and count the use."""
+    r = rate[u]
+    gain = ((1 << PROB_BITS) - p) >> r
+    p += gain - ((gain + (p >> r)) & mask)
+    models[k] = (p << 4) | (u + (u < 15))
+
+
+@kernel(inline=True)
+def put(out, models, k, bit, low, rng, pos, rate):
+    """Code one binary decision with the adaptive model ``models[k]``; returns the new
+    ``(low, rng, pos)``. Branch-free: the bit is a coin toss to the branch predictor."""
+    st = np.int64(models[k])
+    p = st >> 4
+    u = st & 15
+    bound = (rng >> PROB_BITS) * p
+    mask = -np.int64(bit)
+    low += bound & mask
+    rng = bound + ((rng - 2 * bound) & mask)
+    adapt(models, k, p, u, mask, rate)
+    return push(out, low, rng, pos)
+
+
+@kernel(inline=True)
+def get(data, models, k, code, rng, pos, rate):
+    """Decode one binary decision coded by :func:`put`; returns
+    ``(bit, code, rng, pos)``."""
+    st = np.int64(models[k])
+    p = st >> 4
+    u = st & 15
+    bound = (rng >> PROB_BITS) * p
+    bit = np.int64(code >= bound)
+    mask = -bit
+    code -= bound & mask
+    rng = bound + ((rng - 2 * bound) & mask)
+    adapt(models, k, p, u, mask, rate)
+    code, rng, pos = pull(data, code, rng, pos)
+    return bit, code, rng, pos
 
 
 @kernel(inline=True)
@@ -76,13 +171,13 @@ def start_decoder(data):
 @kernel
 def put_decision(cs, out, models, k, bit, rate):
     """Code one binary decision with the adaptive model ``models[k]``."""
-    cs[0], cs[1], cs[2] = _put(out, models, k, bit, cs[0], cs[1], cs[2], rate)
+    cs[0], cs[1], cs[2] = put(out, models, k, bit, cs[0], cs[1], cs[2], rate)
 
 
 @kernel
 def get_decision(cs, data, models, k, rate):
     """Decode one binary decision coded by :func:`put_decision`."""
-    bit, cs[0], cs[1], cs[2] = _get(data, models, k, cs[0], cs[1], cs[2], rate)
+    bit, cs[0], cs[1], cs[2] = get(data, models, k, cs[0], cs[1], cs[2], rate)
     return bit
 
 
@@ -110,7 +205,7 @@ def put_raw(cs, out, v, n):
         n -= t
         rng >>= t
         low += np.int64((v >> np.uint64(n)) & np.uint64((1 << t) - 1)) * rng
-        low, rng, pos = _push(out, low, rng, pos)
+        low, rng, pos = push(out, low, rng, pos)
     cs[0] = low
     cs[1] = rng
     cs[2] = pos
@@ -130,7 +225,7 @@ def get_raw(cs, data, n):
         d = min(code // rng, np.int64((1 << t) - 1))
         code -= d * rng
         v = (v << np.uint64(t)) | np.uint64(d)
-        code, rng, pos = _pull(data, code, rng, pos)
+        code, rng, pos = pull(data, code, rng, pos)
     cs[0] = code
     cs[1] = rng
     cs[2] = pos

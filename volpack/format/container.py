@@ -42,6 +42,7 @@ __all__ = [
 
 MAGIC = b"VPK\x00\r\n\x1a\n"
 """First 8 bytes of every ``.vpk`` file (the CR LF / ^Z bytes catch text-mode mangling)."""
+# Format version and record tags (formats/vpk-1.md, section 3).
 VERSION = 1
 RECORD_MAGIC = b"CHNK"
 INDEX_MAGIC = b"VIDX"
@@ -86,134 +87,6 @@ class Entry(NamedTuple):
     nbytes: int
     crc32: int
     error: float
-
-
-_SECTION = struct.Struct("<I")
-
-
-def put_section(body: bytes) -> bytes:
-    """``body`` preceded by its length (u32, little-endian): the framing the codecs use
-    for the parts of one chunk payload."""
-    return _SECTION.pack(len(body)) + body
-
-
-def take_section(data: memoryview, pos: int, what: str) -> tuple[bytes, int]:
-    """The section :func:`put_section` wrote at ``pos`` and the position after it;
-    ``what`` names the payload in the error a truncated or overlong section raises."""
-    if pos + 4 > len(data):
-        raise FormatError(f"{what}: a section length runs past the end")
-    (n,) = _SECTION.unpack(data[pos : pos + 4])
-    pos += 4
-    if n > len(data) - pos:
-        raise FormatError(f"{what}: expected a section of {n} bytes, found {len(data) - pos}")
-    return bytes(data[pos : pos + n]), pos + n
-
-
-class _Rewindable(io.RawIOBase):
-    """A pipe whose first bytes can be read twice: what is read while ``recording`` is
-    kept, and :meth:`rewind` serves it again before the rest of the pipe."""
-
-    def __init__(self, f: BinaryIO) -> None:
-        self._f = f
-        self._kept = bytearray()
-        self._replay = b""
-        self.recording = False
-
-    def readable(self) -> bool:
-        return True
-
-    def seekable(self) -> bool:
-        return False
-
-    def readinto(self, b) -> int:
-        if self._replay:
-            n = min(len(b), len(self._replay))
-            b[:n] = self._replay[:n]
-            self._replay = self._replay[n:]
-        else:
-            n = self._f.readinto(b) or 0
-        if self.recording:
-            self._kept += bytes(b[:n])
-        return n
-
-    def rewind(self) -> None:
-        self._replay = bytes(self._kept) + self._replay
-        self._kept = bytearray()
-        self.recording = False
-
-
-_STDIN: BinaryIO | None = None
-
-
-def stdin() -> BinaryIO:
-    """Standard input as a binary stream whose container header :func:`vpk_kind` can
-    peek at without losing it (a pipe is wrapped; a redirected file is used as it is).
-    Whatever reads standard input should read it through this."""
-    global _STDIN
-    raw = sys.stdin.buffer
-    if _STDIN is None or getattr(_STDIN, "_f", _STDIN) is not raw:  # new stdin (tests)
-        _STDIN = raw if _is_seekable(raw) else _Rewindable(raw)
-    return _STDIN
-
-
-def spool(f: BinaryIO, memory: int = 64 << 20) -> BinaryIO:
-    """The rest of stream ``f`` in a seekable temporary file (in memory up to ``memory``
-    bytes, on disk past that), positioned at its start: what reading a pipe's index
-    (written last) needs."""
-    import shutil
-    import tempfile
-
-    out = tempfile.SpooledTemporaryFile(max_size=memory)  # noqa: SIM115 - the caller closes it
-    shutil.copyfileobj(f, out, 1 << 20)
-    out.seek(0)
-    return out
-
-
-def source_size(source) -> int:
-    """Bytes of a path, or of a seekable binary file from its start."""
-    if isinstance(source, (str, os.PathLike)):
-        return os.path.getsize(source)
-    pos = source.tell()
-    end = source.seek(0, io.SEEK_END)
-    source.seek(pos)
-    return end
-
-
-def _peek_stdin_kind() -> str | None:
-    f = stdin()
-    if isinstance(f, _Rewindable):
-        f.recording = True
-        try:
-            return _kind_of(f)
-        finally:
-            f.rewind()
-    start = f.tell()
-    try:
-        return _kind_of(f)
-    finally:
-        f.seek(start)
-
-
-def _kind_of(f) -> str | None:
-    try:
-        with Reader(f) as r:
-            return r.header.get("kind")
-    except FormatError:
-        return None
-
-
-def vpk_kind(path) -> str | None:
-    """The header's ``kind`` when ``path`` is a readable ``.vpk`` file (or ``"-"``, a
-    ``.vpk`` stream on standard input, peeked at without consuming it), else None."""
-    if path == "-":
-        return _peek_stdin_kind()
-    if not os.path.isfile(path):
-        return None
-    with open(path, "rb") as f:
-        if not is_vpk(f.read(len(MAGIC))):
-            return None
-    with Reader(path) as r:
-        return r.header.get("kind")
 
 
 def is_vpk(prefix: bytes) -> bool:
@@ -452,7 +325,7 @@ class Reader:
                 f"expected a path, bytes or a binary file, found {type(source).__name__}"
             )
         try:
-            self.seekable = _is_seekable(self._f)
+            self.seekable = is_seekable(self._f)
             if self.seekable:
                 self._start = self._f.tell()
                 self._length = self._f.seek(0, io.SEEK_END) - self._start
@@ -792,7 +665,7 @@ class Reader:
         return f"<vpk.Reader kind={kind!r} chunks={len(self.entries)} seekable={self.seekable}>"
 
 
-def _is_seekable(f) -> bool:
+def is_seekable(f) -> bool:
     """Whether ``f`` can seek, asking politely (pipes, sockets and odd wrappers say no
     or raise)."""
     try:

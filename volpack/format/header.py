@@ -130,6 +130,14 @@ def dataclass_config(cls: type, config: Any, what: str) -> dict:
     return config
 
 
+def raw_nbytes(hdr: dict) -> int:
+    """Bytes of the decoded voxels a header describes (0 for kinds without a shape)."""
+    if "shape" not in hdr:
+        return 0
+    n = shape(hdr["shape"], "shape", (3, 4), 1 << 62)
+    return math.prod(n) * dtype(hdr.get("dtype")).itemsize
+
+
 def _show(value: Any) -> str:
     s = repr(value)
     return f"{type(value).__name__} {s[:60] + '...' if len(s) > 60 else s}"

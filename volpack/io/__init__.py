@@ -26,7 +26,8 @@ from typing import Any
 import numpy as np
 
 from ..errors import FormatError
-from ..format.container import stdin
+from ..format.streams import stdin
+from ..jsonsafe import jsonable
 from ..volume import Volume
 
 __all__ = ["parse_spec", "detect_format", "read_volume", "write_volume", "read_header"]
@@ -169,6 +170,11 @@ def read_volume(
         )
     if not os.path.exists(path):
         raise FormatError(f"expected an existing {fmt} file, found nothing at {path!r}")
+    if fmt == "vpk":  # decoding needs the stream kinds, a layer above this one
+        raise FormatError(
+            f"expected a volume file, found the .vpk {path!r}: read it with "
+            "volpack.read_volume or volpack.decompress"
+        )
     reader = _READERS[fmt]
     with _wrap(fmt, path):
         if fmt == "raw":
@@ -190,7 +196,17 @@ def read_header(spec: str, **raw_options: Any) -> dict[str, Any]:
     path, inner = parse_spec(spec)
     max_voxels = raw_options.get("max_voxels", DEFAULT_MAX_VOXELS)
     fmt = "npy" if path == "-" else detect_format(path)
-    if path == "-" or fmt in ("dicom", "vpk", "tiff-folder"):
+    if fmt == "vpk":
+        from ..format.container import Reader
+
+        with Reader(path) as r:
+            h = r.header
+        try:
+            dtype = np.dtype(h["dtype"]).newbyteorder("=")
+            return _header_dict(fmt, tuple(h["shape"]), dtype, h["spacing"], h["origin"], {})
+        except (KeyError, TypeError, ValueError) as e:
+            raise FormatError(f"expected a volume header in {path!r}, found {e!r}") from None
+    if path == "-" or fmt in ("dicom", "tiff-folder"):
         vol = read_volume(spec, **raw_options)
         return _header_dict(fmt, vol.shape, vol.dtype, vol.spacing, vol.origin, vol.meta)
     if fmt != "raw" and any(raw_options.get(k) for k in ("shape", "dtype", "offset")):
@@ -240,10 +256,10 @@ def write_volume(vol: Volume | np.ndarray, spec: str, *, force: bool = False) ->
         _write_hdf5(vol, path, inner or DEFAULT_H5_DATASET, force)
         return
     if fmt == "vpk":
-        from .. import api
-
-        api.compress(vol, path, force=force)
-        return
+        raise FormatError(
+            f"expected a volume file to write, found the .vpk {path!r}: write it with "
+            "volpack.write_volume or volpack.compress"
+        )
     writer = _WRITERS.get(fmt)
     if writer is None or (fmt == "nifti" and not path.lower().endswith((".nii", ".nii.gz"))):
         raise FormatError(
@@ -333,23 +349,6 @@ def _origin3(values) -> tuple[float, float, float]:
     return tuple(out)  # type: ignore[return-value]
 
 
-def _jsonable(value: Any) -> Any:
-    """Plain JSON types from numpy scalars/arrays and nested containers."""
-    if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_jsonable(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return _jsonable(value.tolist())
-    if isinstance(value, np.generic):
-        return _jsonable(value.item())
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, (str, int, float, bool)) or value is None:
-        return value
-    return str(value)
-
-
 def _header_dict(fmt, shape, dtype, spacing, origin, meta=None) -> dict[str, Any]:
     d: dict[str, Any] = {
         "format": fmt,
@@ -359,7 +358,7 @@ def _header_dict(fmt, shape, dtype, spacing, origin, meta=None) -> dict[str, Any
         "origin": [float(o) for o in origin],
     }
     if meta:
-        d["meta"] = _jsonable(meta)
+        d["meta"] = jsonable(meta)
     return d
 
 
@@ -388,7 +387,7 @@ def _refuse_float16(vol: Volume, fmt: str) -> None:
 def _meta_json(vol: Volume) -> str | None:
     if not vol.meta:
         return None
-    return json.dumps(_jsonable(vol.meta), sort_keys=True)
+    return json.dumps(jsonable(vol.meta), sort_keys=True)
 
 
 def _meta_from_json(text: Any) -> dict:
@@ -669,7 +668,7 @@ def _nifti_geometry(img) -> tuple[tuple, tuple, dict]:
             found = _meta_from_json(ext.get_content()).get("volpack_meta")
             if isinstance(found, dict):
                 meta.update(found)
-    meta.update(source_format="nifti", nifti_affine=_jsonable(affine))
+    meta.update(source_format="nifti", nifti_affine=jsonable(affine))
     meta.pop("nifti_scl", None)
     meta.pop("nifti_tr", None)
     if len(img.shape) >= 4 and len(zooms) >= 4 and img.shape[3] > 1:
@@ -736,7 +735,7 @@ def _write_nifti(vol: Volume, path: str, force: bool) -> None:
         img.header.set_slope_inter(float(scl[0]), float(scl[1]))
     keep = {k: v for k, v in vol.meta.items() if k not in ("nifti_affine", "nifti_scl", "nifti_tr")}
     if keep:
-        text = json.dumps({"volpack_meta": _jsonable(keep)}, sort_keys=True)
+        text = json.dumps({"volpack_meta": jsonable(keep)}, sort_keys=True)
         img.header.extensions.append(nib.nifti1.Nifti1Extension(_NIFTI_COMMENT, text.encode()))
     suffix = ".nii.gz" if path.lower().endswith(".gz") else ".nii"
     with atomic_path(path, force=force, suffix=suffix) as tmp:
@@ -792,7 +791,7 @@ def _nrrd_geometry(header: dict, path: str) -> tuple[tuple[int, ...], tuple, tup
     meta["source_format"] = "nrrd"
     for key in ("space", "kinds"):
         if key in header:
-            meta[f"nrrd_{key.replace(' ', '_')}"] = _jsonable(header[key])
+            meta[f"nrrd_{key.replace(' ', '_')}"] = jsonable(header[key])
     return shape, spacing, origin, meta
 
 
@@ -1031,7 +1030,7 @@ def _write_tiff(vol: Volume, path: str, force: bool) -> None:
         "origin": list(vol.origin),
     }
     if vol.meta:
-        metadata["volpack_meta"] = _jsonable(vol.meta)
+        metadata["volpack_meta"] = jsonable(vol.meta)
     sy, sx = vol.spacing[1], vol.spacing[2]
     with atomic_path(path, force=force, suffix=".tif") as tmp:
         tifffile.imwrite(
@@ -1194,15 +1193,6 @@ def _smallest_int(lo: int, hi: int) -> np.dtype:
     return np.dtype(np.int64)
 
 
-# -- .vpk ------------------------------------------------------------------------------
-
-
-def _read_vpk(path: str, max_voxels: int) -> Volume:
-    from .. import api
-
-    return api.decompress(path, max_voxels=max_voxels)
-
-
 _READERS = {
     "npy": _read_npy,
     "raw": _read_raw,
@@ -1213,7 +1203,6 @@ _READERS = {
     "tiff": _read_tiff,
     "tiff-folder": _read_tiff_folder,
     "dicom": _read_dicom,
-    "vpk": _read_vpk,
 }
 _HEADERS = {
     "npy": _npy_header,

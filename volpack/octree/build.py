@@ -22,7 +22,6 @@ decoder will and stores any that rounding pushed past the bound exactly.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import itertools
 import math
 import time
@@ -31,102 +30,16 @@ from typing import Any
 
 import numpy as np
 
-from .. import __version__
 from .._jit import kernel
 from ..errors import FormatError, OptionError
+from ..metrics import psnr_from_sse, throughput
 from ..parallel import ordered_map, parse_workers
 from . import layout
 from .layout import Geometry
+from .plan import Plan, encode_lowpass, to_values
 from .source import SourceSpec, open_source
 
 SUPER_BRICK = 256  # voxels per axis a task reads at once (for k = 16: s = 4 levels)
-
-
-@dataclasses.dataclass(frozen=True)
-class Plan:
-    """Everything a build task needs besides its input (picklable, for Dask)."""
-
-    shape: tuple[int, int, int]
-    dtype: str
-    block: int
-    wavelet: str
-    coder: str
-    order: str
-    work: str
-    sb_levels: int
-    bounded: tuple[tuple[str, Any], ...] | None = None  # BoundedCodec config
-
-    @property
-    def geometry(self) -> Geometry:
-        return Geometry(self.shape, self.block)
-
-    @functools.cached_property
-    def codec(self):
-        if self.bounded is None:
-            return None
-        from ..volume_codec.codec import get_codec
-
-        return get_codec(dict(self.bounded))
-
-    def header(self, spacing, origin) -> dict[str, Any]:
-        return {
-            "kind": layout.KIND,
-            "volpack": __version__,
-            "shape": list(self.shape),
-            "dtype": np.dtype(self.dtype).newbyteorder("<").str,
-            "spacing": list(spacing),
-            "origin": list(origin),
-            "octree": {
-                "block": self.block,
-                "depth": self.geometry.depth,
-                "wavelet": self.wavelet,
-                "coder": self.coder,
-                "order": self.order,
-                "work": self.work,
-                "super_levels": self.sb_levels,
-            },
-            "codec": None if self.bounded is None else dict(self.bounded),
-        }
-
-    @classmethod
-    def from_header(cls, h: dict, max_voxels: int = 1 << 34) -> Plan:
-        """The plan a stored header describes, every field checked (a header is JSON
-        that may hold anything); the shape within ``max_voxels``."""
-        from ..format import header as hh
-        from ..volume_codec.codec import CODER_NAMES, ORDER_NAMES, WAVELET_NAMES, get_codec
-
-        o = hh.field(h, "octree")
-        codec = h.get("codec")
-        if codec is not None:
-            get_codec(codec)  # checks it
-            bounded = tuple(sorted(codec.items()))
-        else:
-            bounded = None
-        plan = cls(
-            shape=hh.shape(hh.field(h, "shape"), "shape", (3,), max_voxels),  # type: ignore[arg-type]
-            dtype=hh.dtype(hh.field(h, "dtype")).newbyteorder("=").str,
-            block=hh.integer(hh.field(o, "block", "octree header"), "block", 2, 1024),
-            wavelet=hh.text(hh.field(o, "wavelet", "octree header"), "wavelet", WAVELET_NAMES),
-            coder=hh.text(hh.field(o, "coder", "octree header"), "coder", CODER_NAMES),
-            order=hh.text(hh.field(o, "order", "octree header"), "order", ORDER_NAMES),
-            work=hh.dtype(hh.field(o, "work", "octree header"), "work", "i").str,
-            sb_levels=hh.integer(
-                hh.field(o, "super_levels", "octree header"), "super_levels", 0, 64
-            ),
-            bounded=bounded,
-        )
-        if np.dtype(plan.work).name not in ("int32", "int64"):
-            raise FormatError(f"expected an int32 or int64 work dtype, found {plan.work!r}")
-        return plan
-
-
-def to_values(plan: Plan, a: np.ndarray) -> np.ndarray:
-    """Voxels of the output dtype from ``A_L`` integers (clipped into the dtype)."""
-    dtype = np.dtype(plan.dtype)
-    if plan.codec is not None:
-        return plan.codec._reconstruct(a, dtype)
-    info = np.iinfo(dtype)
-    return np.clip(a, info.min, info.max).astype(dtype)
 
 
 def make_plan(
@@ -141,12 +54,13 @@ def make_plan(
     value_range: tuple[float, float] | None = None,
 ) -> Plan:
     """Check the options against the volume and fix the work dtype and the quantiser."""
-    from ..volume_codec.codec import CODER_NAMES, ORDER_NAMES, WAVELET_DTYPES, _check_choice
+    from ..volume_codec.codec import CODER_NAMES, ORDER_NAMES, WAVELET_DTYPES, WAVELET_NAMES
+    from ..volume_codec.protocol import check_choice
     from ..wavelet import dwt3
 
-    _check_choice("wavelet", wavelet, ("53", "26", "haar", "97m"))
-    _check_choice("coder", coder, CODER_NAMES)
-    _check_choice("order", order, ORDER_NAMES)
+    check_choice("wavelet", wavelet, WAVELET_NAMES)
+    check_choice("coder", coder, CODER_NAMES)
+    check_choice("order", order, ORDER_NAMES)
     shape = tuple(int(n) for n in shape)
     if len(shape) != 3:
         raise FormatError(f"expected a 3-D (z, y, x) volume for an octree, found shape {shape}")
@@ -225,7 +139,7 @@ def build_task(source: Any, plan: Plan, index: tuple[int, int, int]) -> TaskResu
 def _emit_root_only(plan: Plan, a0: np.ndarray, x: np.ndarray, out: TaskResult) -> None:
     """A volume no larger than one block: the root is the volume itself."""
     corr = _corrections(plan, a0, x, out)
-    lowpass = _encode_lowpass(plan, a0.astype(plan.work))
+    lowpass = encode_lowpass(plan, a0.astype(plan.work))
     payload = layout.encode_payload(None, lowpass, corr)
     out.chunks.append((layout.node_key(0, 0), payload, out.max_error))
     row = np.zeros(1, layout.META_DTYPE)
@@ -282,7 +196,7 @@ def _build_levels(plan, a, mn, mx, e2, l0, l1, origin, out, x0=None):
             corr = None
             if level == 1 and plan.codec is not None:
                 corr = _corrections(plan, blk, x0[box], out)
-            lowpass = _encode_lowpass(plan, low) if is_root else None
+            lowpass = encode_lowpass(plan, low) if is_root else None
             vals = to_values(plan, low)
             row = rows[j : j + 1]
             _node_stats(vals, mn[dst], mx[dst], row)
@@ -298,29 +212,6 @@ def _build_levels(plan, a, mn, mx, e2, l0, l1, origin, out, x0=None):
         out.rows[level] = (idx, rows)
         a, e2 = new_a, new_e2
     return a, mn, mx, e2
-
-
-def _encode_lowpass(plan: Plan, low: np.ndarray) -> bytes:
-    from ..volume_codec.codec import WaveletCodec, ZstdCodec
-
-    info = np.iinfo(np.int32)
-    if low.size and info.min <= low.min() and low.max() <= info.max:
-        body = WaveletCodec(plan.wavelet, plan.coder, plan.order).encode(low.astype(np.int32))
-        return b"\x00" + body
-    return b"\x01" + ZstdCodec().encode(low.astype(np.int64))
-
-
-def decode_lowpass(plan: Plan, data: bytes, shape) -> np.ndarray:
-    from ..volume_codec.codec import WaveletCodec, ZstdCodec
-
-    if not data:
-        raise FormatError("octree root: empty low-pass section")
-    if data[0] == 0:
-        c = WaveletCodec(plan.wavelet, plan.coder, plan.order)
-        return c.decode(data[1:], tuple(shape), np.int32).astype(plan.work)
-    if data[0] == 1:
-        return ZstdCodec().decode(data[1:], tuple(shape), np.int64).astype(plan.work)
-    raise FormatError(f"octree root: expected low-pass mode 0 or 1, found {data[0]}")
 
 
 def _corrections(plan: Plan, q: np.ndarray, x: np.ndarray, out: TaskResult) -> bytes | None:
@@ -340,13 +231,6 @@ def _corrections(plan: Plan, q: np.ndarray, x: np.ndarray, out: TaskResult) -> b
     out.sse += float(np.sum(err * err))
     out.max_error = max(out.max_error, float(err.max(initial=0.0)))
     return body
-
-
-def apply_corrections(plan: Plan, data: bytes, values: np.ndarray) -> None:
-    """Put the exactly stored voxels of a level-1 node back into its level-0 values."""
-    from ..volume_codec.lossy import apply_corrections as apply
-
-    apply(data, values, "octree node")
 
 
 def _pool(a: np.ndarray, op) -> np.ndarray:
@@ -485,7 +369,7 @@ def build(
     return {
         **summary,
         "seconds": seconds,
-        "mb_per_s": summary["raw_nbytes"] / 1e6 / max(seconds, 1e-9),
+        "mb_per_s": throughput(summary["raw_nbytes"], seconds),
         "tasks": len(tasks),
         "workers": nworkers,
         "executor": "threads" if scheduler is None else "dask",
@@ -565,7 +449,7 @@ def _summary(plan, entries, tables, stats) -> dict[str, Any]:
         "lossless": lossless,
         "max_error": 0.0 if lossless else stats["max_error"],
         "rmse": math.sqrt(mse),
-        "psnr": None if lossless or mse == 0 else 10 * math.log10(max(peak, 1e-300) ** 2 / mse),
+        "psnr": None if lossless or mse == 0 else psnr_from_sse(mse, 1, max(peak, 1e-300)),
         "value_range": [stats["lo"], stats["hi"]],
         "depth": geo.depth,
         "block": plan.block,

@@ -22,16 +22,17 @@ from typing import Any
 import numpy as np
 
 from ..errors import FormatError, OptionError
-from ..format.container import put_section, take_section
+from ..format.sections import put_section, take_section
 
 KIND = "octree"
 DEFAULT_BLOCK = 16
+# Level tables live at node 0xFF << 56 | L (formats/octree-1.md, "Node tables").
 META_TAG = 0xFF
 LEVEL_SHIFT = 56
 HIST_BINS = 8
-# node flags in the level table
+# node flags in the level table (formats/octree-1.md, "Node tables")
 PRESENT, SUBTREE_ZERO = 1, 2
-# payload section flags
+# payload section flags (formats/octree-1.md, "Chunks")
 HAS_DETAILS, HAS_LOWPASS, HAS_CORRECTIONS = 1, 2, 4
 
 META_DTYPE = np.dtype(
@@ -159,15 +160,13 @@ def decode_payload(data: bytes) -> dict[int, bytes]:
 
 
 def encode_table(rows: np.ndarray) -> bytes:
-    import zstandard
+    from ..format.deflate import deflate
 
-    return zstandard.ZstdCompressor(level=9).compress(
-        np.ascontiguousarray(rows, META_DTYPE).tobytes()
-    )
+    return deflate(np.ascontiguousarray(rows, META_DTYPE).tobytes())
 
 
 def decode_table(data: bytes, count: int) -> np.ndarray:
-    from ..volume_codec.codec import inflate
+    from ..format.deflate import inflate
 
     raw = inflate(
         data, count * META_DTYPE.itemsize, f"octree level table of {count} nodes", exact=True

@@ -27,7 +27,7 @@ import numpy as np
 
 from ..errors import FormatError, OptionError
 from . import layout
-from .build import Plan, apply_corrections, decode_lowpass, to_values
+from .plan import Plan, apply_corrections, decode_lowpass, to_values
 
 DEFAULT_CACHE = 256 << 20
 
@@ -60,7 +60,7 @@ class Octree:
 
         if on_damage not in ("raise", "approximate"):
             raise OptionError(f"expected on_damage 'raise' or 'approximate', found {on_damage!r}")
-        self._r = Reader(source)
+        self._r = source if isinstance(source, Reader) else Reader(source)
         try:
             if self._r.header.get("kind") != layout.KIND:
                 raise FormatError(

@@ -107,7 +107,7 @@ def render_lod(
     sel, st = select.by_view(tree, camera, tf=tf, voxels=voxels, max_pixel_error=max_pixel_error)
     t1 = time.perf_counter()
     if value_range is None:
-        value_range = _tree_range(tree)
+        value_range = tree_range(tree)
     w, h = camera.size
     if not sel:  # nothing visible
         img = np.zeros((h, w, 4), np.float32)
@@ -129,7 +129,7 @@ def render_lod(
     )  # fmt: skip
 
 
-def _tree_range(tree) -> tuple[float, float]:
+def tree_range(tree) -> tuple[float, float]:
     vr = tree.summary.get("value_range") if tree.summary else None
     if vr is not None and len(vr) == 2:
         return float(vr[0]), float(vr[1])

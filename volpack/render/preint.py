@@ -126,7 +126,7 @@ def preintegrate(
         raise FormatError(
             f"pre-integration method: expected one of {list(_METHODS)}, found {method!r}"
         )
-    tau = _extinction(tab[:, 3])
+    tau = extinction(tab[:, 3])
     col = np.ascontiguousarray(tab[:, :3])
     n = len(tab)
     out = np.empty((n, n, 7 if lighting else 4), dtype=np.float32)
@@ -180,7 +180,7 @@ class TableUpdater:
         if changed.size == 0:
             return 0
         k0, k1 = int(changed[0]), int(changed[-1])
-        tau = _extinction(tab[:, 3])
+        tau = extinction(tab[:, 3])
         col = np.ascontiguousarray(tab[:, :3])
         if self.method == "exact":
             _exact_update_kernel(
@@ -283,7 +283,7 @@ def _check_length(length) -> float:
     return length
 
 
-def _extinction(a: np.ndarray) -> np.ndarray:
+def extinction(a: np.ndarray) -> np.ndarray:
     """Extinction per voxel ``-ln(1 - a)``, capped at :data:`TAU_MAX` (``a = 1`` included)."""
     a = np.asarray(a, dtype=np.float64)
     tau = np.full(a.shape, TAU_MAX)
@@ -342,7 +342,7 @@ def _preint_fast_kernel(tau, col, length, engel, out, k0, k1):
     """
     n = tau.shape[0]
     lit = out.shape[2] == 7
-    tp, kp, mp = _prefix_kernel(tau, col, lit)
+    tp, kp, mp = prefix_integrals(tau, col, lit)
     for i in range(n):
         for j in range(n):
             if (i < k0 and j < k0) or (i > k1 and j > k1):
@@ -589,7 +589,7 @@ def _exact_windows_kernel(tp, length, m, lit, f_lo, f_hi, up_c, up_f, up_t, dn_c
 
 
 @kernel
-def _prefix_kernel(tau, col, moments):
+def prefix_integrals(tau, col, moments):
     """Prefix integrals over index units, exact for ``tau`` and ``c`` linear between
     entries: ``T(s) = int tau``, ``K(s) = int c tau`` and, with ``moments``,
     ``M(s) = int s c tau`` (Simpson, exact for the cubic integrand; zeros otherwise)."""
@@ -620,7 +620,7 @@ def _preint_exact_kernel(tau, col, length, out):
     """Exact tables with self-attenuation (see ``exact`` in the module docstring)."""
     n = tau.shape[0]
     lit = out.shape[2] == 7
-    tp = _prefix_kernel(tau, col, False)[0]
+    tp = prefix_integrals(tau, col, False)[0]
     _exact_diagonal_kernel(tau, col, length, lit, 0, n, out)
     nc = n - 1
     if nc < 1:
@@ -643,7 +643,7 @@ def _exact_update_kernel(tau, col, length, k0, k1, cache_c, cache_f, cache_t, ou
     cells ``k0 - 1 .. k1`` are recomputed first."""
     n = tau.shape[0]
     lit = out.shape[2] == 7
-    tp = _prefix_kernel(tau, col, False)[0]
+    tp = prefix_integrals(tau, col, False)[0]
     _exact_diagonal_kernel(tau, col, length, lit, k0, k1 + 1, out)
     nc = n - 1
     if nc < 1:

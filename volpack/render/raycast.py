@@ -77,6 +77,10 @@ Non-finite voxels (NaN, +-Inf) are empty: they are replaced before sampling by a
 whose table entry is transparent (the data minimum when that is transparent, else the
 value in range nearest to it that is); when no value is transparent they take the data
 minimum and a warning is logged.
+
+It stays one file of about 1,050 lines on purpose: the three classification modes,
+shading and empty-space skipping are branches of one march kernel and its inline
+sampling kernels, kept beside the public :func:`render` that sets them up.
 """
 
 from __future__ import annotations
@@ -787,7 +791,7 @@ def render(
     # tables
     mode = MODES[classification]
     has_vol = tf is not None
-    base = _tf_table(tf, lo, hi, n) if has_vol else np.zeros((n, 4), np.float32)
+    base = transfer_table(tf, lo, hi, n) if has_vol else np.zeros((n, 4), np.float32)
     post_tab = _corrected_table(base, step)
     pre2d = np.zeros((1, 1, 4), np.float32)
     if has_vol and mode == 2:
@@ -918,7 +922,7 @@ def _unpack(volume, spacing):
     return data, (None if mask is None else np.asarray(mask, bool)), sp
 
 
-def _tf_table(tf, lo, hi, n) -> np.ndarray:
+def transfer_table(tf, lo, hi, n) -> np.ndarray:
     if hasattr(tf, "table"):
         tab = tf.table(lo, hi, n)
     else:

@@ -35,7 +35,7 @@ from .._jit import kernel
 from ..errors import VolpackError
 from ..parallel import parse_workers
 from .camera import Camera
-from .preint import _extinction, _prefix_kernel
+from .preint import extinction, prefix_integrals
 from .transfer import nonempty_range
 
 TILE = 8
@@ -88,7 +88,7 @@ def render_mesh(
     ndarray (h, w, 4) float32, or (image, RenderStats) with ``render_stats``; the stats
     count cell segments as samples.
     """
-    from .raycast import KA, KD, KS, SHININESS, RenderStats, _tf_table, run_row_sets
+    from .raycast import KA, KD, KS, SHININESS, RenderStats, run_row_sets, transfer_table
 
     t_start = time.perf_counter()
     pts = np.asarray(points, np.float64)
@@ -134,10 +134,10 @@ def render_mesh(
         lo, hi = (float(v) for v in value_range)
     lo, hi = nonempty_range(lo, hi)
     n = int(table_size)
-    base = _tf_table(tf, lo, hi, n).astype(np.float64)
-    tau = _extinction(base[:, 3])
+    base = transfer_table(tf, lo, hi, n).astype(np.float64)
+    tau = extinction(base[:, 3])
     col = np.ascontiguousarray(base[:, :3])
-    tp, kp, _ = _prefix_kernel(tau, col, False)
+    tp, kp, _ = prefix_integrals(tau, col, False)
 
     planes = np.empty((len(cells), 4, 4))
     grad = np.empty((len(cells), 4))

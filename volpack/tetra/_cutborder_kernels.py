@@ -21,6 +21,10 @@ triangle, rows reused through a free list):
 Each vertex keeps the list of its cut-border triangles (incidence slot ``3 t + k``), so
 that faces and edges are found by scanning the shorter list: that is the thesis's
 "set of adjacent triangles" with insert, erase and intersection.
+
+It stays one file of about 1,000 lines on purpose: the encoder and the decoder are one
+state machine in one kernel with its inline helpers, so splitting it would split what must
+not drift apart.
 """
 
 from __future__ import annotations
@@ -30,8 +34,7 @@ import math
 import numpy as np
 
 from .._jit import kernel, leading_zeros
-from ..entropy.arith import PROB_BITS
-from ..entropy.rangecoder import get_decision, get_raw, put_decision, put_raw
+from ..entropy.rangecoder import PROB_BITS, get_decision, get_raw, put_decision, put_raw
 from .mesh import HUB, PARITY, bucket_faces
 
 # Adaptation rate by use count: as the wavelet coder's early on, but settling at 1/64:

@@ -253,3 +253,16 @@ def write_mesh(mesh: TetMesh, path: str, *, force: bool = False) -> None:
             if isinstance(e, (OSError, FormatError)):
                 raise
             raise FormatError(f"{p}: meshio could not write the mesh: {e}") from None
+
+
+def describe_mesh_file(path: str) -> dict:
+    """The report of a mesh file (:func:`volpack.tetra.mesh.report`, read with its
+    non-tetrahedral cells split) with what reading it warned about, as JSON types."""
+    from .mesh import report
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        mesh = read_mesh(path, tetrahedralize=True)
+    d = {"format": "mesh", "path": path, **report(mesh)}
+    d["warnings"] = [str(w.message) for w in caught]
+    return d

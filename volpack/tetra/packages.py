@@ -29,8 +29,8 @@ from __future__ import annotations
 import numpy as np
 
 from .._jit import kernel, leading_zeros
-from ..entropy.arith import STATE_INIT
 from ..entropy.rangecoder import (  # noqa: F401 - the primitives the coders here build on
+    STATE_INIT,
     finish_encoder,
     get_bit,
     get_raw,

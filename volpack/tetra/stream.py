@@ -35,14 +35,29 @@ import numpy as np
 
 from .. import __version__
 from ..errors import FormatError, LimitError, OptionError
+from ..format.checked import CheckedReader
 from .mesh import TetMesh, validate
 
-__all__ = ["KIND_MESH", "compress_mesh", "decompress_mesh", "mesh_info", "row_convention"]
+__all__ = [
+    "KIND_MESH",
+    "MeshReader",
+    "check_header",
+    "compress",
+    "compress_mesh",
+    "decompress",
+    "decompress_mesh",
+    "info",
+    "mesh_info",
+    "open",
+    "row_convention",
+]
 
 log = logging.getLogger(__name__)
 
 KIND_MESH = "mesh"
+KIND = KIND_MESH
 FORMAT = "mesh-1"
+# Chunk nodes (formats/mesh-1.md, section 2).
 NODE_CONNECTIVITY, NODE_GEOMETRY, NODE_ORDER, NODE_FIELDS = 0, 1, 2, 3
 DEFAULT_MAX_TETS = 1 << 27
 PERMS = np.array(list(itertools.permutations(range(4))), dtype=np.int64)  # 24 row orders
@@ -207,6 +222,7 @@ def compress_mesh(
         "vertices": nv,
         "tets": nt,
         "rows": convention,
+        "geometry": dict(gmeta),
         "payload_nbytes": nbytes,
         "raw_nbytes": raw,
         "ratio": raw / max(nbytes, 1),
@@ -217,21 +233,18 @@ def compress_mesh(
     }
 
 
-def decompress_mesh(
-    source: str | bytes | BinaryIO,
-    *,
-    max_tets: int = DEFAULT_MAX_TETS,
-    progress: Progress | None = None,
-) -> TetMesh:
-    """Decode a mesh stream written by :func:`compress_mesh`."""
-    import io
+class MeshReader(CheckedReader):
+    """A mesh ``.vpk`` opened for reading: the checked :attr:`header`, and :meth:`read`."""
 
-    from ..format.container import Reader
-    from . import attributes, cutborder, geometry
+    def __init__(self, source: Any, *, max_tets: int = DEFAULT_MAX_TETS) -> None:
+        super().__init__(source, check_header, max_tets)
+        self.max_tets = max_tets
 
-    src = io.BytesIO(source) if isinstance(source, bytes | bytearray) else source
-    with Reader(src) as r:
-        hdr = check_header(r.header, max_tets)
+    def read(self, progress: Progress | None = None) -> TetMesh:
+        """Decode the mesh (see the module docstring for the order it comes in)."""
+        from . import attributes, cutborder, geometry
+
+        r, hdr, max_tets = self._r, self.header, self.max_tets
         nv, nt = hdr["vertices"], hdr["tets"]
         seekable = r.seekable
         cache = None if seekable else {n: p for _, n, p in r}
@@ -283,15 +296,70 @@ def decompress_mesh(
                     o[rows] = v
                     d[k] = o
             return TetMesh(out_pts, tets, point_data, cell_data)
-    if sort_rows:
-        ctets = np.sort(ctets, axis=1)
-    return TetMesh(points, ctets, point_data, cell_data)
+        if sort_rows:
+            ctets = np.sort(ctets, axis=1)
+        return TetMesh(points, ctets, point_data, cell_data)
+
+
+def decompress_mesh(
+    source: str | bytes | BinaryIO,
+    *,
+    max_tets: int = DEFAULT_MAX_TETS,
+    progress: Progress | None = None,
+) -> TetMesh:
+    """Decode a mesh stream written by :func:`compress_mesh`."""
+    with open(source, max_tets=max_tets) as r:
+        return r.read(progress)
+
+
+def open(source: Any, *, max_tets: int = DEFAULT_MAX_TETS) -> MeshReader:  # noqa: A001
+    """Open a mesh ``.vpk`` (a path, ``'-'``, bytes, a binary file or a container Reader)."""
+    if isinstance(source, str) and source == "-":
+        from ..format.streams import stdin
+
+        source = stdin()
+    return MeshReader(source, max_tets=max_tets)
+
+
+def compress(
+    source: TetMesh | str,
+    target: str | BinaryIO,
+    *,
+    tetrahedralize: bool = False,
+    force: bool = False,
+    **options: Any,
+) -> dict[str, Any]:
+    """Compress a mesh, or the mesh file ``source`` (read with meshio, hexahedra, wedges
+    and pyramids split with ``tetrahedralize``; its warnings are issued as
+    :class:`~volpack.tetra.formats.MeshWarning`), into ``target``; ``options`` as for
+    :func:`compress_mesh`."""
+    if isinstance(source, str):
+        from ..format.atomic import check_output
+        from .formats import read_mesh
+
+        check_output(target, force=force, inputs=(source,))
+        source = read_mesh(source, tetrahedralize=tetrahedralize)
+    return compress_mesh(source, target, force=force, **options)
+
+
+def decompress(
+    source: Any, *, max_tets: int = DEFAULT_MAX_TETS, progress=None, **_: Any
+) -> TetMesh:
+    """Decode a mesh ``.vpk`` (as :func:`decompress_mesh`; ``'-'`` is standard input)."""
+    with open(source, max_tets=max_tets) as r:
+        return r.read(progress)
+
+
+def info(source: str | BinaryIO) -> dict[str, Any]:
+    """Describe a mesh ``.vpk`` (:func:`mesh_info`)."""
+    return mesh_info(source)
 
 
 def mesh_info(source: str | BinaryIO) -> dict[str, Any]:
     """Describe a mesh ``.vpk`` (a path or a seekable binary file: sizes, bits per tet
     and per vertex, fields) as JSON types."""
-    from ..format.container import Reader, source_size
+    from ..format.container import Reader
+    from ..format.streams import source_size
 
     with Reader(source) as r:
         hdr = check_header(r.header, DEFAULT_MAX_TETS)
@@ -340,7 +408,7 @@ def mesh_info(source: str | BinaryIO) -> dict[str, Any]:
     }
 
 
-def check_header(hdr: dict, max_tets: int) -> dict:
+def check_header(hdr: dict, max_tets: int = DEFAULT_MAX_TETS) -> dict:
     """Validate a mesh header (kind, counts within limits, fields); return it."""
     from ..format import header as h
     from .geometry import MODES
@@ -393,7 +461,7 @@ def _encode_order(tets: np.ndarray, trav, sorted_rows: bool = False) -> bytes:
     """Vertex order, tet order and each row's vertex order (an index into PERMS), zstd'd.
 
     Ascending rows need no row order: the decoder sorts them."""
-    import zstandard
+    from ..format.deflate import deflate
 
     vorder = np.asarray(trav.vertex_order, dtype=np.int64)
     torder = np.asarray(trav.tet_order, dtype=np.int64)
@@ -409,13 +477,13 @@ def _encode_order(tets: np.ndarray, trav, sorted_rows: bool = False) -> bytes:
         if (perm < 0).any():
             raise AssertionError("a decoded tet row is no permutation of its input row")
         raw += perm.astype(np.uint8).tobytes()
-    return zstandard.ZstdCompressor(level=9).compress(raw)
+    return deflate(raw)
 
 
 def _decode_order(
     blob: bytes, nv: int, nt: int, with_rows: bool = True
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    from ..volume_codec.codec import inflate
+    from ..format.deflate import inflate
 
     width = 4 if nv < 1 << 32 and nt < 1 << 32 else 8
     need = width * (nv + nt) + (nt if with_rows else 0)

@@ -1,9 +1,10 @@
 """Brick codecs: one brick (a small 3-D array) to bytes and back.
 
-A codec is a frozen dataclass with ``encode``, ``decode`` and ``get_config``; the bytes
-depend only on ``(codec_id, get_config(), brick)``. ``get_codec(config)`` rebuilds a codec
-from the config stored in a ``.vpk`` header. One ``codec_id`` means one byte format for
-ever (see ``formats/wavelet-1.md``).
+The lossless codecs: the integer wavelet and byte-shuffled zstd. Each is a
+:class:`~.protocol.BrickCodec` whose bytes depend only on ``(codec_id, get_config(),
+brick)``; :func:`.registry.get_codec` rebuilds any codec from the config stored in a
+``.vpk`` header. One ``codec_id`` means one byte format for ever (see
+``formats/wavelet-1.md``).
 
 Every wavelet payload starts with a one-byte mode, so a brick that the transform cannot
 help (white noise) or that is constant costs at most its raw size plus a byte, or a
@@ -27,16 +28,25 @@ nothing for it.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import numpy as np
 
 from ..errors import FormatError, OptionError
+from ..format.deflate import LEVEL as ZSTD_LEVEL
+from ..format.deflate import inflate
+from .protocol import (
+    BrickCodec,
+    as_stored,
+    check_choice,
+    constant_value,
+    from_stored,
+    storage_dtype,
+)
 
+# The payload's first byte (formats/wavelet-1.md, section 1).
 MODE_CODED, MODE_RAW, MODE_CONSTANT, MODE_ZSTD = 0, 1, 2, 3
 PIECEWISE_CONSTANT = 0.5  # share of equal x-neighbours above which mode 3 is tried
-LABEL_ZSTD_LEVEL = 9
 
 WAVELET_NAMES = ("53", "26", "haar", "97m")
 CODER_NAMES = ("arith", "huffman", "rle")
@@ -46,44 +56,8 @@ ORDER_NAMES = ("dfs", "line")
 WAVELET_DTYPES = ("uint8", "int8", "uint16", "int16", "uint32", "int32")
 
 
-def storage_dtype(dtype: Any) -> np.dtype:
-    """Return ``dtype`` in little-endian byte order (how voxels are stored in payloads)."""
-    return np.dtype(dtype).newbyteorder("<")
-
-
-def inflate(data, limit: int, what: str, *, exact: bool = False) -> bytes:
-    """zstd-decompress ``data`` into at most ``limit`` bytes (exactly ``limit`` with
-    ``exact``); a corrupt or mis-sized stream raises FormatError naming ``what``, and a
-    false size never allocates more than ``limit``."""
-    import zstandard
-
-    try:
-        raw = zstandard.ZstdDecompressor().decompress(bytes(data), max_output_size=max(limit, 1))
-    except zstandard.ZstdError as e:
-        raise FormatError(f"corrupt {what}: {e}") from None
-    if exact and len(raw) != limit:
-        raise FormatError(
-            f"corrupt {what}: expected {limit} bytes after decompression, found {len(raw)}"
-        )
-    return raw
-
-
-def _as_stored(a: np.ndarray) -> bytes:
-    return np.ascontiguousarray(a, dtype=storage_dtype(a.dtype)).tobytes()
-
-
-def _from_stored(data: bytes | memoryview, shape: tuple[int, ...], dtype: np.dtype) -> np.ndarray:
-    sd = storage_dtype(dtype)
-    need = int(np.prod(shape)) * sd.itemsize
-    if len(data) != need:
-        raise FormatError(
-            f"raw brick payload: expected {need} bytes for {shape} {dtype}, found {len(data)}"
-        )
-    return np.frombuffer(data, dtype=sd).reshape(shape).astype(dtype, copy=True)
-
-
-@dataclasses.dataclass(frozen=True)
-class WaveletCodec:
+@dataclasses.dataclass(frozen=True, eq=False, repr=False)
+class WaveletCodec(BrickCodec):
     """Integer lifting wavelet + significance map + entropy coder (lossless).
 
     Parameters
@@ -107,14 +81,11 @@ class WaveletCodec:
     max_levels: int | None = None
 
     def __post_init__(self) -> None:
-        _check_choice("wavelet", self.wavelet, WAVELET_NAMES)
-        _check_choice("coder", self.coder, CODER_NAMES)
-        _check_choice("order", self.order, ORDER_NAMES)
+        check_choice("wavelet", self.wavelet, WAVELET_NAMES)
+        check_choice("coder", self.coder, CODER_NAMES)
+        check_choice("order", self.order, ORDER_NAMES)
         if self.max_levels is not None and not (0 <= int(self.max_levels) <= 16):
             raise OptionError(f"expected max_levels in 0..16, found {self.max_levels!r}")
-
-    def get_config(self) -> dict[str, Any]:
-        return {"id": self.codec_id, **dataclasses.asdict(self)}
 
     def _plan(self, shape: tuple[int, ...], dtype: np.dtype):
         from ..wavelet import dwt3
@@ -132,15 +103,16 @@ class WaveletCodec:
         check_wavelet_dtype(brick.dtype)
         if brick.ndim != 3:
             raise OptionError(f"expected a 3-D brick, found shape {brick.shape}")
-        raw = _as_stored(brick)
-        if brick.size and (brick.flat[0] == brick).all():
-            return bytes([MODE_CONSTANT]) + raw[: brick.dtype.itemsize]
+        value = constant_value(brick)
+        if value is not None:
+            return bytes([MODE_CONSTANT]) + value
+        raw = as_stored(brick)
         levels, work = self._plan(brick.shape, brick.dtype)
         coeffs = dwt3.forward(brick.astype(work), levels, self.wavelet, overwrite=True)
         scan = sigmap.scan(brick.shape, levels, self.order)
         best = bytes([MODE_CODED]) + CODERS[self.coder].encode(coeffs, scan)
         if _piecewise_constant(brick):
-            z = bytes([MODE_ZSTD]) + ZstdCodec(level=LABEL_ZSTD_LEVEL).encode(brick)
+            z = bytes([MODE_ZSTD]) + ZstdCodec(level=ZSTD_LEVEL).encode(brick)
             if len(z) < len(best):
                 best = z
         if len(best) > len(raw):
@@ -159,12 +131,12 @@ class WaveletCodec:
         mode = data[0]
         body = data[1:]
         if mode == MODE_RAW:
-            return _from_stored(body, shape, dtype)
+            return from_stored(body, shape, dtype)
         if mode == MODE_CONSTANT:
-            value = _from_stored(body, (1,), dtype)[0]
+            value = from_stored(body, (1,), dtype)[0]
             return np.full(shape, value, dtype=dtype)
         if mode == MODE_ZSTD:
-            return ZstdCodec(level=LABEL_ZSTD_LEVEL).decode(body, shape, dtype)
+            return ZstdCodec(level=ZSTD_LEVEL).decode(body, shape, dtype)
         if mode != MODE_CODED:
             raise FormatError(f"wavelet brick payload: expected mode 0 to 3, found {mode}")
         levels, work = self._plan(shape, dtype)
@@ -179,8 +151,8 @@ class WaveletCodec:
         return out
 
 
-@dataclasses.dataclass(frozen=True)
-class ZstdCodec:
+@dataclasses.dataclass(frozen=True, eq=False, repr=False)
+class ZstdCodec(BrickCodec):
     """Byte-shuffled zstd: the exact path for floats and 64-bit integers.
 
     Shuffling groups the k-th byte of every value together, so the slowly varying high
@@ -188,11 +160,8 @@ class ZstdCodec:
     """
 
     codec_id: ClassVar[str] = "zstd"
-    level: int = 9
+    level: int = ZSTD_LEVEL
     shuffle: bool = True
-
-    def get_config(self) -> dict[str, Any]:
-        return {"id": self.codec_id, **dataclasses.asdict(self)}
 
     def encode(self, brick: np.ndarray) -> bytes:
         import zstandard
@@ -220,31 +189,6 @@ class ZstdCodec:
         )
 
 
-CODECS: dict[str, type] = {c.codec_id: c for c in (WaveletCodec, ZstdCodec)}
-
-
-def get_codec(config: Mapping[str, Any]):
-    """Rebuild a codec from ``get_config()`` output (as stored in a ``.vpk`` header)."""
-    if not isinstance(config, Mapping) or "id" not in config:
-        raise FormatError(f"expected a codec config with an 'id', found {config!r}")
-    config = dict(config)
-    codec_id = config.pop("id")
-    from .lossy import LOSSY_CODECS
-
-    known = {**CODECS, **LOSSY_CODECS}
-    try:
-        cls = known[codec_id]
-    except (KeyError, TypeError):
-        raise FormatError(f"unknown codec id {codec_id!r}; known: {sorted(known)}") from None
-    from ..format.header import dataclass_config
-
-    dataclass_config(cls, config, f"config for codec {codec_id!r}")
-    try:
-        return cls(**config)
-    except (TypeError, ValueError, ArithmeticError) as e:  # OptionError from the checks too
-        raise FormatError(f"bad config for codec {codec_id!r}: {e}") from None
-
-
 def _piecewise_constant(brick: np.ndarray) -> bool:
     if brick.shape[-1] < 2:
         return False
@@ -263,8 +207,3 @@ def check_wavelet_dtype(dtype: np.dtype) -> None:
             f"the wavelet codec takes {', '.join(WAVELET_DTYPES)} voxels, found {np.dtype(dtype)}; "
             "use codec='zstd' for this dtype"
         )
-
-
-def _check_choice(name: str, value: Any, allowed: tuple[str, ...]) -> None:
-    if value not in allowed:
-        raise OptionError(f"expected {name} in {allowed}, found {value!r}")

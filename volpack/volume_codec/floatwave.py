@@ -18,14 +18,15 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ..errors import FormatError, OptionError
-from .codec import CODER_NAMES, MODE_CODED, MODE_CONSTANT, _as_stored, _check_choice, _from_stored
+from .codec import CODER_NAMES, MODE_CODED, MODE_CONSTANT
+from .protocol import BrickCodec, Measured, check_choice, constant_value, from_stored
 
 FLOAT_WAVELETS = {"d4": "db2", "c6": "coif1", "cdf97": "bior4.4"}
 MAX_LEVELS = 6
 
 
-@dataclasses.dataclass(frozen=True)
-class FloatWaveletCodec:
+@dataclasses.dataclass(frozen=True, eq=False, repr=False)
+class FloatWaveletCodec(BrickCodec):
     codec_id: ClassVar[str] = "pywt"
     value_range: float
     wavelet: str = "cdf97"
@@ -34,8 +35,8 @@ class FloatWaveletCodec:
     coder: str = "arith"
 
     def __post_init__(self) -> None:
-        _check_choice("wavelet", self.wavelet, tuple(FLOAT_WAVELETS))
-        _check_choice("coder", self.coder, CODER_NAMES)
+        check_choice("wavelet", self.wavelet, tuple(FLOAT_WAVELETS))
+        check_choice("coder", self.coder, CODER_NAMES)
         if (self.quality is None) == (self.step is None):
             raise OptionError("expected exactly one of quality and step")
         if self.quality is not None and not 1 <= int(self.quality) <= 65535:
@@ -45,16 +46,13 @@ class FloatWaveletCodec:
         if not 0 <= self.value_range < math.inf:
             raise OptionError(f"expected a finite value_range >= 0, found {self.value_range!r}")
 
-    def get_config(self) -> dict[str, Any]:
-        return {"id": self.codec_id, **dataclasses.asdict(self)}
-
     @property
     def _delta(self) -> float:
         if self.quality is not None:
             return self.value_range / (int(self.quality) + 1)
         return float(self.step)
 
-    def encode_measured(self, brick: np.ndarray) -> tuple[bytes, float, float, int]:
+    def encode_measured(self, brick: np.ndarray) -> Measured:
         import pywt
 
         from ..entropy import CODERS
@@ -63,8 +61,9 @@ class FloatWaveletCodec:
         x = np.ascontiguousarray(brick)
         if x.dtype.kind == "f" and not np.isfinite(x).all():
             raise OptionError("float wavelets take finite voxels; use max_error= for NaN/Inf")
-        if x.size and (x.flat[0] == x).all():
-            return bytes([MODE_CONSTANT]) + _as_stored(x)[: x.itemsize], 0.0, 0.0, x.size
+        value = constant_value(x)
+        if value is not None:
+            return Measured(bytes([MODE_CONSTANT]) + value, 0.0, 0.0, x.size)
         arr, _ = _layout(x.shape, self.wavelet)
         coeffs = pywt.wavedecn(
             x.astype(np.float64),
@@ -78,7 +77,9 @@ class FloatWaveletCodec:
         body = CODERS[self.coder].encode(q, sigmap.scan(q.shape, (0, 0, 0), "line"))
         rec = self._rebuild(q, x.shape, x.dtype)
         err = np.abs(rec.astype(np.float64) - x)
-        return bytes([MODE_CODED]) + body, float(err.max()), float(np.sum(err * err)), x.size
+        return Measured(
+            bytes([MODE_CODED]) + body, float(err.max()), float(np.sum(err * err)), x.size
+        )
 
     def encode(self, brick: np.ndarray) -> bytes:
         return self.encode_measured(brick)[0]
@@ -105,7 +106,7 @@ class FloatWaveletCodec:
         if len(data) < 1:
             raise FormatError("empty pywt brick payload: expected at least a mode byte")
         if data[0] == MODE_CONSTANT:
-            return np.full(shape, _from_stored(data[1:], (1,), dtype)[0], dtype=dtype)
+            return np.full(shape, from_stored(data[1:], (1,), dtype)[0], dtype=dtype)
         if data[0] != MODE_CODED:
             raise FormatError(f"pywt brick payload: expected mode 0 or 2, found {data[0]}")
         arr, _ = _layout(tuple(shape), self.wavelet)

@@ -30,7 +30,8 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ..errors import FormatError, OptionError
-from ..format.container import put_section, take_section
+from ..format.deflate import deflate, inflate
+from ..format.sections import put_section, take_section
 from .codec import (
     CODER_NAMES,
     MODE_CODED,
@@ -39,13 +40,18 @@ from .codec import (
     ORDER_NAMES,
     WAVELET_NAMES,
     WaveletCodec,
-    _as_stored,
-    _check_choice,
-    _from_stored,
-    inflate,
+)
+from .protocol import (
+    BrickCodec,
+    Measured,
+    as_stored,
+    check_choice,
+    constant_value,
+    from_stored,
     storage_dtype,
 )
 
+# The bounded payload's flag byte (formats/lossy-1.md, `bounded`).
 FLAG_MASK, FLAG_CORRECTIONS, FLAG_COEF, FLAG_RESIDUALS = 1, 2, 4, 8
 # Orthonormal coefficient step of the bounded codec's coefficient path, in units of the
 # error allowed on its grid (measured best on the head CT and the z-map).
@@ -56,8 +62,8 @@ QUALITIES = (255, 127, 63, 31, 15)
 # -- error-bounded quantisation ---------------------------------------------------------
 
 
-@dataclasses.dataclass(frozen=True)
-class BoundedCodec:
+@dataclasses.dataclass(frozen=True, eq=False, repr=False)
+class BoundedCodec(BrickCodec):
     """Every valid voxel decodes to within ``max_error`` of its input.
 
     Build it with :meth:`plan` from the volume's valid value range; ``step`` and ``lo``
@@ -135,9 +141,6 @@ class BoundedCodec:
         if self.fill is not None and not math.isfinite(self.fill):
             raise OptionError(f"expected a finite fill value, found {self.fill!r}")
 
-    def get_config(self) -> dict[str, Any]:
-        return {"id": self.codec_id, **dataclasses.asdict(self)}
-
     def _inner(self) -> WaveletCodec:
         return WaveletCodec(self.wavelet, self.coder, self.order, self.max_levels)
 
@@ -170,7 +173,7 @@ class BoundedCodec:
             m |= x == self.fill
         return m if m.any() else None
 
-    def encode_measured(self, brick: np.ndarray) -> tuple[bytes, float, float, int]:
+    def encode_measured(self, brick: np.ndarray) -> Measured:
         """Return ``(payload, max error, squared error sum, valid voxels)``.
 
         Two codings are made and the shorter kept: the quantised voxels coded losslessly
@@ -260,7 +263,7 @@ class BoundedCodec:
             parts.append(put_section(body))
         if mask is not None:
             flags |= FLAG_MASK
-            body = np.packbits(mask.reshape(-1)).tobytes() + _as_stored(x[mask])
+            body = np.packbits(mask.reshape(-1)).tobytes() + as_stored(x[mask])
             parts.append(_section(body))
         if bad.size:
             flags |= FLAG_CORRECTIONS
@@ -270,7 +273,7 @@ class BoundedCodec:
         valid = x.size - (int(mask.sum()) if mask is not None else 0)
         with np.errstate(over="ignore"):  # errors near 1e300 square to inf: PSNR unknown
             sse = float(np.sum(err * err))
-        return b"".join(parts), float(err.max(initial=0.0)), sse, valid
+        return Measured(b"".join(parts), float(err.max(initial=0.0)), sse, valid)
 
     def encode(self, brick: np.ndarray) -> bytes:
         return self.encode_measured(brick)[0]
@@ -315,7 +318,7 @@ class BoundedCodec:
                 raise FormatError("bounded brick payload: mask section too short")
             mask = np.unpackbits(np.frombuffer(body[:nb], np.uint8), count=n).astype(bool)
             k = int(mask.sum())
-            flat[mask] = _from_stored(body[nb:], (k,), dtype)
+            flat[mask] = from_stored(body[nb:], (k,), dtype)
         if flags & FLAG_CORRECTIONS:
             body, pos = _take(data, pos, len(data))
             apply_corrections(body, out, "bounded brick payload")
@@ -376,9 +379,7 @@ def _fill_masked(a: np.ndarray, mask: np.ndarray) -> np.ndarray:
 
 
 def _section(body: bytes) -> bytes:
-    import zstandard
-
-    return put_section(zstandard.ZstdCompressor(level=9).compress(body))
+    return put_section(deflate(body))
 
 
 def _take(data: memoryview, pos: int, limit: int, zstd: bool = False) -> tuple[bytes, int]:
@@ -395,10 +396,7 @@ def pack_corrections(x: np.ndarray, idx: np.ndarray) -> bytes:
     stored), zstd'd: what a bounded coder keeps where rounding to the output dtype
     pushed a voxel past its bound (the lossy bricks, the animation frames and the
     octree nodes share this layout)."""
-    import zstandard
-
-    body = idx.astype("<u4").tobytes() + _as_stored(x.reshape(-1)[idx])
-    return zstandard.ZstdCompressor(level=9).compress(body)
+    return deflate(idx.astype("<u4").tobytes() + as_stored(x.reshape(-1)[idx]))
 
 
 def apply_corrections(data, out: np.ndarray, what: str) -> None:
@@ -413,14 +411,14 @@ def apply_corrections(data, out: np.ndarray, what: str) -> None:
     idx = np.frombuffer(body[: 4 * k], "<u4").astype(np.int64)
     if k and idx.max() >= n:
         raise FormatError(f"{what}: a correction points outside the data")
-    out.reshape(-1)[idx] = _from_stored(body[4 * k :], (k,), out.dtype)
+    out.reshape(-1)[idx] = from_stored(body[4 * k :], (k,), out.dtype)
 
 
 # -- the thesis's coefficient modes -----------------------------------------------------
 
 
-@dataclasses.dataclass(frozen=True)
-class CoefCodec:
+@dataclasses.dataclass(frozen=True, eq=False, repr=False)
+class CoefCodec(BrickCodec):
     """Thresholding (``threshold``) or dead-zone quantisation (``quality``) of the
     integer lifting coefficients, in orthonormal units (see ``formats/lossy-1.md``).
 
@@ -452,9 +450,6 @@ class CoefCodec:
         if not (0 <= self.value_range < 2**53):
             raise OptionError(f"expected a finite value_range >= 0, found {self.value_range!r}")
 
-    def get_config(self) -> dict[str, Any]:
-        return {"id": self.codec_id, **dataclasses.asdict(self)}
-
     def _steps(self, shape, levels) -> np.ndarray:
         scale = band_scale(tuple(shape), tuple(levels)).reshape(shape)
         if self.quality is not None:
@@ -467,21 +462,22 @@ class CoefCodec:
     def _dead_zone(self) -> bool:
         return self.threshold is None
 
-    def encode_measured(self, brick: np.ndarray) -> tuple[bytes, float, float, int]:
+    def encode_measured(self, brick: np.ndarray) -> Measured:
         from .codec import check_wavelet_dtype
 
         x = np.ascontiguousarray(brick)
         check_wavelet_dtype(x.dtype)
-        if x.size and (x.flat[0] == x).all():
-            return bytes([MODE_CONSTANT]) + _as_stored(x)[: x.dtype.itemsize], 0.0, 0.0, x.size
+        value = constant_value(x)
+        if value is not None:
+            return Measured(bytes([MODE_CONSTANT]) + value, 0.0, 0.0, x.size)
         body, rec = _code_coefficients(
             x.astype(np.int64), self, self._steps, dead_zone=self._dead_zone
         )
         payload = bytes([MODE_CODED]) + body
         if len(payload) > x.nbytes + 1:  # quantisation did not pay: store it exactly
-            return bytes([MODE_RAW]) + _as_stored(x), 0.0, 0.0, x.size
+            return Measured(bytes([MODE_RAW]) + as_stored(x), 0.0, 0.0, x.size)
         err = np.abs(_clip_to(rec, x.dtype).astype(np.float64) - x)
-        return payload, float(err.max(initial=0.0)), float(np.sum(err * err)), x.size
+        return Measured(payload, float(err.max(initial=0.0)), float(np.sum(err * err)), x.size)
 
     def encode(self, brick: np.ndarray) -> bytes:
         return self.encode_measured(brick)[0]
@@ -493,9 +489,9 @@ class CoefCodec:
             raise FormatError("empty coef brick payload: expected at least a mode byte")
         mode, body = data[0], data[1:]
         if mode == MODE_RAW:
-            return _from_stored(body, shape, dtype)
+            return from_stored(body, shape, dtype)
         if mode == MODE_CONSTANT:
-            return np.full(shape, _from_stored(body, (1,), dtype)[0], dtype=dtype)
+            return np.full(shape, from_stored(body, (1,), dtype)[0], dtype=dtype)
         if mode != MODE_CODED:
             raise FormatError(f"coef brick payload: expected mode 0, 1 or 2, found {mode}")
         rec = _decode_coefficients(body, tuple(shape), self, self._steps, dead_zone=self._dead_zone)
@@ -511,6 +507,7 @@ def _clip_to(v: np.ndarray, dtype: np.dtype) -> np.ndarray:
 # side (a plain rounder's reaches 0.5), values rebuilt 1/8 step above the bin's start.
 # At ``step`` = 1 it gives back every integer exactly, so rate and error change smoothly
 # as the step crosses 1 (steps at or below 1 keep the coefficient).
+# The coefficient quantiser (formats/lossy-1.md, `coef`).
 DEAD_ZONE_OFFSET = 0.25
 REBUILD_OFFSET = 0.125
 
@@ -541,7 +538,7 @@ def band_scale(shape: tuple[int, int, int], levels: tuple[int, int, int]) -> np.
     subband reached by ``l`` low and ``h`` high steps over the three axes scales by
     ``2 ** ((l - h) / 2)``.
     """
-    from ..wavelet.sigmap import subbands
+    from ..wavelet.dwt3 import subbands
 
     out = np.empty(shape, np.float64)
     for b in subbands(shape, levels):
@@ -551,23 +548,13 @@ def band_scale(shape: tuple[int, int, int], levels: tuple[int, int, int]) -> np.
                 ex += b.level + (0 if b.bits[a] else 1) - b.bits[a]
             else:
                 ex += levels[a]
-        sl = tuple(slice(s, s + n) for s, n in zip(b.start, b.size))
-        out[sl] = 2.0 ** (ex / 2)
+        out[b.slices] = 2.0 ** (ex / 2)
     out = out.reshape(-1)
     out.flags.writeable = False
     return out
 
 
 def _check_inner(c) -> None:
-    _check_choice("wavelet", c.wavelet, WAVELET_NAMES)
-    _check_choice("coder", c.coder, CODER_NAMES)
-    _check_choice("order", c.order, ORDER_NAMES)
-
-
-def _lossy_codecs() -> dict[str, type]:
-    from .floatwave import FloatWaveletCodec
-
-    return {c.codec_id: c for c in (BoundedCodec, CoefCodec, FloatWaveletCodec)}
-
-
-LOSSY_CODECS = _lossy_codecs()
+    check_choice("wavelet", c.wavelet, WAVELET_NAMES)
+    check_choice("coder", c.coder, CODER_NAMES)
+    check_choice("order", c.order, ORDER_NAMES)

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import OptionError
+from ..metrics import psnr_from_sse
 from ..parallel import ordered_map
 from ..volume import Volume
 from . import bricks
@@ -130,8 +131,7 @@ def _search(vol, brick, workers, what, target, make: Callable, rng: float, knob:
             size, sse, n, raw = size + a, sse + b2, n + c2, raw + d
         if what == "ratio":
             return raw / max(size, 1)
-        mse = sse / max(n, 1)
-        return math.inf if mse == 0 else 10 * math.log10(rng * rng / mse)
+        return psnr_from_sse(sse, n, rng)
 
     def ok(m: float) -> bool:
         if what == "psnr":

@@ -25,12 +25,13 @@ from __future__ import annotations
 import functools
 import math
 from fractions import Fraction
+from typing import NamedTuple
 
 import numpy as np
 
 from volpack._jit import kernel
 from volpack.errors import FormatError
-from volpack.wavelet.lifting import SPECS, _lift_planes_kernel, _lift_rows_kernel
+from volpack.wavelet.lifting import SPECS, lift_planes_kernel, lift_rows_kernel
 
 WAVELETS = tuple(SPECS)
 WORK_DTYPES = (np.dtype(np.int32), np.dtype(np.int64))
@@ -95,33 +96,46 @@ def _region_lengths(shape, levels) -> list[tuple[int, int, int]]:
     return out  # type: ignore[return-value]
 
 
-def subbands(
-    shape: tuple[int, int, int], levels
-) -> list[tuple[int, tuple[int, int, int], tuple[slice, ...]]]:
-    """Every subband of the Mallat layout as ``(level, orientation_bits, slices)``.
+class Band(NamedTuple):
+    """One subband of the Mallat layout."""
 
-    Coarsest first: the approximation (labelled ``level = max(levels)``, bits
-    ``(0, 0, 0)``) comes first, then the details of levels ``max(levels) - 1`` down to 0
-    (level 0 is the finest, computed first). Bits are 1 for high-pass along z/y/x, only
-    on axes active at that level; a level's bands come in increasing bit order
-    (``(0, 0, 1)``, ``(0, 1, 0)``, ...). The slices tile the whole array exactly once.
+    level: int  # 0 finest; the approximation has level == max(levels)
+    bits: tuple[int, int, int]  # 1 = high-pass along z/y/x
+    start: tuple[int, int, int]
+    size: tuple[int, int, int]
+
+    @property
+    def slices(self) -> tuple[slice, slice, slice]:
+        return tuple(slice(s, s + n) for s, n in zip(self.start, self.size))
+
+
+def subbands(shape: tuple[int, int, int], levels) -> list[Band]:
+    """Every non-empty subband of the Mallat layout, coarsest first.
+
+    The approximation (labelled ``level = max(levels)``, bits ``(0, 0, 0)``) comes first,
+    then the details of levels ``max(levels) - 1`` down to 0 (level 0 is the finest,
+    computed first). Bits are 1 for high-pass along z/y/x, only on axes active at that
+    level; a level's bands come in increasing bit order (``(0, 0, 1)``, ``(0, 1, 0)``,
+    ...). The bands tile the whole array exactly once.
     """
     shape = tuple(int(n) for n in shape)
     levels = _check_levels(shape, levels)
     regions = _region_lengths(shape, levels)
     top = max(levels)
-    out = [(top, (0, 0, 0), tuple(slice(0, n) for n in regions[top]))]
+    out = [Band(top, (0, 0, 0), (0, 0, 0), tuple(regions[top]))]
     for k in range(top - 1, -1, -1):
         cur = regions[k]
         active = [lv > k for lv in levels]
         for bits in np.ndindex(*(2 if a else 1 for a in active)):
             if not any(bits):
                 continue
-            sl = []
+            start, size = [], []
             for n, b, a in zip(cur, bits, active):
-                h = (n + 1) // 2
-                sl.append(slice(h, n) if b else slice(0, h if a else n))
-            out.append((k, tuple(int(b) for b in bits), tuple(sl)))
+                h = (n + 1) // 2 if a else n
+                start.append(h if b else 0)
+                size.append(n - h if b else h)
+            if min(size) > 0:
+                out.append(Band(k, tuple(int(b) for b in bits), tuple(start), tuple(size)))
     return out
 
 
@@ -147,18 +161,18 @@ def _dwt3_kernel(a, tmp, lz, ly, lx, spec, backward):
         cz, cy, cx = rz[k], ry[k], rx[k]
         if not backward:
             if lz > k:
-                _lift_planes_kernel(az, one, cz, cy, cx, tmp, spec, backward)
+                lift_planes_kernel(az, one, cz, cy, cx, tmp, spec, backward)
             if ly > k:
-                _lift_planes_kernel(ay, cz, cy, one, cx, tmp, spec, backward)
+                lift_planes_kernel(ay, cz, cy, one, cx, tmp, spec, backward)
             if lx > k:
-                _lift_rows_kernel(a, cz, cy, cx, tmp, spec, backward)
+                lift_rows_kernel(a, cz, cy, cx, tmp, spec, backward)
         else:
             if lx > k:
-                _lift_rows_kernel(a, cz, cy, cx, tmp, spec, backward)
+                lift_rows_kernel(a, cz, cy, cx, tmp, spec, backward)
             if ly > k:
-                _lift_planes_kernel(ay, cz, cy, one, cx, tmp, spec, backward)
+                lift_planes_kernel(ay, cz, cy, one, cx, tmp, spec, backward)
             if lz > k:
-                _lift_planes_kernel(az, one, cz, cy, cx, tmp, spec, backward)
+                lift_planes_kernel(az, one, cz, cy, cx, tmp, spec, backward)
 
 
 def _run(x: np.ndarray, levels, wavelet: str, backward: bool, overwrite: bool) -> np.ndarray:

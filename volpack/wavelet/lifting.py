@@ -168,7 +168,7 @@ def _edge_row_kernel(row, n, k, t0, s0, ms, parity, sign, step):
 
 
 @kernel
-def _lift_rows_kernel(a, n0, n1, n, tmp, spec, backward):
+def lift_rows_kernel(a, n0, n1, n, tmp, spec, backward):
     """One level along the last (contiguous) axis of ``a[:n0, :n1, :n]``, every row.
 
     Forward (``backward`` False): split each row into evens then odds, then run the
@@ -229,7 +229,7 @@ def _step_planes_kernel(b, n, ns, nq, nr, step, backward):
 
 
 @kernel
-def _lift_planes_kernel(a4, np_, n, nq, nr, tmp, spec, backward):
+def lift_planes_kernel(a4, np_, n, nq, nr, tmp, spec, backward):
     """One level along axis 1 of the 4-D view ``a4[:np_, :n, :nq, :nr]``.
 
     With ``a`` a C-contiguous ``(Z, Y, X)`` array, ``a.reshape(1, Z, Y, X)`` lifts along z

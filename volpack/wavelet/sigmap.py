@@ -22,55 +22,18 @@ the brick shape and levels, so they are built once and cached.
 from __future__ import annotations
 
 import functools
-import itertools
-from typing import NamedTuple
 
 import numpy as np
 
 from .._jit import kernel
+from ..entropy.scan import Scan
 from ..errors import OptionError
+from .dwt3 import Band, subbands
 
 ORDERS = ("dfs", "line")
 # Subband classes: 4 per level for the 6 finest levels (by the count of high-pass axes)
 # and one for the approximation; coarser levels share the sixth.
-N_CLASSES = 25
 APPROX_CLASS = 24
-
-
-class Scan(NamedTuple):
-    perm: np.ndarray  # int32 (N,): flat coefficient index coded at each scan position
-    end: np.ndarray  # int32 (N,): end (exclusive) of the subtree rooted at each position
-    parent: np.ndarray  # int32 (N,): scan position of the parent, -1 for roots
-    cls: np.ndarray  # uint8 (N,): subband class, 0..N_CLASSES-1
-    nbr: (
-        np.ndarray
-    )  # int32 (N, 3): scan positions of the z-1, y-1, x-1 neighbours in the band, -1 if none
-
-
-class Band(NamedTuple):
-    level: int  # 0 finest; the approximation has level == number of levels
-    bits: tuple[int, int, int]  # 1 = high-pass along that axis
-    start: tuple[int, int, int]
-    size: tuple[int, int, int]
-
-
-def subbands(shape: tuple[int, int, int], levels: tuple[int, int, int]) -> list[Band]:
-    """Every subband of the Mallat layout, finest first, approximation last."""
-    n = list(shape)
-    out = []
-    for k in range(max(levels, default=0)):
-        active = [levels[a] > k for a in range(3)]
-        lo = [(n[a] + 1) // 2 if active[a] else n[a] for a in range(3)]
-        for bits in itertools.product((0, 1), repeat=3):
-            if not any(bits) or any(b and not act for b, act in zip(bits, active)):
-                continue
-            start = tuple(lo[a] if bits[a] else 0 for a in range(3))
-            size = tuple(n[a] - lo[a] if bits[a] else lo[a] for a in range(3))
-            if min(size) > 0:
-                out.append(Band(k, bits, start, size))
-        n = lo
-    out.append(Band(max(levels, default=0), (0, 0, 0), (0, 0, 0), tuple(n)))
-    return out
 
 
 def _flat(shape, start, local):
@@ -95,7 +58,7 @@ def scan(shape: tuple[int, ...], levels: tuple[int, ...], order: str = "dfs") ->
     if len(shape) != 3 or len(levels) != 3 or min(shape) < 1:
         raise OptionError(f"expected a 3-D shape and 3 levels, found {shape} and {levels}")
     nlev = max(levels)
-    bands = subbands(shape, levels)
+    bands = sorted(subbands(shape, levels), key=lambda b: b.level)  # finest first
     key = {(b.level, b.bits): b for b in bands}
     total = int(np.prod(shape))
     parent_flat = np.full(total, -1, dtype=np.int64)

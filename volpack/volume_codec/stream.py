@@ -1,0 +1,385 @@
+"""The volume stream kind: a volume <-> ``.vpk`` of kind ``volume``.
+
+A volume is cut into independent bricks (:mod:`volpack.volume_codec.bricks`); each brick is
+coded by a brick codec (:mod:`volpack.volume_codec.codec`, or a lossy one chosen by
+:mod:`volpack.volume_codec.search`) into one chunk of the container
+(:mod:`volpack.format.container`), keyed ``(t, node)`` with ``node`` the brick number.
+Bricks are coded in parallel threads and written in order, so the file is the same
+whatever the worker count. Like every stream kind (:mod:`volpack.kinds`) it provides
+:func:`compress`, :func:`open` (a reader), :func:`decompress`, :func:`check_header` and
+:func:`info`.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Callable
+from typing import Any, BinaryIO
+
+import numpy as np
+
+from .. import __version__
+from ..errors import FormatError, OptionError
+from ..format.checked import CheckedReader
+from ..format.describe import describe
+from ..format.streams import stdin
+from ..jsonsafe import jsonable
+from ..metrics import psnr_from_sse, throughput
+from ..parallel import ordered_map, parse_workers
+from ..volume import Volume
+from . import bricks
+from .codec import WAVELET_DTYPES, WaveletCodec, ZstdCodec
+from .protocol import storage_dtype
+from .registry import get_codec
+
+log = logging.getLogger(__name__)
+
+Progress = Callable[[int, int], None]
+
+KIND = "volume"
+DEFAULT_MAX_VOXELS = 1 << 34
+LOSSY_KEYS = ("max_error", "rel_error", "psnr", "ratio", "quality", "threshold")
+
+
+def make_codec(codec: str = "auto", dtype: Any = None, **options: Any):
+    """Choose the brick codec: ``auto`` takes the wavelet codec for the integer dtypes it
+    codes exactly and byte-shuffled zstd for floats and 64-bit integers."""
+    if codec == "auto":
+        codec = "wavelet" if dtype is None or np.dtype(dtype).name in WAVELET_DTYPES else "zstd"
+    if codec == "wavelet":
+        from .floatwave import FLOAT_WAVELETS
+
+        if options.get("wavelet") in FLOAT_WAVELETS:
+            raise OptionError(
+                f"the {options['wavelet']} wavelet is a float (lossy) filter for comparison: "
+                "add quality=, psnr= or ratio=, or pick 53, 26, haar or 97m for lossless"
+            )
+        return WaveletCodec(**{k: v for k, v in options.items() if v is not None})
+    if codec == "zstd":
+        return ZstdCodec()
+    raise OptionError(f"expected codec 'auto', 'wavelet' or 'zstd', found {codec!r}")
+
+
+def compress(
+    source: Volume | np.ndarray | str,
+    target: str | BinaryIO,
+    *,
+    codec: str = "auto",
+    wavelet: str | None = None,
+    coder: str | None = None,
+    order: str | None = None,
+    max_levels: int | None = None,
+    brick: int | tuple[int, int, int] = bricks.DEFAULT_BRICK,
+    max_error: float | None = None,
+    rel_error: float | None = None,
+    psnr: float | None = None,
+    ratio: float | None = None,
+    quality: int | None = None,
+    threshold: float | None = None,
+    fill_value: float | None = None,
+    workers: int | None = 1,
+    force: bool = False,
+    progress: Progress | None = None,
+    read_options: dict | None = None,
+) -> dict[str, Any]:
+    """Compress a volume into a ``.vpk`` file or stream; return what was measured.
+
+    Lossless unless one of the lossy settings is given (at most one of them):
+    ``max_error`` (every valid voxel within this absolute error), ``rel_error`` (the
+    same, as a fraction of the value range), ``psnr`` (dB, reached within 0.5 dB),
+    ``ratio`` (reached within 5 %), ``quality`` (the method's 255/127/63/31/15 scale) or
+    ``threshold`` (coefficients below it, in value units, are dropped). ``fill_value``
+    marks voxels that are no data; they, NaN and +-Inf are restored exactly.
+
+    Parameters
+    ----------
+    source : Volume, ndarray or str
+        ``(z, y, x)`` or ``(t, z, y, x)`` voxels, or a volume file spec
+        (:func:`volpack.io.read_volume`, with ``read_options``) read after ``target``
+        has been checked.
+    target : str or binary file
+        Output path (written atomically; an existing file needs ``force``), ``'-'`` for
+        standard output, or an open binary file.
+    codec : {"auto", "wavelet", "zstd"}
+        ``auto``: the lossless wavelet codec for 8/16/32-bit integers, zstd for the rest.
+    wavelet, coder, order, max_levels
+        Wavelet codec settings (see :class:`volpack.volume_codec.codec.WaveletCodec`).
+    brick : int or (int, int, int)
+        Brick size; bricks are coded independently and decoded one by one.
+    workers : int or None
+        Threads; ``None`` or 0 uses every core. The output does not depend on it.
+    progress : callable(done, total), optional
+        Called after each brick.
+
+    Returns
+    -------
+    dict
+        ``raw_nbytes``, ``nbytes`` (compressed payload bytes), ``ratio``, ``seconds``,
+        ``mb_per_s``, ``bricks``, ``codec``.
+    """
+    from ..format.container import Writer
+
+    if isinstance(source, str):
+        from .. import io as vio
+        from ..format.atomic import check_output
+
+        check_output(target, force=force, inputs=(vio.parse_spec(source)[0],))
+        source = vio.read_volume(source, **(read_options or {}))
+    vol = source if isinstance(source, Volume) else Volume(np.asarray(source))
+    brick_t = bricks.parse_brick(brick)
+    nworkers = parse_workers(workers)
+    inner = {"wavelet": wavelet, "coder": coder, "order": order, "max_levels": max_levels}
+    targets = {
+        "max_error": max_error,
+        "rel_error": rel_error,
+        "psnr": psnr,
+        "ratio": ratio,
+        "quality": quality,
+        "threshold": threshold,
+    }
+    asked = {k: v for k, v in targets.items() if v is not None}
+    if len(asked) > 1:
+        raise OptionError(f"expected at most one lossy setting, found {sorted(asked)}")
+    if asked:
+        from . import search as lossy_plan
+
+        c, search = lossy_plan.plan(vol, brick_t, nworkers, asked, fill_value, inner)
+    else:
+        search = None
+        c = make_codec(codec, vol.dtype, **inner)
+        if c.codec_id == "wavelet":
+            from .codec import check_wavelet_dtype
+
+            check_wavelet_dtype(vol.dtype)
+    header = {
+        "kind": KIND,
+        "volpack": __version__,
+        "shape": list(vol.shape),
+        "dtype": storage_dtype(vol.dtype).str,
+        "spacing": list(vol.spacing),
+        "origin": list(vol.origin),
+        "brick": list(brick_t),
+        "codec": c.get_config(),
+        "meta": jsonable(vol.meta),
+    }
+    data = vol.data
+    frames = data[None] if data.ndim == 3 else data
+    tasks = [
+        (t, node, sl)
+        for t in range(frames.shape[0])
+        for node, sl in bricks.iter_bricks(data.shape, brick_t)
+    ]
+    total = len(tasks)
+
+    def encode(task):
+        t, node, sl = task
+        return (t, node, *c.encode_measured(np.ascontiguousarray(frames[(t, *sl)])))
+
+    t0 = time.perf_counter()
+    nbytes = 0
+    worst, sse, nvalid = 0.0, 0.0, 0
+    with Writer(_stdout() if target == "-" else target, header, force=force) as w:
+        results = ordered_map(encode, tasks, nworkers)
+        for done, (t, node, payload, err, s2, n) in enumerate(results, 1):
+            w.write(t, node, payload, err)
+            nbytes += len(payload)
+            worst, sse, nvalid = max(worst, err), sse + s2, nvalid + n
+            if progress is not None:
+                progress(done, total)
+        quality_stats = measured_quality(c, worst, sse, nvalid)
+        summary = {
+            "raw_nbytes": int(vol.nbytes),
+            "payload_nbytes": nbytes,
+            "ratio": vol.nbytes / max(nbytes, 1),
+            **quality_stats,
+        }
+        if search is not None:
+            summary["search"] = search
+        w.close(summary=summary)
+    seconds = time.perf_counter() - t0
+    return {
+        "raw_nbytes": int(vol.nbytes),
+        "nbytes": nbytes,
+        "ratio": vol.nbytes / max(nbytes, 1),
+        "seconds": seconds,
+        "mb_per_s": throughput(vol.nbytes, seconds),
+        "bricks": total,
+        "workers": nworkers,
+        "codec": c.get_config(),
+        **quality_stats,
+        **({"search": search} if search is not None else {}),
+    }
+
+
+def measured_quality(c, worst: float, sse: float, nvalid: int) -> dict[str, Any]:
+    """The summary's accuracy fields: lossless or not, max error, RMSE and PSNR."""
+    lossless = c.codec_id in ("wavelet", "zstd")
+    rng = getattr(c, "value_range", None)
+    mse = sse / nvalid if nvalid else 0.0
+    psnr = psnr_from_sse(sse, nvalid, rng or 1.0)
+    out = {
+        "lossless": lossless,
+        "max_error": 0.0 if lossless else float(worst),
+        "rmse": float(np.sqrt(mse)) if np.isfinite(mse) else None,
+        "psnr": None if lossless or not np.isfinite(psnr) else psnr,
+    }
+    if not lossless:
+        out["mode"] = c.codec_id
+        if hasattr(c, "max_error"):
+            out["error_bound"] = c.max_error
+    return out
+
+
+class VolumeReader(CheckedReader):
+    """A volume ``.vpk`` opened for reading: the checked :attr:`header`, and
+    :meth:`read` of the whole volume, one frame or a region (only the bricks it touches)."""
+
+    def __init__(self, source: Any, *, max_voxels: int = DEFAULT_MAX_VOXELS) -> None:
+        super().__init__(source, check_header, max_voxels)
+
+    def read(
+        self,
+        *,
+        roi: str | tuple[slice, ...] | None = None,
+        frame: int | None = None,
+        workers: int | None = 1,
+        progress: Progress | None = None,
+    ) -> Volume:
+        """The volume, the time step ``frame`` or the region ``roi`` (``"z0:z1,y0:y1,x0:x1"``
+        or three slices), keeping dtype, spacing and the origin of the region."""
+        r, hdr = self._r, self.header
+        nworkers = parse_workers(workers)
+        shape = tuple(hdr["shape"])
+        dtype = np.dtype(hdr["dtype"]).newbyteorder("=")
+        brick_t = tuple(hdr["brick"])
+        c = get_codec(hdr["codec"])
+        spatial = shape[-3:]
+        nt = shape[0] if len(shape) == 4 else 1
+        if frame is not None and not 0 <= frame < nt:
+            raise FormatError(f"expected a frame in 0..{nt - 1}, found {frame}")
+        region = parse_roi(roi, spatial)
+        origin = tuple(o + s.start * d for o, s, d in zip(hdr["origin"], region, hdr["spacing"]))
+        rshape = tuple(s.stop - s.start for s in region)
+        times = [frame] if frame is not None else list(range(nt))
+        out = np.empty((len(times), *rshape), dtype=dtype)
+        nodes = bricks.bricks_in_roi(spatial, brick_t, region)
+        tasks = [(i, t, node) for i, t in enumerate(times) for node in nodes]
+        seekable = r.seekable
+        if not seekable:
+            wanted = {(t, n) for _, t, n in tasks}
+            cache = {(t, n): p for t, n, p in r if (t, n) in wanted}
+
+        lock = threading.Lock()
+
+        def fetch(task):
+            i, t, node = task
+            if seekable:
+                with lock:  # one file handle: reads are serial, decoding is not
+                    payload = r.read(t, node)
+            else:
+                payload = cache.pop((t, node), None)
+            if payload is None:
+                raise FormatError(f"stream has no chunk for frame {t}, brick {node}")
+            sl = bricks.brick_slices(spatial, brick_t, node)
+            bshape = tuple(s.stop - s.start for s in sl)
+            return i, sl, c.decode(payload, bshape, dtype)
+
+        for done, (i, sl, b) in enumerate(ordered_map(fetch, tasks, nworkers), 1):
+            src_sl, dst_sl = _intersect(sl, region)
+            out[(i, *dst_sl)] = b[src_sl]
+            if progress is not None:
+                progress(done, len(tasks))
+        data = out[0] if (len(shape) == 3 or frame is not None) else out
+        return Volume(
+            data, spacing=tuple(hdr["spacing"]), origin=origin, meta=dict(hdr.get("meta") or {})
+        )
+
+
+def open(source: Any, *, max_voxels: int = DEFAULT_MAX_VOXELS) -> VolumeReader:  # noqa: A001
+    """Open a volume ``.vpk`` (a path, ``'-'``, bytes, a binary file or a container Reader)."""
+    if isinstance(source, str) and source == "-":
+        source = stdin()
+    return VolumeReader(source, max_voxels=max_voxels)
+
+
+def decompress(
+    source: Any,
+    *,
+    roi: str | tuple[slice, ...] | None = None,
+    frame: int | None = None,
+    workers: int | None = 1,
+    progress: Progress | None = None,
+    max_voxels: int = DEFAULT_MAX_VOXELS,
+) -> Volume:
+    """Decode a volume ``.vpk``, or only the region ``roi`` of it (see :meth:`VolumeReader.read`)."""
+    with open(source, max_voxels=max_voxels) as r:
+        return r.read(roi=roi, frame=frame, workers=workers, progress=progress)
+
+
+def info(source: str | BinaryIO) -> dict[str, Any]:
+    """Describe a volume ``.vpk``: header, summary, sizes, ratio, chunks (JSON types)."""
+    return describe(source)
+
+
+def check_header(hdr: dict, max_voxels: int = DEFAULT_MAX_VOXELS) -> dict:
+    """Validate a volume header (kind, keys, shape, dtype, brick, size limit); return it
+    with ``shape`` and ``brick`` as tuples."""
+    need = ("shape", "dtype", "spacing", "origin", "brick", "codec")
+    if hdr.get("kind") != KIND or any(k not in hdr for k in need):
+        raise FormatError(f"expected a volpack volume header with {need}, found keys {sorted(hdr)}")
+    from ..format import header as h
+    from .registry import get_codec
+
+    shape = h.shape(hdr["shape"], "shape", (3, 4), max_voxels)
+    h.dtype(hdr["dtype"])
+    try:
+        brick_t = bricks.parse_brick(hdr["brick"])
+    except (TypeError, ValueError, OverflowError) as e:
+        raise FormatError(f"bad volume header: {e}") from None
+    hdr = dict(hdr)
+    hdr["spacing"] = h.vector(hdr["spacing"], "spacing", 3, positive=True)
+    hdr["origin"] = h.vector(hdr["origin"], "origin", 3)
+    if not isinstance(hdr.get("meta", {}), dict):
+        raise FormatError(f"expected meta as a JSON object, found {hdr['meta']!r:.60}")
+    get_codec(hdr["codec"])
+    hdr["shape"], hdr["brick"] = shape, brick_t
+    return hdr
+
+
+def parse_roi(roi, shape: tuple[int, ...]) -> tuple[slice, slice, slice]:
+    """``None`` (everything), ``"z0:z1,y0:y1,x0:x1"`` or three slices, as three checked
+    non-empty slices of step 1 inside ``shape``."""
+    if roi is None:
+        return tuple(slice(0, n) for n in shape)  # type: ignore[return-value]
+    if isinstance(roi, str):
+        from ..prep import parse_ranges
+
+        roi = parse_ranges(roi, shape)
+    out = []
+    for s, n in zip(roi, shape):
+        start, stop, step = s.indices(n)
+        if step != 1 or stop <= start:
+            raise FormatError(
+                f"expected a non-empty region with step 1 inside {shape}, found {roi}"
+            )
+        out.append(slice(start, stop))
+    if len(out) != 3:
+        raise FormatError(f"expected a region of three ranges (z, y, x), found {roi}")
+    return tuple(out)  # type: ignore[return-value]
+
+
+def _intersect(brick_sl, region):
+    src, dst = [], []
+    for b, r in zip(brick_sl, region):
+        lo, hi = max(b.start, r.start), min(b.stop, r.stop)
+        src.append(slice(lo - b.start, hi - b.start))
+        dst.append(slice(lo - r.start, hi - r.start))
+    return tuple(src), tuple(dst)
+
+
+def _stdout():
+    import sys
+
+    return sys.stdout.buffer
