@@ -126,12 +126,13 @@ def test_info_on_a_bad_shape_is_an_error(stream, tmp_path):
         _one_line_error(_cli("info", bad))
 
 
-def test_a_huge_spacing_never_crashes_the_renderer(tmp_path):
+def test_a_huge_spacing_never_crashes_the_renderer():
     from volpack.render.camera import Camera
     from volpack.render.raycast import render
     from volpack.render.transfer import preset
-    from volpack.volume import Volume
 
-    v = Volume(np.ones((4, 4, 4), np.float32), spacing=(1e300, 1e300, 1e300))
-    with pytest.raises(Exception, match="overflows"):
-        render(v, tf=preset("generic", 0, 1), camera=Camera(size=(8, 8)), value_range=(0, 1))
+    a = np.linspace(0, 1, 64, dtype=np.float32).reshape(4, 4, 4)
+    cam, tf = Camera(size=(8, 8)), preset("generic", 0, 1)
+    for sp in (1e300, 1e-300, 1.7e308):
+        img = render(a, spacing=(sp,) * 3, tf=tf, camera=cam, value_range=(0, 1))
+        assert np.isfinite(img).all() and img[..., 3].max() > 0, sp  # the ratios matter only

@@ -53,9 +53,9 @@ def recorded_range(path: str) -> tuple[float, float] | None:
             vr = (r.summary or {}).get("value_range")
     except (FormatError, OSError):
         return None
-    if vr is None or len(vr) != 2:
-        return None
-    return float(vr[0]), float(vr[1])
+    from ..format.header import recorded_range as checked
+
+    return checked({"value_range": vr})
 
 
 def frame_count(path: str) -> int | None:

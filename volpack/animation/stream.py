@@ -510,7 +510,9 @@ def info(source: str | BinaryIO) -> dict[str, Any]:
     types, the summary with its per-frame columns, chunk sizes)."""
     from ..format.describe import describe
 
-    return describe(source)
+    d = describe(source)
+    check_header(d["header"])  # what info shows has been checked like what a decoder reads
+    return d
 
 
 def _stdout():

@@ -123,11 +123,24 @@ def dataclass_config(cls: type, config: Any, what: str) -> dict:
             and (t == "bool" or not isinstance(value, bool))
             for t in allowed
         )
-        if not ok or (isinstance(value, float) and not math.isfinite(value)):
+        if ok and isinstance(value, (int, float)) and not isinstance(value, bool):
+            ok = abs(value) < 2.0**62 if isinstance(value, int) else math.isfinite(value)
+        if not ok:
             raise FormatError(
                 f"bad {what}: expected {key} of type {' or '.join(allowed)}, found {_show(value)}"
             )
     return config
+
+
+def recorded_range(summary: Any) -> tuple[float, float] | None:
+    """The summary's ``value_range`` as two finite floats ``lo <= hi``, or None when it is
+    absent or not that (a summary is JSON too; the caller then measures the data)."""
+    vr = summary.get("value_range") if isinstance(summary, dict) else None
+    try:
+        lo, hi = (number(v, "value_range") for v in vr)  # type: ignore[union-attr]
+    except (TypeError, ValueError):
+        return None
+    return (lo, hi) if lo <= hi else None
 
 
 def raw_nbytes(hdr: dict) -> int:

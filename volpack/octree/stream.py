@@ -133,7 +133,9 @@ def check_header(hdr: dict, max_voxels: int = 1 << 40) -> dict:
 
 def info(source: str | BinaryIO) -> dict[str, Any]:
     """Describe an octree ``.vpk`` as the container sees it (header, chunks, sizes)."""
-    return describe(source)
+    d = describe(source)
+    check_header(d["header"])  # what info shows has been checked like what a decoder reads
+    return d
 
 
 def levels(source: Any) -> dict[str, Any]:

@@ -130,8 +130,10 @@ def render_lod(
 
 
 def tree_range(tree) -> tuple[float, float]:
-    vr = tree.summary.get("value_range") if tree.summary else None
-    if vr is not None and len(vr) == 2:
-        return float(vr[0]), float(vr[1])
+    from ..format.header import recorded_range
+
+    vr = recorded_range(tree.summary)
+    if vr is not None:
+        return vr
     root = tree.decode(tree.depth).data
     return float(root.min()), float(root.max())

@@ -355,6 +355,13 @@ def info(source: str | BinaryIO) -> dict[str, Any]:
     return mesh_info(source)
 
 
+def _get(d: Any, *keys: str) -> Any:
+    """``d[k1][k2]...`` of a JSON summary, None where a level is missing or no object."""
+    for k in keys:
+        d = d.get(k) if isinstance(d, dict) else None
+    return d
+
+
 def mesh_info(source: str | BinaryIO) -> dict[str, Any]:
     """Describe a mesh ``.vpk`` (a path or a seekable binary file: sizes, bits per tet
     and per vertex, fields) as JSON types."""
@@ -378,9 +385,7 @@ def mesh_info(source: str | BinaryIO) -> dict[str, Any]:
             "mode": f["mode"],
             "nbytes": nb,
             "bits_per_value": 8 * nb / n if n else 0.0,
-            "max_error": (summary.get("fields") or {})
-            .get(f"{f['where']}:{f['name']}", {})
-            .get("max_error"),
+            "max_error": _get(_get(summary, "fields"), f"{f['where']}:{f['name']}", "max_error"),
         }
     conn, gbytes = sizes.get(NODE_CONNECTIVITY, 0), sizes.get(NODE_GEOMETRY, 0)
     return {
@@ -400,7 +405,7 @@ def mesh_info(source: str | BinaryIO) -> dict[str, Any]:
             "mode": geo["mode"],
             "dtype": geo["dtype"],
             "bits": geo.get("bits"),
-            "max_error": summary.get("geometry_max_error"),
+            "max_error": _get(summary, "geometry_max_error"),
         },
         "keep_order": hdr["keep_order"],
         "rows": hdr["rows"],

@@ -95,7 +95,7 @@ class BoundedCodec(BrickCodec):
                 "64-bit integers are stored exactly by the lossless path"
             )
         if integer:
-            e = math.floor(max_error)
+            e = min(math.floor(max_error), 2**31)  # past any 32-bit range: one bin either way
             step = 2 * e + 1
             qmax = (hi - lo + e) // step
         else:

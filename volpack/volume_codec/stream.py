@@ -320,7 +320,9 @@ def decompress(
 
 def info(source: str | BinaryIO) -> dict[str, Any]:
     """Describe a volume ``.vpk``: header, summary, sizes, ratio, chunks (JSON types)."""
-    return describe(source)
+    d = describe(source)
+    check_header(d["header"])  # what info shows has been checked like what a decoder reads
+    return d
 
 
 def check_header(hdr: dict, max_voxels: int = DEFAULT_MAX_VOXELS) -> dict:
