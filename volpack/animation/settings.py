@@ -5,7 +5,6 @@ back from a file's header by the decoder."""
 from __future__ import annotations
 
 import dataclasses
-import math
 from typing import Any
 
 from ..errors import FormatError, OptionError
@@ -38,9 +37,9 @@ class Settings:
         if self.mode not in ("lossless", "bounded", "coef"):
             raise OptionError(f"expected mode lossless, bounded or coef, found {self.mode!r}")
         if self.mode == "bounded" and not (
-            self.max_error is not None and self.max_error > 0 and math.isfinite(self.max_error)
+            self.max_error is not None and 0 < self.max_error < 1e300  # 2 * bound stays finite
         ):
-            raise OptionError(f"expected a positive finite max_error, found {self.max_error!r}")
+            raise OptionError(f"expected a max_error in (0, 1e300), found {self.max_error!r}")
         if self.i_max_error is not None and not (
             self.mode == "bounded" and 0 < self.i_max_error <= self.max_error
         ):

@@ -73,7 +73,10 @@ class Plan:
         o = hh.field(h, "octree")
         codec = h.get("codec")
         if codec is not None:
-            get_codec(codec)  # checks it
+            c = get_codec(codec)  # checks it
+            integer = hh.dtype(hh.field(h, "dtype")).kind in "iu"
+            if c.codec_id != "bounded" or c.integer != integer:
+                raise FormatError(f"expected a codec for {h['dtype']} voxels, found {codec!r:.80}")
             bounded = tuple(sorted(codec.items()))
         else:
             bounded = None

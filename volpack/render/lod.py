@@ -133,7 +133,9 @@ def tree_range(tree) -> tuple[float, float]:
     from ..format.header import recorded_range
 
     vr = recorded_range(tree.summary)
-    if vr is not None:
+    dt = np.dtype(tree.dtype)
+    top = np.iinfo(dt) if dt.kind in "iu" else np.finfo(dt)
+    if vr is not None and top.min <= vr[0] and vr[1] <= top.max:  # else measured below
         return vr
     root = tree.decode(tree.depth).data
     return float(root.min()), float(root.max())

@@ -103,7 +103,7 @@ def decode_attribute(data: bytes, meta: dict, refs: np.ndarray) -> np.ndarray:
         ncomp = int(np.prod(shape, dtype=np.int64))
         if ncomp < 1 or ncomp > 1 << 16:
             raise ValueError(shape)
-    except (KeyError, TypeError, ValueError) as e:
+    except (KeyError, TypeError, ValueError, OverflowError) as e:
         raise FormatError(f"bad attribute parameters in the mesh header: {e!r}") from None
     r = _check_refs(refs, len(refs))
     n = len(r)
