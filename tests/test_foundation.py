@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import os
+import signal
 import subprocess
 import sys
 
@@ -56,6 +57,41 @@ def test_atomic_open_leaves_nothing_on_failure(tmp_path):
     assert target.read_bytes() == b"whole"
     with pytest.raises(OutputExistsError, match="input"):
         check_output(target, force=True, inputs=(str(target),))
+
+
+def test_a_killed_writer_leaves_no_file(tmp_path):
+    code = (
+        "import os, signal, sys\n"
+        "from volpack.format.atomic import atomic_open\n"
+        "with atomic_open(sys.argv[1]) as f:\n"
+        "    f.write(b'x' * 100000); f.flush()\n"
+        "    os.kill(os.getpid(), signal.SIGKILL)\n"
+    )
+    r = subprocess.run([sys.executable, "-c", code, str(tmp_path / "o.vpk")], check=False)
+    assert r.returncode == -signal.SIGKILL
+    assert os.listdir(tmp_path) == []
+
+
+def test_a_dead_writers_part_file_is_removed_by_the_next_write(tmp_path):
+    from volpack.format import atomic
+
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True, check=True).stdout.strip()  # fmt: skip
+    left = tmp_path / f".volpack-{dead}-0123abcd.part"
+    mine = tmp_path / f".volpack-{os.getpid()}-0123abcd.part"  # a live writer's
+    left.write_bytes(b"half")
+    mine.write_bytes(b"busy")
+    with atomic.atomic_path(tmp_path / "o.h5") as p:
+        open(p, "wb").close()
+    assert sorted(os.listdir(tmp_path)) == [mine.name, "o.h5"]
+
+
+def test_an_output_in_a_missing_folder_is_named_in_the_error(tmp_path):
+    target = tmp_path / "no" / "o.vpk"
+    with pytest.raises(FileNotFoundError) as e:
+        with atomic_open(target) as f:
+            f.write(b"x")
+    assert e.value.filename == str(target)
 
 
 def test_brick_grid_covers_every_voxel_once():

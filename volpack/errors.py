@@ -1,8 +1,8 @@
 """The one exception family of volpack.
 
-Every error the library raises on purpose is a :class:`VolpackError`. Bad files and
-streams raise :class:`FormatError`, which is also a ``ValueError`` so that callers who
-only know the standard library still catch it. Messages say what was expected and
+Every error the library raises on purpose is a :class:`VolpackError`. Bad arguments
+raise :class:`OptionError`, bad files and streams :class:`FormatError`; both are also
+``ValueError`` so that callers who only know the standard library still catch them. Messages say what was expected and
 what was found.
 """
 
@@ -11,8 +11,16 @@ class VolpackError(Exception):
     """Base class of every error volpack raises on purpose."""
 
 
+class OptionError(VolpackError, ValueError):
+    """An argument (a parameter of a library call, a command-line option) is not valid.
+
+    Messages name the Python parameter (``max_error``); the command line translates the
+    name to its flag (``--max-error``) where it reports the error.
+    """
+
+
 class FormatError(VolpackError, ValueError):
-    """A file, stream or argument does not have the expected form."""
+    """A file or stream does not have the expected form."""
 
 
 class ChecksumError(FormatError):

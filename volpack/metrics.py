@@ -15,6 +15,8 @@ from typing import Any
 
 import numpy as np
 
+from .errors import OptionError
+
 _CHUNK = 1 << 22  # voxels per pass: bounds the float64 temporaries to a few tens of MB
 
 
@@ -70,7 +72,7 @@ def psnr(a, b, *, peak=None, mask=None) -> float:
 def ratio(raw_nbytes: int, compressed_nbytes: int) -> float:
     """Return the compression ratio ``raw / compressed``."""
     if compressed_nbytes <= 0 or raw_nbytes < 0:
-        raise ValueError(
+        raise OptionError(
             f"expected sizes raw >= 0 and compressed > 0, found {raw_nbytes!r}, {compressed_nbytes!r}"
         )
     return raw_nbytes / compressed_nbytes
@@ -79,7 +81,7 @@ def ratio(raw_nbytes: int, compressed_nbytes: int) -> float:
 def bits_per_voxel(compressed_nbytes: int, nvoxels: int) -> float:
     """Return the compressed size in bits per voxel."""
     if nvoxels <= 0 or compressed_nbytes < 0:
-        raise ValueError(
+        raise OptionError(
             f"expected nbytes >= 0 and nvoxels > 0, found {compressed_nbytes!r}, {nvoxels!r}"
         )
     return 8.0 * compressed_nbytes / nvoxels
@@ -88,7 +90,7 @@ def bits_per_voxel(compressed_nbytes: int, nvoxels: int) -> float:
 def throughput(nbytes: int, seconds: float) -> float:
     """Return the speed in MB/s, with MB = 1e6 bytes (``inf`` for a zero duration)."""
     if seconds < 0 or nbytes < 0:
-        raise ValueError(f"expected nbytes >= 0 and seconds >= 0, found {nbytes!r}, {seconds!r}")
+        raise OptionError(f"expected nbytes >= 0 and seconds >= 0, found {nbytes!r}, {seconds!r}")
     return math.inf if seconds == 0 else nbytes / 1e6 / seconds
 
 
@@ -114,14 +116,14 @@ def summary(a, b, compressed_nbytes=None, mask=None) -> dict[str, Any]:
 def _prepare(a, b, mask):
     a, b = np.asarray(a), np.asarray(b)
     if a.shape != b.shape:
-        raise ValueError(f"expected arrays of the same shape, found {a.shape} and {b.shape}")
+        raise OptionError(f"expected arrays of the same shape, found {a.shape} and {b.shape}")
     for x in (a, b):
         if x.dtype.kind not in "biuf":
             raise TypeError(f"expected integer or float arrays, found dtype {x.dtype}")
     if mask is not None:
         mask = np.asarray(mask, dtype=bool)
         if mask.shape != a.shape:
-            raise ValueError(f"expected a mask of shape {a.shape}, found {mask.shape}")
+            raise OptionError(f"expected a mask of shape {a.shape}, found {mask.shape}")
         mask = mask.reshape(-1)
     return a.reshape(-1), b.reshape(-1), mask
 

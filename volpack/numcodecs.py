@@ -50,6 +50,7 @@ from numcodecs.compat import ensure_contiguous_ndarray, ensure_ndarray_like, nda
 from numcodecs.registry import register_codec
 
 from . import api
+from .errors import OptionError
 from .volume import Volume
 from .volume_codec import bricks
 from .volume_codec.codec import CODER_NAMES, ORDER_NAMES, WAVELET_NAMES
@@ -94,17 +95,17 @@ class VolpackCodec(Codec):
             ("order", order, ORDER_NAMES),
         ):
             if value not in allowed:
-                raise ValueError(f"expected {name} in {allowed}, found {value!r}")
+                raise OptionError(f"expected {name} in {allowed}, found {value!r}")
         if max_levels is not None:
             if isinstance(max_levels, bool) or int(max_levels) != max_levels:
-                raise ValueError(f"expected an integer max_levels, found {max_levels!r}")
+                raise OptionError(f"expected an integer max_levels, found {max_levels!r}")
             max_levels = int(max_levels)
             if not 0 <= max_levels <= 16:
-                raise ValueError(f"expected max_levels in 0..16, found {max_levels!r}")
+                raise OptionError(f"expected max_levels in 0..16, found {max_levels!r}")
         if max_error is not None:
             max_error = float(max_error)
             if not (max_error >= 0 and math.isfinite(max_error)):
-                raise ValueError(f"expected a non-negative finite max_error, found {max_error!r}")
+                raise OptionError(f"expected a non-negative finite max_error, found {max_error!r}")
             if max_error == 0:
                 max_error = None
         self.wavelet = str(wavelet)
@@ -148,7 +149,7 @@ class VolpackCodec(Codec):
         if arr.dtype.kind not in "biuf":
             raise TypeError(f"{CODEC_ID} codes integer, float or bool chunks, found {arr.dtype}")
         if arr.size == 0:
-            raise ValueError(f"{CODEC_ID} cannot code an empty chunk (shape {arr.shape})")
+            raise OptionError(f"{CODEC_ID} cannot code an empty chunk (shape {arr.shape})")
         dtype = arr.dtype
         fortran = arr.ndim > 1 and arr.flags.f_contiguous and not arr.flags.c_contiguous
         if fortran:  # code the C-ordered transpose; decode hands back Fortran order again
@@ -187,7 +188,7 @@ class VolpackCodec(Codec):
         vol = api.decompress(blob, workers=1)
         info = vol.meta.get(META_KEY)
         if not isinstance(info, dict) or "shape" not in info or "dtype" not in info:
-            raise ValueError(f"not a {CODEC_ID} chunk: its .vpk header has no '{META_KEY}' meta")
+            raise OptionError(f"not a {CODEC_ID} chunk: its .vpk header has no '{META_KEY}' meta")
         shape = tuple(int(n) for n in info["shape"])
         dtype = np.dtype(info["dtype"])
         data = vol.data

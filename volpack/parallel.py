@@ -14,6 +14,8 @@ from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from typing import TypeVar
 
+from .errors import OptionError
+
 T = TypeVar("T")
 R = TypeVar("R")
 
@@ -31,7 +33,7 @@ def parse_workers(workers: int | None) -> int:
     if workers is None or workers == 0:
         return default_workers()
     if workers < 0:
-        raise ValueError(f"expected a worker count >= 0 (0 = all cores), found {workers}")
+        raise OptionError(f"expected a worker count >= 0 (0 = all cores), found {workers}")
     return int(workers)
 
 

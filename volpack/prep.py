@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from .errors import FormatError
+from .errors import FormatError, OptionError
 from .volume import Volume
 
 # codes of special values in meta['special']['kinds'] (one per masked voxel, C order)
@@ -105,17 +105,17 @@ def pad(vol: Volume, widths, mode: str = "edge", value=0) -> Volume:
     The origin moves back by ``before * spacing``; padded voxels are never masked.
     """
     if mode not in ("edge", "constant"):
-        raise ValueError(f"expected mode 'edge' or 'constant', found {mode!r}")
+        raise OptionError(f"expected mode 'edge' or 'constant', found {mode!r}")
     w = np.asarray(widths, dtype=np.int64)
     if w.ndim == 0 or w.shape == (3,):
         w = np.broadcast_to(w[..., None], (3, 2))
     if w.shape != (3, 2) or (w < 0).any():
-        raise ValueError(f"expected non-negative pad widths for (z, y, x), found {widths!r}")
+        raise OptionError(f"expected non-negative pad widths for (z, y, x), found {widths!r}")
     full = [(0, 0)] * (vol.data.ndim - 3) + [tuple(int(v) for v in p) for p in w]
     if mode == "constant":
         fill = np.asarray(value).astype(vol.dtype)
         if fill != value:
-            raise ValueError(f"expected a pad value that {vol.dtype} holds, found {value!r}")
+            raise OptionError(f"expected a pad value that {vol.dtype} holds, found {value!r}")
         data = np.pad(vol.data, full, mode="constant", constant_values=fill)
     else:
         data = np.pad(vol.data, full, mode="edge")
@@ -129,7 +129,7 @@ def pad_to_multiple(vol: Volume, multiple) -> Volume:
     (one int or one per axis), e.g. of ``2**levels`` before a wavelet transform."""
     m = np.broadcast_to(np.asarray(multiple, dtype=np.int64), (3,))
     if (m < 1).any():
-        raise ValueError(f"expected a positive multiple, found {multiple!r}")
+        raise OptionError(f"expected a positive multiple, found {multiple!r}")
     return pad(vol, [(0, int(-n % k)) for n, k in zip(vol.shape[-3:], m, strict=True)])
 
 
@@ -150,7 +150,7 @@ def downsample(vol: Volume, factor=2, method: str = "box") -> Volume:
     """
     f = _spatial_ints(factor, "factor")
     if method not in ("box", "gaussian"):
-        raise ValueError(f"expected method 'box' or 'gaussian', found {method!r}")
+        raise OptionError(f"expected method 'box' or 'gaussian', found {method!r}")
     _require_unmasked(vol, "downsample")
     acc = vol.data.astype(np.float64)
     nd = acc.ndim
@@ -182,9 +182,9 @@ def resample(vol: Volume, spacing, order: int = 1) -> Volume:
     """
     new = np.broadcast_to(np.asarray(spacing, dtype=np.float64), (3,))
     if not (np.isfinite(new).all() and (new > 0).all()):
-        raise ValueError(f"expected positive finite spacing, found {spacing!r}")
+        raise OptionError(f"expected positive finite spacing, found {spacing!r}")
     if order not in (0, 1):
-        raise ValueError(f"expected order 0 (nearest) or 1 (linear), found {order!r}")
+        raise OptionError(f"expected order 0 (nearest) or 1 (linear), found {order!r}")
     _require_unmasked(vol, "resample")
     acc = vol.data.astype(np.float64)
     nd = acc.ndim
@@ -202,13 +202,13 @@ def window(vol: Volume, lo, hi) -> Volume:
     """Clamp values to ``[lo, hi]``; for integers the bounds are ``ceil(lo)``, ``floor(hi)``
     limited to the dtype's range. NaN stays NaN."""
     if not lo <= hi:
-        raise ValueError(f"expected lo <= hi, found {lo!r} > {hi!r}")
+        raise OptionError(f"expected lo <= hi, found {lo!r} > {hi!r}")
     if vol.dtype.kind in "iu":
         info = np.iinfo(vol.dtype)
         lo = min(max(math.ceil(lo), int(info.min)), int(info.max))
         hi = min(max(math.floor(hi), int(info.min)), int(info.max))
         if lo > hi:
-            raise ValueError(f"expected a window holding an integer, found {lo}..{hi}")
+            raise OptionError(f"expected a window holding an integer, found {lo}..{hi}")
     elif vol.dtype.kind == "f":
         top = float(np.finfo(vol.dtype).max)  # a bound past the type's range changes nothing
         lo, hi = min(max(float(lo), -top), top), min(max(float(hi), -top), top)
@@ -227,7 +227,7 @@ def astype(vol: Volume, dtype, rounding: str = "nearest", clip: bool = True) -> 
         Float to integer only: ``nearest`` rounds half to even.
     clip : bool
         Values outside the target range (finite ones, for a float target) are clamped to
-        it and counted in ``meta['clipped']``; with ``clip=False`` they raise ValueError.
+        it and counted in ``meta['clipped']``; with ``clip=False`` they raise OptionError.
 
     Raises
     ------
@@ -236,9 +236,9 @@ def astype(vol: Volume, dtype, rounding: str = "nearest", clip: bool = True) -> 
     """
     dt = np.dtype(dtype)
     if dt.kind not in "iuf":
-        raise TypeError(f"expected an integer or float dtype, found {dt}")
+        raise OptionError(f"expected an integer or float dtype, found {dt}")
     if rounding not in _ROUNDING:
-        raise ValueError(f"expected rounding in {sorted(_ROUNDING)}, found {rounding!r}")
+        raise OptionError(f"expected rounding in {sorted(_ROUNDING)}, found {rounding!r}")
     x = vol.data.astype(np.uint8) if vol.dtype.kind == "b" else vol.data
     valid = None if vol.mask is None else ~vol.mask
     bounds = None
@@ -264,7 +264,7 @@ def astype(vol: Volume, dtype, rounding: str = "nearest", clip: bool = True) -> 
             out &= np.isfinite(x)  # infinities stay infinities in a float target
         count = int(out.sum() if valid is None else (out & valid).sum())
         if count and not clip:
-            raise ValueError(
+            raise OptionError(
                 f"expected values within {dt}'s range {bounds[0]}..{bounds[1]}, "
                 f"found {count} outside (pass clip=True to clamp them)"
             )
@@ -287,7 +287,7 @@ def mask_special(vol: Volume, fill_value=None) -> Volume:
     restored as the canonical quiet NaN).
     """
     if vol.mask is not None and vol.mask.any():
-        raise ValueError("expected a volume without masked voxels, found some: unmask it first")
+        raise OptionError("expected a volume without masked voxels, found some: unmask it first")
     d = vol.data
     codes = np.zeros(d.shape, np.uint8)
     if d.dtype.kind == "f":
@@ -297,7 +297,7 @@ def mask_special(vol: Volume, fill_value=None) -> Volume:
     fill = None
     if fill_value is not None:
         if not np.isfinite(fill_value):
-            raise ValueError(f"expected a finite fill value, found {fill_value!r}")
+            raise OptionError(f"expected a finite fill value, found {fill_value!r}")
         fill = fill_value.item() if isinstance(fill_value, np.generic) else fill_value
         if d.dtype.kind in "biu":
             fill = int(fill) if float(fill).is_integer() else float(fill)
@@ -362,7 +362,7 @@ def quantize(vol: Volume, bits: int = 16, *, lo=None, hi=None) -> Volume:
     A constant volume gets ``scale = 0`` and error 0.
     """
     if not isinstance(bits, (int, np.integer)) or not 1 <= bits <= 32:
-        raise ValueError(f"expected bits between 1 and 32, found {bits!r}")
+        raise OptionError(f"expected bits between 1 and 32, found {bits!r}")
     bits = int(bits)
     if vol.dtype.kind == "f" and not np.isfinite(vol.data[_valid_index(vol)]).all():
         if vol.mask is not None and vol.mask.any():
@@ -376,7 +376,7 @@ def quantize(vol: Volume, bits: int = 16, *, lo=None, hi=None) -> Volume:
     levels = 2**bits - 1
     scale = (hi - lo) / levels
     if not (lo <= hi and math.isfinite(scale)):
-        raise ValueError(f"expected a finite range lo <= hi to quantize, found {lo!r}..{hi!r}")
+        raise OptionError(f"expected a finite range lo <= hi to quantize, found {lo!r}..{hi!r}")
     out_dtype = d.dtype if d.dtype.kind == "f" else np.dtype(np.float64)
     qdtype = np.uint8 if bits <= 8 else np.uint16 if bits <= 16 else np.uint32
     flat, fmask = d.reshape(-1), None if valid is None else valid.reshape(-1)
@@ -416,7 +416,7 @@ def dequantize(vol: Volume) -> Volume:
     meta = _meta(vol)
     rec = meta.pop("quantize", None)
     if rec is None:
-        raise ValueError("expected meta['quantize'] from quantize(), found none")
+        raise OptionError("expected meta['quantize'] from quantize(), found none")
     if vol.dtype.kind != "u":
         raise FormatError(f"expected unsigned integer codes, found {vol.dtype}")
     x = vol.data.astype(np.float64) * float(rec["scale"]) + float(rec["offset"])
@@ -436,7 +436,7 @@ def _valid_index(vol: Volume):
 
 def _require_unmasked(vol: Volume, what: str) -> None:
     if vol.mask is not None and vol.mask.any():
-        raise ValueError(f"expected a volume without masked voxels to {what}: unmask it first")
+        raise OptionError(f"expected a volume without masked voxels to {what}: unmask it first")
 
 
 def _bounded_slice(start, stop, n: int, label: str) -> slice:
@@ -457,11 +457,11 @@ def _as_slices(ranges, shape, what: str) -> tuple[slice, ...]:
     if len(shape) == 4 and len(ranges) == 3:
         ranges = (slice(None),) + ranges
     if len(ranges) != len(shape) or not all(isinstance(s, slice) for s in ranges):
-        raise ValueError(f"expected {len(shape)} slices, found {ranges!r}")
+        raise OptionError(f"expected {len(shape)} slices, found {ranges!r}")
     out = []
     for s, n, axis in zip(ranges, shape, _AXIS_NAMES[-len(shape) :], strict=True):
         if s.step not in (None, 1):
-            raise ValueError(f"expected {what} slices with step 1, found {s!r} on axis {axis}")
+            raise OptionError(f"expected {what} slices with step 1, found {s!r} on axis {axis}")
         out.append(_bounded_slice(s.start, s.stop, n, f"{what} {s.start}:{s.stop} on axis {axis}"))
     return tuple(out)
 
@@ -469,7 +469,7 @@ def _as_slices(ranges, shape, what: str) -> tuple[slice, ...]:
 def _spatial_ints(value, name: str) -> tuple[int, int, int]:
     v = np.broadcast_to(np.asarray(value), (3,))
     if v.dtype.kind not in "iu" or (v < 1).any():
-        raise ValueError(f"expected a positive integer {name} (or one per axis), found {value!r}")
+        raise OptionError(f"expected a positive integer {name} (or one per axis), found {value!r}")
     return tuple(int(k) for k in v)
 
 

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .errors import OptionError
+
 DEFAULT_SHAPE = (32, 32, 32)
 
 
@@ -19,7 +21,7 @@ def head(shape: tuple[int, int, int] = DEFAULT_SHAPE) -> np.ndarray:
 
     v = load_demo_volume().data
     if any(s > n for s, n in zip(shape, v.shape)):
-        raise ValueError(f"expected a crop within {v.shape}, found {shape}")
+        raise OptionError(f"expected a crop within {v.shape}, found {shape}")
     lo = [(n - s) // 2 for s, n in zip(shape, v.shape)]
     return np.ascontiguousarray(v[tuple(slice(a, a + s) for a, s in zip(lo, shape))])
 
@@ -84,7 +86,7 @@ def translate(
     if crop is None:
         crop = vol.shape
     if len(crop) != 3 or any(not 0 < c <= n for c, n in zip(crop, vol.shape)):
-        raise ValueError(f"expected a crop within {vol.shape}, found {crop}")
+        raise OptionError(f"expected a crop within {vol.shape}, found {crop}")
     lo = [p + (n - c) // 2 for p, n, c in zip(pad, vol.shape, crop)]
     view = tuple(slice(a, a + c) for a, c in zip(lo, crop))
     out = []
@@ -157,7 +159,7 @@ def advect(
 def scene_cut(first: np.ndarray, second: np.ndarray, cut: int | None = None) -> np.ndarray:
     """Frames of ``first`` up to ``cut``, then frames of ``second``."""
     if first.shape[1:] != second.shape[1:] or first.dtype != second.dtype:
-        raise ValueError(
+        raise OptionError(
             f"expected animations of one frame shape and dtype, found {first.shape} "
             f"{first.dtype} and {second.shape} {second.dtype}"
         )

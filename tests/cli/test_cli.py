@@ -130,6 +130,32 @@ def test_debug_shows_the_traceback(tmp_path):
     assert r.exit_code != 0 and r.exception is not None
 
 
+def test_messages_name_flags_where_the_library_names_parameters(tmp_path):
+    np.save(tmp_path / "f.npy", np.linspace(0, 1, 512).reshape(8, 8, 8))
+    r = run("compress", tmp_path / "f.npy", tmp_path / "f.vpk", "--quality", "5", ok=False)
+    assert r.exit_code == 1 and "--quality works" in r.output and "--max-error" in r.output
+    assert "max_error" not in r.output
+    r = run("compress", tmp_path / "f.npy", tmp_path / "f.vpk", "--codec", "wavelet", ok=False)
+    assert "--codec zstd" in r.output, r.output
+
+
+def test_an_unexpected_exception_is_an_internal_error_with_exit_3(tmp_path, monkeypatch):
+    import volpack.api
+
+    def boom(*a, **k):
+        raise KeyError("a bug")
+
+    monkeypatch.setattr(volpack.api, "info", boom)
+    np.save(tmp_path / "a.npy", np.zeros((2, 2, 2), np.uint8))
+    r = CliRunner().invoke(main, ["info", str(tmp_path / "a.npy")])
+    lines = [ln for ln in r.output.splitlines() if ln.strip()]
+    assert r.exit_code == 3 and lines == [
+        "volpack: internal error, please report: KeyError: 'a bug'"
+    ]
+    r = CliRunner().invoke(main, ["--debug", "info", str(tmp_path / "a.npy")])
+    assert r.exit_code == 3 and "Traceback" in r.output and "boom" in r.output
+
+
 def test_usage_errors_exit_2():
     r = run("compress", "--coder", "nonsense", "a", "b", ok=False)
     assert r.exit_code == 2

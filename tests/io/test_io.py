@@ -302,8 +302,8 @@ def test_unsupported_dtypes(tmp_path):
     with pytest.raises(FormatError, match="integer or float voxels"):
         vio.read_volume(spec)
     np.save(spec, np.ones(SHAPE, bool))
-    vol = vio.read_volume(spec)  # bool becomes uint8, and says so
-    assert vol.dtype == np.uint8 and vol.meta["converted_from"] == "bool"
+    vol = vio.read_volume(spec)  # bool stays bool (it used to come back as uint8)
+    assert vol.dtype == bool
 
 
 def test_refuse_overwrite(tmp_path):

@@ -144,7 +144,7 @@ def test_max_error_float_with_corrections():
 
 
 def test_float_without_bound_is_refused():
-    with pytest.raises(FormatError, match="max-error"):
+    with pytest.raises(FormatError, match="max_error"):
         _build(np.zeros((4, 4, 4), np.float32))
 
 

@@ -14,7 +14,7 @@ from click.testing import CliRunner
 from tetra_meshes import golden_mesh, grid_mesh, sphere_fan
 
 from volpack.cli import main
-from volpack.errors import FormatError
+from volpack.errors import FormatError, OptionError
 from volpack.format.container import Reader, Writer
 from volpack.tetra.mesh import FACES, TetMesh, face_adjacency, signed_volumes
 from volpack.tetra.stream import check_header, compress_mesh, decompress_mesh
@@ -137,7 +137,7 @@ def test_rates_reported():
 def test_refuses_bad_input():
     with pytest.raises(FormatError, match="expected 0..3"):
         compress_mesh(TetMesh(UNIT, [[0, 1, 2, 7]]), io.BytesIO())
-    with pytest.raises(ValueError, match="attr-error"):
+    with pytest.raises(OptionError, match="attr_error"):
         compress_mesh(TetMesh(UNIT, [[0, 1, 2, 3]]), io.BytesIO(), attr_error={"nope": 1.0})
 
 

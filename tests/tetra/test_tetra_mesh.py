@@ -165,7 +165,7 @@ def test_hexahedra_refused_or_split(tmp_path):
     meshio.write(
         str(path), meshio.Mesh(pts, [("hexahedron", np.arange(8)[None])], cell_data={"id": [[7]]})
     )
-    with pytest.raises(FormatError, match="--tetrahedralize"):
+    with pytest.raises(FormatError, match="tetrahedralize=True"):
         read_mesh(str(path))
     m = read_mesh(str(path), tetrahedralize=True)
     assert m.n_tets == 6 and (m.cell_data["id"] == 7).all()

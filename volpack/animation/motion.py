@@ -49,6 +49,7 @@ import math
 import numpy as np
 
 from .._jit import kernel
+from ..errors import OptionError
 from . import shift
 
 BLOCK = 8
@@ -513,7 +514,7 @@ class Reference:
     def __init__(self, frame: np.ndarray) -> None:
         frame = np.asarray(frame)
         if frame.ndim != 3 or frame.dtype.kind not in "iuf":
-            raise ValueError(f"expected a numeric 3-D frame, found {frame.shape} {frame.dtype}")
+            raise OptionError(f"expected a numeric 3-D frame, found {frame.shape} {frame.dtype}")
         self.frame = np.ascontiguousarray(frame)
         self._up: np.ndarray | None = None
         self._spec: np.ndarray | None = None
@@ -568,14 +569,14 @@ def estimate(
     ref = _as_reference(ref)
     cur = _check_pair(cur, ref.frame)
     if method not in SEARCH_METHODS:
-        raise ValueError(f"expected a search method in {SEARCH_METHODS}, found {method!r}")
+        raise OptionError(f"expected a search method in {SEARCH_METHODS}, found {method!r}")
     if precision not in PRECISIONS:
-        raise ValueError(f"expected a precision in {PRECISIONS}, found {precision!r}")
+        raise OptionError(f"expected a precision in {PRECISIONS}, found {precision!r}")
     radius = int(radius)
     if not 0 <= radius <= 64:
-        raise ValueError(f"expected a search range of 0..64 voxels, found {radius}")
+        raise OptionError(f"expected a search range of 0..64 voxels, found {radius}")
     if not (penalty >= 0 and math.isfinite(penalty)):
-        raise ValueError(f"expected a penalty >= 0, found {penalty!r}")
+        raise OptionError(f"expected a penalty >= 0, found {penalty!r}")
     grid = block_grid(cur.shape)
     vec = np.zeros((*grid, 3), np.int64)
     sse = np.zeros(grid, np.float64)
@@ -592,9 +593,11 @@ def estimate(
 def _check_pair(cur, ref):
     cur = np.asarray(cur)
     if cur.ndim != 3 or cur.shape != ref.shape:
-        raise ValueError(f"expected two 3-D frames of one shape, found {cur.shape} and {ref.shape}")
+        raise OptionError(
+            f"expected two 3-D frames of one shape, found {cur.shape} and {ref.shape}"
+        )
     if cur.dtype.kind not in "iuf":
-        raise ValueError(f"expected numeric frames, found {cur.dtype}")
+        raise OptionError(f"expected numeric frames, found {cur.dtype}")
     return np.ascontiguousarray(cur)
 
 
@@ -914,22 +917,22 @@ def compensate(
 ) -> np.ndarray:
     """The prediction (float64) of a frame from its anchors and motion field."""
     if compensation not in COMPENSATIONS:
-        raise ValueError(f"expected compensation in {COMPENSATIONS}, found {compensation!r}")
+        raise OptionError(f"expected compensation in {COMPENSATIONS}, found {compensation!r}")
     prev = _as_reference(prev)
     two = nxt is not None
     nxt = _as_reference(nxt) if two else prev
     if nxt.frame.shape != prev.frame.shape or nxt.frame.dtype != prev.frame.dtype:
-        raise ValueError(
+        raise OptionError(
             f"expected anchors of one shape and dtype, found {prev.frame.shape} "
             f"{prev.frame.dtype} and {nxt.frame.shape} {nxt.frame.dtype}"
         )
     shape = prev.frame.shape
     if field.mode.shape != block_grid(shape):
-        raise ValueError(
+        raise OptionError(
             f"expected a motion field of {block_grid(shape)} blocks, found {field.mode.shape}"
         )
     if not two and np.isin(field.mode, (MODE_BWD, MODE_BI)).any():
-        raise ValueError("a block predicts from the next anchor, but none was given")
+        raise OptionError("a block predicts from the next anchor, but none was given")
     # the half-voxel grids are made only for an anchor that a sub-voxel vector reads
     sub0 = ((field.fwd & 3) != 0).any(-1) & np.isin(field.mode, (MODE_FWD, MODE_BI))
     sub1 = ((field.bwd & 3) != 0).any(-1) & np.isin(field.mode, (MODE_BWD, MODE_BI))
@@ -1007,7 +1010,7 @@ def smooth(pred: np.ndarray, k: int) -> np.ndarray:
     """``pred`` (float64, 3-D) filtered along x, then y, then z by ``[k, 64 - 2k, k] / 64``,
     border samples repeated."""
     if k not in SMOOTHING:
-        raise ValueError(f"expected a smoothing strength in {SMOOTHING}, found {k!r}")
+        raise OptionError(f"expected a smoothing strength in {SMOOTHING}, found {k!r}")
     if k == 0:
         return pred
     a = np.ascontiguousarray(pred, np.float64)

@@ -53,9 +53,9 @@ def recorded_range(path: str) -> tuple[float, float] | None:
             vr = (r.summary or {}).get("value_range")
     except (FormatError, OSError):
         return None
-    if vr is None or len(vr) != 2:
-        return None
-    return float(vr[0]), float(vr[1])
+    from ..format.header import recorded_range as checked
+
+    return checked({"value_range": vr})
 
 
 def frame_count(path: str) -> int | None:
@@ -67,7 +67,8 @@ def frame_count(path: str) -> int | None:
             shape = r.header.get("shape")
     except (FormatError, OSError):
         return None
-    return int(shape[0]) if isinstance(shape, list) and shape else None
+    ok = isinstance(shape, list) and shape and isinstance(shape[0], int) and shape[0] > 0
+    return int(shape[0]) if ok else None  # a bad shape is reported by the decoder
 
 
 def play(source: Any) -> Iterator[tuple[np.ndarray, FrameStats, dict]]:

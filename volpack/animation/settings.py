@@ -5,10 +5,9 @@ back from a file's header by the decoder."""
 from __future__ import annotations
 
 import dataclasses
-import math
 from typing import Any
 
-from ..errors import FormatError
+from ..errors import FormatError, OptionError
 from . import motion
 
 # -- settings ----------------------------------------------------------------------------
@@ -36,38 +35,40 @@ class Settings:
 
     def __post_init__(self) -> None:
         if self.mode not in ("lossless", "bounded", "coef"):
-            raise ValueError(f"expected mode lossless, bounded or coef, found {self.mode!r}")
+            raise OptionError(f"expected mode lossless, bounded or coef, found {self.mode!r}")
         if self.mode == "bounded" and not (
-            self.max_error is not None and self.max_error > 0 and math.isfinite(self.max_error)
+            self.max_error is not None and 0 < self.max_error < 1e300  # 2 * bound stays finite
         ):
-            raise ValueError(f"expected a positive finite max_error, found {self.max_error!r}")
+            raise OptionError(f"expected a max_error in (0, 1e300), found {self.max_error!r}")
         if self.i_max_error is not None and not (
             self.mode == "bounded" and 0 < self.i_max_error <= self.max_error
         ):
-            raise ValueError(
+            raise OptionError(
                 f"expected i_max_error, an I-frame bound, in (0, max_error = "
-                f"{self.max_error}] with --max-error, found {self.i_max_error!r} in "
+                f"{self.max_error}] with max_error=, found {self.i_max_error!r} in "
                 f"{self.mode} coding"
             )
         if self.mode == "coef" and not (self.quality and 1 <= int(self.quality) <= 65535):
-            raise ValueError(f"expected a quality in 1..65535, found {self.quality!r}")
+            raise OptionError(f"expected a quality in 1..65535, found {self.quality!r}")
         if self.method not in motion.SEARCH_METHODS:
-            raise ValueError(f"expected --motion in {motion.SEARCH_METHODS}, found {self.method!r}")
+            raise OptionError(
+                f"expected a motion search method in {motion.SEARCH_METHODS}, found {self.method!r}"
+            )
         if self.precision not in motion.PRECISIONS:
-            raise ValueError(
+            raise OptionError(
                 f"expected a vector precision in {motion.PRECISIONS}, found {self.precision!r}"
             )
         if self.compensation not in motion.COMPENSATIONS:
-            raise ValueError(
-                f"expected --compensation in {motion.COMPENSATIONS}, found {self.compensation!r}"
+            raise OptionError(
+                f"expected compensation in {motion.COMPENSATIONS}, found {self.compensation!r}"
             )
         if self.rule != motion.RULE:
-            raise ValueError(f"expected the prediction rule {motion.RULE!r}, found {self.rule!r}")
+            raise OptionError(f"expected the prediction rule {motion.RULE!r}, found {self.rule!r}")
         if not 0 <= int(self.search) <= 64:
-            raise ValueError(f"expected a search range of 0..64 voxels, found {self.search}")
+            raise OptionError(f"expected a search range of 0..64 voxels, found {self.search}")
         if not self.b_residual and self.mode != "coef":
-            raise ValueError(
-                "B-frames without a residual have no error bound: use them with --quality only"
+            raise OptionError(
+                "B-frames without a residual have no error bound: use them with quality= only"
             )
 
     def codec_config(self) -> dict[str, Any]:
@@ -94,9 +95,13 @@ class Settings:
                 f"header; quarter-voxel samples were box means): this volpack predicts by "
                 f"rule {motion.RULE!r} only, so encode the frames again"
             )
+        from ..format.header import dataclass_config
+
+        codec = dataclass_config(cls, hdr["codec"], "animation codec settings")
+        moves = dataclass_config(cls, hdr["motion"], "animation motion settings")
         try:
-            return cls(**hdr["codec"], **hdr["motion"])
-        except (KeyError, TypeError, ValueError) as e:
+            return cls(**codec, **moves)
+        except (KeyError, TypeError, ValueError, ArithmeticError) as e:
             raise FormatError(f"bad animation header settings: {e}") from None
 
     def inner(self) -> dict[str, Any]:

@@ -31,7 +31,7 @@ from typing import Any, BinaryIO
 import numpy as np
 
 from .. import __version__
-from ..errors import FormatError
+from ..errors import FormatError, OptionError
 from ..format.checked import CheckedReader
 from ..jsonsafe import jsonable
 from ..metrics import psnr_from_sse, throughput
@@ -93,7 +93,7 @@ def compress(
 
     _refuse(codec, refused)
     if max_error is not None and quality is not None:
-        raise ValueError("expected at most one of max_error and quality")
+        raise OptionError("expected at most one of max_error and quality")
     mode = "bounded" if max_error is not None else "coef" if quality is not None else "lossless"
     if isinstance(source, str) and isinstance(target, (str, os.PathLike)):
         from ..format.atomic import check_output
@@ -227,11 +227,11 @@ def _refuse(codec: str | None, refused: dict) -> None:
         raise TypeError(f"compress() of an animation got unexpected options {unknown}")
     given = [k for k in LOSSY_REFUSED if refused.get(k) is not None]
     if given:
-        raise ValueError(
+        raise OptionError(
             f"animations take max_error or quality (or neither: lossless); found {given[0]}"
         )
     if codec not in (None, "auto", "wavelet"):
-        raise ValueError(f"animations code frames with the wavelet codecs; found codec {codec!r}")
+        raise OptionError(f"animations code frames with the wavelet codecs; found codec {codec!r}")
 
 
 def _trial_length(types: str, order: list[int]) -> int:
@@ -284,7 +284,7 @@ def _check_dtype(dtype: np.dtype, s: Settings) -> None:
             f"expected animation voxels of {', '.join(ANIMATION_DTYPES)}, found {name}"
         )
     if np.dtype(dtype).kind == "f" and s.mode != "bounded":
-        raise FormatError(f"{name} animations are coded with --max-error; found {s.mode} coding")
+        raise FormatError(f"{name} animations are coded with max_error=; found {s.mode} coding")
 
 
 def _psnr(sse: float, n: int, peak: float) -> float | None:
@@ -450,22 +450,24 @@ def check_header(hdr: dict, max_voxels: int = 1 << 34) -> dict:
     need = ("shape", "dtype", "brick", "types", "codec", "motion", "spacing", "origin")
     if hdr.get("kind") != KIND_ANIMATION or any(k not in hdr for k in need):
         raise FormatError(f"expected an animation header with {need}, found keys {sorted(hdr)}")
+    from ..format import header as h
+
+    shape = h.shape(hdr["shape"], "shape", (4,), max_voxels)
+    dtype = h.dtype(hdr["dtype"])
     try:
-        shape = tuple(int(n) for n in hdr["shape"])
-        dtype = np.dtype(hdr["dtype"])
         brick_t = bricks.parse_brick(hdr["brick"])
-    except (TypeError, ValueError) as e:
+    except (TypeError, ValueError, OverflowError) as e:
         raise FormatError(f"bad animation header: {e}") from None
-    if len(shape) != 4 or min(shape) < 1:
-        raise FormatError(f"expected a (t, z, y, x) shape of positive sizes, found {shape}")
-    if math.prod(shape) > max_voxels:
-        raise FormatError(f"animation of shape {shape} exceeds the limit of {max_voxels} voxels")
     if dtype.newbyteorder("=").name not in ANIMATION_DTYPES:
         raise FormatError(f"expected animation voxels of {ANIMATION_DTYPES}, found {dtype}")
     types = gop.check_types(hdr["types"])
     if len(types) != shape[0]:
         raise FormatError(f"expected {shape[0]} frame types, found {len(types)}")
     hdr = dict(hdr)
+    hdr["spacing"] = h.vector(hdr["spacing"], "spacing", 3, positive=True)
+    hdr["origin"] = h.vector(hdr["origin"], "origin", 3)
+    if not isinstance(hdr.get("meta", {}), dict):
+        raise FormatError(f"expected meta as a JSON object, found {hdr['meta']!r:.60}")
     hdr["shape"], hdr["brick"] = shape, brick_t
     return hdr
 
@@ -508,7 +510,9 @@ def info(source: str | BinaryIO) -> dict[str, Any]:
     types, the summary with its per-frame columns, chunk sizes)."""
     from ..format.describe import describe
 
-    return describe(source)
+    d = describe(source)
+    check_header(d["header"])  # what info shows has been checked like what a decoder reads
+    return d
 
 
 def _stdout():

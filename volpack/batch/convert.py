@@ -7,7 +7,7 @@ import os
 import time
 from typing import Any
 
-from ..errors import VolpackError
+from ..errors import OptionError, VolpackError
 from ..metrics import psnr_from_sse
 from .journal import input_stat, output_stat
 from .planning import COMPRESS_KEYS, READ_KEYS, Task
@@ -49,7 +49,7 @@ def convert_one(task: Task) -> dict[str, Any]:
         elif task.kind == "decompress":
             rec.update(_decompress_one(task))
         else:
-            raise ValueError(f"expected kind 'compress' or 'decompress', found {task.kind!r}")
+            raise OptionError(f"expected kind 'compress' or 'decompress', found {task.kind!r}")
         rec.update(output_stat(task.output))
         rec["status"] = "ok"
     except Exception as e:  # one file's problem is its record, not the run's

@@ -10,7 +10,7 @@ import os
 from collections.abc import Sequence
 from typing import Any
 
-from ..errors import VolpackError
+from ..errors import OptionError, VolpackError
 
 JOURNAL_NAME = ".volpack-batch.jsonl"
 COMPRESS_KEYS = (
@@ -91,9 +91,9 @@ def plan(
     from .. import io as vio
 
     if kind not in ("compress", "decompress"):
-        raise ValueError(f"expected kind 'compress' or 'decompress', found {kind!r}")
+        raise OptionError(f"expected kind 'compress' or 'decompress', found {kind!r}")
     if verify not in ("decode", "checksum"):
-        raise ValueError(f"expected verify 'decode' or 'checksum', found {verify!r}")
+        raise OptionError(f"expected verify 'decode' or 'checksum', found {verify!r}")
     if isinstance(inputs, (str, os.PathLike)):
         inputs = [os.fspath(inputs)]
     base_opts = normalize_options(options or {})

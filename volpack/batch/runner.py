@@ -14,6 +14,7 @@ import time
 from collections.abc import Callable, Iterable
 from typing import Any
 
+from ..errors import OptionError
 from ..jsonsafe import jsonable
 from ..metrics import throughput
 from .convert import convert_one, one_line
@@ -141,8 +142,8 @@ def run(
         todo.append((i, dataclasses.replace(t, force=t.force or force or present)))
     if exists:
         raise BatchError(
-            f"{len(exists)} output(s) exist already (first: {exists[0]!r}); pass --resume "
-            "to continue a run or --force to redo them"
+            f"{len(exists)} output(s) exist already (first: {exists[0]!r}); pass resume=True "
+            "to continue a run or force=True to redo them"
         )
     if resume:
         _remove_stale_parts(t.output for _, t in todo)
@@ -254,7 +255,7 @@ def _run_local(todo, workers, executor, memory_limit, on_result, state, func) ->
             on_result(i, func(t))
         return "inline"
     if kind not in ("thread", "process"):
-        raise ValueError(f"expected executor auto, inline, thread or process, found {kind!r}")
+        raise OptionError(f"expected executor auto, inline, thread or process, found {kind!r}")
     budget = memory_limit if memory_limit is not None else memory_budget()
     need = {i: estimate_nbytes(t) for i, t in todo}
     queue = collections.deque(todo)

@@ -6,24 +6,34 @@ collide with other projects. Each command group is a small module here; the libr
 imported inside the command bodies so that ``volpack --help`` loads neither numpy's
 heavier users nor numba.
 
-Exit codes: 0 success, 1 a user error (one line ``volpack: error: ...``; the traceback
-only with ``--debug``), 2 a usage error (click's own).
+Exit codes: 0 success, 1 an error the user can act on (a :class:`~volpack.errors.VolpackError`,
+``OSError`` or ``MemoryError``: one line ``volpack: error: ...`` naming flags, the traceback
+only with ``--debug``), 2 a usage error (click's own), 3 an internal error (any other
+exception: a bug, reported as one line, the traceback with ``--debug``).
 """
 
 from __future__ import annotations
 
 import logging
 import sys
+import traceback
 
 import click
 
 from .. import __version__
 
+EXIT_INTERNAL = 3  # an exception volpack did not raise on purpose: a bug to report
 CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
 
 
 class VolpackGroup(click.Group):
-    """A click group that turns library errors into one-line messages and exit code 1."""
+    """A click group that reports errors: a one-line message for what the user can fix,
+    "internal error, please report" (exit 3) for anything else, which is a bug."""
+
+    def resolve_command(self, ctx: click.Context, args: list[str]):
+        name, cmd, rest = super().resolve_command(ctx, args)
+        ctx.meta["volpack.command"] = cmd
+        return name, cmd, rest
 
     def invoke(self, ctx: click.Context):
         try:
@@ -33,27 +43,31 @@ class VolpackGroup(click.Group):
         except KeyboardInterrupt:
             click.echo("volpack: interrupted", err=True)
             sys.exit(130)
-        except (
-            ValueError,
-            OSError,
-            MemoryError,
-        ) as e:  # VolpackError/FormatError are ValueErrors too
+        except BrokenPipeError:
+            sys.exit(1)
+        except Exception as e:
             from ..errors import VolpackError
+            from .errors import as_flags, flag_map
 
-            if ctx.obj and ctx.obj.get("debug"):
+            debug = bool(ctx.obj and ctx.obj.get("debug"))
+            if not isinstance(e, (VolpackError, OSError, MemoryError)):
+                if debug:
+                    traceback.print_exc()
+                line = str(e).splitlines()[0] if str(e) else ""
+                click.echo(
+                    f"volpack: internal error, please report: {type(e).__name__}: {line}",
+                    err=True,
+                )
+                sys.exit(EXIT_INTERNAL)
+            if debug:
                 raise
-            if isinstance(e, BrokenPipeError):
-                sys.exit(1)
-            if isinstance(e, (VolpackError, ValueError, OSError, MemoryError)):
-                msg = str(e) or type(e).__name__
-                if isinstance(e, OSError) and e.filename and e.strerror:
-                    msg = f"{e.filename}: {e.strerror}"
-                from .words import flag_words, subcommand
-
-                msg = flag_words(msg, subcommand(ctx))
-                click.echo(f"volpack: error: {msg}", err=True)
-                sys.exit(1)
-            raise
+            msg = str(e) or type(e).__name__
+            if isinstance(e, OSError) and e.filename and e.strerror:
+                msg = f"{e.filename}: {e.strerror}"
+            elif isinstance(e, VolpackError):
+                msg = as_flags(msg, flag_map(self, ctx.meta.get("volpack.command")))
+            click.echo(f"volpack: error: {msg}", err=True)
+            sys.exit(1)
 
 
 @click.group(cls=VolpackGroup, context_settings=CONTEXT)
@@ -79,9 +93,6 @@ def main(ctx: click.Context, verbose: int, quiet: bool, debug: bool) -> None:
     """
     ctx.ensure_object(dict)
     ctx.obj.update(quiet=quiet, debug=debug, verbose=verbose)
-    from .notices import install
-
-    install(ctx, quiet)
     level = logging.WARNING - 10 * min(verbose, 2)
     logging.basicConfig(
         level=level, format="volpack: %(levelname)s: %(message)s", stream=sys.stderr
@@ -89,9 +100,9 @@ def main(ctx: click.Context, verbose: int, quiet: bool, debug: bool) -> None:
 
 
 def _register() -> None:
-    from . import batch, codec, compare, convert, demo, info, jit, play, render
+    from . import batch, codec, convert, demo, info, jit, play, render
 
-    for module in (info, convert, codec, compare, batch, demo, jit, render, play):
+    for module in (info, convert, codec, batch, demo, jit, render, play):
         for cmd in module.COMMANDS:
             main.add_command(cmd)
 

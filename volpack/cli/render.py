@@ -114,11 +114,12 @@ def _load_mesh(source: str, field: str | None):
             raise click.BadParameter("applies to tetrahedral meshes only", param_hint="--field")
         return None
     names = list(m.point_data) + [n for n in m.cell_data if n not in m.point_data]
+    if field is None and not names:
+        # no field: draw the shape, shaded by each vertex's distance from the centre
+        p = np.asarray(m.points, np.float64)
+        centre = (p.min(axis=0) + p.max(axis=0)) / 2 if len(p) else np.zeros(3)
+        return p, m.tets, np.linalg.norm(p - centre, axis=1), None
     if field is None:
-        if not names:
-            raise click.BadParameter(
-                f"{source} has no point or cell data to draw; expected a field", "--field"
-            )
         field = names[0]
     if field in m.point_data:
         v = np.asarray(m.point_data[field], np.float64)
@@ -320,8 +321,7 @@ def render(
         lo, hi = float(data[ok].min()), float(data[ok].max())
     else:
         lo, hi = 0.0, 1.0
-    if hi <= lo:
-        hi = lo + 1.0
+    lo, hi = transfer.nonempty_range(lo, hi)
     tf = None
     if tf_spec is not None or not isos:
         tf = transfer.load_tf(tf_spec or "auto", lo, hi, dtype=data.dtype)

@@ -6,7 +6,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..errors import FormatError
+from ..errors import FormatError, OptionError
 
 STATUS = {1: "the stream ends before the last coefficient", 2: "a code names an impossible value"}
 
@@ -14,7 +14,7 @@ STATUS = {1: "the stream ends before the last coefficient", 2: "a code names an 
 def flat_view(a: np.ndarray) -> np.ndarray:
     """A 1-D view of a C-contiguous int32/int64 coefficient array (never a copy)."""
     if a.dtype not in (np.int32, np.int64) or not a.flags.c_contiguous:
-        raise ValueError(f"expected a C-contiguous int32/int64 array, found {a.dtype}")
+        raise OptionError(f"expected a C-contiguous int32/int64 array, found {a.dtype}")
     return a.reshape(-1)
 
 

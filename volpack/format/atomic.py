@@ -1,16 +1,22 @@
-"""Atomic output: write to a temporary file beside the target, then rename.
+"""Atomic output: write to a temporary file beside the target, then give it the name.
 
 A crash, a full disk or an exception half way leaves the target as it was (absent or
-the old file) and no partial file behind. An existing target is replaced only when the
-caller says so, and never when it is one of the inputs.
+the old file) and no partial file behind. On Linux the temporary file has no name at
+all (``O_TMPFILE``) and is linked into the folder only when complete, so even a killed
+process leaves nothing. Elsewhere (and for writers that need a file name) it is
+``.volpack-<pid>-<random>.part``; the next write into that folder removes such files
+whose writer is gone. An existing target is replaced only when the caller says so, and
+never when it is one of the inputs. Errors name the target, not the temporary file.
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
+import re
+import secrets
 import sys
-import tempfile
 from collections.abc import Iterator
 from typing import BinaryIO
 
@@ -50,17 +56,21 @@ def atomic_open(path: str | os.PathLike, *, force: bool = False) -> Iterator[Bin
         return
     check_output(p, force=force)
     directory = os.path.dirname(os.path.abspath(p))
-    fd, tmp = tempfile.mkstemp(prefix=".volpack-", suffix=".part", dir=directory)
+    fd, tmp = _open_unnamed(directory, p)
     try:
         with os.fdopen(fd, "wb") as f:
             yield f
             f.flush()
             os.fsync(f.fileno())
-        os.chmod(tmp, _default_mode())  # mkstemp makes 0600; a plain open would not
-        os.replace(tmp, p)
+            if tmp is None:
+                tmp = _link(f.fileno(), directory, p, force)
+        if tmp is not None:
+            os.chmod(tmp, _default_mode())  # a named temporary file is made 0600
+            _rename(tmp, p)
     except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(tmp)
+        if tmp is not None:
+            with contextlib.suppress(FileNotFoundError):
+                os.unlink(tmp)
         raise
 
 
@@ -71,16 +81,98 @@ def atomic_path(path: str | os.PathLike, *, force: bool = False, suffix: str = "
     p = os.fspath(path)
     check_output(p, force=force)
     directory = os.path.dirname(os.path.abspath(p))
-    fd, tmp = tempfile.mkstemp(prefix=".volpack-", suffix=suffix or ".part", dir=directory)
-    os.close(fd)
-    os.unlink(tmp)  # some writers refuse an existing file
+    _sweep(directory, p)
+    tmp = _part_name(directory, suffix or ".part")  # not created: some writers refuse one
     try:
         yield tmp
-        os.replace(tmp, p)
+        _rename(tmp, p)
     except BaseException:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
         raise
+
+
+_PART = re.compile(r"\.volpack-(\d+)-[0-9a-f]{8}\.")
+
+
+def _part_name(directory: str, suffix: str) -> str:
+    return os.path.join(directory, f".volpack-{os.getpid()}-{secrets.token_hex(4)}{suffix}")
+
+
+def _open_unnamed(directory: str, target: str) -> tuple[int, str | None]:
+    """An unnamed file in ``directory`` (``O_TMPFILE``), or a named ``.part`` file where
+    the system or the file system has none."""
+    try:
+        if hasattr(os, "O_TMPFILE"):
+            try:
+                return os.open(directory, os.O_TMPFILE | os.O_WRONLY, 0o666), None
+            except OSError as e:
+                if e.errno not in (errno.EOPNOTSUPP, errno.EISDIR, errno.EINVAL, errno.ENOSYS):
+                    raise
+        _sweep(directory, target)
+        tmp = _part_name(directory, ".part")
+        return os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600), tmp
+    except OSError as e:
+        raise _naming(e, target) from None
+
+
+def _link(fd: int, directory: str, target: str, force: bool) -> str | None:
+    """Give the unnamed file ``fd`` the name ``target``: directly when there is no file
+    of that name, else a ``.part`` name that the caller renames over the old file."""
+    # linkat(AT_SYMLINK_FOLLOW) of /proc/self/fd/N; a dir_fd makes Python call linkat
+    # (plain link() would link the /proc symlink itself)
+    proc = os.open("/proc/self/fd", os.O_RDONLY)
+    try:
+        if not os.path.lexists(target):
+            try:
+                os.link(str(fd), target, src_dir_fd=proc, follow_symlinks=True)
+                return None
+            except FileExistsError:
+                if not force:
+                    raise
+        tmp = _part_name(directory, ".part")
+        os.link(str(fd), tmp, src_dir_fd=proc, follow_symlinks=True)
+        return tmp
+    except OSError as e:
+        raise _naming(e, target) from None
+    finally:
+        os.close(proc)
+
+
+def _rename(tmp: str, target: str) -> None:
+    try:
+        os.replace(tmp, target)
+    except OSError as e:
+        raise _naming(e, target) from None
+
+
+def _naming(e: OSError, target: str) -> OSError:
+    """The same error, naming the target the caller asked for."""
+    return type(e)(e.errno, e.strerror, target) if e.errno is not None else e
+
+
+def _sweep(directory: str, target: str) -> None:
+    """Remove ``.part`` files in ``directory`` left by volpack writers that are gone."""
+    try:
+        names = os.listdir(directory)
+    except OSError:
+        return
+    for name in names:
+        m = _PART.match(name)
+        if m is None or _alive(int(m.group(1))):
+            continue
+        with contextlib.suppress(OSError):
+            os.unlink(os.path.join(directory, name))
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError, OSError):
+        return True
+    return True
 
 
 def _default_mode() -> int:

@@ -29,7 +29,7 @@ import zlib
 from collections.abc import Iterator
 from typing import BinaryIO, NamedTuple
 
-from ..errors import ChecksumError, FormatError, LimitError
+from ..errors import ChecksumError, FormatError, LimitError, OptionError
 
 __all__ = [
     "MAGIC",
@@ -106,7 +106,7 @@ def _dump_json(obj: dict, what: str) -> bytes:
             obj, sort_keys=True, separators=(",", ":"), ensure_ascii=False, allow_nan=False
         )
     except (TypeError, ValueError) as e:
-        raise ValueError(f"expected a JSON-serialisable {what}: {e}") from None
+        raise OptionError(f"expected a JSON-serialisable {what}: {e}") from None
     return text.encode("utf-8")
 
 
@@ -206,14 +206,14 @@ class Writer:
         the index. A key already written raises ``ValueError``.
         """
         if self._closed:
-            raise ValueError("cannot write to a closed vpk Writer")
+            raise OptionError("cannot write to a closed vpk Writer")
         t, node = int(t), int(node)
         if not 0 <= t <= _MAX_T:
-            raise ValueError(f"expected t in 0..{_MAX_T}, found {t}")
+            raise OptionError(f"expected t in 0..{_MAX_T}, found {t}")
         if not 0 <= node <= _MAX_NODE:
-            raise ValueError(f"expected node in 0..{_MAX_NODE}, found {node}")
+            raise OptionError(f"expected node in 0..{_MAX_NODE}, found {node}")
         if (t, node) in self._keys:
-            raise ValueError(f"chunk (t={t}, node={node}) was already written")
+            raise OptionError(f"chunk (t={t}, node={node}) was already written")
         data = memoryview(payload).cast("B")
         pcrc = _crc(data)
         body = _RECORD_BODY.pack(RECORD_MAGIC, t, node, data.nbytes, pcrc)

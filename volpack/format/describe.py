@@ -8,6 +8,7 @@ from typing import Any, BinaryIO
 import numpy as np
 
 from .container import Reader
+from .header import raw_nbytes
 from .streams import source_size
 
 
@@ -20,7 +21,7 @@ def describe(source: str | BinaryIO) -> dict[str, Any]:
         entries = r.entries
         sizes = np.array([e.nbytes for e in entries], dtype=np.int64)
         errors = np.array([e.error for e in entries], dtype=np.float64)
-        raw = int(np.prod(hdr.get("shape", [0]))) * np.dtype(hdr.get("dtype", "u1")).itemsize
+        raw = raw_nbytes(hdr)
         file_size = source_size(source)
         return {
             "format": "vpk",

@@ -60,10 +60,7 @@ def check_voxels(shape: tuple[int, ...], max_voxels: int, where: str) -> None:
 def as_volume_array(arr: np.ndarray, meta: dict, where: str) -> np.ndarray:
     """Make ``arr`` 3-D or 4-D, native byte order, C-contiguous and of a supported type."""
     arr = np.asarray(arr)
-    if arr.dtype.kind == "b":
-        arr = arr.astype(np.uint8)
-        meta["converted_from"] = "bool"
-    elif arr.dtype.kind not in "iuf":
+    if arr.dtype.kind not in "biuf":  # bool stays bool: the codecs store it as it is
         raise FormatError(f"expected integer or float voxels in {where}, found dtype {arr.dtype}")
     while arr.ndim > 4 and arr.shape[-1] == 1:
         arr = arr[..., 0]

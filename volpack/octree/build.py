@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from .._jit import kernel
-from ..errors import FormatError
+from ..errors import FormatError, OptionError
 from ..metrics import psnr_from_sse, throughput
 from ..parallel import ordered_map, parse_workers
 from . import layout
@@ -72,7 +72,7 @@ def make_plan(
         if dtype.name not in WAVELET_DTYPES:
             raise FormatError(
                 f"a lossless octree takes {', '.join(WAVELET_DTYPES)} voxels, found {dtype}; "
-                "add --max-error for floats"
+                "add max_error= for floats"
             )
         info = np.iinfo(dtype)
         lo, hi = int(info.min), int(info.max)
@@ -80,7 +80,7 @@ def make_plan(
         from ..volume_codec.lossy import BoundedCodec
 
         if value_range is None:
-            raise ValueError("expected the value range for an error-bounded octree")
+            raise OptionError("expected the value range for an error-bounded octree")
         codec = BoundedCodec.plan(dtype, value_range[0], value_range[1], max_error)
         bounded = tuple(sorted(codec.get_config().items()))
         lo, hi = 0, int(np.iinfo(np.dtype(codec.qdtype)).max)

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import FormatError
+from ..errors import FormatError, OptionError
 from ..format.sections import put_section, take_section
 
 KIND = "octree"
@@ -58,7 +58,7 @@ class Geometry:
         if len(self.shape) != 3 or min(self.shape) < 1:
             raise FormatError(f"expected a 3-D shape of positive sizes, found {self.shape}")
         if not 2 <= self.block <= 1024:
-            raise ValueError(f"expected an octree block of 2..1024 voxels, found {self.block}")
+            raise OptionError(f"expected an octree block of 2..1024 voxels, found {self.block}")
 
     @property
     def depth(self) -> int:

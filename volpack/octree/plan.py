@@ -63,23 +63,39 @@ class Plan:
         }
 
     @classmethod
-    def from_header(cls, h: dict) -> Plan:
-        try:
-            o = h["octree"]
-            codec = h.get("codec")
-            return cls(
-                shape=tuple(int(n) for n in h["shape"]),  # type: ignore[arg-type]
-                dtype=np.dtype(h["dtype"]).newbyteorder("=").str,
-                block=int(o["block"]),
-                wavelet=str(o["wavelet"]),
-                coder=str(o["coder"]),
-                order=str(o["order"]),
-                work=np.dtype(o["work"]).str,
-                sb_levels=int(o["super_levels"]),
-                bounded=None if codec is None else tuple(sorted(codec.items())),
-            )
-        except (KeyError, TypeError, ValueError) as e:
-            raise FormatError(f"expected an octree header, found a bad one: {e!r}") from None
+    def from_header(cls, h: dict, max_voxels: int = 1 << 34) -> Plan:
+        """The plan a stored header describes, every field checked (a header is JSON
+        that may hold anything); the shape within ``max_voxels``."""
+        from ..format import header as hh
+        from ..volume_codec.codec import CODER_NAMES, ORDER_NAMES, WAVELET_NAMES
+        from ..volume_codec.registry import get_codec
+
+        o = hh.field(h, "octree")
+        codec = h.get("codec")
+        if codec is not None:
+            c = get_codec(codec)  # checks it
+            integer = hh.dtype(hh.field(h, "dtype")).kind in "iu"
+            if c.codec_id != "bounded" or c.integer != integer:
+                raise FormatError(f"expected a codec for {h['dtype']} voxels, found {codec!r:.80}")
+            bounded = tuple(sorted(codec.items()))
+        else:
+            bounded = None
+        plan = cls(
+            shape=hh.shape(hh.field(h, "shape"), "shape", (3,), max_voxels),  # type: ignore[arg-type]
+            dtype=hh.dtype(hh.field(h, "dtype")).newbyteorder("=").str,
+            block=hh.integer(hh.field(o, "block", "octree header"), "block", 2, 1024),
+            wavelet=hh.text(hh.field(o, "wavelet", "octree header"), "wavelet", WAVELET_NAMES),
+            coder=hh.text(hh.field(o, "coder", "octree header"), "coder", CODER_NAMES),
+            order=hh.text(hh.field(o, "order", "octree header"), "order", ORDER_NAMES),
+            work=hh.dtype(hh.field(o, "work", "octree header"), "work", "i").str,
+            sb_levels=hh.integer(
+                hh.field(o, "super_levels", "octree header"), "super_levels", 0, 64
+            ),
+            bounded=bounded,
+        )
+        if np.dtype(plan.work).name not in ("int32", "int64"):
+            raise FormatError(f"expected an int32 or int64 work dtype, found {plan.work!r}")
+        return plan
 
 
 def to_values(plan: Plan, a: np.ndarray) -> np.ndarray:

@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import FormatError
+from ..errors import FormatError, OptionError
 from . import layout
 from .plan import Plan, apply_corrections, decode_lowpass, to_values
 
@@ -55,21 +55,25 @@ class Octree:
     def __init__(
         self, source: Any, *, cache_bytes: int = DEFAULT_CACHE, on_damage: str = "raise"
     ) -> None:
+        from ..format import header as hh
         from ..format.container import Reader
 
         if on_damage not in ("raise", "approximate"):
-            raise ValueError(f"expected on_damage 'raise' or 'approximate', found {on_damage!r}")
+            raise OptionError(f"expected on_damage 'raise' or 'approximate', found {on_damage!r}")
         self._r = source if isinstance(source, Reader) else Reader(source)
         try:
             if self._r.header.get("kind") != layout.KIND:
                 raise FormatError(
                     f"expected an octree .vpk (kind {layout.KIND!r}), found kind "
-                    f"{self._r.header.get('kind')!r}; build one with --octree"
+                    f"{self._r.header.get('kind')!r}; build one with octree=True"
                 )
             if not self._r.seekable:
                 raise FormatError("expected a seekable octree file, found a stream")
             self.plan = Plan.from_header(self._r.header)
             self.geometry = self.plan.geometry
+            h = self._r.header
+            self.spacing = hh.vector(h.get("spacing", (1, 1, 1)), "spacing", 3, positive=True)
+            self.origin = hh.vector(h.get("origin", (0, 0, 0)), "origin", 3)
         except BaseException:
             self._r.close()
             raise
@@ -78,8 +82,6 @@ class Octree:
         self.depth = self.geometry.depth
         self.shape = self.plan.shape
         self.dtype = np.dtype(self.plan.dtype)
-        self.spacing = tuple(float(v) for v in self.header.get("spacing", (1, 1, 1)))
-        self.origin = tuple(float(v) for v in self.header.get("origin", (0, 0, 0)))
         self.on_damage = on_damage
         self.damaged: list[dict[str, Any]] = []
         self.cache_bytes = int(cache_bytes)
@@ -349,7 +351,7 @@ class Octree:
         from ..volume import Volume
 
         if interp not in ("nearest", "linear"):
-            raise ValueError(f"expected interp 'nearest' or 'linear', found {interp!r}")
+            raise OptionError(f"expected interp 'nearest' or 'linear', found {interp!r}")
         sel = [(int(lv), tuple(int(i) for i in b)) for lv, b in selection]
         if not sel:
             raise FormatError("expected a non-empty selection of nodes")

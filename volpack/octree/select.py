@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import FormatError
+from ..errors import FormatError, OptionError
 from . import layout
 from .reader import Octree, parse_region
 
@@ -43,10 +43,10 @@ def by_error(tree: Octree, bound: float, roi=None) -> list[Node]:
     """The coarsest nodes whose largest deviation from the input (``maxdev``) is at most
     ``bound``; refining down to level 0 where nothing coarser qualifies."""
     if not bound >= 0:
-        raise ValueError(f"expected an error bound >= 0, found {bound!r}")
+        raise OptionError(f"expected an error bound >= 0, found {bound!r}")
     finest = float(tree.summary.get("max_error") or 0.0)
     if bound < finest:
-        raise ValueError(
+        raise OptionError(
             f"expected an error bound of at least {finest:g} (the full-resolution level of "
             f"this lossy file is only within that), found {bound:g}"
         )

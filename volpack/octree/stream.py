@@ -8,9 +8,7 @@ from __future__ import annotations
 import time
 from typing import Any, BinaryIO, NamedTuple
 
-import numpy as np
-
-from ..errors import FormatError
+from ..errors import FormatError, OptionError
 from ..format.describe import describe
 from ..volume import Volume
 from . import layout
@@ -43,9 +41,9 @@ def compress(
     if unknown:
         raise TypeError(f"compress() of an octree got unexpected options {unknown}")
     if given:
-        raise ValueError(f"octrees take max_error or nothing (lossless), found {', '.join(given)}")
+        raise OptionError(f"octrees take max_error or nothing (lossless), found {', '.join(given)}")
     if target == "-":
-        raise ValueError("an octree is written to a seekable file, not '-'")
+        raise OptionError("an octree is written to a seekable file, not '-'")
     if isinstance(source, str):
         from ..io import parse_spec
         from .source import SourceSpec
@@ -85,7 +83,7 @@ def decode(
     from .select import by_error
 
     if error is not None and level is not None:
-        raise ValueError("expected level or error, found both")
+        raise OptionError("expected level or error, found both")
     t0 = time.perf_counter()
     with Octree(source) as tree:
         if error is not None:
@@ -112,15 +110,15 @@ def check_header(hdr: dict, max_voxels: int = 1 << 40) -> dict:
 
     if hdr.get("kind") != KIND:
         raise FormatError(f"expected an octree header (kind {KIND!r}), found {hdr.get('kind')!r}")
-    plan = Plan.from_header(hdr)
-    if int(np.prod(plan.shape, dtype=np.float64)) > max_voxels:
-        raise FormatError(f"octree of shape {plan.shape} exceeds the limit of {max_voxels} voxels")
+    Plan.from_header(hdr, max_voxels)  # every field checked, the shape within the limit
     return hdr
 
 
 def info(source: str | BinaryIO) -> dict[str, Any]:
     """Describe an octree ``.vpk`` as the container sees it (header, chunks, sizes)."""
-    return describe(source)
+    d = describe(source)
+    check_header(d["header"])  # what info shows has been checked like what a decoder reads
+    return d
 
 
 def levels(source: Any) -> dict[str, Any]:

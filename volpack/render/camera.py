@@ -166,12 +166,27 @@ class Camera:
         if sp.size != 3 or not np.all(np.isfinite(sp)) or np.any(sp <= 0):
             raise VolpackError(f"expected three spacings > 0, found {tuple(spacing)}")
         centre_idx = (shape - 1) / 2 if self.look_at is None else np.array(self.look_at)
-        centre = centre_idx * sp
-        radius = 0.5 * float(np.linalg.norm(shape * sp))  # box [-0.5, n-0.5] half diagonal
-        if self.look_at is not None:  # keep the whole box in view around another centre
-            corners = np.array([[a, b, c] for a in (0, 1) for b in (0, 1) for c in (0, 1)])
-            corners = (corners * shape - 0.5) * sp
-            radius = float(np.max(np.linalg.norm(corners - centre, axis=1)))
-        origins, dirs = self.world_rays(centre, radius)
-        ref = float(sp.min())
-        return origins / sp, dirs * (ref / sp)
+        # Rays in index space depend on the spacing's ratios only: an extreme spacing is
+        # scaled into a range whose squares stay finite (the camera distance with it).
+        unit = float(sp.max()) if not 1e-100 < sp.max() < 1e100 else 1.0
+        cam = self
+        if unit != 1.0:
+            sp = sp / unit
+            if self.distance is not None:
+                cam = dataclasses.replace(self, distance=self.distance / unit)
+        with np.errstate(over="ignore", invalid="ignore"):  # still too large: checked below
+            centre = centre_idx * sp
+            radius = 0.5 * float(np.linalg.norm(shape * sp))  # box [-0.5, n-0.5] half diagonal
+            if self.look_at is not None:  # keep the whole box in view around another centre
+                corners = np.array([[a, b, c] for a in (0, 1) for b in (0, 1) for c in (0, 1)])
+                corners = (corners * shape - 0.5) * sp
+                radius = float(np.max(np.linalg.norm(corners - centre, axis=1)))
+            origins, dirs = cam.world_rays(centre, radius)
+            ref = float(sp.min())
+            origins, dirs = origins / sp, dirs * (ref / sp)
+        if not (np.isfinite(origins).all() and np.isfinite(dirs).all()):
+            raise VolpackError(
+                f"cannot place the camera: the volume's extent (shape {tuple(shape_zyx)} times "
+                f"spacing {tuple(spacing)}) overflows float64"
+            )
+        return origins, dirs

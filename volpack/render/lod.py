@@ -144,8 +144,13 @@ def render_lod(
 
 
 def tree_range(tree) -> tuple[float, float]:
-    vr = tree.summary.get("value_range") if tree.summary else None
-    if vr is not None and len(vr) == 2:
-        return float(vr[0]), float(vr[1])
+    from ..format.header import recorded_range
+    from .transfer import nonempty_range
+
+    vr = recorded_range(tree.summary)
+    dt = np.dtype(tree.dtype)
+    top = np.iinfo(dt) if dt.kind in "iu" else np.finfo(dt)
+    if vr is not None and top.min <= vr[0] and vr[1] <= top.max:  # else measured below
+        return nonempty_range(*vr)
     root = tree.decode(tree.depth).data
     return float(root.min()), float(root.max())

@@ -99,6 +99,7 @@ from ..errors import VolpackError
 from ..parallel import ordered_map, parse_workers
 from .camera import Camera
 from .prepared import prepare_volume, unpack_volume
+from .transfer import nonempty_range
 
 log = logging.getLogger(__name__)
 
@@ -413,7 +414,7 @@ def _ray_span(oz, oy, ox, dz, dy, dx, nz, ny, nx, vscale, step):
     tnear, tfar = _box_hit(oz, oy, ox, dz, dy, dx, nz, ny, nx)
     if tnear < 0.0:
         tnear = 0.0
-    if not tfar > tnear:
+    if not (tfar > tnear and tfar < np.inf):  # NaN or unbounded rays index nothing
         return tnear, tfar, 0, 0.0, 0.0, 0.0
     vz, vy, vx = -dz * vscale[0], -dy * vscale[1], -dx * vscale[2]
     vn = math.sqrt(vz * vz + vy * vy + vx * vx)
@@ -1024,8 +1025,7 @@ def render(
         lo, hi = (float(v) for v in value_range)
         if not (math.isfinite(lo) and math.isfinite(hi)):
             raise VolpackError(f"expected a finite value range, found {value_range}")
-    if hi <= lo:
-        hi = lo + 1.0
+    lo, hi = nonempty_range(lo, hi)
     scale = (n - 1) / (hi - lo)
 
     # tables

@@ -36,6 +36,7 @@ from ..errors import VolpackError
 from ..parallel import parse_workers
 from .camera import Camera
 from .preint import extinction, prefix_integrals
+from .transfer import nonempty_range
 
 TILE = 8
 # face k of a tetrahedron is the one opposite vertex k
@@ -131,8 +132,7 @@ def render_mesh(
         lo, hi = float(vals[used].min()), float(vals[used].max())
     else:
         lo, hi = (float(v) for v in value_range)
-    if hi <= lo:
-        hi = lo + 1.0
+    lo, hi = nonempty_range(lo, hi)
     n = int(table_size)
     base = transfer_table(tf, lo, hi, n).astype(np.float64)
     tau = extinction(base[:, 3])

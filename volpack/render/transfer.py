@@ -302,6 +302,16 @@ def load_tf(spec: str, lo: float, hi: float, *, dtype=None) -> TransferFunction:
 # -- validation ------------------------------------------------------------------------
 
 
+def nonempty_range(lo: float, hi: float) -> tuple[float, float]:
+    """``(lo, hi)`` widened where needed so that ``hi - lo`` is positive: a constant
+    volume, or values so large that ``lo + 1 == lo`` (a table spans ``hi - lo``)."""
+    lo, hi = float(lo), float(hi)
+    if hi - lo > max(1e-300, max(abs(lo), abs(hi)) * 2.0**-50):  # n / (hi - lo) is finite
+        return lo, hi
+    d = max(1.0, abs(lo) * 2.0**-20)
+    return (lo, lo + d) if math.isfinite(lo + d) else (lo - d, lo)
+
+
 def _check_range(lo, hi) -> tuple[float, float]:
     try:
         lo, hi = float(lo), float(hi)

@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._jit import kernel
-from ..errors import FormatError
+from ..errors import FormatError, OptionError
 from . import packages as pk
 from .packages import from_ordered_bits, ordered_bits
 
@@ -103,7 +103,7 @@ def decode_attribute(data: bytes, meta: dict, refs: np.ndarray) -> np.ndarray:
         ncomp = int(np.prod(shape, dtype=np.int64))
         if ncomp < 1 or ncomp > 1 << 16:
             raise ValueError(shape)
-    except (KeyError, TypeError, ValueError) as e:
+    except (KeyError, TypeError, ValueError, OverflowError) as e:
         raise FormatError(f"bad attribute parameters in the mesh header: {e!r}") from None
     r = _check_refs(refs, len(refs))
     n = len(r)
@@ -154,7 +154,7 @@ def _width(meta: dict, dtype: np.dtype, vals: np.ndarray) -> int:
 def _bounded(flat: np.ndarray, max_error: float, meta: dict) -> np.ndarray | None:
     """Quantise with a checked bound; ``None`` when that cannot work (then: exact)."""
     if max_error < 0 or not np.isfinite(max_error):
-        raise ValueError(f"expected a finite max error >= 0, found {max_error!r}")
+        raise OptionError(f"expected a finite max error >= 0, found {max_error!r}")
     x = flat.astype(np.float64)
     if not np.isfinite(x).all():
         raise FormatError(

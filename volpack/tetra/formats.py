@@ -164,7 +164,13 @@ def from_meshio(m, *, tetrahedralize: bool = False, source: str = "mesh") -> Tet
             t, src = _split_cells(kind, data, points)
         tets.append(t)
         rows.append((bi, src))
-    tets_all = np.concatenate(tets) if tets else np.empty((0, 4), dtype=np.int64)
+    if not blocks or not sum(len(t) for t in tets):
+        found = ", ".join(sorted(dropped)) or "no cells"
+        raise FormatError(
+            f"{source}: expected a volume mesh with tetrahedra (or cells to split into them), "
+            f"found {found}; volpack codes tetrahedral meshes only"
+        )
+    tets_all = np.concatenate(tets)
     for name, per_block in (m.cell_data or {}).items():
         parts = []
         for bi, src in rows:

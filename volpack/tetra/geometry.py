@@ -63,7 +63,7 @@ import math
 import numpy as np
 
 from .._jit import kernel, leading_zeros
-from ..errors import FormatError
+from ..errors import FormatError, OptionError
 from . import packages as pk
 from .mesh import FACES
 from .packages import from_ordered_bits, ordered_bits
@@ -130,7 +130,7 @@ def encode_geometry(
     """
     pts = np.ascontiguousarray(points)
     if pts.dtype not in (np.float32, np.float64) or pts.ndim != 2 or pts.shape[1] != 3:
-        raise ValueError(
+        raise OptionError(
             f"expected float32/float64 points of shape (nv, 3), found {pts.dtype} {pts.shape}"
         )
     nv = len(pts)
@@ -144,11 +144,11 @@ def encode_geometry(
         origin, step = np.zeros(3), 1.0
     else:
         if not 1 <= int(bits) <= 30:
-            raise ValueError(f"expected --bits in 1..30, found {bits!r}")
+            raise OptionError(f"expected bits in 1..30, found {bits!r}")
         if nv and not np.isfinite(pts).all():
             raise FormatError(
                 "vertex coordinates hold NaN or Inf: expected finite values for quantisation "
-                "(use --lossless-geometry)"
+                "(use lossless_geometry=True)"
             )
         p64 = pts.astype(np.float64)
         origin = p64.min(axis=0) if nv else np.zeros(3)

@@ -34,7 +34,7 @@ from typing import Any, BinaryIO
 import numpy as np
 
 from .. import __version__
-from ..errors import FormatError, LimitError
+from ..errors import FormatError, LimitError, OptionError
 from ..format.checked import CheckedReader
 from .mesh import TetMesh, validate
 
@@ -122,8 +122,8 @@ def compress_mesh(
     names = set(mesh.point_data) | set(mesh.cell_data)
     unknown = sorted(set(attr_error) - names)
     if unknown:
-        raise ValueError(
-            f"--attr-error names {unknown}, expected fields of the mesh: {sorted(names) or 'none'}"
+        raise OptionError(
+            f"attr_error names {unknown}, expected fields of the mesh: {sorted(names) or 'none'}"
         )
     t0 = time.perf_counter()
     nv, nt = mesh.n_vertices, mesh.n_tets
@@ -355,6 +355,13 @@ def info(source: str | BinaryIO) -> dict[str, Any]:
     return mesh_info(source)
 
 
+def _get(d: Any, *keys: str) -> Any:
+    """``d[k1][k2]...`` of a JSON summary, None where a level is missing or no object."""
+    for k in keys:
+        d = d.get(k) if isinstance(d, dict) else None
+    return d
+
+
 def mesh_info(source: str | BinaryIO) -> dict[str, Any]:
     """Describe a mesh ``.vpk`` (a path or a seekable binary file: sizes, bits per tet
     and per vertex, fields) as JSON types."""
@@ -378,9 +385,7 @@ def mesh_info(source: str | BinaryIO) -> dict[str, Any]:
             "mode": f["mode"],
             "nbytes": nb,
             "bits_per_value": 8 * nb / n if n else 0.0,
-            "max_error": (summary.get("fields") or {})
-            .get(f"{f['where']}:{f['name']}", {})
-            .get("max_error"),
+            "max_error": _get(_get(summary, "fields"), f"{f['where']}:{f['name']}", "max_error"),
         }
     conn, gbytes = sizes.get(NODE_CONNECTIVITY, 0), sizes.get(NODE_GEOMETRY, 0)
     return {
@@ -400,7 +405,7 @@ def mesh_info(source: str | BinaryIO) -> dict[str, Any]:
             "mode": geo["mode"],
             "dtype": geo["dtype"],
             "bits": geo.get("bits"),
-            "max_error": summary.get("geometry_max_error"),
+            "max_error": _get(summary, "geometry_max_error"),
         },
         "keep_order": hdr["keep_order"],
         "rows": hdr["rows"],
@@ -410,6 +415,9 @@ def mesh_info(source: str | BinaryIO) -> dict[str, Any]:
 
 def check_header(hdr: dict, max_tets: int = DEFAULT_MAX_TETS) -> dict:
     """Validate a mesh header (kind, counts within limits, fields); return it."""
+    from ..format import header as h
+    from .geometry import MODES
+
     if hdr.get("kind") != KIND_MESH:
         raise FormatError(
             f"expected a volpack mesh header (kind 'mesh'), found kind {hdr.get('kind')!r}"
@@ -417,15 +425,21 @@ def check_header(hdr: dict, max_tets: int = DEFAULT_MAX_TETS) -> dict:
     try:
         nv, nt = int(hdr["vertices"]), int(hdr["tets"])
         geo = dict(hdr["geometry"])
+        if not isinstance(geo["mode"], str) or geo["mode"] not in MODES:
+            raise ValueError(f"geometry mode {geo['mode']!r}")
+        h.dtype(geo["dtype"], "geometry dtype", "f")
         fields = [dict(f) for f in hdr["fields"]]
         for f in fields:
             if f["where"] not in ("point", "cell") or not isinstance(f["name"], str):
                 raise ValueError(f)
+            if f["mode"] not in ("exact", "bounded") or not isinstance(f["shape"], list):
+                raise ValueError(f)
+            h.dtype(f["dtype"], "field dtype")
             f["node"] = int(f["node"])
         keep = bool(hdr.get("keep_order", False))
         rows = str(hdr.get("rows", "oriented" if hdr.get("oriented") else "parity"))
-    except (KeyError, TypeError, ValueError) as e:
-        raise FormatError(f"bad mesh header: {e!r}") from None
+    except (KeyError, TypeError, ValueError, OverflowError) as e:  # FormatError is a ValueError
+        raise FormatError(f"bad mesh header: {e}") from None
     if rows not in ROWS:
         raise FormatError(f"bad mesh header: rows {rows!r}, expected one of {list(ROWS)}")
     if hdr.get("format") != FORMAT:

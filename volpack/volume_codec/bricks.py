@@ -12,7 +12,7 @@ from collections.abc import Iterator
 
 import numpy as np
 
-from ..errors import FormatError
+from ..errors import FormatError, OptionError
 
 DEFAULT_BRICK = 64
 # Scan tables index a brick's coefficients with 32-bit integers.
@@ -42,11 +42,11 @@ def parse_brick(value: int | tuple[int, ...] | list[int]) -> tuple[int, int, int
     else:
         t = tuple(int(v) for v in value)
     if len(t) != 3 or min(t) < 1 or max(t) > 4096:
-        raise ValueError(
+        raise OptionError(
             f"expected a brick size of 1..4096 per axis (one number or z,y,x), found {value!r}"
         )
     if math.prod(t) > MAX_BRICK_VOXELS:
-        raise ValueError(
+        raise OptionError(
             f"expected a brick of at most {MAX_BRICK_VOXELS} voxels (1024^3), found {t}"
         )
     return t  # type: ignore[return-value]
@@ -91,7 +91,7 @@ def bricks_in_roi(
     for s, b, n, gn in zip(roi, brick, shape[-3:], g):
         start, stop, step = s.indices(n)
         if step != 1:
-            raise ValueError(f"expected a region with step 1, found {s}")
+            raise OptionError(f"expected a region with step 1, found {s}")
         if stop <= start:
             return []
         ranges.append(range(start // b, min(gn, (stop - 1) // b + 1)))

@@ -32,7 +32,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from ..errors import FormatError
+from ..errors import FormatError, OptionError
 from ..format.deflate import LEVEL as ZSTD_LEVEL
 from ..format.deflate import inflate
 from .protocol import (
@@ -85,7 +85,7 @@ class WaveletCodec(BrickCodec):
         check_choice("coder", self.coder, CODER_NAMES)
         check_choice("order", self.order, ORDER_NAMES)
         if self.max_levels is not None and not (0 <= int(self.max_levels) <= 16):
-            raise ValueError(f"expected max_levels in 0..16, found {self.max_levels!r}")
+            raise OptionError(f"expected max_levels in 0..16, found {self.max_levels!r}")
 
     def _plan(self, shape: tuple[int, ...], dtype: np.dtype):
         from ..wavelet import dwt3
@@ -102,7 +102,7 @@ class WaveletCodec(BrickCodec):
         brick = np.asarray(brick)
         check_wavelet_dtype(brick.dtype)
         if brick.ndim != 3:
-            raise ValueError(f"expected a 3-D brick, found shape {brick.shape}")
+            raise OptionError(f"expected a 3-D brick, found shape {brick.shape}")
         value = constant_value(brick)
         if value is not None:
             return bytes([MODE_CONSTANT]) + value
@@ -201,9 +201,9 @@ def check_wavelet_dtype(dtype: np.dtype) -> None:
         if np.dtype(dtype).kind == "f":
             raise FormatError(
                 f"the lossless wavelet codec takes integer voxels, found {np.dtype(dtype)}; "
-                "use --max-error for error-bounded float coding, or --codec zstd to store floats exactly"
+                "use max_error= for error-bounded float coding, or codec='zstd' to store floats exactly"
             )
         raise FormatError(
             f"the wavelet codec takes {', '.join(WAVELET_DTYPES)} voxels, found {np.dtype(dtype)}; "
-            "use --codec zstd for this dtype"
+            "use codec='zstd' for this dtype"
         )

@@ -12,11 +12,12 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import math
 from typing import Any, ClassVar
 
 import numpy as np
 
-from ..errors import FormatError
+from ..errors import FormatError, OptionError
 from .codec import CODER_NAMES, MODE_CODED, MODE_CONSTANT
 from .protocol import BrickCodec, Measured, check_choice, constant_value, from_stored
 
@@ -37,7 +38,13 @@ class FloatWaveletCodec(BrickCodec):
         check_choice("wavelet", self.wavelet, tuple(FLOAT_WAVELETS))
         check_choice("coder", self.coder, CODER_NAMES)
         if (self.quality is None) == (self.step is None):
-            raise ValueError("expected exactly one of quality and step")
+            raise OptionError("expected exactly one of quality and step")
+        if self.quality is not None and not 1 <= int(self.quality) <= 65535:
+            raise OptionError(f"expected a quality in 1..65535, found {self.quality!r}")
+        if self.step is not None and not 0 < self.step < math.inf:
+            raise OptionError(f"expected a positive finite step, found {self.step!r}")
+        if not 0 <= self.value_range < math.inf:
+            raise OptionError(f"expected a finite value_range >= 0, found {self.value_range!r}")
 
     @property
     def _delta(self) -> float:
@@ -53,7 +60,7 @@ class FloatWaveletCodec(BrickCodec):
 
         x = np.ascontiguousarray(brick)
         if x.dtype.kind == "f" and not np.isfinite(x).all():
-            raise ValueError("float wavelets take finite voxels; use --max-error for NaN/Inf")
+            raise OptionError("float wavelets take finite voxels; use max_error= for NaN/Inf")
         value = constant_value(x)
         if value is not None:
             return Measured(bytes([MODE_CONSTANT]) + value, 0.0, 0.0, x.size)

@@ -28,7 +28,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from ..errors import FormatError
+from ..errors import FormatError, OptionError
 from . import palette as pal
 from .codec import (
     MODE_CONSTANT,
@@ -87,7 +87,7 @@ class LosslessCodec(BrickCodec):
         brick = np.asarray(brick)
         check_dtype(brick.dtype)
         if brick.ndim != 3:
-            raise ValueError(f"expected a 3-D brick, found shape {brick.shape}")
+            raise OptionError(f"expected a 3-D brick, found shape {brick.shape}")
         raw = _as_stored(brick)
         flat = brick.reshape(-1)
         bits = flat.view(f"u{brick.itemsize}")

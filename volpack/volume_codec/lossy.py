@@ -29,7 +29,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from ..errors import FormatError
+from ..errors import FormatError, OptionError
 from ..format.deflate import deflate, inflate
 from ..format.sections import put_section, take_section
 from .codec import (
@@ -91,15 +91,15 @@ class BoundedCodec(BrickCodec):
     def plan(cls, dtype: Any, lo: float, hi: float, max_error: float, **inner: Any) -> BoundedCodec:
         dtype = np.dtype(dtype)
         if not (max_error > 0 and math.isfinite(max_error)):
-            raise ValueError(f"expected a positive finite error bound, found {max_error!r}")
+            raise OptionError(f"expected a positive finite error bound, found {max_error!r}")
         integer = dtype.kind in "iu"
         if integer and dtype.itemsize > 4:
-            raise ValueError(
+            raise OptionError(
                 f"error-bounded coding takes 8 to 32-bit integers or floats, found {dtype}; "
                 "64-bit integers are stored exactly by the lossless path"
             )
         if integer:
-            e = math.floor(max_error)
+            e = min(math.floor(max_error), 2**31)  # past any 32-bit range: one bin either way
             step = 2 * e + 1
             qmax = (hi - lo + e) // step
         else:
@@ -110,7 +110,7 @@ class BoundedCodec(BrickCodec):
             if qmax <= np.iinfo(qd).max:
                 break
         else:
-            raise ValueError(
+            raise OptionError(
                 f"the bound {max_error:g} is too small for the value range {lo:g}..{hi:g}: "
                 "it needs more than 2^31 quantisation levels; raise the bound or store the "
                 "volume losslessly"
@@ -127,6 +127,23 @@ class BoundedCodec(BrickCodec):
 
     def __post_init__(self) -> None:
         _check_inner(self)
+        # what the quantiser's arithmetic needs (a stored config may hold anything)
+        if self.qdtype not in ("uint8", "uint16", "int32"):
+            raise OptionError(f"expected qdtype uint8, uint16 or int32, found {self.qdtype!r}")
+        finite = (self.max_error, self.lo, self.step, self.value_range)
+        if not all(math.isfinite(v) for v in finite):
+            raise OptionError(
+                f"expected finite max_error, lo, step and value_range, found {finite}"
+            )
+        if not (self.max_error > 0 and self.step > 0):
+            raise OptionError(f"expected a positive bound and step, found {finite[:3]}")
+        if self.integer and not (
+            abs(self.lo) < 2**53 and self.step < 2**33 and self.step == int(self.step)
+            and self.lo == int(self.lo)
+        ):  # fmt: skip
+            raise OptionError(f"expected an integer lo and step, found {self.lo}, {self.step}")
+        if self.fill is not None and not math.isfinite(self.fill):
+            raise OptionError(f"expected a finite fill value, found {self.fill!r}")
 
     def _inner(self) -> WaveletCodec:
         return WaveletCodec(self.wavelet, self.coder, self.order, self.max_levels)
@@ -487,13 +504,15 @@ class CoefCodec(BrickCodec):
     def __post_init__(self) -> None:
         _check_inner(self)
         if sum(v is not None for v in (self.quality, self.threshold, self.step)) != 1:
-            raise ValueError("expected exactly one of quality, threshold and step")
+            raise OptionError("expected exactly one of quality, threshold and step")
         if self.step is not None and not (self.step > 0 and math.isfinite(self.step)):
-            raise ValueError(f"expected a positive step, found {self.step!r}")
+            raise OptionError(f"expected a positive step, found {self.step!r}")
         if self.quality is not None and not 1 <= int(self.quality) <= 65535:
-            raise ValueError(f"expected a quality in 1..65535, found {self.quality!r}")
-        if self.threshold is not None and not (self.threshold >= 0):
-            raise ValueError(f"expected a threshold >= 0, found {self.threshold!r}")
+            raise OptionError(f"expected a quality in 1..65535, found {self.quality!r}")
+        if self.threshold is not None and not (0 <= self.threshold < math.inf):
+            raise OptionError(f"expected a finite threshold >= 0, found {self.threshold!r}")
+        if not (0 <= self.value_range < 2**53):
+            raise OptionError(f"expected a finite value_range >= 0, found {self.value_range!r}")
 
     def _steps(self, shape, levels) -> np.ndarray:
         scale = band_scale(tuple(shape), tuple(levels)).reshape(shape)

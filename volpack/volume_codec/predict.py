@@ -50,7 +50,7 @@ from ..entropy.rangecoder import get as _get
 from ..entropy.rangecoder import pull as _pull
 from ..entropy.rangecoder import push as _push
 from ..entropy.rangecoder import put as _put
-from ..errors import FormatError
+from ..errors import FormatError, OptionError
 
 NPRED = 6
 NACT = 48  # activity classes
@@ -375,9 +375,9 @@ def encode(values: np.ndarray, lo: int, hi: int) -> bytes:
     2^32 values, so every residual and weighted sum fits 64 bits)."""
     v = np.ascontiguousarray(values, dtype=np.int64)
     if v.ndim != 3:
-        raise ValueError(f"expected a 3-D array, found shape {v.shape}")
+        raise OptionError(f"expected a 3-D array, found shape {v.shape}")
     if not (lo <= hi and hi - lo < (1 << 32)):
-        raise ValueError(f"expected a value range of at most 2^32, found [{lo}, {hi}]")
+        raise OptionError(f"expected a value range of at most 2^32, found [{lo}, {hi}]")
     shape = np.array(v.shape, dtype=np.int64)
     flat = v.reshape(-1)
     for per_voxel in (2, 20):

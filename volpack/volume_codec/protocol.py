@@ -17,7 +17,7 @@ from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
 
-from ..errors import FormatError
+from ..errors import FormatError, OptionError
 
 
 class Measured(NamedTuple):
@@ -57,9 +57,12 @@ class BrickCodec:
         codec_id = config.pop("id", cls.codec_id)
         if codec_id != cls.codec_id:
             raise FormatError(f"expected codec id {cls.codec_id!r}, found {codec_id!r}")
+        from ..format.header import dataclass_config
+
+        dataclass_config(cls, config, f"config for codec {cls.codec_id!r}")
         try:
             return cls(**config)
-        except TypeError as e:
+        except (TypeError, ValueError, ArithmeticError) as e:  # OptionError from the checks too
             raise FormatError(f"bad config for codec {cls.codec_id!r}: {e}") from None
 
     def _key(self) -> str:
@@ -107,4 +110,4 @@ def constant_value(brick: np.ndarray) -> bytes | None:
 
 def check_choice(name: str, value: Any, allowed: tuple[str, ...]) -> None:
     if value not in allowed:
-        raise ValueError(f"expected {name} in {allowed}, found {value!r}")
+        raise OptionError(f"expected {name} in {allowed}, found {value!r}")

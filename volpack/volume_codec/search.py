@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import OptionError
 from ..metrics import psnr_from_sse
 from ..parallel import ordered_map
 from ..volume import Volume
@@ -59,7 +60,7 @@ def plan(
     ((what, target),) = asked.items()
     dtype = vol.dtype
     if dtype.kind not in "iuf":
-        raise ValueError(f"expected integer or float voxels, found {dtype}")
+        raise OptionError(f"expected integer or float voxels, found {dtype}")
     lo, hi = value_range(vol.data, fill_value)
     rng = hi - lo
     inner = {k: v for k, v in inner.items() if v is not None}
@@ -67,12 +68,12 @@ def plan(
         return _plan_float_wavelet(vol, brick, workers, what, target, fill_value, inner, rng)
     if what in ("quality", "threshold"):
         if dtype.kind == "f" or fill_value is not None:
-            raise ValueError(
-                f"--{what} works on integer volumes without a fill value; use --max-error "
-                f"(or --rel-error, --psnr, --ratio) for {dtype} data"
+            raise OptionError(
+                f"{what}= works on integer volumes without a fill value; use max_error= "
+                f"(or rel_error=, psnr=, ratio=) for {dtype} data"
             )
         if dtype.itemsize > 4:
-            raise ValueError(f"--{what} takes 8 to 32-bit integers, found {dtype}")
+            raise OptionError(f"{what}= takes 8 to 32-bit integers, found {dtype}")
         return CoefCodec(value_range=max(rng, 1.0), **{what: target}, **inner), None
 
     def bounded(e: float) -> BoundedCodec:
@@ -81,23 +82,21 @@ def plan(
     if what in ("max_error", "rel_error"):
         e = float(target) * (rng if what == "rel_error" else 1.0)
         if not (e >= 0 and math.isfinite(e)):
-            raise ValueError(
-                f"expected a non-negative finite --{what.replace('_', '-')}, found {target!r}"
-            )
+            raise OptionError(f"expected a non-negative finite {what}, found {target!r}")
         if e == 0 and dtype.kind == "f":
-            raise ValueError(
+            raise OptionError(
                 "an error bound of 0 on float voxels is lossless coding: leave out the lossy "
                 "settings (floats are then stored exactly)"
             )
         return bounded(e if e > 0 else 0.25), None
     if what == "psnr":
         if not target > 0:
-            raise ValueError(f"expected a positive --psnr in dB, found {target!r}")
+            raise OptionError(f"expected a positive psnr in dB, found {target!r}")
     elif what == "ratio":
         if not target > 1:
-            raise ValueError(f"expected a --ratio above 1, found {target!r}")
+            raise OptionError(f"expected a ratio above 1, found {target!r}")
     else:
-        raise ValueError(f"unknown lossy setting {what!r}")
+        raise OptionError(f"unknown lossy setting {what!r}")
     if dtype.kind in "iu" and dtype.itemsize <= 4 and fill_value is None:
         # Integers: quantise the coefficients (a better PSNR per bit than a bound).
         def make(step: float) -> CoefCodec:
@@ -201,9 +200,9 @@ def _search(vol, brick, workers, what, target, make: Callable, rng: float, knob:
 def _plan_float_wavelet(vol, brick, workers, what, target, fill_value, inner, rng):
     """The PyWavelets comparison filters: quality, or a PSNR/ratio search of the step."""
     if what not in ("quality", "psnr", "ratio") or fill_value is not None:
-        raise ValueError(
-            f"the float wavelets {', '.join(FLOAT_WAVELETS)} take --quality, --psnr or --ratio "
-            "(no error bound, no fill value); use an integer wavelet for --max-error"
+        raise OptionError(
+            f"the float wavelets {', '.join(FLOAT_WAVELETS)} take quality=, psnr= or ratio= "
+            "(no error bound, no fill value); use an integer wavelet for max_error="
         )
     opts = {"wavelet": inner["wavelet"], "coder": inner.get("coder", "arith")}
     if what == "quality":

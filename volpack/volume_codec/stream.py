@@ -21,7 +21,7 @@ from typing import Any, BinaryIO
 import numpy as np
 
 from .. import __version__
-from ..errors import FormatError
+from ..errors import FormatError, OptionError
 from ..format.checked import CheckedReader
 from ..format.describe import describe
 from ..format.streams import stdin
@@ -60,14 +60,14 @@ def make_codec(codec: str = "auto", dtype: Any = None, **options: Any):
         from .floatwave import FLOAT_WAVELETS
 
         if options.get("wavelet") in FLOAT_WAVELETS:
-            raise ValueError(
+            raise OptionError(
                 f"the {options['wavelet']} wavelet is a float (lossy) filter for comparison: "
-                "add --quality, --psnr or --ratio, or pick 53, 26, haar or 97m for lossless"
+                "add quality=, psnr= or ratio=, or pick 53, 26, haar or 97m for lossless"
             )
         return WaveletCodec(**{k: v for k, v in options.items() if v is not None})
     if codec == "zstd":
         return ZstdCodec()
-    raise ValueError(f"expected codec 'auto', 'lossless', 'wavelet' or 'zstd', found {codec!r}")
+    raise OptionError(f"expected codec 'auto', 'lossless', 'wavelet' or 'zstd', found {codec!r}")
 
 
 def compress(
@@ -158,7 +158,7 @@ def compress(
     asked = {k: v for k, v in targets.items() if v is not None}
     if len(asked) > 1:
         found = ", ".join(f"{k}={v}" for k, v in sorted(asked.items()))
-        raise ValueError(f"expected at most one lossy setting, found {found}")
+        raise OptionError(f"expected at most one lossy setting, found {found}")
     if brick is None:
         bounded = bool(asked) and not ({"quality", "threshold"} & set(asked))
         brick = bricks.default_brick(vol.shape, vol.dtype, bounded)
@@ -353,7 +353,9 @@ def decompress(
 
 def info(source: str | BinaryIO) -> dict[str, Any]:
     """Describe a volume ``.vpk``: header, summary, sizes, ratio, chunks (JSON types)."""
-    return describe(source)
+    d = describe(source)
+    check_header(d["header"])  # what info shows has been checked like what a decoder reads
+    return d
 
 
 def check_header(hdr: dict, max_voxels: int = DEFAULT_MAX_VOXELS) -> dict:
@@ -362,17 +364,21 @@ def check_header(hdr: dict, max_voxels: int = DEFAULT_MAX_VOXELS) -> dict:
     need = ("shape", "dtype", "spacing", "origin", "brick", "codec")
     if hdr.get("kind") != KIND or any(k not in hdr for k in need):
         raise FormatError(f"expected a volpack volume header with {need}, found keys {sorted(hdr)}")
+    from ..format import header as h
+    from .registry import get_codec
+
+    shape = h.shape(hdr["shape"], "shape", (3, 4), max_voxels)
+    h.dtype(hdr["dtype"])
     try:
-        shape = tuple(int(n) for n in hdr["shape"])
-        np.dtype(hdr["dtype"])
         brick_t = bricks.parse_brick(hdr["brick"])
-    except (TypeError, ValueError) as e:
+    except (TypeError, ValueError, OverflowError) as e:
         raise FormatError(f"bad volume header: {e}") from None
-    if len(shape) not in (3, 4) or min(shape) < 1:
-        raise FormatError(f"expected a 3-D or 4-D shape of positive sizes, found {shape}")
-    if int(np.prod(shape, dtype=np.float64)) > max_voxels:
-        raise FormatError(f"volume of shape {shape} exceeds the limit of {max_voxels} voxels")
     hdr = dict(hdr)
+    hdr["spacing"] = h.vector(hdr["spacing"], "spacing", 3, positive=True)
+    hdr["origin"] = h.vector(hdr["origin"], "origin", 3)
+    if not isinstance(hdr.get("meta", {}), dict):
+        raise FormatError(f"expected meta as a JSON object, found {hdr['meta']!r:.60}")
+    get_codec(hdr["codec"])
     hdr["shape"], hdr["brick"] = shape, brick_t
     return hdr
 

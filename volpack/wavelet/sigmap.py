@@ -27,6 +27,7 @@ import numpy as np
 
 from .._jit import kernel
 from ..entropy.scan import Scan
+from ..errors import OptionError
 from .dwt3 import Band, subbands
 
 ORDERS = ("dfs", "line")
@@ -53,9 +54,9 @@ def scan(shape: tuple[int, ...], levels: tuple[int, ...], order: str = "dfs") ->
     shape = tuple(int(s) for s in shape)
     levels = tuple(int(v) for v in levels)
     if order not in ORDERS:
-        raise ValueError(f"expected order in {ORDERS}, found {order!r}")
+        raise OptionError(f"expected order in {ORDERS}, found {order!r}")
     if len(shape) != 3 or len(levels) != 3 or min(shape) < 1:
-        raise ValueError(f"expected a 3-D shape and 3 levels, found {shape} and {levels}")
+        raise OptionError(f"expected a 3-D shape and 3 levels, found {shape} and {levels}")
     nlev = max(levels)
     bands = sorted(subbands(shape, levels), key=lambda b: b.level)  # finest first
     key = {(b.level, b.bits): b for b in bands}

@@ -1,0 +1,428 @@
+"""Mutation fuzzer: damaged ``.vpk`` streams through every decode path of the CLI.
+
+Every stream kind has a seed (the golden examples in ``formats/examples/``, plus a float
+volume with NaN made here). Each mutant is one of
+
+* ``raw``: bytes flipped, set, inserted, deleted or cut off anywhere in the file;
+* ``payload``: one chunk's payload changed, then the file rewritten so that every
+  checksum matches again (what a decoder sees when damage passes the CRCs);
+* ``header``: one field of the JSON header (or summary) replaced by another type or an
+  extreme value, or removed, checksums recomputed,
+
+and runs through one decode path of its kind (``decompress``, ``--roi``, ``--frame``,
+``--level``, ``--error``, ``info``, ``render``, ``play``, ``walk``, standard input) in a
+forked child of a warmed-up worker, with an address-space limit (``RLIMIT_AS``) and a
+wall-clock limit. Outcomes:
+
+* ``error``: exit 1 with a one-line ``volpack: error:`` (what damage must give);
+* ``same``: decoded, output identical to the undamaged stream's;
+* ``silent``: decoded without error to a different output (damage accepted silently);
+* ``internal`` (exit 3: an exception volpack did not raise on purpose), ``signal``,
+  ``timeout``, ``usage`` (exit 2) and ``other``: failures; their files are kept under
+  ``OUT/failures/`` with the command line and the error text.
+
+Writes ``OUT/summary.csv`` (one row per kind and mutation) and prints a markdown table.
+
+    python scripts/fuzz.py --count 2000                  # results/fuzz/
+    python scripts/fuzz.py --count 100000 --seed 7 --workers 2 --out /tmp/fuzz
+    python scripts/fuzz.py --seconds 50 --seed 1 --out /tmp/f   # what tests/test_fuzz.py runs
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import copy
+import csv
+import hashlib
+import io
+import os
+import pathlib
+import random
+import resource
+import signal
+import sys
+import time
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+EXAMPLES = ROOT / "formats" / "examples"
+
+VOLUME_PATHS = ("decompress", "roi", "info", "render", "stdin")
+KINDS = {
+    "arith": ("wavelet-53-arith-dfs-u8.vpk", VOLUME_PATHS),
+    "huffman": ("wavelet-53-huffman-dfs-i16.vpk", VOLUME_PATHS),
+    "lossy-nan": (None, VOLUME_PATHS),
+    "animation": (
+        "animation-ibbp-bounded-u8.vpk",
+        ("decompress", "frame", "info", "play", "stdin"),
+    ),
+    "octree": ("octree-bounded-u8.vpk", ("decompress", "level", "error", "info", "walk", "render")),
+    "mesh": ("mesh-1-grid.vpk", ("decompress", "info", "render", "stdin")),
+}
+MODES = ("raw", "payload", "header")
+DECODES = ("decompress", "roi", "frame", "level", "error", "stdin")  # paths whose output is data
+FAILURES = ("internal", "signal", "timeout", "usage", "other")
+OUTCOMES = ("error", "same", "silent", *FAILURES)
+# values a header field is replaced by: other types, extremes, the empty and the absurd
+NASTY = [None, {}, [], "", "x", True, False, 0, -1, 1, 2, 3, 255, 65536, 2**31, 2**32 + 1,
+         2**63, -(2**63), 2**64, 10**30, 0.5, -0.5, 1e-308, 1e308, -1e308, 1.7e308, 1e200,
+         [0], [1, 2], [1, 2, 3], [2**31, 2**31, 2**31], [1e308, 1e308, 1e308], [None] * 3,
+         ["a", "b", "c"], {"id": "zstd"}, {"id": None}, [[1]], "uint8", "float64", "<f8", "|b1",
+         "V8", "O"]  # fmt: skip
+
+
+def make_lossy_nan(path: pathlib.Path) -> None:
+    """A float32 volume with NaN and Inf voxels, coded within an error bound."""
+    import numpy as np
+
+    from volpack import api
+
+    z, y, x = np.mgrid[:20, :18, :22].astype(np.float32)
+    a = np.sin(z / 3) * np.cos(y / 4) + x / 22
+    a[3, 4, 5] = np.nan
+    a[10, :, 7] = np.nan
+    a[15, 2, 2] = np.inf
+    api.compress(a.astype(np.float32), str(path), max_error=0.01, brick=16, force=True)
+
+
+def argv_for(kind: str, path: str, src: str, out: pathlib.Path) -> tuple[list[str], str | None]:
+    """The command line of one decode path, and the file it reads on standard input."""
+    dec = str(out / ("o.vtu" if kind == "mesh" else "o.npy"))
+    if path == "decompress":
+        return ["decompress", src, dec, "--force"], None
+    if path == "stdin":
+        return ["decompress", "-", dec, "--force"], src
+    if path == "roi":
+        return ["decompress", src, dec, "--force", "--roi", "2:9,0:7,3:12"], None
+    if path == "frame":
+        return ["decompress", src, dec, "--force", "--frame", "2"], None
+    if path == "level":
+        return ["decompress", src, dec, "--force", "--level", "1"], None
+    if path == "error":
+        return ["decompress", src, dec, "--force", "--error", "6"], None
+    if path == "info":
+        return ["info", src, "--json"], None
+    if path == "render":
+        return ["render", src, str(out / "o.png"), "--force", "--size", "24x24"], None
+    if path == "play":
+        return ["play", src, "--size", "16x16"], None
+    if path == "walk":
+        return ["walk", src, "--orbit", "2", "--budget", "16", "--size", "16x16"], None
+    raise ValueError(path)
+
+
+# -- mutations ------------------------------------------------------------------------
+
+
+def parse(blob: bytes):
+    from volpack.format.container import Reader
+
+    with Reader(blob) as r:
+        return dict(r.header), r.summary, [(t, n, r.read(t, n)) for t, n in r.keys()], r.entries
+
+
+def rebuild(header, summary, chunks, errors) -> bytes:
+    from volpack.format.container import Writer
+
+    buf = io.BytesIO()
+    w = Writer(buf, header)
+    for (t, n, p), e in zip(chunks, errors):
+        w.write(t, n, p, e)
+    w.close(summary)
+    return buf.getvalue()
+
+
+def mutate_bytes(rng: random.Random, b: bytes, ops: int) -> bytes:
+    x = bytearray(b)
+    for _ in range(ops):
+        if not x:
+            x.append(rng.randrange(256))
+            continue
+        op = rng.random()
+        i = rng.randrange(len(x))
+        if op < 0.35:
+            x[i] ^= 1 << rng.randrange(8)
+        elif op < 0.55:
+            x[i] = rng.choice((0, 0xFF, 0x7F, 0x80, rng.randrange(256)))
+        elif op < 0.65:
+            del x[i : i + rng.randint(1, 16)]
+        elif op < 0.75:
+            x[i:i] = bytes(rng.randrange(256) for _ in range(rng.randint(1, 16)))
+        elif op < 0.85:
+            del x[rng.randrange(len(x) + 1) :]
+        elif op < 0.95:
+            n = rng.randint(1, 8)
+            x[i : i + n] = bytes(n)
+        else:
+            j = rng.randrange(len(x))
+            n = rng.randint(1, 32)
+            x[i : i + n] = x[j : j + n]
+    return bytes(x)
+
+
+def _paths(obj, prefix=()):
+    yield prefix
+    if isinstance(obj, dict):
+        for k, v in obj.items():
+            yield from _paths(v, (*prefix, k))
+    elif isinstance(obj, list) and len(obj) <= 64:
+        for i, v in enumerate(obj):
+            yield from _paths(v, (*prefix, i))
+
+
+def mutate_field(rng: random.Random, doc: dict) -> dict:
+    doc = copy.deepcopy(doc)
+    paths = [p for p in _paths(doc) if p]
+    if not paths:
+        return {"x": rng.choice(NASTY)}
+    p = rng.choice(paths)
+    parent = doc
+    for k in p[:-1]:
+        parent = parent[k]
+    old = parent[p[-1]]
+    r = rng.random()
+    if r < 0.12 and isinstance(parent, dict):
+        del parent[p[-1]]
+    elif r < 0.4 and isinstance(old, (int, float)) and not isinstance(old, bool):
+        parent[p[-1]] = rng.choice(
+            (old * 2 ** rng.randint(8, 40), -old, old + 1, old - 1, old * 1e300, old / 1e300, 0)
+        )
+    else:
+        parent[p[-1]] = copy.deepcopy(rng.choice(NASTY))
+    return doc
+
+
+def mutant(rng: random.Random, mode: str, seed: bytes, parsed) -> bytes:
+    if mode == "raw":
+        return mutate_bytes(rng, seed, rng.choice((1, 1, 1, 2, 3, 8)))
+    header, summary, chunks, entries = parsed
+    errors = [e.error for e in entries]
+    if mode == "payload":
+        chunks = list(chunks)
+        i = rng.randrange(len(chunks))
+        t, n, p = chunks[i]
+        chunks[i] = (t, n, mutate_bytes(rng, p, rng.choice((1, 1, 2, 4))))
+        return rebuild(header, summary, chunks, errors)
+    if rng.random() < 0.85:
+        header = mutate_field(rng, header)
+    else:
+        summary = mutate_field(rng, summary or {})
+    try:
+        return rebuild(header, summary, chunks, errors)
+    except Exception:  # a value JSON cannot hold: keep the file as it was
+        return seed
+
+
+# -- running --------------------------------------------------------------------------
+
+
+def run_child(argv, stdin_path, out: pathlib.Path, seconds: float, mem: int):
+    """Fork, run the CLI with limits, return (outcome-ish, exit/signal, stderr, digest)."""
+    for f in out.iterdir():
+        if f.is_file():
+            f.unlink()
+    pid = os.fork()
+    if pid == 0:  # the child: never returns
+        code = 5
+        try:
+            resource.setrlimit(resource.RLIMIT_AS, (mem, mem))
+            signal.alarm(max(1, int(seconds)))
+            fin = os.open(stdin_path or os.devnull, os.O_RDONLY)
+            fo = os.open(out / "stdout", os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
+            fe = os.open(out / "stderr", os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
+            os.dup2(fin, 0)
+            os.dup2(fo, 1)
+            os.dup2(fe, 2)
+            sys.stdin = open(0, closefd=False)  # multiprocessing set it to os.devnull
+            from volpack.cli import main
+
+            try:
+                main(argv, prog_name="volpack", standalone_mode=True)
+                code = 0
+            except SystemExit as e:
+                code = e.code if isinstance(e.code, int) else (0 if e.code is None else 1)
+        except BaseException:
+            import traceback
+
+            traceback.print_exc()
+            code = 6
+        finally:
+            try:
+                sys.stdout.flush()
+                sys.stderr.flush()
+            finally:
+                os._exit(code)
+    _, status = os.waitpid(pid, 0)
+    err = (out / "stderr").read_text(errors="replace")
+    if os.WIFSIGNALED(status):
+        sig = os.WTERMSIG(status)
+        return ("timeout" if sig == signal.SIGALRM else "signal"), sig, err, None
+    code = os.WEXITSTATUS(status)
+    if code == 0:
+        h = hashlib.sha256()
+        for name in sorted(os.listdir(out)):
+            if name not in ("stderr",):
+                h.update(name.encode() + (out / name).read_bytes())
+        return "ok", 0, err, h.hexdigest()
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    if code == 1 and lines and lines[-1].startswith("volpack: error: "):
+        return "error", 1, err, None
+    kind = {2: "usage", 3: "internal"}.get(code, "other")
+    return kind, code, err, None
+
+
+def worker(wid: int, nworkers: int, args, seeds: dict, deadline: float, q) -> None:
+    """Run mutants wid, wid + nworkers, ... and send per-mutant rows to the parent."""
+    work = pathlib.Path(args.out) / "work" / f"w{wid}"
+    run_dir = work / "run"
+    run_dir.mkdir(parents=True, exist_ok=True)
+    parsed = {k: parse(b) for k, b in seeds.items()}
+    # warm the worker so that every child inherits compiled kernels: run each path once
+    # here (children are forked from this process)
+    from volpack.cli import main
+
+    for kind, (_, paths) in KINDS.items():
+        src = work / f"{kind}.vpk"
+        src.write_bytes(seeds[kind])
+        for path in paths:
+            argv, sin = argv_for(kind, path, str(src), run_dir)
+            if sin is None:
+                with (
+                    contextlib.redirect_stdout(io.StringIO()),
+                    contextlib.redirect_stderr(io.StringIO()),
+                ):
+                    try:
+                        main(argv, prog_name="volpack", standalone_mode=False)
+                    except BaseException:
+                        pass
+    ref = {}
+    for kind, (_, paths) in KINDS.items():
+        src = work / f"{kind}.vpk"
+        src.write_bytes(seeds[kind])
+        for path in paths:
+            argv, sin = argv_for(kind, path, str(src), run_dir)
+            outcome, code, err, digest = run_child(argv, sin, run_dir, args.time_limit, args.mem)
+            ref[kind, path] = digest if outcome == "ok" else None
+            if outcome != "ok":
+                q.put(("reference", kind, path, outcome, err[-400:]))
+    kinds = list(KINDS)
+    mpath = work / "m.vpk"
+    i = wid
+    while i < args.count and time.time() < deadline:
+        rng = random.Random(f"{args.seed}:{i}")
+        kind = kinds[i % len(kinds)]
+        paths = KINDS[kind][1]
+        path = paths[(i // len(kinds)) % len(paths)]
+        mode = rng.choice(MODES)
+        blob = mutant(rng, mode, seeds[kind], parsed[kind])
+        if blob == seeds[kind]:
+            q.put(("row", i, kind, path, mode, "unchanged", 0.0))
+            i += nworkers
+            continue
+        mpath.write_bytes(blob)
+        argv, sin = argv_for(kind, path, str(mpath), run_dir)
+        t0 = time.perf_counter()
+        outcome, code, err, digest = run_child(argv, sin, run_dir, args.time_limit, args.mem)
+        dt = time.perf_counter() - t0
+        if outcome == "ok":
+            outcome = "same" if digest == ref.get((kind, path)) else "silent"
+        if outcome in FAILURES:
+            keep = pathlib.Path(args.out) / "failures"
+            keep.mkdir(parents=True, exist_ok=True)
+            stem = f"{kind}-{path}-{mode}-{outcome}-{i}"
+            (keep / f"{stem}.vpk").write_bytes(blob)
+            debug = run_child(["--debug", *argv], sin, run_dir, args.time_limit, args.mem)[2]
+            (keep / f"{stem}.txt").write_text(
+                f"volpack {' '.join(argv)}{' < file' if sin else ''}\nstatus {code}\n\n{err}\n"
+                f"with --debug:\n{debug}"
+            )
+        q.put(("row", i, kind, path, mode, outcome, dt))
+        i += nworkers
+    q.put(("done", wid))
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--count", type=int, default=2000, help="mutants (upper bound)")
+    ap.add_argument("--seconds", type=float, default=None, help="stop after this long")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--time-limit", type=float, default=10.0, help="seconds per run")
+    ap.add_argument("--mem", type=float, default=4.0, help="GB of address space per run")
+    ap.add_argument("--out", default=str(ROOT / "results" / "fuzz"))
+    args = ap.parse_args()
+    args.mem = int(args.mem * (1 << 30))
+    out = pathlib.Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.time()
+    deadline = t0 + (args.seconds if args.seconds else 1e12)
+
+    import multiprocessing as mp
+
+    ctx = mp.get_context("fork")
+    seeds = {}
+    nan_path = out / "lossy-nan-seed.vpk"
+    p = ctx.Process(target=make_lossy_nan, args=(nan_path,))  # kernels stay out of this process
+    p.start()
+    p.join()
+    for kind, (name, _) in KINDS.items():
+        seeds[kind] = (EXAMPLES / name).read_bytes() if name else nan_path.read_bytes()
+    q = ctx.Queue()
+    procs = [
+        ctx.Process(target=worker, args=(w, args.workers, args, seeds, deadline, q))
+        for w in range(args.workers)
+    ]
+    for p in procs:
+        p.start()
+    rows, done, refs = [], 0, []
+    while done < len(procs):
+        msg = q.get()
+        if msg[0] == "done":
+            done += 1
+        elif msg[0] == "reference":
+            refs.append(msg[1:])
+        else:
+            rows.append(msg[1:])
+    for p in procs:
+        p.join()
+    elapsed = time.time() - t0
+    return report(rows, refs, out, elapsed, args)
+
+
+def report(rows, refs, out: pathlib.Path, elapsed: float, args) -> int:
+    counts: dict = {}
+    for _, kind, _path, mode, outcome, _dt in rows:
+        counts.setdefault((kind, mode), dict.fromkeys((*OUTCOMES, "unchanged"), 0))[outcome] += 1
+    with open(out / "summary.csv", "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["kind", "mutation", "mutants", *OUTCOMES])
+        for (kind, mode), c in sorted(counts.items()):
+            w.writerow([kind, mode, sum(c[o] for o in OUTCOMES), *(c[o] for o in OUTCOMES)])
+    run = [r for r in rows if r[4] != "unchanged"]
+    print(f"{len(run)} mutants ({len(rows) - len(run)} unchanged skipped) in {elapsed:.0f} s, "
+          f"seed {args.seed}, {args.workers} workers, limits {args.time_limit:g} s and "
+          f"{args.mem / 2**30:g} GB")  # fmt: skip
+    print()
+    print("| kind | mutation | mutants | " + " | ".join(OUTCOMES) + " |")
+    print("|---|---|---:|" + "---:|" * len(OUTCOMES))
+    for (kind, mode), c in sorted(counts.items()):
+        n = sum(c[o] for o in OUTCOMES)
+        print(f"| {kind} | {mode} | {n} | " + " | ".join(str(c[o]) for o in OUTCOMES) + " |")
+    print()
+    print("silently accepted (payload mutants, data decode paths: decoded to different output):")
+    for kind in KINDS:
+        sel = [r for r in run if r[1] == kind and r[3] == "payload" and r[2] in DECODES]
+        bad = sum(r[4] == "silent" for r in sel)
+        if sel:
+            print(f"  {kind}: {bad}/{len(sel)} = {100 * bad / len(sel):.1f} %")
+    times = sorted(r[5] for r in run) or [0.0]
+    print(f"run time: median {times[len(times) // 2]:.3f} s, slowest {times[-1]:.2f} s")
+    for kind, path, outcome, err in refs:
+        print(f"reference run failed: {kind} {path}: {outcome}: {err}")
+    fails = sum(r[4] in FAILURES for r in run)
+    print(f"failures: {fails}" + (f" (kept in {out / 'failures'})" if fails else ""))
+    return 1 if fails or refs else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

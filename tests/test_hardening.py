@@ -1,0 +1,138 @@
+"""Inputs that used to change meaning or crash: bool volumes, meshes without tets or
+fields, headers whose values pass the checksums but not the types, huge spacings."""
+
+from __future__ import annotations
+
+import io
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from volpack import api
+from volpack.cli import main
+from volpack.errors import FormatError
+from volpack.format.container import Reader, Writer
+
+
+def _cli(*args):
+    return CliRunner().invoke(main, [str(a) for a in args])
+
+
+def _one_line_error(r):
+    lines = [ln for ln in r.output.splitlines() if ln.strip()]
+    assert r.exit_code == 1 and len(lines) == 1 and lines[0].startswith("volpack: error: "), (
+        r.exit_code,
+        r.output,
+    )
+    return lines[0]
+
+
+def test_a_bool_volume_comes_back_as_bool(tmp_path):
+    a = np.random.default_rng(0).random((9, 10, 11)) > 0.6
+    np.save(tmp_path / "b.npy", a)
+    assert _cli("compress", tmp_path / "b.npy", tmp_path / "b.vpk").exit_code == 0
+    assert _cli("decompress", tmp_path / "b.vpk", tmp_path / "c.npy").exit_code == 0
+    c = np.load(tmp_path / "c.npy")
+    assert c.dtype == bool and (c == a).all()
+
+
+def test_a_mesh_without_tetrahedra_is_refused(tmp_path):
+    meshio = pytest.importorskip("meshio")
+    pts = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
+    meshio.write(tmp_path / "s.vtu", meshio.Mesh(pts, [("triangle", np.array([[0, 1, 2]]))]))
+    r = _cli("compress", tmp_path / "s.vtu", tmp_path / "s.vpk")
+    msg = r.output.strip().splitlines()[-1]  # after a warning about the dropped triangles
+    assert r.exit_code == 1 and msg.startswith("volpack: error: ")
+    assert "tetrahedra" in msg and "triangle" in msg
+    assert not (tmp_path / "s.vpk").exists()
+
+
+def test_a_mesh_without_fields_renders_its_shape(tmp_path):
+    from tetra_meshes import grid_mesh
+
+    from volpack.tetra.stream import compress_mesh
+
+    compress_mesh(grid_mesh(3), str(tmp_path / "m.vpk"))  # points and tets, no field
+    r = _cli("render", tmp_path / "m.vpk", tmp_path / "m.png", "--size", "32x32")
+    assert r.exit_code == 0, r.output
+    from PIL import Image
+
+    img = np.asarray(Image.open(tmp_path / "m.png"))
+    assert img[..., :3].max() > 0  # something is drawn
+
+
+def _rewrite(src: bytes, **fields) -> bytes:
+    with Reader(src) as r:
+        hdr, summ = dict(r.header), r.summary
+        chunks = [(t, n, r.read(t, n), e.error) for (t, n), e in zip(r.keys(), r.entries)]
+    for k, v in fields.items():
+        hdr[k] = v
+    buf = io.BytesIO()
+    w = Writer(buf, hdr)
+    for t, n, p, e in chunks:
+        w.write(t, n, p, e)
+    w.close(summ)
+    return buf.getvalue()
+
+
+@pytest.fixture(scope="module")
+def stream():
+    a = (np.arange(6 * 7 * 8) % 13).reshape(6, 7, 8).astype(np.uint8)
+    return api.compress_array(a)
+
+
+@pytest.mark.parametrize(
+    "field, value, words",
+    [
+        ("spacing", None, "spacing"),
+        ("spacing", [1.0, 0.0, 1.0], "positive"),
+        ("spacing", [1e308, 1, 1], "spacing"),
+        ("origin", None, "origin"),
+        ("origin", ["a", 0, 0], "origin"),
+        ("shape", {}, "shape"),
+        ("shape", None, "shape"),
+        ("shape", [2**31, 2**31, 2**31], "limit"),
+        ("dtype", "O", "dtype"),
+        ("codec", {"id": "wavelet", "wavelet": 53}, "wavelet"),
+        (
+            "codec",
+            {
+                "id": "bounded",
+                "max_error": 1e308,
+                "lo": 0,
+                "step": "x",
+                "integer": True,
+                "qdtype": "uint8",
+            },
+            "step",
+        ),  # fmt: skip
+        ("codec", "zstd", "codec"),
+    ],
+)
+def test_bad_header_values_give_one_line_errors(stream, tmp_path, field, value, words):
+    bad = tmp_path / "bad.vpk"
+    bad.write_bytes(_rewrite(stream, **{field: value}))
+    with pytest.raises(FormatError, match=words):
+        api.decompress(str(bad))
+    for cmd in (["decompress", bad, tmp_path / "o.npy"], ["render", bad, tmp_path / "o.png"]):
+        _one_line_error(_cli(*cmd))
+
+
+def test_info_on_a_bad_shape_is_an_error(stream, tmp_path):
+    for shape in ({}, None, "x"):
+        bad = tmp_path / "bad.vpk"
+        bad.write_bytes(_rewrite(stream, shape=shape))
+        _one_line_error(_cli("info", bad))
+
+
+def test_a_huge_spacing_never_crashes_the_renderer():
+    from volpack.render.camera import Camera
+    from volpack.render.raycast import render
+    from volpack.render.transfer import preset
+
+    a = np.linspace(0, 1, 64, dtype=np.float32).reshape(4, 4, 4)
+    cam, tf = Camera(size=(8, 8)), preset("generic", 0, 1)
+    for sp in (1e300, 1e-300, 1.7e308):
+        img = render(a, spacing=(sp,) * 3, tf=tf, camera=cam, value_range=(0, 1))
+        assert np.isfinite(img).all() and img[..., 3].max() > 0, sp  # the ratios matter only
