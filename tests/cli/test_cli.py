@@ -301,7 +301,7 @@ def test_info_over_many_files_is_one_table_and_ratios_agree(tmp_path):
     np.save(tmp_path / "a.npy", a)
     r = run("compress", tmp_path / "a.npy", tmp_path / "a.vpk")
     printed = float(r.stderr.split("ratio ")[1].split(":")[0])
-    d = json.loads(run("info", tmp_path / "a.vpk", "--json").output)
+    d = json.loads(run("info", tmp_path / "a.vpk", "--json").stdout)
     assert printed == pytest.approx(d["ratio"], abs=5e-4)  # compress and info agree
     assert f"{os.path.getsize(tmp_path / 'a.vpk') / 1000:.2f} kB" in r.stderr
     assert "int16" in run("info", tmp_path / "a.vpk").output  # numpy's name, not '<i2'
@@ -313,14 +313,14 @@ def test_info_over_many_files_is_one_table_and_ratios_agree(tmp_path):
     assert "12x14x16" in lines[2] and "int16" in lines[2] and "npy" in lines[2]
     assert "vpk/volume" in lines[3] and f"{d['ratio']:.3f}" in lines[3]
     assert "error" in lines[4] and "b.nii: could not read nifti" in r.output
-    rows = json.loads(run("info", tmp_path / "a.npy", tmp_path / "a.vpk", "--json").output)
+    rows = json.loads(run("info", tmp_path / "a.npy", tmp_path / "a.vpk", "--json").stdout)
     assert [row["format"] for row in rows] == ["npy", "vpk/volume"]
 
 
 def test_compare_reports_what_a_compress_and_decompress_measure(tmp_path):
     a = smooth_volume((20, 24, 28), np.int16, noise=8.0)
     np.save(tmp_path / "a.npy", a)
-    r = json.loads(run("compare", tmp_path / "a.npy", "--max-error", "3", "--json").output)
+    r = json.loads(run("compare", tmp_path / "a.npy", "--max-error", "3", "--json").stdout)
     run("compress", tmp_path / "a.npy", tmp_path / "a.vpk", "--max-error", "3")
     assert r["file_nbytes"] == os.path.getsize(tmp_path / "a.vpk")  # same bytes as a file
     run("decompress", tmp_path / "a.vpk", tmp_path / "b.npy")

@@ -337,7 +337,7 @@ def test_cli_render_png_orbit_iso_and_json(tmp_path):
                           "--iso", "60:bone,90:#ff0000@0.4", "--json"])  # fmt: skip
     assert r.exit_code == 0, r.output
     assert sorted(os.listdir(out)) == ["frame_000.png", "frame_001.png", "frame_002.png"]
-    rep = json.loads(r.output)
+    rep = json.loads(r.stdout)  # stderr may hold the first-compile notice
     assert len(rep["frames"]) == 3 and rep["samples"] > 0 and rep["tf"] is None
     r = run.invoke(main, ["render", str(src), str(tmp_path / "a.png"), "--colorbar",
                           "--classification", "post", "--shading", "none", "--size", "20x20"])  # fmt: skip

@@ -93,6 +93,9 @@ def main(ctx: click.Context, verbose: int, quiet: bool, debug: bool) -> None:
     """
     ctx.ensure_object(dict)
     ctx.obj.update(quiet=quiet, debug=debug, verbose=verbose)
+    from .notices import install
+
+    install(ctx, quiet)
     level = logging.WARNING - 10 * min(verbose, 2)
     logging.basicConfig(
         level=level, format="volpack: %(levelname)s: %(message)s", stream=sys.stderr
@@ -100,9 +103,9 @@ def main(ctx: click.Context, verbose: int, quiet: bool, debug: bool) -> None:
 
 
 def _register() -> None:
-    from . import batch, codec, convert, demo, info, jit, play, render
+    from . import batch, codec, compare, convert, demo, info, jit, play, render
 
-    for module in (info, convert, codec, batch, demo, jit, render, play):
+    for module in (info, convert, codec, compare, batch, demo, jit, render, play):
         for cmd in module.COMMANDS:
             main.add_command(cmd)
 

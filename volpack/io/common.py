@@ -151,8 +151,6 @@ def prepare_for_write(vol: Volume) -> Volume:
         from ..prep import unmask_special
 
         vol = unmask_special(vol)
-    if vol.dtype.kind == "b":
-        vol = vol.replace(data=vol.data.astype(np.uint8))
     if not vol.data.dtype.isnative or not vol.data.flags.c_contiguous:
         vol = vol.replace(data=np.ascontiguousarray(vol.data, dtype=native(vol.dtype)))
     return vol

@@ -52,11 +52,7 @@ def make_codec(codec: str = "auto", dtype: Any = None, **options: Any):
     if codec == "auto":
         known = dtype is None or np.dtype(dtype).name in WAVELET_DTYPES + FLOAT_DTYPES
         codec = "lossless" if known else "zstd"
-    if codec == "lossless":
-        from .lossless import LosslessCodec
-
-        return LosslessCodec(**{k: v for k, v in options.items() if v is not None})
-    if codec == "wavelet":
+    if codec in ("lossless", "wavelet"):
         from .floatwave import FLOAT_WAVELETS
 
         if options.get("wavelet") in FLOAT_WAVELETS:
@@ -64,6 +60,11 @@ def make_codec(codec: str = "auto", dtype: Any = None, **options: Any):
                 f"the {options['wavelet']} wavelet is a float (lossy) filter for comparison: "
                 "add quality=, psnr= or ratio=, or pick 53, 26, haar or 97m for lossless"
             )
+    if codec == "lossless":
+        from .lossless import LosslessCodec
+
+        return LosslessCodec(**{k: v for k, v in options.items() if v is not None})
+    if codec == "wavelet":
         return WaveletCodec(**{k: v for k, v in options.items() if v is not None})
     if codec == "zstd":
         return ZstdCodec()
