@@ -25,16 +25,14 @@ import numpy as np
 
 from .._jit import kernel
 from ..entropy.common import check_status
-from ..entropy.rangecoder import RATE, STATE_INIT
+from ..entropy.rangecoder import RATE, STATE_INIT, finish_stream, open_stream
 from ..errors import FormatError
 from .predict import (
     N_MODELS,
     NCTX,
     NO_RESIDUAL,
     activity_class,
-    finish_stream,
     get_residual,
-    open_stream,
     put_residual,
 )
 

@@ -19,11 +19,11 @@ import numpy as np
 
 from .._jit import kernel
 from ..entropy.common import check_status
-from ..entropy.rangecoder import RATE, STATE_INIT
+from ..entropy.rangecoder import RATE, STATE_INIT, finish_stream, open_stream
 from ..entropy.rangecoder import get as _get
 from ..entropy.rangecoder import put as _put
 from ..errors import FormatError
-from .predict import bitlen, finish_stream, open_stream
+from .predict import bitlen
 
 NCAND = 5
 N_PATTERN = 1 << 7

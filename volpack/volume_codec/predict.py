@@ -45,7 +45,7 @@ import numpy as np
 
 from .._jit import kernel, leading_zeros
 from ..entropy.common import check_status
-from ..entropy.rangecoder import STATE_INIT
+from ..entropy.rangecoder import STATE_INIT, finish_stream, open_stream
 from ..entropy.rangecoder import get as _get
 from ..entropy.rangecoder import pull as _pull
 from ..entropy.rangecoder import push as _push
@@ -156,27 +156,6 @@ def get_residual(data, state, base, ctx, sctx, code, rng, pos, rate):
         u = (u << t) | q
         code, rng, pos = _pull(data, code, rng, pos)
     return (-(u + 1) if neg else u + 1), code, rng, pos
-
-
-@kernel(inline=True)
-def finish_stream(out, low, pos):
-    """End a stream: the final ``low`` pins the interval. Returns the byte count."""
-    for _ in range(4):
-        out[pos] = low >> 24
-        pos += 1
-        low = (low << 8) & 0xFFFFFFFF
-    return pos
-
-
-@kernel(inline=True)
-def open_stream(data):
-    """Start decoding: ``(code, rng, pos)`` after the leading zero byte and four more."""
-    code = np.int64(0)
-    pos = 1
-    for _ in range(4):
-        code = (code << 8) | (np.int64(data[pos]) if pos < data.size else 0)
-        pos += 1
-    return code, np.int64(0xFFFFFFFF), pos
 
 
 @kernel(inline=True)
