@@ -44,7 +44,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._jit import kernel, leading_zeros
-from ..entropy.common import check_status
+from ..entropy.common import check_status, encode_with_retry, stream_bytes
 from ..entropy.rangecoder import STATE_INIT, finish_stream, open_stream
 from ..entropy.rangecoder import get as _get
 from ..entropy.rangecoder import pull as _pull
@@ -359,21 +359,19 @@ def encode(values: np.ndarray, lo: int, hi: int) -> bytes:
         raise ValueError(f"expected a value range of at most 2^32, found [{lo}, {hi}]")
     shape = np.array(v.shape, dtype=np.int64)
     flat = v.reshape(-1)
-    for per_voxel in (2, 20):
-        out = np.empty(flat.size * per_voxel + 1024, dtype=np.uint8)
-        used = _encode_kernel(flat, shape, np.int64(lo), np.int64(hi), out)
-        if used >= 0:
-            return out[:used].tobytes()
-    raise AssertionError("predictive coder overflowed its worst-case buffer")
+    return encode_with_retry(
+        lambda out: _encode_kernel(flat, shape, np.int64(lo), np.int64(hi), out),
+        flat.size,
+        (2, 20),
+        coder="predictive",
+    )
 
 
 def decode(data: bytes | memoryview, shape: tuple[int, int, int], lo: int, hi: int) -> np.ndarray:
     """Decode :func:`encode`'s bytes into an int64 array of ``shape``."""
     if not (lo <= hi and hi - lo < (1 << 32)):
         raise FormatError(f"predictive payload: value range [{lo}, {hi}] is out of bounds")
-    buf = np.frombuffer(bytes(data), dtype=np.uint8)
-    if buf.size < 1:
-        raise FormatError("predictive payload: empty stream")
+    buf = stream_bytes(data, "predictive")
     v = np.empty(int(np.prod(shape)), dtype=np.int64)
     status = _decode_kernel(buf, np.array(shape, dtype=np.int64), np.int64(lo), np.int64(hi), v)
     check_status(status, "predictive")
