@@ -23,18 +23,32 @@ def max_bits(flat: np.ndarray) -> int:
     return 32 if flat.dtype == np.int32 else 63
 
 
-def encode_with_retry(run: Callable[[np.ndarray], int], n: int) -> bytes:
+def encode_with_retry(
+    run: Callable[[np.ndarray], int],
+    n: int,
+    per_item: tuple[int, int] = (4, 20),
+    extra: int = 1024,
+    coder: str = "coefficient",
+) -> bytes:
     """Run an encoder kernel into a buffer sized for typical data, then the worst case.
 
     Kernels return the byte count, or -1 when the buffer is too small; most bricks fit
     the first guess, so the worst-case allocation is rarely paid.
     """
-    for per_coef in (4, 20):
-        out = np.empty(n * per_coef + 1024, dtype=np.uint8)
+    for per in per_item:
+        out = np.empty(n * per + extra, dtype=np.uint8)
         used = run(out)
         if used >= 0:
             return out[:used].tobytes()
-    raise AssertionError("coefficient coder overflowed its worst-case buffer")
+    raise AssertionError(f"{coder} coder overflowed its worst-case buffer")
+
+
+def stream_bytes(data: bytes | memoryview, coder: str) -> np.ndarray:
+    """The payload as a uint8 array; an empty one is a format error."""
+    buf = np.frombuffer(bytes(data), dtype=np.uint8)
+    if buf.size < 1:
+        raise FormatError(f"{coder} payload: empty stream")
+    return buf
 
 
 def check_status(status: int, coder: str) -> None:

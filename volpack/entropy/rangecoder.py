@@ -38,6 +38,8 @@ __all__ = [
     "adapt",
     "carry",
     "finish_encoder",
+    "finish_stream",
+    "open_stream",
     "get",
     "get_bit",
     "get_decision",
@@ -142,10 +144,8 @@ def start_encoder(out):
 
 
 @kernel(inline=True)
-def finish_encoder(cs, out):
-    """Flush the final low (4 bytes) and return the stream length."""
-    low = cs[0]
-    pos = cs[2]
+def finish_stream(out, low, pos):
+    """End a stream: the final ``low`` pins the interval. Returns the byte count."""
     for _ in range(4):
         out[pos] = low >> 24
         pos += 1
@@ -154,17 +154,27 @@ def finish_encoder(cs, out):
 
 
 @kernel(inline=True)
-def start_decoder(data):
-    """Return a decoder state for a stream written from :func:`start_encoder` on."""
-    cs = np.empty(3, dtype=np.int64)
+def open_stream(data):
+    """Start decoding: ``(code, rng, pos)`` after the leading zero byte and four more."""
     code = np.int64(0)
     pos = 1
     for _ in range(4):
         code = (code << 8) | (np.int64(data[pos]) if pos < data.size else 0)
         pos += 1
-    cs[0] = code
-    cs[1] = 0xFFFFFFFF
-    cs[2] = pos
+    return code, np.int64(0xFFFFFFFF), pos
+
+
+@kernel(inline=True)
+def finish_encoder(cs, out):
+    """Flush the final low (4 bytes) and return the stream length."""
+    return finish_stream(out, cs[0], cs[2])
+
+
+@kernel(inline=True)
+def start_decoder(data):
+    """Return a decoder state for a stream written from :func:`start_encoder` on."""
+    cs = np.empty(3, dtype=np.int64)
+    cs[0], cs[1], cs[2] = open_stream(data)
     return cs
 
 

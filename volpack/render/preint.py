@@ -85,6 +85,7 @@ import numpy as np
 
 from .._jit import kernel
 from ..errors import FormatError
+from .transfer import check_range
 
 __all__ = ["TAU_MAX", "TableUpdater", "iso_hits", "iso_table", "opacity_correct", "preintegrate"]
 
@@ -295,12 +296,7 @@ def extinction(a: np.ndarray) -> np.ndarray:
 def _iso_prepare(n, lo, hi, isos):
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
         raise FormatError(f"iso table size: expected an integer >= 1, found {n!r}")
-    try:
-        lo, hi = float(lo), float(hi)
-    except (TypeError, ValueError) as e:
-        raise FormatError(f"iso table range: expected numbers, found {lo!r}, {hi!r}") from e
-    if not (math.isfinite(lo) and math.isfinite(hi)) or hi < lo:
-        raise FormatError(f"iso table range: expected finite lo <= hi, found [{lo}, {hi}]")
+    lo, hi = check_range(lo, hi, "iso table range")
     rows = []
     for k, iso in enumerate(isos):
         try:

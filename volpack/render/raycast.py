@@ -1112,7 +1112,7 @@ def render(
             )  # fmt: skip
 
         run_row_sets(run, h, nthreads, progress)
-        return _finish(out, row_samples, t_start, render_stats)
+        return finish_render(out, row_samples, t_start, render_stats)
 
     def run(rows: np.ndarray) -> None:
         _render_kernel(
@@ -1123,10 +1123,11 @@ def render(
         )  # fmt: skip
 
     run_row_sets(run, h, nthreads, progress)
-    return _finish(out, row_samples, t_start, render_stats)
+    return finish_render(out, row_samples, t_start, render_stats)
 
 
-def _finish(out, row_samples, t_start, render_stats):
+def finish_render(out, row_samples, t_start, render_stats):
+    """The image, or ``(image, RenderStats)`` when ``render_stats`` is asked for."""
     if not render_stats:
         return out
     h, w = out.shape[:2]

@@ -88,7 +88,16 @@ def render_mesh(
     ndarray (h, w, 4) float32, or (image, RenderStats) with ``render_stats``; the stats
     count cell segments as samples.
     """
-    from .raycast import KA, KD, KS, SHININESS, RenderStats, run_row_sets, transfer_table
+    from .raycast import (
+        KA,
+        KD,
+        KS,
+        SHININESS,
+        RenderStats,
+        finish_render,
+        run_row_sets,
+        transfer_table,
+    )
 
     t_start = time.perf_counter()
     pts = np.asarray(points, np.float64)
@@ -164,15 +173,7 @@ def render_mesh(
         )  # fmt: skip
 
     run_row_sets(run, h, nthreads, progress)
-    if not render_stats:
-        return out
-    stats = RenderStats(
-        samples=int(row_segments.sum()),
-        seconds=time.perf_counter() - t_start,
-        rays=w * h,
-        hits=int(np.count_nonzero(out[..., 3] > 0)),
-    )
-    return out, stats
+    return finish_render(out, row_segments, t_start, render_stats)
 
 
 # --------------------------------------------------------------------------- helpers

@@ -45,6 +45,7 @@ __all__ = [
     "PRESETS",
     "TransferFunction",
     "auto_tf",
+    "check_range",
     "is_ct_range",
     "load_tf",
     "preset",
@@ -100,7 +101,7 @@ class TransferFunction:
         Entry ``k`` is the transfer function at ``lo + k * (hi - lo) / (n - 1)``; this is
         the table that :func:`volpack.render.preint.preintegrate` takes.
         """
-        lo, hi = _check_range(lo, hi)
+        lo, hi = check_range(lo, hi)
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
             raise FormatError(f"table size: expected an integer >= 1, found {n!r}")
         xs = np.linspace(lo, hi, int(n)) if n > 1 else np.array([lo], dtype=np.float64)
@@ -150,7 +151,7 @@ class TransferFunction:
             raise FormatError("transfer function: expected a 'points' list, found none")
         pts = _check_points(doc["points"], f"transfer function {name!r}")
         if space == "normalized":
-            lo, hi = _check_range(lo, hi)
+            lo, hi = check_range(lo, hi)
             for p in pts:
                 if not 0.0 <= p[0] <= 1.0:
                     raise FormatError(
@@ -239,7 +240,7 @@ def preset(name: str, lo: float, hi: float) -> TransferFunction:
     """
     if name not in _PRESET_POINTS:
         raise FormatError(f"transfer function preset: expected one of {PRESETS}, found {name!r}")
-    lo, hi = _check_range(lo, hi)
+    lo, hi = check_range(lo, hi)
     normalized, hounsfield = _PRESET_POINTS[name]
     if hounsfield is not None and is_ct_range(lo, hi):
         return TransferFunction(hounsfield, name)
@@ -255,7 +256,7 @@ def auto_tf(lo: float, hi: float, dtype=None) -> TransferFunction:
     2. an integer dtype with ``lo >= 0`` (MRI, ultrasound, 8/16-bit scans): ``mri``;
     3. anything else (float fields, signed simulation data, unknown dtype): ``generic``.
     """
-    lo, hi = _check_range(lo, hi)
+    lo, hi = check_range(lo, hi)
     if is_ct_range(lo, hi):
         return preset("ct-bone", lo, hi)
     kind = np.dtype(dtype).kind if dtype is not None else "f"
@@ -312,13 +313,14 @@ def nonempty_range(lo: float, hi: float) -> tuple[float, float]:
     return (lo, lo + d) if math.isfinite(lo + d) else (lo - d, lo)
 
 
-def _check_range(lo, hi) -> tuple[float, float]:
+def check_range(lo, hi, what: str = "data range") -> tuple[float, float]:
+    """``(lo, hi)`` as finite floats with ``lo <= hi``; else a FormatError naming ``what``."""
     try:
         lo, hi = float(lo), float(hi)
     except (TypeError, ValueError) as e:
-        raise FormatError(f"data range: expected two numbers, found {lo!r}, {hi!r}") from e
+        raise FormatError(f"{what}: expected two numbers, found {lo!r}, {hi!r}") from e
     if not (math.isfinite(lo) and math.isfinite(hi)) or hi < lo:
-        raise FormatError(f"data range: expected finite lo <= hi, found [{lo}, {hi}]")
+        raise FormatError(f"{what}: expected finite lo <= hi, found [{lo}, {hi}]")
     return lo, hi
 
 

@@ -41,6 +41,7 @@ from .protocol import (
     check_choice,
     constant_value,
     from_stored,
+    split_mode,
     storage_dtype,
 )
 
@@ -125,11 +126,7 @@ class WaveletCodec(BrickCodec):
 
         dtype = np.dtype(dtype)
         check_wavelet_dtype(dtype)
-        data = memoryview(data)
-        if len(data) < 1:
-            raise FormatError("empty wavelet brick payload: expected at least a mode byte")
-        mode = data[0]
-        body = data[1:]
+        mode, body = split_mode(data, "wavelet")
         if mode == MODE_RAW:
             return from_stored(body, shape, dtype)
         if mode == MODE_CONSTANT:

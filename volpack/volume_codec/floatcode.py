@@ -24,17 +24,14 @@ from __future__ import annotations
 import numpy as np
 
 from .._jit import kernel
-from ..entropy.common import check_status
-from ..entropy.rangecoder import RATE, STATE_INIT
-from ..errors import FormatError
+from ..entropy.common import check_status, encode_with_retry, stream_bytes
+from ..entropy.rangecoder import RATE, STATE_INIT, finish_stream, open_stream
 from .predict import (
     N_MODELS,
     NCTX,
     NO_RESIDUAL,
     activity_class,
-    finish_stream,
     get_residual,
-    open_stream,
     put_residual,
 )
 
@@ -181,19 +178,15 @@ def encode(ordered: np.ndarray, itemsize: int) -> bytes:
         raise ValueError(f"expected a 3-D array of 2- or 4-byte floats, found {o.shape}")
     shape = np.array(o.shape, dtype=np.int64)
     flat = o.reshape(-1)
-    for per_voxel in (8, 24):
-        out = np.empty(flat.size * per_voxel + 1024, dtype=np.uint8)
-        used = _encode_kernel(flat, shape, np.int64(MANTISSA_BITS[itemsize]), out)
-        if used >= 0:
-            return out[:used].tobytes()
-    raise AssertionError("float coder overflowed its worst-case buffer")
+    mb = np.int64(MANTISSA_BITS[itemsize])
+    return encode_with_retry(
+        lambda out: _encode_kernel(flat, shape, mb, out), flat.size, (8, 24), coder="float"
+    )
 
 
 def decode(data: bytes | memoryview, shape: tuple[int, int, int], itemsize: int) -> np.ndarray:
     """Decode :func:`encode`'s bytes into the ordered images (int64) of ``shape``."""
-    buf = np.frombuffer(bytes(data), dtype=np.uint8)
-    if buf.size < 1:
-        raise FormatError("float payload: empty stream")
+    buf = stream_bytes(data, "float")
     o = np.empty(int(np.prod(shape)), dtype=np.int64)
     shp = np.array(shape, dtype=np.int64)
     status = _decode_kernel(buf, shp, np.int64(MANTISSA_BITS[itemsize]), o)

@@ -18,12 +18,11 @@ from __future__ import annotations
 import numpy as np
 
 from .._jit import kernel
-from ..entropy.common import check_status
-from ..entropy.rangecoder import RATE, STATE_INIT
+from ..entropy.common import check_status, encode_with_retry, stream_bytes
+from ..entropy.rangecoder import RATE, STATE_INIT, finish_stream, open_stream
 from ..entropy.rangecoder import get as _get
 from ..entropy.rangecoder import put as _put
-from ..errors import FormatError
-from .predict import bitlen, finish_stream, open_stream
+from .predict import bitlen
 
 NCAND = 5
 N_PATTERN = 1 << 7
@@ -142,19 +141,18 @@ def encode(ranks: np.ndarray, k: int) -> bytes:
     v = np.ascontiguousarray(ranks, dtype=np.int64)
     nbits = int(bitlen(max(k - 1, 1)))
     shape = np.array(v.shape, dtype=np.int64)
-    for per_voxel in (1, 4):
-        out = np.empty(v.size * per_voxel + 64 * nbits + 1024, dtype=np.uint8)
-        used = _encode_kernel(v.reshape(-1), shape, np.int64(nbits), out)
-        if used >= 0:
-            return out[:used].tobytes()
-    raise AssertionError("label coder overflowed its worst-case buffer")
+    return encode_with_retry(
+        lambda out: _encode_kernel(v.reshape(-1), shape, np.int64(nbits), out),
+        v.size,
+        (1, 4),
+        64 * nbits + 1024,
+        coder="label",
+    )
 
 
 def decode(data: bytes | memoryview, shape: tuple[int, int, int], k: int) -> np.ndarray:
     """Decode :func:`encode`'s bytes into ranks (int64) of ``shape``."""
-    buf = np.frombuffer(bytes(data), dtype=np.uint8)
-    if buf.size < 1:
-        raise FormatError("label payload: empty stream")
+    buf = stream_bytes(data, "label")
     nbits = int(bitlen(max(k - 1, 1)))
     v = np.empty(int(np.prod(shape)), dtype=np.int64)
     status = _decode_kernel(

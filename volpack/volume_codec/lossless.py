@@ -40,7 +40,7 @@ from .codec import (
     piecewise_constant,
 )
 from .floatbits import FLOAT_DTYPES, from_ordered, to_ordered
-from .protocol import BrickCodec
+from .protocol import BrickCodec, split_mode
 from .protocol import as_stored as _as_stored
 from .protocol import check_choice as _check_choice
 from .protocol import from_stored as _from_stored
@@ -107,17 +107,13 @@ class LosslessCodec(BrickCodec):
     def decode(self, data: bytes | memoryview, shape: tuple[int, ...], dtype: Any) -> np.ndarray:
         dtype = np.dtype(dtype)
         check_dtype(dtype)
-        data = memoryview(data)
-        if len(data) < 1:
-            raise FormatError("empty lossless brick payload: expected at least a mode byte")
-        mode = data[0]
+        mode, body = split_mode(data, "lossless")
         if mode == MODE_PREDICT:
-            return _decode_predict(data[1:], tuple(shape), dtype)
+            return _decode_predict(body, tuple(shape), dtype)
         if dtype.kind != "f":
             if mode > MODE_ZSTD:
                 raise FormatError(f"lossless brick payload: expected mode 0 to 4, found {mode}")
             return self._wavelet_codec().decode(data, shape, dtype)
-        body = data[1:]
         if mode == MODE_RAW:
             return _from_stored(body, shape, dtype)
         if mode == MODE_CONSTANT:

@@ -44,8 +44,8 @@ from __future__ import annotations
 import numpy as np
 
 from .._jit import kernel, leading_zeros
-from ..entropy.common import check_status
-from ..entropy.rangecoder import STATE_INIT
+from ..entropy.common import check_status, encode_with_retry, stream_bytes
+from ..entropy.rangecoder import STATE_INIT, finish_stream, open_stream
 from ..entropy.rangecoder import get as _get
 from ..entropy.rangecoder import pull as _pull
 from ..entropy.rangecoder import push as _push
@@ -156,27 +156,6 @@ def get_residual(data, state, base, ctx, sctx, code, rng, pos, rate):
         u = (u << t) | q
         code, rng, pos = _pull(data, code, rng, pos)
     return (-(u + 1) if neg else u + 1), code, rng, pos
-
-
-@kernel(inline=True)
-def finish_stream(out, low, pos):
-    """End a stream: the final ``low`` pins the interval. Returns the byte count."""
-    for _ in range(4):
-        out[pos] = low >> 24
-        pos += 1
-        low = (low << 8) & 0xFFFFFFFF
-    return pos
-
-
-@kernel(inline=True)
-def open_stream(data):
-    """Start decoding: ``(code, rng, pos)`` after the leading zero byte and four more."""
-    code = np.int64(0)
-    pos = 1
-    for _ in range(4):
-        code = (code << 8) | (np.int64(data[pos]) if pos < data.size else 0)
-        pos += 1
-    return code, np.int64(0xFFFFFFFF), pos
 
 
 @kernel(inline=True)
@@ -380,21 +359,19 @@ def encode(values: np.ndarray, lo: int, hi: int) -> bytes:
         raise OptionError(f"expected a value range of at most 2^32, found [{lo}, {hi}]")
     shape = np.array(v.shape, dtype=np.int64)
     flat = v.reshape(-1)
-    for per_voxel in (2, 20):
-        out = np.empty(flat.size * per_voxel + 1024, dtype=np.uint8)
-        used = _encode_kernel(flat, shape, np.int64(lo), np.int64(hi), out)
-        if used >= 0:
-            return out[:used].tobytes()
-    raise AssertionError("predictive coder overflowed its worst-case buffer")
+    return encode_with_retry(
+        lambda out: _encode_kernel(flat, shape, np.int64(lo), np.int64(hi), out),
+        flat.size,
+        (2, 20),
+        coder="predictive",
+    )
 
 
 def decode(data: bytes | memoryview, shape: tuple[int, int, int], lo: int, hi: int) -> np.ndarray:
     """Decode :func:`encode`'s bytes into an int64 array of ``shape``."""
     if not (lo <= hi and hi - lo < (1 << 32)):
         raise FormatError(f"predictive payload: value range [{lo}, {hi}] is out of bounds")
-    buf = np.frombuffer(bytes(data), dtype=np.uint8)
-    if buf.size < 1:
-        raise FormatError("predictive payload: empty stream")
+    buf = stream_bytes(data, "predictive")
     v = np.empty(int(np.prod(shape)), dtype=np.int64)
     status = _decode_kernel(buf, np.array(shape, dtype=np.int64), np.int64(lo), np.int64(hi), v)
     check_status(status, "predictive")

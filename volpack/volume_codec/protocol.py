@@ -100,6 +100,14 @@ def from_stored(data: bytes | memoryview, shape: tuple[int, ...], dtype: np.dtyp
     return np.frombuffer(data, dtype=sd).reshape(shape).astype(dtype, copy=True)
 
 
+def split_mode(data: bytes | memoryview, codec: str) -> tuple[int, memoryview]:
+    """A brick payload's leading mode byte and the body after it."""
+    data = memoryview(data)
+    if len(data) < 1:
+        raise FormatError(f"empty {codec} brick payload: expected at least a mode byte")
+    return data[0], data[1:]
+
+
 def constant_value(brick: np.ndarray) -> bytes | None:
     """The stored bytes of the one value a non-empty brick holds everywhere, else None
     (every codec codes such a brick as its mode-2 payload, a single value)."""
