@@ -367,6 +367,7 @@ def main() -> int:
     p.join()
     for kind, (name, _) in KINDS.items():
         seeds[kind] = (EXAMPLES / name).read_bytes() if name else nan_path.read_bytes()
+    deadline = time.time() + (args.seconds if args.seconds else 1e12)  # mutants only
     q = ctx.Queue()
     procs = [
         ctx.Process(target=worker, args=(w, args.workers, args, seeds, deadline, q))

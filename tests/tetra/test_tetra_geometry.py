@@ -76,7 +76,7 @@ def test_lossless_exact_with_nan_inf(mesh, trav, dtype):
 def test_quantized_refuses_nan(mesh, trav):
     pts = mesh.points[trav.vertex_order].copy()
     pts[0, 0] = np.nan
-    with pytest.raises(FormatError, match="lossless-geometry"):
+    with pytest.raises(FormatError, match="lossless_geometry"):
         encode_geometry(pts, trav.tets)
 
 
