@@ -26,7 +26,7 @@ import numpy as np
 from .._jit import kernel, leading_zeros
 from ..errors import FormatError
 from .common import check_status, encode_with_retry, flat_view, max_bits
-from .rangecoder import RATE, STATE_INIT, get, pull, push, put
+from .rangecoder import RATE, STATE_INIT, get, open_encoder, pull, push, put
 from .scan import N_CLASSES, Scan
 
 TREE_BITS = 6  # 2**6 models per context for the bit length
@@ -79,10 +79,7 @@ def _encode_kernel(flat, perm, end, parent, cls, nbr, out):
     state = np.full(N_MODELS, STATE_INIT, dtype=np.uint16)
     nbits = np.zeros(n, dtype=np.uint8)  # bit length at each scan position
     cap = out.size
-    low = np.int64(0)  # 32 bits; a carry out of them is added to the bytes already out
-    rng = np.int64(0xFFFFFFFF)
-    out[0] = 0  # a leading zero byte takes the carry of the very first bits
-    pos = 1
+    low, rng, pos = open_encoder(out)  # 32-bit low; a carry is added to the bytes out
     nprev = 0
     i = 0
     while i < n:

@@ -133,13 +133,18 @@ def get(data, models, k, code, rng, pos, rate):
 
 
 @kernel(inline=True)
+def open_encoder(out):
+    """Start encoding: ``(low, rng, pos)``, with a leading zero byte that takes the carry
+    of the very first bits (the twin of :func:`open_stream`)."""
+    out[0] = 0
+    return np.int64(0), np.int64(0xFFFFFFFF), 1
+
+
+@kernel(inline=True)
 def start_encoder(out):
     """Return a fresh encoder state (the first byte takes the carry of the first bits)."""
-    out[0] = 0
     cs = np.empty(3, dtype=np.int64)
-    cs[0] = 0
-    cs[1] = 0xFFFFFFFF
-    cs[2] = 1
+    cs[0], cs[1], cs[2] = open_encoder(out)
     return cs
 
 

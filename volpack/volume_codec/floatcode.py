@@ -25,7 +25,7 @@ import numpy as np
 
 from .._jit import kernel
 from ..entropy.common import check_status, encode_with_retry, stream_bytes
-from ..entropy.rangecoder import RATE, STATE_INIT, finish_stream, open_stream
+from ..entropy.rangecoder import RATE, STATE_INIT, finish_stream, open_encoder, open_stream
 from .predict import (
     N_MODELS,
     NCTX,
@@ -103,10 +103,7 @@ def _encode_kernel(o, shape, mb, out):
     el = np.zeros(n, dtype=np.int64)
     state = np.full(2 * N_MODELS, STATE_INIT, dtype=np.uint16)
     cap = out.size
-    low = np.int64(0)
-    rng = np.int64(0xFFFFFFFF)
-    out[0] = 0
-    pos = 1
+    low, rng, pos = open_encoder(out)
     i = 0
     for z in range(nz):
         for y in range(ny):

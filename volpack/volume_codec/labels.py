@@ -19,7 +19,7 @@ import numpy as np
 
 from .._jit import kernel
 from ..entropy.common import check_status, encode_with_retry, stream_bytes
-from ..entropy.rangecoder import RATE, STATE_INIT, finish_stream, open_stream
+from ..entropy.rangecoder import RATE, STATE_INIT, finish_stream, open_encoder, open_stream
 from ..entropy.rangecoder import get as _get
 from ..entropy.rangecoder import put as _put
 from .predict import bitlen
@@ -69,10 +69,7 @@ def _encode_kernel(v, shape, nbits, out):
     state = np.full(M_TREE + (2 << nbits), STATE_INIT, dtype=np.uint16)
     cand = np.zeros(NCAND, dtype=np.int64)
     cap = out.size
-    low = np.int64(0)
-    rng = np.int64(0xFFFFFFFF)
-    out[0] = 0
-    pos = 1
+    low, rng, pos = open_encoder(out)
     i = 0
     for z in range(nz):
         for y in range(ny):

@@ -45,7 +45,7 @@ import numpy as np
 
 from .._jit import kernel, leading_zeros
 from ..entropy.common import check_status, encode_with_retry, stream_bytes
-from ..entropy.rangecoder import STATE_INIT, finish_stream, open_stream
+from ..entropy.rangecoder import STATE_INIT, finish_stream, open_encoder, open_stream
 from ..entropy.rangecoder import get as _get
 from ..entropy.rangecoder import pull as _pull
 from ..entropy.rangecoder import push as _push
@@ -292,10 +292,7 @@ def _encode_kernel(v, shape, lo, hi, out):
     bias_cnt = np.zeros(NCTX, dtype=np.int64)
     state = np.full(N_MODELS, STATE_INIT, dtype=np.uint16)
     cap = out.size
-    low = np.int64(0)
-    rng = np.int64(0xFFFFFFFF)
-    out[0] = 0
-    pos = 1
+    low, rng, pos = open_encoder(out)
     i = 0
     for z in range(nz):
         for y in range(ny):
