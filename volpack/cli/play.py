@@ -11,8 +11,9 @@ from .render import parse_look_at, parse_size, view_options
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})
 @click.argument("source")
 @click.argument("output", required=False)
-@click.option("--tf", "tf_spec", help="Transfer function: a preset (ct-bone, ct-skin, mri, "
-              "generic), 'auto' or a JSON file. Fixed for the whole animation.")  # fmt: skip
+@click.option("--tf", "tf_spec", help="Transfer function: a preset (ct-bone, ct-skin, ct-soft, "
+              "mri, generic), 'auto' or a JSON file. Default: auto, chosen from the first "
+              "frame's histogram and fixed for the whole animation.")  # fmt: skip
 @click.option("--fps", type=click.FloatRange(min=0, min_open=True, max=1000), default=25.0,
               show_default=True, help="Frames per second of the movie.")  # fmt: skip
 @click.option("--spin", type=float, default=0.0, show_default=True,
@@ -26,8 +27,8 @@ from .render import parse_look_at, parse_size, view_options
 @json_option
 @click.pass_context
 def play(ctx, source, output, tf_spec, fps, spin, show_stats, azimuth, elevation, zoom,
-         perspective, distance, look_at_s, size_s, step, classification, preint_method, shading, workers,
-         force, as_json) -> None:  # fmt: skip
+         perspective, distance, look_at_s, size_s, step, classification, preint_method, shading, fit,
+         workers, force, as_json) -> None:  # fmt: skip
     """Play the animation SOURCE (.vpk, or '-') into OUTPUT: an .mp4, a .gif or a folder of
     PNGs; without OUTPUT, decode and render only (with --stats: a timing table).
 
@@ -41,12 +42,15 @@ def play(ctx, source, output, tf_spec, fps, spin, show_stats, azimuth, elevation
       volpack play run.vpk run.gif --size 256x256 --spin 3
       volpack play run.vpk --stats
     """
+    import dataclasses
+
     import numpy as np
 
     from ..animation import player
     from ..format.atomic import check_output
-    from ..render import transfer
+    from ..render.autotf import transfer_for
     from ..render.camera import Camera
+    from ..render.framing import fit_camera
     from ..render.raycast import render as raycast
 
     size = parse_size(size_s)
@@ -57,14 +61,19 @@ def play(ctx, source, output, tf_spec, fps, spin, show_stats, azimuth, elevation
     state: dict = {"tf": None, "range": vr, "k": 0}
 
     def render(frame: np.ndarray) -> np.ndarray:
-        if state["tf"] is None:
-            lo, hi = state["range"] or (float(frame.min()), float(frame.max()))
+        if state["tf"] is None:  # the first frame sets the TF and the framing for all
+            lo, hi = state["range"] or (float(np.nanmin(frame)), float(np.nanmax(frame)))
             hi = hi if hi > lo else lo + 1.0
             state["range"] = (lo, hi)
-            state["tf"] = transfer.load_tf(tf_spec or "auto", lo, hi, dtype=frame.dtype)
-        cam = Camera(azimuth=azimuth + spin * state["k"], elevation=elevation, zoom=zoom,
-                     projection="perspective" if perspective else "orthographic", size=size,
-                     distance=distance, look_at=parse_look_at(look_at_s))  # fmt: skip
+            state["tf"] = transfer_for(tf_spec, frame, lo=lo, hi=hi, dtype=frame.dtype)
+            view = Camera(azimuth=azimuth, elevation=elevation, zoom=zoom, size=size,
+                          projection="perspective" if perspective else "orthographic",
+                          distance=distance, look_at=parse_look_at(look_at_s))  # fmt: skip
+            turn = [azimuth + 15.0 * k for k in range(24)] if spin else None
+            state["view"] = (
+                fit_camera(view, frame, state["tf"], lo, hi, azimuths=turn) if fit else view
+            )
+        cam = dataclasses.replace(state["view"], azimuth=azimuth + spin * state["k"])
         state["k"] += 1
         return raycast(
             frame, tf=state["tf"], camera=cam, step=step,
@@ -141,7 +150,7 @@ def _is_folder(path: str) -> bool:
 @click.pass_context
 def walk(ctx, source, output, orbit, budget, tf_spec, fps, compare, show_stats, azimuth,
          elevation, zoom, perspective, distance, look_at_s, size_s, step, classification, preint_method,
-         shading, workers, force, as_json) -> None:  # fmt: skip
+         shading, fit, workers, force, as_json) -> None:  # fmt: skip
     """Fly around the octree SOURCE (.vpk built with --octree) into OUTPUT (.mp4, .gif or a
     folder), drawing each view from the nodes it needs within --budget.
 
@@ -155,15 +164,17 @@ def walk(ctx, source, output, orbit, budget, tf_spec, fps, compare, show_stats, 
       volpack walk big.vpk --orbit 12 --budget 256 --compare --stats
       volpack walk big.vpk fly/ --perspective --distance 60 --orbit 48   # through the volume
     """
+    import dataclasses
     import math
 
     import numpy as np
 
     from ..format.atomic import check_output
     from ..octree import Octree
-    from ..render import transfer
+    from ..render.autotf import transfer_for
     from ..render.camera import Camera
-    from ..render.lod import render_lod, tree_range
+    from ..render.framing import fit_camera
+    from ..render.lod import coarse_level, render_lod, tree_range
     from ..render.prepared import prepare_volume
     from ..render.raycast import render as raycast
 
@@ -175,7 +186,17 @@ def walk(ctx, source, output, orbit, budget, tf_spec, fps, compare, show_stats, 
     rows = []
     with Octree(source, cache_bytes=1 << 30) as tree:
         lo, hi = tree_range(tree)
-        tf = transfer.load_tf(tf_spec or "auto", lo, hi, dtype=tree.dtype)
+        sample, factor = coarse_level(tree)
+        tf = transfer_for(tf_spec, sample.data, lo=lo, hi=hi, dtype=tree.dtype,
+                          mask=sample.mask, size=max(tree.shape))  # fmt: skip
+        azimuths = [azimuth + 360.0 * k / orbit for k in range(orbit)]
+        view = Camera(azimuth=azimuth, elevation=elevation, zoom=zoom, size=size,
+                      distance=distance, look_at=parse_look_at(look_at_s),
+                      projection="perspective" if perspective else "orthographic")  # fmt: skip
+        if fit:
+            view = fit_camera(view, sample.data, tf, lo, hi, spacing=tree.spacing,
+                              shape=tree.shape, factor=factor, mask=sample.mask,
+                              azimuths=azimuths)  # fmt: skip
         full = prepare_volume(tree.decode(0).data) if compare else None
         bricks: dict = {}  # assembled node bricks, kept while they stay in view
         with (
@@ -183,10 +204,7 @@ def walk(ctx, source, output, orbit, budget, tf_spec, fps, compare, show_stats, 
             progress_bar(ctx, "walk", unit="frame") as progress,
         ):
             for k in range(orbit):
-                cam = Camera(azimuth=azimuth + 360.0 * k / orbit, elevation=elevation,
-                             zoom=zoom, size=size, distance=distance,
-                             look_at=parse_look_at(look_at_s),
-                             projection="perspective" if perspective else "orthographic")  # fmt: skip
+                cam = dataclasses.replace(view, azimuth=azimuths[k])
                 img, st = render_lod(tree, tf=tf, camera=cam, blocks=budget,
                                      value_range=(lo, hi), bricks=bricks, **opts)  # fmt: skip
                 row = {"frame": k, "azimuth": cam.azimuth, **vars(st)}

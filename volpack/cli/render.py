@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import time
 
@@ -114,11 +115,8 @@ def _load_mesh(source: str, field: str | None):
             raise click.BadParameter("applies to tetrahedral meshes only", param_hint="--field")
         return None
     names = list(m.point_data) + [n for n in m.cell_data if n not in m.point_data]
-    if field is None and not names:
-        # no field: draw the shape, shaded by each vertex's distance from the centre
-        p = np.asarray(m.points, np.float64)
-        centre = (p.min(axis=0) + p.max(axis=0)) / 2 if len(p) else np.zeros(3)
-        return p, m.tets, np.linalg.norm(p - centre, axis=1), None
+    if field is None and not names:  # no field: the shape alone, as a shaded surface
+        return np.asarray(m.points, np.float64), m.tets, None, None
     if field is None:
         field = names[0]
     if field in m.point_data:
@@ -177,7 +175,7 @@ def view_options(f):
                      "near plane (orthographic) distance from the volume centre, in spacing "
                      "units; small values put the camera inside the volume. Default: outside."),
         click.option("--look-at", "look_at_s", help="Orbit centre Z,Y,X in voxel indices "
-                     "(default the volume centre)."),
+                     "(meshes: in their units; default the centre of what is shown)."),
         click.option("--size", "size_s", default="512x512", show_default=True,
                      help="Image WxH."),
         click.option("--step", type=click.FloatRange(min=0, min_open=True), default=0.5,
@@ -193,6 +191,9 @@ def view_options(f):
                      "segment midpoint; centroid: at the segment's emission centroid (most "
                      "accurate); preintegrated: lighting tables, n.l linear along the segment. "
                      "The last two need --classification preintegrated."),
+        click.option("--fit/--no-fit", default=True, show_default=True,
+                     help="Frame what the transfer function shows so that it spans 80 % of "
+                     "the image (--zoom multiplies that), or the whole grid (--no-fit)."),
     ]  # fmt: skip
     for opt in reversed(opts):
         f = opt(f)
@@ -202,8 +203,10 @@ def view_options(f):
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})
 @click.argument("source")
 @click.argument("output")
-@click.option("--tf", "tf_spec", help="Transfer function: a preset (ct-bone, ct-soft, mri, "
-              "generic), 'auto' or a JSON file. Default: auto, or none with --iso.")  # fmt: skip
+@click.option("--tf", "tf_spec", help="Transfer function: a preset (ct-bone, ct-skin, ct-soft, "
+              "mri, generic), 'auto' (chosen from the histogram: CT, labels or an Otsu "
+              "threshold) or a JSON file. Default: auto, or none with --iso; a mesh without "
+              "--tf is drawn as its lit boundary surface, coloured by --field.")  # fmt: skip
 @view_options
 @click.option("--iso", "iso_spec", help="Isosurfaces VALUE:COLOUR[@OPACITY],... e.g. "
               "300:bone,1200:skull@0.4 (COLOUR: a name or #rrggbb).")  # fmt: skip
@@ -238,6 +241,7 @@ def render(
     classification,
     preint_method,
     shading,
+    fit,
     iso_spec,
     orbit,
     colorbar,
@@ -277,6 +281,7 @@ def render(
     from ..format.atomic import check_output
     from ..io import parse_spec
     from ..render import transfer
+    from ..render.autotf import transfer_for
     from ..render.camera import Camera
     from ..render.image import save_png
     from ..render.raycast import RenderStats
@@ -310,6 +315,10 @@ def render(
         if isos:
             raise click.BadParameter("isosurfaces are drawn for volumes only", param_hint="--iso")
         points, cells, data, field = mesh
+        if data is None and tf_spec is not None:
+            raise click.BadParameter("expected a mesh with a point or cell field, found none",
+                                     param_hint="--tf")  # fmt: skip
+        data = np.zeros(len(points)) if data is None else data
         ok = np.ones(data.shape, bool)
     else:
         vol = _load(source, frame, read_kwargs(raw_shape, raw_dtype, byteorder, offset))
@@ -322,10 +331,38 @@ def render(
     else:
         lo, hi = 0.0, 1.0
     lo, hi = transfer.nonempty_range(lo, hi)
-    tf = None
-    if tf_spec is not None or not isos:
-        tf = transfer.load_tf(tf_spec or "auto", lo, hi, dtype=data.dtype)
+    sample, factor = (vol if mesh is None and tree is None else None), 1
+    if tree is not None:
+        from ..render.lod import coarse_level
 
+        sample, factor = coarse_level(tree)
+    tf = None
+    if mesh is not None and tf_spec is None:
+        pass  # a mesh without --tf is drawn as its shaded boundary surface
+    elif tf_spec is not None or not isos:
+        tf = transfer_for(tf_spec, data if sample is None else sample.data, lo=lo, hi=hi,
+                          dtype=data.dtype, mask=None if sample is None else sample.mask,
+                          size=256 if mesh is not None else max(data.shape if tree is None else tree.shape))  # fmt: skip
+
+    azimuths = [azimuth + 360.0 * k / orbit for k in range(orbit)] if orbit else [azimuth]
+    view = Camera(
+        azimuth=azimuth, elevation=elevation, zoom=zoom, size=size, distance=distance,
+        projection="perspective" if perspective else "orthographic",
+        look_at=parse_look_at(look_at_s),
+    )  # fmt: skip
+    if fit and mesh is not None:
+        from ..render.tetra import fit_mesh_camera
+
+        view = fit_mesh_camera(view, points, cells, azimuths=azimuths if orbit else None)
+    elif fit:
+        from ..render.framing import fit_camera
+
+        view = fit_camera(
+            view, sample.data, tf, lo, hi, spacing=sample.spacing if tree is None else tree.spacing,
+            shape=tree.shape if tree is not None else None, factor=factor, mask=sample.mask,
+            isos=isos,
+            azimuths=azimuths if orbit else None,
+        )  # fmt: skip
     if orbit:
         os.makedirs(output, exist_ok=True)
     if mesh is None and tree is None:  # sampled array, gradients, brick ranges: built once
@@ -347,6 +384,13 @@ def render(
             )  # fmt: skip
             lod_frames.append(vars(lst))
             return img, RenderStats(0, time.perf_counter() - t0, cam.size[0] * cam.size[1], 0)
+        if mesh is not None and tf is None:
+            from ..render.tetra import render_surface
+
+            return render_surface(
+                points, cells, data if field is not None else None, camera=cam,
+                value_range=(lo, hi), workers=workers, render_stats=True,
+            )  # fmt: skip
         if mesh is not None:
             from ..render.tetra import render_mesh
 
@@ -365,15 +409,7 @@ def render(
     samples, seconds = 0, 0.0
     with progress_bar(ctx, "render", unit="frame" if orbit else "row") as progress:
         for k, target in enumerate(targets):
-            cam = Camera(
-                azimuth=azimuth + (360.0 * k / orbit if orbit else 0.0),
-                elevation=elevation,
-                zoom=zoom,
-                projection="perspective" if perspective else "orthographic",
-                size=size,
-                distance=distance,
-                look_at=parse_look_at(look_at_s),
-            )
+            cam = dataclasses.replace(view, azimuth=azimuths[k])
             img, stats = draw(cam, None if (orbit or progress is None) else progress)
             save_png(target, img, colorbar=(tf, lo, hi) if (colorbar and tf) else None, force=force)
             samples += stats.samples

@@ -154,11 +154,12 @@ class Camera:
         row = (h / short - v) * short / 2 - 0.5
         return col, row, depth
 
-    def rays(
+    def world_frame(
         self, shape_zyx: tuple[int, int, int], spacing: tuple[float, float, float] = (1, 1, 1)
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """Return ``(origins, directions)``, each ``(h, w, 3)`` float64 in voxel index
-        space ``(z, y, x)``; ``t`` along a ray counts reference lengths (module docstring)."""
+    ) -> tuple[Camera, np.ndarray, np.ndarray, float]:
+        """``(camera, spacing, centre, radius)`` of the world framing :meth:`rays` uses: the
+        spacing (scaled into a safe range; world = voxel index times it) and the sphere
+        the camera frames, for :meth:`project` and :meth:`world_rays` of ``camera``."""
         shape = np.array([int(n) for n in shape_zyx], dtype=np.float64)
         sp = np.array([float(s) for s in spacing], dtype=np.float64)
         if shape.size != 3 or np.any(shape < 1):
@@ -174,13 +175,22 @@ class Camera:
             sp = sp / unit
             if self.distance is not None:
                 cam = dataclasses.replace(self, distance=self.distance / unit)
-        with np.errstate(over="ignore", invalid="ignore"):  # still too large: checked below
+        with np.errstate(over="ignore", invalid="ignore"):  # still too large: checked by rays
             centre = centre_idx * sp
             radius = 0.5 * float(np.linalg.norm(shape * sp))  # box [-0.5, n-0.5] half diagonal
             if self.look_at is not None:  # keep the whole box in view around another centre
                 corners = np.array([[a, b, c] for a in (0, 1) for b in (0, 1) for c in (0, 1)])
                 corners = (corners * shape - 0.5) * sp
                 radius = float(np.max(np.linalg.norm(corners - centre, axis=1)))
+        return cam, sp, centre, radius
+
+    def rays(
+        self, shape_zyx: tuple[int, int, int], spacing: tuple[float, float, float] = (1, 1, 1)
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Return ``(origins, directions)``, each ``(h, w, 3)`` float64 in voxel index
+        space ``(z, y, x)``; ``t`` along a ray counts reference lengths (module docstring)."""
+        cam, sp, centre, radius = self.world_frame(shape_zyx, spacing)
+        with np.errstate(over="ignore", invalid="ignore"):  # still too large: checked below
             origins, dirs = cam.world_rays(centre, radius)
             ref = float(sp.min())
             origins, dirs = origins / sp, dirs * (ref / sp)

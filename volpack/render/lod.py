@@ -154,3 +154,13 @@ def tree_range(tree) -> tuple[float, float]:
         return nonempty_range(*vr)
     root = tree.decode(tree.depth).data
     return float(root.min()), float(root.max())
+
+
+def coarse_level(tree, voxels: int = 1 << 21):
+    """``(volume, factor)``: the finest level of ``tree`` with at most ``voxels`` voxels,
+    decoded, and its voxel size in full-resolution voxels (for the automatic transfer
+    function and the framing, which need the data's look, not its detail)."""
+    level = 0
+    while level < tree.depth and int(np.prod(tree.geometry.level_shape(level))) > voxels:
+        level += 1
+    return tree.decode(level), 1 << level

@@ -39,6 +39,8 @@ from .preint import extinction, prefix_integrals
 from .transfer import nonempty_range
 
 TILE = 8
+SMOOTH_ANGLE = 40.0  # degrees: faces meeting at a vertex within this share its normal
+SURFACE_COLOUR = (0.86, 0.80, 0.72)  # a mesh surface without a field
 # face k of a tetrahedron is the one opposite vertex k
 _FACES = np.array([[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]], np.int64)
 
@@ -72,7 +74,8 @@ def render_mesh(
     tf : TransferFunction or (k, 4) RGBA table
         As for :func:`volpack.render.raycast.render`; opacity per ``unit`` of length.
     camera : Camera
-        Framing the mesh's bounding box as it frames a volume's.
+        Framing the mesh's bounding box as it frames a volume's; its ``look_at`` is
+        ``(z, y, x)`` in the mesh's units.
     value_range : (lo, hi)
         The value interval of the TF table; default the scalar range.
     unit : float
@@ -127,13 +130,9 @@ def render_mesh(
         stats = RenderStats(0, time.perf_counter() - t_start, w * h, 0)
         return (out, stats) if render_stats else out
 
-    p = np.ascontiguousarray(pts[:, ::-1])  # (z, y, x), like volumes
-    used = np.unique(cells)
-    lo_b, hi_b = p[used].min(axis=0), p[used].max(axis=0)
-    centre = 0.5 * (lo_b + hi_b)
-    radius = max(0.5 * float(np.linalg.norm(hi_b - lo_b)), 1e-12)
+    p, used, centre, radius = _mesh_frame(pts, cells, camera.look_at)
     if unit is None:
-        unit = 2.0 * radius / 256.0
+        unit = 2.0 * _mesh_frame(pts, cells)[3] / 256.0  # the same look wherever it is aimed
     unit = float(unit)
     if not (math.isfinite(unit) and unit > 0):
         raise VolpackError(f"expected a unit length > 0, found {unit}")
@@ -176,7 +175,146 @@ def render_mesh(
     return finish_render(out, row_segments, t_start, render_stats)
 
 
+def render_surface(
+    points,
+    tets,
+    scalars=None,
+    *,
+    camera: Camera | None = None,
+    value_range: tuple[float, float] | None = None,
+    colour=SURFACE_COLOUR,
+    workers: int | None = None,
+    progress=None,
+    render_stats: bool = False,
+):
+    """Draw the boundary of a tetrahedral mesh (faces of one cell only) as an opaque,
+    lit surface: a pre-multiplied RGBA image, opacity 1 where the mesh is.
+
+    Normals are the faces' own, smoothed across a vertex where the faces around it turn
+    by less than :data:`SMOOTH_ANGLE` degrees (so curved surfaces look curved and edges
+    stay sharp); a headlight lights both sides (Phong, the volume ray caster's constants).
+    Without ``scalars`` (or with constant ones) the surface is ``colour``; with them (one per point) it is
+    coloured by the value, linear across each face, on the blue-yellow-red map of
+    :data:`volpack.render.autotf.FIELD_COLOURS` over ``value_range`` (default the
+    scalars' range). The image does not depend on ``workers``.
+    """
+    from .autotf import colour_table
+    from .raycast import KA, KD, KS, SHININESS, finish_render, run_row_sets
+
+    t_start = time.perf_counter()
+    pts = np.asarray(points, np.float64)
+    cells = np.asarray(tets)
+    if pts.ndim != 2 or pts.shape[1] != 3 or not np.all(np.isfinite(pts)):
+        raise VolpackError(f"expected finite points of shape (n, 3), found {pts.shape}")
+    if cells.ndim != 2 or cells.shape[1] != 4 or cells.dtype.kind not in "iu":
+        raise VolpackError(
+            f"expected integer tetrahedra of shape (m, 4), found {cells.shape} {cells.dtype}"
+        )
+    cells = cells.astype(np.int64)
+    if cells.size and (cells.min() < 0 or cells.max() >= len(pts)):
+        raise VolpackError(
+            f"expected vertex indices in 0..{len(pts) - 1}, found {cells.min()}..{cells.max()}"
+        )
+    camera = Camera() if camera is None else camera
+    w, h = camera.size
+    out = np.zeros((h, w, 4), np.float32)
+    if len(cells) == 0:
+        return finish_render(out, np.zeros(h, np.int64), t_start, render_stats)
+    n = 256
+    vals = None if scalars is None else np.asarray(scalars, np.float64).reshape(-1)
+    if vals is None or (len(vals) == len(pts) and np.ptp(vals) == 0):  # nothing to colour by
+        x = np.zeros(len(pts))
+        table = np.tile(np.asarray(colour, np.float64), (n, 1))
+    else:
+        if vals.shape != (len(pts),) or not np.all(np.isfinite(vals)):
+            raise VolpackError(f"expected {len(pts)} finite scalars, found shape {vals.shape}")
+        lo, hi = value_range if value_range is not None else (vals.min(), vals.max())
+        lo, hi = nonempty_range(lo, hi)
+        x = np.clip((vals - lo) * ((n - 1) / (hi - lo)), 0, n - 1)
+        table = colour_table(n)
+    p, _, centre, radius = _mesh_frame(pts, cells, camera.look_at)
+    tri, vid, fn = _boundary(p, cells)
+    cnorm = _corner_normals(fn, vid, len(p))
+    col_px, row_px, _ = camera.project(tri.reshape(-1, 3), centre, radius)
+    ntx, nty = -(-w // TILE), -(-h // TILE)
+    start, faces = _bin_faces(col_px.reshape(-1, 3), row_px.reshape(-1, 3), ntx, nty)
+    origins, dirs = camera.world_rays(centre, radius)
+    shade = np.array([KA, KD, KS, SHININESS])
+    cval = np.ascontiguousarray(x[vid])
+    row_hits = np.zeros(h, np.int64)
+
+    def run(rows: np.ndarray) -> None:
+        _surface_kernel(origins, dirs, rows, start, faces, tri, cnorm, cval, table, shade,
+                        out, row_hits)  # fmt: skip
+
+    run_row_sets(run, h, parse_workers(workers), progress)
+    return finish_render(out, row_hits, t_start, render_stats)
+
+
+def fit_mesh_camera(camera: Camera, points, tets, *, azimuths=None) -> Camera:
+    """``camera`` aimed and zoomed so that the mesh's boundary spans
+    :data:`volpack.render.framing.FILL` of the image as :func:`render_mesh` and
+    :func:`render_surface` frame it (one centre and zoom for every view of ``azimuths``)."""
+    from .framing import fit_points
+
+    cells = np.asarray(tets).astype(np.int64)
+    if len(cells) == 0:
+        return camera
+    p, used, _, _ = _mesh_frame(np.asarray(points, np.float64), cells)
+    _, vid, _ = _boundary(p, cells)
+
+    def world_frame(view):
+        _, _, centre, radius = _mesh_frame(p[:, ::-1], cells, view.look_at)
+        return view, 1.0, centre, radius
+
+    return fit_points(camera, p[np.unique(vid)], world_frame, azimuths=azimuths)
+
+
 # --------------------------------------------------------------------------- helpers
+
+
+def _mesh_frame(pts: np.ndarray, cells: np.ndarray, look_at=None):
+    """``(points (z, y, x), used vertices, centre, radius)``: how a mesh is framed, the
+    sphere around the bounding box of the vertices its cells use; around ``look_at``
+    (z, y, x in the mesh's units) when given, grown to keep the whole box in view."""
+    p = np.ascontiguousarray(pts[:, ::-1])  # (z, y, x), like volumes
+    used = np.unique(cells)
+    lo_b, hi_b = p[used].min(axis=0), p[used].max(axis=0)
+    centre = 0.5 * (lo_b + hi_b)
+    radius = max(0.5 * float(np.linalg.norm(hi_b - lo_b)), 1e-12)
+    if look_at is not None:
+        centre = np.asarray(look_at, np.float64)
+        box = np.array([[a, b, c] for a in (0, 1) for b in (0, 1) for c in (0, 1)])
+        corners = lo_b + box * (hi_b - lo_b)
+        radius = max(float(np.max(np.linalg.norm(corners - centre, axis=1))), 1e-12)
+    return p, used, centre, radius
+
+
+def _boundary(p: np.ndarray, cells: np.ndarray):
+    """Boundary faces: ``(triangles (k, 3, 3), vertex ids (k, 3), unit outward normals)``
+    (a degenerate face gets a zero normal)."""
+    nb, _ = _face_neighbours(cells)
+    bt, bk = np.nonzero(nb < 0)
+    vid = cells[bt[:, None], _FACES[bk]]
+    tri = np.ascontiguousarray(p[vid])
+    nrm = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    inward = np.einsum("ij,ij->i", nrm, p[cells[bt, bk]] - tri[:, 0]) > 0
+    nrm[inward] *= -1
+    length = np.linalg.norm(nrm, axis=1, keepdims=True)
+    return tri, vid, np.divide(nrm, length, out=np.zeros_like(nrm), where=length > 0)
+
+
+def _corner_normals(fn: np.ndarray, vid: np.ndarray, nv: int) -> np.ndarray:
+    """``(k, 3, 3)`` normal at each corner of each boundary face: the mean of the face
+    normals around the vertex where it is within SMOOTH_ANGLE of the face's own, else the
+    face's own."""
+    acc = np.zeros((nv, 3))
+    for c in range(3):
+        np.add.at(acc, vid[:, c], fn)
+    length = np.linalg.norm(acc, axis=1, keepdims=True)
+    vn = np.divide(acc, length, out=np.zeros_like(acc), where=length > 0)[vid]  # (k, 3, 3)
+    close = np.einsum("kcj,kj->kc", vn, fn) >= math.cos(math.radians(SMOOTH_ANGLE))
+    return np.ascontiguousarray(np.where(close[..., None], vn, fn[:, None, :]))
 
 
 def _face_neighbours(cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -292,6 +430,33 @@ def _cell_geometry_kernel(p, cells, fidx, x, planes, grad):
 
 
 @kernel
+def _ray_triangle(tri, f, oz, oy, ox, dz, dy, dx):
+    """``(hit, t, u, v)`` of the ray and triangle ``f`` (Moller-Trumbore, either side;
+    inclusive edges so that shared edges leave no crack)."""
+    az, ay, ax = tri[f, 0, 0], tri[f, 0, 1], tri[f, 0, 2]
+    e1z, e1y, e1x = tri[f, 1, 0] - az, tri[f, 1, 1] - ay, tri[f, 1, 2] - ax
+    e2z, e2y, e2x = tri[f, 2, 0] - az, tri[f, 2, 1] - ay, tri[f, 2, 2] - ax
+    pz = dy * e2x - dx * e2y
+    py = dx * e2z - dz * e2x
+    px = dz * e2y - dy * e2z
+    det = e1z * pz + e1y * py + e1x * px
+    if det == 0.0:
+        return False, 0.0, 0.0, 0.0
+    inv = 1.0 / det
+    sz, sy, sx = oz - az, oy - ay, ox - ax
+    u = (sz * pz + sy * py + sx * px) * inv
+    if u < -1e-9 or u > 1.0 + 1e-9:
+        return False, 0.0, 0.0, 0.0
+    qz = sy * e1x - sx * e1y
+    qy = sx * e1z - sz * e1x
+    qx = sz * e1y - sy * e1z
+    v = (dz * qz + dy * qy + dx * qx) * inv
+    if v < -1e-9 or u + v > 1.0 + 1e-9:
+        return False, 0.0, 0.0, 0.0
+    return True, (e2z * qz + e2y * qy + e2x * qx) * inv, u, v
+
+
+@kernel
 def _prefix_at(tp, kp, tau, col, x, out):
     """``T(x)`` returned, ``K(x)`` in ``out``: the prefix integrals at fractional index x."""
     n = tau.shape[0]
@@ -375,28 +540,9 @@ def _render_mesh_kernel(
                 den = planes[t, k, 0] * dz + planes[t, k, 1] * dy + planes[t, k, 2] * dx
                 if not den < 0.0:
                     continue
-                # Moller-Trumbore, inclusive edges so shared edges leave no crack
-                az, ay, ax = tri[f, 0, 0], tri[f, 0, 1], tri[f, 0, 2]
-                e1z, e1y, e1x = tri[f, 1, 0] - az, tri[f, 1, 1] - ay, tri[f, 1, 2] - ax
-                e2z, e2y, e2x = tri[f, 2, 0] - az, tri[f, 2, 1] - ay, tri[f, 2, 2] - ax
-                pz = dy * e2x - dx * e2y
-                py = dx * e2z - dz * e2x
-                px = dz * e2y - dy * e2z
-                det = e1z * pz + e1y * py + e1x * px
-                if det == 0.0:
+                hit, tt, _, _ = _ray_triangle(tri, f, oz, oy, ox, dz, dy, dx)
+                if not hit:
                     continue
-                inv = 1.0 / det
-                sz, sy, sx = oz - az, oy - ay, ox - ax
-                u = (sz * pz + sy * py + sx * px) * inv
-                if u < -1e-9 or u > 1.0 + 1e-9:
-                    continue
-                qz = sy * e1x - sx * e1y
-                qy = sx * e1z - sz * e1x
-                qx = sz * e1y - sy * e1z
-                v = (dz * qz + dy * qy + dx * qx) * inv
-                if v < -1e-9 or u + v > 1.0 + 1e-9:
-                    continue
-                tt = (e2z * qz + e2y * qy + e2x * qx) * inv
                 # insertion in distance order
                 j = nh
                 while j > 0 and ht[j - 1] > tt:
@@ -512,3 +658,52 @@ def _render_mesh_kernel(
             out[r, c, 2] = ab
             out[r, c, 3] = aa
         row_segments[r] = segs
+
+
+@kernel
+def _surface_kernel(origins, dirs, rows, start, faces, tri, cnorm, cval, table, shade, out,
+                    row_hits):  # fmt: skip
+    """The nearest boundary face along each ray, lit with its interpolated normal and
+    coloured from ``table`` at its interpolated value (table index units)."""
+    w = out.shape[1]
+    ntx = (w + TILE - 1) // TILE
+    n = table.shape[0]
+    for q in range(rows.shape[0]):
+        r = rows[q]
+        hits = 0
+        for c in range(w):
+            oz, oy, ox = origins[r, c, 0], origins[r, c, 1], origins[r, c, 2]
+            dz, dy, dx = dirs[r, c, 0], dirs[r, c, 1], dirs[r, c, 2]
+            tile = (r // TILE) * ntx + c // TILE
+            best = np.inf
+            bf = -1
+            bu = 0.0
+            bv = 0.0
+            for i in range(start[tile], start[tile + 1]):
+                f = faces[i]
+                hit, t, u, v = _ray_triangle(tri, f, oz, oy, ox, dz, dy, dx)
+                if hit and t >= 0.0 and (t < best or (t == best and f < bf)):  # ties: lowest face
+                    best = t
+                    bf = f
+                    bu = u
+                    bv = v
+            if bf < 0:
+                continue
+            hits += 1
+            b0 = 1.0 - bu - bv
+            nz = b0 * cnorm[bf, 0, 0] + bu * cnorm[bf, 1, 0] + bv * cnorm[bf, 2, 0]
+            ny = b0 * cnorm[bf, 0, 1] + bu * cnorm[bf, 1, 1] + bv * cnorm[bf, 2, 1]
+            nx = b0 * cnorm[bf, 0, 2] + bu * cnorm[bf, 1, 2] + bv * cnorm[bf, 2, 2]
+            nn = math.sqrt(nz * nz + ny * ny + nx * nx)
+            ndv = abs(nz * dz + ny * dy + nx * dx) / nn if nn > 0.0 else 1.0
+            x = b0 * cval[bf, 0] + bu * cval[bf, 1] + bv * cval[bf, 2]
+            x = min(max(x, 0.0), n - 1.0)
+            k = min(int(x), n - 2) if n > 1 else 0
+            fr = x - k if n > 1 else 0.0
+            lit = shade[0] + shade[1] * ndv
+            spec = shade[2] * ndv ** shade[3]
+            for ch in range(3):
+                col = table[k, ch] * (1.0 - fr) + table[min(k + 1, n - 1), ch] * fr
+                out[r, c, ch] = min(col * lit + spec, 1.0)
+            out[r, c, 3] = 1.0
+        row_hits[r] = hits

@@ -21,11 +21,13 @@ Files are JSON::
 With ``"space": "normalized"`` the values lie in [0, 1] and are mapped onto the data range
 ``[lo, hi]`` when the file is loaded (:func:`load_tf`).
 
-Presets (:data:`PRESETS`): ``ct-bone``, ``ct-soft``, ``mri``, ``generic``. None contains
-an isosurface; isosurfaces have their own tables (:func:`volpack.render.preint.iso_table`).
-The CT presets are defined in Hounsfield units and used as such when the data range looks
-like CT (``lo < -500`` and ``hi > 1000``); otherwise their normalized twins are mapped
-onto ``[lo, hi]``. :func:`auto_tf` picks a preset from the value range and dtype.
+Presets (:data:`PRESETS`, the table ``_PRESET_POINTS``): ``ct-bone``, ``ct-skin``,
+``ct-soft``, ``mri``, ``generic``. None contains an isosurface; isosurfaces have their own
+tables (:func:`volpack.render.preint.iso_table`). The CT presets are defined in Hounsfield
+units and used as such when the data range looks like CT (``lo < -500`` and
+``hi > 1000``); otherwise their normalized twins are mapped onto ``[lo, hi]``.
+:func:`auto_tf` picks a preset from the value range and dtype alone; the commands use
+:func:`volpack.render.autotf.auto_transfer`, which reads the histogram.
 
 This module uses numpy only (no numba), so command-line parsing stays fast.
 """
@@ -200,6 +202,30 @@ _PRESET_POINTS: dict[str, tuple[tuple[Point, ...], tuple[Point, ...] | None]] = 
             (60.0, 0.90, 0.40, 0.35, 0.05),
             (300.0, 0.95, 0.85, 0.75, 0.15),
             (1000.0, 1.00, 1.00, 1.00, 0.40),
+        ),
+    ),
+    # skin: a thin shell at the air/tissue transition (-500..-100 HU), clear soft tissue
+    # inside it, bone as in ct-bone: the face over the skull
+    "ct-skin": (
+        (
+            (0.00, 0.00, 0.00, 0.00, 0.00),
+            (0.12, 0.90, 0.65, 0.55, 0.00),
+            (0.16, 0.93, 0.70, 0.60, 0.15),
+            (0.20, 0.93, 0.70, 0.60, 0.15),
+            (0.23, 0.90, 0.65, 0.55, 0.00),
+            (0.28, 0.95, 0.82, 0.70, 0.00),
+            (0.40, 1.00, 0.95, 0.88, 0.45),
+            (1.00, 1.00, 1.00, 1.00, 0.80),
+        ),
+        (
+            (-1000.0, 0.00, 0.00, 0.00, 0.00),
+            (-550.0, 0.90, 0.65, 0.55, 0.00),
+            (-400.0, 0.93, 0.70, 0.60, 0.15),
+            (-250.0, 0.93, 0.70, 0.60, 0.15),
+            (-120.0, 0.90, 0.65, 0.55, 0.00),
+            (150.0, 0.95, 0.82, 0.70, 0.00),
+            (700.0, 1.00, 0.95, 0.88, 0.45),
+            (1500.0, 1.00, 1.00, 1.00, 0.80),
         ),
     ),
     "mri": (
