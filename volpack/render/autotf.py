@@ -17,8 +17,11 @@
     plateau at the 60th percentile of the object class and stays there. The plateau is
     the per-voxel opacity that hides what lies behind ``max(2, n / 48)`` voxels of object
     (``n`` the longest side of the volume), so the object reads as a shaded surface that
-    its faint parts still show through. Integer data (scans) get a bone-to-white ramp;
-    float fields a blue-yellow-red colour map over the object's values.
+    its faint parts still show through. Scans (integer data, or float data with a fifth
+    of the voxels in a background spike at the low end) get a bone-to-white ramp; other
+    float fields a blue-yellow-red colour map over the object's values. When most voxels
+    lie above the threshold the object is the low class (a vortex core of low pressure);
+    a signed field centred on zero is split on ``|x|``, both tails shown.
 
 Everything is decided from the numbers: no file names, no metadata. The result is a
 plain :class:`~volpack.render.transfer.TransferFunction` whose name says the look
@@ -194,7 +197,10 @@ def _intensity_tf(s, lo, hi, dtype, n) -> TransferFunction:
         else:  # most voxels above: the object is the low class
             top = _deeper(s[s <= t], 40, t, p_lo)
             c0, c1 = min(p_lo, top), t
-        stops = _SCAN if np.dtype(dtype).kind in "iub" else FIELD_COLOURS
+        # a scan (integers, or a fifth of the voxels in one background spike at the low
+        # end, as a float CT or MRI) in bone-to-white; other fields in a colour map
+        spike = np.count_nonzero(s <= p_lo + 0.02 * (p_hi - p_lo)) >= 0.2 * s.size
+        stops = _SCAN if np.dtype(dtype).kind in "iub" or spike else FIELD_COLOURS
 
         def alpha(x):
             return amax * np.clip((np.asarray(x) - t) / (top - t), 0.0, 1.0)
