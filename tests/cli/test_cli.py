@@ -358,3 +358,10 @@ def test_messages_name_flags_only(tmp_path):
     r = run("compress", tmp_path / "a.npy", tmp_path / "b.vpk", "--max-error", "2", "--psnr", "45",
             ok=False)  # fmt: skip
     assert "found --max-error 2.0, --psnr 45.0" in r.stderr and "[" not in r.stderr
+    (tmp_path / "r.bin").write_bytes(bytes(1000))
+    r = run("info", tmp_path / "r.bin", "--shape", "10,10,10", ok=False)
+    assert "expected --dtype for raw input" in r.stderr and "dtype=" not in r.stderr
+    r = run("info", tmp_path / "r.bin", "--dtype", "uint8", ok=False)
+    assert "expected --shape Z,Y,X" in r.stderr and "shape=" not in r.stderr
+    r = run("compress", tmp_path / "a.npy", tmp_path / "c.vpk", "--offset", "4", ok=False)
+    assert "expected --shape and --dtype with an offset" in r.stderr and "offset=" not in r.stderr
