@@ -20,6 +20,8 @@ framing aims at 0.80 along the tighter side).
 
     python scripts/preview_grid.py            # 512 x 512 previews (a few minutes)
     python scripts/preview_grid.py --size 256x256
+    git archive d46eaef | tar -x -C /tmp/old   # the defaults before issue 24 part 7:
+    python scripts/preview_grid.py --src /tmp/old --name before
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ import argparse
 import csv
 import gzip
 import json
+import os
 import shutil
 import subprocess
 import sys
@@ -117,9 +120,13 @@ def aneurysm_mesh(tmp: Path) -> Path:
     return path
 
 
+SRC = HERE.parent  # the volpack tree whose command line draws (--src)
+
+
 def run(args: list[str]) -> str:
+    env = {**os.environ, "PYTHONPATH": str(SRC)}
     r = subprocess.run([sys.executable, "-m", "volpack", "-q", *args], capture_output=True,
-                       text=True, cwd=HERE.parent)  # fmt: skip
+                       text=True, cwd=SRC, env=env)  # fmt: skip
     if r.returncode:
         raise RuntimeError(f"volpack {' '.join(args)}: {r.stderr.strip()}")
     return r.stdout
@@ -168,7 +175,15 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--size", default=None, help="image WxH (default: the render default)")
     ap.add_argument("--only", nargs="*", help="panel names to draw")
+    ap.add_argument("--src", help="draw with the volpack source tree in this folder (e.g. "
+                    "an older commit from 'git archive'); output goes to results/preview/NAME/ "
+                    "with --name")  # fmt: skip
+    ap.add_argument("--name", default="", help="subfolder of results/preview for the output")
     args = ap.parse_args(argv)
+    global SRC, OUT
+    if args.src:
+        SRC = Path(args.src).resolve()
+    OUT = OUT / args.name if args.name else OUT
     OUT.mkdir(parents=True, exist_ok=True)
     rows, pngs, labels = [], [], []
     with tempfile.TemporaryDirectory(prefix="volpack-preview-") as t:

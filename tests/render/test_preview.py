@@ -146,6 +146,23 @@ def test_play_frames_an_animation_on_its_first_frame(tmp_path):
     assert 0.65 <= max(cols[-1] - cols[0] + 1, rows[-1] - rows[0] + 1) / 64 <= 0.9
 
 
+def test_an_octree_is_framed_on_its_coarse_level(tmp_path):
+    from PIL import Image
+
+    from volpack.octree import build
+
+    build(blob_volume(n=72, centre=(20, 50, 24), r=9, dtype=np.uint8), str(tmp_path / "t.vpk"),
+          block=8)  # fmt: skip
+    for cmd in (["render", str(tmp_path / "t.vpk"), str(tmp_path / "t.png")],
+                ["walk", str(tmp_path / "t.vpk"), str(tmp_path / "w") + "/", "--orbit", "2"]):  # fmt: skip
+        r = CliRunner().invoke(main, [*cmd, "--size", "64x64"])
+        assert r.exit_code == 0, r.output
+    for png in [tmp_path / "t.png", *sorted((tmp_path / "w").iterdir())]:
+        lit = np.asarray(Image.open(png)).max(axis=2) > 12
+        cols, rows = np.flatnonzero(lit.any(axis=0)), np.flatnonzero(lit.any(axis=1))
+        assert 0.7 <= max(cols[-1] - cols[0] + 1, rows[-1] - rows[0] + 1) / 64 <= 0.9, png
+
+
 # --------------------------------------------------------------------------- automatic TF
 
 

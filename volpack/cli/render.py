@@ -260,9 +260,11 @@ def render(
     .vpk) into OUTPUT.png.
 
     Front-to-back compositing with pre-integrated classification and Phong shading by
-    default, the transfer function chosen from the data range. Background black. A mesh
-    is ray cast cell by cell through its face graph, each cell's piece of ray integrated
-    exactly (the field is linear inside a tetrahedron).
+    default, the transfer function chosen from the data's histogram and the camera
+    framed on what it shows (80 % of the image). Background black. A mesh is drawn as
+    its lit boundary surface; with --tf it is ray cast cell by cell through its face
+    graph, each cell's piece of ray integrated exactly (the field is linear inside a
+    tetrahedron).
 
     \b
     Examples:
