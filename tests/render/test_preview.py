@@ -319,7 +319,7 @@ def documented_presets() -> set[str]:
     names = set()
     for text in texts:
         flat = re.sub(r"-\s+", "-", " ".join(text.split()))  # help text wraps at hyphens
-        names |= set(re.findall(r"--tf ([a-z][a-z0-9-]*)\b", flat)) - {"is"}  # "--tf is drawn"
+        names |= set(re.findall(r"--tf ([a-z][a-z0-9-]*)\b", flat))
         for group in re.findall(r"a preset \(([^)]*)\)", flat):
             names |= {n.strip() for n in group.split(",")}
     return names - {"auto", "my_tf"}  # my_tf: the README's example of a JSON file

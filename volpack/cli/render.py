@@ -205,8 +205,8 @@ def view_options(f):
 @click.argument("output")
 @click.option("--tf", "tf_spec", help="Transfer function: a preset (ct-bone, ct-skin, ct-soft, "
               "mri, generic), 'auto' (chosen from the histogram: CT, labels or an Otsu "
-              "threshold) or a JSON file. Default: auto, or none with --iso; a mesh without "
-              "--tf is drawn as its lit boundary surface, coloured by --field.")  # fmt: skip
+              "threshold) or a JSON file. Default: auto, or none with --iso; without a --tf, "
+              "a mesh is drawn as its lit boundary surface, coloured by --field.")  # fmt: skip
 @view_options
 @click.option("--iso", "iso_spec", help="Isosurfaces VALUE:COLOUR[@OPACITY],... e.g. "
               "300:bone,1200:skull@0.4 (COLOUR: a name or #rrggbb).")  # fmt: skip
@@ -262,7 +262,7 @@ def render(
     Front-to-back compositing with pre-integrated classification and Phong shading by
     default, the transfer function chosen from the data's histogram and the camera
     framed on what it shows (80 % of the image). Background black. A mesh is drawn as
-    its lit boundary surface; with --tf it is ray cast cell by cell through its face
+    its lit boundary surface; given a --tf, it is ray cast cell by cell through its face
     graph, each cell's piece of ray integrated exactly (the field is linear inside a
     tetrahedron).
 
