@@ -125,8 +125,10 @@ def compress(
             lossy,
             LOSSY_REFUSED,
         )
-        if codec not in ("auto", "wavelet"):
-            raise click.UsageError("animations code frames with the wavelet codecs; drop --codec")
+        if codec not in ("auto", "wavelet", "lossless"):
+            raise click.UsageError(
+                f"animations take --codec auto, wavelet or lossless; found --codec {codec}"
+            )
         kind, unit = "animation", "frame"
         opts = {**shared, **animation_compress_options(extra), "max_levels": max_levels}
         opts.update(brick=parse_brick(brick), read_options=read_options)
