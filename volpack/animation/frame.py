@@ -251,6 +251,9 @@ class CodedFrame:
 
 
 def frame_range(x: np.ndarray) -> tuple[float, float]:
+    """Smallest and largest finite voxel ((0, 0) if none)."""
+    if x.dtype.kind == "f" and not np.isfinite(x).all():
+        x = x[np.isfinite(x)]
     return (float(x.min()), float(x.max())) if x.size else (0.0, 0.0)
 
 
@@ -271,17 +274,23 @@ def encode_frame(
     s: Settings,
     brick: tuple[int, int, int],
     anchor: bool = False,
+    inline: bool = False,
 ) -> CodedFrame:
     """Code one frame as ``kind``, or as an I-frame where prediction does not pay: when
     half the blocks or more are intra (a scene cut), or when the predicted frame comes
     out longer than the frame coded alone (both are made and the shorter kept). An
     I-frame that is an ``anchor`` is coded to ``s.i_max_error`` when set. Special voxels
     (NaN, +-Inf, ``s.fill_value``) are filled before anything else sees the frame and
-    stored exactly (:mod:`volpack.animation.specials`)."""
+    stored exactly (:mod:`volpack.animation.specials`); a lossless I-frame is also coded
+    with them in place (``inline``, as a 3-D volume's lossless coding keeps them) and
+    the shorter kept."""
     dtype = x.dtype
-    mask = special_mask(x, s.fill_value)
-    raw, x = x, (x if mask is None else fill_masked(x, mask))
+    found = special_mask(x, s.fill_value)
+    raw, x = x, (x if found is None else fill_masked(x, found))
     lo0, hi0 = frame_range(x)
+    mask = None if inline else found
+    if inline:
+        x = raw
     vrange = hi0 - lo0
     mean_unit = 1.0 if dtype.kind in "iu" else max(vrange / 4096.0, 1e-300)
     field, global_vecs = None, None
@@ -369,9 +378,10 @@ def encode_frame(
         out = _combine(pred_int, rec, dtype, s)
     else:
         out = _combine(pred_int, None, dtype, s)
-    err = np.abs(out.astype(np.float64) - x.astype(np.float64))
-    if mask is not None:
-        err[mask] = 0.0  # replaced by the special values below
+    with np.errstate(invalid="ignore"):
+        err = np.abs(out.astype(np.float64) - x.astype(np.float64))
+    if found is not None:
+        err[found] = 0.0  # replaced by (or kept as) the special values
     corr = b""
     # rounding to the output dtype pushed these past the bound
     bad = np.flatnonzero(err > s.max_error) if s.mode == "bounded" else np.empty(0, np.int64)
@@ -380,8 +390,8 @@ def encode_frame(
     if mask is not None or s.fill_value is not None or dtype.kind == "f":
         # a valid voxel must not decode to a special value (it would read as one)
         lost = special_voxels(out, s.fill_value)
-        if mask is not None:
-            lost &= ~mask
+        if found is not None:
+            lost &= ~found
         bad = np.union1d(bad, np.flatnonzero(lost))
     if bad.size:
         flags |= FLAG_CORRECTIONS
@@ -404,7 +414,7 @@ def encode_frame(
     elif field is not None:
         modes.update(field.counts())
     mnb = len(head_parts[-1]) if field is not None else 0
-    nvalid = x.size - (0 if mask is None else int(mask.sum()))
+    nvalid = x.size - (0 if found is None else int(found.sum()))
     coded = CodedFrame(
         payload, out, kind, float(err.max(initial=0.0)), float(np.sum(err * err)), mnb, modes,
         nvalid, (lo0, hi0) if nvalid else (math.inf, -math.inf),
@@ -413,6 +423,10 @@ def encode_frame(
         alone = encode_frame(raw, "I", None, None, s, brick, anchor)
         if len(alone.payload) < len(payload):
             return alone
+    elif mask is not None and s.mode == "lossless":
+        kept = encode_frame(raw, "I", None, None, s, brick, anchor, inline=True)
+        if len(kept.payload) < len(payload):
+            return kept
     return coded
 
 

@@ -63,7 +63,7 @@ def compress(
     coder: str | None = None,
     order: str | None = None,
     max_levels: int | None = None,
-    brick: int | tuple[int, int, int] | None = bricks.DEFAULT_BRICK,
+    brick: int | tuple[int, int, int] | None = None,
     search: int = motion.DEFAULT_RADIUS,
     method: str = "fast",
     precision: str = "quarter",
@@ -117,7 +117,9 @@ def compress(
         **{k: v for k, v in inner.items() if v is not None},
     )  # fmt: skip
     _check_dtype(src.dtype, s)
-    brick_t = bricks.parse_brick(bricks.DEFAULT_BRICK if brick is None else brick)
+    if brick is None:  # as a 3-D volume: floats under a bound in whole frames
+        brick = bricks.default_brick(src.shape[1:], src.dtype, mode == "bounded")
+    brick_t = bricks.parse_brick(brick)
     nt = src.shape[0]
     refs = gop.references(types)
     release = gop.last_use(types)
