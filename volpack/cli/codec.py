@@ -102,6 +102,7 @@ def compress(
       volpack compress ct.nii.gz ct.vpk --quality 63
       volpack compress run.nii.gz run.vpk --gop IBBPBBPBB --quality 63
       volpack compress 'frames/*.npy' run.vpk --gop IPPP --max-error 0.5
+      volpack compress storm.npy storm.vpk --gop IPPP --fill-value -9999   (lossless floats)
       volpack compress mesh.vtu mesh.vpk --bits 16        (tetrahedral mesh: --bits,
       volpack compress hex.msh mesh.vpk --tetrahedralize   --lossless-geometry, ...)
       volpack compress big.h5:/density big.vpk --octree --max-error 2 --workers 2
