@@ -167,17 +167,15 @@ def _weight(t):
 
 @kernel(inline=True)
 def _floor_div(a, d):
-    """``a // d`` for ``d >= 1``: a float quotient corrected by its remainder (a 64-bit
-    integer division costs several times more; the float is off by at most one)."""
+    """``a // d`` for ``1 <= d < 2^53`` and ``|a / d| < 2^48`` (here a weighted mean of
+    predictions of values below 2^32 in magnitude): a float quotient corrected by its
+    remainder (a 64-bit integer division costs several times more). The float quotient
+    is within ``2^-51 |a / d| < 1/8`` of the true one and truncation moves it by less
+    than one, so it is off by at most one either way; the correction is branch-free
+    (truncation errs on every negative quotient, which a branch would mispredict)."""
     q = np.int64(np.float64(a) / np.float64(d))
     r = a - q * d
-    while r < 0:
-        q -= 1
-        r += d
-    while r >= d:
-        q += 1
-        r -= d
-    return q
+    return q + np.int64(r >= d) - np.int64(r < 0)
 
 
 @kernel(inline=True)
@@ -382,9 +380,7 @@ def _decode_kernel(data, shape, lo, hi, v, err, perr, bias_sum, bias_cnt, state)
                 pred, ctx, sctx, p0, p1, p2, p3, p4, p5 = _predict_kernel(
                     v, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, lo, hi, bias_sum, bias_cnt
                 )
-                res, code, rng, pos = get_residual(
-                    data, state, 0, ctx, sctx, code, rng, pos, RATE
-                )
+                res, code, rng, pos = get_residual(data, state, 0, ctx, sctx, code, rng, pos, RATE)
                 if res == NO_RESIDUAL:
                     return 2
                 val = pred + res
