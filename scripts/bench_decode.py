@@ -100,7 +100,9 @@ def measure(name: str, a: np.ndarray, repeat: int, label: str) -> dict:
             for x in range(0, a.shape[2], b):
                 brick = np.ascontiguousarray(a[z : z + b, y : y + b, x : x + b])
                 p = codec.encode(brick)
-                t, _ = _cpu_best(lambda: codec.decode(p, brick.shape, brick.dtype), repeat)
+                t, _ = _cpu_best(
+                    lambda p=p, s=brick.shape, d=brick.dtype: codec.decode(p, s, d), repeat
+                )
                 tools[describe(p)][0] += brick.nbytes / 1e6
                 tools[describe(p)][1] += t
                 nbricks += 1
