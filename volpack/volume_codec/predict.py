@@ -168,12 +168,12 @@ def _weight(t):
 @kernel(inline=True)
 def _floor_div(a, d):
     """``a // d`` for ``1 <= d < 2^53`` and ``|a / d| < 2^48`` (here a weighted mean of
-    predictions of values below 2^32 in magnitude): a float quotient corrected by its
-    remainder (a 64-bit integer division costs several times more). The float quotient
-    is within ``2^-51 |a / d| < 1/8`` of the true one and truncation moves it by less
-    than one, so it is off by at most one either way; the correction is branch-free
-    (truncation errs on every negative quotient, which a branch would mispredict)."""
-    q = np.int64(np.float64(a) / np.float64(d))
+    predictions of values below 2^32 in magnitude): the floor of a float quotient,
+    corrected by its remainder (a 64-bit integer division costs several times more).
+    The float quotient is within ``2^-51 |a / d| < 1/8`` of the true one, so its floor
+    is off by at most one either way (only where the true quotient lies that close to
+    an integer); the correction is branch-free."""
+    q = np.int64(np.floor(np.float64(a) / np.float64(d)))
     r = a - q * d
     return q + np.int64(r >= d) - np.int64(r < 0)
 
