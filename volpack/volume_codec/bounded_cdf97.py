@@ -16,7 +16,7 @@ made per brick and stored:
   codings; the size is nearly unimodal in the step).
 
 The corrections are a list of (voxel, whole bins of ``2E``) coded as a gap list or as a
-dense field, whichever is shorter; a voxel that rounding to the output dtype still
+sparse field (:mod:`volpack.volume_codec.bin_field`), whichever is shorter; a voxel that rounding to the output dtype still
 leaves past the bound goes to the bounded codec's exact corrections.
 """
 
@@ -40,7 +40,10 @@ PROBE_FACTOR = 2.0
 MAX_Q = 2.0**50
 ORDERS = ("dfs", "line")
 HEADER = struct.Struct("<3BBd")  # levels z, y, x; scan order; step
-OUTLIER_LIST, OUTLIER_FIELD = 0, 1
+# Outlier codings: a gap list, the dense field through the coefficient coder (decoded,
+# no longer made: the bin field codes 2-20 % shorter and decodes 4-5x faster), the
+# bin field.
+OUTLIER_LIST, OUTLIER_FIELD, OUTLIER_BINS = 0, 1, 2
 
 
 def _quantize(c: np.ndarray, step: float) -> np.ndarray:
@@ -141,22 +144,20 @@ def add_bins(rec: np.ndarray, idx: np.ndarray, r: np.ndarray, bin_width: float) 
     flat[idx] += r * bin_width
 
 
-def pack_outliers(idx: np.ndarray, r: np.ndarray, shape, coder: str) -> bytes:
+def pack_outliers(idx: np.ndarray, r: np.ndarray, shape) -> bytes:
     """The bins ``r`` (int, nonzero) to add at the flat voxels ``idx`` (increasing): a gap
-    list (zstd) or a dense field (``coder`` in C order), whichever is shorter."""
-    from ..entropy import CODERS
+    list (zstd) or a bin field, whichever is shorter."""
     from ..format.deflate import deflate
-    from ..wavelet import sigmap
+    from . import bin_field
 
-    gaps = np.diff(idx, prepend=-1) - 1
-    listed = deflate(gaps.astype("<u4").tobytes() + r.astype("<i4").tobytes())
-    best = bytes([OUTLIER_LIST]) + listed
-    if idx.size * 8 > len(best):  # dense enough that a field may pay
-        field = np.zeros(math.prod(shape), np.int64)
-        field[idx] = r
-        body = CODERS[coder].encode(field.reshape(shape), sigmap.scan(shape, (0, 0, 0), "line"))
-        if len(body) + 1 < len(best):
-            best = bytes([OUTLIER_FIELD]) + body
+    field = np.zeros(math.prod(shape), np.int64)
+    field[idx] = r
+    best = bytes([OUTLIER_BINS]) + bin_field.encode(field.reshape(shape))
+    if idx.size * 6 < len(best):  # sparse enough that a list may pay
+        gaps = np.diff(idx, prepend=-1) - 1
+        listed = deflate(gaps.astype("<u4").tobytes() + r.astype("<i4").tobytes())
+        if len(listed) + 1 < len(best):
+            best = bytes([OUTLIER_LIST]) + listed
     return best
 
 
@@ -165,11 +166,15 @@ def apply_outliers(body: bytes | memoryview, rec: np.ndarray, bin_width: float, 
     from ..entropy import CODERS
     from ..format.deflate import inflate
     from ..wavelet import sigmap
+    from . import bin_field
 
     body = memoryview(body)
     n = rec.size
-    if len(body) < 1 or body[0] not in (OUTLIER_LIST, OUTLIER_FIELD):
+    if len(body) < 1 or body[0] not in (OUTLIER_LIST, OUTLIER_FIELD, OUTLIER_BINS):
         raise FormatError("cdf97 brick payload: unknown outlier coding")
+    if body[0] == OUTLIER_BINS:
+        bin_field.add_decoded(body[1:], rec, bin_width)
+        return
     if body[0] == OUTLIER_FIELD:
         field = np.empty(rec.shape, np.int64)
         CODERS[coder].decode(bytes(body[1:]), sigmap.scan(rec.shape, (0, 0, 0), "line"), field)

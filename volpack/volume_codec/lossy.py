@@ -208,7 +208,6 @@ class BoundedCodec(BrickCodec):
         from . import bounded_cdf97 as w
 
         xf = x.reshape(-1).astype(np.float64)
-        coder = self._residual_coder
         out = []
 
         def finish(inner, rec):
@@ -221,7 +220,7 @@ class BoundedCodec(BrickCodec):
             extra = []
             if keep.any():
                 idx, bins = bad[keep], r[keep].astype(np.int64)
-                extra.append(w.pack_outliers(idx, bins, x.shape, coder))
+                extra.append(w.pack_outliers(idx, bins, x.shape))
                 w.add_bins(rec, idx, bins, self.step)  # as the decoder will
             y = _to_float(rec, x.dtype)
             out.append(self._finish(x, mask, y, FLAG_CDF97, [inner], extra, FLAG_OUTLIERS))
