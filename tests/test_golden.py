@@ -11,6 +11,7 @@ import pytest
 from volpack import api
 from volpack.demo import load_demo_volume
 from volpack.format.container import Reader
+from volpack.format.sections import take_section
 
 GOLDEN = Path(__file__).resolve().parent.parent / "formats" / "examples"
 
@@ -109,6 +110,7 @@ def lossy_source(recipe):
 LOSSY_CDF97 = [
     ("lossy-bounded-f32-cdf97-bins", np.float32, {"max_error": 2.0, "fill_value": -999.0}),
     ("lossy-bounded-f64-cdf97-bins", np.float64, {"max_error": 2.0, "fill_value": -999.0}),
+    ("lossy-bounded-f32-cdf97-rows", np.float32, {"max_error": 8.0, "fill_value": -999.0}),
 ]
 # The same recipe coded before the bin field (outlier kind 2): their outliers are a dense
 # field (kind 1), which today's encoder no longer writes; they must still decode.
@@ -119,8 +121,6 @@ LOSSY_CDF97_KIND1 = [
 
 
 def _outlier_kinds(blob):
-    from volpack.format.sections import take_section
-
     kinds = []
     with Reader(blob) as r:
         for _, _, p in r:
@@ -144,6 +144,9 @@ def test_golden_float_wavelet_stream(stem, dtype, opts):
     with the default brick (one brick: the whole volume)."""
     blob = (GOLDEN / f"{stem}.vpk").read_bytes()
     assert _outlier_kinds(blob) == [2]
+    with Reader(blob) as r:  # the scan order: `line`, or `rows` at the looser bound
+        inner = [take_section(memoryview(p), 1, "inner")[0] for _, _, p in r]
+    assert [b[3] for b in inner] == [2 if "rows" in stem else 1]
     want = _check_float_wavelet_stream(blob, dtype, opts)
     again = api.compress_array(want, **opts)
     with Reader(blob) as old, Reader(again) as new:

@@ -38,7 +38,11 @@ PROBE_FACTOR = 2.0
 # Quantised magnitudes stay below 2^50 (exact in float64 and int64); a brick whose
 # coefficients would pass it is left to the other paths.
 MAX_Q = 2.0**50
-ORDERS = ("dfs", "line")
+ORDERS = ("dfs", "line", "rows")
+# The scans the encoder tries (at the first step; later steps keep the shorter): "rows"
+# codes 2-6 % shorter than "line" at 1e-2 of the range and decodes 2-4x faster there
+# (zero rows skipped); at tight bounds they are level. "dfs" is still decoded.
+TRIED_ORDERS = (1, 2)
 HEADER = struct.Struct("<3BBd")  # levels z, y, x; scan order; step
 # Outlier codings: a gap list, the dense field through the coefficient coder (decoded,
 # no longer made: the bin field codes 2-20 % shorter and decodes 4-5x faster), the
@@ -87,7 +91,7 @@ def encode(g: np.ndarray, max_error: float, coder: str, max_levels: int | None, 
     _, lv, c = best
     peak = float(np.abs(c).max(initial=0.0))
 
-    orders = list(range(len(ORDERS)))  # both at the first step, then the shorter one
+    orders = list(TRIED_ORDERS)  # all at the first step, then the shortest
 
     def coding(f):
         step = f * max_error
@@ -96,8 +100,7 @@ def encode(g: np.ndarray, max_error: float, coder: str, max_levels: int | None, 
         q = _quantize(c, step)
         rec = cdf97.inverse(q * step, lv)
         bodies = [
-            (CODERS[coder].encode(q.copy(), sigmap.scan(g.shape, lv, ORDERS[k])), k)
-            for k in orders
+            (CODERS[coder].encode(q.copy(), sigmap.scan(g.shape, lv, ORDERS[k])), k) for k in orders
         ]
         body, k = min(bodies, key=lambda t: len(t[0]))
         orders[:] = [k]
