@@ -98,7 +98,7 @@ def encode(g: np.ndarray, max_error: float, coder: str, max_levels: int | None, 
         if not (step > 0 and math.isfinite(step)) or peak / step >= MAX_Q:
             return None
         q = _quantize(c, step)
-        rec = cdf97.inverse(q * step, lv)
+        rec = cdf97.inverse(q * step, lv, overwrite=True)
         bodies = [
             (CODERS[coder].encode(q.copy(), sigmap.scan(g.shape, lv, ORDERS[k])), k) for k in orders
         ]
@@ -138,7 +138,7 @@ def decode(inner: bytes | memoryview, shape: tuple[int, int, int], coder: str, m
     lv = tuple(lv)
     q = np.empty(shape, np.int64)
     CODERS[coder].decode(bytes(inner[HEADER.size :]), sigmap.scan(shape, lv, ORDERS[k]), q)
-    return cdf97.inverse(q * step, lv)
+    return cdf97.inverse(q * step, lv, overwrite=True)
 
 
 def add_bins(rec: np.ndarray, idx: np.ndarray, r: np.ndarray, bin_width: float) -> None:

@@ -379,15 +379,16 @@ class BoundedCodec(BrickCodec):
         if flags & FLAG_OUTLIERS:
             body, pos = _take(data, pos, len(data))
             w.apply_outliers(body, rec, self.step, self._residual_coder)
-        return _to_float(rec, dtype), pos
+        return _to_float(rec, dtype, overwrite=True), pos
 
 
-def _to_float(v: np.ndarray, dtype: np.dtype) -> np.ndarray:
-    """Float64 values cast to the float ``dtype``, clipped to its finite range."""
+def _to_float(v: np.ndarray, dtype: np.dtype, overwrite: bool = False) -> np.ndarray:
+    """Float64 values cast to the float ``dtype``, clipped to its finite range (in ``v``
+    itself when ``overwrite``)."""
     if dtype != np.float64:
         big = float(np.finfo(dtype).max)
-        v = np.clip(v, -big, big)
-    return v.astype(dtype)
+        v = np.clip(v, -big, big, out=v if overwrite else None)
+    return v.astype(dtype, copy=not overwrite)
 
 
 def _code_coefficients(g, codec, steps_of, *, dead_zone: bool):
