@@ -205,7 +205,6 @@ class BoundedCodec(BrickCodec):
         from . import bounded_cdf97 as w
 
         xf = x.reshape(-1).astype(np.float64)
-        coder = self._residual_coder
         out = []
 
         def finish(inner, rec):
@@ -218,7 +217,7 @@ class BoundedCodec(BrickCodec):
             extra = []
             if keep.any():
                 idx, bins = bad[keep], r[keep].astype(np.int64)
-                extra.append(w.pack_outliers(idx, bins, x.shape, coder))
+                extra.append(w.pack_outliers(idx, bins, x.shape))
                 w.add_bins(rec, idx, bins, self.step)  # as the decoder will
             y = _to_float(rec, x.dtype)
             out.append(self._finish(x, mask, y, FLAG_CDF97, [inner], extra, FLAG_OUTLIERS))
@@ -377,15 +376,16 @@ class BoundedCodec(BrickCodec):
         if flags & FLAG_OUTLIERS:
             body, pos = _take(data, pos, len(data))
             w.apply_outliers(body, rec, self.step, self._residual_coder)
-        return _to_float(rec, dtype), pos
+        return _to_float(rec, dtype, overwrite=True), pos
 
 
-def _to_float(v: np.ndarray, dtype: np.dtype) -> np.ndarray:
-    """Float64 values cast to the float ``dtype``, clipped to its finite range."""
+def _to_float(v: np.ndarray, dtype: np.dtype, overwrite: bool = False) -> np.ndarray:
+    """Float64 values cast to the float ``dtype``, clipped to its finite range (in ``v``
+    itself when ``overwrite``)."""
     if dtype != np.float64:
         big = float(np.finfo(dtype).max)
-        v = np.clip(v, -big, big)
-    return v.astype(dtype)
+        v = np.clip(v, -big, big, out=v if overwrite else None)
+    return v.astype(dtype, copy=not overwrite)
 
 
 def _code_coefficients(g, codec, steps_of, *, dead_zone: bool):
