@@ -13,7 +13,7 @@ from volpack.cli import main
 from volpack.demo import load_demo_volume
 from volpack.octree import Octree, build, select
 from volpack.render.camera import Camera
-from volpack.render.lod import paged_volume, render_lod
+from volpack.render.lod import NodeAtlas, paged_volume, render_lod
 from volpack.render.raycast import render
 from volpack.render.transfer import load_tf
 
@@ -30,14 +30,18 @@ def tf_of(vol):
     return load_tf("auto", float(vol.min()), float(vol.max()), dtype=vol.dtype)
 
 
+@pytest.mark.parametrize("grads", [False, True])
 @pytest.mark.parametrize("cls", ["post", "preintegrated"])
-def test_full_resolution_selection_renders_exactly_like_the_volume(tree_path, cls):
+def test_full_resolution_selection_renders_exactly_like_the_volume(tree_path, cls, grads):
     path, vol = tree_path
     vr = (float(vol.min()), float(vol.max()))
     cam = Camera(size=(40, 36), azimuth=35, elevation=25, projection="perspective")
     kw = dict(tf=tf_of(vol), camera=cam, value_range=vr, classification=cls, shading="phong")
     with Octree(str(path)) as t:
-        pv = paged_volume(t, select.by_level(t, 0))
+        # with gradient bricks (central differences of each node grown by two voxels)
+        # or differences taken on the fly through the page table
+        pv = paged_volume(t, select.by_level(t, 0), gradients=grads)
+        assert (pv.grad is not None) == grads and pv.atlas.dtype == vol.dtype
         # the plain volume takes the fast path (raycast._march_kernel) with precomputed
         # gradients: the same samples and sums, rounded differently
         np.testing.assert_allclose(render(pv, **kw), render(vol, **kw), atol=1e-5)
@@ -80,13 +84,16 @@ def test_budget_bounds_the_nodes_and_more_nodes_cost_less_error(tree_path):
         assert st.decoded == 0
         # a walkthrough that enters the volume and leaves it again; the bricks kept
         # from frame to frame give the atlas a fresh assembly gives
-        bricks: dict = {}
+        atlas = NodeAtlas(t)
+        most = 0
         for dist in (300.0, 20.0, 0.0, 20.0, 300.0):
             cam_w = Camera(size=(16, 16), projection="perspective", distance=dist, azimuth=dist)
             img, st = render_lod(t, tf=tf, camera=cam_w, blocks=64, value_range=vr)
             kept, _ = render_lod(t, tf=tf, camera=cam_w, blocks=64, value_range=vr,
-                                 bricks=bricks)  # fmt: skip
-            assert np.array_equal(img, kept) and 1 <= len(bricks) <= st.nodes
+                                 atlas=atlas)  # fmt: skip
+            most = max(most, st.nodes)
+            assert np.array_equal(img, kept) and st.nodes <= len(atlas.slot)
+            assert len(atlas.atlas) <= 2 * most  # slots: at most keep (2) x the selection
             assert np.all(np.isfinite(img)) and st.nodes >= 1
             if dist == 0.0:  # inside: every ray starts in the volume
                 assert (img[..., 3] > 0).mean() > 0.5
@@ -94,6 +101,36 @@ def test_budget_bounds_the_nodes_and_more_nodes_cost_less_error(tree_path):
         away = Camera(size=(16, 16), projection="perspective", distance=0.0, elevation=-89)
         img, st = render_lod(t, tf=tf, camera=away, blocks=64, value_range=vr)
         assert np.all(np.isfinite(img))
+
+
+def test_node_atlas_reuses_slots_and_bounds_gradient_memory(tree_path):
+    # an orbit through views that need different nodes, with no spare slots (keep=1):
+    # slots are reused, each frame equals a fresh assembly, and a gradient budget too
+    # small for the bricks falls back to differences on the fly (the same image as
+    # rendering without them)
+    path, vol = tree_path
+    vr = (float(vol.min()), float(vol.max()))
+    tf = tf_of(vol)
+    with Octree(str(path)) as t:
+        atlas = NodeAtlas(t, keep=1.0)
+        starved = NodeAtlas(t, gradient_budget=0)
+        placed = []
+        most = 0
+        for az in (0.0, 90.0, 180.0, 270.0, 0.0):
+            cam = Camera(size=(24, 20), azimuth=az, zoom=3.0)
+            kw = dict(tf=tf, camera=cam, value_range=vr, shading="phong")
+            sel, _ = select.by_view(t, cam, tf=tf, voxels=24 * 8**3)
+            fresh = render(paged_volume(t, sel, gradients=True), **kw)
+            np.testing.assert_array_equal(render(atlas.paged(sel), **kw), fresh)
+            most = max(most, len(sel))
+            assert len(atlas.atlas) <= most  # keep=1: no more slots than one view needs
+            placed.append(atlas.placed)
+            pv = starved.paged(sel)
+            assert pv.grad is None
+            np.testing.assert_array_equal(render(pv, **kw),
+                                          render(paged_volume(t, sel), **kw))  # fmt: skip
+        assert placed[-1] > placed[0]  # the views needed new nodes ...
+        assert placed[-1] < 5 * placed[0]  # ... not all of them each time
 
 
 def test_render_and_walk_commands(tree_path, tmp_path):
