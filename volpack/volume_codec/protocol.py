@@ -33,6 +33,7 @@ class BrickCodec:
     """Base of the brick codecs: configuration in, bytes out, and back."""
 
     codec_id: ClassVar[str] = ""
+    lossless: ClassVar[bool] = True  # exact on every voxel; lossy codecs say False
 
     def encode(self, brick: np.ndarray) -> bytes:
         raise NotImplementedError
@@ -106,6 +107,16 @@ def split_mode(data: bytes | memoryview, codec: str) -> tuple[int, memoryview]:
     if len(data) < 1:
         raise FormatError(f"empty {codec} brick payload: expected at least a mode byte")
     return data[0], data[1:]
+
+
+def as_brick(brick: Any, check_dtype: Any) -> np.ndarray:
+    """``brick`` as a 3-D array, its dtype passed by ``check_dtype`` (which raises
+    :class:`OptionError`), the start of every codec's ``encode``."""
+    brick = np.asarray(brick)
+    check_dtype(brick.dtype)
+    if brick.ndim != 3:
+        raise OptionError(f"expected a 3-D brick, found shape {brick.shape}")
+    return brick
 
 
 def constant_value(brick: np.ndarray) -> bytes | None:
