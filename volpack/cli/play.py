@@ -174,7 +174,7 @@ def walk(ctx, source, output, orbit, budget, tf_spec, fps, compare, show_stats, 
     from ..render.autotf import transfer_for
     from ..render.camera import Camera
     from ..render.framing import fit_camera
-    from ..render.lod import coarse_level, render_lod, tree_range
+    from ..render.lod import NodeAtlas, coarse_level, render_lod, tree_range
     from ..render.prepared import prepare_volume
     from ..render.raycast import render as raycast
 
@@ -198,7 +198,8 @@ def walk(ctx, source, output, orbit, budget, tf_spec, fps, compare, show_stats, 
                               shape=tree.shape, factor=factor, mask=sample.mask,
                               azimuths=azimuths)  # fmt: skip
         full = prepare_volume(tree.decode(0).data) if compare else None
-        bricks: dict = {}  # assembled node bricks, kept while they stay in view
+        # decoded nodes and their gradient bricks, kept while they stay in view
+        atlas = NodeAtlas(tree, gradients=shading != "none")
         with (
             _movie(output, fps, force) as writer,
             progress_bar(ctx, "walk", unit="frame") as progress,
@@ -206,7 +207,7 @@ def walk(ctx, source, output, orbit, budget, tf_spec, fps, compare, show_stats, 
             for k in range(orbit):
                 cam = dataclasses.replace(view, azimuth=azimuths[k])
                 img, st = render_lod(tree, tf=tf, camera=cam, blocks=budget,
-                                     value_range=(lo, hi), bricks=bricks, **opts)  # fmt: skip
+                                     value_range=(lo, hi), atlas=atlas, **opts)  # fmt: skip
                 row = {"frame": k, "azimuth": cam.azimuth, **vars(st)}
                 if full is not None:
                     ref = raycast(full, tf=tf, camera=cam, value_range=(lo, hi), **opts)

@@ -8,7 +8,7 @@ import time
 
 import click
 
-from .options import emit_json, force_option, json_option, progress_bar, raw_options, read_kwargs
+from .options import emit_json, force_option, json_option, progress_bar, raw_options
 
 # Colour names an isosurface spec may use beside CSS names and #rrggbb.
 ISO_COLOURS = {
@@ -249,10 +249,7 @@ def render(
     field,
     budget,
     workers,
-    raw_shape,
-    raw_dtype,
-    byteorder,
-    offset,
+    read_options,
     force,
     as_json,
 ) -> None:
@@ -323,7 +320,7 @@ def render(
         data = np.zeros(len(points)) if data is None else data
         ok = np.ones(data.shape, bool)
     else:
-        vol = _load(source, frame, read_kwargs(raw_shape, raw_dtype, byteorder, offset))
+        vol = _load(source, frame, read_options)
         data = vol.data
         ok = np.isfinite(data) if data.dtype.kind == "f" else np.ones(data.shape, bool)
         if vol.mask is not None:
@@ -373,15 +370,18 @@ def render(
         vol = prepare_volume(vol)
 
     lod_frames = []
+    lod_atlas = []  # one NodeAtlas (decoded nodes, gradient bricks) for every view
 
     def draw(cam, progress_rows):
         if tree is not None:
-            from ..render.lod import render_lod
+            from ..render.lod import NodeAtlas, render_lod
 
+            if not lod_atlas:
+                lod_atlas.append(NodeAtlas(tree, gradients=shading != "none"))
             t0 = time.perf_counter()
             img, lst = render_lod(
                 tree, tf=tf, camera=cam, blocks=budget or 2048, value_range=(lo, hi),
-                step=step, classification=classification, shading=shading,
+                atlas=lod_atlas[0], step=step, classification=classification, shading=shading,
                 preint_method=preint_method, workers=workers, progress=progress_rows,
             )  # fmt: skip
             lod_frames.append(vars(lst))
