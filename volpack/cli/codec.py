@@ -16,9 +16,9 @@ from .animation import (
 from .mesh import mesh_line
 from .octree import octree_decoded_line, octree_line
 from .options import (
+    accuracy,
     codec_options,
     emit_json,
-    fmt_bytes,
     fmt_speed,
     force_option,
     json_option,
@@ -26,6 +26,7 @@ from .options import (
     plural,
     progress_bar,
     raw_options,
+    sizes,
     workers_option,
 )
 
@@ -277,18 +278,11 @@ def _refuse(message: str, given: dict, refused: tuple[str, ...]) -> None:
 def _volume_line(target: str, stats: dict) -> str:
     w = stats["workers"]
     return (
-        f"{target}: {fmt_bytes(stats['file_nbytes'])} from {fmt_bytes(stats['raw_nbytes'])}, "
-        f"ratio {stats['file_ratio']:.3f}:1, {_accuracy(stats)}, "
+        f"{target}: {sizes(stats['file_nbytes'], stats['raw_nbytes'], stats['file_ratio'])}, "
+        f"{accuracy(stats)}, "
         f"{fmt_speed(stats['mb_per_s'], stats['seconds'])} "
         f"({stats['bricks']} {plural('brick', stats['bricks'])}, {w} {plural('worker', w)})"
     )
-
-
-def _accuracy(stats: dict) -> str:
-    if stats.get("lossless", True):
-        return "lossless"
-    psnr = stats.get("psnr")
-    return f"max error {stats['max_error']:g}, PSNR {'inf' if psnr is None else f'{psnr:.2f}'} dB"
 
 
 SUMMARIES = {

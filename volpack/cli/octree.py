@@ -6,19 +6,15 @@ from __future__ import annotations
 
 import click
 
-from .options import emit_json, fmt_bytes, fmt_speed, plural, table
+from .options import accuracy, emit_json, fmt_bytes, fmt_speed, plural, sizes, table
 
 
 def octree_line(target: str, stats: dict) -> str:
     """The line ``volpack compress --octree`` prints."""
-    acc = "lossless"
-    if not stats["lossless"]:
-        psnr = "inf" if stats["psnr"] is None else f"{stats['psnr']:.2f}"
-        acc = f"max error {stats['max_error']:g} (bound {stats['error_bound']:g}), PSNR {psnr} dB"
     return (
         f"{target}: octree of depth {stats['depth']} ({stats['block']}^3 nodes), "
-        f"{fmt_bytes(stats['payload_nbytes'])} from {fmt_bytes(stats['raw_nbytes'])}, "
-        f"ratio {stats['ratio']:.3f}:1, {acc}, "
+        f"{sizes(stats['payload_nbytes'], stats['raw_nbytes'], stats['ratio'])}, "
+        f"{accuracy(stats, stats.get('error_bound'))}, "
         f"{fmt_speed(stats['mb_per_s'], stats['seconds'])}"
     )
 

@@ -156,6 +156,20 @@ def fmt_speed(mb_per_s: float, seconds: float) -> str:
     return f"{speed} MB/s in {seconds:.3g} s"
 
 
+def sizes(nbytes: int, raw_nbytes: int, ratio: float) -> str:
+    """'1.20 MB from 7.08 MB, ratio 5.900:1': what a summary line says of the sizes."""
+    return f"{fmt_bytes(nbytes)} from {fmt_bytes(raw_nbytes)}, ratio {ratio:.3f}:1"
+
+
+def accuracy(stats: dict, bound: float | None = None) -> str:
+    """'lossless', or 'max error E, PSNR P dB' (``bound``: the bound asked, beside E)."""
+    if stats.get("lossless", True):
+        return "lossless"
+    psnr = stats.get("psnr")
+    asked = "" if bound is None else f" (bound {bound:g})"
+    return f"max error {stats['max_error']:g}{asked}, PSNR {'inf' if psnr is None else f'{psnr:.2f}'} dB"
+
+
 def plural(word: str, n: int) -> str:
     """``word`` for one, ``word + "s"`` for any other count."""
     return word if n == 1 else word + "s"
