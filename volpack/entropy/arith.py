@@ -26,7 +26,7 @@ import numpy as np
 from .._jit import kernel, leading_zeros
 from ..errors import FormatError
 from .common import check_status, encode_with_retry, flat_view, max_bits
-from .rangecoder import RATE, STATE_INIT, get, open_encoder, pull, push, put
+from .rangecoder import RATE, STATE_INIT, end_status, get, open_encoder, pull, push, put
 from .scan import N_CLASSES, Scan
 
 TREE_BITS = 6  # 2**6 models per context for the bit length
@@ -138,7 +138,8 @@ def _encode_kernel(flat, perm, end, parent, cls, nbr, out):
 
 @kernel
 def _decode_kernel(data, perm, end, parent, cls, nbr, flat, nmax):
-    """Return 0 on success, 1 when the stream ran short, 2 on an impossible symbol."""
+    """Return 0 on success, 1 when the stream ran short, 2 on an impossible symbol, 3 when
+    it does not end where its length says."""
     n = perm.size
     size = data.size
     state = np.full(N_MODELS, STATE_INIT, dtype=np.uint16)
@@ -191,7 +192,9 @@ def _decode_kernel(data, perm, end, parent, cls, nbr, flat, nmax):
             t = min(k, 16)
             k -= t
             rng >>= t
-            r = min(code // rng, (1 << t) - 1)  # a corrupt stream may point past the end
+            r = code // rng
+            if r >= (1 << t):  # past the last of the 2^t parts: only damage points there
+                return 2
             code -= r * rng
             v = (v << np.uint64(t)) | np.uint64(r)
             code, rng, pos = pull(data, code, rng, pos)
@@ -199,9 +202,7 @@ def _decode_kernel(data, perm, end, parent, cls, nbr, flat, nmax):
         nbits[i] = nb
         nprev = nb
         i += 1
-    if pos > size + 4:
-        return 1
-    return 0
+    return end_status(data, code, pos)
 
 
 def encode(coeffs: np.ndarray, scan: Scan) -> bytes:
