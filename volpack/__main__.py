@@ -1,6 +1,6 @@
 """``python -m volpack`` runs the command-line interface."""
 
-from volpack.cli import main
+from volpack.cli import run
 
 if __name__ == "__main__":
-    main()
+    run()

@@ -50,6 +50,21 @@ def test_python_dash_m_volpack():
     assert "volpack" in out.stdout
 
 
+def test_console_entry_keeps_exit_codes_and_output(tmp_path):
+    """The entry skips module teardown after a command (volpack.cli.run): exit codes and
+    everything written must come through as with a normal exit."""
+
+    def vp(*args):
+        return subprocess.run([sys.executable, "-m", "volpack", *args], capture_output=True, text=True)
+
+    missing = vp("info", str(tmp_path / "none.vpk"))
+    assert missing.returncode == 1 and missing.stderr.startswith("volpack: error:")
+    assert vp("info", "--no-such-flag").returncode == 2
+    np.save(tmp_path / "a.npy", np.zeros((3, 4, 5), np.uint8))
+    ok = vp("info", str(tmp_path / "a.npy"), "--json")
+    assert ok.returncode == 0 and json.loads(ok.stdout)["shape"] == [3, 4, 5]
+
+
 def test_info_on_npy_and_vpk_json(tmp_path):
     a = smooth_volume((10, 11, 12), np.int16)
     np.save(tmp_path / "a.npy", a)
@@ -343,3 +358,10 @@ def test_messages_name_flags_only(tmp_path):
     r = run("compress", tmp_path / "a.npy", tmp_path / "b.vpk", "--max-error", "2", "--psnr", "45",
             ok=False)  # fmt: skip
     assert "found --max-error 2.0, --psnr 45.0" in r.stderr and "[" not in r.stderr
+    (tmp_path / "r.bin").write_bytes(bytes(1000))
+    r = run("info", tmp_path / "r.bin", "--shape", "10,10,10", ok=False)
+    assert "expected --dtype for raw input" in r.stderr and "dtype=" not in r.stderr
+    r = run("info", tmp_path / "r.bin", "--dtype", "uint8", ok=False)
+    assert "expected --shape Z,Y,X" in r.stderr and "shape=" not in r.stderr
+    r = run("compress", tmp_path / "a.npy", tmp_path / "c.vpk", "--offset", "4", ok=False)
+    assert "expected --shape and --dtype with an offset" in r.stderr and "offset=" not in r.stderr

@@ -237,9 +237,9 @@ def test_raw_errors(tmp_path):
         vio.read_volume(str(path), shape=SHAPE, dtype="int16", offset=2)
     with pytest.raises(FormatError, match="found 210"):
         vio.read_volume(str(path), shape=(3, 5, 8), dtype="int16")
-    with pytest.raises(FormatError, match="--shape"):
+    with pytest.raises(FormatError, match="expected shape="):
         vio.read_volume(str(path), dtype="int16")
-    with pytest.raises(FormatError, match="--dtype"):
+    with pytest.raises(FormatError, match="expected dtype="):
         vio.read_volume(str(path), shape=SHAPE)
     with pytest.raises(FormatError, match="at most 100 voxels"):
         vio.read_volume(str(path), shape=SHAPE, dtype="int16", max_voxels=100)

@@ -12,7 +12,7 @@ import functools
 
 import click
 
-from .options import fmt_bytes, table
+from .options import fmt_bytes, fmt_speed, table
 
 
 def animation_options(f):
@@ -123,7 +123,8 @@ def animation_line(target: str, stats: dict) -> str:
     return (
         f"{target}: {fmt_bytes(stats['nbytes'])} from {fmt_bytes(stats['raw_nbytes'])}, "
         f"ratio {stats['ratio']:.3f}:1, {acc}; frames I {counts['I']}, P {counts['P']}, "
-        f"B {counts['B']} ({stats['scene_cuts']} planned P/B coded as I), {stats['mb_per_s']:.1f} MB/s"
+        f"B {counts['B']} ({stats['scene_cuts']} planned P/B coded as I), "
+        f"{fmt_speed(stats['mb_per_s'], stats['seconds'])}"
     )
 
 

@@ -19,6 +19,7 @@ from .options import (
     codec_options,
     emit_json,
     fmt_bytes,
+    fmt_speed,
     force_option,
     json_option,
     parse_brick,
@@ -273,7 +274,8 @@ def decompress(
         emit_json(stats)
     elif target != "-":
         click.echo(
-            f"{target}: {'x'.join(map(str, vol.shape))} {vol.dtype}, {stats['mb_per_s']:.1f} MB/s",
+            f"{target}: {'x'.join(map(str, vol.shape))} {vol.dtype}, "
+            f"{fmt_speed(stats['mb_per_s'], seconds)}",
             err=True,
         )
 
@@ -289,7 +291,8 @@ def _volume_line(target: str, stats: dict) -> str:
     w = stats["workers"]
     return (
         f"{target}: {fmt_bytes(stats['file_nbytes'])} from {fmt_bytes(stats['raw_nbytes'])}, "
-        f"ratio {stats['file_ratio']:.3f}:1, {_accuracy(stats)}, {stats['mb_per_s']:.1f} MB/s "
+        f"ratio {stats['file_ratio']:.3f}:1, {_accuracy(stats)}, "
+        f"{fmt_speed(stats['mb_per_s'], stats['seconds'])} "
         f"({stats['bricks']} brick{'s' if stats['bricks'] != 1 else ''}, {w} worker{'s' if w != 1 else ''})"
     )
 

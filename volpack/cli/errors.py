@@ -15,7 +15,7 @@ import re
 import click
 
 # library parameter -> flag, where the flag is not derived from the parameter's name
-FLAGS = {"method": "--motion"}
+FLAGS = {"method": "--motion", "shape": "--shape", "dtype": "--dtype"}
 
 # name=value (value: a quoted string, True or a number; may be empty) or a snake_case name
 _NAMED = re.compile(r"\b([a-z][a-z0-9]*(?:_[a-z0-9]+)*)=('[^']*'|True\b|-?[0-9][0-9.e+-]*)?")

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import click
 
-from .options import emit_json, fmt_bytes, table
+from .options import emit_json, fmt_bytes, fmt_speed, table
 
 
 def octree_line(target: str, stats: dict) -> str:
@@ -18,7 +18,8 @@ def octree_line(target: str, stats: dict) -> str:
     return (
         f"{target}: octree of depth {stats['depth']} ({stats['block']}^3 nodes), "
         f"{fmt_bytes(stats['payload_nbytes'])} from {fmt_bytes(stats['raw_nbytes'])}, "
-        f"ratio {stats['ratio']:.3f}:1, {acc}, {stats['mb_per_s']:.1f} MB/s"
+        f"ratio {stats['ratio']:.3f}:1, {acc}, "
+        f"{fmt_speed(stats['mb_per_s'], stats['seconds'])}"
     )
 
 

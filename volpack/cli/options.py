@@ -135,6 +135,13 @@ def fmt_bytes(n: float) -> str:
     return f"{n:.2f} TB"  # pragma: no cover
 
 
+def fmt_speed(mb_per_s: float, seconds: float) -> str:
+    """'16.5 MB/s in 0.291 s': three significant digits down to 0.001 MB/s, so a small
+    volume's speed is not printed as 0.0, and the wall time it was measured over beside it."""
+    speed = f"{mb_per_s:.3g}" if mb_per_s >= 1 else f"{mb_per_s:.3f}" if mb_per_s >= 1e-3 else "<0.001"
+    return f"{speed} MB/s in {seconds:.3g} s"
+
+
 def table(rows: list[list[str]], header: list[str]) -> str:
     """A plain aligned text table."""
     widths = [max(len(str(r[i])) for r in [header, *rows]) for i in range(len(header))]

@@ -42,7 +42,7 @@ def _resolve(spec: str, opts: ReadOptions) -> tuple[str, str]:
     fmt = "npy" if path == "-" else detect_format(path)
     if fmt != "raw" and (raw_given or opts.offset):
         raise FormatError(
-            f"expected shape and dtype (--shape/--dtype) with an offset, or neither for the "
+            f"expected shape= and dtype= with an offset, or neither for the "
             f"{fmt} file {path!r}, found only offset={opts.offset}"
             if not raw_given
             else f"expected shape/dtype/offset only for a single raw file, found them for "

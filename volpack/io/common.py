@@ -160,7 +160,7 @@ def refuse_float16(vol: Volume, fmt: str) -> None:
     if vol.dtype == np.float16:
         raise FormatError(
             f"expected a dtype {fmt} stores (8-64 bit integers, float32, float64), found "
-            f"float16; convert it first (e.g. volpack convert --astype float32)"
+            f"float16; convert it first (astype='float32')"
         )
 
 

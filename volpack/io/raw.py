@@ -15,7 +15,7 @@ from .common import ReadOptions, as_volume_array, check_voxels, header_dict, nat
 
 def _raw_dtype(dtype: Any, byteorder: str) -> np.dtype:
     if dtype is None:
-        raise FormatError("expected --dtype (dtype=) for raw input, found none")
+        raise FormatError("expected dtype= for raw input, found none")
     order = {"little": "<", "big": ">", "native": "=", "<": "<", ">": ">", "=": "="}.get(
         str(byteorder)
     )
@@ -33,7 +33,7 @@ def _raw_dtype(dtype: Any, byteorder: str) -> np.dtype:
 
 def _raw_shape(shape) -> tuple[int, ...]:
     if shape is None:
-        raise FormatError("expected --shape (shape=) Z,Y,X for raw input, found none")
+        raise FormatError("expected shape= Z,Y,X (slowest axis first) for raw input, found none")
     try:
         sh = tuple(int(s) for s in shape)
     except (TypeError, ValueError):

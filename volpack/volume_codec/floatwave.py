@@ -28,6 +28,7 @@ MAX_LEVELS = 6
 @dataclasses.dataclass(frozen=True, eq=False, repr=False)
 class FloatWaveletCodec(BrickCodec):
     codec_id: ClassVar[str] = "pywt"
+    lossless: ClassVar[bool] = False
     value_range: float
     wavelet: str = "cdf97"
     quality: int | None = None

@@ -128,7 +128,7 @@ def check_dtype(dtype: np.dtype) -> None:
     if name not in WAVELET_DTYPES and name not in FLOAT_DTYPES:
         raise FormatError(
             f"the lossless codec takes {', '.join(WAVELET_DTYPES + FLOAT_DTYPES)} voxels, "
-            f"found {np.dtype(dtype)}; use --codec zstd for this dtype"
+            f"found {np.dtype(dtype)}; use codec='zstd' for this dtype"
         )
 
 

@@ -75,6 +75,7 @@ class BoundedCodec(BrickCodec):
     """
 
     codec_id: ClassVar[str] = "bounded"
+    lossless: ClassVar[bool] = False
     max_error: float
     lo: float
     step: float
@@ -492,6 +493,7 @@ class CoefCodec(BrickCodec):
     """
 
     codec_id: ClassVar[str] = "coef"
+    lossless: ClassVar[bool] = False
     value_range: float
     quality: int | None = None
     threshold: float | None = None

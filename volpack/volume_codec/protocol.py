@@ -33,6 +33,7 @@ class BrickCodec:
     """Base of the brick codecs: configuration in, bytes out, and back."""
 
     codec_id: ClassVar[str] = ""
+    lossless: ClassVar[bool] = True  # exact on every voxel; lossy codecs say False
 
     def encode(self, brick: np.ndarray) -> bytes:
         raise NotImplementedError

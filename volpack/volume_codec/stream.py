@@ -249,7 +249,7 @@ def compress(
 
 def measured_quality(c, worst: float, sse: float, nvalid: int) -> dict[str, Any]:
     """The summary's accuracy fields: lossless or not, max error, RMSE and PSNR."""
-    lossless = c.codec_id in ("wavelet", "zstd")
+    lossless = c.lossless
     rng = getattr(c, "value_range", None)
     mse = sse / nvalid if nvalid else 0.0
     psnr = psnr_from_sse(sse, nvalid, rng or 1.0)
