@@ -91,11 +91,11 @@ def test_the_lossless_tools_end_where_their_length_says():
 # -- octree ---------------------------------------------------------------------------
 
 
-def _replace(blob: bytes, key: int, change) -> bytes:
-    """The file with chunk ``key``'s payload replaced by ``change(payload)`` and every
-    checksum recomputed (damage the container cannot see)."""
+def _replace(blob: bytes, key: int, change, **summary) -> bytes:
+    """The file with chunk ``key``'s payload replaced by ``change(payload)`` and the
+    ``summary`` fields given, every checksum recomputed (damage the container cannot see)."""
     with Reader(blob) as r:
-        hdr, summ = dict(r.header), r.summary
+        hdr, summ = dict(r.header), {**r.summary, **summary}
         chunks = [(t, n, r.read(t, n), e.error) for (t, n), e in zip(r.keys(), r.entries)]
     buf = io.BytesIO()
     w = Writer(buf, hdr)
@@ -178,3 +178,10 @@ def test_a_level_table_that_contradicts_itself_or_the_index_is_refused(tree, fie
     bad = _replace(blob, layout.meta_key(1), changed)
     with pytest.raises(FormatError, match=words):
         api.decompress(bad)
+
+
+def test_a_summary_error_that_is_no_number_is_refused(tree):
+    blob, _ = tree
+    bad = _replace(blob, -1, None, max_error="float64")  # a fuzz find: was a ValueError
+    with pytest.raises(FormatError, match="summary 'max_error'"):
+        api.decompress(bad, error=6)

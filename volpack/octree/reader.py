@@ -74,11 +74,16 @@ class Octree:
             h = self._r.header
             self.spacing = hh.vector(h.get("spacing", (1, 1, 1)), "spacing", 3, positive=True)
             self.origin = hh.vector(h.get("origin", (0, 0, 0)), "origin", 3)
+            self.summary = self._r.summary if isinstance(self._r.summary, dict) else {}
+            # the full-resolution level's error (lossy files), read where a decoder uses it
+            self.max_error = (
+                hh.optional_number(self.summary.get("max_error"), "summary 'max_error'", lo=0)
+                or 0.0
+            )
         except BaseException:
             self._r.close()
             raise
         self.header = self._r.header
-        self.summary = self._r.summary or {}
         self.depth = self.geometry.depth
         self.shape = self.plan.shape
         self.dtype = np.dtype(self.plan.dtype)
@@ -111,7 +116,7 @@ class Octree:
                     layout.check_table(t, level, self._stored(level, count))
                 else:  # leaves below the root: exact up to the coding error, E = 0
                     t = np.zeros(count, layout.META_DTYPE)
-                    t["maxdev"] = self.summary.get("max_error", 0.0) or 0.0
+                    t["maxdev"] = self.max_error
                     t["flags"] = layout.SUBTREE_ZERO
                 self._tables[level] = t
             return self._tables[level]
