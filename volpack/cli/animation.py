@@ -8,84 +8,41 @@ frame, each independently).
 
 from __future__ import annotations
 
-import functools
-
 import click
 
-from .options import fmt_bytes, fmt_speed, table
+from .options import fmt_bytes, fmt_speed, option, options, table
 
-
-def animation_options(f):
-    """The animation options of ``volpack compress``."""
-    opts = [
-        click.option(
-            "--gop",
-            help="Code SOURCE as an animation with this group of pictures, e.g. IBBPBBPBB "
-            "(I: alone, P: from the previous anchor, B: from both neighbouring anchors), "
-            "IPP, or I (every frame alone). SOURCE is 4-D (t, z, y, x) or a quoted glob "
-            "of 3-D files ('frames/*.npy', natural name order).",
-        ),
-        click.option(
-            "--search",
-            type=click.IntRange(0, 64),
-            default=15,
-            show_default=True,
-            help="Animation: motion search range, voxels per axis.",
-        ),
-        click.option(
-            "--motion",
-            type=click.Choice(["fast", "exhaustive"]),
-            default="fast",
-            show_default=True,
-            help="Animation: fast search from the zero vector, or every whole-voxel vector.",
-        ),
-        click.option(
-            "--half-voxel/--no-half-voxel",
-            default=True,
-            show_default=True,
-            help="Animation: refine vectors to half voxels (interpolated reference).",
-        ),
-        click.option(
-            "--quarter-voxel/--no-quarter-voxel",
-            default=True,
-            show_default=True,
-            help="Animation: refine vectors further, to quarter voxels (needs --half-voxel; "
-            "except with --quality each frame keeps the half- or quarter-voxel field costing less).",
-        ),
-        click.option(
-            "--compensation",
-            type=click.Choice(["windowed", "block"]),
-            default="windowed",
-            show_default=True,
-            help="Animation: overlapping 12^3 cosine windows, or plain 8^3 blocks.",
-        ),
-        click.option(
-            "--b-residual/--no-b-residual",
-            default=True,
-            show_default=True,
-            help="Animation: code B-frames' residual (needed for --max-error; without it "
-            "B-frames are motion compensation only, as in the thesis, with --quality).",
-        ),
-        click.option(
-            "--whole-frame/--no-whole-frame",
-            default=True,
-            show_default=True,
-            help="Animation: where the blocks move as one (a rigid translation), also try "
-            "moving the whole anchor through its spectrum (no blur at sub-voxel steps; "
-            "8/16-bit frames, lossless or --max-error).",
-        ),
-        click.option(
-            "--i-max-error",
-            type=click.FloatRange(min=0, min_open=True),
-            default=None,
-            help="Animation with --max-error: the bound of I-frames that anchor P/B-frames. "
-            "Predicted frames inherit their anchors' error, so cleaner anchors can make them "
-            "cheaper [default: 2/3 of --max-error (floored for integer voxels, at least 1), "
-            "kept if the first GOP segment coded both ways says it pays]; give the "
-            "--max-error value to code every frame to it.",
-        ),
-    ]
-    return functools.reduce(lambda g, o: o(g), reversed(opts), f)
+animation_options = options(
+    option("--gop",
+           "Code SOURCE as an animation with this group of pictures, e.g. IBBPBBPBB (I: alone, "
+           "P: from the previous anchor, B: from both neighbouring anchors), IPP, or I (every "
+           "frame alone). SOURCE is 4-D (t, z, y, x) or a quoted glob of 3-D files "
+           "('frames/*.npy', natural name order)."),
+    option("--search", "Animation: motion search range, voxels per axis.", (0, 64), 15),
+    option("--motion", "Animation: fast search from the zero vector, or every whole-voxel "
+           "vector.", ["fast", "exhaustive"], "fast"),
+    option("--half-voxel/--no-half-voxel", "Animation: refine vectors to half voxels "
+           "(interpolated reference).", None, True),
+    option("--quarter-voxel/--no-quarter-voxel", "Animation: refine vectors further, to "
+           "quarter voxels (needs --half-voxel; except with --quality each frame keeps the "
+           "half- or quarter-voxel field costing less).", None, True),
+    option("--compensation", "Animation: overlapping 12^3 cosine windows, or plain 8^3 "
+           "blocks.", ["windowed", "block"], "windowed"),
+    option("--b-residual/--no-b-residual", "Animation: code B-frames' residual (needed for "
+           "--max-error; without it B-frames are motion compensation only, as in the thesis, "
+           "with --quality).", None, True),
+    option("--whole-frame/--no-whole-frame", "Animation: where the blocks move as one (a "
+           "rigid translation), also try moving the whole anchor through its spectrum (no "
+           "blur at sub-voxel steps; 8/16-bit frames, lossless or --max-error).", None, True),
+    option("--i-max-error",
+           "Animation with --max-error: the bound of I-frames that anchor P/B-frames. "
+           "Predicted frames inherit their anchors' error, so cleaner anchors can make them "
+           "cheaper [default: 2/3 of --max-error (floored for integer voxels, at least 1), "
+           "kept if the first GOP segment coded both ways says it pays]; give the "
+           "--max-error value to code every frame to it.",
+           click.FloatRange(min=0, min_open=True)),
+)  # fmt: skip
+"""The animation options of ``volpack compress``."""
 
 
 def wants_animation(source: str, gop: str | None) -> bool:

@@ -16,9 +16,10 @@ from .options import (
     emit_json,
     fmt_bytes,
     json_option,
+    option,
+    options,
     parse_brick,
     raw_options,
-    read_kwargs,
 )
 
 
@@ -51,15 +52,15 @@ def run_batch(
     ctx: click.Context,
     tasks,
     out_dir: str,
-    *,
-    workers: int,
-    scheduler: str | None,
-    resume: bool,
-    force: bool,
-    fail_fast: bool,
-    report_path: str | None,
-    as_json: bool,
     desc: str,
+    workers: int,
+    force: bool,
+    as_json: bool,
+    *,
+    scheduler: str | None = None,
+    resume: bool = False,
+    fail_fast: bool = False,
+    report_path: str | None = None,
 ) -> None:
     """Run planned tasks with a progress bar; report; exit 1 if any file failed."""
     from .. import batch
@@ -107,37 +108,19 @@ def run_batch(
 @click.argument("inputs", nargs=-1, required=True)
 @click.argument("out_dir")
 @codec_options
-@click.option(
-    "-j",
-    "--workers",
-    type=click.IntRange(min=0),
-    default=1,
-    show_default=True,
-    help="Files converted at once (0 = every core); with --scheduler local, Dask workers.",
-)
-@click.option(
-    "--threads",
-    type=click.IntRange(min=0),
-    default=1,
-    show_default=True,
-    help="Threads for the bricks of each file (0 = every core).",
-)
-@click.option(
-    "--scheduler",
-    metavar="ADDRESS",
-    help="Run on Dask: a scheduler address (tcp://head:8786) or 'local' for a LocalCluster.",
-)
-@click.option("--resume", is_flag=True, help="Skip files the journal shows done and intact.")
-@click.option(
-    "--verify",
-    type=click.Choice(["decode", "checksum"]),
-    default="decode",
-    show_default=True,
-    help="decode: decode each output and compare with its input; checksum: check its CRCs.",
-)
-@click.option("--fail-fast", is_flag=True, help="Stop starting files after the first failure.")
-@click.option("--report", "report_path", metavar="FILE", help="Write the JSON report here.")
-@click.option("-f", "--force", is_flag=True, help="Replace existing outputs.")
+@options(
+    option("-j --workers", "Files converted at once (0 = every core); with --scheduler local, "
+           "Dask workers.", (0, None), 1),
+    option("--threads", "Threads for the bricks of each file (0 = every core).", (0, None), 1),
+    option("--scheduler", "Run on Dask: a scheduler address (tcp://head:8786) or 'local' for a "
+           "LocalCluster.", metavar="ADDRESS"),
+    option("--resume", "Skip files the journal shows done and intact.", bool),
+    option("--verify", "decode: decode each output and compare with its input; checksum: "
+           "check its CRCs.", ["decode", "checksum"], "decode"),
+    option("--fail-fast", "Stop starting files after the first failure.", bool),
+    option("--report report_path", "Write the JSON report here.", metavar="FILE"),
+    option("-f --force", "Replace existing outputs.", bool),
+)  # fmt: skip
 @raw_options
 @json_option
 @click.pass_context
@@ -153,10 +136,7 @@ def batch(
     fail_fast,
     report_path,
     force,
-    raw_shape,
-    raw_dtype,
-    byteorder,
-    offset,
+    read_options,
     as_json,
     **codec,
 ) -> None:
@@ -178,13 +158,13 @@ def batch(
     """
     from .. import batch as vbatch
 
-    options = {k: v for k, v in codec.items() if v is not None}
-    if "brick" in options:
-        options["brick"] = parse_brick(options["brick"])
-    options["workers"] = threads
-    options.update(read_kwargs(raw_shape, raw_dtype, byteorder, offset))
+    opts = {k: v for k, v in codec.items() if v is not None}
+    if "brick" in opts:
+        opts["brick"] = parse_brick(opts["brick"])
+    opts["workers"] = threads
+    opts.update(read_options)
     skipped: list[tuple[str, str]] = []
-    tasks = vbatch.plan(list(inputs), out_dir, options=options, verify=verify, skipped=skipped)
+    tasks = vbatch.plan(list(inputs), out_dir, options=opts, verify=verify, skipped=skipped)
     if skipped and not as_json:  # say what was found and left out, and why
         click.echo(
             f"volpack: batch: left out {len(skipped)} file(s) found among the inputs:", err=True
@@ -192,18 +172,9 @@ def batch(
         for path, why in skipped:
             click.echo(f"  {path}: {why}", err=True)
     run_batch(
-        ctx,
-        tasks,
-        out_dir,
-        workers=workers,
-        scheduler=scheduler,
-        resume=resume,
-        force=force,
-        fail_fast=fail_fast,
-        report_path=report_path,
-        as_json=as_json,
-        desc="batch",
-    )
+        ctx, tasks, out_dir, "batch", workers, force, as_json,
+        scheduler=scheduler, resume=resume, fail_fast=fail_fast, report_path=report_path,
+    )  # fmt: skip
 
 
 COMMANDS = [batch]

@@ -23,9 +23,9 @@ from .options import (
     force_option,
     json_option,
     parse_brick,
+    plural,
     progress_bar,
     raw_options,
-    read_kwargs,
     workers_option,
 )
 
@@ -75,10 +75,7 @@ def compress(
     block,
     scheduler,
     workers,
-    raw_shape,
-    raw_dtype,
-    byteorder,
-    offset,
+    read_options,
     force,
     as_json,
     **extra,
@@ -114,7 +111,6 @@ def compress(
         "quality": quality, "threshold": threshold, "fill_value": fill_value,
     }  # fmt: skip
     lossy = {k: v for k, v in shared.items() if k not in ("codec", "wavelet", "coder", "order")}
-    read_options = read_kwargs(raw_shape, raw_dtype, byteorder, offset)
     if mesh_cli.is_mesh_source(source):
         kind, unit = "mesh", None
         opts = mesh_cli.compress_options(extra)
@@ -221,19 +217,7 @@ def decompress(
         from .batch import run_batch
 
         tasks = batch.plan([source], target, suffix="." + out_format, kind="decompress")
-        run_batch(
-            ctx,
-            tasks,
-            target,
-            workers=workers,
-            scheduler=None,
-            resume=False,
-            force=force,
-            fail_fast=False,
-            report_path=None,
-            as_json=as_json,
-            desc="decompress",
-        )
+        run_batch(ctx, tasks, target, "decompress", workers, force, as_json)
         return
     from .. import api
     from .. import io as vio
@@ -293,7 +277,7 @@ def _volume_line(target: str, stats: dict) -> str:
         f"{target}: {fmt_bytes(stats['file_nbytes'])} from {fmt_bytes(stats['raw_nbytes'])}, "
         f"ratio {stats['file_ratio']:.3f}:1, {_accuracy(stats)}, "
         f"{fmt_speed(stats['mb_per_s'], stats['seconds'])} "
-        f"({stats['bricks']} brick{'s' if stats['bricks'] != 1 else ''}, {w} worker{'s' if w != 1 else ''})"
+        f"({stats['bricks']} {plural('brick', stats['bricks'])}, {w} {plural('worker', w)})"
     )
 
 

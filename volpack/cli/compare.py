@@ -12,7 +12,6 @@ from .options import (
     json_option,
     parse_brick,
     raw_options,
-    read_kwargs,
     workers_option,
 )
 
@@ -23,7 +22,7 @@ from .options import (
 @workers_option
 @raw_options
 @json_option
-def compare(source, brick, workers, raw_shape, raw_dtype, byteorder, offset, as_json, **codec):
+def compare(source, brick, workers, read_options, as_json, **codec):
     """Compress SOURCE in memory with the options of 'volpack compress', decompress it and
     report ratio, max error, PSNR, RMSE and encode/decode speed (zfp -s, SZ3 -a).
 
@@ -39,7 +38,7 @@ def compare(source, brick, workers, raw_shape, raw_dtype, byteorder, offset, as_
     from .. import api
     from ..compare import compare as run
 
-    vol = api.read_volume(source, **read_kwargs(raw_shape, raw_dtype, byteorder, offset))
+    vol = api.read_volume(source, **read_options)
     options = {k: v for k, v in codec.items() if v is not None}
     r = run(vol, brick=parse_brick(brick), workers=workers, **options)
     if as_json:

@@ -4,74 +4,37 @@ from __future__ import annotations
 
 import click
 
-from .options import emit_json, force_option, json_option, raw_options, read_kwargs
+from .options import emit_json, force_option, json_option, option, options, raw_options
 
 
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})
 @click.argument("source")
 @click.argument("target")
 @raw_options
-@click.option("--crop", help="Keep Z0:Z1,Y0:Y1,X0:X1 (numpy-style ranges; empty means all).")
-@click.option(
-    "--pad",
-    "pad_to",
-    type=click.IntRange(min=1),
-    help="Pad each axis up to a multiple of N (edge values).",
-)
-@click.option(
-    "--downsample", type=click.IntRange(min=1), help="Shrink each spatial axis by this factor."
-)
-@click.option(
-    "--method",
-    type=click.Choice(["box", "gaussian"]),
-    default="box",
-    show_default=True,
-    help="Filter for --downsample.",
-)
-@click.option(
-    "--isotropic", is_flag=True, help="Resample to isotropic spacing (the finest axis), trilinear."
-)
-@click.option(
-    "--resample", "new_spacing", type=float, help="Resample to this isotropic spacing, trilinear."
-)
-@click.option(
-    "--spacing",
-    "set_spacing",
-    help="Set the voxel spacing SZ,SY,SX (z, y, x order) in the output's metadata; the voxels "
-    "stay as they are (to change them use --resample).",
-)
-@click.option(
-    "--origin", "set_origin", help="Set the origin OZ,OY,OX (z, y, x order) in the metadata."
-)
-@click.option("--window", help="Clamp values to LO:HI.")
-@click.option(
-    "--mask-fill", type=float, help="Treat this value as 'no data': it joins NaN/Inf in the mask."
-)
-@click.option(
-    "--quantize",
-    "bits",
-    type=click.IntRange(1, 32),
-    help="Floats to N-bit unsigned integers; scale, offset and max error are recorded.",
-)
-@click.option(
-    "--astype",
-    help="Convert the dtype (explicit rounding, out-of-range values clipped and counted).",
-)
-@click.option(
-    "--rounding",
-    type=click.Choice(["nearest", "floor", "trunc"]),
-    default="nearest",
-    show_default=True,
-)
+@options(
+    option("--crop", "Keep Z0:Z1,Y0:Y1,X0:X1 (numpy-style ranges; empty means all)."),
+    option("--pad pad_to", "Pad each axis up to a multiple of N (edge values).", (1, None)),
+    option("--downsample", "Shrink each spatial axis by this factor.", (1, None)),
+    option("--method", "Filter for --downsample.", ["box", "gaussian"], "box"),
+    option("--isotropic", "Resample to isotropic spacing (the finest axis), trilinear.", bool),
+    option("--resample new_spacing", "Resample to this isotropic spacing, trilinear.", float),
+    option("--spacing set_spacing", "Set the voxel spacing SZ,SY,SX (z, y, x order) in the "
+           "output's metadata; the voxels stay as they are (to change them use --resample)."),
+    option("--origin set_origin", "Set the origin OZ,OY,OX (z, y, x order) in the metadata."),
+    option("--window", "Clamp values to LO:HI."),
+    option("--mask-fill", "Treat this value as 'no data': it joins NaN/Inf in the mask.", float),
+    option("--quantize bits", "Floats to N-bit unsigned integers; scale, offset and max error "
+           "are recorded.", (1, 32)),
+    option("--astype", "Convert the dtype (explicit rounding, out-of-range values clipped and "
+           "counted)."),
+    option("--rounding", None, ["nearest", "floor", "trunc"], "nearest"),
+)  # fmt: skip
 @force_option
 @json_option
 def convert(
     source,
     target,
-    raw_shape,
-    raw_dtype,
-    byteorder,
-    offset,
+    read_options,
     crop,
     pad_to,
     downsample,
@@ -111,7 +74,7 @@ def convert(
     from ..format.atomic import check_output
 
     check_output(vio.parse_spec(target)[0], force=force, inputs=(source,))
-    vol = api.read_volume(source, **read_kwargs(raw_shape, raw_dtype, byteorder, offset))
+    vol = api.read_volume(source, **read_options)
     steps = []
     if set_spacing or set_origin:
         vol = vol.replace(

@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from .listing import listing_table
-from .options import dtype_name, emit_json, fmt_bytes, json_option, raw_options, read_kwargs, table
+from .options import dtype_name, emit_json, fmt_bytes, json_option, raw_options, table
 
 
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})
@@ -18,9 +18,7 @@ from .options import dtype_name, emit_json, fmt_bytes, json_option, raw_options,
     "--levels", is_flag=True, help="For an octree .vpk: nodes, bytes and errors per level."
 )
 @raw_options
-def info(
-    sources, as_json: bool, chunks: bool, levels: bool, raw_shape, raw_dtype, byteorder, offset
-) -> None:
+def info(sources, as_json: bool, chunks: bool, levels: bool, read_options) -> None:
     """Describe SOURCE: a .vpk file or any volume volpack reads; several: one table.
 
     \b
@@ -41,7 +39,7 @@ def info(
     if len(sources) > 1:
         from .listing import listing
 
-        rows = listing(sources, read_kwargs(raw_shape, raw_dtype, byteorder, offset))
+        rows = listing(sources, read_options)
         if as_json:
             emit_json(rows)
         else:
@@ -62,7 +60,7 @@ def info(
 
         with spool(stdin()) as f:  # a .vpk on a pipe: its index comes last, so keep it whole
             return _show(api.info(f), as_json, chunks)
-    _show(api.info(source, **read_kwargs(raw_shape, raw_dtype, byteorder, offset)), as_json, chunks)
+    _show(api.info(source, **read_options), as_json, chunks)
 
 
 def _show(d: dict, as_json: bool, chunks: bool) -> None:

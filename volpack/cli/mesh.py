@@ -14,7 +14,7 @@ import warnings
 
 import click
 
-from .options import emit_json, fmt_bytes
+from .options import emit_json, fmt_bytes, option, options
 
 _ROWS = {
     "parity": "each row's orientation kept",
@@ -38,50 +38,22 @@ def _attr_error(values: tuple[str, ...]) -> dict[str, float]:
     return out
 
 
-def mesh_options(f):
-    """The mesh-only options of ``volpack compress``."""
-    for opt in reversed(
-        [
-            click.option(
-                "--bits",
-                type=click.IntRange(1, 30),
-                default=16,
-                show_default=True,
-                help="Mesh: quantise vertex coordinates to this many bits of the bounding box diagonal.",
-            ),
-            click.option(
-                "--lossless-geometry",
-                is_flag=True,
-                help="Mesh: keep the float vertex coordinates bit for bit.",
-            ),
-            click.option(
-                "--keep-order",
-                is_flag=True,
-                help="Mesh: also store the vertex and tet order, so indices decode identically.",
-            ),
-            click.option(
-                "--orient",
-                is_flag=True,
-                help="Mesh: turn inverted tets to positive volume before coding (about a bit "
-                "per tet less on meshes without a consistent orientation, e.g. Delaunay's; "
-                "--keep-order still restores the rows as given). Not needed when every row "
-                "ascends (DOLFIN's): such rows are detected and decode ascending.",
-            ),
-            click.option(
-                "--tetrahedralize",
-                is_flag=True,
-                help="Mesh: split hexahedra, wedges and pyramids into tetrahedra (no new vertices).",
-            ),
-            click.option(
-                "--attr-error",
-                multiple=True,
-                metavar="NAME=E",
-                help="Mesh: code the float field NAME within absolute error E (default: exactly). Repeatable.",
-            ),
-        ]
-    ):
-        f = opt(f)
-    return f
+mesh_options = options(
+    option("--bits", "Mesh: quantise vertex coordinates to this many bits of the bounding box "
+           "diagonal.", (1, 30), 16),
+    option("--lossless-geometry", "Mesh: keep the float vertex coordinates bit for bit.", bool),
+    option("--keep-order", "Mesh: also store the vertex and tet order, so indices decode "
+           "identically.", bool),
+    option("--orient", "Mesh: turn inverted tets to positive volume before coding (about a "
+           "bit per tet less on meshes without a consistent orientation, e.g. Delaunay's; "
+           "--keep-order still restores the rows as given). Not needed when every row ascends "
+           "(DOLFIN's): such rows are detected and decode ascending.", bool),
+    option("--tetrahedralize", "Mesh: split hexahedra, wedges and pyramids into tetrahedra "
+           "(no new vertices).", bool),
+    option("--attr-error", "Mesh: code the float field NAME within absolute error E (default: "
+           "exactly). Repeatable.", multiple=True, metavar="NAME=E"),
+)  # fmt: skip
+"""The mesh-only options of ``volpack compress``."""
 
 
 def is_mesh_source(path: str) -> bool:

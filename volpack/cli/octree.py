@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import click
 
-from .options import emit_json, fmt_bytes, fmt_speed, table
+from .options import emit_json, fmt_bytes, fmt_speed, plural, table
 
 
 def octree_line(target: str, stats: dict) -> str:
@@ -27,8 +27,8 @@ def octree_decoded_line(target: str, stats: dict) -> str:
     """The line ``volpack decompress --level/--error`` prints."""
     levels = stats["levels"]
     return (
-        f"{target}: {'x'.join(map(str, stats['shape']))} {stats['dtype']} from level"
-        f"{'s' if len(levels) > 1 else ''} {','.join(map(str, levels))}, read "
+        f"{target}: {'x'.join(map(str, stats['shape']))} {stats['dtype']} from "
+        f"{plural('level', len(levels))} {','.join(map(str, levels))}, read "
         f"{fmt_bytes(stats['bytes_read'])}, {stats['nodes_decoded']} nodes decoded, "
         f"{stats['seconds']:.2f} s"
     )

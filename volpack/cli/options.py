@@ -12,45 +12,59 @@ import click
 
 from ..jsonsafe import jsonable
 
-force_option = click.option("-f", "--force", is_flag=True, help="Replace an existing output file.")
-json_option = click.option(
-    "--json", "as_json", is_flag=True, help="Print machine-readable JSON instead of a table."
-)
-workers_option = click.option(
-    "-j",
-    "--workers",
-    type=click.IntRange(min=0),
-    default=1,
-    show_default=True,
-    help="Threads for bricks (0 = every core). The output does not depend on it.",
-)
+
+def option(flags: str, help: str, kind=None, default=None, **extra):
+    """One row of an option table: a click option from FLAGS (``"-j --workers"``; a last
+    word without dashes names the parameter; ``"--x/--no-x"`` is a switch), HELP, KIND
+    (``bool``: a flag; a list: the choices; a pair: a whole-number range, None unbounded;
+    else a click type) and DEFAULT (shown in ``--help``)."""
+    if kind is bool:
+        extra["is_flag"] = True
+    elif isinstance(kind, list):
+        extra["type"] = click.Choice(kind)
+    elif isinstance(kind, tuple):
+        extra["type"] = click.IntRange(*kind)
+    elif kind is not None:
+        extra["type"] = kind
+    if default is not None:
+        extra["default"] = default
+        extra.setdefault("show_default", True)
+    return click.option(*flags.split(), help=help, **extra)
+
+
+def options(*rows):
+    """Decorate a command with option rows (:func:`option`), listed in this order."""
+    return lambda f: functools.reduce(lambda g, o: o(g), reversed(rows), f)
+
+
+force_option = option("-f --force", "Replace an existing output file.", bool)
+json_option = option("--json as_json", "Print machine-readable JSON instead of a table.", bool)
+workers_option = option(
+    "-j --workers", "Threads for bricks (0 = every core). The output does not depend on it.",
+    (0, None), 1,
+)  # fmt: skip
+RAW_OPTIONS = options(
+    option("--shape raw_shape",
+           "Raw input, whatever the file's name: Z,Y,X (or T,Z,Y,X) voxels, slowest axis "
+           "first and x fastest in the file, e.g. 108,256,256 (zfp's and SZ3's sizes are x "
+           "first: reverse them)."),
+    option("--dtype raw_dtype", "Raw input: voxel type, e.g. uint8, int16, float32."),
+    option("--byteorder", "Raw input: byte order.", ["<", ">", "little", "big"], "<",
+           show_default=False),
+    option("--offset", "Raw input: bytes to skip (a header, e.g. 256 for an INRIMAGE file).",
+           (0, None), 0, show_default=False),
+)  # fmt: skip
 
 
 def raw_options(f):
-    """--shape/--dtype/--byteorder/--offset for headerless raw input."""
-    f = click.option(
-        "--offset",
-        type=click.IntRange(min=0),
-        default=0,
-        help="Raw input: bytes to skip (a header, e.g. 256 for an INRIMAGE file).",
-    )(f)
-    f = click.option(
-        "--byteorder",
-        type=click.Choice(["<", ">", "little", "big"]),
-        default="<",
-        help="Raw input: byte order.",
-    )(f)
-    f = click.option(
-        "--dtype", "raw_dtype", help="Raw input: voxel type, e.g. uint8, int16, float32."
-    )(f)
-    f = click.option(
-        "--shape",
-        "raw_shape",
-        help="Raw input, whatever the file's name: Z,Y,X (or T,Z,Y,X) voxels, slowest axis "
-        "first and x fastest in the file, e.g. 108,256,256 (zfp's and SZ3's sizes are x first: "
-        "reverse them).",
-    )(f)
-    return f
+    """--shape/--dtype/--byteorder/--offset for headerless raw input, handed to the command
+    as one ``read_options`` dict (:func:`read_kwargs`)."""
+
+    @functools.wraps(f)
+    def command(*args, raw_shape, raw_dtype, byteorder, offset, **kw):
+        return f(*args, read_options=read_kwargs(raw_shape, raw_dtype, byteorder, offset), **kw)
+
+    return RAW_OPTIONS(command)
 
 
 def read_kwargs(raw_shape: str | None, raw_dtype: str | None, byteorder: str, offset: int) -> dict:
@@ -142,6 +156,11 @@ def fmt_speed(mb_per_s: float, seconds: float) -> str:
     return f"{speed} MB/s in {seconds:.3g} s"
 
 
+def plural(word: str, n: int) -> str:
+    """``word`` for one, ``word + "s"`` for any other count."""
+    return word if n == 1 else word + "s"
+
+
 def table(rows: list[list[str]], header: list[str]) -> str:
     """A plain aligned text table."""
     widths = [max(len(str(r[i])) for r in [header, *rows]) for i in range(len(header))]
@@ -173,79 +192,36 @@ def parse_brick(value: str | None) -> int | tuple[int, int, int] | None:
     return nums[0] if len(nums) == 1 else tuple(nums)  # type: ignore[return-value]
 
 
-CODEC_OPTIONS = [
-    click.option(
-        "--codec",
-        type=click.Choice(["auto", "lossless", "wavelet", "zstd"]),
-        default="auto",
-        show_default=True,
-        help="auto: lossless (per brick, the wavelet, 3-D prediction with a palette, labels or "
-        "split floats) for 8/16/32-bit integers and 16/32-bit floats, byte-shuffled zstd for "
-        "the rest.",
-    ),
-    click.option(
-        "--wavelet",
-        type=click.Choice(["53", "26", "haar", "97m", "d4", "c6", "cdf97"]),
-        default="53",
-        show_default=True,
-        help="Reversible lifting filter: 5/3 (CDF 2,2), 2/6 (TS), Haar (S-transform), 9/7-M; "
-        "or, lossy only, the float Daubechies-4, Coiflet-6 and CDF 9/7 (for comparison).",
-    ),
-    click.option(
-        "--coder",
-        type=click.Choice(["arith", "huffman", "rle"]),
-        default="arith",
-        show_default=True,
-        help="arith: best ratio; huffman: fixed code, fastest decode; rle: run-length Huffman for sparse data.",
-    ),
-    click.option(
-        "--order",
-        type=click.Choice(["dfs", "line"]),
-        default="dfs",
-        show_default=True,
-        help="Coefficient scan: octree depth-first with zero-subtree stripping, or line by line.",
-    ),
-    click.option(
-        "--levels",
-        "max_levels",
-        type=click.IntRange(0, 16),
-        help="Cap the decomposition levels per axis.",
-    ),
-    click.option(
-        "--brick",
-        default=None,
-        help="Brick size N or Z,Y,X; bricks decode independently. Default 64; a float "
-        "volume under an error bound is one brick up to 4M voxels, else 128.",
-    ),
-    click.option(
-        "--max-error",
-        type=float,
-        help="Lossy: every voxel decodes within this absolute error (checked on every voxel).",
-    ),
-    click.option(
-        "--rel-error", type=float, help="Lossy: --max-error as a fraction of the value range."
-    ),
-    click.option("--psnr", type=float, help="Lossy: reach this PSNR in dB (within 0.5 dB)."),
-    click.option("--ratio", type=float, help="Lossy: reach this compression ratio (within 5%)."),
-    click.option(
-        "--quality",
-        type=click.IntRange(1, 65535),
-        help="Lossy, the method's scale: 255 (best), 127, 63, 31, 15 (integer volumes).",
-    ),
-    click.option(
-        "--threshold",
-        type=float,
-        help="Lossy: drop wavelet coefficients below this size, in value units (integer volumes).",
-    ),
-    click.option(
-        "--fill-value",
-        type=float,
-        help="A value meaning 'no data' (e.g. -2.56e33); restored exactly, like NaN and Inf.",
-    ),
-]
+codec_options = options(
+    option("--codec",
+           "auto: lossless (per brick, the wavelet, 3-D prediction with a palette, labels or "
+           "split floats) for 8/16/32-bit integers and 16/32-bit floats, byte-shuffled zstd "
+           "for the rest.",
+           ["auto", "lossless", "wavelet", "zstd"], "auto"),
+    option("--wavelet",
+           "Reversible lifting filter: 5/3 (CDF 2,2), 2/6 (TS), Haar (S-transform), 9/7-M; "
+           "or, lossy only, the float Daubechies-4, Coiflet-6 and CDF 9/7 (for comparison).",
+           ["53", "26", "haar", "97m", "d4", "c6", "cdf97"], "53"),
+    option("--coder",
+           "arith: best ratio; huffman: fixed code, fastest decode; rle: run-length Huffman "
+           "for sparse data.",
+           ["arith", "huffman", "rle"], "arith"),
+    option("--order",
+           "Coefficient scan: octree depth-first with zero-subtree stripping, or line by line.",
+           ["dfs", "line"], "dfs"),
+    option("--levels max_levels", "Cap the decomposition levels per axis.", (0, 16)),
+    option("--brick", "Brick size N or Z,Y,X; bricks decode independently. Default 64; a "
+           "float volume under an error bound is one brick up to 4M voxels, else 128."),
+    option("--max-error", "Lossy: every voxel decodes within this absolute error (checked "
+           "on every voxel).", float),
+    option("--rel-error", "Lossy: --max-error as a fraction of the value range.", float),
+    option("--psnr", "Lossy: reach this PSNR in dB (within 0.5 dB).", float),
+    option("--ratio", "Lossy: reach this compression ratio (within 5%).", float),
+    option("--quality", "Lossy, the method's scale: 255 (best), 127, 63, 31, 15 (integer "
+           "volumes).", (1, 65535)),
+    option("--threshold", "Lossy: drop wavelet coefficients below this size, in value units "
+           "(integer volumes).", float),
+    option("--fill-value", "A value meaning 'no data' (e.g. -2.56e33); restored exactly, "
+           "like NaN and Inf.", float),
+)  # fmt: skip
 """The codec and lossy options of ``volpack compress``, which ``volpack batch`` shares."""
-
-
-def codec_options(f):
-    """Decorate a command with :data:`CODEC_OPTIONS`."""
-    return functools.reduce(lambda g, o: o(g), reversed(CODEC_OPTIONS), f)

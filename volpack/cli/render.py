@@ -7,7 +7,7 @@ import time
 
 import click
 
-from .options import emit_json, force_option, json_option, progress_bar, raw_options, read_kwargs
+from .options import emit_json, force_option, json_option, progress_bar, raw_options
 
 # Colour names an isosurface spec may use beside CSS names and #rrggbb.
 ISO_COLOURS = {
@@ -245,10 +245,7 @@ def render(
     field,
     budget,
     workers,
-    raw_shape,
-    raw_dtype,
-    byteorder,
-    offset,
+    read_options,
     force,
     as_json,
 ) -> None:
@@ -312,7 +309,7 @@ def render(
         points, cells, data, field = mesh
         ok = np.ones(data.shape, bool)
     else:
-        vol = _load(source, frame, read_kwargs(raw_shape, raw_dtype, byteorder, offset))
+        vol = _load(source, frame, read_options)
         data = vol.data
         ok = np.isfinite(data) if data.dtype.kind == "f" else np.ones(data.shape, bool)
         if vol.mask is not None:

@@ -26,7 +26,18 @@ import numpy as np
 from .._jit import kernel, leading_zeros
 from ..errors import FormatError
 from .common import check_status, encode_with_retry, flat_view, max_bits
-from .rangecoder import RATE, STATE_INIT, end_status, get, open_encoder, pull, push, put
+from .rangecoder import (
+    RATE,
+    STATE_INIT,
+    end_status,
+    finish_stream,
+    get,
+    get_bits,
+    open_encoder,
+    open_stream,
+    put,
+    put_bits,
+)
 from .scan import N_CLASSES, Scan
 
 TREE_BITS = 6  # 2**6 models per context for the bit length
@@ -118,22 +129,12 @@ def _encode_kernel(flat, perm, end, parent, cls, nbr, out):
                 k = _mant_model(nb, top >> (nm - jm), cls[i])
                 bit = (top >> (nm - 1 - jm)) & 1
                 low, rng, pos = put(out, state, k, bit, low, rng, pos, RATE)
-        # The low bits at one half, up to 16 at a time: the range splits into 2^t equal parts.
-        kr = nb - 1 - max(nm, 0)
-        while kr > 0:
-            t = min(kr, 16)
-            kr -= t
-            rng >>= t
-            low += np.int64((v >> np.uint64(kr)) & np.uint64((1 << t) - 1)) * rng
-            low, rng, pos = push(out, low, rng, pos)
+        # The low bits at one half.
+        low, rng, pos = put_bits(out, v, nb - 1 - max(nm, 0), low, rng, pos)
         nbits[i] = nb
         nprev = nb
         i += 1
-    for _ in range(4):  # the final low pins the interval
-        out[pos] = low >> 24
-        pos += 1
-        low = (low << 8) & 0xFFFFFFFF
-    return pos
+    return finish_stream(out, low, pos)
 
 
 @kernel
@@ -144,12 +145,7 @@ def _decode_kernel(data, perm, end, parent, cls, nbr, flat, nmax):
     size = data.size
     state = np.full(N_MODELS, STATE_INIT, dtype=np.uint16)
     nbits = np.zeros(n, dtype=np.uint8)  # bit length at each scan position
-    rng = np.int64(0xFFFFFFFF)
-    code = np.int64(0)
-    pos = 1  # the encoder's first byte is always zero
-    for _ in range(4):
-        code = (code << 8) | (np.int64(data[pos]) if pos < size else 0)
-        pos += 1
+    code, rng, pos = open_stream(data)
     nprev = 0
     i = 0
     while i < n:
@@ -187,17 +183,7 @@ def _decode_kernel(data, perm, end, parent, cls, nbr, flat, nmax):
             bit, code, rng, pos = get(data, state, k, code, rng, pos, RATE)
             prefix = 2 * prefix + bit
             v = (v << np.uint64(1)) | np.uint64(bit)
-        k = nb - 1 - min(nb - 1, MANT_BITS)
-        while k > 0:
-            t = min(k, 16)
-            k -= t
-            rng >>= t
-            r = code // rng
-            if r >= (1 << t):  # past the last of the 2^t parts: only damage points there
-                return 2
-            code -= r * rng
-            v = (v << np.uint64(t)) | np.uint64(r)
-            code, rng, pos = pull(data, code, rng, pos)
+        v, code, rng, pos = get_bits(data, v, nb - 1 - min(nb - 1, MANT_BITS), code, rng, pos)
         flat[perm[i]] = np.int64(v >> np.uint64(1)) ^ -(np.int64(v & np.uint64(1)))
         nbits[i] = nb
         nprev = nb

@@ -43,12 +43,14 @@ __all__ = [
     "open_stream",
     "get",
     "get_bit",
+    "get_bits",
     "get_decision",
     "get_raw",
     "pull",
     "push",
     "put",
     "put_bit",
+    "put_bits",
     "put_decision",
     "put_raw",
     "start_decoder",
@@ -224,31 +226,25 @@ def get_bit(cs, data, models, k):
     return get_decision(cs, data, models, k, RATE)
 
 
-@kernel
-def put_raw(cs, out, v, n):
-    """Code the ``n`` low bits of ``v`` (uint64) at probability one half, top first,
-    up to 16 at a time (the range splits into ``2^t`` equal parts)."""
-    low = cs[0]
-    rng = cs[1]
-    pos = cs[2]
+@kernel(inline=True)
+def put_bits(out, v, n, low, rng, pos):
+    """Code the ``n`` low bits of ``v`` (uint64) at probability one half, top first, up to
+    16 at a time (the range splits into ``2^t`` equal parts); returns ``(low, rng, pos)``."""
     while n > 0:
         t = min(n, 16)
         n -= t
         rng >>= t
         low += np.int64((v >> np.uint64(n)) & np.uint64((1 << t) - 1)) * rng
         low, rng, pos = push(out, low, rng, pos)
-    cs[0] = low
-    cs[1] = rng
-    cs[2] = pos
+    return low, rng, pos
 
 
-@kernel
-def get_raw(cs, data, n):
-    """Decode ``n`` bits coded by :func:`put_raw` (uint64)."""
-    code = cs[0]
-    rng = cs[1]
-    pos = cs[2]
-    v = np.uint64(0)
+@kernel(inline=True)
+def get_bits(data, v, n, code, rng, pos):
+    """Decode ``n`` bits coded by :func:`put_bits`, shifted in below those of ``v``
+    (uint64); returns ``(v, code, rng, pos)``. A digit of ``2^t`` or more only comes from
+    damage: it is capped at ``2^t - 1`` and the position put past the end, so that the
+    caller's end check (:func:`end_status`) refuses the stream."""
     while n > 0:
         t = min(n, 16)
         n -= t
@@ -260,7 +256,17 @@ def get_raw(cs, data, n):
         code -= d * rng
         v = (v << np.uint64(t)) | np.uint64(d)
         code, rng, pos = pull(data, code, rng, pos)
-    cs[0] = code
-    cs[1] = rng
-    cs[2] = pos
+    return v, code, rng, pos
+
+
+@kernel
+def put_raw(cs, out, v, n):
+    """:func:`put_bits` on the state array ``cs``."""
+    cs[0], cs[1], cs[2] = put_bits(out, v, n, cs[0], cs[1], cs[2])
+
+
+@kernel
+def get_raw(cs, data, n):
+    """Decode ``n`` bits coded by :func:`put_raw` (uint64)."""
+    v, cs[0], cs[1], cs[2] = get_bits(data, np.uint64(0), n, cs[0], cs[1], cs[2])
     return v

@@ -431,6 +431,16 @@ def _cell_integral_kernel(t_in, t_out, delta):
     return alpha, j, j1
 
 
+@kernel(inline=True)
+def _cell_run(c, t, f, k, ec, et, ef, lit):
+    """Start a run of cells ``(C, T, F)`` at cell ``k``: the cell alone."""
+    t[k] = et[k]
+    for ch in range(3):
+        c[k, ch] = ec[k, ch]
+        if lit:
+            f[k, ch] = ef[k, ch]
+
+
 @kernel
 def _window_over_kernel(ec, et, ef, m, lit, pre_c, pre_t, pre_f, suf_c, suf_t, suf_f, res, resf):
     """Composite every window of ``m`` consecutive cells front to back ("over").
@@ -451,11 +461,7 @@ def _window_over_kernel(ec, et, ef, m, lit, pre_c, pre_t, pre_f, suf_c, suf_t, s
     for k in range(nc):
         q = k % m
         if q == 0:
-            pre_t[k] = et[k]
-            for ch in range(3):
-                pre_c[k, ch] = ec[k, ch]
-                if lit:
-                    pre_f[k, ch] = ef[k, ch]
+            _cell_run(pre_c, pre_t, pre_f, k, ec, et, ef, lit)
         else:
             pre_t[k] = pre_t[k - 1] * et[k]
             for ch in range(3):
@@ -464,11 +470,7 @@ def _window_over_kernel(ec, et, ef, m, lit, pre_c, pre_t, pre_f, suf_c, suf_t, s
                     pre_f[k, ch] = pre_f[k - 1, ch] + pre_t[k - 1] * (q * ec[k, ch] + ef[k, ch])
     for k in range(nc - 1, -1, -1):
         if k % m == m - 1 or k == nc - 1:
-            suf_t[k] = et[k]
-            for ch in range(3):
-                suf_c[k, ch] = ec[k, ch]
-                if lit:
-                    suf_f[k, ch] = ef[k, ch]
+            _cell_run(suf_c, suf_t, suf_f, k, ec, et, ef, lit)
         else:
             suf_t[k] = et[k] * suf_t[k + 1]
             for ch in range(3):
@@ -535,6 +537,13 @@ def _exact_cells_kernel(tau, col, delta, lit, lo, hi, up_c, up_f, up_t, dn_c, dn
                 dn_f[r, ch] = co * alpha - ci * jw - 2.0 * (co - ci) * j1
 
 
+@kernel(inline=True)
+def _segments(n):
+    """Scratch for ``n`` segments: colour, lit colour (zero: unlit tables leave it) and
+    optical depth."""
+    return np.empty((n, 3)), np.zeros((n, 3)), np.empty(n)
+
+
 @kernel
 def _exact_windows_kernel(tp, length, m, lit, f_lo, f_hi, up_c, up_f, up_t, dn_c, dn_f, dn_t, out):
     """Entries ``(f, f + m)`` and ``(f + m, f)`` for ``f_lo <= f < f_hi``: the windows of
@@ -545,12 +554,8 @@ def _exact_windows_kernel(tp, length, m, lit, f_lo, f_hi, up_c, up_f, up_t, dn_c
     w = c_hi - c_lo
     if w < m:
         return
-    pre_c = np.empty((w, 3))
-    pre_f = np.empty((w, 3))
-    pre_t = np.empty(w)
-    suf_c = np.empty((w, 3))
-    suf_f = np.empty((w, 3))
-    suf_t = np.empty(w)
+    pre_c, pre_f, pre_t = _segments(w)
+    suf_c, suf_f, suf_t = _segments(w)
     res_up = np.empty((w, 3))
     res_dn = np.empty((w, 3))
     resf_up = np.empty((w, 3))
@@ -621,12 +626,8 @@ def _preint_exact_kernel(tau, col, length, out):
     nc = n - 1
     if nc < 1:
         return
-    up_c = np.empty((nc, 3))
-    up_f = np.zeros((nc, 3))
-    up_t = np.empty(nc)
-    dn_c = np.empty((nc, 3))
-    dn_f = np.zeros((nc, 3))
-    dn_t = np.empty(nc)
+    up_c, up_f, up_t = _segments(nc)
+    dn_c, dn_f, dn_t = _segments(nc)
     for m in range(1, n):
         _exact_cells_kernel(tau, col, length / m, lit, 0, nc, up_c, up_f, up_t, dn_c, dn_f, dn_t)
         _exact_windows_kernel(tp, length, m, lit, 0, n - m, up_c, up_f, up_t, dn_c, dn_f, dn_t, out)

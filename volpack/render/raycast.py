@@ -406,6 +406,26 @@ def _brick_exit(pz, py, px, oz, oy, ox, dz, dy, dx, nz, ny, nx, leap, brick):
     return lv, te
 
 
+@kernel(inline=True)
+def ray_at(origins, dirs, r, c):
+    """Origin and direction ``(oz, oy, ox, dz, dy, dx)`` of the ray of pixel ``(r, c)``."""
+    return (
+        origins[r, c, 0], origins[r, c, 1], origins[r, c, 2], dirs[r, c, 0], dirs[r, c, 1],
+        dirs[r, c, 2],
+    )  # fmt: skip
+
+
+@kernel(inline=True)
+def _over(ar, ag, ab, aa, cr, cg, cb, a, f, spec):
+    """Composite a segment behind the pre-multiplied ``(ar, ag, ab, aa)`` so far: its
+    colour times the diffuse factor ``f`` plus the specular ``spec``, opacity ``a``."""
+    wgt = 1.0 - aa
+    r = ar + wgt * (cr * f + spec)
+    g = ag + wgt * (cg * f + spec)
+    b = ab + wgt * (cb * f + spec)
+    return r, g, b, aa + wgt * a
+
+
 @kernel
 def _ray_span(oz, oy, ox, dz, dy, dx, nz, ny, nx, vscale, step):
     """``(tnear, tfar, nseg, vz, vy, vx)`` of one ray: its part inside the box from the
@@ -512,8 +532,7 @@ def _render_kernel(
         c4 = np.zeros(7, dtype=np.float32)
         count = 0
         for c in range(w):
-            oz, oy, ox = origins[r, c, 0], origins[r, c, 1], origins[r, c, 2]
-            dz, dy, dx = dirs[r, c, 0], dirs[r, c, 1], dirs[r, c, 2]
+            oz, oy, ox, dz, dy, dx = ray_at(origins, dirs, r, c)
             tnear, tfar, nseg, vz, vy, vx = _ray_span(
                 oz, oy, ox, dz, dy, dx, nz, ny, nx, vscale, step
             )
@@ -543,9 +562,7 @@ def _render_kernel(
                         have_front = False
                         have_nf = False
                         continue
-                t1 = t0 + step
-                if t1 > tfar:
-                    t1 = tfar
+                t1 = min(t0 + step, tfar)
                 seglen = t1 - t0
                 if seglen <= 0.0:
                     break
@@ -588,11 +605,10 @@ def _render_kernel(
                             if ndv >= 0.0:
                                 f = ka + kd * ndv
                                 spec = ks * ndv**shin
-                        wgt = 1.0 - aa  # the table colour is pre-multiplied
-                        ar += wgt * (iso2d[fi, bi, 0] * f + spec * ia)
-                        ag += wgt * (iso2d[fi, bi, 1] * f + spec * ia)
-                        ab += wgt * (iso2d[fi, bi, 2] * f + spec * ia)
-                        aa += wgt * ia
+                        ar, ag, ab, aa = _over(  # the table colour is pre-multiplied
+                            ar, ag, ab, aa, iso2d[fi, bi, 0], iso2d[fi, bi, 1], iso2d[fi, bi, 2],
+                            ia, f, spec * ia,
+                        )  # fmt: skip
                 if has_vol:
                     if mode == 0:
                         s = sample(vol, oz + tm * dz, oy + tm * dy, ox + tm * dx)
@@ -657,20 +673,13 @@ def _render_kernel(
                             if ndv >= 0.0:
                                 f = ka + kd * ndv
                                 spec = ks * ndv**shin * a
-                        wgt = 1.0 - aa
-                        ar += wgt * (c4[0] * f + spec)
-                        ag += wgt * (c4[1] * f + spec)
-                        ab += wgt * (c4[2] * f + spec)
-                        aa += wgt * a
+                        ar, ag, ab, aa = _over(ar, ag, ab, aa, c4[0], c4[1], c4[2], a, f, spec)
                     have_nf = lit_now
                 sf = sb
                 if aa > ert:
                     break
                 i += 1
-            out[r, c, 0] = ar
-            out[r, c, 1] = ag
-            out[r, c, 2] = ab
-            out[r, c, 3] = aa
+            out[r, c, 0], out[r, c, 1], out[r, c, 2], out[r, c, 3] = ar, ag, ab, aa
         row_samples[r] = count
 
 
@@ -758,8 +767,7 @@ def _march_kernel(
         r = rows[k]
         count = 0
         for c in range(w):
-            oz, oy, ox = origins[r, c, 0], origins[r, c, 1], origins[r, c, 2]
-            dz, dy, dx = dirs[r, c, 0], dirs[r, c, 1], dirs[r, c, 2]
+            oz, oy, ox, dz, dy, dx = ray_at(origins, dirs, r, c)
             tnear, tfar, nseg, vz, vy, vx = _ray_span(
                 oz, oy, ox, dz, dy, dx, nz, ny, nx, vscale, step
             )
@@ -785,9 +793,7 @@ def _march_kernel(
                     if state == 1:
                         have_front = False
                         continue
-                t1 = t0 + step
-                if t1 > tfar:
-                    t1 = tfar
+                t1 = min(t0 + step, tfar)
                 seglen = t1 - t0
                 if seglen <= 0.0:
                     break
@@ -821,18 +827,11 @@ def _march_kernel(
                         if ndv >= 0.0:
                             f = ka + kd * ndv
                             spec = ks * (_powi(ndv, ishin) if whole else ndv**shin) * a
-                    wgt = 1.0 - aa
-                    ar += wgt * (cr * f + spec)
-                    ag += wgt * (cg * f + spec)
-                    ab += wgt * (cb * f + spec)
-                    aa += wgt * a
+                    ar, ag, ab, aa = _over(ar, ag, ab, aa, cr, cg, cb, a, f, spec)
                     if aa > ert:
                         break
                 i += 1
-            out[r, c, 0] = ar
-            out[r, c, 1] = ag
-            out[r, c, 2] = ab
-            out[r, c, 3] = aa
+            out[r, c, 0], out[r, c, 1], out[r, c, 2], out[r, c, 3] = ar, ag, ab, aa
         row_samples[r] = count
 
 

@@ -36,6 +36,7 @@ from ..errors import VolpackError
 from ..parallel import parse_workers
 from .camera import Camera
 from .preint import extinction, prefix_integrals
+from .raycast import ray_at
 from .transfer import nonempty_range
 
 TILE = 8
@@ -363,8 +364,7 @@ def _render_mesh_kernel(
         r = rows[q]
         segs = 0
         for c in range(w):
-            oz, oy, ox = origins[r, c, 0], origins[r, c, 1], origins[r, c, 2]
-            dz, dy, dx = dirs[r, c, 0], dirs[r, c, 1], dirs[r, c, 2]
+            oz, oy, ox, dz, dy, dx = ray_at(origins, dirs, r, c)
             tile = (r // TILE) * ntx + c // TILE
             s0, s1 = start[tile], start[tile + 1]
             # entries: boundary faces crossed against their outward normal

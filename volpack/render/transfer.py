@@ -164,64 +164,31 @@ class TransferFunction:
 
 # -- presets ---------------------------------------------------------------------------
 
-# Each preset: (normalized points, Hounsfield points or None). Colours are non-associated;
+# The presets as data: a row per preset and scale, a point (value r g b a) between
+# semicolons. ``normalized`` values span [0, 1] of the data range; a CT preset also has
+# ``hounsfield`` points, used when the range looks like CT. Colours are non-associated;
 # ``a`` is the opacity of one voxel, so a value of 0.1 already hides what lies 20 voxels
 # behind (0.9 ** 20 = 0.12).
-_PRESET_POINTS: dict[str, tuple[tuple[Point, ...], tuple[Point, ...] | None]] = {
-    "ct-bone": (
-        (
-            (0.00, 0.00, 0.00, 0.00, 0.00),
-            (0.45, 0.85, 0.65, 0.50, 0.00),
-            (0.55, 0.95, 0.82, 0.70, 0.10),
-            (0.75, 1.00, 0.95, 0.88, 0.45),
-            (1.00, 1.00, 1.00, 1.00, 0.80),
-        ),
-        (
-            (-1000.0, 0.00, 0.00, 0.00, 0.00),
-            (150.0, 0.85, 0.65, 0.50, 0.00),
-            (300.0, 0.95, 0.82, 0.70, 0.10),
-            (700.0, 1.00, 0.95, 0.88, 0.45),
-            (1500.0, 1.00, 1.00, 1.00, 0.80),
-        ),
-    ),
-    "ct-soft": (
-        (
-            (0.00, 0.00, 0.00, 0.00, 0.00),
-            (0.30, 0.60, 0.40, 0.30, 0.00),
-            (0.40, 0.85, 0.55, 0.40, 0.02),
-            (0.50, 0.90, 0.40, 0.35, 0.05),
-            (0.65, 0.95, 0.85, 0.75, 0.15),
-            (1.00, 1.00, 1.00, 1.00, 0.40),
-        ),
-        (
-            (-1000.0, 0.00, 0.00, 0.00, 0.00),
-            (-200.0, 0.60, 0.40, 0.30, 0.00),
-            (-60.0, 0.85, 0.55, 0.40, 0.02),
-            (60.0, 0.90, 0.40, 0.35, 0.05),
-            (300.0, 0.95, 0.85, 0.75, 0.15),
-            (1000.0, 1.00, 1.00, 1.00, 0.40),
-        ),
-    ),
-    "mri": (
-        (
-            (0.00, 0.00, 0.00, 0.00, 0.00),
-            (0.10, 0.10, 0.10, 0.10, 0.00),
-            (0.40, 0.50, 0.50, 0.50, 0.02),
-            (1.00, 1.00, 1.00, 1.00, 0.10),
-        ),
-        None,
-    ),
-    "generic": (
-        (
-            (0.00, 0.10, 0.10, 0.80, 0.00),
-            (0.25, 0.00, 0.70, 0.90, 0.02),
-            (0.50, 0.10, 0.85, 0.20, 0.05),
-            (0.75, 0.95, 0.90, 0.10, 0.10),
-            (1.00, 0.90, 0.10, 0.05, 0.20),
-        ),
-        None,
-    ),
-}
+_PRESET_TABLE = """
+ct-bone  normalized   0 0 0 0 0;  0.45 0.85 0.65 0.50 0;  0.55 0.95 0.82 0.70 0.10;  0.75 1 0.95 0.88 0.45;  1 1 1 1 0.80
+ct-bone  hounsfield   -1000 0 0 0 0;  150 0.85 0.65 0.50 0;  300 0.95 0.82 0.70 0.10;  700 1 0.95 0.88 0.45;  1500 1 1 1 0.80
+ct-soft  normalized   0 0 0 0 0;  0.30 0.60 0.40 0.30 0;  0.40 0.85 0.55 0.40 0.02;  0.50 0.90 0.40 0.35 0.05;  0.65 0.95 0.85 0.75 0.15;  1 1 1 1 0.40
+ct-soft  hounsfield   -1000 0 0 0 0;  -200 0.60 0.40 0.30 0;  -60 0.85 0.55 0.40 0.02;  60 0.90 0.40 0.35 0.05;  300 0.95 0.85 0.75 0.15;  1000 1 1 1 0.40
+mri      normalized   0 0 0 0 0;  0.10 0.10 0.10 0.10 0;  0.40 0.50 0.50 0.50 0.02;  1 1 1 1 0.10
+generic  normalized   0 0.10 0.10 0.80 0;  0.25 0 0.70 0.90 0.02;  0.50 0.10 0.85 0.20 0.05;  0.75 0.95 0.90 0.10 0.10;  1 0.90 0.10 0.05 0.20
+"""
+
+
+def _parse_presets(text: str) -> dict[str, dict[str, tuple[Point, ...]]]:
+    out: dict[str, dict[str, tuple[Point, ...]]] = {}
+    for line in text.strip().splitlines():
+        name, scale, points = line.split(maxsplit=2)
+        rows = (tuple(float(v) for v in p.split()) for p in points.split(";"))
+        out.setdefault(name, {})[scale] = tuple(rows)  # type: ignore[misc]
+    return out
+
+
+_PRESET_POINTS = _parse_presets(_PRESET_TABLE)
 
 #: Names accepted by :func:`preset` and :func:`load_tf`.
 PRESETS: tuple[str, ...] = tuple(_PRESET_POINTS)
@@ -241,9 +208,10 @@ def preset(name: str, lo: float, hi: float) -> TransferFunction:
     if name not in _PRESET_POINTS:
         raise FormatError(f"transfer function preset: expected one of {PRESETS}, found {name!r}")
     lo, hi = check_range(lo, hi)
-    normalized, hounsfield = _PRESET_POINTS[name]
-    if hounsfield is not None and is_ct_range(lo, hi):
-        return TransferFunction(hounsfield, name)
+    points = _PRESET_POINTS[name]
+    if "hounsfield" in points and is_ct_range(lo, hi):
+        return TransferFunction(points["hounsfield"], name)
+    normalized = points["normalized"]
     return TransferFunction(tuple((lo + p[0] * (hi - lo),) + p[1:] for p in normalized), name)
 
 

@@ -330,6 +330,18 @@ def _enumerate(T, g, z, target_v, target_i, tstamp, vstamp, stamp, queue, first)
 
 
 @kernel
+def _new_vertex(vi, nvc, nvu, dec, vcode, vorder):
+    """The code number of a vertex met for the first time: ``nvc``, the count so far (the
+    encoder records the input vertex ``vi`` under it both ways); -1 past ``nvu``."""
+    if nvc >= nvu:
+        return -1
+    if not dec:
+        vcode[vi] = nvc
+        vorder[nvc] = vi
+    return nvc
+
+
+@kernel
 def _alloc(T, free, nfree, bump):
     """Row for a new triangle: (row, nfree, bump)."""
     if nfree > 0:
@@ -663,13 +675,10 @@ def machine_kernel(
                         if ws[mm] == w:
                             return E_SYMBOL
                 else:
-                    if nvc >= nvu:
+                    w = _new_vertex(vi, nvc, nvu, dec, vcode, vorder)
+                    if w < 0:
                         return E_SYMBOL
-                    w = nvc
                     nvc += 1
-                    if not dec:
-                        vcode[vi] = w
-                        vorder[w] = vi
                 ws[m] = w
             for m in range(4):
                 tets_out[ntc, m] = ws[m]
@@ -847,13 +856,10 @@ def machine_kernel(
             continue
         # --- a tetrahedron: the new vertex, its orientation, the update
         if kind == K_NEW:
-            if nvc >= nvu:
+            d = _new_vertex(d_in, nvc, nvu, dec, vcode, vorder)
+            if d < 0:
                 return E_SYMBOL
-            d = nvc
             nvc += 1
-            if not dec:
-                vcode[d_in] = d
-                vorder[d] = d_in
             gates[d, 0] = gv[0]
             gates[d, 1] = gv[1]
             gates[d, 2] = gv[2]

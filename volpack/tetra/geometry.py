@@ -795,6 +795,21 @@ def _miss_bits(xyz, k, ax, guess, ln):
     return _bits(abs(xyz[k, ax] - guess) * 256.0 / ln)
 
 
+@kernel(inline=True)
+def _misses(xyz, k, guess, ln):
+    """:func:`_miss_bits` summed over the three axes."""
+    c = 0
+    for ax in range(3):
+        c += _miss_bits(xyz, k, ax, guess[ax], ln)
+    return c
+
+
+@kernel(inline=True)
+def _track(st, i, bits):
+    """Move the running cost ``st[i]`` of one prediction towards ``bits``."""
+    st[i] += (bits - st[i]) * COST_RATE
+
+
 @kernel
 def _learn(st, ln, bucket, xyz, k, cen, refl, far, normal, pred, err):
     """Update the adaptive state from decoded vertex k and its residual ``err`` per coded
@@ -805,16 +820,14 @@ def _learn(st, ln, bucket, xyz, k, cen, refl, far, normal, pred, err):
     for ax in range(3):
         st[b + ax] += (min(abs(err[ax]) / ln, 4.0) - st[b + ax]) * A_RATE
     _apex(st, ln, cen, far, normal, pred)
-    ca = 0
-    cr = 0
+    _track(st, COST_APEX, _misses(xyz, k, pred, ln))
+    _track(st, COST_REFL, _misses(xyz, k, refl, ln))
     g11 = 0.0
     g12 = 0.0
     g22 = 0.0
     y1 = 0.0
     y2 = 0.0
     for ax in range(3):
-        ca += _miss_bits(xyz, k, ax, pred[ax], ln)
-        cr += _miss_bits(xyz, k, ax, refl[ax], ln)
         f1 = normal[ax]
         f2 = far[ax] / ln
         y = (xyz[k, ax] - cen[ax]) / ln
@@ -823,8 +836,6 @@ def _learn(st, ln, bucket, xyz, k, cen, refl, far, normal, pred, err):
         g22 += f2 * f2
         y1 += f1 * y
         y2 += f2 * y
-    st[COST_APEX] += (ca - st[COST_APEX]) * COST_RATE
-    st[COST_REFL] += (cr - st[COST_REFL]) * COST_RATE
     if g11 > 0.0:  # a vertex whose faces' normals cancel out teaches no heights
         keep = 1.0 - FORGET
         st[0] = st[0] * keep + g11
@@ -837,16 +848,12 @@ def _learn(st, ln, bucket, xyz, k, cen, refl, far, normal, pred, err):
 @kernel
 def _learn_border(st, ln, xyz, k, apex, par):
     """Update the running costs of the border predictions (apex and parallelogram)."""
-    ca = 0
-    cp = 0
+    _track(st, COST_BAPEX, _misses(xyz, k, apex, ln))
+    _track(st, COST_PAR, _misses(xyz, k, par, ln))
     cm = 0
     for ax in range(3):
-        ca += _miss_bits(xyz, k, ax, apex[ax], ln)
-        cp += _miss_bits(xyz, k, ax, par[ax], ln)
         cm += _miss_bits(xyz, k, ax, 0.5 * (apex[ax] + par[ax]), ln)
-    st[COST_BAPEX] += (ca - st[COST_BAPEX]) * COST_RATE
-    st[COST_PAR] += (cp - st[COST_PAR]) * COST_RATE
-    st[COST_MID] += (cm - st[COST_MID]) * COST_RATE
+    _track(st, COST_MID, cm)
 
 
 @kernel

@@ -37,6 +37,7 @@ from ..format.deflate import LEVEL as ZSTD_LEVEL
 from ..format.deflate import inflate
 from .protocol import (
     BrickCodec,
+    as_brick,
     as_stored,
     check_choice,
     constant_value,
@@ -100,10 +101,7 @@ class WaveletCodec(BrickCodec):
         from ..entropy import CODERS
         from ..wavelet import dwt3, sigmap
 
-        brick = np.asarray(brick)
-        check_wavelet_dtype(brick.dtype)
-        if brick.ndim != 3:
-            raise OptionError(f"expected a 3-D brick, found shape {brick.shape}")
+        brick = as_brick(brick, check_wavelet_dtype)
         value = constant_value(brick)
         if value is not None:
             return bytes([MODE_CONSTANT]) + value

@@ -28,7 +28,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from ..errors import FormatError, OptionError
+from ..errors import FormatError
 from . import palette as pal
 from .codec import (
     MODE_CONSTANT,
@@ -40,7 +40,7 @@ from .codec import (
     piecewise_constant,
 )
 from .floatbits import FLOAT_DTYPES, from_ordered, to_ordered
-from .protocol import BrickCodec, split_mode
+from .protocol import BrickCodec, as_brick, split_mode
 from .protocol import as_stored as _as_stored
 from .protocol import check_choice as _check_choice
 from .protocol import from_stored as _from_stored
@@ -84,10 +84,7 @@ class LosslessCodec(BrickCodec):
         return WaveletCodec(self.wavelet, self.coder, self.order, self.max_levels)
 
     def encode(self, brick: np.ndarray) -> bytes:
-        brick = np.asarray(brick)
-        check_dtype(brick.dtype)
-        if brick.ndim != 3:
-            raise OptionError(f"expected a 3-D brick, found shape {brick.shape}")
+        brick = as_brick(brick, check_dtype)
         raw = _as_stored(brick)
         flat = brick.reshape(-1)
         bits = flat.view(f"u{brick.itemsize}")

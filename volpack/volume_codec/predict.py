@@ -170,6 +170,22 @@ def _weight(t):
 
 
 @kernel(inline=True)
+def _edge(err, perr, preds, j, act2):
+    """Add the errors of the neighbour ``j`` across an edge: each predictor's to its sum
+    in ``preds[NPRED:]``, the final one once to the doubled activity."""
+    for k in range(NPRED):
+        preds[NPRED + k] += perr[j * NPRED + k]
+    return act2 + abs(err[j])
+
+
+@kernel(inline=True)
+def _face(err, perr, preds, j, act2, esum):
+    """:func:`_edge` for a face neighbour, which counts twice in the activity and adds
+    its final error to the error sum."""
+    return _edge(err, perr, preds, j, act2 + abs(err[j])), esum + err[j]
+
+
+@kernel(inline=True)
 def _predict_kernel(v, err, perr, i, z, y, x, ny, nx, lo, hi, bias_sum, bias_cnt, preds):
     """Prediction and contexts of voxel ``i`` = (z, y, x) from the decoded ``v``, the
     final errors ``err`` and the per-predictor errors ``perr`` of earlier voxels.
@@ -209,33 +225,15 @@ def _predict_kernel(v, err, perr, i, z, y, x, ny, nx, lo, hi, bias_sum, bias_cnt
     for k in range(NPRED):
         preds[NPRED + k] = 0
     if hw:
-        j = i - 1
-        act2 += 2 * abs(err[j])
-        esum += err[j]
-        for k in range(NPRED):
-            preds[NPRED + k] += perr[j * NPRED + k]
+        act2, esum = _face(err, perr, preds, i - 1, act2, esum)
     if hn:
-        j = i - sy
-        act2 += 2 * abs(err[j])
-        esum += err[j]
-        for k in range(NPRED):
-            preds[NPRED + k] += perr[j * NPRED + k]
+        act2, esum = _face(err, perr, preds, i - sy, act2, esum)
         if hw:
-            j = i - sy - 1
-            act2 += abs(err[j])
-            for k in range(NPRED):
-                preds[NPRED + k] += perr[j * NPRED + k]
+            act2 = _edge(err, perr, preds, i - sy - 1, act2)
         if x + 1 < nx:
-            j = i - sy + 1
-            act2 += abs(err[j])
-            for k in range(NPRED):
-                preds[NPRED + k] += perr[j * NPRED + k]
+            act2 = _edge(err, perr, preds, i - sy + 1, act2)
     if hu:
-        j = i - sz
-        act2 += 2 * abs(err[j])
-        esum += err[j]
-        for k in range(NPRED):
-            preds[NPRED + k] += perr[j * NPRED + k]
+        act2, esum = _face(err, perr, preds, i - sz, act2, esum)
     act = act2 >> 1
     # Blend with weights ~ 2^24 / (1 + s_k) (at least 1); the sums stay below 2^63 for
     # a value range below 2^32.
@@ -283,16 +281,23 @@ def _learn(v, err, perr, i, pred, ctx, bias_sum, bias_cnt, preds):
         bias_cnt[ctx] >>= 1
 
 
-@kernel
-def _encode_kernel(v, shape, lo, hi, out):
-    nz, ny, nx = shape[0], shape[1], shape[2]
-    n = nz * ny * nx
+@kernel(inline=True)
+def _start(n):
+    """The state both sides start ``n`` voxels from: final and per-predictor errors, the
+    predictions' scratch, the bias sums and counts, the adaptive models."""
     err = np.zeros(n, dtype=np.int64)
     perr = np.zeros(n * NPRED, dtype=np.int32)
     preds = np.zeros(2 * NPRED, dtype=np.int64)
     bias_sum = np.zeros(NCTX, dtype=np.int64)
     bias_cnt = np.zeros(NCTX, dtype=np.int64)
-    state = np.full(N_MODELS, STATE_INIT, dtype=np.uint16)
+    return err, perr, preds, bias_sum, bias_cnt, np.full(N_MODELS, STATE_INIT, dtype=np.uint16)
+
+
+@kernel
+def _encode_kernel(v, shape, lo, hi, out):
+    nz, ny, nx = shape[0], shape[1], shape[2]
+    n = nz * ny * nx
+    err, perr, preds, bias_sum, bias_cnt, state = _start(n)
     cap = out.size
     low, rng, pos = open_encoder(out)
     i = 0
@@ -319,12 +324,7 @@ def _decode_kernel(data, shape, lo, hi, v):
     nz, ny, nx = shape[0], shape[1], shape[2]
     n = nz * ny * nx
     size = data.size
-    err = np.zeros(n, dtype=np.int64)
-    perr = np.zeros(n * NPRED, dtype=np.int32)
-    preds = np.zeros(2 * NPRED, dtype=np.int64)
-    bias_sum = np.zeros(NCTX, dtype=np.int64)
-    bias_cnt = np.zeros(NCTX, dtype=np.int64)
-    state = np.full(N_MODELS, STATE_INIT, dtype=np.uint16)
+    err, perr, preds, bias_sum, bias_cnt, state = _start(n)
     code, rng, pos = open_stream(data)
     i = 0
     for z in range(nz):

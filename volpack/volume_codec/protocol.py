@@ -109,6 +109,16 @@ def split_mode(data: bytes | memoryview, codec: str) -> tuple[int, memoryview]:
     return data[0], data[1:]
 
 
+def as_brick(brick: Any, check_dtype: Any) -> np.ndarray:
+    """``brick`` as a 3-D array, its dtype passed by ``check_dtype`` (which raises
+    :class:`OptionError`), the start of every codec's ``encode``."""
+    brick = np.asarray(brick)
+    check_dtype(brick.dtype)
+    if brick.ndim != 3:
+        raise OptionError(f"expected a 3-D brick, found shape {brick.shape}")
+    return brick
+
+
 def constant_value(brick: np.ndarray) -> bytes | None:
     """The stored bytes of the one value a non-empty brick holds everywhere, else None
     (every codec codes such a brick as its mode-2 payload, a single value)."""
