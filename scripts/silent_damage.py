@@ -38,19 +38,32 @@ def main() -> int:
         path = fuzz.EXAMPLES / f"{args.stream.removesuffix('.vpk')}.vpk"
     seed = path.read_bytes()
     parsed = fuzz.parse(seed)
-    ref = np.asarray(api.decompress(seed).data)
+
+    def arrays(decoded) -> list:
+        """The decoded voxels, or a mesh's points, tetrahedra and fields."""
+        if hasattr(decoded, "tets"):
+            fields = [*decoded.point_data.items(), *decoded.cell_data.items()]
+            return [decoded.points, decoded.tets, *(np.asarray(v) for _, v in sorted(fields))]
+        return [np.asarray(decoded.data)]
+
+    def same(a: list, b: list) -> bool:
+        return len(a) == len(b) and all(
+            x.shape == y.shape and np.array_equal(x, y, equal_nan=x.dtype.kind == "f")
+            for x, y in zip(a, b)
+        )
+
+    ref = arrays(api.decompress(seed))
     counts: collections.Counter = collections.Counter()
     messages: collections.Counter = collections.Counter()
     for i in range(args.count):
         blob = fuzz.mutant(random.Random(f"{args.seed}:{i}"), "payload", seed, parsed)
         try:
-            out = np.asarray(api.decompress(blob).data)
+            out = arrays(api.decompress(blob))
         except FormatError as e:
             counts["error"] += 1
             messages[str(e)[:100]] += 1
             continue
-        same = out.shape == ref.shape and np.array_equal(out, ref, equal_nan=out.dtype.kind == "f")
-        counts["same" if same else "silent"] += 1
+        counts["same" if same(out, ref) else "silent"] += 1
     n = sum(counts.values())
     print(f"{path.name}: {n} payload mutants: {dict(counts)}; silent "
           f"{counts['silent']}/{n} = {100 * counts['silent'] / max(n, 1):.1f} %")  # fmt: skip
