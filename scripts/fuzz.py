@@ -387,7 +387,15 @@ def main() -> int:
         help="folder for the runs' files (default: a folder in /dev/shm when there is one, "
         "where the outputs' fsync costs nothing; else OUT/work)",
     )
+    ap.add_argument(
+        "--table", metavar="CSV", default=None,
+        help="only print the per-kind table of a summary.csv (as in the README) and exit",
+    )  # fmt: skip
     args = ap.parse_args()
+    if args.table:
+        with open(args.table, newline="") as f:
+            print(kind_table(list(csv.DictReader(f))))
+        return 0
     args.mem = int(args.mem * (1 << 30))
     out = pathlib.Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -436,6 +444,24 @@ def main() -> int:
     return report(rows, refs, compiled, out, elapsed, args)
 
 
+def kind_table(summary: list[dict]) -> str:
+    """Outcomes per kind (all mutations) from the rows of ``summary.csv``."""
+    lines = [
+        "| kind | mutants | clean error | same output | different output | failures |",
+        "|---|---:|---:|---:|---:|---:|",
+    ]
+    for kind in KINDS:
+        c = {
+            k: sum(int(r[k]) for r in summary if r["kind"] == kind) for k in ("mutants", *OUTCOMES)
+        }
+        fails = sum(c[f] for f in FAILURES)
+        lines.append(
+            f"| {kind} | {c['mutants']:,} | {c['error']:,} | {c['same']:,} | {c['silent']:,} "
+            f"| {fails} |"
+        )
+    return "\n".join(lines)
+
+
 def report(rows, refs, compiled, out: pathlib.Path, elapsed: float, args) -> int:
     counts: dict = {}
     for _, kind, _path, mode, outcome, _dt in rows:
@@ -445,6 +471,8 @@ def report(rows, refs, compiled, out: pathlib.Path, elapsed: float, args) -> int
         w.writerow(["kind", "mutation", "mutants", *OUTCOMES])
         for (kind, mode), c in sorted(counts.items()):
             w.writerow([kind, mode, sum(c[o] for o in OUTCOMES), *(c[o] for o in OUTCOMES)])
+    with open(out / "summary.csv", newline="") as f:
+        per_kind = kind_table(list(csv.DictReader(f)))
     run = [r for r in rows if r[4] != "unchanged"]
     print(f"{len(run)} mutants ({len(rows) - len(run)} unchanged skipped) in {elapsed:.0f} s, "
           f"seed {args.seed}, {args.workers} workers, limits {args.time_limit:g} s and "
@@ -455,6 +483,8 @@ def report(rows, refs, compiled, out: pathlib.Path, elapsed: float, args) -> int
     for (kind, mode), c in sorted(counts.items()):
         n = sum(c[o] for o in OUTCOMES)
         print(f"| {kind} | {mode} | {n} | " + " | ".join(str(c[o]) for o in OUTCOMES) + " |")
+    print()
+    print(per_kind)
     print()
     print("silently accepted (payload mutants, data decode paths: decoded to different output):")
     for kind in KINDS:
