@@ -286,6 +286,10 @@ DATASETS: dict[str, Dataset] = {
                  "NCL example: near-surface air temperature (K), 12 months x 96x192"),
         _climate("sea_ice", "cdf/fice.nc", "fice",
                  "NCL example: sea-ice concentration (0..1), 120 months x 49x100"),
+        _climate("storm_t", "cdf/Tstorm.cdf", "t",
+                 "NCL example: storm temperature, 64 time steps x 33x36, fill -9999 (20 %)"),
+        _climate("contour_z", "cdf/contour.cdf", "Z",
+                 "NCL example: geopotential height, 7 times x 10 levels x 33x36, fill -9999"),
     ]
 }  # fmt: skip
 

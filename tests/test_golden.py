@@ -11,6 +11,7 @@ import pytest
 from volpack import api
 from volpack.demo import load_demo_volume
 from volpack.format.container import Reader
+from volpack.format.sections import take_section
 
 GOLDEN = Path(__file__).resolve().parent.parent / "formats" / "examples"
 
@@ -107,9 +108,34 @@ def lossy_source(recipe):
 
 
 LOSSY_CDF97 = [
+    ("lossy-bounded-f32-cdf97-bins", np.float32, {"max_error": 2.0, "fill_value": -999.0}),
+    ("lossy-bounded-f64-cdf97-bins", np.float64, {"max_error": 2.0, "fill_value": -999.0}),
+    ("lossy-bounded-f32-cdf97-rows", np.float32, {"max_error": 8.0, "fill_value": -999.0}),
+]
+# The same recipe coded before the bin field (outlier kind 2): their outliers are a dense
+# field (kind 1), which today's encoder no longer writes; they must still decode.
+LOSSY_CDF97_KIND1 = [
     ("lossy-bounded-f32-cdf97", np.float32, {"max_error": 2.0, "fill_value": -999.0}),
     ("lossy-bounded-f64-cdf97", np.float64, {"max_error": 2.0, "fill_value": -999.0}),
 ]
+
+
+def _outlier_kinds(blob):
+    kinds = []
+    with Reader(blob) as r:
+        for _, _, p in r:
+            _, pos = take_section(memoryview(p), 1, "inner")
+            kinds.append(take_section(memoryview(p), pos, "outliers")[0][0])
+    return kinds
+
+
+@pytest.mark.parametrize(
+    "stem,dtype,opts", LOSSY_CDF97_KIND1, ids=[c[0] for c in LOSSY_CDF97_KIND1]
+)
+def test_golden_float_wavelet_stream_with_a_dense_outlier_field_still_decodes(stem, dtype, opts):
+    blob = (GOLDEN / f"{stem}.vpk").read_bytes()
+    assert _outlier_kinds(blob) == [1]
+    _check_float_wavelet_stream(blob, dtype, opts)
 
 
 @pytest.mark.parametrize("stem,dtype,opts", LOSSY_CDF97, ids=[c[0] for c in LOSSY_CDF97])
@@ -117,6 +143,18 @@ def test_golden_float_wavelet_stream(stem, dtype, opts):
     """The float wavelet path decodes to its recorded bytes and error, and is reproduced
     with the default brick (one brick: the whole volume)."""
     blob = (GOLDEN / f"{stem}.vpk").read_bytes()
+    assert _outlier_kinds(blob) == [2]
+    with Reader(blob) as r:  # the scan order: `line`, or `rows` at the looser bound
+        inner = [take_section(memoryview(p), 1, "inner")[0] for _, _, p in r]
+    assert [b[3] for b in inner] == [2 if "rows" in stem else 1]
+    want = _check_float_wavelet_stream(blob, dtype, opts)
+    again = api.compress_array(want, **opts)
+    with Reader(blob) as old, Reader(again) as new:
+        assert old.header == new.header
+        assert [(t, n, p) for t, n, p in old] == [(t, n, p) for t, n, p in new]
+
+
+def _check_float_wavelet_stream(blob, dtype, opts):
     want = lossy_source("f32").astype(dtype)
     got = api.decompress(blob).data
     assert got.dtype == dtype
@@ -128,10 +166,7 @@ def test_golden_float_wavelet_stream(stem, dtype, opts):
         assert [r.read(e.t, e.node)[0] & 16 for e in r.entries] == [16]  # flag bit 4
     np.testing.assert_array_equal(np.isnan(got), np.isnan(want))
     np.testing.assert_array_equal(got[~ok & ~np.isnan(want)], want[~ok & ~np.isnan(want)])
-    again = api.compress_array(want, **opts)
-    with Reader(blob) as old, Reader(again) as new:
-        assert old.header == new.header
-        assert [(t, n, p) for t, n, p in old] == [(t, n, p) for t, n, p in new]
+    return want
 
 
 @pytest.mark.parametrize("stem,recipe,opts", LOSSY, ids=[c[0] for c in LOSSY])

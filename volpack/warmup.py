@@ -82,7 +82,9 @@ def _warm_beyond_bricks() -> list[str]:
                 raise AssertionError("warm-up octree round trip failed")
             from .octree import select
 
-            render(paged_volume(t, select.by_level(t, 1)), tf=tab, camera=cam, shading="phong")
+            for grads in (False, True):  # walk and render --budget draw with gradients
+                pv = paged_volume(t, select.by_level(t, 1), gradients=grads)
+                render(pv, tf=tab, camera=cam, shading="phong")
     done.append("octree")
     pts = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1]], float)
     tets = np.array([[0, 1, 2, 3], [1, 2, 3, 4]])

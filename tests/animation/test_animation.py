@@ -16,7 +16,7 @@ from volpack.animation import gop, motion
 from volpack.animation import settings as asettings
 from volpack.animation import stream as animation
 from volpack.cli import main
-from volpack.errors import FormatError
+from volpack.errors import FormatError, OptionError
 
 # slow: the animation coder: its motion search compiles many kernels (pytest -m slow runs them; .ci/run does)
 pytestmark = pytest.mark.slow
@@ -201,12 +201,8 @@ def test_corrupt_streams_raise_format_errors(moving):
 def test_refuses_what_it_cannot_code(moving):
     with pytest.raises(FormatError, match="GOP"):
         _code(moving, gop_string="PBB")
-    with pytest.raises(FormatError, match="max_error"):
+    with pytest.raises(OptionError, match="max_error= or losslessly"):
         _code(moving.astype(np.float32), quality=63)
-    with pytest.raises(FormatError, match="finite"):
-        f = moving.astype(np.float32)
-        f[2, 0, 0, 0] = np.nan
-        _code(f, max_error=1)
 
 
 def test_cli_round_trip(tmp_path, moving):
@@ -258,6 +254,12 @@ GOLDEN = [
         "roll",
     ),
     ("animation-ibbp-whole-frame-u8", {"gop_string": "IBBP"}, "translate"),
+    (
+        "animation-ipb-specials-f32",
+        {"gop_string": "IPB", "max_error": 0.05, "fill_value": -9999.0},
+        "specials",
+    ),
+    ("animation-ipb-lossless-f32", {"gop_string": "IPB", "fill_value": -9999.0}, "specials"),
 ]
 
 
@@ -271,16 +273,29 @@ def test_golden_animation_decodes_and_is_reproduced(stem, opts, source):
     if source == "roll":
         cut = load_demo_volume().data[30:46, 40:56, 40:64]
         want = np.stack([np.roll(cut, (t // 2, t, -t), (0, 1, 2)) for t in range(5)])
-    else:
+    elif source == "translate":
         head = synth.head((28, 32, 36))
         want = synth.translate(head, 5, step=(0.5, 0.25, -0.75), crop=(16, 20, 24))
+    else:
+        want = synth.translate(synth.head((12, 16, 20)), 5, step=(0.5, 0.25, 0.75))
+        want = want.astype(np.float32) / np.float32(7.0)
+        for t in range(5):
+            want[t, :, : 2 + t, :3] = -9999.0
+        want[1, 5, 5, 5], want[2, 6, 6, 6], want[2, 6, 6, 7] = np.nan, np.inf, -np.inf
+        want[4, 7, 7, 7], want[4, 7, 7, 8] = -0.0, np.float32(1e-40)
+        want[3] = np.nan
     path = Path(__file__).resolve().parents[2] / "formats" / "examples" / f"{stem}.vpk"
     blob = path.read_bytes()
     got = animation.decompress(blob).data
+    special = ~np.isfinite(want) | (want == -9999.0)
+    assert np.array_equal(got[special].view(np.uint8), want[special].view(np.uint8))
+    got, valid = np.where(special, 0, got), np.where(special, 0, want)
     with Reader(blob) as r:
-        assert _err(got, want).max() == r.summary["max_error"]
+        assert _err(got, valid).max() == r.summary["max_error"]
     if "max_error" in opts:
-        assert _err(got, want).max() <= opts["max_error"]
+        assert _err(got, valid).max() <= opts["max_error"]
+    elif "quality" not in opts:
+        assert np.array_equal(got.view(np.uint8), valid.view(np.uint8))  # bit for bit
     again, _ = _code(want, **opts)
     with Reader(blob) as old, Reader(again) as new:
         assert old.header == new.header

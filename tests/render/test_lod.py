@@ -13,7 +13,7 @@ from volpack.cli import main
 from volpack.demo import load_demo_volume
 from volpack.octree import Octree, build, select
 from volpack.render.camera import Camera
-from volpack.render.lod import paged_volume, render_lod
+from volpack.render.lod import NodeAtlas, paged_volume, render_lod
 from volpack.render.raycast import render
 from volpack.render.transfer import load_tf
 
@@ -30,14 +30,18 @@ def tf_of(vol):
     return load_tf("auto", float(vol.min()), float(vol.max()), dtype=vol.dtype)
 
 
+@pytest.mark.parametrize("grads", [False, True])
 @pytest.mark.parametrize("cls", ["post", "preintegrated"])
-def test_full_resolution_selection_renders_exactly_like_the_volume(tree_path, cls):
+def test_full_resolution_selection_renders_exactly_like_the_volume(tree_path, cls, grads):
     path, vol = tree_path
     vr = (float(vol.min()), float(vol.max()))
     cam = Camera(size=(40, 36), azimuth=35, elevation=25, projection="perspective")
     kw = dict(tf=tf_of(vol), camera=cam, value_range=vr, classification=cls, shading="phong")
     with Octree(str(path)) as t:
-        pv = paged_volume(t, select.by_level(t, 0))
+        # with gradient bricks (central differences of each node grown by two voxels)
+        # or differences taken on the fly through the page table
+        pv = paged_volume(t, select.by_level(t, 0), gradients=grads)
+        assert (pv.grad is not None) == grads and pv.atlas.dtype == vol.dtype
         # the plain volume takes the fast path (raycast._march_kernel) with precomputed
         # gradients: the same samples and sums, rounded differently
         np.testing.assert_allclose(render(pv, **kw), render(vol, **kw), atol=1e-5)
@@ -80,13 +84,16 @@ def test_budget_bounds_the_nodes_and_more_nodes_cost_less_error(tree_path):
         assert st.decoded == 0
         # a walkthrough that enters the volume and leaves it again; the bricks kept
         # from frame to frame give the atlas a fresh assembly gives
-        bricks: dict = {}
+        atlas = NodeAtlas(t)
+        most = 0
         for dist in (300.0, 20.0, 0.0, 20.0, 300.0):
             cam_w = Camera(size=(16, 16), projection="perspective", distance=dist, azimuth=dist)
             img, st = render_lod(t, tf=tf, camera=cam_w, blocks=64, value_range=vr)
             kept, _ = render_lod(t, tf=tf, camera=cam_w, blocks=64, value_range=vr,
-                                 bricks=bricks)  # fmt: skip
-            assert np.array_equal(img, kept) and 1 <= len(bricks) <= st.nodes
+                                 atlas=atlas)  # fmt: skip
+            most = max(most, st.nodes)
+            assert np.array_equal(img, kept) and st.nodes <= len(atlas.slot)
+            assert len(atlas.atlas) <= 2 * most  # slots: at most keep (2) x the selection
             assert np.all(np.isfinite(img)) and st.nodes >= 1
             if dist == 0.0:  # inside: every ray starts in the volume
                 assert (img[..., 3] > 0).mean() > 0.5
@@ -94,6 +101,36 @@ def test_budget_bounds_the_nodes_and_more_nodes_cost_less_error(tree_path):
         away = Camera(size=(16, 16), projection="perspective", distance=0.0, elevation=-89)
         img, st = render_lod(t, tf=tf, camera=away, blocks=64, value_range=vr)
         assert np.all(np.isfinite(img))
+
+
+def test_node_atlas_reuses_slots_and_bounds_gradient_memory(tree_path):
+    # an orbit through views that need different nodes, with no spare slots (keep=1):
+    # slots are reused, each frame equals a fresh assembly, and a gradient budget too
+    # small for the bricks falls back to differences on the fly (the same image as
+    # rendering without them)
+    path, vol = tree_path
+    vr = (float(vol.min()), float(vol.max()))
+    tf = tf_of(vol)
+    with Octree(str(path)) as t:
+        atlas = NodeAtlas(t, keep=1.0)
+        starved = NodeAtlas(t, gradient_budget=0)
+        placed = []
+        most = 0
+        for az in (0.0, 90.0, 180.0, 270.0, 0.0):
+            cam = Camera(size=(24, 20), azimuth=az, zoom=3.0)
+            kw = dict(tf=tf, camera=cam, value_range=vr, shading="phong")
+            sel, _ = select.by_view(t, cam, tf=tf, voxels=24 * 8**3)
+            fresh = render(paged_volume(t, sel, gradients=True), **kw)
+            np.testing.assert_array_equal(render(atlas.paged(sel), **kw), fresh)
+            most = max(most, len(sel))
+            assert len(atlas.atlas) <= most  # keep=1: no more slots than one view needs
+            placed.append(atlas.placed)
+            pv = starved.paged(sel)
+            assert pv.grad is None
+            np.testing.assert_array_equal(render(pv, **kw),
+                                          render(paged_volume(t, sel), **kw))  # fmt: skip
+        assert placed[-1] > placed[0]  # the views needed new nodes ...
+        assert placed[-1] < 5 * placed[0]  # ... not all of them each time
 
 
 def test_render_and_walk_commands(tree_path, tmp_path):
@@ -119,3 +156,29 @@ def test_render_and_walk_commands(tree_path, tmp_path):
         assert im.n_frames == 3
     r = run(main, ["render", str(tmp_path / "a.png"), str(tmp_path / "b.png"), "--budget", "3"])
     assert r.exit_code != 0 and "octree" in r.output
+
+
+@pytest.mark.parametrize("kind", ["uint16 full range", "one voxel thick"])
+def test_gradient_bricks_match_the_plain_volume_on_16_bit_and_thin_volumes(tmp_path, kind):
+    # full-range uint16 needs float32 gradient bricks (differences pass int16); a volume
+    # one voxel thick has nodes that are all border; anisotropic spacing, a camera
+    # inside the volume, and a clear and an opaque TF besides a semi-transparent one
+    rng = np.random.default_rng(3)
+    if kind == "one voxel thick":
+        vol = rng.integers(0, 255, (1, 13, 14)).astype(np.uint8)
+    else:
+        vol = rng.integers(0, 65535, (12, 13, 14)).astype(np.uint16)
+    build(vol, str(tmp_path / "v.vpk"), block=4)
+    tabs = [np.array([[0, 0, 0, 0], [1, 0.5, 0.2, 0.3], [1, 1, 1, 0.6]]), np.zeros((2, 4)),
+            np.ones((2, 4))]  # fmt: skip
+    with Octree(str(tmp_path / "v.vpk")) as t:
+        pv = paged_volume(t, select.by_level(t, 0), gradients=True)
+        assert pv.grad.dtype == (np.float32 if vol.dtype == np.uint16 else np.int16)
+        for tab in tabs:
+            for cam in (Camera(size=(20, 18), azimuth=30, elevation=20),
+                        Camera(size=(20, 18), projection="perspective", distance=0.0)):  # fmt: skip
+                kw = dict(tf=tab, camera=cam, shading="phong", spacing=(2.0, 1.0, 0.7),
+                          value_range=(float(vol.min()), float(vol.max())))  # fmt: skip
+                img = render(pv, **kw)
+                assert np.all(np.isfinite(img))
+                np.testing.assert_allclose(img, render(vol, **kw), atol=1e-6)

@@ -153,3 +153,36 @@ def test_damaged_wavelet_payloads_raise_format_errors():
             assert out.shape == a.shape
         except FormatError:
             pass
+
+
+@pytest.mark.parametrize(
+    "shape,density", [((7, 9, 33), 0.03), ((3, 5, 1), 0.5), ((1, 1, 1), 1.0), ((6, 8, 10), 0.0)]
+)
+def test_bin_field_round_trip_adds_the_bins_as_the_reference_does(shape, density):
+    from volpack.volume_codec import bin_field
+    from volpack.volume_codec.bounded_cdf97 import add_bins
+
+    rng = np.random.default_rng(7)
+    r = np.where(rng.random(shape) < density, rng.choice([-1, 1, 2, -3], shape), 0)
+    r.reshape(-1)[: min(3, r.size)] = [2**31 - 1, -(2**30) - 5, 17][: min(3, r.size)]
+    base = rng.standard_normal(shape)
+    want = base.copy()
+    idx = np.flatnonzero(r)
+    add_bins(want, idx, r.reshape(-1)[idx], 0.37)
+    got = base.copy()
+    body = bin_field.encode(r)
+    bin_field.add_decoded(body, got, 0.37)
+    np.testing.assert_array_equal(got, want)  # bit for bit
+    with pytest.raises(FormatError):
+        bin_field.add_decoded(body[: max(0, len(body) - 12)], base.copy(), 0.37)
+
+
+def test_bin_field_codes_clustered_outliers_shorter_than_the_dense_field():
+    from volpack.entropy import CODERS
+    from volpack.volume_codec import bin_field
+    from volpack.wavelet import sigmap
+
+    a = smooth_float((16, 40, 60), np.float64)
+    r = np.where(np.abs(a) > 0.95, np.sign(a), 0).astype(np.int64)  # ridges of +-1
+    dense = CODERS["arith"].encode(r, sigmap.scan(r.shape, (0, 0, 0), "line"))
+    assert len(bin_field.encode(r)) < 0.9 * len(dense)

@@ -62,6 +62,22 @@ def test_predict_extreme_range():
     np.testing.assert_array_equal(back, v)
 
 
+def test_predict_floor_division_is_exact():
+    """The blend's float-corrected division equals Python's floor division over the
+    whole range it serves: weighted means of predictions of 32-bit values (quotients
+    up to 2^35 in magnitude; the predictors reach 2^34), denominators of six weights of
+    up to 2^24 each, numerators on, just below and just above multiples."""
+    rng = np.random.default_rng(11)
+    d = rng.integers(6, 6 * 2**24 + 1, 20000)
+    q = rng.integers(-(2**35), 2**35, d.size)
+    r = rng.integers(0, d)
+    a = q * d + r  # quotient q, remainder r: every case, exact integers near and on
+    a = np.concatenate([a, q * d, q * d - 1, q * d + d - 1])
+    d = np.concatenate([d, d, d, d])
+    got = np.array([predict._floor_div(int(x), int(y)) for x, y in zip(a, d)])
+    np.testing.assert_array_equal(got, a // d)
+
+
 def test_predict_beats_wavelet_on_an_edge():
     """A sharp-edged object on a zero background: prediction pays the edge once."""
     a = np.clip(np.rint(smooth((32, 32, 32), noise=1)), 1, 255).astype(np.uint8)

@@ -240,3 +240,32 @@ def test_kernels_run_as_plain_python(tmp_path):
     )
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "ok"
+
+
+@pytest.mark.parametrize("shape,levels", [((9, 13, 20), (0, 3, 4)), ((6, 7, 1), (2, 2, 0))])
+def test_rows_scan_is_the_line_scan_with_each_band_row_as_a_subtree(shape, levels):
+    from volpack.entropy import CODERS
+    from volpack.wavelet import sigmap
+
+    line, rows = sigmap.scan(shape, levels, "line"), sigmap.scan(shape, levels, "rows")
+    for a, b in zip(line, rows):
+        if a is not line.end:
+            np.testing.assert_array_equal(a, b)
+    flat = np.arange(int(np.prod(shape)))
+    z, y, x = np.unravel_index(line.perm, shape)
+    for band in dwt3.subbands(shape, levels):  # a row start points past its row
+        inside = np.all(
+            [(s <= c) & (c < s + n) for s, n, c in zip(band.start, band.size, (z, y, x))], axis=0
+        )
+        pos = flat[inside]
+        first = pos[x[pos] == band.start[2]]
+        want = first + (band.size[2] if band.size[2] > 1 else 1)
+        np.testing.assert_array_equal(rows.end[first], want)
+    q = np.random.default_rng(1).integers(-3, 4, shape) * (
+        np.random.default_rng(2).random(shape) < 0.2
+    )
+    q[:, : shape[1] // 2] = 0  # whole zero rows
+    for name, coder in CODERS.items():
+        out = np.empty(shape, np.int64)
+        coder.decode(coder.encode(q.copy(), rows), rows, out)
+        np.testing.assert_array_equal(out, q, err_msg=name)

@@ -21,11 +21,15 @@ from .._jit import kernel
 from ..errors import FormatError
 from ..format.sections import put_section, take_section
 from ..volume_codec import bricks
-from . import motion, shift
+from ..volume_codec.floatbits import from_ordered, to_ordered
+from ..volume_codec.specials import fill_masked, special_mask, special_voxels
+from . import motion, shift, specials
+from .linecode import decode_line, encode_line
 from .settings import Settings
 
 # Frame type codes and flag bits (formats/animation-1.md, "Frame payload").
 TYPE_CODE = {"I": 0, "P": 1, "B": 2}
+TYPE_SPECIALS = 0x10  # type byte bit 4: a section of special voxels follows the frame head
 FLAG_RESIDUAL, FLAG_CORRECTIONS, FLAG_FLAT, FLAG_GLOBAL, FLAG_I_BOUND = 1, 2, 4, 0x40, 0x80
 SMOOTH_SHIFT, SMOOTH_MASK = 3, 0x38  # flag bits 3-5: index into motion.SMOOTHING
 INTRA_CUT = 0.5  # a frame with at least this share of intra blocks is coded as an I-frame
@@ -38,6 +42,10 @@ MODE_NAMES = ("forward", "backward", "bidirectional", "intra", "global")  # bloc
 
 def _field_codec(s: Settings, dtype: np.dtype, lo: float, hi: float, vrange: float):
     """The brick codec for one coded field (a frame or a residual) of ``dtype``."""
+    if s.mode == "lossless" and dtype.kind == "f":  # as a 3-D volume's lossless coding
+        from ..volume_codec.stream import make_codec
+
+        return make_codec("auto", dtype, **s.inner())
     if s.mode == "lossless":
         from ..volume_codec.codec import WaveletCodec
 
@@ -85,22 +93,6 @@ def _flat_step(s: Settings, dtype: np.dtype) -> float:
     return 2.0 * float(s.max_error)
 
 
-def _arith_line(values: np.ndarray) -> bytes:
-    from ..entropy import arith
-    from ..wavelet import sigmap
-
-    return arith.encode(values, sigmap.scan(values.shape, (0, 0, 0), "line"))
-
-
-def _arith_line_decode(data, shape: tuple[int, ...]) -> np.ndarray:
-    from ..entropy import arith
-    from ..wavelet import sigmap
-
-    out = np.empty(shape, np.int64)
-    arith.decode(data, sigmap.scan(shape, (0, 0, 0), "line"), out)
-    return out
-
-
 def encode_flat(target: np.ndarray, step: float) -> tuple[bytes, np.ndarray] | None:
     """``target`` quantised with bins of ``step`` centred on zero and arithmetic coded;
     returns ``(body, decoded)``, or None if the indices would not fit."""
@@ -114,11 +106,11 @@ def encode_flat(target: np.ndarray, step: float) -> tuple[bytes, np.ndarray] | N
         q = q.astype(np.int64)
     if np.abs(q).max(initial=0) >= FLAT_LIMIT:
         return None
-    return _arith_line(np.ascontiguousarray(q)), _flat_values(q, step, target.dtype)
+    return encode_line(np.ascontiguousarray(q)), _flat_values(q, step, target.dtype)
 
 
 def decode_flat(body, shape: tuple[int, ...], step: float, dtype: np.dtype) -> np.ndarray:
-    q = _arith_line_decode(body, shape)
+    q = decode_line(body, shape)
     if np.abs(q).max(initial=0) >= FLAT_LIMIT:
         raise FormatError("animation frame: a flat field index out of range")
     return _flat_values(q, step, dtype)
@@ -131,9 +123,9 @@ def _flat_values(q: np.ndarray, step: float, dtype: np.dtype) -> np.ndarray:
     return (q * step).astype(dtype)
 
 
-def _residual_dtype(dtype: np.dtype) -> np.dtype:
-    if dtype.kind == "f":
-        return np.dtype(np.float64)
+def _residual_dtype(dtype: np.dtype, s: Settings) -> np.dtype:
+    if dtype.kind == "f":  # lossless: bit patterns' ordered images less the prediction's
+        return np.dtype(np.int32 if s.mode == "lossless" else np.float64)
     return np.dtype(np.int16 if dtype.itemsize == 1 else np.int32)
 
 
@@ -143,14 +135,14 @@ def _residual_dtype(dtype: np.dtype) -> np.dtype:
 def encode_field(field: motion.MotionField, two_way: bool, mean_unit: float) -> bytes:
     """The motion field as stacked integer planes (mode, vectors, intra constants),
     coded by the adaptive arithmetic coder in line order."""
-    return _arith_line(_planes(field, two_way, mean_unit))
+    return encode_line(_planes(field, two_way, mean_unit))
 
 
 def decode_field(
     data: bytes, grid: tuple[int, int, int], two_way: bool, mean_unit: float, radius: int
 ):
     nf = 8 if two_way else 5
-    p = _arith_line_decode(data, (nf * grid[0], grid[1], grid[2])).reshape(nf, *grid)
+    p = decode_line(data, (nf * grid[0], grid[1], grid[2])).reshape(nf, *grid)
     mode = p[0]
     allowed = (0, 1, 2, 3) if two_way else (0, 3)
     if not np.isin(mode, allowed).all():
@@ -254,9 +246,14 @@ class CodedFrame:
     sse: float
     motion_nbytes: int
     modes: dict[str, int]
+    nvalid: int = 0  # voxels neither NaN, Inf nor the fill (the error is theirs)
+    value_range: tuple[float, float] = (math.inf, -math.inf)  # of those voxels
 
 
 def frame_range(x: np.ndarray) -> tuple[float, float]:
+    """Smallest and largest finite voxel ((0, 0) if none)."""
+    if x.dtype.kind == "f" and not np.isfinite(x).all():
+        x = x[np.isfinite(x)]
     return (float(x.min()), float(x.max())) if x.size else (0.0, 0.0)
 
 
@@ -277,18 +274,30 @@ def encode_frame(
     s: Settings,
     brick: tuple[int, int, int],
     anchor: bool = False,
+    inline: bool = False,
 ) -> CodedFrame:
     """Code one frame as ``kind``, or as an I-frame where prediction does not pay: when
     half the blocks or more are intra (a scene cut), or when the predicted frame comes
     out longer than the frame coded alone (both are made and the shorter kept). An
-    I-frame that is an ``anchor`` is coded to ``s.i_max_error`` when set."""
+    I-frame that is an ``anchor`` is coded to ``s.i_max_error`` when set. Special voxels
+    (NaN, +-Inf, ``s.fill_value``) are filled before anything else sees the frame and
+    stored exactly (:mod:`volpack.animation.specials`); a lossless I-frame is also coded
+    with them in place (``inline``, as a 3-D volume's lossless coding keeps them) and
+    the shorter kept."""
     dtype = x.dtype
+    found = special_mask(x, s.fill_value)
+    raw, x = x, (x if found is None else fill_masked(x, found))
     lo0, hi0 = frame_range(x)
+    mask = None if inline else found
+    if inline:
+        x = raw
     vrange = hi0 - lo0
     mean_unit = 1.0 if dtype.kind in "iu" else max(vrange / 4096.0, 1e-300)
     field, global_vecs = None, None
+    if kind != "I" and not _predictable(s, dtype):
+        kind = "I"
     if kind != "I":
-        pen = 0.01 * motion.BLOCK**3 * s.scale(vrange) ** 2
+        pen = 0.01 * motion.BLOCK**3 * _scale(s, dtype, vrange) ** 2
         best = None
         for precision in _precisions(s):
             f = motion.choose_modes(
@@ -343,11 +352,18 @@ def encode_frame(
         if global_vecs is not None:
             flags |= FLAG_GLOBAL
             guard = shift.ambiguous(smoothed, float(np.abs(smoothed).max(initial=0.0)))
-        pred_int = _rounded(smoothed, dtype)
-        if dtype.kind in "iu":
-            target = (x.astype(np.int64) - pred_int).astype(_residual_dtype(dtype))
+        pred_int = _rounded(smoothed, dtype, s)
+        if _bit_residual(s, dtype):
+            target = to_ordered(x) - pred_int
+            if np.abs(target).max(initial=0) >= 1 << 31:
+                return encode_frame(raw, "I", None, None, s, brick, anchor)
+        elif dtype.kind in "iu":
+            target = x.astype(np.int64) - pred_int
         else:
             target = x.astype(np.float64) - pred_int
+        target = target.astype(_residual_dtype(dtype, s))
+        if mask is not None:
+            target[mask] = 0  # what the decoder puts there is replaced: code nothing
         fdtype = target.dtype
     residual = kind != "B" or s.b_residual
     lo, hi = _planned_range(s, fdtype, *frame_range(target))
@@ -355,19 +371,28 @@ def encode_frame(
     if residual:
         flags |= FLAG_RESIDUAL
         bodies, rec = _code_bricks(s, target, lo, hi, vrange, brick)
-        flat = encode_flat(target, _flat_step(s, fdtype)) if s.mode != "coef" else None
+        flat = encode_flat(target, _flat_step(s, fdtype)) if _flat_allowed(s, fdtype) else None
         if flat is not None and len(flat[0]) + 4 < sum(map(len, bodies)):
             flags |= FLAG_FLAT
             bodies, rec = [put_section(flat[0])], flat[1]
-        out = _combine(pred_int, rec, dtype)
+        out = _combine(pred_int, rec, dtype, s)
     else:
-        out = _combine(pred_int, None, dtype)
-    err = np.abs(out.astype(np.float64) - x.astype(np.float64))
+        out = _combine(pred_int, None, dtype, s)
+    with np.errstate(invalid="ignore"):
+        err = np.abs(out.astype(np.float64) - x.astype(np.float64))
+    if found is not None:
+        err[found] = 0.0  # replaced by (or kept as) the special values
     corr = b""
     # rounding to the output dtype pushed these past the bound
     bad = np.flatnonzero(err > s.max_error) if s.mode == "bounded" else np.empty(0, np.int64)
     if guard is not None:  # and a decoder's transform could round these differently
         bad = np.union1d(bad, guard)
+    if mask is not None or s.fill_value is not None or dtype.kind == "f":
+        # a valid voxel must not decode to a special value (it would read as one)
+        lost = special_voxels(out, s.fill_value)
+        if found is not None:
+            lost &= ~found
+        bad = np.union1d(bad, np.flatnonzero(lost))
     if bad.size:
         flags |= FLAG_CORRECTIONS
         out.reshape(-1)[bad] = x.reshape(-1)[bad]
@@ -375,21 +400,33 @@ def encode_frame(
         from ..volume_codec.lossy import pack_corrections
 
         corr = put_section(pack_corrections(x, bad))
-    head = _FRAME_HEAD.pack(TYPE_CODE[kind], flags, lo, hi, vrange, mean_unit)
+    code = TYPE_CODE[kind]
+    if mask is not None:
+        code |= TYPE_SPECIALS
+        ref = prev if kind != "I" else None
+        head_parts.insert(0, put_section(specials.encode(raw, mask, ref, s.fill_value)))
+        out[mask] = raw[mask]
+    head = _FRAME_HEAD.pack(code, flags, lo, hi, vrange, mean_unit)
     payload = b"".join([head, *head_parts, *bodies, corr])
     modes = {} if field is None else dict.fromkeys(MODE_NAMES, 0)
     if global_vecs is not None:
         modes["global"] = int(field.mode.size)
     elif field is not None:
         modes.update(field.counts())
-    mnb = len(head_parts[0]) if head_parts else 0
+    mnb = len(head_parts[-1]) if field is not None else 0
+    nvalid = x.size - (0 if found is None else int(found.sum()))
     coded = CodedFrame(
-        payload, out, kind, float(err.max(initial=0.0)), float(np.sum(err * err)), mnb, modes
-    )
+        payload, out, kind, float(err.max(initial=0.0)), float(np.sum(err * err)), mnb, modes,
+        nvalid, (lo0, hi0) if nvalid else (math.inf, -math.inf),
+    )  # fmt: skip
     if kind != "I":  # a prediction that costs more than the frame alone is dropped
-        alone = encode_frame(x, "I", None, None, s, brick, anchor)
+        alone = encode_frame(raw, "I", None, None, s, brick, anchor)
         if len(alone.payload) < len(payload):
             return alone
+    elif mask is not None and s.mode == "lossless":
+        kept = encode_frame(raw, "I", None, None, s, brick, anchor, inline=True)
+        if len(kept.payload) < len(payload):
+            return kept
     return coded
 
 
@@ -409,6 +446,7 @@ def decode_frame(
             f"animation frame: expected at least {_FRAME_HEAD.size} bytes, found {len(data)}"
         )
     code, flags, lo, hi, vrange, mean_unit = _FRAME_HEAD.unpack(data[: _FRAME_HEAD.size])
+    has_specials, code = bool(code & TYPE_SPECIALS), code & ~TYPE_SPECIALS
     kinds = {v: k for k, v in TYPE_CODE.items()}
     if (
         code not in kinds
@@ -425,11 +463,17 @@ def decode_frame(
     if not all(math.isfinite(v) for v in (lo, hi, vrange, mean_unit)) or mean_unit <= 0:
         raise FormatError("animation frame: a non-finite range or intra unit in the frame head")
     pos = _FRAME_HEAD.size
+    if has_specials:
+        if dtype.kind != "f" and s.fill_value is None:
+            raise FormatError(f"animation frame: special voxels in {dtype} frames without a fill")
+        special_body, pos = take_section(data, pos, "animation frame")
     if kind == "I":
         pred_int, fdtype = None, dtype
     else:
         if prev is None or (kind == "B" and nxt is None):
             raise FormatError(f"animation frame: a {kind}-frame needs its decoded anchors")
+        if not _predictable(s, dtype):
+            raise FormatError(f"animation frame: a {kind}-frame in a lossless {dtype} animation")
         body, pos = take_section(data, pos, "animation frame")
         if flags & FLAG_GLOBAL:
             if not _global_allowed(s, dtype):
@@ -446,12 +490,12 @@ def decode_frame(
             )
         strength = motion.SMOOTHING[(flags & SMOOTH_MASK) >> SMOOTH_SHIFT]
         pred = motion.smooth(pred, strength)
-        pred_int = pred if _fused(dtype) else _rounded(pred, dtype)  # see _combine
-        fdtype = _residual_dtype(dtype)
+        pred_int = pred if _fused(dtype) else _rounded(pred, dtype, s)  # see _combine
+        fdtype = _residual_dtype(dtype, s)
     rec = None
     if flags & FLAG_FLAT:
-        if s.mode == "coef":
-            raise FormatError("animation frame: a flat field in coef mode")
+        if not _flat_allowed(s, fdtype):
+            raise FormatError(f"animation frame: a flat field in a {fdtype} {s.mode} frame")
         body, pos = take_section(data, pos, "animation frame")
         rec = decode_flat(body, shape, _flat_step(s, fdtype), fdtype)
     elif flags & FLAG_RESIDUAL:
@@ -465,7 +509,7 @@ def decode_frame(
             rec[sl] = c.decode(body, tuple(x.stop - x.start for x in sl), fdtype)
     elif kind != "B":
         raise FormatError(f"animation frame: an {kind}-frame without its coded field")
-    out = _combine(pred_int, rec, dtype)
+    out = _combine(pred_int, rec, dtype, s)
     if flags & FLAG_CORRECTIONS:
         body, pos = take_section(data, pos, "animation frame")
         from ..volume_codec.lossy import apply_corrections
@@ -473,15 +517,48 @@ def decode_frame(
         apply_corrections(body, out, "animation frame")
     if pos != len(data):
         raise FormatError(f"animation frame: {len(data) - pos} stray bytes at the end")
+    if has_specials:
+        specials.restore(special_body, out, prev if kind != "I" else None, s.fill_value)
     return kind, out
 
 
-def _rounded(pred: np.ndarray, dtype: np.dtype) -> np.ndarray:
+def _predictable(s: Settings, dtype: np.dtype) -> bool:
+    """Whether frames of ``dtype`` may be predicted: not float64 coded losslessly, whose
+    ordered bit images do not fit the residual (those frames are coded alone, as a 3-D
+    volume's lossless coding would)."""
+    return not (s.mode == "lossless" and dtype.kind == "f" and dtype.itemsize > 4)
+
+
+def _bit_residual(s: Settings, dtype: np.dtype) -> bool:
+    """Lossless float frames: the residual is the frame's ordered bit images
+    (:mod:`volpack.volume_codec.floatbits`) less the float32 prediction's."""
+    return s.mode == "lossless" and dtype.kind == "f"
+
+
+def _flat_allowed(s: Settings, fdtype: np.dtype) -> bool:
+    """Flat fields code integer residuals and bounded float ones, not ``coef`` fields or
+    lossless float I-frames."""
+    return s.mode != "coef" and not (s.mode == "lossless" and fdtype.kind == "f")
+
+
+def _scale(s: Settings, dtype: np.dtype, vrange: float) -> float:
+    """:meth:`Settings.scale`; for a lossless float frame a 4096th of its range (one unit
+    of an integer frame would dwarf most float fields)."""
+    if s.mode == "lossless" and dtype.kind == "f":
+        return max(vrange, 1e-300) / 4096.0
+    return s.scale(vrange)
+
+
+def _rounded(pred: np.ndarray, dtype: np.dtype, s: Settings | None = None) -> np.ndarray:
     """The prediction as the residual is taken from it: rounded and clipped to an
-    integer dtype (int64), as is for floats."""
+    integer dtype (int64); for a lossless float frame the ordered image of its float
+    (clipped to the finite range); else as is."""
     if dtype.kind in "iu":
         info = np.iinfo(dtype)
         return np.clip(np.rint(pred), info.min, info.max).astype(np.int64)
+    if s is not None and _bit_residual(s, dtype):
+        big = float(np.finfo(dtype).max)
+        return to_ordered(np.clip(pred, -big, big).astype(dtype))
     return pred
 
 
@@ -504,6 +581,14 @@ def _choose_smoothing(x: np.ndarray, pred: np.ndarray, s: Settings) -> tuple[int
     prefers weaker filters."""
     if s.mode == "coef":
         return 0, 0.0
+    if _bit_residual(s, x.dtype):
+        o = to_ordered(x)
+        bits = [
+            _entropy_bits(o - _rounded(motion.smooth(pred, k), x.dtype, s))
+            for k in motion.SMOOTHING
+        ]
+        i = int(np.argmin(bits))
+        return motion.SMOOTHING[i], bits[i]
     step = _flat_step(s, x.dtype)
     small = x.dtype.kind in "iu" and x.dtype.itemsize <= 2  # a histogram of every bin
     xf = None if small else x.astype(np.float64)
@@ -583,11 +668,16 @@ def _combine_kernel(pred, rec, lo, hi, out):
         o[i] = v
 
 
-def _combine(pred_int, rec, dtype: np.dtype) -> np.ndarray:
+def _combine(pred_int, rec, dtype: np.dtype, s: Settings) -> np.ndarray:
     """Prediction plus decoded residual, in the frame's dtype (clipped for integers).
     A float64 ``pred_int`` of an integer frame is the prediction before rounding."""
     if pred_int is None:
         return np.ascontiguousarray(rec, dtype=dtype)
+    if _bit_residual(s, dtype):
+        v = pred_int if rec is None else pred_int + rec
+        if v.min(initial=0) < 0 or v.max(initial=0) >= 1 << (8 * dtype.itemsize):
+            raise FormatError("animation frame: a float's bit pattern out of range")
+        return from_ordered(v, dtype)
     if _fused(dtype) and pred_int.dtype == np.float64:
         info = np.iinfo(dtype)
         out = np.empty(pred_int.shape, dtype)

@@ -511,11 +511,14 @@ PRECISIONS = ("whole", "half", "quarter")
 class Reference:
     """An anchor frame and, made when first needed, its half-voxel grid and spectrum."""
 
-    def __init__(self, frame: np.ndarray) -> None:
+    def __init__(self, frame: np.ndarray, exact: np.ndarray | None = None) -> None:
         frame = np.asarray(frame)
         if frame.ndim != 3 or frame.dtype.kind not in "iuf":
             raise OptionError(f"expected a numeric 3-D frame, found {frame.shape} {frame.dtype}")
         self.frame = np.ascontiguousarray(frame)
+        # the decoded frame itself where ``frame`` has its special voxels filled
+        # (volpack.animation.specials)
+        self.exact = self.frame if exact is None else exact
         self._up: np.ndarray | None = None
         self._spec: np.ndarray | None = None
 

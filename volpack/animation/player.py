@@ -74,8 +74,8 @@ def frame_count(path: str) -> int | None:
 def play(source: Any) -> Iterator[tuple[np.ndarray, FrameStats, dict]]:
     """Yield ``(frame, stats, header)`` in display order; ``stats.decode_ms`` is the
     decoding done during that step (the first step holds the two start-up decodes)."""
-    from . import gop
-    from .stream import AnimationReader, decode_frame, motion
+    from . import gop, specials
+    from .stream import AnimationReader, decode_frame
 
     own = None
     if isinstance(source, str) and source != "-":
@@ -119,7 +119,7 @@ def play(source: Any) -> Iterator[tuple[np.ndarray, FrameStats, dict]]:
                 raise FormatError(f"frame {t}: {e}") from None
             coded[t] = (kind, len(payload))
             spent[0] += time.perf_counter() - t0
-            return motion.Reference(frame)
+            return specials.reference(frame, reader.settings.fill_value)
 
         steps = gop.play(reader.types, decode)
         while True:
@@ -129,7 +129,7 @@ def play(source: Any) -> Iterator[tuple[np.ndarray, FrameStats, dict]]:
             except StopIteration:
                 break
             kind, nbytes = coded.pop(t, (reader.types[t], 0))
-            yield ref.frame, FrameStats(t, kind, nbytes, 1000.0 * spent[0]), reader.header
+            yield ref.exact, FrameStats(t, kind, nbytes, 1000.0 * spent[0]), reader.header
     finally:
         if own is not None:
             own.close()

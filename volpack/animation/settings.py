@@ -5,6 +5,7 @@ back from a file's header by the decoder."""
 from __future__ import annotations
 
 import dataclasses
+import math
 from typing import Any
 
 from ..errors import FormatError, OptionError
@@ -32,8 +33,13 @@ class Settings:
     rule: str = motion.RULE
     whole_frame: bool = True  # whole-frame shifts tried where the scene moves as one
     i_max_error: float | None = None  # bound of I-frames that anchor others (None: max_error)
+    fill_value: float | None = None  # voxels of this value are kept exactly, as NaN and Inf
 
     def __post_init__(self) -> None:
+        if self.fill_value is not None and not (
+            isinstance(self.fill_value, (int, float)) and math.isfinite(self.fill_value)
+        ):
+            raise OptionError(f"expected a finite fill_value, found {self.fill_value!r}")
         if self.mode not in ("lossless", "bounded", "coef"):
             raise OptionError(f"expected mode lossless, bounded or coef, found {self.mode!r}")
         if self.mode == "bounded" and not (
@@ -76,6 +82,8 @@ class Settings:
         out = {k: getattr(self, k) for k in keys}
         if self.i_max_error is not None:
             out["i_max_error"] = self.i_max_error
+        if self.fill_value is not None:
+            out["fill_value"] = self.fill_value
         return out
 
     def anchor_i(self) -> Settings:

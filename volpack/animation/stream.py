@@ -37,8 +37,8 @@ from ..jsonsafe import jsonable
 from ..metrics import psnr_from_sse, throughput
 from ..volume import Volume
 from ..volume_codec import bricks
-from . import gop, motion
-from .frame import MODE_NAMES, CodedFrame, decode_frame, encode_frame, frame_range
+from . import gop, motion, specials
+from .frame import MODE_NAMES, CodedFrame, decode_frame, encode_frame
 from .frames import is_pattern, open_frames
 from .settings import Settings
 
@@ -63,7 +63,7 @@ def compress(
     coder: str | None = None,
     order: str | None = None,
     max_levels: int | None = None,
-    brick: int | tuple[int, int, int] | None = bricks.DEFAULT_BRICK,
+    brick: int | tuple[int, int, int] | None = None,
     search: int = motion.DEFAULT_RADIUS,
     method: str = "fast",
     precision: str = "quarter",
@@ -71,6 +71,7 @@ def compress(
     b_residual: bool = True,
     whole_frame: bool = True,
     i_max_error: float | None = None,
+    fill_value: float | None = None,
     codec: str = "auto",
     force: bool = False,
     progress: Progress | None = None,
@@ -87,7 +88,9 @@ def compress(
     whole through their spectra (:mod:`volpack.animation.shift`). I-frames that anchor predictions
     are coded to ``i_max_error`` when given (``max_error`` turns it off); by default to
     :func:`default_i_max_error` where the first GOP segment, coded both ways, says it
-    pays (:func:`_tight_pays`).
+    pays (:func:`_tight_pays`). NaN, +-Inf and voxels equal to ``fill_value`` are
+    kept out of prediction and coding and restored exactly
+    (:mod:`volpack.animation.specials`); the error is that of the other voxels.
     """
     from ..format.container import Writer
 
@@ -110,11 +113,13 @@ def compress(
     s = Settings(
         mode, max_error, quality, search=int(search), method=method, precision=precision,
         compensation=compensation, b_residual=bool(b_residual), whole_frame=bool(whole_frame),
-        i_max_error=i_max_error,
+        i_max_error=i_max_error, fill_value=None if fill_value is None else float(fill_value),
         **{k: v for k, v in inner.items() if v is not None},
     )  # fmt: skip
     _check_dtype(src.dtype, s)
-    brick_t = bricks.parse_brick(bricks.DEFAULT_BRICK if brick is None else brick)
+    if brick is None:  # as a 3-D volume: floats under a bound in whole frames
+        brick = bricks.default_brick(src.shape[1:], src.dtype, mode == "bounded")
+    brick_t = bricks.parse_brick(brick)
     nt = src.shape[0]
     refs = gop.references(types)
     release = gop.last_use(types)
@@ -144,10 +149,6 @@ def compress(
             raise FormatError(
                 f"expected frame {t} to be {frame_shape} {src.dtype}, found {x.shape} {x.dtype}"
             )
-        if x.dtype.kind == "f" and not np.isfinite(x).all():
-            raise FormatError(
-                f"expected finite voxels in an animation, found NaN or Inf in frame {t}"
-            )
         return x
 
     def coded(positions, anchors: dict, tight: bool, held=None):
@@ -163,7 +164,7 @@ def compress(
                 tight and types[t] in gop.ANCHORS,
             )  # fmt: skip
             if types[t] in gop.ANCHORS:
-                anchors[t] = motion.Reference(f.decoded)
+                anchors[t] = specials.reference(f.decoded, s.fill_value)
             for a in [a for a in anchors if release[a] <= i]:
                 del anchors[a]
             yield i, t, x, f
@@ -174,7 +175,7 @@ def compress(
         def commit(i: int, t: int, x: np.ndarray, f: CodedFrame) -> None:
             nonlocal lo, hi, sse_total, nbytes
             w.write(t, 0, f.payload, f.max_error)
-            flo, fhi = frame_range(x)
+            flo, fhi = f.value_range
             lo, hi = min(lo, flo), max(hi, fhi)
             sse_total += f.sse
             nbytes += len(f.payload)
@@ -186,6 +187,7 @@ def compress(
                 "motion_nbytes": f.motion_nbytes,
                 "max_error": f.max_error,
                 "sse": f.sse,
+                "nvalid": f.nvalid,
                 "modes": f.modes,
             }
             if progress is not None:
@@ -216,7 +218,7 @@ def compress(
     }
 
 
-LOSSY_REFUSED = ("rel_error", "psnr", "ratio", "threshold", "fill_value")
+LOSSY_REFUSED = ("rel_error", "psnr", "ratio", "threshold")
 
 
 def _refuse(codec: str | None, refused: dict) -> None:
@@ -230,8 +232,10 @@ def _refuse(codec: str | None, refused: dict) -> None:
         raise OptionError(
             f"animations take max_error or quality (or neither: lossless); found {given[0]}"
         )
-    if codec not in (None, "auto", "wavelet"):
-        raise OptionError(f"animations code frames with the wavelet codecs; found codec {codec!r}")
+    if codec not in (None, "auto", "wavelet", "lossless"):
+        raise OptionError(
+            f"animations code frames with the wavelet and lossless codecs; found codec={codec!r}"
+        )
 
 
 def _trial_length(types: str, order: list[int]) -> int:
@@ -283,8 +287,10 @@ def _check_dtype(dtype: np.dtype, s: Settings) -> None:
         raise FormatError(
             f"expected animation voxels of {', '.join(ANIMATION_DTYPES)}, found {name}"
         )
-    if np.dtype(dtype).kind == "f" and s.mode != "bounded":
-        raise FormatError(f"{name} animations are coded with max_error=; found {s.mode} coding")
+    if np.dtype(dtype).kind == "f" and s.mode == "coef":
+        raise OptionError(
+            f"{name} animations are coded with max_error= or losslessly; found quality="
+        )
 
 
 def _psnr(sse: float, n: int, peak: float) -> float | None:
@@ -294,10 +300,12 @@ def _psnr(sse: float, n: int, peak: float) -> float | None:
 
 
 def _summary(rows, src, nbytes, lo, hi, sse_total, s) -> dict[str, Any]:
-    nvox = int(np.prod(src.shape[1:]))
+    if lo > hi:  # no valid voxel in any frame
+        lo = hi = 0.0
     peak = hi - lo
+    nvalid = sum(r["nvalid"] for r in rows)
     for r in rows:
-        r["psnr"] = _psnr(r.pop("sse"), nvox, peak)
+        r["psnr"] = _psnr(r.pop("sse"), r.pop("nvalid"), peak)
     raw = int(np.prod(src.shape)) * np.dtype(src.dtype).itemsize
     counts = {k: sum(r["type"] == k for r in rows) for k in "IPB"}
     modes: dict[str, int] = {}
@@ -313,8 +321,8 @@ def _summary(rows, src, nbytes, lo, hi, sse_total, s) -> dict[str, Any]:
         "mode": s.mode,
         "max_error": max((r["max_error"] for r in rows), default=0.0),
         "error_bound": s.max_error,
-        "psnr": _psnr(sse_total, nvox * len(rows), peak),
-        "rmse": math.sqrt(sse_total / max(nvox * len(rows), 1)),
+        "psnr": _psnr(sse_total, nvalid, peak),
+        "rmse": math.sqrt(sse_total / max(nvalid, 1)),
         "value_range": [lo, hi],
         "frame_types": counts,
         "scene_cuts": sum(r["type"] == "I" and r["planned"] != "I" for r in rows),
@@ -395,7 +403,7 @@ class AnimationReader(CheckedReader):
         frame = decode_frame(
             payload, self.shape[1:], self.dtype, prev, nxt, self.settings, self.brick
         )[1]
-        return motion.Reference(frame)
+        return specials.reference(frame, self.settings.fill_value)
 
     def _read(self, t: int) -> bytes:
         return self._r.read(t, 0)
@@ -409,12 +417,12 @@ class AnimationReader(CheckedReader):
         for f in gop.needed(self.types, t):
             p, n = self.refs[f]
             done[f] = self._decode(f, self._read(f), done.get(p), done.get(n))
-        return done[t].frame
+        return done[t].exact
 
     def play(self) -> Iterator[tuple[int, np.ndarray]]:
         """Frames in display order, one decode per step (seekable files)."""
         for t, ref in gop.play(self.types, lambda t, p, n: self._decode(t, self._read(t), p, n)):
-            yield t, ref.frame
+            yield t, ref.exact
 
     def frames(self, progress: Progress | None = None) -> np.ndarray:
         """All frames ``(t, z, y, x)``, decoded in storage order (streams work too)."""
@@ -433,9 +441,10 @@ class AnimationReader(CheckedReader):
             p, n = self.refs[t]
             if (p is not None and p not in anchors) or (n is not None and n not in anchors):
                 raise FormatError(f"frame {t} comes before its anchors")
-            out[t] = self._decode(t, payload, anchors.get(p), anchors.get(n)).frame
+            ref = self._decode(t, payload, anchors.get(p), anchors.get(n))
+            out[t] = ref.exact
             if self.types[t] in gop.ANCHORS:
-                anchors[t] = motion.Reference(out[t])
+                anchors[t] = ref
             for a in [a for a in anchors if release[a] <= i]:
                 del anchors[a]
             if progress is not None:

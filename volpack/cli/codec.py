@@ -99,6 +99,7 @@ def compress(
       volpack compress ct.nii.gz ct.vpk --quality 63
       volpack compress run.nii.gz run.vpk --gop IBBPBBPBB --quality 63
       volpack compress 'frames/*.npy' run.vpk --gop IPPP --max-error 0.5
+      volpack compress storm.npy storm.vpk --gop IPPP --fill-value -9999   (lossless floats)
       volpack compress mesh.vtu mesh.vpk --bits 16        (tetrahedral mesh: --bits,
       volpack compress hex.msh mesh.vpk --tetrahedralize   --lossless-geometry, ...)
       volpack compress big.h5:/density big.vpk --octree --max-error 2 --workers 2
@@ -122,8 +123,10 @@ def compress(
             lossy,
             LOSSY_REFUSED,
         )
-        if codec not in ("auto", "wavelet"):
-            raise click.UsageError("animations code frames with the wavelet codecs; drop --codec")
+        if codec not in ("auto", "wavelet", "lossless"):
+            raise click.UsageError(
+                f"animations take --codec auto, wavelet or lossless; found --codec {codec}"
+            )
         kind, unit = "animation", "frame"
         opts = {**shared, **animation_compress_options(extra), "max_levels": max_levels}
         opts.update(brick=parse_brick(brick), read_options=read_options)

@@ -130,7 +130,7 @@ def _human(d: dict, chunks: bool) -> str:
     ]
     if not s.get("lossless", True):
         if s.get("error_bound") is not None:
-            rows.append(["error bound", f"{s['error_bound']:g} (held on every voxel)"])
+            rows.append(["error bound", f"{s['error_bound']:g} (held on every voxel; NaN, Inf and the fill value exact)"])
         psnr = s.get("psnr")
         rows.append(["PSNR", "inf" if psnr is None else f"{psnr:.2f} dB"])
         rows.append(["RMSE", f"{s.get('rmse', 0.0):g}"])

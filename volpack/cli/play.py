@@ -163,7 +163,7 @@ def walk(ctx, source, output, orbit, budget, tf_spec, fps, compare, show_stats, 
     from ..octree import Octree
     from ..render import transfer
     from ..render.camera import Camera
-    from ..render.lod import render_lod, tree_range
+    from ..render.lod import NodeAtlas, render_lod, tree_range
     from ..render.prepared import prepare_volume
     from ..render.raycast import render as raycast
 
@@ -177,7 +177,8 @@ def walk(ctx, source, output, orbit, budget, tf_spec, fps, compare, show_stats, 
         lo, hi = tree_range(tree)
         tf = transfer.load_tf(tf_spec or "auto", lo, hi, dtype=tree.dtype)
         full = prepare_volume(tree.decode(0).data) if compare else None
-        bricks: dict = {}  # assembled node bricks, kept while they stay in view
+        # decoded nodes and their gradient bricks, kept while they stay in view
+        atlas = NodeAtlas(tree, gradients=shading != "none")
         with (
             _movie(output, fps, force) as writer,
             progress_bar(ctx, "walk", unit="frame") as progress,
@@ -188,7 +189,7 @@ def walk(ctx, source, output, orbit, budget, tf_spec, fps, compare, show_stats, 
                              look_at=parse_look_at(look_at_s),
                              projection="perspective" if perspective else "orthographic")  # fmt: skip
                 img, st = render_lod(tree, tf=tf, camera=cam, blocks=budget,
-                                     value_range=(lo, hi), bricks=bricks, **opts)  # fmt: skip
+                                     value_range=(lo, hi), atlas=atlas, **opts)  # fmt: skip
                 row = {"frame": k, "azimuth": cam.azimuth, **vars(st)}
                 if full is not None:
                     ref = raycast(full, tf=tf, camera=cam, value_range=(lo, hi), **opts)

@@ -331,15 +331,18 @@ def render(
         vol = prepare_volume(vol)
 
     lod_frames = []
+    lod_atlas = []  # one NodeAtlas (decoded nodes, gradient bricks) for every view
 
     def draw(cam, progress_rows):
         if tree is not None:
-            from ..render.lod import render_lod
+            from ..render.lod import NodeAtlas, render_lod
 
+            if not lod_atlas:
+                lod_atlas.append(NodeAtlas(tree, gradients=shading != "none"))
             t0 = time.perf_counter()
             img, lst = render_lod(
                 tree, tf=tf, camera=cam, blocks=budget or 2048, value_range=(lo, hi),
-                step=step, classification=classification, shading=shading,
+                atlas=lod_atlas[0], step=step, classification=classification, shading=shading,
                 preint_method=preint_method, workers=workers, progress=progress_rows,
             )  # fmt: skip
             lod_frames.append(vars(lst))

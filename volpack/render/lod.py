@@ -3,41 +3,181 @@
 For each view, :func:`volpack.octree.select.by_view` chooses the nodes to draw (frustum
 culling, transparent nodes dropped, refinement by the transfer-function-aware
 screen-space error within a voxel budget). The chosen nodes are decoded (through the
-octree's LRU cache, so a walkthrough decodes only what it has not seen), each with one
-voxel of its neighbours around it, into an atlas of ``(k + 2)^3`` bricks; a page table at
-the finest chosen level's node size maps level-0 positions to their node. The ray caster
-of :mod:`volpack.render.raycast` samples through the page table, each sample trilinear in
-its own node's resolution; the borders make interpolation continuous across nodes of the
-same level, so there are no seams there (between levels the coarser node is sampled at
-its resolution, as in the thesis).
+octree's LRU cache), each with one voxel of its neighbours around it, into the slots of
+a :class:`NodeAtlas` of ``(k + 2)^3`` bricks that a walkthrough keeps from frame to
+frame, so a frame decodes and writes only the nodes new to it; with shading, each slot
+also holds its node's central differences (a gradient brick), computed once. A page
+table at the finest chosen level's node size maps level-0 positions to their slot. The
+ray caster of :mod:`volpack.render.raycast` samples through the page table (its fast
+path, as for a plain volume), each sample trilinear in its own node's resolution; the
+borders make interpolation continuous across nodes of the same level, so there are no
+seams there (between levels the coarser node is sampled at its resolution, as in the
+thesis).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import logging
+import math
 import time
 from typing import Any
 
 import numpy as np
 
 from ..errors import VolpackError
+from .prepared import GRADIENT_BUDGET, SAMPLED, gradient_dtype, gradient_volume
+
+log = logging.getLogger(__name__)
 
 
 @dataclasses.dataclass
 class PagedVolume:
     """A mixed-resolution selection ready for the ray caster (see the module docstring)."""
 
-    atlas: np.ndarray  # (nodes, k + 2, k + 2, k + 2) float32
-    page: np.ndarray  # int64 grid over level-0 cells of ``cell`` voxels: node or -1
-    level: np.ndarray  # int64 (nodes,)
-    origin: np.ndarray  # int64 (nodes, 3): first voxel of the node at its level
+    atlas: np.ndarray  # (slots, k + 2, k + 2, k + 2), the tree's dtype or float32
+    page: np.ndarray  # int64 grid over level-0 cells of ``cell`` voxels: slot or -1
+    level: np.ndarray  # int64 (slots,)
+    origin: np.ndarray  # int64 (slots, 3): first voxel of the node at its level
     shape: tuple[int, int, int]  # level-0 shape
     spacing: tuple[float, float, float]
     cell: int
+    finite_range: tuple[float, float] | None = None  # of the drawn nodes' voxels
+    grad: np.ndarray | None = None  # (slots, k + 2, k + 2, k + 2, 3) central differences
+
+
+class NodeAtlas:
+    """Node bricks kept from frame to frame of a walkthrough, in the slots of one array.
+
+    Each node drawn is decoded once while it stays in the atlas (with two voxels of its
+    neighbours: one stays as the brick's border, both give the central differences of
+    the border voxels, so each gradient brick covers its node's whole footprint). A
+    frame writes only the nodes new to the view into free slots; when none are free the
+    atlas grows up to ``keep`` times the current selection and then reuses the slots of
+    the nodes least recently drawn.
+
+    Memory: the atlas holds ``(k + 2)^3`` voxels a slot in the tree's dtype (float32 for
+    dtypes the ray caster does not sample as they are); with ``gradients`` each slot also
+    holds ``3 (k + 2)^3`` int16 differences (integer data whose range fits 32767 exactly)
+    or float32, so for 16^3 nodes of 8-bit data 5.8 kB + 35 kB a slot, 42 MB for 1024
+    nodes (twice that when ``keep`` slots fill). Gradient bricks are dropped, and shading
+    falls back to differences taken on the fly, when they would pass ``gradient_budget``
+    bytes.
+    """
+
+    def __init__(self, tree, *, gradients: bool = True, keep: float = 2.0,
+                 gradient_budget: int = GRADIENT_BUDGET) -> None:  # fmt: skip
+        if not keep >= 1:
+            raise VolpackError(f"expected keep >= 1 (slots per drawn node), found {keep}")
+        self.tree = tree
+        self.keep = float(keep)
+        self.gradient_budget = int(gradient_budget)
+        k = tree.geometry.block
+        dt = np.dtype(tree.dtype)
+        self.dtype = dt if dt.type in SAMPLED else np.dtype(np.float32)
+        self.gdtype = None
+        if gradients:
+            vr = tree_range(tree) if dt.kind in "iu" else None
+            self.gdtype = gradient_dtype(np.empty(0, self.dtype), vr)
+        self.atlas = np.zeros((0, k + 2, k + 2, k + 2), self.dtype)
+        self.grad = None if self.gdtype is None else np.zeros((*self.atlas.shape, 3), self.gdtype)
+        self.level = np.zeros(0, np.int64)
+        self.origin = np.zeros((0, 3), np.int64)
+        self.vmin = np.zeros(0, np.float64)  # finite voxel range per slot (NaN: none)
+        self.vmax = np.zeros(0, np.float64)
+        self.slot: dict = {}  # (level, index) -> slot
+        self.last: dict = {}  # (level, index) -> frame it was last drawn
+        self.free: list[int] = []
+        self.frame = 0
+        self.placed = 0  # nodes written into slots, over the atlas's life
 
     @property
-    def meta(self) -> np.ndarray:
-        return np.array([*self.shape, self.cell], np.int64)
+    def nbytes(self) -> int:
+        return self.atlas.nbytes + (0 if self.grad is None else self.grad.nbytes)
+
+    def paged(self, selection) -> PagedVolume:
+        """The :class:`PagedVolume` of ``selection`` (``[(level, (bz, by, bx)), ...]``)."""
+        sel = [(int(lv), tuple(int(i) for i in b)) for lv, b in selection]
+        if not sel:
+            raise VolpackError("expected at least one node to draw, found none")
+        self.frame += 1
+        new = [n for n in dict.fromkeys(sel) if n not in self.slot]
+        self._make_room(len(new), set(sel))
+        for n in new:
+            self._place(n, self.free.pop())
+        g = self.tree.geometry
+        m = min(lv for lv, _ in sel)
+        cell = g.block << m
+        shape = tuple(int(n) for n in self.tree.shape)
+        page = np.full(tuple(-(-n // cell) for n in shape), -1, np.int64)
+        for n in sel:
+            self.last[n] = self.frame
+            fp = g.footprint(*n)
+            page[tuple(slice(s.start // cell, -(-s.stop // cell)) for s in fp)] = self.slot[n]
+        slots = np.array([self.slot[n] for n in sel], np.int64)
+        lo, hi = np.nanmin(self.vmin[slots]), np.nanmax(self.vmax[slots])
+        frange = None if np.isnan(lo) else (float(lo), float(hi))
+        return PagedVolume(self.atlas, page, self.level, self.origin, shape,
+                           tuple(self.tree.spacing), cell, frange, self.grad)  # fmt: skip
+
+    def _make_room(self, need: int, drawn: set) -> None:
+        short = need - len(self.free)
+        if short <= 0:
+            return
+        cap = len(self.atlas)
+        limit = max(int(self.keep * len(drawn)), len(drawn))
+        grow = min(max(short, cap // 2), max(0, limit - cap))
+        if grow >= short:
+            self._grow(cap + grow)
+            return
+        if grow:
+            self._grow(cap + grow)
+        # evict the nodes drawn longest ago that this frame does not draw
+        old = sorted((f, n) for n, f in self.last.items() if n not in drawn)
+        for _, n in old[: need - len(self.free)]:
+            self.free.append(self.slot.pop(n))
+            del self.last[n]
+
+    def _grow(self, cap: int) -> None:
+        n = len(self.atlas)
+        per = 0 if self.grad is None else self.grad.itemsize * 3 * math.prod(self.atlas.shape[1:])
+        if self.grad is not None and (gb := cap * per) > self.gradient_budget:
+            log.info("gradient bricks would take %d bytes: shading takes them on the fly", gb)
+            self.grad = None
+        self.atlas = _grown(self.atlas, cap)
+        if self.grad is not None:
+            self.grad = _grown(self.grad, cap)
+        self.level = _grown(self.level, cap)
+        self.origin = _grown(self.origin, cap)
+        self.vmin = _grown(self.vmin, cap)
+        self.vmax = _grown(self.vmax, cap)
+        self.free.extend(range(cap - 1, n - 1, -1))
+
+    def _place(self, node, i: int) -> None:
+        lv, b = node
+        k = self.tree.geometry.block
+        raw = self.tree.brick(lv, b, border=2)
+        pad = [(0, k + 4 - n) for n in raw.shape]
+        if any(p[1] for p in pad):  # a node at the volume's far edge is smaller than k
+            raw = np.pad(raw, pad, mode="edge")
+        inner = raw[1:-1, 1:-1, 1:-1]
+        self.atlas[i] = inner
+        if self.grad is not None:  # differences of the grown brick, cut to the brick
+            self.grad[i] = gradient_volume(raw, self.gdtype)[1:-1, 1:-1, 1:-1]
+        fin = inner if inner.dtype.kind in "iu" else inner[np.isfinite(inner)]
+        self.vmin[i] = fin.min() if fin.size else np.nan
+        self.vmax[i] = fin.max() if fin.size else np.nan
+        self.level[i] = lv
+        self.origin[i] = [s.start for s in self.tree.geometry.node_box(lv, b)]
+        self.slot[node] = i
+        self.placed += 1
+
+
+def _grown(a: np.ndarray, n: int) -> np.ndarray:
+    """``a`` with its first axis grown to ``n`` (new rows zero)."""
+    out = np.zeros((n, *a.shape[1:]), a.dtype)
+    out[: len(a)] = a
+    return out
 
 
 @dataclasses.dataclass
@@ -56,42 +196,12 @@ class LodStats:
     levels: dict  # nodes per level
 
 
-def paged_volume(tree, selection, bricks: dict | None = None) -> PagedVolume:
+def paged_volume(tree, selection, *, gradients: bool = False) -> PagedVolume:
     """Decode ``selection`` (``[(level, (bz, by, bx)), ...]``) of an open
-    :class:`~volpack.octree.Octree` into a :class:`PagedVolume`.
-
-    ``bricks``, a dict kept by the caller from frame to frame, holds each node's
-    bordered float32 brick, so a walkthrough assembles a node once while it stays in
-    view (the nodes the selection no longer holds are dropped from it)."""
-    sel = [(int(lv), tuple(int(i) for i in b)) for lv, b in selection]
-    if not sel:
-        raise VolpackError("expected at least one node to draw, found none")
-    g = tree.geometry
-    k = g.block
-    m = min(lv for lv, _ in sel)
-    cell = k << m
-    shape = tuple(int(n) for n in tree.shape)
-    page = np.full(tuple(-(-n // cell) for n in shape), -1, np.int64)
-    atlas = np.empty((len(sel), k + 2, k + 2, k + 2), np.float32)
-    level = np.empty(len(sel), np.int64)
-    origin = np.empty((len(sel), 3), np.int64)
-    kept = {}
-    for i, (lv, b) in enumerate(sel):
-        padded = None if bricks is None else bricks.get((lv, b))
-        if padded is None:
-            brick = tree.brick(lv, b, border=1).astype(np.float32)
-            pad = [(0, k + 2 - n) for n in brick.shape]
-            padded = np.pad(brick, pad, mode="edge") if any(p[1] for p in pad) else brick
-        atlas[i] = padded
-        kept[(lv, b)] = padded
-        level[i] = lv
-        origin[i] = [s.start for s in g.node_box(lv, b)]
-        fp = g.footprint(lv, b)
-        page[tuple(slice(s.start // cell, -(-s.stop // cell)) for s in fp)] = i
-    if bricks is not None:
-        bricks.clear()
-        bricks.update(kept)
-    return PagedVolume(atlas, page, level, origin, shape, tuple(tree.spacing), cell)
+    :class:`~volpack.octree.Octree` into a :class:`PagedVolume` (with the nodes'
+    gradient bricks when ``gradients``); a walkthrough keeps a :class:`NodeAtlas`
+    instead, so that each frame decodes only the nodes new to it."""
+    return NodeAtlas(tree, gradients=gradients, keep=1.0).paged(selection)
 
 
 def render_lod(
@@ -103,14 +213,15 @@ def render_lod(
     blocks: int | None = None,
     max_pixel_error: float = 1.0 / 128,
     value_range: tuple[float, float] | None = None,
-    bricks: dict | None = None,
+    atlas: NodeAtlas | None = None,
     **render_options: Any,
 ) -> tuple[np.ndarray, LodStats]:
     """Render an open octree for ``camera`` within a budget of ``voxels`` (``blocks``
     full nodes' worth: nodes at the volume's edge are smaller and count for what they
     hold); ``render_options`` go to :func:`volpack.render.raycast.render`.
-    The value range defaults to the octree's recorded one; ``bricks`` (a dict kept
-    across the frames of a walk) is passed to :func:`paged_volume`."""
+    The value range defaults to the octree's recorded one; ``atlas`` (a
+    :class:`NodeAtlas` of this tree kept across the frames of a walk) keeps the decoded
+    nodes, else one is made for this frame (with gradient bricks when shaded)."""
     from ..octree import select
     from .raycast import render
 
@@ -127,7 +238,10 @@ def render_lod(
         img = np.zeros((h, w, 4), np.float32)
         t2 = t3 = time.perf_counter()
     else:
-        pv = paged_volume(tree, sel, bricks)
+        if atlas is None:
+            shaded = render_options.get("shading", "none") != "none"
+            atlas = NodeAtlas(tree, gradients=shaded, keep=1.0)
+        pv = atlas.paged(sel)
         t2 = time.perf_counter()
         img = render(pv, tf=tf, camera=camera, value_range=value_range, **render_options)
         t3 = time.perf_counter()

@@ -69,7 +69,7 @@ visible brick is tested once per ray, not per sample. The sample grid, and the i
 stay exactly those of the full march.
 
 Multiresolution volumes (:class:`volpack.render.lod.PagedVolume`) go through the same
-kernel: :func:`sample` is resolved at compile time to plain trilinear sampling or to a
+kernels: :func:`sample` is resolved at compile time to plain trilinear sampling or to a
 page-table lookup into an atlas of bordered node bricks (:func:`_paged`), and the leap
 map is built over the pages.
 
@@ -160,7 +160,7 @@ def _cell3(nz, ny, nx, z, y, x):
             np.float32(fb), np.uint64(c0), np.uint64(c1), np.float32(fc))  # fmt: skip
 
 
-@kernel
+@kernel(inline=True)
 def _trilinear(vol, z, y, x):
     """Trilinear sample (float32) of a volume of any real dtype, read as it is stored."""
     nz, ny, nx = vol.shape
@@ -178,66 +178,92 @@ def _trilinear(vol, z, y, x):
     return c0 + (c1 - c0) * fz
 
 
-@kernel
-def _trilinear3(grad, z, y, x):
-    """Trilinear sample of the three channels of a ``(nz, ny, nx, 3)`` gradient volume."""
-    nz, ny, nx = grad.shape[0], grad.shape[1], grad.shape[2]
+@kernel(inline=True)
+def _trilinear3(grad, node, z, y, x):
+    """Trilinear sample of the three channels of brick ``node`` of a ``(bricks, nz, ny,
+    nx, 3)`` stack of gradient volumes (a plain volume's is one brick)."""
+    nz, ny, nx = grad.shape[1], grad.shape[2], grad.shape[3]
     z0, z1, fz, y0, y1, fy, x0, x1, fx = _cell3(nz, ny, nx, z, y, x)
-    return (_lerp8(grad, 0, z0, z1, fz, y0, y1, fy, x0, x1, fx),
-            _lerp8(grad, 1, z0, z1, fz, y0, y1, fy, x0, x1, fx),
-            _lerp8(grad, 2, z0, z1, fz, y0, y1, fy, x0, x1, fx))  # fmt: skip
+    return (_lerp8(grad, node, 0, z0, z1, fz, y0, y1, fy, x0, x1, fx),
+            _lerp8(grad, node, 1, z0, z1, fz, y0, y1, fy, x0, x1, fx),
+            _lerp8(grad, node, 2, z0, z1, fz, y0, y1, fy, x0, x1, fx))  # fmt: skip
 
 
-@kernel
-def _lerp8(grad, ch, z0, z1, fz, y0, y1, fy, x0, x1, fx):
-    c000 = np.float32(grad[z0, y0, x0, ch])
-    c00 = c000 + (np.float32(grad[z0, y0, x1, ch]) - c000) * fx
-    c010 = np.float32(grad[z0, y1, x0, ch])
-    c01 = c010 + (np.float32(grad[z0, y1, x1, ch]) - c010) * fx
-    c100 = np.float32(grad[z1, y0, x0, ch])
-    c10 = c100 + (np.float32(grad[z1, y0, x1, ch]) - c100) * fx
-    c110 = np.float32(grad[z1, y1, x0, ch])
-    c11 = c110 + (np.float32(grad[z1, y1, x1, ch]) - c110) * fx
+@kernel(inline=True)
+def _lerp8(stack, node, ch, z0, z1, fz, y0, y1, fy, x0, x1, fx):
+    """Trilinear interpolation (float32) of channel ``ch`` of brick ``node`` of a 5-D
+    stack, indexed through the brick rather than a view of it: a view's reference count
+    would be an atomic write per sample on memory every thread shares."""
+    c000 = np.float32(stack[node, z0, y0, x0, ch])
+    c00 = c000 + (np.float32(stack[node, z0, y0, x1, ch]) - c000) * fx
+    c010 = np.float32(stack[node, z0, y1, x0, ch])
+    c01 = c010 + (np.float32(stack[node, z0, y1, x1, ch]) - c010) * fx
+    c100 = np.float32(stack[node, z1, y0, x0, ch])
+    c10 = c100 + (np.float32(stack[node, z1, y0, x1, ch]) - c100) * fx
+    c110 = np.float32(stack[node, z1, y1, x0, ch])
+    c11 = c110 + (np.float32(stack[node, z1, y1, x1, ch]) - c110) * fx
     c0 = c00 + (c01 - c00) * fy
     c1 = c10 + (c11 - c10) * fy
     return c0 + (c1 - c0) * fz
 
 
-def _paged(atlas, page, meta, level, origin, fill, z, y, x):
-    """Trilinear sample of a paged multiresolution volume at level-0 index (z, y, x).
+def _paged(atlas, page, meta, inv, offset, fill, z, y, x):
+    """Trilinear sample (float32) of a paged multiresolution volume at level-0 index
+    (z, y, x).
 
-    ``page`` maps cells of ``meta[3]`` level-0 voxels to a node (-1: none, which reads
-    ``fill[0]``); node ``i`` is ``atlas[i]``, its level-``level[i]`` voxels from
-    ``origin[i]`` on with one voxel of its neighbours around them.
+    ``page`` maps cells of ``meta[3]`` level-0 voxels (``meta[4]``: its log2, or -1)
+    to a node (-1: none, which reads ``fill[0]``); node ``i`` is ``atlas[i]``, voxels of
+    level ``l`` with one voxel of its neighbours around them, stored in any dtype the
+    plain sampler reads; level-0 position ``p`` is at ``p inv[i] + offset[i]`` in it
+    (``inv = 2^-l``; see :func:`page_tuple`).
     """
-    nz, ny, nx, g = meta[0], meta[1], meta[2], meta[3]
+    node, qz, qy, qx, _ = _page_find(page, meta, inv, offset, atlas.shape[1] - 1, z, y, x)
+    if node < 0:
+        return np.float32(fill[0])
+    n = atlas.shape[1]
+    z0, z1, fz, y0, y1, fy, x0, x1, fx = _cell3(n, n, n, qz, qy, qx)
+    return _lerp8(atlas, node, 0, z0, z1, fz, y0, y1, fy, x0, x1, fx)
+
+
+@kernel(inline=True)  # a call passing arrays costs their reference counts
+def _page_find(page, meta, inv, offset, b, z, y, x):
+    """``(node, qz, qy, qx, inv)``: the node whose page cell holds level-0 position
+    (z, y, x) (clamped to the volume; -1: none), the position in its bordered brick of
+    ``b + 1`` voxels a side (clamped to it) and the node's ``inv``. A power-of-two cell
+    (``meta[4] >= 0``) is found by shifts, not divisions."""
+    nz, ny, nx, g, sh = meta[0], meta[1], meta[2], meta[3], meta[4]
     pz = min(max(z, 0.0), nz - 1.0)
     py = min(max(y, 0.0), ny - 1.0)
     px = min(max(x, 0.0), nx - 1.0)
-    cz = min(int(pz) // g, page.shape[0] - 1)
-    cy = min(int(py) // g, page.shape[1] - 1)
-    cx = min(int(px) // g, page.shape[2] - 1)
-    node = page[cz, cy, cx]
+    if sh >= 0:
+        cz, cy, cx = int(pz) >> sh, int(py) >> sh, int(px) >> sh
+    else:
+        cz, cy, cx = int(pz) // g, int(py) // g, int(px) // g
+    node = page[min(cz, page.shape[0] - 1), min(cy, page.shape[1] - 1),
+                min(cx, page.shape[2] - 1)]  # fmt: skip
     if node < 0:
-        return fill[0]
-    inv = math.ldexp(1.0, -level[node])  # 1 / 2^level, exact: no division per sample
-    b = atlas.shape[1] - 1
-    qz = min(max((pz + 0.5) * inv - 0.5 - origin[node, 0] + 1.0, 0.0), b)
-    qy = min(max((py + 0.5) * inv - 0.5 - origin[node, 1] + 1.0, 0.0), b)
-    qx = min(max((px + 0.5) * inv - 0.5 - origin[node, 2] + 1.0, 0.0), b)
-    z0, y0, x0 = min(int(qz), b - 1), min(int(qy), b - 1), min(int(qx), b - 1)
-    fz, fy, fx = qz - z0, qy - y0, qx - x0
-    a = atlas[node]
-    c00 = a[z0, y0, x0] + (a[z0, y0, x0 + 1] - a[z0, y0, x0]) * fx
-    c01 = a[z0, y0 + 1, x0] + (a[z0, y0 + 1, x0 + 1] - a[z0, y0 + 1, x0]) * fx
-    c10 = a[z0 + 1, y0, x0] + (a[z0 + 1, y0, x0 + 1] - a[z0 + 1, y0, x0]) * fx
-    c11 = a[z0 + 1, y0 + 1, x0] + (a[z0 + 1, y0 + 1, x0 + 1] - a[z0 + 1, y0 + 1, x0]) * fx
-    c0 = c00 + (c01 - c00) * fy
-    c1 = c10 + (c11 - c10) * fy
-    return c0 + (c1 - c0) * fz
+        return node, 0.0, 0.0, 0.0, 1.0
+    s = inv[node]
+    qz = min(max(pz * s + offset[node, 0], 0.0), b)
+    qy = min(max(py * s + offset[node, 1], 0.0), b)
+    qx = min(max(px * s + offset[node, 2], 0.0), b)
+    return node, qz, qy, qx, s
 
 
-_paged_kernel = kernel(_paged)
+def page_tuple(volume, fill: float) -> tuple:
+    """The arguments :func:`_paged` samples a :class:`volpack.render.lod.PagedVolume`
+    through (the node's voxel grid at level ``l`` has voxel ``j`` centred on level-0
+    position ``(j + 0.5) 2^l - 0.5``; the brick's border shifts it by one)."""
+    inv = np.ldexp(1.0, -volume.level.astype(np.int64))
+    offset = 0.5 * inv[:, None] + 0.5 - volume.origin
+    g = int(volume.cell)
+    sh = g.bit_length() - 1 if g & (g - 1) == 0 else -1
+    meta = np.array([*volume.shape, g, sh], np.int64)
+    return (volume.atlas[..., None], volume.page, meta, inv, np.ascontiguousarray(offset, np.float64),
+            np.array([fill], np.float64))  # fmt: skip
+
+
+_paged_kernel = kernel(_paged, inline=True)
 
 
 def sample(vol, z, y, x):
@@ -246,6 +272,27 @@ def sample(vol, z, y, x):
     if isinstance(vol, tuple):
         return _paged(*vol, z, y, x)
     return _trilinear(vol, z, y, x)
+
+
+def grad_ndv(vol, grad, z, y, x, gscale, vz, vy, vx, gmin):
+    """``|n.v|`` from precomputed gradients at (z, y, x) inside ``[0, n - 1]`` (-1 where
+    the gradient vanishes): ``grad`` is the gradient volume of a 3-D array, or for a
+    paged volume the gradient bricks of its nodes (:func:`_paged_ndv`)."""
+    if isinstance(vol, tuple):
+        return _paged_ndv(vol[1], vol[2], vol[3], vol[4], grad, z, y, x, gscale, vz, vy, vx, gmin)
+    return _ndv(grad, 0, z, y, x, gscale, vz, vy, vx, gmin, 1.0)
+
+
+def _paged_ndv(page, meta, inv, offset, grad, z, y, x, gscale, vz, vy, vx, gmin):
+    """:func:`_ndv` from the gradient brick of the node holding (z, y, x): central
+    differences of the node's voxels at its level, scaled to level-0 units."""
+    node, qz, qy, qx, s = _page_find(page, meta, inv, offset, grad.shape[1] - 1, z, y, x)
+    if node < 0:
+        return -1.0
+    return _ndv(grad, node, qz, qy, qx, gscale, vz, vy, vx, gmin, s)
+
+
+_paged_ndv_kernel = kernel(_paged_ndv, inline=True)
 
 
 def extent(vol):
@@ -272,6 +319,16 @@ if not JIT_DISABLED:
         if isinstance(vol, types.BaseTuple):
             return lambda vol: (vol[2][0], vol[2][1], vol[2][2])
         return lambda vol: (vol.shape[0], vol.shape[1], vol.shape[2])
+
+    @overload(grad_ndv, jit_options={"nogil": True})
+    def _grad_ndv_overload(vol, grad, z, y, x, gscale, vz, vy, vx, gmin):
+        if isinstance(vol, types.BaseTuple):
+            return lambda vol, grad, z, y, x, gscale, vz, vy, vx, gmin: _paged_ndv_kernel(
+                vol[1], vol[2], vol[3], vol[4], grad, z, y, x, gscale, vz, vy, vx, gmin
+            )
+        return lambda vol, grad, z, y, x, gscale, vz, vy, vx, gmin: _ndv(
+            grad, 0, z, y, x, gscale, vz, vy, vx, gmin, 1.0
+        )
 
 
 @kernel
@@ -328,21 +385,19 @@ def _normal(vol, grad, has_grad, z, y, x, gscale, vz, vy, vx, gmin):
 
     The gradient is the central difference (one voxel either way) of the trilinear
     field; with ``has_grad`` it is read from the per-voxel central differences in
-    ``grad`` (:func:`volpack.render.gradients.gradient_volume`), which is the same
+    ``grad`` (:func:`volpack.render.prepared.gradient_volume`, as a stack of one), the same
     thing inside ``[0, n - 1]``, at three trilinear look-ups fewer (in the half-voxel
     shell outside, where positions are clamped, it is taken on the fly as without it).
     ``(0, 0, 0, -1)`` where the gradient vanishes.
     """
-    if has_grad and (0.0 <= z <= grad.shape[0] - 1 and 0.0 <= y <= grad.shape[1] - 1
-                     and 0.0 <= x <= grad.shape[2] - 1):  # fmt: skip
-        g0, g1, g2 = _trilinear3(grad, z, y, x)
+    if has_grad and (0.0 <= z <= grad.shape[1] - 1 and 0.0 <= y <= grad.shape[2] - 1
+                     and 0.0 <= x <= grad.shape[3] - 1):  # fmt: skip
+        g0, g1, g2 = _trilinear3(grad, 0, z, y, x)
         gz = g0 * gscale[0]
         gy = g1 * gscale[1]
         gx = g2 * gscale[2]
     else:
-        gz = (sample(vol, z + 1.0, y, x) - sample(vol, z - 1.0, y, x)) * gscale[0]
-        gy = (sample(vol, z, y + 1.0, x) - sample(vol, z, y - 1.0, x)) * gscale[1]
-        gx = (sample(vol, z, y, x + 1.0) - sample(vol, z, y, x - 1.0)) * gscale[2]
+        gz, gy, gx = _fly_gradient(vol, z, y, x, gscale)
     g = math.sqrt(gz * gz + gy * gy + gx * gx)
     if g <= gmin:
         return 0.0, 0.0, 0.0, -1.0
@@ -351,6 +406,25 @@ def _normal(vol, grad, has_grad, z, y, x, gscale, vz, vy, vx, gmin):
         g = -g
         d = -d
     return gz / g, gy / g, gx / g, d
+
+
+@kernel
+def _fly_gradient(vol, z, y, x, gscale):
+    """World gradient at (z, y, x) by central differences of six samples."""
+    gz = (sample(vol, z + 1.0, y, x) - sample(vol, z - 1.0, y, x)) * gscale[0]
+    gy = (sample(vol, z, y + 1.0, x) - sample(vol, z, y - 1.0, x)) * gscale[1]
+    gx = (sample(vol, z, y, x + 1.0) - sample(vol, z, y, x - 1.0)) * gscale[2]
+    return gz, gy, gx
+
+
+@kernel
+def _fly_ndv(vol, z, y, x, gscale, vz, vy, vx, gmin):
+    """``|n.v|`` from :func:`_fly_gradient` (-1 where the gradient vanishes)."""
+    gz, gy, gx = _fly_gradient(vol, z, y, x, gscale)
+    g = math.sqrt(gz * gz + gy * gy + gx * gx)
+    if g <= gmin:
+        return -1.0
+    return abs(gz * vz + gy * vy + gx * vx) / g
 
 
 @kernel
@@ -382,7 +456,7 @@ def _box_hit(oz, oy, ox, dz, dy, dx, nz, ny, nx):
     return t0, t1
 
 
-@kernel
+@kernel(inline=True)
 def _brick_exit(pz, py, px, oz, oy, ox, dz, dy, dx, nz, ny, nx, leap, brick):
     """(leap value, exit t) at the (clamped) point p: ``leap`` of its brick (0 visible,
     k >= 1 empty with every brick within Chebyshev distance k - 1 empty too) and the
@@ -442,7 +516,7 @@ def _ray_span(oz, oy, ox, dz, dy, dx, nz, ny, nx, vscale, step):
     return tnear, tfar, max(nseg, 1), vz / vn, vy / vn, vx / vn
 
 
-@kernel
+@kernel(inline=True)
 def _leap(i, t0, tnear, tfar, step, next_check, oz, oy, ox, dz, dy, dx, nz, ny, nx, leap, brick):
     """Empty-space test at segment ``i`` (starting at ``t0``): ``(state, i, next_check)``
     with state 0 (march segment ``i``), 1 (jumped to segment ``i``, test again) or 2
@@ -684,8 +758,8 @@ def _render_kernel(
 
 
 # --------------------------------------------------------------------------- fast path
-# The common case in a small kernel of its own: every image of a plain volume (not a
-# multiresolution selection) with post-classification or pre-integration, unshaded or
+# The common case in a small kernel of its own: every image of a plain volume or a
+# multiresolution selection with post-classification or pre-integration, unshaded or
 # Phong-shaded, and no isosurfaces; everything else goes through _render_kernel. Both
 # march the same segments, sample the same positions, use the same tables, leap the
 # same empty bricks and composite in the same order, so they give the same image up to
@@ -693,8 +767,9 @@ def _render_kernel(
 # faster (issue 22, scripts/profile_render.py): only the branches its case needs, so
 # the loop keeps its values in registers; the volume read as stored and interpolated in
 # float32; the gradient read from the PreparedVolume's gradient volume when there is
-# one; the specular power by repeated squaring when the exponent is a whole number;
-# table look-ups returned as values, not written to a scratch array.
+# one (for a selection, each node's gradient brick, :mod:`volpack.render.lod`); the
+# specular power by repeated squaring when the exponent is a whole number; table
+# look-ups returned as values, not written to a scratch array.
 
 
 @kernel
@@ -709,7 +784,7 @@ def _powi(x, n):
     return r
 
 
-@kernel
+@kernel(inline=True)
 def _rgba1(tab, x):
     """Linear lookup of the (n, 4) table at fractional index ``x``, as a tuple."""
     i0, i1, f = _ucell(x, tab.shape[0])
@@ -718,7 +793,7 @@ def _rgba1(tab, x):
             a2 + (tab[i1, 2] - a2) * f, a3 + (tab[i1, 3] - a3) * f)  # fmt: skip
 
 
-@kernel
+@kernel(inline=True)
 def _rgba2(tab, xf, xb):
     """Bilinear lookup of the (n, n, 4) table at (front, back), as a tuple."""
     n = tab.shape[0]
@@ -728,21 +803,22 @@ def _rgba2(tab, xf, xb):
             _bilerp(tab, 2, i0, i1, fi, j0, j1, fj), _bilerp(tab, 3, i0, i1, fi, j0, j1, fj))  # fmt: skip
 
 
-@kernel
+@kernel(inline=True)
 def _bilerp(tab, ch, i0, i1, fi, j0, j1, fj):
     a = tab[i0, j0, ch] + (tab[i0, j1, ch] - tab[i0, j0, ch]) * fj
     b = tab[i1, j0, ch] + (tab[i1, j1, ch] - tab[i1, j0, ch]) * fj
     return a + (b - a) * fi
 
 
-@kernel
-def _ndv(grad, z, y, x, gscale, vz, vy, vx, gmin):
-    """``|n.v|`` from the gradient volume (inside ``[0, n - 1]``; -1 where the gradient
-    vanishes): :func:`_normal` without the normal itself."""
-    g0, g1, g2 = _trilinear3(grad, z, y, x)
-    gz = g0 * gscale[0]
-    gy = g1 * gscale[1]
-    gx = g2 * gscale[2]
+@kernel(inline=True)
+def _ndv(grad, node, z, y, x, gscale, vz, vy, vx, gmin, s):
+    """``|n.v|`` from brick ``node`` of the gradient stack (inside ``[0, n - 1]``; -1
+    where the gradient vanishes), the gradient scaled by ``s`` as well: :func:`_normal`
+    without the normal itself."""
+    g0, g1, g2 = _trilinear3(grad, node, z, y, x)
+    gz = g0 * (gscale[0] * s)
+    gy = g1 * (gscale[1] * s)
+    gx = g2 * (gscale[2] * s)
     g = math.sqrt(gz * gz + gy * gy + gx * gx)
     if g <= gmin:
         return -1.0
@@ -757,7 +833,7 @@ def _march_kernel(
     """Rays of image rows ``rows``; ``mode`` 0 (post) or 2 (pre-integrated), ``shade``
     0 (none) or 1 (Phong at the segment midpoint). Arguments as for
     :func:`_render_kernel`."""
-    nz, ny, nx = vol.shape
+    nz, ny, nx = extent(vol)
     w = out.shape[1]
     ka, kd, ks, shin = shading[0], shading[1], shading[2], shading[3]
     ishin = int(shin)
@@ -801,13 +877,13 @@ def _march_kernel(
                 count += 1
                 if pre:
                     if not have_front:
-                        xf = (_trilinear(vol, oz + t0 * dz, oy + t0 * dy, ox + t0 * dx) - lo) * scale
+                        xf = (sample(vol, oz + t0 * dz, oy + t0 * dy, ox + t0 * dx) - lo) * scale
                         have_front = True
-                    xb = (_trilinear(vol, oz + t1 * dz, oy + t1 * dy, ox + t1 * dx) - lo) * scale
+                    xb = (sample(vol, oz + t1 * dz, oy + t1 * dy, ox + t1 * dx) - lo) * scale
                     cr, cg, cb, a = _rgba2(pre2d, xf, xb)
                     xf = xb
                 else:
-                    s = _trilinear(vol, oz + tm * dz, oy + tm * dy, ox + tm * dx)
+                    s = sample(vol, oz + tm * dz, oy + tm * dy, ox + tm * dx)
                     cr, cg, cb, a = _rgba1(post_tab, (s - lo) * scale)
                 if a > 0.0:
                     if seglen < step:  # last, shorter segment
@@ -820,10 +896,9 @@ def _march_kernel(
                         pz, py, px = oz + tm * dz, oy + tm * dy, ox + tm * dx
                         if has_grad and (0.0 <= pz <= nz - 1 and 0.0 <= py <= ny - 1
                                          and 0.0 <= px <= nx - 1):  # fmt: skip
-                            ndv = _ndv(grad, pz, py, px, gscale, vz, vy, vx, gmin)
+                            ndv = grad_ndv(vol, grad, pz, py, px, gscale, vz, vy, vx, gmin)
                         else:
-                            ndv = _normal(vol, grad, False, pz, py, px, gscale, vz, vy, vx,
-                                          gmin)[3]  # fmt: skip
+                            ndv = _fly_ndv(vol, pz, py, px, gscale, vz, vy, vx, gmin)
                         if ndv >= 0.0:
                             f = ka + kd * ndv
                             spec = ks * (_powi(ndv, ishin) if whole else ndv**shin) * a
@@ -868,7 +943,7 @@ def _brick_range_kernel(vol, brick, mins, maxs):
 
 
 @kernel
-def _paged_range_kernel(atlas, page, meta, level, origin, brick, mins, maxs):
+def _paged_range_kernel(atlas, page, meta, inv, offset, brick, mins, maxs):
     """Min and max of the node voxels that trilinear samples inside each level-0 brick
     of a paged volume read (NaN where no node covers the brick). A brick lies inside
     one page cell, as ``brick`` divides the cell size."""
@@ -885,7 +960,6 @@ def _paged_range_kernel(atlas, page, meta, level, origin, brick, mins, maxs):
                     mins[bz, by, bx] = np.nan
                     maxs[bz, by, bx] = np.nan
                     continue
-                s = 1 << level[node]
                 lo3 = np.empty(3, np.int64)
                 hi3 = np.empty(3, np.int64)
                 for a, c in enumerate((bz, by, bx)):
@@ -893,8 +967,8 @@ def _paged_range_kernel(atlas, page, meta, level, origin, brick, mins, maxs):
                     # step may cross a border): their atlas cells, plus the next voxel
                     p0 = c * brick - 0.5
                     p1 = (c + 1) * brick + 0.5
-                    q0 = (p0 + 0.5) / s - 0.5 - origin[node, a] + 1.0
-                    q1 = (p1 + 0.5) / s - 0.5 - origin[node, a] + 1.0
+                    q0 = p0 * inv[node] + offset[node, a]
+                    q1 = p1 * inv[node] + offset[node, a]
                     lo3[a] = min(max(int(math.floor(q0)), 0), b)
                     hi3[a] = min(max(int(math.floor(q1)) + 1, 0), b)
                 mins[bz, by, bx], maxs[bz, by, bx] = _box_range(
@@ -1012,7 +1086,7 @@ def render(
                                "multiresolution selection, found 'pre'")  # fmt: skip
         sp = tuple(float(v) for v in (spacing or volume.spacing))
         vol = volume.atlas
-        frange = (float(vol.min()), float(vol.max()))
+        frange = volume.finite_range
     else:
         prep = prepare_volume(volume, spacing)
         sp = prep.spacing if spacing is None else unpack_volume(prep.data[:1, :1, :1], spacing)[2]
@@ -1066,18 +1140,17 @@ def render(
         if prep is not None and prep.bad is not None:
             rgba[prep.bad] = 0.0
 
-    grad = np.zeros((1, 1, 1, 3), np.float32)
+    grad = np.zeros((1, 1, 1, 1, 3), np.float32)  # a stack of gradient volumes (one here)
     has_grad = False
     if prep is not None and shading != "none":
         g = prep.gradients(fill, nthreads)
         if g is not None:
-            grad, has_grad = g, True
+            grad, has_grad = g[None], True
     brick = BRICK
     ranges = None
     if paged:  # nodes are sampled through the page table
         fill_p = _empty_value(base if has_vol else None, lo, hi, dmin, quiet=True)
-        vol = (volume.atlas, volume.page, volume.meta, volume.level, volume.origin,
-               np.array([fill_p]))  # fmt: skip
+        vol = page_tuple(volume, fill_p)
         shape = volume.shape
     else:
         shape = vol.shape
@@ -1101,8 +1174,10 @@ def render(
     gmin = 1e-6 * (hi - lo) / max(sp)
     shading_k = np.array([KA, KD, KS, SHININESS], np.float64)
 
-    fast = FAST_PATH and not paged and has_vol and not isos and mode != 1
-    if fast and shading in ("none", "phong"):
+    fast = FAST_PATH and has_vol and not isos and mode != 1 and shading in ("none", "phong")
+    if fast and paged and shading == "phong" and volume.grad is not None:
+        grad, has_grad = volume.grad, True  # the nodes' gradient bricks
+    if fast:
         def run(rows: np.ndarray) -> None:  # the fast path (see _march_kernel)
             _march_kernel(
                 vol, grad, has_grad, origins, dirs, rows, mode, post_tab, pre2d, lo, scale,
@@ -1259,7 +1334,7 @@ def _empty_bricks(
     maxs = np.empty(nb, np.float32)
     uncovered = np.zeros(nb, np.bool_)
     if isinstance(vol, tuple):
-        _paged_range_kernel(*vol[:5], BRICK, mins, maxs)
+        _paged_range_kernel(vol[0][..., 0], *vol[1:5], BRICK, mins, maxs)
         uncovered = np.isnan(mins)
         mins[uncovered] = maxs[uncovered] = lo
     elif ranges is not None:

@@ -13,11 +13,13 @@ made per brick and stored:
   500 hPa height at 1e-2 of its range;
 * the step, among :data:`STEP_FACTORS` times the bound, by coded size: from 2E the
   search walks towards the shorter neighbour until the size grows again (three or four
-  codings; the size is nearly unimodal in the step).
+  codings; the size is nearly unimodal in the step), then tries halfway to the
+  neighbours either side of the shortest.
 
 The corrections are a list of (voxel, whole bins of ``2E``) coded as a gap list or as a
-dense field, whichever is shorter; a voxel that rounding to the output dtype still
-leaves past the bound goes to the bounded codec's exact corrections.
+sparse field (:mod:`volpack.volume_codec.bin_field`), whichever is shorter; a voxel
+that rounding to the output dtype still leaves past the bound goes to the bounded
+codec's exact corrections.
 """
 
 from __future__ import annotations
@@ -38,9 +40,16 @@ PROBE_FACTOR = 2.0
 # Quantised magnitudes stay below 2^50 (exact in float64 and int64); a brick whose
 # coefficients would pass it is left to the other paths.
 MAX_Q = 2.0**50
-ORDERS = ("dfs", "line")
+ORDERS = ("dfs", "line", "rows")
+# The scans the encoder tries (at the first step; later steps keep the shorter): "rows"
+# codes 2-6 % shorter than "line" at 1e-2 of the range and decodes 2-4x faster there
+# (zero rows skipped); at tight bounds they are level. "dfs" is still decoded.
+TRIED_ORDERS = (1, 2)
 HEADER = struct.Struct("<3BBd")  # levels z, y, x; scan order; step
-OUTLIER_LIST, OUTLIER_FIELD = 0, 1
+# Outlier codings: a gap list, the dense field through the coefficient coder (decoded,
+# no longer made: the bin field codes 2-20 % shorter and decodes 4-5x faster), the
+# bin field.
+OUTLIER_LIST, OUTLIER_FIELD, OUTLIER_BINS = 0, 1, 2
 
 
 def _quantize(c: np.ndarray, step: float) -> np.ndarray:
@@ -84,17 +93,16 @@ def encode(g: np.ndarray, max_error: float, coder: str, max_levels: int | None, 
     _, lv, c = best
     peak = float(np.abs(c).max(initial=0.0))
 
-    orders = list(range(len(ORDERS)))  # both at the first step, then the shorter one
+    orders = list(TRIED_ORDERS)  # all at the first step, then the shortest
 
     def coding(f):
         step = f * max_error
         if not (step > 0 and math.isfinite(step)) or peak / step >= MAX_Q:
             return None
         q = _quantize(c, step)
-        rec = cdf97.inverse(q * step, lv)
+        rec = cdf97.inverse(q * step, lv, overwrite=True)
         bodies = [
-            (CODERS[coder].encode(q.copy(), sigmap.scan(g.shape, lv, ORDERS[k])), k)
-            for k in orders
+            (CODERS[coder].encode(q.copy(), sigmap.scan(g.shape, lv, ORDERS[k])), k) for k in orders
         ]
         body, k = min(bodies, key=lambda t: len(t[0]))
         orders[:] = [k]
@@ -103,15 +111,20 @@ def encode(g: np.ndarray, max_error: float, coder: str, max_levels: int | None, 
 
     tried = {}
 
-    def size(i):
-        if i not in tried:
-            tried[i] = coding(STEP_FACTORS[i])
-        return math.inf if tried[i] is None else tried[i][1]
+    def size(f):
+        if f not in tried:
+            tried[f] = coding(f)
+        return math.inf if tried[f] is None else tried[f][1]
 
-    i = FIRST_FACTOR
-    way = 1 if size(i + 1) < size(i) else -1
-    while 0 <= i + way < len(STEP_FACTORS) and size(i + way) < size(i):
+    fs, i = STEP_FACTORS, FIRST_FACTOR
+    way = 1 if size(fs[i + 1]) < size(fs[i]) else -1
+    while 0 <= i + way < len(fs) and size(fs[i + way]) < size(fs[i]):
         i += way
+    # Then halfway to each neighbour: the size is flat near its minimum, not level
+    # (cam_t at 1e-2 of its range: 1.5 % shorter at 1.75E than at 1.5E or 2E).
+    for j in (i - 1, i + 1):
+        if 0 <= j < len(fs):
+            size((fs[i] + fs[j]) / 2)
     return [t[0] for t in tried.values() if t is not None]
 
 
@@ -132,7 +145,7 @@ def decode(inner: bytes | memoryview, shape: tuple[int, int, int], coder: str, m
     lv = tuple(lv)
     q = np.empty(shape, np.int64)
     CODERS[coder].decode(bytes(inner[HEADER.size :]), sigmap.scan(shape, lv, ORDERS[k]), q)
-    return cdf97.inverse(q * step, lv)
+    return cdf97.inverse(q * step, lv, overwrite=True)
 
 
 def add_bins(rec: np.ndarray, idx: np.ndarray, r: np.ndarray, bin_width: float) -> None:
@@ -141,22 +154,20 @@ def add_bins(rec: np.ndarray, idx: np.ndarray, r: np.ndarray, bin_width: float) 
     flat[idx] += r * bin_width
 
 
-def pack_outliers(idx: np.ndarray, r: np.ndarray, shape, coder: str) -> bytes:
+def pack_outliers(idx: np.ndarray, r: np.ndarray, shape) -> bytes:
     """The bins ``r`` (int, nonzero) to add at the flat voxels ``idx`` (increasing): a gap
-    list (zstd) or a dense field (``coder`` in C order), whichever is shorter."""
-    from ..entropy import CODERS
+    list (zstd) or a bin field, whichever is shorter."""
     from ..format.deflate import deflate
-    from ..wavelet import sigmap
+    from . import bin_field
 
-    gaps = np.diff(idx, prepend=-1) - 1
-    listed = deflate(gaps.astype("<u4").tobytes() + r.astype("<i4").tobytes())
-    best = bytes([OUTLIER_LIST]) + listed
-    if idx.size * 8 > len(best):  # dense enough that a field may pay
-        field = np.zeros(math.prod(shape), np.int64)
-        field[idx] = r
-        body = CODERS[coder].encode(field.reshape(shape), sigmap.scan(shape, (0, 0, 0), "line"))
-        if len(body) + 1 < len(best):
-            best = bytes([OUTLIER_FIELD]) + body
+    field = np.zeros(math.prod(shape), np.int64)
+    field[idx] = r
+    best = bytes([OUTLIER_BINS]) + bin_field.encode(field.reshape(shape))
+    if idx.size * 6 < len(best):  # sparse enough that a list may pay
+        gaps = np.diff(idx, prepend=-1) - 1
+        listed = deflate(gaps.astype("<u4").tobytes() + r.astype("<i4").tobytes())
+        if len(listed) + 1 < len(best):
+            best = bytes([OUTLIER_LIST]) + listed
     return best
 
 
@@ -165,11 +176,15 @@ def apply_outliers(body: bytes | memoryview, rec: np.ndarray, bin_width: float, 
     from ..entropy import CODERS
     from ..format.deflate import inflate
     from ..wavelet import sigmap
+    from . import bin_field
 
     body = memoryview(body)
     n = rec.size
-    if len(body) < 1 or body[0] not in (OUTLIER_LIST, OUTLIER_FIELD):
+    if len(body) < 1 or body[0] not in (OUTLIER_LIST, OUTLIER_FIELD, OUTLIER_BINS):
         raise FormatError("cdf97 brick payload: unknown outlier coding")
+    if body[0] == OUTLIER_BINS:
+        bin_field.add_decoded(body[1:], rec, bin_width)
+        return
     if body[0] == OUTLIER_FIELD:
         field = np.empty(rec.shape, np.int64)
         CODERS[coder].decode(bytes(body[1:]), sigmap.scan(rec.shape, (0, 0, 0), "line"), field)

@@ -100,15 +100,21 @@ def _low_context(o, el, i, h, jw, jn, ju, x, nx, mb, mask):
     return pred, min(activity_class(act >> 1), NCTX - 2)
 
 
-@kernel
-def _encode_kernel(o, shape, mb, out):
+def _workspace(n: int) -> tuple[np.ndarray, ...]:
+    """The high and low residual sizes of every voxel and fresh models (the kernels run
+    without numba's allocator)."""
+    return (
+        np.zeros(n, dtype=np.int64),
+        np.zeros(n, dtype=np.int64),
+        np.full(2 * N_MODELS, STATE_INIT, dtype=np.uint16),
+    )
+
+
+@kernel(nrt=False)
+def _encode_kernel(o, shape, mb, out, eh, el, state):
     nz, ny, nx = shape[0], shape[1], shape[2]
-    n = nz * ny * nx
     mask = (np.int64(1) << mb) - 1
     first = np.int64(1) << (np.int64(_bits_of(mb)) - mb - 1)  # the high part of +0.0
-    eh = np.zeros(n, dtype=np.int64)
-    el = np.zeros(n, dtype=np.int64)
-    state = np.full(2 * N_MODELS, STATE_INIT, dtype=np.uint16)
     cap = out.size
     low, rng, pos = open_encoder(out)
     i = 0
@@ -129,19 +135,15 @@ def _encode_kernel(o, shape, mb, out):
     return finish_stream(out, low, pos)
 
 
-@kernel
-def _decode_kernel(data, shape, mb, o):
+@kernel(nrt=False)
+def _decode_kernel(data, shape, mb, o, eh, el, state):
     """Return 0 on success, 1 when the stream ran short, 2 on an impossible value, 3 when
     it does not end where its length says."""
     nz, ny, nx = shape[0], shape[1], shape[2]
-    n = nz * ny * nx
     size = data.size
     mask = (np.int64(1) << mb) - 1
     hmax = (np.int64(1) << (np.int64(_bits_of(mb)) - mb)) - 1
     first = (hmax + 1) >> 1
-    eh = np.zeros(n, dtype=np.int64)
-    el = np.zeros(n, dtype=np.int64)
-    state = np.full(2 * N_MODELS, STATE_INIT, dtype=np.uint16)
     code, rng, pos = open_stream(data)
     i = 0
     for z in range(nz):
@@ -183,7 +185,10 @@ def encode(ordered: np.ndarray, itemsize: int) -> bytes:
     flat = o.reshape(-1)
     mb = np.int64(MANTISSA_BITS[itemsize])
     return encode_with_retry(
-        lambda out: _encode_kernel(flat, shape, mb, out), flat.size, (8, 24), coder="float"
+        lambda out: _encode_kernel(flat, shape, mb, out, *_workspace(flat.size)),
+        flat.size,
+        (8, 24),
+        coder="float",
     )
 
 
@@ -192,6 +197,6 @@ def decode(data: bytes | memoryview, shape: tuple[int, int, int], itemsize: int)
     buf = stream_bytes(data, "float")
     o = np.empty(int(np.prod(shape)), dtype=np.int64)
     shp = np.array(shape, dtype=np.int64)
-    status = _decode_kernel(buf, shp, np.int64(MANTISSA_BITS[itemsize]), o)
+    status = _decode_kernel(buf, shp, np.int64(MANTISSA_BITS[itemsize]), o, *_workspace(o.size))
     check_status(status, "float")
     return o.reshape(shape)

@@ -70,11 +70,17 @@ def _candidates(v, i, x, y, z, ny, nx, cand):
     return k, pattern
 
 
-@kernel
-def _encode_kernel(v, shape, nbits, out):
+def _workspace(nbits: int) -> tuple[np.ndarray, np.ndarray]:
+    """Fresh models and a candidate list (the kernels run without numba's allocator)."""
+    return (
+        np.full(M_TREE + (2 << nbits), STATE_INIT, dtype=np.uint16),
+        np.zeros(NCAND, dtype=np.int64),
+    )
+
+
+@kernel(nrt=False)
+def _encode_kernel(v, shape, nbits, out, state, cand):
     nz, ny, nx = shape[0], shape[1], shape[2]
-    state = np.full(M_TREE + (2 << nbits), STATE_INIT, dtype=np.uint16)
-    cand = np.zeros(NCAND, dtype=np.int64)
     cap = out.size
     low, rng, pos = open_encoder(out)
     i = 0
@@ -103,14 +109,12 @@ def _encode_kernel(v, shape, nbits, out):
     return finish_stream(out, low, pos)
 
 
-@kernel
-def _decode_kernel(data, shape, nbits, kmax, v):
+@kernel(nrt=False)
+def _decode_kernel(data, shape, nbits, kmax, v, state, cand):
     """Return 0 on success, 1 when the stream ran short, 2 on an impossible label, 3 when
     it does not end where its length says."""
     nz, ny, nx = shape[0], shape[1], shape[2]
     size = data.size
-    state = np.full(M_TREE + (2 << nbits), STATE_INIT, dtype=np.uint16)
-    cand = np.zeros(NCAND, dtype=np.int64)
     code, rng, pos = open_stream(data)
     i = 0
     for z in range(nz):
@@ -145,7 +149,7 @@ def encode(ranks: np.ndarray, k: int) -> bytes:
     nbits = int(bitlen(max(k - 1, 1)))
     shape = np.array(v.shape, dtype=np.int64)
     return encode_with_retry(
-        lambda out: _encode_kernel(v.reshape(-1), shape, np.int64(nbits), out),
+        lambda out: _encode_kernel(v.reshape(-1), shape, np.int64(nbits), out, *_workspace(nbits)),
         v.size,
         (1, 4),
         64 * nbits + 1024,
@@ -158,8 +162,7 @@ def decode(data: bytes | memoryview, shape: tuple[int, int, int], k: int) -> np.
     buf = stream_bytes(data, "label")
     nbits = int(bitlen(max(k - 1, 1)))
     v = np.empty(int(np.prod(shape)), dtype=np.int64)
-    status = _decode_kernel(
-        buf, np.array(shape, dtype=np.int64), np.int64(nbits), np.int64(k - 1), v
-    )
+    shp = np.array(shape, dtype=np.int64)
+    status = _decode_kernel(buf, shp, np.int64(nbits), np.int64(k - 1), v, *_workspace(nbits))
     check_status(status, "label")
     return v.reshape(shape)

@@ -50,6 +50,7 @@ from .protocol import (
     from_stored,
     storage_dtype,
 )
+from .specials import fill_masked, special_mask
 
 # The bounded payload's flag byte (formats/lossy-1.md, `bounded`).
 FLAG_MASK, FLAG_CORRECTIONS, FLAG_COEF, FLAG_RESIDUALS = 1, 2, 4, 8
@@ -171,12 +172,7 @@ class BoundedCodec(BrickCodec):
         return v.astype(dtype)
 
     def _special(self, x: np.ndarray) -> np.ndarray | None:
-        if x.dtype.kind != "f" and self.fill is None:
-            return None
-        m = ~np.isfinite(x) if x.dtype.kind == "f" else np.zeros(x.shape, bool)
-        if self.fill is not None:
-            m |= x == self.fill
-        return m if m.any() else None
+        return special_mask(x, self.fill)
 
     def encode_measured(self, brick: np.ndarray) -> Measured:
         """Return ``(payload, max error, squared error sum, valid voxels)``.
@@ -189,10 +185,10 @@ class BoundedCodec(BrickCodec):
         """
         x = np.ascontiguousarray(brick)
         mask = self._special(x)
-        clean = x if mask is None else _fill_masked(x, mask)
+        clean = x if mask is None else fill_masked(x, mask)
         q = self._quantize(clean)
         if mask is not None:
-            q = _fill_masked(q, mask)  # masked voxels take their neighbour's value
+            q = fill_masked(q, mask)  # masked voxels take their neighbour's value
         best = self._finish(x, mask, self._reconstruct(q, x.dtype), 0, [self._inner().encode(q)])
         if x.size >= 64:
             coef = self._coef_candidate(x, clean, mask)
@@ -209,7 +205,6 @@ class BoundedCodec(BrickCodec):
         from . import bounded_cdf97 as w
 
         xf = x.reshape(-1).astype(np.float64)
-        coder = self._residual_coder
         out = []
 
         def finish(inner, rec):
@@ -222,7 +217,7 @@ class BoundedCodec(BrickCodec):
             extra = []
             if keep.any():
                 idx, bins = bad[keep], r[keep].astype(np.int64)
-                extra.append(w.pack_outliers(idx, bins, x.shape, coder))
+                extra.append(w.pack_outliers(idx, bins, x.shape))
                 w.add_bins(rec, idx, bins, self.step)  # as the decoder will
             y = _to_float(rec, x.dtype)
             out.append(self._finish(x, mask, y, FLAG_CDF97, [inner], extra, FLAG_OUTLIERS))
@@ -250,7 +245,7 @@ class BoundedCodec(BrickCodec):
         else:
             g = np.rint((clean.astype(np.float64) - self.lo) / fine).astype(np.int64)
         if mask is not None:
-            g = _fill_masked(g, mask)
+            g = fill_masked(g, mask)
         body, rec = _code_coefficients(g.copy(), self, self._coef_steps, dead_zone=True)
         off = g - rec
         if mask is not None:
@@ -381,15 +376,16 @@ class BoundedCodec(BrickCodec):
         if flags & FLAG_OUTLIERS:
             body, pos = _take(data, pos, len(data))
             w.apply_outliers(body, rec, self.step, self._residual_coder)
-        return _to_float(rec, dtype), pos
+        return _to_float(rec, dtype, overwrite=True), pos
 
 
-def _to_float(v: np.ndarray, dtype: np.dtype) -> np.ndarray:
-    """Float64 values cast to the float ``dtype``, clipped to its finite range."""
+def _to_float(v: np.ndarray, dtype: np.dtype, overwrite: bool = False) -> np.ndarray:
+    """Float64 values cast to the float ``dtype``, clipped to its finite range (in ``v``
+    itself when ``overwrite``)."""
     if dtype != np.float64:
         big = float(np.finfo(dtype).max)
-        v = np.clip(v, -big, big)
-    return v.astype(dtype)
+        v = np.clip(v, -big, big, out=v if overwrite else None)
+    return v.astype(dtype, copy=not overwrite)
 
 
 def _code_coefficients(g, codec, steps_of, *, dead_zone: bool):
@@ -425,22 +421,6 @@ def _rebuild_coefficients(q, steps, levels, wavelet: str, dead_zone: bool) -> np
 
     c = _dequantize_coefs(q, steps, dead_zone)
     return dwt3.inverse(c, levels, wavelet, overwrite=True)
-
-
-def _fill_masked(a: np.ndarray, mask: np.ndarray) -> np.ndarray:
-    """Copy of ``a`` whose masked voxels take the last valid value before them (C order)."""
-    flat = a.reshape(-1)
-    m = mask.reshape(-1)
-    out = flat.copy()
-    if m.all():
-        out[:] = 0
-        return out.reshape(a.shape)
-    idx = np.where(~m, np.arange(flat.size), 0)
-    np.maximum.accumulate(idx, out=idx)
-    first = int(np.argmax(~m))
-    idx[:first] = first
-    out = flat[idx]
-    return out.reshape(a.shape)
 
 
 def _section(body: bytes) -> bytes:

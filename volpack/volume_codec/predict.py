@@ -53,6 +53,7 @@ from ..entropy.rangecoder import put as _put
 from ..errors import FormatError, OptionError
 
 NPRED = 6
+PSTRIDE = 8  # ring entries per voxel for the predictors' errors (6 used; aligned)
 NACT = 48  # activity classes
 NSPREAD = 3  # classes of the predictors' spread relative to the activity
 NCTX = NACT * NSPREAD
@@ -81,11 +82,9 @@ def bitlen(u):
 def activity_class(a):
     """Logarithmic class of a non-negative error sum: 0..3 exactly, then two classes
     per power of two, capped at NCTX - 1."""
-    if a < 4:
-        return a
-    b = bitlen(a)
-    c = 2 * b - 2 + ((a >> (b - 2)) & 1)
-    return min(c, NACT - 1)
+    b = bitlen(a | 4)
+    c = min(2 * b - 2 + ((a >> (b - 2)) & 1), NACT - 1)
+    return a if a < 4 else c
 
 
 @kernel(inline=True)
@@ -162,187 +161,236 @@ def get_residual(data, state, base, ctx, sctx, code, rng, pos, rate):
 
 @kernel(inline=True)
 def _weight(t):
-    """About ``2^24 / t`` for ``t >= 1`` from eight bits of ``t`` (no division); >= 1."""
-    if t < 256:
-        return RECIP[t]
-    sh = bitlen(t) - 8
+    """About ``2^24 / t`` for ``t >= 1`` from eight bits of ``t`` (no division); >= 1.
+    Branch-free: ``t < 256`` is a shift of zero."""
+    sh = max(bitlen(t) - 8, 0)
     return max(RECIP[t >> sh] >> sh, 1)
 
 
 @kernel(inline=True)
-def _edge(err, perr, preds, j, act2):
-    """Add the errors of the neighbour ``j`` across an edge: each predictor's to its sum
-    in ``preds[NPRED:]``, the final one once to the doubled activity."""
-    for k in range(NPRED):
-        preds[NPRED + k] += perr[j * NPRED + k]
-    return act2 + abs(err[j])
+def _floor_div(a, d):
+    """``a // d`` for ``1 <= d < 2^53`` and ``|a / d| < 2^48`` (here a weighted mean of
+    predictions of values below 2^32 in magnitude): the floor of a float quotient,
+    corrected by its remainder (a 64-bit integer division costs several times more).
+    The float quotient is within ``2^-51 |a / d| < 1/8`` of the true one, so its floor
+    is off by at most one either way (only where the true quotient lies that close to
+    an integer); the correction is branch-free."""
+    q = np.int64(np.floor(np.float64(a) / np.float64(d)))
+    r = a - q * d
+    return q + np.int64(r >= d) - np.int64(r < 0)
 
 
 @kernel(inline=True)
-def _face(err, perr, preds, j, act2, esum):
-    """:func:`_edge` for a face neighbour, which counts twice in the activity and adds
-    its final error to the error sum."""
-    return _edge(err, perr, preds, j, act2 + abs(err[j])), esum + err[j]
+def _add_errors(perr, j, s0, s1, s2, s3, s4, s5):
+    """The predictors' error sums plus those of the voxel at ring slot ``j``."""
+    b = j * PSTRIDE
+    return (
+        s0 + perr[b],
+        s1 + perr[b + 1],
+        s2 + perr[b + 2],
+        s3 + perr[b + 3],
+        s4 + perr[b + 4],
+        s5 + perr[b + 5],
+    )
 
 
 @kernel(inline=True)
-def _predict_kernel(v, err, perr, i, z, y, x, ny, nx, lo, hi, bias_sum, bias_cnt, preds):
-    """Prediction and contexts of voxel ``i`` = (z, y, x) from the decoded ``v``, the
-    final errors ``err`` and the per-predictor errors ``perr`` of earlier voxels.
+def _predict_kernel(v, err, perr, i, r, ru, z, y, x, ny, nx, lo, hi, bias_sum, bias_cnt):
+    """Prediction and contexts of voxel ``i`` = (z, y, x) from the decoded ``v``, and the
+    final errors ``err`` and per-predictor errors ``perr`` of earlier voxels, kept in a
+    ring of two slices (``r`` is the voxel's slot, ``ru`` the slot of U).
 
-    Returns ``(pred, ctx, sign_ctx)``; fills ``preds`` with the predictors' values.
+    Returns ``(pred, ctx, sign_ctx, p0, ..., p5)`` (the six predictors' values).
     """
     sy = nx
     sz = ny * nx
     hw = x > 0
     hn = y > 0
     hu = z > 0
-    # Neighbours, with fallbacks that turn each predictor into a lower-dimensional one.
-    if hw:
+    he = x + 1 < nx
+    s0 = s1 = s2 = s3 = s4 = s5 = np.int64(0)
+    if hw and hn and hu and he:  # inside the brick: every neighbour there (most voxels)
         W = v[i - 1]
-    elif hn:
-        W = v[i - sy]
-    elif hu:
-        W = v[i - sz]
+        N = v[i - sy]
+        U = v[i - sz]
+        NW = v[i - sy - 1]
+        NE = v[i - sy + 1]
+        UW = v[i - sz - 1]
+        UN = v[i - sz - sy]
+        UNW = v[i - sz - sy - 1]
+        eW = err[r - 1]
+        eN = err[r - sy]
+        eU = err[ru]
+        act2 = 2 * (abs(eW) + abs(eN) + abs(eU)) + abs(err[r - sy - 1]) + abs(err[r - sy + 1])
+        esum = eW + eN + eU
+        s0, s1, s2, s3, s4, s5 = _add_errors(perr, r - 1, s0, s1, s2, s3, s4, s5)
+        s0, s1, s2, s3, s4, s5 = _add_errors(perr, r - sy, s0, s1, s2, s3, s4, s5)
+        s0, s1, s2, s3, s4, s5 = _add_errors(perr, r - sy - 1, s0, s1, s2, s3, s4, s5)
+        s0, s1, s2, s3, s4, s5 = _add_errors(perr, r - sy + 1, s0, s1, s2, s3, s4, s5)
+        s0, s1, s2, s3, s4, s5 = _add_errors(perr, ru, s0, s1, s2, s3, s4, s5)
     else:
-        W = (lo + hi) >> 1
-    N = v[i - sy] if hn else W
-    U = v[i - sz] if hu else W
-    NW = v[i - sy - 1] if hn and hw else N
-    NE = v[i - sy + 1] if hn and x + 1 < nx else N
-    UW = v[i - sz - 1] if hu and hw else U
-    UN = v[i - sz - sy] if hu and hn else U
-    UNW = v[i - sz - sy - 1] if hu and hn and hw else UN + UW - U
-    preds[0] = W + N - NW
-    preds[1] = U + W - UW
-    preds[2] = U + N - UN
-    preds[3] = W + N + U - NW - UW - UN + UNW
-    preds[4] = U
-    preds[5] = (W + NE + 1) >> 1
-    # Each predictor's error sum at the neighbours, and the activity of the final errors.
-    act2 = np.int64(0)  # twice the activity
-    esum = np.int64(0)
-    for k in range(NPRED):
-        preds[NPRED + k] = 0
-    if hw:
-        act2, esum = _face(err, perr, preds, i - 1, act2, esum)
-    if hn:
-        act2, esum = _face(err, perr, preds, i - sy, act2, esum)
+        # Neighbours, with fallbacks that turn each predictor into a lower-dimensional one.
         if hw:
-            act2 = _edge(err, perr, preds, i - sy - 1, act2)
-        if x + 1 < nx:
-            act2 = _edge(err, perr, preds, i - sy + 1, act2)
-    if hu:
-        act2, esum = _face(err, perr, preds, i - sz, act2, esum)
+            W = v[i - 1]
+        elif hn:
+            W = v[i - sy]
+        elif hu:
+            W = v[i - sz]
+        else:
+            W = (lo + hi) >> 1
+        N = v[i - sy] if hn else W
+        U = v[i - sz] if hu else W
+        NW = v[i - sy - 1] if hn and hw else N
+        NE = v[i - sy + 1] if hn and he else N
+        UW = v[i - sz - 1] if hu and hw else U
+        UN = v[i - sz - sy] if hu and hn else U
+        UNW = v[i - sz - sy - 1] if hu and hn and hw else UN + UW - U
+        # Each predictor's error sum at the neighbours, and the activity of the errors.
+        act2 = np.int64(0)  # twice the activity
+        esum = np.int64(0)
+        if hw:
+            act2 += 2 * abs(err[r - 1])
+            esum += err[r - 1]
+            s0, s1, s2, s3, s4, s5 = _add_errors(perr, r - 1, s0, s1, s2, s3, s4, s5)
+        if hn:
+            act2 += 2 * abs(err[r - sy])
+            esum += err[r - sy]
+            s0, s1, s2, s3, s4, s5 = _add_errors(perr, r - sy, s0, s1, s2, s3, s4, s5)
+            if hw:
+                act2 += abs(err[r - sy - 1])
+                s0, s1, s2, s3, s4, s5 = _add_errors(perr, r - sy - 1, s0, s1, s2, s3, s4, s5)
+            if he:
+                act2 += abs(err[r - sy + 1])
+                s0, s1, s2, s3, s4, s5 = _add_errors(perr, r - sy + 1, s0, s1, s2, s3, s4, s5)
+        if hu:
+            act2 += 2 * abs(err[ru])
+            esum += err[ru]
+            s0, s1, s2, s3, s4, s5 = _add_errors(perr, ru, s0, s1, s2, s3, s4, s5)
+    p0 = W + N - NW
+    p1 = U + W - UW
+    p2 = U + N - UN
+    p3 = W + N + U - NW - UW - UN + UNW
+    p4 = U
+    p5 = (W + NE + 1) >> 1
     act = act2 >> 1
     # Blend with weights ~ 2^24 / (1 + s_k) (at least 1); the sums stay below 2^63 for
     # a value range below 2^32.
-    num = np.int64(0)
-    den = np.int64(0)
-    for k in range(NPRED):
-        w = _weight(preds[NPRED + k] + 1)
-        num += w * preds[k]
-        den += w
-    pred = (num + (den >> 1)) // den
-    pmin = preds[0]
-    pmax = preds[0]
-    for k in range(1, NPRED):
-        pmin = min(pmin, preds[k])
-        pmax = max(pmax, preds[k])
-    spread = pmax - pmin
+    w0 = _weight(s0 + 1)
+    w1 = _weight(s1 + 1)
+    w2 = _weight(s2 + 1)
+    w3 = _weight(s3 + 1)
+    w4 = _weight(s4 + 1)
+    w5 = _weight(s5 + 1)
+    num = w0 * p0 + w1 * p1 + w2 * p2 + w3 * p3 + w4 * p4 + w5 * p5
+    den = w0 + w1 + w2 + w3 + w4 + w5
+    pred = _floor_div(num + (den >> 1), den)
+    spread = max(p0, p1, p2, p3, p4, p5) - min(p0, p1, p2, p3, p4, p5)
     # Context: the activity class, split by how far the predictors disagree.
-    wide = 0 if 2 * spread <= act else (1 if spread <= 2 * act + 1 else 2)
+    wide = np.int64(2 * spread > act) + np.int64(spread > 2 * act + 1)
     ctx = activity_class(act) * NSPREAD + wide
-    cnt = bias_cnt[ctx]
-    if cnt > 0:  # the context's mean error, rounded, by a reciprocal (cnt < 64)
-        s = bias_sum[ctx]
-        m = RECIP[cnt]
-        pred += (s * m + (1 << 23)) >> 24 if s >= 0 else -((-s * m + (1 << 23)) >> 24)
-    if pred < lo:
-        pred = lo
-    elif pred > hi:
-        pred = hi
-    sctx = 0 if esum == 0 else (1 if esum > 0 else 2)
-    return pred, ctx, sctx
+    # The context's mean error, rounded half away from zero, by a reciprocal (the
+    # count is below 64; RECIP[0] is 0). Branch-free: the signs are coin tosses.
+    s = bias_sum[ctx]
+    sg = s >> 63
+    t = ((((s ^ sg) - sg) * RECIP[bias_cnt[ctx]]) + (1 << 23)) >> 24
+    pred += (t ^ sg) - sg
+    pred = min(max(pred, lo), hi)
+    sctx = np.int64(esum > 0) + 2 * np.int64(esum < 0)
+    return pred, ctx, sctx, p0, p1, p2, p3, p4, p5
 
 
 @kernel(inline=True)
-def _learn(v, err, perr, i, pred, ctx, bias_sum, bias_cnt, preds):
-    """After voxel ``i`` is known: store its errors and update the context's bias."""
-    val = v[i]
+def _learn(err, perr, r, val, pred, ctx, bias_sum, bias_cnt, p0, p1, p2, p3, p4, p5):
+    """After voxel ``val`` at ring slot ``r`` is known: store its errors and update the
+    context's bias."""
     e = val - pred
-    err[i] = e
-    for k in range(NPRED):
-        perr[i * NPRED + k] = min(abs(val - preds[k]), 0x3FFFFFFF)
-    bias_sum[ctx] += e
-    bias_cnt[ctx] += 1
-    if bias_cnt[ctx] >= BIAS_LIMIT:
-        bias_sum[ctx] = bias_sum[ctx] // 2 if bias_sum[ctx] >= 0 else -((-bias_sum[ctx]) // 2)
-        bias_cnt[ctx] >>= 1
+    err[r] = e
+    b = r * PSTRIDE
+    perr[b] = min(abs(val - p0), 0x3FFFFFFF)
+    perr[b + 1] = min(abs(val - p1), 0x3FFFFFFF)
+    perr[b + 2] = min(abs(val - p2), 0x3FFFFFFF)
+    perr[b + 3] = min(abs(val - p3), 0x3FFFFFFF)
+    perr[b + 4] = min(abs(val - p4), 0x3FFFFFFF)
+    perr[b + 5] = min(abs(val - p5), 0x3FFFFFFF)
+    s = bias_sum[ctx] + e
+    c = bias_cnt[ctx] + 1
+    if c >= BIAS_LIMIT:
+        s = s // 2 if s >= 0 else -((-s) // 2)
+        c >>= 1
+    bias_sum[ctx] = s
+    bias_cnt[ctx] = c
 
 
-@kernel(inline=True)
-def _start(n):
-    """The state both sides start ``n`` voxels from: final and per-predictor errors, the
-    predictions' scratch, the bias sums and counts, the adaptive models."""
-    err = np.zeros(n, dtype=np.int64)
-    perr = np.zeros(n * NPRED, dtype=np.int32)
-    preds = np.zeros(2 * NPRED, dtype=np.int64)
-    bias_sum = np.zeros(NCTX, dtype=np.int64)
-    bias_cnt = np.zeros(NCTX, dtype=np.int64)
-    return err, perr, preds, bias_sum, bias_cnt, np.full(N_MODELS, STATE_INIT, dtype=np.uint16)
+def _workspace(shape: tuple[int, ...]) -> tuple[np.ndarray, ...]:
+    """The coder's working arrays, fresh (the kernels run without numba's allocator):
+    the errors of two slices (the voxel's and the one before, reused slice after slice:
+    small enough to stay in cache, unlike one entry per voxel), the contexts' bias sums
+    and counts, and the binary models."""
+    m = 2 * int(shape[1]) * int(shape[2])
+    return (
+        np.zeros(m, dtype=np.int64),
+        np.zeros(m * PSTRIDE, dtype=np.int32),
+        np.zeros(NCTX, dtype=np.int64),
+        np.zeros(NCTX, dtype=np.int64),
+        np.full(N_MODELS, STATE_INIT, dtype=np.uint16),
+    )
 
 
-@kernel
-def _encode_kernel(v, shape, lo, hi, out):
+@kernel(nrt=False)
+def _encode_kernel(v, shape, lo, hi, out, err, perr, bias_sum, bias_cnt, state):
     nz, ny, nx = shape[0], shape[1], shape[2]
-    n = nz * ny * nx
-    err, perr, preds, bias_sum, bias_cnt, state = _start(n)
+    sz = ny * nx
     cap = out.size
     low, rng, pos = open_encoder(out)
     i = 0
     for z in range(nz):
+        cur = (z & 1) * sz
+        prev = sz - cur
         for y in range(ny):
             for x in range(nx):
                 if pos + 64 > cap:
                     return -1
-                pred, ctx, sctx = _predict_kernel(
-                    v, err, perr, i, z, y, x, ny, nx, lo, hi, bias_sum, bias_cnt, preds
+                r = cur + y * nx + x
+                pred, ctx, sctx, p0, p1, p2, p3, p4, p5 = _predict_kernel(
+                    v, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, lo, hi, bias_sum, bias_cnt
                 )
+                val = v[i]
                 low, rng, pos = put_residual(
-                    out, state, 0, ctx, sctx, v[i] - pred, low, rng, pos, RATE
+                    out, state, 0, ctx, sctx, val - pred, low, rng, pos, RATE
                 )
-                _learn(v, err, perr, i, pred, ctx, bias_sum, bias_cnt, preds)
+                _learn(err, perr, r, val, pred, ctx, bias_sum, bias_cnt, p0, p1, p2, p3, p4, p5)
                 i += 1
     return finish_stream(out, low, pos)
 
 
-@kernel
-def _decode_kernel(data, shape, lo, hi, v):
+@kernel(nrt=False)
+def _decode_kernel(data, shape, lo, hi, v, err, perr, bias_sum, bias_cnt, state):
     """Return 0 on success, 1 when the stream ran short, 2 on an impossible value, 3 when
     it does not end where its length says."""
     nz, ny, nx = shape[0], shape[1], shape[2]
-    n = nz * ny * nx
+    sz = ny * nx
     size = data.size
-    err, perr, preds, bias_sum, bias_cnt, state = _start(n)
     code, rng, pos = open_stream(data)
     i = 0
     for z in range(nz):
+        cur = (z & 1) * sz
+        prev = sz - cur
         for y in range(ny):
             for x in range(nx):
                 if pos > size + 4:
                     return 1
-                pred, ctx, sctx = _predict_kernel(
-                    v, err, perr, i, z, y, x, ny, nx, lo, hi, bias_sum, bias_cnt, preds
+                r = cur + y * nx + x
+                pred, ctx, sctx, p0, p1, p2, p3, p4, p5 = _predict_kernel(
+                    v, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, lo, hi, bias_sum, bias_cnt
                 )
-                r, code, rng, pos = get_residual(data, state, 0, ctx, sctx, code, rng, pos, RATE)
-                if r == NO_RESIDUAL:
+                res, code, rng, pos = get_residual(data, state, 0, ctx, sctx, code, rng, pos, RATE)
+                if res == NO_RESIDUAL:
                     return 2
-                val = pred + r
+                val = pred + res
                 if val < lo or val > hi:
                     return 2
                 v[i] = val
-                _learn(v, err, perr, i, pred, ctx, bias_sum, bias_cnt, preds)
+                _learn(err, perr, r, val, pred, ctx, bias_sum, bias_cnt, p0, p1, p2, p3, p4, p5)
                 i += 1
     return end_status(data, code, pos)
 
@@ -358,7 +406,9 @@ def encode(values: np.ndarray, lo: int, hi: int) -> bytes:
     shape = np.array(v.shape, dtype=np.int64)
     flat = v.reshape(-1)
     return encode_with_retry(
-        lambda out: _encode_kernel(flat, shape, np.int64(lo), np.int64(hi), out),
+        lambda out: _encode_kernel(
+            flat, shape, np.int64(lo), np.int64(hi), out, *_workspace(v.shape)
+        ),
         flat.size,
         (2, 20),
         coder="predictive",
@@ -371,6 +421,7 @@ def decode(data: bytes | memoryview, shape: tuple[int, int, int], lo: int, hi: i
         raise FormatError(f"predictive payload: value range [{lo}, {hi}] is out of bounds")
     buf = stream_bytes(data, "predictive")
     v = np.empty(int(np.prod(shape)), dtype=np.int64)
-    status = _decode_kernel(buf, np.array(shape, dtype=np.int64), np.int64(lo), np.int64(hi), v)
+    shp = np.array(shape, dtype=np.int64)
+    status = _decode_kernel(buf, shp, np.int64(lo), np.int64(hi), v, *_workspace(shape))
     check_status(status, "predictive")
     return v.reshape(shape)

@@ -23,6 +23,7 @@ from ..volume import Volume
 from . import bricks
 from .floatwave import FLOAT_WAVELETS, FloatWaveletCodec
 from .lossy import BoundedCodec, CoefCodec
+from .specials import special_voxels
 
 PSNR_TOL = 0.5  # dB
 RATIO_TOL = 0.05  # relative
@@ -37,9 +38,7 @@ def value_range(data: np.ndarray, fill_value: float | None) -> tuple[float, floa
     flat = data.reshape(-1, *data.shape[-2:])
     for i in range(0, flat.shape[0], 16):
         slab = np.asarray(flat[i : i + 16])
-        ok = np.isfinite(slab) if slab.dtype.kind == "f" else np.ones(slab.shape, bool)
-        if fill_value is not None:
-            ok &= slab != fill_value
+        ok = ~special_voxels(slab, fill_value)
         if ok.any():
             v = slab[ok]
             lo, hi = min(lo, float(v.min())), max(hi, float(v.max()))

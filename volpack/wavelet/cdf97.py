@@ -96,6 +96,44 @@ def _update(s, d, ns, nd, w, c):
 
 
 @kernel
+def _lift_rows(plane, s, d, backward):
+    """One 1-D level along the last axis of the 2-D view ``plane``, row by row, in place:
+    the same arithmetic as :func:`_lift_block` on the transposed view, but every row is
+    contiguous (the transposed view's rows stride across the volume)."""
+    rows, n = plane.shape
+    ns = (n + 1) // 2
+    nd = n // 2
+    for r in range(rows):
+        row = plane[r]
+        if backward:
+            for i in range(ns):
+                s[i] = row[i] / Z
+            for i in range(nd):
+                d[i] = row[ns + i] * Z
+            _update(s, d, ns, nd, 1, -D)
+            _predict(s, d, ns, nd, 1, -G)
+            _update(s, d, ns, nd, 1, -B)
+            _predict(s, d, ns, nd, 1, -A)
+            for i in range(ns):
+                row[2 * i] = s[i]
+            for i in range(nd):
+                row[2 * i + 1] = d[i]
+        else:
+            for i in range(ns):
+                s[i] = row[2 * i]
+            for i in range(nd):
+                d[i] = row[2 * i + 1]
+            _predict(s, d, ns, nd, 1, A)
+            _update(s, d, ns, nd, 1, B)
+            _predict(s, d, ns, nd, 1, G)
+            _update(s, d, ns, nd, 1, D)
+            for i in range(ns):
+                row[i] = s[i] * Z
+            for i in range(nd):
+                row[ns + i] = d[i] / Z
+
+
+@kernel
 def _cdf97_kernel(a, regions, lz, ly, lx, s, d, backward):
     """The multilevel transform of ``a`` in place; ``regions[k]`` is the low-pass region
     that level ``k`` lifts."""
@@ -113,10 +151,10 @@ def _cdf97_kernel(a, regions, lz, ly, lx, s, d, backward):
                     _lift_block(a[z, :cy, :cx], s, d, backward)
             elif axis == 2 and lx > k:
                 for z in range(cz):
-                    _lift_block(a[z, :cy, :cx].T, s, d, backward)
+                    _lift_rows(a[z, :cy, :cx], s, d, backward)
 
 
-def _run(x: np.ndarray, levels, backward: bool) -> np.ndarray:
+def _run(x: np.ndarray, levels, backward: bool, overwrite: bool = False) -> np.ndarray:
     from volpack.wavelet import dwt3
 
     x = np.asarray(x)
@@ -126,7 +164,7 @@ def _run(x: np.ndarray, levels, backward: bool) -> np.ndarray:
     lv = tuple(int(v) for v in levels)
     if len(lv) != 3 or any(not 0 <= v <= f for v, f in zip(lv, full)):
         raise FormatError(f"expected levels between (0, 0, 0) and {full}, found {levels!r}")
-    out = np.array(x, dtype=np.float64, order="C", copy=True)
+    out = np.array(x, dtype=np.float64, order="C", copy=not overwrite)
     if out.size and max(lv) > 0:
         # A block is n rows (along the lifted axis) of w <= max(ny, nx) values.
         width = max(out.shape[1], out.shape[2])
@@ -146,6 +184,7 @@ def forward(x: np.ndarray, levels: tuple[int, int, int]) -> np.ndarray:
     return _run(x, levels, False)
 
 
-def inverse(c: np.ndarray, levels: tuple[int, int, int]) -> np.ndarray:
-    """The voxels (float64) of coefficients made by :func:`forward`; a new array."""
-    return _run(c, levels, True)
+def inverse(c: np.ndarray, levels: tuple[int, int, int], overwrite: bool = False) -> np.ndarray:
+    """The voxels (float64) of coefficients made by :func:`forward`: a new array, or
+    ``c`` itself transformed in place when ``overwrite`` and it is C-ordered float64."""
+    return _run(c, levels, True, overwrite)
