@@ -29,6 +29,7 @@ from .common import check_status, encode_with_retry, flat_view, max_bits
 from .rangecoder import (
     RATE,
     STATE_INIT,
+    end_status,
     finish_stream,
     get,
     get_bits,
@@ -138,7 +139,8 @@ def _encode_kernel(flat, perm, end, parent, cls, nbr, out):
 
 @kernel
 def _decode_kernel(data, perm, end, parent, cls, nbr, flat, nmax):
-    """Return 0 on success, 1 when the stream ran short, 2 on an impossible symbol."""
+    """Return 0 on success, 1 when the stream ran short, 2 on an impossible symbol, 3 when
+    it does not end where its length says."""
     n = perm.size
     size = data.size
     state = np.full(N_MODELS, STATE_INIT, dtype=np.uint16)
@@ -186,9 +188,7 @@ def _decode_kernel(data, perm, end, parent, cls, nbr, flat, nmax):
         nbits[i] = nb
         nprev = nb
         i += 1
-    if pos > size + 4:
-        return 1
-    return 0
+    return end_status(data, code, pos)
 
 
 def encode(coeffs: np.ndarray, scan: Scan) -> bytes:

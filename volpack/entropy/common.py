@@ -8,7 +8,11 @@ import numpy as np
 
 from ..errors import FormatError, OptionError
 
-STATUS = {1: "the stream ends before the last coefficient", 2: "a code names an impossible value"}
+STATUS = {
+    1: "the stream ends before the last coefficient",
+    2: "a code names an impossible value",
+    3: "it does not end where its length says",
+}
 
 
 def flat_view(a: np.ndarray) -> np.ndarray:

@@ -131,6 +131,18 @@ def _get_code(data, bitpos, limit, nmax):
 
 
 @kernel(inline=True)
+def _end_status(data, bitpos, limit):
+    """0 when the last code ends in the stream's last byte and the padding is zero bits
+    (what the encoder's flush leaves), 1 when it ran past the end, 3 otherwise."""
+    if bitpos > limit:
+        return 1
+    pad = limit - bitpos
+    if pad >= 8 or (pad > 0 and _peek(data, bitpos) >> np.uint64(64 - pad) != 0):
+        return 3
+    return 0
+
+
+@kernel(inline=True)
 def _mapped(flat, j):
     c = np.int64(flat[j])
     return np.uint64((c << 1) ^ (c >> 63))
@@ -189,7 +201,7 @@ def _huffman_decode_kernel(data, limit, perm, end, flat, nmax):
             return 2
         flat[perm[i]] = _unmapped(v)
         i += 1
-    return 1 if bitpos > limit else 0
+    return _end_status(data, bitpos, limit)
 
 
 @kernel
@@ -238,7 +250,7 @@ def _rle_decode_kernel(data, limit, perm, flat, nmax):
             return 2
         flat[perm[i]] = _unmapped(v + np.uint64(1))
         i += 1
-    return 1 if bitpos > limit else 0
+    return _end_status(data, bitpos, limit)
 
 
 def encode_huffman(coeffs: np.ndarray, scan: Scan) -> bytes:

@@ -38,6 +38,7 @@ __all__ = [
     "adapt",
     "carry",
     "finish_encoder",
+    "end_status",
     "finish_stream",
     "open_stream",
     "get",
@@ -172,6 +173,21 @@ def open_stream(data):
 
 
 @kernel(inline=True)
+def end_status(data, code, pos):
+    """How a decoder stands after its last decision: 0 when it ended where the stream
+    does (it read exactly ``data.size`` bytes, the leading byte is the 0 that
+    :func:`open_encoder` wrote, and ``code`` is 0: :func:`finish_stream` wrote the
+    encoder's final ``low``, which the decoder has subtracted whole), 1 when it read past
+    the end, 3 when bytes follow or the stream's first or final bytes are not the
+    encoder's. A damaged stream passes all three only by chance (about 2^-32)."""
+    if pos > data.size:
+        return 1
+    if pos < data.size or code != 0 or data[0] != 0:
+        return 3
+    return 0
+
+
+@kernel(inline=True)
 def finish_encoder(cs, out):
     """Flush the final low (4 bytes) and return the stream length."""
     return finish_stream(out, cs[0], cs[2])
@@ -226,13 +242,17 @@ def put_bits(out, v, n, low, rng, pos):
 @kernel(inline=True)
 def get_bits(data, v, n, code, rng, pos):
     """Decode ``n`` bits coded by :func:`put_bits`, shifted in below those of ``v``
-    (uint64); returns ``(v, code, rng, pos)``. A digit is capped at ``2^t - 1``: a
-    corrupt stream may point past the end."""
+    (uint64); returns ``(v, code, rng, pos)``. A digit of ``2^t`` or more only comes from
+    damage: it is capped at ``2^t - 1`` and the position put past the end, so that the
+    caller's end check (:func:`end_status`) refuses the stream."""
     while n > 0:
         t = min(n, 16)
         n -= t
         rng >>= t
-        d = min(code // rng, np.int64((1 << t) - 1))
+        d = code // rng
+        if d >= (1 << t):  # past the last of the 2^t parts: only damage points there,
+            d = np.int64((1 << t) - 1)  # so go on with the last part, and put the
+            pos = max(pos, data.size + 5)  # position past the end: the end check fails
         code -= d * rng
         v = (v << np.uint64(t)) | np.uint64(d)
         code, rng, pos = pull(data, code, rng, pos)

@@ -154,7 +154,6 @@ def _build_levels(plan, a, mn, mx, e2, l0, l1, origin, out, x0=None):
     """Lift ``a`` (``A_l0`` of a region starting at node ``origin`` of level ``l0``) up
     to level ``l1``, emitting each node's chunk and table row into ``out``."""
     from ..entropy import CODERS
-    from ..volume_codec.lossy import band_scale
     from ..wavelet import dwt3
     from ..wavelet.sigmap import scan as make_scan
 
@@ -172,7 +171,6 @@ def _build_levels(plan, a, mn, mx, e2, l0, l1, origin, out, x0=None):
         ggrid = geo.grid(level)
         rows = np.zeros(math.prod(gshape), layout.META_DTYPE)
         idx = np.zeros(math.prod(gshape), np.int64)
-        norm = unit * 2.0 ** (1.5 * (level - 1))
         for j, b in enumerate(itertools.product(*(range(g) for g in gshape))):
             box = tuple(slice(2 * k * i, min(2 * k * (i + 1), v)) for i, v in zip(b, n))
             blk = a[box]
@@ -184,8 +182,7 @@ def _build_levels(plan, a, mn, mx, e2, l0, l1, origin, out, x0=None):
             c[lowbox] = 0
             dst = tuple(slice(k * i, k * i + v) for i, v in zip(b, ls))
             new_a[dst] = low
-            scale = band_scale(tuple(blk.shape), lv).reshape(blk.shape)
-            own = float(np.sum(np.square(c * scale))) * norm * norm
+            own = layout.detail_energy(c, lv, level, unit)
             kids = e2[tuple(slice(2 * i, 2 * i + 2) for i in b)]
             new_e2[b] = own + float(kids.sum())
             gb = tuple(o + i for o, i in zip(off, b))

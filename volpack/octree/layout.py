@@ -174,6 +174,59 @@ def decode_table(data: bytes, count: int) -> np.ndarray:
     return np.frombuffer(raw, META_DTYPE).copy()
 
 
+def check_table(rows: np.ndarray, level: int, present: np.ndarray) -> np.ndarray:
+    """Refuse a level table whose rows contradict the format or the chunk index.
+
+    ``present`` marks the nodes of the level that have a chunk. Every read of a table goes
+    through here, so a damaged table cannot steer a selection or a bound unnoticed.
+    """
+    what = f"octree level-{level} table"
+    flags = rows["flags"]
+    if np.any(flags & ~np.uint8(PRESENT | SUBTREE_ZERO)):
+        raise FormatError(f"{what}: expected node flags 0 to 3, found {int(flags.max())}")
+    if not np.array_equal((flags & PRESENT) != 0, present):
+        raise FormatError(f"{what}: the nodes flagged as stored are not those with a chunk")
+    e, dev, hist = rows["E"], rows["maxdev"], rows["hist"]
+    finite = (
+        np.isfinite(e) & np.isfinite(dev) & np.isfinite(rows["vmin"]) & np.isfinite(rows["vmax"])
+    )
+    if not (finite.all() and np.isfinite(hist).all()):
+        raise FormatError(f"{what}: expected finite errors and value ranges")
+    if np.any(e < 0) or np.any(dev < 0) or np.any(rows["vmin"] > rows["vmax"]):
+        raise FormatError(f"{what}: expected E >= 0, maxdev >= 0 and vmin <= vmax")
+    if np.any(hist[..., 0] > 0) or np.any(hist[..., 1] < 0):
+        raise FormatError(f"{what}: expected deviation ranges around 0")
+    if not np.array_equal(e == 0, (flags & SUBTREE_ZERO) != 0):
+        raise FormatError(
+            f"{what}: the nodes flagged as all-zero subtrees are not those with E = 0"
+        )
+    return rows
+
+
+def detail_energy(c: np.ndarray, lv: tuple[int, int, int], level: int, unit: float) -> float:
+    """A node's own share of ``E^2``: ``sum_c (c w_c u 2^(1.5 (level - 1)))^2`` over its
+    details ``c`` (low-pass corner zero; ``formats/octree-1.md`` step 7)."""
+    from ..volume_codec.lossy import band_scale
+
+    scale = band_scale(tuple(c.shape), lv).reshape(c.shape)
+    norm = unit * 2.0 ** (1.5 * (level - 1))
+    return float(np.sum(np.square(c * scale))) * norm * norm
+
+
+def own_energy_range(e: float, kids: np.ndarray) -> tuple[float, float]:
+    """Where a node's own ``E^2`` share lies given its table ``E`` and its children's,
+    all rounded up to float32 (the true value is above the next float32 down)."""
+
+    def down(v):
+        return np.maximum(np.nextafter(np.float32(v), np.float32(-np.inf)), 0).astype(np.float64)
+
+    e, kids = np.float32(e), np.asarray(kids, np.float32)
+    lo = float(down(e)) ** 2 - float(np.sum(kids.astype(np.float64) ** 2))
+    hi = float(e) ** 2 - float(np.sum(down(kids) ** 2))
+    slack = 1e-9 * float(e) ** 2  # float64 sums in another order
+    return lo - slack, hi + slack
+
+
 def f4_up(x: Any) -> np.ndarray:
     """Round to float32 without going below ``x`` (bounds stay bounds)."""
     x = np.asarray(x, np.float64)

@@ -74,11 +74,16 @@ class Octree:
             h = self._r.header
             self.spacing = hh.vector(h.get("spacing", (1, 1, 1)), "spacing", 3, positive=True)
             self.origin = hh.vector(h.get("origin", (0, 0, 0)), "origin", 3)
+            self.summary = self._r.summary if isinstance(self._r.summary, dict) else {}
+            # the full-resolution level's error (lossy files), read where a decoder uses it
+            self.max_error = (
+                hh.optional_number(self.summary.get("max_error"), "summary 'max_error'", lo=0)
+                or 0.0
+            )
         except BaseException:
             self._r.close()
             raise
         self.header = self._r.header
-        self.summary = self._r.summary or {}
         self.depth = self.geometry.depth
         self.shape = self.plan.shape
         self.dtype = np.dtype(self.plan.dtype)
@@ -108,12 +113,22 @@ class Octree:
                 key = layout.meta_key(level)
                 if (0, key) in self._r:
                     t = layout.decode_table(self._r.read(0, key), count)
+                    layout.check_table(t, level, self._stored(level, count))
                 else:  # leaves below the root: exact up to the coding error, E = 0
                     t = np.zeros(count, layout.META_DTYPE)
-                    t["maxdev"] = self.summary.get("max_error", 0.0) or 0.0
+                    t["maxdev"] = self.max_error
                     t["flags"] = layout.SUBTREE_ZERO
                 self._tables[level] = t
             return self._tables[level]
+
+    def _stored(self, level: int, count: int) -> np.ndarray:
+        """Which nodes of ``level`` have a chunk, from the container's index."""
+        out = np.zeros(count, bool)
+        for t, key in self._r.keys():
+            lv, i = layout.split_key(key)
+            if t == 0 and lv == level and i < count:
+                out[i] = True
+        return out
 
     def row(self, level: int, index: tuple[int, int, int]) -> np.void:
         return self.table(level)[np.ravel_multi_index(index, self.geometry.grid(level))]
@@ -157,12 +172,18 @@ class Octree:
         work = np.dtype(self.plan.work)
         c = np.zeros(shape, work)
         body = sections.get(layout.HAS_DETAILS) if sections else None
+        decoded = sections != {}  # {}: a damaged chunk, already reported
         if body is not None:
             try:
                 CODERS[self.plan.coder].decode(body, make_scan(shape, lv, self.plan.order), c)
             except FormatError as e:
                 self._damage(level, index, e)
                 c[...] = 0
+                decoded = False
+        if decoded and not self._energy_matches(level, index, c, lv):
+            e = FormatError("its details do not carry the error E that its level table records")
+            self._damage(level, index, e)
+            c[...] = 0
         ls = layout.low_shape(shape)
         if low.shape != ls:
             raise FormatError(f"octree node: expected a low-pass block {ls}, found {low.shape}")
@@ -170,6 +191,23 @@ class Octree:
         with self._lock:
             self.decoded_nodes += 1
         return dwt3.inverse(c, lv, self.plan.wavelet, overwrite=True)
+
+    def _energy_matches(self, level, index, c, lv) -> bool:
+        """The details' own share of ``E^2`` agrees with the node's table row less its
+        children's rows (octree-1.md step 7): a cheap check of every decoded detail."""
+        unit = self.plan.codec.step if self.plan.codec is not None else 1.0
+        own = layout.detail_energy(c, lv, level, unit)
+        kids = np.zeros(0)
+        if level > 1:
+            grid = self.geometry.grid(level - 1)
+            idx = [
+                np.ravel_multi_index(b, grid)
+                for b in itertools.product(*((2 * i, 2 * i + 1) for i in index))
+                if all(v < g for v, g in zip(b, grid))
+            ]
+            kids = self.table(level - 1)["E"][idx]
+        lo, hi = layout.own_energy_range(self.row(level, index)["E"], kids)
+        return lo <= own <= hi
 
     def _damage(self, level, index, e) -> None:
         region = self.geometry.footprint(level, index)

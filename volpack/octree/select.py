@@ -44,7 +44,7 @@ def by_error(tree: Octree, bound: float, roi=None) -> list[Node]:
     ``bound``; refining down to level 0 where nothing coarser qualifies."""
     if not bound >= 0:
         raise OptionError(f"expected an error bound >= 0, found {bound!r}")
-    finest = float(tree.summary.get("max_error") or 0.0)
+    finest = tree.max_error
     if bound < finest:
         raise OptionError(
             f"expected an error bound of at least {finest:g} (the full-resolution level of "

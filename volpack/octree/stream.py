@@ -123,19 +123,23 @@ def info(source: str | BinaryIO) -> dict[str, Any]:
 
 def levels(source: Any) -> dict[str, Any]:
     """Nodes, chunks, bytes and errors per level of an octree (from its index only)."""
+    from ..format import header as hh
+
     with Octree(source) as tree:
         rows = []
+        stored = tree.summary.get("levels")
+        stored = stored if isinstance(stored, list) else []
         for lv in range(tree.depth, -1, -1):
             t = tree.table(lv)
             n = tree.geometry.level_shape(lv)
-            per = next((p for p in tree.summary.get("levels", []) if p["level"] == lv), {})
+            per = next((p for p in stored if isinstance(p, dict) and p.get("level") == lv), {})
             rows.append(
                 {
                     "level": lv,
                     "shape": list(n),
                     "nodes": int(t.size),
-                    "chunks": int(per.get("chunks", 0)),
-                    "nbytes": int(per.get("nbytes", 0)),
+                    "chunks": hh.integer(per.get("chunks", 0), "summary level chunks", 0, 1 << 62),
+                    "nbytes": hh.integer(per.get("nbytes", 0), "summary level nbytes", 0, 1 << 62),
                     "max_deviation": float(t["maxdev"].max(initial=0.0)),
                     "E_max": float(t["E"].max(initial=0.0)),
                     "stripped": int(((t["flags"] & 1) == 0).sum()) if lv > 0 else None,

@@ -255,6 +255,4 @@ def _decode_kernel(data, refs, width, vals):
                 return 2
             vals[i, c] = _predict(vals, refs, i, c) + r
             prev[c] = cnt
-    if cs[2] != data.size:  # the decoder ends exactly where the encoder's bytes end
-        return 1
-    return 0
+    return pk.end_status(data, cs[0], cs[2])  # ends where the encoder's bytes end

@@ -1039,6 +1039,4 @@ def _decode_kernel(data, ptr, quads, bptr, bidx, btri, mode, bits, vals, xyz):
         if w[9, 0] > 0.0:
             _learn_border(st, ln, xyz, k, w[7], w[8])
         _add_border_normals(xyz, k, bptr, bidx, btri, vnorm)
-    if cs[2] != data.size:  # the decoder ends exactly where the encoder's bytes end
-        return 1
-    return 0
+    return pk.end_status(data, cs[0], cs[2])  # ends where the encoder's bytes end

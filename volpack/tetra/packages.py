@@ -31,6 +31,7 @@ import numpy as np
 from .._jit import kernel, leading_zeros
 from ..entropy.rangecoder import (  # noqa: F401 - the primitives the coders here build on
     STATE_INIT,
+    end_status,
     finish_encoder,
     get_bit,
     get_raw,
@@ -43,7 +44,11 @@ from ..errors import FormatError
 
 MAX_PACKAGES = 16  # 64 bits
 N_COUNT = 32  # tree nodes for the package count (5 levels)
-STATUS = {1: "the stream ends early", 2: "a residual is longer than its field"}
+STATUS = {
+    1: "the stream ends early",
+    2: "a residual is longer than its field",
+    3: "it does not end where its length says",
+}
 
 
 def n_models(n_cls: int, n_ctx: int) -> int:

@@ -25,7 +25,14 @@ import numpy as np
 
 from .._jit import kernel
 from ..entropy.common import check_status, encode_with_retry, stream_bytes
-from ..entropy.rangecoder import RATE, STATE_INIT, finish_stream, open_encoder, open_stream
+from ..entropy.rangecoder import (
+    RATE,
+    STATE_INIT,
+    end_status,
+    finish_stream,
+    open_encoder,
+    open_stream,
+)
 from .predict import (
     N_MODELS,
     NCTX,
@@ -130,7 +137,8 @@ def _encode_kernel(o, shape, mb, out, eh, el, state):
 
 @kernel(nrt=False)
 def _decode_kernel(data, shape, mb, o, eh, el, state):
-    """Return 0 on success, 1 when the stream ran short, 2 on an impossible value."""
+    """Return 0 on success, 1 when the stream ran short, 2 on an impossible value, 3 when
+    it does not end where its length says."""
     nz, ny, nx = shape[0], shape[1], shape[2]
     size = data.size
     mask = (np.int64(1) << mb) - 1
@@ -159,9 +167,7 @@ def _decode_kernel(data, shape, mb, o, eh, el, state):
                 eh[i] = abs(r)
                 el[i] = abs(r2)
                 i += 1
-    if pos > size + 4:
-        return 1
-    return 0
+    return end_status(data, code, pos)
 
 
 @kernel(inline=True)

@@ -19,7 +19,14 @@ import numpy as np
 
 from .._jit import kernel
 from ..entropy.common import check_status, encode_with_retry, stream_bytes
-from ..entropy.rangecoder import RATE, STATE_INIT, finish_stream, open_encoder, open_stream
+from ..entropy.rangecoder import (
+    RATE,
+    STATE_INIT,
+    end_status,
+    finish_stream,
+    open_encoder,
+    open_stream,
+)
 from ..entropy.rangecoder import get as _get
 from ..entropy.rangecoder import put as _put
 from .predict import bitlen
@@ -104,7 +111,8 @@ def _encode_kernel(v, shape, nbits, out, state, cand):
 
 @kernel(nrt=False)
 def _decode_kernel(data, shape, nbits, kmax, v, state, cand):
-    """Return 0 on success, 1 when the stream ran short, 2 on an impossible label."""
+    """Return 0 on success, 1 when the stream ran short, 2 on an impossible label, 3 when
+    it does not end where its length says."""
     nz, ny, nx = shape[0], shape[1], shape[2]
     size = data.size
     code, rng, pos = open_stream(data)
@@ -132,9 +140,7 @@ def _decode_kernel(data, shape, nbits, kmax, v, state, cand):
                         return 2
                 v[i] = val
                 i += 1
-    if pos > size + 4:
-        return 1
-    return 0
+    return end_status(data, code, pos)
 
 
 def encode(ranks: np.ndarray, k: int) -> bytes:

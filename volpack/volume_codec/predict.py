@@ -45,7 +45,7 @@ import numpy as np
 
 from .._jit import kernel, leading_zeros
 from ..entropy.common import check_status, encode_with_retry, stream_bytes
-from ..entropy.rangecoder import STATE_INIT, finish_stream, open_encoder, open_stream
+from ..entropy.rangecoder import STATE_INIT, end_status, finish_stream, open_encoder, open_stream
 from ..entropy.rangecoder import get as _get
 from ..entropy.rangecoder import pull as _pull
 from ..entropy.rangecoder import push as _push
@@ -150,7 +150,9 @@ def get_residual(data, state, base, ctx, sctx, code, rng, pos, rate):
         t = min(kr, 16)
         kr -= t
         rng >>= t
-        q = min(code // rng, (1 << t) - 1)
+        q = code // rng
+        if q >= (1 << t):  # past the last of the 2^t parts: only damage points there
+            return NO_RESIDUAL, code, rng, pos
         code -= q * rng
         u = (u << t) | q
         code, rng, pos = _pull(data, code, rng, pos)
@@ -363,7 +365,8 @@ def _encode_kernel(v, shape, lo, hi, out, err, perr, bias_sum, bias_cnt, state):
 
 @kernel(nrt=False)
 def _decode_kernel(data, shape, lo, hi, v, err, perr, bias_sum, bias_cnt, state):
-    """Return 0 on success, 1 when the stream ran short, 2 on an impossible value."""
+    """Return 0 on success, 1 when the stream ran short, 2 on an impossible value, 3 when
+    it does not end where its length says."""
     nz, ny, nx = shape[0], shape[1], shape[2]
     sz = ny * nx
     size = data.size
@@ -389,9 +392,7 @@ def _decode_kernel(data, shape, lo, hi, v, err, perr, bias_sum, bias_cnt, state)
                 v[i] = val
                 _learn(err, perr, r, val, pred, ctx, bias_sum, bias_cnt, p0, p1, p2, p3, p4, p5)
                 i += 1
-    if pos > size + 4:
-        return 1
-    return 0
+    return end_status(data, code, pos)
 
 
 def encode(values: np.ndarray, lo: int, hi: int) -> bytes:
