@@ -243,6 +243,32 @@ def test_by_view_culls_and_stops_by_projection():
         assert cover[a > 200].all() and not cover.all()
 
 
+def test_by_view_memo_keeps_the_selection_and_is_reused(monkeypatch):
+    """A walk's memo of the view-independent node results (TF error, transparency) gives
+    the same selection as computing them afresh, for each view and each TF."""
+    from volpack.render.camera import Camera
+    from volpack.render.transfer import TransferFunction
+
+    a = (smooth_volume((32, 32, 32), np.int16, seed=3, noise=10.0) // 4).astype(np.uint8)
+    tfs = [TransferFunction(((0.0, 1, 0, 0, 0.0), (255.0, 1, 1, 1, 0.5))),
+           TransferFunction(((0.0, 1, 1, 1, 0.0), (150.0, 1, 1, 1, 0.0), (151, 1, 1, 1, 1)))]  # fmt: skip
+    memo: dict = {}
+    with Octree(_build(a, block=4)) as t:
+        for az in (0, 40, 200):
+            cam = Camera(azimuth=az, elevation=15, size=(48, 48))
+            for tf in tfs:
+                fresh = sel.by_view(t, cam, tf=tf, voxels=40 * 4**3, max_pixel_error=1e-6)
+                kept = sel.by_view(t, cam, tf=tf, voxels=40 * 4**3, max_pixel_error=1e-6,
+                                   memo=memo)  # fmt: skip
+                assert kept == fresh
+        assert len(memo) == 2  # one entry per transfer function
+        calls = []
+        monkeypatch.setattr(sel, "tf_node_error", lambda *a: calls.append(a) or 0.0)
+        sel.by_view(t, Camera(azimuth=40, elevation=15, size=(48, 48)), tf=tfs[0],
+                    voxels=40 * 4**3, max_pixel_error=1e-6, memo=memo)  # fmt: skip
+        assert calls == []  # every node's error came from the memo
+
+
 def test_tf_error_is_zero_for_constant_tf_and_grows_with_deviation():
     from volpack.render.transfer import TransferFunction
 

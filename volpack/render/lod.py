@@ -90,6 +90,7 @@ class NodeAtlas:
         self.free: list[int] = []
         self.frame = 0
         self.placed = 0  # nodes written into slots, over the atlas's life
+        self.select_memo: dict = {}  # the selection's view-independent results (select.by_view)
 
     @property
     def nbytes(self) -> int:
@@ -229,7 +230,10 @@ def render_lod(
         voxels = int(blocks) * tree.geometry.block**3
     before_nodes, before_bytes = tree.decoded_nodes, tree.bytes_read
     t0 = time.perf_counter()
-    sel, st = select.by_view(tree, camera, tf=tf, voxels=voxels, max_pixel_error=max_pixel_error)
+    memo = None if atlas is None else atlas.select_memo
+    sel, st = select.by_view(
+        tree, camera, tf=tf, voxels=voxels, max_pixel_error=max_pixel_error, memo=memo
+    )
     t1 = time.perf_counter()
     if value_range is None:
         value_range = tree_range(tree)
