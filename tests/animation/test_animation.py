@@ -654,3 +654,14 @@ def test_anchoring_i_frames_are_coded_tighter(moving):
         aframe.decode_frame(i_payload, SHAPE, np.dtype(np.uint8), None, None, s, (64,) * 3)[1],
         out[0],
     )
+
+
+def test_flat_values_with_a_huge_step_clip_instead_of_overflowing():
+    """A header's huge integer bound (a fuzz find: OverflowError in the flat field) gives
+    bins past the dtype's range, clipped, as the ordinary step does."""
+    q = np.array([-3, -1, 0, 1, 2**30, 7], np.int64).reshape(1, 2, 3)
+    for step in (2.0**40, 1e300):
+        out = aframe.decode_flat(aframe.encode_line(q), q.shape, step, np.dtype(np.uint8))
+        np.testing.assert_array_equal(out.ravel(), [0, 0, 0, 255, 255, 255])
+    small = aframe.decode_flat(aframe.encode_line(q), q.shape, 3.0, np.dtype(np.int16))
+    np.testing.assert_array_equal(small, np.clip(q * 3, -32768, 32767))

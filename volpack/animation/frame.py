@@ -119,6 +119,8 @@ def decode_flat(body, shape: tuple[int, ...], step: float, dtype: np.dtype) -> n
 def _flat_values(q: np.ndarray, step: float, dtype: np.dtype) -> np.ndarray:
     if dtype.kind in "iu":  # a bin's centre may lie past the dtype's end: clip
         info = np.iinfo(dtype)
+        if step > 2**31:  # a header's huge bound: every nonzero bin lies past the range
+            return np.clip(q * min(float(step), 2.0**64), info.min, info.max).astype(dtype)
         return np.clip(q * int(step), info.min, info.max).astype(dtype)
     return (q * step).astype(dtype)
 
