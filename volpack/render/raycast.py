@@ -106,6 +106,11 @@ log = logging.getLogger(__name__)
 MODES = {"post": 0, "pre": 1, "preintegrated": 2}
 SHADINGS = ("none", "phong", "preintegrated", "centroid")
 BRICK = 8
+#: Plain volumes with at most this many 4^3 bricks skip empty space by 4^3 bricks (a
+#: finer fit around what the TF shows: 10-45 % fewer samples on the benchmark's
+#: volumes), larger ones by BRICK^3; the per-brick ranges (8 bytes) and leap map (4
+#: bytes) stay under 25 MB.
+FINE_BRICK, FINE_BRICKS = 4, 1 << 21
 TABLE_SIZE = 256
 #: Send the common case through the fast path, :func:`_march_kernel` (tests turn it
 #: off to compare the two kernels).
@@ -143,21 +148,25 @@ def _cell(p, n):
     return i, i + 1, p - i
 
 
-@kernel
+@kernel(inline=True)
 def _cell3(nz, ny, nx, z, y, x):
     """Corner indices (unsigned, so indexing needs no wrap-around test) and float32
-    weights of the trilinear cell at (z, y, x), positions clamped to ``[0, n - 1]``."""
-    if 0.0 <= z < nz - 1 and 0.0 <= y < ny - 1 and 0.0 <= x < nx - 1:  # the usual case
-        iz, iy, ix = int(z), int(y), int(x)
-        z0, y0, x0 = np.uint64(iz), np.uint64(iy), np.uint64(ix)
-        one = np.uint64(1)
-        return (z0, z0 + one, np.float32(z - iz), y0, y0 + one, np.float32(y - iy),
-                x0, x0 + one, np.float32(x - ix))  # fmt: skip
-    a0, a1, fa = _cell(z, nz)
-    b0, b1, fb = _cell(y, ny)
-    c0, c1, fc = _cell(x, nx)
-    return (np.uint64(a0), np.uint64(a1), np.float32(fa), np.uint64(b0), np.uint64(b1),
-            np.float32(fb), np.uint64(c0), np.uint64(c1), np.float32(fc))  # fmt: skip
+    weights of the trilinear cell at (z, y, x), positions clamped to ``[0, n - 1]``:
+    :func:`_cell` per axis, without branches (min and max compile to single
+    instructions, so the per-sample cost does not depend on where the sample lies)."""
+    z0, z1, fz = _clamp_cell(z, nz)
+    y0, y1, fy = _clamp_cell(y, ny)
+    x0, x1, fx = _clamp_cell(x, nx)
+    return z0, z1, fz, y0, y1, fy, x0, x1, fx
+
+
+@kernel(inline=True)
+def _clamp_cell(p, n):
+    """:func:`_cell` with unsigned indices and a float32 weight, branch-free: the same
+    numbers (at ``p >= n - 1`` both indices are ``n - 1`` and the weight 0)."""
+    q = min(max(p, 0.0), n - 1.0)
+    i = int(q)
+    return np.uint64(i), np.uint64(min(i + 1, n - 1)), np.float32(q - i)
 
 
 @kernel(inline=True)
@@ -347,15 +356,10 @@ def _trilinear4(rgba, z, y, x, out):
         out[ch] = c0 + (c1 - c0) * fz
 
 
-@kernel
+@kernel(inline=True)
 def _ucell(p, n):
     """:func:`_cell` with unsigned indices and a float32 weight (table look-ups)."""
-    if p <= 0.0:
-        return np.uint64(0), np.uint64(0), np.float32(0.0)
-    if p >= n - 1:
-        return np.uint64(n - 1), np.uint64(n - 1), np.float32(0.0)
-    i = int(p)
-    return np.uint64(i), np.uint64(i + 1), np.float32(p - i)
+    return _clamp_cell(p, n)
 
 
 @kernel
@@ -457,14 +461,31 @@ def _box_hit(oz, oy, ox, dz, dy, dx, nz, ny, nx):
 
 
 @kernel(inline=True)
+def _exact_log2(n):
+    """``log2(n)`` when ``n`` is a power of two, else -1."""
+    sh = 0
+    while (1 << (sh + 1)) <= n:
+        sh += 1
+    return sh if (1 << sh) == n else -1
+
+
+@kernel(inline=True)
+def _brick_of(p, n, brick, sh):
+    """Brick index along one axis of position ``p`` clamped to ``[0, n - 1]``."""
+    q = int(min(max(p, 0.0), n - 1.0))
+    return q >> sh if sh >= 0 else q // brick
+
+
+@kernel(inline=True)
 def _brick_exit(pz, py, px, oz, oy, ox, dz, dy, dx, nz, ny, nx, leap, brick):
     """(leap value, exit t) at the (clamped) point p: ``leap`` of its brick (0 visible,
     k >= 1 empty with every brick within Chebyshev distance k - 1 empty too) and the
     ``t`` where the ray leaves that brick, or that cube of empty bricks around it."""
     nbz, nby, nbx = leap.shape
-    bz = min(_cell(pz, nz)[0] // brick, nbz - 1)
-    by = min(_cell(py, ny)[0] // brick, nby - 1)
-    bx = min(_cell(px, nx)[0] // brick, nbx - 1)
+    sh = _exact_log2(brick)  # a shift, not a division, for power-of-two bricks
+    bz = min(_brick_of(pz, nz, brick, sh), nbz - 1)
+    by = min(_brick_of(py, ny, brick, sh), nby - 1)
+    bx = min(_brick_of(px, nx, brick, sh), nbx - 1)
     lv = leap[bz, by, bx]
     r = lv - 1 if lv > 0 else 0
     te = np.inf
@@ -825,7 +846,7 @@ def _ndv(grad, node, z, y, x, gscale, vz, vy, vx, gmin, s):
     return abs(gz * vz + gy * vy + gx * vx) / g
 
 
-@kernel
+@kernel(nrt=False)  # allocates nothing: no reference counts in the loops
 def _march_kernel(
     vol, grad, has_grad, origins, dirs, rows, mode, post_tab, pre2d, lo, scale, step,
     leap, brick, skip, ert, shade, shading, gscale, vscale, gmin, out, row_samples,
@@ -1154,15 +1175,20 @@ def render(
         shape = volume.shape
     else:
         shape = vol.shape
+        brick = brick_size(shape)
         if skip_empty:
-            ranges = prep.brick_ranges(fill, BRICK, _brick_range_kernel)
+            ranges = prep.brick_ranges(fill, brick, _brick_range_kernel)
     if paged and volume.cell % BRICK:  # bricks must not straddle page cells: skip by cell
         empty, brick = volume.page < 0, volume.cell
     else:
         empty = _empty_bricks(vol, shape, rgba, mode, has_vol, post_tab, pre2d, iso2d,
-                              bool(isos), lo, scale, skip_empty, ranges)  # fmt: skip
-    leap = np.zeros(empty.shape, np.int64)
-    if skip_empty:
+                              bool(isos), lo, scale, skip_empty, ranges, brick)  # fmt: skip
+    if not skip_empty:
+        leap = np.zeros(empty.shape, np.int32)
+    elif prep is not None:  # kept across frames while the same bricks are empty
+        leap = prep.leap_map(empty, _leap_kernel)
+    else:
+        leap = np.zeros(empty.shape, np.int32)
         _leap_kernel(np.ascontiguousarray(empty), leap)
     origins, dirs = camera.rays(shape, sp)
     w, h = camera.size
@@ -1312,21 +1338,27 @@ def _empty_value(base, lo, hi, dmin, quiet: bool = False) -> float:
     return lo + i * (hi - lo) / (n - 1)
 
 
+def brick_size(shape) -> int:
+    """Edge of the empty-space bricks of a plain volume (see :data:`FINE_BRICKS`)."""
+    nb = math.prod(max(1, -(-int(s) // FINE_BRICK)) for s in shape)
+    return FINE_BRICK if nb <= FINE_BRICKS else BRICK
+
+
 def _empty_bricks(
     vol, shape, rgba, mode, has_vol, post_tab, pre2d, iso2d, has_iso, lo, scale, skip,
-    ranges=None,
+    ranges=None, brick=BRICK,
 ):  # fmt: skip
-    """Which ``BRICK``^3 bricks of level-0 space no sample can see: their value range
+    """Which ``brick``^3 bricks of level-0 space no sample can see: their value range
     (with the voxels trilinear samples inside them reach; ``ranges`` when given) maps to
     zero in every table in use; for a paged volume, also the bricks no node covers."""
-    nb = tuple(max(1, -(-s // BRICK)) for s in shape)
+    nb = tuple(max(1, -(-s // brick)) for s in shape)
     if not skip:
         return np.zeros(nb, np.bool_)
     if has_vol and mode == 1:
         alpha = np.ascontiguousarray(rgba[..., 3])
         mins = np.empty(nb, np.float32)
         maxs = np.empty(nb, np.float32)
-        _brick_range_kernel(alpha, BRICK, mins, maxs)
+        _brick_range_kernel(alpha, brick, mins, maxs)
         empty = maxs <= 0.0
         if not has_iso:
             return empty
@@ -1334,13 +1366,13 @@ def _empty_bricks(
     maxs = np.empty(nb, np.float32)
     uncovered = np.zeros(nb, np.bool_)
     if isinstance(vol, tuple):
-        _paged_range_kernel(vol[0][..., 0], *vol[1:5], BRICK, mins, maxs)
+        _paged_range_kernel(vol[0][..., 0], *vol[1:5], brick, mins, maxs)
         uncovered = np.isnan(mins)
         mins[uncovered] = maxs[uncovered] = lo
     elif ranges is not None:
         mins, maxs = ranges
     else:
-        _brick_range_kernel(vol, BRICK, mins, maxs)
+        _brick_range_kernel(vol, brick, mins, maxs)
     invisible = uncovered | _invisible_range(
         mins, maxs, mode, has_vol, post_tab, pre2d, iso2d, has_iso, lo, scale
     )
