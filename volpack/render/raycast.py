@@ -80,7 +80,7 @@ minimum and a warning is logged.
 
 It stays one file on purpose: the three classification modes, shading and empty-space
 skipping are branches of one march kernel, and the common case has a lean copy of that
-march (:func:`_march_kernel`, the fast path), both with their inline sampling kernels,
+march (:func:`_march`, the fast path), both with their inline sampling kernels,
 kept beside the public :func:`render` that sets them up.
 """
 
@@ -112,7 +112,7 @@ BRICK = 8
 #: bytes) stay under 25 MB.
 FINE_BRICK, FINE_BRICKS = 4, 1 << 21
 TABLE_SIZE = 256
-#: Send the common case through the fast path, :func:`_march_kernel` (tests turn it
+#: Send the common case through the fast path, :func:`_march` (tests turn it
 #: off to compare the two kernels).
 FAST_PATH = True
 # Phong constants (headlight)
@@ -806,25 +806,6 @@ def _powi(x, n):
 
 
 @kernel(inline=True)
-def _rgba1(tab, x):
-    """Linear lookup of the (n, 4) table at fractional index ``x``, as a tuple."""
-    i0, i1, f = _ucell(x, tab.shape[0])
-    a0, a1, a2, a3 = tab[i0, 0], tab[i0, 1], tab[i0, 2], tab[i0, 3]
-    return (a0 + (tab[i1, 0] - a0) * f, a1 + (tab[i1, 1] - a1) * f,
-            a2 + (tab[i1, 2] - a2) * f, a3 + (tab[i1, 3] - a3) * f)  # fmt: skip
-
-
-@kernel(inline=True)
-def _rgba2(tab, xf, xb):
-    """Bilinear lookup of the (n, n, 4) table at (front, back), as a tuple."""
-    n = tab.shape[0]
-    i0, i1, fi = _ucell(xf, n)
-    j0, j1, fj = _ucell(xb, n)
-    return (_bilerp(tab, 0, i0, i1, fi, j0, j1, fj), _bilerp(tab, 1, i0, i1, fi, j0, j1, fj),
-            _bilerp(tab, 2, i0, i1, fi, j0, j1, fj), _bilerp(tab, 3, i0, i1, fi, j0, j1, fj))  # fmt: skip
-
-
-@kernel(inline=True)
 def _bilerp(tab, ch, i0, i1, fi, j0, j1, fj):
     a = tab[i0, j0, ch] + (tab[i0, j1, ch] - tab[i0, j0, ch]) * fj
     b = tab[i1, j0, ch] + (tab[i1, j1, ch] - tab[i1, j0, ch]) * fj
@@ -846,20 +827,20 @@ def _ndv(grad, node, z, y, x, gscale, vz, vy, vx, gmin, s):
     return abs(gz * vz + gy * vy + gx * vx) / g
 
 
-@kernel(nrt=False)  # allocates nothing: no reference counts in the loops
-def _march_kernel(
-    vol, grad, has_grad, origins, dirs, rows, mode, post_tab, pre2d, lo, scale, step,
+def _march(
+    vol, grad, has_grad, origins, dirs, rows, pre, post_tab, pre2d, lo, scale, step,
     leap, brick, skip, ert, shade, shading, gscale, vscale, gmin, out, row_samples,
 ):  # fmt: skip
-    """Rays of image rows ``rows``; ``mode`` 0 (post) or 2 (pre-integrated), ``shade``
-    0 (none) or 1 (Phong at the segment midpoint). Arguments as for
-    :func:`_render_kernel`."""
+    """Rays of image rows ``rows``; ``pre``: pre-integrated (else post-classified),
+    ``shade``: Phong at the segment midpoint. Arguments as for :func:`_render_kernel`.
+    Inlined into one small kernel per (``pre``, ``shade``) pair, where both are
+    constants: each kernel's loop holds only its own branch (measured: a third of the
+    time per segment on the benchmark's volumes, against one loop testing both)."""
     nz, ny, nx = extent(vol)
     w = out.shape[1]
     ka, kd, ks, shin = shading[0], shading[1], shading[2], shading[3]
     ishin = int(shin)
     whole = ishin == shin and ishin >= 0
-    pre = mode == 2
     for k in range(rows.shape[0]):
         r = rows[k]
         count = 0
@@ -901,19 +882,30 @@ def _march_kernel(
                         xf = (sample(vol, oz + t0 * dz, oy + t0 * dy, ox + t0 * dx) - lo) * scale
                         have_front = True
                     xb = (sample(vol, oz + t1 * dz, oy + t1 * dy, ox + t1 * dx) - lo) * scale
-                    cr, cg, cb, a = _rgba2(pre2d, xf, xb)
+                    i0, i1, fi = _ucell(xf, pre2d.shape[0])
+                    j0, j1, fj = _ucell(xb, pre2d.shape[0])
                     xf = xb
+                    a = _bilerp(pre2d, 3, i0, i1, fi, j0, j1, fj)
                 else:
                     s = sample(vol, oz + tm * dz, oy + tm * dy, ox + tm * dx)
-                    cr, cg, cb, a = _rgba1(post_tab, (s - lo) * scale)
-                if a > 0.0:
+                    i0, i1, fi = _ucell((s - lo) * scale, post_tab.shape[0])
+                    a = _lerp2(post_tab, 3, i0, i1, fi)
+                if a > 0.0:  # colour only where there is opacity
+                    if pre:
+                        cr = _bilerp(pre2d, 0, i0, i1, fi, j0, j1, fj)
+                        cg = _bilerp(pre2d, 1, i0, i1, fi, j0, j1, fj)
+                        cb = _bilerp(pre2d, 2, i0, i1, fi, j0, j1, fj)
+                    else:
+                        cr = _lerp2(post_tab, 0, i0, i1, fi)
+                        cg = _lerp2(post_tab, 1, i0, i1, fi)
+                        cb = _lerp2(post_tab, 2, i0, i1, fi)
                     if seglen < step:  # last, shorter segment
                         a2 = 1.0 - (1.0 - min(a, 1.0)) ** (seglen / step)
                         g = a2 / a
                         cr, cg, cb, a = cr * g, cg * g, cb * g, a2
-                    f = 1.0
-                    spec = 0.0
                     if shade:
+                        f = 1.0
+                        spec = 0.0
                         pz, py, px = oz + tm * dz, oy + tm * dy, ox + tm * dx
                         if has_grad and (0.0 <= pz <= nz - 1 and 0.0 <= py <= ny - 1
                                          and 0.0 <= px <= nx - 1):  # fmt: skip
@@ -923,12 +915,43 @@ def _march_kernel(
                         if ndv >= 0.0:
                             f = ka + kd * ndv
                             spec = ks * (_powi(ndv, ishin) if whole else ndv**shin) * a
-                    ar, ag, ab, aa = _over(ar, ag, ab, aa, cr, cg, cb, a, f, spec)
+                        ar, ag, ab, aa = _over(ar, ag, ab, aa, cr, cg, cb, a, f, spec)
+                    else:
+                        wgt = 1.0 - aa
+                        ar, ag, ab, aa = ar + wgt * cr, ag + wgt * cg, ab + wgt * cb, aa + wgt * a
                     if aa > ert:
                         break
                 i += 1
             out[r, c, 0], out[r, c, 1], out[r, c, 2], out[r, c, 3] = ar, ag, ab, aa
         row_samples[r] = count
+
+
+_march_inline = kernel(_march, inline=True)
+
+
+@kernel(inline=True)
+def _lerp2(tab, ch, i0, i1, f):
+    """Linear lookup of channel ``ch`` of the (n, 4) table."""
+    a = tab[i0, ch]
+    return a + (tab[i1, ch] - a) * f
+
+
+def _march_specialised(pre, shade):
+    """The fast kernel for one (pre-integrated?, shaded?) pair (see :func:`_march`)."""
+
+    def run(vol, grad, has_grad, origins, dirs, rows, post_tab, pre2d, lo, scale, step,
+            leap, brick, skip, ert, shading, gscale, vscale, gmin, out, row_samples):  # fmt: skip
+        _march_inline(
+            vol, grad, has_grad, origins, dirs, rows, pre, post_tab, pre2d, lo, scale, step,
+            leap, brick, skip, ert, shade, shading, gscale, vscale, gmin, out, row_samples,
+        )  # fmt: skip
+
+    run.__name__ = run.__qualname__ = f"_march_{'pre' if pre else 'post'}_{'phong' if shade else 'none'}"
+    return kernel(run, nrt=False)  # allocates nothing: no reference counts in the loops
+
+
+#: The fast path's kernels by (pre-integrated, shaded).
+_MARCH = {(p, sh): _march_specialised(p, sh) for p in (False, True) for sh in (False, True)}
 
 
 @kernel
@@ -1204,11 +1227,13 @@ def render(
     if fast and paged and shading == "phong" and volume.grad is not None:
         grad, has_grad = volume.grad, True  # the nodes' gradient bricks
     if fast:
-        def run(rows: np.ndarray) -> None:  # the fast path (see _march_kernel)
-            _march_kernel(
-                vol, grad, has_grad, origins, dirs, rows, mode, post_tab, pre2d, lo, scale,
-                float(step), leap, brick, bool(skip_empty), float(ert),
-                SHADINGS.index(shading), shading_k, gscale, vscale, gmin, out, row_samples,
+        march = _MARCH[mode == 2, shading == "phong"]
+
+        def run(rows: np.ndarray) -> None:  # the fast path (see _march)
+            march(
+                vol, grad, has_grad, origins, dirs, rows, post_tab, pre2d, lo, scale,
+                float(step), leap, brick, bool(skip_empty), float(ert), shading_k, gscale,
+                vscale, gmin, out, row_samples,
             )  # fmt: skip
 
         run_row_sets(run, h, nthreads, progress)
