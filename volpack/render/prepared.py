@@ -56,6 +56,7 @@ class PreparedVolume:
     _grad: tuple = (_UNSET, None)  # the gradient volume, or False over the budget
     _ranges: tuple = (_UNSET, None)  # (mins, maxs) per brick
     _leap: tuple = (None, None)  # (empty bricks, leap map)
+    _memo: dict = dataclasses.field(default_factory=dict)  # name -> (key, value)
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -96,6 +97,14 @@ class PreparedVolume:
             kernel_fn(vol, brick, mins, maxs)
             self._ranges = ((fill, brick), (mins, maxs))
         return self._ranges[1]
+
+    def memo(self, name: str, key, build):
+        """``build()``, kept under ``name`` (one value a name) while ``key`` stays equal."""
+        kept = self._memo.get(name)
+        if kept is None or kept[0] != key:
+            kept = (key, build())
+            self._memo[name] = kept
+        return kept[1]
 
     def leap_map(self, empty: np.ndarray, kernel_fn) -> np.ndarray:
         """The leap map (int32) of the empty-brick mask ``empty`` (``kernel_fn`` fills
