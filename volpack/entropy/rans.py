@@ -84,7 +84,9 @@ def unpack_tables(body: bytes, nctx: int, nsym: int, what: str):
         pos += 2 * m
         s = int(freq[c].sum())
         if s not in (0, TOTAL) or freq[c].max() == TOTAL:
-            raise FormatError(f"{what}: a rANS table sums to {s}, expected {TOTAL} over two or more symbols")
+            raise FormatError(
+                f"{what}: a rANS table sums to {s}, expected {TOTAL} over two or more symbols"
+            )
     return slot_table(freq), pos
 
 

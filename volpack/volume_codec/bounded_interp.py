@@ -23,7 +23,6 @@ step on the coarse levels (their errors are propagated to every finer level).
 
 from __future__ import annotations
 
-import math
 import struct
 
 import numpy as np
@@ -274,11 +273,12 @@ def _run(g: np.ndarray, step: float, perm, kind: int):
     return rec.transpose(np.argsort(perm)), sym, ctx, raw[: (nbits + 7) // 8]
 
 
-def encode(g: np.ndarray, step: float):
+def encode(g: np.ndarray, step: float, tried=TRIED):
     """Code the float64 brick ``g`` (masked voxels filled) with bins of ``step`` (= 2E).
-    Returns ``(inner section, reconstruction)`` of the choice estimated shortest."""
+    Returns ``(inner section, reconstruction)`` of the choice among ``tried`` ((kind,
+    axis orders) pairs) estimated shortest."""
     best = None
-    for kind, perms in TRIED:
+    for kind, perms in tried:
         for perm in perms:
             rec, sym, ctx, raw = _run(g, step, perm, kind)
             bits = _estimate(sym, ctx) + 8 * raw.size
