@@ -202,8 +202,9 @@ LOSSY_CDF97_CASES = [
     ("lossy-bounded-f32-cdf97-rows", "f32", {"max_error": 8.0, "fill_value": -999.0}),
 ]
 # The interpolation path (flag bit 6, lossy-1.md steps 14-18), where it codes shortest:
-# linear interpolation (kind 0) on the float MRI; Lorenzo in 3-D (kind 2) and within
-# slices (kind 3) on the MRI summed along x (each column the previous plus an image).
+# cubic (kind 1) and, in float64 with bins past 32 (raw bits), linear (kind 0)
+# interpolation on the float MRI; Lorenzo in 3-D (kind 2) and within slices (kind 3) on
+# the MRI summed along x (each column the previous plus an image).
 LOSSY_INTERP_CASES = [
     ("lossy-bounded-f32-interp", "f32", {"max_error": 2.0, "fill_value": -999.0}),
     ("lossy-bounded-f64-interp", "f64", {"max_error": 0.01, "fill_value": -999.0}),

@@ -597,7 +597,6 @@ def interp_walk(g, step, kind):
     for lv in range(top - 1, -1, -1):
         s = 2**lv
         for axis in range(3):
-            prev = 0
             for i in np.ndindex(*m):
                 on = [
                     i[a] % (2 * s) == (s if a == axis else 0) if a >= axis else i[a] % s == 0
@@ -627,5 +626,9 @@ def interp_walk(g, step, kind):
                 else:
                     p = (6.0 * b + 3.0 * c - rec[at(-3)]) * 0.125
                 nb = [at(-1)] + ([at(1)] if c is not None else [])
-                prev = code(i, p, nb, prev)
+                # the context's second part: the same pass's voxel one row back (axis 1)
+                sy, y0 = (2 * s if axis <= 1 else s), (s if axis == 1 else 0)
+                back = (i[0], i[1] - sy, i[2])
+                prev = min(abs(int(bins[back])), 2) if i[1] - sy >= y0 else 0
+                code(i, p, nb, prev)
     return rec, np.array(out_b), np.array(out_c)

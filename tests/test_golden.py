@@ -205,7 +205,7 @@ def test_golden_lossy_stream_decodes_within_its_record(stem, recipe, opts):
 
 
 LOSSY_INTERP = [  # (stem, recipe, dtype, options, kind)
-    ("lossy-bounded-f32-interp", "f32", np.float32, {"max_error": 2.0, "fill_value": -999.0}, 0),
+    ("lossy-bounded-f32-interp", "f32", np.float32, {"max_error": 2.0, "fill_value": -999.0}, 1),
     ("lossy-bounded-f64-interp", "f32", np.float64, {"max_error": 0.01, "fill_value": -999.0}, 0),
     ("lossy-bounded-f32-lorenzo", "f32-walk", np.float32, {"max_error": 0.03, "fill_value": -999.0}, 2),
     ("lossy-bounded-f32-lorenzo2d", "f32-walk", np.float32, {"max_error": 0.3, "fill_value": -999.0}, 3),

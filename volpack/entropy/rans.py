@@ -7,10 +7,13 @@ takes the low :data:`PROB_BITS` bits of its state as a slot, the slot's symbol f
 context's table, and updates the state with one multiply. The tables are counted by the
 encoder over the whole stream, scaled to sum to ``2^PROB_BITS`` and stored ahead of it.
 
-Symbols are coded last to first so the decoder reads them first to last; the state is
-kept in ``[2^23, 2^31)`` and renormalised a byte at a time. The encoder starts the state
-at ``2^23``, so a decoder that ends anywhere else (or not at the stream's end) has read
-a corrupt stream. The layout is in ``formats/lossy-1.md`` ("The rANS bin stream").
+Symbols are coded last to first so the decoder reads them first to last. Two states
+take turns (even symbols the first, odd the second), so the decoder's two chains of
+dependent loads and multiplies overlap; each state is kept in ``[2^16, 2^32)`` and
+renormalised 16 bits at a time, at most once a symbol (no loop, one predictable branch).
+The encoder starts both states at ``2^16``, so a decoder that ends anywhere else (or not
+at the stream's end) has read a corrupt stream. The layout is in ``formats/lossy-1.md``
+("The rANS bin stream").
 
 Callers whose contexts depend on decoded values (so that decoding must be interleaved
 with their own work) call :func:`decode_symbol` from their kernels; :func:`pack_tables`
@@ -26,7 +29,7 @@ from ..errors import FormatError
 
 PROB_BITS = 12
 TOTAL = 1 << PROB_BITS
-LOW = 1 << 23  # the state's lower end
+LOW = 1 << 16  # the states' lower end
 MAX_SYMBOLS = 256
 
 
@@ -93,77 +96,88 @@ def unpack_tables(body: bytes, nctx: int, nsym: int, what: str):
 def slot_table(freq: np.ndarray) -> np.ndarray:
     """The decoder's table: for each context and slot, ``symbol | freq << 8 | (slot -
     cum) << 20`` (uint32), so one load gives all a symbol needs; empty contexts are 0."""
-    cum = _cum(freq)
     out = np.zeros((freq.shape[0], TOTAL), dtype=np.uint32)
-    sym = np.arange(freq.shape[1], dtype=np.int64)
-    for c in range(freq.shape[0]):
-        if freq[c].any():
-            s = np.repeat(sym, freq[c])
-            below = np.arange(TOTAL, dtype=np.int64) - cum[c, s]
-            out[c] = (s | (freq[c, s] << 8) | (below << 20)).astype(np.uint32)
+    _fill_slots(np.ascontiguousarray(freq, dtype=np.int64), out)
     return out
+
+
+@kernel
+def _fill_slots(freq, out):
+    for c in range(freq.shape[0]):
+        slot = 0
+        for s in range(freq.shape[1]):
+            f = freq[c, s]
+            for j in range(f):
+                out[c, slot] = s | (f << 8) | (j << 20)
+                slot += 1
 
 
 @kernel
 def encode_symbols(sym, ctx, freq, cum, out):
     """Code ``sym[i]`` in table ``ctx[i]``, last to first, into the end of ``out``;
-    returns the start of the stream in ``out`` (the 4-byte final state first), or -1
-    when ``out`` is too small."""
-    x = np.int64(LOW)
+    returns the start of the stream in ``out`` (the two final states first), or -1 when
+    ``out`` is too small."""
+    xs = np.full(2, LOW, dtype=np.int64)
     pos = out.size
     for i in range(sym.size - 1, -1, -1):
         c, s = ctx[i], sym[i]
         f = freq[c, s]
-        top = ((LOW >> PROB_BITS) << 8) * f
-        while x >= top:
-            if pos <= 4:
+        x = xs[i & 1]
+        if x >= ((LOW >> PROB_BITS) << 16) * f:
+            if pos < 10:
                 return -1
-            pos -= 1
+            pos -= 2
             out[pos] = x & 0xFF
-            x >>= 8
-        x = ((x // f) << PROB_BITS) + (x % f) + cum[c, s]
-    if pos < 4:
+            out[pos + 1] = (x >> 8) & 0xFF
+            x >>= 16
+        xs[i & 1] = ((x // f) << PROB_BITS) + (x % f) + cum[c, s]
+    if pos < 8:
         return -1
-    for _ in range(4):
-        pos -= 1
-        out[pos] = x & 0xFF
-        x >>= 8
+    for x in (xs[1], xs[0]):
+        pos -= 4
+        for j in range(4):
+            out[pos + j] = (x >> (8 * j)) & 0xFF
     return pos
 
 
 @kernel(inline=True)
-def open_state(data):
-    """The decoder's state from the stream's first 4 bytes: (state, position)."""
-    x = np.int64(0)
-    for i in range(min(4, data.size)):
-        x = (x << 8) | np.int64(data[i])
-    return x, np.int64(4)
+def open_states(data):
+    """The decoder's two states from the stream's first 8 bytes: (x0, x1, position)."""
+    x0 = x1 = np.int64(0)
+    if data.size >= 8:
+        for j in range(4):
+            x0 |= np.int64(data[j]) << (8 * j)
+            x1 |= np.int64(data[4 + j]) << (8 * j)
+    return x0, x1, np.int64(8)
 
 
 @kernel(inline=True)
 def decode_symbol(data, x, pos, c, table):
-    """One symbol in context ``c`` of :func:`slot_table`: (symbol, state, position).
-    Past the stream's end the state is fed zeros; :func:`state_ok` tells afterwards."""
+    """One symbol in context ``c`` of :func:`slot_table` with state ``x``: (symbol,
+    state, position). ``data`` is the stream followed by two zero bytes (read without a
+    test); past its end the state is fed zeros and :func:`state_ok` tells afterwards.
+    The renormalisation has no branch: which way it goes depends on the data, and a
+    mispredicted branch costs more than the arithmetic."""
     e = np.int64(table[c, x & (TOTAL - 1)])
-    s = e & 0xFF
     x = ((e >> 8) & 0xFFF) * (x >> PROB_BITS) + (e >> 20)
-    while x < LOW and pos < data.size + 8:  # bounded on a corrupt stream
-        b = np.int64(data[pos]) if pos < data.size else np.int64(0)
-        x = (x << 8) | b
-        pos += 1
-    return s, x, pos
+    more = np.int64(x < LOW)
+    p = min(pos, data.size - 2)
+    word = np.int64(data[p]) | (np.int64(data[p + 1]) << 8)
+    x = (x << (16 * more)) | (word & -more)
+    return e & 0xFF, x, pos + 2 * more
 
 
 @kernel(inline=True)
-def state_ok(data, x, pos):
-    """Whether a decoder ended where its encoder began: at the stream's end, state LOW."""
-    return x == LOW and pos == data.size
+def state_ok(data, x0, x1, pos):
+    """Whether a decoder ended where its encoder began: at the stream's end (before the
+    two padding bytes), both states at ``LOW``."""
+    return x0 == LOW and x1 == LOW and pos == data.size - 2
 
 
 def encode(sym: np.ndarray, ctx: np.ndarray, freq: np.ndarray) -> bytes:
     """The stream of :func:`encode_symbols` as bytes (no tables)."""
     sym = np.ascontiguousarray(sym, dtype=np.int64)
-    out = np.empty(2 * sym.size + 64, dtype=np.uint8)
+    out = np.empty(2 * sym.size + 64, dtype=np.uint8)  # under 16 bits a symbol
     start = encode_symbols(sym, np.ascontiguousarray(ctx, dtype=np.int64), freq, _cum(freq), out)
     if start < 0:
         raise AssertionError("rANS stream overflowed its worst-case buffer")

@@ -48,31 +48,27 @@ TRIED = ((1, PERMS), (0, PERMS), (2, PERMS[:1]), (3, PERMS[:3]))
 
 
 @kernel(inline=True)
-def _predict(rec, z, y, x, axis, s, n, cubic):
-    """Voxel (z, y, x) interpolated along ``axis`` from the known ones at +-s, +-3s."""
-    i = z if axis == 0 else (y if axis == 1 else x)
-    dz = s if axis == 0 else 0
-    dy = s if axis == 1 else 0
-    dx = s if axis == 2 else 0
-    b = rec[z - dz, y - dy, x - dx]
+def _predict(rec, mag, j, off, i, s, n, cubic):
+    """Voxel ``j`` (flat) interpolated along an axis where it is ``i`` of ``n``, its
+    known neighbours ``off`` (flat) = ``s`` (along the axis) apart: (prediction, the
+    sum of the interpolating voxels' bin magnitudes)."""
+    b = rec[j - off]
+    a = np.int64(mag[j - off])
     if i + s >= n:  # no neighbour after: the one before
-        return b
-    c = rec[z + dz, y + dy, x + dx]
+        return b, a
+    c = rec[j + off]
+    a += np.int64(mag[j + off])
     if cubic == 0:
-        return (b + c) * 0.5
+        return (b + c) * 0.5, a
     lo = i - 3 * s >= 0
     hi = i + 3 * s < n
     if lo and hi:
-        a = rec[z - 3 * dz, y - 3 * dy, x - 3 * dx]
-        d = rec[z + 3 * dz, y + 3 * dy, x + 3 * dx]
-        return (9.0 * (b + c) - (a + d)) * 0.0625
+        return (9.0 * (b + c) - (rec[j - 3 * off] + rec[j + 3 * off])) * 0.0625, a
     if hi:  # the quadratic through -s, s, 3s
-        d = rec[z + 3 * dz, y + 3 * dy, x + 3 * dx]
-        return (3.0 * b + 6.0 * c - d) * 0.125
+        return (3.0 * b + 6.0 * c - rec[j + 3 * off]) * 0.125, a
     if lo:  # the quadratic through -3s, -s, s
-        a = rec[z - 3 * dz, y - 3 * dy, x - 3 * dx]
-        return (6.0 * b + 3.0 * c - a) * 0.125
-    return (b + c) * 0.5
+        return (6.0 * b + 3.0 * c - rec[j - 3 * off]) * 0.125, a
+    return (b + c) * 0.5, a
 
 
 def _act_contexts() -> np.ndarray:
@@ -107,16 +103,19 @@ def _get_bits(raw, bitpos, n):
 
 
 @kernel(inline=True)
-def _code_one(decode, v, p, q, c, k, sym, ctx, raw, bitpos, data, xs, pos, table):
+def _code_one(decode, v, p, q, c, k, sym, ctx, raw, bitpos, data, x0, x1, pos, table):
     """Quantise voxel value ``v`` against its prediction ``p`` in bins of ``q`` (encoding)
-    or read its bin (decoding), in context ``c``. Returns (bin, k, bitpos, xs, pos).
+    or read its bin (decoding), in context ``c``. Returns (bin, k, bitpos, x0, x1, pos).
 
     Symbols: ``u`` = the bin zigzagged (0, -1, 1, -2, ... -> 0, 1, 2, 3, ...) when below
     :data:`DIRECT`; else ``DIRECT + 2 (n - 6) + h`` for ``u``'s bit length ``n`` and the
     bit ``h`` below its leading one, the ``n - 2`` bits under those going to ``raw``.
     """
     if decode:
-        u, xs, pos = rans.decode_symbol(data, xs, pos, c, table)
+        if k & 1:  # the two rANS states take turns
+            u, x1, pos = rans.decode_symbol(data, x1, pos, c, table)
+        else:
+            u, x0, pos = rans.decode_symbol(data, x0, pos, c, table)
         if u >= DIRECT:
             t = u - DIRECT
             n = 6 + (t >> 1)
@@ -134,24 +133,25 @@ def _code_one(decode, v, p, q, c, k, sym, ctx, raw, bitpos, data, xs, pos, table
             u = DIRECT + 2 * (n - 6) + ((u >> (n - 2)) & 1)
         sym[k] = u
         ctx[k] = c
-    return b, k + 1, bitpos, xs, pos
+    return b, k + 1, bitpos, x0, x1, pos
 
 
-@kernel(nrt=False)
-def _walk(x, rec, mag, step, kind, decode, sym, ctx, raw, data, table):
-    """Predict, quantise and rebuild every voxel of ``rec``: level by level for the
-    interpolations (``kind`` 0 linear, 1 cubic), in C order for Lorenzo (2: 3-D, 3: 2-D
-    within each slice).
+@kernel(inline=True)
+def _walk(x, rec, mag, shape, step, kind, decode, sym, ctx, raw, data, table):
+    """Predict, quantise and rebuild every voxel of ``rec`` (flat, C order of ``shape``):
+    level by level for the interpolations (``kind`` 0 linear, 1 cubic), in C order for
+    Lorenzo (2: 3-D, 3: 2-D within each slice).
 
     Encoding (``decode`` 0): reads ``x``, writes the symbols and contexts into ``sym``
     and ``ctx`` and the raw bits into ``raw`` (zeroed); returns the raw bit count.
     Decoding: reads the symbols from the rANS stream ``data`` and the bits from ``raw``;
     returns 0, or -1 on a corrupt stream.
     """
-    nz, ny, nx = rec.shape
-    xs, pos = np.int64(0), np.int64(0)
+    nz, ny, nx = shape
+    sty, stz = nx, ny * nx
+    x0, x1, pos = np.int64(0), np.int64(0), np.int64(0)
     if decode:
-        xs, pos = rans.open_state(data)
+        x0, x1, pos = rans.open_states(data)
     k = 0
     bitpos = np.int64(0)
     v = 0.0
@@ -160,20 +160,19 @@ def _walk(x, rec, mag, step, kind, decode, sym, ctx, raw, data, table):
         for z in range(nz):
             for y in range(ny):
                 prev = 0
+                row = z * stz + y * sty
                 for xx in range(nx):
-                    p = _lorenzo(rec, z, y, xx, kind == 2)
-                    a = np.int64(mag[z, y, xx - 1]) if xx else np.int64(0)
-                    if y:
-                        a += np.int64(mag[z, y - 1, xx])
+                    j = row + xx
+                    p, a = _lorenzo(rec, mag, j, z, y, xx, sty, stz, kind == 2)
                     if not decode:
-                        v = x[z, y, xx]
-                    b, k, bitpos, xs, pos = _code_one(
+                        v = x[j]
+                    b, k, bitpos, x0, x1, pos = _code_one(
                         decode, v, p, q, ACT_CONTEXT[a] + prev, k,
-                        sym, ctx, raw, bitpos, data, xs, pos, table,
+                        sym, ctx, raw, bitpos, data, x0, x1, pos, table,
                     )  # fmt: skip
-                    rec[z, y, xx] = p + np.float64(b) * q
+                    rec[j] = p + np.float64(b) * q
                     m = b if b >= 0 else -b
-                    mag[z, y, xx] = min(m, 127)
+                    mag[j] = min(m, 127)
                     prev = min(m, N_PREV - 1)
     else:
         top = 0
@@ -183,72 +182,89 @@ def _walk(x, rec, mag, step, kind, decode, sym, ctx, raw, data, table):
             s = 1 << lv if lv < top else 0  # the anchor (0, 0, 0) first, predicted as 0
             for axis in range(3 if s else 1):
                 if s == 0:
-                    z0 = y0 = x0 = 0
+                    z0 = y0 = xs0 = 0
                     sz = sy = sx = 1
                     nzz, nyy, nxx = 1, 1, 1
                     n = 1
                 else:
                     z0 = s if axis == 0 else 0
                     y0 = s if axis == 1 else 0
-                    x0 = s if axis == 2 else 0
+                    xs0 = s if axis == 2 else 0
                     sz = 2 * s if axis == 0 else s
                     sy = 2 * s if axis <= 1 else s
                     sx = 2 * s
                     nzz, nyy, nxx = nz, ny, nx
                     n = nz if axis == 0 else (ny if axis == 1 else nx)
-                dz = s if axis == 0 else 0
-                dy = s if axis == 1 else 0
-                dx = s if axis == 2 else 0
-                prev = 0
+                off = s * (stz if axis == 0 else (sty if axis == 1 else 1))
+                back = sy * sty  # the same pass's voxel one row back: a context
                 for z in range(z0, nzz, sz):
                     for y in range(y0, nyy, sy):
-                        for xx in range(x0, nxx, sx):
+                        row = z * stz + y * sty
+                        iz = z if axis == 0 else y  # the index along the axis, but x
+                        has_back = y >= y0 + sy
+                        for xx in range(xs0, nxx, sx):
+                            j = row + xx
                             if s == 0:
                                 p = 0.0
                                 a = np.int64(0)
                             else:
-                                p = _predict(rec, z, y, xx, axis, s, n, kind)
-                                a = np.int64(mag[z - dz, y - dy, xx - dx])
-                                i = z if axis == 0 else (y if axis == 1 else xx)
-                                if i + s < n:
-                                    a += np.int64(mag[z + dz, y + dy, xx + dx])
+                                i = xx if axis == 2 else iz
+                                p, a = _predict(rec, mag, j, off, i, s, n, kind)
+                            c = ACT_CONTEXT[a]
+                            if has_back:
+                                c += min(np.int64(mag[j - back]), N_PREV - 1)
                             if not decode:
-                                v = x[z, y, xx]
-                            b, k, bitpos, xs, pos = _code_one(
-                                decode, v, p, q, ACT_CONTEXT[a] + prev, k,
-                                sym, ctx, raw, bitpos, data, xs, pos, table,
+                                v = x[j]
+                            b, k, bitpos, x0, x1, pos = _code_one(
+                                decode, v, p, q, c, k,
+                                sym, ctx, raw, bitpos, data, x0, x1, pos, table,
                             )  # fmt: skip
-                            rec[z, y, xx] = p + np.float64(b) * q
-                            m = b if b >= 0 else -b
-                            mag[z, y, xx] = min(m, 127)
-                            prev = min(m, N_PREV - 1)
+                            rec[j] = p + np.float64(b) * q
+                            mag[j] = min(b if b >= 0 else -b, 127)
     if decode:
-        if bitpos > 8 * raw.size or not rans.state_ok(data, xs, pos):
+        if bitpos > 8 * raw.size or not rans.state_ok(data, x0, x1, pos):
             return -1
         return 0
     return bitpos
 
 
+@kernel(nrt=False)
+def _encode_walk(x, rec, mag, shape, step, kind, sym, ctx, raw, no_table):
+    """:func:`_walk` encoding (compiled on its own: the decoding branches fold away)."""
+    return _walk(x, rec, mag, shape, step, kind, False, sym, ctx, raw, raw, no_table)
+
+
+@kernel(nrt=False)
+def _decode_walk(rec, mag, shape, step, kind, raw, data, table, no_symbols):
+    """:func:`_walk` decoding (compiled on its own: the encoding branches fold away)."""
+    z = no_symbols
+    return _walk(rec, rec, mag, shape, step, kind, True, z, z, raw, data, table)
+
+
 @kernel(inline=True)
-def _lorenzo(rec, z, y, x, use_z):
-    """The Lorenzo predictor over the axes with a voxel before this one (z only when
-    ``use_z``): the sum over the corners of the unit cube behind it, signed by parity."""
+def _lorenzo(rec, mag, j, z, y, x, sty, stz, use_z):
+    """The Lorenzo predictor at voxel ``j`` (flat; ``z, y, x``) over the axes with a
+    voxel before it (z only when ``use_z``): the sum over the corners of the unit cube
+    behind it, signed by parity; and the bin magnitudes of W and N summed."""
+    a = np.int64(0)
+    if x:
+        a += np.int64(mag[j - 1])
+    if y:
+        a += np.int64(mag[j - sty])
     if x and y and (z or not use_z):  # the common case first, without the tests
-        p = rec[z, y, x - 1] + rec[z, y - 1, x] - rec[z, y - 1, x - 1]
+        p = rec[j - 1] + rec[j - sty] - rec[j - sty - 1]
         if use_z:
-            p = (
-                p + rec[z - 1, y, x] - rec[z - 1, y, x - 1] - rec[z - 1, y - 1, x]
-                + rec[z - 1, y - 1, x - 1]
-            )  # fmt: skip
-        return p
+            u = j - stz
+            p = p + rec[u] - rec[u - 1] - rec[u - sty] + rec[u - sty - 1]
+        return p, a
     p = 0.0
     for corner in range(1, 8):
         dz, dy, dx = corner >> 2, (corner >> 1) & 1, corner & 1
         if (dz and not (use_z and z)) or (dy and not y) or (dx and not x):
             continue
-        t = rec[z - dz, y - dy, x - dx]
+        t = rec[j - dz * stz - dy * sty - dx]
         p = p + t if (dz + dy + dx) & 1 else p - t
-    return p
+    return p, a
 
 
 def _estimate(sym: np.ndarray, ctx: np.ndarray) -> float:
@@ -262,14 +278,15 @@ def _estimate(sym: np.ndarray, ctx: np.ndarray) -> float:
 
 
 def _run(g: np.ndarray, step: float, perm, kind: int):
-    xt = g.transpose(perm)  # a view: the kernel walks the permuted axes in place
-    rec = np.empty(g.shape).transpose(perm)
+    xt = np.ascontiguousarray(g.transpose(perm))  # contiguous: the walk's loads are cheap
+    rec = np.empty_like(xt)
     sym = np.empty(g.size, dtype=np.int64)
     ctx = np.empty(g.size, dtype=np.int64)
     raw = np.zeros(4 * g.size + 8, dtype=np.uint8)
-    mag = np.zeros(xt.shape, dtype=np.uint8)
-    z8, zt = np.zeros(1, np.uint8), np.zeros((1, 1), np.uint32)
-    nbits = _walk(xt, rec, mag, step, kind, 0, sym, ctx, raw, z8, zt)
+    mag = np.zeros(xt.size, dtype=np.uint8)
+    no_table = np.zeros((1, 1), np.uint32)
+    flat = rec.reshape(-1)
+    nbits = _encode_walk(xt.reshape(-1), flat, mag, xt.shape, step, kind, sym, ctx, raw, no_table)
     return rec.transpose(np.argsort(perm)), sym, ctx, raw[: (nbits + 7) // 8]
 
 
@@ -297,7 +314,8 @@ def encode(g: np.ndarray, step: float, tried=TRIED):
 
 
 def decode(inner, shape: tuple[int, int, int], step: float) -> np.ndarray:
-    """The float64 reconstruction of :func:`encode`'s section (before corrections)."""
+    """The float64 reconstruction of :func:`encode`'s section (before corrections): a
+    view in ``shape`` of the walk's array, C-contiguous only when the order is (0, 1, 2)."""
     what = "bounded brick payload (interpolation path)"
     inner = memoryview(inner)
     if len(inner) < HEADER.size:
@@ -311,12 +329,11 @@ def decode(inner, shape: tuple[int, int, int], step: float) -> np.ndarray:
     if used != len(tables):
         raise FormatError(f"{what}: stray bytes after the rANS tables")
     raw, pos = take_section(inner, pos, what)
-    data = np.frombuffer(bytes(inner[pos:]), dtype=np.uint8).copy()
-    out = np.empty(shape, dtype=np.float64)
-    rec = out.transpose(perm)
-    mag = np.zeros(rec.shape, dtype=np.uint8)
-    z = np.zeros(1, np.int64)
+    data = np.frombuffer(bytes(inner[pos:]) + bytes(2), dtype=np.uint8)  # padded: see rans
+    rec = np.empty(tuple(shape[a] for a in perm), dtype=np.float64)
+    mag = np.zeros(rec.size, dtype=np.uint8)
     raw = np.frombuffer(bytes(raw), dtype=np.uint8).copy()  # writable: one kernel type
-    if _walk(rec, rec, mag, float(step), kind, 1, z, z, raw, data, table) != 0:
+    flat, z = rec.reshape(-1), np.zeros(1, np.int64)
+    if _decode_walk(flat, mag, rec.shape, float(step), kind, raw, data, table, z) != 0:
         raise FormatError(f"{what}: the bin stream is corrupt")
-    return out
+    return rec.transpose(np.argsort(perm))

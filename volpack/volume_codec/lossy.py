@@ -388,7 +388,10 @@ class BoundedCodec(BrickCodec):
                 "the other paths' flags"
             )
         rec = bounded_interp.decode(inner, shape, self.step)
-        return _to_float(rec, dtype, overwrite=True)
+        if dtype != np.float64:
+            big = float(np.finfo(dtype).max)
+            np.clip(rec, -big, big, out=rec)
+        return rec.astype(dtype, order="C")  # the cast puts the axes back in C order
 
     def _decode_cdf97(self, flags, data, inner, pos, shape, dtype):
         from . import bounded_cdf97 as w
