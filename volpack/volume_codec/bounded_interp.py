@@ -84,22 +84,25 @@ ACT_CONTEXT = _act_contexts()
 
 @kernel(inline=True)
 def _put_bits(raw, bitpos, v, n):
-    """Append the ``n`` low bits of ``v`` to ``raw`` (zeroed), least significant first."""
-    for j in range(n):
-        if (v >> j) & 1:
-            raw[(bitpos + j) >> 3] |= np.uint8(1 << ((bitpos + j) & 7))
+    """Append the ``n`` (< 32) low bits of ``v`` to ``raw`` (zeroed, 8 bytes of slack),
+    least significant first."""
+    w = (v & ((np.int64(1) << n) - 1)) << (bitpos & 7)
+    i = bitpos >> 3
+    for j in range(5):
+        raw[i + j] |= np.uint8((w >> (8 * j)) & 0xFF)
     return bitpos + n
 
 
 @kernel(inline=True)
 def _get_bits(raw, bitpos, n):
-    """``n`` bits of ``raw`` from ``bitpos`` (zeros past its end: checked at the end)."""
-    v = np.int64(0)
-    for j in range(n):
-        i = (bitpos + j) >> 3
-        if i < raw.size:
-            v |= np.int64((raw[i] >> ((bitpos + j) & 7)) & 1) << j
-    return v
+    """``n`` (< 32) bits of ``raw`` from ``bitpos``: five byte loads, no loop over the
+    bits (``raw`` ends in 8 zero bytes of slack; reading past its end is caught by the
+    caller's final check)."""
+    i = min(bitpos >> 3, raw.size - 8)
+    w = np.int64(0)
+    for j in range(5):
+        w |= np.int64(raw[i + j]) << (8 * j)
+    return (w >> (bitpos & 7)) & ((np.int64(1) << n) - 1)
 
 
 @kernel(inline=True)
@@ -222,7 +225,7 @@ def _walk(x, rec, mag, shape, step, kind, decode, sym, ctx, raw, data, table):
                             rec[j] = p + np.float64(b) * q
                             mag[j] = min(b if b >= 0 else -b, 127)
     if decode:
-        if bitpos > 8 * raw.size or not rans.state_ok(data, x0, x1, pos):
+        if bitpos > 8 * (raw.size - 8) or not rans.state_ok(data, x0, x1, pos):
             return -1
         return 0
     return bitpos
@@ -282,7 +285,7 @@ def _run(g: np.ndarray, step: float, perm, kind: int):
     rec = np.empty_like(xt)
     sym = np.empty(g.size, dtype=np.int64)
     ctx = np.empty(g.size, dtype=np.int64)
-    raw = np.zeros(4 * g.size + 8, dtype=np.uint8)
+    raw = np.zeros(4 * g.size + 16, dtype=np.uint8)
     mag = np.zeros(xt.size, dtype=np.uint8)
     no_table = np.zeros((1, 1), np.uint32)
     flat = rec.reshape(-1)
@@ -332,7 +335,7 @@ def decode(inner, shape: tuple[int, int, int], step: float) -> np.ndarray:
     data = np.frombuffer(bytes(inner[pos:]) + bytes(2), dtype=np.uint8)  # padded: see rans
     rec = np.empty(tuple(shape[a] for a in perm), dtype=np.float64)
     mag = np.zeros(rec.size, dtype=np.uint8)
-    raw = np.frombuffer(bytes(raw), dtype=np.uint8).copy()  # writable: one kernel type
+    raw = np.frombuffer(bytes(raw) + bytes(8), dtype=np.uint8).copy()  # slack: _get_bits
     flat, z = rec.reshape(-1), np.zeros(1, np.int64)
     if _decode_walk(flat, mag, rec.shape, float(step), kind, raw, data, table, z) != 0:
         raise FormatError(f"{what}: the bin stream is corrupt")

@@ -4,7 +4,9 @@
     The voxels are quantised before the transform: ``q = round((x - lo) / step)`` with
     ``step = 2E`` (floats) or integer bins of ``2e + 1`` values (integers, ``e =
     floor(E)``), so the reconstruction ``lo + q * step`` is within ``E`` of every voxel.
-    The integer field ``q`` is then coded by the lossless wavelet codec. The encoder
+    The integer field ``q`` is then coded by the lossless wavelet codec; floats are also
+    coded by the float CDF 9/7 (:mod:`.bounded_cdf97`) and by prediction from decoded
+    voxels (:mod:`.bounded_interp`), and the shortest coding kept. The encoder
     rebuilds the brick exactly as the decoder will and checks every voxel; any voxel
     that rounding to the output dtype pushed past ``E`` is stored exactly in a correction
     list, so the bound holds always. NaN, +-Inf and a declared fill value are taken out
