@@ -13,6 +13,7 @@ whatever the worker count. Like every stream kind (:mod:`volpack.kinds`) it prov
 from __future__ import annotations
 
 import logging
+import math
 import threading
 import time
 from collections.abc import Callable
@@ -293,6 +294,17 @@ class VolumeReader(CheckedReader):
         nt = shape[0] if len(shape) == 4 else 1
         if frame is not None and not 0 <= frame < nt:
             raise FormatError(f"expected a frame in 0..{nt - 1}, found {frame}")
+        seekable = r.seekable
+        nchunks = nt * math.prod(bricks.grid_shape(spatial, brick_t))
+        if not seekable:  # a pipe: the payloads are read (and counted) before anything else
+            cache = {(t, n): p for t, n, p in r}
+        if len(r if seekable else cache) != nchunks:
+            # every writer stores every brick; a shape or brick changed by damage shows here,
+            # before a list of a million bricks or an output of gigabytes is made
+            raise FormatError(
+                f"expected {nchunks} chunks for shape {list(shape)} in bricks of "
+                f"{list(brick_t)}, found {len(r if seekable else cache)}"
+            )
         region = parse_roi(roi, spatial)
         origin = tuple(o + s.start * d for o, s, d in zip(hdr["origin"], region, hdr["spacing"]))
         rshape = tuple(s.stop - s.start for s in region)
@@ -300,10 +312,6 @@ class VolumeReader(CheckedReader):
         out = np.empty((len(times), *rshape), dtype=dtype)
         nodes = bricks.bricks_in_roi(spatial, brick_t, region)
         tasks = [(i, t, node) for i, t in enumerate(times) for node in nodes]
-        seekable = r.seekable
-        if not seekable:
-            wanted = {(t, n) for _, t, n in tasks}
-            cache = {(t, n): p for t, n, p in r if (t, n) in wanted}
 
         lock = threading.Lock()
 
