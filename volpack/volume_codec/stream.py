@@ -68,7 +68,13 @@ def make_codec(codec: str = "auto", dtype: Any = None, **options: Any):
         return WaveletCodec(**{k: v for k, v in options.items() if v is not None})
     if codec == "zstd":
         return ZstdCodec()
-    raise OptionError(f"expected codec 'auto', 'lossless', 'wavelet' or 'zstd', found {codec!r}")
+    if codec == "fast":
+        from .fast import FastCodec
+
+        return FastCodec()
+    raise OptionError(
+        f"expected codec 'auto', 'lossless', 'fast', 'wavelet' or 'zstd', found {codec!r}"
+    )
 
 
 def compress(
@@ -175,7 +181,7 @@ def compress(
             from .codec import check_wavelet_dtype
 
             check_wavelet_dtype(vol.dtype)
-        elif c.codec_id == "lossless":
+        elif c.codec_id in ("lossless", "fast"):
             from .lossless import check_dtype
 
             check_dtype(vol.dtype)
