@@ -109,7 +109,8 @@ class FastCodec(BrickCodec):
             p, used = pal.unpack(rest, min(pal.MAX_PALETTE, max(n, 1)))
             if p[0] < vmin or p[-1] > vmax:
                 raise FormatError(f"corrupt palette: values outside the range of {dtype}")
-            values = pal.from_ranks(fastpredict.decode(rest[used:], shape, 0, len(p) - 1), p)
+            ranks = fastpredict.decode(rest[used:], shape, 0, len(p) - 1, np.dtype(np.uint16))
+            values = pal.from_ranks(ranks, p)
         else:
             z, pos = pal.read_uleb(rest, 0)
             span, pos = pal.read_uleb(rest, pos)
@@ -118,7 +119,7 @@ class FastCodec(BrickCodec):
                 raise FormatError(
                     f"fast brick payload: value range [{lo}, {lo + span}] outside {dtype}"
                 )
-            values = fastpredict.decode(rest[pos:], shape, lo, lo + span)
+            values = fastpredict.decode(rest[pos:], shape, lo, lo + span, None if is_float else dtype)
         if is_float:
             return from_ordered(values.astype(np.int64), dtype).reshape(shape)
         return values.astype(dtype, copy=False).reshape(shape)

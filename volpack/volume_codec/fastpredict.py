@@ -25,6 +25,8 @@ The byte layout is in ``formats/fast-1.md``.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from .._jit import kernel, leading_zeros
@@ -39,9 +41,8 @@ DIRECT = 16  # tokens 0..15 are the zig-zagged residual itself
 NTOK = DIRECT + 4 * 29  # bit lengths up to 33: residuals of a span below 2^32
 NCLASS = 48  # activity classes before the encoder caps them
 STATES = 2
+NEAR_GAIN = 0.01  # the share of bytes the slower ``near`` context must save
 ONE, TWO, THREE = np.uintp(1), np.uintp(2), np.uintp(3)  # unsigned offsets: no wrap test
-_PIDS = (0, 1, 2)
-_CIDS = (0, 1)
 STATUS = {
     1: "the stream ends before the last voxel",
     2: "a token decodes to a value outside the brick's range",
@@ -249,8 +250,20 @@ def _symbol(table, c, words, rpos, x0, x1, i, bits, bpos, acc, nacc, tok_base, t
     return ue, rpos, x0, x1, bpos, acc >> np.uint64(nb), nacc - nb
 
 
-@kernel(nrt=False)
-def _decode_kernel(words, bits, table, nctx, pid, cid, shape, lo, hi, v, u, tok_base, tok_bits):
+@functools.cache
+def _decoder(pid: int, cid: int):
+    """The decode kernel for one predictor and context rule, compiled with both as
+    constants (no tests of them in the voxel loop; a dozen registers fewer)."""
+
+    @kernel(nrt=False)
+    def decode_kernel(words, bits, table, nctx, shape, lo, hi, v, u, tok_base, tok_bits):
+        return _decode_loop(words, bits, table, nctx, pid, cid, shape, lo, hi, v, u, tok_base, tok_bits)
+
+    return decode_kernel
+
+
+@kernel(inline=True)
+def _decode_loop(words, bits, table, nctx, pid, cid, shape, lo, hi, v, u, tok_base, tok_bits):
     """Decode a brick into ``v`` (flat; ``u`` a zeroed ring of two slices); 0, or a
     :data:`STATUS` code. ``words`` and ``bits`` carry the zero padding :func:`_symbol`
     reads past their ends. Inside a row the loop keeps W and its residual in registers
@@ -415,13 +428,28 @@ def _tables_kernel(data, pos, nctx, table):
     return pos
 
 
-def _work_dtype(lo: int, hi: int) -> np.dtype:
-    return np.dtype(np.int32) if -(1 << 31) <= lo and hi < (1 << 31) else np.dtype(np.int64)
+def _work_dtype(lo: int, hi: int, dtype: np.dtype | None) -> np.dtype:
+    """What the decoder writes: ``dtype`` when it holds ``[lo, hi]`` (no conversion
+    after), else int32 or int64."""
+    for d in (dtype, np.dtype(np.int32)):
+        if d is not None and d.kind in "iu" and d.itemsize <= 4:
+            info = np.iinfo(d)
+            if info.min <= lo and hi <= info.max:
+                return np.dtype(d)
+    return np.dtype(np.int64)
 
 
-def encode(values: np.ndarray, lo: int, hi: int) -> bytes:
+def encode(
+    values: np.ndarray, lo: int, hi: int, predictor: str | None = None, context: str | None = None
+) -> bytes:
     """Code a 3-D integer array with values in ``[lo, hi]`` (span below 2^32): the
-    predictor and context byte, the tables, the rANS words and the raw bits."""
+    predictor and context byte, the tables, the rANS words and the raw bits.
+
+    By default the encoder measures every predictor with the ``far`` context, then the
+    best one with ``near``, and keeps ``near`` only when it saves more than
+    :data:`NEAR_GAIN` (it decodes about a third slower: W joins the decoder's chain
+    from one voxel to the next). ``predictor`` / ``context`` force one (tests, studies).
+    """
     v = np.ascontiguousarray(values, dtype=np.int64)
     if v.ndim != 3:
         raise OptionError(f"expected a 3-D array, found shape {v.shape}")
@@ -430,28 +458,31 @@ def encode(values: np.ndarray, lo: int, hi: int) -> bytes:
     shape = np.array(v.shape, dtype=np.int64)
     flat = v.reshape(-1)
     n = flat.size
-    toks = np.empty(n, dtype=np.uint8)
-    ctxs = np.empty(n, dtype=np.uint8)
     ring = np.zeros(2 * v.shape[1] * v.shape[2], dtype=np.int64)
-    best = None
-    pids = _PIDS if v.shape[0] > 1 else (0,)
-    cids = _CIDS
-    for pid in pids:
-        for cid in cids:
-            counts = np.zeros((NCLASS, rans.NSYM), dtype=np.int64)
-            bits = np.empty(4 * n + 16, dtype=np.uint8)
-            nbits = _tokens_kernel(
-                flat, shape, np.int64(lo), np.int64(hi), pid, cid, toks, ctxs, ring,
-                counts, bits,
-            )  # fmt: skip
-            nctx, freqs, cost = _cap_contexts(counts)
-            cost += nbits
-            if best is None or cost < best[0]:
-                best = (cost, pid, cid, nctx, freqs, bits[: (nbits + 7) >> 3].tobytes())
-                keep = (toks.copy(), ctxs.copy())
-    _, pid, cid, nctx, freqs, raw = best
-    toks, ctxs = keep
-    words = np.empty(n + 64, dtype=np.uint16)
+
+    def trial(pid: int, cid: int) -> tuple:
+        toks = np.empty(n, dtype=np.uint8)
+        ctxs = np.empty(n, dtype=np.uint8)
+        counts = np.zeros((NCLASS, rans.NSYM), dtype=np.int64)
+        bits = np.empty(4 * n + 16, dtype=np.uint8)
+        nbits = _tokens_kernel(
+            flat, shape, np.int64(lo), np.int64(hi), pid, cid, toks, ctxs, ring, counts, bits
+        )
+        nctx, freqs, cost = _cap_contexts(counts)
+        return cost + nbits, pid, cid, nctx, freqs, bits[: (nbits + 7) >> 3].tobytes(), toks, ctxs
+
+    pids = [PREDICTORS.index(predictor)] if predictor else range(len(PREDICTORS))
+    if v.shape[0] == 1:  # one slice: the 3-D predictors are MED
+        pids = [0]
+    far = CONTEXTS.index("far")
+    cids = [CONTEXTS.index(context)] if context else [far]
+    best = min((trial(pid, cid) for pid in pids for cid in cids), key=lambda t: t[0])
+    if context is None:
+        near = trial(best[1], CONTEXTS.index("near"))
+        if near[0] * (1 + NEAR_GAIN) < best[0]:
+            best = near
+    _, pid, cid, nctx, freqs, raw, toks, ctxs = best
+    words = np.empty(n + 64, dtype=np.uint16)  # at most one word a voxel, and the states
     first = _rans_kernel(toks, ctxs, np.int64(nctx), freqs, rans.starts(freqs), words)
     if first < 0:
         raise AssertionError("fast coder overflowed its word buffer")
@@ -460,9 +491,15 @@ def encode(values: np.ndarray, lo: int, hi: int) -> bytes:
     return head + pal.uleb(len(w) // 2) + w + raw
 
 
-def decode(data: bytes | memoryview, shape: tuple[int, int, int], lo: int, hi: int) -> np.ndarray:
-    """Decode :func:`encode`'s bytes into an integer array of ``shape`` (int32 when the
-    range fits, else int64)."""
+def decode(
+    data: bytes | memoryview,
+    shape: tuple[int, int, int],
+    lo: int,
+    hi: int,
+    dtype: np.dtype | None = None,
+) -> np.ndarray:
+    """Decode :func:`encode`'s bytes into an integer array of ``shape``: of ``dtype``
+    when it holds ``[lo, hi]``, else int32 or int64."""
     if not (lo <= hi and hi - lo < (1 << 32)):
         raise FormatError(f"fast stream: value range [{lo}, {hi}] is out of bounds")
     data = memoryview(data)
@@ -488,10 +525,10 @@ def decode(data: bytes | memoryview, shape: tuple[int, int, int], lo: int, hi: i
     bits = np.zeros(len(raw) + 4, dtype=np.uint8)  # four 0 bytes past the end
     bits[: len(raw)] = np.frombuffer(raw, dtype=np.uint8)
     n = int(np.prod(shape))
-    v = np.empty(n, dtype=_work_dtype(lo, hi))
+    v = np.empty(n, dtype=_work_dtype(lo, hi, None if dtype is None else np.dtype(dtype)))
     ring = np.zeros(2 * int(shape[1]) * int(shape[2]), dtype=np.int64)
-    status = _decode_kernel(
-        words, bits, table, np.int64(nctx), pid, cid,
+    status = _decoder(pid, cid)(
+        words, bits, table, np.int64(nctx),
         np.array(shape, dtype=np.int64), np.int64(lo), np.int64(hi), v, ring,
         TOK_BASE, TOK_BITS,
     )  # fmt: skip
