@@ -109,8 +109,7 @@ class FastCodec(BrickCodec):
             p, used = pal.unpack(rest, min(pal.MAX_PALETTE, max(n, 1)))
             if p[0] < vmin or p[-1] > vmax:
                 raise FormatError(f"corrupt palette: values outside the range of {dtype}")
-            ranks = fastpredict.decode(rest[used:], shape, 0, len(p) - 1, np.dtype(np.uint16))
-            values = pal.from_ranks(ranks, p)
+            values = pal.from_ranks(fastpredict.decode(rest[used:], shape, 0, len(p) - 1), p)
         else:
             z, pos = pal.read_uleb(rest, 0)
             span, pos = pal.read_uleb(rest, pos)
@@ -119,17 +118,17 @@ class FastCodec(BrickCodec):
                 raise FormatError(
                     f"fast brick payload: value range [{lo}, {lo + span}] outside {dtype}"
                 )
-            values = fastpredict.decode(rest[pos:], shape, lo, lo + span, None if is_float else dtype)
+            values = fastpredict.decode(rest[pos:], shape, lo, lo + span)
         if is_float:
             return from_ordered(values.astype(np.int64), dtype).reshape(shape)
         return values.astype(dtype, copy=False).reshape(shape)
 
 
 def describe(payload: bytes) -> str:
-    """The tool a brick payload used, as ``volpack info`` lists it: ``fast-med``,
-    ``fast-med3d+palette``, ... (predictor, then the palette if any), ``raw``,
-    ``constant``."""
-    from .fastpredict import PREDICTORS
+    """The tool a brick payload used, as ``volpack info`` lists it: ``fast-med-far``,
+    ``fast-med3d-near+palette``, ... (predictor, context rule, the palette if any),
+    ``raw``, ``constant``."""
+    from .fastpredict import CONTEXTS, PREDICTORS
 
     mode = payload[0] if payload else -1
     if mode == MODE_CODED and len(payload) > 2:
@@ -141,7 +140,12 @@ def describe(payload: bytes) -> str:
         else:
             _, pos = pal.read_uleb(memoryview(payload), 2)
             _, pos = pal.read_uleb(memoryview(payload), pos)
-        name = PREDICTORS[payload[pos] & 3] if pos < len(payload) and payload[pos] & 3 < 3 else "?"
+        b = payload[pos] if pos < len(payload) else 0xFF
+        name = (
+            f"{PREDICTORS[b & 3]}-{CONTEXTS[b >> 2]}"
+            if b & 3 < len(PREDICTORS) and b >> 2 < len(CONTEXTS)
+            else "?"
+        )
         return f"fast-{name}" + ("+palette" if flags & FLAG_PALETTE else "")
     return {1: "raw", 2: "constant"}.get(mode, f"mode {mode}")
 

@@ -25,8 +25,6 @@ The byte layout is in ``formats/fast-1.md``.
 
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 
 from .._jit import kernel, leading_zeros
@@ -250,20 +248,8 @@ def _symbol(table, c, words, rpos, x0, x1, i, bits, bpos, acc, nacc, tok_base, t
     return ue, rpos, x0, x1, bpos, acc >> np.uint64(nb), nacc - nb
 
 
-@functools.cache
-def _decoder(pid: int, cid: int):
-    """The decode kernel for one predictor and context rule, compiled with both as
-    constants (no tests of them in the voxel loop; a dozen registers fewer)."""
-
-    @kernel(nrt=False)
-    def decode_kernel(words, bits, table, nctx, shape, lo, hi, v, u, tok_base, tok_bits):
-        return _decode_loop(words, bits, table, nctx, pid, cid, shape, lo, hi, v, u, tok_base, tok_bits)
-
-    return decode_kernel
-
-
-@kernel(inline=True)
-def _decode_loop(words, bits, table, nctx, pid, cid, shape, lo, hi, v, u, tok_base, tok_bits):
+@kernel(nrt=False)
+def _decode_kernel(words, bits, table, nctx, pid, cid, shape, lo, hi, v, u, tok_base, tok_bits):
     """Decode a brick into ``v`` (flat; ``u`` a zeroed ring of two slices); 0, or a
     :data:`STATUS` code. ``words`` and ``bits`` carry the zero padding :func:`_symbol`
     reads past their ends. Inside a row the loop keeps W and its residual in registers
@@ -428,15 +414,10 @@ def _tables_kernel(data, pos, nctx, table):
     return pos
 
 
-def _work_dtype(lo: int, hi: int, dtype: np.dtype | None) -> np.dtype:
-    """What the decoder writes: ``dtype`` when it holds ``[lo, hi]`` (no conversion
-    after), else int32 or int64."""
-    for d in (dtype, np.dtype(np.int32)):
-        if d is not None and d.kind in "iu" and d.itemsize <= 4:
-            info = np.iinfo(d)
-            if info.min <= lo and hi <= info.max:
-                return np.dtype(d)
-    return np.dtype(np.int64)
+def _work_dtype(lo: int, hi: int) -> np.dtype:
+    """What the decoder writes: int32 when it holds ``[lo, hi]``, else int64 (two
+    compiled variants of each decoder, not one per voxel dtype)."""
+    return np.dtype(np.int32) if -(1 << 31) <= lo and hi < (1 << 31) else np.dtype(np.int64)
 
 
 def encode(
@@ -491,15 +472,9 @@ def encode(
     return head + pal.uleb(len(w) // 2) + w + raw
 
 
-def decode(
-    data: bytes | memoryview,
-    shape: tuple[int, int, int],
-    lo: int,
-    hi: int,
-    dtype: np.dtype | None = None,
-) -> np.ndarray:
-    """Decode :func:`encode`'s bytes into an integer array of ``shape``: of ``dtype``
-    when it holds ``[lo, hi]``, else int32 or int64."""
+def decode(data: bytes | memoryview, shape: tuple[int, int, int], lo: int, hi: int) -> np.ndarray:
+    """Decode :func:`encode`'s bytes into an integer array of ``shape`` (int32 when the
+    range fits, else int64)."""
     if not (lo <= hi and hi - lo < (1 << 32)):
         raise FormatError(f"fast stream: value range [{lo}, {hi}] is out of bounds")
     data = memoryview(data)
@@ -525,10 +500,10 @@ def decode(
     bits = np.zeros(len(raw) + 4, dtype=np.uint8)  # four 0 bytes past the end
     bits[: len(raw)] = np.frombuffer(raw, dtype=np.uint8)
     n = int(np.prod(shape))
-    v = np.empty(n, dtype=_work_dtype(lo, hi, None if dtype is None else np.dtype(dtype)))
+    v = np.empty(n, dtype=_work_dtype(lo, hi))
     ring = np.zeros(2 * int(shape[1]) * int(shape[2]), dtype=np.int64)
-    status = _decoder(pid, cid)(
-        words, bits, table, np.int64(nctx),
+    status = _decode_kernel(
+        words, bits, table, np.int64(nctx), pid, cid,
         np.array(shape, dtype=np.int64), np.int64(lo), np.int64(hi), v, ring,
         TOK_BASE, TOK_BITS,
     )  # fmt: skip

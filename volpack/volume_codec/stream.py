@@ -118,9 +118,11 @@ def compress(
     target : str or binary file
         Output path (written atomically; an existing file needs ``force``), ``'-'`` for
         standard output, or an open binary file.
-    codec : {"auto", "lossless", "wavelet", "zstd"}
+    codec : {"auto", "lossless", "fast", "wavelet", "zstd"}
         ``auto``: the ``lossless`` codec (per brick the wavelet, 3-D prediction, labels
         or split floats) for 8/16/32-bit integers and 16/32-bit floats, zstd for the rest.
+        ``fast``: lossless, decoding several times faster at a lower ratio
+        (:class:`volpack.volume_codec.fast.FastCodec`).
     wavelet, coder, order, max_levels
         Wavelet codec settings (see :class:`volpack.volume_codec.codec.WaveletCodec`).
     tools : {"auto", "wavelet", "predict"}, optional
