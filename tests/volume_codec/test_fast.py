@@ -77,10 +77,13 @@ def _reference_tokens(v, lo, hi, pid, cid):
     def med(a, b, c):
         return min(max(a + b - c, min(a, b)), max(a, b))
 
+    def at(z, y, x):
+        return lambda dz, dy, dx: int(v[z - dz, y - dy, x + dx])
+
     for z in range(nz):
         for y in range(ny):
             for x in range(nx):
-                V = lambda dz, dy, dx: int(v[z - dz, y - dy, x + dx])  # noqa: E731
+                V = at(z, y, x)
                 if x > 0 and y > 0:
                     p = med(V(0, 0, -1), V(0, 1, 0), V(0, 1, -1))
                     d = V(1, 0, 0) - med(V(1, 0, -1), V(1, 1, 0), V(1, 1, -1)) if z else 0

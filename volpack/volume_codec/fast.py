@@ -148,4 +148,3 @@ def describe(payload: bytes) -> str:
         )
         return f"fast-{name}" + ("+palette" if flags & FLAG_PALETTE else "")
     return {1: "raw", 2: "constant"}.get(mode, f"mode {mode}")
-
