@@ -57,29 +57,21 @@ def get(table, base, words, rpos, x):
 
 def normalize(counts: np.ndarray) -> np.ndarray:
     """Frequencies summing to ``M`` from symbol counts (one row per context): every
-    counted symbol keeps at least 1; rows without counts stay zero."""
+    counted symbol keeps at least 1; rows without counts stay zero. The rounding
+    remainder goes to (or comes from) the most frequent symbols, where it costs least."""
     counts = np.asarray(counts, dtype=np.int64)
-    out = np.zeros_like(counts)
-    for c, row in enumerate(counts):
-        total = int(row.sum())
-        if total == 0:
-            continue
-        f = np.maximum((row * M) // total, (row > 0).astype(np.int64))
-        # Give or take the difference where it costs least: from the largest entries.
-        diff = M - int(f.sum())
-        order = np.argsort(-row, kind="stable")
-        i = 0
-        while diff != 0:
-            k = order[i % np.count_nonzero(row)]
-            if diff > 0:
-                f[k] += 1
-                diff -= 1
-            elif f[k] > 1:
-                f[k] -= 1
-                diff += 1
-            i += 1
-        out[c] = f
-    return out
+    total = counts.sum(axis=1, keepdims=True)
+    f = np.where(counts > 0, np.maximum(counts * M // np.maximum(total, 1), 1), 0)
+    for c in np.flatnonzero(total[:, 0]):
+        row = f[c]
+        diff = M - int(row.sum())
+        for k in np.argsort(-counts[c], kind="stable"):
+            if diff == 0:
+                break
+            step = diff if diff > 0 else max(diff, 1 - int(row[k]))
+            row[k] += step
+            diff -= step
+    return f
 
 
 def starts(freqs: np.ndarray) -> np.ndarray:

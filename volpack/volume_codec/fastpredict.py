@@ -349,10 +349,19 @@ def _cap_contexts(counts: np.ndarray) -> tuple[int, np.ndarray, float]:
         merged = counts[:nctx].copy()
         merged[nctx - 1] += counts[nctx:].sum(axis=0)
         freqs = rans.normalize(merged)
-        cost = rans.cost_bits(merged, freqs) + 8 * len(pack_tables(freqs))
+        cost = rans.cost_bits(merged, freqs) + 8 * _table_bytes(freqs)
         if best is None or cost < best[2]:
             best = (nctx, freqs, cost)
     return best
+
+
+def _table_bytes(freqs: np.ndarray) -> int:
+    """``len(pack_tables(freqs))`` without packing (numbers below 2^14: one LEB128 byte
+    below 128, else two)."""
+    nz = freqs > 0
+    t = np.where(nz.any(axis=1), freqs.shape[1] - np.argmax(nz[:, ::-1], axis=1), 0)
+    inside = np.arange(freqs.shape[1]) < t[:, None]
+    return int((1 + (t >= 128)).sum() + (inside * (1 + (freqs >= 128))).sum())
 
 
 def pack_tables(freqs: np.ndarray) -> bytes:
