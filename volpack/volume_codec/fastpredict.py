@@ -29,7 +29,6 @@ import numpy as np
 
 from .._jit import kernel, leading_zeros
 from ..entropy import rans
-from ..entropy.rans import RANS_L
 from ..errors import FormatError, OptionError
 from . import palette as pal
 
@@ -39,6 +38,7 @@ DIRECT = 16  # tokens 0..15 are the zig-zagged residual itself
 NTOK = DIRECT + 4 * 29  # bit lengths up to 33: residuals of a span below 2^32
 NCLASS = 48  # activity classes before the encoder caps them
 STATES = 2
+BAD_SYMBOL = 0xFF  # what the slots of an unused context decode to
 NEAR_GAIN = 0.01  # the share of bytes the slower ``near`` context must save
 ONE, TWO, THREE = np.uintp(1), np.uintp(2), np.uintp(3)  # unsigned offsets: no wrap test
 STATUS = {
@@ -51,8 +51,8 @@ STATUS = {
 def _token_tables() -> tuple[np.ndarray, np.ndarray]:
     """Each token's base value and raw bit count (a token that no residual makes gets a
     base no value range reaches, so decoding it fails the range check)."""
-    base = np.full(rans.NSYM, 1 << 40, dtype=np.int64)
-    nbits = np.zeros(rans.NSYM, dtype=np.int64)
+    base = np.full(rans.MAX_SYMBOLS, 1 << 40, dtype=np.int64)
+    nbits = np.zeros(rans.MAX_SYMBOLS, dtype=np.int64)
     base[:DIRECT] = np.arange(DIRECT)
     for t in range(DIRECT, NTOK):
         n = (t - DIRECT) // 4 + 5
@@ -194,44 +194,17 @@ def _tokens_kernel(v, shape, lo, hi, pid, cid, toks, ctxs, u, counts, bits):
     return bpos * 8 - ((8 - nacc) & 7)
 
 
-@kernel(nrt=False)
-def _rans_kernel(toks, ctxs, nctx, freqs, starts, words):
-    """Backward pass of the encoder: the tokens into two rANS states taking voxels in
-    turn (even voxels state 0), words filling ``words`` from its end; the final states
-    go in front. Returns the index of the first word, or -1 when ``words`` is too
-    small."""
-    n = toks.size
-    wpos = words.size
-    x0 = np.int64(RANS_L)
-    x1 = np.int64(RANS_L)
-    for i in range(n - 1, -1, -1):
-        if wpos < 8:
-            return -1
-        c = min(np.int64(ctxs[i]), nctx - 1)
-        t = toks[i]
-        f = freqs[c, t]
-        s = starts[c, t]
-        if i & 1:
-            x1, wpos = rans.put(words, wpos, x1, f, s)
-        else:
-            x0, wpos = rans.put(words, wpos, x0, f, s)
-    words[wpos - 4] = x0 >> 16
-    words[wpos - 3] = x0 & 0xFFFF
-    words[wpos - 2] = x1 >> 16
-    words[wpos - 1] = x1 & 0xFFFF
-    return wpos - 4
-
-
 @kernel(inline=True)
-def _symbol(table, c, words, rpos, x0, x1, i, bits, bpos, acc, nacc, tok_base, tok_bits):
-    """Decode voxel ``i``'s zig-zagged residual: its token from state ``i & 1`` with the
-    look-up of context offset ``c``, then its raw low bits from the bit reader
-    ``(acc, nacc, bpos)``. Returns ``(u, rpos, x0, x1, bpos, acc, nacc)``. ``bits`` ends
-    with four 0 bytes past the stream, which every read beyond the end gets."""
+def _symbol(table, c, data, pos, x0, x1, i, bits, bpos, acc, nacc, tok_base, tok_bits):
+    """Decode voxel ``i``'s zig-zagged residual: its token from state ``i & 1`` in
+    context ``c`` (:func:`volpack.entropy.rans.decode_symbol`), then its raw low bits
+    from the bit reader ``(acc, nacc, bpos)``. Returns ``(u, pos, x0, x1, bpos, acc,
+    nacc)``. ``bits`` ends with four 0 bytes past the stream, which every read beyond
+    the end gets."""
     if i & 1:
-        t, x1, rpos = rans.get(table, c, words, rpos, x1)
+        t, x1, pos = rans.decode_symbol(data, x1, pos, c, table)
     else:
-        t, x0, rpos = rans.get(table, c, words, rpos, x0)
+        t, x0, pos = rans.decode_symbol(data, x0, pos, c, table)
     nb = tok_bits[np.uintp(t)]
     if nacc < 32:  # refill 32 bits
         k = np.uintp(min(bpos, bits.size - 4))
@@ -245,26 +218,21 @@ def _symbol(table, c, words, rpos, x0, x1, i, bits, bpos, acc, nacc, tok_base, t
         nacc += 32
         bpos += 4
     ue = tok_base[np.uintp(t)] + np.int64(acc & ((np.uint64(1) << np.uint64(nb)) - np.uint64(1)))
-    return ue, rpos, x0, x1, bpos, acc >> np.uint64(nb), nacc - nb
+    return ue, pos, x0, x1, bpos, acc >> np.uint64(nb), nacc - nb
 
 
 @kernel(nrt=False)
-def _decode_kernel(words, bits, table, nctx, pid, cid, shape, lo, hi, v, u, tok_base, tok_bits):
+def _decode_kernel(data, bits, table, nctx, pid, cid, shape, lo, hi, v, u, tok_base, tok_bits):
     """Decode a brick into ``v`` (flat; ``u`` a zeroed ring of two slices); 0, or a
-    :data:`STATUS` code. ``words`` and ``bits`` carry the zero padding :func:`_symbol`
-    reads past their ends. Inside a row the loop keeps W and its residual in registers
+    :data:`STATUS` code. ``data`` (the rANS stream) and ``bits`` carry the zero padding
+    :func:`_symbol` reads past their ends. Inside a row the loop keeps W and its residual in registers
     and reads the neighbours without edge tests or signed indices; edges go through
     :func:`_predict` and :func:`_context`, as in the encoder."""
     nz, ny, nx = shape[0], shape[1], shape[2]
     sy, sz = nx, ny * nx
     mid = (lo + hi) >> 1
     hictx = nctx - 1
-    nwords = words.size - 1
-    if nwords < 4:
-        return 1
-    x0 = (np.int64(words[0]) << 16) | np.int64(words[1])
-    x1 = (np.int64(words[2]) << 16) | np.int64(words[3])
-    rpos = 4
+    x0, x1, pos = rans.open_states(data)
     acc = np.uint64(0)
     nacc = 0
     bpos = 0
@@ -302,9 +270,9 @@ def _decode_kernel(words, bits, table, nctx, pid, cid, shape, lo, hi, v, u, tok_
                         if cid == 0:
                             a += uw
                             g += abs(w - nw)
-                        c = min(_activity(a + 2 * g), hictx) * rans.M
-                        uw, rpos, x0, x1, bpos, acc, nacc = _symbol(
-                            table, c, words, rpos, x0, x1, i, bits, bpos, acc, nacc,
+                        c = min(_activity(a + 2 * g), hictx)
+                        uw, pos, x0, x1, bpos, acc, nacc = _symbol(
+                            table, c, data, pos, x0, x1, i, bits, bpos, acc, nacc,
                             tok_base, tok_bits,
                         )  # fmt: skip
                         u[np.uintp(r)] = uw
@@ -317,8 +285,8 @@ def _decode_kernel(words, bits, table, nctx, pid, cid, shape, lo, hi, v, u, tok_
                     continue
                 p = min(max(_predict(v, i, z, y, x, sy, sz, pz, mid), lo), hi)
                 c = min(_context(v, u, i, r, sz - cur + y * nx + x, z, y, x, nx, cid), hictx)
-                ue, rpos, x0, x1, bpos, acc, nacc = _symbol(
-                    table, c * rans.M, words, rpos, x0, x1, i, bits, bpos, acc, nacc,
+                ue, pos, x0, x1, bpos, acc, nacc = _symbol(
+                    table, c, data, pos, x0, x1, i, bits, bpos, acc, nacc,
                     tok_base, tok_bits,
                 )  # fmt: skip
                 u[r] = ue
@@ -332,9 +300,9 @@ def _decode_kernel(words, bits, table, nctx, pid, cid, shape, lo, hi, v, u, tok_
         return 2
     nbytes = bits.size - 4
     used = bpos * 8 - nacc  # raw bits consumed
-    if rpos > nwords or used > nbytes * 8:
+    if pos > data.size - 2 or used > nbytes * 8:
         return 1
-    if rpos != nwords or x0 != RANS_L or x1 != RANS_L or (used + 7) >> 3 != nbytes:
+    if not rans.state_ok(data, x0, x1, pos) or (used + 7) >> 3 != nbytes:
         return 3
     return 0
 
@@ -348,8 +316,10 @@ def _cap_contexts(counts: np.ndarray) -> tuple[int, np.ndarray, float]:
     for nctx in range(max(1, top - 12), top + 1):
         merged = counts[:nctx].copy()
         merged[nctx - 1] += counts[nctx:].sum(axis=0)
-        freqs = rans.normalize(merged)
-        cost = rans.cost_bits(merged, freqs) + 8 * _table_bytes(freqs)
+        freqs = rans.normalise(merged)
+        used = merged > 0
+        bits = -(merged[used] * np.log2(freqs[used] / rans.TOTAL)).sum()
+        cost = bits + 8 * _table_bytes(freqs)
         if best is None or cost < best[2]:
             best = (nctx, freqs, cost)
     return best
@@ -394,31 +364,33 @@ def _read_uleb(data, pos):
 
 
 @kernel(nrt=False)
-def _tables_kernel(data, pos, nctx, table):
-    """Read the frequency tables of :func:`pack_tables` from ``data[pos:]`` and fill the
-    decoder's look-up (``nctx * M`` entries, see :func:`rans.spread`).
-    Returns the position after them, or -1 (past the end), -2 (too many tokens), -3 (a
-    table that does not sum to ``M``)."""
-    for c in range(nctx):
+def _tables_kernel(data, pos, table):
+    """Read the frequency tables of :func:`pack_tables` from ``data[pos:]`` into the
+    decoder's look-up (:func:`volpack.entropy.rans.slot_table`'s layout, one row per
+    context; every slot of an unused context decodes to :data:`BAD_SYMBOL`, a token no
+    residual makes, so to a value outside any range). Returns the position after them, or -1 (past the
+    end), -2 (too many tokens), -3 (a table that does not sum to the total, or gives
+    one token all of it)."""
+    for c in range(table.shape[0]):
         t, pos = _read_uleb(data, pos)
         if pos < 0:
             return -1
         if t > NTOK:
             return -2
-        base = c * rans.M
         slot = 0
         for k in range(t):
             f, pos = _read_uleb(data, pos)
             if pos < 0:
                 return -1
-            if f > rans.M - slot:
+            if f >= rans.TOTAL or slot + f > rans.TOTAL:
                 return -3
-            rans.spread(table, base, slot, f, k)
+            for j in range(f):
+                table[c, slot + j] = k | (f << 8) | (j << 20)
             slot += f
         if t == 0:
-            for j in range(rans.M):
-                table[base + j] = rans.BAD_SYMBOL
-        elif slot != rans.M:
+            for j in range(rans.TOTAL):
+                table[c, j] = BAD_SYMBOL
+        elif slot != rans.TOTAL:
             return -3
     return pos
 
@@ -453,7 +425,7 @@ def encode(
     def trial(pid: int, cid: int) -> tuple:
         toks = np.empty(n, dtype=np.uint8)
         ctxs = np.empty(n, dtype=np.uint8)
-        counts = np.zeros((NCLASS, rans.NSYM), dtype=np.int64)
+        counts = np.zeros((NCLASS, rans.MAX_SYMBOLS), dtype=np.int64)
         bits = np.empty(4 * n + 16, dtype=np.uint8)
         nbits = _tokens_kernel(
             flat, shape, np.int64(lo), np.int64(hi), pid, cid, toks, ctxs, ring, counts, bits
@@ -472,13 +444,10 @@ def encode(
         if near[0] * (1 + NEAR_GAIN) < best[0]:
             best = near
     _, pid, cid, nctx, freqs, raw, toks, ctxs = best
-    words = np.empty(n + 64, dtype=np.uint16)  # at most one word a voxel, and the states
-    first = _rans_kernel(toks, ctxs, np.int64(nctx), freqs, rans.starts(freqs), words)
-    if first < 0:
-        raise AssertionError("fast coder overflowed its word buffer")
-    w = words[first:].astype("<u2").tobytes()
+    hictx = np.int64(nctx - 1)
+    stream = rans.encode(toks, np.minimum(ctxs.astype(np.int64), hictx), freqs)
     head = bytes([pid | (cid << 2)]) + pal.uleb(nctx) + pack_tables(freqs)
-    return head + pal.uleb(len(w) // 2) + w + raw
+    return head + pal.uleb(len(stream)) + stream + raw
 
 
 def decode(data: bytes | memoryview, shape: tuple[int, int, int], lo: int, hi: int) -> np.ndarray:
@@ -495,24 +464,24 @@ def decode(data: bytes | memoryview, shape: tuple[int, int, int], lo: int, hi: i
     nctx, pos = pal.read_uleb(data, 1)
     if not 1 <= nctx <= NCLASS:
         raise FormatError(f"fast stream: {nctx} contexts, expected 1..{NCLASS}")
-    table = np.empty(nctx * rans.M, dtype=np.uint32)
-    pos = _tables_kernel(np.frombuffer(data, dtype=np.uint8), pos, nctx, table)
+    table = np.empty((nctx, rans.TOTAL), dtype=np.uint32)
+    pos = _tables_kernel(np.frombuffer(data, dtype=np.uint8), pos, table)
     if pos < 0:
         why = {-1: "runs past the payload", -2: "has too many tokens", -3: "does not sum to M"}
         raise FormatError(f"fast stream: a frequency table {why[pos]}")
-    nwords, pos = pal.read_uleb(data, pos)
-    if pos + 2 * nwords > len(data):
-        raise FormatError("fast stream: the rANS words run past the payload")
-    words = np.zeros(nwords + 1, dtype=np.uint16)  # one 0 word past the end
-    words[:nwords] = np.frombuffer(data[pos : pos + 2 * nwords], dtype="<u2")
-    raw = data[pos + 2 * nwords :]
+    nbytes, pos = pal.read_uleb(data, pos)
+    if pos + nbytes > len(data):
+        raise FormatError("fast stream: the rANS stream runs past the payload")
+    stream = np.zeros(nbytes + 2, dtype=np.uint8)  # two 0 bytes past the end
+    stream[:nbytes] = np.frombuffer(data[pos : pos + nbytes], dtype=np.uint8)
+    raw = data[pos + nbytes :]
     bits = np.zeros(len(raw) + 4, dtype=np.uint8)  # four 0 bytes past the end
     bits[: len(raw)] = np.frombuffer(raw, dtype=np.uint8)
     n = int(np.prod(shape))
     v = np.empty(n, dtype=_work_dtype(lo, hi))
     ring = np.zeros(2 * int(shape[1]) * int(shape[2]), dtype=np.int64)
     status = _decode_kernel(
-        words, bits, table, np.int64(nctx), pid, cid,
+        stream, bits, table, np.int64(nctx), pid, cid,
         np.array(shape, dtype=np.int64), np.int64(lo), np.int64(hi), v, ring,
         TOK_BASE, TOK_BITS,
     )  # fmt: skip
