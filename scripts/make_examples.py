@@ -163,6 +163,25 @@ def make_lossless(folder: Path) -> Path:
     return folder
 
 
+# -- fast codec examples: formats/examples/fast-*.vpk ------------------------------------
+
+FAST_CASES = [
+    ("fast-u8", "u8", {"codec": "fast"}),
+    ("fast-u8-background", "u8-background", {"codec": "fast"}),
+    ("fast-i16-palette", "i16", {"codec": "fast"}),
+    ("fast-f32-special", "f32-special", {"codec": "fast"}),
+]
+
+
+def make_fast(folder: Path) -> Path:
+    from volpack import api
+
+    for stem, recipe, opts in FAST_CASES:
+        path = folder / f"{stem}.vpk"
+        api.compress(lossless_source(recipe), str(path), brick=WAVELET_BRICK, force=True, **opts)
+    return folder
+
+
 # -- lossy examples: formats/examples/lossy-*.vpk ------------------------------------
 
 LOSSY_CASES = [
@@ -315,6 +334,7 @@ EXAMPLES: dict[str, Callable[[Path], Path]] = {
     "container": make_container,
     "wavelet": make_wavelet,
     "lossless": make_lossless,
+    "fast": make_fast,
     "lossy": make_lossy,
     "animation": make_animation,
     "octree": make_octree,
