@@ -57,6 +57,11 @@ KINDS = {
     # not wavelet-53-huffman-dfs-i16: seven of its eight bricks are stored raw (noise)
     "huffman": ("wavelet-haar-huffman-dfs-u8.vpk", VOLUME_PATHS),
     "lossy-nan": (None, VOLUME_PATHS),
+    # the default lossless codec (per brick: prediction, palette, labels), the table-coded
+    # fast codec, and the lossy path that predicts quantised voxels by interpolation
+    "lossless": ("lossless-auto-u8.vpk", VOLUME_PATHS),
+    "fast": ("fast-u8-background.vpk", VOLUME_PATHS),
+    "lossy-interp": ("lossy-bounded-f32-interp.vpk", VOLUME_PATHS),
     "animation": (
         "animation-ibbp-bounded-u8.vpk",
         ("decompress", "frame", "info", "play", "stdin"),
