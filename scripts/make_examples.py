@@ -120,12 +120,17 @@ def make_wavelet(folder: Path) -> Path:
 
 # -- lossless codec examples: formats/examples/lossless-*.vpk ----------------------------
 
+# Version 1 of the predictive stream (the files written before version 2), then version 2.
+V1 = {"predict_version": 1}
 LOSSLESS_CASES = [
-    ("lossless-auto-u8", "u8-background", {}),
-    ("lossless-auto-i16-palette", "i16", {}),
-    ("lossless-predict-u8", "u8", {"tools": "predict"}),
-    ("lossless-auto-f32-special", "f32-special", {}),
-    ("lossless-auto-f32-field", "f32-field", {}),
+    ("lossless-auto-u8", "u8-background", V1),
+    ("lossless-auto-i16-palette", "i16", V1),
+    ("lossless-predict-u8", "u8", {"tools": "predict", **V1}),
+    ("lossless-auto-f32-special", "f32-special", V1),
+    ("lossless-auto-f32-field", "f32-field", V1),
+    ("lossless-v2-u8-mask", "u8-background", {}),
+    ("lossless-v2-i16-palette", "i16", {}),
+    ("lossless-v2-predict-u8", "u8", {"tools": "predict"}),
 ]
 
 

@@ -74,7 +74,7 @@ def test_predict_floor_division_is_exact():
     a = q * d + r  # quotient q, remainder r: every case, exact integers near and on
     a = np.concatenate([a, q * d, q * d - 1, q * d + d - 1])
     d = np.concatenate([d, d, d, d])
-    got = np.array([predict._floor_div(int(x), int(y)) for x, y in zip(a, d)])
+    got = np.array([predict.floor_div(int(x), int(y)) for x, y in zip(a, d)])
     np.testing.assert_array_equal(got, a // d)
 
 
@@ -250,12 +250,16 @@ def test_float_field_beats_byte_shuffled_zstd():
 # --- golden streams ----------------------------------------------------------------------
 
 # The recipes of scripts/make_examples.py, written out again on purpose.
+V1 = {"predict_version": 1}
 CASES = [
-    ("lossless-auto-u8", "u8-background", {}),
-    ("lossless-auto-i16-palette", "i16", {}),
-    ("lossless-predict-u8", "u8", {"tools": "predict"}),
-    ("lossless-auto-f32-special", "f32-special", {}),
-    ("lossless-auto-f32-field", "f32-field", {}),
+    ("lossless-auto-u8", "u8-background", V1),
+    ("lossless-auto-i16-palette", "i16", V1),
+    ("lossless-predict-u8", "u8", {"tools": "predict", **V1}),
+    ("lossless-auto-f32-special", "f32-special", V1),
+    ("lossless-auto-f32-field", "f32-field", V1),
+    ("lossless-v2-u8-mask", "u8-background", {}),
+    ("lossless-v2-i16-palette", "i16", {}),
+    ("lossless-v2-predict-u8", "u8", {"tools": "predict"}),
 ]
 
 
