@@ -1,0 +1,234 @@
+"""The whole `volpack render` process against a VTK script doing the same job.
+
+What a user waits for when previewing a file from the shell: start the interpreter, read
+the file, build whatever the renderer needs, render one 512 x 512 image, write the PNG,
+exit. Both sides read the same NRRD file (raw encoding, the volume's own dtype and
+spacing) with their own reader and render the same orthographic view with the same
+control points (``bench_render_peers.tf_points``), step and threads:
+
+* ``volpack``: ``volpack render FILE OUT.png --tf TF.json --no-fit --step S -j W
+  --shading phong|none`` (the console entry point of the Python running this script,
+  kernels from the on-disk cache as in every run after the first: one untimed run of
+  each side per case comes first);
+* ``vtk``: a Python script that imports only the VTK modules it needs (as VTK's own
+  examples do), reads the file with ``vtkNrrdReader``, renders with
+  ``vtkFixedPointVolumeRayCastMapper`` (automatic sampling off, ``SampleDistance`` =
+  the step in world units, ``ImageSampleDistance`` 1), off screen through EGL, and writes
+  the PNG with ``vtkPNGWriter``. This file runs itself with ``--vtk-child`` for it.
+
+The two processes alternate, ``--rounds`` times per case; the median wall time of each
+is kept, with the children's CPU time. Writes ``process.csv`` and ``process.png`` under
+``--out``.
+
+    python scripts/bench_render_process.py [--rounds 3] [--out results/render]
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+VOLUMES = ("ct_head", "mri_mni152", "zmap_neurovault")
+
+
+def vtk_child(argv) -> int:
+    """Render FILE into OUT.png with VTK's CPU ray caster; CASE is a JSON object."""
+    os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+    import vtkmodules.vtkRenderingOpenGL2  # noqa: F401  (the render window's back end)
+    import vtkmodules.vtkRenderingVolumeOpenGL2  # noqa: F401  (the mapper's image display)
+    from vtkmodules.vtkCommonDataModel import vtkPiecewiseFunction
+    from vtkmodules.vtkIOImage import vtkNrrdReader, vtkPNGWriter
+    from vtkmodules.vtkRenderingCore import (
+        vtkColorTransferFunction,
+        vtkRenderer,
+        vtkRenderWindow,
+        vtkVolume,
+        vtkVolumeProperty,
+        vtkWindowToImageFilter,
+    )
+    from vtkmodules.vtkRenderingVolume import vtkFixedPointVolumeRayCastMapper
+
+    path, out, case = argv[0], argv[1], json.loads(argv[2])
+    reader = vtkNrrdReader()
+    reader.SetFileName(path)
+    reader.Update()
+    img = reader.GetOutput()
+    sx, sy, sz = img.GetSpacing()
+    ctf, otf = vtkColorTransferFunction(), vtkPiecewiseFunction()
+    for v, r, g, b, a in case["points"]:
+        ctf.AddRGBPoint(v, r, g, b)
+        otf.AddPoint(v, a)
+    prop = vtkVolumeProperty()
+    prop.SetColor(ctf)
+    prop.SetScalarOpacity(otf)
+    prop.SetScalarOpacityUnitDistance(min(sx, sy, sz))
+    prop.SetInterpolationTypeToLinear()
+    if case["shade"]:
+        ka, kd, ks, shin = case["phong"]
+        prop.ShadeOn()
+        prop.SetAmbient(ka)
+        prop.SetDiffuse(kd)
+        prop.SetSpecular(ks)
+        prop.SetSpecularPower(shin)
+    mapper = vtkFixedPointVolumeRayCastMapper()
+    mapper.SetInputConnection(reader.GetOutputPort())
+    mapper.SetAutoAdjustSampleDistances(0)
+    mapper.SetSampleDistance(case["step"] * min(sx, sy, sz))
+    mapper.SetImageSampleDistance(1.0)
+    mapper.SetNumberOfThreads(case["workers"])
+    actor = vtkVolume()
+    actor.SetMapper(mapper)
+    actor.SetProperty(prop)
+    ren = vtkRenderer()
+    ren.AddVolume(actor)
+    ren.SetBackground(0, 0, 0)
+    win = vtkRenderWindow()
+    win.SetOffScreenRendering(1)
+    win.AddRenderer(ren)
+    win.SetSize(case["size"], case["size"])
+    cam = ren.GetActiveCamera()
+    cam.ParallelProjectionOn()
+    centre, fwd, radius = case["centre"], case["forward"], case["radius"]
+    cam.SetFocalPoint(*centre)
+    cam.SetPosition(*(c - 4 * radius * f for c, f in zip(centre, fwd)))
+    cam.SetViewUp(0, 0, 1)
+    cam.SetParallelScale(radius)
+    ren.ResetCameraClippingRange()
+    win.Render()
+    grab = vtkWindowToImageFilter()
+    grab.SetInput(win)
+    grab.ReadFrontBufferOff()
+    writer = vtkPNGWriter()
+    writer.SetFileName(out)
+    writer.SetInputConnection(grab.GetOutputPort())
+    writer.Write()
+    return 0
+
+
+def timed(cmd: list[str], env: dict) -> tuple[float, float]:
+    """Wall seconds and the child's CPU seconds (user + system) of one run of ``cmd``."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t = time.perf_counter()
+    done = subprocess.run(cmd, env=env, capture_output=True, text=True)
+    wall = time.perf_counter() - t
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if done.returncode:
+        raise SystemExit(f"{cmd[:3]} failed ({done.returncode}): {done.stderr.strip()[-400:]}")
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return wall, cpu
+
+
+def run_case(name, path, shape, spacing, points, tfk, shade, args, tmp, rows):
+    from bench_render_peers import KA, KD, KS, SHIN, view_frame
+
+    from volpack.render.transfer import TransferFunction
+
+    centre, fwd, radius = view_frame(shape, spacing, 30.0)
+    case = {"points": [list(p) for p in points], "shade": shade, "phong": [KA, KD, KS, SHIN],
+            "step": args.step, "workers": args.workers, "size": args.size,
+            "centre": [float(c) for c in centre], "forward": [float(f) for f in fwd],
+            "radius": float(radius)}  # fmt: skip
+    tf_path = tmp / f"{name}-{tfk}.json"
+    tf_path.write_text(TransferFunction(points=tuple(points), name=tfk).to_json())
+    env = dict(os.environ, VTK_DEFAULT_OPENGL_WINDOW="vtkEGLRenderWindow")
+    volpack = [str(Path(sys.executable).with_name("volpack")), "render", str(path),
+               str(tmp / "volpack.png"), "--force", "--tf", str(tf_path), "--no-fit",
+               "--step", str(args.step), "--size", f"{args.size}x{args.size}",
+               "-j", str(args.workers), "--shading", "phong" if shade else "none"]  # fmt: skip
+    vtk = [sys.executable, __file__, "--vtk-child", str(path), str(tmp / "vtk.png"),
+           json.dumps(case)]  # fmt: skip
+    runs: dict[str, list[tuple[float, float]]] = {"volpack": [], "vtk": []}
+    timed(volpack, env)  # untimed: compiles kernels for a dtype not seen before, warms caches
+    timed(vtk, env)
+    for _ in range(args.rounds):  # alternate, so machine load hits both alike
+        runs["volpack"].append(timed(volpack, env))
+        runs["vtk"].append(timed(vtk, env))
+    med = {k: (statistics.median(w for w, _ in v), statistics.median(c for _, c in v))
+           for k, v in runs.items()}  # fmt: skip
+    row = {"volume": name, "tf": tfk, "shading": "phong" if shade else "none",
+           "volpack_wall_s": round(med["volpack"][0], 3),
+           "volpack_cpu_s": round(med["volpack"][1], 3),
+           "vtk_wall_s": round(med["vtk"][0], 3), "vtk_cpu_s": round(med["vtk"][1], 3),
+           "wall_ratio": round(med["volpack"][0] / med["vtk"][0], 3)}  # fmt: skip
+    rows.append(row)
+    print(f"  {name:16s} {tfk:6s} {row['shading']:5s} volpack {row['volpack_wall_s']:6.2f} s "
+          f"(cpu {row['volpack_cpu_s']:5.2f})  vtk {row['vtk_wall_s']:6.2f} s "
+          f"(cpu {row['vtk_cpu_s']:5.2f})  volpack/vtk {row['wall_ratio']:.2f}", flush=True)
+
+
+def chart(rows, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    labels = [f"{r['volume']}\n{r['tf']} {r['shading']}" for r in rows]
+    x = range(len(rows))
+    fig, ax = plt.subplots(figsize=(max(7.0, 0.8 * len(rows)), 4.5))
+    ax.bar([i - 0.2 for i in x], [r["volpack_wall_s"] for r in rows], 0.4, label="volpack render")
+    ax.bar([i + 0.2 for i in x], [r["vtk_wall_s"] for r in rows], 0.4, label="VTK script")
+    ax.set_xticks(list(x))
+    ax.set_xticklabels(labels, fontsize=6, rotation=60, ha="right")
+    ax.set_ylabel("wall seconds, whole process (median)")
+    ax.set_title("File to PNG: volpack render vs a VTK script (same view, TF, step, threads)")
+    ax.legend(fontsize=8)
+    ax.grid(axis="y", alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main(argv=None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    if argv[:1] == ["--vtk-child"]:
+        return vtk_child(argv[1:])
+    sys.path.insert(0, str(ROOT / "scripts"))
+    import datasets
+    from bench_render_peers import tf_base, tf_points
+
+    from volpack.api import write_volume
+    from volpack.volume import Volume
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", type=Path, default=ROOT / "results" / "render")
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--size", type=int, default=512)
+    ap.add_argument("--step", type=float, default=0.5)
+    ap.add_argument("--volumes", nargs="+", default=list(VOLUMES))
+    args = ap.parse_args(argv)
+    args.out.mkdir(parents=True, exist_ok=True)
+    rows: list[dict] = []
+    with tempfile.TemporaryDirectory(prefix="volpack-bench-") as d:
+        tmp = Path(d)
+        for name in args.volumes:
+            vol, spacing, _ = datasets.load(name)
+            spacing = tuple(float(s) for s in spacing)
+            path = tmp / f"{name}.nrrd"
+            write_volume(Volume(vol, spacing=spacing), str(path))
+            print(f"{name} {vol.shape} {vol.dtype} spacing {spacing}", flush=True)
+            for tfk in ("semi", "opaque"):
+                points = tf_points(tfk, *tf_base(vol))
+                for shade in (False, True):
+                    run_case(name, path, vol.shape, spacing, points, tfk, shade, args, tmp, rows)
+    with open(args.out / "process.csv", "w", newline="") as f:
+        wr = csv.DictWriter(f, fieldnames=list(rows[0]))
+        wr.writeheader()
+        wr.writerows(rows)
+    chart(rows, args.out / "process.png")
+    print(f"wrote {args.out / 'process.csv'} and process.png")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
