@@ -219,26 +219,30 @@ def _encode_predict(brick: np.ndarray, version: int = 1) -> list[bytes]:
 def _encode_fit(values: np.ndarray, lo: int, hi: int) -> bytes:
     """The shortest version-2 predictive payload of an integer brick: on its values or
     on their palette ranks (when the brick leaves values of its range unused), then
-    for the better of those with a background mask, then with one gradient class."""
+    for the better of those with a background mask, and with one gradient class."""
     from . import predictfit
 
-    domains = [(bytes([MODE_PREDICT, FLAG_FIT]) + pal.uleb(_zigzag(lo)) + pal.uleb(hi - lo), values, lo, hi)]
+    head = bytes([MODE_PREDICT, FLAG_FIT]) + pal.uleb(_zigzag(lo)) + pal.uleb(hi - lo)
+    domains = [(head, values, lo, hi)]
     p = pal.build(values)
     if 2 < len(p) < hi - lo + 1 and len(p) <= pal.MAX_PALETTE:
         head = bytes([MODE_PREDICT, FLAG_FIT | FLAG_PALETTE]) + pal.pack(p)
         domains.append((head, pal.to_ranks(values, p), 0, len(p) - 1))
-    tried = [(head + predictfit.encode(v, a, b), head, v, a, b) for head, v, a, b in domains]
-    best, head, v, a, b = min(tried, key=lambda t: len(t[0]))
-    masked = bgmask.choose(v)
+    tried = []
+    for head, v, a, b in domains:
+        fits = predictfit.fit(v - a)  # one fit serves every variant below
+        tried.append((head + predictfit.encode(v, a, b, fitted=fits[0]), head, v, a, b, fits))
+    best, head, v, a, b, fits = min(tried, key=lambda t: len(t[0]))
     section, mask = b"", None
+    masked = bgmask.choose(v)
     if masked is not None:
         fill, m = masked
         sec = bgmask.encode(fill - a, m)
         head2 = bytes([head[0], head[1] | FLAG_MASK]) + head[2:]
-        payload = head2 + sec + predictfit.encode(v, a, b, mask=m)
+        payload = head2 + sec + predictfit.encode(v, a, b, mask=m, fitted=fits[0])
         if len(payload) < len(best):
             best, head, section, mask = payload, head2, sec, m
-    one = head + section + predictfit.encode(v, a, b, classes=1, mask=mask)
+    one = head + section + predictfit.encode(v, a, b, mask=mask, fitted=fits[1])
     return min(best, one, key=len)
 
 
