@@ -185,8 +185,6 @@ def _encode_predict(brick: np.ndarray, version: int = 1) -> list[bytes]:
         from . import floatcode
 
         out = [bytes([MODE_PREDICT, flags | FLAG_SPLIT]) + floatcode.encode(values, brick.itemsize)]
-    elif version >= 2:
-        out = [_encode_fit(values, lo, hi)]
     else:
         out = [
             bytes([MODE_PREDICT, flags])
@@ -194,7 +192,9 @@ def _encode_predict(brick: np.ndarray, version: int = 1) -> list[bytes]:
             + pal.uleb(hi - lo)
             + predict.encode(values, lo, hi)
         ]
-    if hi - lo + 1 > 2 and version < 2:
+    if version >= 2 and not is_float:  # version 1 stays a candidate: tiny bricks pay
+        out.append(_encode_fit(values, lo, hi))  # 136 bytes of weights in version 2
+    if hi - lo + 1 > 2:
         p = pal.build(values)
         if len(p) < hi - lo + 1 and len(p) <= pal.MAX_PALETTE:
             ranks = pal.to_ranks(values, p)
