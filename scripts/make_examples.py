@@ -181,6 +181,25 @@ def make_lossless(folder: Path) -> Path:
     return folder
 
 
+# -- fast codec examples: formats/examples/fast-*.vpk ------------------------------------
+
+FAST_CASES = [
+    ("fast-u8", "u8", {"codec": "fast"}),
+    ("fast-u8-background", "u8-background", {"codec": "fast"}),
+    ("fast-i16-palette", "i16", {"codec": "fast"}),
+    ("fast-f32-special", "f32-special", {"codec": "fast"}),
+]
+
+
+def make_fast(folder: Path) -> Path:
+    from volpack import api
+
+    for stem, recipe, opts in FAST_CASES:
+        path = folder / f"{stem}.vpk"
+        api.compress(lossless_source(recipe), str(path), brick=WAVELET_BRICK, force=True, **opts)
+    return folder
+
+
 # -- lossy examples: formats/examples/lossy-*.vpk ------------------------------------
 
 LOSSY_CASES = [
@@ -196,9 +215,12 @@ def lossy_source(recipe: str):
     """The volume a lossy example codes; ``f32`` adds NaN, -Inf and a fill value."""
     import numpy as np
 
-    if recipe != "f32":
+    if recipe not in ("f32", "f32-walk"):
         return wavelet_source(recipe)
     f = wavelet_source("u8").astype(np.float32) / 3
+    if recipe == "f32-walk":
+        c = wavelet_source("u8").astype(np.float64)
+        f = (np.cumsum(c - c.mean(), axis=2) / 40).astype(np.float32)
     f[2, 3:6, 4] = np.nan
     f[5, 5, 5] = -np.inf
     f[10:12, :, 20:] = -999.0
@@ -208,13 +230,23 @@ def lossy_source(recipe: str):
 # The float wavelet path of `bounded` (flag bit 4, lossy-1.md steps 9-13): the default
 # brick (the whole volume for a float volume under a bound), where it codes shortest;
 # its outliers as a bin field (outlier kind 2). lossy-bounded-f32/f64-cdf97.vpk, made
-# with the same recipe before kind 2 (their outliers a dense field, kind 1), are kept
-# as they are: today's decoder must still read them, today's encoder no longer makes them.
+# with the same recipe at max_error 2.0 before kind 2 (their outliers a dense field,
+# kind 1), and lossy-bounded-f32/f64-cdf97-bins.vpk, made before the interpolation path
+# (which now codes that recipe shortest), are kept as they are: today's decoder must
+# still read them, today's encoder no longer makes them.
 LOSSY_CDF97_CASES = [
-    ("lossy-bounded-f32-cdf97-bins", "f32", {"max_error": 2.0, "fill_value": -999.0}),
-    ("lossy-bounded-f64-cdf97-bins", "f64", {"max_error": 2.0, "fill_value": -999.0}),
     # a looser bound, where the `rows` scan (order 2) codes shortest
     ("lossy-bounded-f32-cdf97-rows", "f32", {"max_error": 8.0, "fill_value": -999.0}),
+]
+# The interpolation path (flag bit 6, lossy-1.md steps 14-18), where it codes shortest:
+# cubic (kind 1) and, in float64 with bins past 32 (raw bits), linear (kind 0)
+# interpolation on the float MRI; Lorenzo in 3-D (kind 2) and within slices (kind 3) on
+# the MRI summed along x (each column the previous plus an image).
+LOSSY_INTERP_CASES = [
+    ("lossy-bounded-f32-interp", "f32", {"max_error": 2.0, "fill_value": -999.0}),
+    ("lossy-bounded-f64-interp", "f64", {"max_error": 0.01, "fill_value": -999.0}),
+    ("lossy-bounded-f32-lorenzo", "f32-walk", {"max_error": 0.03, "fill_value": -999.0}),
+    ("lossy-bounded-f32-lorenzo2d", "f32-walk", {"max_error": 0.3, "fill_value": -999.0}),
 ]
 
 
@@ -224,8 +256,8 @@ def make_lossy(folder: Path) -> Path:
     for stem, recipe, opts in LOSSY_CASES:
         path = folder / f"{stem}.vpk"
         api.compress(lossy_source(recipe), str(path), brick=WAVELET_BRICK, force=True, **opts)
-    for stem, recipe, opts in LOSSY_CDF97_CASES:
-        source = lossy_source("f32")
+    for stem, recipe, opts in LOSSY_CDF97_CASES + LOSSY_INTERP_CASES:
+        source = lossy_source("f32" if recipe == "f64" else recipe)
         if recipe == "f64":
             source = source.astype("float64")
         api.compress(source, str(folder / f"{stem}.vpk"), force=True, **opts)
@@ -320,6 +352,7 @@ EXAMPLES: dict[str, Callable[[Path], Path]] = {
     "container": make_container,
     "wavelet": make_wavelet,
     "lossless": make_lossless,
+    "fast": make_fast,
     "lossy": make_lossy,
     "animation": make_animation,
     "octree": make_octree,

@@ -541,10 +541,94 @@ def cdf97_transform(arr, levels, backward=False):
     ks = range(max(levels) - 1, -1, -1) if backward else range(max(levels))
     for k in ks:
         cur = regions[k]
-        for axis in ((2, 1, 0) if backward else (0, 1, 2)):
+        for axis in (2, 1, 0) if backward else (0, 1, 2):
             if levels[axis] <= k:
                 continue
             view = np.moveaxis(a[tuple(slice(0, n) for n in cur)], axis, -1)
             for idx in np.ndindex(*view.shape[:-1]):
                 view[idx] = cdf97_lift_1d(list(view[idx]), backward)
     return a
+
+
+# --- the bounded codec's interpolation path (formats/lossy-1.md steps 14-17) ---
+
+
+def interp_walk(g, step, kind):
+    """``(rec, bins, contexts)`` of steps 14-17 on ``g`` (already in the walk's axis
+    order), one voxel at a time, straight from the spec."""
+    import math
+
+    import numpy as np
+
+    m = g.shape
+    rec = np.zeros(m)
+    bins = np.zeros(m, dtype=np.int64)
+    out_b, out_c = [], []
+
+    def code(i, p, neighbours, prev):
+        d = math.floor((g[i] - p) / step + 0.5)
+        b = d if abs(d) < 2**30 else 0
+        rec[i] = p + b * step
+        bins[i] = b
+        t = sum(min(abs(int(bins[j])), 127) for j in neighbours)
+        out_b.append(b)
+        out_c.append(3 * min(t.bit_length(), 5) + prev)
+        return min(abs(b), 2)
+
+    if kind >= 2:
+        for i0, i1 in np.ndindex(m[0], m[1]):
+            prev = 0
+            for i2 in range(m[2]):
+                terms = [(0, 0, 1, 1), (0, 1, 0, 1), (0, 1, 1, -1)]
+                if kind == 2:
+                    terms += [(1, 0, 0, 1), (1, 0, 1, -1), (1, 1, 0, -1), (1, 1, 1, 1)]
+                p = 0.0
+                for d0, d1, d2, sign in terms:
+                    j = (i0 - d0, i1 - d1, i2 - d2)
+                    if min(j) >= 0:
+                        p = p + rec[j] if sign > 0 else p - rec[j]
+                nb = [j for j in ((i0, i1, i2 - 1), (i0, i1 - 1, i2)) if min(j) >= 0]
+                prev = code((i0, i1, i2), p, nb, prev)
+        return rec, np.array(out_b), np.array(out_c)
+    top = 0
+    while 2**top < max(m):
+        top += 1
+    code((0, 0, 0), 0.0, [], 0)
+    for lv in range(top - 1, -1, -1):
+        s = 2**lv
+        for axis in range(3):
+            for i in np.ndindex(*m):
+                on = [
+                    i[a] % (2 * s) == (s if a == axis else 0) if a >= axis else i[a] % s == 0
+                    for a in range(3)
+                ]
+                if not all(on):
+                    continue
+
+                def at(k, i=i, axis=axis, s=s):
+                    j = list(i)
+                    j[axis] += k * s
+                    return tuple(j)
+
+                n, k = m[axis], i[axis]
+                b, c = rec[at(-1)], None
+                if k + s < n:
+                    c = rec[at(1)]
+                lo, hi = k - 3 * s >= 0, k + 3 * s < n
+                if c is None:
+                    p = b
+                elif kind == 0 or not (lo or hi):
+                    p = (b + c) * 0.5
+                elif lo and hi:
+                    p = (9.0 * (b + c) - (rec[at(-3)] + rec[at(3)])) * 0.0625
+                elif hi:
+                    p = (3.0 * b + 6.0 * c - rec[at(3)]) * 0.125
+                else:
+                    p = (6.0 * b + 3.0 * c - rec[at(-3)]) * 0.125
+                nb = [at(-1)] + ([at(1)] if c is not None else [])
+                # the context's second part: the same pass's voxel one row back (axis 1)
+                sy, y0 = (2 * s if axis <= 1 else s), (s if axis == 1 else 0)
+                back = (i[0], i[1] - sy, i[2])
+                prev = min(abs(int(bins[back])), 2) if i[1] - sy >= y0 else 0
+                code(i, p, nb, prev)
+    return rec, np.array(out_b), np.array(out_c)

@@ -119,6 +119,22 @@ def test_bad_header_values_give_one_line_errors(stream, tmp_path, field, value, 
         _one_line_error(_cli(*cmd))
 
 
+def test_a_shape_that_disagrees_with_the_chunks_is_refused_before_allocating(stream, tmp_path):
+    # a fuzz find: 8 chunks under a header shape of 20 x 24 x 3,670,016 made the decoder list
+    # 917,504 bricks and reserve 1.7 GB before the first brick failed (10 s); the count of
+    # chunks now settles it first, from a file and from a pipe alike
+    bad = _rewrite(stream, shape=[20, 24, 3670016], brick=[16, 16, 16])
+    with pytest.raises(FormatError, match="expected 917504 chunks .* found 1"):
+        api.decompress(bad)
+    with pytest.raises(FormatError, match="expected 917504 chunks"):
+        api.decompress(io.BytesIO(bad))
+    path = tmp_path / "bad.vpk"
+    path.write_bytes(bad)
+    _one_line_error(_cli("render", path, tmp_path / "o.png", "--size", "16x16"))
+    r = CliRunner().invoke(main, ["decompress", "-", str(tmp_path / "o.npy")], input=bad)
+    _one_line_error(r)
+
+
 def test_info_on_a_bad_shape_is_an_error(stream, tmp_path):
     for shape in ({}, None, "x"):
         bad = tmp_path / "bad.vpk"

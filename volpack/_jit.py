@@ -101,16 +101,26 @@ else:  # LLVM's ctlz: one instruction where the CPU has it
     from numba.cpython.unsafe.numbers import leading_zeros  # noqa: F401
 
 
-def kernel(fn=None, /, *, parallel: bool = False, inline: bool = False, nrt: bool = True):
+def kernel(
+    fn=None, /, *, parallel: bool = False, inline: bool = False, nrt: bool = True,
+    contract: bool = False,
+):  # fmt: skip
     """Decorate a kernel: nopython, nogil, cached on disk, no fastmath (bit-exact).
 
     ``nrt=False`` compiles without numba's reference counting: the kernel may not
     allocate arrays (its caller passes them in), and in exchange its loops carry no
     reference-count calls. Inlined helpers that take arrays otherwise leave such calls
     in hot loops (measured: a third of the predictive decoder's time).
+
+    ``contract=True`` lets LLVM fuse a multiply and an add into one FMA instruction (one
+    rounding instead of two): the result may differ in the last bit between CPUs with
+    and without FMA, never between runs or thread counts on one CPU. Only for kernels
+    whose output is an image, never bytes (the ray caster's march: 12-15 % faster).
     """
     if fn is None:
-        return functools.partial(kernel, parallel=parallel, inline=inline, nrt=nrt)
+        return functools.partial(
+            kernel, parallel=parallel, inline=inline, nrt=nrt, contract=contract
+        )
     return numba.njit(
         fn,
         cache=CACHE,
@@ -118,6 +128,7 @@ def kernel(fn=None, /, *, parallel: bool = False, inline: bool = False, nrt: boo
         parallel=parallel,
         inline="always" if inline else "never",
         error_model="numpy",
+        fastmath={"contract"} if contract else False,
         _nrt=nrt,
     )
 

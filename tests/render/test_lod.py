@@ -42,7 +42,7 @@ def test_full_resolution_selection_renders_exactly_like_the_volume(tree_path, cl
         # or differences taken on the fly through the page table
         pv = paged_volume(t, select.by_level(t, 0), gradients=grads)
         assert (pv.grad is not None) == grads and pv.atlas.dtype == vol.dtype
-        # the plain volume takes the fast path (raycast._march_kernel) with precomputed
+        # the plain volume takes the fast path (raycast._march) with precomputed
         # gradients: the same samples and sums, rounded differently
         np.testing.assert_allclose(render(pv, **kw), render(vol, **kw), atol=1e-5)
 

@@ -1,4 +1,4 @@
-"""The ray caster's fast path (_march_kernel in volpack.render.raycast) and the per-volume preparation
+"""The ray caster's fast path (_march in volpack.render.raycast) and the per-volume preparation
 (volpack.render.prepared) against the general kernel and on-the-fly gradients, on the
 cases where a renderer breaks: one voxel thick, anisotropic voxels, the camera inside,
 fully transparent and fully opaque transfer functions, NaN voxels, 16-bit and float

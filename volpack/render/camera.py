@@ -125,7 +125,9 @@ class Camera:
         u = ((np.arange(w) + 0.5) * 2 / short - w / short)[None, :, None]
         v = (h / short - (np.arange(h) + 0.5) * 2 / short)[:, None, None]
         if self.projection == "orthographic":
-            origins = base + half * (u * right + v * up)
+            origins = np.add(u * right, v * up)  # in place from here: a frame's rays are
+            origins *= half  # 12 MB, and each new array of that size costs its page faults
+            origins += base
             dirs = np.broadcast_to(fwd, (h, w, 3)).copy()
         else:
             dirs = fwd + half * (u * right + v * up)
@@ -193,7 +195,8 @@ class Camera:
         with np.errstate(over="ignore", invalid="ignore"):  # still too large: checked below
             origins, dirs = cam.world_rays(centre, radius)
             ref = float(sp.min())
-            origins, dirs = origins / sp, dirs * (ref / sp)
+            origins /= sp
+            dirs *= ref / sp
         if not (np.isfinite(origins).all() and np.isfinite(dirs).all()):
             raise VolpackError(
                 f"cannot place the camera: the volume's extent (shape {tuple(shape_zyx)} times "

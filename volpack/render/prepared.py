@@ -55,6 +55,8 @@ class PreparedVolume:
     _fill: tuple = (_UNSET, None)  # the filled array
     _grad: tuple = (_UNSET, None)  # the gradient volume, or False over the budget
     _ranges: tuple = (_UNSET, None)  # (mins, maxs) per brick
+    _leap: tuple = (None, None)  # (empty bricks, leap map)
+    _memo: dict = dataclasses.field(default_factory=dict)  # name -> (key, value)
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -87,14 +89,32 @@ class PreparedVolume:
 
     def brick_ranges(self, fill: float | None, brick: int, kernel_fn) -> tuple:
         """Min and max per brick of :meth:`filled` (``kernel_fn`` fills them)."""
-        if self._ranges[0] != fill:
+        if self._ranges[0] != (fill, brick):
             vol = self.filled(fill)
             nb = tuple(max(1, -(-s // brick)) for s in vol.shape)
             mins = np.empty(nb, np.float32)
             maxs = np.empty(nb, np.float32)
             kernel_fn(vol, brick, mins, maxs)
-            self._ranges = (fill, (mins, maxs))
+            self._ranges = ((fill, brick), (mins, maxs))
         return self._ranges[1]
+
+    def memo(self, name: str, key, build):
+        """``build()``, kept under ``name`` (one value a name) while ``key`` stays equal."""
+        kept = self._memo.get(name)
+        if kept is None or kept[0] != key:
+            kept = (key, build())
+            self._memo[name] = kept
+        return kept[1]
+
+    def leap_map(self, empty: np.ndarray, kernel_fn) -> np.ndarray:
+        """The leap map (int32) of the empty-brick mask ``empty`` (``kernel_fn`` fills
+        it); kept while later frames find the same bricks empty (an orbit, or a TF
+        edit that does not change what is visible)."""
+        if self._leap[0] is None or not np.array_equal(self._leap[0], empty):
+            leap = np.zeros(empty.shape, np.int32)
+            kernel_fn(np.ascontiguousarray(empty), leap)
+            self._leap = (empty.copy(), leap)
+        return self._leap[1]
 
 
 def prepare_volume(volume, spacing=None, *, gradient_budget: int = GRADIENT_BUDGET):

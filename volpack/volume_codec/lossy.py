@@ -4,7 +4,9 @@
     The voxels are quantised before the transform: ``q = round((x - lo) / step)`` with
     ``step = 2E`` (floats) or integer bins of ``2e + 1`` values (integers, ``e =
     floor(E)``), so the reconstruction ``lo + q * step`` is within ``E`` of every voxel.
-    The integer field ``q`` is then coded by the lossless wavelet codec. The encoder
+    The integer field ``q`` is then coded by the lossless wavelet codec; floats are also
+    coded by the float CDF 9/7 (:mod:`.bounded_cdf97`) and by prediction from decoded
+    voxels (:mod:`.bounded_interp`), and the shortest coding kept. The encoder
     rebuilds the brick exactly as the decoder will and checks every voxel; any voxel
     that rounding to the output dtype pushed past ``E`` is stored exactly in a correction
     list, so the bound holds always. NaN, +-Inf and a declared fill value are taken out
@@ -55,9 +57,11 @@ from .specials import fill_masked, special_mask
 # The bounded payload's flag byte (formats/lossy-1.md, `bounded`).
 FLAG_MASK, FLAG_CORRECTIONS, FLAG_COEF, FLAG_RESIDUALS = 1, 2, 4, 8
 FLAG_CDF97, FLAG_OUTLIERS = 16, 32  # the float wavelet path (bounded_cdf97)
+FLAG_INTERP = 64  # the interpolation path (bounded_interp)
 _KNOWN_FLAGS = (
     FLAG_MASK | FLAG_CORRECTIONS | FLAG_COEF | FLAG_RESIDUALS | FLAG_CDF97 | FLAG_OUTLIERS
-)
+    | FLAG_INTERP
+)  # fmt: skip
 # Orthonormal coefficient step of the bounded codec's coefficient path, in units of the
 # error allowed on its grid (measured best on the head CT and the z-map).
 COEF_STEP = 2.0
@@ -198,7 +202,18 @@ class BoundedCodec(BrickCodec):
             for cand in self._cdf97_candidates(x, clean, mask):
                 if len(cand[0]) < len(best[0]):
                     best = cand
+            cand = self._interp_candidate(x, clean, mask)
+            if len(cand[0]) < len(best[0]):
+                best = cand
         return best
+
+    def _interp_candidate(self, x, clean, mask):
+        """The interpolation path (:mod:`volpack.volume_codec.bounded_interp`), checked on
+        every voxel like the others."""
+        from . import bounded_interp
+
+        inner, rec = bounded_interp.encode(clean.astype(np.float64), self.step)
+        return self._finish(x, mask, _to_float(rec, x.dtype, overwrite=True), FLAG_INTERP, [inner])
 
     def _cdf97_candidates(self, x, clean, mask):
         """The float CDF 9/7 path at each step it tries; each checked on every voxel."""
@@ -323,7 +338,9 @@ class BoundedCodec(BrickCodec):
             raise FormatError(f"bounded brick payload: unknown flags {flags:#x}")
         pos = 1
         inner, pos = _take(data, pos, len(data))
-        if flags & FLAG_CDF97:
+        if flags & FLAG_INTERP:
+            out = self._decode_interp(flags, inner, tuple(shape), dtype)
+        elif flags & FLAG_CDF97:
             out = self._decode_cdf97(flags, data, inner, pos, tuple(shape), dtype)
             pos = out[1]
             out = out[0]
@@ -363,6 +380,20 @@ class BoundedCodec(BrickCodec):
         if pos != len(data):
             raise FormatError(f"bounded brick payload: {len(data) - pos} stray bytes at the end")
         return out
+
+    def _decode_interp(self, flags, inner, shape, dtype):
+        from . import bounded_interp
+
+        if flags & (FLAG_COEF | FLAG_RESIDUALS | FLAG_CDF97 | FLAG_OUTLIERS) or dtype.kind != "f":
+            raise FormatError(
+                "bounded brick payload: the interpolation path is for float voxels, without "
+                "the other paths' flags"
+            )
+        rec = bounded_interp.decode(inner, shape, self.step)
+        if dtype != np.float64:
+            big = float(np.finfo(dtype).max)
+            np.clip(rec, -big, big, out=rec)
+        return rec.astype(dtype, order="C")  # the cast puts the axes back in C order
 
     def _decode_cdf97(self, flags, data, inner, pos, shape, dtype):
         from . import bounded_cdf97 as w

@@ -8,6 +8,7 @@ from typing import Any
 
 from ..errors import FormatError
 from .codec import WaveletCodec, ZstdCodec
+from .fast import FastCodec
 from .floatwave import FloatWaveletCodec
 from .lossless import LosslessCodec
 from .lossy import BoundedCodec, CoefCodec
@@ -22,6 +23,7 @@ CODECS: dict[str, type[BrickCodec]] = {
         BoundedCodec,
         CoefCodec,
         FloatWaveletCodec,
+        FastCodec,
     )
 }
 

@@ -13,6 +13,7 @@ whatever the worker count. Like every stream kind (:mod:`volpack.kinds`) it prov
 from __future__ import annotations
 
 import logging
+import math
 import threading
 import time
 from collections.abc import Callable
@@ -68,7 +69,13 @@ def make_codec(codec: str = "auto", dtype: Any = None, **options: Any):
         return WaveletCodec(**{k: v for k, v in options.items() if v is not None})
     if codec == "zstd":
         return ZstdCodec()
-    raise OptionError(f"expected codec 'auto', 'lossless', 'wavelet' or 'zstd', found {codec!r}")
+    if codec == "fast":
+        from .fast import FastCodec
+
+        return FastCodec()
+    raise OptionError(
+        f"expected codec 'auto', 'lossless', 'fast', 'wavelet' or 'zstd', found {codec!r}"
+    )
 
 
 def compress(
@@ -113,9 +120,11 @@ def compress(
     target : str or binary file
         Output path (written atomically; an existing file needs ``force``), ``'-'`` for
         standard output, or an open binary file.
-    codec : {"auto", "lossless", "wavelet", "zstd"}
+    codec : {"auto", "lossless", "fast", "wavelet", "zstd"}
         ``auto``: the ``lossless`` codec (per brick the wavelet, 3-D prediction, labels
         or split floats) for 8/16/32-bit integers and 16/32-bit floats, zstd for the rest.
+        ``fast``: lossless, decoding several times faster at a lower ratio
+        (:class:`volpack.volume_codec.fast.FastCodec`).
     wavelet, coder, order, max_levels
         Wavelet codec settings (see :class:`volpack.volume_codec.codec.WaveletCodec`).
     tools : {"auto", "wavelet", "predict"}, optional
@@ -180,7 +189,7 @@ def compress(
             from .codec import check_wavelet_dtype
 
             check_wavelet_dtype(vol.dtype)
-        elif c.codec_id == "lossless":
+        elif c.codec_id in ("lossless", "fast"):
             from .lossless import check_dtype
 
             check_dtype(vol.dtype)
@@ -298,6 +307,17 @@ class VolumeReader(CheckedReader):
         nt = shape[0] if len(shape) == 4 else 1
         if frame is not None and not 0 <= frame < nt:
             raise FormatError(f"expected a frame in 0..{nt - 1}, found {frame}")
+        seekable = r.seekable
+        nchunks = nt * math.prod(bricks.grid_shape(spatial, brick_t))
+        if not seekable:  # a pipe: the payloads are read (and counted) before anything else
+            cache = {(t, n): p for t, n, p in r}
+        if len(r if seekable else cache) != nchunks:
+            # every writer stores every brick; a shape or brick changed by damage shows here,
+            # before a list of a million bricks or an output of gigabytes is made
+            raise FormatError(
+                f"expected {nchunks} chunks for shape {list(shape)} in bricks of "
+                f"{list(brick_t)}, found {len(r if seekable else cache)}"
+            )
         region = parse_roi(roi, spatial)
         origin = tuple(o + s.start * d for o, s, d in zip(hdr["origin"], region, hdr["spacing"]))
         rshape = tuple(s.stop - s.start for s in region)
@@ -305,10 +325,6 @@ class VolumeReader(CheckedReader):
         out = np.empty((len(times), *rshape), dtype=dtype)
         nodes = bricks.bricks_in_roi(spatial, brick_t, region)
         tasks = [(i, t, node) for i, t in enumerate(times) for node in nodes]
-        seekable = r.seekable
-        if not seekable:
-            wanted = {(t, n) for _, t, n in tasks}
-            cache = {(t, n): p for t, n, p in r if (t, n) in wanted}
 
         lock = threading.Lock()
 

@@ -1,0 +1,153 @@
+"""The bounded codec's interpolation path: the walk against a naive reference, the bound
+on every voxel, special values, edge bounds, the rANS coder, and damaged payloads."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from naive import interp_walk
+from test_bounded_cdf97 import check_bound, flags_of
+
+from volpack import api
+from volpack.entropy import rans
+from volpack.errors import FormatError
+from volpack.format.sections import take_section
+from volpack.volume_codec import bounded_interp as bi
+from volpack.volume_codec.lossy import FLAG_INTERP, BoundedCodec
+
+
+def walk_field(dtype=np.float32):
+    """A field the interpolation path codes shortest at 1e-3 and 1e-4 of its range: the
+    demo MRI summed along z (each slice the previous plus an image)."""
+    from volpack.demo import load_demo_volume
+
+    c = load_demo_volume().data[20:40, 30:60, 30:70].astype(np.float64)
+    return (np.cumsum(c - c.mean(), axis=0) / 40).astype(dtype)
+
+
+def rough_float(shape, dtype=np.float32, seed=0):
+    """Smooth plus strong noise."""
+    r = np.random.default_rng(seed)
+    z, y, x = np.meshgrid(*(np.linspace(0, 3, n) for n in shape), indexing="ij")
+    return (np.sin(z + y) * np.cos(x) * 3 + r.normal(0, 0.3, shape)).astype(dtype)
+
+
+def zigzag(b):
+    return np.where(b >= 0, 2 * b, -2 * b - 1)
+
+
+@pytest.mark.parametrize("kind", [0, 1, 2, 3])
+@pytest.mark.parametrize("shape", [(7, 9, 13), (1, 5, 17), (6, 1, 1), (2, 2, 2)])
+def test_walk_matches_the_naive_reference_bit_for_bit(kind, shape):
+    g = rough_float(shape, np.float64, seed=kind) * 10
+    for perm in ((0, 1, 2), (2, 0, 1)):
+        rec, sym, ctx, raw = bi._run(g, 0.05, perm, kind)
+        want, bins, contexts = interp_walk(np.ascontiguousarray(g.transpose(perm)), 0.05, kind)
+        np.testing.assert_array_equal(rec, want.transpose(np.argsort(perm)))
+        big = zigzag(bins) >= bi.DIRECT
+        np.testing.assert_array_equal(sym[~big], zigzag(bins)[~big])
+        np.testing.assert_array_equal(ctx, contexts)
+        assert big.any() == (raw.size > 0)
+        assert np.abs(rec - g).max() <= 0.025 * (1 + 1e-12)
+
+
+@pytest.mark.parametrize("kind", [0, 1, 2, 3])
+def test_every_kind_round_trips_through_its_section(kind):
+    g = rough_float((11, 14, 19), np.float64, seed=3)
+    for step in (2.0, 0.02, 1e-7):  # the last: many bins past 32, raw bits
+        inner, rec = bi.encode(g, step, tried=((kind, ((1, 2, 0),)),))
+        assert inner[:4] == bytes([1, 2, 0, kind])
+        np.testing.assert_array_equal(bi.decode(inner, g.shape, step), rec)
+        assert np.abs(rec - g).max() <= step / 2 * (1 + 1e-9)
+
+
+@pytest.mark.parametrize("rel", [1e-3, 1e-4])
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_such_fields_take_the_interpolation_path_and_hold_the_bound(rel, dtype):
+    a = walk_field(dtype)
+    e = float(a.max() - a.min()) * rel
+    blob = api.compress_array(a, max_error=e)
+    assert all(f & FLAG_INTERP for f in flags_of(blob))
+    check_bound(a, blob, e)
+
+
+def test_nan_inf_and_fill_are_restored_exactly_on_the_interpolation_path():
+    a = walk_field()
+    a[2, 3:9, 4] = np.nan
+    a[7, 7, 7] = np.inf
+    a[8, 0, 0] = -np.inf
+    a[10:12, :, 20:] = -999.0
+    e = float(np.ptp(a[np.isfinite(a) & (a > -999)])) * 1e-3
+    blob = api.compress_array(a, max_error=e, fill_value=-999.0)
+    assert all(f & FLAG_INTERP and f & 1 for f in flags_of(blob))
+    check_bound(a, blob, e)
+
+
+def test_bounds_below_the_float_spacing_and_a_spike_and_a_constant():
+    a = rough_float((10, 12, 14)) + 1000  # spacing 6e-5 at 1000
+    for e in (1e-7, 1e-3):
+        check_bound(a, api.compress_array(a, max_error=e), e)
+    b = rough_float((16, 16, 16), np.float64)
+    b[8, 8, 8] = 1e6  # a spike far outside the rest
+    check_bound(b, api.compress_array(b, max_error=0.01), 0.01)
+    c = np.full((9, 9, 9), 3.25, np.float32)
+    np.testing.assert_array_equal(api.decompress_array(api.compress_array(c, max_error=0.1)), c)
+
+
+def test_rans_tables_normalise_and_round_trip():
+    counts = np.array([[5, 0, 1, 1000], [0, 0, 0, 0], [0, 7, 0, 0]])
+    f = rans.normalise(counts)
+    assert list(f.sum(axis=1)) == [rans.TOTAL, 0, rans.TOTAL]
+    assert f[0, 2] >= 1 and f[0, 1] == 0 and f[2].max() < rans.TOTAL
+    body = rans.pack_tables(f)
+    table, used = rans.unpack_tables(body, 3, 4, "t")
+    assert used == len(body)
+    np.testing.assert_array_equal(table, rans.slot_table(f))
+    bad = bytearray(body)
+    bad[2] += 1  # first frequency one more: the row no longer sums to TOTAL
+    with pytest.raises(FormatError):
+        rans.unpack_tables(bytes(bad), 3, 4, "t")
+    with pytest.raises(FormatError):
+        rans.unpack_tables(body[:-1], 3, 4, "t")
+
+
+def _interp_payload():
+    a = walk_field()
+    codec = BoundedCodec.plan(a.dtype, float(a.min()), float(a.max()), 0.05)
+    payload = codec.encode(a)
+    assert payload[0] & FLAG_INTERP
+    return a, codec, payload
+
+
+def test_damaged_interpolation_payloads_raise_format_errors():
+    a, codec, payload = _interp_payload()
+    np.testing.assert_allclose(codec.decode(payload, a.shape, a.dtype), a, rtol=0, atol=0.05)
+    inner, _ = take_section(memoryview(payload), 1, "inner")
+    start = len(payload) - len(inner)  # where the inner section begins
+    cases = [
+        payload[:-1],  # cut short
+        payload[:start] + bytes([1, 1, 2]) + payload[start + 3 :],  # not a permutation
+        payload[: start + 3] + bytes([4]) + payload[start + 4 :],  # unknown kind
+        bytes([payload[0] | 16]) + payload[1:],  # with the float wavelet's flag
+    ]
+    r = np.random.default_rng(1)
+    for _ in range(40):  # bytes of the stream changed
+        b = bytearray(payload)
+        i = int(r.integers(start + 4, len(payload)))
+        b[i] ^= 1 << int(r.integers(8))
+        cases.append(bytes(b))
+    raised = 0
+    for bad in cases:
+        try:
+            out = codec.decode(bad, a.shape, a.dtype)
+        except FormatError:
+            raised += 1
+            continue
+        assert out.shape == a.shape  # a change the checks cannot see still decodes safely
+    assert raised >= len(cases) - 8
+
+
+def test_the_interpolation_path_refuses_integer_dtypes():
+    a, codec, payload = _interp_payload()
+    with pytest.raises(FormatError):
+        codec.decode(payload, a.shape, np.int32)

@@ -1,0 +1,338 @@
+"""The fast codec: MED / 3-D MED prediction and static rANS, every dtype and shape, each
+predictor and context rule against a plain-Python reference, golden streams and
+corrupt payloads."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from volpack import api
+from volpack.entropy import rans
+from volpack.errors import FormatError
+from volpack.format.container import Reader
+from volpack.volume_codec import fastpredict, palette
+from volpack.volume_codec.fast import (
+    FLAG_FLOAT,
+    FLAG_PALETTE,
+    MODE_CODED,
+    MODE_CONSTANT,
+    MODE_RAW,
+    FastCodec,
+    describe,
+)
+from volpack.volume_codec.registry import get_codec
+
+GOLDEN = Path(__file__).resolve().parents[2] / "formats" / "examples"
+SHAPES = [(1, 1, 1), (1, 1, 9), (1, 7, 1), (5, 1, 1), (3, 4, 5), (2, 2, 2), (9, 17, 13)]
+
+
+def smooth(shape, seed=0, noise=2.0):
+    rng = np.random.default_rng(seed)
+    z, y, x = np.indices(shape)
+    return 60 + 40 * np.sin(x / 5.0) * np.cos(y / 7.0) + 3 * z + rng.normal(0, noise, shape)
+
+
+def same_bits(a, b):
+    return a.dtype == b.dtype and np.array_equal(
+        a.view(f"u{a.itemsize}"), np.ascontiguousarray(b).view(f"u{a.itemsize}")
+    )
+
+
+# --- the stream: every predictor and context rule ----------------------------------------
+
+
+@pytest.mark.parametrize("shape", SHAPES)
+@pytest.mark.parametrize("predictor", fastpredict.PREDICTORS)
+@pytest.mark.parametrize("context", fastpredict.CONTEXTS)
+def test_stream_roundtrip_every_shape(shape, predictor, context):
+    for v in (
+        np.rint(smooth(shape)).astype(np.int64),
+        np.rint(smooth(shape, noise=40) * 300).astype(np.int64),  # raw low bits
+    ):
+        lo, hi = int(v.min()), int(v.max())
+        data = fastpredict.encode(v, lo, hi, predictor, context)
+        back = fastpredict.decode(data, shape, lo, hi)
+        np.testing.assert_array_equal(back, v)
+
+
+@pytest.mark.parametrize("context", fastpredict.CONTEXTS)
+def test_stream_extreme_range(context):
+    rng = np.random.default_rng(3)
+    v = rng.integers(-(2**31), 2**31, (6, 7, 8), dtype=np.int64)
+    v[0, 0, 0], v[-1, -1, -1] = -(2**31), 2**31 - 1  # residuals of 33 bits
+    for predictor in fastpredict.PREDICTORS:
+        data = fastpredict.encode(v, -(2**31), 2**31 - 1, predictor, context)
+        np.testing.assert_array_equal(fastpredict.decode(data, v.shape, -(2**31), 2**31 - 1), v)
+
+
+def _reference_tokens(v, lo, hi, pid, cid):
+    """Tokens and contexts of formats/fast-1.md steps 4, 5 and 7, in plain Python."""
+    nz, ny, nx = v.shape
+    u = np.zeros(v.shape, dtype=np.int64)
+    toks, ctxs = [], []
+
+    def med(a, b, c):
+        return min(max(a + b - c, min(a, b)), max(a, b))
+
+    def at(z, y, x):
+        return lambda dz, dy, dx: int(v[z - dz, y - dy, x + dx])
+
+    for z in range(nz):
+        for y in range(ny):
+            for x in range(nx):
+                V = at(z, y, x)
+                if x > 0 and y > 0:
+                    p = med(V(0, 0, -1), V(0, 1, 0), V(0, 1, -1))
+                    d = V(1, 0, 0) - med(V(1, 0, -1), V(1, 1, 0), V(1, 1, -1)) if z else 0
+                elif x > 0:
+                    p, d = V(0, 0, -1), (V(1, 0, 0) - V(1, 0, -1) if z else 0)
+                elif y > 0:
+                    p, d = V(0, 1, 0), (V(1, 0, 0) - V(1, 1, 0) if z else 0)
+                else:
+                    p, d = (V(1, 0, 0) if z else (lo + hi) >> 1), 0
+                p += (0, d, d >> 1)[pid]
+                p = min(max(p, lo), hi)
+                a, g = 0, 0
+                if y > 0:
+                    a += u[z, y - 1, x]
+                    if x > 0:
+                        a += u[z, y - 1, x - 1]
+                        g += abs(V(0, 1, 0) - V(0, 1, -1))
+                        if cid == 0:
+                            g += abs(V(0, 0, -1) - V(0, 1, -1))
+                    if x + 1 < nx:
+                        a += u[z, y - 1, x + 1]
+                        g += abs(V(0, 1, 1) - V(0, 1, 0))
+                if x > 0 and cid == 0:
+                    a += u[z, y, x - 1]
+                if z > 0:
+                    a += u[z - 1, y, x]
+                a = int(a + 2 * g)
+                n = a.bit_length()
+                ctxs.append(a if a < 4 else min(47, 2 * n - 2 + ((a >> (n - 2)) & 1)))
+                e = int(v[z, y, x]) - p
+                ue = 2 * e if e >= 0 else -2 * e - 1
+                u[z, y, x] = ue
+                n = ue.bit_length()
+                toks.append(ue if ue < 16 else 16 + 4 * (n - 5) + ((ue >> (n - 3)) & 3))
+    return toks, ctxs
+
+
+@pytest.mark.parametrize("pid", range(3))
+@pytest.mark.parametrize("cid", range(2))
+def test_tokens_and_contexts_match_the_reference(pid, cid):
+    v = np.rint(smooth((4, 6, 7), noise=9) * 7).astype(np.int64)
+    lo, hi = int(v.min()), int(v.max())
+    n = v.size
+    toks, ctxs = np.empty(n, np.uint8), np.empty(n, np.uint8)
+    counts = np.zeros((fastpredict.NCLASS, rans.MAX_SYMBOLS), dtype=np.int64)
+    nbits = fastpredict._tokens_kernel(
+        v.reshape(-1), np.array(v.shape, dtype=np.int64), np.int64(lo), np.int64(hi), pid, cid,
+        toks, ctxs, np.zeros(2 * 6 * 7, np.int64), counts, np.empty(4 * n + 16, np.uint8),
+    )  # fmt: skip
+    want_t, want_c = _reference_tokens(v, lo, hi, pid, cid)
+    assert toks.tolist() == want_t and ctxs.tolist() == want_c
+    assert nbits == sum(int(fastpredict.TOK_BITS[t]) for t in want_t)
+
+
+# --- the codec: modes, dtypes, the encoder's choice --------------------------------------
+
+
+@pytest.mark.parametrize("dtype", ["uint8", "int8", "uint16", "int16", "uint32", "int32"])
+def test_codec_roundtrip_integer_dtypes(dtype):
+    info = np.iinfo(dtype)
+    a = np.clip(np.rint(smooth((7, 9, 11), noise=3)) - 70, info.min, info.max).astype(dtype)
+    a.flat[5] = info.min
+    a.flat[-3] = info.max  # the whole range: residuals as wide as the dtype
+    c = FastCodec()
+    p = c.encode(a)
+    assert same_bits(a, c.decode(p, a.shape, a.dtype))
+
+
+@pytest.mark.parametrize("dtype", ["float16", "float32"])
+def test_codec_floats_bit_exact(dtype):
+    a = (smooth((6, 7, 8)) / 7).astype(dtype)
+    a[0, 0, :4] = [np.nan, -0.0, np.inf, -np.inf]
+    a[1, 1, 1] = np.finfo(dtype).smallest_subnormal
+    c = FastCodec()
+    assert same_bits(a, c.decode(c.encode(a), a.shape, a.dtype))
+    field = (smooth((6, 7, 8), noise=0.01) / 7).astype(dtype)  # coded, not raw
+    p = c.encode(field)
+    assert p[0] == MODE_CODED and p[1] & FLAG_FLOAT
+    assert same_bits(field, c.decode(p, field.shape, field.dtype))
+
+
+def test_codec_modes_constant_raw_palette():
+    c = FastCodec()
+    one = np.full((5, 6, 7), -1234, dtype=np.int16)
+    assert c.encode(one)[0] == MODE_CONSTANT and len(c.encode(one)) == 3
+    noise = np.random.default_rng(1).integers(0, 256, (8, 8, 8)).astype(np.uint8)
+    assert c.encode(noise)[0] == MODE_RAW
+    sparse = (np.rint(smooth((8, 9, 10))).astype(np.int16) // 4) * 16  # every 16th value
+    p = c.encode(sparse)
+    assert p[0] == MODE_CODED and p[1] == FLAG_PALETTE
+    assert describe(p).endswith("+palette")
+    for a in (one, noise, sparse):
+        assert same_bits(a, c.decode(c.encode(a), a.shape, a.dtype))
+
+
+def test_volume_roundtrip_and_info_tools():
+    a = np.rint(smooth((40, 37, 70), noise=4) * 20).astype(np.int16)
+    blob = api.compress_array(a, codec="fast", brick=32)
+    np.testing.assert_array_equal(api.decompress_array(blob, workers=2), a)
+    with Reader(blob) as r:
+        tools = r.summary["tools"]
+        assert r.header["codec"] == {"id": "fast"}
+    assert sum(tools.values()) == 2 * 2 * 3
+    assert all(t.startswith("fast-") for t in tools), tools
+    assert get_codec({"id": "fast"}) == FastCodec()
+
+
+def test_fast_codec_beats_nothing_but_keeps_most_ratio():
+    """A bound: on a smooth noisy field the fast codec stays within 15 % of the default
+    codec's size and well below raw."""
+    a = np.rint(smooth((32, 32, 32), noise=3)).astype(np.uint8)
+    fast = len(api.compress_array(a, codec="fast"))
+    default = len(api.compress_array(a))
+    assert fast < 0.6 * a.nbytes
+    assert fast < 1.15 * default
+
+
+# --- golden streams ----------------------------------------------------------------------
+
+# The recipes of scripts/make_examples.py, written out again on purpose.
+CASES = [
+    ("fast-u8", "u8"),
+    ("fast-u8-background", "u8-background"),
+    ("fast-i16-palette", "i16"),
+    ("fast-f32-special", "f32-special"),
+]
+
+
+def golden_source(recipe):
+    from volpack.demo import load_demo_volume
+
+    cut = load_demo_volume().data[30:50, 40:64, 40:68]
+    if recipe == "u8":
+        return cut
+    if recipe == "u8-background":
+        return np.where(cut < 60, 0, cut).astype(np.uint8)
+    if recipe == "i16":
+        return cut.astype(np.int16) * 37 - 3000
+    f = cut.astype(np.float32) / 3  # f32-special
+    f[2, 3:6, 4] = np.nan
+    f[5, 5, 5] = -np.inf
+    f[6, 6, 6] = np.inf
+    f[7, 7, 7:9] = -0.0
+    f[8, 8, 8] = np.float32(1e-42)
+    return f
+
+
+@pytest.mark.parametrize("stem,recipe", CASES, ids=[c[0] for c in CASES])
+def test_golden_fast_stream(stem, recipe):
+    blob = (GOLDEN / f"{stem}.vpk").read_bytes()
+    want = golden_source(recipe)
+    got = api.decompress(blob).data
+    assert same_bits(want, got)
+    again = api.compress_array(want, brick=16, codec="fast")
+    with Reader(blob) as old, Reader(again) as new:
+        assert old.header == new.header
+        assert [(t, n, p) for t, n, p in old] == [(t, n, p) for t, n, p in new]
+
+
+def test_golden_fast_streams_cover_every_choice():
+    seen = set()
+    for stem, _ in CASES:
+        with Reader((GOLDEN / f"{stem}.vpk").read_bytes()) as r:
+            for e in r.entries:
+                seen.add(describe(r.read(e.t, e.node)).replace("+palette", ""))
+    want = {f"fast-{p}-{c}" for p in fastpredict.PREDICTORS for c in fastpredict.CONTEXTS}
+    assert want - seen <= {"fast-med3d-near", "fast-med-far"}, seen
+    assert {"fast-med-near", "fast-med3d-far", "fast-mean-near", "fast-mean-far"} <= seen
+
+
+# --- corrupt payloads --------------------------------------------------------------------
+
+
+def _stream_parts(data):
+    """Offsets in a fast stream: after the choice byte and nctx, after the tables, the
+    word count's position."""
+    data = memoryview(data)
+    nctx, pos = palette.read_uleb(data, 1)
+    return nctx, pos
+
+
+def test_corrupt_payloads_raise_format_error():
+    c = FastCodec()
+    a = np.rint(smooth((6, 7, 8), noise=5) * 9).astype(np.int16)
+    good = c.encode(a)
+    assert good[0] == MODE_CODED and good[1] == 0
+    z, pos = palette.read_uleb(memoryview(good), 2)
+    _, pos = palette.read_uleb(memoryview(good), pos)
+    head, stream = good[:pos], good[pos:]
+    nctx, tpos = _stream_parts(stream)
+    bad = [
+        b"",
+        bytes([3]),  # unknown mode
+        bytes([MODE_CODED]),  # no flags
+        bytes([MODE_CODED, 0x80]) + good[2:],  # unknown flag
+        bytes([MODE_CODED, FLAG_FLOAT]) + good[2:],  # float flag on integers
+        head,  # no stream
+        head + bytes([3]) + stream[1:],  # predictor 3
+        head + bytes([stream[0] | 8]) + stream[1:],  # context rule 2
+        head + stream[:1] + palette.uleb(0) + stream[tpos:],  # no contexts
+        head + stream[:1] + palette.uleb(49) + stream[tpos:],  # too many contexts
+        head + stream[:tpos] + palette.uleb(133),  # a table of too many tokens
+        head + stream[:tpos] + palette.uleb(1) + palette.uleb(4095),  # sums to 4095
+        head + stream[:tpos] + palette.uleb(1) + palette.uleb(4096),  # one token takes all
+        good[:-1],  # raw bits cut
+        good + b"\0",  # a byte too many
+        bytes([MODE_RAW]) + bytes(10),  # raw of the wrong size
+        bytes([MODE_CONSTANT]) + bytes(1),
+    ]
+    bad += [good[:k] for k in range(2, len(good) - 1, max(1, len(good) // 40))]
+    for p in bad:
+        with pytest.raises(FormatError):
+            c.decode(p, a.shape, a.dtype)
+
+
+def test_damaged_payloads_never_crash():
+    """Random byte changes: a FormatError or some array of the right shape and dtype
+    (the container's CRC catches the rest), never an out-of-bounds access."""
+    rng = np.random.default_rng(7)
+    c = FastCodec()
+    for a in (
+        np.rint(smooth((9, 10, 11), noise=5) * 9).astype(np.int16),
+        (np.rint(smooth((9, 10, 11))) // 3 * 5).astype(np.uint8),
+    ):
+        good = bytearray(c.encode(a))
+        for _ in range(150):
+            p = bytearray(good)
+            for k in rng.integers(0, len(p), rng.integers(1, 4)):
+                p[k] = rng.integers(0, 256)
+            try:
+                out = c.decode(bytes(p), a.shape, a.dtype)
+            except FormatError:
+                continue
+            assert out.shape == a.shape and out.dtype == a.dtype
+
+
+def test_cli_help_and_compress_fast(tmp_path):
+    from click.testing import CliRunner
+
+    from volpack.cli import main
+
+    r = CliRunner().invoke(main, ["compress", "--help"])
+    assert "fast" in r.output and "rANS" in r.output
+    src = tmp_path / "v.npy"
+    a = np.rint(smooth((20, 21, 22))).astype(np.uint8)
+    np.save(src, a)
+    out = tmp_path / "v.vpk"
+    r = CliRunner().invoke(main, ["compress", str(src), str(out), "--codec", "fast"])
+    assert r.exit_code == 0, r.output
+    r = CliRunner().invoke(main, ["info", str(out)])
+    assert "id=fast" in r.output and "fast-" in r.output
+    np.testing.assert_array_equal(api.decompress(str(out)).data, a)

@@ -1,0 +1,150 @@
+"""The ``fast`` brick codec: lossless, decoding at several times the default's speed.
+
+Each brick is coded by :mod:`.fastpredict` (one MED-style prediction and one static
+rANS symbol a voxel), on its values or, when the brick leaves values of its range
+unused, on their ranks in a palette (:mod:`.palette`); a constant brick is one value,
+and a brick that coding cannot shrink is stored raw. The payload's first byte says
+which:
+
+====  ==============================================================================
+mode  payload after the mode byte
+====  ==============================================================================
+0     a flags byte (1: palette, 2: float bits), the palette or the value range, then
+      the fast stream
+1     the voxels, raw, little-endian, C order
+2     one voxel value, little-endian: the whole brick has it
+====  ==============================================================================
+
+Floats (float16, float32) are coded through the ordered integer image of their bits
+(:mod:`.floatbits`), exactly. ``formats/fast-1.md`` gives every byte; ``volpack info``
+counts the bricks per mode, predictor and context rule (:func:`describe`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any, ClassVar
+
+import numpy as np
+
+from ..errors import FormatError
+from . import palette as pal
+from .floatbits import from_ordered, to_ordered
+from .lossless import check_dtype
+from .protocol import BrickCodec, as_brick, as_stored, from_stored, split_mode
+
+MODE_CODED, MODE_RAW, MODE_CONSTANT = 0, 1, 2
+FLAG_PALETTE, FLAG_FLOAT = 1, 2
+
+
+@dataclasses.dataclass(frozen=True, eq=False, repr=False)
+class FastCodec(BrickCodec):
+    """Lossless coding that decodes fast: MED / 3-D MED prediction and static rANS.
+
+    It trades ratio for speed against the ``lossless`` codec (no wavelet, no predictor
+    blend, no adaptive models); see the README's results for both on the same data.
+    """
+
+    codec_id: ClassVar[str] = "fast"
+
+    @staticmethod
+    def describe(payload: bytes) -> str:
+        """The tool a brick payload used (``volpack info`` counts them)."""
+        return describe(payload)
+
+    def encode(self, brick: np.ndarray) -> bytes:
+        from . import fastpredict
+
+        brick = as_brick(brick, check_dtype)
+        raw = as_stored(brick)
+        bits = brick.reshape(-1).view(f"u{brick.itemsize}")
+        if brick.size and (bits == bits[0]).all():
+            return bytes([MODE_CONSTANT]) + raw[: brick.dtype.itemsize]
+        is_float = brick.dtype.kind == "f"
+        values = to_ordered(brick) if is_float else brick.astype(np.int64)
+        flags = FLAG_FLOAT if is_float else 0
+        lo, hi = int(values.min()), int(values.max())
+        candidates = [
+            bytes([MODE_RAW]) + raw,
+            bytes([MODE_CODED, flags])
+            + pal.uleb((lo << 1) ^ (lo >> 63))
+            + pal.uleb(hi - lo)
+            + fastpredict.encode(values, lo, hi),
+        ]
+        p = pal.build(values)
+        if len(p) < hi - lo + 1 and len(p) <= pal.MAX_PALETTE:
+            candidates.append(
+                bytes([MODE_CODED, flags | FLAG_PALETTE])
+                + pal.pack(p)
+                + fastpredict.encode(pal.to_ranks(values, p), 0, len(p) - 1)
+            )
+        return min(candidates, key=len)
+
+    def decode(self, data: bytes | memoryview, shape: tuple[int, ...], dtype: Any) -> np.ndarray:
+        from . import fastpredict
+
+        dtype = np.dtype(dtype)
+        check_dtype(dtype)
+        shape = tuple(shape)
+        mode, body = split_mode(data, "fast")
+        if mode == MODE_RAW:
+            return from_stored(body, shape, dtype)
+        if mode == MODE_CONSTANT:
+            return np.full(shape, from_stored(body, (1,), dtype)[0], dtype=dtype)
+        if mode != MODE_CODED:
+            raise FormatError(f"fast brick payload: expected mode 0 to 2, found {mode}")
+        if len(body) < 1:
+            raise FormatError("fast brick payload: missing flags byte")
+        flags = body[0]
+        is_float = dtype.kind == "f"
+        if flags & ~(FLAG_PALETTE | FLAG_FLOAT) or bool(flags & FLAG_FLOAT) != is_float:
+            raise FormatError(f"fast brick payload: flags {flags:#x} do not fit {dtype} voxels")
+        if is_float:
+            vmin, vmax = 0, (1 << (8 * dtype.itemsize)) - 1
+        else:
+            vmin, vmax = int(np.iinfo(dtype).min), int(np.iinfo(dtype).max)
+        rest = body[1:]
+        if flags & FLAG_PALETTE:
+            n = int(np.prod(shape))
+            p, used = pal.unpack(rest, min(pal.MAX_PALETTE, max(n, 1)))
+            if p[0] < vmin or p[-1] > vmax:
+                raise FormatError(f"corrupt palette: values outside the range of {dtype}")
+            values = pal.from_ranks(fastpredict.decode(rest[used:], shape, 0, len(p) - 1), p)
+        else:
+            z, pos = pal.read_uleb(rest, 0)
+            span, pos = pal.read_uleb(rest, pos)
+            lo = (z >> 1) ^ -(z & 1)
+            if lo < vmin or lo + span > vmax:
+                raise FormatError(
+                    f"fast brick payload: value range [{lo}, {lo + span}] outside {dtype}"
+                )
+            values = fastpredict.decode(rest[pos:], shape, lo, lo + span)
+        if is_float:
+            return from_ordered(values.astype(np.int64), dtype).reshape(shape)
+        return values.astype(dtype, copy=False).reshape(shape)
+
+
+def describe(payload: bytes) -> str:
+    """The tool a brick payload used, as ``volpack info`` lists it: ``fast-med-far``,
+    ``fast-med3d-near+palette``, ... (predictor, context rule, the palette if any),
+    ``raw``, ``constant``."""
+    from .fastpredict import CONTEXTS, PREDICTORS
+
+    mode = payload[0] if payload else -1
+    if mode == MODE_CODED and len(payload) > 2:
+        flags = payload[1]
+        if flags & FLAG_PALETTE:
+            k, pos = pal.read_uleb(memoryview(payload), 2)
+            for _ in range(k):
+                _, pos = pal.read_uleb(memoryview(payload), pos)
+        else:
+            _, pos = pal.read_uleb(memoryview(payload), 2)
+            _, pos = pal.read_uleb(memoryview(payload), pos)
+        b = payload[pos] if pos < len(payload) else 0xFF
+        name = (
+            f"{PREDICTORS[b & 3]}-{CONTEXTS[b >> 2]}"
+            if b & 3 < len(PREDICTORS) and b >> 2 < len(CONTEXTS)
+            else "?"
+        )
+        return f"fast-{name}" + ("+palette" if flags & FLAG_PALETTE else "")
+    return {1: "raw", 2: "constant"}.get(mode, f"mode {mode}")

@@ -1,0 +1,490 @@
+"""Fast predictive coding of integer voxels: one cheap prediction and one rANS symbol a voxel.
+
+The ``predict`` tool of the lossless codec (:mod:`.predict`) blends six predictors and
+codes about seven adaptive binary decisions a voxel: the best ratio, at a fraction of
+JPEG-LS's decode speed. This coder keeps what buys most of the ratio and drops what
+costs the time:
+
+* prediction: the median edge detector of LOCO-I (``MED``: ``W + N - NW`` clamped
+  between ``W`` and ``N``) in the voxel's slice, or that plus the same predictor's
+  error at the voxel above (``U - MED(UW, UN, UNW)``), or the mean of the two; the
+  encoder measures the three on the brick and keeps the cheapest (a slice-to-slice
+  correlation pays in MRIs, not in thick-sliced CT);
+* residuals zig-zagged to ``u >= 0`` and cut into a token and raw low bits: ``u < 16``
+  is its own token, a larger ``u`` of bit length ``n`` is token
+  ``16 + 4 (n - 5) + (its two bits below the leading one)`` and its ``n - 3`` low bits
+  go raw to a separate bit stream (16-bit data keeps a small alphabet);
+* tokens coded by static rANS (:mod:`volpack.entropy.rans`) with per-brick frequency
+  tables, one per context: the activity ``a`` of the residuals already decoded next to
+  the voxel (``u_W + u_N``, or ``u_W + u_N + u_U`` / ``u_N + u_NE + u_U``, the encoder
+  picks), on a log scale with two classes an octave;
+* two rANS states taking voxels in turn, so the two decode chains overlap on one core.
+
+The byte layout is in ``formats/fast-1.md``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._jit import kernel, leading_zeros
+from ..entropy import rans
+from ..errors import FormatError, OptionError
+from . import palette as pal
+
+PREDICTORS = ("med", "med3d", "mean")
+CONTEXTS = ("near", "far")  # the activity with W (better ratio) or without (faster)
+DIRECT = 16  # tokens 0..15 are the zig-zagged residual itself
+NTOK = DIRECT + 4 * 29  # bit lengths up to 33: residuals of a span below 2^32
+NCLASS = 48  # activity classes before the encoder caps them
+STATES = 2
+BAD_SYMBOL = 0xFF  # what the slots of an unused context decode to
+NEAR_GAIN = 0.01  # the share of bytes the slower ``near`` context must save
+ONE, TWO, THREE = np.uintp(1), np.uintp(2), np.uintp(3)  # unsigned offsets: no wrap test
+STATUS = {
+    1: "the stream ends before the last voxel",
+    2: "a token decodes to a value outside the brick's range",
+    3: "it does not end where its lengths say",
+}
+
+
+def _token_tables() -> tuple[np.ndarray, np.ndarray]:
+    """Each token's base value and raw bit count (a token that no residual makes gets a
+    base no value range reaches, so decoding it fails the range check)."""
+    base = np.full(rans.MAX_SYMBOLS, 1 << 40, dtype=np.int64)
+    nbits = np.zeros(rans.MAX_SYMBOLS, dtype=np.int64)
+    base[:DIRECT] = np.arange(DIRECT)
+    for t in range(DIRECT, NTOK):
+        n = (t - DIRECT) // 4 + 5
+        base[t] = (4 | ((t - DIRECT) & 3)) << (n - 3)
+        nbits[t] = n - 3
+    return base, nbits
+
+
+TOK_BASE, TOK_BITS = _token_tables()
+
+
+@kernel(inline=True)
+def _bitlen(u):
+    return 64 - np.int64(leading_zeros(np.uint64(u)))
+
+
+@kernel(inline=True)
+def _activity(a):
+    """Log class of a non-negative activity: 0..3 exactly, then two classes an octave,
+    below ``NCLASS``."""
+    b = _bitlen(a | 4)
+    c = min(2 * b - 2 + ((a >> (b - 2)) & 1), NCLASS - 1)
+    return a if a < 4 else c
+
+
+@kernel(inline=True)
+def _token(u):
+    """``(token, raw bit count)`` of a zig-zagged residual."""
+    n = _bitlen(u)
+    if u < DIRECT:
+        return u, np.int64(0)
+    return DIRECT + 4 * (n - 5) + ((u >> (n - 3)) & 3), n - 3
+
+
+@kernel(inline=True)
+def _med(a, b, c):
+    """LOCO-I's median edge detector: ``a + b - c`` clamped between ``a`` and ``b``."""
+    return min(max(a + b - c, min(a, b)), max(a, b))
+
+
+@kernel(inline=True)
+def _correct(p, d, pid):
+    """A 2-D prediction plus the 3-D correction ``d`` (the same predictor's error one
+    slice up): whole for ``med3d``, half (floored) for ``mean``, none for ``med``."""
+    if pid == 1:
+        return p + d
+    if pid == 2:
+        return p + (d >> 1)
+    return p
+
+
+@kernel(inline=True)
+def _predict(v, i, z, y, x, sy, sz, pid, mid):
+    """The prediction of voxel ``i`` = (z, y, x) from decoded voxels, before clipping:
+    MED inside the slice, the one neighbour there on its first row and column, U for
+    its first voxel; plus the 3-D correction from the slice above (``pid`` 1, 2)."""
+    j = i - sz
+    if x > 0 and y > 0:
+        p = _med(np.int64(v[i - 1]), np.int64(v[i - sy]), np.int64(v[i - sy - 1]))
+        if z > 0 and pid != 0:
+            p = _correct(p, v[j] - _med(np.int64(v[j - 1]), v[j - sy], v[j - sy - 1]), pid)
+        return p
+    if x == 0 and y == 0:
+        return np.int64(v[j]) if z > 0 else np.int64(mid)
+    k = 1 if x > 0 else sy
+    p = np.int64(v[i - k])
+    if z > 0 and pid != 0:
+        p = _correct(p, np.int64(v[j]) - v[j - k], pid)
+    return p
+
+
+@kernel(inline=True)
+def _context(v, u, i, r, ru, z, y, x, nx, cid):
+    """Activity class of voxel ``i`` (ring slot ``r``; ``ru`` the slot of U): the
+    zig-zagged residuals ``u`` of W (context ``near`` only), N, NW, NE and U, plus twice
+    the gradients ``|N - NW| + |NE - N|`` (and ``|W - NW|``, ``near``), each term where
+    its neighbours exist."""
+    a = np.int64(0)
+    g = np.int64(0)
+    if y > 0:
+        n = np.int64(v[i - nx])
+        a += u[r - nx]
+        if x > 0:
+            a += u[r - nx - 1]
+            g += abs(n - v[i - nx - 1])
+            if cid == 0:
+                g += abs(np.int64(v[i - 1]) - v[i - nx - 1])
+        if x + 1 < nx:
+            a += u[r - nx + 1]
+            g += abs(np.int64(v[i - nx + 1]) - n)
+    if x > 0 and cid == 0:
+        a += u[r - 1]
+    if z > 0:
+        a += u[ru]
+    return _activity(a + 2 * g)
+
+
+@kernel(nrt=False)
+def _tokens_kernel(v, shape, lo, hi, pid, cid, toks, ctxs, u, counts, bits):
+    """Forward pass of the encoder: every voxel's token and context, the counts per
+    (context, token), and the raw low bits written to ``bits`` (LSB first). Returns the
+    number of raw bits, or -1 when ``bits`` is too small."""
+    nz, ny, nx = shape[0], shape[1], shape[2]
+    sy, sz = nx, ny * nx
+    mid = (lo + hi) >> 1
+    acc = np.uint64(0)
+    nacc = 0
+    bpos = 0
+    cap = bits.size
+    i = 0
+    for z in range(nz):
+        cur = (z & 1) * sz
+        for y in range(ny):
+            for x in range(nx):
+                p = min(max(_predict(v, i, z, y, x, sy, sz, pid, mid), lo), hi)
+                r = cur + y * nx + x
+                c = _context(v, u, i, r, sz - cur + y * nx + x, z, y, x, nx, cid)
+                e = v[i] - p
+                ue = (e << 1) if e >= 0 else ((-e) << 1) - 1
+                u[r] = ue
+                t, nb = _token(ue)
+                toks[i] = t
+                ctxs[i] = c
+                counts[c, t] += 1
+                if nb > 0:
+                    if bpos + 16 > cap:
+                        return -1
+                    acc |= np.uint64(ue & ((1 << nb) - 1)) << np.uint64(nacc)
+                    nacc += nb
+                    while nacc >= 8:
+                        bits[bpos] = np.uint8(acc & np.uint64(0xFF))
+                        acc >>= np.uint64(8)
+                        nacc -= 8
+                        bpos += 1
+                i += 1
+    if nacc > 0:
+        bits[bpos] = np.uint8(acc & np.uint64(0xFF))
+        bpos += 1
+    return bpos * 8 - ((8 - nacc) & 7)
+
+
+@kernel(inline=True)
+def _symbol(table, c, data, pos, x0, x1, i, bits, bpos, acc, nacc, tok_base, tok_bits):
+    """Decode voxel ``i``'s zig-zagged residual: its token from state ``i & 1`` in
+    context ``c`` (:func:`volpack.entropy.rans.decode_symbol`), then its raw low bits
+    from the bit reader ``(acc, nacc, bpos)``. Returns ``(u, pos, x0, x1, bpos, acc,
+    nacc)``. ``bits`` ends with four 0 bytes past the stream, which every read beyond
+    the end gets."""
+    if i & 1:
+        t, x1, pos = rans.decode_symbol(data, x1, pos, c, table)
+    else:
+        t, x0, pos = rans.decode_symbol(data, x0, pos, c, table)
+    nb = tok_bits[np.uintp(t)]
+    if nacc < 32:  # refill 32 bits
+        k = np.uintp(min(bpos, bits.size - 4))
+        w32 = (
+            np.uint64(bits[k])
+            | (np.uint64(bits[k + ONE]) << np.uint64(8))
+            | (np.uint64(bits[k + TWO]) << np.uint64(16))
+            | (np.uint64(bits[k + THREE]) << np.uint64(24))
+        )
+        acc |= w32 << np.uint64(nacc)
+        nacc += 32
+        bpos += 4
+    ue = tok_base[np.uintp(t)] + np.int64(acc & ((np.uint64(1) << np.uint64(nb)) - np.uint64(1)))
+    return ue, pos, x0, x1, bpos, acc >> np.uint64(nb), nacc - nb
+
+
+@kernel(nrt=False)
+def _decode_kernel(data, bits, table, nctx, pid, cid, shape, lo, hi, v, u, tok_base, tok_bits):
+    """Decode a brick into ``v`` (flat; ``u`` a zeroed ring of two slices); 0, or a
+    :data:`STATUS` code. ``data`` (the rANS stream) and ``bits`` carry the zero padding
+    :func:`_symbol` reads past their ends. Inside a row the loop keeps W and its residual in registers
+    and reads the neighbours without edge tests or signed indices; edges go through
+    :func:`_predict` and :func:`_context`, as in the encoder."""
+    nz, ny, nx = shape[0], shape[1], shape[2]
+    sy, sz = nx, ny * nx
+    mid = (lo + hi) >> 1
+    hictx = nctx - 1
+    x0, x1, pos = rans.open_states(data)
+    acc = np.uint64(0)
+    nacc = 0
+    bpos = 0
+    bad = False
+    i = 0
+    for z in range(nz):
+        cur = (z & 1) * sz
+        pz = pid if z > 0 else 0
+        for y in range(ny):
+            r = cur + y * nx
+            x = 0
+            while x < nx:
+                if y > 0 and 0 < x < nx - 1:  # the inside of a row, up to its last voxel
+                    w = np.int64(v[i - 1])
+                    uw = u[r - 1]
+                    d = sz - 2 * cur  # from a slot to the slot of U
+                    while x < nx - 1:
+                        k = np.uintp(i - sy)
+                        n = np.int64(v[k])
+                        nw = np.int64(v[k - ONE])
+                        ne = np.int64(v[k + ONE])
+                        p = _med(w, n, nw)
+                        if pz != 0:
+                            j = np.uintp(i - sz)
+                            m = _med(
+                                np.int64(v[j - ONE]),
+                                np.int64(v[np.uintp(i - sz - sy)]),
+                                np.int64(v[np.uintp(i - sz - sy - 1)]),
+                            )
+                            p = _correct(p, v[j] - m, pz)
+                        p = min(max(p, lo), hi)
+                        q = np.uintp(r - nx)
+                        a = u[q] + u[q - ONE] + u[q + ONE] + u[np.uintp(r + d)]
+                        g = abs(n - nw) + abs(ne - n)
+                        if cid == 0:
+                            a += uw
+                            g += abs(w - nw)
+                        c = min(_activity(a + 2 * g), hictx)
+                        uw, pos, x0, x1, bpos, acc, nacc = _symbol(
+                            table, c, data, pos, x0, x1, i, bits, bpos, acc, nacc,
+                            tok_base, tok_bits,
+                        )  # fmt: skip
+                        u[np.uintp(r)] = uw
+                        w = p + ((uw >> 1) ^ -(uw & 1))
+                        bad |= (w < lo) | (w > hi)
+                        v[np.uintp(i)] = w
+                        i += 1
+                        r += 1
+                        x += 1
+                    continue
+                p = min(max(_predict(v, i, z, y, x, sy, sz, pz, mid), lo), hi)
+                c = min(_context(v, u, i, r, sz - cur + y * nx + x, z, y, x, nx, cid), hictx)
+                ue, pos, x0, x1, bpos, acc, nacc = _symbol(
+                    table, c, data, pos, x0, x1, i, bits, bpos, acc, nacc,
+                    tok_base, tok_bits,
+                )  # fmt: skip
+                u[r] = ue
+                val = p + ((ue >> 1) ^ -(ue & 1))
+                bad |= (val < lo) | (val > hi)
+                v[i] = val
+                i += 1
+                r += 1
+                x += 1
+    if bad:
+        return 2
+    nbytes = bits.size - 4
+    used = bpos * 8 - nacc  # raw bits consumed
+    if pos > data.size - 2 or used > nbytes * 8:
+        return 1
+    if not rans.state_ok(data, x0, x1, pos) or (used + 7) >> 3 != nbytes:
+        return 3
+    return 0
+
+
+def _cap_contexts(counts: np.ndarray) -> tuple[int, np.ndarray, float]:
+    """Choose how many activity classes keep their own table (the top ones merge into
+    the last) by the coded size, tables included: ``(nctx, freqs, bits)``."""
+    used = np.flatnonzero(counts.sum(axis=1))
+    top = int(used[-1]) + 1 if used.size else 1
+    best = None
+    for nctx in range(max(1, top - 12), top + 1):
+        merged = counts[:nctx].copy()
+        merged[nctx - 1] += counts[nctx:].sum(axis=0)
+        freqs = rans.normalise(merged)
+        used = merged > 0
+        bits = -(merged[used] * np.log2(freqs[used] / rans.TOTAL)).sum()
+        cost = bits + 8 * _table_bytes(freqs)
+        if best is None or cost < best[2]:
+            best = (nctx, freqs, cost)
+    return best
+
+
+def _table_bytes(freqs: np.ndarray) -> int:
+    """``len(pack_tables(freqs))`` without packing (numbers below 2^14: one LEB128 byte
+    below 128, else two)."""
+    nz = freqs > 0
+    t = np.where(nz.any(axis=1), freqs.shape[1] - np.argmax(nz[:, ::-1], axis=1), 0)
+    inside = np.arange(freqs.shape[1]) < t[:, None]
+    return int((1 + (t >= 128)).sum() + (inside * (1 + (freqs >= 128))).sum())
+
+
+def pack_tables(freqs: np.ndarray) -> bytes:
+    """Per context: ``uleb T`` (entries for tokens ``0..T-1``; 0: an unused context),
+    then ``T`` frequencies as ``uleb``."""
+    out = bytearray()
+    for row in freqs:
+        nz = np.flatnonzero(row)
+        t = int(nz[-1]) + 1 if nz.size else 0
+        out += pal.uleb(t)
+        for f in row[:t]:
+            out += pal.uleb(int(f))
+    return bytes(out)
+
+
+@kernel(inline=True)
+def _read_uleb(data, pos):
+    """An unsigned LEB128 number of at most 63 bits at ``pos``: ``(value, pos)``, the
+    position -1 when it runs past ``data`` or is longer."""
+    v = np.int64(0)
+    shift = 0
+    while pos < data.size and shift < 63:
+        b = np.int64(data[pos])
+        pos += 1
+        v |= (b & 0x7F) << shift
+        if b < 0x80:
+            return v, pos
+        shift += 7
+    return v, np.int64(-1)
+
+
+@kernel(nrt=False)
+def _tables_kernel(data, pos, table):
+    """Read the frequency tables of :func:`pack_tables` from ``data[pos:]`` into the
+    decoder's look-up (:func:`volpack.entropy.rans.slot_table`'s layout, one row per
+    context; every slot of an unused context decodes to :data:`BAD_SYMBOL`, a token no
+    residual makes, so to a value outside any range). Returns the position after them, or -1 (past the
+    end), -2 (too many tokens), -3 (a table that does not sum to the total, or gives
+    one token all of it)."""
+    for c in range(table.shape[0]):
+        t, pos = _read_uleb(data, pos)
+        if pos < 0:
+            return -1
+        if t > NTOK:
+            return -2
+        slot = 0
+        for k in range(t):
+            f, pos = _read_uleb(data, pos)
+            if pos < 0:
+                return -1
+            if f >= rans.TOTAL or slot + f > rans.TOTAL:
+                return -3
+            for j in range(f):
+                table[c, slot + j] = k | (f << 8) | (j << 20)
+            slot += f
+        if t == 0:
+            for j in range(rans.TOTAL):
+                table[c, j] = BAD_SYMBOL
+        elif slot != rans.TOTAL:
+            return -3
+    return pos
+
+
+def _work_dtype(lo: int, hi: int) -> np.dtype:
+    """What the decoder writes: int32 when it holds ``[lo, hi]``, else int64 (two
+    compiled variants of each decoder, not one per voxel dtype)."""
+    return np.dtype(np.int32) if -(1 << 31) <= lo and hi < (1 << 31) else np.dtype(np.int64)
+
+
+def encode(
+    values: np.ndarray, lo: int, hi: int, predictor: str | None = None, context: str | None = None
+) -> bytes:
+    """Code a 3-D integer array with values in ``[lo, hi]`` (span below 2^32): the
+    predictor and context byte, the tables, the rANS words and the raw bits.
+
+    By default the encoder measures every predictor with the ``far`` context, then the
+    best one with ``near``, and keeps ``near`` only when it saves more than
+    :data:`NEAR_GAIN` (it decodes about a third slower: W joins the decoder's chain
+    from one voxel to the next). ``predictor`` / ``context`` force one (tests, studies).
+    """
+    v = np.ascontiguousarray(values, dtype=np.int64)
+    if v.ndim != 3:
+        raise OptionError(f"expected a 3-D array, found shape {v.shape}")
+    if not (lo <= hi and hi - lo < (1 << 32)):
+        raise OptionError(f"expected a value range of at most 2^32, found [{lo}, {hi}]")
+    shape = np.array(v.shape, dtype=np.int64)
+    flat = v.reshape(-1)
+    n = flat.size
+    ring = np.zeros(2 * v.shape[1] * v.shape[2], dtype=np.int64)
+
+    def trial(pid: int, cid: int) -> tuple:
+        toks = np.empty(n, dtype=np.uint8)
+        ctxs = np.empty(n, dtype=np.uint8)
+        counts = np.zeros((NCLASS, rans.MAX_SYMBOLS), dtype=np.int64)
+        bits = np.empty(4 * n + 16, dtype=np.uint8)
+        nbits = _tokens_kernel(
+            flat, shape, np.int64(lo), np.int64(hi), pid, cid, toks, ctxs, ring, counts, bits
+        )
+        nctx, freqs, cost = _cap_contexts(counts)
+        return cost + nbits, pid, cid, nctx, freqs, bits[: (nbits + 7) >> 3].tobytes(), toks, ctxs
+
+    pids = [PREDICTORS.index(predictor)] if predictor else range(len(PREDICTORS))
+    if v.shape[0] == 1:  # one slice: the 3-D predictors are MED
+        pids = [0]
+    far = CONTEXTS.index("far")
+    cids = [CONTEXTS.index(context)] if context else [far]
+    best = min((trial(pid, cid) for pid in pids for cid in cids), key=lambda t: t[0])
+    if context is None:
+        near = trial(best[1], CONTEXTS.index("near"))
+        if near[0] * (1 + NEAR_GAIN) < best[0]:
+            best = near
+    _, pid, cid, nctx, freqs, raw, toks, ctxs = best
+    hictx = np.int64(nctx - 1)
+    stream = rans.encode(toks, np.minimum(ctxs.astype(np.int64), hictx), freqs)
+    head = bytes([pid | (cid << 2)]) + pal.uleb(nctx) + pack_tables(freqs)
+    return head + pal.uleb(len(stream)) + stream + raw
+
+
+def decode(data: bytes | memoryview, shape: tuple[int, int, int], lo: int, hi: int) -> np.ndarray:
+    """Decode :func:`encode`'s bytes into an integer array of ``shape`` (int32 when the
+    range fits, else int64)."""
+    if not (lo <= hi and hi - lo < (1 << 32)):
+        raise FormatError(f"fast stream: value range [{lo}, {hi}] is out of bounds")
+    data = memoryview(data)
+    if len(data) < 1:
+        raise FormatError("fast stream: missing predictor byte")
+    pid, cid = data[0] & 3, data[0] >> 2
+    if pid >= len(PREDICTORS) or cid >= len(CONTEXTS):
+        raise FormatError(f"fast stream: unknown predictor/context byte {data[0]:#x}")
+    nctx, pos = pal.read_uleb(data, 1)
+    if not 1 <= nctx <= NCLASS:
+        raise FormatError(f"fast stream: {nctx} contexts, expected 1..{NCLASS}")
+    table = np.empty((nctx, rans.TOTAL), dtype=np.uint32)
+    pos = _tables_kernel(np.frombuffer(data, dtype=np.uint8), pos, table)
+    if pos < 0:
+        why = {-1: "runs past the payload", -2: "has too many tokens", -3: "does not sum to M"}
+        raise FormatError(f"fast stream: a frequency table {why[pos]}")
+    nbytes, pos = pal.read_uleb(data, pos)
+    if pos + nbytes > len(data):
+        raise FormatError("fast stream: the rANS stream runs past the payload")
+    stream = np.zeros(nbytes + 2, dtype=np.uint8)  # two 0 bytes past the end
+    stream[:nbytes] = np.frombuffer(data[pos : pos + nbytes], dtype=np.uint8)
+    raw = data[pos + nbytes :]
+    bits = np.zeros(len(raw) + 4, dtype=np.uint8)  # four 0 bytes past the end
+    bits[: len(raw)] = np.frombuffer(raw, dtype=np.uint8)
+    n = int(np.prod(shape))
+    v = np.empty(n, dtype=_work_dtype(lo, hi))
+    ring = np.zeros(2 * int(shape[1]) * int(shape[2]), dtype=np.int64)
+    status = _decode_kernel(
+        stream, bits, table, np.int64(nctx), pid, cid,
+        np.array(shape, dtype=np.int64), np.int64(lo), np.int64(hi), v, ring,
+        TOK_BASE, TOK_BITS,
+    )  # fmt: skip
+    if status:
+        raise FormatError(f"corrupt fast-coded brick: {STATUS.get(int(status), status)}")
+    return v.reshape(shape)
