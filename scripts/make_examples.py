@@ -120,12 +120,19 @@ def make_wavelet(folder: Path) -> Path:
 
 # -- lossless codec examples: formats/examples/lossless-*.vpk ----------------------------
 
+# Version 1 of the predictive stream (the files written before version 2), then version 2.
+V1 = {"predict_version": 1}
 LOSSLESS_CASES = [
-    ("lossless-auto-u8", "u8-background", {}),
-    ("lossless-auto-i16-palette", "i16", {}),
-    ("lossless-predict-u8", "u8", {"tools": "predict"}),
-    ("lossless-auto-f32-special", "f32-special", {}),
-    ("lossless-auto-f32-field", "f32-field", {}),
+    ("lossless-auto-u8", "u8-background", V1),
+    ("lossless-auto-i16-palette", "i16", V1),
+    ("lossless-predict-u8", "u8", {"tools": "predict", **V1}),
+    ("lossless-auto-f32-special", "f32-special", V1),
+    ("lossless-auto-f32-field", "f32-field", V1),
+    # one 32^3 brick each: version 2 stores 136 bytes of weights, which 16^3 bricks of
+    # the cut above do not repay (the encoder then keeps version 1)
+    ("lossless-v2-u8-mask", "v2-u8-background", {"brick": 32}),
+    ("lossless-v2-i16-palette", "v2-i16", {"brick": 32}),
+    ("lossless-v2-predict-u8", "v2-u8", {"tools": "predict", "brick": 32}),
 ]
 
 
@@ -135,6 +142,16 @@ def lossless_source(recipe: str):
     denormals."""
     import numpy as np
 
+    if recipe.startswith("v2-"):  # 32^3 cuts of the bundled MRI: head and background, tissue
+        from volpack.demo import load_demo_volume
+
+        d = load_demo_volume().data
+        if recipe == "v2-u8-background":
+            cut = d[16:48, 24:56, 24:56].copy()
+            cut[cut < 60] = 0
+            return cut
+        cut = np.ascontiguousarray(d[30:62, 40:72, 40:72])
+        return cut if recipe == "v2-u8" else cut.astype(np.int16) * 37 - 3000
     if recipe == "u8-background":
         cut = wavelet_source("u8").copy()
         cut[cut < 60] = 0
@@ -159,7 +176,8 @@ def make_lossless(folder: Path) -> Path:
 
     for stem, recipe, opts in LOSSLESS_CASES:
         path = folder / f"{stem}.vpk"
-        api.compress(lossless_source(recipe), str(path), brick=WAVELET_BRICK, force=True, **opts)
+        opts = {"brick": WAVELET_BRICK, **opts}
+        api.compress(lossless_source(recipe), str(path), force=True, **opts)
     return folder
 
 

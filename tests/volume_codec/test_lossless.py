@@ -74,7 +74,7 @@ def test_predict_floor_division_is_exact():
     a = q * d + r  # quotient q, remainder r: every case, exact integers near and on
     a = np.concatenate([a, q * d, q * d - 1, q * d + d - 1])
     d = np.concatenate([d, d, d, d])
-    got = np.array([predict._floor_div(int(x), int(y)) for x, y in zip(a, d)])
+    got = np.array([predict.floor_div(int(x), int(y)) for x, y in zip(a, d)])
     np.testing.assert_array_equal(got, a // d)
 
 
@@ -250,19 +250,31 @@ def test_float_field_beats_byte_shuffled_zstd():
 # --- golden streams ----------------------------------------------------------------------
 
 # The recipes of scripts/make_examples.py, written out again on purpose.
+V1 = {"predict_version": 1}
 CASES = [
-    ("lossless-auto-u8", "u8-background", {}),
-    ("lossless-auto-i16-palette", "i16", {}),
-    ("lossless-predict-u8", "u8", {"tools": "predict"}),
-    ("lossless-auto-f32-special", "f32-special", {}),
-    ("lossless-auto-f32-field", "f32-field", {}),
+    ("lossless-auto-u8", "u8-background", V1),
+    ("lossless-auto-i16-palette", "i16", V1),
+    ("lossless-predict-u8", "u8", {"tools": "predict", **V1}),
+    ("lossless-auto-f32-special", "f32-special", V1),
+    ("lossless-auto-f32-field", "f32-field", V1),
+    ("lossless-v2-u8-mask", "v2-u8-background", {"brick": 32}),
+    ("lossless-v2-i16-palette", "v2-i16", {"brick": 32}),
+    ("lossless-v2-predict-u8", "v2-u8", {"tools": "predict", "brick": 32}),
 ]
 
 
 def golden_source(recipe):
     from volpack.demo import load_demo_volume
 
-    cut = load_demo_volume().data[30:50, 40:64, 40:68]
+    d = load_demo_volume().data
+    if recipe == "v2-u8-background":
+        cut = d[16:48, 24:56, 24:56].copy()
+        cut[cut < 60] = 0
+        return cut
+    if recipe in ("v2-u8", "v2-i16"):
+        cut = np.ascontiguousarray(d[30:62, 40:72, 40:72])
+        return cut if recipe == "v2-u8" else cut.astype(np.int16) * 37 - 3000
+    cut = d[30:50, 40:64, 40:68]
     if recipe == "u8":
         return cut
     if recipe == "i16":
@@ -291,7 +303,7 @@ def test_golden_lossless_stream(stem, recipe, opts):
     got = api.decompress(blob).data
     assert got.dtype == want.dtype
     np.testing.assert_array_equal(got.view(f"u{want.itemsize}"), want.view(f"u{want.itemsize}"))
-    again = api.compress_array(want, brick=16, **opts)
+    again = api.compress_array(want, **{"brick": 16, **opts})
     with Reader(blob) as old, Reader(again) as new:
         assert old.header == new.header
         assert [(t, n, p) for t, n, p in old] == [(t, n, p) for t, n, p in new]

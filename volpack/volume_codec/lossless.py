@@ -11,9 +11,16 @@ mode  payload after the mode byte
 ====  ===============================================================================
 0-3   as the ``wavelet`` codec's modes (coefficients, raw, constant, byte-shuffled zstd)
 4     3-D prediction: a flags byte (1: palette, 2: float bits, 4: floats split into
-      exponent and mantissa, 8: labels copied from neighbours), then the palette or the
-      value range (none when split), then the predictive or label stream
+      exponent and mantissa, 8: labels copied from neighbours, 16: the predictive
+      stream of version 2 (:mod:`.predictfit`), 32: a background mask), then the
+      palette or the value range (none when split), the mask, then the predictive or
+      label stream
 ====  ===============================================================================
+
+``predict_version`` (a config field) says which predictive stream the encoder writes for
+integer bricks: 1 (:mod:`.predict`, the files written before version 2 existed; their
+headers have no ``predict_version`` and read as 1) or 2 (the default: a fitted predictor, and
+a background mask where it pays). A decoder reads both, whatever the config says.
 
 Floats (float16, float32) are coded exactly through the ordered integer image of their
 bits (:mod:`.floatbits`); NaN, -0.0, denormals and Inf come back bit for bit.
@@ -29,6 +36,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ..errors import FormatError
+from . import bgmask
 from . import palette as pal
 from .codec import (
     MODE_CONSTANT,
@@ -46,7 +54,9 @@ from .protocol import check_choice as _check_choice
 from .protocol import from_stored as _from_stored
 
 MODE_PREDICT = 4
-FLAG_PALETTE, FLAG_FLOAT, FLAG_SPLIT, FLAG_LABELS = 1, 2, 4, 8
+FLAG_PALETTE, FLAG_FLOAT, FLAG_SPLIT, FLAG_LABELS, FLAG_FIT, FLAG_MASK = 1, 2, 4, 8, 16, 32
+FLAGS = FLAG_PALETTE | FLAG_FLOAT | FLAG_SPLIT | FLAG_LABELS | FLAG_FIT | FLAG_MASK
+VERSIONS = (1, 2)
 TOOLS = ("auto", "wavelet", "predict")
 FLOAT_ZSTD_LEVEL = 9
 
@@ -62,6 +72,9 @@ class LosslessCodec(BrickCodec):
     tools : {"auto", "wavelet", "predict"}
         ``auto`` tries both tools on every brick and keeps the shorter; the others use
         one tool (for comparison; floats always use prediction).
+    predict_version : {1, 2}
+        The predictive stream written for integer bricks: 2 (a fitted predictor and a
+        background mask, the default) or 1 (the earlier one, for identical files).
     """
 
     codec_id: ClassVar[str] = "lossless"
@@ -70,10 +83,26 @@ class LosslessCodec(BrickCodec):
     order: str = "dfs"
     max_levels: int | None = None
     tools: str = "auto"
+    predict_version: int = 2
 
     def __post_init__(self) -> None:
         _check_choice("tools", self.tools, TOOLS)
+        _check_choice("predict_version", self.predict_version, VERSIONS)
         self._wavelet_codec()  # checks the wavelet settings
+
+    def get_config(self) -> dict[str, Any]:
+        """As stored in a header; version 1 is stored as the files before it were (no
+        ``predict_version`` field), so that they are reproduced byte for byte."""
+        config = super().get_config()
+        if self.predict_version == 1:
+            del config["predict_version"]
+        return config
+
+    @classmethod
+    def from_config(cls, config: Any) -> BrickCodec:
+        if isinstance(config, dict) and "predict_version" not in config:
+            config = {**config, "predict_version": 1}
+        return super().from_config(config)
 
     @staticmethod
     def describe(payload: bytes) -> str:
@@ -98,7 +127,7 @@ class LosslessCodec(BrickCodec):
         elif self.tools != "predict":
             candidates.append(self._wavelet_codec().encode(brick))
         if is_float or self.tools != "wavelet":
-            candidates += _encode_predict(brick)
+            candidates += _encode_predict(brick, self.predict_version)
         return min(candidates, key=len)
 
     def decode(self, data: bytes | memoryview, shape: tuple[int, ...], dtype: Any) -> np.ndarray:
@@ -137,11 +166,13 @@ def describe(payload: bytes) -> str:
             return "predict-float"
         if payload[1] & FLAG_LABELS:
             return "labels"
-        return "predict+palette" if payload[1] & FLAG_PALETTE else "predict"
+        name = "predict2" if payload[1] & FLAG_FIT else "predict"
+        name += "+palette" if payload[1] & FLAG_PALETTE else ""
+        return name + ("+mask" if payload[1] & FLAG_MASK else "")
     return {0: "wavelet", 1: "raw", 2: "constant", 3: "zstd"}.get(mode, f"mode {mode}")
 
 
-def _encode_predict(brick: np.ndarray) -> list[bytes]:
+def _encode_predict(brick: np.ndarray, version: int = 1) -> list[bytes]:
     """Predictive payloads of a brick: on its values, and on their ranks when the brick
     leaves values of its range unused."""
     from . import predict
@@ -161,6 +192,8 @@ def _encode_predict(brick: np.ndarray) -> list[bytes]:
             + pal.uleb(hi - lo)
             + predict.encode(values, lo, hi)
         ]
+    if version >= 2 and not is_float:  # version 1 stays a candidate: tiny bricks pay
+        out.append(_encode_fit(values, lo, hi))  # 136 bytes of weights in version 2
     if hi - lo + 1 > 2:
         p = pal.build(values)
         if len(p) < hi - lo + 1 and len(p) <= pal.MAX_PALETTE:
@@ -183,6 +216,36 @@ def _encode_predict(brick: np.ndarray) -> list[bytes]:
     return out
 
 
+def _encode_fit(values: np.ndarray, lo: int, hi: int) -> bytes:
+    """The shortest version-2 predictive payload of an integer brick: on its values or
+    on their palette ranks (when the brick leaves values of its range unused), then
+    for the better of those with a background mask, and with one gradient class."""
+    from . import predictfit
+
+    head = bytes([MODE_PREDICT, FLAG_FIT]) + pal.uleb(_zigzag(lo)) + pal.uleb(hi - lo)
+    domains = [(head, values, lo, hi)]
+    p = pal.build(values)
+    if 2 < len(p) < hi - lo + 1 and len(p) <= pal.MAX_PALETTE:
+        head = bytes([MODE_PREDICT, FLAG_FIT | FLAG_PALETTE]) + pal.pack(p)
+        domains.append((head, pal.to_ranks(values, p), 0, len(p) - 1))
+    tried = []
+    for head, v, a, b in domains:
+        fits = predictfit.fit(v - a)  # one fit serves every variant below
+        tried.append((head + predictfit.encode(v, a, b, fitted=fits[0]), head, v, a, b, fits))
+    best, head, v, a, b, fits = min(tried, key=lambda t: len(t[0]))
+    section, mask = b"", None
+    masked = bgmask.choose(v)
+    if masked is not None:
+        fill, m = masked
+        sec = bgmask.encode(fill - a, m)
+        head2 = bytes([head[0], head[1] | FLAG_MASK]) + head[2:]
+        payload = head2 + sec + predictfit.encode(v, a, b, mask=m, fitted=fits[0])
+        if len(payload) < len(best):
+            best, head, section, mask = payload, head2, sec, m
+    one = head + section + predictfit.encode(v, a, b, mask=mask, fitted=fits[1])
+    return min(best, one, key=len)
+
+
 def _decode_predict(body: memoryview, shape: tuple[int, ...], dtype: np.dtype) -> np.ndarray:
     from . import predict
 
@@ -191,8 +254,11 @@ def _decode_predict(body: memoryview, shape: tuple[int, ...], dtype: np.dtype) -
     flags = body[0]
     is_float = dtype.kind == "f"
     split = bool(flags & FLAG_SPLIT)
+    fit = bool(flags & FLAG_FIT)
     if (
-        flags & ~(FLAG_PALETTE | FLAG_FLOAT | FLAG_SPLIT | FLAG_LABELS)
+        flags & ~FLAGS
+        or (fit and flags & (FLAG_FLOAT | FLAG_LABELS))
+        or (flags & FLAG_MASK and not fit)
         or bool(flags & FLAG_FLOAT) != is_float
         or (split and flags & (FLAG_PALETTE | FLAG_LABELS))
         or (split and not is_float)
@@ -214,6 +280,8 @@ def _decode_predict(body: memoryview, shape: tuple[int, ...], dtype: np.dtype) -
             from . import labels
 
             ranks = labels.decode(rest[used:], shape, len(p))
+        elif fit:
+            ranks = _decode_fit(rest[used:], shape, 0, len(p) - 1, flags)
         else:
             ranks = predict.decode(rest[used:], shape, 0, len(p) - 1)
         values = pal.from_ranks(ranks, p)
@@ -225,10 +293,25 @@ def _decode_predict(body: memoryview, shape: tuple[int, ...], dtype: np.dtype) -
             raise FormatError(
                 f"predictive brick payload: value range [{lo}, {lo + span}] outside {dtype}"
             )
-        values = predict.decode(rest[pos:], shape, lo, lo + span)
+        if fit:
+            values = _decode_fit(rest[pos:], shape, lo, lo + span, flags)
+        else:
+            values = predict.decode(rest[pos:], shape, lo, lo + span)
     if is_float:
         return from_ordered(values, dtype).reshape(shape)
     return values.astype(dtype).reshape(shape)
+
+
+def _decode_fit(data: memoryview, shape: tuple[int, ...], lo: int, hi: int, flags: int) -> np.ndarray:
+    """A version-2 predictive stream, after its mask section when ``flags`` has one."""
+    from . import predictfit
+
+    if hi - lo >= 1 << 32:
+        raise FormatError(f"predictive brick payload: value range [{lo}, {hi}] is out of bounds")
+    if flags & FLAG_MASK:
+        fill, mask, used = bgmask.decode(data, shape, hi - lo)
+        return predictfit.decode(data[used:], shape, lo, hi, mask, lo + fill)
+    return predictfit.decode(data, shape, lo, hi)
 
 
 def _value_range(dtype: np.dtype) -> tuple[int, int]:

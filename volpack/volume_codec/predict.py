@@ -69,7 +69,7 @@ NO_RESIDUAL = np.int64(-(1 << 62))  # get_residual's answer to an impossible len
 # prediction residuals is long and its statistics steady).
 RATE = np.array([1, 2, 2, 3, 3, 3, 4, 4, 4, 5, 5, 5, 6, 6, 6, 7], dtype=np.int64)
 BIAS_LIMIT = 64  # halve a context's error sum and count when the count reaches this
-# 2^24 // t for t < 256: predictor weights without a division (see _weight).
+# 2^24 // t for t < 256: predictor weights without a division (see weight).
 RECIP = np.array([0] + [(1 << 24) // t for t in range(1, 256)], dtype=np.int64)
 
 
@@ -160,7 +160,7 @@ def get_residual(data, state, base, ctx, sctx, code, rng, pos, rate):
 
 
 @kernel(inline=True)
-def _weight(t):
+def weight(t):
     """About ``2^24 / t`` for ``t >= 1`` from eight bits of ``t`` (no division); >= 1.
     Branch-free: ``t < 256`` is a shift of zero."""
     sh = max(bitlen(t) - 8, 0)
@@ -168,7 +168,7 @@ def _weight(t):
 
 
 @kernel(inline=True)
-def _floor_div(a, d):
+def floor_div(a, d):
     """``a // d`` for ``1 <= d < 2^53`` and ``|a / d| < 2^48`` (here a weighted mean of
     predictions of values below 2^32 in magnitude): the floor of a float quotient,
     corrected by its remainder (a 64-bit integer division costs several times more).
@@ -195,12 +195,43 @@ def _add_errors(perr, j, s0, s1, s2, s3, s4, s5):
 
 
 @kernel(inline=True)
-def _predict_kernel(v, err, perr, i, r, ru, z, y, x, ny, nx, lo, hi, bias_sum, bias_cnt):
-    """Prediction and contexts of voxel ``i`` = (z, y, x) from the decoded ``v``, and the
-    final errors ``err`` and per-predictor errors ``perr`` of earlier voxels, kept in a
-    ring of two slices (``r`` is the voxel's slot, ``ru`` the slot of U).
+def context(act, spread):
+    """The coding context: the activity class, split by how far the predictors
+    disagree (``spread``) against the activity."""
+    wide = np.int64(2 * spread > act) + np.int64(spread > 2 * act + 1)
+    return activity_class(act) * NSPREAD + wide
 
-    Returns ``(pred, ctx, sign_ctx, p0, ..., p5)`` (the six predictors' values).
+
+@kernel(inline=True)
+def context_bias(bias_sum, bias_cnt, ctx):
+    """The context's mean error, rounded half away from zero, by a reciprocal (the
+    count is below 64; RECIP[0] is 0). Branch-free: the signs are coin tosses."""
+    s = bias_sum[ctx]
+    sg = s >> 63
+    t = ((((s ^ sg) - sg) * RECIP[bias_cnt[ctx]]) + (1 << 23)) >> 24
+    return (t ^ sg) - sg
+
+
+@kernel(inline=True)
+def learn_bias(bias_sum, bias_cnt, ctx, e):
+    """Add error ``e`` to the context's sum and count; both halve at BIAS_LIMIT."""
+    s = bias_sum[ctx] + e
+    c = bias_cnt[ctx] + 1
+    if c >= BIAS_LIMIT:
+        s = s // 2 if s >= 0 else -((-s) // 2)
+        c >>= 1
+    bias_sum[ctx] = s
+    bias_cnt[ctx] = c
+
+
+@kernel(inline=True)
+def gather(v, err, perr, i, r, ru, z, y, x, ny, nx, lo, hi):
+    """The causal neighbours of voxel ``i`` = (z, y, x) in the decoded ``v`` (with
+    fallbacks at the brick's faces), twice the activity of the final errors ``err``
+    around it, their sum, and each predictor's error sum at the neighbours, from the
+    ring of two slices ``err``, ``perr`` (``r`` is the voxel's slot, ``ru`` the slot of U).
+
+    Returns ``(W, N, U, NW, NE, UW, UN, UNW, act2, esum, s0, ..., s5)``.
     """
     sy = nx
     sz = ny * nx
@@ -266,6 +297,20 @@ def _predict_kernel(v, err, perr, i, r, ru, z, y, x, ny, nx, lo, hi, bias_sum, b
             act2 += 2 * abs(err[ru])
             esum += err[ru]
             s0, s1, s2, s3, s4, s5 = _add_errors(perr, ru, s0, s1, s2, s3, s4, s5)
+    return W, N, U, NW, NE, UW, UN, UNW, act2, esum, s0, s1, s2, s3, s4, s5
+
+
+@kernel(inline=True)
+def _predict_kernel(v, err, perr, i, r, ru, z, y, x, ny, nx, lo, hi, bias_sum, bias_cnt):
+    """Prediction and contexts of voxel ``i`` = (z, y, x) from the decoded ``v``, and the
+    final errors ``err`` and per-predictor errors ``perr`` of earlier voxels, kept in a
+    ring of two slices (``r`` is the voxel's slot, ``ru`` the slot of U).
+
+    Returns ``(pred, ctx, sign_ctx, p0, ..., p5)`` (the six predictors' values).
+    """
+    W, N, U, NW, NE, UW, UN, UNW, act2, esum, s0, s1, s2, s3, s4, s5 = gather(
+        v, err, perr, i, r, ru, z, y, x, ny, nx, lo, hi
+    )
     p0 = W + N - NW
     p1 = U + W - UW
     p2 = U + N - UN
@@ -275,25 +320,17 @@ def _predict_kernel(v, err, perr, i, r, ru, z, y, x, ny, nx, lo, hi, bias_sum, b
     act = act2 >> 1
     # Blend with weights ~ 2^24 / (1 + s_k) (at least 1); the sums stay below 2^63 for
     # a value range below 2^32.
-    w0 = _weight(s0 + 1)
-    w1 = _weight(s1 + 1)
-    w2 = _weight(s2 + 1)
-    w3 = _weight(s3 + 1)
-    w4 = _weight(s4 + 1)
-    w5 = _weight(s5 + 1)
+    w0 = weight(s0 + 1)
+    w1 = weight(s1 + 1)
+    w2 = weight(s2 + 1)
+    w3 = weight(s3 + 1)
+    w4 = weight(s4 + 1)
+    w5 = weight(s5 + 1)
     num = w0 * p0 + w1 * p1 + w2 * p2 + w3 * p3 + w4 * p4 + w5 * p5
     den = w0 + w1 + w2 + w3 + w4 + w5
-    pred = _floor_div(num + (den >> 1), den)
-    spread = max(p0, p1, p2, p3, p4, p5) - min(p0, p1, p2, p3, p4, p5)
-    # Context: the activity class, split by how far the predictors disagree.
-    wide = np.int64(2 * spread > act) + np.int64(spread > 2 * act + 1)
-    ctx = activity_class(act) * NSPREAD + wide
-    # The context's mean error, rounded half away from zero, by a reciprocal (the
-    # count is below 64; RECIP[0] is 0). Branch-free: the signs are coin tosses.
-    s = bias_sum[ctx]
-    sg = s >> 63
-    t = ((((s ^ sg) - sg) * RECIP[bias_cnt[ctx]]) + (1 << 23)) >> 24
-    pred += (t ^ sg) - sg
+    pred = floor_div(num + (den >> 1), den)
+    ctx = context(act, max(p0, p1, p2, p3, p4, p5) - min(p0, p1, p2, p3, p4, p5))
+    pred += context_bias(bias_sum, bias_cnt, ctx)
     pred = min(max(pred, lo), hi)
     sctx = np.int64(esum > 0) + 2 * np.int64(esum < 0)
     return pred, ctx, sctx, p0, p1, p2, p3, p4, p5
@@ -312,16 +349,10 @@ def _learn(err, perr, r, val, pred, ctx, bias_sum, bias_cnt, p0, p1, p2, p3, p4,
     perr[b + 3] = min(abs(val - p3), 0x3FFFFFFF)
     perr[b + 4] = min(abs(val - p4), 0x3FFFFFFF)
     perr[b + 5] = min(abs(val - p5), 0x3FFFFFFF)
-    s = bias_sum[ctx] + e
-    c = bias_cnt[ctx] + 1
-    if c >= BIAS_LIMIT:
-        s = s // 2 if s >= 0 else -((-s) // 2)
-        c >>= 1
-    bias_sum[ctx] = s
-    bias_cnt[ctx] = c
+    learn_bias(bias_sum, bias_cnt, ctx, e)
 
 
-def _workspace(shape: tuple[int, ...]) -> tuple[np.ndarray, ...]:
+def workspace(shape: tuple[int, ...]) -> tuple[np.ndarray, ...]:
     """The coder's working arrays, fresh (the kernels run without numba's allocator):
     the errors of two slices (the voxel's and the one before, reused slice after slice:
     small enough to stay in cache, unlike one entry per voxel), the contexts' bias sums
@@ -407,7 +438,7 @@ def encode(values: np.ndarray, lo: int, hi: int) -> bytes:
     flat = v.reshape(-1)
     return encode_with_retry(
         lambda out: _encode_kernel(
-            flat, shape, np.int64(lo), np.int64(hi), out, *_workspace(v.shape)
+            flat, shape, np.int64(lo), np.int64(hi), out, *workspace(v.shape)
         ),
         flat.size,
         (2, 20),
@@ -422,6 +453,6 @@ def decode(data: bytes | memoryview, shape: tuple[int, int, int], lo: int, hi: i
     buf = stream_bytes(data, "predictive")
     v = np.empty(int(np.prod(shape)), dtype=np.int64)
     shp = np.array(shape, dtype=np.int64)
-    status = _decode_kernel(buf, shp, np.int64(lo), np.int64(hi), v, *_workspace(shape))
+    status = _decode_kernel(buf, shp, np.int64(lo), np.int64(hi), v, *workspace(shape))
     check_status(status, "predictive")
     return v.reshape(shape)

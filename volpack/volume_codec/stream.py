@@ -88,6 +88,7 @@ def compress(
     order: str | None = None,
     max_levels: int | None = None,
     tools: str | None = None,
+    predict_version: int | None = None,
     brick: int | tuple[int, int, int] | None = None,
     max_error: float | None = None,
     rel_error: float | None = None,
@@ -128,6 +129,9 @@ def compress(
         Wavelet codec settings (see :class:`volpack.volume_codec.codec.WaveletCodec`).
     tools : {"auto", "wavelet", "predict"}, optional
         The lossless codec's tools (:class:`volpack.volume_codec.lossless.LosslessCodec`).
+    predict_version : {1, 2}, optional
+        The lossless codec's predictive stream: 2 (the default) or 1 (as files written
+        before version 2, byte for byte).
     brick : int or (int, int, int), optional
         Brick size; bricks are coded independently and decoded one by one. Default
         :func:`volpack.volume_codec.bricks.default_brick`: 64, but a float volume under an
@@ -179,7 +183,8 @@ def compress(
         c, search = lossy_plan.plan(vol, brick_t, nworkers, asked, fill_value, inner)
     else:
         search = None
-        c = make_codec(codec, vol.dtype, **inner, **({"tools": tools} if tools else {}))
+        extra = {"tools": tools, "predict_version": predict_version}
+        c = make_codec(codec, vol.dtype, **inner, **{k: v for k, v in extra.items() if v})
         if c.codec_id == "wavelet":
             from .codec import check_wavelet_dtype
 
