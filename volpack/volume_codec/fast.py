@@ -67,8 +67,7 @@ class FastCodec(BrickCodec):
         candidates = [
             bytes([MODE_RAW]) + raw,
             bytes([MODE_CODED, flags])
-            + pal.uleb((lo << 1) ^ (lo >> 63))
-            + pal.uleb(hi - lo)
+            + pal.pack_range(lo, hi)
             + fastpredict.encode(values, lo, hi),
         ]
         p = pal.build(values)
@@ -111,14 +110,8 @@ class FastCodec(BrickCodec):
                 raise FormatError(f"corrupt palette: values outside the range of {dtype}")
             values = pal.from_ranks(fastpredict.decode(rest[used:], shape, 0, len(p) - 1), p)
         else:
-            z, pos = pal.read_uleb(rest, 0)
-            span, pos = pal.read_uleb(rest, pos)
-            lo = (z >> 1) ^ -(z & 1)
-            if lo < vmin or lo + span > vmax:
-                raise FormatError(
-                    f"fast brick payload: value range [{lo}, {lo + span}] outside {dtype}"
-                )
-            values = fastpredict.decode(rest[pos:], shape, lo, lo + span)
+            lo, hi, pos = pal.read_range(rest, vmin, vmax, f"fast brick payload of {dtype}")
+            values = fastpredict.decode(rest[pos:], shape, lo, hi)
         if is_float:
             return from_ordered(values.astype(np.int64), dtype).reshape(shape)
         return values.astype(dtype, copy=False).reshape(shape)

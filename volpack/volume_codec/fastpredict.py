@@ -29,8 +29,9 @@ import numpy as np
 
 from .._jit import kernel, leading_zeros
 from ..entropy import rans
-from ..errors import FormatError, OptionError
+from ..errors import FormatError
 from . import palette as pal
+from .predict import checked_input
 
 PREDICTORS = ("med", "med3d", "mean")
 CONTEXTS = ("near", "far")  # the activity with W (better ratio) or without (faster)
@@ -412,11 +413,7 @@ def encode(
     :data:`NEAR_GAIN` (it decodes about a third slower: W joins the decoder's chain
     from one voxel to the next). ``predictor`` / ``context`` force one (tests, studies).
     """
-    v = np.ascontiguousarray(values, dtype=np.int64)
-    if v.ndim != 3:
-        raise OptionError(f"expected a 3-D array, found shape {v.shape}")
-    if not (lo <= hi and hi - lo < (1 << 32)):
-        raise OptionError(f"expected a value range of at most 2^32, found [{lo}, {hi}]")
+    v = checked_input(values, lo, hi)
     shape = np.array(v.shape, dtype=np.int64)
     flat = v.reshape(-1)
     n = flat.size

@@ -188,8 +188,7 @@ def _encode_predict(brick: np.ndarray, version: int = 1) -> list[bytes]:
     else:
         out = [
             bytes([MODE_PREDICT, flags])
-            + pal.uleb(_zigzag(lo))
-            + pal.uleb(hi - lo)
+            + pal.pack_range(lo, hi)
             + predict.encode(values, lo, hi)
         ]
     if version >= 2 and not is_float:  # version 1 stays a candidate: tiny bricks pay
@@ -222,7 +221,7 @@ def _encode_fit(values: np.ndarray, lo: int, hi: int) -> bytes:
     for the better of those with a background mask, and with one gradient class."""
     from . import predictfit
 
-    head = bytes([MODE_PREDICT, FLAG_FIT]) + pal.uleb(_zigzag(lo)) + pal.uleb(hi - lo)
+    head = bytes([MODE_PREDICT, FLAG_FIT]) + pal.pack_range(lo, hi)
     domains = [(head, values, lo, hi)]
     p = pal.build(values)
     if 2 < len(p) < hi - lo + 1 and len(p) <= pal.MAX_PALETTE:
@@ -286,17 +285,11 @@ def _decode_predict(body: memoryview, shape: tuple[int, ...], dtype: np.dtype) -
             ranks = predict.decode(rest[used:], shape, 0, len(p) - 1)
         values = pal.from_ranks(ranks, p)
     else:
-        z, pos = pal.read_uleb(rest, 0)
-        span, pos = pal.read_uleb(rest, pos)
-        lo = (z >> 1) ^ -(z & 1)
-        if lo < vmin or lo + span > vmax:
-            raise FormatError(
-                f"predictive brick payload: value range [{lo}, {lo + span}] outside {dtype}"
-            )
+        lo, hi, pos = pal.read_range(rest, vmin, vmax, f"predictive brick payload of {dtype}")
         if fit:
-            values = _decode_fit(rest[pos:], shape, lo, lo + span, flags)
+            values = _decode_fit(rest[pos:], shape, lo, hi, flags)
         else:
-            values = predict.decode(rest[pos:], shape, lo, lo + span)
+            values = predict.decode(rest[pos:], shape, lo, hi)
     if is_float:
         return from_ordered(values, dtype).reshape(shape)
     return values.astype(dtype).reshape(shape)
@@ -321,6 +314,3 @@ def _value_range(dtype: np.dtype) -> tuple[int, int]:
     info = np.iinfo(dtype)
     return int(info.min), int(info.max)
 
-
-def _zigzag(v: int) -> int:
-    return (v << 1) if v >= 0 else ((-v) << 1) - 1

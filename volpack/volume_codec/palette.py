@@ -92,3 +92,19 @@ def read_uleb(data: memoryview, pos: int) -> tuple[int, int]:
         shift += 7
         if shift > 63:
             raise FormatError("corrupt palette: a number longer than 64 bits")
+
+
+def pack_range(lo: int, hi: int) -> bytes:
+    """A value range ``[lo, hi]`` as ``sleb lo`` (zig-zagged ``uleb``), ``uleb span``."""
+    return uleb((lo << 1) ^ (lo >> 63)) + uleb(hi - lo)
+
+
+def read_range(data: memoryview, vmin: int, vmax: int, what: str) -> tuple[int, int, int]:
+    """Read :func:`pack_range`'s bytes at the start of ``data``: ``(lo, hi, bytes read)``;
+    a range outside ``[vmin, vmax]`` raises FormatError naming ``what``."""
+    z, pos = read_uleb(data, 0)
+    span, pos = read_uleb(data, pos)
+    lo = (z >> 1) ^ -(z & 1)
+    if lo < vmin or lo + span > vmax:
+        raise FormatError(f"{what}: value range [{lo}, {lo + span}] outside [{vmin}, {vmax}]")
+    return lo, lo + span, pos

@@ -426,14 +426,21 @@ def _decode_kernel(data, shape, lo, hi, v, err, perr, bias_sum, bias_cnt, state)
     return end_status(data, code, pos)
 
 
-def encode(values: np.ndarray, lo: int, hi: int) -> bytes:
-    """Code a 3-D integer array whose values lie in ``[lo, hi]`` (a range of at most
-    2^32 values, so every residual and weighted sum fits 64 bits)."""
+def checked_input(values: np.ndarray, lo: int, hi: int) -> np.ndarray:
+    """A predictive encoder's input as a C-ordered int64 3-D array, once its shape and its
+    range ``[lo, hi]`` (at most 2^32 values) are checked."""
     v = np.ascontiguousarray(values, dtype=np.int64)
     if v.ndim != 3:
         raise OptionError(f"expected a 3-D array, found shape {v.shape}")
     if not (lo <= hi and hi - lo < (1 << 32)):
         raise OptionError(f"expected a value range of at most 2^32, found [{lo}, {hi}]")
+    return v
+
+
+def encode(values: np.ndarray, lo: int, hi: int) -> bytes:
+    """Code a 3-D integer array whose values lie in ``[lo, hi]`` (a range of at most
+    2^32 values, so every residual and weighted sum fits 64 bits)."""
+    v = checked_input(values, lo, hi)
     shape = np.array(v.shape, dtype=np.int64)
     flat = v.reshape(-1)
     return encode_with_retry(
