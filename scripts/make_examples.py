@@ -184,10 +184,15 @@ def make_lossless(folder: Path) -> Path:
 # -- fast codec examples: formats/examples/fast-*.vpk ------------------------------------
 
 FAST_CASES = [
-    ("fast-u8", "u8", {"codec": "fast"}),
-    ("fast-u8-background", "u8-background", {"codec": "fast"}),
-    ("fast-i16-palette", "i16", {"codec": "fast"}),
-    ("fast-f32-special", "f32-special", {"codec": "fast"}),
+    ("fast-u8", "u8", {"codec": "fast", "runs": False}),
+    ("fast-u8-background", "u8-background", {"codec": "fast", "runs": False}),
+    ("fast-i16-palette", "i16", {"codec": "fast", "runs": False}),
+    ("fast-f32-special", "f32-special", {"codec": "fast", "runs": False}),
+    # the run mode (the default since; the four above are the streams of before it): in
+    # 32^3 bricks too, whose runs repay their two tables (med3d and med runs, no palette)
+    ("fast-runs-u8-background", "u8-background", {"codec": "fast", "runs": True}),
+    ("fast-runs-labels", "labels", {"codec": "fast", "runs": True, "brick": 32}),
+    ("fast-runs-v2-u8", "v2-u8-background", {"codec": "fast", "runs": True, "brick": 32}),
 ]
 
 
@@ -196,7 +201,8 @@ def make_fast(folder: Path) -> Path:
 
     for stem, recipe, opts in FAST_CASES:
         path = folder / f"{stem}.vpk"
-        api.compress(lossless_source(recipe), str(path), brick=WAVELET_BRICK, force=True, **opts)
+        opts = {"brick": WAVELET_BRICK, **opts}
+        api.compress(lossless_source(recipe), str(path), force=True, **opts)
     return folder
 
 

@@ -11,7 +11,7 @@ import pytest
 
 from volpack import api
 from volpack.entropy import rans
-from volpack.errors import FormatError
+from volpack.errors import FormatError, OptionError
 from volpack.format.container import Reader
 from volpack.volume_codec import fastpredict, palette
 from volpack.volume_codec.fast import (
@@ -44,18 +44,49 @@ def same_bits(a, b):
 # --- the stream: every predictor and context rule ----------------------------------------
 
 
+def blocks(shape, seed=0):
+    """Label-like voxels: a constant background, boxes of other values, a ball (runs
+    that cross rows and slices, and end at edges the predictor does or does not get)."""
+    rng = np.random.default_rng(seed)
+    a = np.zeros(shape, dtype=np.int64)
+    for _ in range(4):
+        lo = [int(rng.integers(0, max(1, n - 1))) for n in shape]
+        hi = [int(rng.integers(a0 + 1, n + 1)) for a0, n in zip(lo, shape)]
+        a[lo[0] : hi[0], lo[1] : hi[1], lo[2] : hi[2]] = rng.integers(1, 9)
+    z, y, x = np.indices(shape)
+    c = [n / 2 for n in shape]
+    a[(z - c[0]) ** 2 + (y - c[1]) ** 2 + (x - c[2]) ** 2 < (min(shape) / 3) ** 2] = 5
+    return a
+
+
 @pytest.mark.parametrize("shape", SHAPES)
 @pytest.mark.parametrize("predictor", fastpredict.PREDICTORS)
 @pytest.mark.parametrize("context", fastpredict.CONTEXTS)
-def test_stream_roundtrip_every_shape(shape, predictor, context):
+@pytest.mark.parametrize("runs", [False, True])
+def test_stream_roundtrip_every_shape(shape, predictor, context, runs):
     for v in (
         np.rint(smooth(shape)).astype(np.int64),
         np.rint(smooth(shape, noise=40) * 300).astype(np.int64),  # raw low bits
+        blocks(shape),
+        np.zeros(shape, dtype=np.int64),  # one run to the brick's end
     ):
         lo, hi = int(v.min()), int(v.max())
-        data = fastpredict.encode(v, lo, hi, predictor, context)
+        data = fastpredict.encode(v, lo, hi, predictor, context, runs)
+        assert bool(data[0] & fastpredict.RUNS) == runs
         back = fastpredict.decode(data, shape, lo, hi)
         np.testing.assert_array_equal(back, v)
+
+
+@pytest.mark.parametrize("shape", [(6, 9, 11), (3, 20, 64), (2, 3, 3)])
+def test_runs_on_labels_and_background(shape):
+    """Long runs: every voxel of a background brick but its first rows and columns is in
+    one run; label boxes leave runs that the decoder fills a row segment at a time."""
+    for v in (blocks(shape, 1), blocks(shape, 2) * 1000 - 7, np.full(shape, 3, np.int64)):
+        v[0, 0, 0] += 1
+        lo, hi = int(v.min()), int(v.max())
+        for predictor in fastpredict.PREDICTORS:
+            data = fastpredict.encode(v, lo, hi, predictor, "far", True)
+            np.testing.assert_array_equal(fastpredict.decode(data, shape, lo, hi), v)
 
 
 @pytest.mark.parametrize("context", fastpredict.CONTEXTS)
@@ -68,11 +99,22 @@ def test_stream_extreme_range(context):
         np.testing.assert_array_equal(fastpredict.decode(data, v.shape, -(2**31), 2**31 - 1), v)
 
 
-def _reference_tokens(v, lo, hi, pid, cid):
-    """Tokens and contexts of formats/fast-1.md steps 4, 5 and 7, in plain Python."""
+def _reference_tokens(v, lo, hi, pid, cid, runs=False):
+    """Tokens and contexts of formats/fast-1.md steps 4, 5 (with its runs) and 7, in
+    plain Python; a run's length in context ``RUN_LENGTH``, the voxel that ends it in
+    ``RUN_BREAK``."""
     nz, ny, nx = v.shape
     u = np.zeros(v.shape, dtype=np.int64)
     toks, ctxs = [], []
+    inrun, length = False, 0
+
+    def token(n):
+        b = n.bit_length()
+        return n if n < 16 else 16 + 4 * (b - 5) + ((n >> (b - 3)) & 3)
+
+    def put(n, c):
+        toks.append(token(n))
+        ctxs.append(c)
 
     def med(a, b, c):
         return min(max(a + b - c, min(a, b)), max(a, b))
@@ -112,30 +154,46 @@ def _reference_tokens(v, lo, hi, pid, cid):
                     a += u[z - 1, y, x]
                 a = int(a + 2 * g)
                 n = a.bit_length()
-                ctxs.append(a if a < 4 else min(47, 2 * n - 2 + ((a >> (n - 2)) & 1)))
+                cls = a if a < 4 else min(47, 2 * n - 2 + ((a >> (n - 2)) & 1))
                 e = int(v[z, y, x]) - p
                 ue = 2 * e if e >= 0 else -2 * e - 1
                 u[z, y, x] = ue
-                n = ue.bit_length()
-                toks.append(ue if ue < 16 else 16 + 4 * (n - 5) + ((ue >> (n - 3)) & 3))
+                if not inrun and runs and a == 0 and y > 0 and 0 < x < nx - 1:
+                    inrun, length = True, 0
+                elif not inrun:
+                    put(ue, cls)
+                    continue
+                if ue == 0:
+                    length += 1
+                else:
+                    put(length, fastpredict.RUN_LENGTH)
+                    put(ue, fastpredict.RUN_BREAK)
+                    inrun = False
+    if inrun:
+        put(length, fastpredict.RUN_LENGTH)
     return toks, ctxs
 
 
 @pytest.mark.parametrize("pid", range(3))
 @pytest.mark.parametrize("cid", range(2))
-def test_tokens_and_contexts_match_the_reference(pid, cid):
-    v = np.rint(smooth((4, 6, 7), noise=9) * 7).astype(np.int64)
-    lo, hi = int(v.min()), int(v.max())
-    n = v.size
-    toks, ctxs = np.empty(n, np.uint8), np.empty(n, np.uint8)
-    counts = np.zeros((fastpredict.NCLASS, rans.MAX_SYMBOLS), dtype=np.int64)
-    nbits = fastpredict._tokens_kernel(
-        v.reshape(-1), np.array(v.shape, dtype=np.int64), np.int64(lo), np.int64(hi), pid, cid,
-        toks, ctxs, np.zeros(2 * 6 * 7, np.int64), counts, np.empty(4 * n + 16, np.uint8),
-    )  # fmt: skip
-    want_t, want_c = _reference_tokens(v, lo, hi, pid, cid)
-    assert toks.tolist() == want_t and ctxs.tolist() == want_c
-    assert nbits == sum(int(fastpredict.TOK_BITS[t]) for t in want_t)
+@pytest.mark.parametrize("runs", [False, True])
+def test_tokens_and_contexts_match_the_reference(pid, cid, runs):
+    labels = blocks((5, 8, 9), 3)
+    labels[2:, 3:6, 2:7] += np.arange(5)  # edges the predictor misses: runs end there
+    for v in (np.rint(smooth((4, 6, 7), noise=9) * 7).astype(np.int64), labels):
+        lo, hi = int(v.min()), int(v.max())
+        n = v.size
+        toks, ctxs = np.empty(2 * n, np.uint8), np.empty(2 * n, np.uint8)
+        counts = np.zeros((fastpredict.NCLASS + 2, rans.MAX_SYMBOLS), dtype=np.int64)
+        nbits, nsym, covered = fastpredict._tokens_kernel(
+            v.reshape(-1), np.array(v.shape, dtype=np.int64), np.int64(lo), np.int64(hi),
+            pid, cid, runs, toks, ctxs, np.zeros(2 * v[0].size, np.int64), counts,
+            np.empty(4 * n + 16, np.uint8),
+        )  # fmt: skip
+        want_t, want_c = _reference_tokens(v, lo, hi, pid, cid, runs)
+        assert toks[:nsym].tolist() == want_t and ctxs[:nsym].tolist() == want_c
+        assert nbits == sum(int(fastpredict.TOK_BITS[t]) for t in want_t)
+        assert (fastpredict.RUN_LENGTH in want_c) == (runs and v is labels)
 
 
 # --- the codec: modes, dtypes, the encoder's choice --------------------------------------
@@ -185,10 +243,25 @@ def test_volume_roundtrip_and_info_tools():
     np.testing.assert_array_equal(api.decompress_array(blob, workers=2), a)
     with Reader(blob) as r:
         tools = r.summary["tools"]
-        assert r.header["codec"] == {"id": "fast"}
+        assert r.header["codec"] == {"id": "fast", "runs": True}
     assert sum(tools.values()) == 2 * 2 * 3
     assert all(t.startswith("fast-") for t in tools), tools
-    assert get_codec({"id": "fast"}) == FastCodec()
+    assert get_codec({"id": "fast", "runs": True}) == FastCodec()
+    assert get_codec({"id": "fast"}) == FastCodec(runs=False)  # the files of before runs
+    with pytest.raises(OptionError, match="runs"):
+        FastCodec(runs=1)
+    with pytest.raises(OptionError, match="fast codec"):
+        api.compress_array(a, runs=False)
+    labels = blocks((40, 37, 70)).astype(np.uint8)
+    blob = api.compress_array(labels, codec="fast", brick=32)
+    with Reader(blob) as r:
+        assert any("+runs" in t for t in r.summary["tools"]), r.summary["tools"]
+    np.testing.assert_array_equal(api.decompress_array(blob), labels)
+    old = api.compress_array(labels, codec="fast", brick=32, runs=False)
+    with Reader(old) as r:
+        assert r.header["codec"] == {"id": "fast"}
+        assert not any("+runs" in t for t in r.summary["tools"])
+    np.testing.assert_array_equal(api.decompress_array(old), labels)
 
 
 def test_fast_codec_beats_nothing_but_keeps_most_ratio():
@@ -205,19 +278,30 @@ def test_fast_codec_beats_nothing_but_keeps_most_ratio():
 
 # The recipes of scripts/make_examples.py, written out again on purpose.
 CASES = [
-    ("fast-u8", "u8"),
-    ("fast-u8-background", "u8-background"),
-    ("fast-i16-palette", "i16"),
-    ("fast-f32-special", "f32-special"),
+    ("fast-u8", "u8", {"runs": False}),
+    ("fast-u8-background", "u8-background", {"runs": False}),
+    ("fast-i16-palette", "i16", {"runs": False}),
+    ("fast-f32-special", "f32-special", {"runs": False}),
+    ("fast-runs-u8-background", "u8-background", {"brick": 16}),
+    ("fast-runs-labels", "labels", {"brick": 32}),
+    ("fast-runs-v2-u8", "v2-u8-background", {"brick": 32}),
 ]
 
 
 def golden_source(recipe):
     from volpack.demo import load_demo_volume
 
+    if recipe == "v2-u8-background":
+        d = load_demo_volume().data[16:48, 24:56, 24:56].copy()
+        d[d < 60] = 0
+        return d
     cut = load_demo_volume().data[30:50, 40:64, 40:68]
     if recipe == "u8":
         return cut
+    if recipe == "labels":
+        lab = np.digitize(cut, [40, 90]).astype(np.uint8)
+        lab[:16, :16, :16] = 0
+        return lab
     if recipe == "u8-background":
         return np.where(cut < 60, 0, cut).astype(np.uint8)
     if recipe == "i16":
@@ -231,13 +315,13 @@ def golden_source(recipe):
     return f
 
 
-@pytest.mark.parametrize("stem,recipe", CASES, ids=[c[0] for c in CASES])
-def test_golden_fast_stream(stem, recipe):
+@pytest.mark.parametrize("stem,recipe,opts", CASES, ids=[c[0] for c in CASES])
+def test_golden_fast_stream(stem, recipe, opts):
     blob = (GOLDEN / f"{stem}.vpk").read_bytes()
     want = golden_source(recipe)
     got = api.decompress(blob).data
     assert same_bits(want, got)
-    again = api.compress_array(want, brick=16, codec="fast")
+    again = api.compress_array(want, codec="fast", **{"brick": 16, **opts})
     with Reader(blob) as old, Reader(again) as new:
         assert old.header == new.header
         assert [(t, n, p) for t, n, p in old] == [(t, n, p) for t, n, p in new]
@@ -245,13 +329,16 @@ def test_golden_fast_stream(stem, recipe):
 
 def test_golden_fast_streams_cover_every_choice():
     seen = set()
-    for stem, _ in CASES:
+    for stem, _, _ in CASES:
         with Reader((GOLDEN / f"{stem}.vpk").read_bytes()) as r:
             for e in r.entries:
                 seen.add(describe(r.read(e.t, e.node)).replace("+palette", ""))
     want = {f"fast-{p}-{c}" for p in fastpredict.PREDICTORS for c in fastpredict.CONTEXTS}
     assert want - seen <= {"fast-med3d-near", "fast-med-far"}, seen
     assert {"fast-med-near", "fast-med3d-far", "fast-mean-near", "fast-mean-far"} <= seen
+    # the run mode: every predictor, both context rules
+    assert {p + "+runs" for p in ("fast-med-near", "fast-med3d-near", "fast-mean-far")} <= seen
+    assert "fast-mean-near+runs" in seen
 
 
 # --- corrupt payloads --------------------------------------------------------------------
@@ -299,6 +386,20 @@ def test_corrupt_payloads_raise_format_error():
             c.decode(p, a.shape, a.dtype)
 
 
+def test_a_run_past_the_brick_raises_format_error():
+    """A background brick coded as one run: the same stream decoded as a smaller brick
+    finds a run longer than the voxels left."""
+    v = np.zeros((4, 6, 7), dtype=np.int64)
+    v[0, 0, 0] = 1
+    data = fastpredict.encode(v, 0, 1, "med", "far", True)
+    np.testing.assert_array_equal(fastpredict.decode(data, v.shape, 0, 1), v)
+    with pytest.raises(FormatError, match="run runs past"):
+        fastpredict.decode(data, (3, 6, 7), 0, 1)
+    with pytest.raises(FormatError):  # the run mode's flag on a stream without its tables
+        plain = fastpredict.encode(v, 0, 1, "med", "far", False)
+        fastpredict.decode(bytes([plain[0] | fastpredict.RUNS]) + plain[1:], v.shape, 0, 1)
+
+
 def test_damaged_payloads_never_crash():
     """Random byte changes: a FormatError or some array of the right shape and dtype
     (the container's CRC catches the rest), never an out-of-bounds access."""
@@ -307,6 +408,7 @@ def test_damaged_payloads_never_crash():
     for a in (
         np.rint(smooth((9, 10, 11), noise=5) * 9).astype(np.int16),
         (np.rint(smooth((9, 10, 11))) // 3 * 5).astype(np.uint8),
+        blocks((9, 10, 11)).astype(np.uint8),  # runs
     ):
         good = bytearray(c.encode(a))
         for _ in range(150):

@@ -27,7 +27,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from ..errors import FormatError
+from ..errors import FormatError, OptionError
 from . import palette as pal
 from .floatbits import from_ordered, to_ordered
 from .lossless import check_dtype
@@ -43,9 +43,35 @@ class FastCodec(BrickCodec):
 
     It trades ratio for speed against the ``lossless`` codec (no wavelet, no predictor
     blend, no adaptive models); see the README's results for both on the same data.
+
+    Parameters
+    ----------
+    runs : bool
+        Let the encoder code runs of voxels its prediction gets right as run lengths
+        (the default: much faster to decode on background and label maps, kept per brick
+        when it costs little). ``False`` writes the streams of the files made before the
+        run mode, byte for byte (their headers have no ``runs`` field).
     """
 
     codec_id: ClassVar[str] = "fast"
+    runs: bool = True
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.runs, bool):
+            raise OptionError(f"runs: expected True or False, found {self.runs!r}")
+
+    def get_config(self) -> dict[str, Any]:
+        """As stored in a header; without the run mode as the files before it were."""
+        config = super().get_config()
+        if not self.runs:
+            del config["runs"]
+        return config
+
+    @classmethod
+    def from_config(cls, config: Any) -> BrickCodec:
+        if isinstance(config, dict) and "runs" not in config:
+            config = {**config, "runs": False}
+        return super().from_config(config)
 
     @staticmethod
     def describe(payload: bytes) -> str:
@@ -68,14 +94,16 @@ class FastCodec(BrickCodec):
             bytes([MODE_RAW]) + raw,
             bytes([MODE_CODED, flags])
             + pal.pack_range(lo, hi)
-            + fastpredict.encode(values, lo, hi),
+            + fastpredict.encode(values, lo, hi, runs=None if self.runs else False),
         ]
         p = pal.build(values)
         if len(p) < hi - lo + 1 and len(p) <= pal.MAX_PALETTE:
             candidates.append(
                 bytes([MODE_CODED, flags | FLAG_PALETTE])
                 + pal.pack(p)
-                + fastpredict.encode(pal.to_ranks(values, p), 0, len(p) - 1)
+                + fastpredict.encode(
+                    pal.to_ranks(values, p), 0, len(p) - 1, runs=None if self.runs else False
+                )
             )
         return min(candidates, key=len)
 
@@ -119,9 +147,10 @@ class FastCodec(BrickCodec):
 
 def describe(payload: bytes) -> str:
     """The tool a brick payload used, as ``volpack info`` lists it: ``fast-med-far``,
-    ``fast-med3d-near+palette``, ... (predictor, context rule, the palette if any),
+    ``fast-med3d-near+runs+palette``, ... (predictor, context rule, the run mode and
+    the palette if any),
     ``raw``, ``constant``."""
-    from .fastpredict import CONTEXTS, PREDICTORS
+    from .fastpredict import CONTEXTS, PREDICTORS, RUNS
 
     mode = payload[0] if payload else -1
     if mode == MODE_CODED and len(payload) > 2:
@@ -134,10 +163,15 @@ def describe(payload: bytes) -> str:
             _, pos = pal.read_uleb(memoryview(payload), 2)
             _, pos = pal.read_uleb(memoryview(payload), pos)
         b = payload[pos] if pos < len(payload) else 0xFF
+        pid, cid = b & 3, (b & ~RUNS) >> 2
         name = (
-            f"{PREDICTORS[b & 3]}-{CONTEXTS[b >> 2]}"
-            if b & 3 < len(PREDICTORS) and b >> 2 < len(CONTEXTS)
+            f"{PREDICTORS[pid]}-{CONTEXTS[cid]}"
+            if pid < len(PREDICTORS) and cid < len(CONTEXTS)
             else "?"
         )
-        return f"fast-{name}" + ("+palette" if flags & FLAG_PALETTE else "")
+        return (
+            f"fast-{name}"
+            + ("+runs" if b & RUNS else "")
+            + ("+palette" if flags & FLAG_PALETTE else "")
+        )
     return {1: "raw", 2: "constant"}.get(mode, f"mode {mode}")

@@ -39,6 +39,10 @@ DIRECT = 16  # tokens 0..15 are the zig-zagged residual itself
 NTOK = DIRECT + 4 * 29  # bit lengths up to 33: residuals of a span below 2^32
 NCLASS = 48  # activity classes before the encoder caps them
 STATES = 2
+RUN_LENGTH, RUN_BREAK = NCLASS, NCLASS + 1  # the encoder's contexts of the run mode
+RUNS = 0x80  # bit 7 of the choice byte: the stream has the run mode
+RUN_SLACK = 0.3  # the run mode may cost this share of bytes times that of voxels in runs
+# (a brick all in runs decodes several times faster; one with few runs gains nothing)
 BAD_SYMBOL = 0xFF  # what the slots of an unused context decode to
 NEAR_GAIN = 0.01  # the share of bytes the slower ``near`` context must save
 ONE, TWO, THREE = np.uintp(1), np.uintp(2), np.uintp(3)  # unsigned offsets: no wrap test
@@ -46,6 +50,7 @@ STATUS = {
     1: "the stream ends before the last voxel",
     2: "a token decodes to a value outside the brick's range",
     3: "it does not end where its lengths say",
+    4: "a run runs past the brick's end",
 }
 
 
@@ -151,18 +156,53 @@ def _context(v, u, i, r, ru, z, y, x, nx, cid):
     return _activity(a + 2 * g)
 
 
+@kernel(inline=True)
+def _put_bits(bits, bpos, acc, nacc, value, nb):
+    """Append the ``nb`` low bits of ``value`` to the raw bit stream ``(bits, bpos, acc,
+    nacc)`` (LSB first); ``bpos`` -1 when ``bits`` is too small."""
+    if bpos + 16 > bits.size:
+        return np.int64(-1), acc, nacc
+    acc |= np.uint64(value & ((1 << nb) - 1)) << np.uint64(nacc)
+    nacc += nb
+    while nacc >= 8:
+        bits[bpos] = np.uint8(acc & np.uint64(0xFF))
+        acc >>= np.uint64(8)
+        nacc -= 8
+        bpos += 1
+    return bpos, acc, nacc
+
+
+@kernel(inline=True)
+def _emit(toks, ctxs, counts, k, c, value, bits, bpos, acc, nacc):
+    """Symbol ``k``: the token of ``value`` in context ``c``, its raw bits appended."""
+    t, nb = _token(value)
+    toks[k] = t
+    ctxs[k] = c
+    counts[c, t] += 1
+    if nb > 0:
+        return _put_bits(bits, bpos, acc, nacc, value, nb)
+    return bpos, acc, nacc
+
+
 @kernel(nrt=False)
-def _tokens_kernel(v, shape, lo, hi, pid, cid, toks, ctxs, u, counts, bits):
-    """Forward pass of the encoder: every voxel's token and context, the counts per
-    (context, token), and the raw low bits written to ``bits`` (LSB first). Returns the
-    number of raw bits, or -1 when ``bits`` is too small."""
+def _tokens_kernel(v, shape, lo, hi, pid, cid, runs, toks, ctxs, u, counts, bits):
+    """Forward pass of the encoder: every symbol's token and context (``toks``,
+    ``ctxs``: room for two a voxel), the counts per (context, token), and the raw low
+    bits written to ``bits`` (LSB first). With ``runs``, a voxel inside the rows whose
+    activity is 0 starts a run: the count of voxels from it on (C order) whose residual
+    is 0 is coded (context :data:`RUN_LENGTH`), then the voxel that ends the run before
+    the brick's end (context :data:`RUN_BREAK`). Returns ``(raw bits, symbols, voxels
+    in runs)``; raw bits -1 when ``bits`` is too small."""
     nz, ny, nx = shape[0], shape[1], shape[2]
     sy, sz = nx, ny * nx
     mid = (lo + hi) >> 1
     acc = np.uint64(0)
     nacc = 0
     bpos = 0
-    cap = bits.size
+    k = 0  # symbols so far
+    inrun = False
+    length = 0
+    covered = 0  # voxels inside runs
     i = 0
     for z in range(nz):
         cur = (z & 1) * sz
@@ -170,42 +210,67 @@ def _tokens_kernel(v, shape, lo, hi, pid, cid, toks, ctxs, u, counts, bits):
             for x in range(nx):
                 p = min(max(_predict(v, i, z, y, x, sy, sz, pid, mid), lo), hi)
                 r = cur + y * nx + x
-                c = _context(v, u, i, r, sz - cur + y * nx + x, z, y, x, nx, cid)
                 e = v[i] - p
                 ue = (e << 1) if e >= 0 else ((-e) << 1) - 1
+                c = np.int64(RUN_BREAK)
+                if not inrun:
+                    c = _context(v, u, i, r, sz - cur + y * nx + x, z, y, x, nx, cid)
+                    if runs and c == 0 and y > 0 and 0 < x < nx - 1:
+                        inrun = True
+                        length = 0
                 u[r] = ue
-                t, nb = _token(ue)
-                toks[i] = t
-                ctxs[i] = c
-                counts[c, t] += 1
-                if nb > 0:
-                    if bpos + 16 > cap:
-                        return -1
-                    acc |= np.uint64(ue & ((1 << nb) - 1)) << np.uint64(nacc)
-                    nacc += nb
-                    while nacc >= 8:
-                        bits[bpos] = np.uint8(acc & np.uint64(0xFF))
-                        acc >>= np.uint64(8)
-                        nacc -= 8
-                        bpos += 1
                 i += 1
+                if inrun:
+                    if ue == 0:
+                        length += 1
+                        covered += 1
+                        continue
+                    inrun = False
+                    bpos, acc, nacc = _emit(
+                        toks, ctxs, counts, k, RUN_LENGTH, length, bits, bpos, acc, nacc
+                    )
+                    k += 1
+                    c = RUN_BREAK
+                bpos, acc, nacc = _emit(toks, ctxs, counts, k, c, ue, bits, bpos, acc, nacc)
+                k += 1
+                if bpos < 0:
+                    return -1, k, covered
+    if inrun:  # the last run ends with the brick
+        bpos, acc, nacc = _emit(toks, ctxs, counts, k, RUN_LENGTH, length, bits, bpos, acc, nacc)
+        k += 1
+        if bpos < 0:
+            return -1, k, covered
     if nacc > 0:
         bits[bpos] = np.uint8(acc & np.uint64(0xFF))
         bpos += 1
-    return bpos * 8 - ((8 - nacc) & 7)
+    return bpos * 8 - ((8 - nacc) & 7), k, covered
 
 
 @kernel(inline=True)
-def _symbol(table, c, data, pos, x0, x1, i, bits, bpos, acc, nacc, tok_base, tok_bits):
-    """Decode voxel ``i``'s zig-zagged residual: its token from state ``i & 1`` in
-    context ``c`` (:func:`volpack.entropy.rans.decode_symbol`), then its raw low bits
-    from the bit reader ``(acc, nacc, bpos)``. Returns ``(u, pos, x0, x1, bpos, acc,
-    nacc)``. ``bits`` ends with four 0 bytes past the stream, which every read beyond
-    the end gets."""
-    if i & 1:
-        t, x1, pos = rans.decode_symbol(data, x1, pos, c, table)
-    else:
-        t, x0, pos = rans.decode_symbol(data, x0, pos, c, table)
+def _flat_until(v, i, end, sy, sz, pz):
+    """The first voxel of ``i .. end - 1`` (in a row, x > 0, y > 0, inside a run) not
+    predicted as W's value, else ``end``: N equal to NW makes MED give W, and (with the
+    3-D correction, ``pz``) U equal to UW and UN to UNW make the correction 0; since
+    the run's residuals are 0, W's value then repeats."""
+    for j in range(np.uintp(i), np.uintp(end)):
+        k = j - np.uintp(sy)
+        if v[k] != v[k - ONE]:
+            return np.int64(j)
+        if pz != 0:
+            m = j - np.uintp(sz)
+            if v[m] != v[m - ONE] or v[k - np.uintp(sz)] != v[k - np.uintp(sz) - ONE]:
+                return np.int64(j)
+    return end
+
+
+@kernel(inline=True)
+def _symbol(table, c, data, pos, x0, x1, bits, bpos, acc, nacc, tok_base, tok_bits):
+    """Decode the next zig-zagged number: its token from state ``x0`` in context ``c``
+    (:func:`volpack.entropy.rans.decode_symbol`), then its raw low bits from the bit
+    reader ``(acc, nacc, bpos)``. Returns ``(u, pos, x1, x0, bpos, acc, nacc)``: the
+    states swapped, so the two take the symbols in turn. ``bits`` ends with four 0
+    bytes past the stream, which every read beyond the end gets."""
+    t, x0, pos = rans.decode_symbol(data, x0, pos, c, table)
     nb = tok_bits[np.uintp(t)]
     if nacc < 32:  # refill 32 bits
         k = np.uintp(min(bpos, bits.size - 4))
@@ -219,18 +284,24 @@ def _symbol(table, c, data, pos, x0, x1, i, bits, bpos, acc, nacc, tok_base, tok
         nacc += 32
         bpos += 4
     ue = tok_base[np.uintp(t)] + np.int64(acc & ((np.uint64(1) << np.uint64(nb)) - np.uint64(1)))
-    return ue, pos, x0, x1, bpos, acc >> np.uint64(nb), nacc - nb
+    return ue, pos, x1, x0, bpos, acc >> np.uint64(nb), nacc - nb
 
 
 @kernel(nrt=False)
-def _decode_kernel(data, bits, table, nctx, pid, cid, shape, lo, hi, v, u, tok_base, tok_bits):
-    """Decode a brick into ``v`` (flat; ``u`` a zeroed ring of two slices); 0, or a
-    :data:`STATUS` code. ``data`` (the rANS stream) and ``bits`` carry the zero padding
-    :func:`_symbol` reads past their ends. Inside a row the loop keeps W and its residual in registers
-    and reads the neighbours without edge tests or signed indices; edges go through
-    :func:`_predict` and :func:`_context`, as in the encoder."""
+def _decode_kernel(
+    data, bits, table, nctx, pid, cid, runs, shape, lo, hi, v, u, tok_base, tok_bits
+):
+    """Decode a brick into ``v`` (flat; ``u`` a zeroed ring of two slices: voxel ``i``'s
+    residual in slot ``i mod 2 ny nx``); 0, or a :data:`STATUS` code. ``data`` (the rANS
+    stream) and ``bits`` carry the zero padding :func:`_symbol` reads past their ends.
+    Inside a row the loop keeps W and its residual in registers and reads the neighbours
+    without edge tests or signed indices; a run (``runs``) fills its voxels at once;
+    edges and the voxel that ends a run go through :func:`_predict` and
+    :func:`_context`, as in the encoder."""
     nz, ny, nx = shape[0], shape[1], shape[2]
     sy, sz = nx, ny * nx
+    n = nz * sz
+    ring = 2 * sz
     mid = (lo + hi) >> 1
     hictx = nctx - 1
     x0, x1, pos = rans.open_states(data)
@@ -238,65 +309,108 @@ def _decode_kernel(data, bits, table, nctx, pid, cid, shape, lo, hi, v, u, tok_b
     nacc = 0
     bpos = 0
     bad = False
+    brk = False  # voxel i ends a run
     i = 0
-    for z in range(nz):
+    while i < n:
+        z = i // sz
+        rem = i - z * sz
+        y = rem // nx
+        x = rem - y * nx
         cur = (z & 1) * sz
+        r = cur + rem
         pz = pid if z > 0 else 0
-        for y in range(ny):
-            r = cur + y * nx
-            x = 0
-            while x < nx:
-                if y > 0 and 0 < x < nx - 1:  # the inside of a row, up to its last voxel
-                    w = np.int64(v[i - 1])
-                    uw = u[r - 1]
-                    d = sz - 2 * cur  # from a slot to the slot of U
-                    while x < nx - 1:
-                        k = np.uintp(i - sy)
-                        n = np.int64(v[k])
-                        nw = np.int64(v[k - ONE])
-                        ne = np.int64(v[k + ONE])
-                        p = _med(w, n, nw)
-                        if pz != 0:
-                            j = np.uintp(i - sz)
-                            m = _med(
-                                np.int64(v[j - ONE]),
-                                np.int64(v[np.uintp(i - sz - sy)]),
-                                np.int64(v[np.uintp(i - sz - sy - 1)]),
-                            )
-                            p = _correct(p, v[j] - m, pz)
-                        p = min(max(p, lo), hi)
-                        q = np.uintp(r - nx)
-                        a = u[q] + u[q - ONE] + u[q + ONE] + u[np.uintp(r + d)]
-                        g = abs(n - nw) + abs(ne - n)
-                        if cid == 0:
-                            a += uw
-                            g += abs(w - nw)
-                        c = min(_activity(a + 2 * g), hictx)
-                        uw, pos, x0, x1, bpos, acc, nacc = _symbol(
-                            table, c, data, pos, x0, x1, i, bits, bpos, acc, nacc,
-                            tok_base, tok_bits,
-                        )  # fmt: skip
-                        u[np.uintp(r)] = uw
-                        w = p + ((uw >> 1) ^ -(uw & 1))
-                        bad |= (w < lo) | (w > hi)
-                        v[np.uintp(i)] = w
-                        i += 1
-                        r += 1
-                        x += 1
-                    continue
-                p = min(max(_predict(v, i, z, y, x, sy, sz, pz, mid), lo), hi)
-                c = min(_context(v, u, i, r, sz - cur + y * nx + x, z, y, x, nx, cid), hictx)
-                ue, pos, x0, x1, bpos, acc, nacc = _symbol(
-                    table, c, data, pos, x0, x1, i, bits, bpos, acc, nacc,
-                    tok_base, tok_bits,
-                )  # fmt: skip
-                u[r] = ue
-                val = p + ((ue >> 1) ^ -(ue & 1))
-                bad |= (val < lo) | (val > hi)
-                v[i] = val
+        if not brk and y > 0 and 0 < x < nx - 1:  # the inside of a row, up to its last voxel
+            w = np.int64(v[i - 1])
+            uw = u[r - 1]
+            d = sz - 2 * cur  # from a slot to the slot of U
+            run = False
+            while x < nx - 1:
+                k = np.uintp(i - sy)
+                nn = np.int64(v[k])
+                nw = np.int64(v[k - ONE])
+                ne = np.int64(v[k + ONE])
+                p = _med(w, nn, nw)
+                if pz != 0:
+                    j = np.uintp(i - sz)
+                    m = _med(
+                        np.int64(v[j - ONE]),
+                        np.int64(v[np.uintp(i - sz - sy)]),
+                        np.int64(v[np.uintp(i - sz - sy - 1)]),
+                    )
+                    p = _correct(p, v[j] - m, pz)
+                p = min(max(p, lo), hi)
+                q = np.uintp(r - nx)
+                a = u[q] + u[q - ONE] + u[q + ONE] + u[np.uintp(r + d)]
+                g = abs(nn - nw) + abs(ne - nn)
+                if cid == 0:
+                    a += uw
+                    g += abs(w - nw)
+                if runs and a + g == 0:
+                    run = True
+                    break
+                c = min(_activity(a + 2 * g), hictx)
+                uw, pos, x0, x1, bpos, acc, nacc = _symbol(
+                    table, c, data, pos, x0, x1, bits, bpos, acc, nacc, tok_base, tok_bits
+                )
+                u[np.uintp(r)] = uw
+                w = p + ((uw >> 1) ^ -(uw & 1))
+                bad |= (w < lo) | (w > hi)
+                v[np.uintp(i)] = w
                 i += 1
                 r += 1
                 x += 1
+            if not run:
+                continue
+            length, pos, x0, x1, bpos, acc, nacc = _symbol(
+                table, nctx, data, pos, x0, x1, bits, bpos, acc, nacc, tok_base, tok_bits
+            )
+            if length > n - i:
+                return 4
+            end = i + length
+            while i < end:  # voxels whose residual is 0: the prediction
+                seg = i
+                if y > 0 and x > 0:
+                    seg = _flat_until(v, i, min(end, i + nx - x), sy, sz, pz)
+                if seg > i:
+                    w = v[i - 1]  # every prediction up to seg is W's value
+                    for j in range(np.uintp(i), np.uintp(seg)):
+                        v[j] = w
+                    for j in range(np.uintp(r), np.uintp(r + seg - i)):
+                        u[j] = 0
+                    r += seg - i
+                    x += seg - i
+                    i = seg
+                else:
+                    v[i] = min(max(_predict(v, i, z, y, x, sy, sz, pz, mid), lo), hi)
+                    u[r] = 0
+                    i += 1
+                    r += 1
+                    x += 1
+                if x == nx:
+                    x = 0
+                    y += 1
+                    if y == ny:
+                        y = 0
+                        z += 1
+                        pz = pid
+                        if r == ring:
+                            r = 0
+            brk = i < n
+            continue
+        p = min(max(_predict(v, i, z, y, x, sy, sz, pz, mid), lo), hi)
+        if brk:
+            c = nctx + 1
+            brk = False
+        else:
+            c = min(_context(v, u, i, r, sz - cur + rem, z, y, x, nx, cid), hictx)
+        ue, pos, x0, x1, bpos, acc, nacc = _symbol(
+            table, c, data, pos, x0, x1, bits, bpos, acc, nacc, tok_base, tok_bits
+        )
+        u[r] = ue
+        val = p + ((ue >> 1) ^ -(ue & 1))
+        bad |= (val < lo) | (val > hi)
+        v[i] = val
+        i += 1
     if bad:
         return 2
     nbytes = bits.size - 4
@@ -318,12 +432,17 @@ def _cap_contexts(counts: np.ndarray) -> tuple[int, np.ndarray, float]:
         merged = counts[:nctx].copy()
         merged[nctx - 1] += counts[nctx:].sum(axis=0)
         freqs = rans.normalise(merged)
-        used = merged > 0
-        bits = -(merged[used] * np.log2(freqs[used] / rans.TOTAL)).sum()
-        cost = bits + 8 * _table_bytes(freqs)
+        cost = _coded_bits(merged, freqs)
         if best is None or cost < best[2]:
             best = (nctx, freqs, cost)
     return best
+
+
+def _coded_bits(counts: np.ndarray, freqs: np.ndarray) -> float:
+    """The bits of the symbols ``counts`` under the tables ``freqs``, the tables' own
+    bytes included."""
+    used = counts > 0
+    return -(counts[used] * np.log2(freqs[used] / rans.TOTAL)).sum() + 8 * _table_bytes(freqs)
 
 
 def _table_bytes(freqs: np.ndarray) -> int:
@@ -403,7 +522,12 @@ def _work_dtype(lo: int, hi: int) -> np.dtype:
 
 
 def encode(
-    values: np.ndarray, lo: int, hi: int, predictor: str | None = None, context: str | None = None
+    values: np.ndarray,
+    lo: int,
+    hi: int,
+    predictor: str | None = None,
+    context: str | None = None,
+    runs: bool | None = None,
 ) -> bytes:
     """Code a 3-D integer array with values in ``[lo, hi]`` (span below 2^32): the
     predictor and context byte, the tables, the rANS words and the raw bits.
@@ -411,7 +535,9 @@ def encode(
     By default the encoder measures every predictor with the ``far`` context, then the
     best one with ``near``, and keeps ``near`` only when it saves more than
     :data:`NEAR_GAIN` (it decodes about a third slower: W joins the decoder's chain
-    from one voxel to the next). ``predictor`` / ``context`` force one (tests, studies).
+    from one voxel to the next); then the best with the run mode, kept unless it costs
+    more than :data:`RUN_SLACK` times the share of voxels in runs. ``predictor`` / ``context`` / ``runs`` force one
+    (tests, studies; ``runs=False`` writes the streams of before the run mode).
     """
     v = checked_input(values, lo, hi)
     shape = np.array(v.shape, dtype=np.int64)
@@ -419,31 +545,43 @@ def encode(
     n = flat.size
     ring = np.zeros(2 * v.shape[1] * v.shape[2], dtype=np.int64)
 
-    def trial(pid: int, cid: int) -> tuple:
-        toks = np.empty(n, dtype=np.uint8)
-        ctxs = np.empty(n, dtype=np.uint8)
-        counts = np.zeros((NCLASS, rans.MAX_SYMBOLS), dtype=np.int64)
+    def trial(pid: int, cid: int, run: bool) -> tuple:
+        toks = np.empty(2 * n, dtype=np.uint8)
+        ctxs = np.empty(2 * n, dtype=np.uint8)
+        counts = np.zeros((NCLASS + 2, rans.MAX_SYMBOLS), dtype=np.int64)
         bits = np.empty(4 * n + 16, dtype=np.uint8)
-        nbits = _tokens_kernel(
-            flat, shape, np.int64(lo), np.int64(hi), pid, cid, toks, ctxs, ring, counts, bits
-        )
-        nctx, freqs, cost = _cap_contexts(counts)
-        return cost + nbits, pid, cid, nctx, freqs, bits[: (nbits + 7) >> 3].tobytes(), toks, ctxs
+        nbits, nsym, covered = _tokens_kernel(
+            flat, shape, np.int64(lo), np.int64(hi), pid, cid, run, toks, ctxs, ring, counts,
+            bits,
+        )  # fmt: skip
+        nctx, freqs, cost = _cap_contexts(counts[:NCLASS])
+        if run:
+            extra = rans.normalise(counts[NCLASS:])
+            cost += _coded_bits(counts[NCLASS:], extra)
+            freqs = np.vstack([freqs, extra])
+        ctx = ctxs[:nsym].astype(np.int64)
+        ctx = np.where(ctx >= NCLASS, ctx - NCLASS + nctx, np.minimum(ctx, nctx - 1))
+        raw = bits[: (nbits + 7) >> 3].tobytes()
+        return cost + nbits, pid, cid, run, nctx, freqs, raw, toks[:nsym], ctx, covered / n
 
     pids = [PREDICTORS.index(predictor)] if predictor else range(len(PREDICTORS))
     if v.shape[0] == 1:  # one slice: the 3-D predictors are MED
         pids = [0]
     far = CONTEXTS.index("far")
     cids = [CONTEXTS.index(context)] if context else [far]
-    best = min((trial(pid, cid) for pid in pids for cid in cids), key=lambda t: t[0])
+    first = bool(runs)
+    best = min((trial(pid, cid, first) for pid in pids for cid in cids), key=lambda t: t[0])
     if context is None:
-        near = trial(best[1], CONTEXTS.index("near"))
+        near = trial(best[1], CONTEXTS.index("near"), first)
         if near[0] * (1 + NEAR_GAIN) < best[0]:
             best = near
-    _, pid, cid, nctx, freqs, raw, toks, ctxs = best
-    hictx = np.int64(nctx - 1)
-    stream = rans.encode(toks, np.minimum(ctxs.astype(np.int64), hictx), freqs)
-    head = bytes([pid | (cid << 2)]) + pal.uleb(nctx) + pack_tables(freqs)
+    if runs is None:
+        run = trial(best[1], best[2], True)
+        if run[0] <= best[0] * (1 + RUN_SLACK * run[-1]):
+            best = run
+    _, pid, cid, run, nctx, freqs, raw, toks, ctx, _ = best
+    stream = rans.encode(toks, ctx, freqs)
+    head = bytes([pid | (cid << 2) | (RUNS if run else 0)]) + pal.uleb(nctx) + pack_tables(freqs)
     return head + pal.uleb(len(stream)) + stream + raw
 
 
@@ -455,13 +593,14 @@ def decode(data: bytes | memoryview, shape: tuple[int, int, int], lo: int, hi: i
     data = memoryview(data)
     if len(data) < 1:
         raise FormatError("fast stream: missing predictor byte")
-    pid, cid = data[0] & 3, data[0] >> 2
+    runs = bool(data[0] & RUNS)
+    pid, cid = data[0] & 3, (data[0] & ~RUNS) >> 2
     if pid >= len(PREDICTORS) or cid >= len(CONTEXTS):
         raise FormatError(f"fast stream: unknown predictor/context byte {data[0]:#x}")
     nctx, pos = pal.read_uleb(data, 1)
     if not 1 <= nctx <= NCLASS:
         raise FormatError(f"fast stream: {nctx} contexts, expected 1..{NCLASS}")
-    table = np.empty((nctx, rans.TOTAL), dtype=np.uint32)
+    table = np.empty((nctx + 2 * runs, rans.TOTAL), dtype=np.uint32)
     pos = _tables_kernel(np.frombuffer(data, dtype=np.uint8), pos, table)
     if pos < 0:
         why = {-1: "runs past the payload", -2: "has too many tokens", -3: "does not sum to M"}
@@ -478,7 +617,7 @@ def decode(data: bytes | memoryview, shape: tuple[int, int, int], lo: int, hi: i
     v = np.empty(n, dtype=_work_dtype(lo, hi))
     ring = np.zeros(2 * int(shape[1]) * int(shape[2]), dtype=np.int64)
     status = _decode_kernel(
-        stream, bits, table, np.int64(nctx), pid, cid,
+        stream, bits, table, np.int64(nctx), pid, cid, runs,
         np.array(shape, dtype=np.int64), np.int64(lo), np.int64(hi), v, ring,
         TOK_BASE, TOK_BITS,
     )  # fmt: skip

@@ -187,9 +187,7 @@ def _encode_predict(brick: np.ndarray, version: int = 1) -> list[bytes]:
         out = [bytes([MODE_PREDICT, flags | FLAG_SPLIT]) + floatcode.encode(values, brick.itemsize)]
     else:
         out = [
-            bytes([MODE_PREDICT, flags])
-            + pal.pack_range(lo, hi)
-            + predict.encode(values, lo, hi)
+            bytes([MODE_PREDICT, flags]) + pal.pack_range(lo, hi) + predict.encode(values, lo, hi)
         ]
     if version >= 2 and not is_float:  # version 1 stays a candidate: tiny bricks pay
         out.append(_encode_fit(values, lo, hi))  # 136 bytes of weights in version 2
@@ -313,4 +311,3 @@ def _value_range(dtype: np.dtype) -> tuple[int, int]:
         return 0, (1 << (8 * dtype.itemsize)) - 1
     info = np.iinfo(dtype)
     return int(info.min), int(info.max)
-

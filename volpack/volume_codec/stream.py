@@ -72,7 +72,7 @@ def make_codec(codec: str = "auto", dtype: Any = None, **options: Any):
     if codec == "fast":
         from .fast import FastCodec
 
-        return FastCodec()
+        return FastCodec(runs=options.get("runs", True))
     raise OptionError(
         f"expected codec 'auto', 'lossless', 'fast', 'wavelet' or 'zstd', found {codec!r}"
     )
@@ -89,6 +89,7 @@ def compress(
     max_levels: int | None = None,
     tools: str | None = None,
     predict_version: int | None = None,
+    runs: bool | None = None,
     brick: int | tuple[int, int, int] | None = None,
     max_error: float | None = None,
     rel_error: float | None = None,
@@ -132,6 +133,9 @@ def compress(
     predict_version : {1, 2}, optional
         The lossless codec's predictive stream: 2 (the default) or 1 (as files written
         before version 2, byte for byte).
+    runs : bool, optional
+        The fast codec's run mode: on (the default) or off (as files written before it,
+        byte for byte).
     brick : int or (int, int, int), optional
         Brick size; bricks are coded independently and decoded one by one. Default
         :func:`volpack.volume_codec.bricks.default_brick`: 64, but a float volume under an
@@ -184,7 +188,13 @@ def compress(
     else:
         search = None
         extra = {"tools": tools, "predict_version": predict_version}
-        c = make_codec(codec, vol.dtype, **inner, **{k: v for k, v in extra.items() if v})
+        if runs is not None:
+            if codec != "fast":
+                raise OptionError(f"runs: a setting of the fast codec, found codec {codec!r}")
+            extra["runs"] = runs
+        c = make_codec(
+            codec, vol.dtype, **inner, **{k: v for k, v in extra.items() if v is not None}
+        )
         if c.codec_id == "wavelet":
             from .codec import check_wavelet_dtype
 
