@@ -380,6 +380,23 @@ def _decode_kernel(
                     r += seg - i
                     x += seg - i
                     i = seg
+                elif y > 0 and x > 0:  # to the segment's end, W kept in a register
+                    seg = min(end, i + nx - x)
+                    w = np.int64(v[i - 1])
+                    for j in range(np.uintp(i), np.uintp(seg)):
+                        k = j - np.uintp(sy)
+                        p = _med(w, np.int64(v[k]), np.int64(v[k - ONE]))
+                        if pz != 0:
+                            m = j - np.uintp(sz)
+                            q = k - np.uintp(sz)
+                            c3 = _med(np.int64(v[m - ONE]), np.int64(v[q]), np.int64(v[q - ONE]))
+                            p = _correct(p, v[m] - c3, pz)
+                        w = min(max(p, lo), hi)
+                        v[j] = w
+                        u[j - np.uintp(i - r)] = 0
+                    r += seg - i
+                    x += seg - i
+                    i = seg
                 else:
                     v[i] = min(max(_predict(v, i, z, y, x, sy, sz, pz, mid), lo), hi)
                     u[r] = 0
