@@ -42,7 +42,9 @@ STATES = 2
 RUN_LENGTH, RUN_BREAK = NCLASS, NCLASS + 1  # the encoder's contexts of the run mode
 RUNS = 0x80  # bit 7 of the choice byte: the stream has the run mode
 RUN_SLACK = 0.4  # the run mode may cost this share of bytes times the square of the share
-# of voxels in runs (a brick all in runs decodes 3-8x faster; one with few gains little)
+# of voxels in runs (a brick all in runs decodes 3-8x faster; one with few gains little),
+RUN_BITS = 0.01  # or this many bits a voxel times that square (label bricks of a few
+# hundred bytes, where a relative slack is no slack)
 BAD_SYMBOL = 0xFF  # what the slots of an unused context decode to
 NEAR_GAIN = 0.01  # the share of bytes the slower ``near`` context must save
 ONE, TWO, THREE = np.uintp(1), np.uintp(2), np.uintp(3)  # unsigned offsets: no wrap test
@@ -553,7 +555,8 @@ def encode(
     best one with ``near``, and keeps ``near`` only when it saves more than
     :data:`NEAR_GAIN` (it decodes about a third slower: W joins the decoder's chain
     from one voxel to the next); then the best with the run mode, kept unless it costs
-    more than :data:`RUN_SLACK` times the squared share of voxels in runs. ``predictor`` / ``context`` / ``runs`` force one
+    more than :data:`RUN_SLACK` of the bits or :data:`RUN_BITS` a voxel, times the squared
+    share of voxels in runs. ``predictor`` / ``context`` / ``runs`` force one
     (tests, studies; ``runs=False`` writes the streams of before the run mode).
     """
     v = checked_input(values, lo, hi)
@@ -594,7 +597,7 @@ def encode(
             best = near
     if runs is None:
         run = trial(best[1], best[2], True)
-        if run[0] <= best[0] * (1 + RUN_SLACK * run[-1] ** 2):
+        if run[0] - best[0] <= max(RUN_SLACK * best[0], RUN_BITS * n) * run[-1] ** 2:
             best = run
     _, pid, cid, run, nctx, freqs, raw, toks, ctx, _ = best
     stream = rans.encode(toks, ctx, freqs)
