@@ -63,6 +63,8 @@ KINDS = {
     # predictive version 2 (fitted predictor, background mask): the default since a8c957f
     "lossless-v2": ("lossless-v2-u8-mask.vpk", VOLUME_PATHS),
     "fast": ("fast-u8-background.vpk", VOLUME_PATHS),
+    # the fast codec's run mode (the default since the `runs` header field)
+    "fast-runs": ("fast-runs-mixed.vpk", VOLUME_PATHS),
     "lossy-interp": ("lossy-bounded-f32-interp.vpk", VOLUME_PATHS),
     "animation": (
         "animation-ibbp-bounded-u8.vpk",
