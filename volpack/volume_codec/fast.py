@@ -1,7 +1,7 @@
 """The ``fast`` brick codec: lossless, decoding at several times the default's speed.
 
 Each brick is coded by :mod:`.fastpredict` (one MED-style prediction and one static
-rANS symbol a voxel), on its values or, when the brick leaves values of its range
+rANS symbol a voxel, or one a run of correctly predicted voxels), on its values or, when the brick leaves values of its range
 unused, on their ranks in a palette (:mod:`.palette`); a constant brick is one value,
 and a brick that coding cannot shrink is stored raw. The payload's first byte says
 which:

@@ -18,7 +18,11 @@ costs the time:
   tables, one per context: the activity ``a`` of the residuals already decoded next to
   the voxel (``u_W + u_N``, or ``u_W + u_N + u_U`` / ``u_N + u_NE + u_U``, the encoder
   picks), on a log scale with two classes an octave;
-* two rANS states taking voxels in turn, so the two decode chains overlap on one core.
+* two rANS states taking symbols in turn, so the two decode chains overlap on one core;
+* a run mode (bit 7 of the choice byte): where the activity is 0, the number of the
+  following voxels whose residual is 0 is one symbol, and the decoder fills them a row
+  segment at a time (a plain fill where the row above is flat), as JPEG-LS's run mode
+  but across rows and slices and for any predicted value, not only W's.
 
 The byte layout is in ``formats/fast-1.md``.
 """
