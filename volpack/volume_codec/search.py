@@ -23,7 +23,7 @@ from ..volume import Volume
 from . import bricks
 from .floatwave import FLOAT_WAVELETS, FloatWaveletCodec
 from .lossy import BoundedCodec, CoefCodec
-from .specials import special_voxels
+from .specials import sentinel, special_voxels
 
 PSNR_TOL = 0.5  # dB
 RATIO_TOL = 0.05  # relative
@@ -45,6 +45,18 @@ def value_range(data: np.ndarray, fill_value: float | None) -> tuple[float, floa
     if lo > hi:  # nothing valid: any range will do
         lo = hi = 0.0
     return lo, hi
+
+
+def whole_numbers(data: np.ndarray, fill_value: float | None) -> bool:
+    """Whether every valid voxel is a whole number (floats holding integers: a scan
+    saved as float32), slab by slab."""
+    flat = data.reshape(-1, *data.shape[-2:])
+    for i in range(0, flat.shape[0], 16):
+        slab = np.asarray(flat[i : i + 16])
+        v = slab[~special_voxels(slab, fill_value)]
+        if not np.array_equal(v, np.floor(v)):
+            return False
+    return True
 
 
 def plan(
@@ -75,8 +87,10 @@ def plan(
             raise OptionError(f"{what}= takes 8 to 32-bit integers, found {dtype}")
         return CoefCodec(value_range=max(rng, 1.0), **{what: target}, **inner), None
 
+    integral = dtype.kind == "f" and whole_numbers(vol.data, fill_value)
+
     def bounded(e: float) -> BoundedCodec:
-        return BoundedCodec.plan(dtype, lo, hi, e, fill=fill_value, **inner)
+        return BoundedCodec.plan(dtype, lo, hi, e, integral, fill=fill_value, **inner)
 
     if what in ("max_error", "rel_error"):
         e = float(target) * (rng if what == "rel_error" else 1.0)
@@ -87,7 +101,16 @@ def plan(
                 "an error bound of 0 on float voxels is lossless coding: leave out the lossy "
                 "settings (floats are then stored exactly)"
             )
-        return bounded(e if e > 0 else 0.25), None
+        try:
+            return bounded(e if e > 0 else 0.25), None
+        except OptionError:  # too many bins: unless a fill value (1e20, ...) spans them
+            if fill_value is not None or dtype.kind != "f":
+                raise
+            fill_value = sentinel(np.asarray(vol.data), None)
+            if fill_value is None:
+                raise
+            lo, hi = value_range(vol.data, fill_value)
+            return bounded(e), None
     if what == "psnr":
         if not target > 0:
             raise OptionError(f"expected a positive psnr in dB, found {target!r}")
