@@ -100,6 +100,11 @@ LOSSY = [
 def lossy_source(recipe):
     if recipe == "f32-whole":
         return source("u8").astype(np.float32)
+    if recipe == "f64-off":  # the f32 recipe in float64 moved off its grid of 1/3
+        f = lossy_source("f32").astype(np.float64)
+        ok = np.isfinite(f) & (f != -999.0)
+        f[ok] += (np.arange(f.size) * 0.6180339887 % 1.0).reshape(f.shape)[ok] * 0.01
+        return f
     if recipe not in ("f32", "f32-walk"):
         return source(recipe)
     f = source("u8").astype(np.float32) / 3
@@ -215,7 +220,10 @@ LOSSY_INTERP = [  # (stem, recipe, dtype, options, kind)
 # Made when the encoder gave masked voxels their neighbour's value: decoded, no longer
 # reproduced; the `-b0` streams (masked voxels at bin 0) are today's coding of them.
 BEFORE_BIN0 = {c[0] for c in LOSSY_INTERP}
-LOSSY_INTERP += [(stem + "-b0", *rest) for stem, *rest in LOSSY_INTERP]
+LOSSY_INTERP += [  # the float64 recipe moved off its grid of 1/3 (lossy-1.md step 1)
+    (stem + "-b0", "f64-off" if dtype == np.float64 else recipe, dtype, opts, kind)
+    for stem, recipe, dtype, opts, kind in LOSSY_INTERP
+]
 
 
 @pytest.mark.parametrize(

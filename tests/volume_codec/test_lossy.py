@@ -104,6 +104,9 @@ def test_float_extremes_and_denormals():
     big = np.full((4, 4, 4), 1e300)  # float64 beyond float32's range
     big[0, 0, 0] = -1e300
     check_bound(big, api.decompress_array(api.compress_array(big, max_error=1e295)), 1e295)
+    # two values: a grid of one step (search.lattice), exact even under 1e-300
+    check_bound(big, api.decompress_array(api.compress_array(big, max_error=1e-300)), 1e-300)
+    big[1, 1, 1] = 0.123  # now 10^301 levels: a clear refusal
     with pytest.raises(ValueError, match="2\\^31"):
         api.compress_array(big, max_error=1e-300)
 
@@ -346,7 +349,7 @@ def test_whole_number_floats_under_a_bound_below_half_come_back_exactly(dtype, e
     if e < 1e-6:
         return
     b = a.copy()
-    b[0, 0, 0] += 0.5  # one voxel off the integers: bins of 2E again
+    b[0, 0, 0] += 0.123456789  # one voxel off the integers: bins of 2E again
     blob2 = api.compress_array(b, max_error=e)
     with Reader(blob2) as r:
         assert r.header["codec"]["step"] == 2 * e
@@ -355,3 +358,25 @@ def test_whole_number_floats_under_a_bound_below_half_come_back_exactly(dtype, e
     assert np.abs(got2[ok].astype(np.float64) - b[ok]).max() <= e
     if e < 0.01:
         assert len(blob) < len(blob2) / 2
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_floats_on_a_decimal_grid_take_its_spacing_as_bins(dtype):
+    """A field stored to 0.1 (GRIB-packed model output): under a bound below 0.05 the
+    bins are the grid's spacing (0.1, refined from the data), every voxel within the
+    bound, far shorter than bins of 2E; above it, bins of 2E as usual."""
+    from volpack.volume_codec.search import lattice
+
+    k = np.rint(field("smooth", (10, 24, 30), np.float64, 7) / 3)  # whole tenths
+    a = (k / 10 - 40).astype(dtype)
+    g = lattice(a, None, 1e-3)
+    assert g is not None and abs(g - 0.1) < 1e-9
+    assert lattice(a, None, 0.06) is None  # bins of 2E = 0.12 are wider than the grid
+    blob = api.compress_array(a, max_error=1e-3)
+    with Reader(blob) as r:
+        assert abs(r.header["codec"]["step"] - 0.1) < 1e-9
+    got = api.decompress_array(blob)
+    assert np.abs(got.astype(np.float64) - a).max() <= 1e-3
+    noisy = a + np.random.default_rng(0).uniform(-1e-4, 1e-4, a.shape).astype(dtype)
+    assert lattice(noisy, None, 1e-3) is None  # off the grid by more than E/4
+    assert len(blob) < len(api.compress_array(noisy, max_error=1e-3)) / 2

@@ -100,11 +100,13 @@ class BoundedCodec(BrickCodec):
         lo: float,
         hi: float,
         max_error: float,
-        integral: bool = False,
+        grid: float | None = None,
         **inner: Any,
     ) -> BoundedCodec:
-        """``integral``: every valid voxel of the float volume is a whole number (then a
-        bound below 1/2 is met exactly by bins of 1)."""
+        """``grid``: every valid voxel of the float volume is within ``max_error`` of
+        ``lo + k * grid`` for a whole ``k`` (whole numbers, data stored to 0.1, ...; see
+        :func:`volpack.volume_codec.search.lattice`): a bound below half of it is met by
+        bins of ``grid``."""
         dtype = np.dtype(dtype)
         if not (max_error > 0 and math.isfinite(max_error)):
             raise OptionError(f"expected a positive finite error bound, found {max_error!r}")
@@ -120,8 +122,8 @@ class BoundedCodec(BrickCodec):
             qmax = (hi - lo + e) // step
         else:
             step = 2.0 * max_error
-            if integral and step < 1 and abs(lo) < 2**52 and abs(hi) < 2**52:
-                step = 1.0  # whole numbers on a grid of 1: exact, and far fewer bins
+            if grid is not None and step < grid and math.isfinite(grid):
+                step = float(grid)  # the data's own grid: far fewer bins, and exact
             levels = (hi - lo) / step  # may overflow to inf: then it is refused below
             qmax = math.floor(levels + 0.5) + 1 if levels < 2**40 else math.inf
         for qd in ("uint8", "uint16", "int32"):
@@ -234,9 +236,9 @@ class BoundedCodec(BrickCodec):
 
     @property
     def _exact(self) -> bool:
-        """Whole-number floats under a bound below 1/2: the voxels are quantised exactly
-        (bins of 1, wider than 2E); the other paths assume bins of 2E, so they are left
-        out."""
+        """Floats on a grid under a bound below half of it: the voxels are quantised to
+        the grid (bins wider than 2E); the other paths assume bins of 2E, so they are
+        left out."""
         return not self.integer and self.step > 2.0 * self.max_error
 
     def _interp_candidate(self, x, clean, mask):

@@ -47,16 +47,42 @@ def value_range(data: np.ndarray, fill_value: float | None) -> tuple[float, floa
     return lo, hi
 
 
-def whole_numbers(data: np.ndarray, fill_value: float | None) -> bool:
-    """Whether every valid voxel is a whole number (floats holding integers: a scan
-    saved as float32), slab by slab."""
-    flat = data.reshape(-1, *data.shape[-2:])
-    for i in range(0, flat.shape[0], 16):
-        slab = np.asarray(flat[i : i + 16])
-        v = slab[~special_voxels(slab, fill_value)]
-        if not np.array_equal(v, np.floor(v)):
-            return False
-    return True
+LATTICE_SAMPLE = 1 << 20  # values looked at first: most fields leave here
+
+
+def lattice(data: np.ndarray, fill_value: float | None, max_error: float) -> float | None:
+    """The spacing ``g > 2 max_error`` of a grid ``lo + k g`` that every valid voxel of
+    the float volume lies on, to within ``max_error / 4`` after rounding to its dtype
+    (whole numbers: 1; a model's output stored to 0.1: 0.1), else None.
+
+    Then bins of ``g`` instead of ``2 max_error`` give every voxel back (all but
+    rounding): a scan saved as floats, GRIB-packed fields. The smallest gap between the
+    distinct values is ``g`` or a multiple of it; ``g`` is refined as the whole span
+    over the number of steps in it.
+    """
+    with np.errstate(all="ignore"):  # extremes overflow: inf, then no grid
+        return _lattice(np.asarray(data).reshape(-1), fill_value, max_error)
+
+
+def _lattice(flat: np.ndarray, fill_value: float | None, max_error: float) -> float | None:
+    v = flat[:LATTICE_SAMPLE]
+    v = v[~special_voxels(v, fill_value)]
+    u = np.unique(v)
+    if u.size < 2 or np.diff(u).min() <= 2 * max_error:
+        return None  # a gap of at most 2E among these: no grid worth its bins
+    v = flat[~special_voxels(flat, fill_value)].astype(np.float64)
+    u = np.unique(v)
+    gap = float(np.diff(u).min())
+    if gap <= 2 * max_error:
+        return None
+    lo, span = float(u[0]), float(u[-1] - u[0])
+    if not (math.isfinite(span) and math.isfinite(gap) and 0 < span / gap < 2**31):
+        return None
+    g = span / round(span / gap)
+    rec = (np.rint((v - lo) / g) * g + lo).astype(flat.dtype).astype(np.float64)
+    if g <= 2 * max_error or not np.abs(rec - v).max() <= max_error / 4:
+        return None
+    return g
 
 
 def plan(
@@ -87,10 +113,10 @@ def plan(
             raise OptionError(f"{what}= takes 8 to 32-bit integers, found {dtype}")
         return CoefCodec(value_range=max(rng, 1.0), **{what: target}, **inner), None
 
-    integral = dtype.kind == "f" and whole_numbers(vol.data, fill_value)
+    grid = None  # the data's own grid, for an error bound (not searched for a target)
 
     def bounded(e: float) -> BoundedCodec:
-        return BoundedCodec.plan(dtype, lo, hi, e, integral, fill=fill_value, **inner)
+        return BoundedCodec.plan(dtype, lo, hi, e, grid, fill=fill_value, **inner)
 
     if what in ("max_error", "rel_error"):
         e = float(target) * (rng if what == "rel_error" else 1.0)
@@ -101,6 +127,8 @@ def plan(
                 "an error bound of 0 on float voxels is lossless coding: leave out the lossy "
                 "settings (floats are then stored exactly)"
             )
+        if dtype.kind == "f" and e > 0:
+            grid = lattice(vol.data, fill_value, e)
         try:
             return bounded(e if e > 0 else 0.25), None
         except OptionError:  # too many bins: unless a fill value (1e20, ...) spans them
@@ -110,6 +138,7 @@ def plan(
             if fill_value is None:
                 raise
             lo, hi = value_range(vol.data, fill_value)
+            grid = lattice(vol.data, fill_value, e)
             return bounded(e), None
     if what == "psnr":
         if not target > 0:
