@@ -111,9 +111,11 @@ INT_REL_BOUNDS = (1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2)
 FLOAT_REL_BOUNDS = (1e-2, 1e-3, 1e-4, 1e-5)
 QUALITIES = (255, 127, 63, 31, 15)
 PSNR_TARGETS = (40.0, 60.0, 80.0, 100.0)
-BOUND_METHODS = ["volpack", "volpack-huffman", "zfp", "sz3", "sz3-best", "sperr", "sperr-h5"]
+BOUND_METHODS = ["volpack", "volpack-huffman", "volpack-fast", "zfp", "sz3", "sz3-best", "sperr", "sperr-h5"]
 ALL_METHODS = [*BOUND_METHODS, "volpack-quality", "tthresh"]
-DEFAULT_METHODS = [m for m in ALL_METHODS if m != "volpack-huffman"] + ["mgard"]
+DEFAULT_METHODS = [m for m in ALL_METHODS if m not in ("volpack-huffman", "volpack-fast")] + [
+    "mgard"
+]
 PEERS_TO_BEAT = ("sperr", "sz3", "sz3-best")  # the issue's goal: ratio >= 1.1 x their best
 SPERR_CHUNK = 256
 # SZ3's predictor choices tried by ``sz3-best``: (CmprAlgo, InterpolationAlgo or None).
@@ -316,6 +318,7 @@ def build_methods(wanted: list[str]) -> tuple[list[Method], list[str]]:
     makers = {
         "volpack": lambda: _volpack_method("volpack"),
         "volpack-huffman": lambda: _volpack_method("volpack-huffman", coder="huffman"),
+        "volpack-fast": lambda: _volpack_method("volpack-fast", effort="fast"),
         "volpack-quality": lambda: _volpack_method("volpack-quality"),
         "zfp": _zfp_method,
         "sz3": _sz3_method,
@@ -526,6 +529,7 @@ def write_csv(rows: list[dict], path: Path) -> None:
 _STYLE = {
     "volpack": ("tab:red", "o"),
     "volpack-huffman": ("tab:orange", "s"),
+    "volpack-fast": ("tab:pink", "h"),
     "volpack-quality": ("tab:purple", "D"),
     "zfp": ("tab:blue", "^"),
     "sz3": ("tab:green", "v"),
@@ -710,6 +714,63 @@ def write_lead(rows: list[dict], out: Path) -> None:
             f"{min(leads):.3f}.",
         ]
     (out / "lead.md").write_text("\n".join(lines) + "\n")
+
+
+def write_equal_psnr(rows: list[dict], out: Path) -> None:
+    """Bits per voxel a peer without a bound (zfp's accuracy mode, TTHRESH's PSNR
+    targets) spends over volpack's at the peer's PSNR, volpack's bounded curve
+    interpolated (linear in PSNR, log in bits); points outside volpack's measured PSNR
+    range are left out. Above 1: volpack needs fewer bits for the same PSNR."""
+    names = list(dict.fromkeys(r["dataset"] for r in rows))
+    lines = [
+        "# Equal PSNR: a peer's bits per voxel over volpack's at the same PSNR",
+        "",
+        "`" + " ".join(["python scripts/bench_lossy.py", *sys.argv[1:]]) + "`",
+        "",
+        "volpack's bounded points (bits per voxel against PSNR) interpolated at each "
+        "peer point's PSNR; above 1: the peer needs more bits than volpack.",
+        "",
+        "| field | peer | setting | peer PSNR dB | peer bpv | volpack bpv | peer / volpack |",
+        "|---|---|---|---:|---:|---:|---:|",
+    ]
+    found = []
+    for name in names:
+        vp = sorted(
+            (_psnr(r), float(r["bits_per_voxel"]))
+            for r in rows
+            if r["dataset"] == name and r["method"] == "volpack" and math.isfinite(_psnr(r))
+        )
+        if len(vp) < 2:
+            continue
+        ps = np.array([p for p, _ in vp])
+        lb = np.log([b for _, b in vp])
+        for r in rows:
+            if r["dataset"] != name or r["method"] not in ("zfp", "tthresh"):
+                continue
+            p = _psnr(r)  # exact (infinite) or outside volpack's points: left out
+            if not ps[0] <= p <= ps[-1]:
+                continue
+            ours = float(np.exp(np.interp(p, ps, lb)))
+            theirs = float(r["bits_per_voxel"])
+            found.append(theirs / ours)
+            lines.append(
+                f"| {name} | {r['method']} | {r['setting']} | {p:.1f} | {theirs:.3f} "
+                f"| {ours:.3f} | {theirs / ours:.2f} |"
+            )
+    if found:
+        lines += [
+            "",
+            f"{sum(x > 1 for x in found)} of {len(found)} points with volpack ahead; "
+            f"peer / volpack from {min(found):.2f} to {max(found):.2f}.",
+        ]
+    (out / "equal_psnr.md").write_text("\n".join(lines) + "\n")
+
+
+def _psnr(row: dict) -> float:
+    try:
+        return float(row["psnr_db"])
+    except (TypeError, ValueError):
+        return math.nan
 
 
 def write_speed(rows: list[dict], out: Path) -> None:
@@ -901,7 +962,7 @@ def main(argv: list[str] | None = None) -> int:
         "--methods",
         default=",".join(DEFAULT_METHODS),
         help=f"comma-separated methods among {','.join(ALL_METHODS)} (default all but "
-        "volpack-huffman)",
+        "volpack-huffman and volpack-fast)",
     )
     p.add_argument(
         "--quick",
@@ -929,6 +990,7 @@ def main(argv: list[str] | None = None) -> int:
         write_table(rows, done, [], args, out)
         write_lead(rows, out)
         write_speed(rows, out)
+        write_equal_psnr(rows, out)
         write_charts(rows, done, out)
         write_field_charts(rows, done, out)
         print(f"redrew {out} from {args.from_csv} ({len(rows)} rows)")
@@ -966,6 +1028,7 @@ def main(argv: list[str] | None = None) -> int:
     write_table(rows, done, notes, args, out)
     write_lead(rows, out)
     write_speed(rows, out)
+    write_equal_psnr(rows, out)
     try:
         write_charts(rows, done, out)
         write_field_charts(rows, done, out)

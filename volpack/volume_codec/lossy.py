@@ -52,7 +52,7 @@ from .protocol import (
     from_stored,
     storage_dtype,
 )
-from .specials import fill_masked, special_mask
+from .specials import fill_masked, sentinel, special_mask
 
 # The bounded payload's flag byte (formats/lossy-1.md, `bounded`).
 FLAG_MASK, FLAG_CORRECTIONS, FLAG_COEF, FLAG_RESIDUALS = 1, 2, 4, 8
@@ -66,6 +66,7 @@ _KNOWN_FLAGS = (
 # error allowed on its grid (measured best on the head CT and the z-map).
 COEF_STEP = 2.0
 QUALITIES = (255, 127, 63, 31, 15)
+EFFORTS = ("default", "fast")  # of the error-bounded encoder
 
 
 # -- error-bounded quantisation ---------------------------------------------------------
@@ -92,9 +93,25 @@ class BoundedCodec(BrickCodec):
     coder: str = "arith"
     order: str = "dfs"
     max_levels: int | None = None
+    # How hard the encoder looks (the decoder never needs it): 'default' makes every
+    # coding of a brick and keeps the shortest; 'fast' makes one (floats: the
+    # interpolation path, two predictors; integers: the quantised voxels).
+    effort: str = "default"
 
     @classmethod
-    def plan(cls, dtype: Any, lo: float, hi: float, max_error: float, **inner: Any) -> BoundedCodec:
+    def plan(
+        cls,
+        dtype: Any,
+        lo: float,
+        hi: float,
+        max_error: float,
+        grid: float | None = None,
+        **inner: Any,
+    ) -> BoundedCodec:
+        """``grid``: every valid voxel of the float volume is within ``max_error`` of
+        ``lo + k * grid`` for a whole ``k`` (whole numbers, data stored to 0.1, ...; see
+        :func:`volpack.volume_codec.search.lattice`): a bound below half of it is met by
+        bins of ``grid``."""
         dtype = np.dtype(dtype)
         if not (max_error > 0 and math.isfinite(max_error)):
             raise OptionError(f"expected a positive finite error bound, found {max_error!r}")
@@ -110,6 +127,8 @@ class BoundedCodec(BrickCodec):
             qmax = (hi - lo + e) // step
         else:
             step = 2.0 * max_error
+            if grid is not None and step < grid and math.isfinite(grid):
+                step = float(grid)  # the data's own grid: far fewer bins, and exact
             levels = (hi - lo) / step  # may overflow to inf: then it is refused below
             qmax = math.floor(levels + 0.5) + 1 if levels < 2**40 else math.inf
         for qd in ("uint8", "uint16", "int32"):
@@ -133,6 +152,7 @@ class BoundedCodec(BrickCodec):
 
     def __post_init__(self) -> None:
         _check_inner(self)
+        check_choice("effort", self.effort, EFFORTS)
         # what the quantiser's arithmetic needs (a stored config may hold anything)
         if self.qdtype not in ("uint8", "uint16", "int32"):
             raise OptionError(f"expected qdtype uint8, uint16 or int32, found {self.qdtype!r}")
@@ -150,6 +170,15 @@ class BoundedCodec(BrickCodec):
             raise OptionError(f"expected an integer lo and step, found {self.lo}, {self.step}")
         if self.fill is not None and not math.isfinite(self.fill):
             raise OptionError(f"expected a finite fill value, found {self.fill!r}")
+
+    def get_config(self) -> dict[str, Any]:
+        """As every codec's, but ``effort`` only when it is not the default: it changes
+        what the encoder tries, not what the decoder reads, and files written before it
+        existed keep their bytes."""
+        config = super().get_config()
+        if self.effort == "default":
+            del config["effort"]
+        return config
 
     def _inner(self) -> WaveletCodec:
         return WaveletCodec(self.wavelet, self.coder, self.order, self.max_levels)
@@ -189,11 +218,27 @@ class BoundedCodec(BrickCodec):
         """
         x = np.ascontiguousarray(brick)
         mask = self._special(x)
+        best = self._encode_masked(x, mask)
+        value = sentinel(x, mask) if x.dtype.kind == "f" else None
+        if value is not None:  # masked too, it may code shorter: try
+            more = x == value if mask is None else mask | (x == value)
+            cand = self._encode_masked(x, more)
+            if len(cand[0]) < len(best[0]):
+                best = cand
+        return best
+
+    def _encode_masked(self, x: np.ndarray, mask: np.ndarray | None) -> Measured:
+        """:meth:`encode_measured` with the voxels of ``mask`` stored exactly."""
         clean = x if mask is None else fill_masked(x, mask)
+        fast = self.effort == "fast"
+        if fast and x.size >= 64 and x.dtype.kind == "f" and not self._exact:
+            return self._interp_candidate(x, clean, mask)
         q = self._quantize(clean)
         if mask is not None:
             q = fill_masked(q, mask)  # masked voxels take their neighbour's value
         best = self._finish(x, mask, self._reconstruct(q, x.dtype), 0, [self._inner().encode(q)])
+        if self._exact or fast:
+            return best
         if x.size >= 64:
             coef = self._coef_candidate(x, clean, mask)
             if len(coef[0]) < len(best[0]):
@@ -207,12 +252,23 @@ class BoundedCodec(BrickCodec):
                 best = cand
         return best
 
+    @property
+    def _exact(self) -> bool:
+        """Floats on a grid under a bound below half of it: the voxels are quantised to
+        the grid (bins wider than 2E); the other paths assume bins of 2E, so they are
+        left out."""
+        return not self.integer and self.step > 2.0 * self.max_error
+
     def _interp_candidate(self, x, clean, mask):
         """The interpolation path (:mod:`volpack.volume_codec.bounded_interp`), checked on
         every voxel like the others."""
         from . import bounded_interp
 
-        inner, rec = bounded_interp.encode(clean.astype(np.float64), self.step)
+        g = clean.astype(np.float64)
+        if mask is not None:  # no value to keep: bin 0, the voxel follows its prediction
+            g[mask] = np.nan
+        tried = bounded_interp.TRIED_FAST if self.effort == "fast" else bounded_interp.TRIED
+        inner, rec = bounded_interp.encode(g, self.step, tried)
         return self._finish(x, mask, _to_float(rec, x.dtype, overwrite=True), FLAG_INTERP, [inner])
 
     def _cdf97_candidates(self, x, clean, mask):

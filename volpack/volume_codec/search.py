@@ -22,8 +22,9 @@ from ..parallel import ordered_map
 from ..volume import Volume
 from . import bricks
 from .floatwave import FLOAT_WAVELETS, FloatWaveletCodec
-from .lossy import BoundedCodec, CoefCodec
-from .specials import special_voxels
+from .lossy import EFFORTS, BoundedCodec, CoefCodec
+from .protocol import check_choice
+from .specials import sentinel, special_voxels
 
 PSNR_TOL = 0.5  # dB
 RATIO_TOL = 0.05  # relative
@@ -47,6 +48,44 @@ def value_range(data: np.ndarray, fill_value: float | None) -> tuple[float, floa
     return lo, hi
 
 
+LATTICE_SAMPLE = 1 << 20  # values looked at first: most fields leave here
+
+
+def lattice(data: np.ndarray, fill_value: float | None, max_error: float) -> float | None:
+    """The spacing ``g > 2 max_error`` of a grid ``lo + k g`` that every valid voxel of
+    the float volume lies on, to within ``max_error / 4`` after rounding to its dtype
+    (whole numbers: 1; a model's output stored to 0.1: 0.1), else None.
+
+    Then bins of ``g`` instead of ``2 max_error`` give every voxel back (all but
+    rounding): a scan saved as floats, GRIB-packed fields. The smallest gap between the
+    distinct values is ``g`` or a multiple of it; ``g`` is refined as the whole span
+    over the number of steps in it.
+    """
+    with np.errstate(all="ignore"):  # extremes overflow: inf, then no grid
+        return _lattice(np.asarray(data).reshape(-1), fill_value, max_error)
+
+
+def _lattice(flat: np.ndarray, fill_value: float | None, max_error: float) -> float | None:
+    v = flat[:LATTICE_SAMPLE]
+    v = v[~special_voxels(v, fill_value)]
+    u = np.unique(v)
+    if u.size < 2 or np.diff(u).min() <= 2 * max_error:
+        return None  # a gap of at most 2E among these: no grid worth its bins
+    v = flat[~special_voxels(flat, fill_value)].astype(np.float64)
+    u = np.unique(v)
+    gap = float(np.diff(u).min())
+    if gap <= 2 * max_error:
+        return None
+    lo, span = float(u[0]), float(u[-1] - u[0])
+    if not (math.isfinite(span) and math.isfinite(gap) and 0 < span / gap < 2**31):
+        return None
+    g = span / round(span / gap)
+    rec = (np.rint((v - lo) / g) * g + lo).astype(flat.dtype).astype(np.float64)
+    if g <= 2 * max_error or not np.abs(rec - v).max() <= max_error / 4:
+        return None
+    return g
+
+
 def plan(
     vol: Volume,
     brick: tuple[int, int, int],
@@ -54,15 +93,27 @@ def plan(
     asked: dict[str, float],
     fill_value: float | None,
     inner: dict[str, Any],
+    effort: str = "default",
 ) -> tuple[Any, dict[str, Any] | None]:
-    """Return ``(codec, search record or None)`` for one lossy setting in ``asked``."""
+    """Return ``(codec, search record or None)`` for one lossy setting in ``asked``;
+    ``effort`` is the error-bounded encoder's (:class:`BoundedCodec`)."""
     ((what, target),) = asked.items()
     dtype = vol.dtype
     if dtype.kind not in "iuf":
         raise OptionError(f"expected integer or float voxels, found {dtype}")
+    check_choice("effort", effort, EFFORTS)
     lo, hi = value_range(vol.data, fill_value)
     rng = hi - lo
     inner = {k: v for k, v in inner.items() if v is not None}
+    bounded_path = what in ("max_error", "rel_error") or (
+        what in ("psnr", "ratio") and (dtype.kind == "f" or fill_value is not None)
+    )
+    if effort != "default" and (inner.get("wavelet") in FLOAT_WAVELETS or not bounded_path):
+        raise OptionError(
+            f"effort={effort!r} applies to error-bounded coding (max_error, rel_error, or "
+            f"psnr/ratio on floats), found {what}={target!r}"
+            + (f" with wavelet={inner['wavelet']!r}" if "wavelet" in inner else "")
+        )
     if inner.get("wavelet") in FLOAT_WAVELETS:
         return _plan_float_wavelet(vol, brick, workers, what, target, fill_value, inner, rng)
     if what in ("quality", "threshold"):
@@ -75,8 +126,10 @@ def plan(
             raise OptionError(f"{what}= takes 8 to 32-bit integers, found {dtype}")
         return CoefCodec(value_range=max(rng, 1.0), **{what: target}, **inner), None
 
+    grid = None  # the data's own grid, for an error bound (not searched for a target)
+
     def bounded(e: float) -> BoundedCodec:
-        return BoundedCodec.plan(dtype, lo, hi, e, fill=fill_value, **inner)
+        return BoundedCodec.plan(dtype, lo, hi, e, grid, fill=fill_value, effort=effort, **inner)
 
     if what in ("max_error", "rel_error"):
         e = float(target) * (rng if what == "rel_error" else 1.0)
@@ -87,7 +140,19 @@ def plan(
                 "an error bound of 0 on float voxels is lossless coding: leave out the lossy "
                 "settings (floats are then stored exactly)"
             )
-        return bounded(e if e > 0 else 0.25), None
+        if dtype.kind == "f" and e > 0:
+            grid = lattice(vol.data, fill_value, e)
+        try:
+            return bounded(e if e > 0 else 0.25), None
+        except OptionError:  # too many bins: unless a fill value (1e20, ...) spans them
+            if fill_value is not None or dtype.kind != "f":
+                raise
+            fill_value = sentinel(np.asarray(vol.data), None)
+            if fill_value is None:
+                raise
+            lo, hi = value_range(vol.data, fill_value)
+            grid = lattice(vol.data, fill_value, e)
+            return bounded(e), None
     if what == "psnr":
         if not target > 0:
             raise OptionError(f"expected a positive psnr in dB, found {target!r}")

@@ -98,6 +98,7 @@ def compress(
     quality: int | None = None,
     threshold: float | None = None,
     fill_value: float | None = None,
+    effort: str = "default",
     workers: int | None = 1,
     force: bool = False,
     progress: Progress | None = None,
@@ -136,6 +137,11 @@ def compress(
     runs : bool, optional
         The fast codec's run mode: on (the default) or off (as files written before it,
         byte for byte).
+    effort : {"default", "fast"}
+        The error-bounded encoder's (``max_error``, ``rel_error``, or ``psnr``/``ratio``
+        on floats): ``default`` makes every coding of a brick and keeps the shortest;
+        ``fast`` makes one (floats: the interpolation path), several times faster to
+        encode and to decode, at some ratio. The bound holds either way.
     brick : int or (int, int, int), optional
         Brick size; bricks are coded independently and decoded one by one. Default
         :func:`volpack.volume_codec.bricks.default_brick`: 64, but a float volume under an
@@ -184,8 +190,13 @@ def compress(
     if asked:
         from . import search as lossy_plan
 
-        c, search = lossy_plan.plan(vol, brick_t, nworkers, asked, fill_value, inner)
+        c, search = lossy_plan.plan(vol, brick_t, nworkers, asked, fill_value, inner, effort)
     else:
+        if effort != "default":
+            raise OptionError(
+                f"effort={effort!r} applies to error-bounded lossy coding (max_error, "
+                "rel_error, psnr, ratio); for a faster lossless stream use codec='fast'"
+            )
         search = None
         extra = {"tools": tools, "predict_version": predict_version}
         if runs is not None:
