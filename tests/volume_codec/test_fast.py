@@ -252,6 +252,8 @@ def test_volume_roundtrip_and_info_tools():
         FastCodec(runs=1)
     with pytest.raises(OptionError, match="fast codec"):
         api.compress_array(a, runs=False)
+    with pytest.raises(OptionError, match="fast codec"):
+        api.compress_array(a, codec="fast", runs=True, max_error=2)
     labels = blocks((40, 37, 70)).astype(np.uint8)
     blob = api.compress_array(labels, codec="fast", brick=32)
     with Reader(blob) as r:

@@ -187,6 +187,8 @@ def compress(
         bounded = bool(asked) and not ({"quality", "threshold"} & set(asked))
         brick = bricks.default_brick(vol.shape, vol.dtype, bounded)
     brick_t = bricks.parse_brick(brick)
+    if runs is not None and (codec != "fast" or asked):
+        raise OptionError(f"runs: a setting of the lossless fast codec, found codec {codec!r}")
     if asked:
         from . import search as lossy_plan
 
@@ -198,11 +200,7 @@ def compress(
                 "rel_error, psnr, ratio); for a faster lossless stream use codec='fast'"
             )
         search = None
-        extra = {"tools": tools, "predict_version": predict_version}
-        if runs is not None:
-            if codec != "fast":
-                raise OptionError(f"runs: a setting of the fast codec, found codec {codec!r}")
-            extra["runs"] = runs
+        extra = {"tools": tools, "predict_version": predict_version, "runs": runs}
         c = make_codec(
             codec, vol.dtype, **inner, **{k: v for k, v in extra.items() if v is not None}
         )
