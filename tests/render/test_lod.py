@@ -179,6 +179,10 @@ def test_gradient_bricks_match_the_plain_volume_on_16_bit_and_thin_volumes(tmp_p
                         Camera(size=(20, 18), projection="perspective", distance=0.0)):  # fmt: skip
                 kw = dict(tf=tab, camera=cam, shading="phong", spacing=(2.0, 1.0, 0.7),
                           value_range=(float(vol.min()), float(vol.max())))  # fmt: skip
-                img = render(pv, **kw)
-                assert np.all(np.isfinite(img))
-                np.testing.assert_allclose(img, render(vol, normals="exact", **kw), atol=1e-6)
+                for normals in ("exact", "quantised"):  # gradient bricks, code bricks
+                    kwn = dict(kw, normals=normals)
+                    if normals == "quantised":  # code bricks hold the tree's spacing
+                        kwn.pop("spacing")
+                    img = render(pv, **kwn)
+                    assert np.all(np.isfinite(img))
+                    np.testing.assert_allclose(img, render(vol, **kwn), atol=1e-6)

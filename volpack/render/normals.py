@@ -128,6 +128,11 @@ class NormalCodes:
         return self.codes
 
 
+def normal_codes(vol: np.ndarray, spacing) -> np.ndarray:
+    """The codes of every voxel of ``vol`` (a node brick of a walkthrough's atlas)."""
+    return NormalCodes(np.ascontiguousarray(vol), spacing).ensure(None, CHUNK, 0.0)
+
+
 def decoded() -> np.ndarray:
     """Unit normal (z, y, x) of every code (row 0, the vanishing code, is zero)."""
     global _DECODED

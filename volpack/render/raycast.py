@@ -203,20 +203,21 @@ def _trilinear3(grad, node, z, y, x):
 
 
 @kernel(inline=True)
-def _lit8(codes, light, z, y, x):
-    """Diffuse and specular factors at (z, y, x): those of the eight corner voxels'
-    normal codes (:mod:`volpack.render.normals`) in the frame's ``light`` table,
-    interpolated trilinearly."""
-    nz, ny, nx = codes.shape
+def _lit8(codes, node, light, z, y, x):
+    """Diffuse and specular factors at (z, y, x) of brick ``node`` of a stack of normal
+    code volumes (:mod:`volpack.render.normals`; a plain volume's is one brick): those
+    of the eight corner voxels' codes in the frame's ``light`` table, interpolated
+    trilinearly."""
+    nz, ny, nx = codes.shape[1], codes.shape[2], codes.shape[3]
     z0, z1, fz, y0, y1, fy, x0, x1, fx = _cell3(nz, ny, nx, z, y, x)
-    d000, s000 = light[codes[z0, y0, x0], 0], light[codes[z0, y0, x0], 1]
-    d001, s001 = light[codes[z0, y0, x1], 0], light[codes[z0, y0, x1], 1]
-    d010, s010 = light[codes[z0, y1, x0], 0], light[codes[z0, y1, x0], 1]
-    d011, s011 = light[codes[z0, y1, x1], 0], light[codes[z0, y1, x1], 1]
-    d100, s100 = light[codes[z1, y0, x0], 0], light[codes[z1, y0, x0], 1]
-    d101, s101 = light[codes[z1, y0, x1], 0], light[codes[z1, y0, x1], 1]
-    d110, s110 = light[codes[z1, y1, x0], 0], light[codes[z1, y1, x0], 1]
-    d111, s111 = light[codes[z1, y1, x1], 0], light[codes[z1, y1, x1], 1]
+    d000, s000 = light[codes[node, z0, y0, x0], 0], light[codes[node, z0, y0, x0], 1]
+    d001, s001 = light[codes[node, z0, y0, x1], 0], light[codes[node, z0, y0, x1], 1]
+    d010, s010 = light[codes[node, z0, y1, x0], 0], light[codes[node, z0, y1, x0], 1]
+    d011, s011 = light[codes[node, z0, y1, x1], 0], light[codes[node, z0, y1, x1], 1]
+    d100, s100 = light[codes[node, z1, y0, x0], 0], light[codes[node, z1, y0, x0], 1]
+    d101, s101 = light[codes[node, z1, y0, x1], 0], light[codes[node, z1, y0, x1], 1]
+    d110, s110 = light[codes[node, z1, y1, x0], 0], light[codes[node, z1, y1, x0], 1]
+    d111, s111 = light[codes[node, z1, y1, x1], 0], light[codes[node, z1, y1, x1], 1]
     d00 = d000 + (d001 - d000) * fx
     d01 = d010 + (d011 - d010) * fx
     d10 = d100 + (d101 - d100) * fx
@@ -338,6 +339,26 @@ def _paged_ndv(page, meta, inv, offset, grad, z, y, x, gscale, vz, vy, vx, gmin)
 _paged_ndv_kernel = kernel(_paged_ndv, inline=True)
 
 
+def lit_codes(vol, codes, light, z, y, x):
+    """:func:`_lit8` at level-0 position (z, y, x): ``codes`` is the stack of one code
+    volume of a 3-D array, or for a paged volume its nodes' code bricks."""
+    if isinstance(vol, tuple):
+        return _paged_lit(vol[1], vol[2], vol[3], vol[4], codes, light, z, y, x)
+    return _lit8(codes, 0, light, z, y, x)
+
+
+def _paged_lit(page, meta, inv, offset, codes, light, z, y, x):
+    """:func:`_lit8` in the code brick of the node holding (z, y, x); unshaded where no
+    node does."""
+    node, qz, qy, qx, _ = _page_find(page, meta, inv, offset, codes.shape[1] - 1, z, y, x)
+    if node < 0:
+        return np.float32(1.0), np.float32(0.0)
+    return _lit8(codes, node, light, qz, qy, qx)
+
+
+_paged_lit_kernel = kernel(_paged_lit, inline=True)
+
+
 def extent(vol):
     """``(nz, ny, nx)`` of a volume in level-0 voxels (array or paged tuple)."""
     if isinstance(vol, tuple):
@@ -356,6 +377,14 @@ if not JIT_DISABLED:
                 vol[0], vol[1], vol[2], vol[3], vol[4], vol[5], z, y, x
             )
         return lambda vol, z, y, x: _trilinear(vol, z, y, x)
+
+    @overload(lit_codes, jit_options={"nogil": True})
+    def _lit_codes_overload(vol, codes, light, z, y, x):
+        if isinstance(vol, types.BaseTuple):
+            return lambda vol, codes, light, z, y, x: _paged_lit_kernel(
+                vol[1], vol[2], vol[3], vol[4], codes, light, z, y, x
+            )
+        return lambda vol, codes, light, z, y, x: _lit8(codes, 0, light, z, y, x)
 
     @overload(extent, jit_options={"nogil": True})
     def _extent_overload(vol):
@@ -968,7 +997,7 @@ def _march(
                         spec = 0.0
                         pz, py, px = oz + tm * dz, oy + tm * dy, ox + tm * dx
                         if shade == 2:
-                            f, sf = _lit8(codes, light, pz, py, px)
+                            f, sf = lit_codes(vol, codes, light, pz, py, px)
                             spec = sf * a
                         else:
                             if has_grad and (0.0 <= pz <= nz - 1 and 0.0 <= py <= ny - 1
@@ -1296,15 +1325,19 @@ def render(
     origins, dirs = camera.rays(shape, sp)
     fast = FAST_PATH and has_vol and not isos and mode != 1 and shading in ("none", "phong")
     # orthographic shaded frames light quantised normals through one table per frame
-    codes, has_codes, light = np.zeros((1, 1, 1), np.uint16), False, np.zeros((1, 2), np.float32)
-    if (fast and prep is not None and shading == "phong" and normals == "quantised"
+    codes, has_codes = np.zeros((1, 1, 1, 1), np.uint16), False  # a stack of code volumes
+    if (fast and shading == "phong" and normals == "quantised"
             and bool(np.all(dirs == dirs[:1, :1]))):  # fmt: skip
-        nc = prep.normal_codes(fill, sp)
-        if nc is not None:
-            codes = nc.ensure(~empty if skip_empty else None, brick, 0.5 * step, nthreads)
-            d = -dirs[0, 0] * (np.array(sp) / min(sp))
-            light = light_table(d / np.linalg.norm(d), KA, KD, KS, SHININESS)
+        if paged:
+            if volume.codes is not None and sp == tuple(volume.spacing):  # codes of it
+                codes, has_codes = volume.codes, True  # the nodes' code bricks
+        elif (nc := prep.normal_codes(fill, sp)) is not None:
+            codes = nc.ensure(~empty if skip_empty else None, brick, 0.5 * step, nthreads)[None]
             has_codes = True
+    light = np.zeros((1, 2), np.float32)
+    if has_codes:
+        d = -dirs[0, 0] * (np.array(sp) / min(sp))
+        light = light_table(d / np.linalg.norm(d), KA, KD, KS, SHININESS)
     grad = np.zeros((1, 1, 1, 1, 3), np.float32)  # a stack of gradient volumes (one here)
     has_grad = False
     if prep is not None and shading != "none" and not has_codes:
