@@ -125,8 +125,10 @@ def test_node_atlas_reuses_slots_and_bounds_gradient_memory(tree_path):
             most = max(most, len(sel))
             assert len(atlas.atlas) <= most  # keep=1: no more slots than one view needs
             placed.append(atlas.placed)
+            assert atlas.codes.nbytes == 2 * atlas.atlas.size  # quantised normals: 2 B a voxel
+            assert atlas.nbytes == atlas.atlas.nbytes + atlas.grad.nbytes + atlas.codes.nbytes
             pv = starved.paged(sel)
-            assert pv.grad is None
+            assert pv.grad is None and pv.codes is None
             np.testing.assert_array_equal(render(pv, **kw),
                                           render(paged_volume(t, sel), **kw))  # fmt: skip
         assert placed[-1] > placed[0]  # the views needed new nodes ...

@@ -36,6 +36,12 @@ gradient by central differences (one voxel either way) of the trilinear field, t
 the segment midpoint; with pre-integration the whole segment is shaded with that
 midpoint gradient (the pre-integrated colour times the lighting factor, as in Engel et
 al.'s volume shading). Where the gradient vanishes the sample is left unshaded.
+On orthographic frames of the fast path (``normals="quantised"``, the default) the
+normals are instead per-voxel quantised directions (:mod:`volpack.render.normals`),
+computed once per volume, and the diffuse and specular factors of the sample's eight
+corner voxels, looked up in one table per frame, are interpolated (as VTK's CPU ray
+caster shades): 27 against 80 ns a shaded segment on the MNI152 MRI, an image within
+45 dB of the exact normals'.
 
 Pre-integrated lighting (``shading="preintegrated"``, with pre-integrated
 classification): normals at the segment's two ends (the back one is reused as the next
