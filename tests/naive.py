@@ -632,3 +632,27 @@ def interp_walk(g, step, kind):
                 prev = min(abs(int(bins[back])), 2) if i[1] - sy >= y0 else 0
                 code(i, p, nb, prev)
     return rec, np.array(out_b), np.array(out_c)
+
+
+# --- render: quantised normals ---
+
+
+def render_unit_gradient(vol, spacing, z, y, x):
+    """Unit world gradient (z, y, x) of voxel (z, y, x) by central differences (one voxel
+    either way, the index clamped at the edges, divided by twice the spacing), folded
+    onto n_z >= 0; None where it vanishes."""
+    import math
+
+    shape = vol.shape
+    pos = (z, y, x)
+    g = []
+    for ax in range(3):
+        up, dn = list(pos), list(pos)
+        up[ax] = min(pos[ax] + 1, shape[ax] - 1)
+        dn[ax] = max(pos[ax] - 1, 0)
+        g.append((float(vol[tuple(up)]) - float(vol[tuple(dn)])) / (2.0 * spacing[ax]))
+    n = math.sqrt(sum(c * c for c in g))
+    if n == 0.0:
+        return None
+    s = -1.0 if g[0] < 0 else 1.0
+    return tuple(s * c / n for c in g)

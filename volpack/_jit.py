@@ -89,6 +89,26 @@ def _watch_compiles() -> None:
 
 _watch_compiles()
 
+
+def _numpy_support_without_scipy() -> None:
+    """Load numba's NumPy support (the registries every kernel load sets up) without
+    scipy.linalg: numba imports it only to learn whether ``np.dot`` may call BLAS,
+    which no kernel here does, and the import took 0.5-0.7 s of every process that
+    runs a kernel (about half of numba's set-up). scipy.linalg is hidden for this one
+    import only; it imports normally afterwards."""
+    import sys
+
+    if "numba.np.arraymath" in sys.modules or "scipy.linalg" in sys.modules:
+        return
+    sys.modules["scipy.linalg"] = None  # an ImportError for numba's probe
+    try:
+        import numba.np.arraymath  # noqa: F401
+    finally:
+        del sys.modules["scipy.linalg"]
+
+
+_numpy_support_without_scipy()
+
 JIT_DISABLED = bool(numba.config.DISABLE_JIT)
 
 if JIT_DISABLED:

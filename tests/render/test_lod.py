@@ -125,8 +125,10 @@ def test_node_atlas_reuses_slots_and_bounds_gradient_memory(tree_path):
             most = max(most, len(sel))
             assert len(atlas.atlas) <= most  # keep=1: no more slots than one view needs
             placed.append(atlas.placed)
+            assert atlas.codes.nbytes == 2 * atlas.atlas.size  # quantised normals: 2 B a voxel
+            assert atlas.nbytes == atlas.atlas.nbytes + atlas.grad.nbytes + atlas.codes.nbytes
             pv = starved.paged(sel)
-            assert pv.grad is None
+            assert pv.grad is None and pv.codes is None
             np.testing.assert_array_equal(render(pv, **kw),
                                           render(paged_volume(t, sel), **kw))  # fmt: skip
         assert placed[-1] > placed[0]  # the views needed new nodes ...
@@ -179,6 +181,10 @@ def test_gradient_bricks_match_the_plain_volume_on_16_bit_and_thin_volumes(tmp_p
                         Camera(size=(20, 18), projection="perspective", distance=0.0)):  # fmt: skip
                 kw = dict(tf=tab, camera=cam, shading="phong", spacing=(2.0, 1.0, 0.7),
                           value_range=(float(vol.min()), float(vol.max())))  # fmt: skip
-                img = render(pv, **kw)
-                assert np.all(np.isfinite(img))
-                np.testing.assert_allclose(img, render(vol, **kw), atol=1e-6)
+                for normals in ("exact", "quantised"):  # gradient bricks, code bricks
+                    kwn = dict(kw, normals=normals)
+                    if normals == "quantised":  # code bricks hold the tree's spacing
+                        kwn.pop("spacing")
+                    img = render(pv, **kwn)
+                    assert np.all(np.isfinite(img))
+                    np.testing.assert_allclose(img, render(vol, **kwn), atol=1e-6)

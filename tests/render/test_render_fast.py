@@ -32,8 +32,8 @@ def semi(lo=0.0, hi=1.0) -> TransferFunction:
 
 
 def both(vol, **kw):
-    """(fast path, general kernel with on-the-fly gradients)."""
-    fast = render(vol, **kw)
+    """(fast path with exact normals, general kernel with on-the-fly gradients)."""
+    fast = render(vol, normals="exact", **kw)
     rc.FAST_PATH = False
     try:
         slow = render(prepare_volume(vol, kw.pop("spacing", None), gradient_budget=0), **kw)
@@ -130,7 +130,7 @@ def test_gradient_volume_is_the_central_difference_and_fits_its_dtype():
 
 def test_prepared_volume_is_reused_and_bounded():
     vol = np.round(field() * 255).astype(np.uint8)
-    kw = dict(tf=semi(0, 255), camera=Camera(size=(16, 16)), shading="phong")
+    kw = dict(tf=semi(0, 255), camera=Camera(size=(16, 16)), shading="phong", normals="exact")
     p = prepare_volume(vol)
     one = render(p, **kw)
     g = p.gradients(None)

@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import VolpackError
+from .normals import normal_codes
 from .prepared import GRADIENT_BUDGET, SAMPLED, gradient_dtype, gradient_volume
 
 log = logging.getLogger(__name__)
@@ -44,6 +45,7 @@ class PagedVolume:
     cell: int
     finite_range: tuple[float, float] | None = None  # of the drawn nodes' voxels
     grad: np.ndarray | None = None  # (slots, k + 2, k + 2, k + 2, 3) central differences
+    codes: np.ndarray | None = None  # (slots, k + 2, k + 2, k + 2) quantised normals
 
 
 class NodeAtlas:
@@ -60,9 +62,11 @@ class NodeAtlas:
     dtypes the ray caster does not sample as they are); with ``gradients`` each slot also
     holds ``3 (k + 2)^3`` int16 differences (integer data whose range fits 32767 exactly)
     or float32, so for 16^3 nodes of 8-bit data 5.8 kB + 35 kB a slot, 42 MB for 1024
-    nodes (twice that when ``keep`` slots fill). Gradient bricks are dropped, and shading
-    falls back to differences taken on the fly, when they would pass ``gradient_budget``
-    bytes.
+    nodes (twice that when ``keep`` slots fill); beside them ``(k + 2)^3`` 16-bit
+    quantised normals (:mod:`volpack.render.normals`, 11.7 kB a slot for 16^3 nodes)
+    that orthographic frames light through one table. Gradient and normal bricks are
+    dropped, and shading falls back to differences taken on the fly, when they would
+    pass ``gradient_budget`` bytes.
     """
 
     def __init__(self, tree, *, gradients: bool = True, keep: float = 2.0,
@@ -81,6 +85,7 @@ class NodeAtlas:
             self.gdtype = gradient_dtype(np.empty(0, self.dtype), vr)
         self.atlas = np.zeros((0, k + 2, k + 2, k + 2), self.dtype)
         self.grad = None if self.gdtype is None else np.zeros((*self.atlas.shape, 3), self.gdtype)
+        self.codes = None if self.gdtype is None else np.zeros(self.atlas.shape, np.uint16)
         self.level = np.zeros(0, np.int64)
         self.origin = np.zeros((0, 3), np.int64)
         self.vmin = np.zeros(0, np.float64)  # finite voxel range per slot (NaN: none)
@@ -94,7 +99,7 @@ class NodeAtlas:
 
     @property
     def nbytes(self) -> int:
-        return self.atlas.nbytes + (0 if self.grad is None else self.grad.nbytes)
+        return self.atlas.nbytes + sum(0 if a is None else a.nbytes for a in (self.grad, self.codes))
 
     def paged(self, selection) -> PagedVolume:
         """The :class:`PagedVolume` of ``selection`` (``[(level, (bz, by, bx)), ...]``)."""
@@ -119,7 +124,7 @@ class NodeAtlas:
         lo, hi = np.nanmin(self.vmin[slots]), np.nanmax(self.vmax[slots])
         frange = None if np.isnan(lo) else (float(lo), float(hi))
         return PagedVolume(self.atlas, page, self.level, self.origin, shape,
-                           tuple(self.tree.spacing), cell, frange, self.grad)  # fmt: skip
+                           tuple(self.tree.spacing), cell, frange, self.grad, self.codes)  # fmt: skip
 
     def _make_room(self, need: int, drawn: set) -> None:
         short = need - len(self.free)
@@ -141,13 +146,14 @@ class NodeAtlas:
 
     def _grow(self, cap: int) -> None:
         n = len(self.atlas)
-        per = 0 if self.grad is None else self.grad.itemsize * 3 * math.prod(self.atlas.shape[1:])
+        per = 0 if self.grad is None else (self.grad.itemsize * 3 + 2) * math.prod(self.atlas.shape[1:])
         if self.grad is not None and (gb := cap * per) > self.gradient_budget:
             log.info("gradient bricks would take %d bytes: shading takes them on the fly", gb)
-            self.grad = None
+            self.grad = self.codes = None
         self.atlas = _grown(self.atlas, cap)
         if self.grad is not None:
             self.grad = _grown(self.grad, cap)
+            self.codes = _grown(self.codes, cap)
         self.level = _grown(self.level, cap)
         self.origin = _grown(self.origin, cap)
         self.vmin = _grown(self.vmin, cap)
@@ -165,6 +171,7 @@ class NodeAtlas:
         self.atlas[i] = inner
         if self.grad is not None:  # differences of the grown brick, cut to the brick
             self.grad[i] = gradient_volume(raw, self.gdtype)[1:-1, 1:-1, 1:-1]
+            self.codes[i] = normal_codes(raw, self.tree.spacing)[1:-1, 1:-1, 1:-1]
         fin = inner if inner.dtype.kind in "iu" else inner[np.isfinite(inner)]
         self.vmin[i] = fin.min() if fin.size else np.nan
         self.vmax[i] = fin.max() if fin.size else np.nan

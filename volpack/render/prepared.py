@@ -9,6 +9,8 @@ volume and each frame of an orbit reuses what the first one built:
 * the per-voxel gradient volume (:func:`gradient_volume`, for shading), built on first
   use when it fits :data:`GRADIENT_BUDGET` bytes, else the renderer takes central
   differences on the fly (six more trilinear samples per shaded segment);
+* the quantised normals (:mod:`volpack.render.normals`, 2 bytes a voxel, same budget)
+  that orthographic shaded frames light through a table instead;
 * the value range of every 8^3 brick (the empty-space test only redoes the
   transfer-function part per frame);
 * the filled copy when non-finite voxels are replaced (the fill value depends on the
@@ -34,6 +36,7 @@ import numpy as np
 from .._jit import kernel
 from ..errors import VolpackError
 from ..parallel import ordered_map
+from .normals import NormalCodes
 
 #: Bytes the per-voxel gradient volume may take (see the module docstring).
 GRADIENT_BUDGET = 1 << 30
@@ -56,6 +59,7 @@ class PreparedVolume:
     _grad: tuple = (_UNSET, None)  # the gradient volume, or False over the budget
     _ranges: tuple = (_UNSET, None)  # (mins, maxs) per brick
     _leap: tuple = (None, None)  # (empty bricks, leap map)
+    _codes: tuple = (_UNSET, None)  # quantised normals (NormalCodes), or False over the budget
     _memo: dict = dataclasses.field(default_factory=dict)  # name -> (key, value)
 
     @property
@@ -86,6 +90,18 @@ class PreparedVolume:
             self._grad = (fill, g)
         g = self._grad[1]
         return None if g is False else g
+
+    def normal_codes(self, fill: float | None, spacing):
+        """The quantised normals of :meth:`filled` at ``spacing``
+        (:class:`volpack.render.normals.NormalCodes`, filled in on demand), or None when
+        their 2 bytes a voxel would pass the gradient budget."""
+        key = (fill, tuple(spacing))
+        if self._codes[0] != key:
+            vol = self.filled(fill)
+            ok = vol.size * 2 <= self.gradient_budget
+            self._codes = (key, NormalCodes(vol, spacing) if ok else False)
+        c = self._codes[1]
+        return None if c is False else c
 
     def brick_ranges(self, fill: float | None, brick: int, kernel_fn) -> tuple:
         """Min and max per brick of :meth:`filled` (``kernel_fn`` fills them)."""

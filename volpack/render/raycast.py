@@ -36,6 +36,12 @@ gradient by central differences (one voxel either way) of the trilinear field, t
 the segment midpoint; with pre-integration the whole segment is shaded with that
 midpoint gradient (the pre-integrated colour times the lighting factor, as in Engel et
 al.'s volume shading). Where the gradient vanishes the sample is left unshaded.
+On orthographic frames of the fast path (``normals="quantised"``, the default) the
+normals are instead per-voxel quantised directions (:mod:`volpack.render.normals`),
+computed once per volume, and the diffuse and specular factors of the sample's eight
+corner voxels, looked up in one table per frame, are interpolated (as VTK's CPU ray
+caster shades): 27 against 80 ns a shaded segment on the MNI152 MRI, an image within
+45 dB of the exact normals'.
 
 Pre-integrated lighting (``shading="preintegrated"``, with pre-integrated
 classification): normals at the segment's two ends (the back one is reused as the next
@@ -101,6 +107,7 @@ from .._jit import JIT_DISABLED, kernel, leading_zeros
 from ..errors import VolpackError
 from ..parallel import ordered_map, parse_workers
 from .camera import Camera
+from .normals import light_table
 from .prepared import prepare_volume, unpack_volume
 from .transfer import nonempty_range
 
@@ -199,6 +206,37 @@ def _trilinear3(grad, node, z, y, x):
     return (_lerp8(grad, node, 0, z0, z1, fz, y0, y1, fy, x0, x1, fx),
             _lerp8(grad, node, 1, z0, z1, fz, y0, y1, fy, x0, x1, fx),
             _lerp8(grad, node, 2, z0, z1, fz, y0, y1, fy, x0, x1, fx))  # fmt: skip
+
+
+@kernel(inline=True)
+def _lit8(codes, node, light, z, y, x):
+    """Diffuse and specular factors at (z, y, x) of brick ``node`` of a stack of normal
+    code volumes (:mod:`volpack.render.normals`; a plain volume's is one brick): those
+    of the eight corner voxels' codes in the frame's ``light`` table, interpolated
+    trilinearly."""
+    nz, ny, nx = codes.shape[1], codes.shape[2], codes.shape[3]
+    z0, z1, fz, y0, y1, fy, x0, x1, fx = _cell3(nz, ny, nx, z, y, x)
+    d000, s000 = light[codes[node, z0, y0, x0], 0], light[codes[node, z0, y0, x0], 1]
+    d001, s001 = light[codes[node, z0, y0, x1], 0], light[codes[node, z0, y0, x1], 1]
+    d010, s010 = light[codes[node, z0, y1, x0], 0], light[codes[node, z0, y1, x0], 1]
+    d011, s011 = light[codes[node, z0, y1, x1], 0], light[codes[node, z0, y1, x1], 1]
+    d100, s100 = light[codes[node, z1, y0, x0], 0], light[codes[node, z1, y0, x0], 1]
+    d101, s101 = light[codes[node, z1, y0, x1], 0], light[codes[node, z1, y0, x1], 1]
+    d110, s110 = light[codes[node, z1, y1, x0], 0], light[codes[node, z1, y1, x0], 1]
+    d111, s111 = light[codes[node, z1, y1, x1], 0], light[codes[node, z1, y1, x1], 1]
+    d00 = d000 + (d001 - d000) * fx
+    d01 = d010 + (d011 - d010) * fx
+    d10 = d100 + (d101 - d100) * fx
+    d11 = d110 + (d111 - d110) * fx
+    s00 = s000 + (s001 - s000) * fx
+    s01 = s010 + (s011 - s010) * fx
+    s10 = s100 + (s101 - s100) * fx
+    s11 = s110 + (s111 - s110) * fx
+    d0 = d00 + (d01 - d00) * fy
+    d1 = d10 + (d11 - d10) * fy
+    s0 = s00 + (s01 - s00) * fy
+    s1 = s10 + (s11 - s10) * fy
+    return d0 + (d1 - d0) * fz, s0 + (s1 - s0) * fz
 
 
 @kernel(inline=True)
@@ -307,6 +345,26 @@ def _paged_ndv(page, meta, inv, offset, grad, z, y, x, gscale, vz, vy, vx, gmin)
 _paged_ndv_kernel = kernel(_paged_ndv, inline=True)
 
 
+def lit_codes(vol, codes, light, z, y, x):
+    """:func:`_lit8` at level-0 position (z, y, x): ``codes`` is the stack of one code
+    volume of a 3-D array, or for a paged volume its nodes' code bricks."""
+    if isinstance(vol, tuple):
+        return _paged_lit(vol[1], vol[2], vol[3], vol[4], codes, light, z, y, x)
+    return _lit8(codes, 0, light, z, y, x)
+
+
+def _paged_lit(page, meta, inv, offset, codes, light, z, y, x):
+    """:func:`_lit8` in the code brick of the node holding (z, y, x); unshaded where no
+    node does."""
+    node, qz, qy, qx, _ = _page_find(page, meta, inv, offset, codes.shape[1] - 1, z, y, x)
+    if node < 0:
+        return np.float32(1.0), np.float32(0.0)
+    return _lit8(codes, node, light, qz, qy, qx)
+
+
+_paged_lit_kernel = kernel(_paged_lit, inline=True)
+
+
 def extent(vol):
     """``(nz, ny, nx)`` of a volume in level-0 voxels (array or paged tuple)."""
     if isinstance(vol, tuple):
@@ -325,6 +383,14 @@ if not JIT_DISABLED:
                 vol[0], vol[1], vol[2], vol[3], vol[4], vol[5], z, y, x
             )
         return lambda vol, z, y, x: _trilinear(vol, z, y, x)
+
+    @overload(lit_codes, jit_options={"nogil": True})
+    def _lit_codes_overload(vol, codes, light, z, y, x):
+        if isinstance(vol, types.BaseTuple):
+            return lambda vol, codes, light, z, y, x: _paged_lit_kernel(
+                vol[1], vol[2], vol[3], vol[4], codes, light, z, y, x
+            )
+        return lambda vol, codes, light, z, y, x: _lit8(codes, 0, light, z, y, x)
 
     @overload(extent, jit_options={"nogil": True})
     def _extent_overload(vol):
@@ -853,11 +919,15 @@ def _ndv(grad, node, z, y, x, gscale, vz, vy, vx, gmin, s):
 
 
 def _march(
-    vol, grad, has_grad, origins, dirs, rows, pre, post_tab, pre2d, lo, scale, step,
-    leap, brick, skip, ert, shade, shading, gscale, vscale, gmin, out, row_samples,
+    vol, grad, has_grad, codes, light, origins, dirs, rows, pre, post_tab, pre2d,
+    lo, scale, step, leap, brick, skip, ert, shade, shading, gscale, vscale, gmin, out,
+    row_samples,
 ):  # fmt: skip
     """Rays of image rows ``rows``; ``pre``: pre-integrated (else post-classified),
-    ``shade``: Phong at the segment midpoint. Arguments as for :func:`_render_kernel`.
+    ``shade``: 0 unshaded, 1 Phong at the segment midpoint from gradients, 2 Phong lit
+    through the quantised normal ``codes`` and the frame's ``light`` table
+    (:func:`_lit8`; positions clamped to the volume like the samples', so the kernel
+    holds no gradient code at all). Other arguments as for :func:`_render_kernel`.
     Inlined into one small kernel per (``pre``, ``shade``) pair, where both are
     constants: each kernel's loop holds only its own branch (measured: a third of the
     time per segment on the benchmark's volumes, against one loop testing both)."""
@@ -932,14 +1002,18 @@ def _march(
                         f = 1.0
                         spec = 0.0
                         pz, py, px = oz + tm * dz, oy + tm * dy, ox + tm * dx
-                        if has_grad and (0.0 <= pz <= nz - 1 and 0.0 <= py <= ny - 1
-                                         and 0.0 <= px <= nx - 1):  # fmt: skip
-                            ndv = grad_ndv(vol, grad, pz, py, px, gscale, vz, vy, vx, gmin)
+                        if shade == 2:
+                            f, sf = lit_codes(vol, codes, light, pz, py, px)
+                            spec = sf * a
                         else:
-                            ndv = _fly_ndv(vol, pz, py, px, gscale, vz, vy, vx, gmin)
-                        if ndv >= 0.0:
-                            f = ka + kd * ndv
-                            spec = ks * (_powi(ndv, ishin) if whole else ndv**shin) * a
+                            if has_grad and (0.0 <= pz <= nz - 1 and 0.0 <= py <= ny - 1
+                                             and 0.0 <= px <= nx - 1):  # fmt: skip
+                                ndv = grad_ndv(vol, grad, pz, py, px, gscale, vz, vy, vx, gmin)
+                            else:
+                                ndv = _fly_ndv(vol, pz, py, px, gscale, vz, vy, vx, gmin)
+                            if ndv >= 0.0:
+                                f = ka + kd * ndv
+                                spec = ks * (_powi(ndv, ishin) if whole else ndv**shin) * a
                         ar, ag, ab, aa = _over(ar, ag, ab, aa, cr, cg, cb, a, f, spec)
                     else:
                         wgt = 1.0 - aa
@@ -964,21 +1038,25 @@ def _lerp2(tab, ch, i0, i1, f):
 def _march_specialised(pre, shade):
     """The fast kernel for one (pre-integrated?, shaded?) pair (see :func:`_march`)."""
 
-    def run(vol, grad, has_grad, origins, dirs, rows, post_tab, pre2d, lo, scale, step,
-            leap, brick, skip, ert, shading, gscale, vscale, gmin, out, row_samples):  # fmt: skip
+    def run(vol, grad, has_grad, codes, light, origins, dirs, rows, post_tab, pre2d,
+            lo, scale, step, leap, brick, skip, ert, shading, gscale, vscale, gmin, out,
+            row_samples):  # fmt: skip
         _march_inline(
-            vol, grad, has_grad, origins, dirs, rows, pre, post_tab, pre2d, lo, scale, step,
-            leap, brick, skip, ert, shade, shading, gscale, vscale, gmin, out, row_samples,
+            vol, grad, has_grad, codes, light, origins, dirs, rows, pre, post_tab,
+            pre2d, lo, scale, step, leap, brick, skip, ert, shade, shading, gscale, vscale,
+            gmin, out, row_samples,
         )  # fmt: skip
 
-    run.__name__ = run.__qualname__ = f"_march_{'pre' if pre else 'post'}_{'phong' if shade else 'none'}"
+    run.__name__ = run.__qualname__ = f"_march_{'pre' if pre else 'post'}_{SHADE_NAMES[shade]}"
     # allocates nothing: no reference counts in the loops; multiply-adds fused (12-15 %
     # faster on the benchmark's volumes, the image moves by at most 6e-8)
     return kernel(run, nrt=False, contract=True)
 
 
-#: The fast path's kernels by (pre-integrated, shaded).
-_MARCH = {(p, sh): _march_specialised(p, sh) for p in (False, True) for sh in (False, True)}
+#: The fast path's shading variants: unshaded, Phong from gradients, Phong from codes.
+SHADE_NAMES = ("none", "phong", "codes")
+#: The fast path's kernels by (pre-integrated, shading variant).
+_MARCH = {(p, sh): _march_specialised(p, sh) for p in (False, True) for sh in range(3)}
 
 
 @kernel
@@ -1078,6 +1156,7 @@ def render(
     table_size: int = TABLE_SIZE,
     ert: float = 0.99,
     skip_empty: bool = True,
+    normals: str = "quantised",
     workers: int | None = None,
     progress: Callable[[int, int], None] | None = None,
     render_stats: bool = False,
@@ -1112,6 +1191,10 @@ def render(
         Early ray termination threshold on the accumulated opacity (>= 1 disables it).
     skip_empty : bool
         Empty-space skipping over 8^3 bricks (the image does not change).
+    normals : {"quantised", "exact"}
+        How Phong shading finds normals on orthographic frames of a plain volume:
+        per-voxel quantised normals lit through a table (:mod:`volpack.render.normals`),
+        or the trilinear field's central differences (as perspective frames always do).
     workers : int or None
         Threads (None or 0 = every core). The image does not depend on it.
     progress : callable(done, total)
@@ -1135,6 +1218,8 @@ def render(
             "expected classification='preintegrated' with shading='preintegrated' "
             f"(its lighting tables are pre-integrated), found {classification!r}"
         )
+    if normals not in ("quantised", "exact"):
+        raise VolpackError(f"expected normals 'quantised' or 'exact', found {normals!r}")
     if not (math.isfinite(step) and step > 0):
         raise VolpackError(f"expected a finite step > 0, found {step}")
     if int(table_size) < 2:
@@ -1211,12 +1296,6 @@ def render(
         if prep is not None and prep.bad is not None:
             rgba[prep.bad] = 0.0
 
-    grad = np.zeros((1, 1, 1, 1, 3), np.float32)  # a stack of gradient volumes (one here)
-    has_grad = False
-    if prep is not None and shading != "none":
-        g = prep.gradients(fill, nthreads)
-        if g is not None:
-            grad, has_grad = g[None], True
     brick = BRICK
     ranges = None
     if paged:  # nodes are sampled through the page table
@@ -1250,6 +1329,27 @@ def render(
         leap = np.zeros(empty.shape, np.int32)
         _leap_kernel(np.ascontiguousarray(empty), leap)
     origins, dirs = camera.rays(shape, sp)
+    fast = FAST_PATH and has_vol and not isos and mode != 1 and shading in ("none", "phong")
+    # orthographic shaded frames light quantised normals through one table per frame
+    codes, has_codes = np.zeros((1, 1, 1, 1), np.uint16), False  # a stack of code volumes
+    if (fast and shading == "phong" and normals == "quantised"
+            and bool(np.all(dirs == dirs[:1, :1]))):  # fmt: skip
+        if paged:
+            if volume.codes is not None and sp == tuple(volume.spacing):  # codes of it
+                codes, has_codes = volume.codes, True  # the nodes' code bricks
+        elif (nc := prep.normal_codes(fill, sp)) is not None:
+            codes = nc.ensure(~empty if skip_empty else None, brick, 0.5 * step, nthreads)[None]
+            has_codes = True
+    light = np.zeros((1, 2), np.float32)
+    if has_codes:
+        d = -dirs[0, 0] * (np.array(sp) / min(sp))
+        light = light_table(d / np.linalg.norm(d), KA, KD, KS, SHININESS)
+    grad = np.zeros((1, 1, 1, 1, 3), np.float32)  # a stack of gradient volumes (one here)
+    has_grad = False
+    if prep is not None and shading != "none" and not has_codes:
+        g = prep.gradients(fill, nthreads)
+        if g is not None:
+            grad, has_grad = g[None], True
     w, h = camera.size
     out = np.zeros((h, w, 4), np.float32)
     row_samples = np.zeros(h, np.int64)
@@ -1259,15 +1359,15 @@ def render(
     gmin = 1e-6 * (hi - lo) / max(sp)
     shading_k = np.array([KA, KD, KS, SHININESS], np.float64)
 
-    fast = FAST_PATH and has_vol and not isos and mode != 1 and shading in ("none", "phong")
     if fast and paged and shading == "phong" and volume.grad is not None:
         grad, has_grad = volume.grad, True  # the nodes' gradient bricks
     if fast:
-        march = _MARCH[mode == 2, shading == "phong"]
+        march = _MARCH[mode == 2, 2 if has_codes else int(shading == "phong")]
 
         def run(rows: np.ndarray) -> None:  # the fast path (see _march)
             march(
-                vol, grad, has_grad, origins, dirs, rows, post_tab, pre2d, lo, scale,
+                vol, grad, has_grad, codes, light, origins, dirs, rows, post_tab,
+                pre2d, lo, scale,
                 float(step), leap, brick, bool(skip_empty), float(ert), shading_k, gscale,
                 vscale, gmin, out, row_samples,
             )  # fmt: skip
