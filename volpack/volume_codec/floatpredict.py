@@ -1,0 +1,315 @@
+"""Exact float coding by prediction on the floats' integer images (float16/32/64).
+
+Two tools, each a way to turn a float brick into integers that a predictor sees as a
+smooth field, so that the residuals (not the raw mantissa bits) are coded:
+
+* **Lorenzo** (the predictor of fpzip): a float's bits, read as a signed integer
+  ``i``, become ``s = i`` when the sign is clear and ``i XOR (2^(B-1) - 1)`` when it is
+  set. ``s`` orders like the floats and runs through zero without a leap (``-0.0`` is
+  -1, ``+0.0`` is 0). Each voxel is predicted by the 3-D Lorenzo predictor
+  ``W + N + U - NW - UW - UN + UNW`` (2-D or 1-D on the brick's faces) or, chosen per
+  brick, the 2-D one within the slice; the residual, wrapped to ``B`` bits (so that
+  prediction never overflows and the map stays a bijection on bit patterns: NaN
+  payloads, -0.0, denormals and Inf come back exactly), is coded by the adaptive
+  binary range coder in a context of the bit lengths of the W, N and U residuals.
+* **Lattice** (fields stored as scaled integers, ``value = offset + step * k``: packed
+  climate data, fixed-point readings): the brick becomes the integer field ``k`` plus
+  the gap between each float and ``float(offset + step * k)`` in units in the last
+  place, usually 0. Both are integer bricks, coded by the integer lossless tools
+  (:mod:`.lossless`: wavelet, fitted prediction, background mask).
+
+The byte layout is in ``formats/lossless-1.md`` (mode 5).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._jit import kernel
+from ..entropy.common import check_status, encode_with_retry, stream_bytes
+from ..entropy.rangecoder import (
+    RATE,
+    STATE_INIT,
+    end_status,
+    finish_stream,
+    open_encoder,
+    open_stream,
+)
+from ..entropy.rangecoder import get as _get
+from ..entropy.rangecoder import put as _put
+from ..errors import FormatError
+from .predict import N_MODELS, NCTX, NO_RESIDUAL, bitlen, get_residual, put_residual
+
+LORENZO3, LORENZO2 = 0, 1  # the predictors a Lorenzo stream may name
+PREDICTORS = (LORENZO3, LORENZO2)
+LOW_BITS = 2  # 64-bit residuals: low bits coded apart, so the rest fits put_residual
+# Lattice tool: at most this share of voxels off the lattice, else not tried.
+LATTICE_MAX_MISS = 0.5
+
+
+# ---------------------------------------------------------------------------------------
+# The signed ordered image
+
+
+def to_signed(a: np.ndarray) -> np.ndarray:
+    """Float array -> int64 array of the signed ordered images of its bit patterns."""
+    b = 8 * a.dtype.itemsize
+    i = np.ascontiguousarray(a).view(f"i{a.dtype.itemsize}").astype(np.int64)
+    return np.where(i < 0, i ^ np.int64((1 << (b - 1)) - 1), i)
+
+
+def from_signed(s: np.ndarray, dtype: np.dtype) -> np.ndarray:
+    """The inverse of :func:`to_signed` (``s`` in the signed range of the float's width)."""
+    dtype = np.dtype(dtype)
+    b = 8 * dtype.itemsize
+    i = np.where(s < 0, s ^ np.int64((1 << (b - 1)) - 1), s)
+    return i.astype(f"i{dtype.itemsize}").view(dtype)
+
+
+# ---------------------------------------------------------------------------------------
+# Lorenzo tool
+
+
+@kernel(inline=True)
+def _wrap(v, width):
+    """``v`` reduced to the signed range of ``width`` bits (64: numba's int64 wraps)."""
+    if width == 64:
+        return v
+    half = np.int64(1) << (width - 1)
+    return ((v + half) & ((half << 1) - 1)) - half
+
+
+@kernel(inline=True)
+def _predict(s, i, x, y, z, ny, nx, predictor):
+    """Lorenzo prediction of voxel ``i`` over the axes that have a neighbour."""
+    sy = nx
+    sz = ny * nx
+    hx = x > 0
+    hy = y > 0
+    hz = z > 0 and predictor == LORENZO3
+    p = np.int64(0)
+    if hx:
+        p += s[i - 1]
+    if hy:
+        p += s[i - sy]
+    if hz:
+        p += s[i - sz]
+    if hx and hy:
+        p -= s[i - sy - 1]
+    if hx and hz:
+        p -= s[i - sz - 1]
+    if hy and hz:
+        p -= s[i - sz - sy]
+    if hx and hy and hz:
+        p += s[i - sz - sy - 1]
+    return p
+
+
+@kernel(inline=True)
+def _context(el, rs, i, x, y, z, ny, nx, shift):
+    """Residual context (bit lengths of the W, N, U residuals, W counted twice) and sign
+    context (the sign of the sum of their signs)."""
+    lw = el[i - 1] if x > 0 else -1
+    ln = el[i - nx] if y > 0 else -1
+    lu = el[i - nx * ny] if z > 0 else -1
+    if lw < 0:
+        lw = ln if ln >= 0 else lu
+    if ln < 0:
+        ln = lw
+    if lu < 0:
+        lu = ln
+    act = 2 * lw + ln + lu if lw >= 0 else 0
+    ctx = min(act >> shift, NCTX - 1)
+    sg = np.int64(0)
+    if x > 0:
+        sg += np.sign(rs[i - 1])
+    if y > 0:
+        sg += np.sign(rs[i - nx])
+    if z > 0:
+        sg += np.sign(rs[i - nx * ny])
+    return ctx, (0 if sg == 0 else (1 if sg > 0 else 2))
+
+
+@kernel(nrt=False)
+def _encode_kernel(s, shape, width, predictor, out, el, rs, state):
+    """Return the byte count, -1 when ``out`` is too small."""
+    nz, ny, nx = shape[0], shape[1], shape[2]
+    shift = 1 if width == 64 else 0
+    cap = out.size
+    low, rng, pos = open_encoder(out)
+    i = 0
+    for z in range(nz):
+        for y in range(ny):
+            for x in range(nx):
+                if pos + 64 > cap:
+                    return -1
+                r = _wrap(s[i] - _predict(s, i, x, y, z, ny, nx, predictor), width)
+                ctx, sctx = _context(el, rs, i, x, y, z, ny, nx, shift)
+                if width == 64:
+                    q = r >> LOW_BITS
+                    low, rng, pos = put_residual(out, state, 0, ctx, sctx, q, low, rng, pos, RATE)
+                    node = 1
+                    for j in range(LOW_BITS - 1, -1, -1):
+                        bit = (r >> j) & 1
+                        k = N_MODELS + node
+                        low, rng, pos = _put(out, state, k, bit, low, rng, pos, RATE)
+                        node = 2 * node + bit
+                else:
+                    low, rng, pos = put_residual(out, state, 0, ctx, sctx, r, low, rng, pos, RATE)
+                rs[i] = r
+                el[i] = bitlen(abs(r >> 1))  # >> 1: -2^63 has no absolute value
+                i += 1
+    return finish_stream(out, low, pos)
+
+
+@kernel(nrt=False)
+def _decode_kernel(data, shape, width, predictor, s, el, rs, state):
+    """Return 0 on success, 1 when the stream ran short, 2 on an impossible value, 3 when
+    it does not end where its length says."""
+    nz, ny, nx = shape[0], shape[1], shape[2]
+    shift = 1 if width == 64 else 0
+    size = data.size
+    code, rng, pos = open_stream(data)
+    i = 0
+    for z in range(nz):
+        for y in range(ny):
+            for x in range(nx):
+                if pos > size + 4:
+                    return 1
+                ctx, sctx = _context(el, rs, i, x, y, z, ny, nx, shift)
+                r, code, rng, pos = get_residual(data, state, 0, ctx, sctx, code, rng, pos, RATE)
+                if r == NO_RESIDUAL:
+                    return 2
+                if width == 64:
+                    node = 1
+                    for _ in range(LOW_BITS):
+                        bit, code, rng, pos = _get(data, state, N_MODELS + node, code, rng, pos, RATE)
+                        node = 2 * node + bit
+                    r = (r << LOW_BITS) | (node - (1 << LOW_BITS))
+                elif r != _wrap(r, width):
+                    return 2
+                s[i] = _wrap(_predict(s, i, x, y, z, ny, nx, predictor) + r, width)
+                rs[i] = r
+                el[i] = bitlen(abs(r >> 1))
+                i += 1
+    return end_status(data, code, pos)
+
+
+def _workspace(n: int) -> tuple[np.ndarray, ...]:
+    """Residual bit lengths and residuals of every voxel, and fresh models (the kernels
+    run without numba's allocator)."""
+    return (
+        np.zeros(n, dtype=np.int64),
+        np.zeros(n, dtype=np.int64),
+        np.full(N_MODELS + (1 << LOW_BITS), STATE_INIT, dtype=np.uint16),
+    )
+
+
+def encode_lorenzo(brick: np.ndarray, predictor: int = LORENZO3) -> bytes:
+    """Code a 3-D float brick with one Lorenzo predictor: a predictor byte, then the
+    range-coded residuals."""
+    if brick.ndim != 3 or brick.dtype.kind != "f" or predictor not in PREDICTORS:
+        raise ValueError(f"expected a 3-D float brick, found {brick.dtype} {brick.shape}")
+    s = to_signed(brick).reshape(-1)
+    width = np.int64(8 * brick.dtype.itemsize)
+    shape = np.array(brick.shape, dtype=np.int64)
+    body = encode_with_retry(
+        lambda out: _encode_kernel(s, shape, width, np.int64(predictor), out, *_workspace(s.size)),
+        s.size,
+        (2 * brick.itemsize, 4 * brick.itemsize),
+        coder="float Lorenzo",
+    )
+    return bytes([predictor]) + body
+
+
+def decode_lorenzo(data: bytes | memoryview, shape: tuple[int, ...], dtype: np.dtype) -> np.ndarray:
+    """Decode :func:`encode_lorenzo`'s bytes into a float brick of ``shape``, ``dtype``."""
+    buf = stream_bytes(data, "float Lorenzo")
+    predictor = int(buf[0])
+    if predictor not in PREDICTORS:
+        raise FormatError(f"float Lorenzo payload: expected predictor 0 or 1, found {predictor}")
+    s = np.empty(int(np.prod(shape)), dtype=np.int64)
+    width = np.int64(8 * np.dtype(dtype).itemsize)
+    shp = np.array(shape, dtype=np.int64)
+    status = _decode_kernel(buf[1:], shp, width, np.int64(predictor), s, *_workspace(s.size))
+    check_status(status, "float Lorenzo")
+    return from_signed(s, dtype).reshape(shape)
+
+
+def encode_best_lorenzo(brick: np.ndarray) -> bytes:
+    """The shorter of the 3-D and the in-slice Lorenzo streams (one slice: 2-D only)."""
+    tried = [encode_lorenzo(brick, LORENZO2)]
+    if brick.shape[0] > 1:
+        tried.append(encode_lorenzo(brick, LORENZO3))
+    return min(tried, key=len)
+
+
+# ---------------------------------------------------------------------------------------
+# Lattice tool
+
+
+def rebuild(offset: float, step: float, k: np.ndarray, dtype: np.dtype) -> np.ndarray:
+    """``dtype(offset + step * k)``, computed in float64 (IEEE, one rounding per step)."""
+    with np.errstate(all="ignore"):
+        return (np.float64(offset) + np.float64(step) * k.astype(np.float64)).astype(dtype)
+
+
+def find_lattice(brick: np.ndarray) -> tuple[float, float, np.ndarray, np.ndarray] | None:
+    """``(offset, step, k, gap)`` when the brick's values sit near a lattice
+    ``offset + step * k`` (``k`` and ``gap`` int32 arrays; ``gap`` in signed ordered
+    units of the float), else ``None``. Tried lattices: the step estimated from the
+    gaps between the brick's distinct values, and that step rounded to three
+    significant digits (decimal scale factors), with offset 0 or the smallest value;
+    the one with the fewest voxels off it wins."""
+    v = brick.astype(np.float64).reshape(-1)
+    if not np.isfinite(v).all():
+        return None
+    u = np.unique(v)
+    if u.size < 3:
+        return None
+    gaps = np.diff(u)
+    small = gaps[gaps <= 1.5 * gaps.min()]  # steps of one lattice unit (rounded)
+    est = float(small.mean())
+    if not est > 0:
+        return None
+    span = u[-1] - u[0]
+    steps = {est}
+    n = round(span / est)
+    if n >= 1:
+        steps.add(span / n)
+    digits = 2 - int(np.floor(np.log10(est)))
+    steps.add(round(est, digits))
+    best = None
+    target = to_signed(brick).reshape(-1)
+    for step in sorted(steps):
+        if not step > 0:
+            continue
+        for offset in (0.0, float(u[0])):
+            with np.errstate(all="ignore"):
+                kf = np.rint((v - offset) / step)
+            if not (np.abs(kf) < 2**31 - 1).all():
+                continue
+            k = kf.astype(np.int64)
+            gap = target - to_signed(rebuild(offset, step, k, brick.dtype)).reshape(-1)
+            if not (np.abs(gap) < 2**31 - 1).all():
+                continue
+            miss = int(np.count_nonzero(gap))
+            if best is None or miss < best[0]:
+                best = (miss, offset, step, k, gap)
+    if best is None or best[0] > LATTICE_MAX_MISS * v.size:
+        return None
+    _, offset, step, k, gap = best
+    shape = brick.shape
+    return offset, step, k.astype(np.int32).reshape(shape), gap.astype(np.int32).reshape(shape)
+
+
+def apply_lattice(offset: float, step: float, k: np.ndarray, gap: np.ndarray, dtype: np.dtype) -> np.ndarray:
+    """The floats of a lattice payload: the lattice points moved by ``gap`` ordered units,
+    wrapped to the float's width (so that any ``gap`` names some bit pattern)."""
+    dtype = np.dtype(dtype)
+    width = 8 * dtype.itemsize
+    s = to_signed(rebuild(offset, step, k, dtype)) + gap.astype(np.int64)
+    if width < 64:
+        half = np.int64(1) << (width - 1)
+        s = ((s + half) & ((half << 1) - 1)) - half
+    return from_signed(s, dtype).reshape(k.shape)
