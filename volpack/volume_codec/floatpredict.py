@@ -40,8 +40,11 @@ from ..entropy.rangecoder import put as _put
 from ..errors import FormatError
 from .predict import N_MODELS, NCTX, NO_RESIDUAL, bitlen, get_residual, put_residual
 
-LORENZO3, LORENZO2 = 0, 1  # the predictors a Lorenzo stream may name
-PREDICTORS = (LORENZO3, LORENZO2)
+# The predictors a Lorenzo stream may name: on the integer images, or on the values in
+# float64 arithmetic, rounded to the float and mapped (no leap where a field crosses zero
+# or changes binade); 3-D or within the slice.
+LORENZO3, LORENZO2, LORENZO3F, LORENZO2F = 0, 1, 2, 3
+PREDICTORS = (LORENZO3, LORENZO2, LORENZO3F, LORENZO2F)
 LOW_BITS = 2  # 64-bit residuals: low bits coded apart, so the rest fits put_residual
 # Lattice tool: at most this share of voxels off the lattice, else not tried.
 LATTICE_MAX_MISS = 0.5
@@ -80,14 +83,28 @@ def _wrap(v, width):
 
 
 @kernel(inline=True)
-def _predict(s, i, x, y, z, ny, nx, predictor):
-    """Lorenzo prediction of voxel ``i`` over the axes that have a neighbour."""
+def _predict(s, f, si, sf, i, x, y, z, ny, nx, predictor, width):
+    """Lorenzo prediction of voxel ``i`` (its signed image) over the axes that have a
+    neighbour. The float predictors sum the values in float64, round the sum to the
+    float (``sf``, whose bits ``si`` views) and map it; a sum that is NaN falls back to
+    the integer predictor."""
+    if predictor >= LORENZO3F:
+        q = _lorenzo(f, i, x, y, z, ny, nx, predictor == LORENZO3F, np.float64(0.0))
+        if q == q:  # not NaN
+            sf[0] = q
+            b = np.int64(si[0])
+            return b ^ ((np.int64(1) << (width - 1)) - 1) if b < 0 else b
+    return _lorenzo(s, i, x, y, z, ny, nx, predictor % 2 == LORENZO3, np.int64(0))
+
+
+@kernel(inline=True)
+def _lorenzo(s, i, x, y, z, ny, nx, volume, p):
+    """Lorenzo sum over ``s`` added to ``p`` (a zero of the sum's type)."""
     sy = nx
     sz = ny * nx
     hx = x > 0
     hy = y > 0
-    hz = z > 0 and predictor == LORENZO3
-    p = np.int64(0)
+    hz = z > 0 and volume
     if hx:
         p += s[i - 1]
     if hy:
@@ -131,7 +148,7 @@ def _context(el, rs, i, x, y, z, ny, nx, shift):
 
 
 @kernel(nrt=False)
-def _encode_kernel(s, shape, width, predictor, out, el, rs, state):
+def _encode_kernel(s, f, si, sf, shape, width, predictor, out, el, rs, state):
     """Return the byte count, -1 when ``out`` is too small."""
     nz, ny, nx = shape[0], shape[1], shape[2]
     shift = 1 if width == 64 else 0
@@ -143,7 +160,7 @@ def _encode_kernel(s, shape, width, predictor, out, el, rs, state):
             for x in range(nx):
                 if pos + 64 > cap:
                     return -1
-                r = _wrap(s[i] - _predict(s, i, x, y, z, ny, nx, predictor), width)
+                r = _wrap(s[i] - _predict(s, f, si, sf, i, x, y, z, ny, nx, predictor, width), width)
                 ctx, sctx = _context(el, rs, i, x, y, z, ny, nx, shift)
                 if width == 64:
                     q = r >> LOW_BITS
@@ -163,7 +180,7 @@ def _encode_kernel(s, shape, width, predictor, out, el, rs, state):
 
 
 @kernel(nrt=False)
-def _decode_kernel(data, shape, width, predictor, s, el, rs, state):
+def _decode_kernel(data, shape, width, predictor, s, f, si, sf, el, rs, state):
     """Return 0 on success, 1 when the stream ran short, 2 on an impossible value, 3 when
     it does not end where its length says."""
     nz, ny, nx = shape[0], shape[1], shape[2]
@@ -188,7 +205,10 @@ def _decode_kernel(data, shape, width, predictor, s, el, rs, state):
                     r = (r << LOW_BITS) | (node - (1 << LOW_BITS))
                 elif r != _wrap(r, width):
                     return 2
-                s[i] = _wrap(_predict(s, i, x, y, z, ny, nx, predictor) + r, width)
+                v = _wrap(_predict(s, f, si, sf, i, x, y, z, ny, nx, predictor, width) + r, width)
+                s[i] = v
+                si[0] = v ^ ((np.int64(1) << (width - 1)) - 1) if v < 0 else v
+                f[i] = sf[0]
                 rs[i] = r
                 el[i] = bitlen(abs(r >> 1))
                 i += 1
@@ -205,16 +225,28 @@ def _workspace(n: int) -> tuple[np.ndarray, ...]:
     )
 
 
+def _scratch(dtype: np.dtype) -> tuple[np.ndarray, np.ndarray]:
+    """One float of ``dtype`` and an integer view of its bits (the kernels' bit cast;
+    float16, which numba lacks and whose predictors do not cast, gets a float32)."""
+    dtype = np.dtype(dtype) if np.dtype(dtype).itemsize >= 4 else np.dtype(np.float32)
+    si = np.zeros(1, dtype=f"i{dtype.itemsize}")
+    return si, si.view(dtype)
+
+
 def encode_lorenzo(brick: np.ndarray, predictor: int = LORENZO3) -> bytes:
     """Code a 3-D float brick with one Lorenzo predictor: a predictor byte, then the
     range-coded residuals."""
-    if brick.ndim != 3 or brick.dtype.kind != "f" or predictor not in PREDICTORS:
+    if brick.ndim != 3 or brick.dtype.kind != "f" or predictor not in usable(brick.dtype):
         raise ValueError(f"expected a 3-D float brick, found {brick.dtype} {brick.shape}")
     s = to_signed(brick).reshape(-1)
+    with np.errstate(invalid="ignore"):  # signalling NaNs
+        f = brick.astype(np.float64).reshape(-1)
+    si, sf = _scratch(brick.dtype)
     width = np.int64(8 * brick.dtype.itemsize)
     shape = np.array(brick.shape, dtype=np.int64)
+    p = np.int64(predictor)
     body = encode_with_retry(
-        lambda out: _encode_kernel(s, shape, width, np.int64(predictor), out, *_workspace(s.size)),
+        lambda out: _encode_kernel(s, f, si, sf, shape, width, p, out, *_workspace(s.size)),
         s.size,
         (2 * brick.itemsize, 4 * brick.itemsize),
         coder="float Lorenzo",
@@ -226,21 +258,33 @@ def decode_lorenzo(data: bytes | memoryview, shape: tuple[int, ...], dtype: np.d
     """Decode :func:`encode_lorenzo`'s bytes into a float brick of ``shape``, ``dtype``."""
     buf = stream_bytes(data, "float Lorenzo")
     predictor = int(buf[0])
-    if predictor not in PREDICTORS:
-        raise FormatError(f"float Lorenzo payload: expected predictor 0 or 1, found {predictor}")
+    if predictor not in usable(dtype):
+        raise FormatError(
+            f"float Lorenzo payload: expected a predictor in {usable(dtype)} for {np.dtype(dtype)}, "
+            f"found {predictor}"
+        )
     s = np.empty(int(np.prod(shape)), dtype=np.int64)
+    f = np.empty(s.size, dtype=np.float64)
+    si, sf = _scratch(dtype)
     width = np.int64(8 * np.dtype(dtype).itemsize)
     shp = np.array(shape, dtype=np.int64)
-    status = _decode_kernel(buf[1:], shp, width, np.int64(predictor), s, *_workspace(s.size))
+    status = _decode_kernel(buf[1:], shp, width, np.int64(predictor), s, f, si, sf, *_workspace(s.size))
     check_status(status, "float Lorenzo")
     return from_signed(s, dtype).reshape(shape)
 
 
+def usable(dtype: np.dtype) -> tuple[int, ...]:
+    """The predictors for floats of ``dtype`` (float16: the integer ones only)."""
+    return PREDICTORS if np.dtype(dtype).itemsize >= 4 else (LORENZO3, LORENZO2)
+
+
 def encode_best_lorenzo(brick: np.ndarray) -> bytes:
-    """The shorter of the 3-D and the in-slice Lorenzo streams (one slice: 2-D only)."""
-    tried = [encode_lorenzo(brick, LORENZO2)]
-    if brick.shape[0] > 1:
-        tried.append(encode_lorenzo(brick, LORENZO3))
+    """The shortest Lorenzo stream of the usable predictors (one slice: in-slice only)."""
+    tried = [
+        encode_lorenzo(brick, p)
+        for p in usable(brick.dtype)
+        if brick.shape[0] > 1 or p in (LORENZO2, LORENZO2F)
+    ]
     return min(tried, key=len)
 
 
@@ -261,9 +305,9 @@ def find_lattice(brick: np.ndarray) -> tuple[float, float, np.ndarray, np.ndarra
     gaps between the brick's distinct values, and that step rounded to three
     significant digits (decimal scale factors), with offset 0 or the smallest value;
     the one with the fewest voxels off it wins."""
-    v = brick.astype(np.float64).reshape(-1)
-    if not np.isfinite(v).all():
+    if not np.isfinite(brick).all():
         return None
+    v = brick.astype(np.float64).reshape(-1)
     u = np.unique(v)
     if u.size < 3:
         return None
