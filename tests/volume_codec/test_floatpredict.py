@@ -149,12 +149,12 @@ def test_lattice_found_and_exact(dtype):
     rng = np.random.default_rng(4)
     k = np.cumsum(rng.integers(-40, 41, (12, 13, 14)), axis=2) + 48000
     a = (k * 0.1).astype(dtype)
-    found = fp.find_lattice(a)
-    assert found is not None
-    offset, step, kk, gap = found
-    assert abs(step - 0.1) < 1e-9
-    assert same_bits(fp.apply_lattice(offset, step, kk, gap, dtype), a)
-    assert np.count_nonzero(gap) == 0
+    found = fp.find_lattices(a)
+    assert len(found) == 2  # one lattice, and one per slice
+    for params, kk, gap in found:
+        assert np.allclose(params[:, 1], 0.1, rtol=0, atol=1e-9)
+        assert same_bits(fp.apply_lattice(params, kk, gap, dtype), a)
+        assert np.count_nonzero(gap) == 0
     payload = LosslessCodec().encode(a)
     assert same_bits(LosslessCodec().decode(payload, a.shape, a.dtype), a)
     assert describe(payload) == "float-lattice"
@@ -164,17 +164,34 @@ def test_lattice_off_by_an_ulp_keeps_the_gap():
     a = (np.arange(4 * 5 * 6).reshape(4, 5, 6) * 0.25 + 3.0).astype(np.float32)
     bits = a.reshape(-1).view(np.uint32)
     bits[::7] += 1  # every seventh value one ulp off its lattice point
-    offset, step, k, gap = fp.find_lattice(a)
+    params, k, gap = fp.find_lattices(a)[0]
     assert set(np.unique(gap)) <= {0, 1} and np.count_nonzero(gap) == bits[::7].size
-    assert same_bits(fp.apply_lattice(offset, step, k, gap, np.float32), a)
+    assert same_bits(fp.apply_lattice(params, k, gap, np.float32), a)
+
+
+def test_lattice_per_slice():
+    """GRIB-like packing: each level has its own reference value and binary scale."""
+    rng = np.random.default_rng(6)
+    k = np.cumsum(rng.integers(-9, 10, (5, 12, 40)), axis=2) + 3000
+    ref = rng.uniform(200, 250, (5, 1, 1))
+    scale = 2.0 ** rng.integers(-10, -6, (5, 1, 1))
+    a = (ref + scale * k).astype(np.float32)
+    found = fp.find_lattices(a)
+    params, kk, gap = found[-1]
+    assert params.shape == (5, 2) and np.count_nonzero(gap) == 0
+    assert same_bits(fp.apply_lattice(params, kk, gap, np.float32), a)
+    payload = LosslessCodec().encode(a)
+    assert describe(payload) == "float-lattice" and payload[2] == 5  # five lattices
+    assert same_bits(LosslessCodec().decode(payload, a.shape, a.dtype), a)
+    assert len(payload) < 0.7 * len(bytes([MODE_FLOAT, 0]) + fp.encode_best_lorenzo(a))
 
 
 def test_no_lattice_for_noise_or_non_finite():
     rng = np.random.default_rng(1)
-    assert fp.find_lattice(rng.normal(size=(8, 8, 8)).astype(np.float32)) is None
+    assert fp.find_lattices(rng.normal(size=(8, 8, 8)).astype(np.float32)) == []
     a = (np.arange(512).reshape(8, 8, 8) * 0.5).astype(np.float32)
     a[0, 0, 0] = np.nan
-    assert fp.find_lattice(a) is None
+    assert fp.find_lattices(a) == []
 
 
 # --- per-brick choice, info, versions -----------------------------------------------------
@@ -265,7 +282,8 @@ def test_corrupt_float_payloads_raise_format_error():
         lor[: len(lor) // 2],  # cut short
         lor + b"\x00\x00",  # does not end where it says
         lat[:10],  # inside offset and step
-        lat[:18] + b"\xff\xff\x03",  # k field longer than the payload
+        lat[:2] + bytes([3]) + lat[3:],  # neither one lattice nor one per slice
+        lat[:19] + b"\xff\xff\x03",  # k field longer than the payload
         lat[: len(lat) - 3],  # gap field cut short
     ]
     for data in bad:

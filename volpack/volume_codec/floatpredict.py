@@ -13,7 +13,8 @@ smooth field, so that the residuals (not the raw mantissa bits) are coded:
   payloads, -0.0, denormals and Inf come back exactly), is coded by the adaptive
   binary range coder in a context of the bit lengths of the W, N and U residuals.
 * **Lattice** (fields stored as scaled integers, ``value = offset + step * k``: packed
-  climate data, fixed-point readings): the brick becomes the integer field ``k`` plus
+  climate data, with one offset and step per level in GRIB-like packing, fixed-point
+  readings): the brick becomes the integer field ``k`` plus
   the gap between each float and ``float(offset + step * k)`` in units in the last
   place, usually 0. Both are integer bricks, coded by the integer lossless tools
   (:mod:`.lossless`: wavelet, fitted prediction, background mask).
@@ -292,67 +293,94 @@ def encode_best_lorenzo(brick: np.ndarray) -> bytes:
 # Lattice tool
 
 
-def rebuild(offset: float, step: float, k: np.ndarray, dtype: np.dtype) -> np.ndarray:
-    """``dtype(offset + step * k)``, computed in float64 (IEEE, one rounding per step)."""
+def rebuild(params: np.ndarray, k: np.ndarray, dtype: np.dtype) -> np.ndarray:
+    """``dtype(offset + step * k)``, computed in float64 (IEEE, one rounding per step),
+    with ``params`` one ``(offset, step)`` row for the brick or one per z slice."""
+    off = params[:, 0].reshape(-1, 1, 1)
+    step = params[:, 1].reshape(-1, 1, 1)
     with np.errstate(all="ignore"):
-        return (np.float64(offset) + np.float64(step) * k.astype(np.float64)).astype(dtype)
+        return (off + step * k.astype(np.float64)).astype(dtype)
 
 
-def find_lattice(brick: np.ndarray) -> tuple[float, float, np.ndarray, np.ndarray] | None:
-    """``(offset, step, k, gap)`` when the brick's values sit near a lattice
-    ``offset + step * k`` (``k`` and ``gap`` int32 arrays; ``gap`` in signed ordered
-    units of the float), else ``None``. Tried lattices: the step estimated from the
-    gaps between the brick's distinct values, and that step rounded to three
-    significant digits (decimal scale factors), with offset 0 or the smallest value;
-    the one with the fewest voxels off it wins."""
-    if not np.isfinite(brick).all():
-        return None
-    v = brick.astype(np.float64).reshape(-1)
+def _fit(v: np.ndarray) -> list[tuple[float, float]]:
+    """Candidate ``(offset, step)`` lattices of finite values ``v`` (float64, 1-D): the
+    step estimated from the gaps between distinct values (over the whole span, and
+    rounded to three significant digits for decimal scale factors), the offset 0 or
+    the smallest value moved next to 0 by whole steps (so that ``k`` keeps its scale
+    from slice to slice)."""
     u = np.unique(v)
     if u.size < 3:
-        return None
+        return []
     gaps = np.diff(u)
-    small = gaps[gaps <= 1.5 * gaps.min()]  # steps of one lattice unit (rounded)
-    est = float(small.mean())
+    est = float(gaps[gaps <= 1.5 * gaps.min()].mean())  # steps of one unit (rounded)
     if not est > 0:
-        return None
-    span = u[-1] - u[0]
-    steps = {est}
-    n = round(span / est)
+        return []
+    steps = {est, round(est, 2 - int(np.floor(np.log10(est))))}
+    n = round((u[-1] - u[0]) / est)
     if n >= 1:
-        steps.add(span / n)
-    digits = 2 - int(np.floor(np.log10(est)))
-    steps.add(round(est, digits))
-    best = None
-    target = to_signed(brick).reshape(-1)
+        steps.add(float((u[-1] - u[0]) / n))
+    out = []
     for step in sorted(steps):
-        if not step > 0:
-            continue
-        for offset in (0.0, float(u[0])):
-            with np.errstate(all="ignore"):
-                kf = np.rint((v - offset) / step)
-            if not (np.abs(kf) < 2**31 - 1).all():
-                continue
-            k = kf.astype(np.int64)
-            gap = target - to_signed(rebuild(offset, step, k, brick.dtype)).reshape(-1)
-            if not (np.abs(gap) < 2**31 - 1).all():
-                continue
-            miss = int(np.count_nonzero(gap))
-            if best is None or miss < best[0]:
-                best = (miss, offset, step, k, gap)
-    if best is None or best[0] > LATTICE_MAX_MISS * v.size:
+        if step > 0:
+            out += [(0.0, step), (float(u[0] - step * np.rint(u[0] / step)), step)]
+    return out
+
+
+def _lattice_k(brick: np.ndarray, params: np.ndarray):
+    """``(misses, k, gap)`` of a brick on the lattice(s) ``params``, or ``None`` when
+    ``k`` or ``gap`` would not fit int32."""
+    v = brick.astype(np.float64)
+    off = params[:, 0].reshape(-1, 1, 1)
+    step = params[:, 1].reshape(-1, 1, 1)
+    with np.errstate(all="ignore"):
+        kf = np.rint((v - off) / step)
+    if not (np.abs(kf) < 2**31 - 1).all():
         return None
-    _, offset, step, k, gap = best
-    shape = brick.shape
-    return offset, step, k.astype(np.int32).reshape(shape), gap.astype(np.int32).reshape(shape)
+    k = kf.astype(np.int64)
+    gap = to_signed(brick) - to_signed(rebuild(params, k, brick.dtype))
+    if not (np.abs(gap) < 2**31 - 1).all():
+        return None
+    return int(np.count_nonzero(gap)), k.astype(np.int32), gap.astype(np.int32)
 
 
-def apply_lattice(offset: float, step: float, k: np.ndarray, gap: np.ndarray, dtype: np.dtype) -> np.ndarray:
+def find_lattices(brick: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """``(params, k, gap)`` for the brick's values on one lattice ``offset + step * k``
+    (``params`` one row), and on one lattice per z slice (packed fields: one scale and
+    reference value per level), each kept when at most ``LATTICE_MAX_MISS`` of its voxels
+    are off it (``gap``: the difference in signed ordered units, int32)."""
+    if brick.ndim != 3 or not np.isfinite(brick).all():
+        return []
+    limit = LATTICE_MAX_MISS * brick.size
+    found = []
+    best = None
+    for off, step in _fit(brick.astype(np.float64).reshape(-1)):
+        got = _lattice_k(brick, np.array([[off, step]]))
+        if got is not None and (best is None or got[0] < best[0][0]):
+            best = (got, np.array([[off, step]]))
+    if best is not None and best[0][0] <= limit:
+        found.append((best[1], best[0][1], best[0][2]))
+    if brick.shape[0] > 1:
+        rows = []
+        for sl in brick:
+            cands = _fit(sl.astype(np.float64).reshape(-1))
+            scored = [(_lattice_k(sl[None], np.array([c])), c) for c in cands]
+            scored = [(g[0], c) for g, c in scored if g is not None]
+            if not scored:
+                return found
+            rows.append(min(scored)[1])
+        params = np.array(rows)
+        got = _lattice_k(brick, params)
+        if got is not None and got[0] <= limit:
+            found.append((params, got[1], got[2]))
+    return found
+
+
+def apply_lattice(params: np.ndarray, k: np.ndarray, gap: np.ndarray, dtype: np.dtype) -> np.ndarray:
     """The floats of a lattice payload: the lattice points moved by ``gap`` ordered units,
     wrapped to the float's width (so that any ``gap`` names some bit pattern)."""
     dtype = np.dtype(dtype)
     width = 8 * dtype.itemsize
-    s = to_signed(rebuild(offset, step, k, dtype)) + gap.astype(np.int64)
+    s = to_signed(rebuild(params, k, dtype)) + gap.astype(np.int64)
     if width < 64:
         half = np.int64(1) << (width - 1)
         s = ((s + half) & ((half << 1) - 1)) - half

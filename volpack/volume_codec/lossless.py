@@ -149,13 +149,12 @@ class LosslessCodec(BrickCodec):
         from . import floatpredict as fp
 
         out = [bytes([MODE_FLOAT, 0]) + fp.encode_best_lorenzo(brick)]
-        lattice = fp.find_lattice(brick)
-        if lattice is not None:
-            offset, step, k, gap = lattice
+        for params, k, gap in fp.find_lattices(brick):
             kp = self.encode(k)
             out.append(
                 bytes([MODE_FLOAT, 1])
-                + np.array([offset, step], dtype="<f8").tobytes()
+                + pal.uleb(len(params))
+                + params.astype("<f8").tobytes()
                 + pal.uleb(len(kp))
                 + kp
                 + self.encode(gap)
@@ -169,15 +168,18 @@ class LosslessCodec(BrickCodec):
             raise FormatError("float brick payload: expected tool byte 0 or 1")
         if body[0] == 0:
             return fp.decode_lorenzo(body[1:], shape, dtype)
-        if len(body) < 17:
-            raise FormatError("float lattice payload: ends inside its offset and step")
-        offset, step = np.frombuffer(bytes(body[1:17]), dtype="<f8")
-        n, pos = pal.read_uleb(body, 17)
+        m, pos = pal.read_uleb(body, 1)
+        if m not in (1, shape[0]) or pos + 16 * m > len(body):
+            raise FormatError(
+                f"float lattice payload: expected 1 or {shape[0]} lattices within the payload, found {m}"
+            )
+        params = np.frombuffer(bytes(body[pos : pos + 16 * m]), dtype="<f8").reshape(m, 2)
+        n, pos = pal.read_uleb(body, pos + 16 * m)
         if pos + n > len(body):
             raise FormatError("float lattice payload: its k field runs past the payload")
         k = self.decode(body[pos : pos + n], shape, np.int32)
         gap = self.decode(body[pos + n :], shape, np.int32)
-        return fp.apply_lattice(float(offset), float(step), k, gap, dtype)
+        return fp.apply_lattice(params.astype(np.float64), k, gap, dtype)
 
     def decode(self, data: bytes | memoryview, shape: tuple[int, ...], dtype: Any) -> np.ndarray:
         dtype = np.dtype(dtype)
