@@ -306,8 +306,8 @@ def _fit(v: np.ndarray) -> list[tuple[float, float]]:
     """Candidate ``(offset, step)`` lattices of finite values ``v`` (float64, 1-D): the
     step estimated from the gaps between distinct values (over the whole span, and
     rounded to three significant digits for decimal scale factors), the offset 0 or
-    the smallest value moved next to 0 by whole steps (so that ``k`` keeps its scale
-    from slice to slice)."""
+    the most common remainder of the values after whole steps (a fill value off the
+    lattice does not move it; ``k`` keeps its scale from slice to slice)."""
     u = np.unique(v)
     if u.size < 3:
         return []
@@ -322,7 +322,8 @@ def _fit(v: np.ndarray) -> list[tuple[float, float]]:
     out = []
     for step in sorted(steps):
         if step > 0:
-            out += [(0.0, step), (float(u[0] - step * np.rint(u[0] / step)), step)]
+            rest, count = np.unique(v - step * np.rint(v / step), return_counts=True)
+            out += [(0.0, step), (float(rest[np.argmax(count)]), step)]
     return out
 
 
@@ -361,13 +362,13 @@ def find_lattices(brick: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, np.nd
         found.append((best[1], best[0][1], best[0][2]))
     if brick.shape[0] > 1:
         rows = []
-        for sl in brick:
-            cands = _fit(sl.astype(np.float64).reshape(-1))
+        for sl in brick:  # the slice before's lattice is a candidate too (same packing)
+            cands = _fit(sl.astype(np.float64).reshape(-1)) + rows[-1:] + [(0.0, 1.0)]
             scored = [(_lattice_k(sl[None], np.array([c])), c) for c in cands]
-            scored = [(g[0], c) for g, c in scored if g is not None]
+            scored = [(g[0], i, c) for i, (g, c) in enumerate(scored) if g is not None]
             if not scored:
                 return found
-            rows.append(min(scored)[1])
+            rows.append(min(scored)[2])
         params = np.array(rows)
         got = _lattice_k(brick, params)
         if got is not None and got[0] <= limit:
