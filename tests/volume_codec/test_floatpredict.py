@@ -23,8 +23,10 @@ DTYPES = [np.float16, np.float32, np.float64]
 
 
 def same_bits(a, b):
-    return a.dtype == b.dtype and a.shape == b.shape and np.array_equal(
-        a.view(f"u{a.itemsize}"), b.view(f"u{b.itemsize}")
+    return (
+        a.dtype == b.dtype
+        and a.shape == b.shape
+        and np.array_equal(a.view(f"u{a.itemsize}"), b.view(f"u{b.itemsize}"))
     )
 
 
@@ -41,8 +43,17 @@ def specials(dtype, shape=(9, 10, 11)):
     f = field(shape, dtype)
     flat = f.reshape(-1)
     info = np.finfo(dtype)
-    flat[:9] = [np.nan, -np.nan, np.inf, -np.inf, -0.0, 0.0, info.smallest_subnormal,
-                -info.smallest_subnormal, -info.tiny]
+    flat[:9] = [
+        np.nan,
+        -np.nan,
+        np.inf,
+        -np.inf,
+        -0.0,
+        0.0,
+        info.smallest_subnormal,
+        -info.smallest_subnormal,
+        -info.tiny,
+    ]
     bits = flat.view(f"u{f.itemsize}")
     bits[9] = bits[0] | 1  # NaN payloads, quiet and signalling, either sign
     bits[10] = bits[1] | 0x5
@@ -58,7 +69,9 @@ def test_signed_image_matches_naive_and_inverts(dtype):
     s = fp.to_signed(a)
     np.testing.assert_array_equal(s, naive.float_signed_image(a))
     assert same_bits(fp.from_signed(s, dtype), a)
-    finite = np.array([-np.inf, -1.0, -0.0, 0.0, np.finfo(dtype).smallest_subnormal, 1.0, np.inf], dtype)
+    finite = np.array(
+        [-np.inf, -1.0, -0.0, 0.0, np.finfo(dtype).smallest_subnormal, 1.0, np.inf], dtype
+    )
     assert (np.diff(fp.to_signed(finite)) > 0).all()  # orders like the floats
 
 
@@ -72,8 +85,19 @@ def test_lorenzo_residuals_match_naive(dtype, predictor):
     el, rs, state = fp._workspace(s.size)
     si, sf = fp._scratch(a.dtype)
     out = np.empty(s.size * 32 + 1024, dtype=np.uint8)
-    n = fp._encode_kernel(s, a.astype(np.float64).reshape(-1), si, sf, np.array(a.shape, np.int64),
-                          np.int64(8 * a.itemsize), np.int64(predictor), out, el, rs, state)
+    n = fp._encode_kernel(
+        s,
+        a.astype(np.float64).reshape(-1),
+        si,
+        sf,
+        np.array(a.shape, np.int64),
+        np.int64(8 * a.itemsize),
+        np.int64(predictor),
+        out,
+        el,
+        rs,
+        state,
+    )
     assert n > 0
     want = naive.float_lorenzo_residuals(
         a, in_slice=predictor in (fp.LORENZO2, fp.LORENZO2F), in_floats=predictor >= fp.LORENZO3F
@@ -82,7 +106,9 @@ def test_lorenzo_residuals_match_naive(dtype, predictor):
 
 
 @pytest.mark.parametrize("dtype", DTYPES)
-@pytest.mark.parametrize("shape", [(1, 1, 1), (1, 1, 9), (1, 7, 1), (4, 1, 1), (3, 5, 6), (9, 10, 11)])
+@pytest.mark.parametrize(
+    "shape", [(1, 1, 1), (1, 1, 9), (1, 7, 1), (4, 1, 1), (3, 5, 6), (9, 10, 11)]
+)
 def test_lorenzo_roundtrip_every_shape(dtype, shape):
     a = specials(dtype, (9, 10, 11))[: shape[0], : shape[1], : shape[2]].copy()
     for predictor in fp.usable(dtype):
@@ -94,7 +120,9 @@ def test_extreme_jumps_wrap_exactly(dtype):
     """Neighbours at opposite ends of the bit patterns: residuals wrap and come back."""
     info = np.finfo(dtype)
     rng = np.random.default_rng(3)
-    pool = np.array([np.nan, -np.nan, np.inf, -np.inf, info.max, -info.max, 0.0, -0.0, 1.0, -1.0], dtype)
+    pool = np.array(
+        [np.nan, -np.nan, np.inf, -np.inf, info.max, -info.max, 0.0, -0.0, 1.0, -1.0], dtype
+    )
     a = rng.choice(pool, (6, 7, 8))
     bits = a.view(f"u{a.itemsize}")
     bits[rng.random(a.shape) < 0.1] = np.iinfo(bits.dtype).max  # the NaN of all ones
@@ -116,7 +144,9 @@ def test_codec_roundtrip_specials_constant_and_noise(dtype):
         assert same_bits(codec.decode(payload, a.shape, a.dtype), a)
     # noise: no longer than raw plus the mode byte, and no longer than shuffled zstd
     assert len(payload) <= noise.nbytes + 1
-    z = bytes([MODE_ZSTD]) + __import__("volpack.volume_codec.codec", fromlist=["ZstdCodec"]).ZstdCodec(level=19).encode(noise.view(dtype))
+    z = bytes([MODE_ZSTD]) + __import__(
+        "volpack.volume_codec.codec", fromlist=["ZstdCodec"]
+    ).ZstdCodec(level=19).encode(noise.view(dtype))
     assert len(payload) <= len(z)
 
 
@@ -201,7 +231,9 @@ def test_auto_keeps_the_shortest_float_tool_per_brick():
     rng = np.random.default_rng(2)
     a = np.empty((16, 16, 32), np.float32)
     a[:, :, :16] = field((16, 16, 16))
-    a[:, :, 16:] = (np.cumsum(rng.integers(-3, 4, (16, 16, 16)), axis=0) * 0.1 + 500).astype(np.float32)
+    a[:, :, 16:] = (np.cumsum(rng.integers(-3, 4, (16, 16, 16)), axis=0) * 0.1 + 500).astype(
+        np.float32
+    )
     blob = api.compress_array(a, brick=16)
     assert same_bits(api.decompress_array(blob), a)
     with Reader(blob) as r:

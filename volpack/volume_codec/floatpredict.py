@@ -161,7 +161,9 @@ def _encode_kernel(s, f, si, sf, shape, width, predictor, out, el, rs, state):
             for x in range(nx):
                 if pos + 64 > cap:
                     return -1
-                r = _wrap(s[i] - _predict(s, f, si, sf, i, x, y, z, ny, nx, predictor, width), width)
+                r = _wrap(
+                    s[i] - _predict(s, f, si, sf, i, x, y, z, ny, nx, predictor, width), width
+                )
                 ctx, sctx = _context(el, rs, i, x, y, z, ny, nx, shift)
                 if width == 64:
                     q = r >> LOW_BITS
@@ -201,7 +203,9 @@ def _decode_kernel(data, shape, width, predictor, s, f, si, sf, el, rs, state):
                 if width == 64:
                     node = 1
                     for _ in range(LOW_BITS):
-                        bit, code, rng, pos = _get(data, state, N_MODELS + node, code, rng, pos, RATE)
+                        bit, code, rng, pos = _get(
+                            data, state, N_MODELS + node, code, rng, pos, RATE
+                        )
                         node = 2 * node + bit
                     r = (r << LOW_BITS) | (node - (1 << LOW_BITS))
                 elif r != _wrap(r, width):
@@ -269,7 +273,9 @@ def decode_lorenzo(data: bytes | memoryview, shape: tuple[int, ...], dtype: np.d
     si, sf = _scratch(dtype)
     width = np.int64(8 * np.dtype(dtype).itemsize)
     shp = np.array(shape, dtype=np.int64)
-    status = _decode_kernel(buf[1:], shp, width, np.int64(predictor), s, f, si, sf, *_workspace(s.size))
+    status = _decode_kernel(
+        buf[1:], shp, width, np.int64(predictor), s, f, si, sf, *_workspace(s.size)
+    )
     check_status(status, "float Lorenzo")
     return from_signed(s, dtype).reshape(shape)
 
@@ -376,7 +382,9 @@ def find_lattices(brick: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, np.nd
     return found
 
 
-def apply_lattice(params: np.ndarray, k: np.ndarray, gap: np.ndarray, dtype: np.dtype) -> np.ndarray:
+def apply_lattice(
+    params: np.ndarray, k: np.ndarray, gap: np.ndarray, dtype: np.dtype
+) -> np.ndarray:
     """The floats of a lattice payload: the lattice points moved by ``gap`` ordered units,
     wrapped to the float's width (so that any ``gap`` names some bit pattern)."""
     dtype = np.dtype(dtype)
