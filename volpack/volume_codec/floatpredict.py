@@ -11,7 +11,9 @@ smooth field, so that the residuals (not the raw mantissa bits) are coded:
   brick, the 2-D one within the slice; the residual, wrapped to ``B`` bits (so that
   prediction never overflows and the map stays a bijection on bit patterns: NaN
   payloads, -0.0, denormals and Inf come back exactly), is coded by the adaptive
-  binary range coder in a context of the bit lengths of the W, N and U residuals.
+  binary range coder: its bit length on a binary tree (seven decisions, where a unary
+  length takes one a bit: the decoder's cost) in a context of the bit lengths of the
+  W, N and U residuals, the sign, two bits below the leading one, the rest raw.
 * **Lattice** (fields stored as scaled integers, ``value = offset + step * k``: packed
   climate data, with one offset and step per level in GRIB-like packing, fixed-point
   readings): the brick becomes the integer field ``k`` plus
@@ -37,16 +39,25 @@ from ..entropy.rangecoder import (
     open_stream,
 )
 from ..entropy.rangecoder import get as _get
+from ..entropy.rangecoder import get_bits as _get_bits
 from ..entropy.rangecoder import put as _put
+from ..entropy.rangecoder import put_bits as _put_bits
 from ..errors import FormatError
-from .predict import N_MODELS, NCTX, NO_RESIDUAL, bitlen, get_residual, put_residual
+from .predict import bitlen
 
 # The predictors a Lorenzo stream may name: on the integer images, or on the values in
 # float64 arithmetic, rounded to the float and mapped (no leap where a field crosses zero
 # or changes binade); 3-D or within the slice.
 LORENZO3, LORENZO2, LORENZO3F, LORENZO2F = 0, 1, 2, 3
 PREDICTORS = (LORENZO3, LORENZO2, LORENZO3F, LORENZO2F)
-LOW_BITS = 2  # 64-bit residuals: low bits coded apart, so the rest fits put_residual
+# Residual models: the bit length (0..64) on a 7-level binary tree in one of NCF
+# contexts (7 decisions where a unary length takes one per bit), the sign in 3 sign
+# contexts, two bits below the leading one by length and prefix; the rest at one half.
+NCF = 128
+M_TREE = 0
+M_SIGN = M_TREE + NCF * 128
+M_MANT = M_SIGN + 3
+N_FMODELS = M_MANT + 65 * 4
 # Lattice tool: at most this share of voxels off the lattice, else not tried.
 LATTICE_MAX_MISS = 0.5
 
@@ -124,9 +135,57 @@ def _lorenzo(s, i, x, y, z, ny, nx, volume, p):
 
 
 @kernel(inline=True)
-def _context(el, rs, i, x, y, z, ny, nx, shift):
-    """Residual context (bit lengths of the W, N, U residuals, W counted twice) and sign
-    context (the sign of the sum of their signs)."""
+def _put_residual(out, state, ctx, sctx, r, low, rng, pos):
+    """Code residual ``r`` (any int64; -2^63 too): its magnitude's bit length ``L`` on
+    the tree, the sign, two bits below the leading one, the rest at one half."""
+    m = -r if r < 0 else r  # -2^63 stays itself: read as unsigned it is 2^63
+    nb = bitlen(m)
+    node = 1
+    for j in range(6, -1, -1):
+        bit = (nb >> j) & 1
+        low, rng, pos = _put(out, state, M_TREE + ctx * 128 + node, bit, low, rng, pos, RATE)
+        node = 2 * node + bit
+    if nb == 0:
+        return low, rng, pos
+    low, rng, pos = _put(out, state, M_SIGN + sctx, np.int64(r < 0), low, rng, pos, RATE)
+    nm = min(nb - 1, 2)
+    prefix = 1
+    for jm in range(nm):
+        bit = (m >> (nb - 2 - jm)) & 1
+        low, rng, pos = _put(out, state, M_MANT + nb * 4 + prefix, bit, low, rng, pos, RATE)
+        prefix = 2 * prefix + bit
+    return _put_bits(out, np.uint64(m), nb - 1 - nm, low, rng, pos)
+
+
+@kernel(inline=True)
+def _get_residual(data, state, ctx, sctx, code, rng, pos):
+    """Decode what :func:`_put_residual` coded; ``(r, ok, code, rng, pos)`` with ``ok``
+    false for a bit length past 64."""
+    node = 1
+    for _ in range(7):
+        bit, code, rng, pos = _get(data, state, M_TREE + ctx * 128 + node, code, rng, pos, RATE)
+        node = 2 * node + bit
+    nb = node - 128
+    if nb == 0:
+        return np.int64(0), True, code, rng, pos
+    if nb > 64:
+        return np.int64(0), False, code, rng, pos
+    neg, code, rng, pos = _get(data, state, M_SIGN + sctx, code, rng, pos, RATE)
+    nm = min(nb - 1, 2)
+    prefix = np.int64(1)
+    for _ in range(nm):
+        bit, code, rng, pos = _get(data, state, M_MANT + nb * 4 + prefix, code, rng, pos, RATE)
+        prefix = 2 * prefix + bit
+    rest = nb - 1 - nm
+    v, code, rng, pos = _get_bits(data, np.uint64(0), rest, code, rng, pos)
+    m = (prefix << rest) | np.int64(v)
+    return (-m if neg else m), True, code, rng, pos
+
+
+@kernel(inline=True)
+def _context(el, rs, i, x, y, z, ny, nx):
+    """Residual context (bit lengths of the W, N, U residuals, W counted twice, halved)
+    and sign context (the sign of the sum of their signs)."""
     lw = el[i - 1] if x > 0 else -1
     ln = el[i - nx] if y > 0 else -1
     lu = el[i - nx * ny] if z > 0 else -1
@@ -137,7 +196,7 @@ def _context(el, rs, i, x, y, z, ny, nx, shift):
     if lu < 0:
         lu = ln
     act = 2 * lw + ln + lu if lw >= 0 else 0
-    ctx = min(act >> shift, NCTX - 1)
+    ctx = min(act >> 1, NCF - 1)
     sg = np.int64(0)
     if x > 0:
         sg += np.sign(rs[i - 1])
@@ -152,7 +211,6 @@ def _context(el, rs, i, x, y, z, ny, nx, shift):
 def _encode_kernel(s, f, si, sf, shape, width, predictor, out, el, rs, state):
     """Return the byte count, -1 when ``out`` is too small."""
     nz, ny, nx = shape[0], shape[1], shape[2]
-    shift = 1 if width == 64 else 0
     cap = out.size
     low, rng, pos = open_encoder(out)
     i = 0
@@ -164,20 +222,10 @@ def _encode_kernel(s, f, si, sf, shape, width, predictor, out, el, rs, state):
                 r = _wrap(
                     s[i] - _predict(s, f, si, sf, i, x, y, z, ny, nx, predictor, width), width
                 )
-                ctx, sctx = _context(el, rs, i, x, y, z, ny, nx, shift)
-                if width == 64:
-                    q = r >> LOW_BITS
-                    low, rng, pos = put_residual(out, state, 0, ctx, sctx, q, low, rng, pos, RATE)
-                    node = 1
-                    for j in range(LOW_BITS - 1, -1, -1):
-                        bit = (r >> j) & 1
-                        k = N_MODELS + node
-                        low, rng, pos = _put(out, state, k, bit, low, rng, pos, RATE)
-                        node = 2 * node + bit
-                else:
-                    low, rng, pos = put_residual(out, state, 0, ctx, sctx, r, low, rng, pos, RATE)
+                ctx, sctx = _context(el, rs, i, x, y, z, ny, nx)
+                low, rng, pos = _put_residual(out, state, ctx, sctx, r, low, rng, pos)
                 rs[i] = r
-                el[i] = bitlen(abs(r >> 1))  # >> 1: -2^63 has no absolute value
+                el[i] = bitlen(-r if r < 0 else r)
                 i += 1
     return finish_stream(out, low, pos)
 
@@ -187,7 +235,6 @@ def _decode_kernel(data, shape, width, predictor, s, f, si, sf, el, rs, state):
     """Return 0 on success, 1 when the stream ran short, 2 on an impossible value, 3 when
     it does not end where its length says."""
     nz, ny, nx = shape[0], shape[1], shape[2]
-    shift = 1 if width == 64 else 0
     size = data.size
     code, rng, pos = open_stream(data)
     i = 0
@@ -196,26 +243,16 @@ def _decode_kernel(data, shape, width, predictor, s, f, si, sf, el, rs, state):
             for x in range(nx):
                 if pos > size + 4:
                     return 1
-                ctx, sctx = _context(el, rs, i, x, y, z, ny, nx, shift)
-                r, code, rng, pos = get_residual(data, state, 0, ctx, sctx, code, rng, pos, RATE)
-                if r == NO_RESIDUAL:
-                    return 2
-                if width == 64:
-                    node = 1
-                    for _ in range(LOW_BITS):
-                        bit, code, rng, pos = _get(
-                            data, state, N_MODELS + node, code, rng, pos, RATE
-                        )
-                        node = 2 * node + bit
-                    r = (r << LOW_BITS) | (node - (1 << LOW_BITS))
-                elif r != _wrap(r, width):
+                ctx, sctx = _context(el, rs, i, x, y, z, ny, nx)
+                r, ok, code, rng, pos = _get_residual(data, state, ctx, sctx, code, rng, pos)
+                if not ok or r != _wrap(r, width):
                     return 2
                 v = _wrap(_predict(s, f, si, sf, i, x, y, z, ny, nx, predictor, width) + r, width)
                 s[i] = v
                 si[0] = v ^ ((np.int64(1) << (width - 1)) - 1) if v < 0 else v
                 f[i] = sf[0]
                 rs[i] = r
-                el[i] = bitlen(abs(r >> 1))
+                el[i] = bitlen(-r if r < 0 else r)
                 i += 1
     return end_status(data, code, pos)
 
@@ -226,7 +263,7 @@ def _workspace(n: int) -> tuple[np.ndarray, ...]:
     return (
         np.zeros(n, dtype=np.int64),
         np.zeros(n, dtype=np.int64),
-        np.full(N_MODELS + (1 << LOW_BITS), STATE_INIT, dtype=np.uint16),
+        np.full(N_FMODELS, STATE_INIT, dtype=np.uint16),
     )
 
 
