@@ -139,6 +139,7 @@ LOSSLESS_CASES = [
     ("lossless-v3-f32-smooth", "f32-smooth", {}),
     ("lossless-v3-f64-smooth", "f64-smooth", {}),
     ("lossless-v3-f32-lattice", "f32-lattice", {}),
+    ("lossless-v3-f32-packed", "f32-packed", {}),
 ]
 
 
@@ -172,6 +173,11 @@ def lossless_source(recipe: str):
     if recipe == "f32-lattice":  # tenths of a unit: a geopotential height in metres
         c = wavelet_source("u8").astype(np.float64)
         return (np.round(np.cumsum(c - c.mean(), axis=2) * 3 + 50000.0) * 0.1).astype(np.float32)
+    if recipe == "f32-packed":  # one reference value and binary scale per slice (GRIB)
+        c = wavelet_source("u8").astype(np.float64)
+        k = np.cumsum(c - c.mean(), axis=2) * 5
+        z = np.arange(c.shape[0]).reshape(-1, 1, 1)
+        return (230.0 + 0.37 * z + 2.0 ** -(7 + z % 3) * np.round(k)).astype(np.float32)
     if recipe == "f32-field":  # full mantissas: exponent and mantissa coded apart
         z, y, x = np.indices((20, 24, 28))
         f = wavelet_source("u8") * 1.37 - 40.0 + z * 0.011 + y * y * 0.0007 - x * 0.05

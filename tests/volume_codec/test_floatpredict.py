@@ -256,6 +256,7 @@ GOLDEN_CASES = [
     ("lossless-v3-f32-smooth", "f32-smooth", {"float-lorenzo"}),
     ("lossless-v3-f64-smooth", "f64-smooth", {"float-lorenzo"}),
     ("lossless-v3-f32-lattice", "f32-lattice", {"float-lattice"}),
+    ("lossless-v3-f32-packed", "f32-packed", {"float-lattice"}),
 ]
 
 
@@ -270,6 +271,11 @@ def golden_source(recipe):
         f[3, 4, 5:7] = (np.nan, -0.0)
         f[9, 9, 9] = 5e-324 if recipe == "f64-smooth" else 1e-42
         return f
+    if recipe == "f32-packed":
+        c = cut.astype(np.float64)
+        k = np.cumsum(c - c.mean(), axis=2) * 5
+        z = np.arange(c.shape[0]).reshape(-1, 1, 1)
+        return (230.0 + 0.37 * z + 2.0 ** -(7 + z % 3) * np.round(k)).astype(np.float32)
     if recipe == "f32-lattice":
         c = cut.astype(np.float64)
         return (np.round(np.cumsum(c - c.mean(), axis=2) * 3 + 50000.0) * 0.1).astype(np.float32)
