@@ -122,7 +122,7 @@ def compress(
         standard output, or an open binary file.
     codec : {"auto", "lossless", "fast", "wavelet", "zstd"}
         ``auto``: the ``lossless`` codec (per brick the wavelet, 3-D prediction, labels
-        or split floats) for 8/16/32-bit integers and 16/32-bit floats, zstd for the rest.
+        or float prediction) for 8/16/32-bit integers and floats, zstd for 64-bit integers.
         ``fast``: lossless, decoding several times faster at a lower ratio
         (:class:`volpack.volume_codec.fast.FastCodec`).
     wavelet, coder, order, max_levels
