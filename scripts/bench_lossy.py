@@ -712,6 +712,63 @@ def write_lead(rows: list[dict], out: Path) -> None:
     (out / "lead.md").write_text("\n".join(lines) + "\n")
 
 
+def write_equal_psnr(rows: list[dict], out: Path) -> None:
+    """Bits per voxel a peer without a bound (zfp's accuracy mode, TTHRESH's PSNR
+    targets) spends over volpack's at the peer's PSNR, volpack's bounded curve
+    interpolated (linear in PSNR, log in bits); points outside volpack's measured PSNR
+    range are left out. Above 1: volpack needs fewer bits for the same PSNR."""
+    names = list(dict.fromkeys(r["dataset"] for r in rows))
+    lines = [
+        "# Equal PSNR: a peer's bits per voxel over volpack's at the same PSNR",
+        "",
+        "`" + " ".join(["python scripts/bench_lossy.py", *sys.argv[1:]]) + "`",
+        "",
+        "volpack's bounded points (bits per voxel against PSNR) interpolated at each "
+        "peer point's PSNR; above 1: the peer needs more bits than volpack.",
+        "",
+        "| field | peer | setting | peer PSNR dB | peer bpv | volpack bpv | peer / volpack |",
+        "|---|---|---|---:|---:|---:|---:|",
+    ]
+    found = []
+    for name in names:
+        vp = sorted(
+            (_psnr(r), float(r["bits_per_voxel"]))
+            for r in rows
+            if r["dataset"] == name and r["method"] == "volpack" and math.isfinite(_psnr(r))
+        )
+        if len(vp) < 2:
+            continue
+        ps = np.array([p for p, _ in vp])
+        lb = np.log([b for _, b in vp])
+        for r in rows:
+            if r["dataset"] != name or r["method"] not in ("zfp", "tthresh"):
+                continue
+            p = _psnr(r)  # exact (infinite) or outside volpack's points: left out
+            if not ps[0] <= p <= ps[-1]:
+                continue
+            ours = float(np.exp(np.interp(p, ps, lb)))
+            theirs = float(r["bits_per_voxel"])
+            found.append(theirs / ours)
+            lines.append(
+                f"| {name} | {r['method']} | {r['setting']} | {p:.1f} | {theirs:.3f} "
+                f"| {ours:.3f} | {theirs / ours:.2f} |"
+            )
+    if found:
+        lines += [
+            "",
+            f"{sum(x > 1 for x in found)} of {len(found)} points with volpack ahead; "
+            f"peer / volpack from {min(found):.2f} to {max(found):.2f}.",
+        ]
+    (out / "equal_psnr.md").write_text("\n".join(lines) + "\n")
+
+
+def _psnr(row: dict) -> float:
+    try:
+        return float(row["psnr_db"])
+    except (TypeError, ValueError):
+        return math.nan
+
+
 def write_speed(rows: list[dict], out: Path) -> None:
     """Encode and decode MB/s (raw original bytes, one thread, best of the repeats) of
     volpack, SPERR and SZ3 per field: the median over its bounds, and volpack's speed over
@@ -929,6 +986,7 @@ def main(argv: list[str] | None = None) -> int:
         write_table(rows, done, [], args, out)
         write_lead(rows, out)
         write_speed(rows, out)
+        write_equal_psnr(rows, out)
         write_charts(rows, done, out)
         write_field_charts(rows, done, out)
         print(f"redrew {out} from {args.from_csv} ({len(rows)} rows)")
@@ -966,6 +1024,7 @@ def main(argv: list[str] | None = None) -> int:
     write_table(rows, done, notes, args, out)
     write_lead(rows, out)
     write_speed(rows, out)
+    write_equal_psnr(rows, out)
     try:
         write_charts(rows, done, out)
         write_field_charts(rows, done, out)

@@ -60,6 +60,8 @@ KINDS = {
     # the default lossless codec (per brick: prediction, palette, labels), the table-coded
     # fast codec, and the lossy path that predicts quantised voxels by interpolation
     "lossless": ("lossless-auto-u8.vpk", VOLUME_PATHS),
+    # predictive version 2 (fitted predictor, background mask): the default since a8c957f
+    "lossless-v2": ("lossless-v2-u8-mask.vpk", VOLUME_PATHS),
     "fast": ("fast-u8-background.vpk", VOLUME_PATHS),
     "lossy-interp": ("lossy-bounded-f32-interp.vpk", VOLUME_PATHS),
     "animation": (
@@ -384,6 +386,10 @@ def main() -> int:
         "--compile-limit", type=float, default=300.0,
         help="seconds for the rerun of a run that was still compiling at --time-limit",
     )  # fmt: skip
+    ap.add_argument(
+        "--kinds", default=None,
+        help=f"comma-separated stream kinds to fuzz (default: all of {', '.join(KINDS)})",
+    )  # fmt: skip
     ap.add_argument("--mem", type=float, default=4.0, help="GB of address space per run")
     ap.add_argument("--out", default=str(ROOT / "results" / "fuzz"))
     ap.add_argument(
@@ -401,6 +407,14 @@ def main() -> int:
         with open(args.table, newline="") as f:
             print(kind_table(list(csv.DictReader(f))))
         return 0
+    if args.kinds:
+        chosen = args.kinds.split(",")
+        unknown = sorted(set(chosen) - set(KINDS))
+        if unknown:
+            ap.error(f"expected kinds among {', '.join(KINDS)}, found {', '.join(unknown)}")
+        for kind in list(KINDS):  # before the workers fork, so they see the same table
+            if kind not in chosen:
+                del KINDS[kind]
     args.mem = int(args.mem * (1 << 30))
     out = pathlib.Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

@@ -104,6 +104,9 @@ def test_float_extremes_and_denormals():
     big = np.full((4, 4, 4), 1e300)  # float64 beyond float32's range
     big[0, 0, 0] = -1e300
     check_bound(big, api.decompress_array(api.compress_array(big, max_error=1e295)), 1e295)
+    # two values: a grid of one step (search.lattice), exact even under 1e-300
+    check_bound(big, api.decompress_array(api.compress_array(big, max_error=1e-300)), 1e-300)
+    big[1, 1, 1] = 0.123  # now 10^301 levels: a clear refusal
     with pytest.raises(ValueError, match="2\\^31"):
         api.compress_array(big, max_error=1e-300)
 
@@ -286,3 +289,94 @@ def test_64_bit_integers_are_refused_with_a_clear_error():
     with pytest.raises(ValueError, match="64-bit integers are stored exactly"):
         api.compress_array(a, max_error=10)
     np.testing.assert_array_equal(api.decompress_array(api.compress_array(a)), a)
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("value", [-9999.0, 1e20])
+def test_an_undeclared_fill_value_is_masked_when_shorter(dtype, value):
+    """A sentinel marking a region (below or above the others) is taken out into the
+    mask: stored exactly, the bound holding on every other voxel, and shorter than the
+    same field coded with the sentinel in its predictions."""
+    from volpack.volume_codec.specials import sentinel
+
+    f = field("smooth", (16, 24, 28), dtype, 3) / 50 + 280
+    z, y, x = np.indices(f.shape)
+    region = y + x < 14  # a wedge of ground under the field, as in the storm data
+    f[region] = value
+    assert sentinel(f, None) == dtype(value)
+    e = 0.5
+    blob = api.compress_array(f, max_error=e)
+    got = api.decompress_array(blob)
+    np.testing.assert_array_equal(got[region], f[region])
+    assert np.abs(got[~region].astype(np.float64) - f[~region]).max() <= e
+    with Reader(blob) as r:
+        ((_, _, payload),) = list(r)
+        assert payload[0] & 1
+        # 1e20 would need more than 2^31 bins of 2E: declared the volume's fill value
+        assert r.header["codec"]["fill"] == (None if value < 0 else dtype(value))
+    if value > 0:
+        return  # no coding with it in the bins to compare with
+    unmasked = BoundedCodec.plan(dtype, value, 310, e)
+    assert len(payload) < len(unmasked._encode_masked(f, None)[0])
+
+
+def test_no_sentinel_where_the_extreme_value_is_part_of_the_field():
+    """Zero background of a scan (next value 1 of 255) and a field whose extremes are
+    rare are not fill values."""
+    from volpack.volume_codec.specials import sentinel
+
+    scan = np.zeros((8, 16, 16), np.float32)
+    scan[:, 4:12, 4:12] = np.arange(1, 65, dtype=np.float32).reshape(8, 8) * 3
+    assert sentinel(scan, None) is None
+    smooth = field("smooth", (8, 16, 16), np.float32, 1)
+    assert sentinel(smooth, None) is None
+    assert sentinel(np.full((8, 8, 8), 5.0), None) is None
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("e", [0.49, 0.1, 1e-4, 1e-9])
+def test_whole_number_floats_under_a_bound_below_half_come_back_exactly(dtype, e):
+    """A scan saved as floats: bins of 1 (the header's step), every voxel exact, NaN
+    restored; far shorter than bins of 2E at a tight bound (and a bound whose bins of 2E
+    would be refused, above 2^31 of them, is met)."""
+    a = field("smooth", (12, 20, 24), np.int16, 5).astype(dtype)
+    a[3, 4, 5:9] = np.nan
+    blob = api.compress_array(a, max_error=e)
+    got = api.decompress_array(blob)
+    np.testing.assert_array_equal(got, a)  # NaN in the same places, the rest exact
+    with Reader(blob) as r:
+        assert r.header["codec"]["step"] == 1.0
+    if e < 1e-6:
+        return
+    b = a.copy()
+    b[0, 0, 0] += 0.123456789  # one voxel off the integers: bins of 2E again
+    blob2 = api.compress_array(b, max_error=e)
+    with Reader(blob2) as r:
+        assert r.header["codec"]["step"] == 2 * e
+    got2 = api.decompress_array(blob2)
+    ok = ~np.isnan(b)
+    assert np.abs(got2[ok].astype(np.float64) - b[ok]).max() <= e
+    if e < 0.01:
+        assert len(blob) < len(blob2) / 2
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_floats_on_a_decimal_grid_take_its_spacing_as_bins(dtype):
+    """A field stored to 0.1 (GRIB-packed model output): under a bound below 0.05 the
+    bins are the grid's spacing (0.1, refined from the data), every voxel within the
+    bound, far shorter than bins of 2E; above it, bins of 2E as usual."""
+    from volpack.volume_codec.search import lattice
+
+    k = np.rint(field("smooth", (10, 24, 30), np.float64, 7) / 3)  # whole tenths
+    a = (k / 10 - 40).astype(dtype)
+    g = lattice(a, None, 1e-3)
+    assert g is not None and abs(g - 0.1) < 1e-9
+    assert lattice(a, None, 0.06) is None  # bins of 2E = 0.12 are wider than the grid
+    blob = api.compress_array(a, max_error=1e-3)
+    with Reader(blob) as r:
+        assert abs(r.header["codec"]["step"] - 0.1) < 1e-9
+    got = api.decompress_array(blob)
+    assert np.abs(got.astype(np.float64) - a).max() <= 1e-3
+    noisy = a + np.random.default_rng(0).uniform(-1e-4, 1e-4, a.shape).astype(dtype)
+    assert lattice(noisy, None, 1e-3) is None  # off the grid by more than E/4
+    assert len(blob) < len(api.compress_array(noisy, max_error=1e-3)) / 2

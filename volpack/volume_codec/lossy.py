@@ -52,7 +52,7 @@ from .protocol import (
     from_stored,
     storage_dtype,
 )
-from .specials import fill_masked, special_mask
+from .specials import fill_masked, sentinel, special_mask
 
 # The bounded payload's flag byte (formats/lossy-1.md, `bounded`).
 FLAG_MASK, FLAG_CORRECTIONS, FLAG_COEF, FLAG_RESIDUALS = 1, 2, 4, 8
@@ -94,7 +94,19 @@ class BoundedCodec(BrickCodec):
     max_levels: int | None = None
 
     @classmethod
-    def plan(cls, dtype: Any, lo: float, hi: float, max_error: float, **inner: Any) -> BoundedCodec:
+    def plan(
+        cls,
+        dtype: Any,
+        lo: float,
+        hi: float,
+        max_error: float,
+        grid: float | None = None,
+        **inner: Any,
+    ) -> BoundedCodec:
+        """``grid``: every valid voxel of the float volume is within ``max_error`` of
+        ``lo + k * grid`` for a whole ``k`` (whole numbers, data stored to 0.1, ...; see
+        :func:`volpack.volume_codec.search.lattice`): a bound below half of it is met by
+        bins of ``grid``."""
         dtype = np.dtype(dtype)
         if not (max_error > 0 and math.isfinite(max_error)):
             raise OptionError(f"expected a positive finite error bound, found {max_error!r}")
@@ -110,6 +122,8 @@ class BoundedCodec(BrickCodec):
             qmax = (hi - lo + e) // step
         else:
             step = 2.0 * max_error
+            if grid is not None and step < grid and math.isfinite(grid):
+                step = float(grid)  # the data's own grid: far fewer bins, and exact
             levels = (hi - lo) / step  # may overflow to inf: then it is refused below
             qmax = math.floor(levels + 0.5) + 1 if levels < 2**40 else math.inf
         for qd in ("uint8", "uint16", "int32"):
@@ -189,11 +203,24 @@ class BoundedCodec(BrickCodec):
         """
         x = np.ascontiguousarray(brick)
         mask = self._special(x)
+        best = self._encode_masked(x, mask)
+        value = sentinel(x, mask) if x.dtype.kind == "f" else None
+        if value is not None:  # masked too, it may code shorter: try
+            more = x == value if mask is None else mask | (x == value)
+            cand = self._encode_masked(x, more)
+            if len(cand[0]) < len(best[0]):
+                best = cand
+        return best
+
+    def _encode_masked(self, x: np.ndarray, mask: np.ndarray | None) -> Measured:
+        """:meth:`encode_measured` with the voxels of ``mask`` stored exactly."""
         clean = x if mask is None else fill_masked(x, mask)
         q = self._quantize(clean)
         if mask is not None:
             q = fill_masked(q, mask)  # masked voxels take their neighbour's value
         best = self._finish(x, mask, self._reconstruct(q, x.dtype), 0, [self._inner().encode(q)])
+        if self._exact:
+            return best
         if x.size >= 64:
             coef = self._coef_candidate(x, clean, mask)
             if len(coef[0]) < len(best[0]):
@@ -207,12 +234,22 @@ class BoundedCodec(BrickCodec):
                 best = cand
         return best
 
+    @property
+    def _exact(self) -> bool:
+        """Floats on a grid under a bound below half of it: the voxels are quantised to
+        the grid (bins wider than 2E); the other paths assume bins of 2E, so they are
+        left out."""
+        return not self.integer and self.step > 2.0 * self.max_error
+
     def _interp_candidate(self, x, clean, mask):
         """The interpolation path (:mod:`volpack.volume_codec.bounded_interp`), checked on
         every voxel like the others."""
         from . import bounded_interp
 
-        inner, rec = bounded_interp.encode(clean.astype(np.float64), self.step)
+        g = clean.astype(np.float64)
+        if mask is not None:  # no value to keep: bin 0, the voxel follows its prediction
+            g[mask] = np.nan
+        inner, rec = bounded_interp.encode(g, self.step)
         return self._finish(x, mask, _to_float(rec, x.dtype, overwrite=True), FLAG_INTERP, [inner])
 
     def _cdf97_candidates(self, x, clean, mask):

@@ -23,7 +23,7 @@ from ..volume import Volume
 from . import bricks
 from .floatwave import FLOAT_WAVELETS, FloatWaveletCodec
 from .lossy import BoundedCodec, CoefCodec
-from .specials import special_voxels
+from .specials import sentinel, special_voxels
 
 PSNR_TOL = 0.5  # dB
 RATIO_TOL = 0.05  # relative
@@ -45,6 +45,44 @@ def value_range(data: np.ndarray, fill_value: float | None) -> tuple[float, floa
     if lo > hi:  # nothing valid: any range will do
         lo = hi = 0.0
     return lo, hi
+
+
+LATTICE_SAMPLE = 1 << 20  # values looked at first: most fields leave here
+
+
+def lattice(data: np.ndarray, fill_value: float | None, max_error: float) -> float | None:
+    """The spacing ``g > 2 max_error`` of a grid ``lo + k g`` that every valid voxel of
+    the float volume lies on, to within ``max_error / 4`` after rounding to its dtype
+    (whole numbers: 1; a model's output stored to 0.1: 0.1), else None.
+
+    Then bins of ``g`` instead of ``2 max_error`` give every voxel back (all but
+    rounding): a scan saved as floats, GRIB-packed fields. The smallest gap between the
+    distinct values is ``g`` or a multiple of it; ``g`` is refined as the whole span
+    over the number of steps in it.
+    """
+    with np.errstate(all="ignore"):  # extremes overflow: inf, then no grid
+        return _lattice(np.asarray(data).reshape(-1), fill_value, max_error)
+
+
+def _lattice(flat: np.ndarray, fill_value: float | None, max_error: float) -> float | None:
+    v = flat[:LATTICE_SAMPLE]
+    v = v[~special_voxels(v, fill_value)]
+    u = np.unique(v)
+    if u.size < 2 or np.diff(u).min() <= 2 * max_error:
+        return None  # a gap of at most 2E among these: no grid worth its bins
+    v = flat[~special_voxels(flat, fill_value)].astype(np.float64)
+    u = np.unique(v)
+    gap = float(np.diff(u).min())
+    if gap <= 2 * max_error:
+        return None
+    lo, span = float(u[0]), float(u[-1] - u[0])
+    if not (math.isfinite(span) and math.isfinite(gap) and 0 < span / gap < 2**31):
+        return None
+    g = span / round(span / gap)
+    rec = (np.rint((v - lo) / g) * g + lo).astype(flat.dtype).astype(np.float64)
+    if g <= 2 * max_error or not np.abs(rec - v).max() <= max_error / 4:
+        return None
+    return g
 
 
 def plan(
@@ -75,8 +113,10 @@ def plan(
             raise OptionError(f"{what}= takes 8 to 32-bit integers, found {dtype}")
         return CoefCodec(value_range=max(rng, 1.0), **{what: target}, **inner), None
 
+    grid = None  # the data's own grid, for an error bound (not searched for a target)
+
     def bounded(e: float) -> BoundedCodec:
-        return BoundedCodec.plan(dtype, lo, hi, e, fill=fill_value, **inner)
+        return BoundedCodec.plan(dtype, lo, hi, e, grid, fill=fill_value, **inner)
 
     if what in ("max_error", "rel_error"):
         e = float(target) * (rng if what == "rel_error" else 1.0)
@@ -87,7 +127,19 @@ def plan(
                 "an error bound of 0 on float voxels is lossless coding: leave out the lossy "
                 "settings (floats are then stored exactly)"
             )
-        return bounded(e if e > 0 else 0.25), None
+        if dtype.kind == "f" and e > 0:
+            grid = lattice(vol.data, fill_value, e)
+        try:
+            return bounded(e if e > 0 else 0.25), None
+        except OptionError:  # too many bins: unless a fill value (1e20, ...) spans them
+            if fill_value is not None or dtype.kind != "f":
+                raise
+            fill_value = sentinel(np.asarray(vol.data), None)
+            if fill_value is None:
+                raise
+            lo, hi = value_range(vol.data, fill_value)
+            grid = lattice(vol.data, fill_value, e)
+            return bounded(e), None
     if what == "psnr":
         if not target > 0:
             raise OptionError(f"expected a positive psnr in dB, found {target!r}")
