@@ -111,9 +111,11 @@ INT_REL_BOUNDS = (1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2)
 FLOAT_REL_BOUNDS = (1e-2, 1e-3, 1e-4, 1e-5)
 QUALITIES = (255, 127, 63, 31, 15)
 PSNR_TARGETS = (40.0, 60.0, 80.0, 100.0)
-BOUND_METHODS = ["volpack", "volpack-huffman", "zfp", "sz3", "sz3-best", "sperr", "sperr-h5"]
+BOUND_METHODS = ["volpack", "volpack-huffman", "volpack-fast", "zfp", "sz3", "sz3-best", "sperr", "sperr-h5"]
 ALL_METHODS = [*BOUND_METHODS, "volpack-quality", "tthresh"]
-DEFAULT_METHODS = [m for m in ALL_METHODS if m != "volpack-huffman"] + ["mgard"]
+DEFAULT_METHODS = [m for m in ALL_METHODS if m not in ("volpack-huffman", "volpack-fast")] + [
+    "mgard"
+]
 PEERS_TO_BEAT = ("sperr", "sz3", "sz3-best")  # the issue's goal: ratio >= 1.1 x their best
 SPERR_CHUNK = 256
 # SZ3's predictor choices tried by ``sz3-best``: (CmprAlgo, InterpolationAlgo or None).
@@ -316,6 +318,7 @@ def build_methods(wanted: list[str]) -> tuple[list[Method], list[str]]:
     makers = {
         "volpack": lambda: _volpack_method("volpack"),
         "volpack-huffman": lambda: _volpack_method("volpack-huffman", coder="huffman"),
+        "volpack-fast": lambda: _volpack_method("volpack-fast", effort="fast"),
         "volpack-quality": lambda: _volpack_method("volpack-quality"),
         "zfp": _zfp_method,
         "sz3": _sz3_method,
@@ -526,6 +529,7 @@ def write_csv(rows: list[dict], path: Path) -> None:
 _STYLE = {
     "volpack": ("tab:red", "o"),
     "volpack-huffman": ("tab:orange", "s"),
+    "volpack-fast": ("tab:pink", "h"),
     "volpack-quality": ("tab:purple", "D"),
     "zfp": ("tab:blue", "^"),
     "sz3": ("tab:green", "v"),
@@ -958,7 +962,7 @@ def main(argv: list[str] | None = None) -> int:
         "--methods",
         default=",".join(DEFAULT_METHODS),
         help=f"comma-separated methods among {','.join(ALL_METHODS)} (default all but "
-        "volpack-huffman)",
+        "volpack-huffman and volpack-fast)",
     )
     p.add_argument(
         "--quick",

@@ -27,6 +27,7 @@ COMPRESS_KEYS = (
     "quality",
     "threshold",
     "fill_value",
+    "effort",
     "workers",
 )
 LOSSY_KEYS = ("max_error", "rel_error", "psnr", "ratio", "quality", "threshold")

@@ -72,6 +72,7 @@ def compress(
     quality,
     threshold,
     fill_value,
+    effort,
     octree,
     block,
     scheduler,
@@ -113,6 +114,14 @@ def compress(
         "quality": quality, "threshold": threshold, "fill_value": fill_value,
     }  # fmt: skip
     lossy = {k: v for k, v in shared.items() if k not in ("codec", "wavelet", "coder", "order")}
+    if effort is not None and (
+        mesh_cli.is_mesh_source(source) or wants_animation(source, extra["gop"])
+        or octree or scheduler
+    ):  # fmt: skip
+        raise click.UsageError(
+            f"--effort applies to a volume under an error bound, found --effort {effort} "
+            "with a mesh, an animation or --octree"
+        )
     if mesh_cli.is_mesh_source(source):
         kind, unit = "mesh", None
         opts = mesh_cli.compress_options(extra)
@@ -145,6 +154,8 @@ def compress(
         kind, unit = "volume", "brick"
         opts = {**shared, "max_levels": max_levels, "brick": parse_brick(brick)}
         opts.update(workers=workers, read_options=read_options)
+        if effort is not None:
+            opts["effort"] = effort
     with mesh_cli.echo_warnings(), progress_bar(ctx, "compress", unit=unit) as progress:
         if unit is not None:
             opts["progress"] = progress

@@ -236,6 +236,11 @@ codec_options = options(
            "volumes).", (1, 65535)),
     option("--threshold", "Lossy: drop wavelet coefficients below this size, in value units "
            "(integer volumes).", float),
+    option("--effort", "Lossy with a bound (--max-error, --rel-error; --psnr, --ratio on "
+           "floats): 'default' makes every coding of each brick and keeps the shortest; "
+           "'fast' makes one (floats: interpolation), several times faster to encode and "
+           "to decode, at some ratio. The bound holds either way. [default: default]",
+           ["default", "fast"]),
     option("--fill-value", "A value meaning 'no data' (e.g. -2.56e33); restored exactly, "
            "like NaN and Inf.", float),
 )  # fmt: skip

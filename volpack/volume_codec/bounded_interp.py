@@ -45,6 +45,9 @@ HEADER = struct.Struct("<3BB")  # axis order, kind
 # What the encoder tries: (kind, axis orders). Lorenzo in 3-D hardly depends on the
 # order; in 2-D the order's first axis is the one left out.
 TRIED = ((1, PERMS), (0, PERMS), (2, PERMS[:1]), (3, PERMS[:3]))
+# effort='fast': two walks instead of twelve: cubic interpolation (loose bounds) and 3-D
+# Lorenzo (tight bounds), each in the stored order.
+TRIED_FAST = ((1, PERMS[:1]), (2, PERMS[:1]))
 
 
 @kernel(inline=True)

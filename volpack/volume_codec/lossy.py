@@ -66,6 +66,7 @@ _KNOWN_FLAGS = (
 # error allowed on its grid (measured best on the head CT and the z-map).
 COEF_STEP = 2.0
 QUALITIES = (255, 127, 63, 31, 15)
+EFFORTS = ("default", "fast")  # of the error-bounded encoder
 
 
 # -- error-bounded quantisation ---------------------------------------------------------
@@ -92,6 +93,10 @@ class BoundedCodec(BrickCodec):
     coder: str = "arith"
     order: str = "dfs"
     max_levels: int | None = None
+    # How hard the encoder looks (the decoder never needs it): 'default' makes every
+    # coding of a brick and keeps the shortest; 'fast' makes one (floats: the
+    # interpolation path, two predictors; integers: the quantised voxels).
+    effort: str = "default"
 
     @classmethod
     def plan(
@@ -147,6 +152,7 @@ class BoundedCodec(BrickCodec):
 
     def __post_init__(self) -> None:
         _check_inner(self)
+        check_choice("effort", self.effort, EFFORTS)
         # what the quantiser's arithmetic needs (a stored config may hold anything)
         if self.qdtype not in ("uint8", "uint16", "int32"):
             raise OptionError(f"expected qdtype uint8, uint16 or int32, found {self.qdtype!r}")
@@ -164,6 +170,15 @@ class BoundedCodec(BrickCodec):
             raise OptionError(f"expected an integer lo and step, found {self.lo}, {self.step}")
         if self.fill is not None and not math.isfinite(self.fill):
             raise OptionError(f"expected a finite fill value, found {self.fill!r}")
+
+    def get_config(self) -> dict[str, Any]:
+        """As every codec's, but ``effort`` only when it is not the default: it changes
+        what the encoder tries, not what the decoder reads, and files written before it
+        existed keep their bytes."""
+        config = super().get_config()
+        if self.effort == "default":
+            del config["effort"]
+        return config
 
     def _inner(self) -> WaveletCodec:
         return WaveletCodec(self.wavelet, self.coder, self.order, self.max_levels)
@@ -215,11 +230,14 @@ class BoundedCodec(BrickCodec):
     def _encode_masked(self, x: np.ndarray, mask: np.ndarray | None) -> Measured:
         """:meth:`encode_measured` with the voxels of ``mask`` stored exactly."""
         clean = x if mask is None else fill_masked(x, mask)
+        fast = self.effort == "fast"
+        if fast and x.size >= 64 and x.dtype.kind == "f" and not self._exact:
+            return self._interp_candidate(x, clean, mask)
         q = self._quantize(clean)
         if mask is not None:
             q = fill_masked(q, mask)  # masked voxels take their neighbour's value
         best = self._finish(x, mask, self._reconstruct(q, x.dtype), 0, [self._inner().encode(q)])
-        if self._exact:
+        if self._exact or fast:
             return best
         if x.size >= 64:
             coef = self._coef_candidate(x, clean, mask)
@@ -249,7 +267,8 @@ class BoundedCodec(BrickCodec):
         g = clean.astype(np.float64)
         if mask is not None:  # no value to keep: bin 0, the voxel follows its prediction
             g[mask] = np.nan
-        inner, rec = bounded_interp.encode(g, self.step)
+        tried = bounded_interp.TRIED_FAST if self.effort == "fast" else bounded_interp.TRIED
+        inner, rec = bounded_interp.encode(g, self.step, tried)
         return self._finish(x, mask, _to_float(rec, x.dtype, overwrite=True), FLAG_INTERP, [inner])
 
     def _cdf97_candidates(self, x, clean, mask):

@@ -22,7 +22,8 @@ from ..parallel import ordered_map
 from ..volume import Volume
 from . import bricks
 from .floatwave import FLOAT_WAVELETS, FloatWaveletCodec
-from .lossy import BoundedCodec, CoefCodec
+from .lossy import EFFORTS, BoundedCodec, CoefCodec
+from .protocol import check_choice
 from .specials import sentinel, special_voxels
 
 PSNR_TOL = 0.5  # dB
@@ -92,15 +93,27 @@ def plan(
     asked: dict[str, float],
     fill_value: float | None,
     inner: dict[str, Any],
+    effort: str = "default",
 ) -> tuple[Any, dict[str, Any] | None]:
-    """Return ``(codec, search record or None)`` for one lossy setting in ``asked``."""
+    """Return ``(codec, search record or None)`` for one lossy setting in ``asked``;
+    ``effort`` is the error-bounded encoder's (:class:`BoundedCodec`)."""
     ((what, target),) = asked.items()
     dtype = vol.dtype
     if dtype.kind not in "iuf":
         raise OptionError(f"expected integer or float voxels, found {dtype}")
+    check_choice("effort", effort, EFFORTS)
     lo, hi = value_range(vol.data, fill_value)
     rng = hi - lo
     inner = {k: v for k, v in inner.items() if v is not None}
+    bounded_path = what in ("max_error", "rel_error") or (
+        what in ("psnr", "ratio") and (dtype.kind == "f" or fill_value is not None)
+    )
+    if effort != "default" and (inner.get("wavelet") in FLOAT_WAVELETS or not bounded_path):
+        raise OptionError(
+            f"effort={effort!r} applies to error-bounded coding (max_error, rel_error, or "
+            f"psnr/ratio on floats), found {what}={target!r}"
+            + (f" with wavelet={inner['wavelet']!r}" if "wavelet" in inner else "")
+        )
     if inner.get("wavelet") in FLOAT_WAVELETS:
         return _plan_float_wavelet(vol, brick, workers, what, target, fill_value, inner, rng)
     if what in ("quality", "threshold"):
@@ -116,7 +129,7 @@ def plan(
     grid = None  # the data's own grid, for an error bound (not searched for a target)
 
     def bounded(e: float) -> BoundedCodec:
-        return BoundedCodec.plan(dtype, lo, hi, e, grid, fill=fill_value, **inner)
+        return BoundedCodec.plan(dtype, lo, hi, e, grid, fill=fill_value, effort=effort, **inner)
 
     if what in ("max_error", "rel_error"):
         e = float(target) * (rng if what == "rel_error" else 1.0)

@@ -97,6 +97,7 @@ def compress(
     quality: int | None = None,
     threshold: float | None = None,
     fill_value: float | None = None,
+    effort: str = "default",
     workers: int | None = 1,
     force: bool = False,
     progress: Progress | None = None,
@@ -132,6 +133,11 @@ def compress(
     predict_version : {1, 2, 3}, optional
         The lossless codec's predictive stream: 3 (the default: as 2, and floats by
         Lorenzo or lattice prediction), 2 or 1 (as files written before, byte for byte).
+    effort : {"default", "fast"}
+        The error-bounded encoder's (``max_error``, ``rel_error``, or ``psnr``/``ratio``
+        on floats): ``default`` makes every coding of a brick and keeps the shortest;
+        ``fast`` makes one (floats: the interpolation path), several times faster to
+        encode and to decode, at some ratio. The bound holds either way.
     brick : int or (int, int, int), optional
         Brick size; bricks are coded independently and decoded one by one. Default
         :func:`volpack.volume_codec.bricks.default_brick`: 64, but a float volume under an
@@ -180,8 +186,13 @@ def compress(
     if asked:
         from . import search as lossy_plan
 
-        c, search = lossy_plan.plan(vol, brick_t, nworkers, asked, fill_value, inner)
+        c, search = lossy_plan.plan(vol, brick_t, nworkers, asked, fill_value, inner, effort)
     else:
+        if effort != "default":
+            raise OptionError(
+                f"effort={effort!r} applies to error-bounded lossy coding (max_error, "
+                "rel_error, psnr, ratio); for a faster lossless stream use codec='fast'"
+            )
         search = None
         extra = {"tools": tools, "predict_version": predict_version}
         c = make_codec(codec, vol.dtype, **inner, **{k: v for k, v in extra.items() if v})

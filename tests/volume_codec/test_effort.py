@@ -1,0 +1,129 @@
+"""effort='fast' for error-bounded coding: one coding per brick (floats: the
+interpolation path), the bound still held on every voxel, the choice kept out of the
+header unless asked for, and refused where it has no meaning."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from conftest import smooth_volume
+
+from volpack import api
+from volpack.cli import main
+from volpack.errors import OptionError
+from volpack.format.container import Reader
+from volpack.volume_codec.lossy import FLAG_INTERP
+
+
+def smooth_float(shape, dtype, seed=3):
+    f = smooth_volume(shape, np.int16, seed=seed).astype(np.float64) / 7.0
+    return f.astype(dtype)
+
+
+def header_codec(blob: bytes) -> dict:
+    with Reader(blob) as r:
+        return dict(r.header["codec"])
+
+
+def payload_flags(blob: bytes) -> list[int]:
+    with Reader(blob) as r:
+        return [r.read(e.t, e.node)[0] for e in r.entries]
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("rel", [1e-2, 1e-4])
+def test_fast_holds_the_bound_on_every_voxel_with_specials(dtype, rel):
+    a = smooth_float((20, 26, 31), dtype)
+    a[3, 4, 5], a[7, 0, 0], a[-1, -1, -1] = np.nan, np.inf, -np.inf
+    a[10:12, 10:14, :] = -9999.0
+    e = float(np.nanmax(a[np.isfinite(a)]) - np.nanmin(a[np.isfinite(a)])) * rel
+    blob = api.compress_array(a, max_error=e, fill_value=-9999.0, effort="fast")
+    back = api.decompress_array(blob)
+    special = ~np.isfinite(a) | (a == -9999.0)
+    assert np.array_equal(back[special], a[special], equal_nan=True)
+    err = np.abs(back[~special].astype(np.float64) - a[~special].astype(np.float64))
+    assert err.max() <= e
+    assert header_codec(blob)["effort"] == "fast"
+    # every float brick takes the interpolation path (flag byte of the payload)
+    assert all(flag & FLAG_INTERP for flag in payload_flags(blob))
+
+
+def test_default_keeps_its_bytes_and_leaves_effort_out_of_the_header():
+    a = smooth_float((24, 24, 24), np.float32)
+    e = float(np.ptp(a)) * 1e-3
+    implicit = api.compress_array(a, max_error=e)
+    explicit = api.compress_array(a, max_error=e, effort="default")
+    assert implicit == explicit
+    assert "effort" not in header_codec(implicit)
+
+
+def test_fast_is_the_same_bytes_for_any_worker_count():
+    a = smooth_float((40, 36, 30), np.float32)
+    e = float(np.ptp(a)) * 1e-3
+    one = api.compress_array(a, max_error=e, effort="fast", brick=16, workers=1)
+    two = api.compress_array(a, max_error=e, effort="fast", brick=16, workers=2)
+    assert one == two
+
+
+def test_fast_on_integers_codes_the_quantised_voxels_within_the_bound():
+    a = smooth_volume((20, 24, 28), np.int16, seed=5)
+    blob = api.compress_array(a, max_error=3, effort="fast")
+    back = api.decompress_array(blob)
+    assert np.abs(back.astype(np.int64) - a).max() <= 3
+
+
+def test_fast_psnr_target_on_floats():
+    a = smooth_float((24, 24, 24), np.float32)
+    blob = api.compress_array(a, psnr=60.0, effort="fast")
+    back = api.decompress_array(blob).astype(np.float64)
+    mse = float(np.mean((back - a) ** 2))
+    psnr = 10 * np.log10(float(np.ptp(a)) ** 2 / mse)
+    assert abs(psnr - 60.0) <= 0.5 or psnr > 60.0
+
+
+@pytest.mark.parametrize(
+    "kw, found",
+    [
+        ({}, "for a faster lossless stream use codec='fast'"),
+        ({"quality": 63}, "found quality=63"),
+        ({"max_error": 1.0, "wavelet": "cdf97"}, "with wavelet='cdf97'"),
+    ],
+)
+def test_fast_is_refused_where_it_has_no_meaning(kw, found):
+    a = smooth_volume((16, 16, 16), np.int16, seed=1)
+    if "wavelet" in kw:
+        a = a.astype(np.float32)
+    with pytest.raises(OptionError, match="effort='fast' applies to error-bounded"):
+        try:
+            api.compress_array(a, effort="fast", **kw)
+        except OptionError as err:
+            assert found in str(err)
+            raise
+
+
+def test_unknown_effort_is_a_clear_error():
+    a = smooth_float((8, 8, 8), np.float32)
+    with pytest.raises(OptionError, match="effort"):
+        api.compress_array(a, max_error=0.1, effort="best")
+
+
+def test_cli_effort(tmp_path):
+    a = smooth_float((16, 20, 24), np.float32)
+    src = tmp_path / "f.npy"
+    np.save(src, a)
+    out = tmp_path / "f.vpk"
+    r = CliRunner().invoke(
+        main, ["compress", str(src), str(out), "--rel-error", "1e-3", "--effort", "fast", "--json"]
+    )
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.stdout)["ratio"] > 1
+    assert header_codec(out.read_bytes())["effort"] == "fast"
+    r = CliRunner().invoke(
+        main, ["compress", str(src), str(tmp_path / "o.vpk"), "--octree", "--effort", "fast"]
+    )
+    assert r.exit_code == 2 and "--effort applies to a volume" in r.output
+    r = CliRunner().invoke(main, ["compress", str(src), str(out), "--effort", "slow"])
+    assert r.exit_code == 2 and "slow" in r.output
