@@ -5,10 +5,13 @@ smooth field, so that the residuals (not the raw mantissa bits) are coded:
 
 * **Lorenzo** (the predictor of fpzip): a float's bits, read as a signed integer
   ``i``, become ``s = i`` when the sign is clear and ``i XOR (2^(B-1) - 1)`` when it is
-  set. ``s`` orders like the floats and runs through zero without a leap (``-0.0`` is
-  -1, ``+0.0`` is 0). Each voxel is predicted by the 3-D Lorenzo predictor
-  ``W + N + U - NW - UW - UN + UNW`` (2-D or 1-D on the brick's faces) or, chosen per
-  brick, the 2-D one within the slice; the residual, wrapped to ``B`` bits (so that
+  set. ``s`` orders like the floats and has no gap at zero (``-0.0`` is -1, ``+0.0``
+  is 0). Each voxel is predicted by the 3-D Lorenzo predictor
+  ``W + N + U - NW - UW - UN + UNW`` (2-D or 1-D on the brick's faces) or the 2-D one
+  within the slice, summed on the images ``s`` or on the values in float64 and rounded
+  back to the float (a field that crosses zero or changes binade leaps in ``s``, not in
+  value); the best of the four is chosen per brick by measuring. The residual, wrapped
+  to ``B`` bits (so that
   prediction never overflows and the map stays a bijection on bit patterns: NaN
   payloads, -0.0, denormals and Inf come back exactly), is coded by the adaptive
   binary range coder: its bit length on a binary tree (seven decisions, where a unary
