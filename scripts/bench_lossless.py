@@ -220,7 +220,7 @@ def _float_methods(dtype: np.dtype, shape) -> list[Method]:
             Method(
                 "fpzip",
                 1,
-                lambda a: fpzip.compress(a, precision=0),
+                lambda a: fpzip.compress(np.array(a), precision=0),  # it needs a writable array
                 lambda b: fpzip.decompress(b).reshape(shape),
                 "fpzip.compress(precision=0): lossless",
             )

@@ -122,6 +122,7 @@ def make_wavelet(folder: Path) -> Path:
 
 # Version 1 of the predictive stream (the files written before version 2), then version 2.
 V1 = {"predict_version": 1}
+V2 = {"predict_version": 2}
 LOSSLESS_CASES = [
     ("lossless-auto-u8", "u8-background", V1),
     ("lossless-auto-i16-palette", "i16", V1),
@@ -130,9 +131,15 @@ LOSSLESS_CASES = [
     ("lossless-auto-f32-field", "f32-field", V1),
     # one 32^3 brick each: version 2 stores 136 bytes of weights, which 16^3 bricks of
     # the cut above do not repay (the encoder then keeps version 1)
-    ("lossless-v2-u8-mask", "v2-u8-background", {"brick": 32}),
-    ("lossless-v2-i16-palette", "v2-i16", {"brick": 32}),
-    ("lossless-v2-predict-u8", "v2-u8", {"tools": "predict", "brick": 32}),
+    ("lossless-v2-u8-mask", "v2-u8-background", {"brick": 32, **V2}),
+    ("lossless-v2-i16-palette", "v2-i16", {"brick": 32, **V2}),
+    ("lossless-v2-predict-u8", "v2-u8", {"tools": "predict", "brick": 32, **V2}),
+    # version 3: floats by Lorenzo prediction and on a lattice (mode 5), in 32 and 64 bits
+    ("lossless-v3-f32-special", "f32-special", {}),
+    ("lossless-v3-f32-smooth", "f32-smooth", {}),
+    ("lossless-v3-f64-smooth", "f64-smooth", {}),
+    ("lossless-v3-f32-lattice", "f32-lattice", {}),
+    ("lossless-v3-f32-packed", "f32-packed", {}),
 ]
 
 
@@ -156,6 +163,21 @@ def lossless_source(recipe: str):
         cut = wavelet_source("u8").copy()
         cut[cut < 60] = 0
         return cut
+    if recipe in ("f32-smooth", "f64-smooth"):  # a smooth field, full mantissas, specials
+        z, y, x = np.indices((20, 24, 28))
+        f = np.sin(x * 0.21 + z * 0.05) * np.cos(y * 0.17) * 80.0 + z * 0.3
+        f = f.astype(np.float32 if recipe == "f32-smooth" else np.float64)
+        f[3, 4, 5:7] = (np.nan, -0.0)
+        f[9, 9, 9] = 5e-324 if recipe == "f64-smooth" else 1e-42
+        return f
+    if recipe == "f32-lattice":  # tenths of a unit: a geopotential height in metres
+        c = wavelet_source("u8").astype(np.float64)
+        return (np.round(np.cumsum(c - c.mean(), axis=2) * 3 + 50000.0) * 0.1).astype(np.float32)
+    if recipe == "f32-packed":  # one reference value and binary scale per slice (GRIB)
+        c = wavelet_source("u8").astype(np.float64)
+        k = np.cumsum(c - c.mean(), axis=2) * 5
+        z = np.arange(c.shape[0]).reshape(-1, 1, 1)
+        return (230.0 + 0.37 * z + 2.0 ** -(7 + z % 3) * np.round(k)).astype(np.float32)
     if recipe == "f32-field":  # full mantissas: exponent and mantissa coded apart
         z, y, x = np.indices((20, 24, 28))
         f = wavelet_source("u8") * 1.37 - 40.0 + z * 0.011 + y * y * 0.0007 - x * 0.05

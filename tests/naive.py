@@ -656,3 +656,53 @@ def render_unit_gradient(vol, spacing, z, y, x):
         return None
     s = -1.0 if g[0] < 0 else 1.0
     return tuple(s * c / n for c in g)
+
+
+# --- lossless float prediction (volume_codec.floatpredict) ---
+
+
+def float_signed_image(a):
+    """The signed ordered image of each float, from its bits one by one: the bits as a
+    signed integer, with every bit but the sign flipped when the sign is set."""
+    import numpy as np
+
+    b = 8 * a.dtype.itemsize
+    out = []
+    for u in a.reshape(-1).view(f"u{a.dtype.itemsize}").tolist():
+        if u >> (b - 1):  # negative: -0.0 is -1, larger magnitudes further down
+            out.append(-1 - (u - (1 << (b - 1))))
+        else:
+            out.append(u)
+    return np.array(out, dtype=np.int64).reshape(a.shape)
+
+
+def float_lorenzo_residuals(a, in_slice=False, in_floats=False):
+    """Residuals of the Lorenzo predictor, voxel by voxel: the corners W, N, U, NW, UW,
+    UN, UNW that exist (U and its corners left out ``in_slice``), signed by how many
+    steps back they are, summed in that order, wrapped to the float's width. On the
+    signed images; ``in_floats``: on the values in float64, the sum rounded to the
+    float and then mapped (a NaN sum falls back to the integer sum)."""
+    import numpy as np
+
+    s = float_signed_image(a).tolist()
+    v = a.astype(np.float64).tolist()
+    b = 8 * a.dtype.itemsize
+    nz, ny, nx = a.shape
+    corners = [(0, 0, 1), (0, 1, 0), (1, 0, 0), (0, 1, 1), (1, 0, 1), (1, 1, 0), (1, 1, 1)]
+    out = np.zeros(a.shape, dtype=np.int64)
+    for z in range(nz):
+        for y in range(ny):
+            for x in range(nx):
+                p, q = 0, 0.0
+                for dz, dy, dx in corners:
+                    if (dz and (in_slice or z == 0)) or (dy and y == 0) or (dx and x == 0):
+                        continue
+                    sign = 1 if (dz + dy + dx) % 2 else -1
+                    p += sign * s[z - dz][y - dy][x - dx]
+                    q = q + sign * v[z - dz][y - dy][x - dx]
+                if in_floats and q == q:
+                    with np.errstate(over="ignore"):
+                        p = int(float_signed_image(np.array([q]).astype(a.dtype))[0])
+                r = (s[z][y][x] - p + (1 << (b - 1))) % (1 << b) - (1 << (b - 1))
+                out[z, y, x] = r
+    return out

@@ -45,7 +45,10 @@ def _field_codec(s: Settings, dtype: np.dtype, lo: float, hi: float, vrange: flo
     if s.mode == "lossless" and dtype.kind == "f":  # as a 3-D volume's lossless coding
         from ..volume_codec.stream import make_codec
 
-        return make_codec("auto", dtype, **s.inner())
+        # An animation stores no codec config: keep the coding it had before version 3.
+        if dtype.itemsize > 4:
+            return make_codec("zstd")
+        return make_codec("auto", dtype, predict_version=2, **s.inner())
     if s.mode == "lossless":
         from ..volume_codec.codec import WaveletCodec
 

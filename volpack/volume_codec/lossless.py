@@ -15,15 +15,20 @@ mode  payload after the mode byte
       stream of version 2 (:mod:`.predictfit`), 32: a background mask), then the
       palette or the value range (none when split), the mask, then the predictive or
       label stream
+5     floats by prediction on their integer images (:mod:`.floatpredict`): a tool byte
+      (0: Lorenzo, 1: lattice), then its stream
 ====  ===============================================================================
 
 ``predict_version`` (a config field) says which predictive stream the encoder writes for
 integer bricks: 1 (:mod:`.predict`, the files written before version 2 existed; their
-headers have no ``predict_version`` and read as 1) or 2 (the default: a fitted predictor, and
-a background mask where it pays). A decoder reads both, whatever the config says.
+headers have no ``predict_version`` and read as 1) or 2 (a fitted predictor, and a background
+mask where it pays). Version 3 (the default) codes integer bricks as 2 and adds, for float
+bricks, the tools of mode 5 and zstd at level 19 in mode 3. A decoder reads every version,
+whatever the config says.
 
-Floats (float16, float32) are coded exactly through the ordered integer image of their
-bits (:mod:`.floatbits`); NaN, -0.0, denormals and Inf come back bit for bit.
+Floats (float16, float32, float64) are coded exactly through integer images of their
+bits (:mod:`.floatbits`, :mod:`.floatpredict`); NaN, -0.0, denormals and Inf come back
+bit for bit. float64 bricks take modes 1, 2, 3 and 5 only.
 ``formats/lossless-1.md`` gives every byte. ``volpack info`` reports how many bricks
 took each tool (:func:`describe`).
 """
@@ -54,11 +59,15 @@ from .protocol import check_choice as _check_choice
 from .protocol import from_stored as _from_stored
 
 MODE_PREDICT = 4
+MODE_FLOAT = 5
+FLOAT_TOOLS = ("lorenzo", "lattice")  # the tool byte of mode 5 indexes this
+EXACT_FLOATS = FLOAT_DTYPES + ("float64",)
 FLAG_PALETTE, FLAG_FLOAT, FLAG_SPLIT, FLAG_LABELS, FLAG_FIT, FLAG_MASK = 1, 2, 4, 8, 16, 32
 FLAGS = FLAG_PALETTE | FLAG_FLOAT | FLAG_SPLIT | FLAG_LABELS | FLAG_FIT | FLAG_MASK
-VERSIONS = (1, 2)
+VERSIONS = (1, 2, 3)
 TOOLS = ("auto", "wavelet", "predict")
 FLOAT_ZSTD_LEVEL = 9
+FLOAT_ZSTD_LEVEL_V3 = 19  # floats compress slowly either way; 19 finds repeats 9 misses
 
 
 @dataclasses.dataclass(frozen=True, eq=False, repr=False)
@@ -72,9 +81,10 @@ class LosslessCodec(BrickCodec):
     tools : {"auto", "wavelet", "predict"}
         ``auto`` tries both tools on every brick and keeps the shorter; the others use
         one tool (for comparison; floats always use prediction).
-    predict_version : {1, 2}
+    predict_version : {1, 2, 3}
         The predictive stream written for integer bricks: 2 (a fitted predictor and a
-        background mask, the default) or 1 (the earlier one, for identical files).
+        background mask) or 1 (the earlier one, for identical files); 3 (the default)
+        codes integers as 2 and floats also by Lorenzo or lattice prediction (mode 5).
     """
 
     codec_id: ClassVar[str] = "lossless"
@@ -83,7 +93,7 @@ class LosslessCodec(BrickCodec):
     order: str = "dfs"
     max_levels: int | None = None
     tools: str = "auto"
-    predict_version: int = 2
+    predict_version: int = 3
 
     def __post_init__(self) -> None:
         _check_choice("tools", self.tools, TOOLS)
@@ -122,19 +132,62 @@ class LosslessCodec(BrickCodec):
         is_float = brick.dtype.kind == "f"
         candidates = [bytes([MODE_RAW]) + raw]
         if is_float:
-            z = ZstdCodec(level=FLOAT_ZSTD_LEVEL).encode(brick)
+            level = FLOAT_ZSTD_LEVEL_V3 if self.predict_version >= 3 else FLOAT_ZSTD_LEVEL
+            z = ZstdCodec(level=level).encode(brick)
             candidates.append(bytes([MODE_ZSTD]) + z)
         elif self.tools != "predict":
             candidates.append(self._wavelet_codec().encode(brick))
-        if is_float or self.tools != "wavelet":
+        if brick.dtype.name in FLOAT_DTYPES or (not is_float and self.tools != "wavelet"):
             candidates += _encode_predict(brick, self.predict_version)
+        if is_float and self.predict_version >= 3:
+            candidates += self._encode_float(brick)
         return min(candidates, key=len)
+
+    def _encode_float(self, brick: np.ndarray) -> list[bytes]:
+        """Mode-5 payloads of a float brick: Lorenzo, and the lattice when the values
+        sit on one (its integer fields coded by this codec as int32 bricks)."""
+        from . import floatpredict as fp
+
+        out = [bytes([MODE_FLOAT, 0]) + fp.encode_best_lorenzo(brick)]
+        for params, k, gap in fp.find_lattices(brick):
+            kp = self.encode(k)
+            out.append(
+                bytes([MODE_FLOAT, 1])
+                + pal.uleb(len(params))
+                + params.astype("<f8").tobytes()
+                + pal.uleb(len(kp))
+                + kp
+                + self.encode(gap)
+            )
+        return out
+
+    def _decode_float(self, body: memoryview, shape: tuple[int, ...], dtype: np.dtype) -> np.ndarray:
+        from . import floatpredict as fp
+
+        if len(body) < 1 or body[0] >= len(FLOAT_TOOLS):
+            raise FormatError("float brick payload: expected tool byte 0 or 1")
+        if body[0] == 0:
+            return fp.decode_lorenzo(body[1:], shape, dtype)
+        m, pos = pal.read_uleb(body, 1)
+        if m not in (1, shape[0]) or pos + 16 * m > len(body):
+            raise FormatError(
+                f"float lattice payload: expected 1 or {shape[0]} lattices within the payload, found {m}"
+            )
+        params = np.frombuffer(bytes(body[pos : pos + 16 * m]), dtype="<f8").reshape(m, 2)
+        n, pos = pal.read_uleb(body, pos + 16 * m)
+        if pos + n > len(body):
+            raise FormatError("float lattice payload: its k field runs past the payload")
+        k = self.decode(body[pos : pos + n], shape, np.int32)
+        gap = self.decode(body[pos + n :], shape, np.int32)
+        return fp.apply_lattice(params.astype(np.float64), k, gap, dtype)
 
     def decode(self, data: bytes | memoryview, shape: tuple[int, ...], dtype: Any) -> np.ndarray:
         dtype = np.dtype(dtype)
         check_dtype(dtype)
         mode, body = split_mode(data, "lossless")
-        if mode == MODE_PREDICT:
+        if mode == MODE_FLOAT and dtype.kind == "f":
+            return self._decode_float(body, tuple(shape), dtype)
+        if mode == MODE_PREDICT and dtype.name != "float64":
             return _decode_predict(body, tuple(shape), dtype)
         if dtype.kind != "f":
             if mode > MODE_ZSTD:
@@ -146,14 +199,14 @@ class LosslessCodec(BrickCodec):
             return np.full(shape, _from_stored(body, (1,), dtype)[0], dtype=dtype)
         if mode == MODE_ZSTD:
             return ZstdCodec(level=FLOAT_ZSTD_LEVEL).decode(body, shape, dtype)
-        raise FormatError(f"lossless float brick payload: expected mode 1 to 4, found {mode}")
+        raise FormatError(f"lossless float brick payload: expected mode 1 to 5, found {mode}")
 
 
 def check_dtype(dtype: np.dtype) -> None:
     name = np.dtype(dtype).name
-    if name not in WAVELET_DTYPES and name not in FLOAT_DTYPES:
+    if name not in WAVELET_DTYPES and name not in EXACT_FLOATS:
         raise FormatError(
-            f"the lossless codec takes {', '.join(WAVELET_DTYPES + FLOAT_DTYPES)} voxels, "
+            f"the lossless codec takes {', '.join(WAVELET_DTYPES + EXACT_FLOATS)} voxels, "
             f"found {np.dtype(dtype)}; use codec='zstd' for this dtype"
         )
 
@@ -169,6 +222,9 @@ def describe(payload: bytes) -> str:
         name = "predict2" if payload[1] & FLAG_FIT else "predict"
         name += "+palette" if payload[1] & FLAG_PALETTE else ""
         return name + ("+mask" if payload[1] & FLAG_MASK else "")
+    if mode == MODE_FLOAT and len(payload) > 1:
+        tool = FLOAT_TOOLS[payload[1]] if payload[1] < len(FLOAT_TOOLS) else payload[1]
+        return f"float-{tool}"
     return {0: "wavelet", 1: "raw", 2: "constant", 3: "zstd"}.get(mode, f"mode {mode}")
 
 

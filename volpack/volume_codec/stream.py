@@ -46,12 +46,12 @@ LOSSY_KEYS = ("max_error", "rel_error", "psnr", "ratio", "quality", "threshold")
 
 def make_codec(codec: str = "auto", dtype: Any = None, **options: Any):
     """Choose the brick codec: ``auto`` takes the lossless codec (per brick the wavelet,
-    3-D prediction, labels or split floats) for the 8/16/32-bit integers and 16/32-bit
-    floats it codes exactly, and byte-shuffled zstd for the rest (64-bit values)."""
-    from .floatbits import FLOAT_DTYPES
+    3-D prediction, labels or float prediction) for the 8/16/32-bit integers and
+    floats it codes exactly, and byte-shuffled zstd for the rest (64-bit integers)."""
+    from .lossless import EXACT_FLOATS
 
     if codec == "auto":
-        known = dtype is None or np.dtype(dtype).name in WAVELET_DTYPES + FLOAT_DTYPES
+        known = dtype is None or np.dtype(dtype).name in WAVELET_DTYPES + EXACT_FLOATS
         codec = "lossless" if known else "zstd"
     if codec in ("lossless", "wavelet"):
         from .floatwave import FLOAT_WAVELETS
@@ -124,16 +124,16 @@ def compress(
         standard output, or an open binary file.
     codec : {"auto", "lossless", "fast", "wavelet", "zstd"}
         ``auto``: the ``lossless`` codec (per brick the wavelet, 3-D prediction, labels
-        or split floats) for 8/16/32-bit integers and 16/32-bit floats, zstd for the rest.
+        or float prediction) for 8/16/32-bit integers and floats, zstd for 64-bit integers.
         ``fast``: lossless, decoding several times faster at a lower ratio
         (:class:`volpack.volume_codec.fast.FastCodec`).
     wavelet, coder, order, max_levels
         Wavelet codec settings (see :class:`volpack.volume_codec.codec.WaveletCodec`).
     tools : {"auto", "wavelet", "predict"}, optional
         The lossless codec's tools (:class:`volpack.volume_codec.lossless.LosslessCodec`).
-    predict_version : {1, 2}, optional
-        The lossless codec's predictive stream: 2 (the default) or 1 (as files written
-        before version 2, byte for byte).
+    predict_version : {1, 2, 3}, optional
+        The lossless codec's predictive stream: 3 (the default: as 2, and floats by
+        Lorenzo or lattice prediction), 2 or 1 (as files written before, byte for byte).
     runs : bool, optional
         The fast codec's run mode: on (the default) or off (as files written before it,
         byte for byte).

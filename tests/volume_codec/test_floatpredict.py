@@ -1,0 +1,347 @@
+"""Lossless float prediction (mode 5 of the lossless codec): the signed ordered map and
+the Lorenzo residuals against the naive references, bit-exact round trips of special
+values in 16, 32 and 64 bits, the lattice tool, the per-brick choice, golden streams and
+corrupt payloads."""
+
+from __future__ import annotations
+
+from collections import Counter
+from pathlib import Path
+
+import naive
+import numpy as np
+import pytest
+
+from volpack import api
+from volpack.errors import FormatError
+from volpack.format.container import Reader
+from volpack.volume_codec import floatpredict as fp
+from volpack.volume_codec.lossless import MODE_FLOAT, MODE_ZSTD, LosslessCodec, describe
+
+GOLDEN = Path(__file__).resolve().parents[2] / "formats" / "examples"
+DTYPES = [np.float16, np.float32, np.float64]
+
+
+def same_bits(a, b):
+    return (
+        a.dtype == b.dtype
+        and a.shape == b.shape
+        and np.array_equal(a.view(f"u{a.itemsize}"), b.view(f"u{b.itemsize}"))
+    )
+
+
+def field(shape=(9, 10, 11), dtype=np.float32, seed=0):
+    rng = np.random.default_rng(seed)
+    z, y, x = np.indices(shape)
+    f = np.sin(x * 0.1031 + z * 0.0537 + 0.3) * np.cos(y * 0.0713 - z * 0.0291) * 50
+    f += rng.normal(0, 1e-4, shape)
+    return f.astype(dtype)
+
+
+def specials(dtype, shape=(9, 10, 11)):
+    """A smooth field holding every kind of special value, and NaN payloads."""
+    f = field(shape, dtype)
+    flat = f.reshape(-1)
+    info = np.finfo(dtype)
+    flat[:9] = [
+        np.nan,
+        -np.nan,
+        np.inf,
+        -np.inf,
+        -0.0,
+        0.0,
+        info.smallest_subnormal,
+        -info.smallest_subnormal,
+        -info.tiny,
+    ]
+    bits = flat.view(f"u{f.itemsize}")
+    bits[9] = bits[0] | 1  # NaN payloads, quiet and signalling, either sign
+    bits[10] = bits[1] | 0x5
+    bits[11] = (bits[0] ^ (1 << (bits.dtype.itemsize * 8 - 2))) | 3
+    flat[12], flat[13] = info.max, -info.max
+    flat[30:40] = -0.0
+    return f
+
+
+@pytest.mark.parametrize("dtype", DTYPES)
+def test_signed_image_matches_naive_and_inverts(dtype):
+    a = specials(dtype)
+    s = fp.to_signed(a)
+    np.testing.assert_array_equal(s, naive.float_signed_image(a))
+    assert same_bits(fp.from_signed(s, dtype), a)
+    finite = np.array(
+        [-np.inf, -1.0, -0.0, 0.0, np.finfo(dtype).smallest_subnormal, 1.0, np.inf], dtype
+    )
+    assert (np.diff(fp.to_signed(finite)) > 0).all()  # orders like the floats
+
+
+@pytest.mark.parametrize("dtype", DTYPES)
+@pytest.mark.parametrize("predictor", fp.PREDICTORS)
+def test_lorenzo_residuals_match_naive(dtype, predictor):
+    if predictor not in fp.usable(dtype):
+        pytest.skip("float16 takes the integer predictors only")
+    a = specials(dtype, (5, 6, 7))
+    s = fp.to_signed(a).reshape(-1)
+    el, rs, state = fp._workspace(s.size)
+    si, sf = fp._scratch(a.dtype)
+    out = np.empty(s.size * 32 + 1024, dtype=np.uint8)
+    n = fp._encode_kernel(
+        s,
+        a.astype(np.float64).reshape(-1),
+        si,
+        sf,
+        np.array(a.shape, np.int64),
+        np.int64(8 * a.itemsize),
+        np.int64(predictor),
+        out,
+        el,
+        rs,
+        state,
+    )
+    assert n > 0
+    want = naive.float_lorenzo_residuals(
+        a, in_slice=predictor in (fp.LORENZO2, fp.LORENZO2F), in_floats=predictor >= fp.LORENZO3F
+    )
+    np.testing.assert_array_equal(rs.reshape(a.shape), want)
+
+
+@pytest.mark.parametrize("dtype", DTYPES)
+@pytest.mark.parametrize(
+    "shape", [(1, 1, 1), (1, 1, 9), (1, 7, 1), (4, 1, 1), (3, 5, 6), (9, 10, 11)]
+)
+def test_lorenzo_roundtrip_every_shape(dtype, shape):
+    a = specials(dtype, (9, 10, 11))[: shape[0], : shape[1], : shape[2]].copy()
+    for predictor in fp.usable(dtype):
+        assert same_bits(fp.decode_lorenzo(fp.encode_lorenzo(a, predictor), a.shape, a.dtype), a)
+
+
+@pytest.mark.parametrize("dtype", DTYPES)
+def test_extreme_jumps_wrap_exactly(dtype):
+    """Neighbours at opposite ends of the bit patterns: residuals wrap and come back."""
+    info = np.finfo(dtype)
+    rng = np.random.default_rng(3)
+    pool = np.array(
+        [np.nan, -np.nan, np.inf, -np.inf, info.max, -info.max, 0.0, -0.0, 1.0, -1.0], dtype
+    )
+    a = rng.choice(pool, (6, 7, 8))
+    bits = a.view(f"u{a.itemsize}")
+    bits[rng.random(a.shape) < 0.1] = np.iinfo(bits.dtype).max  # the NaN of all ones
+    for predictor in fp.usable(dtype):
+        assert same_bits(fp.decode_lorenzo(fp.encode_lorenzo(a, predictor), a.shape, a.dtype), a)
+    codec = LosslessCodec()
+    assert same_bits(codec.decode(codec.encode(a), a.shape, a.dtype), a)
+
+
+@pytest.mark.parametrize("dtype", DTYPES)
+def test_codec_roundtrip_specials_constant_and_noise(dtype):
+    codec = LosslessCodec()
+    cases = [specials(dtype), np.full((8, 8, 8), -0.0, dtype), np.full((4, 5, 6), np.nan, dtype)]
+    rng = np.random.default_rng(7)
+    noise = rng.integers(0, 256, (16, 16, 16 * np.dtype(dtype).itemsize), dtype=np.uint8)
+    cases.append(noise.view(dtype))  # random bits: NaNs of every payload, denormals
+    for a in cases:
+        payload = codec.encode(a)
+        assert same_bits(codec.decode(payload, a.shape, a.dtype), a)
+    # noise: no longer than raw plus the mode byte, and no longer than shuffled zstd
+    assert len(payload) <= noise.nbytes + 1
+    z = bytes([MODE_ZSTD]) + __import__(
+        "volpack.volume_codec.codec", fromlist=["ZstdCodec"]
+    ).ZstdCodec(level=19).encode(noise.view(dtype))
+    assert len(payload) <= len(z)
+
+
+def test_float64_volumes_take_the_lossless_codec():
+    z, y, x = np.indices((20, 20, 20))
+    a = np.sin(x * 0.1031 + z * 0.0537 + 0.3) * np.cos(y * 0.0713 - z * 0.0291) * 50  # smooth
+    a.reshape(-1)[:3] = (np.nan, -0.0, 5e-324)
+    blob = api.compress_array(a, brick=10)
+    back = api.decompress_array(blob)
+    assert same_bits(back, a)
+    with Reader(blob) as r:
+        assert r.header["codec"]["id"] == "lossless"
+        tools = r.summary.get("tools", {})
+    assert any(t.startswith("float-") for t in tools), tools
+    assert len(blob) < 0.95 * len(api.compress_array(a, brick=10, codec="zstd"))
+
+
+def test_smooth_field_beats_every_earlier_tool():
+    a = field((32, 32, 32), np.float32)
+    v3 = LosslessCodec().encode(a)
+    v2 = LosslessCodec(predict_version=2).encode(a)
+    assert describe(v3) == "float-lorenzo" and len(v3) < 0.97 * len(v2)
+
+
+# --- lattice ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])  # float16 cannot hold tenths of 5000
+def test_lattice_found_and_exact(dtype):
+    rng = np.random.default_rng(4)
+    k = np.cumsum(rng.integers(-40, 41, (12, 13, 14)), axis=2) + 48000
+    a = (k * 0.1).astype(dtype)
+    found = fp.find_lattices(a)
+    assert len(found) == 2  # one lattice, and one per slice
+    assert np.allclose(found[0][0][:, 1], 0.1, rtol=0, atol=1e-9)
+    for params, kk, gap in found:
+        assert same_bits(fp.apply_lattice(params, kk, gap, dtype), a)
+        assert np.count_nonzero(gap) == 0
+    payload = LosslessCodec().encode(a)
+    assert same_bits(LosslessCodec().decode(payload, a.shape, a.dtype), a)
+    assert describe(payload) == "float-lattice"
+
+
+def test_lattice_off_by_an_ulp_keeps_the_gap():
+    a = (np.arange(4 * 5 * 6).reshape(4, 5, 6) * 0.25 + 3.0).astype(np.float32)
+    bits = a.reshape(-1).view(np.uint32)
+    bits[::7] += 1  # every seventh value one ulp off its lattice point
+    params, k, gap = fp.find_lattices(a)[0]
+    assert set(np.unique(gap)) <= {0, 1} and np.count_nonzero(gap) == bits[::7].size
+    assert same_bits(fp.apply_lattice(params, k, gap, np.float32), a)
+
+
+def test_lattice_per_slice():
+    """GRIB-like packing: each level has its own reference value and binary scale."""
+    rng = np.random.default_rng(6)
+    k = np.cumsum(rng.integers(-9, 10, (5, 12, 40)), axis=2) + 3000
+    ref = rng.uniform(200, 250, (5, 1, 1))
+    scale = 2.0 ** rng.integers(-10, -6, (5, 1, 1))
+    a = (ref + scale * k).astype(np.float32)
+    found = fp.find_lattices(a)
+    params, kk, gap = found[-1]
+    assert params.shape == (5, 2) and np.count_nonzero(gap) == 0
+    assert same_bits(fp.apply_lattice(params, kk, gap, np.float32), a)
+    payload = LosslessCodec().encode(a)
+    assert describe(payload) == "float-lattice" and payload[2] == 5  # five lattices
+    assert same_bits(LosslessCodec().decode(payload, a.shape, a.dtype), a)
+    assert len(payload) < 0.7 * len(bytes([MODE_FLOAT, 0]) + fp.encode_best_lorenzo(a))
+
+
+def test_no_lattice_for_noise_or_non_finite():
+    rng = np.random.default_rng(1)
+    assert fp.find_lattices(rng.normal(size=(8, 8, 8)).astype(np.float32)) == []
+    a = (np.arange(512).reshape(8, 8, 8) * 0.5).astype(np.float32)
+    a[0, 0, 0] = np.nan
+    assert fp.find_lattices(a) == []
+
+
+# --- per-brick choice, info, versions -----------------------------------------------------
+
+
+def test_auto_keeps_the_shortest_float_tool_per_brick():
+    rng = np.random.default_rng(2)
+    a = np.empty((16, 16, 32), np.float32)
+    a[:, :, :16] = field((16, 16, 16))
+    a[:, :, 16:] = (np.cumsum(rng.integers(-3, 4, (16, 16, 16)), axis=0) * 0.1 + 500).astype(
+        np.float32
+    )
+    blob = api.compress_array(a, brick=16)
+    assert same_bits(api.decompress_array(blob), a)
+    with Reader(blob) as r:
+        tools = Counter(describe(p) for _, _, p in r)
+    assert tools == {"float-lorenzo": 1, "float-lattice": 1}
+
+
+def test_version_two_writes_no_float_prediction():
+    a = field((16, 16, 16))
+    for version in (1, 2):
+        assert LosslessCodec(predict_version=version).encode(a)[0] != MODE_FLOAT
+    assert LosslessCodec().get_config()["predict_version"] == 3
+
+
+# --- golden streams ----------------------------------------------------------------------
+
+# The recipes of scripts/make_examples.py, written out again on purpose.
+GOLDEN_CASES = [
+    ("lossless-v3-f32-special", "f32-special", {"float-lattice", "predict+palette"}),
+    ("lossless-v3-f32-smooth", "f32-smooth", {"float-lorenzo"}),
+    ("lossless-v3-f64-smooth", "f64-smooth", {"float-lorenzo"}),
+    ("lossless-v3-f32-lattice", "f32-lattice", {"float-lattice"}),
+    ("lossless-v3-f32-packed", "f32-packed", {"float-lattice"}),
+]
+
+
+def golden_source(recipe):
+    from volpack.demo import load_demo_volume
+
+    cut = load_demo_volume().data[30:50, 40:64, 40:68]
+    if recipe in ("f32-smooth", "f64-smooth"):
+        z, y, x = np.indices((20, 24, 28))
+        f = np.sin(x * 0.21 + z * 0.05) * np.cos(y * 0.17) * 80.0 + z * 0.3
+        f = f.astype(np.float32 if recipe == "f32-smooth" else np.float64)
+        f[3, 4, 5:7] = (np.nan, -0.0)
+        f[9, 9, 9] = 5e-324 if recipe == "f64-smooth" else 1e-42
+        return f
+    if recipe == "f32-packed":
+        c = cut.astype(np.float64)
+        k = np.cumsum(c - c.mean(), axis=2) * 5
+        z = np.arange(c.shape[0]).reshape(-1, 1, 1)
+        return (230.0 + 0.37 * z + 2.0 ** -(7 + z % 3) * np.round(k)).astype(np.float32)
+    if recipe == "f32-lattice":
+        c = cut.astype(np.float64)
+        return (np.round(np.cumsum(c - c.mean(), axis=2) * 3 + 50000.0) * 0.1).astype(np.float32)
+    f = cut.astype(np.float32) / 3
+    f[2, 3:6, 4] = np.nan
+    f[5, 5, 5] = -np.inf
+    f[6, 6, 6] = np.inf
+    f[7, 7, 7:9] = -0.0
+    f[8, 8, 8] = np.float32(1e-42)
+    return f
+
+
+@pytest.mark.parametrize("stem,recipe,tools", GOLDEN_CASES, ids=[c[0] for c in GOLDEN_CASES])
+def test_golden_float_prediction_stream(stem, recipe, tools):
+    blob = (GOLDEN / f"{stem}.vpk").read_bytes()
+    want = golden_source(recipe)
+    assert same_bits(api.decompress(blob).data, want)
+    again = api.compress_array(want, brick=16)
+    with Reader(blob) as old, Reader(again) as new:
+        assert old.header == new.header
+        assert [(t, n, p) for t, n, p in old] == [(t, n, p) for t, n, p in new]
+        assert {describe(p) for _, _, p in old} == tools
+
+
+# --- corrupt payloads --------------------------------------------------------------------
+
+
+def test_corrupt_float_payloads_raise_format_error():
+    codec = LosslessCodec()
+    a = field((6, 7, 8))
+    lor = bytes([MODE_FLOAT, 0]) + fp.encode_lorenzo(a)
+    walk = np.cumsum(np.random.default_rng(8).integers(-30, 31, (6, 7, 8)), axis=2)
+    lat_a = (walk * 0.1 + 7).astype(np.float32)
+    lat = codec.encode(lat_a)
+    assert describe(lat) == "float-lattice"
+    bad = [
+        bytes([MODE_FLOAT]),  # no tool byte
+        bytes([MODE_FLOAT, 2]) + lor[2:],  # unknown tool
+        bytes([MODE_FLOAT, 0, 7]) + lor[3:],  # unknown predictor
+        bytes([MODE_FLOAT, 0]),  # no predictor byte
+        lor[:3],  # no stream
+        lor[: len(lor) // 2],  # cut short
+        lor + b"\x00\x00",  # does not end where it says
+        lat[:10],  # inside offset and step
+        lat[:2] + bytes([3]) + lat[3:],  # neither one lattice nor one per slice
+        lat[:19] + b"\xff\xff\x03",  # k field longer than the payload
+        lat[: len(lat) - 3],  # gap field cut short
+    ]
+    for data in bad:
+        with pytest.raises(FormatError):
+            codec.decode(data, a.shape, a.dtype)
+    with pytest.raises(FormatError):  # mode 5 means nothing for integers
+        codec.decode(lor, a.shape, np.int16)
+
+
+def test_bit_flips_raise_or_decode():
+    codec = LosslessCodec()
+    rng = np.random.default_rng(5)
+    for a in (specials(np.float32, (6, 7, 8)), specials(np.float64, (6, 7, 8))):
+        good = bytes([MODE_FLOAT, 0]) + fp.encode_lorenzo(a)
+        for _ in range(40):
+            data = bytearray(good)
+            i = int(rng.integers(0, len(data)))
+            data[i] ^= 1 << int(rng.integers(0, 8))
+            try:
+                out = codec.decode(bytes(data), a.shape, a.dtype)
+            except FormatError:
+                continue
+            assert out.shape == a.shape and out.dtype == a.dtype
