@@ -224,6 +224,18 @@ def test_no_lattice_for_noise_or_non_finite():
     assert fp.find_lattices(a) == []
 
 
+def test_no_lattice_as_fine_as_the_floats_themselves():
+    """A smooth field in one binade sits on the float spacing itself: k would span as
+    many values as the signed images do, so no lattice is offered (coding its two integer
+    fields with every integer tool cost most of the encoder's time for nothing)."""
+    rng = np.random.default_rng(3)
+    a = (1.5 + 0.4 * np.cumsum(rng.normal(size=(6, 20, 24)), axis=2) / 60).astype(np.float32)
+    assert 1.0 <= a.min() and a.max() < 2.0  # one binade: its ulps form a lattice
+    assert fp.find_lattices(a) == []
+    k = a.astype(np.float64) * 2.0**23
+    assert np.array_equal(k, np.rint(k))  # ... which the old rule would have taken
+
+
 # --- per-brick choice, info, versions -----------------------------------------------------
 
 

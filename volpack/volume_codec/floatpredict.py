@@ -63,6 +63,11 @@ M_MANT = M_SIGN + 3
 N_FMODELS = M_MANT + 65 * 4
 # Lattice tool: at most this share of voxels off the lattice, else not tried.
 LATTICE_MAX_MISS = 0.5
+# ... and only when k spans fewer values than the float's significand holds and at
+# least 2^3 times fewer than the brick's signed images: a lattice of finer steps (the
+# spacing of the floats themselves) codes no shorter than Lorenzo, and coding its two
+# integer fields with every integer tool costs most of the encoder's time.
+LATTICE_MIN_SAVING = 3
 
 
 # ---------------------------------------------------------------------------------------
@@ -404,7 +409,7 @@ def find_lattices(brick: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, np.nd
         got = _lattice_k(brick, np.array([[off, step]]))
         if got is not None and (best is None or got[0] < best[0][0]):
             best = (got, np.array([[off, step]]))
-    if best is not None and best[0][0] <= limit:
+    if best is not None and best[0][0] <= limit and _narrow(brick, best[0][1]):
         found.append((best[1], best[0][1], best[0][2]))
     if brick.shape[0] > 1:
         rows = []
@@ -417,9 +422,19 @@ def find_lattices(brick: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, np.nd
             rows.append(min(scored)[2])
         params = np.array(rows)
         got = _lattice_k(brick, params)
-        if got is not None and got[0] <= limit:
+        if got is not None and got[0] <= limit and _narrow(brick, got[1]):
             found.append((params, got[1], got[2]))
     return found
+
+
+def _narrow(brick: np.ndarray, k: np.ndarray) -> bool:
+    """Whether ``k`` spans few enough values to be worth a lattice (see
+    ``LATTICE_MIN_SAVING``)."""
+    kspan = int(k.max()) - int(k.min()) + 1
+    s = to_signed(brick)
+    sspan = int(s.max()) - int(s.min()) + 1
+    significand = np.finfo(brick.dtype).nmant + 1
+    return kspan <= (1 << significand) and kspan << LATTICE_MIN_SAVING <= sspan
 
 
 def apply_lattice(
