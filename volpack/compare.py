@@ -32,7 +32,7 @@ def compare(vol: Volume | np.ndarray, **options: Any) -> dict[str, Any]:
     t0 = time.perf_counter()
     back = api.decompress(blob, workers=options.get("workers", 1))
     dec = time.perf_counter() - t0
-    valid = None if vol.mask is None else ~vol.mask
+    left_out = vol.mask  # metrics leave out the voxels a mask marks True
     a, b = vol.data, back.data
     if a.dtype.kind == "f":  # NaN/Inf come back exactly; the error is over finite voxels
         finite = np.isfinite(a)
@@ -40,8 +40,8 @@ def compare(vol: Volume | np.ndarray, **options: Any) -> dict[str, Any]:
             a[~finite], b[~finite], equal_nan=True
         ):
             raise AssertionError("the decoder did not give back the NaN/Inf voxels exactly")
-        valid = finite if valid is None else valid & finite
-    m = metrics.summary(a, b, len(blob), mask=valid)
+        left_out = ~finite if left_out is None else left_out | ~finite
+    m = metrics.summary(a, b, len(blob), mask=left_out)
     return {
         "shape": list(vol.shape),
         "dtype": vol.dtype.name,

@@ -350,6 +350,22 @@ def test_compare_reports_what_a_compress_and_decompress_measure(tmp_path):
     assert "0 (lossless)" in text and "ratio" in text and "decode" in text
 
 
+def test_compare_measures_float_errors_over_the_finite_voxels(tmp_path):
+    a = (smooth_volume((20, 24, 28), np.int16, noise=8.0) / 7.0).astype(np.float32)
+    a[2, 3, 4], a[5, 6, 7] = np.nan, np.inf
+    np.save(tmp_path / "a.npy", a)
+    r = json.loads(run("compare", tmp_path / "a.npy", "--max-error", "0.5", "--json").stdout)
+    run("compress", tmp_path / "a.npy", tmp_path / "a.vpk", "--max-error", "0.5")
+    run("decompress", tmp_path / "a.vpk", tmp_path / "b.npy")
+    b = np.load(tmp_path / "b.npy").astype(np.float64)
+    ok = np.isfinite(a)
+    d = b[ok] - a[ok].astype(np.float64)
+    assert 0 < r["max_error"] == pytest.approx(np.abs(d).max()) and r["max_error"] <= 0.5
+    peak = float(a[ok].max() - a[ok].min())
+    assert r["psnr"] == pytest.approx(10 * np.log10(peak**2 / (d**2).mean()))
+    assert not r["lossless"]
+
+
 def test_messages_name_flags_only(tmp_path):
     np.save(tmp_path / "a.npy", smooth_volume((6, 7, 8)))
     run("compress", tmp_path / "a.npy", tmp_path / "a.vpk")
