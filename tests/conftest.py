@@ -41,3 +41,9 @@ def smooth_volume(shape, dtype=np.int16, seed=0, noise=3.0) -> np.ndarray:
     f = f + r.normal(0, noise, shape)
     info = np.iinfo(dtype)
     return np.clip(np.rint(f), info.min, info.max).astype(dtype)
+
+
+def slow_case(value):
+    """A parametrize value run in the slow set only: for cases that compile kernel
+    variants of their own (another dtype), so the fast set keeps one of each kind."""
+    return pytest.param(value, marks=pytest.mark.slow)

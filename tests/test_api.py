@@ -139,6 +139,7 @@ def test_spacing_origin_and_meta_travel_with_the_data():
     )
 
 
+@pytest.mark.slow  # 10 CPU s coding a whole MRI
 def test_lossless_beats_raw_on_a_real_mri(brain):
     for coder in CODER_NAMES:
         blob = roundtrip(brain, coder=coder)

@@ -254,6 +254,7 @@ def die_once(task):
     return batch.convert_one(task)
 
 
+@pytest.mark.slow  # a Dask cluster and a killed worker process
 def test_dask_worker_killed_mid_task_is_retried(tree, tmp_path):
     need("distributed", "dask")
     from distributed import Client, LocalCluster

@@ -8,6 +8,7 @@ import json
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from conftest import slow_case
 
 from volpack.cli import main
 from volpack.demo import load_demo_volume
@@ -30,7 +31,7 @@ def tf_of(vol):
     return load_tf("auto", float(vol.min()), float(vol.max()), dtype=vol.dtype)
 
 
-@pytest.mark.parametrize("grads", [False, True])
+@pytest.mark.parametrize("grads", [slow_case(False), True])  # without gradient bricks: slow set
 @pytest.mark.parametrize("cls", ["post", "preintegrated"])
 def test_full_resolution_selection_renders_exactly_like_the_volume(tree_path, cls, grads):
     path, vol = tree_path
@@ -147,9 +148,27 @@ def test_render_and_walk_commands(tree_path, tmp_path):
     assert rep["lod"][0]["voxels"] <= 32 * 8**3
     with Image.open(tmp_path / "a.png") as im:
         assert im.size == (48, 40)
-    r = run(main, ["walk", str(path), str(tmp_path / "w.gif"), "--orbit", "3", "--budget", "16",
-                   "--size", "32x32", "--compare", "--json", "--perspective",
-                   "--distance", "30", "--tf", "mri"])  # fmt: skip (the PSNR bound is for mri)
+    r = run(
+        main,
+        [
+            "walk",
+            str(path),
+            str(tmp_path / "w.gif"),
+            "--orbit",
+            "3",
+            "--budget",
+            "16",
+            "--size",
+            "32x32",
+            "--compare",
+            "--json",
+            "--perspective",
+            "--distance",
+            "30",
+            "--tf",
+            "mri",
+        ],
+    )  # fmt: skip (the PSNR bound is for mri)
     assert r.exit_code == 0, r.output
     rep = json.loads(r.stdout)
     assert rep["frames"] == 3 and all(f["voxels"] <= 16 * 8**3 for f in rep["per_frame"])
@@ -160,7 +179,7 @@ def test_render_and_walk_commands(tree_path, tmp_path):
     assert r.exit_code != 0 and "octree" in r.output
 
 
-@pytest.mark.parametrize("kind", ["uint16 full range", "one voxel thick"])
+@pytest.mark.parametrize("kind", [slow_case("uint16 full range"), "one voxel thick"])
 def test_gradient_bricks_match_the_plain_volume_on_16_bit_and_thin_volumes(tmp_path, kind):
     # full-range uint16 needs float32 gradient bricks (differences pass int16); a volume
     # one voxel thick has nodes that are all border; anisotropic spacing, a camera

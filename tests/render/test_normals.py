@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 import pytest
+from conftest import slow_case
 from naive import render_unit_gradient
 from test_render_fast import field, semi
 
@@ -60,7 +61,9 @@ def test_light_table():
 
 
 @pytest.mark.parametrize("cls", ["post", "preintegrated"])
-@pytest.mark.parametrize("dtype", ["uint8", "uint16", "float32"])
+@pytest.mark.parametrize(
+    "dtype", ["uint8", slow_case("uint16"), slow_case("float32")]
+)  # own kernels
 def test_quantised_images_stay_close_to_exact_normals(cls, dtype):
     f = field((30, 34, 32))
     vol = f.astype(np.float32) if dtype == "float32" else np.round(
@@ -111,7 +114,7 @@ def test_codes_are_bounded_and_built_for_what_the_tf_shows():
     assert nc.codes.dtype == np.uint16 and nc.codes.nbytes == vol.size * 2
     # only the chunks around the visible corner (its 16^3 and the next along each axis)
     assert 1 <= nc.done.sum() <= 8 < nc.done.size
-    assert not nc.codes[CHUNK * 2:].any()
+    assert not nc.codes[CHUNK * 2 :].any()
     assert np.array_equal(render(p, **kw), one)  # kept across frames
     # over the budget: no codes, gradients (here on the fly too: 6 bytes a voxel)
     q = prepare_volume(vol, gradient_budget=vol.size * 2 - 1)
