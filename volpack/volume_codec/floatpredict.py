@@ -46,6 +46,7 @@ from ..entropy.rangecoder import get_bits as _get_bits
 from ..entropy.rangecoder import put as _put
 from ..entropy.rangecoder import put_bits as _put_bits
 from ..errors import FormatError
+from .floatbits import from_signed, to_signed
 from .predict import bitlen
 
 # The predictors a Lorenzo stream may name: on the integer images, or on the values in
@@ -68,25 +69,6 @@ LATTICE_MAX_MISS = 0.5
 # spacing of the floats themselves) codes no shorter than Lorenzo, and coding its two
 # integer fields with every integer tool costs most of the encoder's time.
 LATTICE_MIN_SAVING = 3
-
-
-# ---------------------------------------------------------------------------------------
-# The signed ordered image
-
-
-def to_signed(a: np.ndarray) -> np.ndarray:
-    """Float array -> int64 array of the signed ordered images of its bit patterns."""
-    b = 8 * a.dtype.itemsize
-    i = np.ascontiguousarray(a).view(f"i{a.dtype.itemsize}").astype(np.int64)
-    return np.where(i < 0, i ^ np.int64((1 << (b - 1)) - 1), i)
-
-
-def from_signed(s: np.ndarray, dtype: np.dtype) -> np.ndarray:
-    """The inverse of :func:`to_signed` (``s`` in the signed range of the float's width)."""
-    dtype = np.dtype(dtype)
-    b = 8 * dtype.itemsize
-    i = np.where(s < 0, s ^ np.int64((1 << (b - 1)) - 1), s)
-    return i.astype(f"i{dtype.itemsize}").view(dtype)
 
 
 # ---------------------------------------------------------------------------------------
