@@ -47,3 +47,15 @@ def slow_case(value):
     """A parametrize value run in the slow set only: for cases that compile kernel
     variants of their own (another dtype), so the fast set keeps one of each kind."""
     return pytest.param(value, marks=pytest.mark.slow)
+
+
+def float_specials(cut: np.ndarray) -> np.ndarray:
+    """The golden streams' float32 recipe (as ``scripts/make_examples.py`` writes it): a
+    cut of the bundled MRI over 3, with NaN, +-Inf, -0.0 and a denormal in place."""
+    f = cut.astype(np.float32) / 3
+    f[2, 3:6, 4] = np.nan
+    f[5, 5, 5] = -np.inf
+    f[6, 6, 6] = np.inf
+    f[7, 7, 7:9] = -0.0
+    f[8, 8, 8] = np.float32(1e-42)
+    return f

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import float_specials
 
 from volpack import api
 from volpack.entropy import rans
@@ -308,13 +309,7 @@ def golden_source(recipe):
         return np.where(cut < 60, 0, cut).astype(np.uint8)
     if recipe == "i16":
         return cut.astype(np.int16) * 37 - 3000
-    f = cut.astype(np.float32) / 3  # f32-special
-    f[2, 3:6, 4] = np.nan
-    f[5, 5, 5] = -np.inf
-    f[6, 6, 6] = np.inf
-    f[7, 7, 7:9] = -0.0
-    f[8, 8, 8] = np.float32(1e-42)
-    return f
+    return float_specials(cut)
 
 
 @pytest.mark.parametrize("stem,recipe,opts", CASES, ids=[c[0] for c in CASES])

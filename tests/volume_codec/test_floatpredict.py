@@ -11,6 +11,7 @@ from pathlib import Path
 import naive
 import numpy as np
 import pytest
+from conftest import float_specials
 
 from volpack import api
 from volpack.errors import FormatError
@@ -291,13 +292,7 @@ def golden_source(recipe):
     if recipe == "f32-lattice":
         c = cut.astype(np.float64)
         return (np.round(np.cumsum(c - c.mean(), axis=2) * 3 + 50000.0) * 0.1).astype(np.float32)
-    f = cut.astype(np.float32) / 3
-    f[2, 3:6, 4] = np.nan
-    f[5, 5, 5] = -np.inf
-    f[6, 6, 6] = np.inf
-    f[7, 7, 7:9] = -0.0
-    f[8, 8, 8] = np.float32(1e-42)
-    return f
+    return float_specials(cut)
 
 
 @pytest.mark.parametrize("stem,recipe,tools", GOLDEN_CASES, ids=[c[0] for c in GOLDEN_CASES])

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import float_specials
 
 from volpack import api
 from volpack.errors import FormatError
@@ -287,13 +288,7 @@ def golden_source(recipe):
         cut = cut.copy()
         cut[cut < 60] = 0
         return cut
-    f = cut.astype(np.float32) / 3
-    f[2, 3:6, 4] = np.nan
-    f[5, 5, 5] = -np.inf
-    f[6, 6, 6] = np.inf
-    f[7, 7, 7:9] = -0.0
-    f[8, 8, 8] = np.float32(1e-42)
-    return f
+    return float_specials(cut)
 
 
 @pytest.mark.parametrize("stem,recipe,opts", CASES, ids=[c[0] for c in CASES])
