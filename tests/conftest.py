@@ -59,3 +59,19 @@ def float_specials(cut: np.ndarray) -> np.ndarray:
     f[7, 7, 7:9] = -0.0
     f[8, 8, 8] = np.float32(1e-42)
     return f
+
+
+def flip_bits(codec, good: bytes, a: np.ndarray, rng: np.random.Generator, count: int) -> None:
+    """Flip one random bit of the brick payload ``good`` (of ``a``), ``count`` times: each
+    damaged payload must raise FormatError or decode to ``a``'s shape and dtype."""
+    from volpack.errors import FormatError
+
+    for _ in range(count):
+        data = bytearray(good)
+        i = int(rng.integers(0, len(data)))
+        data[i] ^= 1 << int(rng.integers(0, 8))
+        try:
+            out = codec.decode(bytes(data), a.shape, a.dtype)
+        except FormatError:
+            continue
+        assert out.shape == a.shape and out.dtype == a.dtype
