@@ -22,8 +22,8 @@ each named with its package in the table. Peers, as their authors run them:
 
 volpack rows: ``volpack`` (the default: the ``lossless`` codec, per brick the wavelet,
 3-D prediction, labels or floats split; 1 and 2 workers), ``volpack-wavelet`` (the
-wavelet codec alone, the previous default) and ``volpack-wavelet-huffman`` (its fast
-coder); floats: ``volpack`` and ``volpack-zstd`` (byte-shuffled zstd, the previous float
+wavelet codec alone, the previous default), ``volpack-wavelet-huffman`` (its fast
+coder), ``volpack-arith2`` and ``volpack-wavelet-arith2`` (both with the ``arith2`` coder); floats: ``volpack`` and ``volpack-zstd`` (byte-shuffled zstd, the previous float
 path). ``--grid`` adds every wavelet x coder of the wavelet codec.
 
     python scripts/fetch_data.py                       # once
@@ -79,10 +79,12 @@ JPEGXL_EFFORTS = (3, 7, 9)
 VOLPACK_ROWS_INT = (
     ("volpack-wavelet", {"codec": "wavelet"}),  # the wavelet codec alone (the old default)
     ("volpack-wavelet-huffman", {"codec": "wavelet", "coder": "huffman"}),
+    ("volpack-arith2", {"coder": "arith2"}),  # the default with the multi-symbol rANS coder
+    ("volpack-wavelet-arith2", {"codec": "wavelet", "coder": "arith2"}),
 )
 VOLPACK_ROWS_FLOAT = (("volpack-zstd", {"codec": "zstd"}),)
 GRID_WAVELETS = ("53", "26", "haar", "97m")
-GRID_CODERS = ("arith", "huffman", "rle")
+GRID_CODERS = ("arith", "arith2", "huffman", "rle")
 SPEED_DATASET = "ct_head"
 
 

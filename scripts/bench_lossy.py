@@ -19,6 +19,7 @@ Methods (skipped with a warning when their package is missing or the call fails)
 
 * ``volpack``          ``api.compress_array(a, max_error=E)`` / ``api.decompress_array(blob)``
 * ``volpack-huffman``  the same with ``coder="huffman"``
+* ``volpack-arith2``   the same with ``coder="arith2"`` (multi-symbol rANS, faster decode)
 * ``volpack-quality``  ``api.compress_array(a, quality=Q)``, Q in 255, 127, 63, 31, 15
 * ``zfp``              ``zfpy.compress_numpy(x, tolerance=E)`` / ``zfpy.decompress_numpy``
 * ``sz3``              pysz with SZ3's defaults: ``szConfig(shape)``, ``errorBoundMode =
@@ -111,9 +112,10 @@ INT_REL_BOUNDS = (1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2)
 FLOAT_REL_BOUNDS = (1e-2, 1e-3, 1e-4, 1e-5)
 QUALITIES = (255, 127, 63, 31, 15)
 PSNR_TARGETS = (40.0, 60.0, 80.0, 100.0)
-BOUND_METHODS = ["volpack", "volpack-huffman", "volpack-fast", "zfp", "sz3", "sz3-best", "sperr", "sperr-h5"]
+BOUND_METHODS = ["volpack", "volpack-huffman", "volpack-arith2", "volpack-fast", "zfp", "sz3", "sz3-best", "sperr", "sperr-h5"]
 ALL_METHODS = [*BOUND_METHODS, "volpack-quality", "tthresh"]
-DEFAULT_METHODS = [m for m in ALL_METHODS if m not in ("volpack-huffman", "volpack-fast")] + [
+OPT_IN = ("volpack-huffman", "volpack-arith2", "volpack-fast")
+DEFAULT_METHODS = [m for m in ALL_METHODS if m not in OPT_IN] + [
     "mgard"
 ]
 PEERS_TO_BEAT = ("sperr", "sz3", "sz3-best")  # the issue's goal: ratio >= 1.1 x their best
@@ -318,6 +320,7 @@ def build_methods(wanted: list[str]) -> tuple[list[Method], list[str]]:
     makers = {
         "volpack": lambda: _volpack_method("volpack"),
         "volpack-huffman": lambda: _volpack_method("volpack-huffman", coder="huffman"),
+        "volpack-arith2": lambda: _volpack_method("volpack-arith2", coder="arith2"),
         "volpack-fast": lambda: _volpack_method("volpack-fast", effort="fast"),
         "volpack-quality": lambda: _volpack_method("volpack-quality"),
         "zfp": _zfp_method,
@@ -529,6 +532,7 @@ def write_csv(rows: list[dict], path: Path) -> None:
 _STYLE = {
     "volpack": ("tab:red", "o"),
     "volpack-huffman": ("tab:orange", "s"),
+    "volpack-arith2": ("tab:brown", "v"),
     "volpack-fast": ("tab:pink", "h"),
     "volpack-quality": ("tab:purple", "D"),
     "zfp": ("tab:blue", "^"),

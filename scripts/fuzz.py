@@ -54,6 +54,7 @@ EXAMPLES = ROOT / "formats" / "examples"
 VOLUME_PATHS = ("decompress", "roi", "info", "render", "stdin")
 KINDS = {
     "arith": ("wavelet-53-arith-dfs-u8.vpk", VOLUME_PATHS),
+    "arith2": ("wavelet-53-arith2-dfs-u8.vpk", VOLUME_PATHS),
     # not wavelet-53-huffman-dfs-i16: seven of its eight bricks are stored raw (noise)
     "huffman": ("wavelet-haar-huffman-dfs-u8.vpk", VOLUME_PATHS),
     "lossy-nan": (None, VOLUME_PATHS),

@@ -87,6 +87,16 @@ WAVELET_CASES = [
         "labels",
         {"codec": "wavelet", "wavelet": "53", "coder": "arith", "order": "dfs"},
     ),
+    (
+        "wavelet-53-arith2-dfs-u8",
+        "u8",
+        {"codec": "wavelet", "wavelet": "53", "coder": "arith2", "order": "dfs"},
+    ),
+    (
+        "wavelet-97m-arith2-line-i16",
+        "i16",
+        {"codec": "wavelet", "wavelet": "97m", "coder": "arith2", "order": "line"},
+    ),
 ]
 WAVELET_BRICK = 16
 

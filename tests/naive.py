@@ -304,6 +304,17 @@ def wavelet_forward(a, levels, wavelet, seen=None):
     return out.astype(np.int64)
 
 
+def _arith_context(i, nbits, nprev, parent, cls, nbr, nq=12):
+    """The context ``class * 12 + q`` of scan position ``i`` and its estimate ``q``."""
+    par = int(parent[i])
+    npar = nbits[par] if par >= 0 else nprev
+    # local estimate: the previous coefficient and the band neighbours already coded
+    seen = [nprev] + [nbits[int(j)] for j in nbr[i] if 0 <= int(j) < i]
+    cnt, total = len(seen), sum(seen)
+    q = min(nq - 1, (npar * cnt + 7 * total + 4 * cnt) // (8 * cnt))
+    return int(cls[i]) * nq + q, q
+
+
 def arith_encode(coeffs, perm, end, parent, cls, nbr):
     """The arithmetic coder with ``low`` as an unbounded integer: no carry bookkeeping.
 
@@ -353,13 +364,7 @@ def arith_encode(coeffs, perm, end, parent, cls, nbr):
     nprev = 0
     i = 0
     while i < len(vals):
-        par = int(parent[i])
-        npar = nbits[par] if par >= 0 else nprev
-        # local estimate: the previous coefficient and the band neighbours already coded
-        seen = [nprev] + [nbits[int(j)] for j in nbr[i] if 0 <= int(j) < i]
-        cnt, total = len(seen), sum(seen)
-        q = min(nq - 1, (npar * cnt + 7 * total + 4 * cnt) // (8 * cnt))
-        ctx = int(cls[i]) * nq + q
+        ctx, q = _arith_context(i, nbits, nprev, parent, cls, nbr)
         e = int(end[i])
         if e > i + 1:
             live = any(vals[i:e])
@@ -398,6 +403,97 @@ def arith_encode(coeffs, perm, end, parent, cls, nbr):
         i += 1
     total = 1 + nbytes + 4  # leading zero byte, the shifted-out bytes, the final low
     return low.to_bytes(total, "big")
+
+
+def arith2_encode(coeffs, perm, end, parent, cls, nbr):
+    """The ``arith2`` coder written from formats/wavelet-1.md: symbols as (start, freq)
+    pairs from plain-list tables, then rANS over them last to first with Python ints."""
+    nq, n_classes, total = 12, 25, 1 << 15
+    rate = [1, 2, 2, 3, 3, 3, 3, 4, 4, 4, 4, 4, 4, 4, 4, 5]
+    prob, used = {}, {}
+    tables = {}
+    syms = []  # (start, freq)
+    plain = []  # bits, in stream order
+
+    def binary(k, bit):
+        p, u = prob.get(k, 2048), used.get(k, 0)
+        f0 = 8 * p
+        syms.append((f0, total - f0) if bit else (0, f0))
+        p = p - (p >> rate[u]) if bit else p + ((4096 - p) >> rate[u])
+        prob[k], used[k] = p, min(u + 1, 15)
+
+    def bounds(f):
+        k, t = len(f), sum(f)
+        scale = ((total - k) << 16) // t
+        return [((sum(f[:j]) * scale) >> 16) + j for j in range(k)] + [total]
+
+    def table(key, k, first, step):
+        if key not in tables:
+            f = list(first)
+            tables[key] = {"f": f, "T": sum(f), "R": sum(f) + 1, "b": bounds(f), "step": step}
+        return tables[key]
+
+    def symbol(tab, s):
+        b = tab["b"]
+        syms.append((b[s], b[s + 1] - b[s]))
+        tab["f"][s] += 1
+        tab["T"] += 1
+        if tab["T"] >= tab["R"]:
+            if tab["T"] > 1024:
+                tab["f"] = [(f + 1) >> 1 for f in tab["f"]]
+                tab["T"] = sum(tab["f"])
+            tab["b"] = bounds(tab["f"])
+            tab["R"] = tab["T"] + min(tab["T"], tab["step"])
+
+    def put_plain(v, n):  # a group of n plain bits: the value's bit j at the j-th place
+        plain.extend((v >> j) & 1 for j in range(n))
+
+    flat = [int(v) for v in coeffs.ravel()]
+    vals = [flat[j] for j in perm]
+    nbits = [0] * len(vals)
+    nprev = 0
+    i = 0
+    while i < len(vals):
+        ctx, q = _arith_context(i, nbits, nprev, parent, cls, nbr)
+        e = int(end[i])
+        if e > i + 1:
+            live = any(vals[i:e])
+            binary(ctx, int(live))
+            if not live:
+                nprev = 0
+                i = e
+                continue
+        m = _zigzag(vals[i])
+        nb = m.bit_length()
+        prior = [1 << (4 - abs(s - q)) if abs(s - q) <= 4 else 0 for s in range(20)]
+        symbol(table(("n", ctx), 20, prior, 16), min(nb, 19))
+        if nb >= 19:
+            put_plain(nb - 19, 6)
+        if nb == 2:
+            binary(n_classes * nq + int(cls[i]), m & 1)
+        elif nb >= 3:
+            symbol(table(("m", nb * n_classes + int(cls[i])), 4, [1] * 4, 8), (m >> (nb - 3)) & 3)
+            r = nb - 3
+            if r > 48:  # two groups, the top bits first
+                put_plain((m >> 24) & ((1 << (r - 24)) - 1), r - 24)
+                r = 24
+            put_plain(m & ((1 << r) - 1), r)
+        nbits[i] = nb
+        nprev = nb
+        i += 1
+    x = [1 << 16, 1 << 16]
+    out = []  # words in emission order
+    for k in range(len(syms) - 1, -1, -1):
+        start, freq = syms[k]
+        if x[k % 2] >= freq << 17:
+            out.append(x[k % 2] & 0xFFFF)
+            x[k % 2] >>= 16
+        x[k % 2] = ((x[k % 2] // freq) << 15) + x[k % 2] % freq + start
+    words = [x[0] & 0xFFFF, x[0] >> 16, x[1] & 0xFFFF, x[1] >> 16] + out[::-1]
+    plain += [0] * (-len(plain) % 8)
+    raw = bytes(sum(plain[8 * j + b] << b for b in range(8)) for j in range(len(plain) // 8))
+    body = b"".join(w.to_bytes(2, "little") for w in words)
+    return len(words).to_bytes(4, "little") + body + raw
 
 
 # --- render tables ---

@@ -69,7 +69,7 @@ class VolpackCodec(Codec):
     ----------
     wavelet : {"53", "26", "haar", "97m"}
         Reversible lifting filter.
-    coder : {"arith", "huffman", "rle"}
+    coder : {"arith", "arith2", "huffman", "rle"}
         Entropy coder: best ratio, fast decoding, or sparse data.
     order : {"dfs", "line"}
         Coefficient scan order.

@@ -335,7 +335,7 @@ class BoundedCodec(BrickCodec):
 
     @property
     def _residual_coder(self) -> str:
-        return "arith" if self.coder == "arith" else "rle"
+        return self.coder if self.coder in ("arith", "arith2") else "rle"
 
     def _coef_steps(self, shape, levels) -> np.ndarray:
         """Per-coefficient steps of the coefficient path, on the fine grid."""
