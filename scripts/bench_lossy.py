@@ -966,7 +966,7 @@ def main(argv: list[str] | None = None) -> int:
         "--methods",
         default=",".join(DEFAULT_METHODS),
         help=f"comma-separated methods among {','.join(ALL_METHODS)} (default all but "
-        "volpack-huffman and volpack-fast)",
+        f"{', '.join(OPT_IN)})",
     )
     p.add_argument(
         "--quick",

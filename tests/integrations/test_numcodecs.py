@@ -96,7 +96,7 @@ def test_exact_round_trip(rng, dtype):
         assert np.array_equal(d, a), (dtype, shape)
 
 
-@pytest.mark.parametrize("coder", ["arith", "huffman", "rle"])
+@pytest.mark.parametrize("coder", ["arith", "arith2", "huffman", "rle"])
 def test_smooth_int_compresses_exactly(coder):
     a = smooth_volume((37, 41, 23), np.int16)
     c = VolpackCodec(coder=coder)

@@ -380,3 +380,17 @@ def test_floats_on_a_decimal_grid_take_its_spacing_as_bins(dtype):
     noisy = a + np.random.default_rng(0).uniform(-1e-4, 1e-4, a.shape).astype(dtype)
     assert lattice(noisy, None, 1e-3) is None  # off the grid by more than E/4
     assert len(blob) < len(api.compress_array(noisy, max_error=1e-3)) / 2
+
+
+@pytest.mark.parametrize("kind", ["smooth", "spikes", "steps"])
+def test_arith2_coder_holds_the_bound_and_decodes_its_damage(kind):
+    """The ``arith2`` coefficient coder under an error bound: every voxel within it, its
+    residuals coded by ``arith2`` too, and damaged payloads refused or decoded to shape."""
+    a = field(kind, (20, 24, 28), np.float32, 3)
+    bound = 0.01 * float(a.max() - a.min() or 1.0)
+    blob = api.compress_array(a, max_error=bound, coder="arith2")
+    check_bound(a, api.decompress_array(blob), bound)
+    lo, hi = float(a.min()), float(a.max())
+    codec = BoundedCodec.plan(a.dtype, lo, hi, bound, coder="arith2")
+    assert codec._residual_coder == "arith2"
+    decode_damaged(codec, codec.encode(a), a.shape, a.dtype, 5, 30)
