@@ -136,14 +136,16 @@ def main() -> int:
         "Same header, chunks and summary written as version 1 and 2; lead = best peer "
         "bytes / volpack bytes (peer bytes from the bench_lossy CSV named in the script).",
         "",
-        "| field | E/range | v | file | payload | container | " + " | ".join(PARTS)
+        "| field | E/range | v | file | payload | container | "
+        + " | ".join(PARTS)
         + " | best peer | peer bytes | lead |",
         "|---|---:|---:|" + "---:|" * (3 + len(PARTS)) + "---|---:|---:|",
     ]
     for r in rows:
         lines.append(
             f"| {r['field']} | {r['rel']} | {r['version']} | {r['file']} | {r['payload']} | "
-            f"{r['container']} | " + " | ".join(str(r[p]) for p in PARTS)
+            f"{r['container']} | "
+            + " | ".join(str(r[p]) for p in PARTS)
             + f" | {r['peer']} | {r['peer_bytes']} | {r['lead']:.3f} |"
         )
     (args.out / "container.md").write_text("\n".join(lines) + "\n")

@@ -68,9 +68,8 @@ def main() -> int:
     args = ap.parse_args()
     if args.out.exists():
         ap.error(f"{args.out} exists: a shipped dictionary never changes")
-    import zstandard
-
     import bench_lossy
+    import zstandard
 
     fields = (
         args.fields.split(",")

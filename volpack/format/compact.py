@@ -105,9 +105,8 @@ def _dictionary():
     return zstandard.ZstdCompressionDict(data)
 
 
-def pack_text(text: bytes) -> tuple[int, bytes]:
-    """``(TEXT_DICT, frame)`` when the dictionary-coded frame is shorter than ``text``,
-    else ``(TEXT_JSON, text)``."""
+def dict_frame(text: bytes) -> bytes:
+    """``text`` as one magicless zstd frame against :data:`DICTIONARY`, declaring its size."""
     import zstandard
 
     params = zstandard.ZstdCompressionParameters.from_level(
@@ -117,9 +116,15 @@ def pack_text(text: bytes) -> tuple[int, bytes]:
         write_checksum=0,
         write_dict_id=0,
     )
-    frame = zstandard.ZstdCompressor(
-        dict_data=_dictionary(), compression_params=params
-    ).compress(text)
+    return zstandard.ZstdCompressor(dict_data=_dictionary(), compression_params=params).compress(
+        text
+    )
+
+
+def pack_text(text: bytes) -> tuple[int, bytes]:
+    """``(TEXT_DICT, frame)`` when the dictionary-coded frame is shorter than ``text``,
+    else ``(TEXT_JSON, text)``."""
+    frame = dict_frame(text)
     return (TEXT_DICT, frame) if len(frame) < len(text) else (TEXT_JSON, text)
 
 
@@ -137,7 +142,9 @@ def unpack_text(form: int, data: bytes, limit: int, what: str) -> bytes:
         size = zstandard.get_frame_parameters(data, format=fmt).content_size
     except zstandard.ZstdError as e:
         raise FormatError(f"corrupt {what} frame: {e}") from None
-    if size == zstandard.CONTENTSIZE_UNKNOWN or size > limit:
+    if size == zstandard.CONTENTSIZE_UNKNOWN:
+        raise FormatError(f"corrupt {what} frame: expected it to declare its size, found none")
+    if size > limit:
         raise LimitError(f"expected a {what} of at most {limit} bytes, found {size} declared")
     dobj = zstandard.ZstdDecompressor(dict_data=_dictionary(), format=fmt).decompressobj()
     try:

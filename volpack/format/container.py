@@ -754,6 +754,9 @@ class Reader:
         if e is None:
             raise FormatError(f"expected a chunk (t={t}, node={node}), found none in the index")
         self._seek(e.offset)
+        return self._read_entry(e)
+
+    def _read_entry(self, e: Entry) -> bytes:
         return self._read_record_v2(e) if self.version == 2 else self._read_record(e)
 
     def __iter__(self) -> Iterator[tuple[int, int, bytes]]:
@@ -762,7 +765,7 @@ class Reader:
         if self.seekable:
             for e in list(self.entries):
                 self._seek(e.offset)
-                yield e.t, e.node, self._read_record_v2(e) if self.version == 2 else self._read_record(e)
+                yield e.t, e.node, self._read_entry(e)
             return
         if self._consumed:
             raise FormatError("expected a fresh stream, found it already iterated once")
