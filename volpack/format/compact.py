@@ -48,6 +48,7 @@ FOOTER_SIZE = _FOOTER.size  # 12
 _F32 = struct.Struct("<f")
 _F64 = struct.Struct("<d")
 ERROR_ZERO, ERROR_F32, ERROR_F64 = 0, 1, 2  # per-entry error form
+_ERROR_CODECS = {ERROR_F32: _F32, ERROR_F64: _F64}
 
 
 # -- varints ---------------------------------------------------------------------------
@@ -67,6 +68,8 @@ def get_varint(buf, pos: int, what: str) -> tuple[int, int]:
     """The varint at ``buf[pos]`` and the position after it. Refuses a varint that runs
     past the end, is longer than 10 bytes, exceeds 2**64 - 1 or is not in its shortest
     form (so every value has one encoding and the CRCs see every change)."""
+    if pos < len(buf) and buf[pos] < 0x80:  # the common one-byte case, fast
+        return buf[pos], pos + 1
     n = shift = 0
     for i in range(MAX_VARINT):
         if pos + i >= len(buf):
@@ -178,7 +181,7 @@ def get_error(buf, pos: int) -> tuple[float, int]:
     form = buf[pos]
     if form == ERROR_ZERO:
         return 0.0, pos + 1
-    codec = {ERROR_F32: _F32, ERROR_F64: _F64}.get(form)
+    codec = _ERROR_CODECS.get(form)
     if codec is None:
         raise FormatError(f"expected a chunk error form 0, 1 or 2 in the index, found {form}")
     if pos + 1 + codec.size > len(buf):

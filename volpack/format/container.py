@@ -565,9 +565,11 @@ class Reader:
         entries = []
         expect = self._data_start
         for _ in range(count):
+            start = pos
             t, pos = compact.get_varint(index, pos, "entry t")
             node, pos = compact.get_varint(index, pos, "entry node")
             nbytes, pos = compact.get_varint(index, pos, "entry nbytes")
+            head = 1 + pos - start  # the record head: its tag and these same three varints
             error, pos = compact.get_error(index, pos)
             if t > _MAX_T:
                 raise FormatError(f"expected t in 0..{_MAX_T}, found {t} in the index")
@@ -577,7 +579,7 @@ class Reader:
                     f"for (t={t}, node={node})"
                 )
             e = Entry(t, node, expect, nbytes, None, error)
-            expect += len(compact.record_head(t, node, nbytes)) + nbytes + 4
+            expect += head + nbytes + 4
             if expect > ioff:
                 raise FormatError(
                     f"expected chunk (t={t}, node={node}) to end before the index at "
