@@ -331,3 +331,15 @@ def test_limits_are_configurable_and_verify_false_skips_the_record_crc():
     with pytest.raises(ChecksumError):
         list(Reader(bytes(bad)))
     assert list(Reader(bytes(bad), verify=False))[0][2][4:6] == b"xy"
+
+
+def test_describe_names_the_version_and_lists_the_same_entries():
+    from volpack.format.describe import describe
+
+    new = describe(str(EXAMPLES / "vpk2-wavelet-53-arith-u8.vpk"))
+    old = describe(str(EXAMPLES / "wavelet-53-arith-dfs-u8.vpk"))
+    assert (new["vpk_version"], old["vpk_version"]) == (2, 1)
+    assert new["header"] == old["header"] and new["chunks"] == old["chunks"] == 8
+    strip = [{k: v for k, v in e.items() if k != "offset"} for e in new["entries"]]
+    assert strip == [{k: v for k, v in e.items() if k != "offset"} for e in old["entries"]]
+    assert new["file_nbytes"] < old["file_nbytes"] - 700

@@ -149,7 +149,9 @@ def unpack_text(form: int, data: bytes, limit: int, what: str) -> bytes:
         raise FormatError(f"corrupt {what} frame: expected it to declare its size, found none")
     if size > limit:
         raise LimitError(f"expected a {what} of at most {limit} bytes, found {size} declared")
-    dobj = zstandard.ZstdDecompressor(dict_data=_dictionary(), format=fmt).decompressobj()
+    # a crafted frame may ask for a large window: the decoder's memory stays bounded
+    dctx = zstandard.ZstdDecompressor(dict_data=_dictionary(), format=fmt, max_window_size=1 << 25)
+    dobj = dctx.decompressobj()
     try:
         out = dobj.decompress(data)
     except zstandard.ZstdError as e:
