@@ -311,6 +311,22 @@ def _symbol(syms, info, c, data, pos, x0, x1, words, reader, tok):
     return ue, pos, x1, x0, (acc >> np.uint64(nb), nacc - nb, k)
 
 
+@kernel(inline=True)
+def _next_row(x, y, z, r, nx, ny, ring):
+    """The position (and ring slot) after a step that ended at ``x`` (at most ``nx``):
+    the next row's first voxel when the row is done, the next slice's after its last
+    row."""
+    if x == nx:
+        x = 0
+        y += 1
+        if y == ny:
+            y = 0
+            z += 1
+            if r == ring:
+                r = 0
+    return x, y, z, r
+
+
 @kernel(nrt=False)
 def _decode_kernel(
     data, words, nbits, syms, info, nctx, pid, cid, runs, shape, lo, hi, v, u, tok, act
@@ -423,15 +439,8 @@ def _decode_kernel(
                     i += 1
                     r += 1
                     x += 1
-                if x == nx:
-                    x = 0
-                    y += 1
-                    if y == ny:
-                        y = 0
-                        z += 1
-                        pz = pid
-                        if r == ring:
-                            r = 0
+                x, y, z, r = _next_row(x, y, z, r, nx, ny, ring)
+                pz = pid if z > 0 else 0
             brk = i < n
             continue
         p = min(max(_predict(v, i, z, y, x, sy, sz, pz, mid), lo), hi)
@@ -448,15 +457,7 @@ def _decode_kernel(
         v[i] = val
         i += 1
         r += 1
-        x += 1
-        if x == nx:
-            x = 0
-            y += 1
-            if y == ny:
-                y = 0
-                z += 1
-                if r == ring:
-                    r = 0
+        x, y, z, r = _next_row(x + 1, y, z, r, nx, ny, ring)
     if bad:
         return 2
     used = 32 * reader[2] - reader[1]  # raw bits consumed
