@@ -139,6 +139,17 @@ def test_spacing_origin_and_meta_travel_with_the_data():
     )
 
 
+def test_info_reads_bytes_as_it_reads_a_file(tmp_path):
+    blob = api.compress_array(smooth_volume((5, 6, 7)))
+    path = tmp_path / "v.vpk"
+    path.write_bytes(blob)
+    from_bytes = api.info(blob)
+    from_file = api.info(str(path))
+    assert from_file.pop("path") == str(path) and from_bytes.pop("path") == "-"
+    assert from_bytes == from_file
+    assert from_bytes["header"]["shape"] == [5, 6, 7]
+
+
 @pytest.mark.slow  # 10 CPU s coding a whole MRI
 def test_lossless_beats_raw_on_a_real_mri(brain):
     for coder in CODER_NAMES:

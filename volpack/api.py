@@ -103,12 +103,14 @@ def read_volume_from(source: Any, **options: Any) -> Volume:
     return out
 
 
-def info(source: str | BinaryIO, **read_options: Any) -> dict[str, Any]:
-    """Describe a ``.vpk`` file (a path, or a seekable binary file such as
+def info(source: str | bytes | BinaryIO, **read_options: Any) -> dict[str, Any]:
+    """Describe a ``.vpk`` file (a path, its bytes, or a seekable binary file such as
     :func:`volpack.format.streams.spool` of a pipe) through its kind's ``info``, a mesh file
     (its report), or any volume volpack reads, as plain JSON types."""
     from . import io as vio
 
+    if isinstance(source, (bytes, bytearray, memoryview)):
+        source = _io.BytesIO(bytes(source))
     if not isinstance(source, str) or (source != "-" and kind_of(source) is not None):
         return get_kind(_header_kind(source)).info(source)
     from .tetra import is_mesh_path

@@ -1,8 +1,10 @@
-"""Compress, decompress and measure in one call (as zfp's ``-s`` and SZ3's ``-a`` do).
+"""Compress, decompress and measure in one call (as zfp's ``-s`` and SZ3's ``-a`` do),
+or measure one volume against another.
 
-The stream is held in memory; the voxels come back from the decoder and are compared
-with the input on every voxel: ratio (of the whole stream, as ``volpack info`` counts),
-maximum error, PSNR, RMSE, and encode and decode speed in MB/s of raw voxels.
+:func:`compare` holds the stream in memory; the voxels come back from the decoder and are
+compared with the input on every voxel: ratio (of the whole stream, as ``volpack info``
+counts), maximum error, PSNR, RMSE, and encode and decode speed in MB/s of raw voxels.
+:func:`measure` compares two volumes already decoded (volpack's or another codec's).
 """
 
 from __future__ import annotations
@@ -58,4 +60,46 @@ def compare(vol: Volume | np.ndarray, **options: Any) -> dict[str, Any]:
         "enc_mb_s": metrics.throughput(vol.nbytes, enc),
         "dec_mb_s": metrics.throughput(vol.nbytes, dec),
         "compress": stats,
+    }
+
+
+def measure(reference: Volume | np.ndarray, test: Volume | np.ndarray) -> dict[str, Any]:
+    """Measure ``test`` against ``reference`` on every voxel (the reference's mask, if any,
+    left out): ``max_error``, ``psnr`` (peak: the reference's value range), ``rmse``,
+    ``differing`` (voxels whose values or bits differ), ``identical`` and both dtypes. A
+    NaN or Inf of the reference is left out of the errors where ``test`` has the same
+    special value there (as :func:`compare` does), and is an infinite error elsewhere."""
+    from . import metrics
+    from .errors import OptionError
+
+    ref = reference if isinstance(reference, Volume) else Volume(np.asarray(reference))
+    got = test if isinstance(test, Volume) else Volume(np.asarray(test))
+    a, b = ref.data, got.data
+    if a.shape != b.shape:
+        raise OptionError(
+            f"expected two volumes of the same shape, found {'x'.join(map(str, a.shape))} "
+            f"and {'x'.join(map(str, b.shape))}"
+        )
+    left_out = ref.mask
+    if a.dtype.kind == "f":  # as compare(): a NaN/Inf matched exactly is left out of the
+        special = ~np.isfinite(a)  # error; one not matched stays in, an infinite error
+        matched = special & ((a == b) | (np.isnan(a) & np.isnan(b)))
+        left_out = matched if left_out is None else left_out | matched
+    m = metrics.summary(a, b, mask=left_out)
+    if a.dtype == b.dtype:  # bit for bit: -0.0 against 0.0 and NaN payloads count
+        same = a.view(f"u{a.itemsize}") == b.view(f"u{b.itemsize}")
+    else:
+        same = a == b
+        if a.dtype.kind == "f" and b.dtype.kind == "f":
+            same |= np.isnan(a) & np.isnan(b)
+    differing = int(a.size - np.count_nonzero(same))
+    return {
+        "shape": list(a.shape),
+        "dtype": a.dtype.name,
+        "test_dtype": b.dtype.name,
+        "max_error": m["max_error"],
+        "psnr": m["psnr"],
+        "rmse": m["rmse"],
+        "differing": differing,
+        "identical": differing == 0 and a.dtype == b.dtype,
     }

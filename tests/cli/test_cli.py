@@ -366,6 +366,37 @@ def test_compare_measures_float_errors_over_the_finite_voxels(tmp_path):
     assert not r["lossless"]
 
 
+def test_compare_measures_a_second_volume_against_the_first(tmp_path):
+    a = (smooth_volume((6, 7, 8), np.int16, noise=8.0) / 7.0).astype(np.float32)
+    a[1, 2, 3], a[2, 3, 4] = np.nan, np.inf
+    b = a.copy()
+    b[0, 0, :3] += np.float32([0.5, -0.25, 0.0])
+    a[3, 3, 3] = 0.0
+    b[3, 3, 3] = -0.0  # equal values, other bits: differs, no error
+    np.save(tmp_path / "a.npy", a)
+    np.save(tmp_path / "b.npy", b)
+    r = json.loads(run("compare", tmp_path / "a.npy", tmp_path / "b.npy", "--json").stdout)
+    ok = np.isfinite(a)
+    d = b[ok].astype(np.float64) - a[ok]
+    assert r["max_error"] == 0.5 and r["differing"] == 3 and not r["identical"]
+    peak = float(a[ok].max() - a[ok].min())
+    assert r["psnr"] == pytest.approx(10 * np.log10(peak**2 / (d**2).mean()))
+    assert r["rmse"] == pytest.approx(np.sqrt((d**2).mean()))
+    # a .vpk reads as the volume it holds; a file against its own coding is identical
+    run("compress", tmp_path / "a.npy", tmp_path / "a.vpk")
+    text = run("compare", tmp_path / "a.npy", tmp_path / "a.vpk").output
+    assert "identical (bit for bit)" in text
+    b[1, 2, 3] = 1.0  # a NaN lost is an infinite error
+    np.save(tmp_path / "b.npy", b)
+    r = json.loads(run("compare", tmp_path / "a.npy", tmp_path / "b.npy", "--json").stdout)
+    assert r["max_error"] is None or r["max_error"] == float("inf")
+    np.save(tmp_path / "c.npy", a[:3])
+    r = run("compare", tmp_path / "a.npy", tmp_path / "c.npy", ok=False)
+    assert r.exit_code == 1 and "same shape, found 6x7x8 and 3x7x8" in r.stderr
+    r = run("compare", tmp_path / "a.npy", tmp_path / "b.npy", "--max-error", "1", ok=False)
+    assert r.exit_code == 1 and "found --max-error with a second volume" in r.stderr
+
+
 def test_messages_name_flags_only(tmp_path):
     np.save(tmp_path / "a.npy", smooth_volume((6, 7, 8)))
     run("compress", tmp_path / "a.npy", tmp_path / "a.vpk")

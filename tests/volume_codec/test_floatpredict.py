@@ -254,6 +254,21 @@ def test_auto_keeps_the_shortest_float_tool_per_brick():
     assert tools == {"float-lorenzo": 1, "float-lattice": 1}
 
 
+def test_exact_floats_take_long_bricks_by_default():
+    """Exactly coded floats default to 128^3 bricks: zstd then matches across what would be
+    64^3 brick edges (here noise repeated along x, which no predictor sees)."""
+    noise = np.random.default_rng(5).normal(size=(8, 16, 64)).astype(np.float32)
+    a = np.concatenate([noise, noise], axis=2)
+    blob = api.compress_array(a)
+    assert same_bits(api.decompress_array(blob), a)
+    with Reader(blob) as r:
+        assert r.header["brick"] == [128, 128, 128]
+    assert len(blob) < 0.6 * len(api.compress_array(a, brick=64))
+    assert api.info(api.compress_array(a, codec="fast"))["header"]["brick"] == [64, 64, 64]
+    ints = api.compress_array(np.zeros((4, 4, 4), np.int16))
+    assert api.info(ints)["header"]["brick"] == [64, 64, 64]
+
+
 def test_version_two_writes_no_float_prediction():
     a = field((16, 16, 16))
     for version in (1, 2):

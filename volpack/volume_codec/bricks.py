@@ -22,14 +22,26 @@ MAX_BRICK_VOXELS = 1 << 30
 # LOSSY_FLOAT_BRICK^3 (a brick's scan tables take ~25 bytes a voxel).
 LOSSY_FLOAT_VOXELS = 1 << 22
 LOSSY_FLOAT_BRICK = 128
+# Float volumes coded exactly by the default codec: its tools (float Lorenzo, lattices,
+# byte-shuffled zstd) gain from long extents too, zstd most (matches across what would be
+# brick edges); measured 0 to +7.4 % ratio on 21 float fields against 64^3. The Lorenzo
+# workspace is 32 bytes a voxel, 64 MB for such a brick.
+LOSSLESS_FLOAT_BRICK = 128
 
 
-def default_brick(shape: tuple[int, ...], dtype, bounded: bool) -> tuple[int, int, int]:
-    """The brick used when none is asked for: DEFAULT_BRICK, or for a float volume under
-    an error bound (``bounded``) the whole volume if it is small, else LOSSY_FLOAT_BRICK."""
+def default_brick(
+    shape: tuple[int, ...], dtype, bounded: bool, codec: str | None = None
+) -> tuple[int, int, int]:
+    """The brick used when none is asked for: DEFAULT_BRICK; for a float volume under an
+    error bound (``bounded``) the whole volume if it is small, else LOSSY_FLOAT_BRICK; for
+    a float volume coded exactly by the default codec (``codec`` ``"auto"`` or
+    ``"lossless"``), LOSSLESS_FLOAT_BRICK."""
     spatial = tuple(int(n) for n in shape[-3:])
-    if not (bounded and np.dtype(dtype).kind == "f"):
+    if np.dtype(dtype).kind != "f":
         return (DEFAULT_BRICK,) * 3
+    if not bounded:
+        side = LOSSLESS_FLOAT_BRICK if codec in ("auto", "lossless") else DEFAULT_BRICK
+        return (side,) * 3
     if math.prod(spatial) <= LOSSY_FLOAT_VOXELS:
         return tuple(max(1, n) for n in spatial)  # type: ignore[return-value]
     return (LOSSY_FLOAT_BRICK,) * 3

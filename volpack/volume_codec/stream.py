@@ -145,7 +145,8 @@ def compress(
     brick : int or (int, int, int), optional
         Brick size; bricks are coded independently and decoded one by one. Default
         :func:`volpack.volume_codec.bricks.default_brick`: 64, but a float volume under an
-        error bound (or a PSNR or ratio target) is one brick up to 4M voxels, else 128^3.
+        error bound (or a PSNR or ratio target) is one brick up to 4M voxels, else 128^3,
+        and a float volume coded exactly by the default codec takes 128^3.
     workers : int or None
         Threads; ``None`` or 0 uses every core. The output does not depend on it.
     progress : callable(done, total), optional
@@ -185,7 +186,7 @@ def compress(
         raise OptionError(f"expected at most one lossy setting, found {found}")
     if brick is None:
         bounded = bool(asked) and not ({"quality", "threshold"} & set(asked))
-        brick = bricks.default_brick(vol.shape, vol.dtype, bounded)
+        brick = bricks.default_brick(vol.shape, vol.dtype, bounded, codec)
     brick_t = bricks.parse_brick(brick)
     if runs is not None and (codec != "fast" or asked):
         raise OptionError(f"runs: a setting of the lossless fast codec, found codec {codec!r}")
