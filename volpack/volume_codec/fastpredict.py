@@ -279,7 +279,21 @@ def _flat_until(v, i, end, sy, sz, pz):
     """The first voxel of ``i .. end - 1`` (in a row, x > 0, y > 0, inside a run) not
     predicted as W's value, else ``end``: N equal to NW makes MED give W, and (with the
     3-D correction, ``pz``) U equal to UW and UN to UNW make the correction 0; since
-    the run's residuals are 0, W's value then repeats."""
+    the run's residuals are 0, W's value then repeats. A first pass without an exit
+    (which the compiler vectorises) settles the common case, a flat segment."""
+    diff = v[0] ^ v[0]
+    if pz != 0:
+        for j in range(np.uintp(i), np.uintp(end)):
+            k = j - np.uintp(sy)
+            m = j - np.uintp(sz)
+            q = k - np.uintp(sz)
+            diff |= (v[k] ^ v[k - ONE]) | (v[m] ^ v[m - ONE]) | (v[q] ^ v[q - ONE])
+    else:
+        for j in range(np.uintp(i), np.uintp(end)):
+            k = j - np.uintp(sy)
+            diff |= v[k] ^ v[k - ONE]
+    if diff == 0:
+        return end
     for j in range(np.uintp(i), np.uintp(end)):
         k = j - np.uintp(sy)
         if v[k] != v[k - ONE]:
