@@ -69,6 +69,10 @@ KINDS = {
     # the fast codec's run mode (the default since the `runs` header field)
     "fast-runs": ("fast-runs-mixed.vpk", VOLUME_PATHS),
     "lossy-interp": ("lossy-bounded-f32-interp.vpk", VOLUME_PATHS),
+    # container format version 2 (formats/vpk-2.md): varint records, dictionary-coded
+    # header and summary; one brick, and eight
+    "compact": ("vpk2-lossy-bounded-f32.vpk", VOLUME_PATHS),
+    "compact-bricks": ("vpk2-wavelet-53-arith-u8.vpk", VOLUME_PATHS),
     "animation": (
         "animation-ibbp-bounded-u8.vpk",
         ("decompress", "frame", "info", "play", "stdin"),

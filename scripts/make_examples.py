@@ -19,7 +19,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 GOLDEN = ROOT / "formats" / "examples"
 
-# -- the container example: formats/examples/tiny-v1.vpk ---------------------------------
+# -- the container examples: formats/examples/tiny-v1.vpk, tiny-v2.vpk -------------------
 
 CONTAINER_NAME = "tiny-v1.vpk"
 CONTAINER_HEADER = {"kind": "test", "note": "golden vpk-1 container", "shape": [2, 3]}
@@ -30,21 +30,34 @@ CONTAINER_CHUNKS = [
     (1, 7, bytes(range(16)), 1.5),
 ]
 CONTAINER_SUMMARY = {"chunks": 3, "payload_nbytes": 21, "max_error": 1.5}
+# version 2 (formats/vpk-2.md): the same and a chunk with two-byte varints and an error
+# that only float64 holds, so every error form and varint length occurs
+CONTAINER_V2_NAME = "tiny-v2.vpk"
+CONTAINER_V2_HEADER = {"kind": "test", "note": "golden vpk-2 container", "shape": [2, 3]}
+CONTAINER_V2_CHUNKS = [*CONTAINER_CHUNKS, (2, 300, bytes(range(200)), 0.1)]
+CONTAINER_V2_SUMMARY = {"chunks": 4, "payload_nbytes": 221, "max_error": 1.5}
 
 
-def write_container_example(target) -> None:
-    """Write the tiny container to ``target`` (a path or a binary file)."""
+def write_container_example(target, version: int = 1) -> None:
+    """Write the tiny container of format ``version`` to ``target`` (a path or a binary
+    file)."""
     from volpack.format.container import Writer
 
-    with Writer(target, CONTAINER_HEADER, force=True) as w:
-        for t, node, payload, error in CONTAINER_CHUNKS:
+    header, chunks, summary = (
+        (CONTAINER_HEADER, CONTAINER_CHUNKS, CONTAINER_SUMMARY)
+        if version == 1
+        else (CONTAINER_V2_HEADER, CONTAINER_V2_CHUNKS, CONTAINER_V2_SUMMARY)
+    )
+    with Writer(target, header, force=True, version=version) as w:
+        for t, node, payload, error in chunks:
             w.write(t, node, payload, error)
-        w.close(summary=CONTAINER_SUMMARY)
+        w.close(summary=summary)
 
 
 def make_container(folder: Path) -> Path:
-    path = folder / CONTAINER_NAME
-    write_container_example(path)
+    write_container_example(folder / CONTAINER_NAME, 1)
+    path = folder / CONTAINER_V2_NAME
+    write_container_example(path, 2)
     return path
 
 
@@ -307,6 +320,24 @@ def make_lossy(folder: Path) -> Path:
     return folder
 
 
+# Volumes in container format version 2 (formats/vpk-2.md; every stream before these is
+# version 1): the content of lossy-bounded-f32-interp-b0 (one brick; header and summary
+# dictionary-coded) and of wavelet-53-arith-dfs-u8 (eight bricks).
+COMPACT_CASES = [
+    ("vpk2-lossy-bounded-f32", "f32", {"max_error": 2.0, "fill_value": -999.0}),
+    ("vpk2-wavelet-53-arith-u8", "u8",
+     {"brick": WAVELET_BRICK, "codec": "wavelet", "wavelet": "53", "coder": "arith", "order": "dfs"}),
+]  # fmt: skip
+
+
+def make_compact(folder: Path) -> Path:
+    from volpack import api
+
+    for stem, recipe, opts in COMPACT_CASES:
+        api.compress(lossy_source(recipe), str(folder / f"{stem}.vpk"), force=True, **opts)
+    return folder
+
+
 ANIMATION_CASES = [
     ("animation-ibbp-bounded-u8", {"gop_string": "IBBP", "max_error": 2}, "roll"),
     (
@@ -393,6 +424,7 @@ def make_octree(folder: Path) -> Path:
 
 EXAMPLES: dict[str, Callable[[Path], Path]] = {
     "container": make_container,
+    "compact": make_compact,
     "wavelet": make_wavelet,
     "lossless": make_lossless,
     "fast": make_fast,

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import io
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, settings
@@ -75,3 +77,34 @@ def flip_bits(codec, good: bytes, a: np.ndarray, rng: np.random.Generator, count
         except FormatError:
             continue
         assert out.shape == a.shape and out.dtype == a.dtype
+
+
+class Pipe(io.RawIOBase):
+    """A readable that refuses to seek and returns short reads, like a pipe."""
+
+    def __init__(self, data: bytes, step: int = 7):
+        self._b = io.BytesIO(data)
+        self._step = step
+
+    def readable(self):
+        return True
+
+    def seekable(self):
+        return False
+
+    def readinto(self, m):
+        x = self._b.read(min(len(m), self._step))
+        m[: len(x)] = x
+        return len(x)
+
+
+def damaged(data: bytes):
+    """Every single bit flip of ``data``, every truncation, and one trailing byte."""
+    for i in range(len(data)):
+        for bit in range(8):
+            bad = bytearray(data)
+            bad[i] ^= 1 << bit
+            yield bytes(bad)
+    for n in range(len(data)):
+        yield data[:n]
+    yield data + b"\x00"

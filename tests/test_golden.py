@@ -278,3 +278,26 @@ def test_golden_whole_number_float_stream():
     with Reader(blob) as old, Reader(again) as new:
         assert old.header == new.header
         assert [(t, n, p) for t, n, p in old] == [(t, n, p) for t, n, p in new]
+
+
+COMPACT = [  # container format version 2 (formats/vpk-2.md) and its version 1 twin
+    ("vpk2-lossy-bounded-f32", "lossy-bounded-f32-interp-b0"),
+    ("vpk2-wavelet-53-arith-u8", "wavelet-53-arith-dfs-u8"),
+]
+
+
+@pytest.mark.parametrize("stem,twin", COMPACT, ids=[c[0] for c in COMPACT])
+def test_golden_version_2_container_holds_its_twins_content(stem, twin):
+    """The same stream in container version 2: same header, chunks and per-chunk errors
+    as the version 1 file, same voxels, and in fewer bytes."""
+    blob = (GOLDEN / f"{stem}.vpk").read_bytes()
+    old = (GOLDEN / f"{twin}.vpk").read_bytes()
+    with Reader(blob) as new_r, Reader(old) as old_r:
+        assert (new_r.version, old_r.version) == (2, 1)
+        assert new_r.header == old_r.header
+        assert [(e.t, e.node, e.error) for e in new_r.entries] == [
+            (e.t, e.node, e.error) for e in old_r.entries
+        ]
+        assert list(new_r) == list(old_r)
+    np.testing.assert_array_equal(api.decompress(blob).data, api.decompress(old).data)
+    assert len(old) - len(blob) > 500

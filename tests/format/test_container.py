@@ -1,4 +1,5 @@
-"""The .vpk container: round trips, random access, golden file, damage and limits."""
+"""The .vpk container, format version 1 (formats/vpk-1.md): round trips, random access, golden
+file, damage and limits. Version 2 is tests/format/test_container_v2.py."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ import zlib
 from pathlib import Path
 
 import pytest
+from conftest import Pipe
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -23,9 +25,9 @@ from volpack.format.container import (
     RECORD_SIZE,
     Entry,
     Reader,
-    Writer,
     is_vpk,
 )
+from volpack.format.container import Writer as _Writer
 from volpack.format.streams import spool, stdin, vpk_kind
 
 GOLDEN = Path(__file__).resolve().parents[2] / "formats" / "examples" / "tiny-v1.vpk"
@@ -39,6 +41,10 @@ GOLDEN_SUMMARY = {"chunks": 3, "payload_nbytes": 21, "max_error": 1.5}
 CHUNKS = [(0, 0, b"first chunk"), (0, 3, b"\x00" * 40), (2, 1, b""), (2, 2**40, b"xyz" * 7)]
 
 
+def Writer(*args, **kw):  # noqa: N802 - the version 1 writer, under the name the tests use
+    return _Writer(*args, version=1, **kw)
+
+
 def crc(b: bytes) -> int:
     return zlib.crc32(b) & 0xFFFFFFFF
 
@@ -50,25 +56,6 @@ def build(chunks=CHUNKS, header=None, summary=None) -> bytes:
             w.write(t, node, payload, error=i / 2)
         w.close(summary if summary is not None else {"n": len(chunks)})
     return buf.getvalue()
-
-
-class Pipe(io.RawIOBase):
-    """A readable that refuses to seek and returns short reads, like a pipe."""
-
-    def __init__(self, data: bytes, step: int = 7):
-        self._b = io.BytesIO(data)
-        self._step = step
-
-    def readable(self):
-        return True
-
-    def seekable(self):
-        return False
-
-    def readinto(self, m):
-        x = self._b.read(min(len(m), self._step))
-        m[: len(x)] = x
-        return len(x)
 
 
 class Sink:
@@ -381,9 +368,9 @@ def _patch_preamble(data: bytes, version=1, hlen=None, head=None) -> bytes:
 def test_wrong_version_message():
     data = build()
     _, _, _, hlen, _ = struct.unpack_from("<8sHHII", data)
-    bad = _patch_preamble(data, version=2, head=data[PREAMBLE_SIZE : PREAMBLE_SIZE + hlen])
+    bad = _patch_preamble(data, version=3, head=data[PREAMBLE_SIZE : PREAMBLE_SIZE + hlen])
     bad += data[PREAMBLE_SIZE + hlen :]
-    with pytest.raises(FormatError, match="expected vpk format version 1, found 2"):
+    with pytest.raises(FormatError, match="expected vpk format version 1 or 2, found 3"):
         Reader(bad)
 
 

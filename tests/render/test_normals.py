@@ -130,3 +130,36 @@ def test_images_do_not_depend_on_the_thread_count():
         one = render(vol, workers=1, **kw)
         for w in (2, 3):
             assert np.array_equal(one, render(prepare_volume(vol), workers=w, **kw))
+
+
+def test_cli_normals_option(tmp_path):
+    from click.testing import CliRunner
+    from PIL import Image
+
+    from volpack.cli import main
+    from volpack.render.autotf import transfer_for
+    from volpack.render.image import to_rgb8
+
+    vol = np.round(field((20, 22, 24)) * 255).astype(np.uint8)
+    np.save(tmp_path / "v.npy", vol)
+    lo, hi = float(vol.min()), float(vol.max())
+    tf = transfer_for("generic", vol, lo=lo, hi=hi, dtype=vol.dtype, mask=None, size=24)
+    cam = Camera(azimuth=30, elevation=20, size=(32, 28))
+    run = CliRunner().invoke
+    got = {}
+    for normals in ("quantised", "exact"):
+        out = tmp_path / f"{normals}.png"
+        r = run(main, ["render", str(tmp_path / "v.npy"), str(out), "--size", "32x28", "--tf",
+                       "generic", "--no-fit", "--normals", normals, "--json"])  # fmt: skip
+        assert r.exit_code == 0, r.output
+        assert '"normals": "%s"' % normals in r.stdout
+        got[normals] = np.asarray(Image.open(out))[..., :3]
+        want = render(prepare_volume(vol), tf=tf, camera=cam, value_range=(lo, hi),
+                      shading="phong", normals=normals)  # fmt: skip
+        np.testing.assert_array_equal(got[normals], to_rgb8(want)[..., :3])
+    assert not np.array_equal(got["quantised"], got["exact"])  # the option reaches the renderer
+    for cmd in ("render", "play", "walk"):
+        r = run(main, [cmd, "--help"])
+        assert "--normals [quantised|exact]" in r.output
+    r = run(main, ["render", str(tmp_path / "v.npy"), str(tmp_path / "x.png"), "--normals", "x"])
+    assert r.exit_code == 2 and "quantised" in r.output

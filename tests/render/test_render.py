@@ -415,3 +415,22 @@ def test_cli_look_at_moves_the_orbit_centre(tmp_path):
     ].sum() + 1
     r = run(main, ["render", str(tmp_path / "b.npy"), str(tmp_path / "x.png"), "--look-at", "1,2"])
     assert r.exit_code == 2 and "Z,Y,X" in r.output
+
+
+def test_rays_are_world_rays_in_index_space():
+    """Camera.rays (one kernel pass) gives the same numbers as world_rays divided by the
+    spacing and scaled to reference lengths with numpy."""
+    cams = [Camera(azimuth=30, elevation=20, size=(64, 48)),
+            Camera(azimuth=77, elevation=-40, size=(33, 71), zoom=1.3, projection="perspective"),
+            Camera(azimuth=10, elevation=5, size=(20, 30), projection="perspective", distance=3.0),
+            Camera(azimuth=200, elevation=89, size=(40, 24), zoom=2.0, distance=10.0)]  # fmt: skip
+    for cam in cams:
+        for shape, sp in [((9, 23, 19), (1, 1, 1)), ((10, 25, 25), (2.5, 0.957, 0.957)),
+                          ((1, 5, 70), (1e-3, 7, 0.1))]:  # fmt: skip
+            c2, spn, centre, radius = cam.world_frame(shape, sp)
+            o, d = c2.world_rays(centre, radius)
+            o /= spn
+            d *= float(spn.min()) / spn
+            o2, d2 = cam.rays(shape, sp)
+            np.testing.assert_array_equal(o2, o)
+            np.testing.assert_array_equal(d2, d)

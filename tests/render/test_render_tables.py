@@ -388,3 +388,42 @@ def test_iso_hits_index_and_weight():
     assert iso_table(5, 0, 1, []).shape == (5, 5, 4)
     with pytest.raises(FormatError, match="isosurface 0"):
         iso_table(5, 0, 1, [(0.5, (1, 1), 2.0)])
+
+
+def _linear_reads(x, n):
+    """Entries a clamped linear look-up at ``x`` reads with a non-zero weight, plus the
+    lower one (what the kernel loads)."""
+    q = min(max(x, 0.0), n - 1.0)
+    i = int(q)
+    return {i, min(i + 1, n - 1)} if q - i > 0 else {i}
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_clear_bounds_skip_only_zero_look_ups(seed):
+    from volpack.render.raycast import clear_bounds
+
+    rng = np.random.default_rng(seed)
+    n = 12
+    tab = np.zeros((n, 4), np.float32)
+    a, b = sorted(rng.integers(0, n, 2))
+    tab[a : b + 1] = rng.uniform(0.1, 1, (b + 1 - a, 4))
+    tab2 = preintegrate(tab, 0.5)
+    xs = np.concatenate([rng.uniform(-2, n + 1, 300), np.arange(-1, n + 1, 0.5)])
+    for t in (tab, tab2):
+        below, above = clear_bounds(t)
+        hit = 0
+        for x in xs:
+            for y in xs[:40] if t.ndim == 3 else [None]:
+                skip = (x < below and (y is None or y < below)) or (
+                    x > above and (y is None or y > above))  # fmt: skip
+                if not skip:
+                    continue
+                hit += 1
+                if y is None:
+                    assert not t[sorted(_linear_reads(x, n))].any(), (x, below, above)
+                else:
+                    rows, cols = _linear_reads(x, n), _linear_reads(y, n)
+                    assert not t[np.ix_(sorted(rows), sorted(cols))].any(), (x, y, below, above)
+        assert hit > 0 or (a == 0 and b == n - 1)
+    assert list(clear_bounds(np.zeros((4, 4)))) == [np.inf, -np.inf]
+    assert list(clear_bounds(np.ones((4, 4, 4)))) == [-np.inf, np.inf]

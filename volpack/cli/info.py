@@ -101,7 +101,11 @@ def _human(d: dict, chunks: bool) -> str:
     s = d.get("summary") or {}
     rows = [
         ["path", d["path"]],
-        ["format", f"vpk (kind {h.get('kind')}, written by volpack {h.get('volpack', '?')})"],
+        [
+            "format",
+            f"vpk {d.get('vpk_version', 1)} (kind {h.get('kind')}, written by volpack "
+            f"{h.get('volpack', '?')})",
+        ],
         ["shape", " x ".join(map(str, h.get("shape", [])))],
         ["dtype", dtype_name(h.get("dtype"))],
         ["spacing", ", ".join(f"{v:g}" for v in h.get("spacing", []))],

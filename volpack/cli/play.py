@@ -27,8 +27,8 @@ from .render import parse_look_at, parse_size, view_options
 @json_option
 @click.pass_context
 def play(ctx, source, output, tf_spec, fps, spin, show_stats, azimuth, elevation, zoom,
-         perspective, distance, look_at_s, size_s, step, classification, preint_method, shading, fit,
-         workers, force, as_json) -> None:  # fmt: skip
+         perspective, distance, look_at_s, size_s, step, classification, preint_method, shading,
+         normals, fit, workers, force, as_json) -> None:  # fmt: skip
     """Play the animation SOURCE (.vpk, or '-') into OUTPUT: an .mp4, a .gif or a folder of
     PNGs; without OUTPUT, decode and render only (with --stats: a timing table).
 
@@ -77,8 +77,8 @@ def play(ctx, source, output, tf_spec, fps, spin, show_stats, azimuth, elevation
         state["k"] += 1
         return raycast(
             frame, tf=state["tf"], camera=cam, step=step,
-            classification=classification, shading=shading, preint_method=preint_method,
-            value_range=state["range"], workers=workers,
+            classification=classification, shading=shading, normals=normals,
+            preint_method=preint_method, value_range=state["range"], workers=workers,
         )  # fmt: skip
 
     rows = []
@@ -150,7 +150,7 @@ def _is_folder(path: str) -> bool:
 @click.pass_context
 def walk(ctx, source, output, orbit, budget, tf_spec, fps, compare, show_stats, azimuth,
          elevation, zoom, perspective, distance, look_at_s, size_s, step, classification, preint_method,
-         shading, fit, workers, force, as_json) -> None:  # fmt: skip
+         shading, normals, fit, workers, force, as_json) -> None:  # fmt: skip
     """Fly around the octree SOURCE (.vpk built with --octree) into OUTPUT (.mp4, .gif or a
     folder), drawing each view from the nodes it needs within --budget.
 
@@ -181,7 +181,7 @@ def walk(ctx, source, output, orbit, budget, tf_spec, fps, compare, show_stats, 
     size = parse_size(size_s)
     if output is not None and not _is_folder(output):
         check_output(output, force=force, inputs=(source,))
-    opts = dict(step=step, classification=classification, shading=shading,
+    opts = dict(step=step, classification=classification, shading=shading, normals=normals,
                 preint_method=preint_method, workers=workers)  # fmt: skip
     rows = []
     with Octree(source, cache_bytes=1 << 30) as tree:

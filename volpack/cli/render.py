@@ -161,7 +161,7 @@ def _load(source: str, frame: int | None, raw: dict):
 
 
 def view_options(f):
-    """Camera and ray-casting options shared by ``render`` and ``play``."""
+    """Camera and ray-casting options shared by ``render``, ``play`` and ``walk``."""
     opts = [
         click.option("--azimuth", type=float, default=30.0, show_default=True,
                      help="Degrees about z."),
@@ -191,6 +191,12 @@ def view_options(f):
                      "segment midpoint; centroid: at the segment's emission centroid (most "
                      "accurate); preintegrated: lighting tables, n.l linear along the segment. "
                      "The last two need --classification preintegrated."),
+        click.option("--normals", type=click.Choice(["quantised", "exact"]),
+                     default="quantised", show_default=True,
+                     help="Phong normals of orthographic views: per-voxel 16-bit "
+                     "quantised normals lit through one table per frame (faster), or the "
+                     "central differences of the interpolated field at each sample (as "
+                     "perspective views always use)."),
         click.option("--fit/--no-fit", default=True, show_default=True,
                      help="Frame what the transfer function shows so that it spans 80 % of "
                      "the image (--zoom multiplies that), or the whole grid (--no-fit)."),
@@ -241,6 +247,7 @@ def render(
     classification,
     preint_method,
     shading,
+    normals,
     fit,
     iso_spec,
     orbit,
@@ -382,7 +389,8 @@ def render(
             img, lst = render_lod(
                 tree, tf=tf, camera=cam, blocks=budget or 2048, value_range=(lo, hi),
                 atlas=lod_atlas[0], step=step, classification=classification, shading=shading,
-                preint_method=preint_method, workers=workers, progress=progress_rows,
+                normals=normals, preint_method=preint_method, workers=workers,
+                progress=progress_rows,
             )  # fmt: skip
             lod_frames.append(vars(lst))
             return img, RenderStats(0, time.perf_counter() - t0, cam.size[0] * cam.size[1], 0)
@@ -403,7 +411,8 @@ def render(
             )  # fmt: skip
         return raycast(
             vol, tf=tf, camera=cam, step=step, classification=classification, shading=shading,
-            isos=isos, preint_method=preint_method, value_range=(lo, hi), workers=workers,
+            normals=normals, isos=isos, preint_method=preint_method, value_range=(lo, hi),
+            workers=workers,
             progress=progress_rows, render_stats=True,
         )  # fmt: skip
 
@@ -433,6 +442,7 @@ def render(
         "isos": [{"value": v, "rgb": list(c), "opacity": a} for v, c, a in (isos or [])],
         "classification": classification,
         "shading": shading,
+        "normals": normals,
         "step": step,
         "samples": samples,
         "seconds": seconds,

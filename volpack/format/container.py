@@ -1,12 +1,16 @@
 """The ``.vpk`` container: a JSON header, checksummed chunks keyed ``(t, node)``, an index.
 
-Layout (little-endian; the byte-level specification is ``formats/vpk-1.md``)::
+Layout of format version 1 (little-endian; byte-level specification ``formats/vpk-1.md``)::
 
     preamble   20 bytes   magic, version u16, flags u16, header length u32, header CRC32
     header     JSON object (UTF-8)
     records    per chunk: 32-byte record header + payload; self-delimiting
     index      magic, count, one 40-byte entry per chunk, summary JSON
     footer     32 bytes   index offset, index length, index CRC32, footer CRC32, end magic
+
+Version 2 (``formats/vpk-2.md``, :mod:`volpack.format.compact`, written by default) has
+the same parts in a compact form: dictionary-coded header and summary, varint sizes, one
+CRC32 per record, a 12-byte footer; readers take both.
 
 Chunks come first and the index last, so a writer needs one pass and never seeks (a pipe
 works) and a reader of a seekable file finds any chunk through the footer and index
@@ -30,6 +34,7 @@ from collections.abc import Iterator
 from typing import BinaryIO, NamedTuple
 
 from ..errors import ChecksumError, FormatError, LimitError, OptionError
+from . import compact
 
 __all__ = [
     "MAGIC",
@@ -42,8 +47,10 @@ __all__ = [
 
 MAGIC = b"VPK\x00\r\n\x1a\n"
 """First 8 bytes of every ``.vpk`` file (the CR LF / ^Z bytes catch text-mode mangling)."""
-# Format version and record tags (formats/vpk-1.md, section 3).
-VERSION = 1
+# Format version written by default (formats/vpk-2.md), and version 1's record tags
+# (formats/vpk-1.md, section 3).
+VERSION = compact.VERSION
+VERSIONS = (1, 2)
 RECORD_MAGIC = b"CHNK"
 INDEX_MAGIC = b"VIDX"
 END_MAGIC = b"VPKEND\x00\x00"
@@ -77,15 +84,16 @@ _READ_STEP = 1 << 20  # streams are read in steps so a false size never allocate
 class Entry(NamedTuple):
     """One chunk as listed in the index.
 
-    ``offset`` is the position of the chunk's record (its 32-byte record header) from the
-    start of the container; ``nbytes`` and ``crc32`` describe the payload that follows.
+    ``offset`` is the position of the chunk's record from the start of the container;
+    ``nbytes`` is the payload's length. ``crc32`` is the payload's CRC32 in version 1; in
+    version 2 the index holds none (it is None; each record's CRC32 covers the record).
     """
 
     t: int
     node: int
     offset: int
     nbytes: int
-    crc32: int
+    crc32: int | None
     error: float
 
 
@@ -147,6 +155,9 @@ class Writer:
         :class:`~volpack.format.atomic.OutputExistsError`).
     max_header : int
         Refuse a header whose JSON is longer than this many bytes.
+    version : int
+        Container format version: 2 (compact, ``formats/vpk-2.md``) or 1
+        (``formats/vpk-1.md``, for readers older than version 2).
 
     Use it as a context manager: leaving the block normally closes the container (with an
     empty summary unless :meth:`close` was called); leaving it through an exception
@@ -160,7 +171,11 @@ class Writer:
         *,
         force: bool = False,
         max_header: int = DEFAULT_MAX_HEADER,
+        version: int = VERSION,
     ) -> None:
+        if version not in VERSIONS:
+            raise OptionError(f"expected a vpk format version in {VERSIONS}, found {version!r}")
+        self.version = version
         head = _dump_json(header, "header")
         if len(head) > min(max_header, _MAX_T):
             raise LimitError(
@@ -177,10 +192,15 @@ class Writer:
         else:
             self._file = target
         self._pos = 0
-        pre = _PREAMBLE.pack(MAGIC, VERSION, 0, len(head), _crc(head))
+        if version == 1:
+            pre = _PREAMBLE.pack(MAGIC, 1, 0, len(head), _crc(head)) + head
+        else:  # magic, version, flags, varint length, header, CRC32 of all these bytes
+            form, head = compact.pack_text(head)
+            flags = compact.FLAG_HEADER_DICT if form == compact.TEXT_DICT else 0
+            pre = MAGIC + struct.pack("<HB", 2, flags) + compact.put_varint(len(head)) + head
+            pre += struct.pack("<I", _crc(pre))
         try:
             self._put(pre)
-            self._put(head)
         except BaseException:
             self._abort(*sys.exc_info())
             raise
@@ -215,11 +235,18 @@ class Writer:
         if (t, node) in self._keys:
             raise OptionError(f"chunk (t={t}, node={node}) was already written")
         data = memoryview(payload).cast("B")
-        pcrc = _crc(data)
-        body = _RECORD_BODY.pack(RECORD_MAGIC, t, node, data.nbytes, pcrc)
-        entry = Entry(t, node, self._pos, data.nbytes, pcrc, float(error))
-        self._put(body + struct.pack("<I", _crc(body)))
-        self._put(data)
+        if self.version == 1:
+            pcrc = _crc(data)
+            body = _RECORD_BODY.pack(RECORD_MAGIC, t, node, data.nbytes, pcrc)
+            entry = Entry(t, node, self._pos, data.nbytes, pcrc, float(error))
+            self._put(body + struct.pack("<I", _crc(body)))
+            self._put(data)
+        else:  # head, payload, CRC32 of both
+            head = compact.record_head(t, node, data.nbytes)
+            entry = Entry(t, node, self._pos, data.nbytes, None, float(error))
+            self._put(head)
+            self._put(data)
+            self._put(struct.pack("<I", zlib.crc32(data, zlib.crc32(head)) & 0xFFFFFFFF))
         self._keys.add((t, node))
         self._entries.append(entry)
         return entry
@@ -233,15 +260,10 @@ class Writer:
             summ = _dump_json({} if summary is None else summary, "summary")
             if len(summ) > _MAX_T:
                 raise LimitError(f"expected a summary of at most {_MAX_T} bytes, found {len(summ)}")
-            index_offset = self._pos
-            parts = [_INDEX_HEAD.pack(INDEX_MAGIC, len(self._entries))]
-            parts.extend(_ENTRY.pack(*e) for e in self._entries)
-            parts.append(_SUMMARY_LEN.pack(len(summ)))
-            parts.append(summ)
-            index = b"".join(parts)
-            self._put(index)
-            body = _FOOTER_BODY.pack(index_offset, len(index), _crc(index))
-            self._put(_FOOTER.pack(index_offset, len(index), _crc(index), _crc(body), END_MAGIC))
+            if self.version == 2:
+                self._close_v2(summ)
+            else:
+                self._close_v1(summ)
             with contextlib.suppress(AttributeError, OSError, ValueError):
                 self._file.flush()
         except BaseException:
@@ -249,6 +271,28 @@ class Writer:
             raise
         self._closed = True
         self._stack.close()
+
+    def _close_v2(self, summ: bytes) -> None:
+        form, summ = compact.pack_text(summ)
+        parts = [bytes([compact.INDEX_TAG]), compact.put_varint(len(self._entries))]
+        parts.extend(compact.pack_entry(e.t, e.node, e.nbytes, e.error) for e in self._entries)
+        parts += [bytes([form]), compact.put_varint(len(summ)), summ]
+        index = b"".join(parts)
+        if len(index) > _MAX_T:
+            raise LimitError(f"expected an index of at most {_MAX_T} bytes, found {len(index)}")
+        self._put(index)
+        self._put(compact.pack_footer(index, zlib.crc32))
+
+    def _close_v1(self, summ: bytes) -> None:
+        index_offset = self._pos
+        parts = [_INDEX_HEAD.pack(INDEX_MAGIC, len(self._entries))]
+        parts.extend(_ENTRY.pack(*e) for e in self._entries)
+        parts.append(_SUMMARY_LEN.pack(len(summ)))
+        parts.append(summ)
+        index = b"".join(parts)
+        self._put(index)
+        body = _FOOTER_BODY.pack(index_offset, len(index), _crc(index))
+        self._put(_FOOTER.pack(index_offset, len(index), _crc(index), _crc(body), END_MAGIC))
 
     def _abort(self, exc_type, exc, tb) -> None:
         self._closed = True
@@ -399,12 +443,17 @@ class Reader:
     # -- structure
 
     def _read_preamble(self) -> dict:
-        pre = self._take(PREAMBLE_SIZE, "preamble")
-        magic, version, flags, hlen, hcrc = _PREAMBLE.unpack(pre)
+        pre = self._take(10, "preamble")
+        magic, version = struct.unpack("<8sH", pre)
         if magic != MAGIC:
             raise FormatError(f"expected the vpk magic {MAGIC!r}, found {magic!r}")
-        if version != VERSION:
-            raise FormatError(f"expected vpk format version {VERSION}, found {version}")
+        if version not in VERSIONS:
+            raise FormatError(f"expected vpk format version 1 or 2, found {version}")
+        self.version = version
+        if version == 2:
+            return self._read_preamble_v2(pre)
+        pre += self._take(PREAMBLE_SIZE - 10, "preamble")
+        _, _, flags, hlen, hcrc = _PREAMBLE.unpack(pre)
         if flags != 0:
             raise FormatError(f"expected preamble flags 0, found {flags}")
         if hlen > self.max_header:
@@ -416,9 +465,41 @@ class Reader:
             raise ChecksumError(f"expected header CRC32 {hcrc:08x}, found {_crc(head):08x}")
         return _load_json(head, "header")
 
+    def _take_varint(self, what: str) -> bytes:
+        """The bytes of the varint at the current position (read one at a time)."""
+        raw = b""
+        while len(raw) < compact.MAX_VARINT:
+            raw += self._take(1, what)
+            if not raw[-1] & 0x80:
+                break
+        return raw
+
+    def _read_preamble_v2(self, pre: bytes) -> dict:
+        pre += self._take(1, "preamble flags")
+        flags = pre[-1]
+        if flags & ~compact.FLAGS:
+            raise FormatError(f"expected preamble flags within {compact.FLAGS}, found {flags}")
+        raw = self._take_varint("header length")
+        pre += raw
+        hlen = compact.get_varint(raw, 0, "header length")[0]
+        if hlen > self.max_header:
+            raise LimitError(
+                f"expected a header of at most {self.max_header} bytes, found {hlen} declared"
+            )
+        head = self._take(hlen, "header")
+        (hcrc,) = struct.unpack("<I", self._take(4, "header CRC32"))
+        if zlib.crc32(head, zlib.crc32(pre)) != hcrc:
+            raise ChecksumError(
+                f"expected header CRC32 {hcrc:08x}, found {zlib.crc32(head, zlib.crc32(pre)):08x}"
+            )
+        form = compact.TEXT_DICT if flags & compact.FLAG_HEADER_DICT else compact.TEXT_JSON
+        return _load_json(compact.unpack_text(form, head, self.max_header, "header"), "header")
+
     def _read_index_seekable(self) -> None:
         length = self._length
         assert length is not None
+        if self.version == 2:
+            return self._read_index_seekable_v2(length)
         if length < self._data_start + FOOTER_SIZE:
             raise FormatError(
                 f"expected at least {self._data_start + FOOTER_SIZE} bytes (header and "
@@ -446,6 +527,93 @@ class Reader:
         if _crc(index) != icrc:
             raise ChecksumError(f"expected index CRC32 {icrc:08x}, found {_crc(index):08x}")
         self._parse_index(index, ioff)
+
+    def _read_index_seekable_v2(self, length: int) -> None:
+        size = compact.FOOTER_SIZE
+        if length < self._data_start + size:
+            raise FormatError(
+                f"expected at least {self._data_start + size} bytes (header and footer), "
+                f"found {length} (truncated)"
+            )
+        self._seek(length - size)
+        foot = self._take(size, "footer")
+        ilen, icrc = compact.unpack_footer(foot)
+        ioff = length - size - ilen
+        if ioff < self._data_start:
+            raise FormatError(
+                f"expected an index of at most {length - size - self._data_start} bytes "
+                f"before the footer, found {ilen} declared"
+            )
+        self._seek(ioff)
+        index = self._take(ilen, "index")
+        found = zlib.crc32(foot[:4], zlib.crc32(index))
+        if found != icrc:
+            raise ChecksumError(f"expected index CRC32 {icrc:08x}, found {found:08x}")
+        self._parse_index_v2(index, ioff)
+
+    def _parse_index_v2(self, index: bytes, ioff: int) -> list[Entry]:
+        """Decode and check a version 2 index whose bytes passed their CRC."""
+        n = len(index)
+        if n < 4 or index[0] != compact.INDEX_TAG:
+            raise FormatError(f"expected the index tag {compact.INDEX_TAG:#x} at offset {ioff}")
+        count, pos = compact.get_varint(index, 1, "index count")
+        if count > (n - pos) // compact.MIN_ENTRY:
+            raise FormatError(
+                f"expected at most {(n - pos) // compact.MIN_ENTRY} entries in an index of "
+                f"{n} bytes, found {count} declared"
+            )
+        entries = []
+        expect = self._data_start
+        for _ in range(count):
+            start = pos
+            t, pos = compact.get_varint(index, pos, "entry t")
+            node, pos = compact.get_varint(index, pos, "entry node")
+            nbytes, pos = compact.get_varint(index, pos, "entry nbytes")
+            head = 1 + pos - start  # the record head: its tag and these same three varints
+            error, pos = compact.get_error(index, pos)
+            if t > _MAX_T:
+                raise FormatError(f"expected t in 0..{_MAX_T}, found {t} in the index")
+            if nbytes > self.max_chunk:
+                raise LimitError(
+                    f"expected chunks of at most {self.max_chunk} bytes, found {nbytes} "
+                    f"for (t={t}, node={node})"
+                )
+            e = Entry(t, node, expect, nbytes, None, error)
+            expect += head + nbytes + 4
+            if expect > ioff:
+                raise FormatError(
+                    f"expected chunk (t={t}, node={node}) to end before the index at "
+                    f"{ioff}, found its end at {expect}"
+                )
+            entries.append(e)
+        if expect != ioff:
+            raise FormatError(f"expected the index at offset {expect}, found it at {ioff}")
+        if pos >= n:
+            raise FormatError("expected the summary form in the index, found the end")
+        form = index[pos]
+        slen, pos = compact.get_varint(index, pos + 1, "summary length")
+        if slen > self.max_header:
+            raise LimitError(
+                f"expected a summary of at most {self.max_header} bytes, found {slen} declared"
+            )
+        if pos + slen != n:
+            raise FormatError(
+                f"expected the summary to fill the rest of the index ({n - pos} bytes), "
+                f"found {slen} declared"
+            )
+        text = compact.unpack_text(form, index[pos:], self.max_header, "summary")
+        return self._set_index(entries, _load_json(text, "summary"))
+
+    def _set_index(self, entries: list[Entry], summary: dict) -> list[Entry]:
+        by_key = {}
+        for e in entries:
+            if (e.t, e.node) in by_key:
+                raise FormatError(
+                    f"expected unique chunk keys, found (t={e.t}, node={e.node}) twice"
+                )
+            by_key[(e.t, e.node)] = e
+        self.entries, self._by_key, self.summary = entries, by_key, summary
+        return entries
 
     def _parse_index(self, index: bytes, ioff: int) -> list[Entry]:
         """Decode and check an index whose bytes passed their CRC; set entries/summary."""
@@ -496,16 +664,30 @@ class Reader:
                 f"expected the summary to fill the rest of the index ({n - pos} bytes), "
                 f"found {slen} declared"
             )
-        summary = _load_json(index[pos:], "summary")
-        by_key = {}
-        for e in entries:
-            if (e.t, e.node) in by_key:
-                raise FormatError(
-                    f"expected unique chunk keys, found (t={e.t}, node={e.node}) twice"
+        return self._set_index(entries, _load_json(index[pos:], "summary"))
+
+    def _read_record_v2(self, e: Entry) -> bytes:
+        """The payload of the version 2 record of entry ``e`` at the current position."""
+        head = compact.record_head(e.t, e.node, e.nbytes)
+        found = self._take(len(head), "chunk record head")
+        if found != head:
+            raise FormatError(
+                f"expected record (t={e.t}, node={e.node}, nbytes={e.nbytes}) at offset "
+                f"{e.offset} as the index says, found other bytes"
+            )
+        return self._record_payload_v2(e, head)
+
+    def _record_payload_v2(self, e: Entry, head: bytes) -> bytes:
+        payload = self._take(e.nbytes, f"payload of chunk (t={e.t}, node={e.node})")
+        (rcrc,) = struct.unpack("<I", self._take(4, "chunk record CRC32"))
+        if self.verify or not self.seekable:
+            found = zlib.crc32(payload, zlib.crc32(head))
+            if found != rcrc:
+                raise ChecksumError(
+                    f"expected record CRC32 {rcrc:08x} for chunk (t={e.t}, node={e.node}), "
+                    f"found {found:08x}"
                 )
-            by_key[(e.t, e.node)] = e
-        self.entries, self._by_key, self.summary = entries, by_key, summary
-        return entries
+        return payload
 
     def _read_record(self, expected: Entry | None, rec: bytes | None = None) -> bytes:
         """Read the record at the current position and return its payload. ``rec`` is its
@@ -574,7 +756,10 @@ class Reader:
         if e is None:
             raise FormatError(f"expected a chunk (t={t}, node={node}), found none in the index")
         self._seek(e.offset)
-        return self._read_record(e)
+        return self._read_entry(e)
+
+    def _read_entry(self, e: Entry) -> bytes:
+        return self._read_record_v2(e) if self.version == 2 else self._read_record(e)
 
     def __iter__(self) -> Iterator[tuple[int, int, bytes]]:
         """Yield ``(t, node, payload)`` in file order. A stream is read once, ending with
@@ -582,12 +767,87 @@ class Reader:
         if self.seekable:
             for e in list(self.entries):
                 self._seek(e.offset)
-                yield e.t, e.node, self._read_record(e)
+                yield e.t, e.node, self._read_entry(e)
             return
         if self._consumed:
             raise FormatError("expected a fresh stream, found it already iterated once")
         self._consumed = True
-        yield from self._iter_stream()
+        yield from self._iter_stream_v2() if self.version == 2 else self._iter_stream()
+
+    def _iter_stream_v2(self) -> Iterator[tuple[int, int, bytes]]:
+        seen: list[Entry] = []
+        keys: set[tuple[int, int]] = set()
+        while True:
+            offset = self._pos
+            tag = self._take(1, "chunk record or index tag")
+            if tag[0] == compact.INDEX_TAG:
+                break
+            if tag[0] != compact.RECORD_TAG:
+                raise FormatError(
+                    f"expected a chunk record tag {compact.RECORD_TAG:#x} or the index tag "
+                    f"{compact.INDEX_TAG:#x} at offset {offset}, found {tag[0]:#x}"
+                )
+            head = tag
+            fields = []
+            for what in ("t", "node", "nbytes"):
+                raw = self._take_varint(f"chunk {what}")
+                fields.append(compact.get_varint(raw, 0, f"chunk {what}")[0])
+                head += raw
+            t, node, nbytes = fields
+            if t > _MAX_T:
+                raise FormatError(f"expected t in 0..{_MAX_T}, found {t} at offset {offset}")
+            if nbytes > self.max_chunk:
+                raise LimitError(
+                    f"expected chunks of at most {self.max_chunk} bytes, found {nbytes} "
+                    f"declared for (t={t}, node={node})"
+                )
+            if (t, node) in keys:
+                raise FormatError(f"expected unique chunk keys, found (t={t}, node={node}) twice")
+            e = Entry(t, node, offset, nbytes, None, math.nan)
+            payload = self._record_payload_v2(e, head)
+            keys.add((t, node))
+            seen.append(e)
+            self.entries.append(e)
+            yield t, node, payload
+        ioff = self._pos - 1
+        raw = self._take_varint("index count")
+        count = compact.get_varint(raw, 0, "index count")[0]
+        if count != len(seen):
+            raise FormatError(
+                f"expected {len(seen)} index entries (the chunks read), found {count}"
+            )
+        parts = [tag, raw]
+        for _ in range(count):
+            parts += [self._take_varint("index entry") for _ in range(3)]
+            form = self._take(1, "index entry error form")
+            parts += [form, self._take({0: 0, 1: 4, 2: 8}.get(form[0], 0), "index entry error")]
+        parts.append(self._take(1, "summary form"))
+        raw = self._take_varint("summary length")
+        slen = compact.get_varint(raw, 0, "summary length")[0]
+        if slen > self.max_header:
+            raise LimitError(
+                f"expected a summary of at most {self.max_header} bytes, found {slen} declared"
+            )
+        index = b"".join(parts) + raw + self._take(slen, "summary")
+        foot = self._take(compact.FOOTER_SIZE, "footer")
+        ilen, icrc = compact.unpack_footer(foot)
+        if ilen != len(index):
+            raise FormatError(
+                f"expected the footer to give the index length {len(index)}, found {ilen}"
+            )
+        found = zlib.crc32(foot[:4], zlib.crc32(index))
+        if found != icrc:
+            raise ChecksumError(f"expected index CRC32 {icrc:08x}, found {found:08x}")
+        entries = self._parse_index_v2(index, ioff)
+        for a, b in zip(seen, entries):
+            if a[:4] != b[:4]:
+                raise FormatError(
+                    f"expected the index entry {tuple(b[:4])} to match the record read, "
+                    f"found {tuple(a[:4])}"
+                )
+        extra = self._f.read(1)
+        if extra:
+            raise FormatError(f"expected the end of the stream after the footer, found {extra!r}")
 
     def _iter_stream(self) -> Iterator[tuple[int, int, bytes]]:
         seen: list[Entry] = []

@@ -25,6 +25,7 @@ def describe(source: str | BinaryIO) -> dict[str, Any]:
         file_size = source_size(source)
         return {
             "format": "vpk",
+            "vpk_version": r.version,
             "path": source if isinstance(source, str) else "-",
             "header": hdr,
             "summary": r.summary,

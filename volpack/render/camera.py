@@ -26,6 +26,7 @@ import math
 
 import numpy as np
 
+from .._jit import kernel
 from ..errors import VolpackError
 
 PERSPECTIVE_FOV = 30.0  # degrees, across the shorter image side
@@ -192,14 +193,50 @@ class Camera:
         """Return ``(origins, directions)``, each ``(h, w, 3)`` float64 in voxel index
         space ``(z, y, x)``; ``t`` along a ray counts reference lengths (module docstring)."""
         cam, sp, centre, radius = self.world_frame(shape_zyx, spacing)
+        fwd, right, up, base, half = cam._frame(centre, radius)
+        w, h = cam.size
+        short = min(w, h)
+        u = (np.arange(w) + 0.5) * 2 / short - w / short  # as world_rays, in one pass
+        v = h / short - (np.arange(h) + 0.5) * 2 / short
+        origins = np.empty((h, w, 3))
+        dirs = np.empty((h, w, 3))
         with np.errstate(over="ignore", invalid="ignore"):  # still too large: checked below
-            origins, dirs = cam.world_rays(centre, radius)
-            ref = float(sp.min())
-            origins /= sp
-            dirs *= ref / sp
-        if not (np.isfinite(origins).all() and np.isfinite(dirs).all()):
+            finite = _index_rays(fwd, right, up, np.asarray(base, float), float(half), u, v,
+                                 cam.projection == "orthographic", sp, float(sp.min()) / sp,
+                                 origins, dirs)  # fmt: skip
+        if not finite:
             raise VolpackError(
                 f"cannot place the camera: the volume's extent (shape {tuple(shape_zyx)} times "
                 f"spacing {tuple(spacing)}) overflows float64"
             )
         return origins, dirs
+
+
+@kernel
+def _index_rays(fwd, right, up, base, half, u, v, ortho, sp, dscale, origins, dirs):
+    """:meth:`Camera.world_rays` divided by the spacing (origins) and scaled to
+    reference lengths (directions), in one pass and with the same operations in the
+    same order (the same numbers): 12 MB of rays a 512^2 frame, where numpy's passes
+    took 30-40 ms. Returns whether every number is finite."""
+    h, w = v.shape[0], u.shape[0]
+    ok = True
+    for r in range(h):
+        for c in range(w):
+            if ortho:
+                for k in range(3):
+                    o = (u[c] * right[k] + v[r] * up[k]) * half + base[k]
+                    origins[r, c, k] = o / sp[k]
+                    dirs[r, c, k] = fwd[k] * dscale[k]
+            else:
+                d0 = fwd[0] + half * (u[c] * right[0] + v[r] * up[0])
+                d1 = fwd[1] + half * (u[c] * right[1] + v[r] * up[1])
+                d2 = fwd[2] + half * (u[c] * right[2] + v[r] * up[2])
+                nrm = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+                dirs[r, c, 0] = d0 / nrm * dscale[0]
+                dirs[r, c, 1] = d1 / nrm * dscale[1]
+                dirs[r, c, 2] = d2 / nrm * dscale[2]
+                for k in range(3):
+                    origins[r, c, k] = base[k] / sp[k]
+            for k in range(3):
+                ok = ok and math.isfinite(origins[r, c, k]) and math.isfinite(dirs[r, c, k])
+    return ok

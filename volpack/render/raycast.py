@@ -920,8 +920,8 @@ def _ndv(grad, node, z, y, x, gscale, vz, vy, vx, gmin, s):
 
 def _march(
     vol, grad, has_grad, codes, light, origins, dirs, rows, pre, post_tab, pre2d,
-    lo, scale, step, leap, brick, skip, ert, shade, shading, gscale, vscale, gmin, out,
-    row_samples,
+    lo, scale, step, leap, brick, skip, ert, shade, shading, gscale, vscale, gmin, clear,
+    out, row_samples,
 ):  # fmt: skip
     """Rays of image rows ``rows``; ``pre``: pre-integrated (else post-classified),
     ``shade``: 0 unshaded, 1 Phong at the segment midpoint from gradients, 2 Phong lit
@@ -930,8 +930,13 @@ def _march(
     holds no gradient code at all). Other arguments as for :func:`_render_kernel`.
     Inlined into one small kernel per (``pre``, ``shade``) pair, where both are
     constants: each kernel's loop holds only its own branch (measured: a third of the
-    time per segment on the benchmark's volumes, against one loop testing both)."""
+    time per segment on the benchmark's volumes, against one loop testing both).
+    ``clear``: table positions ``(below, above)`` outside which every entry a look-up
+    reads is zero (:func:`clear_bounds`): a segment with both ends there (a sample, for
+    post-classification) skips its look-up, as it would read zero opacity."""
     nz, ny, nx = extent(vol)
+    cl, ch_ = clear[0], clear[1]
+    n_tab = pre2d.shape[0] if pre else post_tab.shape[0]
     w = out.shape[1]
     ka, kd, ks, shin = shading[0], shading[1], shading[2], shading[3]
     ishin = int(shin)
@@ -951,6 +956,7 @@ def _march(
             ab = 0.0
             aa = 0.0
             xf = 0.0
+            i0, i1, fi = _ucell(0.0, n_tab)  # the front's table cell, carried along
             have_front = False
             next_check = -1.0
             i = 0
@@ -972,19 +978,23 @@ def _march(
                     break
                 tm = 0.5 * (t0 + t1)
                 count += 1
+                a = 0.0
                 if pre:
                     if not have_front:
                         xf = (sample(vol, oz + t0 * dz, oy + t0 * dy, ox + t0 * dx) - lo) * scale
+                        i0, i1, fi = _ucell(xf, n_tab)
                         have_front = True
                     xb = (sample(vol, oz + t1 * dz, oy + t1 * dy, ox + t1 * dx) - lo) * scale
-                    i0, i1, fi = _ucell(xf, pre2d.shape[0])
-                    j0, j1, fj = _ucell(xb, pre2d.shape[0])
+                    j0, j1, fj = _ucell(xb, n_tab)
+                    if not ((xf < cl and xb < cl) or (xf > ch_ and xb > ch_)):
+                        a = _bilerp(pre2d, 3, i0, i1, fi, j0, j1, fj)
                     xf = xb
-                    a = _bilerp(pre2d, 3, i0, i1, fi, j0, j1, fj)
                 else:
-                    s = sample(vol, oz + tm * dz, oy + tm * dy, ox + tm * dx)
-                    i0, i1, fi = _ucell((s - lo) * scale, post_tab.shape[0])
-                    a = _lerp2(post_tab, 3, i0, i1, fi)
+                    xs = (sample(vol, oz + tm * dz, oy + tm * dy, ox + tm * dx) - lo) * scale
+                    i0, i1, fi = _ucell(xs, n_tab)
+                    j0, j1, fj = i0, i1, fi
+                    if not (xs < cl or xs > ch_):
+                        a = _lerp2(post_tab, 3, i0, i1, fi)
                 if a > 0.0:  # colour only where there is opacity
                     if pre:
                         cr = _bilerp(pre2d, 0, i0, i1, fi, j0, j1, fj)
@@ -1020,6 +1030,7 @@ def _march(
                         ar, ag, ab, aa = ar + wgt * cr, ag + wgt * cg, ab + wgt * cb, aa + wgt * a
                     if aa > ert:
                         break
+                i0, i1, fi = j0, j1, fj
                 i += 1
             out[r, c, 0], out[r, c, 1], out[r, c, 2], out[r, c, 3] = ar, ag, ab, aa
         row_samples[r] = count
@@ -1039,12 +1050,12 @@ def _march_specialised(pre, shade):
     """The fast kernel for one (pre-integrated?, shaded?) pair (see :func:`_march`)."""
 
     def run(vol, grad, has_grad, codes, light, origins, dirs, rows, post_tab, pre2d,
-            lo, scale, step, leap, brick, skip, ert, shading, gscale, vscale, gmin, out,
-            row_samples):  # fmt: skip
+            lo, scale, step, leap, brick, skip, ert, shading, gscale, vscale, gmin, clear,
+            out, row_samples):  # fmt: skip
         _march_inline(
             vol, grad, has_grad, codes, light, origins, dirs, rows, pre, post_tab,
             pre2d, lo, scale, step, leap, brick, skip, ert, shade, shading, gscale, vscale,
-            gmin, out, row_samples,
+            gmin, clear, out, row_samples,
         )  # fmt: skip
 
     run.__name__ = run.__qualname__ = f"_march_{'pre' if pre else 'post'}_{SHADE_NAMES[shade]}"
@@ -1363,13 +1374,14 @@ def render(
         grad, has_grad = volume.grad, True  # the nodes' gradient bricks
     if fast:
         march = _MARCH[mode == 2, 2 if has_codes else int(shading == "phong")]
+        clear = clear_bounds(pre2d if mode == 2 else post_tab)
 
         def run(rows: np.ndarray) -> None:  # the fast path (see _march)
             march(
                 vol, grad, has_grad, codes, light, origins, dirs, rows, post_tab,
                 pre2d, lo, scale,
                 float(step), leap, brick, bool(skip_empty), float(ert), shading_k, gscale,
-                vscale, gmin, out, row_samples,
+                vscale, gmin, clear, out, row_samples,
             )  # fmt: skip
 
         run_row_sets(run, h, nthreads, progress)
@@ -1385,6 +1397,29 @@ def render(
 
     run_row_sets(run, h, nthreads, progress)
     return finish_render(out, row_samples, t_start, render_stats)
+
+
+def clear_bounds(tab: np.ndarray) -> np.ndarray:
+    """Table positions ``(below, above)`` outside which a look-up reads only zeros.
+
+    A linear look-up at ``x`` reads entries ``floor(x)`` and ``floor(x) + 1`` (clamped
+    to the table): with ``x < below`` both come before the first non-zero entry, with
+    ``x > above`` both after the last. Of a 2-D table, a segment with both ends below
+    (above) reads entries whose row and column both lie there, so the first non-zero
+    entry is the smallest ``max(i, j)`` (the last, the largest ``min(i, j)``) of a
+    non-zero one. (inf, -inf) when the table is all zero."""
+    n = tab.shape[0]
+    if tab.ndim == 3:
+        ii, jj = np.nonzero(np.any(tab != 0, axis=2))
+        first, last = (np.maximum(ii, jj), np.minimum(ii, jj)) if ii.size else ((), ())
+    else:
+        first = last = np.flatnonzero(np.any(tab != 0, axis=1))
+    if len(first) == 0:
+        return np.array([np.inf, -np.inf])
+    k, m = int(np.min(first)), int(np.max(last))
+    # x < k - 1: floor(x) + 1 <= k - 1 (at x < 0 the clamped look-up reads entries 0 and
+    # 1 with weight 0 on entry 1); x > m + 1: floor(x) >= m + 1, unless clamped to m
+    return np.array([k - 1.0 if k >= 1 else -np.inf, m + 1.0 if m + 1 <= n - 1 else np.inf])
 
 
 def finish_render(out, row_samples, t_start, render_stats):

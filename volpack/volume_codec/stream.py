@@ -259,6 +259,11 @@ def compress(
             "ratio": vol.nbytes / max(nbytes, 1),
             **quality_stats,
         }
+        # measured figures to 6 significant digits (as `volpack info` shows them): the 17
+        # of a float64 cost ~30 bytes of a small file; max_error stays exact (the bound held)
+        for key in ("ratio", "rmse", "psnr"):
+            if isinstance(summary.get(key), float):
+                summary[key] = float(f"{summary[key]:.6g}")
         if search is not None:
             summary["search"] = search
         if tools_used:
