@@ -434,3 +434,78 @@ def test_cli_help_and_compress_fast(tmp_path):
     r = CliRunner().invoke(main, ["info", str(out)])
     assert "id=fast" in r.output and "fast-" in r.output
     np.testing.assert_array_equal(api.decompress(str(out)).data, a)
+
+
+def test_activity_table_is_the_class_rule():
+    """The decoder looks the class up below 4096; the table must be the rule."""
+    for a in range(fastpredict.ACTIVITY.size):
+        assert fastpredict.ACTIVITY[a] == fastpredict._activity(a), a
+
+
+@pytest.mark.parametrize("bits", [20, 23, 24, 26])
+def test_residuals_near_the_decoders_cap(bits):
+    """The decoder keeps residuals capped at 2^24 for the contexts. Sparse spikes of
+    about 2^bits in every other slice over a flat background: the voxels under a spike
+    have no gradient, so their class is the spike's residual alone (large, many
+    classes of it kept apart by the encoder); they must decode as coded."""
+    rng = np.random.default_rng(bits)
+    v = np.zeros((8, 24, 24), dtype=np.int64)
+    spikes = rng.random(v[::2].shape) < 0.15
+    v[::2][spikes] = (1 << bits) - rng.integers(0, 1 << (bits - 2), spikes.sum())
+    hi = (1 << bits) - 1
+    for predictor in fastpredict.PREDICTORS:
+        for context in fastpredict.CONTEXTS:
+            data = fastpredict.encode(v, 0, hi, predictor, context, False)
+            np.testing.assert_array_equal(fastpredict.decode(data, v.shape, 0, hi), v)
+
+
+def test_the_cap_keeps_every_class():
+    """Why the cap is exact: a sum holding a term of 2^24 or more has class 47 either
+    way, and below the cap nothing changes."""
+    for terms in ([1 << 24, 0], [(1 << 24) + 5, 3], [1 << 33, 1 << 30], [(1 << 24) - 1, 1]):
+        capped = sum(min(t, fastpredict.UCAP) for t in terms)
+        assert fastpredict._activity(capped) == fastpredict._activity(sum(terms))
+
+
+def _payloads():
+    """One payload of each kind (constant, raw, palette, plain, float) and its brick."""
+    c = FastCodec()
+    rng = np.random.default_rng(5)
+    labels = np.zeros((9, 17, 13), dtype=np.uint8)
+    labels[2:7, 3:12, 4:] = 40
+    labels[4:, 8:, 6:9] = 200
+    out = [
+        np.full((4, 5, 6), -7, dtype=np.int16),
+        rng.integers(0, 256, (6, 6, 6)).astype(np.uint8),
+        labels,
+        np.rint(smooth((7, 10, 12))).astype(np.int16),
+        (np.rint(smooth((5, 6, 7))) * 1000).astype(np.int32),
+        smooth((4, 6, 8)).astype(np.float32),
+    ]
+    return [(c.encode(a), a) for a in out]
+
+
+@pytest.mark.parametrize("k", range(6))
+def test_decode_into_a_view_of_a_larger_volume(k):
+    """``decode_into`` writes exactly the brick, through any strides, and nothing else."""
+    payload, a = _payloads()[k]
+    big = np.full((a.shape[0] + 3, a.shape[1] + 4, a.shape[2] + 5), 99, dtype=a.dtype)
+    view = big[1 : 1 + a.shape[0], 2 : 2 + a.shape[1], 3 : 3 + a.shape[2]]
+    FastCodec().decode_into(payload, view)
+    assert same_bits(view.copy(), a)
+    rest = np.ones(big.shape, dtype=bool)
+    rest[1 : 1 + a.shape[0], 2 : 2 + a.shape[1], 3 : 3 + a.shape[2]] = False
+    assert (big[rest] == 99).all()
+    assert same_bits(FastCodec().decode(payload, a.shape, a.dtype), a)
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_volume_and_region_decode_in_place(workers):
+    """Whole bricks go straight into the volume, bricks cut by a region through a copy:
+    both as the array, with one worker or two."""
+    a = np.rint(smooth((40, 37, 70), noise=1.0)).astype(np.int16)
+    a[:, :10] = 0
+    blob = api.compress_array(a, codec="fast", brick=16)
+    np.testing.assert_array_equal(api.decompress_array(blob, workers=workers), a)
+    vol = api.decompress(blob, roi="3:35,5:30,17:66", workers=workers)
+    np.testing.assert_array_equal(vol.data, a[3:35, 5:30, 17:66])

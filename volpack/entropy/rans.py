@@ -159,12 +159,30 @@ def decode_symbol(data, x, pos, c, table):
     The renormalisation has no branch: which way it goes depends on the data, and a
     mispredicted branch costs more than the arithmetic."""
     e = np.int64(table[c, x & (TOTAL - 1)])
-    x = ((e >> 8) & 0xFFF) * (x >> PROB_BITS) + (e >> 20)
+    x, pos = _renorm(data, ((e >> 8) & 0xFFF) * (x >> PROB_BITS) + (e >> 20), pos)
+    return e & 0xFF, x, pos
+
+
+@kernel(inline=True)
+def _renorm(data, x, pos):
+    """Feed the next 16-bit word to a state that fell below ``LOW`` (without a branch)."""
     more = np.int64(x < LOW)
     p = min(pos, data.size - 2)
     word = np.int64(data[p]) | (np.int64(data[p + 1]) << 8)
-    x = (x << (16 * more)) | (word & -more)
-    return e & 0xFF, x, pos + 2 * more
+    return (x << (16 * more)) | (word & -more), pos + 2 * more
+
+
+@kernel(inline=True)
+def decode_symbol_split(data, x, pos, cbase, syms, info):
+    """:func:`decode_symbol` from a table split in two (a quarter of the bytes, so more
+    of it stays in the L1 cache): ``syms[cbase + slot]`` the symbol (uint8, ``cbase``
+    the context's first slot in the flat array), ``info[cbase >> 4 | symbol]`` its
+    frequency and first slot as ``freq | start << 13`` (uint32)."""
+    s = x & (TOTAL - 1)
+    t = np.int64(syms[np.uintp(cbase | s)])
+    e = np.int64(info[np.uintp((cbase >> 4) | t)])
+    x, pos = _renorm(data, (e & 0x1FFF) * (x >> PROB_BITS) + s - (e >> 13), pos)
+    return t, x, pos
 
 
 @kernel(inline=True)

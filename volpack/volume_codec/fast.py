@@ -108,16 +108,26 @@ class FastCodec(BrickCodec):
         return min(candidates, key=len)
 
     def decode(self, data: bytes | memoryview, shape: tuple[int, ...], dtype: Any) -> np.ndarray:
-        from . import fastpredict
-
         dtype = np.dtype(dtype)
         check_dtype(dtype)
-        shape = tuple(shape)
+        out = np.empty(tuple(shape), dtype=dtype)
+        self.decode_into(data, out)
+        return out
+
+    def decode_into(self, data: bytes | memoryview, out: np.ndarray) -> None:
+        """Decode straight into ``out`` (a brick of the volume): integer voxels go from
+        the decoder's work array to ``out`` in one pass, through the palette if any."""
+        from . import fastpredict
+
+        dtype, shape = out.dtype, out.shape
+        check_dtype(dtype)
         mode, body = split_mode(data, "fast")
         if mode == MODE_RAW:
-            return from_stored(body, shape, dtype)
+            out[...] = from_stored(body, shape, dtype)
+            return
         if mode == MODE_CONSTANT:
-            return np.full(shape, from_stored(body, (1,), dtype)[0], dtype=dtype)
+            out[...] = from_stored(body, (1,), dtype)[0]
+            return
         if mode != MODE_CODED:
             raise FormatError(f"fast brick payload: expected mode 0 to 2, found {mode}")
         if len(body) < 1:
@@ -137,15 +147,17 @@ class FastCodec(BrickCodec):
             if p[0] < vmin or p[-1] > vmax:
                 raise FormatError(f"corrupt palette: values outside the range of {dtype}")
             ranks = fastpredict.decode(rest[used:], shape, 0, len(p) - 1)
-            if not is_float:  # straight into the voxels' dtype (np.take: a third of p[ranks])
-                return np.take(p.astype(dtype), ranks)
+            if not is_float:  # ranks to voxels to the volume in one pass
+                fastpredict.store_palette(ranks, p.astype(dtype), out)
+                return
             values = pal.from_ranks(ranks, p)
         else:
             lo, hi, pos = pal.read_range(rest, vmin, vmax, f"fast brick payload of {dtype}")
             values = fastpredict.decode(rest[pos:], shape, lo, hi)
         if is_float:
-            return from_ordered(values.astype(np.int64), dtype).reshape(shape)
-        return values.astype(dtype, copy=False).reshape(shape)
+            out[...] = from_ordered(values.astype(np.int64), dtype).reshape(shape)
+        else:
+            out[...] = values
 
 
 def describe(payload: bytes) -> str:

@@ -46,6 +46,11 @@ class BrickCodec:
     def decode(self, data: bytes | memoryview, shape: tuple[int, ...], dtype: Any) -> np.ndarray:
         raise NotImplementedError
 
+    def decode_into(self, data: bytes | memoryview, out: np.ndarray) -> None:
+        """Decode a brick of ``out``'s shape and dtype into ``out`` (a view of the volume,
+        any strides); codecs that can write there straight skip a copy."""
+        out[...] = self.decode(data, out.shape, out.dtype)
+
     def get_config(self) -> dict[str, Any]:
         """The codec's id and fields: what a ``.vpk`` header stores."""
         return {"id": self.codec_id, **dataclasses.asdict(self)}

@@ -364,11 +364,15 @@ class VolumeReader(CheckedReader):
                 raise FormatError(f"stream has no chunk for frame {t}, brick {node}")
             sl = bricks.brick_slices(spatial, brick_t, node)
             bshape = tuple(s.stop - s.start for s in sl)
-            return i, sl, c.decode(payload, bshape, dtype)
-
-        for done, (i, sl, b) in enumerate(ordered_map(fetch, tasks, nworkers), 1):
             src_sl, dst_sl = _intersect(sl, region)
-            out[(i, *dst_sl)] = b[src_sl]
+            if all(s.stop - s.start == n for s, n in zip(src_sl, bshape)):
+                c.decode_into(payload, out[(i, *dst_sl)])  # the whole brick: in place
+                return None
+            return (i, *dst_sl), c.decode(payload, bshape, dtype)[src_sl]
+
+        for done, part in enumerate(ordered_map(fetch, tasks, nworkers), 1):
+            if part is not None:
+                out[part[0]] = part[1]
             if progress is not None:
                 progress(done, len(tasks))
         data = out[0] if (len(shape) == 3 or frame is not None) else out
