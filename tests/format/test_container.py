@@ -465,13 +465,17 @@ def test_verify_false_skips_payload_crc_only():
     assert got[0][2] == b"`lpha"
 
 
-def test_spec_worked_example_matches_the_writer():
-    spec = (Path(__file__).parents[2] / "formats" / "vpk-1.md").read_text()
-    dump = spec.split("## 6. Worked example")[1].split("```")[1]
+@pytest.mark.parametrize(
+    "version, spec_file, section",
+    [(1, "vpk-1.md", "## 6. Worked example"), (2, "vpk-2.md", "## 7. Worked example")],
+)
+def test_spec_worked_example_matches_the_writer(version, spec_file, section):
+    spec = (Path(__file__).parents[2] / "formats" / spec_file).read_text()
+    dump = spec.split(section)[1].split("```")[1]
     # xxd lines: "00000000: " then 8 groups of 4 hex digits in columns 10..49, then ASCII
     expected = bytes.fromhex("".join(line[10:49] for line in dump.strip().splitlines()))
     buf = io.BytesIO()
-    with Writer(buf, {"kind": "test"}) as w:
+    with _Writer(buf, {"kind": "test"}, version=version) as w:
         w.write(0, 1, b"hi", error=0.5)
         w.close({"n": 1})
     assert buf.getvalue() == expected

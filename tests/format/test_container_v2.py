@@ -82,17 +82,6 @@ def test_golden_file_is_reproduced_byte_for_byte():
     assert buf.getvalue() == GOLDEN.read_bytes()
 
 
-def test_spec_worked_example_matches_the_writer():
-    spec = (Path(__file__).parents[2] / "formats" / "vpk-2.md").read_text()
-    dump = spec.split("## 7. Worked example")[1].split("```")[1]
-    expected = bytes.fromhex("".join(line[10:49] for line in dump.strip().splitlines()))
-    buf = io.BytesIO()
-    with Writer(buf, {"kind": "test"}) as w:
-        w.write(0, 1, b"hi", error=0.5)
-        w.close({"n": 1})
-    assert buf.getvalue() == expected
-
-
 def test_dictionary_is_the_pinned_one():
     from importlib import resources
 

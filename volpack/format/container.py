@@ -838,16 +838,8 @@ class Reader:
         found = zlib.crc32(foot[:4], zlib.crc32(index))
         if found != icrc:
             raise ChecksumError(f"expected index CRC32 {icrc:08x}, found {found:08x}")
-        entries = self._parse_index_v2(index, ioff)
-        for a, b in zip(seen, entries):
-            if a[:4] != b[:4]:
-                raise FormatError(
-                    f"expected the index entry {tuple(b[:4])} to match the record read, "
-                    f"found {tuple(a[:4])}"
-                )
-        extra = self._f.read(1)
-        if extra:
-            raise FormatError(f"expected the end of the stream after the footer, found {extra!r}")
+        # version 2 entries carry no CRC: compare t, node, offset and size
+        self._end_of_stream(seen, self._parse_index_v2(index, ioff), 4)
 
     def _iter_stream(self) -> Iterator[tuple[int, int, bytes]]:
         seen: list[Entry] = []
@@ -902,12 +894,16 @@ class Reader:
             )
         if _crc(index) != icrc:
             raise ChecksumError(f"expected index CRC32 {icrc:08x}, found {_crc(index):08x}")
-        entries = self._parse_index(index, ioff)
+        self._end_of_stream(seen, self._parse_index(index, ioff), 5)
+
+    def _end_of_stream(self, seen: list[Entry], entries: list[Entry], width: int) -> None:
+        """A stream read to its footer: its index must list the records read (their first
+        ``width`` fields), and nothing may follow."""
         for a, b in zip(seen, entries):
-            if a[:5] != b[:5]:
+            if a[:width] != b[:width]:
                 raise FormatError(
-                    f"expected the index entry {tuple(b[:5])} to match the record read, "
-                    f"found {tuple(a[:5])}"
+                    f"expected the index entry {tuple(b[:width])} to match the record read, "
+                    f"found {tuple(a[:width])}"
                 )
         extra = self._f.read(1)
         if extra:
