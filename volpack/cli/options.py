@@ -218,8 +218,9 @@ codec_options = options(
            "or, lossy only, the float Daubechies-4, Coiflet-6 and CDF 9/7 (for comparison).",
            ["53", "26", "haar", "97m", "d4", "c6", "cdf97"], "53"),
     option("--coder",
-           "arith: best ratio; arith2: arith's model, about twice as fast to decode; "
-           "huffman: fixed code, fastest decode; rle: run-length Huffman for sparse data.",
+           "arith: best ratio; arith2: arith's model, 1.6-2x as fast to decode, up to 1 % "
+           "larger; huffman: fixed code, fastest decode; rle: run-length Huffman for sparse "
+           "data.",
            ["arith", "arith2", "huffman", "rle"], "arith"),
     option("--order",
            "Coefficient scan: octree depth-first with zero-subtree stripping, or line by line.",
