@@ -97,6 +97,15 @@ class Entry(NamedTuple):
     error: float
 
 
+def _check_before_index(e: Entry, end: int, ioff: int) -> None:
+    """An index entry's record must end before the index itself begins."""
+    if end > ioff:
+        raise FormatError(
+            f"expected chunk (t={e.t}, node={e.node}) to end before the index at {ioff}, "
+            f"found its end at {end}"
+        )
+
+
 def is_vpk(prefix: bytes) -> bool:
     """True when ``prefix`` (the first bytes of a file, at least 8) starts with :data:`MAGIC`."""
     return bytes(prefix[: len(MAGIC)]) == MAGIC
@@ -500,13 +509,7 @@ class Reader:
         assert length is not None
         if self.version == 2:
             return self._read_index_seekable_v2(length)
-        if length < self._data_start + FOOTER_SIZE:
-            raise FormatError(
-                f"expected at least {self._data_start + FOOTER_SIZE} bytes (header and "
-                f"footer), found {length} (truncated)"
-            )
-        self._seek(length - FOOTER_SIZE)
-        foot = self._take(FOOTER_SIZE, "footer")
+        foot = self._take_footer(length, FOOTER_SIZE)
         ioff, ilen, icrc, fcrc, end = _FOOTER.unpack(foot)
         if end != END_MAGIC:
             raise FormatError(
@@ -528,15 +531,19 @@ class Reader:
             raise ChecksumError(f"expected index CRC32 {icrc:08x}, found {_crc(index):08x}")
         self._parse_index(index, ioff)
 
-    def _read_index_seekable_v2(self, length: int) -> None:
-        size = compact.FOOTER_SIZE
+    def _take_footer(self, length: int, size: int) -> bytes:
+        """The last ``size`` bytes of a seekable container of ``length`` bytes."""
         if length < self._data_start + size:
             raise FormatError(
                 f"expected at least {self._data_start + size} bytes (header and footer), "
                 f"found {length} (truncated)"
             )
         self._seek(length - size)
-        foot = self._take(size, "footer")
+        return self._take(size, "footer")
+
+    def _read_index_seekable_v2(self, length: int) -> None:
+        size = compact.FOOTER_SIZE
+        foot = self._take_footer(length, size)
         ilen, icrc = compact.unpack_footer(foot)
         ioff = length - size - ilen
         if ioff < self._data_start:
@@ -573,18 +580,10 @@ class Reader:
             error, pos = compact.get_error(index, pos)
             if t > _MAX_T:
                 raise FormatError(f"expected t in 0..{_MAX_T}, found {t} in the index")
-            if nbytes > self.max_chunk:
-                raise LimitError(
-                    f"expected chunks of at most {self.max_chunk} bytes, found {nbytes} "
-                    f"for (t={t}, node={node})"
-                )
+            self._check_chunk_size(t, node, nbytes)
             e = Entry(t, node, expect, nbytes, None, error)
             expect += head + nbytes + 4
-            if expect > ioff:
-                raise FormatError(
-                    f"expected chunk (t={t}, node={node}) to end before the index at "
-                    f"{ioff}, found its end at {expect}"
-                )
+            _check_before_index(e, expect, ioff)
             entries.append(e)
         if expect != ioff:
             raise FormatError(f"expected the index at offset {expect}, found it at {ioff}")
@@ -592,15 +591,7 @@ class Reader:
             raise FormatError("expected the summary form in the index, found the end")
         form = index[pos]
         slen, pos = compact.get_varint(index, pos + 1, "summary length")
-        if slen > self.max_header:
-            raise LimitError(
-                f"expected a summary of at most {self.max_header} bytes, found {slen} declared"
-            )
-        if pos + slen != n:
-            raise FormatError(
-                f"expected the summary to fill the rest of the index ({n - pos} bytes), "
-                f"found {slen} declared"
-            )
+        self._check_summary_length(slen, room=n - pos)
         text = compact.unpack_text(form, index[pos:], self.max_header, "summary")
         return self._set_index(entries, _load_json(text, "summary"))
 
@@ -639,31 +630,15 @@ class Reader:
                 raise FormatError(
                     f"expected chunk (t={e.t}, node={e.node}) at offset {expect}, found {e.offset}"
                 )
-            if e.nbytes > self.max_chunk:
-                raise LimitError(
-                    f"expected chunks of at most {self.max_chunk} bytes, found {e.nbytes} "
-                    f"for (t={e.t}, node={e.node})"
-                )
+            self._check_chunk_size(e.t, e.node, e.nbytes)
             expect = e.offset + RECORD_SIZE + e.nbytes
-            if expect > ioff:
-                raise FormatError(
-                    f"expected chunk (t={e.t}, node={e.node}) to end before the index at "
-                    f"{ioff}, found its end at {expect}"
-                )
+            _check_before_index(e, expect, ioff)
             entries.append(e)
         if expect != ioff:
             raise FormatError(f"expected the index at offset {expect}, found it at {ioff}")
         (slen,) = _SUMMARY_LEN.unpack_from(index, pos)
         pos += _SUMMARY_LEN.size
-        if slen > self.max_header:
-            raise LimitError(
-                f"expected a summary of at most {self.max_header} bytes, found {slen} declared"
-            )
-        if pos + slen != n:
-            raise FormatError(
-                f"expected the summary to fill the rest of the index ({n - pos} bytes), "
-                f"found {slen} declared"
-            )
+        self._check_summary_length(slen, room=n - pos)
         return self._set_index(entries, _load_json(index[pos:], "summary"))
 
     def _read_record_v2(self, e: Entry) -> bytes:
@@ -719,11 +694,7 @@ class Reader:
                 f"{expected.nbytes}) at offset {offset} as the index says, found (t={t}, "
                 f"node={node}, nbytes={nbytes})"
             )
-        if nbytes > self.max_chunk:
-            raise LimitError(
-                f"expected chunks of at most {self.max_chunk} bytes, found {nbytes} declared "
-                f"for (t={t}, node={node})"
-            )
+        self._check_chunk_size(t, node, nbytes)
         payload = self._take(nbytes, f"payload of chunk (t={t}, node={node})")
         if self.verify and _crc(payload) != pcrc:
             raise ChecksumError(
@@ -796,11 +767,7 @@ class Reader:
             t, node, nbytes = fields
             if t > _MAX_T:
                 raise FormatError(f"expected t in 0..{_MAX_T}, found {t} at offset {offset}")
-            if nbytes > self.max_chunk:
-                raise LimitError(
-                    f"expected chunks of at most {self.max_chunk} bytes, found {nbytes} "
-                    f"declared for (t={t}, node={node})"
-                )
+            self._check_chunk_size(t, node, nbytes)
             if (t, node) in keys:
                 raise FormatError(f"expected unique chunk keys, found (t={t}, node={node}) twice")
             e = Entry(t, node, offset, nbytes, None, math.nan)
@@ -824,10 +791,7 @@ class Reader:
         parts.append(self._take(1, "summary form"))
         raw = self._take_varint("summary length")
         slen = compact.get_varint(raw, 0, "summary length")[0]
-        if slen > self.max_header:
-            raise LimitError(
-                f"expected a summary of at most {self.max_header} bytes, found {slen} declared"
-            )
+        self._check_summary_length(slen)
         index = b"".join(parts) + raw + self._take(slen, "summary")
         foot = self._take(compact.FOOTER_SIZE, "footer")
         ilen, icrc = compact.unpack_footer(foot)
@@ -874,10 +838,7 @@ class Reader:
             )
         body = self._take(count * ENTRY_SIZE + _SUMMARY_LEN.size, "index entries")
         (slen,) = _SUMMARY_LEN.unpack_from(body, count * ENTRY_SIZE)
-        if slen > self.max_header:
-            raise LimitError(
-                f"expected a summary of at most {self.max_header} bytes, found {slen} declared"
-            )
+        self._check_summary_length(slen)
         index = head + body + self._take(slen, "summary")
         foot = self._take(FOOTER_SIZE, "footer")
         f_ioff, f_ilen, icrc, fcrc, end = _FOOTER.unpack(foot)
@@ -895,6 +856,26 @@ class Reader:
         if _crc(index) != icrc:
             raise ChecksumError(f"expected index CRC32 {icrc:08x}, found {_crc(index):08x}")
         self._end_of_stream(seen, self._parse_index(index, ioff), 5)
+
+    def _check_chunk_size(self, t: int, node: int, nbytes: int) -> None:
+        if nbytes > self.max_chunk:
+            raise LimitError(
+                f"expected chunks of at most {self.max_chunk} bytes, found {nbytes} declared "
+                f"for (t={t}, node={node})"
+            )
+
+    def _check_summary_length(self, slen: int, room: int | None = None) -> None:
+        """A declared summary length: within the header limit and, when the index is read
+        whole, filling the ``room`` left in it."""
+        if slen > self.max_header:
+            raise LimitError(
+                f"expected a summary of at most {self.max_header} bytes, found {slen} declared"
+            )
+        if room is not None and slen != room:
+            raise FormatError(
+                f"expected the summary to fill the rest of the index ({room} bytes), "
+                f"found {slen} declared"
+            )
 
     def _end_of_stream(self, seen: list[Entry], entries: list[Entry], width: int) -> None:
         """A stream read to its footer: its index must list the records read (their first
