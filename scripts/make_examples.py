@@ -186,6 +186,8 @@ def lossless_source(recipe: str):
         cut = wavelet_source("u8").copy()
         cut[cut < 60] = 0
         return cut
+    if recipe == "labels-2x":  # the label cut resampled to half the spacing in z and y
+        return np.repeat(np.repeat(wavelet_source("labels"), 2, axis=0), 2, axis=1)
     if recipe in ("f32-smooth", "f64-smooth"):  # a smooth field, full mantissas, specials
         z, y, x = np.indices((20, 24, 28))
         f = np.sin(x * 0.21 + z * 0.05) * np.cos(y * 0.17) * 80.0 + z * 0.3
@@ -235,9 +237,16 @@ FAST_CASES = [
     ("fast-f32-special", "f32-special", {"codec": "fast", "runs": False}),
     # the run mode (the default since; the four above are the streams of before it): in
     # 32^3 bricks too, whose runs repay their two tables (runs after each predictor)
-    ("fast-runs-mixed", "v2-u8-background", {"codec": "fast", "runs": True}),
-    ("fast-runs-labels", "labels", {"codec": "fast", "runs": True, "brick": 32}),
-    ("fast-runs-u8-background", "u8-background", {"codec": "fast", "runs": True, "brick": 32}),
+    ("fast-runs-mixed", "v2-u8-background", {"codec": "fast", "runs": True, "rows": False}),
+    ("fast-runs-labels", "labels", {"codec": "fast", "runs": True, "rows": False, "brick": 32}),
+    (
+        "fast-runs-u8-background",
+        "u8-background",
+        {"codec": "fast", "runs": True, "rows": False, "brick": 32},
+    ),
+    # the row kinds (the default since): runs of rows that copy the row or slice above
+    ("fast-rows-labels", "labels-2x", {"codec": "fast", "brick": 32}),
+    ("fast-rows-mixed", "v2-u8-background", {"codec": "fast"}),
 ]
 
 
