@@ -54,8 +54,8 @@ RUN_SLACK = 0.4  # the run mode may cost this share of bytes times the square of
 # of voxels in runs (a brick all in runs decodes 3-8x faster; one with few gains little),
 RUN_BITS = 0.01  # or this many bits a voxel times that square (label bricks of a few
 # hundred bytes, where a relative slack is no slack)
-NS_BITS = 0.008  # a faster stream may also spend this many bits a nanosecond of decode it
-# saves (by :func:`decode_ns`; 1 KB a millisecond): on label bricks of a few hundred bytes
+NS_BITS = 0.016  # a faster stream may also spend this many bits a nanosecond of decode it
+# saves (by :func:`decode_ns`; 2 KB a millisecond): on label bricks of a few hundred bytes
 # the run rule's allowance is a few dozen bytes, and the plain stream decodes 10-30x slower
 BAD_SYMBOL = 0xFF  # what the slots of an unused context decode to
 NEAR_GAIN = 0.01  # the share of bytes the slower ``near`` context must save
@@ -587,11 +587,12 @@ def _decode_kernel(
     return 0
 
 
-def decode_ns(coded: int, runs: int, filled: int, copied: int) -> float:
-    """A model of a brick's decode time (ns per core, measured on label maps and the
-    head CT): voxels decoded one by one, runs (a symbol, a flat check and the voxel that
-    ends it), voxels filled by runs and voxels of copied rows."""
-    return 15.0 * coded + 40.0 * runs + 0.6 * filled + 0.15 * copied
+def decode_ns(coded: int, runs: int, filled: int, copied: int, nx: int) -> float:
+    """A model of a brick's decode time (ns per core, fitted on the bricks of the liver
+    labels and the head CT): voxels decoded one by one, runs (a symbol, a flat check and
+    the voxel that ends it), voxels filled by runs (and a row segment of ``nx`` each)
+    and voxels of copied rows."""
+    return 15.0 * coded + 60.0 * runs + (0.6 + 40.0 / nx) * filled + 0.2 * copied
 
 
 def _cap_contexts(counts: np.ndarray) -> tuple[int, np.ndarray, float]:
@@ -745,7 +746,9 @@ def encode(
         ctx = np.where(ctx >= NCLASS, ctx - NCLASS + nctx, np.minimum(ctx, nctx - 1))
         raw = bits[: (nbits + 7) >> 3].tobytes()
         share = (covered + copied) / n
-        spent = decode_ns(n - covered - copied, counts[RUN_LENGTH].sum(), covered, copied)
+        spent = decode_ns(
+            n - covered - copied, counts[RUN_LENGTH].sum(), covered, copied, v.shape[2]
+        )
         return cost + nbits, pid, cid, run, row, nctx, freqs, raw, toks[:nsym], ctx, spent, share
 
     timed = rows is not False  # the encoder of the row kinds also weighs decode time
