@@ -69,6 +69,8 @@ KINDS = {
     "fast": ("fast-u8-background.vpk", VOLUME_PATHS),
     # the fast codec's run mode (the default since the `runs` header field)
     "fast-runs": ("fast-runs-mixed.vpk", VOLUME_PATHS),
+    # its row kinds (the default since the `rows` header field): copy runs of rows
+    "fast-rows": ("fast-rows-labels.vpk", VOLUME_PATHS),
     "lossy-interp": ("lossy-bounded-f32-interp.vpk", VOLUME_PATHS),
     # container format version 2 (formats/vpk-2.md): varint records, dictionary-coded
     # header and summary; one brick, and eight

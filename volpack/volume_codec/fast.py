@@ -23,6 +23,7 @@ counts the bricks per mode, predictor and context rule (:func:`describe`).
 from __future__ import annotations
 
 import dataclasses
+import math
 from typing import Any, ClassVar
 
 import numpy as np
@@ -155,7 +156,7 @@ class FastCodec(BrickCodec):
             vmin, vmax = int(np.iinfo(dtype).min), int(np.iinfo(dtype).max)
         rest = body[1:]
         if flags & FLAG_PALETTE:
-            n = int(np.prod(shape))
+            n = math.prod(shape)
             p, used = pal.unpack(rest, min(pal.MAX_PALETTE, max(n, 1)))
             if p[0] < vmin or p[-1] > vmax:
                 raise FormatError(f"corrupt palette: values outside the range of {dtype}")

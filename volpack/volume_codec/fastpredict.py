@@ -29,6 +29,8 @@ The byte layout is in ``formats/fast-1.md``.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .._jit import kernel, leading_zeros
@@ -829,7 +831,7 @@ def decode(
     raw = data[pos + nbytes :]
     words = np.zeros((len(raw) + 3) // 4 + 1, dtype="<u4")  # a 0 word past the end
     words.view(np.uint8)[: len(raw)] = np.frombuffer(raw, dtype=np.uint8)
-    n = int(np.prod(shape))
+    n = math.prod(shape)
     v = np.empty(n, dtype=_work_dtype(lo, hi))
     ring = np.zeros(2 * int(shape[1]) * int(shape[2]), dtype=np.int32)
     status = _decode_kernel(
