@@ -11,6 +11,10 @@ made per brick and stored:
   samples along one axis are nearly independent (daily weather maps stacked in time,
   thin slabs) codes shorter without transforming that axis: 104.9 against 60.9:1 on the
   500 hPa height at 1e-2 of its range;
+* the decomposition: the Mallat (dyadic) layout or the separable one of
+  :mod:`volpack.wavelet.packet` (each axis transformed fully on its own), by coded size
+  at the first step. Fields smooth along some axes and rough along others code shorter
+  separable: 26 % on the CAM zonal wind at 1e-2 of its range, 14 % on the cryo-EM map;
 * the step, among :data:`STEP_FACTORS` times the bound, by coded size: from 2E the
   search walks towards the shorter neighbour until the size grows again (three or four
   codings; the size is nearly unimodal in the step), then tries halfway to the
@@ -40,11 +44,13 @@ PROBE_FACTOR = 2.0
 # Quantised magnitudes stay below 2^50 (exact in float64 and int64); a brick whose
 # coefficients would pass it is left to the other paths.
 MAX_Q = 2.0**50
-ORDERS = ("dfs", "line", "rows")
-# The scans the encoder tries (at the first step; later steps keep the shorter): "rows"
+ORDERS = ("dfs", "line", "rows", "separable")
+# The scans the encoder tries (at the first step; later steps keep the shortest): "rows"
 # codes 2-6 % shorter than "line" at 1e-2 of the range and decodes 2-4x faster there
 # (zero rows skipped); at tight bounds they are level. "dfs" is still decoded.
-TRIED_ORDERS = (1, 2)
+# "separable" is the rows scan over the separable decomposition (volpack.wavelet.packet).
+TRIED_ORDERS = (1, 2, 3)
+SEPARABLE = 3
 HEADER = struct.Struct("<3BBd")  # levels z, y, x; scan order; step
 # Outlier codings: a gap list, the dense field through the coefficient coder (decoded,
 # no longer made: the bin field codes 2-20 % shorter and decodes 4-5x faster), the
@@ -77,21 +83,26 @@ def encode(g: np.ndarray, max_error: float, coder: str, max_levels: int | None, 
     apply (coefficients too large for the step).
     """
     from ..entropy import CODERS
-    from ..wavelet import cdf97, dwt3, sigmap
+    from ..wavelet import dwt3
 
     full = dwt3.levels_for_shape(g.shape, max_levels)
     choices = _level_choices(full)
     if not choices or not np.isfinite(g).all():
         return []
     probe = PROBE_FACTOR * max_error
-    best = None  # (cost, levels, coefficients): one candidate's array held at a time
-    for lv in choices:
-        c = cdf97.forward(g, lv)
-        cost = _cost(c, probe)
-        if best is None or cost < best[0]:
-            best = (cost, lv, c)
-    _, lv, c = best
-    peak = float(np.abs(c).max(initial=0.0))
+    layouts = {}  # separable or not -> (levels, coefficients), the levels by cost estimate
+    for sep in (False, True):
+        best = None  # (cost, levels, coefficients): one candidate's array held at a time
+        for lv in choices:
+            if sep and sum(v > 0 for v in lv) < 2:
+                continue  # one axis transformed: the two layouts are the same
+            c = _transform(sep).forward(g, lv)
+            cost = _cost(c, probe)
+            if best is None or cost < best[0]:
+                best = (cost, lv, c)
+        if best is not None:
+            layouts[sep] = best[1:]
+    peak = max(float(np.abs(c).max(initial=0.0)) for _, c in layouts.values())
 
     orders = list(TRIED_ORDERS)  # all at the first step, then the shortest
 
@@ -99,15 +110,21 @@ def encode(g: np.ndarray, max_error: float, coder: str, max_levels: int | None, 
         step = f * max_error
         if not (step > 0 and math.isfinite(step)) or peak / step >= MAX_Q:
             return None
-        q = _quantize(c, step)
-        rec = cdf97.inverse(q * step, lv, overwrite=True)
-        bodies = [
-            (CODERS[coder].encode(q.copy(), sigmap.scan(g.shape, lv, ORDERS[k])), k) for k in orders
-        ]
-        body, k = min(bodies, key=lambda t: len(t[0]))
-        orders[:] = [k]
-        made = (HEADER.pack(*lv, k, step) + body, rec)
-        return made, size_of(*made)
+        made = None
+        for k in orders:
+            sep = k == SEPARABLE
+            if sep not in layouts:
+                continue
+            lv, c = layouts[sep]
+            q = _quantize(c, step)
+            rec = _transform(sep).inverse(q * step, lv, overwrite=True)
+            body = CODERS[coder].encode(q, _scan(g.shape, lv, k))
+            cand = (HEADER.pack(*lv, k, step) + body, rec)
+            size = size_of(*cand)
+            if made is None or size < made[1]:
+                made, kept = (cand, size), k
+        orders[:] = [kept]
+        return made
 
     tried = {}
 
@@ -131,7 +148,7 @@ def encode(g: np.ndarray, max_error: float, coder: str, max_levels: int | None, 
 def decode(inner: bytes | memoryview, shape: tuple[int, int, int], coder: str, max_levels):
     """The reconstruction (float64) of an inner section made by :func:`encode`."""
     from ..entropy import CODERS
-    from ..wavelet import cdf97, dwt3, sigmap
+    from ..wavelet import dwt3
 
     inner = memoryview(inner)
     if len(inner) < HEADER.size:
@@ -144,8 +161,23 @@ def decode(inner: bytes | memoryview, shape: tuple[int, int, int], coder: str, m
         raise FormatError(f"cdf97 brick payload: bad order {k} or step {step!r}")
     lv = tuple(lv)
     q = np.empty(shape, np.int64)
-    CODERS[coder].decode(bytes(inner[HEADER.size :]), sigmap.scan(shape, lv, ORDERS[k]), q)
-    return cdf97.inverse(q * step, lv, overwrite=True)
+    CODERS[coder].decode(bytes(inner[HEADER.size :]), _scan(shape, lv, k), q)
+    return _transform(k == SEPARABLE).inverse(q * step, lv, overwrite=True)
+
+
+def _transform(separable: bool):
+    """The module whose ``forward`` / ``inverse`` make the decomposition."""
+    from ..wavelet import cdf97, packet
+
+    return packet if separable else cdf97
+
+
+def _scan(shape, lv, k: int):
+    from ..wavelet import packet, sigmap
+
+    if k == SEPARABLE:
+        return packet.scan(tuple(shape), tuple(lv))
+    return sigmap.scan(tuple(shape), tuple(lv), ORDERS[k])
 
 
 def add_bins(rec: np.ndarray, idx: np.ndarray, r: np.ndarray, bin_width: float) -> None:
