@@ -115,3 +115,23 @@ def test_a_bad_scan_order_is_a_format_error():
     bad[3] = 4
     with pytest.raises(FormatError, match="order"):
         bounded_cdf97.decode(bytes(bad), a.shape, "arith", None)
+
+
+def test_separable_levels_may_be_partial_and_are_checked():
+    """Scan order 3 takes any level count up to the full one on at least two axes."""
+    from volpack.volume_codec.bounded_cdf97 import HEADER
+
+    a = rough_along_x((8, 9, 10))
+    lv = (1, 2, 4)
+    c = packet.forward(a.astype(np.float64), lv)
+    q = np.rint(c / 0.01).astype(np.int64)
+    from volpack.entropy import CODERS
+
+    body = CODERS["arith"].encode(q.copy(), packet.scan(a.shape, lv))
+    rec = bounded_cdf97.decode(HEADER.pack(*lv, 3, 0.01) + body, a.shape, "arith", None)
+    np.testing.assert_array_equal(rec, packet.inverse(q * 0.01, lv))
+    for bad in [(5, 2, 4), (0, 0, 4)]:  # past the full count (4, 4, 4); one axis alone
+        with pytest.raises(FormatError, match="levels"):
+            bounded_cdf97.decode(HEADER.pack(*bad, 3, 0.01) + body, a.shape, "arith", None)
+    with pytest.raises(FormatError, match="levels"):  # the Mallat layout: none or all
+        bounded_cdf97.decode(HEADER.pack(*lv, 2, 0.01) + body, a.shape, "arith", None)
