@@ -79,24 +79,34 @@ def _level_choices(full: tuple[int, int, int]):
 
 def _refine_levels(g, full, probe, best):
     """Separable layout: from the best all-or-nothing levels, each axis's level count
-    in turn over ``0..full`` by the cost estimate, until no axis changes."""
-    from ..wavelet import packet
+    in turn over ``0..full`` by the cost estimate, until no axis changes.
+
+    The 1-D transforms along different axes commute (up to rounding, which the estimate
+    does not mind), so the other two axes are transformed once per axis and only the
+    varied one per candidate; the kept levels' coefficients are then made in the
+    decoder's order."""
+    from ..wavelet import cdf97, packet
 
     seen = {best[1]}
-    moved = True
+    lv0, moved = best[1], True
     while moved:
         moved = False
         for axis in range(3):
+            base = None
             for v in range(full[axis] + 1):
                 lv = best[1][:axis] + (v,) + best[1][axis + 1 :]
                 if lv in seen or sum(n > 0 for n in lv) < 2:
                     continue
                 seen.add(lv)
-                c = packet.forward(g, lv)
+                if base is None:
+                    base = packet.forward(g, lv[:axis] + (0,) + lv[axis + 1 :])
+                c = cdf97.forward(base, tuple(v if a == axis else 0 for a in range(3)))
                 cost = _cost(c, probe)
                 if cost < best[0]:
-                    best, moved = (cost, lv, c), True
-    return best
+                    best, moved = (cost, lv, None), True
+    if best[1] == lv0:
+        return best
+    return best[0], best[1], packet.forward(g, best[1])
 
 
 def encode(g: np.ndarray, max_error: float, coder: str, max_levels: int | None, size_of):
