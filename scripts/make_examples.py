@@ -146,6 +146,7 @@ def make_wavelet(folder: Path) -> Path:
 # Version 1 of the predictive stream (the files written before version 2), then version 2.
 V1 = {"predict_version": 1}
 V2 = {"predict_version": 2}
+V3 = {"predict_version": 3}
 LOSSLESS_CASES = [
     ("lossless-auto-u8", "u8-background", V1),
     ("lossless-auto-i16-palette", "i16", V1),
@@ -158,11 +159,11 @@ LOSSLESS_CASES = [
     ("lossless-v2-i16-palette", "v2-i16", {"brick": 32, **V2}),
     ("lossless-v2-predict-u8", "v2-u8", {"tools": "predict", "brick": 32, **V2}),
     # version 3: floats by Lorenzo prediction and on a lattice (mode 5), in 32 and 64 bits
-    ("lossless-v3-f32-special", "f32-special", {}),
-    ("lossless-v3-f32-smooth", "f32-smooth", {}),
-    ("lossless-v3-f64-smooth", "f64-smooth", {}),
-    ("lossless-v3-f32-lattice", "f32-lattice", {}),
-    ("lossless-v3-f32-packed", "f32-packed", {}),
+    ("lossless-v3-f32-special", "f32-special", V3),
+    ("lossless-v3-f32-smooth", "f32-smooth", V3),
+    ("lossless-v3-f64-smooth", "f64-smooth", V3),
+    ("lossless-v3-f32-lattice", "f32-lattice", V3),
+    ("lossless-v3-f32-packed", "f32-packed", V3),
 ]
 
 
