@@ -1,23 +1,28 @@
-"""Exact float coding by a blend of predictors, with copies from a period (float32/64).
+"""Exact float coding by a blend of predictors, with copies and a fill value (float32/64).
 
-Two things the single Lorenzo predictor (:mod:`.floatpredict`) misses:
+Three things the single Lorenzo predictor (:mod:`.floatpredict`) misses:
 
 * **Which predictor fits changes across a brick.** Rough fields (turbulence, climate
   levels) are predicted better within the slice in one place and across slices in
-  another. Each interior voxel is predicted by a weighted mean of several predictors
-  on the values (float64): the 3-D Lorenzo one, the in-slice plane ``W + N - NW``, the
-  planes through ``U`` (``U + W - UW``, ``U + N - UN``) and the single neighbours,
-  each weighted by the inverse square of its recent error (in units of the float's
-  last place) at the W, N, NW, NE and U voxels; the set is chosen per brick (one byte).
+  another. Each interior voxel is predicted by a weighted mean, on the values in
+  float64, of the 3-D Lorenzo predictor, the in-slice plane ``W + N - NW``, the planes
+  through ``U`` (``U + W - UW``, ``U + N - UN``) and the single neighbours W, N, U, each
+  weighted by the inverse of its error (in units in the last place of the float) summed
+  over the W, N, NW, NE and U voxels.
 * **Periodic maps.** Density maps of a crystal or a symmetric particle hold a unit cell
   and copies of its edges: a voxel equals the one a fixed offset back (a period along
   an axis). Up to three such offsets are named per brick; for each one that reaches
   back inside the brick a flag (in a context of whether W, N and U were copied by it)
   says that the voxel is that copy, and only the others are predicted.
+* **A background.** Thresholded maps (fMRI z-maps), fields over land or sea, masked
+  fits hold one value (0, NaN) over much of the volume: a flag in a context of how many
+  neighbours hold it says which voxels do, and predictors that would read such a voxel
+  are left out of the blend (none left: the last value coded).
 
 The residual (signed images, wrapped to the float's width) is coded as the Lorenzo
-tool codes its residuals. Faces of the brick take the Lorenzo predictor of the faces.
-The byte layout is in ``formats/lossless-1.md`` (mode 5, tool 2).
+tool codes its residuals, with three modelled bits below the leading one and the
+blend's error estimate in the context. Faces of the brick take the Lorenzo predictor
+of the faces. The byte layout is in ``formats/lossless-1.md`` (mode 5, tool 2).
 """
 
 from __future__ import annotations
@@ -40,11 +45,11 @@ from ..errors import FormatError
 from .floatbits import from_signed, to_signed
 from .floatpredict import (
     LORENZO3F,
-    N_FMODELS,
-    context,
-    get_residual,
+    NCF,
+    activity,
+    get_residual_at,
     predict,
-    put_residual,
+    put_residual_at,
     scratch,
     wrap,
 )
@@ -56,12 +61,13 @@ from .predict import bitlen
 NPRED = 7
 ALL_PREDICTORS = (1 << NPRED) - 1
 MAX_COPIES = 3
-M_COPY = N_FMODELS  # 8 contexts per copy offset
-M_FILL = M_COPY + 8 * MAX_COPIES  # 6 contexts
+MANT_BITS = 3  # bits below a residual's leading one coded with models
+M_COPY = NCF * 128 + 3 + (65 << MANT_BITS)  # after the residual models: 8 per copy offset
+M_FILL = M_COPY + 8 * MAX_COPIES  # 6 contexts of the fill flag
 N_MODELS = M_FILL + 6
-ERR_CAP = 1 << 30
+ERR_CAP = 1 << 30  # a predictor's error is counted up to this many units
 # the neighbours each predictor reads (bits: W, N, U, NW, UW, UN, UNW)
-USES = np.array([127, 1 | 2 | 8, 4 | 1 | 16, 4 | 2 | 32, 1, 2, 4], dtype=np.int64)  # a predictor's error is counted up to this many units
+USES = np.array([127, 1 | 2 | 8, 4 | 1 | 16, 4 | 2 | 32, 1, 2, 4], dtype=np.int64)
 # the copy offsets the encoder tries: exact repeats at one offset for this share of voxels
 COPY_MIN_SHARE = 0.01
 
@@ -94,7 +100,7 @@ def _candidates(f, i, sy, sz, pk):
 
 
 @kernel(inline=True)
-def _blend(s, f, si, sf, fl, err, pk, pi, i, x, y, z, ny, nx, nset, width, last):
+def _blend(s, f, si, sf, fl, masked, err, pk, pi, i, x, y, z, ny, nx, nset, width, last):
     """Prediction (signed image) of voxel ``i``; fills ``pi`` with each predictor's
     image (faces: the face Lorenzo prediction for all). Predictors reading a fill voxel
     are left out; with none left, the last voxel coded that was not fill (``last``)."""
@@ -102,23 +108,26 @@ def _blend(s, f, si, sf, fl, err, pk, pi, i, x, y, z, ny, nx, nset, width, last)
     sz = ny * nx
     if x == 0 or y == 0 or z == 0:
         p = predict(s, f, si, sf, i, x, y, z, ny, nx, np.int64(LORENZO3F), width)
-        if (x > 0 and fl[i - 1]) or (y > 0 and fl[i - sy]) or (z > 0 and fl[i - sz]):
+        if masked and ((x > 0 and fl[i - 1]) or (y > 0 and fl[i - sy]) or (z > 0 and fl[i - sz])):
             p = last
         for k in range(NPRED):
             pi[k] = p
-        return p
+        return p, -1.0
     _candidates(f, i, sy, sz, pk)
-    near = (
-        fl[i - 1]
-        | fl[i - sy] << 1
-        | fl[i - sz] << 2
-        | fl[i - sy - 1] << 3
-        | fl[i - sz - 1] << 4
-        | fl[i - sz - sy] << 5
-        | fl[i - sz - sy - 1] << 6
-    )
+    near = np.int64(0)
+    if masked:
+        near = (
+            np.int64(fl[i - 1])
+            | np.int64(fl[i - sy]) << 1
+            | np.int64(fl[i - sz]) << 2
+            | np.int64(fl[i - sy - 1]) << 3
+            | np.int64(fl[i - sz - 1]) << 4
+            | np.int64(fl[i - sz - sy]) << 5
+            | np.int64(fl[i - sz - sy - 1]) << 6
+        )
     num = 0.0
     den = 0.0
+    used = 0
     for k in range(NPRED):
         pi[k] = last
         if not (nset >> k) & 1 or near & USES[k]:
@@ -127,27 +136,29 @@ def _blend(s, f, si, sf, fl, err, pk, pi, i, x, y, z, ny, nx, nset, width, last)
         if q - q != 0.0:  # NaN or Inf: not blended
             continue
         pi[k] = _image(q, si, sf, width)
-        e = 1.0 + err[k, i - 1] + err[k, i - sy] + err[k, i - sy - 1] + err[k, i - sz]
+        e = 1.0 + err[i - 1, k] + err[i - sy, k] + err[i - sy - 1, k] + err[i - sz, k]
         if x + 1 < nx:
-            e += err[k, i - sy + 1]
+            e += err[i - sy + 1, k]
         wk = 1.0 / e
         num += wk * q
         den += wk
+        used += 1
     if den > 0.0:
         q = num / den
         if q - q == 0.0:
-            return _image(q, si, sf, width)
-    return last
+            return _image(q, si, sf, width), used / den
+    return last, -1.0
 
 
 @kernel(inline=True)
-def _learn(s, err, pi, i, nset):
-    """Store each predictor's error at voxel ``i``."""
+def _learn(s, err, pi, i, nset, width):
+    """Store each predictor's error at voxel ``i``: the wrapped difference's magnitude,
+    capped (-2^63 too)."""
     for k in range(NPRED):
         if (nset >> k) & 1:
-            d = s[i] - pi[k]
+            d = wrap(s[i] - pi[k], width)
             d = -d if d < 0 else d
-            err[k, i] = d if d < ERR_CAP else ERR_CAP
+            err[i, k] = d if 0 <= d < ERR_CAP else ERR_CAP
 
 
 @kernel(inline=True)
@@ -161,6 +172,17 @@ def _copy_context(cp, k, i, x, y, z, ny, nx):
     if z > 0 and cp[i - nx * ny] == k + 1:
         c += 4
     return c
+
+
+@kernel(inline=True)
+def _context(el, rs, est, i, x, y, z, ny, nx):
+    """The Lorenzo stream's contexts (a fill neighbour's bit length is missing), the
+    activity first averaged with that of the blend's error estimate ``est`` (the
+    harmonic mean of the predictors' error sums; below 0 when there is none)."""
+    act, sctx = activity(el, rs, i, x, y, z, ny, nx)
+    if est >= 0.0:
+        act = (act + 4 * bitlen(np.int64(min(est, 1e18)) // 5)) >> 1
+    return min(act >> 1, NCF - 1), sctx
 
 
 @kernel(inline=True)
@@ -206,8 +228,10 @@ def _encode_kernel(
                         el[i] = -1
                         i += 1
                         continue
-                p = _blend(s, f, si, sf, fl, err, pk, pi, i, x, y, z, ny, nx, nset, width, last)
-                _learn(s, err, pi, i, nset)
+                p, est = _blend(
+                    s, f, si, sf, fl, fill[1], err, pk, pi, i, x, y, z, ny, nx, nset, width, last
+                )
+                _learn(s, err, pi, i, nset, width)
                 copied = False
                 for k in range(ncopy):
                     if z >= offs[k, 0] and y >= offs[k, 1] and x >= offs[k, 2]:
@@ -222,8 +246,10 @@ def _encode_kernel(
                 r = np.int64(0)
                 if not copied:
                     r = wrap(s[i] - p, width)
-                    ctx, sctx = context(el, rs, i, x, y, z, ny, nx)
-                    low, rng, pos = put_residual(out, state, ctx, sctx, r, low, rng, pos)
+                    ctx, sctx = _context(el, rs, est, i, x, y, z, ny, nx)
+                    low, rng, pos = put_residual_at(
+                        out, state, 0, ctx, sctx, r, MANT_BITS, low, rng, pos
+                    )
                 rs[i] = r
                 el[i] = bitlen(-r if r < 0 else r)
                 last = s[i]
@@ -253,13 +279,17 @@ def _decode_kernel(
                     hit, code, rng, pos = _get(data, state, c, code, rng, pos, RATE)
                     if hit:
                         s[i] = fill[0]
-                        si[0] = fill[0] ^ ((np.int64(1) << (width - 1)) - 1) if fill[0] < 0 else fill[0]
+                        si[0] = (
+                            fill[0] ^ ((np.int64(1) << (width - 1)) - 1) if fill[0] < 0 else fill[0]
+                        )
                         f[i] = sf[0]
                         fl[i] = 1
                         el[i] = -1
                         i += 1
                         continue
-                p = _blend(s, f, si, sf, fl, err, pk, pi, i, x, y, z, ny, nx, nset, width, last)
+                p, est = _blend(
+                    s, f, si, sf, fl, fill[1], err, pk, pi, i, x, y, z, ny, nx, nset, width, last
+                )
                 copied = False
                 for k in range(ncopy):
                     if z >= offs[k, 0] and y >= offs[k, 1] and x >= offs[k, 2]:
@@ -273,15 +303,17 @@ def _decode_kernel(
                             break
                 r = np.int64(0)
                 if not copied:
-                    ctx, sctx = context(el, rs, i, x, y, z, ny, nx)
-                    r, ok, code, rng, pos = get_residual(data, state, ctx, sctx, code, rng, pos)
+                    ctx, sctx = _context(el, rs, est, i, x, y, z, ny, nx)
+                    r, ok, code, rng, pos = get_residual_at(
+                        data, state, 0, ctx, sctx, MANT_BITS, code, rng, pos
+                    )
                     if not ok or r != wrap(r, width):
                         return 2
                     s[i] = wrap(p + r, width)
                 v = s[i]
                 si[0] = v ^ ((np.int64(1) << (width - 1)) - 1) if v < 0 else v
                 f[i] = sf[0]
-                _learn(s, err, pi, i, nset)
+                _learn(s, err, pi, i, nset, width)
                 rs[i] = r
                 el[i] = bitlen(-r if r < 0 else r)
                 last = v
@@ -297,8 +329,8 @@ def _workspace(n: int) -> tuple[np.ndarray, ...]:
         np.zeros(n, dtype=np.int64),
         np.zeros(n, dtype=np.int64),
         np.zeros(n, dtype=np.int8),
-        np.zeros(n, dtype=np.int64),
-        np.zeros((NPRED, n), dtype=np.int32),
+        np.zeros(n, dtype=np.int8),
+        np.zeros((n, NPRED + 1), dtype=np.int32),
         np.zeros(NPRED, dtype=np.float64),
         np.zeros(NPRED, dtype=np.int64),
         np.full(N_MODELS, STATE_INIT, dtype=np.uint16),
@@ -324,7 +356,7 @@ def encode(brick: np.ndarray, nset: int = ALL_PREDICTORS, offsets=(), fill=None)
     if fill is not None:
         one = np.array([fill], dtype=brick.dtype)
         fv[:] = to_signed(one)[0], 1
-        head += one.astype(one.dtype.newbyteorder("<")).tobytes()
+        head += one.tobytes()
     body = encode_with_retry(
         lambda out: _encode_kernel(
             s, f, si, sf, shape, width, np.int64(nset), offs, fv, out, *_workspace(s.size)
@@ -342,28 +374,30 @@ def decode(data: bytes | memoryview, shape: tuple[int, ...], dtype: np.dtype) ->
     buf = stream_bytes(data, "float blend")
     if dtype.name not in ("float32", "float64") or len(shape) != 3:
         raise FormatError(f"float blend payload: expected float32/64 bricks, found {dtype}")
-    nset = int(buf[0])
-    ncopy = int(buf[1]) & 3 if buf.size > 1 else MAX_COPIES + 1
-    has_fill = buf.size > 1 and buf[1] & 4
-    if nset == 0 or nset > ALL_PREDICTORS or ncopy > MAX_COPIES or buf[1] > 7:
+    nset, kinds = int(buf[0]), int(buf[1]) if buf.size > 1 else 0xFF
+    ncopy, has_fill = kinds & 3, kinds & 4
+    if not 0 < nset <= ALL_PREDICTORS or kinds > 7:
         raise FormatError(
-            f"float blend payload: expected a predictor set 1..{ALL_PREDICTORS} and at most "
-            f"{MAX_COPIES} copy offsets, found {nset} and {ncopy}"
+            f"float blend payload: expected a predictor set 1..{ALL_PREDICTORS} and a "
+            f"byte 0..7 of copies and fill, found {nset} and {kinds}"
         )
     pos = 2
     vals = []
     for _ in range(3 * ncopy):
         v, pos = read_uleb(buf, pos)
-        vals.append(v)
+        vals.append(min(v, 1 << 32))
     offs = np.array(vals, dtype=np.int64).reshape(-1, 3)
     if any(not row.any() or (row >= np.array(shape)).any() for row in offs):
         raise FormatError(f"float blend payload: copy offsets {offs.tolist()} do not fit {shape}")
     fv = np.zeros(2, dtype=np.int64)
     if has_fill:
-        if pos + dtype.itemsize > buf.size:
+        one = buf[pos : pos + dtype.itemsize].copy()
+        if one.size < dtype.itemsize:
             raise FormatError("float blend payload: its fill value runs past the payload")
-        fv[:] = to_signed(buf[pos : pos + dtype.itemsize].view(dtype.newbyteorder("<")))[0], 1
+        fv[:] = to_signed(one.view(dtype))[0], 1
         pos += dtype.itemsize
+    if pos >= buf.size:
+        raise FormatError("float blend payload: no coded stream after its header")
     n = int(np.prod(shape))
     s = np.empty(n, dtype=np.int64)
     f = np.empty(n, dtype=np.float64)

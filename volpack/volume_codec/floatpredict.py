@@ -128,21 +128,30 @@ def _lorenzo(s, i, x, y, z, ny, nx, volume, p):
 def put_residual(out, state, ctx, sctx, r, low, rng, pos):
     """Code residual ``r`` (any int64; -2^63 too): its magnitude's bit length ``L`` on
     the tree, the sign, two bits below the leading one, the rest at one half."""
+    return put_residual_at(out, state, M_TREE, ctx, sctx, r, 2, low, rng, pos)
+
+
+@kernel(inline=True)
+def put_residual_at(out, state, base, ctx, sctx, r, nbits, low, rng, pos):
+    """:func:`put_residual` with the models from ``base`` on (tree, 3 sign models, then
+    ``65 * 2^nbits`` for the ``nbits`` bits below the leading one)."""
     m = -r if r < 0 else r  # -2^63 stays itself: read as unsigned it is 2^63
     nb = bitlen(m)
     node = 1
     for j in range(6, -1, -1):
         bit = (nb >> j) & 1
-        low, rng, pos = _put(out, state, M_TREE + ctx * 128 + node, bit, low, rng, pos, RATE)
+        low, rng, pos = _put(out, state, base + ctx * 128 + node, bit, low, rng, pos, RATE)
         node = 2 * node + bit
     if nb == 0:
         return low, rng, pos
-    low, rng, pos = _put(out, state, M_SIGN + sctx, np.int64(r < 0), low, rng, pos, RATE)
-    nm = min(nb - 1, 2)
+    msign = base + NCF * 128
+    low, rng, pos = _put(out, state, msign + sctx, np.int64(r < 0), low, rng, pos, RATE)
+    nm = min(nb - 1, nbits)
     prefix = 1
     for jm in range(nm):
         bit = (m >> (nb - 2 - jm)) & 1
-        low, rng, pos = _put(out, state, M_MANT + nb * 4 + prefix, bit, low, rng, pos, RATE)
+        k = msign + 3 + (nb << nbits) + prefix
+        low, rng, pos = _put(out, state, k, bit, low, rng, pos, RATE)
         prefix = 2 * prefix + bit
     return _put_bits(out, np.uint64(m), nb - 1 - nm, low, rng, pos)
 
@@ -151,20 +160,28 @@ def put_residual(out, state, ctx, sctx, r, low, rng, pos):
 def get_residual(data, state, ctx, sctx, code, rng, pos):
     """Decode what :func:`put_residual` coded; ``(r, ok, code, rng, pos)`` with ``ok``
     false for a bit length past 64."""
+    return get_residual_at(data, state, M_TREE, ctx, sctx, 2, code, rng, pos)
+
+
+@kernel(inline=True)
+def get_residual_at(data, state, base, ctx, sctx, nbits, code, rng, pos):
+    """Decode what :func:`put_residual_at` coded."""
     node = 1
     for _ in range(7):
-        bit, code, rng, pos = _get(data, state, M_TREE + ctx * 128 + node, code, rng, pos, RATE)
+        bit, code, rng, pos = _get(data, state, base + ctx * 128 + node, code, rng, pos, RATE)
         node = 2 * node + bit
     nb = node - 128
     if nb == 0:
         return np.int64(0), True, code, rng, pos
     if nb > 64:
         return np.int64(0), False, code, rng, pos
-    neg, code, rng, pos = _get(data, state, M_SIGN + sctx, code, rng, pos, RATE)
-    nm = min(nb - 1, 2)
+    msign = base + NCF * 128
+    neg, code, rng, pos = _get(data, state, msign + sctx, code, rng, pos, RATE)
+    nm = min(nb - 1, nbits)
     prefix = np.int64(1)
     for _ in range(nm):
-        bit, code, rng, pos = _get(data, state, M_MANT + nb * 4 + prefix, code, rng, pos, RATE)
+        k = msign + 3 + (nb << nbits) + prefix
+        bit, code, rng, pos = _get(data, state, k, code, rng, pos, RATE)
         prefix = 2 * prefix + bit
     rest = nb - 1 - nm
     v, code, rng, pos = _get_bits(data, np.uint64(0), rest, code, rng, pos)
@@ -176,6 +193,14 @@ def get_residual(data, state, ctx, sctx, code, rng, pos):
 def context(el, rs, i, x, y, z, ny, nx):
     """Residual context (bit lengths of the W, N, U residuals, W counted twice, halved)
     and sign context (the sign of the sum of their signs)."""
+    act, sctx = activity(el, rs, i, x, y, z, ny, nx)
+    return min(act >> 1, NCF - 1), sctx
+
+
+@kernel(inline=True)
+def activity(el, rs, i, x, y, z, ny, nx):
+    """``2 lW + lN + lU`` of the bit lengths of the W, N, U residuals (a missing one, or
+    one below 0, takes another's; 0 when none is left), and the sign context."""
     lw = el[i - 1] if x > 0 else -1
     ln = el[i - nx] if y > 0 else -1
     lu = el[i - nx * ny] if z > 0 else -1
@@ -186,7 +211,6 @@ def context(el, rs, i, x, y, z, ny, nx):
     if lu < 0:
         lu = ln
     act = 2 * lw + ln + lu if lw >= 0 else 0
-    ctx = min(act >> 1, NCF - 1)
     sg = np.int64(0)
     if x > 0:
         sg += np.sign(rs[i - 1])
@@ -194,7 +218,7 @@ def context(el, rs, i, x, y, z, ny, nx):
         sg += np.sign(rs[i - nx])
     if z > 0:
         sg += np.sign(rs[i - nx * ny])
-    return ctx, (0 if sg == 0 else (1 if sg > 0 else 2))
+    return act, (0 if sg == 0 else (1 if sg > 0 else 2))
 
 
 @kernel(nrt=False)
@@ -209,9 +233,7 @@ def _encode_kernel(s, f, si, sf, shape, width, predictor, out, el, rs, state):
             for x in range(nx):
                 if pos + 64 > cap:
                     return -1
-                r = wrap(
-                    s[i] - predict(s, f, si, sf, i, x, y, z, ny, nx, predictor, width), width
-                )
+                r = wrap(s[i] - predict(s, f, si, sf, i, x, y, z, ny, nx, predictor, width), width)
                 ctx, sctx = context(el, rs, i, x, y, z, ny, nx)
                 low, rng, pos = put_residual(out, state, ctx, sctx, r, low, rng, pos)
                 rs[i] = r
