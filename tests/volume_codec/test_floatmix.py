@@ -25,10 +25,10 @@ DTYPES = [np.float32, np.float64]
 
 
 def periodic(shape=(10, 12, 14), period=(0, 0, 9), dtype=np.float32, seed=3):
-    """Noise repeated with ``period`` along each axis it names (a unit cell and copies
-    of its start past it)."""
+    """A random walk along x repeated with ``period`` along each axis it names (a unit
+    cell and copies of its start past it)."""
     rng = np.random.default_rng(seed)
-    a = rng.normal(0, 1, shape).astype(dtype)
+    a = (np.cumsum(rng.normal(0, 1, shape), axis=2) + 100).astype(dtype)
     for axis, p in enumerate(period):
         if p:
             idx = [slice(None)] * 3

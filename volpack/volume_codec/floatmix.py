@@ -20,7 +20,7 @@ Three things the single Lorenzo predictor (:mod:`.floatpredict`) misses:
   are left out of the blend (none left: the last value coded).
 
 The residual (signed images, wrapped to the float's width) is coded as the Lorenzo
-tool codes its residuals, with three modelled bits below the leading one and the
+tool codes its residuals, with two modelled bits below the leading one and the
 blend's error estimate in the context. Faces of the brick take the Lorenzo predictor
 of the faces. The byte layout is in ``formats/lossless-1.md`` (mode 5, tool 2).
 """
@@ -61,7 +61,7 @@ from .predict import bitlen
 NPRED = 7
 ALL_PREDICTORS = (1 << NPRED) - 1
 MAX_COPIES = 3
-MANT_BITS = 3  # bits below a residual's leading one coded with models
+MANT_BITS = 2  # bits below a residual's leading one coded with models
 M_COPY = NCF * 128 + 3 + (65 << MANT_BITS)  # after the residual models: 8 per copy offset
 M_FILL = M_COPY + 8 * MAX_COPIES  # 6 contexts of the fill flag
 N_MODELS = M_FILL + 6
