@@ -5,7 +5,9 @@ clipped to the box ``[-0.5, n - 0.5]`` per axis (so a volume one voxel thick is 
 deep) and cut into equal segments of ``step`` reference lengths (the smallest spacing),
 the last one shorter. Samples are trilinear; positions outside ``[0, n - 1]`` take the
 nearest edge value. Every sample position is computed as ``origin + t * direction``
-(never accumulated), so an image does not depend on the thread count.
+(never accumulated), so an image does not depend on the thread count; the fast path
+holds it in fixed point (:mod:`volpack.render.fixed`: entry point plus ``k`` steps, an
+exact integer multiply-add) and samples integer volumes with integer weights.
 
 Threads: image rows are split into interleaved sets (rows ``j, j + m, j + 2m, ...``) that
 run on ``workers`` threads through the nogil kernel (:func:`volpack.parallel.ordered_map`),
@@ -107,6 +109,7 @@ from .._jit import JIT_DISABLED, kernel, leading_zeros
 from ..errors import VolpackError
 from ..parallel import ordered_map, parse_workers
 from .camera import Camera
+from .fixed import FRAC, lerp_cell, to_fixed, trilinear_fixed, value_unit
 from .normals import light_table
 from .prepared import prepare_volume, unpack_volume
 from .transfer import nonempty_range
@@ -184,17 +187,7 @@ def _trilinear(vol, z, y, x):
     """Trilinear sample (float32) of a volume of any real dtype, read as it is stored."""
     nz, ny, nx = vol.shape
     z0, z1, fz, y0, y1, fy, x0, x1, fx = _cell3(nz, ny, nx, z, y, x)
-    c000 = np.float32(vol[z0, y0, x0])
-    c00 = c000 + (np.float32(vol[z0, y0, x1]) - c000) * fx
-    c010 = np.float32(vol[z0, y1, x0])
-    c01 = c010 + (np.float32(vol[z0, y1, x1]) - c010) * fx
-    c100 = np.float32(vol[z1, y0, x0])
-    c10 = c100 + (np.float32(vol[z1, y0, x1]) - c100) * fx
-    c110 = np.float32(vol[z1, y1, x0])
-    c11 = c110 + (np.float32(vol[z1, y1, x1]) - c110) * fx
-    c0 = c00 + (c01 - c00) * fy
-    c1 = c10 + (c11 - c10) * fy
-    return c0 + (c1 - c0) * fz
+    return lerp_cell(vol, z0, z1, fz, y0, y1, fy, x0, x1, fx)
 
 
 @kernel(inline=True)
@@ -324,6 +317,23 @@ def sample(vol, z, y, x):
     return _trilinear(vol, z, y, x)
 
 
+def fixed_sample(vol, pz, py, px):
+    """Trilinear sample at fixed-point position (pz, py, px) (:mod:`volpack.render.fixed`),
+    float64 in units of :func:`fixed_unit`: integer lerps on an integer array, float32
+    on a float one, a paged volume sampled by :func:`_paged` at the float position."""
+    if isinstance(vol, tuple):
+        return float(_paged(*vol, pz * _INV_ONE, py * _INV_ONE, px * _INV_ONE))
+    return trilinear_fixed(vol, pz, py, px)
+
+
+def fixed_unit(vol):
+    """What :func:`fixed_sample` scales a value of ``vol`` by."""
+    return 1.0 if isinstance(vol, tuple) else value_unit(vol)
+
+
+_INV_ONE = 1.0 / (1 << FRAC)
+
+
 def grad_ndv(vol, grad, z, y, x, gscale, vz, vy, vx, gmin):
     """``|n.v|`` from precomputed gradients at (z, y, x) inside ``[0, n - 1]`` (-1 where
     the gradient vanishes): ``grad`` is the gradient volume of a 3-D array, or for a
@@ -383,6 +393,21 @@ if not JIT_DISABLED:
                 vol[0], vol[1], vol[2], vol[3], vol[4], vol[5], z, y, x
             )
         return lambda vol, z, y, x: _trilinear(vol, z, y, x)
+
+    @overload(fixed_sample, jit_options={"nogil": True})
+    def _fixed_sample_overload(vol, pz, py, px):
+        if isinstance(vol, types.BaseTuple):
+            return lambda vol, pz, py, px: np.float64(_paged_kernel(
+                vol[0], vol[1], vol[2], vol[3], vol[4], vol[5],
+                pz * _INV_ONE, py * _INV_ONE, px * _INV_ONE,
+            ))  # fmt: skip
+        return lambda vol, pz, py, px: trilinear_fixed(vol, pz, py, px)
+
+    @overload(fixed_unit, jit_options={"nogil": True})
+    def _fixed_unit_overload(vol):
+        if isinstance(vol, types.BaseTuple):
+            return lambda vol: 1.0
+        return lambda vol: value_unit(vol)
 
     @overload(lit_codes, jit_options={"nogil": True})
     def _lit_codes_overload(vol, codes, light, z, y, x):
@@ -941,6 +966,8 @@ def _march(
     ka, kd, ks, shin = shading[0], shading[1], shading[2], shading[3]
     ishin = int(shin)
     whole = ishin == shin and ishin >= 0
+    vs = scale / fixed_unit(vol)  # table position = sample * vs + v0
+    v0 = -lo * scale
     for k in range(rows.shape[0]):
         r = rows[k]
         count = 0
@@ -951,6 +978,12 @@ def _march(
             )
             if nseg == 0:
                 continue
+            # fixed-point positions (volpack.render.fixed): segment end k (pre-
+            # integrated) or the midpoint of full segment k (post) at base + k * stride
+            t_base = tnear if pre else tnear + 0.5 * step
+            bz, by, bx = (to_fixed(oz + t_base * dz), to_fixed(oy + t_base * dy),
+                          to_fixed(ox + t_base * dx))  # fmt: skip
+            sz, sy, sx = to_fixed(step * dz), to_fixed(step * dy), to_fixed(step * dx)
             ar = 0.0
             ag = 0.0
             ab = 0.0
@@ -981,16 +1014,26 @@ def _march(
                 a = 0.0
                 if pre:
                     if not have_front:
-                        xf = (sample(vol, oz + t0 * dz, oy + t0 * dy, ox + t0 * dx) - lo) * scale
+                        xf = fixed_sample(vol, bz + i * sz, by + i * sy, bx + i * sx) * vs + v0
                         i0, i1, fi = _ucell(xf, n_tab)
                         have_front = True
-                    xb = (sample(vol, oz + t1 * dz, oy + t1 * dy, ox + t1 * dx) - lo) * scale
+                    if seglen < step:  # the back end is the ray's exit
+                        qz, qy, qx = (to_fixed(oz + t1 * dz), to_fixed(oy + t1 * dy),
+                                      to_fixed(ox + t1 * dx))  # fmt: skip
+                    else:
+                        qz, qy, qx = bz + (i + 1) * sz, by + (i + 1) * sy, bx + (i + 1) * sx
+                    xb = fixed_sample(vol, qz, qy, qx) * vs + v0
                     j0, j1, fj = _ucell(xb, n_tab)
                     if not ((xf < cl and xb < cl) or (xf > ch_ and xb > ch_)):
                         a = _bilerp(pre2d, 3, i0, i1, fi, j0, j1, fj)
                     xf = xb
                 else:
-                    xs = (sample(vol, oz + tm * dz, oy + tm * dy, ox + tm * dx) - lo) * scale
+                    if seglen < step:
+                        qz, qy, qx = (to_fixed(oz + tm * dz), to_fixed(oy + tm * dy),
+                                      to_fixed(ox + tm * dx))  # fmt: skip
+                    else:
+                        qz, qy, qx = bz + i * sz, by + i * sy, bx + i * sx
+                    xs = fixed_sample(vol, qz, qy, qx) * vs + v0
                     i0, i1, fi = _ucell(xs, n_tab)
                     j0, j1, fj = i0, i1, fi
                     if not (xs < cl or xs > ch_):
