@@ -41,7 +41,7 @@ def test_fixed_sample_matches_float_trilinear(dtype):
     pts[:8] = [[-0.5, -0.5, -0.5], [4.5, 0.5, 6.5], [0, 0, 0], [4, 0, 6], [2, 0, 3],
                [1.999999, 0, 5.000001], [3.5, 0.25, -0.25], [4.25, 0, 6.25]]  # fmt: skip
     for z, y, x in pts:
-        got = trilinear_fixed(vol, to_fixed(z), to_fixed(y), to_fixed(x)) / unit
+        got = trilinear_fixed(vol, 0, to_fixed(z), to_fixed(y), to_fixed(x)) / unit
         # weights of 2^-20, positions rounded to 2^-25, three floored shifts
         tol = span * 4e-6 + (4.0 / (1 << 20) if info is not None else 1e-6 * abs(got))
         assert abs(got - reference(vol, z, y, x)) <= tol, (dtype, z, y, x)

@@ -187,7 +187,7 @@ def _trilinear(vol, z, y, x):
     """Trilinear sample (float32) of a volume of any real dtype, read as it is stored."""
     nz, ny, nx = vol.shape
     z0, z1, fz, y0, y1, fy, x0, x1, fx = _cell3(nz, ny, nx, z, y, x)
-    return lerp_cell(vol, z0, z1, fz, y0, y1, fy, x0, x1, fx)
+    return lerp_cell(vol, 0, z0, z1, fz, y0, y1, fy, x0, x1, fx)
 
 
 @kernel(inline=True)
@@ -302,8 +302,35 @@ def page_tuple(volume, fill: float) -> tuple:
     g = int(volume.cell)
     sh = g.bit_length() - 1 if g & (g - 1) == 0 else -1
     meta = np.array([*volume.shape, g, sh], np.int64)
+    # the fast march's fixed-point positions: level-0 p sits at (p >> level) + offx
+    offx = np.floor(offset * (1 << FRAC) + 0.5).astype(np.int64)
     return (volume.atlas[..., None], volume.page, meta, inv, np.ascontiguousarray(offset, np.float64),
-            np.array([fill], np.float64))  # fmt: skip
+            np.array([fill], np.float64), volume.level.astype(np.int64), offx)  # fmt: skip
+
+
+def _paged_fixed(atlas, page, meta, level, offx, fill, pz, py, px):
+    """:func:`_paged` at fixed-point level-0 position (pz, py, px), in units of
+    :func:`value_unit` of the atlas: the page cell by shifts, the node's position by a
+    shift and an add, the brick sampled by :func:`trilinear_fixed` (integer lerps on an
+    integer atlas)."""
+    nz, ny, nx, g, sh = meta[0], meta[1], meta[2], meta[3], meta[4]
+    qz = min(max(pz, 0), (nz - 1) << FRAC)
+    qy = min(max(py, 0), (ny - 1) << FRAC)
+    qx = min(max(px, 0), (nx - 1) << FRAC)
+    if sh >= 0:
+        cz, cy, cx = qz >> (FRAC + sh), qy >> (FRAC + sh), qx >> (FRAC + sh)
+    else:
+        cz, cy, cx = (qz >> FRAC) // g, (qy >> FRAC) // g, (qx >> FRAC) // g
+    node = page[min(cz, page.shape[0] - 1), min(cy, page.shape[1] - 1),
+                min(cx, page.shape[2] - 1)]  # fmt: skip
+    if node < 0:
+        return fill[0] * value_unit(atlas)
+    lv = level[node]
+    return trilinear_fixed(atlas, node, (qz >> lv) + offx[node, 0], (qy >> lv) + offx[node, 1],
+                           (qx >> lv) + offx[node, 2])  # fmt: skip
+
+
+_paged_fixed_kernel = kernel(_paged_fixed, inline=True)
 
 
 _paged_kernel = kernel(_paged, inline=True)
@@ -313,25 +340,22 @@ def sample(vol, z, y, x):
     """Trilinear sample of a volume: a 3-D array, or a paged volume tuple (see
     :func:`_paged`); in kernels the choice is made at compile time."""
     if isinstance(vol, tuple):
-        return _paged(*vol, z, y, x)
+        return _paged(*vol[:6], z, y, x)
     return _trilinear(vol, z, y, x)
 
 
 def fixed_sample(vol, pz, py, px):
     """Trilinear sample at fixed-point position (pz, py, px) (:mod:`volpack.render.fixed`),
     float64 in units of :func:`fixed_unit`: integer lerps on an integer array, float32
-    on a float one, a paged volume sampled by :func:`_paged` at the float position."""
+    on a float one; a paged volume through :func:`_paged_fixed`."""
     if isinstance(vol, tuple):
-        return float(_paged(*vol, pz * _INV_ONE, py * _INV_ONE, px * _INV_ONE))
-    return trilinear_fixed(vol, pz, py, px)
+        return _paged_fixed(vol[0], vol[1], vol[2], vol[6], vol[7], vol[5], pz, py, px)
+    return trilinear_fixed(vol, 0, pz, py, px)
 
 
 def fixed_unit(vol):
     """What :func:`fixed_sample` scales a value of ``vol`` by."""
-    return 1.0 if isinstance(vol, tuple) else value_unit(vol)
-
-
-_INV_ONE = 1.0 / (1 << FRAC)
+    return value_unit(vol[0] if isinstance(vol, tuple) else vol)
 
 
 def grad_ndv(vol, grad, z, y, x, gscale, vz, vy, vx, gmin):
@@ -397,16 +421,15 @@ if not JIT_DISABLED:
     @overload(fixed_sample, jit_options={"nogil": True})
     def _fixed_sample_overload(vol, pz, py, px):
         if isinstance(vol, types.BaseTuple):
-            return lambda vol, pz, py, px: np.float64(_paged_kernel(
-                vol[0], vol[1], vol[2], vol[3], vol[4], vol[5],
-                pz * _INV_ONE, py * _INV_ONE, px * _INV_ONE,
-            ))  # fmt: skip
-        return lambda vol, pz, py, px: trilinear_fixed(vol, pz, py, px)
+            return lambda vol, pz, py, px: _paged_fixed_kernel(
+                vol[0], vol[1], vol[2], vol[6], vol[7], vol[5], pz, py, px
+            )
+        return lambda vol, pz, py, px: trilinear_fixed(vol, 0, pz, py, px)
 
     @overload(fixed_unit, jit_options={"nogil": True})
     def _fixed_unit_overload(vol):
         if isinstance(vol, types.BaseTuple):
-            return lambda vol: 1.0
+            return lambda vol: value_unit(vol[0])
         return lambda vol: value_unit(vol)
 
     @overload(lit_codes, jit_options={"nogil": True})
