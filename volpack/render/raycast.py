@@ -1505,15 +1505,25 @@ def finish_render(out, row_samples, t_start, render_stats):
 # --------------------------------------------------------------------------- helpers
 
 
+#: Rows a thread traces in a row before its set skips ahead (see :func:`run_row_sets`).
+ROW_BAND = 16
+
+
 def run_row_sets(run, h: int, nthreads: int, progress=None) -> None:
-    """Call ``run(rows)`` on interleaved sets of image rows (``j, j + m, j + 2m, ...``)
-    over ``nthreads`` threads, reporting ``progress(rows done, h)``. Interleaving balances
-    the threads whatever the image holds; each ray is computed alone, so the image does
-    not depend on the thread count."""
-    m = min(h, 4 * nthreads if nthreads > 1 else (8 if progress is not None else 1))
+    """Call ``run(rows)`` on interleaved sets of bands of :data:`ROW_BAND` image rows
+    (set ``j`` holds bands ``j, j + m, j + 2m, ...``) over ``nthreads`` threads, reporting
+    ``progress(rows done, h)``. Interleaving balances the threads whatever the image
+    holds; neighbouring rows traced one after the other by one thread read the same
+    voxels from its cache (with single rows interleaved, two threads cost 15 % more CPU
+    than one on the benchmark's CT, where VTK's cost the same). Each ray is computed
+    alone, so the image does not depend on the thread count."""
+    band = max(1, min(ROW_BAND, h // (4 * nthreads))) if nthreads > 1 else 1
+    nb = -(-h // band)
+    m = min(nb, 4 * nthreads if nthreads > 1 else (8 if progress is not None else 1))
+    band_of = np.arange(h, dtype=np.int64) // band
 
     def one(j: int) -> int:
-        rows = np.arange(j, h, m, dtype=np.int64)
+        rows = np.flatnonzero(band_of % m == j).astype(np.int64)
         run(rows)
         return len(rows)
 
