@@ -66,6 +66,8 @@ KINDS = {
     # version 3's float tools (mode 5): Lorenzo on the floats' signed images, and lattices
     "float-lorenzo": ("lossless-v3-f32-smooth.vpk", VOLUME_PATHS),
     "float-lattice": ("lossless-v3-f32-packed.vpk", VOLUME_PATHS),
+    # version 4's float blend (mode 5, tool 2): copies from two periods
+    "float-blend": ("lossless-v4-f32-periodic.vpk", VOLUME_PATHS),
     "fast": ("fast-u8-background.vpk", VOLUME_PATHS),
     # the fast codec's run mode (the default since the `runs` header field)
     "fast-runs": ("fast-runs-mixed.vpk", VOLUME_PATHS),

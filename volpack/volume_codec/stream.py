@@ -131,8 +131,9 @@ def compress(
         Wavelet codec settings (see :class:`volpack.volume_codec.codec.WaveletCodec`).
     tools : {"auto", "wavelet", "predict"}, optional
         The lossless codec's tools (:class:`volpack.volume_codec.lossless.LosslessCodec`).
-    predict_version : {1, 2, 3}, optional
-        The lossless codec's predictive stream: 3 (the default: as 2, and floats by
+    predict_version : {1, 2, 3, 4}, optional
+        The lossless codec's predictive stream: 4 (the default: as 3, and floats also by
+        a blend of predictors with copies and a fill value), 3 (as 2, and floats by
         Lorenzo or lattice prediction), 2 or 1 (as files written before, byte for byte).
     runs : bool, optional
         The fast codec's run mode: on (the default) or off (as files written before it,
