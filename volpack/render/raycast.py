@@ -9,11 +9,11 @@ nearest edge value. Every sample position is computed as ``origin + t * directio
 holds it in fixed point (:mod:`volpack.render.fixed`: entry point plus ``k`` steps, an
 exact integer multiply-add) and samples integer volumes with integer weights.
 
-Threads: image rows are split into interleaved sets (rows ``j, j + m, j + 2m, ...``) that
-run on ``workers`` threads through the nogil kernel (:func:`volpack.parallel.ordered_map`),
-rather than a numba ``prange``: the parallel build of this kernel took three times as
-long to compile (about 9 s against 3 s), and interleaving balances the threads however
-the volume sits in the image.
+Threads: image rows are split into interleaved sets of bands of 16 rows
+(:func:`run_row_sets`) that run on ``workers`` threads through the nogil kernel
+(:func:`volpack.parallel.ordered_map`), rather than a numba ``prange``: the parallel
+build of this kernel took three times as long to compile (about 9 s against 3 s), and
+interleaving balances the threads however the volume sits in the image.
 
 Classification (``classification=``):
 
