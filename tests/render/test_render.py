@@ -434,3 +434,24 @@ def test_rays_are_world_rays_in_index_space():
             o2, d2 = cam.rays(shape, sp)
             np.testing.assert_array_equal(o2, o)
             np.testing.assert_array_equal(d2, d)
+
+
+@pytest.mark.parametrize("h, threads", [(512, 2), (26, 2), (7, 3), (1, 2), (100, 1)])
+def test_row_sets_cover_every_row_once_in_bands(h, threads):
+    import threading
+
+    from volpack.render import raycast
+
+    seen, lock, done = [], threading.Lock(), []
+
+    def run(rows):
+        with lock:
+            seen.append(rows.copy())
+
+    raycast.run_row_sets(run, h, threads, progress=lambda d, t: done.append((d, t)))
+    rows = np.concatenate(seen)
+    assert np.array_equal(np.sort(rows), np.arange(h))
+    assert done[-1] == (h, h)
+    if threads > 1 and h >= 4 * threads * raycast.ROW_BAND:  # whole bands of neighbours
+        for r in seen:
+            assert np.all(np.diff(r)[: raycast.ROW_BAND - 1] == 1)
