@@ -77,6 +77,10 @@ def test_predict_floor_division_is_exact():
     d = np.concatenate([d, d, d, d])
     got = np.array([predict.floor_div(int(x), int(y)) for x, y in zip(a, d)])
     np.testing.assert_array_equal(got, a // d)
+    # The truncating variant of version 2 (non-negative numerators only), same cases.
+    keep = a >= 0
+    got = np.array([predict.floor_div_nonneg(int(x), int(y)) for x, y in zip(a[keep], d[keep])])
+    np.testing.assert_array_equal(got, a[keep] // d[keep])
 
 
 def test_predict_beats_wavelet_on_an_edge():

@@ -28,12 +28,14 @@ from ..entropy.rangecoder import (
     open_stream,
 )
 from ..entropy.rangecoder import get as _get
+from ..entropy.rangecoder import get_held as _get_held
 from ..entropy.rangecoder import put as _put
 from .predict import bitlen
 
 NCAND = 5
 N_PATTERN = 1 << 7
 M_TREE = NCAND * N_PATTERN  # first model of the rank tree
+FLAT = N_PATTERN - 1  # the pattern where W, N, U, NE and NW all agree (and x, y > 0)
 
 
 @kernel(inline=True)
@@ -68,6 +70,17 @@ def _candidates(v, i, x, y, z, ny, nx, cand):
             cand[k] = c
             k += 1
     return k, pattern
+
+
+@kernel(inline=True)
+def _flat(v, i, x, y, z, nx, sz):
+    """Whether voxel ``i`` = (z, y, x) is inside the brick and its W, N, U, NE and NW
+    neighbours all agree: then the distinct candidates are W alone, in pattern FLAT."""
+    w = v[i - 1]
+    return (
+        x > 0 and y > 0 and z > 0 and x + 1 < nx
+        and v[i - nx] == w and v[i - sz] == w and v[i - nx + 1] == w and v[i - nx - 1] == w
+    )  # fmt: skip
 
 
 def _workspace(nbits: int) -> tuple[np.ndarray, np.ndarray]:
@@ -114,22 +127,44 @@ def _decode_kernel(data, shape, nbits, kmax, v, state, cand):
     """Return 0 on success, 1 when the stream ran short, 2 on an impossible label, 3 when
     it does not end where its length says."""
     nz, ny, nx = shape[0], shape[1], shape[2]
+    sz = ny * nx
     size = data.size
     code, rng, pos = open_stream(data)
-    i = 0
     for z in range(nz):
         for y in range(ny):
-            for x in range(nx):
+            i0 = z * sz + y * nx
+            x = 0
+            while x < nx:
                 if pos > size + 4:
                     return 1
-                k, pattern = _candidates(v, i, x, y, z, ny, nx, cand)
-                val = np.int64(-1)
-                for j in range(k):
-                    m = j * N_PATTERN + pattern
-                    bit, code, rng, pos = _get(data, state, m, code, rng, pos, RATE)
-                    if bit:
-                        val = cand[j]
-                        break
+                i = i0 + x
+                if _flat(v, i, x, y, z, nx, sz):
+                    # A run through a flat region (most voxels): one decision a voxel
+                    # in model FLAT, which stays in a register until the run ends.
+                    w = v[i - 1]
+                    st = np.int64(state[FLAT])
+                    while True:
+                        bit, st, code, rng, pos = _get_held(data, st, code, rng, pos, RATE)
+                        if bit == 0:
+                            break
+                        v[i] = w
+                        x += 1
+                        i += 1
+                        if pos > size + 4 or not _flat(v, i, x, y, z, nx, sz):
+                            break
+                    state[FLAT] = st
+                    if bit == 1:
+                        continue  # the voxel at x is not flat (or the stream ran short)
+                    val = np.int64(-1)  # W, the only candidate, was refused
+                else:
+                    k, pattern = _candidates(v, i, x, y, z, ny, nx, cand)
+                    val = np.int64(-1)
+                    for j in range(k):
+                        m = j * N_PATTERN + pattern
+                        bit, code, rng, pos = _get(data, state, m, code, rng, pos, RATE)
+                        if bit:
+                            val = cand[j]
+                            break
                 if val < 0:
                     node = 1
                     for _ in range(nbits):
@@ -139,7 +174,7 @@ def _decode_kernel(data, shape, nbits, kmax, v, state, cand):
                     if val > kmax:
                         return 2
                 v[i] = val
-                i += 1
+                x += 1
     return end_status(data, code, pos)
 
 

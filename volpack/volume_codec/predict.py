@@ -181,6 +181,17 @@ def floor_div(a, d):
 
 
 @kernel(inline=True)
+def floor_div_nonneg(a, d):
+    """:func:`floor_div` for ``a >= 0``: the float quotient truncated (one instruction,
+    where a floor is a rounding step more on the decoder's chain) is then its floor,
+    and the same correction makes it exact. (A negative quotient truncates towards
+    zero, which with the float's own error can be off by two: not for this one.)"""
+    q = np.int64(np.float64(a) / np.float64(d))
+    r = a - q * d
+    return q + np.int64(r >= d) - np.int64(r < 0)
+
+
+@kernel(inline=True)
 def _add_errors(perr, j, s0, s1, s2, s3, s4, s5):
     """The predictors' error sums plus those of the voxel at ring slot ``j``."""
     b = j * PSTRIDE

@@ -45,7 +45,7 @@ from .predict import (
     bitlen,
     context,
     context_bias,
-    floor_div,
+    floor_div_nonneg,
     gather,
     learn_bias,
     weight,
@@ -248,7 +248,8 @@ def _predict_kernel(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias_su
     num = w0 * q0 + w1 * q1 + w2 * q2 + w3 * q3 + w4 * q4 + w5 * q5
     den = w0 + w1 + w2 + w3 + w4 + w5
     ctx = context(act, (max(q0, q1, q2, q3, q4, q5) - min(q0, q1, q2, q3, q4, q5)) >> 3)
-    p8 = floor_div(num + (den >> 1), den) + context_bias(bias_sum, bias_cnt, ctx)
+    # (num >= 0: the predictions are clipped to [0, 8 hi] and the weights are positive)
+    p8 = floor_div_nonneg(num + (den >> 1), den) + context_bias(bias_sum, bias_cnt, ctx)
     p8 = min(max(p8, 0), h8)
     pred = (p8 + 4) >> 3
     frac = p8 - 8 * pred  # -4..3
