@@ -76,11 +76,15 @@ def _candidates(v, i, x, y, z, ny, nx, cand):
 def _flat(v, i, x, y, z, nx, sz):
     """Whether voxel ``i`` = (z, y, x) is inside the brick and its W, N, U, NE and NW
     neighbours all agree: then the distinct candidates are W alone, in pattern FLAT."""
-    w = v[i - 1]
+    if not (x > 0 and y > 0 and z > 0 and x + 1 < nx):
+        return False
+    w = v[np.uint64(i - 1)]  # (unsigned: see the note in predict.py)
     return (
-        x > 0 and y > 0 and z > 0 and x + 1 < nx
-        and v[i - nx] == w and v[i - sz] == w and v[i - nx + 1] == w and v[i - nx - 1] == w
-    )  # fmt: skip
+        v[np.uint64(i - nx)] == w
+        and v[np.uint64(i - sz)] == w
+        and v[np.uint64(i - nx + 1)] == w
+        and v[np.uint64(i - nx - 1)] == w
+    )
 
 
 def _workspace(nbits: int) -> tuple[np.ndarray, np.ndarray]:
@@ -147,7 +151,7 @@ def _decode_kernel(data, shape, nbits, kmax, v, state, cand):
                         bit, st, code, rng, pos = _get_held(data, st, code, rng, pos, RATE)
                         if bit == 0:
                             break
-                        v[i] = w
+                        v[np.uint64(i)] = w
                         x += 1
                         i += 1
                         if pos > size + 4 or not _flat(v, i, x, y, z, nx, sz):
