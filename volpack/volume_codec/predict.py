@@ -359,6 +359,14 @@ def _learn(err, perr, r, val, pred, ctx, bias_sum, bias_cnt, p0, p1, p2, p3, p4,
     """After voxel ``val`` at ring slot ``r`` is known: store its errors and update the
     context's bias."""
     e = val - pred
+    store_errors(err, perr, r, e, val, p0, p1, p2, p3, p4, p5)
+    learn_bias(bias_sum, bias_cnt, ctx, e)
+
+
+@kernel(inline=True)
+def store_errors(err, perr, r, e, val, p0, p1, p2, p3, p4, p5):
+    """Ring slot ``r``'s final error ``e`` and each predictor's error against ``val``
+    (capped at 2^30 - 1, so that five of them add up within an int32's reach)."""
     err[np.uint64(r)] = e
     b = r * PSTRIDE
     perr[np.uint64(b)] = min(abs(val - p0), 0x3FFFFFFF)
@@ -367,7 +375,6 @@ def _learn(err, perr, r, val, pred, ctx, bias_sum, bias_cnt, p0, p1, p2, p3, p4,
     perr[np.uint64(b + 3)] = min(abs(val - p3), 0x3FFFFFFF)
     perr[np.uint64(b + 4)] = min(abs(val - p4), 0x3FFFFFFF)
     perr[np.uint64(b + 5)] = min(abs(val - p5), 0x3FFFFFFF)
-    learn_bias(bias_sum, bias_cnt, ctx, e)
 
 
 def workspace(shape: tuple[int, ...]) -> tuple[np.ndarray, ...]:

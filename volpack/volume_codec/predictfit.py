@@ -48,6 +48,7 @@ from .predict import (
     floor_div_nonneg,
     gather,
     learn_bias,
+    store_errors,
     weight,
     workspace,
 )
@@ -262,15 +263,7 @@ def _learn(err, perr, r, val, pred, ctx, bias_sum, bias_cnt, q0, q1, q2, q3, q4,
     """After voxel ``val`` at ring slot ``r`` is known: store its errors (the
     predictors' in eighths) and update the context's bias (in eighths)."""
     e = val - pred
-    err[np.uint64(r)] = e
-    b = r * PSTRIDE
-    v8 = 8 * val
-    perr[np.uint64(b)] = min(abs(v8 - q0), 0x3FFFFFFF)
-    perr[np.uint64(b + 1)] = min(abs(v8 - q1), 0x3FFFFFFF)
-    perr[np.uint64(b + 2)] = min(abs(v8 - q2), 0x3FFFFFFF)
-    perr[np.uint64(b + 3)] = min(abs(v8 - q3), 0x3FFFFFFF)
-    perr[np.uint64(b + 4)] = min(abs(v8 - q4), 0x3FFFFFFF)
-    perr[np.uint64(b + 5)] = min(abs(v8 - q5), 0x3FFFFFFF)
+    store_errors(err, perr, r, e, 8 * val, q0, q1, q2, q3, q4, q5)
     learn_bias(bias_sum, bias_cnt, ctx, 8 * e)
 
 
