@@ -211,6 +211,30 @@ def test_label_maps_copy_neighbours():
     assert tools16 == {"labels": 1} and len(LosslessCodec().encode(a16)) < ours + 16
 
 
+@pytest.mark.parametrize("k", [1, 2, 256, 257, 4096])
+def test_label_decoder_runs_ranks_and_palette(k):
+    """The label decoder's paths against the encoder: flat runs (one model held in a
+    register) broken by single voxels, by a label change mid-run and at every brick face;
+    ranks come back in the narrowest type (uint8 up to 256 labels, else uint16), and
+    with a palette as ``palette[rank]`` in the palette's dtype."""
+    from volpack.volume_codec import labels
+
+    rng = np.random.default_rng(k)
+    shape = (9, 11, 13)
+    a = np.repeat(rng.integers(0, k, (3, 11, 13)), 3, axis=0)  # runs across slices
+    a[:, 4:7, 2:11] = k - 1  # a flat block, broken below by lone voxels
+    a[5, 5, 5], a[6, 4, 2], a[7, 6, 10] = 0, k // 2, k // 3
+    a[:, :, -1] = rng.integers(0, k, (9, 11))  # the last column (no NE) differs
+    stream = labels.encode(a, k)
+    ranks = labels.decode(stream, shape, k)
+    assert ranks.dtype == (np.uint8 if k <= 256 else np.uint16)
+    np.testing.assert_array_equal(ranks, a)
+    p = np.sort(rng.choice(np.arange(-40000, 40000), k, replace=False)).astype(np.int32)
+    values = labels.decode(stream, shape, k, p)
+    assert values.dtype == np.int32
+    np.testing.assert_array_equal(values, p[a])
+
+
 # --- floats ------------------------------------------------------------------------------
 
 

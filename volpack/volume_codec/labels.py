@@ -20,7 +20,9 @@ import numpy as np
 from .._jit import kernel
 from ..entropy.common import check_status, encode_with_retry, stream_bytes
 from ..entropy.rangecoder import (
+    PROB_BITS,
     RATE,
+    adapted,
     STATE_INIT,
     end_status,
     finish_stream,
@@ -28,7 +30,7 @@ from ..entropy.rangecoder import (
     open_stream,
 )
 from ..entropy.rangecoder import get as _get
-from ..entropy.rangecoder import get_held as _get_held
+from ..entropy.rangecoder import pull as _pull
 from ..entropy.rangecoder import put as _put
 from .predict import bitlen
 
@@ -148,9 +150,20 @@ def _decode_kernel(data, shape, nbits, kmax, v, state, cand):
                     w = v[i - 1]
                     st = np.int64(state[FLAT])
                     while True:
-                        bit, st, code, rng, pos = _get_held(data, st, code, rng, pos, RATE)
-                        if bit == 0:
+                        p = st >> 4
+                        u = st & 15
+                        bound = (rng >> PROB_BITS) * p
+                        if code < bound:  # not W: rare in a run, so a branch
+                            rng = bound
+                            st = adapted(p, u, 0, RATE)
+                            code, rng, pos = _pull(data, code, rng, pos)
+                            bit = 0
                             break
+                        code -= bound
+                        rng -= bound
+                        st = adapted(p, u, -1, RATE)
+                        code, rng, pos = _pull(data, code, rng, pos)
+                        bit = 1
                         v[np.uint64(i)] = w
                         x += 1
                         i += 1
@@ -196,12 +209,30 @@ def encode(ranks: np.ndarray, k: int) -> bytes:
     )
 
 
-def decode(data: bytes | memoryview, shape: tuple[int, int, int], k: int) -> np.ndarray:
-    """Decode :func:`encode`'s bytes into ranks (int64) of ``shape``."""
+def decode(
+    data: bytes | memoryview, shape: tuple[int, int, int], k: int, palette=None
+) -> np.ndarray:
+    """Decode :func:`encode`'s bytes into ranks of ``shape`` (uint8 for up to 256 labels,
+    uint16 for up to 65,536, else int64: the narrower, the less memory the decoder goes
+    through), or into ``palette[rank]`` (in the palette's dtype) when ``palette`` (``k``
+    values) is given."""
     buf = stream_bytes(data, "label")
     nbits = int(bitlen(max(k - 1, 1)))
-    v = np.empty(int(np.prod(shape)), dtype=np.int64)
+    dtype = np.uint8 if k <= 1 << 8 else np.uint16 if k <= 1 << 16 else np.int64
+    v = np.empty(int(np.prod(shape)), dtype=dtype)
     shp = np.array(shape, dtype=np.int64)
     status = _decode_kernel(buf, shp, np.int64(nbits), np.int64(k - 1), v, *_workspace(nbits))
     check_status(status, "label")
-    return v.reshape(shape)
+    if palette is None:
+        return v.reshape(shape)
+    out = np.empty(v.size, dtype=palette.dtype)
+    _lookup(v, np.ascontiguousarray(palette), out)
+    return out.reshape(shape)
+
+
+@kernel(nrt=False)
+def _lookup(ranks, palette, out):
+    """``out = palette[ranks]`` in one pass (numpy's fancy index first widens the ranks
+    to int64: a pass and a volume of int64 more). The ranks are in range."""
+    for i in range(ranks.size):
+        out[np.uint64(i)] = palette[np.uint64(ranks[np.uint64(i)])]
