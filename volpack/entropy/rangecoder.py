@@ -90,7 +90,8 @@ def pull(data, code, rng, pos):
     """The decoder's side of :func:`push`: shift in whole bytes (0 past the end)."""
     while rng < TOP:
         rng <<= 8
-        code = ((code << 8) | (np.int64(data[pos]) if pos < data.size else 0)) & 0xFFFFFFFF
+        byte = np.int64(data[np.uint64(pos)]) if pos < data.size else 0  # (unsigned: no
+        code = ((code << 8) | byte) & 0xFFFFFFFF  # test for a wrapped negative index)
         pos += 1
     return code, rng, pos
 
