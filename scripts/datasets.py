@@ -357,6 +357,18 @@ DATASETS: dict[str, Dataset] = {
               "MD water density in the nAChR M2 channel (gOpenMol .plt), float32"),
         _climate("eta_u", "cdf/ced1.lf00.t00z.eta.nc", "U_GRD_6_ISBL",
                  "NCL example: NCEP Eta model u wind (m/s), 11 levels x 45x53"),
+        # Held out a third time (results/lossy/heldout3): other variables of NCL's files,
+        # never loaded by the benchmark before the separable wavelet was built.
+        _climate("cam_v", "cdf/nc4uvt.nc", "V",
+                 "NCL example: CAM meridional wind (m/s) on 14 levels, 64x128 (netCDF-4)"),
+        _climate("cam_t14", "cdf/nc4uvt.nc", "T",
+                 "NCL example: CAM temperature on 14 levels, 64x128 (netCDF-4)"),
+        _climate("eta_v", "cdf/ced1.lf00.t00z.eta.nc", "V_GRD_6_ISBL",
+                 "NCL example: NCEP Eta model v wind (m/s), 11 levels x 45x53"),
+        _climate("contour_t", "cdf/contour.cdf", "T",
+                 "NCL example: temperature (K), 10 levels x 33x36 (first time)"),
+        _climate("grid3d_var3", "nug/rectilinear_grid_3D.nc", "var3",
+                 "NCL example: the unnamed var3 of the 3-D grid file, 17 levels x 96x192"),
     ]
 }  # fmt: skip
 

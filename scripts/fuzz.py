@@ -66,9 +66,13 @@ KINDS = {
     # version 3's float tools (mode 5): Lorenzo on the floats' signed images, and lattices
     "float-lorenzo": ("lossless-v3-f32-smooth.vpk", VOLUME_PATHS),
     "float-lattice": ("lossless-v3-f32-packed.vpk", VOLUME_PATHS),
+    # version 4's float blend (mode 5, tool 2): copies from two periods
+    "float-blend": ("lossless-v4-f32-periodic.vpk", VOLUME_PATHS),
     "fast": ("fast-u8-background.vpk", VOLUME_PATHS),
     # the fast codec's run mode (the default since the `runs` header field)
     "fast-runs": ("fast-runs-mixed.vpk", VOLUME_PATHS),
+    # its row kinds (the default since the `rows` header field): copy runs of rows
+    "fast-rows": ("fast-rows-labels.vpk", VOLUME_PATHS),
     "lossy-interp": ("lossy-bounded-f32-interp.vpk", VOLUME_PATHS),
     # container format version 2 (formats/vpk-2.md): varint records, dictionary-coded
     # header and summary; one brick, and eight

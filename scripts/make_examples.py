@@ -146,6 +146,7 @@ def make_wavelet(folder: Path) -> Path:
 # Version 1 of the predictive stream (the files written before version 2), then version 2.
 V1 = {"predict_version": 1}
 V2 = {"predict_version": 2}
+V3 = {"predict_version": 3}
 LOSSLESS_CASES = [
     ("lossless-auto-u8", "u8-background", V1),
     ("lossless-auto-i16-palette", "i16", V1),
@@ -158,11 +159,16 @@ LOSSLESS_CASES = [
     ("lossless-v2-i16-palette", "v2-i16", {"brick": 32, **V2}),
     ("lossless-v2-predict-u8", "v2-u8", {"tools": "predict", "brick": 32, **V2}),
     # version 3: floats by Lorenzo prediction and on a lattice (mode 5), in 32 and 64 bits
-    ("lossless-v3-f32-special", "f32-special", {}),
-    ("lossless-v3-f32-smooth", "f32-smooth", {}),
-    ("lossless-v3-f64-smooth", "f64-smooth", {}),
-    ("lossless-v3-f32-lattice", "f32-lattice", {}),
-    ("lossless-v3-f32-packed", "f32-packed", {}),
+    ("lossless-v3-f32-special", "f32-special", V3),
+    ("lossless-v3-f32-smooth", "f32-smooth", V3),
+    ("lossless-v3-f64-smooth", "f64-smooth", V3),
+    ("lossless-v3-f32-lattice", "f32-lattice", V3),
+    ("lossless-v3-f32-packed", "f32-packed", V3),
+    # version 4: the blend of predictors (mode 5, tool 2), one brick each: copies from
+    # two periods, a fill value of 0 (float32) and of NaN (float64)
+    ("lossless-v4-f32-periodic", "f32-periodic", {"brick": 32}),
+    ("lossless-v4-f32-masked", "f32-masked", {"brick": 32}),
+    ("lossless-v4-f64-masked", "f64-masked", {"brick": 32}),
 ]
 
 
@@ -186,12 +192,31 @@ def lossless_source(recipe: str):
         cut = wavelet_source("u8").copy()
         cut[cut < 60] = 0
         return cut
+    if recipe == "labels-2x":  # the label cut resampled to half the spacing in z and y
+        return np.repeat(np.repeat(wavelet_source("labels"), 2, axis=0), 2, axis=1)
     if recipe in ("f32-smooth", "f64-smooth"):  # a smooth field, full mantissas, specials
         z, y, x = np.indices((20, 24, 28))
         f = np.sin(x * 0.21 + z * 0.05) * np.cos(y * 0.17) * 80.0 + z * 0.3
         f = f.astype(np.float32 if recipe == "f32-smooth" else np.float64)
         f[3, 4, 5:7] = (np.nan, -0.0)
         f[9, 9, 9] = 5e-324 if recipe == "f64-smooth" else 1e-42
+        return f
+    if recipe == "f32-periodic":  # a unit cell of 14 x 24 x 20 and copies of its start
+        z, y, x = np.indices((20, 24, 28))
+        f = wavelet_source("u8") * 1.37 - 40.0 + z * 0.011 + y * y * 0.0007 - x * 0.05
+        f = f.astype(np.float32)
+        f[:, :, 20:] = f[:, :, :8]
+        f[14:] = f[:6]
+        f[1, 2, 3:5] = (np.nan, -0.0)
+        return f
+    if recipe in ("f32-masked", "f64-masked"):  # a smooth blob in a fill of 0 or NaN
+        z, y, x = np.indices((20, 24, 28))
+        f = np.sin(x * 0.21 + z * 0.05) * np.cos(y * 0.17) * 80.0 + z * 0.3
+        f = f.astype(np.float32 if recipe == "f32-masked" else np.float64)
+        f[(z - 10) ** 2 + (y - 12) ** 2 + (x - 14) ** 2 > 80] = (
+            0.0 if recipe == "f32-masked" else np.nan
+        )
+        f[10, 12, 14:17] = (-0.0, np.inf, 5e-324 if recipe == "f64-masked" else 1e-42)
         return f
     if recipe == "f32-lattice":  # tenths of a unit: a geopotential height in metres
         c = wavelet_source("u8").astype(np.float64)
@@ -235,9 +260,16 @@ FAST_CASES = [
     ("fast-f32-special", "f32-special", {"codec": "fast", "runs": False}),
     # the run mode (the default since; the four above are the streams of before it): in
     # 32^3 bricks too, whose runs repay their two tables (runs after each predictor)
-    ("fast-runs-mixed", "v2-u8-background", {"codec": "fast", "runs": True}),
-    ("fast-runs-labels", "labels", {"codec": "fast", "runs": True, "brick": 32}),
-    ("fast-runs-u8-background", "u8-background", {"codec": "fast", "runs": True, "brick": 32}),
+    ("fast-runs-mixed", "v2-u8-background", {"codec": "fast", "runs": True, "rows": False}),
+    ("fast-runs-labels", "labels", {"codec": "fast", "runs": True, "rows": False, "brick": 32}),
+    (
+        "fast-runs-u8-background",
+        "u8-background",
+        {"codec": "fast", "runs": True, "rows": False, "brick": 32},
+    ),
+    # the row kinds (the default since): runs of rows that copy the row or slice above
+    ("fast-rows-labels", "labels-2x", {"codec": "fast", "brick": 32}),
+    ("fast-rows-mixed", "v2-u8-background", {"codec": "fast"}),
 ]
 
 
@@ -295,6 +327,11 @@ def lossy_source(recipe: str):
 LOSSY_CDF97_CASES = [
     # a looser bound, where the `rows` scan (order 2) codes shortest
     ("lossy-bounded-f32-cdf97-rows", "f32", {"max_error": 8.0, "fill_value": -999.0}),
+    # the separable decomposition (order 3) on the MRI summed along x, where it codes
+    # shortest (lossy-bounded-f32-lorenzo2d-b0.vpk, this recipe's Lorenzo coding made
+    # before the separable decomposition existed, is kept as it is: decoded, no longer
+    # reproduced)
+    ("lossy-bounded-f32-separable", "f32-walk", {"max_error": 0.3, "fill_value": -999.0}),
 ]
 # The interpolation path (flag bit 6, lossy-1.md steps 14-18), where it codes shortest:
 # cubic (kind 1) and, in float64 with bins past 32 (raw bits), linear (kind 0)
@@ -308,7 +345,6 @@ LOSSY_INTERP_CASES = [
     ("lossy-bounded-f32-interp-b0", "f32", {"max_error": 2.0, "fill_value": -999.0}),
     ("lossy-bounded-f64-interp-b0", "f64-off", {"max_error": 0.01, "fill_value": -999.0}),
     ("lossy-bounded-f32-lorenzo-b0", "f32-walk", {"max_error": 0.03, "fill_value": -999.0}),
-    ("lossy-bounded-f32-lorenzo2d-b0", "f32-walk", {"max_error": 0.3, "fill_value": -999.0}),
     # an undeclared fill value (-999) masked because that codes shorter
     ("lossy-bounded-f32-sentinel", "f32", {"max_error": 2.0}),
     # floats holding whole numbers under a bound below 1/2: bins of 1, exact

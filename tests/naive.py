@@ -802,3 +802,114 @@ def float_lorenzo_residuals(a, in_slice=False, in_floats=False):
                 r = (s[z][y][x] - p + (1 << (b - 1))) % (1 << b) - (1 << (b - 1))
                 out[z, y, x] = r
     return out
+
+
+def float_blend_residuals(a, nset=127, offsets=(), fill=None):
+    """The blend tool (lossless-1.md step 10, tool 2) voxel by voxel: ``(residual,
+    copy mark, fill mark)`` arrays. Faces take the 3-D Lorenzo prediction on the values
+    (``last`` beside a fill voxel); inside, the seven predictions weighted by the inverse
+    of 1 + their errors at W, N, NW, U (and NE), predictors reading a fill voxel or not
+    finite left out, none left: ``last``. Copies: the first offset whose voxel has the
+    same bits."""
+    import numpy as np
+
+    b = 8 * a.dtype.itemsize
+    nz, ny, nx = a.shape
+    s = float_signed_image(a)
+    v = a.astype(np.float64)
+    fs = None if fill is None else int(float_signed_image(np.array([fill], a.dtype))[0])
+
+    def image(q):
+        with np.errstate(over="ignore"):
+            return int(float_signed_image(np.array([q]).astype(a.dtype))[0])
+
+    def wrap(x):
+        return (x + (1 << (b - 1))) % (1 << b) - (1 << (b - 1))
+
+    corners = [(0, 0, 1), (0, 1, 0), (1, 0, 0), (0, 1, 1), (1, 0, 1), (1, 1, 0), (1, 1, 1)]
+
+    def face(z, y, x):  # the Lorenzo tool's P 2: on the values, a NaN sum on the images
+        p, q = 0, 0.0
+        for dz, dy, dx in corners:
+            if (dz and z == 0) or (dy and y == 0) or (dx and x == 0):
+                continue
+            sign = 1 if (dz + dy + dx) % 2 else -1
+            p += sign * int(s[z - dz, y - dy, x - dx])
+            with np.errstate(invalid="ignore", over="ignore"):
+                q = q + sign * v[z - dz, y - dy, x - dx]
+        return image(q) if q == q else p
+
+    fl = np.zeros(a.shape, bool)
+    cp = np.zeros(a.shape, np.int64)
+    res = np.zeros(a.shape, np.int64)
+    err = {}
+    keys = [k for k in range(7) if nset >> k & 1]
+    uses = [
+        [(0, 0, 1), (0, 1, 0), (1, 0, 0), (0, 1, 1), (1, 0, 1), (1, 1, 0), (1, 1, 1)],
+        [(0, 0, 1), (0, 1, 0), (0, 1, 1)],
+        [(1, 0, 0), (0, 0, 1), (1, 0, 1)],
+        [(1, 0, 0), (0, 1, 0), (1, 1, 0)],
+        [(0, 0, 1)],
+        [(0, 1, 0)],
+        [(1, 0, 0)],
+    ]
+    last = 0
+    for z in range(nz):
+        for y in range(ny):
+            for x in range(nx):
+                if fs is not None and int(s[z, y, x]) == fs:
+                    fl[z, y, x] = True
+                    err[(z, y, x)] = {k: 0 for k in keys}
+                    continue
+                if x == 0 or y == 0 or z == 0:
+                    p = face(z, y, x)
+                    near = [(z, y, x - 1), (z, y - 1, x), (z - 1, y, x)]
+                    if fs is not None and any(min(c) >= 0 and fl[c] for c in near):
+                        p = last
+                    pk = {k: p for k in keys}
+                else:
+
+                    def at(dz, dy, dx, z=z, y=y, x=x):
+                        return v[z - dz, y - dy, x - dx]
+
+                    W, N, U = at(0, 0, 1), at(0, 1, 0), at(1, 0, 0)
+                    NW, UW, UN, UNW = at(0, 1, 1), at(1, 0, 1), at(1, 1, 0), at(1, 1, 1)
+                    with np.errstate(invalid="ignore", over="ignore"):
+                        P = [
+                            W + N + U - NW - UW - UN + UNW,
+                            W + N - NW,
+                            U + W - UW,
+                            U + N - UN,
+                            W,
+                            N,
+                            U,
+                        ]
+                    num = den = 0.0
+                    pk = {}
+                    for k in keys:
+                        pk[k] = last
+                        if fs is not None and any(
+                            fl[z - dz, y - dy, x - dx] for dz, dy, dx in uses[k]
+                        ):
+                            continue
+                        if not np.isfinite(P[k]):
+                            continue
+                        pk[k] = image(P[k])
+                        e = 1.0
+                        for c in [(z, y, x - 1), (z, y - 1, x), (z, y - 1, x - 1), (z - 1, y, x)]:
+                            e += err[c][k]
+                        if x + 1 < nx:
+                            e += err[(z, y - 1, x + 1)][k]
+                        num += (1.0 / e) * P[k]
+                        den += 1.0 / e
+                    q = num / den if den > 0 else float("nan")
+                    p = image(q) if np.isfinite(q) else last
+                err[(z, y, x)] = {k: min(abs(wrap(int(s[z, y, x]) - pk[k])), 1 << 30) for k in keys}
+                for j, (dz, dy, dx) in enumerate(offsets):
+                    if z >= dz and y >= dy and x >= dx and s[z - dz, y - dy, x - dx] == s[z, y, x]:
+                        cp[z, y, x] = j + 1
+                        break
+                if not cp[z, y, x]:
+                    res[z, y, x] = wrap(int(s[z, y, x]) - p)
+                last = int(s[z, y, x])
+    return res, cp, fl

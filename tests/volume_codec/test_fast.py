@@ -63,8 +63,8 @@ def blocks(shape, seed=0):
 @pytest.mark.parametrize("shape", SHAPES)
 @pytest.mark.parametrize("predictor", fastpredict.PREDICTORS)
 @pytest.mark.parametrize("context", fastpredict.CONTEXTS)
-@pytest.mark.parametrize("runs", [False, True])
-def test_stream_roundtrip_every_shape(shape, predictor, context, runs):
+@pytest.mark.parametrize("runs,rows", [(False, False), (True, False), (True, True)])
+def test_stream_roundtrip_every_shape(shape, predictor, context, runs, rows):
     for v in (
         np.rint(smooth(shape)).astype(np.int64),
         np.rint(smooth(shape, noise=40) * 300).astype(np.int64),  # raw low bits
@@ -72,8 +72,9 @@ def test_stream_roundtrip_every_shape(shape, predictor, context, runs):
         np.zeros(shape, dtype=np.int64),  # one run to the brick's end
     ):
         lo, hi = int(v.min()), int(v.max())
-        data = fastpredict.encode(v, lo, hi, predictor, context, runs)
+        data = fastpredict.encode(v, lo, hi, predictor, context, runs, rows)
         assert bool(data[0] & fastpredict.RUNS) == runs
+        assert bool(data[0] & fastpredict.ROWS) == rows
         back = fastpredict.decode(data, shape, lo, hi)
         np.testing.assert_array_equal(back, v)
 
@@ -86,8 +87,9 @@ def test_runs_on_labels_and_background(shape):
         v[0, 0, 0] += 1
         lo, hi = int(v.min()), int(v.max())
         for predictor in fastpredict.PREDICTORS:
-            data = fastpredict.encode(v, lo, hi, predictor, "far", True)
-            np.testing.assert_array_equal(fastpredict.decode(data, shape, lo, hi), v)
+            for rows in (False, True):
+                data = fastpredict.encode(v, lo, hi, predictor, "far", True, rows)
+                np.testing.assert_array_equal(fastpredict.decode(data, shape, lo, hi), v)
 
 
 @pytest.mark.parametrize("context", fastpredict.CONTEXTS)
@@ -100,14 +102,28 @@ def test_stream_extreme_range(context):
         np.testing.assert_array_equal(fastpredict.decode(data, v.shape, -(2**31), 2**31 - 1), v)
 
 
-def _reference_tokens(v, lo, hi, pid, cid, runs=False):
-    """Tokens and contexts of formats/fast-1.md steps 4, 5 (with its runs) and 7, in
-    plain Python; a run's length in context ``RUN_LENGTH``, the voxel that ends it in
-    ``RUN_BREAK``."""
+def _reference_tokens(v, lo, hi, pid, cid, runs=False, rows=False):
+    """Tokens and contexts of formats/fast-1.md steps 4, 5 (with its runs and rows) and
+    7, in plain Python; a run's length in context ``RUN_LENGTH``, the voxel that ends it
+    in ``RUN_BREAK``, a row's kind in ``ROW_KIND`` + the kind before, a copy run's
+    further rows in ``ROW_COUNT`` + kind - 1."""
     nz, ny, nx = v.shape
     u = np.zeros(v.shape, dtype=np.int64)
     toks, ctxs = [], []
     inrun, length = False, 0
+    prev, copies = 0, 0
+    rowlist = [(z, y) for z in range(nz) for y in range(ny)]
+
+    def copies_of(k, back):  # rows from row k on equal to the row ``back`` rows before
+        c = 0
+        while k + c < len(rowlist):
+            z, y = rowlist[k + c]
+            if back == 1 and y == 0 or back == ny and z == 0:
+                break
+            if not np.array_equal(v.reshape(-1, nx)[k + c], v.reshape(-1, nx)[k + c - back]):
+                break
+            c += 1
+        return c
 
     def token(n):
         b = n.bit_length()
@@ -125,6 +141,18 @@ def _reference_tokens(v, lo, hi, pid, cid, runs=False):
 
     for z in range(nz):
         for y in range(ny):
+            k = z * ny + y
+            if rows and k > 0 and copies == 0:
+                n_, u_ = copies_of(k, 1), copies_of(k, ny)
+                kind = 1 if n_ else 2 if u_ else 0
+                put(kind, fastpredict.ROW_KIND + prev)
+                prev = kind
+                if kind:
+                    copies = n_ if kind == 1 else u_
+                    put(copies - 1, fastpredict.ROW_COUNT + kind - 1)
+            if copies:
+                copies -= 1
+                continue  # residuals 0
             for x in range(nx):
                 V = at(z, y, x)
                 if x > 0 and y > 0:
@@ -166,6 +194,9 @@ def _reference_tokens(v, lo, hi, pid, cid, runs=False):
                     continue
                 if ue == 0:
                     length += 1
+                    if rows and x == nx - 1:  # a run stops with its row
+                        put(length, fastpredict.RUN_LENGTH)
+                        inrun = False
                 else:
                     put(length, fastpredict.RUN_LENGTH)
                     put(ue, fastpredict.RUN_BREAK)
@@ -177,24 +208,30 @@ def _reference_tokens(v, lo, hi, pid, cid, runs=False):
 
 @pytest.mark.parametrize("pid", range(3))
 @pytest.mark.parametrize("cid", range(2))
-@pytest.mark.parametrize("runs", [False, True])
-def test_tokens_and_contexts_match_the_reference(pid, cid, runs):
+@pytest.mark.parametrize("runs,rows", [(False, False), (True, False), (True, True)])
+def test_tokens_and_contexts_match_the_reference(pid, cid, runs, rows):
     labels = blocks((5, 8, 9), 3)
     labels[2:, 3:6, 2:7] += np.arange(5)  # edges the predictor misses: runs end there
-    for v in (np.rint(smooth((4, 6, 7), noise=9) * 7).astype(np.int64), labels):
+    slab = blocks((6, 9, 8), 4)
+    slab[3] = slab[2]  # a slice that copies the one above
+    slab[1, 4:] = slab[1, 3]  # rows that copy the row above, to the slice's end
+    scan = np.rint(smooth((4, 6, 7), noise=9) * 7).astype(np.int64)
+    for v in (scan, labels, slab):
         lo, hi = int(v.min()), int(v.max())
         n = v.size
-        toks, ctxs = np.empty(2 * n, np.uint8), np.empty(2 * n, np.uint8)
-        counts = np.zeros((fastpredict.NCLASS + 2, rans.MAX_SYMBOLS), dtype=np.int64)
-        nbits, nsym, covered = fastpredict._tokens_kernel(
+        toks, ctxs = np.empty(3 * n, np.uint8), np.empty(3 * n, np.uint8)
+        counts = np.zeros((fastpredict.ROW_KIND + 5, rans.MAX_SYMBOLS), dtype=np.int64)
+        nbits, nsym, covered, copied = fastpredict._tokens_kernel(
             v.reshape(-1), np.array(v.shape, dtype=np.int64), np.int64(lo), np.int64(hi),
-            pid, cid, runs, toks, ctxs, np.zeros(2 * v[0].size, np.int64), counts,
+            pid, cid, runs, rows, toks, ctxs, np.zeros(2 * v[0].size, np.int64), counts,
             np.empty(4 * n + 16, np.uint8),
         )  # fmt: skip
-        want_t, want_c = _reference_tokens(v, lo, hi, pid, cid, runs)
+        want_t, want_c = _reference_tokens(v, lo, hi, pid, cid, runs, rows)
         assert toks[:nsym].tolist() == want_t and ctxs[:nsym].tolist() == want_c
         assert nbits == sum(int(fastpredict.TOK_BITS[t]) for t in want_t)
-        assert (fastpredict.RUN_LENGTH in want_c) == (runs and v is labels)
+        assert (fastpredict.RUN_LENGTH in want_c) == (runs and v is not scan)
+        if rows and v is slab:  # copies of the row above and of the slice above
+            assert {fastpredict.ROW_COUNT, fastpredict.ROW_COUNT + 1} <= set(want_c)
 
 
 # --- the codec: modes, dtypes, the encoder's choice --------------------------------------
@@ -244,13 +281,19 @@ def test_volume_roundtrip_and_info_tools():
     np.testing.assert_array_equal(api.decompress_array(blob, workers=2), a)
     with Reader(blob) as r:
         tools = r.summary["tools"]
-        assert r.header["codec"] == {"id": "fast", "runs": True}
+        assert r.header["codec"] == {"id": "fast", "runs": True, "rows": True}
     assert sum(tools.values()) == 2 * 2 * 3
     assert all(t.startswith("fast-") for t in tools), tools
-    assert get_codec({"id": "fast", "runs": True}) == FastCodec()
+    assert get_codec({"id": "fast", "runs": True, "rows": True}) == FastCodec()
+    assert get_codec({"id": "fast", "runs": True}) == FastCodec(rows=False)  # before rows
     assert get_codec({"id": "fast"}) == FastCodec(runs=False)  # the files of before runs
+    assert FastCodec(runs=False).rows is False  # the row kinds go with the run mode
     with pytest.raises(OptionError, match="runs"):
         FastCodec(runs=1)
+    with pytest.raises(OptionError, match="rows"):
+        FastCodec(rows="yes")
+    with pytest.raises(OptionError, match="fast codec"):
+        api.compress_array(a, rows=False)
     with pytest.raises(OptionError, match="fast codec"):
         api.compress_array(a, runs=False)
     with pytest.raises(OptionError, match="fast codec"):
@@ -259,7 +302,13 @@ def test_volume_roundtrip_and_info_tools():
     blob = api.compress_array(labels, codec="fast", brick=32)
     with Reader(blob) as r:
         assert any("+runs" in t for t in r.summary["tools"]), r.summary["tools"]
+        assert any("+rows" in t for t in r.summary["tools"]), r.summary["tools"]
     np.testing.assert_array_equal(api.decompress_array(blob), labels)
+    before = api.compress_array(labels, codec="fast", brick=32, rows=False)
+    with Reader(before) as r:
+        assert r.header["codec"] == {"id": "fast", "runs": True}
+        assert not any("+rows" in t for t in r.summary["tools"])
+    np.testing.assert_array_equal(api.decompress_array(before), labels)
     old = api.compress_array(labels, codec="fast", brick=32, runs=False)
     with Reader(old) as r:
         assert r.header["codec"] == {"id": "fast"}
@@ -285,9 +334,11 @@ CASES = [
     ("fast-u8-background", "u8-background", {"runs": False}),
     ("fast-i16-palette", "i16", {"runs": False}),
     ("fast-f32-special", "f32-special", {"runs": False}),
-    ("fast-runs-mixed", "v2-u8-background", {"brick": 16}),
-    ("fast-runs-labels", "labels", {"brick": 32}),
-    ("fast-runs-u8-background", "u8-background", {"brick": 32}),
+    ("fast-runs-mixed", "v2-u8-background", {"brick": 16, "rows": False}),
+    ("fast-runs-labels", "labels", {"brick": 32, "rows": False}),
+    ("fast-runs-u8-background", "u8-background", {"brick": 32, "rows": False}),
+    ("fast-rows-labels", "labels-2x", {"brick": 32}),
+    ("fast-rows-mixed", "v2-u8-background", {"brick": 16}),
 ]
 
 
@@ -301,10 +352,10 @@ def golden_source(recipe):
     cut = load_demo_volume().data[30:50, 40:64, 40:68]
     if recipe == "u8":
         return cut
-    if recipe == "labels":
+    if recipe in ("labels", "labels-2x"):
         lab = np.digitize(cut, [40, 90]).astype(np.uint8)
         lab[:16, :16, :16] = 0
-        return lab
+        return lab if recipe == "labels" else np.repeat(np.repeat(lab, 2, axis=0), 2, axis=1)
     if recipe == "u8-background":
         return np.where(cut < 60, 0, cut).astype(np.uint8)
     if recipe == "i16":
@@ -335,6 +386,7 @@ def test_golden_fast_streams_cover_every_choice():
     assert {"fast-med-near", "fast-med3d-far", "fast-mean-near", "fast-mean-far"} <= seen
     # the run mode after every predictor
     assert {p + "+runs" for p in ("fast-med-near", "fast-med3d-near", "fast-mean-far")} <= seen
+    assert "fast-med3d-near+runs+rows" in seen  # the row kinds
 
 
 # --- corrupt payloads --------------------------------------------------------------------
@@ -387,13 +439,59 @@ def test_a_run_past_the_brick_raises_format_error():
     finds a run longer than the voxels left."""
     v = np.zeros((4, 6, 7), dtype=np.int64)
     v[0, 0, 0] = 1
-    data = fastpredict.encode(v, 0, 1, "med", "far", True)
+    data = fastpredict.encode(v, 0, 1, "med", "far", True, False)
     np.testing.assert_array_equal(fastpredict.decode(data, v.shape, 0, 1), v)
     with pytest.raises(FormatError, match="run runs past"):
         fastpredict.decode(data, (3, 6, 7), 0, 1)
     with pytest.raises(FormatError):  # the run mode's flag on a stream without its tables
         plain = fastpredict.encode(v, 0, 1, "med", "far", False)
         fastpredict.decode(bytes([plain[0] | fastpredict.RUNS]) + plain[1:], v.shape, 0, 1)
+
+
+def test_copied_rows_past_the_brick_raise_format_error():
+    """A brick whose rows after the first copy the slice above: one copy run to the
+    brick's end, which a smaller brick cannot hold; a row kind that needs a row or slice
+    above where there is none; the row kinds' flag without the run mode."""
+    v = np.zeros((5, 6, 7), dtype=np.int64)
+    v[:, :, 3] = 1
+    v[:, 2] = 2
+    data = fastpredict.encode(v, 0, 2, "med", "far", True, True)
+    np.testing.assert_array_equal(fastpredict.decode(data, v.shape, 0, 2), v)
+    with pytest.raises(FormatError, match="copied rows"):
+        fastpredict.decode(data, (4, 6, 7), 0, 2)
+    flat = np.zeros((3, 4, 5), dtype=np.int64)
+    flat[0, 0, 0] = 1
+    data = fastpredict.encode(flat, 0, 1, "med", "far", True, True)
+    np.testing.assert_array_equal(fastpredict.decode(data, flat.shape, 0, 1), flat)
+    with pytest.raises(FormatError):  # one slice of rows: no slice above to copy
+        fastpredict.decode(data, (1, 12, 5), 0, 1)
+    with pytest.raises(FormatError):
+        fastpredict.decode(bytes([data[0] & ~fastpredict.RUNS]) + data[1:], flat.shape, 0, 1)
+
+
+def test_rows_round_trip_real_label_maps():
+    """Cuts of the CGAL liver and the frog segmentation (data cache; skipped without
+    it): every brick the same with the row kinds forced, left to the encoder, and off."""
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "scripts"))
+    datasets = pytest.importorskip("datasets")
+    for name, cut in (
+        ("liver_labels", np.s_[60:100, 120:190, 130:200]),
+        ("frog_labels", np.s_[40:75, 180:250, 150:230]),
+    ):
+        try:
+            a = datasets.load(name)[0]
+        except FileNotFoundError as e:  # not fetched here
+            pytest.skip(f"{name}: {e}")
+        v = np.ascontiguousarray(a[cut]).astype(np.int64)
+        p = palette.build(v)
+        ranks = palette.to_ranks(v, p)
+        for rows in (True, None, False):
+            data = fastpredict.encode(ranks, 0, len(p) - 1, runs=True, rows=rows)
+            np.testing.assert_array_equal(fastpredict.decode(data, v.shape, 0, len(p) - 1), ranks)
+        blob = api.compress_array(a[cut], codec="fast", brick=32)
+        np.testing.assert_array_equal(api.decompress_array(blob, workers=2), a[cut])
 
 
 def test_damaged_payloads_never_crash():
@@ -405,6 +503,7 @@ def test_damaged_payloads_never_crash():
         np.rint(smooth((9, 10, 11), noise=5) * 9).astype(np.int16),
         (np.rint(smooth((9, 10, 11))) // 3 * 5).astype(np.uint8),
         blocks((9, 10, 11)).astype(np.uint8),  # runs
+        np.repeat(blocks((5, 10, 11)), 2, axis=0).astype(np.uint8),  # copied rows
     ):
         good = bytearray(c.encode(a))
         for _ in range(150):

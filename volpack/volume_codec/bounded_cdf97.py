@@ -11,6 +11,13 @@ made per brick and stored:
   samples along one axis are nearly independent (daily weather maps stacked in time,
   thin slabs) codes shorter without transforming that axis: 104.9 against 60.9:1 on the
   500 hPa height at 1e-2 of its range;
+* the decomposition: the Mallat (dyadic) layout or the separable one of
+  :mod:`volpack.wavelet.packet` (each axis transformed on its own), by coded size at
+  the first step. Fields smooth along some axes and rough along others code shorter
+  separable: 26 % on the CAM zonal wind at 1e-2 of its range, 14 % on the cryo-EM map.
+  Its levels per axis may be partial, chosen by the cost estimate axis by axis: one or
+  two levels across latitude and levels code 6-11 % shorter than all or none on the
+  climate fields at 1e-3 and 1e-4 of the range (cam_t, climate_t, cam_u, hgt_500);
 * the step, among :data:`STEP_FACTORS` times the bound, by coded size: from 2E the
   search walks towards the shorter neighbour until the size grows again (three or four
   codings; the size is nearly unimodal in the step), then tries halfway to the
@@ -40,11 +47,13 @@ PROBE_FACTOR = 2.0
 # Quantised magnitudes stay below 2^50 (exact in float64 and int64); a brick whose
 # coefficients would pass it is left to the other paths.
 MAX_Q = 2.0**50
-ORDERS = ("dfs", "line", "rows")
-# The scans the encoder tries (at the first step; later steps keep the shorter): "rows"
+ORDERS = ("dfs", "line", "rows", "separable")
+# The scans the encoder tries (at the first step; later steps keep the shortest): "rows"
 # codes 2-6 % shorter than "line" at 1e-2 of the range and decodes 2-4x faster there
 # (zero rows skipped); at tight bounds they are level. "dfs" is still decoded.
-TRIED_ORDERS = (1, 2)
+# "separable" is the rows scan over the separable decomposition (volpack.wavelet.packet).
+TRIED_ORDERS = (1, 2, 3)
+SEPARABLE = 3
 HEADER = struct.Struct("<3BBd")  # levels z, y, x; scan order; step
 # Outlier codings: a gap list, the dense field through the coefficient coder (decoded,
 # no longer made: the bin field codes 2-20 % shorter and decodes 4-5x faster), the
@@ -68,6 +77,38 @@ def _level_choices(full: tuple[int, int, int]):
     return [lv for lv in itertools.product(*axes) if any(lv)]
 
 
+def _refine_levels(g, full, probe, best):
+    """Separable layout: from the best all-or-nothing levels, each axis's level count
+    in turn over ``0..full`` by the cost estimate, until no axis changes.
+
+    The 1-D transforms along different axes commute (up to rounding, which the estimate
+    does not mind), so the other two axes are transformed once per axis and only the
+    varied one per candidate; the kept levels' coefficients are then made in the
+    decoder's order."""
+    from ..wavelet import cdf97, packet
+
+    seen = {best[1]}
+    lv0, moved = best[1], True
+    while moved:
+        moved = False
+        for axis in range(3):
+            base = None
+            for v in range(full[axis] + 1):
+                lv = best[1][:axis] + (v,) + best[1][axis + 1 :]
+                if lv in seen or sum(n > 0 for n in lv) < 2:
+                    continue
+                seen.add(lv)
+                if base is None:
+                    base = packet.forward(g, lv[:axis] + (0,) + lv[axis + 1 :])
+                c = cdf97.forward(base, tuple(v if a == axis else 0 for a in range(3)))
+                cost = _cost(c, probe)
+                if cost < best[0]:
+                    best, moved = (cost, lv, None), True
+    if best[1] == lv0:
+        return best
+    return best[0], best[1], packet.forward(g, best[1])
+
+
 def encode(g: np.ndarray, max_error: float, coder: str, max_levels: int | None, size_of):
     """Code the float64 brick ``g`` (masked voxels already filled in).
 
@@ -77,21 +118,28 @@ def encode(g: np.ndarray, max_error: float, coder: str, max_levels: int | None, 
     apply (coefficients too large for the step).
     """
     from ..entropy import CODERS
-    from ..wavelet import cdf97, dwt3, sigmap
+    from ..wavelet import dwt3
 
     full = dwt3.levels_for_shape(g.shape, max_levels)
     choices = _level_choices(full)
     if not choices or not np.isfinite(g).all():
         return []
     probe = PROBE_FACTOR * max_error
-    best = None  # (cost, levels, coefficients): one candidate's array held at a time
-    for lv in choices:
-        c = cdf97.forward(g, lv)
-        cost = _cost(c, probe)
-        if best is None or cost < best[0]:
-            best = (cost, lv, c)
-    _, lv, c = best
-    peak = float(np.abs(c).max(initial=0.0))
+    layouts = {}  # separable or not -> (levels, coefficients), the levels by cost estimate
+    for sep in (False, True):
+        best = None  # (cost, levels, coefficients): one candidate's array held at a time
+        for lv in choices:
+            if sep and sum(v > 0 for v in lv) < 2:
+                continue  # one axis transformed: the two layouts are the same
+            c = _transform(sep).forward(g, lv)
+            cost = _cost(c, probe)
+            if best is None or cost < best[0]:
+                best = (cost, lv, c)
+        if best is not None and sep:
+            best = _refine_levels(g, full, probe, best)
+        if best is not None:
+            layouts[sep] = best[1:]
+    peak = max(float(np.abs(c).max(initial=0.0)) for _, c in layouts.values())
 
     orders = list(TRIED_ORDERS)  # all at the first step, then the shortest
 
@@ -99,15 +147,21 @@ def encode(g: np.ndarray, max_error: float, coder: str, max_levels: int | None, 
         step = f * max_error
         if not (step > 0 and math.isfinite(step)) or peak / step >= MAX_Q:
             return None
-        q = _quantize(c, step)
-        rec = cdf97.inverse(q * step, lv, overwrite=True)
-        bodies = [
-            (CODERS[coder].encode(q.copy(), sigmap.scan(g.shape, lv, ORDERS[k])), k) for k in orders
-        ]
-        body, k = min(bodies, key=lambda t: len(t[0]))
-        orders[:] = [k]
-        made = (HEADER.pack(*lv, k, step) + body, rec)
-        return made, size_of(*made)
+        made = None
+        for k in orders:
+            sep = k == SEPARABLE
+            if sep not in layouts:
+                continue
+            lv, c = layouts[sep]
+            q = _quantize(c, step)
+            rec = _transform(sep).inverse(q * step, lv, overwrite=True)
+            body = CODERS[coder].encode(q, _scan(g.shape, lv, k))
+            cand = (HEADER.pack(*lv, k, step) + body, rec)
+            size = size_of(*cand)
+            if made is None or size < made[1]:
+                made, kept = (cand, size), k
+        orders[:] = [kept]
+        return made
 
     tried = {}
 
@@ -131,21 +185,39 @@ def encode(g: np.ndarray, max_error: float, coder: str, max_levels: int | None, 
 def decode(inner: bytes | memoryview, shape: tuple[int, int, int], coder: str, max_levels):
     """The reconstruction (float64) of an inner section made by :func:`encode`."""
     from ..entropy import CODERS
-    from ..wavelet import cdf97, dwt3, sigmap
+    from ..wavelet import dwt3
 
     inner = memoryview(inner)
     if len(inner) < HEADER.size:
         raise FormatError("cdf97 brick payload: the header is cut short")
     *lv, k, step = HEADER.unpack_from(inner)
-    full = dwt3.levels_for_shape(shape, max_levels)
-    if any(v not in (0, f) for v, f in zip(lv, full)) or not any(lv):
-        raise FormatError(f"cdf97 brick payload: levels {tuple(lv)} do not fit {full}")
     if k >= len(ORDERS) or not (step > 0 and math.isfinite(step)):
         raise FormatError(f"cdf97 brick payload: bad order {k} or step {step!r}")
+    full = dwt3.levels_for_shape(shape, max_levels)
+    partial = k == SEPARABLE  # any level count per axis; else none or all
+    if any(not (0 <= v <= f if partial else v in (0, f)) for v, f in zip(lv, full)) or (
+        sum(v > 0 for v in lv) < (2 if partial else 1)
+    ):
+        raise FormatError(f"cdf97 brick payload: levels {tuple(lv)} do not fit {full}")
     lv = tuple(lv)
     q = np.empty(shape, np.int64)
-    CODERS[coder].decode(bytes(inner[HEADER.size :]), sigmap.scan(shape, lv, ORDERS[k]), q)
-    return cdf97.inverse(q * step, lv, overwrite=True)
+    CODERS[coder].decode(bytes(inner[HEADER.size :]), _scan(shape, lv, k), q)
+    return _transform(k == SEPARABLE).inverse(q * step, lv, overwrite=True)
+
+
+def _transform(separable: bool):
+    """The module whose ``forward`` / ``inverse`` make the decomposition."""
+    from ..wavelet import cdf97, packet
+
+    return packet if separable else cdf97
+
+
+def _scan(shape, lv, k: int):
+    from ..wavelet import packet, sigmap
+
+    if k == SEPARABLE:
+        return packet.scan(tuple(shape), tuple(lv))
+    return sigmap.scan(tuple(shape), tuple(lv), ORDERS[k])
 
 
 def add_bins(rec: np.ndarray, idx: np.ndarray, r: np.ndarray, bin_width: float) -> None:

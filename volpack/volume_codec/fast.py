@@ -23,6 +23,7 @@ counts the bricks per mode, predictor and context rule (:func:`describe`).
 from __future__ import annotations
 
 import dataclasses
+import math
 from typing import Any, ClassVar
 
 import numpy as np
@@ -51,26 +52,37 @@ class FastCodec(BrickCodec):
         (the default: much faster to decode on background and label maps, kept per brick
         when it costs little). ``False`` writes the streams of the files made before the
         run mode, byte for byte (their headers have no ``runs`` field).
+    rows : bool
+        With the run mode, let the encoder code rows as copies of the row above or of
+        the slice above (the default: label maps decode several times faster; kept per
+        brick when it costs little). ``False`` writes the streams of the files made
+        before it, byte for byte (their headers have no ``rows`` field).
     """
 
     codec_id: ClassVar[str] = "fast"
     runs: bool = True
+    rows: bool = True
 
     def __post_init__(self) -> None:
-        if not isinstance(self.runs, bool):
-            raise OptionError(f"runs: expected True or False, found {self.runs!r}")
+        for name in ("runs", "rows"):
+            if not isinstance(getattr(self, name), bool):
+                raise OptionError(f"{name}: expected True or False, found {getattr(self, name)!r}")
+        if self.rows and not self.runs:
+            object.__setattr__(self, "rows", False)  # the row kinds go with the run mode
 
     def get_config(self) -> dict[str, Any]:
-        """As stored in a header; without the run mode as the files before it were."""
+        """As stored in a header; without the run mode or the row kinds as the files
+        before them were."""
         config = super().get_config()
-        if not self.runs:
-            del config["runs"]
+        for name in ("runs", "rows"):
+            if not config[name]:
+                del config[name]
         return config
 
     @classmethod
     def from_config(cls, config: Any) -> BrickCodec:
-        if isinstance(config, dict) and "runs" not in config:
-            config = {**config, "runs": False}
+        if isinstance(config, dict):
+            config = {"runs": False, "rows": False, **config}
         return super().from_config(config)
 
     @staticmethod
@@ -94,18 +106,20 @@ class FastCodec(BrickCodec):
             bytes([MODE_RAW]) + raw,
             bytes([MODE_CODED, flags])
             + pal.pack_range(lo, hi)
-            + fastpredict.encode(values, lo, hi, runs=None if self.runs else False),
+            + fastpredict.encode(values, lo, hi, **self._modes()),
         ]
         p = pal.build(values)
         if len(p) < hi - lo + 1 and len(p) <= pal.MAX_PALETTE:
             candidates.append(
                 bytes([MODE_CODED, flags | FLAG_PALETTE])
                 + pal.pack(p)
-                + fastpredict.encode(
-                    pal.to_ranks(values, p), 0, len(p) - 1, runs=None if self.runs else False
-                )
+                + fastpredict.encode(pal.to_ranks(values, p), 0, len(p) - 1, **self._modes())
             )
         return min(candidates, key=len)
+
+    def _modes(self) -> dict[str, Any]:
+        """The encoder's freedom: None lets it measure, False forbids."""
+        return {"runs": None if self.runs else False, "rows": None if self.rows else False}
 
     def decode(self, data: bytes | memoryview, shape: tuple[int, ...], dtype: Any) -> np.ndarray:
         dtype = np.dtype(dtype)
@@ -142,13 +156,14 @@ class FastCodec(BrickCodec):
             vmin, vmax = int(np.iinfo(dtype).min), int(np.iinfo(dtype).max)
         rest = body[1:]
         if flags & FLAG_PALETTE:
-            n = int(np.prod(shape))
+            n = math.prod(shape)
             p, used = pal.unpack(rest, min(pal.MAX_PALETTE, max(n, 1)))
             if p[0] < vmin or p[-1] > vmax:
                 raise FormatError(f"corrupt palette: values outside the range of {dtype}")
-            ranks = fastpredict.decode(rest[used:], shape, 0, len(p) - 1)
-            if not is_float:  # ranks to voxels to the volume in one pass
-                fastpredict.store_palette(ranks, p.astype(dtype), out)
+            kinds = np.zeros(shape[0] * shape[1], np.uint8)
+            ranks = fastpredict.decode(rest[used:], shape, 0, len(p) - 1, kinds)
+            if not is_float:  # ranks to voxels to the volume in one pass, copied rows copied
+                fastpredict.store_palette(ranks, p.astype(dtype), out, kinds)
                 return
             values = pal.from_ranks(ranks, p)
         else:
@@ -165,7 +180,7 @@ def describe(payload: bytes) -> str:
     ``fast-med3d-near+runs+palette``, ... (predictor, context rule, the run mode and
     the palette if any),
     ``raw``, ``constant``."""
-    from .fastpredict import CONTEXTS, PREDICTORS, RUNS
+    from .fastpredict import CONTEXTS, PREDICTORS, ROWS, RUNS
 
     mode = payload[0] if payload else -1
     if mode == MODE_CODED and len(payload) > 2:
@@ -178,7 +193,7 @@ def describe(payload: bytes) -> str:
             _, pos = pal.read_uleb(memoryview(payload), 2)
             _, pos = pal.read_uleb(memoryview(payload), pos)
         b = payload[pos] if pos < len(payload) else 0xFF
-        pid, cid = b & 3, (b & ~RUNS) >> 2
+        pid, cid = b & 3, (b & ~(RUNS | ROWS)) >> 2
         name = (
             f"{PREDICTORS[pid]}-{CONTEXTS[cid]}"
             if pid < len(PREDICTORS) and cid < len(CONTEXTS)
@@ -187,6 +202,7 @@ def describe(payload: bytes) -> str:
         return (
             f"fast-{name}"
             + ("+runs" if b & RUNS else "")
+            + ("+rows" if b & ROWS else "")
             + ("+palette" if flags & FLAG_PALETTE else "")
         )
     return {1: "raw", 2: "constant"}.get(mode, f"mode {mode}")

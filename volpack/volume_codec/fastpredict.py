@@ -29,11 +29,13 @@ The byte layout is in ``formats/fast-1.md``.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .._jit import kernel, leading_zeros
 from ..entropy import rans
-from ..errors import FormatError
+from ..errors import FormatError, OptionError
 from . import palette as pal
 from .predict import checked_input
 
@@ -45,10 +47,18 @@ NCLASS = 48  # activity classes before the encoder caps them
 STATES = 2
 RUN_LENGTH, RUN_BREAK = NCLASS, NCLASS + 1  # the encoder's contexts of the run mode
 RUNS = 0x80  # bit 7 of the choice byte: the stream has the run mode
+ROWS = 0x40  # bit 6: a row may start a run of rows that copy the row above or the slice
+# above (in the coded bricks of the atlases, liver and frog 67-91 % of the rows are)
+ROW_KIND = NCLASS + 2  # the encoder's contexts of the row kinds, by the previous row's kind,
+ROW_COUNT = ROW_KIND + 3  # then of the copy runs' lengths, by kind (N, U)
+ROW_TABLES = 5
 RUN_SLACK = 0.4  # the run mode may cost this share of bytes times the square of the share
 # of voxels in runs (a brick all in runs decodes 3-8x faster; one with few gains little),
 RUN_BITS = 0.01  # or this many bits a voxel times that square (label bricks of a few
 # hundred bytes, where a relative slack is no slack)
+NS_BITS = 0.016  # a faster stream may also spend this many bits a nanosecond of decode it
+# saves (by :func:`decode_ns`; 2 KB a millisecond): on label bricks of a few hundred bytes
+# the run rule's allowance is a few dozen bytes, and the plain stream decodes 10-30x slower
 BAD_SYMBOL = 0xFF  # what the slots of an unused context decode to
 NEAR_GAIN = 0.01  # the share of bytes the slower ``near`` context must save
 ONE, TWO, THREE = np.uintp(1), np.uintp(2), np.uintp(3)  # unsigned offsets: no wrap test
@@ -57,6 +67,7 @@ STATUS = {
     2: "a token decodes to a value outside the brick's range",
     3: "it does not end where its lengths say",
     4: "a run runs past the brick's end",
+    5: "a run of copied rows does not fit the brick",
 }
 
 
@@ -212,15 +223,51 @@ def _emit(toks, ctxs, counts, k, c, value, bits, bpos, acc, nacc):
     return bpos, acc, nacc
 
 
+@kernel(inline=True)
+def _same_row(v, i, back, nx):
+    """Whether the row from voxel ``i`` repeats the one ``back`` voxels before."""
+    for x in range(nx):
+        if v[i + x] != v[i - back + x]:
+            return False
+    return True
+
+
+@kernel(inline=True)
+def _row_run(v, i, nx, ny, nz, y, z):
+    """``(kind, count)`` of the row from voxel ``i`` = (z, y, 0): kind 1 when it copies
+    the row above (N), else 2 when it copies the same row of the slice above (U), else
+    0; for 1 and 2, how many of the rows after it (in the slice for N, up to the
+    brick's end for U) copy the same way."""
+    sy, sz = nx, ny * nx
+    if y > 0 and _same_row(v, i, sy, nx):
+        c = 0
+        while y + c + 1 < ny and _same_row(v, i + (c + 1) * sy, sy, nx):
+            c += 1
+        return 1, c
+    if z > 0 and _same_row(v, i, sz, nx):
+        c = 0
+        left = (nz - z) * ny - y - 1  # rows after this one
+        while c < left and _same_row(v, i + (c + 1) * sy, sz, nx):
+            c += 1
+        return 2, c
+    return 0, 0
+
+
 @kernel(nrt=False)
-def _tokens_kernel(v, shape, lo, hi, pid, cid, runs, toks, ctxs, u, counts, bits):
+def _tokens_kernel(v, shape, lo, hi, pid, cid, runs, rows, toks, ctxs, u, counts, bits):
     """Forward pass of the encoder: every symbol's token and context (``toks``,
     ``ctxs``: room for two a voxel), the counts per (context, token), and the raw low
     bits written to ``bits`` (LSB first). With ``runs``, a voxel inside the rows whose
     activity is 0 starts a run: the count of voxels from it on (C order) whose residual
     is 0 is coded (context :data:`RUN_LENGTH`), then the voxel that ends the run before
-    the brick's end (context :data:`RUN_BREAK`). Returns ``(raw bits, symbols, voxels
-    in runs)``; raw bits -1 when ``bits`` is too small."""
+    the brick's end (context :data:`RUN_BREAK`). With ``rows`` (and ``runs``) a row
+    but the brick's first, not inside a copy run, starts with its kind (:func:`_row_run`,
+    context :data:`ROW_KIND` plus the previous row's kind), a copy kind then with the
+    count of the rows after it that copy alike (context :data:`ROW_COUNT` plus kind
+    - 1); copied rows code nothing more and leave residuals 0, and a run of voxels
+    stops at its row's end (then no voxel ends it).
+    Returns ``(raw bits, symbols, voxels in runs, voxels in copied rows)``; raw bits -1
+    when ``bits`` is too small."""
     nz, ny, nx = shape[0], shape[1], shape[2]
     sy, sz = nx, ny * nx
     mid = (lo + hi) >> 1
@@ -231,10 +278,33 @@ def _tokens_kernel(v, shape, lo, hi, pid, cid, runs, toks, ctxs, u, counts, bits
     inrun = False
     length = 0
     covered = 0  # voxels inside runs
+    copied = 0  # voxels of copied rows
+    prev = 0  # the kind of the row before
+    copies = 0  # rows left in the current copy run
     i = 0
     for z in range(nz):
         cur = (z & 1) * sz
         for y in range(ny):
+            if rows and (y > 0 or z > 0) and copies == 0:
+                kind, more = _row_run(v, i, nx, ny, nz, y, z)
+                bpos, acc, nacc = _emit(
+                    toks, ctxs, counts, k, ROW_KIND + prev, kind, bits, bpos, acc, nacc
+                )
+                k += 1
+                prev = kind
+                if kind != 0:
+                    bpos, acc, nacc = _emit(
+                        toks, ctxs, counts, k, ROW_COUNT + kind - 1, more, bits, bpos, acc, nacc
+                    )
+                    k += 1
+                    copies = more + 1
+            if copies > 0:
+                copies -= 1
+                for x in range(nx):
+                    u[cur + y * nx + x] = 0
+                i += nx
+                copied += nx
+                continue
             for x in range(nx):
                 p = min(max(_predict(v, i, z, y, x, sy, sz, pid, mid), lo), hi)
                 r = cur + y * nx + x
@@ -252,6 +322,12 @@ def _tokens_kernel(v, shape, lo, hi, pid, cid, runs, toks, ctxs, u, counts, bits
                     if ue == 0:
                         length += 1
                         covered += 1
+                        if rows and x == nx - 1:  # the run stops with its row
+                            inrun = False
+                            bpos, acc, nacc = _emit(
+                                toks, ctxs, counts, k, RUN_LENGTH, length, bits, bpos, acc, nacc
+                            )
+                            k += 1
                         continue
                     inrun = False
                     bpos, acc, nacc = _emit(
@@ -262,16 +338,16 @@ def _tokens_kernel(v, shape, lo, hi, pid, cid, runs, toks, ctxs, u, counts, bits
                 bpos, acc, nacc = _emit(toks, ctxs, counts, k, c, ue, bits, bpos, acc, nacc)
                 k += 1
                 if bpos < 0:
-                    return -1, k, covered
+                    return -1, k, covered, copied
     if inrun:  # the last run ends with the brick
         bpos, acc, nacc = _emit(toks, ctxs, counts, k, RUN_LENGTH, length, bits, bpos, acc, nacc)
         k += 1
         if bpos < 0:
-            return -1, k, covered
+            return -1, k, covered, copied
     if nacc > 0:
         bits[bpos] = np.uint8(acc & np.uint64(0xFF))
         bpos += 1
-    return bpos * 8 - ((8 - nacc) & 7), k, covered
+    return bpos * 8 - ((8 - nacc) & 7), k, covered, copied
 
 
 @kernel(inline=True)
@@ -343,8 +419,8 @@ def _next_row(x, y, z, r, nx, ny, ring):
 
 @kernel(nrt=False)
 def _decode_kernel(
-    data, words, nbits, syms, info, nctx, pid, cid, runs, shape, lo, hi, v, u, tok, act
-):
+    data, words, nbits, syms, info, nctx, pid, cid, runs, rows, shape, lo, hi, v, u, tok, act, kinds
+):  # fmt: skip
     """Decode a brick into ``v`` (flat; ``u`` a zeroed int32 ring of two slices: voxel
     ``i``'s residual, capped at :data:`UCAP`, in slot ``i mod 2 ny nx``); 0, or a
     :data:`STATUS` code. ``data`` (the rANS stream) and ``words`` (the raw bits, 32-bit
@@ -353,8 +429,10 @@ def _decode_kernel(
     residual in registers, reads the neighbours without edge tests or signed indices
     and looks the context class up (``act``); a run (``runs``) fills its voxels at once;
     edges and the voxel that ends a run go through :func:`_predict` and
-    :func:`_context`, as in the encoder. The position (z, y, x) and the ring slot ``r``
-    advance with ``i`` (no division a voxel)."""
+    :func:`_context`, as in the encoder. With ``rows`` each row but the first starts
+    with its kind: a copy (of N or U) is one vectorised copy, its kind noted in ``kinds``
+    (one byte a row, zeroed by the caller) for :func:`store_palette`. The position (z, y, x)
+    and the ring slot ``r`` advance with ``i`` (no division a voxel)."""
     nz, ny, nx = shape[0], shape[1], shape[2]
     sy, sz = nx, ny * nx
     n = nz * sz
@@ -365,10 +443,39 @@ def _decode_kernel(
     reader = (np.uint64(0), np.int64(0), np.int64(0))
     bad = False
     brk = False  # voxel i ends a run
+    prev = 0  # the kind of the row before (rows)
     i = 0
     z = y = x = r = 0
     while i < n:
         pz = pid if z > 0 else 0
+        if rows and x == 0 and (y > 0 or z > 0):
+            kind, pos, x0, x1, reader = _symbol(
+                syms, info, nctx + 2 + prev, data, pos, x0, x1, words, reader, tok
+            )
+            prev = kind
+            if kind != 0:
+                if not (kind == 1 and y > 0) and not (kind == 2 and z > 0):
+                    return 5
+                more, pos, x0, x1, reader = _symbol(
+                    syms, info, nctx + 4 + kind, data, pos, x0, x1, words, reader, tok
+                )
+                if more >= (ny - y if kind == 1 else (nz - z) * ny - y):
+                    return 5
+                back = np.uintp(sy if kind == 1 else sz)
+                m = more + 1
+                q = z * ny + y + m  # the row after the run
+                for t in range(q - m, q):  # each row a copy, vectorised (no overlap in a row)
+                    for j in range(np.uintp(i), np.uintp(i + nx)):
+                        v[j] = v[j - back]
+                    kinds[t] = kind
+                    i += nx
+                for t in range(q - min(m, 2 * ny), q):  # residuals 0: each ring row once
+                    s0 = np.uintp((((t // ny) & 1) * ny + t % ny) * nx)
+                    for j in range(s0, s0 + np.uintp(nx)):
+                        u[j] = 0
+                z, y = q // ny, q % ny
+                r = (z & 1) * sz + y * nx
+                continue
         if not brk and y > 0 and 0 < x < nx - 1:  # the inside of a row, up to its last voxel
             w = np.int64(v[i - 1])
             uw = np.int64(u[r - 1])
@@ -414,7 +521,7 @@ def _decode_kernel(
             length, pos, x0, x1, reader = _symbol(
                 syms, info, nctx, data, pos, x0, x1, words, reader, tok
             )
-            if length > n - i:
+            if length > (nx - x if rows else n - i):
                 return 4
             end = i + length
             while i < end:  # voxels whose residual is 0: the prediction
@@ -455,7 +562,7 @@ def _decode_kernel(
                     x += 1
                 x, y, z, r = _next_row(x, y, z, r, nx, ny, ring)
                 pz = pid if z > 0 else 0
-            brk = i < n
+            brk = x > 0 if rows else i < n  # with rows, a run ends at its row's end
             continue
         p = min(max(_predict(v, i, z, y, x, sy, sz, pz, mid), lo), hi)
         if brk:
@@ -480,6 +587,14 @@ def _decode_kernel(
     if not rans.state_ok(data, x0, x1, pos) or (used + 7) >> 3 != (nbits + 7) >> 3:
         return 3
     return 0
+
+
+def decode_ns(coded: int, runs: int, filled: int, copied: int, nx: int) -> float:
+    """A model of a brick's decode time (ns per core, fitted on the bricks of the liver
+    labels and the head CT): voxels decoded one by one, runs (a symbol, a flat check and
+    the voxel that ends it), voxels filled by runs (and a row segment of ``nx`` each)
+    and voxels of copied rows."""
+    return 15.0 * coded + 60.0 * runs + (0.6 + 40.0 / nx) * filled + 0.2 * copied
 
 
 def _cap_contexts(counts: np.ndarray) -> tuple[int, np.ndarray, float]:
@@ -592,6 +707,7 @@ def encode(
     predictor: str | None = None,
     context: str | None = None,
     runs: bool | None = None,
+    rows: bool | None = None,
 ) -> bytes:
     """Code a 3-D integer array with values in ``[lo, hi]`` (span below 2^32): the
     predictor and context byte, the tables, the rANS words and the raw bits.
@@ -601,8 +717,11 @@ def encode(
     :data:`NEAR_GAIN` (it decodes about a third slower: W joins the decoder's chain
     from one voxel to the next); then the best with the run mode, kept unless it costs
     more than :data:`RUN_SLACK` of the bits or :data:`RUN_BITS` a voxel, times the squared
-    share of voxels in runs. ``predictor`` / ``context`` / ``runs`` force one
-    (tests, studies; ``runs=False`` writes the streams of before the run mode).
+    share of voxels in runs; then that with the row kinds (:data:`ROWS`), kept by the
+    same rule against the stream without runs, on the share of voxels in runs or copied
+    rows. ``predictor`` / ``context`` / ``runs`` / ``rows`` force one (tests, studies;
+    ``runs=False`` writes the streams of before the run mode, ``rows=False`` those of
+    before the row kinds).
     """
     v = checked_input(values, lo, hi)
     shape = np.array(v.shape, dtype=np.int64)
@@ -610,24 +729,41 @@ def encode(
     n = flat.size
     ring = np.zeros(2 * v.shape[1] * v.shape[2], dtype=np.int64)
 
-    def trial(pid: int, cid: int, run: bool) -> tuple:
-        toks = np.empty(2 * n, dtype=np.uint8)
-        ctxs = np.empty(2 * n, dtype=np.uint8)
-        counts = np.zeros((NCLASS + 2, rans.MAX_SYMBOLS), dtype=np.int64)
+    def trial(pid: int, cid: int, run: bool, row: bool = False) -> tuple:
+        toks = np.empty(2 * n + v.shape[0] * v.shape[1], dtype=np.uint8)
+        ctxs = np.empty_like(toks)
+        counts = np.zeros((ROW_KIND + ROW_TABLES, rans.MAX_SYMBOLS), dtype=np.int64)
         bits = np.empty(4 * n + 16, dtype=np.uint8)
-        nbits, nsym, covered = _tokens_kernel(
-            flat, shape, np.int64(lo), np.int64(hi), pid, cid, run, toks, ctxs, ring, counts,
-            bits,
+        nbits, nsym, covered, copied = _tokens_kernel(
+            flat, shape, np.int64(lo), np.int64(hi), pid, cid, run, row, toks, ctxs, ring,
+            counts, bits,
         )  # fmt: skip
         nctx, freqs, cost = _cap_contexts(counts[:NCLASS])
         if run:
-            extra = rans.normalise(counts[NCLASS:])
-            cost += _coded_bits(counts[NCLASS:], extra)
+            more = counts[NCLASS : ROW_KIND + ROW_TABLES * row]
+            extra = rans.normalise(more)
+            cost += _coded_bits(more, extra)
             freqs = np.vstack([freqs, extra])
         ctx = ctxs[:nsym].astype(np.int64)
         ctx = np.where(ctx >= NCLASS, ctx - NCLASS + nctx, np.minimum(ctx, nctx - 1))
         raw = bits[: (nbits + 7) >> 3].tobytes()
-        return cost + nbits, pid, cid, run, nctx, freqs, raw, toks[:nsym], ctx, covered / n
+        share = (covered + copied) / n
+        spent = decode_ns(
+            n - covered - copied, counts[RUN_LENGTH].sum(), covered, copied, v.shape[2]
+        )
+        return cost + nbits, pid, cid, run, row, nctx, freqs, raw, toks[:nsym], ctx, spent, share
+
+    timed = rows is not False  # the encoder of the row kinds also weighs decode time
+
+    def cheap(fast: tuple, base: tuple) -> bool:
+        """Whether ``fast`` costs at most its allowance over ``base``: the run rule, or
+        (``timed``) :data:`NS_BITS` a nanosecond of decode it saves."""
+        extra = fast[0] - base[0]
+        rule = max(RUN_SLACK * base[0], RUN_BITS * n) * fast[-1] ** 2
+        return extra <= max(rule, NS_BITS * (base[-2] - fast[-2]) if timed else 0)
+
+    def score(t: tuple) -> float:
+        return t[0] + NS_BITS * t[-2]
 
     pids = [PREDICTORS.index(predictor)] if predictor else range(len(PREDICTORS))
     if v.shape[0] == 1:  # one slice: the 3-D predictors are MED
@@ -640,33 +776,49 @@ def encode(
         near = trial(best[1], CONTEXTS.index("near"), first)
         if near[0] * (1 + NEAR_GAIN) < best[0]:
             best = near
+    plain = best
     if runs is None:
         run = trial(best[1], best[2], True)
-        if run[0] - best[0] <= max(RUN_SLACK * best[0], RUN_BITS * n) * run[-1] ** 2:
+        if cheap(run, plain):
             best = run
-    _, pid, cid, run, nctx, freqs, raw, toks, ctx, _ = best
+    if rows and runs is False:
+        raise OptionError("rows: the row kinds go with the run mode, found runs=False")
+    if rows or (rows is None and runs is not False):
+        row = trial(best[1], best[2], True, True)
+        if rows or cheap(row, plain) and (best is plain or score(row) <= score(best)):
+            best = row
+    _, pid, cid, run, row, nctx, freqs, raw, toks, ctx, _, _ = best
     stream = rans.encode(toks, ctx, freqs)
-    head = bytes([pid | (cid << 2) | (RUNS if run else 0)]) + pal.uleb(nctx) + pack_tables(freqs)
+    choice = pid | (cid << 2) | (RUNS if run else 0) | (ROWS if row else 0)
+    head = bytes([choice]) + pal.uleb(nctx) + pack_tables(freqs)
     return head + pal.uleb(len(stream)) + stream + raw
 
 
-def decode(data: bytes | memoryview, shape: tuple[int, int, int], lo: int, hi: int) -> np.ndarray:
+def decode(
+    data: bytes | memoryview,
+    shape: tuple[int, int, int],
+    lo: int,
+    hi: int,
+    kinds: np.ndarray | None = None,
+) -> np.ndarray:
     """Decode :func:`encode`'s bytes into an integer array of ``shape`` (of
-    :func:`_work_dtype`: the smallest of uint8, int32 and int64 that holds the range)."""
+    :func:`_work_dtype`: the smallest of uint8, int32 and int64 that holds the range);
+    ``kinds`` (uint8, one a row, zeros) gets the kind of each copied row (1 N, 2 U)."""
     if not (lo <= hi and hi - lo < (1 << 32)):
         raise FormatError(f"fast stream: value range [{lo}, {hi}] is out of bounds")
     data = memoryview(data)
     if len(data) < 1:
         raise FormatError("fast stream: missing predictor byte")
-    runs = bool(data[0] & RUNS)
-    pid, cid = data[0] & 3, (data[0] & ~RUNS) >> 2
-    if pid >= len(PREDICTORS) or cid >= len(CONTEXTS):
+    runs, rows = bool(data[0] & RUNS), bool(data[0] & ROWS)
+    pid, cid = data[0] & 3, (data[0] & ~(RUNS | ROWS)) >> 2
+    if pid >= len(PREDICTORS) or cid >= len(CONTEXTS) or (rows and not runs):
         raise FormatError(f"fast stream: unknown predictor/context byte {data[0]:#x}")
     nctx, pos = pal.read_uleb(data, 1)
     if not 1 <= nctx <= NCLASS:
         raise FormatError(f"fast stream: {nctx} contexts, expected 1..{NCLASS}")
-    syms = np.empty((nctx + 2 * runs, rans.TOTAL), dtype=np.uint8)
-    info = np.empty((nctx + 2 * runs, rans.MAX_SYMBOLS), dtype=np.uint32)
+    ntab = nctx + 2 * runs + ROW_TABLES * rows
+    syms = np.empty((ntab, rans.TOTAL), dtype=np.uint8)
+    info = np.empty((ntab, rans.MAX_SYMBOLS), dtype=np.uint32)
     pos = _tables_kernel(np.frombuffer(data, dtype=np.uint8), pos, syms, info)
     if pos < 0:
         why = {-1: "runs past the payload", -2: "has too many tokens", -3: "does not sum to M"}
@@ -679,13 +831,14 @@ def decode(data: bytes | memoryview, shape: tuple[int, int, int], lo: int, hi: i
     raw = data[pos + nbytes :]
     words = np.zeros((len(raw) + 3) // 4 + 1, dtype="<u4")  # a 0 word past the end
     words.view(np.uint8)[: len(raw)] = np.frombuffer(raw, dtype=np.uint8)
-    n = int(np.prod(shape))
+    n = math.prod(shape)
     v = np.empty(n, dtype=_work_dtype(lo, hi))
     ring = np.zeros(2 * int(shape[1]) * int(shape[2]), dtype=np.int32)
     status = _decode_kernel(
         stream, words, np.int64(8 * len(raw)), syms.reshape(-1), info.reshape(-1),
-        np.int64(nctx), pid, cid, runs, np.array(shape, dtype=np.int64), np.int64(lo),
+        np.int64(nctx), pid, cid, runs, rows, np.array(shape, dtype=np.int64), np.int64(lo),
         np.int64(hi), v, ring, TOK, ACTIVITY,
+        np.zeros(shape[0] * shape[1], np.uint8) if kinds is None else kinds,
     )  # fmt: skip
     if status:
         raise FormatError(f"corrupt fast-coded brick: {STATUS.get(int(status), status)}")
@@ -693,18 +846,33 @@ def decode(data: bytes | memoryview, shape: tuple[int, int, int], lo: int, hi: i
 
 
 @kernel(nrt=False)
-def _palette_kernel(ranks, p, out):
+def _palette_kernel(ranks, p, out, kinds):
+    """``out = p[ranks]``, a copied row (``kinds``) copied from ``out`` itself."""
     nz, ny, nx = out.shape
     i = 0
     for z in range(nz):
         for y in range(ny):
-            for x in range(nx):
-                out[z, y, x] = p[np.uintp(ranks[i])]
-                i += 1
+            k = kinds[z * ny + y]
+            if k == 1:
+                for x in range(nx):
+                    out[z, y, x] = out[z, y - 1, x]
+            elif k == 2:
+                for x in range(nx):
+                    out[z, y, x] = out[z - 1, y, x]
+            else:
+                for x in range(nx):
+                    out[z, y, x] = p[np.uintp(ranks[i + x])]
+            i += nx
 
 
-def store_palette(ranks: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
+def store_palette(
+    ranks: np.ndarray, p: np.ndarray, out: np.ndarray, kinds: np.ndarray | None = None
+) -> None:
     """Write the values ``p[ranks]`` of a decoded brick of palette ranks (:func:`decode`
     checked each below ``len(p)``) into ``out``, a 3-D view of the same shape and
-    ``p``'s dtype (any strides): one pass instead of a gather and a copy."""
-    _palette_kernel(ranks.reshape(-1), p, out)
+    ``p``'s dtype (any strides): one pass instead of a gather and a copy; the rows
+    ``kinds`` marks as copies (:func:`decode`) are copied in ``out`` instead."""
+    nrows = out.shape[0] * out.shape[1]
+    _palette_kernel(
+        ranks.reshape(-1), p, out, np.zeros(nrows, np.uint8) if kinds is None else kinds
+    )

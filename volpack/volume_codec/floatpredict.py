@@ -76,7 +76,7 @@ LATTICE_MIN_SAVING = 3
 
 
 @kernel(inline=True)
-def _wrap(v, width):
+def wrap(v, width):
     """``v`` reduced to the signed range of ``width`` bits (64: numba's int64 wraps)."""
     if width == 64:
         return v
@@ -85,7 +85,7 @@ def _wrap(v, width):
 
 
 @kernel(inline=True)
-def _predict(s, f, si, sf, i, x, y, z, ny, nx, predictor, width):
+def predict(s, f, si, sf, i, x, y, z, ny, nx, predictor, width):
     """Lorenzo prediction of voxel ``i`` (its signed image) over the axes that have a
     neighbour. The float predictors sum the values in float64, round the sum to the
     float (``sf``, whose bits ``si`` views) and map it; a sum that is NaN falls back to
@@ -125,46 +125,63 @@ def _lorenzo(s, i, x, y, z, ny, nx, volume, p):
 
 
 @kernel(inline=True)
-def _put_residual(out, state, ctx, sctx, r, low, rng, pos):
+def put_residual(out, state, ctx, sctx, r, low, rng, pos):
     """Code residual ``r`` (any int64; -2^63 too): its magnitude's bit length ``L`` on
     the tree, the sign, two bits below the leading one, the rest at one half."""
+    return put_residual_at(out, state, M_TREE, ctx, sctx, r, 2, low, rng, pos)
+
+
+@kernel(inline=True)
+def put_residual_at(out, state, base, ctx, sctx, r, nbits, low, rng, pos):
+    """:func:`put_residual` with the models from ``base`` on (tree, 3 sign models, then
+    ``65 * 2^nbits`` for the ``nbits`` bits below the leading one)."""
     m = -r if r < 0 else r  # -2^63 stays itself: read as unsigned it is 2^63
     nb = bitlen(m)
     node = 1
     for j in range(6, -1, -1):
         bit = (nb >> j) & 1
-        low, rng, pos = _put(out, state, M_TREE + ctx * 128 + node, bit, low, rng, pos, RATE)
+        low, rng, pos = _put(out, state, base + ctx * 128 + node, bit, low, rng, pos, RATE)
         node = 2 * node + bit
     if nb == 0:
         return low, rng, pos
-    low, rng, pos = _put(out, state, M_SIGN + sctx, np.int64(r < 0), low, rng, pos, RATE)
-    nm = min(nb - 1, 2)
+    msign = base + NCF * 128
+    low, rng, pos = _put(out, state, msign + sctx, np.int64(r < 0), low, rng, pos, RATE)
+    nm = min(nb - 1, nbits)
     prefix = 1
     for jm in range(nm):
         bit = (m >> (nb - 2 - jm)) & 1
-        low, rng, pos = _put(out, state, M_MANT + nb * 4 + prefix, bit, low, rng, pos, RATE)
+        k = msign + 3 + (nb << nbits) + prefix
+        low, rng, pos = _put(out, state, k, bit, low, rng, pos, RATE)
         prefix = 2 * prefix + bit
     return _put_bits(out, np.uint64(m), nb - 1 - nm, low, rng, pos)
 
 
 @kernel(inline=True)
-def _get_residual(data, state, ctx, sctx, code, rng, pos):
-    """Decode what :func:`_put_residual` coded; ``(r, ok, code, rng, pos)`` with ``ok``
+def get_residual(data, state, ctx, sctx, code, rng, pos):
+    """Decode what :func:`put_residual` coded; ``(r, ok, code, rng, pos)`` with ``ok``
     false for a bit length past 64."""
+    return get_residual_at(data, state, M_TREE, ctx, sctx, 2, code, rng, pos)
+
+
+@kernel(inline=True)
+def get_residual_at(data, state, base, ctx, sctx, nbits, code, rng, pos):
+    """Decode what :func:`put_residual_at` coded."""
     node = 1
     for _ in range(7):
-        bit, code, rng, pos = _get(data, state, M_TREE + ctx * 128 + node, code, rng, pos, RATE)
+        bit, code, rng, pos = _get(data, state, base + ctx * 128 + node, code, rng, pos, RATE)
         node = 2 * node + bit
     nb = node - 128
     if nb == 0:
         return np.int64(0), True, code, rng, pos
     if nb > 64:
         return np.int64(0), False, code, rng, pos
-    neg, code, rng, pos = _get(data, state, M_SIGN + sctx, code, rng, pos, RATE)
-    nm = min(nb - 1, 2)
+    msign = base + NCF * 128
+    neg, code, rng, pos = _get(data, state, msign + sctx, code, rng, pos, RATE)
+    nm = min(nb - 1, nbits)
     prefix = np.int64(1)
     for _ in range(nm):
-        bit, code, rng, pos = _get(data, state, M_MANT + nb * 4 + prefix, code, rng, pos, RATE)
+        k = msign + 3 + (nb << nbits) + prefix
+        bit, code, rng, pos = _get(data, state, k, code, rng, pos, RATE)
         prefix = 2 * prefix + bit
     rest = nb - 1 - nm
     v, code, rng, pos = _get_bits(data, np.uint64(0), rest, code, rng, pos)
@@ -173,9 +190,17 @@ def _get_residual(data, state, ctx, sctx, code, rng, pos):
 
 
 @kernel(inline=True)
-def _context(el, rs, i, x, y, z, ny, nx):
+def context(el, rs, i, x, y, z, ny, nx):
     """Residual context (bit lengths of the W, N, U residuals, W counted twice, halved)
     and sign context (the sign of the sum of their signs)."""
+    act, sctx = activity(el, rs, i, x, y, z, ny, nx)
+    return min(act >> 1, NCF - 1), sctx
+
+
+@kernel(inline=True)
+def activity(el, rs, i, x, y, z, ny, nx):
+    """``2 lW + lN + lU`` of the bit lengths of the W, N, U residuals (a missing one, or
+    one below 0, takes another's; 0 when none is left), and the sign context."""
     lw = el[i - 1] if x > 0 else -1
     ln = el[i - nx] if y > 0 else -1
     lu = el[i - nx * ny] if z > 0 else -1
@@ -186,7 +211,6 @@ def _context(el, rs, i, x, y, z, ny, nx):
     if lu < 0:
         lu = ln
     act = 2 * lw + ln + lu if lw >= 0 else 0
-    ctx = min(act >> 1, NCF - 1)
     sg = np.int64(0)
     if x > 0:
         sg += np.sign(rs[i - 1])
@@ -194,7 +218,7 @@ def _context(el, rs, i, x, y, z, ny, nx):
         sg += np.sign(rs[i - nx])
     if z > 0:
         sg += np.sign(rs[i - nx * ny])
-    return ctx, (0 if sg == 0 else (1 if sg > 0 else 2))
+    return act, (0 if sg == 0 else (1 if sg > 0 else 2))
 
 
 @kernel(nrt=False)
@@ -209,11 +233,9 @@ def _encode_kernel(s, f, si, sf, shape, width, predictor, out, el, rs, state):
             for x in range(nx):
                 if pos + 64 > cap:
                     return -1
-                r = _wrap(
-                    s[i] - _predict(s, f, si, sf, i, x, y, z, ny, nx, predictor, width), width
-                )
-                ctx, sctx = _context(el, rs, i, x, y, z, ny, nx)
-                low, rng, pos = _put_residual(out, state, ctx, sctx, r, low, rng, pos)
+                r = wrap(s[i] - predict(s, f, si, sf, i, x, y, z, ny, nx, predictor, width), width)
+                ctx, sctx = context(el, rs, i, x, y, z, ny, nx)
+                low, rng, pos = put_residual(out, state, ctx, sctx, r, low, rng, pos)
                 rs[i] = r
                 el[i] = bitlen(-r if r < 0 else r)
                 i += 1
@@ -233,11 +255,11 @@ def _decode_kernel(data, shape, width, predictor, s, f, si, sf, el, rs, state):
             for x in range(nx):
                 if pos > size + 4:
                     return 1
-                ctx, sctx = _context(el, rs, i, x, y, z, ny, nx)
-                r, ok, code, rng, pos = _get_residual(data, state, ctx, sctx, code, rng, pos)
-                if not ok or r != _wrap(r, width):
+                ctx, sctx = context(el, rs, i, x, y, z, ny, nx)
+                r, ok, code, rng, pos = get_residual(data, state, ctx, sctx, code, rng, pos)
+                if not ok or r != wrap(r, width):
                     return 2
-                v = _wrap(_predict(s, f, si, sf, i, x, y, z, ny, nx, predictor, width) + r, width)
+                v = wrap(predict(s, f, si, sf, i, x, y, z, ny, nx, predictor, width) + r, width)
                 s[i] = v
                 si[0] = v ^ ((np.int64(1) << (width - 1)) - 1) if v < 0 else v
                 f[i] = sf[0]
@@ -257,7 +279,7 @@ def _workspace(n: int) -> tuple[np.ndarray, ...]:
     )
 
 
-def _scratch(dtype: np.dtype) -> tuple[np.ndarray, np.ndarray]:
+def scratch(dtype: np.dtype) -> tuple[np.ndarray, np.ndarray]:
     """One float of ``dtype`` and an integer view of its bits (the kernels' bit cast;
     float16, which numba lacks and whose predictors do not cast, gets a float32)."""
     dtype = np.dtype(dtype) if np.dtype(dtype).itemsize >= 4 else np.dtype(np.float32)
@@ -273,7 +295,7 @@ def encode_lorenzo(brick: np.ndarray, predictor: int = LORENZO3) -> bytes:
     s = to_signed(brick).reshape(-1)
     with np.errstate(invalid="ignore"):  # signalling NaNs
         f = brick.astype(np.float64).reshape(-1)
-    si, sf = _scratch(brick.dtype)
+    si, sf = scratch(brick.dtype)
     width = np.int64(8 * brick.dtype.itemsize)
     shape = np.array(brick.shape, dtype=np.int64)
     p = np.int64(predictor)
@@ -297,7 +319,7 @@ def decode_lorenzo(data: bytes | memoryview, shape: tuple[int, ...], dtype: np.d
         )
     s = np.empty(int(np.prod(shape)), dtype=np.int64)
     f = np.empty(s.size, dtype=np.float64)
-    si, sf = _scratch(dtype)
+    si, sf = scratch(dtype)
     width = np.int64(8 * np.dtype(dtype).itemsize)
     shp = np.array(shape, dtype=np.int64)
     status = _decode_kernel(

@@ -16,15 +16,17 @@ mode  payload after the mode byte
       palette or the value range (none when split), the mask, then the predictive or
       label stream
 5     floats by prediction on their integer images (:mod:`.floatpredict`): a tool byte
-      (0: Lorenzo, 1: lattice), then its stream
+      (0: Lorenzo, 1: lattice, 2: blend of predictors with copies and a fill value,
+      :mod:`.floatmix`), then its stream
 ====  ===============================================================================
 
 ``predict_version`` (a config field) says which predictive stream the encoder writes for
 integer bricks: 1 (:mod:`.predict`, the files written before version 2 existed; their
 headers have no ``predict_version`` and read as 1) or 2 (a fitted predictor, and a background
-mask where it pays). Version 3 (the default) codes integer bricks as 2 and adds, for float
+mask where it pays). Version 3 codes integer bricks as 2 and adds, for float
 bricks, the tools of mode 5 and zstd at level 19 in mode 3 (where it may beat level 9:
-see ``ZSTD_19_OVER_9``). A decoder reads every version,
+see ``ZSTD_19_OVER_9``). Version 4 (the default) adds mode 5's blend (tool 2) for
+float32 and float64 bricks. A decoder reads every version,
 whatever the config says.
 
 Floats (float16, float32, float64) are coded exactly through integer images of their
@@ -61,11 +63,15 @@ from .protocol import from_stored as _from_stored
 
 MODE_PREDICT = 4
 MODE_FLOAT = 5
-FLOAT_TOOLS = ("lorenzo", "lattice")  # the tool byte of mode 5 indexes this
+FLOAT_TOOLS = ("lorenzo", "lattice", "blend")  # the tool byte of mode 5 indexes this
+FLOAT_BLEND = 2
+# The blend (mode 5, tool 2) decodes at about 0.7x the speed of one Lorenzo predictor
+# (and far slower than zstd): it is kept only when it saves this share of the bytes.
+BLEND_MIN_SAVING = 0.02
 EXACT_FLOATS = FLOAT_DTYPES + ("float64",)
 FLAG_PALETTE, FLAG_FLOAT, FLAG_SPLIT, FLAG_LABELS, FLAG_FIT, FLAG_MASK = 1, 2, 4, 8, 16, 32
 FLAGS = FLAG_PALETTE | FLAG_FLOAT | FLAG_SPLIT | FLAG_LABELS | FLAG_FIT | FLAG_MASK
-VERSIONS = (1, 2, 3)
+VERSIONS = (1, 2, 3, 4)
 TOOLS = ("auto", "wavelet", "predict")
 FLOAT_ZSTD_LEVEL = 9
 FLOAT_ZSTD_LEVEL_V3 = 19  # floats compress slowly either way; 19 finds repeats 9 misses
@@ -83,10 +89,11 @@ class LosslessCodec(BrickCodec):
     tools : {"auto", "wavelet", "predict"}
         ``auto`` tries both tools on every brick and keeps the shorter; the others use
         one tool (for comparison; floats always use prediction).
-    predict_version : {1, 2, 3}
+    predict_version : {1, 2, 3, 4}
         The predictive stream written for integer bricks: 2 (a fitted predictor and a
-        background mask) or 1 (the earlier one, for identical files); 3 (the default)
-        codes integers as 2 and floats also by Lorenzo or lattice prediction (mode 5).
+        background mask) or 1 (the earlier one, for identical files); 3 codes integers
+        as 2 and floats also by Lorenzo or lattice prediction (mode 5); 4 (the default)
+        also by the blend of predictors with copies and a fill value (mode 5, tool 2).
     """
 
     codec_id: ClassVar[str] = "lossless"
@@ -95,7 +102,7 @@ class LosslessCodec(BrickCodec):
     order: str = "dfs"
     max_levels: int | None = None
     tools: str = "auto"
-    predict_version: int = 3
+    predict_version: int = 4
 
     def __post_init__(self) -> None:
         _check_choice("tools", self.tools, TOOLS)
@@ -140,21 +147,34 @@ class LosslessCodec(BrickCodec):
             candidates.append(self._wavelet_codec().encode(brick))
         if brick.dtype.name in FLOAT_DTYPES or (not is_float and self.tools != "wavelet"):
             candidates += _encode_predict(brick, self.predict_version)
+        blend = b""
         if is_float and self.predict_version >= 3:
-            candidates += self._encode_float(brick)
+            floats = self._encode_float(brick, self.predict_version)
+            blend = next((c for c in floats if c[1] == FLOAT_BLEND), b"")
+            candidates += [c for c in floats if c[1] != FLOAT_BLEND]
             # zstd at 19 rarely saves a tenth over 9, and takes most of the encoder's
             # time on a float brick: run it only where it may win
             if len(candidates[1]) * ZSTD_19_OVER_9 < min(len(c) for c in candidates):
                 z = ZstdCodec(level=FLOAT_ZSTD_LEVEL_V3).encode(brick)
                 candidates[1] = bytes([MODE_ZSTD]) + z
-        return min(candidates, key=len)
+        best = min(candidates, key=len)
+        # the blend decodes slower than the other float tools: it must pay for that
+        if blend and len(blend) < (1 - BLEND_MIN_SAVING) * len(best):
+            return blend
+        return best
 
-    def _encode_float(self, brick: np.ndarray) -> list[bytes]:
-        """Mode-5 payloads of a float brick: Lorenzo, and the lattice when the values
-        sit on one (its integer fields coded by this codec as int32 bricks)."""
+    def _encode_float(self, brick: np.ndarray, version: int) -> list[bytes]:
+        """Mode-5 payloads of a float brick: Lorenzo, the blend (with the brick's copy
+        offsets and fill value; float32/64), and the lattice when the values sit on one
+        (its integer fields coded by this codec as int32 bricks)."""
+        from . import floatmix as fm
         from . import floatpredict as fp
 
         out = [bytes([MODE_FLOAT, 0]) + fp.encode_best_lorenzo(brick)]
+        if brick.itemsize >= 4 and version >= 4:
+            offsets, fill = fm.copy_offsets(brick), fm.fill_value(brick)
+            blend = fm.encode(brick, offsets=offsets, fill=fill)
+            out.append(bytes([MODE_FLOAT, FLOAT_BLEND]) + blend)
         for params, k, gap in fp.find_lattices(brick):
             kp = self.encode(k)
             out.append(
@@ -171,9 +191,13 @@ class LosslessCodec(BrickCodec):
         from . import floatpredict as fp
 
         if len(body) < 1 or body[0] >= len(FLOAT_TOOLS):
-            raise FormatError("float brick payload: expected tool byte 0 or 1")
+            raise FormatError("float brick payload: expected tool byte 0, 1 or 2")
         if body[0] == 0:
             return fp.decode_lorenzo(body[1:], shape, dtype)
+        if body[0] == FLOAT_BLEND:
+            from . import floatmix
+
+            return floatmix.decode(body[1:], shape, dtype)
         m, pos = pal.read_uleb(body, 1)
         if m not in (1, shape[0]) or pos + 16 * m > len(body):
             raise FormatError(

@@ -72,7 +72,7 @@ def make_codec(codec: str = "auto", dtype: Any = None, **options: Any):
     if codec == "fast":
         from .fast import FastCodec
 
-        return FastCodec(runs=options.get("runs", True))
+        return FastCodec(runs=options.get("runs", True), rows=options.get("rows", True))
     raise OptionError(
         f"expected codec 'auto', 'lossless', 'fast', 'wavelet' or 'zstd', found {codec!r}"
     )
@@ -90,6 +90,7 @@ def compress(
     tools: str | None = None,
     predict_version: int | None = None,
     runs: bool | None = None,
+    rows: bool | None = None,
     brick: int | tuple[int, int, int] | None = None,
     max_error: float | None = None,
     rel_error: float | None = None,
@@ -131,12 +132,16 @@ def compress(
         Wavelet codec settings (see :class:`volpack.volume_codec.codec.WaveletCodec`).
     tools : {"auto", "wavelet", "predict"}, optional
         The lossless codec's tools (:class:`volpack.volume_codec.lossless.LosslessCodec`).
-    predict_version : {1, 2, 3}, optional
-        The lossless codec's predictive stream: 3 (the default: as 2, and floats by
+    predict_version : {1, 2, 3, 4}, optional
+        The lossless codec's predictive stream: 4 (the default: as 3, and floats also by
+        a blend of predictors with copies and a fill value), 3 (as 2, and floats by
         Lorenzo or lattice prediction), 2 or 1 (as files written before, byte for byte).
     runs : bool, optional
         The fast codec's run mode: on (the default) or off (as files written before it,
         byte for byte).
+    rows : bool, optional
+        The fast codec's row kinds (copies of the row or slice above; with the run
+        mode): on (the default) or off (as files written before them, byte for byte).
     effort : {"default", "fast"}
         The error-bounded encoder's (``max_error``, ``rel_error``, or ``psnr``/``ratio``
         on floats): ``default`` makes every coding of a brick and keeps the shortest;
@@ -188,8 +193,11 @@ def compress(
         bounded = bool(asked) and not ({"quality", "threshold"} & set(asked))
         brick = bricks.default_brick(vol.shape, vol.dtype, bounded, codec)
     brick_t = bricks.parse_brick(brick)
-    if runs is not None and (codec != "fast" or asked):
-        raise OptionError(f"runs: a setting of the lossless fast codec, found codec {codec!r}")
+    for name, value in (("runs", runs), ("rows", rows)):
+        if value is not None and (codec != "fast" or asked):
+            raise OptionError(
+                f"{name}: a setting of the lossless fast codec, found codec {codec!r}"
+            )
     if asked:
         from . import search as lossy_plan
 
@@ -201,7 +209,7 @@ def compress(
                 "rel_error, psnr, ratio); for a faster lossless stream use codec='fast'"
             )
         search = None
-        extra = {"tools": tools, "predict_version": predict_version, "runs": runs}
+        extra = {"tools": tools, "predict_version": predict_version, "runs": runs, "rows": rows}
         c = make_codec(
             codec, vol.dtype, **inner, **{k: v for k, v in extra.items() if v is not None}
         )

@@ -42,7 +42,7 @@ ORDERS = ("dfs", "line", "rows")
 APPROX_CLASS = 24
 
 
-def _flat(shape, start, local):
+def flat_index(shape, start, local):
     """Flat C-order indices of ``start + local`` (local: three broadcastable arrays)."""
     z, y, x = (s + loc for s, loc in zip(start, local))
     return (z * shape[1] + y) * shape[2] + x
@@ -75,7 +75,7 @@ def scan(shape: tuple[int, ...], levels: tuple[int, ...], order: str = "dfs") ->
     strides = (shape[1] * shape[2], shape[2], 1)
     for b in bands:
         local = np.ix_(*(np.arange(s) for s in b.size))
-        idx = _flat(shape, b.start, local).ravel()
+        idx = flat_index(shape, b.start, local).ravel()
         grid = np.indices(b.size).reshape(3, -1)
         for a in range(3):
             has = grid[a] > 0
@@ -96,7 +96,7 @@ def scan(shape: tuple[int, ...], levels: tuple[int, ...], order: str = "dfs") ->
                 else np.minimum(p, pb.size[a] - 1)
             )
             ploc.append(p)
-        pidx = _flat(shape, pb.start, np.ix_(*ploc)).ravel()
+        pidx = flat_index(shape, pb.start, np.ix_(*ploc)).ravel()
         parent_flat[idx] = pidx
     band_order.sort(key=lambda t: t[0])
     line = np.concatenate([idx for _, idx in band_order])
@@ -104,9 +104,16 @@ def scan(shape: tuple[int, ...], levels: tuple[int, ...], order: str = "dfs") ->
         perm = line
         end = np.arange(1, total + 1, dtype=np.int64)
         if order == "rows":
-            _row_ends(end, [key[-lv, bits].size for (lv, bits), _ in band_order])
+            row_ends(end, [key[-lv, bits].size for (lv, bits), _ in band_order])
     else:
         perm, end = _dfs_order(parent_flat, line, level_flat)
+    return scan_of(perm, end, parent_flat, cls_flat, nbr_flat)
+
+
+def scan_of(perm, end, parent_flat, cls_flat, nbr_flat) -> Scan:
+    """The read-only :class:`Scan` of a coding order ``perm`` (flat indices) whose
+    parents, classes and neighbours are given per flat index (-1: none)."""
+    total = perm.size
     pos = np.empty(total, dtype=np.int64)
     pos[perm] = np.arange(total, dtype=np.int64)
     pf = parent_flat[perm]
@@ -126,7 +133,7 @@ def scan(shape: tuple[int, ...], levels: tuple[int, ...], order: str = "dfs") ->
     return out
 
 
-def _row_ends(end: np.ndarray, sizes) -> None:
+def row_ends(end: np.ndarray, sizes) -> None:
     """Point the first position of each band row (longer than one) at the row's end."""
     start = 0
     for bz, by, bx in sizes:
