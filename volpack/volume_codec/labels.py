@@ -22,8 +22,8 @@ from ..entropy.common import check_status, encode_with_retry, stream_bytes
 from ..entropy.rangecoder import (
     PROB_BITS,
     RATE,
-    adapted,
     STATE_INIT,
+    adapted,
     end_status,
     finish_stream,
     open_encoder,
