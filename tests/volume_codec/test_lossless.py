@@ -77,6 +77,10 @@ def test_predict_floor_division_is_exact():
     d = np.concatenate([d, d, d, d])
     got = np.array([predict.floor_div(int(x), int(y)) for x, y in zip(a, d)])
     np.testing.assert_array_equal(got, a // d)
+    # The truncating variant of version 2 (non-negative numerators only), same cases.
+    keep = a >= 0
+    got = np.array([predict.floor_div_nonneg(int(x), int(y)) for x, y in zip(a[keep], d[keep])])
+    np.testing.assert_array_equal(got, a[keep] // d[keep])
 
 
 def test_predict_beats_wavelet_on_an_edge():
@@ -205,6 +209,30 @@ def test_label_maps_copy_neighbours():
     a16 = a.astype(np.int16) * 300 - 20000  # the same labels as wide values
     blob16, tools16 = roundtrip(a16, brick=32)
     assert tools16 == {"labels": 1} and len(LosslessCodec().encode(a16)) < ours + 16
+
+
+@pytest.mark.parametrize("k", [1, 2, 256, 257, 4096])
+def test_label_decoder_runs_ranks_and_palette(k):
+    """The label decoder's paths against the encoder: flat runs (one model held in a
+    register) broken by single voxels, by a label change mid-run and at every brick face;
+    ranks come back in the narrowest type (uint8 up to 256 labels, else uint16), and
+    with a palette as ``palette[rank]`` in the palette's dtype."""
+    from volpack.volume_codec import labels
+
+    rng = np.random.default_rng(k)
+    shape = (9, 11, 13)
+    a = np.repeat(rng.integers(0, k, (3, 11, 13)), 3, axis=0)  # runs across slices
+    a[:, 4:7, 2:11] = k - 1  # a flat block, broken below by lone voxels
+    a[5, 5, 5], a[6, 4, 2], a[7, 6, 10] = 0, k // 2, k // 3
+    a[:, :, -1] = rng.integers(0, k, (9, 11))  # the last column (no NE) differs
+    stream = labels.encode(a, k)
+    ranks = labels.decode(stream, shape, k)
+    assert ranks.dtype == (np.uint8 if k <= 256 else np.uint16)
+    np.testing.assert_array_equal(ranks, a)
+    p = np.sort(rng.choice(np.arange(-40000, 40000), k, replace=False)).astype(np.int32)
+    values = labels.decode(stream, shape, k, p)
+    assert values.dtype == np.int32
+    np.testing.assert_array_equal(values, p[a])
 
 
 # --- floats ------------------------------------------------------------------------------

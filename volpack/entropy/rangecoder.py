@@ -36,6 +36,7 @@ __all__ = [
     "STATE_INIT",
     "TOP",
     "adapt",
+    "adapted",
     "carry",
     "finish_encoder",
     "end_status",
@@ -45,6 +46,7 @@ __all__ = [
     "get_bit",
     "get_bits",
     "get_decision",
+    "get_held",
     "get_raw",
     "pull",
     "push",
@@ -88,19 +90,26 @@ def pull(data, code, rng, pos):
     """The decoder's side of :func:`push`: shift in whole bytes (0 past the end)."""
     while rng < TOP:
         rng <<= 8
-        code = ((code << 8) | (np.int64(data[pos]) if pos < data.size else 0)) & 0xFFFFFFFF
+        byte = np.int64(data[np.uint64(pos)]) if pos < data.size else 0  # (unsigned: no
+        code = ((code << 8) | byte) & 0xFFFFFFFF  # test for a wrapped negative index)
         pos += 1
     return code, rng, pos
 
 
 @kernel(inline=True)
-def adapt(models, k, p, u, mask, rate):
-    """Move model ``k`` (probability ``p`` of a 0, use count ``u``) towards the bit
-    coded (``mask``: -1 for a 1, 0 for a 0) and count the use."""
+def adapted(p, u, mask, rate):
+    """The state of a model (probability ``p`` of a 0, use count ``u``) moved towards
+    the bit coded (``mask``: -1 for a 1, 0 for a 0), its use counted."""
     r = rate[u]
     gain = ((1 << PROB_BITS) - p) >> r
     p += gain - ((gain + (p >> r)) & mask)
-    models[k] = (p << 4) | (u + (u < 15))
+    return (p << 4) | (u + (u < 15))
+
+
+@kernel(inline=True)
+def adapt(models, k, p, u, mask, rate):
+    """:func:`adapted`, stored back into model ``k``."""
+    models[k] = adapted(p, u, mask, rate)
 
 
 @kernel(inline=True)
@@ -122,7 +131,15 @@ def put(out, models, k, bit, low, rng, pos, rate):
 def get(data, models, k, code, rng, pos, rate):
     """Decode one binary decision coded by :func:`put`; returns
     ``(bit, code, rng, pos)``."""
-    st = np.int64(models[k])
+    bit, models[k], code, rng, pos = get_held(data, np.int64(models[k]), code, rng, pos, rate)
+    return bit, code, rng, pos
+
+
+@kernel(inline=True)
+def get_held(data, st, code, rng, pos, rate):
+    """:func:`get` with the model's state ``st`` held by the caller (in a register
+    through a run of decisions in one model, rather than a store and a load each);
+    returns ``(bit, st, code, rng, pos)``."""
     p = st >> 4
     u = st & 15
     bound = (rng >> PROB_BITS) * p
@@ -130,9 +147,8 @@ def get(data, models, k, code, rng, pos, rate):
     mask = -bit
     code -= bound & mask
     rng = bound + ((rng - 2 * bound) & mask)
-    adapt(models, k, p, u, mask, rate)
     code, rng, pos = pull(data, code, rng, pos)
-    return bit, code, rng, pos
+    return bit, adapted(p, u, mask, rate), code, rng, pos
 
 
 @kernel(inline=True)

@@ -20,20 +20,24 @@ import numpy as np
 from .._jit import kernel
 from ..entropy.common import check_status, encode_with_retry, stream_bytes
 from ..entropy.rangecoder import (
+    PROB_BITS,
     RATE,
     STATE_INIT,
+    adapted,
     end_status,
     finish_stream,
     open_encoder,
     open_stream,
 )
 from ..entropy.rangecoder import get as _get
+from ..entropy.rangecoder import pull as _pull
 from ..entropy.rangecoder import put as _put
 from .predict import bitlen
 
 NCAND = 5
 N_PATTERN = 1 << 7
 M_TREE = NCAND * N_PATTERN  # first model of the rank tree
+FLAT = N_PATTERN - 1  # the pattern where W, N, U, NE and NW all agree (and x, y > 0)
 
 
 @kernel(inline=True)
@@ -68,6 +72,21 @@ def _candidates(v, i, x, y, z, ny, nx, cand):
             cand[k] = c
             k += 1
     return k, pattern
+
+
+@kernel(inline=True)
+def _flat(v, i, x, y, z, nx, sz):
+    """Whether voxel ``i`` = (z, y, x) is inside the brick and its W, N, U, NE and NW
+    neighbours all agree: then the distinct candidates are W alone, in pattern FLAT."""
+    if not (x > 0 and y > 0 and z > 0 and x + 1 < nx):
+        return False
+    w = v[np.uint64(i - 1)]  # (unsigned: see the note in predict.py)
+    return (
+        v[np.uint64(i - nx)] == w
+        and v[np.uint64(i - sz)] == w
+        and v[np.uint64(i - nx + 1)] == w
+        and v[np.uint64(i - nx - 1)] == w
+    )
 
 
 def _workspace(nbits: int) -> tuple[np.ndarray, np.ndarray]:
@@ -114,22 +133,55 @@ def _decode_kernel(data, shape, nbits, kmax, v, state, cand):
     """Return 0 on success, 1 when the stream ran short, 2 on an impossible label, 3 when
     it does not end where its length says."""
     nz, ny, nx = shape[0], shape[1], shape[2]
+    sz = ny * nx
     size = data.size
     code, rng, pos = open_stream(data)
-    i = 0
     for z in range(nz):
         for y in range(ny):
-            for x in range(nx):
+            i0 = z * sz + y * nx
+            x = 0
+            while x < nx:
                 if pos > size + 4:
                     return 1
-                k, pattern = _candidates(v, i, x, y, z, ny, nx, cand)
-                val = np.int64(-1)
-                for j in range(k):
-                    m = j * N_PATTERN + pattern
-                    bit, code, rng, pos = _get(data, state, m, code, rng, pos, RATE)
-                    if bit:
-                        val = cand[j]
-                        break
+                i = i0 + x
+                if _flat(v, i, x, y, z, nx, sz):
+                    # A run through a flat region (most voxels): one decision a voxel
+                    # in model FLAT, which stays in a register until the run ends.
+                    w = v[i - 1]
+                    st = np.int64(state[FLAT])
+                    while True:
+                        p = st >> 4
+                        u = st & 15
+                        bound = (rng >> PROB_BITS) * p
+                        if code < bound:  # not W: rare in a run, so a branch
+                            rng = bound
+                            st = adapted(p, u, 0, RATE)
+                            code, rng, pos = _pull(data, code, rng, pos)
+                            bit = 0
+                            break
+                        code -= bound
+                        rng -= bound
+                        st = adapted(p, u, -1, RATE)
+                        code, rng, pos = _pull(data, code, rng, pos)
+                        bit = 1
+                        v[np.uint64(i)] = w
+                        x += 1
+                        i += 1
+                        if pos > size + 4 or not _flat(v, i, x, y, z, nx, sz):
+                            break
+                    state[FLAT] = st
+                    if bit == 1:
+                        continue  # the voxel at x is not flat (or the stream ran short)
+                    val = np.int64(-1)  # W, the only candidate, was refused
+                else:
+                    k, pattern = _candidates(v, i, x, y, z, ny, nx, cand)
+                    val = np.int64(-1)
+                    for j in range(k):
+                        m = j * N_PATTERN + pattern
+                        bit, code, rng, pos = _get(data, state, m, code, rng, pos, RATE)
+                        if bit:
+                            val = cand[j]
+                            break
                 if val < 0:
                     node = 1
                     for _ in range(nbits):
@@ -139,7 +191,7 @@ def _decode_kernel(data, shape, nbits, kmax, v, state, cand):
                     if val > kmax:
                         return 2
                 v[i] = val
-                i += 1
+                x += 1
     return end_status(data, code, pos)
 
 
@@ -157,12 +209,30 @@ def encode(ranks: np.ndarray, k: int) -> bytes:
     )
 
 
-def decode(data: bytes | memoryview, shape: tuple[int, int, int], k: int) -> np.ndarray:
-    """Decode :func:`encode`'s bytes into ranks (int64) of ``shape``."""
+def decode(
+    data: bytes | memoryview, shape: tuple[int, int, int], k: int, palette=None
+) -> np.ndarray:
+    """Decode :func:`encode`'s bytes into ranks of ``shape`` (uint8 for up to 256 labels,
+    uint16 for up to 65,536, else int64: the narrower, the less memory the decoder goes
+    through), or into ``palette[rank]`` (in the palette's dtype) when ``palette`` (``k``
+    values) is given."""
     buf = stream_bytes(data, "label")
     nbits = int(bitlen(max(k - 1, 1)))
-    v = np.empty(int(np.prod(shape)), dtype=np.int64)
+    dtype = np.uint8 if k <= 1 << 8 else np.uint16 if k <= 1 << 16 else np.int64
+    v = np.empty(int(np.prod(shape)), dtype=dtype)
     shp = np.array(shape, dtype=np.int64)
     status = _decode_kernel(buf, shp, np.int64(nbits), np.int64(k - 1), v, *_workspace(nbits))
     check_status(status, "label")
-    return v.reshape(shape)
+    if palette is None:
+        return v.reshape(shape)
+    out = np.empty(v.size, dtype=palette.dtype)
+    _lookup(v, np.ascontiguousarray(palette), out)
+    return out.reshape(shape)
+
+
+@kernel(nrt=False)
+def _lookup(ranks, palette, out):
+    """``out = palette[ranks]`` in one pass (numpy's fancy index first widens the ranks
+    to int64: a pass and a volume of int64 more). The ranks are in range."""
+    for i in range(ranks.size):
+        out[np.uint64(i)] = palette[np.uint64(ranks[np.uint64(i)])]

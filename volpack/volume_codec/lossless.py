@@ -362,12 +362,14 @@ def _decode_predict(body: memoryview, shape: tuple[int, ...], dtype: np.dtype) -
         if flags & FLAG_LABELS:
             from . import labels
 
-            ranks = labels.decode(rest[used:], shape, len(p))
-        elif fit:
-            ranks = _decode_fit(rest[used:], shape, 0, len(p) - 1, flags)
+            # (straight into the voxels' own type where it holds them: no int64 volume)
+            values = labels.decode(rest[used:], shape, len(p), p if is_float else p.astype(dtype))
         else:
-            ranks = predict.decode(rest[used:], shape, 0, len(p) - 1)
-        values = pal.from_ranks(ranks, p)
+            if fit:
+                ranks = _decode_fit(rest[used:], shape, 0, len(p) - 1, flags)
+            else:
+                ranks = predict.decode(rest[used:], shape, 0, len(p) - 1)
+            values = pal.from_ranks(ranks, p)
     else:
         lo, hi, pos = pal.read_range(rest, vmin, vmax, f"predictive brick payload of {dtype}")
         if fit:
@@ -376,7 +378,7 @@ def _decode_predict(body: memoryview, shape: tuple[int, ...], dtype: np.dtype) -
             values = predict.decode(rest[pos:], shape, lo, hi)
     if is_float:
         return from_ordered(values, dtype).reshape(shape)
-    return values.astype(dtype).reshape(shape)
+    return values.astype(dtype, copy=False).reshape(shape)
 
 
 def _decode_fit(data: memoryview, shape: tuple[int, ...], lo: int, hi: int, flags: int) -> np.ndarray:

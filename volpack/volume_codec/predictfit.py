@@ -45,9 +45,10 @@ from .predict import (
     bitlen,
     context,
     context_bias,
-    floor_div,
+    floor_div_nonneg,
     gather,
     learn_bias,
+    store_errors,
     weight,
     workspace,
 )
@@ -82,17 +83,17 @@ HEAD = 4 * (NCLS - 1) + 2 * NCLS * NFIT  # thresholds and weights before the str
 def _adapt(models, k, p, n, mask):
     """Move model ``k`` (16-bit probability ``p`` of a 0, use count ``n``) towards the
     bit coded (``mask``: -1 for a 1, 0 for a 0). ``p`` stays within 1..65535."""
-    r = RATE[n]
+    r = RATE[np.uint64(n)]
     g = (65536 - p) >> r
     p += g - ((g + (p >> r)) & mask)
-    models[k] = (p << 8) | (n + np.int64(n < NCAP))
+    models[np.uint64(k)] = (p << 8) | (n + np.int64(n < NCAP))
 
 
 @kernel(inline=True)
 def put16(out, models, k, bit, low, rng, pos):
     """Code one decision with the 16-bit adaptive model ``models[k]`` (the range coder
     of :mod:`volpack.entropy.rangecoder`, its probability split at 16 bits)."""
-    st = np.int64(models[k])
+    st = np.int64(models[np.uint64(k)])
     p = st >> 8
     bound = (rng >> 16) * p
     mask = -np.int64(bit)
@@ -105,7 +106,7 @@ def put16(out, models, k, bit, low, rng, pos):
 @kernel(inline=True)
 def get16(data, models, k, code, rng, pos):
     """Decode one decision coded by :func:`put16`; returns ``(bit, code, rng, pos)``."""
-    st = np.int64(models[k])
+    st = np.int64(models[np.uint64(k)])
     p = st >> 8
     bound = (rng >> 16) * p
     bit = np.int64(code >= bound)
@@ -194,22 +195,22 @@ def _weight2(s):
 def _fitted(v, cf, c, i, sy, sz):
     """The fitted predictor with the weights ``cf[c:c + 16]``, in eighths."""
     t = (
-        cf[c] * v[i - 1]
-        + cf[c + 1] * v[i - sy]
-        + cf[c + 2] * v[i - sz]
-        + cf[c + 3] * v[i - sy - 1]
-        + cf[c + 4] * v[i - sy + 1]
-        + cf[c + 5] * v[i - sz - 1]
-        + cf[c + 6] * v[i - sz - sy]
-        + cf[c + 7] * v[i - sz - sy - 1]
-        + cf[c + 8] * v[i - 2]
-        + cf[c + 9] * v[i - 2 * sy]
-        + cf[c + 10] * v[i - 2 * sz]
-        + cf[c + 11] * v[i - sz + 1]
-        + cf[c + 12] * v[i - sz + sy]
-        + cf[c + 13] * v[i - sz - sy + 1]
-        + cf[c + 14] * v[i - sz + sy - 1]
-        + cf[c + 15] * v[i - sz + sy + 1]
+        cf[np.uint64(c)] * v[np.uint64(i - 1)]
+        + cf[np.uint64(c + 1)] * v[np.uint64(i - sy)]
+        + cf[np.uint64(c + 2)] * v[np.uint64(i - sz)]
+        + cf[np.uint64(c + 3)] * v[np.uint64(i - sy - 1)]
+        + cf[np.uint64(c + 4)] * v[np.uint64(i - sy + 1)]
+        + cf[np.uint64(c + 5)] * v[np.uint64(i - sz - 1)]
+        + cf[np.uint64(c + 6)] * v[np.uint64(i - sz - sy)]
+        + cf[np.uint64(c + 7)] * v[np.uint64(i - sz - sy - 1)]
+        + cf[np.uint64(c + 8)] * v[np.uint64(i - 2)]
+        + cf[np.uint64(c + 9)] * v[np.uint64(i - 2 * sy)]
+        + cf[np.uint64(c + 10)] * v[np.uint64(i - 2 * sz)]
+        + cf[np.uint64(c + 11)] * v[np.uint64(i - sz + 1)]
+        + cf[np.uint64(c + 12)] * v[np.uint64(i - sz + sy)]
+        + cf[np.uint64(c + 13)] * v[np.uint64(i - sz - sy + 1)]
+        + cf[np.uint64(c + 14)] * v[np.uint64(i - sz + sy - 1)]
+        + cf[np.uint64(c + 15)] * v[np.uint64(i - sz + sy + 1)]
     )
     return (t + (1 << (CF_BITS - 4))) >> (CF_BITS - 3)
 
@@ -248,7 +249,8 @@ def _predict_kernel(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias_su
     num = w0 * q0 + w1 * q1 + w2 * q2 + w3 * q3 + w4 * q4 + w5 * q5
     den = w0 + w1 + w2 + w3 + w4 + w5
     ctx = context(act, (max(q0, q1, q2, q3, q4, q5) - min(q0, q1, q2, q3, q4, q5)) >> 3)
-    p8 = floor_div(num + (den >> 1), den) + context_bias(bias_sum, bias_cnt, ctx)
+    # (num >= 0: the predictions are clipped to [0, 8 hi] and the weights are positive)
+    p8 = floor_div_nonneg(num + (den >> 1), den) + context_bias(bias_sum, bias_cnt, ctx)
     p8 = min(max(p8, 0), h8)
     pred = (p8 + 4) >> 3
     frac = p8 - 8 * pred  # -4..3
@@ -261,25 +263,17 @@ def _learn(err, perr, r, val, pred, ctx, bias_sum, bias_cnt, q0, q1, q2, q3, q4,
     """After voxel ``val`` at ring slot ``r`` is known: store its errors (the
     predictors' in eighths) and update the context's bias (in eighths)."""
     e = val - pred
-    err[r] = e
-    b = r * PSTRIDE
-    v8 = 8 * val
-    perr[b] = min(abs(v8 - q0), 0x3FFFFFFF)
-    perr[b + 1] = min(abs(v8 - q1), 0x3FFFFFFF)
-    perr[b + 2] = min(abs(v8 - q2), 0x3FFFFFFF)
-    perr[b + 3] = min(abs(v8 - q3), 0x3FFFFFFF)
-    perr[b + 4] = min(abs(v8 - q4), 0x3FFFFFFF)
-    perr[b + 5] = min(abs(v8 - q5), 0x3FFFFFFF)
+    store_errors(err, perr, r, e, 8 * val, q0, q1, q2, q3, q4, q5)
     learn_bias(bias_sum, bias_cnt, ctx, 8 * e)
 
 
 @kernel(inline=True)
 def _skip(err, perr, r):
     """A masked voxel: no error anywhere."""
-    err[r] = 0
+    err[np.uint64(r)] = 0
     b = r * PSTRIDE
     for k in range(6):
-        perr[b + k] = 0
+        perr[np.uint64(b + k)] = 0
 
 
 def _workspace(shape: tuple[int, ...]) -> tuple[np.ndarray, ...]:
@@ -302,7 +296,7 @@ def _encode_kernel(v, mk, cf, th, shape, hi, out, err, perr, bias_sum, bias_cnt,
                 if pos + 64 > cap:
                     return -1
                 r = cur + y * nx + x
-                if mk[i]:
+                if mk[np.uint64(i)]:
                     _skip(err, perr, r)
                     i += 1
                     continue
@@ -310,7 +304,7 @@ def _encode_kernel(v, mk, cf, th, shape, hi, out, err, perr, bias_sum, bias_cnt,
                     v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi,
                     bias_sum, bias_cnt,
                 )  # fmt: skip
-                val = v[i]
+                val = v[np.uint64(i)]
                 low, rng, pos = put_residual(out, models, ctx, sctx, val - pred, low, rng, pos)
                 _learn(err, perr, r, val, pred, ctx, bias_sum, bias_cnt, q0, q1, q2, q3, q4, q5)
                 i += 1
@@ -334,8 +328,8 @@ def _decode_kernel(data, mk, fill, cf, th, shape, hi, v, err, perr, bias_sum, bi
                 if pos > size + 4:
                     return 1
                 r = cur + y * nx + x
-                if mk[i]:
-                    v[i] = fill
+                if mk[np.uint64(i)]:
+                    v[np.uint64(i)] = fill
                     _skip(err, perr, r)
                     i += 1
                     continue
@@ -349,7 +343,7 @@ def _decode_kernel(data, mk, fill, cf, th, shape, hi, v, err, perr, bias_sum, bi
                 val = pred + res
                 if val < 0 or val > hi:
                     return 2
-                v[i] = val
+                v[np.uint64(i)] = val
                 _learn(err, perr, r, val, pred, ctx, bias_sum, bias_cnt, q0, q1, q2, q3, q4, q5)
                 i += 1
     return end_status(data, code, pos)
