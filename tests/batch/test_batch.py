@@ -68,6 +68,7 @@ def test_glob_and_folder_mirror_the_tree(tree, tmp_path):
     assert rels(tasks, out) == ["t1.vpk"]
 
 
+@pytest.mark.slow  # compiles the lossy float paths for one file of two
 def test_manifest_csv_with_per_file_options(tree, tmp_path):
     root, arrays = tree
     manifest = root / "manifest.csv"

@@ -319,6 +319,7 @@ def test_fresh_process_finds_the_codec_without_importing_volpack(tmp_path, fmt):
     _fresh_python(code, _entry_points_on_path(tmp_path))
 
 
+@pytest.mark.slow  # compiles the huffman, 9/7-M and lossy paths for these checks alone
 def test_numcodecs_test_helpers(tmp_path, monkeypatch):
     """numcodecs' own codec checks: repr, config, buffers, object buffers, stored fixtures
     in C and Fortran order."""
