@@ -32,7 +32,7 @@ def tf_of(vol):
 
 
 @pytest.mark.parametrize("grads", [slow_case(False), True])  # without gradient bricks: slow set
-@pytest.mark.parametrize("cls", ["post", "preintegrated"])
+@pytest.mark.parametrize("cls", [slow_case("post"), "preintegrated"])  # post: slow set
 def test_full_resolution_selection_renders_exactly_like_the_volume(tree_path, cls, grads):
     path, vol = tree_path
     vr = (float(vol.min()), float(vol.max()))

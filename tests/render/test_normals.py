@@ -132,6 +132,7 @@ def test_images_do_not_depend_on_the_thread_count():
             assert np.array_equal(one, render(prepare_volume(vol), workers=w, **kw))
 
 
+@pytest.mark.slow  # compiles the exact-normals kernels for itself (the library test above covers both)
 def test_cli_normals_option(tmp_path):
     from click.testing import CliRunner
     from PIL import Image
