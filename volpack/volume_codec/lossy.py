@@ -507,13 +507,26 @@ def _exact_may_pay(x: np.ndarray, max_error: float) -> bool:
     the exact path to be worth trying (``EXACT_MIN_STEP``, ``EXACT_MAX_DISTINCT``)."""
     from .floatpredict import find_lattices
 
-    if x.size < 64:
+    if x.size < 64 or x.ndim != 3:
         return False
-    u = np.unique(x[np.isfinite(x)])
-    if u.size and u.size <= EXACT_MAX_DISTINCT * x.size and (
-        u.size * 2.0 * max_error <= float(u[-1]) - float(u[0])
-    ):
-        return True
+    # Distinct finite values per z slice: at most the brick's, and a slice on a grid of
+    # step s spans at least (count - 1) s. Most fields leave here, after one sort.
+    v = np.sort(x.reshape(x.shape[0], -1).astype(np.float64), axis=1)
+    with np.errstate(invalid="ignore", over="ignore"):
+        d = np.diff(v, axis=1)
+        count = 1 + np.count_nonzero(np.isfinite(d) & (d != 0), axis=1)
+        span = v[:, -1] - v[:, 0]
+        lo, hi = np.fmin.reduce(v[:, 0]), np.fmax.reduce(v[:, -1])  # NaN only if all are
+    most = int(count.max())
+    if most <= EXACT_MAX_DISTINCT * x.size and not most * 2.0 * max_error > hi - lo:
+        u = np.unique(x[np.isfinite(x)])
+        if u.size and u.size <= EXACT_MAX_DISTINCT * x.size and (
+            u.size * 2.0 * max_error <= float(u[-1]) - float(u[0])
+        ):
+            return True
+    coarse = (count - 1) * (EXACT_MIN_STEP * 2.0 * max_error) <= span
+    if 2 * np.count_nonzero(coarse) < coarse.size:
+        return False
     for params, _, _ in find_lattices(x):
         if np.median(np.abs(params[:, 1])) >= EXACT_MIN_STEP * 2.0 * max_error:
             return True
