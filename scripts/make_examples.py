@@ -300,6 +300,11 @@ def lossy_source(recipe: str):
 
     if recipe == "f32-whole":
         return wavelet_source("u8").astype(np.float32)
+    if recipe == "f32-levels":  # steps of 1/4, offset by 0.37 per z slice
+        u = wavelet_source("u8").astype(np.float64)
+        return (u * 0.25 + 250.0 + 0.37 * np.arange(u.shape[0])[:, None, None]).astype(
+            np.float32
+        )
     if recipe == "f64-off":  # the f32 recipe in float64 moved off its grid of 1/3
         f = lossy_source("f32").astype(np.float64)
         ok = np.isfinite(f) & (f != -999.0)
@@ -347,8 +352,17 @@ LOSSY_INTERP_CASES = [
     ("lossy-bounded-f32-lorenzo-b0", "f32-walk", {"max_error": 0.03, "fill_value": -999.0}),
     # an undeclared fill value (-999) masked because that codes shorter
     ("lossy-bounded-f32-sentinel", "f32", {"max_error": 2.0}),
-    # floats holding whole numbers under a bound below 1/2: bins of 1, exact
-    ("lossy-bounded-f32-whole", "f32-whole", {"max_error": 0.25}),
+    # floats holding whole numbers under a bound below 1/2, made before the exact path
+    # (which now codes this recipe shorter: lossy-bounded-f32-whole-exact.vpk) and kept as
+    # it is (bins of 1, exact; decoded, no longer reproduced):
+    # ("lossy-bounded-f32-whole", "f32-whole", {"max_error": 0.25}),
+]
+# The exact path (flag bit 7, lossy-1.md step 19), where it codes shortest: the whole
+# numbers above, and the MRI on a step of 1/4 with its own offset per z slice (a packed
+# field per level: no volume-wide grid, the lossless codec's lattice tool per slice).
+LOSSY_EXACT_CASES = [
+    ("lossy-bounded-f32-whole-exact", "f32-whole", {"max_error": 0.25}),
+    ("lossy-bounded-f32-levels", "f32-levels", {"max_error": 0.01}),
 ]
 
 
@@ -358,7 +372,7 @@ def make_lossy(folder: Path) -> Path:
     for stem, recipe, opts in LOSSY_CASES:
         path = folder / f"{stem}.vpk"
         api.compress(lossy_source(recipe), str(path), brick=WAVELET_BRICK, force=True, **opts)
-    for stem, recipe, opts in LOSSY_CDF97_CASES + LOSSY_INTERP_CASES:
+    for stem, recipe, opts in LOSSY_CDF97_CASES + LOSSY_INTERP_CASES + LOSSY_EXACT_CASES:
         source = lossy_source("f32" if recipe == "f64" else recipe)
         if recipe == "f64":
             source = source.astype("float64")

@@ -110,6 +110,10 @@ LOSSY = [
 def lossy_source(recipe):
     if recipe == "f32-whole":
         return source("u8").astype(np.float32)
+    if recipe == "f32-levels":  # steps of 1/4, offset by 0.37 per z slice
+        u = source("u8").astype(np.float64)
+        z = np.arange(u.shape[0])[:, None, None]
+        return (u * 0.25 + 250.0 + 0.37 * z).astype(np.float32)
     if recipe == "f64-off":  # the f32 recipe in float64 moved off its grid of 1/3
         f = lossy_source("f32").astype(np.float64)
         ok = np.isfinite(f) & (f != -999.0)
@@ -296,14 +300,35 @@ def test_golden_sentinel_stream():
 
 def test_golden_whole_number_float_stream():
     """Floats holding whole numbers under a bound below 1/2: bins of 1 (the header's
-    step), decoded exactly; reproduced."""
+    step), decoded exactly. Made before the exact path, which now codes this recipe
+    shorter (lossy-bounded-f32-whole-exact.vpk): decoded, no longer reproduced."""
     blob = (GOLDEN / "lossy-bounded-f32-whole.vpk").read_bytes()
     want = lossy_source("f32-whole")
     with Reader(blob) as r:
         assert r.header["codec"]["step"] == 1.0 and r.header["codec"]["max_error"] == 0.25
         assert [p[0] for _, _, p in r] == [0]  # the quantised-voxel path alone
     np.testing.assert_array_equal(api.decompress(blob).data, want)
-    again = api.compress_array(want, max_error=0.25)
+
+
+LOSSY_EXACT = [  # (stem, recipe, max_error)
+    ("lossy-bounded-f32-whole-exact", "f32-whole", 0.25),
+    ("lossy-bounded-f32-levels", "f32-levels", 0.01),
+]
+
+
+@pytest.mark.parametrize("stem,recipe,bound", LOSSY_EXACT, ids=[c[0] for c in LOSSY_EXACT])
+def test_golden_exact_path_stream(stem, recipe, bound):
+    """The exact path (flag bit 7, the brick coded by the lossless codec's lattice
+    tool) decodes bit for bit, records no error, and is reproduced."""
+    blob = (GOLDEN / f"{stem}.vpk").read_bytes()
+    want = lossy_source(recipe)
+    with Reader(blob) as r:
+        payloads = [p for _, _, p in r]
+        assert r.summary["max_error"] == 0.0
+    assert [p[0] for p in payloads] == [128]
+    assert take_section(memoryview(payloads[0]), 1, "inner")[0][:2] == bytes([5, 1])
+    np.testing.assert_array_equal(api.decompress(blob).data, want)
+    again = api.compress_array(want, max_error=bound)
     with Reader(blob) as old, Reader(again) as new:
         assert old.header == new.header
         assert [(t, n, p) for t, n, p in old] == [(t, n, p) for t, n, p in new]

@@ -394,3 +394,49 @@ def test_arith2_coder_holds_the_bound_and_decodes_its_damage(kind):
     codec = BoundedCodec.plan(a.dtype, lo, hi, bound, coder="arith2")
     assert codec._residual_coder == "arith2"
     decode_damaged(codec, codec.encode(a), a.shape, a.dtype, 5, 30)
+
+
+def _levels_field(dtype=np.float32):
+    """A packed field per level: a step of 1/4 with its own offset per z slice, so no
+    grid spans the volume (search.lattice finds none)."""
+    k = np.rint(field("smooth", (6, 20, 24), np.float64, 3) / 8)
+    z = np.arange(k.shape[0])[:, None, None]
+    return (k * 0.25 + 0.1 * math.sqrt(2) * z - 20).astype(dtype)
+
+
+def test_a_step_per_slice_takes_the_exact_path_and_comes_back_bit_for_bit(monkeypatch):
+    """Under bounds below the step the brick is coded exactly by the lossless codec
+    (flag 128), shorter than the bounded paths; a loose bound keeps those."""
+    from volpack.volume_codec import lossy
+    from volpack.volume_codec.search import lattice
+
+    a = _levels_field()
+    assert lattice(a, None, 1e-3) is None
+    lo, hi = float(a.min()), float(a.max())
+    codec = BoundedCodec.plan(a.dtype, lo, hi, 1e-3)
+    payload, err, sse, n = codec.encode_measured(a)
+    assert payload[0] == lossy.FLAG_EXACT and err == 0 == sse and n == a.size
+    np.testing.assert_array_equal(codec.decode(payload, a.shape, a.dtype), a)
+    monkeypatch.setattr(lossy, "_exact_may_pay", lambda x, e: False)
+    assert len(payload) < len(codec.encode(a))
+    monkeypatch.undo()
+    loose = 0.05 * (hi - lo)
+    blob = api.compress_array(a, max_error=loose)
+    with Reader(blob) as r:
+        assert all(p[0] != lossy.FLAG_EXACT for _, _, p in r)
+    assert np.abs(api.decompress_array(blob).astype(np.float64) - a).max() <= loose
+
+
+def test_damaged_exact_payloads_raise_format_errors():
+    a = _levels_field()
+    codec = BoundedCodec.plan(a.dtype, float(a.min()), float(a.max()), 1e-3)
+    payload = codec.encode(a)
+    assert payload[0] == 128
+    for bad, dtype in [
+        (bytes([128 | 1]) + payload[1:], a.dtype),  # with the mask flag
+        (payload + b"\0", a.dtype),  # a stray byte
+        (payload[:-3], a.dtype),  # cut short
+        (payload, np.int16),  # on integer voxels
+    ]:
+        with pytest.raises(FormatError):
+            codec.decode(bad, a.shape, dtype)

@@ -5,8 +5,9 @@
     ``step = 2E`` (floats) or integer bins of ``2e + 1`` values (integers, ``e =
     floor(E)``), so the reconstruction ``lo + q * step`` is within ``E`` of every voxel.
     The integer field ``q`` is then coded by the lossless wavelet codec; floats are also
-    coded by the float CDF 9/7 (:mod:`.bounded_cdf97`) and by prediction from decoded
-    voxels (:mod:`.bounded_interp`), and the shortest coding kept. The encoder
+    coded by the float CDF 9/7 (:mod:`.bounded_cdf97`), by prediction from decoded
+    voxels (:mod:`.bounded_interp`) and, where their values are coarse (a packed field
+    on a lattice per slice), exactly by the lossless codec, and the shortest coding kept. The encoder
     rebuilds the brick exactly as the decoder will and checks every voxel; any voxel
     that rounding to the output dtype pushed past ``E`` is stored exactly in a correction
     list, so the bound holds always. NaN, +-Inf and a declared fill value are taken out
@@ -58,10 +59,18 @@ from .specials import fill_masked, sentinel, special_mask
 FLAG_MASK, FLAG_CORRECTIONS, FLAG_COEF, FLAG_RESIDUALS = 1, 2, 4, 8
 FLAG_CDF97, FLAG_OUTLIERS = 16, 32  # the float wavelet path (bounded_cdf97)
 FLAG_INTERP = 64  # the interpolation path (bounded_interp)
+FLAG_EXACT = 128  # the brick stored exactly by the lossless codec (alone)
 _KNOWN_FLAGS = (
     FLAG_MASK | FLAG_CORRECTIONS | FLAG_COEF | FLAG_RESIDUALS | FLAG_CDF97 | FLAG_OUTLIERS
-    | FLAG_INTERP
+    | FLAG_INTERP | FLAG_EXACT
 )  # fmt: skip
+# The exact path is tried on a float brick whose values are coarse next to the bins:
+# on lattices (one per z slice) whose median step is at least EXACT_MIN_STEP bins of 2E,
+# or with at most EXACT_MAX_DISTINCT of its voxels distinct and fewer distinct values
+# than bins over their span. Elsewhere it did not win on the float corpus of
+# scripts/bench_lossy.py, and it costs more than the other paths together.
+EXACT_MIN_STEP = 0.5
+EXACT_MAX_DISTINCT = 0.125
 # Orthonormal coefficient step of the bounded codec's coefficient path, in units of the
 # error allowed on its grid (measured best on the head CT and the z-map).
 COEF_STEP = 2.0
@@ -225,7 +234,24 @@ class BoundedCodec(BrickCodec):
             cand = self._encode_masked(x, more)
             if len(cand[0]) < len(best[0]):
                 best = cand
+        if x.dtype.kind == "f" and _exact_may_pay(x, self.max_error):
+            cand = self._exact_candidate(x, mask)
+            if len(cand[0]) < len(best[0]):
+                best = cand
         return best
+
+    def _lossless(self):
+        from .lossless import LosslessCodec
+
+        return LosslessCodec(self.wavelet, self.coder, self.order, self.max_levels)
+
+    def _exact_candidate(self, x, mask) -> Measured:
+        """The brick coded exactly by the lossless codec (its special voxels too): within
+        any bound, and the shortest where the values sit on a grid per slice coarser
+        than the bins (the lossless codec's lattice tool)."""
+        body = bytes([FLAG_EXACT]) + put_section(self._lossless().encode(x))
+        valid = x.size - (int(mask.sum()) if mask is not None else 0)
+        return Measured(body, 0.0, 0.0, valid)
 
     def _encode_masked(self, x: np.ndarray, mask: np.ndarray | None) -> Measured:
         """:meth:`encode_measured` with the voxels of ``mask`` stored exactly."""
@@ -394,6 +420,16 @@ class BoundedCodec(BrickCodec):
             raise FormatError(f"bounded brick payload: unknown flags {flags:#x}")
         pos = 1
         inner, pos = _take(data, pos, len(data))
+        if flags & FLAG_EXACT:
+            if flags != FLAG_EXACT or dtype.kind != "f":
+                raise FormatError(
+                    "bounded brick payload: the exact path is for float voxels, alone"
+                )
+            if pos != len(data):
+                raise FormatError(
+                    f"bounded brick payload: {len(data) - pos} stray bytes at the end"
+                )
+            return self._lossless().decode(inner, tuple(shape), dtype)
         if flags & FLAG_INTERP:
             out = self._decode_interp(flags, inner, tuple(shape), dtype)
         elif flags & FLAG_CDF97:
@@ -464,6 +500,37 @@ class BoundedCodec(BrickCodec):
             body, pos = _take(data, pos, len(data))
             w.apply_outliers(body, rec, self.step, self._residual_coder)
         return _to_float(rec, dtype, overwrite=True), pos
+
+
+def _exact_may_pay(x: np.ndarray, max_error: float) -> bool:
+    """Whether the float brick ``x`` is coarse enough next to bins of ``2 max_error`` for
+    the exact path to be worth trying (``EXACT_MIN_STEP``, ``EXACT_MAX_DISTINCT``)."""
+    from .floatpredict import find_lattices
+
+    if x.size < 64 or x.ndim != 3:
+        return False
+    # Distinct finite values per z slice: at most the brick's, and a slice on a grid of
+    # step s spans at least (count - 1) s. Most fields leave here, after one sort.
+    v = np.sort(x.reshape(x.shape[0], -1).astype(np.float64), axis=1)
+    with np.errstate(invalid="ignore", over="ignore"):
+        d = np.diff(v, axis=1)
+        count = 1 + np.count_nonzero(np.isfinite(d) & (d != 0), axis=1)
+        span = v[:, -1] - v[:, 0]
+        lo, hi = np.fmin.reduce(v[:, 0]), np.fmax.reduce(v[:, -1])  # NaN only if all are
+    most = int(count.max())
+    if most <= EXACT_MAX_DISTINCT * x.size and not most * 2.0 * max_error > hi - lo:
+        u = np.unique(x[np.isfinite(x)])
+        if u.size and u.size <= EXACT_MAX_DISTINCT * x.size and (
+            u.size * 2.0 * max_error <= float(u[-1]) - float(u[0])
+        ):
+            return True
+    coarse = (count - 1) * (EXACT_MIN_STEP * 2.0 * max_error) <= span
+    if 2 * np.count_nonzero(coarse) < coarse.size:
+        return False
+    for params, _, _ in find_lattices(x):
+        if np.median(np.abs(params[:, 1])) >= EXACT_MIN_STEP * 2.0 * max_error:
+            return True
+    return False
 
 
 def _to_float(v: np.ndarray, dtype: np.dtype, overwrite: bool = False) -> np.ndarray:
