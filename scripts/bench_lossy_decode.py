@@ -266,7 +266,7 @@ def write_chart(path_csv: Path, out: Path) -> None:
         rows = list(csv.DictReader(f))
     labels = list(dict.fromkeys(r["label"] for r in rows))
     cells = list(dict.fromkeys((r["dataset"], r["rel_bound"]) for r in rows))
-    fig, axes = plt.subplots(2, 1, figsize=(max(8, 0.55 * len(cells) * len(labels)), 8))
+    fig, axes = plt.subplots(2, 1, figsize=(min(18, max(8, 0.3 * len(cells) * len(labels))), 8))
     width = 0.8 / len(labels)
     for ax, key, goal, peer in ((axes[0], "x_sperr", 1.0, "SPERR"), (axes[1], "x_sz3", 0.5, "SZ3")):
         for k, label in enumerate(labels):
