@@ -74,6 +74,9 @@ KINDS = {
     # its row kinds (the default since the `rows` header field): copy runs of rows
     "fast-rows": ("fast-rows-labels.vpk", VOLUME_PATHS),
     "lossy-interp": ("lossy-bounded-f32-interp.vpk", VOLUME_PATHS),
+    # the float wavelet path: Mallat layout with the outlier bin field, and separable
+    "lossy-cdf97": ("lossy-bounded-f32-cdf97-bins.vpk", VOLUME_PATHS),
+    "lossy-separable": ("lossy-bounded-f32-separable.vpk", VOLUME_PATHS),
     # container format version 2 (formats/vpk-2.md): varint records, dictionary-coded
     # header and summary; one brick, and eight
     "compact": ("vpk2-lossy-bounded-f32.vpk", VOLUME_PATHS),

@@ -36,7 +36,9 @@ def check_bound(a, blob, bound):
     return got
 
 
-@pytest.mark.parametrize("shape", [(9, 13, 20), (1, 7, 33), (2, 2, 2), (5, 1, 1)])
+@pytest.mark.parametrize(
+    "shape", [(9, 13, 20), (1, 7, 33), (2, 2, 2), (5, 1, 1), (3, 64, 6), (33, 3, 2)]
+)
 def test_cdf97_matches_the_naive_reference_bit_for_bit(shape):
     x = np.random.default_rng(3).standard_normal(shape) * 100
     full = dwt3.levels_for_shape(shape, None)

@@ -144,26 +144,32 @@ def _decode_kernel(data, rec, width):
             if any_ == 0:
                 continue
             rows[z + 1, y + 1] = 1
-            _row_contexts(s, z, y, nx, ctx)
             row = s[z + 1, y + 1]
+            # The rows the contexts read (those of _row_contexts, inline: one pass, and
+            # unsigned indices, which numba does not test for a negative wrap-around).
+            up, prev, prev_next = s[z + 1, y], s[z, y + 1], s[z, y + 2]
             out = rec[z, y]
             seen = 0
             l1 = l2 = 0
             for x in range(nx):
+                ux = np.uint64(x)
                 if x == nx - 1 and seen == 0:
                     bit = 1
                 else:
-                    k = ctx[x] + np.int64(l1 != 0) + 2 * np.int64(l2 != 0)
+                    k = FLAG + 4 * np.int64(up[ux + 2] != 0)
+                    k += 8 * np.int64((up[ux + 1] | up[ux + 3]) != 0)
+                    k += 16 * np.int64(prev[ux + 2] != 0) + 32 * np.int64(prev_next[ux + 2] != 0)
+                    k += np.int64(l1 != 0) + 2 * np.int64(l2 != 0)
                     bit, code, rng, pos = get(data, models, k, code, rng, pos, RATE)
                 l2 = l1
                 l1 = 0
                 if bit == 0:
                     continue
                 seen = 1
-                k = SIGN + 3 * np.int64(l2) + np.int64(s[z + 1, y, x + 2])
+                k = SIGN + 3 * np.int64(l2) + np.int64(up[ux + 2])
                 neg, code, rng, pos = get(data, models, k, code, rng, pos, RATE)
                 l1 = 1 + neg
-                row[x + 2] = l1
+                row[ux + 2] = l1
                 nb = 1
                 while nb < MAX_BITS:
                     more, code, rng, pos = get(data, models, MAG + nb, code, rng, pos, RATE)
@@ -175,7 +181,7 @@ def _decode_kernel(data, rec, width):
                     cs[0], cs[1], cs[2] = code, rng, pos
                     m = np.int64(get_raw(cs, data, nb - 1)) | (m << (nb - 1))
                     code, rng, pos = cs[0], cs[1], cs[2]
-                out[x] += np.float64(-m if neg else m) * width
+                out[ux] += np.float64(-m if neg else m) * width
             if pos > size + 4:
                 return 1
     return 0

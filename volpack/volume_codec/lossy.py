@@ -203,15 +203,14 @@ class BoundedCodec(BrickCodec):
         qd = np.dtype(self.qdtype)
         return np.clip(q, 0, np.iinfo(qd).max).astype(qd)
 
-    def _reconstruct(self, q: np.ndarray, dtype: np.dtype) -> np.ndarray:
+    def _reconstruct(self, q: np.ndarray, dtype: np.dtype, into=None) -> np.ndarray:
         if self.integer:
             v = q.astype(np.int64) * int(self.step) + int(self.lo)
             return _clip_to(v, dtype)
-        v = q.astype(np.float64) * self.step + self.lo
-        if dtype != np.float64:
-            big = float(np.finfo(dtype).max)
-            v = np.clip(v, -big, big)
-        return v.astype(dtype)
+        v = q.astype(np.float64)
+        v *= self.step  # in place: the same two IEEE operations per voxel
+        v += self.lo
+        return _to_float(v, dtype, overwrite=True, out=into)
 
     def _special(self, x: np.ndarray) -> np.ndarray | None:
         return special_mask(x, self.fill)
@@ -408,7 +407,19 @@ class BoundedCodec(BrickCodec):
         return self.encode_measured(brick)[0]
 
     def decode(self, data: bytes | memoryview, shape: tuple[int, ...], dtype: Any) -> np.ndarray:
-        dtype = np.dtype(dtype)
+        return self._decode(data, tuple(shape), np.dtype(dtype), None)
+
+    def decode_into(self, data: bytes | memoryview, out: np.ndarray) -> None:
+        """Into a C-ordered view of the volume the float paths write their cast straight
+        (no brick-sized copy)."""
+        if out.flags.c_contiguous and out.flags.writeable:
+            self._decode(data, out.shape, out.dtype, out)
+        else:
+            super().decode_into(data, out)
+
+    def _decode(self, data, shape, dtype, into: np.ndarray | None) -> np.ndarray:
+        """The brick, written into ``into`` (C-ordered, of ``shape`` and ``dtype``) when
+        given."""
         data = memoryview(data)
         n = math.prod(shape)
         if len(data) < 5:
@@ -429,11 +440,15 @@ class BoundedCodec(BrickCodec):
                 raise FormatError(
                     f"bounded brick payload: {len(data) - pos} stray bytes at the end"
                 )
-            return self._lossless().decode(inner, tuple(shape), dtype)
+            out = self._lossless().decode(inner, tuple(shape), dtype)
+            if into is not None:
+                into[...] = out
+                return into
+            return out
         if flags & FLAG_INTERP:
             out = self._decode_interp(flags, inner, tuple(shape), dtype)
         elif flags & FLAG_CDF97:
-            out = self._decode_cdf97(flags, data, inner, pos, tuple(shape), dtype)
+            out = self._decode_cdf97(flags, data, inner, pos, tuple(shape), dtype, into)
             pos = out[1]
             out = out[0]
         elif flags & FLAG_OUTLIERS:
@@ -455,7 +470,10 @@ class BoundedCodec(BrickCodec):
             if flags & FLAG_RESIDUALS:
                 raise FormatError("bounded brick payload: residuals without coefficients")
             q = self._inner().decode(inner, shape, np.dtype(self.qdtype))
-            out = self._reconstruct(q, dtype)
+            out = self._reconstruct(q, dtype, into)
+        if into is not None and out is not into:
+            into[...] = out
+            out = into
         flat = out.reshape(-1)
         sd = storage_dtype(dtype)
         if flags & FLAG_MASK:
@@ -487,7 +505,7 @@ class BoundedCodec(BrickCodec):
             np.clip(rec, -big, big, out=rec)
         return rec.astype(dtype, order="C")  # the cast puts the axes back in C order
 
-    def _decode_cdf97(self, flags, data, inner, pos, shape, dtype):
+    def _decode_cdf97(self, flags, data, inner, pos, shape, dtype, into=None):
         from . import bounded_cdf97 as w
 
         if flags & (FLAG_COEF | FLAG_RESIDUALS) or dtype.kind != "f":
@@ -499,7 +517,7 @@ class BoundedCodec(BrickCodec):
         if flags & FLAG_OUTLIERS:
             body, pos = _take(data, pos, len(data))
             w.apply_outliers(body, rec, self.step, self._residual_coder)
-        return _to_float(rec, dtype, overwrite=True), pos
+        return _to_float(rec, dtype, overwrite=True, out=into), pos
 
 
 def _exact_may_pay(x: np.ndarray, max_error: float) -> bool:
@@ -533,9 +551,14 @@ def _exact_may_pay(x: np.ndarray, max_error: float) -> bool:
     return False
 
 
-def _to_float(v: np.ndarray, dtype: np.dtype, overwrite: bool = False) -> np.ndarray:
+def _to_float(v: np.ndarray, dtype: np.dtype, overwrite: bool = False, out=None) -> np.ndarray:
     """Float64 values cast to the float ``dtype``, clipped to its finite range (in ``v``
-    itself when ``overwrite``)."""
+    itself when ``overwrite``; the float32 cast possibly into ``out``, C-ordered, of
+    ``v``'s shape)."""
+    if dtype == np.float32 and v.dtype == np.float64 and v.flags.c_contiguous:
+        from .floatcast import to_float32
+
+        return to_float32(v, out)  # one pass, same values
     if dtype != np.float64:
         big = float(np.finfo(dtype).max)
         v = np.clip(v, -big, big, out=v if overwrite else None)
