@@ -73,6 +73,8 @@ KINDS = {
     "fast-runs": ("fast-runs-mixed.vpk", VOLUME_PATHS),
     # its row kinds (the default since the `rows` header field): copy runs of rows
     "fast-rows": ("fast-rows-labels.vpk", VOLUME_PATHS),
+    # its zstd bricks (mode 3, the default since the `zstd` header field), beside the others
+    "fast-zstd": ("fast-zstd-mixed.vpk", VOLUME_PATHS),
     "lossy-interp": ("lossy-bounded-f32-interp.vpk", VOLUME_PATHS),
     # container format version 2 (formats/vpk-2.md): varint records, dictionary-coded
     # header and summary; one brick, and eight
