@@ -7,7 +7,7 @@ For each volume, the codings (made once):
 * ``fast-nozstd``: the same with ``zstd=False``, the streams of before mode 3 (the same
   decoder reads both, so this is the before of a before/after in one sitting);
 * ``jpegls``: CharLS through imagecodecs, one frame per z slice (signed volumes shifted
-  to unsigned, outside the timing);
+  to unsigned, and the decoded slices stacked back, outside the timing);
 * ``zstd19``: zstandard level 19, one frame of the whole volume's bytes;
 * ``jpegxl``: libjxl through imagecodecs, lossless, one frame per z slice at effort
   ``--jxl-effort`` (skipped with ``--no-jxl``).
@@ -45,7 +45,9 @@ FIELDS = ["label", "dataset", "shape", "dtype"] + [
 
 
 def codings(a: np.ndarray, jxl_effort: int | None) -> dict:
-    """``{name: (nbytes, decode())}``: each decode returns something checked against ``a``."""
+    """``{name: (nbytes, decode(), volume(decoded))}``: ``decode`` is what is timed (for
+    the per-slice peers the list of decoded slices, as ``bench_decode.py`` times them),
+    ``volume`` makes of its result the array checked against ``a``."""
     import imagecodecs as ic
     import zstandard
 
@@ -53,10 +55,13 @@ def codings(a: np.ndarray, jxl_effort: int | None) -> dict:
     from volpack.format.container import Reader
     from volpack.volume_codec.fast import describe
 
+    def same(decoded):
+        return decoded
+
     out = {}
     for name, opts in (("fast", {}), ("fast-nozstd", {"zstd": False})):
         blob = api.compress_array(a, codec="fast", **opts)
-        out[name] = (len(blob), lambda b=blob: api.decompress_array(b, workers=1))
+        out[name] = (len(blob), lambda b=blob: api.decompress_array(b, workers=1), same)
         if name == "fast":
             with Reader(blob) as r:
                 kinds = [describe(r.read(e.t, e.node)) for e in r.entries]
@@ -64,34 +69,37 @@ def codings(a: np.ndarray, jxl_effort: int | None) -> dict:
     shift = 1 << (8 * a.itemsize - 1) if a.dtype.kind == "i" else 0
     u = (a.astype(np.int64) + shift).astype(f"u{a.itemsize}")
 
-    def slices(frames, dec):
-        return lambda: (np.stack([dec(f) for f in frames]).astype(np.int64) - shift).astype(
-            a.dtype
-        )
+    def stacked(decoded):  # outside the timing: unsigned slices back to the volume
+        return (np.stack(decoded).astype(np.int64) - shift).astype(a.dtype)
 
     enc = [ic.jpegls_encode(s) for s in u]
-    out["jpegls"] = (sum(map(len, enc)), slices(enc, ic.jpegls_decode))
+    out["jpegls"] = (
+        sum(map(len, enc)), lambda e=enc: [ic.jpegls_decode(f) for f in e], stacked
+    )
     z = zstandard.ZstdCompressor(level=19).compress(np.ascontiguousarray(a).tobytes())
     out["zstd19"] = (
         len(z),
         lambda: np.frombuffer(
             zstandard.ZstdDecompressor().decompress(z, max_output_size=a.nbytes), a.dtype
         ).reshape(a.shape),
+        same,
     )
     if jxl_effort is not None:
         enc = [ic.jpegxl_encode(s, lossless=True, effort=jxl_effort) for s in u]
-        out["jpegxl"] = (sum(map(len, enc)), slices(enc, ic.jpegxl_decode))
+        out["jpegxl"] = (
+            sum(map(len, enc)), lambda e=enc: [ic.jpegxl_decode(f) for f in e], stacked
+        )
     return out, zb, nb
 
 
 def measure(name: str, a: np.ndarray, repeat: int, label: str, jxl_effort: int | None) -> dict:
     cods, zb, nb = codings(a, jxl_effort)
-    for c, (_, dec) in cods.items():
-        if not np.array_equal(dec(), a):
+    for c, (_, dec, volume) in cods.items():
+        if not np.array_equal(volume(dec()), a):
             raise AssertionError(f"{name}: {c} did not round-trip")
     best = {c: float("inf") for c in cods}
     for _ in range(repeat):
-        for c, (_, dec) in cods.items():
+        for c, (_, dec, _) in cods.items():
             t = time.process_time()
             dec()
             best[c] = min(best[c], time.process_time() - t)
