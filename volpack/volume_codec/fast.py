@@ -42,11 +42,13 @@ MODE_CODED, MODE_RAW, MODE_CONSTANT, MODE_ZSTD = 0, 1, 2, 3
 FLAG_PALETTE, FLAG_FLOAT = 1, 2
 ZSTD_LEVEL = 19  # per 64^3 label brick 1.0-1.6x the bytes' ratio of level 9; 22 adds 1-6 %
 # at twice the encode time
-ZSTD_SLACK = 1.25  # mode 3 may cost this many times the shortest other payload where that
-ZSTD_DENSE = 8  # is at most 1/8 of the raw voxels (label and background bricks), else it
-# must be shorter: it decodes at 1-10 GB/s a core, the fast stream of a label brick at
-# 0.1-1.4 (on the k-means labels mode 3 is 1.13x the bytes and 4-9x the speed); on bricks
-# of scans a slack would cost ratio the speed does not repay
+ZSTD_SLACK = 0.25  # mode 3 may be longer than the shortest other payload by this share of
+ZSTD_RATE = 0.004  # it, and by at most this many bytes a nanosecond of modelled decode time
+ZSTD_NS = 1.0  # it saves (fastpredict.decode_ns against ZSTD_NS a voxel byte): 4 KB a
+# millisecond, twice the fast codec's own rule, so that every brick of the k-means labels
+# switches (1.07-1.19x the bytes, 4x the speed; at 2 KB its largest stays at 2 ms) while
+# the ITK T1's bricks (1.09-1.19x the bytes, 1-1.5 ms saved) do not: a share alone cost
+# them 13 % of their ratio for no speed, their runs already decode fast
 ZSTD_PROBE = 3  # a zstd level that costs little: when its frame is over PROBE_SLACK times
 PROBE_SLACK = 2.0  # the shortest payload, level 19 is not tried (noisy scan bricks)
 
@@ -121,23 +123,32 @@ class FastCodec(BrickCodec):
         values = to_ordered(brick) if is_float else brick.astype(np.int64)
         flags = FLAG_FLOAT if is_float else 0
         lo, hi = int(values.min()), int(values.max())
+        plain, ranked = {}, {}  # the modelled decode times of the streams
         candidates = [
-            bytes([MODE_RAW]) + raw,
-            bytes([MODE_CODED, flags])
-            + pal.pack_range(lo, hi)
-            + fastpredict.encode(values, lo, hi, **self._modes()),
+            (bytes([MODE_RAW]) + raw, {"ns": 0.0}),
+            (
+                bytes([MODE_CODED, flags])
+                + pal.pack_range(lo, hi)
+                + fastpredict.encode(values, lo, hi, **self._modes(), report=plain),
+                plain,
+            ),
         ]
         p = pal.build(values)
         if len(p) < hi - lo + 1 and len(p) <= pal.MAX_PALETTE:
+            ranks = pal.to_ranks(values, p)
             candidates.append(
-                bytes([MODE_CODED, flags | FLAG_PALETTE])
-                + pal.pack(p)
-                + fastpredict.encode(pal.to_ranks(values, p), 0, len(p) - 1, **self._modes())
+                (
+                    bytes([MODE_CODED, flags | FLAG_PALETTE])
+                    + pal.pack(p)
+                    + fastpredict.encode(ranks, 0, len(p) - 1, **self._modes(), report=ranked),
+                    ranked,
+                )
             )
-        best = min(candidates, key=len)
+        best, report = min(candidates, key=lambda c: len(c[0]))
         if self.zstd:
-            dense = len(best) * ZSTD_DENSE <= len(raw)
-            z = _zstd_payload(brick, len(best) * (ZSTD_SLACK if dense else 1))
+            saved = report["ns"] - ZSTD_NS * len(raw)
+            extra = min(ZSTD_SLACK * len(best), ZSTD_RATE * saved)
+            z = _zstd_payload(brick, len(best) + max(extra, 0.0))
             if z is not None:
                 return z
         return best
