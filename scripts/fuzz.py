@@ -73,6 +73,8 @@ KINDS = {
     "fast-runs": ("fast-runs-mixed.vpk", VOLUME_PATHS),
     # its row kinds (the default since the `rows` header field): copy runs of rows
     "fast-rows": ("fast-rows-labels.vpk", VOLUME_PATHS),
+    # its zstd bricks (mode 3, the default since the `zstd` header field), beside the others
+    "fast-zstd": ("fast-zstd-mixed.vpk", VOLUME_PATHS),
     "lossy-interp": ("lossy-bounded-f32-interp.vpk", VOLUME_PATHS),
     # the float wavelet path: Mallat layout with the outlier bin field, and separable
     "lossy-cdf97": ("lossy-bounded-f32-cdf97-bins.vpk", VOLUME_PATHS),

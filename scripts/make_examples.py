@@ -254,22 +254,33 @@ def make_lossless(folder: Path) -> Path:
 # -- fast codec examples: formats/examples/fast-*.vpk ------------------------------------
 
 FAST_CASES = [
-    ("fast-u8", "u8", {"codec": "fast", "runs": False}),
-    ("fast-u8-background", "u8-background", {"codec": "fast", "runs": False}),
-    ("fast-i16-palette", "i16", {"codec": "fast", "runs": False}),
-    ("fast-f32-special", "f32-special", {"codec": "fast", "runs": False}),
+    ("fast-u8", "u8", {"codec": "fast", "runs": False, "zstd": False}),
+    ("fast-u8-background", "u8-background", {"codec": "fast", "runs": False, "zstd": False}),
+    ("fast-i16-palette", "i16", {"codec": "fast", "runs": False, "zstd": False}),
+    ("fast-f32-special", "f32-special", {"codec": "fast", "runs": False, "zstd": False}),
     # the run mode (the default since; the four above are the streams of before it): in
     # 32^3 bricks too, whose runs repay their two tables (runs after each predictor)
-    ("fast-runs-mixed", "v2-u8-background", {"codec": "fast", "runs": True, "rows": False}),
-    ("fast-runs-labels", "labels", {"codec": "fast", "runs": True, "rows": False, "brick": 32}),
+    (
+        "fast-runs-mixed",
+        "v2-u8-background",
+        {"codec": "fast", "runs": True, "rows": False, "zstd": False},
+    ),
+    (
+        "fast-runs-labels",
+        "labels",
+        {"codec": "fast", "runs": True, "rows": False, "zstd": False, "brick": 32},
+    ),
     (
         "fast-runs-u8-background",
         "u8-background",
-        {"codec": "fast", "runs": True, "rows": False, "brick": 32},
+        {"codec": "fast", "runs": True, "rows": False, "zstd": False, "brick": 32},
     ),
     # the row kinds (the default since): runs of rows that copy the row or slice above
-    ("fast-rows-labels", "labels-2x", {"codec": "fast", "brick": 32}),
-    ("fast-rows-mixed", "v2-u8-background", {"codec": "fast"}),
+    ("fast-rows-labels", "labels-2x", {"codec": "fast", "zstd": False, "brick": 32}),
+    ("fast-rows-mixed", "v2-u8-background", {"codec": "fast", "zstd": False}),
+    # zstd bricks (mode 3, the default since): label bricks and others beside them
+    ("fast-zstd-labels", "labels-2x", {"codec": "fast", "brick": 32}),
+    ("fast-zstd-mixed", "v2-u8-background", {"codec": "fast"}),
 ]
 
 

@@ -21,9 +21,13 @@ from volpack.volume_codec.fast import (
     MODE_CODED,
     MODE_CONSTANT,
     MODE_RAW,
+    MODE_ZSTD,
+    ZSTD_DENSE,
+    ZSTD_SLACK,
     FastCodec,
     describe,
 )
+from volpack.volume_codec.codec import ZstdCodec
 from volpack.volume_codec.registry import get_codec
 
 GOLDEN = Path(__file__).resolve().parents[2] / "formats" / "examples"
@@ -262,7 +266,7 @@ def test_codec_floats_bit_exact(dtype):
 
 
 def test_codec_modes_constant_raw_palette():
-    c = FastCodec()
+    c = FastCodec(zstd=False)
     one = np.full((5, 6, 7), -1234, dtype=np.int16)
     assert c.encode(one)[0] == MODE_CONSTANT and len(c.encode(one)) == 3
     noise = np.random.default_rng(1).integers(0, 256, (8, 8, 8)).astype(np.uint8)
@@ -277,21 +281,26 @@ def test_codec_modes_constant_raw_palette():
 
 def test_volume_roundtrip_and_info_tools():
     a = np.rint(smooth((40, 37, 70), noise=4) * 20).astype(np.int16)
-    blob = api.compress_array(a, codec="fast", brick=32)
+    blob = api.compress_array(a, codec="fast", brick=32, zstd=True)
     np.testing.assert_array_equal(api.decompress_array(blob, workers=2), a)
     with Reader(blob) as r:
         tools = r.summary["tools"]
-        assert r.header["codec"] == {"id": "fast", "runs": True, "rows": True}
+        assert r.header["codec"] == {"id": "fast", "runs": True, "rows": True, "zstd": True}
     assert sum(tools.values()) == 2 * 2 * 3
-    assert all(t.startswith("fast-") for t in tools), tools
-    assert get_codec({"id": "fast", "runs": True, "rows": True}) == FastCodec()
-    assert get_codec({"id": "fast", "runs": True}) == FastCodec(rows=False)  # before rows
-    assert get_codec({"id": "fast"}) == FastCodec(runs=False)  # the files of before runs
+    assert all(t.startswith("fast-") or t == "zstd" for t in tools), tools
+    assert get_codec({"id": "fast", "runs": True, "rows": True, "zstd": True}) == FastCodec()
+    assert get_codec({"id": "fast", "runs": True, "rows": True}) == FastCodec(zstd=False)
+    assert get_codec({"id": "fast", "runs": True}) == FastCodec(rows=False, zstd=False)
+    assert get_codec({"id": "fast"}) == FastCodec(runs=False, zstd=False)  # before runs
     assert FastCodec(runs=False).rows is False  # the row kinds go with the run mode
     with pytest.raises(OptionError, match="runs"):
         FastCodec(runs=1)
     with pytest.raises(OptionError, match="rows"):
         FastCodec(rows="yes")
+    with pytest.raises(OptionError, match="zstd"):
+        FastCodec(zstd=0)
+    with pytest.raises(OptionError, match="fast codec"):
+        api.compress_array(a, zstd=False)
     with pytest.raises(OptionError, match="fast codec"):
         api.compress_array(a, rows=False)
     with pytest.raises(OptionError, match="fast codec"):
@@ -299,17 +308,17 @@ def test_volume_roundtrip_and_info_tools():
     with pytest.raises(OptionError, match="fast codec"):
         api.compress_array(a, codec="fast", runs=True, max_error=2)
     labels = blocks((40, 37, 70)).astype(np.uint8)
-    blob = api.compress_array(labels, codec="fast", brick=32)
+    blob = api.compress_array(labels, codec="fast", brick=32, zstd=False)
     with Reader(blob) as r:
         assert any("+runs" in t for t in r.summary["tools"]), r.summary["tools"]
         assert any("+rows" in t for t in r.summary["tools"]), r.summary["tools"]
     np.testing.assert_array_equal(api.decompress_array(blob), labels)
-    before = api.compress_array(labels, codec="fast", brick=32, rows=False)
+    before = api.compress_array(labels, codec="fast", brick=32, rows=False, zstd=False)
     with Reader(before) as r:
         assert r.header["codec"] == {"id": "fast", "runs": True}
         assert not any("+rows" in t for t in r.summary["tools"])
     np.testing.assert_array_equal(api.decompress_array(before), labels)
-    old = api.compress_array(labels, codec="fast", brick=32, runs=False)
+    old = api.compress_array(labels, codec="fast", brick=32, runs=False, zstd=False)
     with Reader(old) as r:
         assert r.header["codec"] == {"id": "fast"}
         assert not any("+runs" in t for t in r.summary["tools"])
@@ -330,15 +339,17 @@ def test_fast_codec_beats_nothing_but_keeps_most_ratio():
 
 # The recipes of scripts/make_examples.py, written out again on purpose.
 CASES = [
-    ("fast-u8", "u8", {"runs": False}),
-    ("fast-u8-background", "u8-background", {"runs": False}),
-    ("fast-i16-palette", "i16", {"runs": False}),
-    ("fast-f32-special", "f32-special", {"runs": False}),
-    ("fast-runs-mixed", "v2-u8-background", {"brick": 16, "rows": False}),
-    ("fast-runs-labels", "labels", {"brick": 32, "rows": False}),
-    ("fast-runs-u8-background", "u8-background", {"brick": 32, "rows": False}),
-    ("fast-rows-labels", "labels-2x", {"brick": 32}),
-    ("fast-rows-mixed", "v2-u8-background", {"brick": 16}),
+    ("fast-u8", "u8", {"runs": False, "zstd": False}),
+    ("fast-u8-background", "u8-background", {"runs": False, "zstd": False}),
+    ("fast-i16-palette", "i16", {"runs": False, "zstd": False}),
+    ("fast-f32-special", "f32-special", {"runs": False, "zstd": False}),
+    ("fast-runs-mixed", "v2-u8-background", {"brick": 16, "rows": False, "zstd": False}),
+    ("fast-runs-labels", "labels", {"brick": 32, "rows": False, "zstd": False}),
+    ("fast-runs-u8-background", "u8-background", {"brick": 32, "rows": False, "zstd": False}),
+    ("fast-rows-labels", "labels-2x", {"brick": 32, "zstd": False}),
+    ("fast-rows-mixed", "v2-u8-background", {"brick": 16, "zstd": False}),
+    ("fast-zstd-labels", "labels-2x", {"brick": 32}),
+    ("fast-zstd-mixed", "v2-u8-background", {"brick": 16}),
 ]
 
 
@@ -387,6 +398,7 @@ def test_golden_fast_streams_cover_every_choice():
     # the run mode after every predictor
     assert {p + "+runs" for p in ("fast-med-near", "fast-med3d-near", "fast-mean-far")} <= seen
     assert "fast-med3d-near+runs+rows" in seen  # the row kinds
+    assert "zstd" in seen  # mode 3
 
 
 # --- corrupt payloads --------------------------------------------------------------------
@@ -401,7 +413,7 @@ def _stream_parts(data):
 
 
 def test_corrupt_payloads_raise_format_error():
-    c = FastCodec()
+    c = FastCodec(zstd=False)
     a = np.rint(smooth((6, 7, 8), noise=5) * 9).astype(np.int16)
     good = c.encode(a)
     assert good[0] == MODE_CODED and good[1] == 0
@@ -411,7 +423,11 @@ def test_corrupt_payloads_raise_format_error():
     nctx, tpos = _stream_parts(stream)
     bad = [
         b"",
-        bytes([3]),  # unknown mode
+        bytes([4]),  # unknown mode
+        bytes([MODE_ZSTD]),  # no frame
+        bytes([MODE_ZSTD]) + b"\x28\xb5\x2f\xfd" + bytes(12),  # a broken frame
+        bytes([MODE_ZSTD]) + ZstdCodec().encode(a[:-1]),  # a frame of the wrong size
+        bytes([MODE_ZSTD]) + ZstdCodec().encode(np.concatenate([a, a])),  # too long
         bytes([MODE_CODED]),  # no flags
         bytes([MODE_CODED, 0x80]) + good[2:],  # unknown flag
         bytes([MODE_CODED, FLAG_FLOAT]) + good[2:],  # float flag on integers
@@ -570,6 +586,30 @@ def test_the_cap_keeps_every_class():
         assert fastpredict._activity(capped) == fastpredict._activity(sum(terms))
 
 
+def test_zstd_bricks_where_they_cost_little():
+    """Mode 3 is chosen only within its slack of the other payloads (and never longer
+    than raw voxels), is exact for every width, and ``zstd=False`` never writes it."""
+    rng = np.random.default_rng(3)
+    bricks = [
+        blocks((24, 24, 24)).astype(np.uint8),
+        (blocks((16, 20, 24), seed=1) * 1000 - 3000).astype(np.int16),
+        blocks((12, 14, 16), seed=2).astype(np.float32),
+        rng.integers(0, 256, (8, 8, 8)).astype(np.uint8),  # noise: raw
+    ]
+    modes = []
+    for a in bricks:
+        new, old = FastCodec().encode(a), FastCodec(zstd=False).encode(a)
+        assert old[0] != MODE_ZSTD
+        modes.append(new[0])
+        if new[0] == MODE_ZSTD:
+            dense = len(old) * ZSTD_DENSE <= a.nbytes
+            assert len(new) <= (1 + ZSTD_SLACK * dense) * len(old) and describe(new) == "zstd"
+        else:
+            assert new == old
+        assert same_bits(a, FastCodec().decode(new, a.shape, a.dtype))
+    assert modes[:3].count(MODE_ZSTD) >= 2 and modes[3] == MODE_RAW, modes
+
+
 def _payloads():
     """One payload of each kind (constant, raw, palette, plain, float) and its brick."""
     c = FastCodec()
@@ -584,11 +624,12 @@ def _payloads():
         np.rint(smooth((7, 10, 12))).astype(np.int16),
         (np.rint(smooth((5, 6, 7))) * 1000).astype(np.int32),
         smooth((4, 6, 8)).astype(np.float32),
+        np.repeat(labels, 2, axis=1).astype(np.uint16) * 300,  # zstd, two byte planes
     ]
     return [(c.encode(a), a) for a in out]
 
 
-@pytest.mark.parametrize("k", range(6))
+@pytest.mark.parametrize("k", range(7))
 def test_decode_into_a_view_of_a_larger_volume(k):
     """``decode_into`` writes exactly the brick, through any strides, and nothing else."""
     payload, a = _payloads()[k]

@@ -171,18 +171,19 @@ class ZstdCodec(BrickCodec):
         )
 
     def decode(self, data: bytes | memoryview, shape: tuple[int, ...], dtype: Any) -> np.ndarray:
-        dtype = np.dtype(dtype)
-        n = int(np.prod(shape))
+        out = np.empty(tuple(shape), dtype=np.dtype(dtype))
+        self.decode_into(data, out)
+        return out
+
+    def decode_into(self, data: bytes | memoryview, out: np.ndarray) -> None:
+        """The inflated bytes go to ``out`` in one copy (bytes) or one unshuffle and one
+        copy (wider voxels)."""
+        dtype, n = out.dtype, out.size
         raw = inflate(data, n * dtype.itemsize, "zstd brick payload", exact=True)
         b = np.frombuffer(raw, dtype=np.uint8)
         if self.shuffle and dtype.itemsize > 1:
-            b = b.reshape(dtype.itemsize, n).T
-        return (
-            np.ascontiguousarray(b)
-            .view(storage_dtype(dtype))
-            .reshape(shape)
-            .astype(dtype, copy=True)
-        )
+            b = np.ascontiguousarray(b.reshape(dtype.itemsize, n).T)
+        out[...] = b.view(storage_dtype(dtype)).reshape(out.shape)
 
 
 def piecewise_constant(brick: np.ndarray) -> bool:

@@ -72,7 +72,7 @@ def make_codec(codec: str = "auto", dtype: Any = None, **options: Any):
     if codec == "fast":
         from .fast import FastCodec
 
-        return FastCodec(runs=options.get("runs", True), rows=options.get("rows", True))
+        return FastCodec(**{k: options.get(k, True) for k in ("runs", "rows", "zstd")})
     raise OptionError(
         f"expected codec 'auto', 'lossless', 'fast', 'wavelet' or 'zstd', found {codec!r}"
     )
@@ -91,6 +91,7 @@ def compress(
     predict_version: int | None = None,
     runs: bool | None = None,
     rows: bool | None = None,
+    zstd: bool | None = None,
     brick: int | tuple[int, int, int] | None = None,
     max_error: float | None = None,
     rel_error: float | None = None,
@@ -142,6 +143,10 @@ def compress(
     rows : bool, optional
         The fast codec's row kinds (copies of the row or slice above; with the run
         mode): on (the default) or off (as files written before them, byte for byte).
+    zstd : bool, optional
+        The fast codec's zstd bricks (mode 3, where byte-shuffled zstd is about as short
+        and decodes far faster: label maps): on (the default) or off (as files written
+        before them, byte for byte).
     effort : {"default", "fast"}
         The error-bounded encoder's (``max_error``, ``rel_error``, or ``psnr``/``ratio``
         on floats): ``default`` makes every coding of a brick and keeps the shortest;
@@ -193,7 +198,7 @@ def compress(
         bounded = bool(asked) and not ({"quality", "threshold"} & set(asked))
         brick = bricks.default_brick(vol.shape, vol.dtype, bounded, codec)
     brick_t = bricks.parse_brick(brick)
-    for name, value in (("runs", runs), ("rows", rows)):
+    for name, value in (("runs", runs), ("rows", rows), ("zstd", zstd)):
         if value is not None and (codec != "fast" or asked):
             raise OptionError(
                 f"{name}: a setting of the lossless fast codec, found codec {codec!r}"
@@ -209,7 +214,13 @@ def compress(
                 "rel_error, psnr, ratio); for a faster lossless stream use codec='fast'"
             )
         search = None
-        extra = {"tools": tools, "predict_version": predict_version, "runs": runs, "rows": rows}
+        extra = {
+            "tools": tools,
+            "predict_version": predict_version,
+            "runs": runs,
+            "rows": rows,
+            "zstd": zstd,
+        }
         c = make_codec(
             codec, vol.dtype, **inner, **{k: v for k, v in extra.items() if v is not None}
         )
