@@ -679,6 +679,55 @@ def _leap(i, t0, tnear, tfar, step, next_check, oz, oy, ox, dz, dy, dx, nz, ny, 
     return 0, i, next_check
 
 
+@kernel(inline=True)
+def _fixed_brick(p, n, nb, brick, sh):
+    """Brick index along one axis of fixed-point position ``p`` clamped to ``[0, n - 1]``
+    (a shift when ``brick`` is ``2^sh``)."""
+    q = min(max(p, np.int64(0)), np.int64(n - 1) << FRAC)
+    b = q >> (FRAC + sh) if sh >= 0 else (q >> FRAC) // brick
+    return min(b, nb - 1)
+
+
+@kernel(inline=True)
+def _fixed_exit(b, nb, p, s, inv, r, brick):
+    """Steps (a float, ``inv = 1 / s``) from fixed-point position ``p`` to the plane where
+    a ray of stride ``s`` leaves bricks ``b - r .. b + r`` along one axis (inf when that
+    side is the volume's edge or the ray runs parallel)."""
+    if s > 0 and b + r < nb - 1:
+        return np.float64((np.int64((b + r + 1) * brick) << FRAC) - p) * inv
+    if s < 0 and b - r > 0:
+        return np.float64((np.int64((b - r) * brick) << FRAC) - p) * inv
+    return np.inf
+
+
+@kernel(inline=True)
+def _leap_fixed(i, nseg, pz, py, px, sz, sy, sx, iz, iy, ix, nz, ny, nx, leap, brick, sh):
+    """:func:`_leap` for the fast march, in its fixed-point positions: segment ``i``
+    starts at (pz, py, px), the next at ``+ (sz, sy, sx)`` (``iz = 1 / sz``...).
+    Returns ``(state, i, next test)``: the brick by shifts, the cube's exit in steps by one
+    multiply an axis (no division), the last segment still starting inside it rounded
+    down (1e-6 step: a jump may stop one segment short, never past one that shows). A
+    ray leaves through empty space only when even segment ``nseg + 1`` would start in
+    the cube, so the shorter last segment is never skipped on a rounding."""
+    nbz, nby, nbx = leap.shape
+    bz = _fixed_brick(pz, nz, nbz, brick, sh)
+    by = _fixed_brick(py, ny, nby, brick, sh)
+    bx = _fixed_brick(px, nx, nbx, brick, sh)
+    lv = leap[bz, by, bx]
+    r = abs(lv) - 1
+    x = min(_fixed_exit(bz, nbz, pz, sz, iz, r, brick), _fixed_exit(by, nby, py, sy, iy, r, brick),
+            _fixed_exit(bx, nbx, px, sx, ix, r, brick), nseg + 2.0)  # fmt: skip
+    last = i + int(math.floor(x - 1e-6))  # the last segment starting in the cube
+    if lv <= 0:
+        return 0, i, max(last + 1, i + 1)  # among visible bricks: no test till then
+    if last > nseg:
+        return 2, i, 0
+    last = min(last, nseg - 1)
+    if last > i:  # marched, untested: it may straddle the exit
+        return 1, last, last + 1
+    return 0, i, i + 1
+
+
 @kernel
 def _leap_kernel(empty, out):
     """The leap map: on an empty brick its Chebyshev distance (in bricks) to the nearest
@@ -989,6 +1038,7 @@ def _march(
     ka, kd, ks, shin = shading[0], shading[1], shading[2], shading[3]
     ishin = int(shin)
     whole = ishin == shin and ishin >= 0
+    sh = _exact_log2(brick)
     vs = scale / fixed_unit(vol)  # table position = sample * vs + v0
     v0 = -lo * scale
     for k in range(rows.shape[0]):
@@ -1007,6 +1057,12 @@ def _march(
             bz, by, bx = (to_fixed(oz + t_base * dz), to_fixed(oy + t_base * dy),
                           to_fixed(ox + t_base * dx))  # fmt: skip
             sz, sy, sx = to_fixed(step * dz), to_fixed(step * dy), to_fixed(step * dx)
+            # the empty-space test looks at segment starts (post: base is a midpoint)
+            lz, ly, lx = bz, by, bx
+            if not pre:
+                lz, ly, lx = (to_fixed(oz + tnear * dz), to_fixed(oy + tnear * dy),
+                              to_fixed(ox + tnear * dx))  # fmt: skip
+            iz, iy, ix = 1.0 / sz, 1.0 / sy, 1.0 / sx
             ar = 0.0
             ag = 0.0
             ab = 0.0
@@ -1014,20 +1070,19 @@ def _march(
             xf = 0.0
             i0, i1, fi = _ucell(0.0, n_tab)  # the front's table cell, carried along
             have_front = False
-            next_check = -1.0
+            next_k = 0  # the next segment tested for empty space
             i = 0
             while i < nseg:
-                t0 = tnear + i * step
-                if skip and t0 >= next_check:
-                    state, i, next_check = _leap(
-                        i, t0, tnear, tfar, step, next_check,
-                        oz, oy, ox, dz, dy, dx, nz, ny, nx, leap, brick,
+                if skip and i >= next_k:
+                    state, i, next_k = _leap_fixed(
+                        i, nseg, lz + i * sz, ly + i * sy, lx + i * sx, sz, sy, sx, iz, iy, ix,
+                        nz, ny, nx, leap, brick, sh,
                     )  # fmt: skip
                     if state == 2:
                         break
                     if state == 1:
                         have_front = False
-                        continue
+                t0 = tnear + i * step
                 t1 = min(t0 + step, tfar)
                 seglen = t1 - t0
                 if seglen <= 0.0:
