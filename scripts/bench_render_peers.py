@@ -172,10 +172,13 @@ class Volpack:
 
     def frame(self, azimuth: float, step=None):
         from volpack.render.camera import Camera
+        from volpack.render import raycast
         from volpack.render.prepared import prepare_volume
         from volpack.render.raycast import render
 
         cam = Camera(azimuth=azimuth, elevation=ELEVATION, size=(self.size, self.size))
+        if self.prep is None:  # the first image builds its tables too, not another's
+            raycast._TABLES.clear()
         t, c = time.perf_counter(), time.process_time()
         if self.prep is None:
             self.prep = prepare_volume(self.vol, self.spacing)
@@ -296,17 +299,24 @@ def main(argv=None) -> int:
     # compile volpack's kernels outside the timings (VTK's code is compiled already)
     from volpack.render.camera import Camera
     from volpack.render.raycast import render
+    from volpack.render.transfer import TransferFunction
 
     rows: list[dict] = []
     for name in args.volumes:
         vol, spacing, _ = datasets.load(name)
         spacing = tuple(float(s) for s in spacing)
         print(f"{name} {vol.shape} {vol.dtype} spacing {spacing}", flush=True)
-        small = vol[:9, :9, :9]
-        for cls in ("preintegrated", "post"):
-            for sh in ("none", "phong"):
-                render(small, spacing=spacing, tf=_tf(small), classification=cls,
-                       shading=sh, camera=Camera(size=(4, 4)), workers=args.workers)  # fmt: skip
+        # a coarse copy with the cases' TFs, so that what the first images run is compiled
+        # (a corner of the volume, often all background, left the normals uncompiled)
+        k = max(1, max(vol.shape) // 16)
+        small = vol[::k, ::k, ::k]
+        sp_small = tuple(s * k for s in spacing)
+        for tfk in ("semi", "opaque"):
+            tf = TransferFunction(points=tf_points(tfk, *tf_base(vol)))
+            for cls in ("preintegrated", "post"):
+                for sh in ("none", "phong"):
+                    render(small, spacing=sp_small, tf=tf, classification=cls, shading=sh,
+                           camera=Camera(size=(16, 16)), workers=args.workers)  # fmt: skip
         for tfk in ("semi", "opaque"):
             for shade in (False, True):
                 run_case(name, vol, spacing, tfk, shade, args, rows)
@@ -317,13 +327,6 @@ def main(argv=None) -> int:
     chart(rows, args.out / "peers.png")
     print(f"wrote {args.out / 'peers.csv'} and peers.png")
     return 0
-
-
-def _tf(vol):
-    from volpack.render.transfer import TransferFunction
-
-    lo, hi = float(vol.min()), float(vol.max())
-    return TransferFunction(points=tf_points("semi", lo, hi if hi > lo else lo + 1))
 
 
 if __name__ == "__main__":

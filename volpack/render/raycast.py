@@ -100,6 +100,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
+import threading
 import time
 from collections.abc import Callable, Sequence
 
@@ -1207,20 +1208,51 @@ def _box_range(a, z0, z1, y0, y1, x0, x1):
     return mn, mx
 
 
+def brick_ranges(vol, brick: int, mins, maxs, workers: int = 1) -> None:
+    """Fill ``mins`` and ``maxs`` with the range of each ``brick``^3 brick of ``vol``
+    plus one voxel of overlap on the high side (what trilinear samples inside the brick
+    read), slabs of bricks on ``workers`` threads."""
+    nbz = mins.shape[0]
+    per = max(1, -(-nbz // (4 * workers)))
+    for _ in ordered_map(lambda b0: _brick_range_kernel(vol, brick, b0, min(b0 + per, nbz),
+                                                        mins, maxs),
+                         range(0, nbz, per), workers=workers):  # fmt: skip
+        pass
+
+
 @kernel
-def _brick_range_kernel(vol, brick, mins, maxs):
-    """Min and max of each brick's voxels plus one voxel of overlap on the high side."""
+def _brick_range_kernel(vol, brick, bz0, bz1, mins, maxs):
+    """:func:`brick_ranges` of brick slabs ``bz0 .. bz1 - 1``, reading each voxel row
+    once: a row's part in brick column ``bx`` (plus its overlap voxel) updates the
+    bricks that hold the row, two along an axis where it is one's overlap layer."""
     nz, ny, nx = vol.shape
-    nbz, nby, nbx = mins.shape
-    for bz in range(nbz):
+    nby, nbx = mins.shape[1], mins.shape[2]
+    for bz in range(bz0, bz1):
         for by in range(nby):
             for bx in range(nbx):
-                mins[bz, by, bx], maxs[bz, by, bx] = _box_range(
-                    vol,
-                    bz * brick, min((bz + 1) * brick + 1, nz),
-                    by * brick, min((by + 1) * brick + 1, ny),
-                    bx * brick, min((bx + 1) * brick + 1, nx),
-                )  # fmt: skip
+                mins[bz, by, bx] = np.inf
+                maxs[bz, by, bx] = -np.inf
+    for z in range(bz0 * brick, min(bz1 * brick + 1, nz)):
+        cz1 = min(z // brick, bz1 - 1)
+        cz0 = max(z // brick - 1 if z % brick == 0 else cz1, bz0)
+        for y in range(ny):
+            cy1 = min(y // brick, nby - 1)
+            cy0 = max(y // brick - 1 if y % brick == 0 else cy1, 0)
+            for bx in range(nbx):
+                mn = np.inf
+                mx = -np.inf
+                for x in range(bx * brick, min((bx + 1) * brick + 1, nx)):
+                    v = vol[z, y, x]
+                    if v < mn:
+                        mn = v
+                    if v > mx:
+                        mx = v
+                for cz in range(cz0, cz1 + 1):
+                    for cy in range(cy0, cy1 + 1):
+                        if mn < mins[cz, cy, bx]:
+                            mins[cz, cy, bx] = mn
+                        if mx > maxs[cz, cy, bx]:
+                            maxs[cz, cy, bx] = mx
 
 
 @kernel
@@ -1339,7 +1371,7 @@ def render(
     ndarray (h, w, 4) float32, or (image, RenderStats)
     """
     t_start = time.perf_counter()
-    from .preint import iso_table, preintegrate
+    from .preint import iso_table
 
     if classification not in MODES:
         raise VolpackError(f"expected classification in {sorted(MODES)}, found {classification!r}")
@@ -1393,15 +1425,9 @@ def render(
     mode = MODES[classification]
     has_vol = tf is not None
     base = transfer_table(tf, lo, hi, n) if has_vol else np.zeros((n, 4), np.float32)
-    post_tab = _corrected_table(base, step)
-    pre2d = np.zeros((1, 1, 4), np.float32)
-    if has_vol and mode == 2:
-        lit = shading in ("preintegrated", "centroid")
-        pre2d = np.ascontiguousarray(
-            preintegrate(base, step, method=preint_method, lighting=lit), np.float32
-        )
-        if pre2d.shape[:2] != (n, n):
-            raise VolpackError(f"expected an ({n}, {n}, 4) table, found {pre2d.shape}")
+    lit = shading in ("preintegrated", "centroid")
+    tables = _frame_tables(base, float(step), has_vol and mode == 2, lit, preint_method)
+    post_tab, pre2d = tables.post, tables.pre2d
     iso_vals = np.zeros(0, np.float64)
     iso2d = np.zeros((1, 1, 4), np.float32)
     if isos:
@@ -1438,7 +1464,7 @@ def render(
         shape = vol.shape
         brick = brick_size(shape)
         if skip_empty:
-            ranges = prep.brick_ranges(fill, brick, _brick_range_kernel)
+            ranges = prep.brick_ranges(fill, brick, lambda *a: brick_ranges(*a, nthreads))
     if paged and volume.cell % BRICK:  # bricks must not straddle page cells: skip by cell
         empty, brick = volume.page < 0, volume.cell
     else:
@@ -1449,7 +1475,7 @@ def render(
         if prep is not None and skip_empty and mode != 1:  # kept while the tables show
             # the same entries (the frames of an orbit): 10-20 ms a frame on 4^3 bricks
             key = (fill, brick, mode, has_vol, bool(isos), lo, scale,
-                   _shown(post_tab) if mode == 0 else _shown(pre2d), _shown(iso2d))  # fmt: skip
+                   tables.shown(mode == 0), _shown(iso2d))  # fmt: skip
             empty = prep.memo("empty", key, find_empty)
         else:
             empty = find_empty()
@@ -1460,12 +1486,12 @@ def render(
     else:
         leap = np.zeros(empty.shape, np.int32)
         _leap_kernel(np.ascontiguousarray(empty), leap)
-    origins, dirs = camera.rays(shape, sp)
+    origins, dirs, fill_rays = camera.ray_rows(shape, sp)  # threads fill their rows
     fast = FAST_PATH and has_vol and not isos and mode != 1 and shading in ("none", "phong")
     # orthographic shaded frames light quantised normals through one table per frame
     codes, has_codes = np.zeros((1, 1, 1, 1), np.uint16), False  # a stack of code volumes
-    if (fast and shading == "phong" and normals == "quantised"
-            and bool(np.all(dirs == dirs[:1, :1]))):  # fmt: skip
+    parallel = camera.projection == "orthographic" or dirs.shape[:2] == (1, 1)
+    if fast and shading == "phong" and normals == "quantised" and parallel:
         if paged:
             if volume.codes is not None and sp == tuple(volume.spacing):  # codes of it
                 codes, has_codes = volume.codes, True  # the nodes' code bricks
@@ -1495,9 +1521,10 @@ def render(
         grad, has_grad = volume.grad, True  # the nodes' gradient bricks
     if fast:
         march = _MARCH[mode == 2, 2 if has_codes else int(shading == "phong")]
-        clear = clear_bounds(pre2d if mode == 2 else post_tab)
+        clear = tables.clear(mode == 0)
 
         def run(rows: np.ndarray) -> None:  # the fast path (see _march)
+            fill_rays(rows)
             march(
                 vol, grad, has_grad, codes, light, origins, dirs, rows, post_tab,
                 pre2d, lo, scale,
@@ -1509,6 +1536,7 @@ def render(
         return finish_render(out, row_samples, t_start, render_stats)
 
     def run(rows: np.ndarray) -> None:
+        fill_rays(rows)
         _render_kernel(
             vol, grad, has_grad, rgba, origins, dirs, rows, mode, has_vol,
             post_tab, pre2d, iso2d, iso_vals, bool(isos), lo, scale, float(step),
@@ -1518,6 +1546,61 @@ def render(
 
     run_row_sets(run, h, nthreads, progress)
     return finish_render(out, row_samples, t_start, render_stats)
+
+
+class _Tables:
+    """A frame's classification tables and what is derived from them, kept while the
+    transfer function and step stay (the frames of an orbit, ``play``, ``walk``): the
+    pre-integrated table, its visible entries and clear bounds took 10 ms a frame, a
+    tenth of a small volume's frame on two threads."""
+
+    def __init__(self, base, step, pre, lit, method):
+        from .preint import preintegrate
+
+        n = base.shape[0]
+        self.post = _corrected_table(base, step)
+        self.pre2d = np.zeros((1, 1, 4), np.float32)
+        if pre:
+            self.pre2d = np.ascontiguousarray(
+                preintegrate(base, step, method=method, lighting=lit), np.float32
+            )
+            if self.pre2d.shape[:2] != (n, n):
+                raise VolpackError(f"expected an ({n}, {n}, 4) table, found {self.pre2d.shape}")
+        for t in (self.post, self.pre2d):
+            t.flags.writeable = False  # shared by later frames
+        self._derived = {}
+
+    def _get(self, name, post, fn):
+        key = (name, post)
+        if key not in self._derived:
+            self._derived[key] = fn(self.post if post else self.pre2d)
+        return self._derived[key]
+
+    def shown(self, post: bool) -> bytes:
+        """:func:`_shown` of the post (else the pre-integrated) table."""
+        return self._get("shown", post, _shown)
+
+    def clear(self, post: bool) -> np.ndarray:
+        """:func:`clear_bounds` of the post (else the pre-integrated) table."""
+        return self._get("clear", post, clear_bounds)
+
+
+_TABLES: dict = {}  # (table bytes, step, pre, lit, method) -> _Tables, the last few
+_TABLES_LOCK = threading.Lock()
+
+
+def _frame_tables(base, step, pre, lit, method) -> _Tables:
+    """The :class:`_Tables` of the TF table ``base`` at ``step`` (kept for the last 4)."""
+    key = (base.tobytes(), base.shape, step, pre, lit and pre, method if pre else None)
+    with _TABLES_LOCK:
+        tabs = _TABLES.pop(key, None)
+    if tabs is None:
+        tabs = _Tables(base, step, pre, lit, method)
+    with _TABLES_LOCK:
+        _TABLES[key] = tabs  # most recent last
+        while len(_TABLES) > 4:
+            del _TABLES[next(iter(_TABLES))]
+    return tabs
 
 
 def clear_bounds(tab: np.ndarray) -> np.ndarray:
@@ -1685,7 +1768,7 @@ def _empty_bricks(
         alpha = np.ascontiguousarray(rgba[..., 3])
         mins = np.empty(nb, np.float32)
         maxs = np.empty(nb, np.float32)
-        _brick_range_kernel(alpha, brick, mins, maxs)
+        brick_ranges(alpha, brick, mins, maxs)
         empty = maxs <= 0.0
         if not has_iso:
             return empty
@@ -1699,7 +1782,7 @@ def _empty_bricks(
     elif ranges is not None:
         mins, maxs = ranges
     else:
-        _brick_range_kernel(vol, brick, mins, maxs)
+        brick_ranges(vol, brick, mins, maxs)
     invisible = uncovered | _invisible_range(
         mins, maxs, mode, has_vol, post_tab, pre2d, iso2d, has_iso, lo, scale
     )
