@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable
 
 import numpy as np
 
@@ -193,18 +192,6 @@ class Camera:
     ) -> tuple[np.ndarray, np.ndarray]:
         """Return ``(origins, directions)``, each ``(h, w, 3)`` float64 in voxel index
         space ``(z, y, x)``; ``t`` along a ray counts reference lengths (module docstring)."""
-        origins, dirs, fill = self.ray_rows(shape_zyx, spacing)
-        fill(np.arange(origins.shape[0]))
-        return origins, dirs
-
-    def ray_rows(
-        self, shape_zyx: tuple[int, int, int], spacing: tuple[float, float, float] = (1, 1, 1)
-    ) -> tuple[np.ndarray, np.ndarray, Callable[[np.ndarray], None]]:
-        """:meth:`rays` left to fill: ``(origins, directions, fill)``, ``fill(rows)``
-        computing those image rows (the same numbers), so a renderer's threads compute
-        the rays of the rows they trace (12 MB a 512^2 frame, 8 ms on one thread). The
-        first and last rows (the image's corners) are filled here, so a camera that
-        cannot be placed fails at once."""
         cam, sp, centre, radius = self.world_frame(shape_zyx, spacing)
         fwd, right, up, base, half = cam._frame(centre, radius)
         w, h = cam.size
@@ -213,29 +200,27 @@ class Camera:
         v = h / short - (np.arange(h) + 0.5) * 2 / short
         origins = np.empty((h, w, 3))
         dirs = np.empty((h, w, 3))
-        frame = (fwd, right, up, np.asarray(base, float), float(half), u, v,
-                 cam.projection == "orthographic", sp, float(sp.min()) / sp)  # fmt: skip
-
-        def fill(rows) -> None:
-            if not _index_rays(*frame, np.asarray(rows, np.int64), origins, dirs):
-                raise VolpackError(
-                    f"cannot place the camera: the volume's extent (shape {tuple(shape_zyx)} "
-                    f"times spacing {tuple(spacing)}) overflows float64"
-                )
-
-        fill(np.array([0, h - 1]))
-        return origins, dirs, fill
+        with np.errstate(over="ignore", invalid="ignore"):  # still too large: checked below
+            finite = _index_rays(fwd, right, up, np.asarray(base, float), float(half), u, v,
+                                 cam.projection == "orthographic", sp, float(sp.min()) / sp,
+                                 origins, dirs)  # fmt: skip
+        if not finite:
+            raise VolpackError(
+                f"cannot place the camera: the volume's extent (shape {tuple(shape_zyx)} times "
+                f"spacing {tuple(spacing)}) overflows float64"
+            )
+        return origins, dirs
 
 
 @kernel
-def _index_rays(fwd, right, up, base, half, u, v, ortho, sp, dscale, rows, origins, dirs):
+def _index_rays(fwd, right, up, base, half, u, v, ortho, sp, dscale, origins, dirs):
     """:meth:`Camera.world_rays` divided by the spacing (origins) and scaled to
-    reference lengths (directions), for image rows ``rows``, in one pass and with the
-    same operations in the same order (the same numbers): 12 MB of rays a 512^2 frame,
-    where numpy's passes took 30-40 ms. Returns whether every number is finite."""
-    w = u.shape[0]
+    reference lengths (directions), in one pass and with the same operations in the
+    same order (the same numbers): 12 MB of rays a 512^2 frame, where numpy's passes
+    took 30-40 ms. Returns whether every number is finite."""
+    h, w = v.shape[0], u.shape[0]
     ok = True
-    for r in rows:
+    for r in range(h):
         for c in range(w):
             if ortho:
                 for k in range(3):

@@ -77,7 +77,11 @@ at once, to the last segment that still starts inside; and for each visible bric
 distance to the nearest empty one, so a ray inside visible space is tested again only
 where it leaves the cube of visible bricks around it (not at every brick: on the
 benchmark's MRI the tests took 40 % of a semi-transparent frame). The sample grid, and
-the image, stay exactly those of the full march.
+the image, stay exactly those of the full march. The fast path tests in its fixed-point
+positions (:func:`_leap_fixed`): the brick by shifts, the cube's exit in steps by one
+multiply an axis; the float test's four divisions made the tests half of a frame of the
+benchmark's z-map, whose scattered blobs leave rays crossing a brick border every few
+segments.
 
 Multiresolution volumes (:class:`volpack.render.lod.PagedVolume`) go through the same
 kernels: :func:`sample` is resolved at compile time to plain trilinear sampling or to a
@@ -1486,12 +1490,12 @@ def render(
     else:
         leap = np.zeros(empty.shape, np.int32)
         _leap_kernel(np.ascontiguousarray(empty), leap)
-    origins, dirs, fill_rays = camera.ray_rows(shape, sp)  # threads fill their rows
+    origins, dirs = camera.rays(shape, sp)
     fast = FAST_PATH and has_vol and not isos and mode != 1 and shading in ("none", "phong")
     # orthographic shaded frames light quantised normals through one table per frame
     codes, has_codes = np.zeros((1, 1, 1, 1), np.uint16), False  # a stack of code volumes
-    parallel = camera.projection == "orthographic" or dirs.shape[:2] == (1, 1)
-    if fast and shading == "phong" and normals == "quantised" and parallel:
+    if (fast and shading == "phong" and normals == "quantised"
+            and bool(np.all(dirs == dirs[:1, :1]))):  # fmt: skip
         if paged:
             if volume.codes is not None and sp == tuple(volume.spacing):  # codes of it
                 codes, has_codes = volume.codes, True  # the nodes' code bricks
@@ -1524,7 +1528,6 @@ def render(
         clear = tables.clear(mode == 0)
 
         def run(rows: np.ndarray) -> None:  # the fast path (see _march)
-            fill_rays(rows)
             march(
                 vol, grad, has_grad, codes, light, origins, dirs, rows, post_tab,
                 pre2d, lo, scale,
@@ -1536,7 +1539,6 @@ def render(
         return finish_render(out, row_samples, t_start, render_stats)
 
     def run(rows: np.ndarray) -> None:
-        fill_rays(rows)
         _render_kernel(
             vol, grad, has_grad, rgba, origins, dirs, rows, mode, has_vol,
             post_tab, pre2d, iso2d, iso_vals, bool(isos), lo, scale, float(step),
