@@ -172,10 +172,13 @@ class Volpack:
 
     def frame(self, azimuth: float, step=None):
         from volpack.render.camera import Camera
+        from volpack.render import raycast
         from volpack.render.prepared import prepare_volume
         from volpack.render.raycast import render
 
         cam = Camera(azimuth=azimuth, elevation=ELEVATION, size=(self.size, self.size))
+        if self.prep is None:  # the first image builds its tables too, not another's
+            raycast._TABLES.clear()
         t, c = time.perf_counter(), time.process_time()
         if self.prep is None:
             self.prep = prepare_volume(self.vol, self.spacing)
@@ -275,38 +278,37 @@ def chart(rows, path: Path) -> None:
     plt.close(fig)
 
 
-def main(argv=None) -> int:
-    import datasets
-
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def scene_args(doc: str) -> argparse.ArgumentParser:
+    """A parser with the options the render benchmarks share (output, threads, image
+    size, step, volumes)."""
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
     ap.add_argument("--out", type=Path, default=ROOT / "results" / "render")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--size", type=int, default=512)
     ap.add_argument("--step", type=float, default=0.5)
+    ap.add_argument("--volumes", nargs="+", default=list(VOLUMES))
+    return ap
+
+
+def main(argv=None) -> int:
+    import datasets
+
+    ap = scene_args(__doc__)
     ap.add_argument("--ref-step", type=float, default=0.125)
     ap.add_argument("--coarse-step", type=float, default=1.0,
                     help="step of the extra pre-integrated volpack run")  # fmt: skip
     ap.add_argument("--frames", type=int, default=3, help="further frames after the first")
-    ap.add_argument("--volumes", nargs="+", default=list(VOLUMES))
     ap.add_argument("--quick", action="store_true", help="256^2 images, 2 further frames")
     args = ap.parse_args(argv)
     if args.quick:
         args.size, args.frames = 256, 2
     args.out.mkdir(parents=True, exist_ok=True)
-    # compile volpack's kernels outside the timings (VTK's code is compiled already)
-    from volpack.render.camera import Camera
-    from volpack.render.raycast import render
-
     rows: list[dict] = []
     for name in args.volumes:
         vol, spacing, _ = datasets.load(name)
         spacing = tuple(float(s) for s in spacing)
         print(f"{name} {vol.shape} {vol.dtype} spacing {spacing}", flush=True)
-        small = vol[:9, :9, :9]
-        for cls in ("preintegrated", "post"):
-            for sh in ("none", "phong"):
-                render(small, spacing=spacing, tf=_tf(small), classification=cls,
-                       shading=sh, camera=Camera(size=(4, 4)), workers=args.workers)  # fmt: skip
+        warm_up(vol, spacing, args.workers)
         for tfk in ("semi", "opaque"):
             for shade in (False, True):
                 run_case(name, vol, spacing, tfk, shade, args, rows)
@@ -319,11 +321,23 @@ def main(argv=None) -> int:
     return 0
 
 
-def _tf(vol):
+def warm_up(vol, spacing, workers: int) -> None:
+    """Compile volpack's kernels outside the timings (VTK's code is compiled already): a
+    coarse copy rendered with the cases' TFs, so that everything the first images run
+    is compiled (a corner of the volume, often all background, left the normals out)."""
+    from volpack.render.camera import Camera
+    from volpack.render.raycast import render
     from volpack.render.transfer import TransferFunction
 
-    lo, hi = float(vol.min()), float(vol.max())
-    return TransferFunction(points=tf_points("semi", lo, hi if hi > lo else lo + 1))
+    k = max(1, max(vol.shape) // 16)
+    small = vol[::k, ::k, ::k]
+    sp_small = tuple(s * k for s in spacing)
+    for tfk in ("semi", "opaque"):
+        tf = TransferFunction(points=tf_points(tfk, *tf_base(vol)))
+        for cls in ("preintegrated", "post"):
+            for sh in ("none", "phong"):
+                render(small, spacing=sp_small, tf=tf, classification=cls, shading=sh,
+                       camera=Camera(size=(16, 16)), workers=workers)  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -111,3 +111,15 @@ def test_a_prepared_volume_follows_the_transfer_function():
             fresh = render(vol, **kw)
             assert kept[..., 3].max() > 0.05
             np.testing.assert_array_equal(kept, fresh)
+
+
+@pytest.mark.parametrize("shape, brick, workers", [((9, 13, 8), 4, 1), ((17, 5, 11), 4, 3),
+                                                   ((12, 9, 20), 8, 2)])  # fmt: skip
+def test_brick_ranges_hold_each_brick_and_its_overlap_voxel(shape, brick, workers):
+    vol = np.random.default_rng(sum(shape)).normal(size=shape).astype(np.float32)
+    nb = tuple(-(-n // brick) for n in shape)
+    mins, maxs = np.empty(nb, np.float32), np.empty(nb, np.float32)
+    rc.brick_ranges(vol, brick, mins, maxs, workers)
+    for b in itertools.product(*(range(n) for n in nb)):
+        part = vol[tuple(slice(i * brick, (i + 1) * brick + 1) for i in b)]
+        assert (mins[b], maxs[b]) == (part.min(), part.max())

@@ -77,7 +77,11 @@ at once, to the last segment that still starts inside; and for each visible bric
 distance to the nearest empty one, so a ray inside visible space is tested again only
 where it leaves the cube of visible bricks around it (not at every brick: on the
 benchmark's MRI the tests took 40 % of a semi-transparent frame). The sample grid, and
-the image, stay exactly those of the full march.
+the image, stay exactly those of the full march. The fast path tests in its fixed-point
+positions (:func:`_leap_fixed`): the brick by shifts, the cube's exit in steps by one
+multiply an axis; the float test's four divisions made the tests half of a frame of the
+benchmark's z-map, whose scattered blobs leave rays crossing a brick border every few
+segments.
 
 Multiresolution volumes (:class:`volpack.render.lod.PagedVolume`) go through the same
 kernels: :func:`sample` is resolved at compile time to plain trilinear sampling or to a
@@ -100,6 +104,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
+import threading
 import time
 from collections.abc import Callable, Sequence
 
@@ -679,6 +684,55 @@ def _leap(i, t0, tnear, tfar, step, next_check, oz, oy, ox, dz, dy, dx, nz, ny, 
     return 0, i, next_check
 
 
+@kernel(inline=True)
+def _fixed_brick(p, n, nb, brick, sh):
+    """Brick index along one axis of fixed-point position ``p`` clamped to ``[0, n - 1]``
+    (a shift when ``brick`` is ``2^sh``)."""
+    q = min(max(p, np.int64(0)), np.int64(n - 1) << FRAC)
+    b = q >> (FRAC + sh) if sh >= 0 else (q >> FRAC) // brick
+    return min(b, nb - 1)
+
+
+@kernel(inline=True)
+def _fixed_exit(b, nb, p, s, inv, r, brick):
+    """Steps (a float, ``inv = 1 / s``) from fixed-point position ``p`` to the plane where
+    a ray of stride ``s`` leaves bricks ``b - r .. b + r`` along one axis (inf when that
+    side is the volume's edge or the ray runs parallel)."""
+    if s > 0 and b + r < nb - 1:
+        return np.float64((np.int64((b + r + 1) * brick) << FRAC) - p) * inv
+    if s < 0 and b - r > 0:
+        return np.float64((np.int64((b - r) * brick) << FRAC) - p) * inv
+    return np.inf
+
+
+@kernel(inline=True)
+def _leap_fixed(i, nseg, pz, py, px, sz, sy, sx, iz, iy, ix, nz, ny, nx, leap, brick, sh):
+    """:func:`_leap` for the fast march, in its fixed-point positions: segment ``i``
+    starts at (pz, py, px), the next at ``+ (sz, sy, sx)`` (``iz = 1 / sz``...).
+    Returns ``(state, i, next test)``: the brick by shifts, the cube's exit in steps by one
+    multiply an axis (no division), the last segment still starting inside it rounded
+    down (1e-6 step: a jump may stop one segment short, never past one that shows). A
+    ray leaves through empty space only when even segment ``nseg + 1`` would start in
+    the cube, so the shorter last segment is never skipped on a rounding."""
+    nbz, nby, nbx = leap.shape
+    bz = _fixed_brick(pz, nz, nbz, brick, sh)
+    by = _fixed_brick(py, ny, nby, brick, sh)
+    bx = _fixed_brick(px, nx, nbx, brick, sh)
+    lv = leap[bz, by, bx]
+    r = abs(lv) - 1
+    x = min(_fixed_exit(bz, nbz, pz, sz, iz, r, brick), _fixed_exit(by, nby, py, sy, iy, r, brick),
+            _fixed_exit(bx, nbx, px, sx, ix, r, brick), nseg + 2.0)  # fmt: skip
+    last = i + int(math.floor(x - 1e-6))  # the last segment starting in the cube
+    if lv <= 0:
+        return 0, i, max(last + 1, i + 1)  # among visible bricks: no test till then
+    if last > nseg:
+        return 2, i, 0
+    last = min(last, nseg - 1)
+    if last > i:  # marched, untested: it may straddle the exit
+        return 1, last, last + 1
+    return 0, i, i + 1
+
+
 @kernel
 def _leap_kernel(empty, out):
     """The leap map: on an empty brick its Chebyshev distance (in bricks) to the nearest
@@ -989,6 +1043,7 @@ def _march(
     ka, kd, ks, shin = shading[0], shading[1], shading[2], shading[3]
     ishin = int(shin)
     whole = ishin == shin and ishin >= 0
+    sh = _exact_log2(brick)
     vs = scale / fixed_unit(vol)  # table position = sample * vs + v0
     v0 = -lo * scale
     for k in range(rows.shape[0]):
@@ -1007,6 +1062,12 @@ def _march(
             bz, by, bx = (to_fixed(oz + t_base * dz), to_fixed(oy + t_base * dy),
                           to_fixed(ox + t_base * dx))  # fmt: skip
             sz, sy, sx = to_fixed(step * dz), to_fixed(step * dy), to_fixed(step * dx)
+            # the empty-space test looks at segment starts (post: base is a midpoint)
+            lz, ly, lx = bz, by, bx
+            if not pre:
+                lz, ly, lx = (to_fixed(oz + tnear * dz), to_fixed(oy + tnear * dy),
+                              to_fixed(ox + tnear * dx))  # fmt: skip
+            iz, iy, ix = 1.0 / sz, 1.0 / sy, 1.0 / sx
             ar = 0.0
             ag = 0.0
             ab = 0.0
@@ -1014,20 +1075,19 @@ def _march(
             xf = 0.0
             i0, i1, fi = _ucell(0.0, n_tab)  # the front's table cell, carried along
             have_front = False
-            next_check = -1.0
+            next_k = 0  # the next segment tested for empty space
             i = 0
             while i < nseg:
-                t0 = tnear + i * step
-                if skip and t0 >= next_check:
-                    state, i, next_check = _leap(
-                        i, t0, tnear, tfar, step, next_check,
-                        oz, oy, ox, dz, dy, dx, nz, ny, nx, leap, brick,
+                if skip and i >= next_k:
+                    state, i, next_k = _leap_fixed(
+                        i, nseg, lz + i * sz, ly + i * sy, lx + i * sx, sz, sy, sx, iz, iy, ix,
+                        nz, ny, nx, leap, brick, sh,
                     )  # fmt: skip
                     if state == 2:
                         break
                     if state == 1:
                         have_front = False
-                        continue
+                t0 = tnear + i * step
                 t1 = min(t0 + step, tfar)
                 seglen = t1 - t0
                 if seglen <= 0.0:
@@ -1152,20 +1212,51 @@ def _box_range(a, z0, z1, y0, y1, x0, x1):
     return mn, mx
 
 
+def brick_ranges(vol, brick: int, mins, maxs, workers: int = 1) -> None:
+    """Fill ``mins`` and ``maxs`` with the range of each ``brick``^3 brick of ``vol``
+    plus one voxel of overlap on the high side (what trilinear samples inside the brick
+    read), slabs of bricks on ``workers`` threads."""
+    nbz = mins.shape[0]
+    per = max(1, -(-nbz // (4 * workers)))
+    for _ in ordered_map(lambda b0: _brick_range_kernel(vol, brick, b0, min(b0 + per, nbz),
+                                                        mins, maxs),
+                         range(0, nbz, per), workers=workers):  # fmt: skip
+        pass
+
+
 @kernel
-def _brick_range_kernel(vol, brick, mins, maxs):
-    """Min and max of each brick's voxels plus one voxel of overlap on the high side."""
+def _brick_range_kernel(vol, brick, bz0, bz1, mins, maxs):
+    """:func:`brick_ranges` of brick slabs ``bz0 .. bz1 - 1``, reading each voxel row
+    once: a row's part in brick column ``bx`` (plus its overlap voxel) updates the
+    bricks that hold the row, two along an axis where it is one's overlap layer."""
     nz, ny, nx = vol.shape
-    nbz, nby, nbx = mins.shape
-    for bz in range(nbz):
+    nby, nbx = mins.shape[1], mins.shape[2]
+    for bz in range(bz0, bz1):
         for by in range(nby):
             for bx in range(nbx):
-                mins[bz, by, bx], maxs[bz, by, bx] = _box_range(
-                    vol,
-                    bz * brick, min((bz + 1) * brick + 1, nz),
-                    by * brick, min((by + 1) * brick + 1, ny),
-                    bx * brick, min((bx + 1) * brick + 1, nx),
-                )  # fmt: skip
+                mins[bz, by, bx] = np.inf
+                maxs[bz, by, bx] = -np.inf
+    for z in range(bz0 * brick, min(bz1 * brick + 1, nz)):
+        cz1 = min(z // brick, bz1 - 1)
+        cz0 = max(z // brick - 1 if z % brick == 0 else cz1, bz0)
+        for y in range(ny):
+            cy1 = min(y // brick, nby - 1)
+            cy0 = max(y // brick - 1 if y % brick == 0 else cy1, 0)
+            for bx in range(nbx):
+                mn = np.inf
+                mx = -np.inf
+                for x in range(bx * brick, min((bx + 1) * brick + 1, nx)):
+                    v = vol[z, y, x]
+                    if v < mn:
+                        mn = v
+                    if v > mx:
+                        mx = v
+                for cz in range(cz0, cz1 + 1):
+                    for cy in range(cy0, cy1 + 1):
+                        if mn < mins[cz, cy, bx]:
+                            mins[cz, cy, bx] = mn
+                        if mx > maxs[cz, cy, bx]:
+                            maxs[cz, cy, bx] = mx
 
 
 @kernel
@@ -1284,7 +1375,7 @@ def render(
     ndarray (h, w, 4) float32, or (image, RenderStats)
     """
     t_start = time.perf_counter()
-    from .preint import iso_table, preintegrate
+    from .preint import iso_table
 
     if classification not in MODES:
         raise VolpackError(f"expected classification in {sorted(MODES)}, found {classification!r}")
@@ -1338,15 +1429,9 @@ def render(
     mode = MODES[classification]
     has_vol = tf is not None
     base = transfer_table(tf, lo, hi, n) if has_vol else np.zeros((n, 4), np.float32)
-    post_tab = _corrected_table(base, step)
-    pre2d = np.zeros((1, 1, 4), np.float32)
-    if has_vol and mode == 2:
-        lit = shading in ("preintegrated", "centroid")
-        pre2d = np.ascontiguousarray(
-            preintegrate(base, step, method=preint_method, lighting=lit), np.float32
-        )
-        if pre2d.shape[:2] != (n, n):
-            raise VolpackError(f"expected an ({n}, {n}, 4) table, found {pre2d.shape}")
+    lit = shading in ("preintegrated", "centroid")
+    tables = _frame_tables(base, float(step), has_vol and mode == 2, lit, preint_method)
+    post_tab, pre2d = tables.post, tables.pre2d
     iso_vals = np.zeros(0, np.float64)
     iso2d = np.zeros((1, 1, 4), np.float32)
     if isos:
@@ -1383,7 +1468,7 @@ def render(
         shape = vol.shape
         brick = brick_size(shape)
         if skip_empty:
-            ranges = prep.brick_ranges(fill, brick, _brick_range_kernel)
+            ranges = prep.brick_ranges(fill, brick, lambda *a: brick_ranges(*a, nthreads))
     if paged and volume.cell % BRICK:  # bricks must not straddle page cells: skip by cell
         empty, brick = volume.page < 0, volume.cell
     else:
@@ -1394,7 +1479,7 @@ def render(
         if prep is not None and skip_empty and mode != 1:  # kept while the tables show
             # the same entries (the frames of an orbit): 10-20 ms a frame on 4^3 bricks
             key = (fill, brick, mode, has_vol, bool(isos), lo, scale,
-                   _shown(post_tab) if mode == 0 else _shown(pre2d), _shown(iso2d))  # fmt: skip
+                   tables.shown(mode == 0), _shown(iso2d))  # fmt: skip
             empty = prep.memo("empty", key, find_empty)
         else:
             empty = find_empty()
@@ -1440,7 +1525,7 @@ def render(
         grad, has_grad = volume.grad, True  # the nodes' gradient bricks
     if fast:
         march = _MARCH[mode == 2, 2 if has_codes else int(shading == "phong")]
-        clear = clear_bounds(pre2d if mode == 2 else post_tab)
+        clear = tables.clear(mode == 0)
 
         def run(rows: np.ndarray) -> None:  # the fast path (see _march)
             march(
@@ -1463,6 +1548,61 @@ def render(
 
     run_row_sets(run, h, nthreads, progress)
     return finish_render(out, row_samples, t_start, render_stats)
+
+
+class _Tables:
+    """A frame's classification tables and what is derived from them, kept while the
+    transfer function and step stay (the frames of an orbit, ``play``, ``walk``): the
+    pre-integrated table, its visible entries and clear bounds took 10 ms a frame, a
+    tenth of a small volume's frame on two threads."""
+
+    def __init__(self, base, step, pre, lit, method):
+        from .preint import preintegrate
+
+        n = base.shape[0]
+        self.post = _corrected_table(base, step)
+        self.pre2d = np.zeros((1, 1, 4), np.float32)
+        if pre:
+            self.pre2d = np.ascontiguousarray(
+                preintegrate(base, step, method=method, lighting=lit), np.float32
+            )
+            if self.pre2d.shape[:2] != (n, n):
+                raise VolpackError(f"expected an ({n}, {n}, 4) table, found {self.pre2d.shape}")
+        for t in (self.post, self.pre2d):
+            t.flags.writeable = False  # shared by later frames
+        self._derived = {}
+
+    def _get(self, name, post, fn):
+        key = (name, post)
+        if key not in self._derived:
+            self._derived[key] = fn(self.post if post else self.pre2d)
+        return self._derived[key]
+
+    def shown(self, post: bool) -> bytes:
+        """:func:`_shown` of the post (else the pre-integrated) table."""
+        return self._get("shown", post, _shown)
+
+    def clear(self, post: bool) -> np.ndarray:
+        """:func:`clear_bounds` of the post (else the pre-integrated) table."""
+        return self._get("clear", post, clear_bounds)
+
+
+_TABLES: dict = {}  # (table bytes, step, pre, lit, method) -> _Tables, the last few
+_TABLES_LOCK = threading.Lock()
+
+
+def _frame_tables(base, step, pre, lit, method) -> _Tables:
+    """The :class:`_Tables` of the TF table ``base`` at ``step`` (kept for the last 4)."""
+    key = (base.tobytes(), base.shape, step, pre, lit and pre, method if pre else None)
+    with _TABLES_LOCK:
+        tabs = _TABLES.pop(key, None)
+    if tabs is None:
+        tabs = _Tables(base, step, pre, lit, method)
+    with _TABLES_LOCK:
+        _TABLES[key] = tabs  # most recent last
+        while len(_TABLES) > 4:
+            del _TABLES[next(iter(_TABLES))]
+    return tabs
 
 
 def clear_bounds(tab: np.ndarray) -> np.ndarray:
@@ -1630,7 +1770,7 @@ def _empty_bricks(
         alpha = np.ascontiguousarray(rgba[..., 3])
         mins = np.empty(nb, np.float32)
         maxs = np.empty(nb, np.float32)
-        _brick_range_kernel(alpha, brick, mins, maxs)
+        brick_ranges(alpha, brick, mins, maxs)
         empty = maxs <= 0.0
         if not has_iso:
             return empty
@@ -1644,7 +1784,7 @@ def _empty_bricks(
     elif ranges is not None:
         mins, maxs = ranges
     else:
-        _brick_range_kernel(vol, brick, mins, maxs)
+        brick_ranges(vol, brick, mins, maxs)
     invisible = uncovered | _invisible_range(
         mins, maxs, mode, has_vol, post_tab, pre2d, iso2d, has_iso, lo, scale
     )
