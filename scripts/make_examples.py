@@ -417,8 +417,11 @@ ANIMATION_CASES = [
         "roll",
     ),
     ("animation-ibbp-whole-frame-u8", {"gop_string": "IBBP"}, "translate"),
+    # animation-ipb-specials-f32.vpk was made before the bounded codec's exact path, which
+    # now codes some of its bricks shorter; it is kept as a decode-only golden, and its
+    # recipe writes the -exact file:
     (
-        "animation-ipb-specials-f32",
+        "animation-ipb-specials-f32-exact",
         {"gop_string": "IPB", "max_error": 0.05, "fill_value": -9999.0},
         "specials",
     ),

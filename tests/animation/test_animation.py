@@ -255,7 +255,12 @@ GOLDEN = [
     ),
     ("animation-ibbp-whole-frame-u8", {"gop_string": "IBBP"}, "translate"),
     (
-        "animation-ipb-specials-f32",
+        "animation-ipb-specials-f32",  # made before the exact path: decoded, not reproduced
+        {"gop_string": "IPB", "max_error": 0.05, "fill_value": -9999.0},
+        "specials",
+    ),
+    (
+        "animation-ipb-specials-f32-exact",
         {"gop_string": "IPB", "max_error": 0.05, "fill_value": -9999.0},
         "specials",
     ),
@@ -296,6 +301,8 @@ def test_golden_animation_decodes_and_is_reproduced(stem, opts, source):
         assert _err(got, valid).max() <= opts["max_error"]
     elif "quality" not in opts:
         assert np.array_equal(got.view(np.uint8), valid.view(np.uint8))  # bit for bit
+    if stem == "animation-ipb-specials-f32":
+        return  # the exact path codes some of its bricks shorter now (the -exact golden)
     again, _ = _code(want, **opts)
     with Reader(blob) as old, Reader(again) as new:
         assert old.header == new.header
