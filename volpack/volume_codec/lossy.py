@@ -436,16 +436,8 @@ class BoundedCodec(BrickCodec):
                 raise FormatError(
                     "bounded brick payload: the exact path is for float voxels, alone"
                 )
-            if pos != len(data):
-                raise FormatError(
-                    f"bounded brick payload: {len(data) - pos} stray bytes at the end"
-                )
             out = self._lossless().decode(inner, tuple(shape), dtype)
-            if into is not None:
-                into[...] = out
-                return into
-            return out
-        if flags & FLAG_INTERP:
+        elif flags & FLAG_INTERP:
             out = self._decode_interp(flags, inner, tuple(shape), dtype)
         elif flags & FLAG_CDF97:
             out = self._decode_cdf97(flags, data, inner, pos, tuple(shape), dtype, into)
