@@ -154,3 +154,22 @@ def test_images_do_not_depend_on_the_thread_count_on_the_fast_path():
     one = render(vol, workers=1, **kw)
     for w in (2, 3):
         assert np.array_equal(one, render(vol, workers=w, **kw))
+
+
+def test_tiles_cover_every_pixel_once_in_bands_of_neighbours():
+    seen = []
+    rows = np.concatenate([np.arange(0, 40), np.arange(60, 70)])  # two runs of rows
+    rc.run_tiles(lambda r, c: seen.append((r.copy(), tuple(c))), 75)(rows)
+    hit = np.zeros((70, 75), int)
+    for r, (c0, c1) in seen:
+        assert np.all(np.diff(r) == 1) and len(r) <= rc.ROW_BAND and c1 - c0 <= rc.TILE_COLS
+        hit[r, c0:c1] += 1
+    assert np.array_equal(hit[rows], np.ones((len(rows), 75), int)) and hit.sum() == 50 * 75
+
+
+def test_a_partial_last_tile_equals_the_general_kernel():
+    vol = np.round(field() * 255).astype(np.uint8)
+    kw = dict(tf=semi(0, 255), camera=Camera(azimuth=20, size=(rc.TILE_COLS + 5, 6)), step=0.7)
+    fast, slow = both(vol, **kw)
+    assert slow[..., 3].max() > 0.3
+    np.testing.assert_allclose(fast, slow, atol=1e-5)
