@@ -258,13 +258,16 @@ class _View:
         self._same: dict = {} if memo is None else memo.setdefault(tf_key, {})
 
     def _corners(self, tree, lv, b) -> np.ndarray:
-        fp = tree.geometry.footprint(lv, b)
-        return np.array(
-            [
-                [c[0] - 0.5, c[1] - 0.5, c[2] - 0.5]
-                for c in itertools.product(*((s.start, s.stop) for s in fp))
-            ]
-        )
+        key = ("corners", lv, b)  # view-independent: kept across a walk's frames
+        if key not in self._same:
+            fp = tree.geometry.footprint(lv, b)
+            self._same[key] = np.array(
+                [
+                    [c[0] - 0.5, c[1] - 0.5, c[2] - 0.5]
+                    for c in itertools.product(*((s.start, s.stop) for s in fp))
+                ]
+            )
+        return self._same[key]
 
     def project(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(t, u, v)`` of points ``p`` (n, 3): ray parameter and pixel coordinates."""
