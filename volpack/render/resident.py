@@ -52,9 +52,12 @@ def resident_bytes(tree) -> int:
     return math.prod(int(n) for n in tree.shape) * (item + 2)
 
 
+_MASK = (1 << 20) - 1
+
+
 def _key(level: int, b) -> int:
-    """One int64 naming a node (a cell's content)."""
-    return (int(level) << 60) | (int(b[0]) << 40) | (int(b[1]) << 20) | int(b[2])
+    """One int64 naming a node (a cell's content): level, then 20 bits an index."""
+    return (level << 60) | (b[0] << 40) | (b[1] << 20) | b[2]
 
 
 class ResidentVolume:
@@ -96,28 +99,26 @@ class ResidentVolume:
             self.fill = fill
         g = self.tree.geometry
         want = np.full(self.cells, -1, np.int64)
-        nodes = []
-        for lv, b in dict.fromkeys((int(lv), tuple(int(i) for i in b)) for lv, b in selection):
-            fp = g.footprint(lv, b)
-            cs = tuple(slice(s.start // k, -(-s.stop // k)) for s in fp)
-            key = _key(lv, b)
-            want[cs] = key
-            if not np.all(self.have[cs] == key):
-                nodes.append((lv, b, fp, cs, key))
+        for lv, b in selection:
+            lv, b = int(lv), tuple(int(i) for i in b)
+            want[tuple(slice(s.start // k, -(-s.stop // k)) for s in g.footprint(lv, b))] = _key(lv, b)
+        changed = want != self.have
         data = self.prep.data
         boxes = []
-        for c in np.argwhere((want == -1) & (self.have != -1)):  # no longer drawn
+        for c in np.argwhere(changed & (want == -1)):  # no longer drawn
             box = tuple(slice(int(i) * k, min((int(i) + 1) * k, n)) for i, n in zip(c, self.shape))
             data[box] = fill
-            self.have[tuple(c)] = -1
             boxes.append(box)
-        for lv, b, fp, cs, key in nodes:
+        nodes = [int(key) for key in np.unique(want[changed]) if key >= 0]  # (re)drawn
+        for key in nodes:
+            lv, b = key >> 60, ((key >> 40) & _MASK, (key >> 20) & _MASK, key & _MASK)
+            fp = g.footprint(lv, b)
             v = self.tree.assemble([(lv, b)], level=0, roi=fp, interp="linear").data
             if v.dtype.kind == "f":  # non-finite voxels are empty, as the plain renderer has them
                 v = np.where(np.isfinite(v), v, fill)
             data[fp] = v
-            self.have[cs] = key
             boxes.append(fp)
+        self.have = want
         self.written += len(nodes)
         self.prep.rewritten(boxes)
         return self.prep
