@@ -134,7 +134,7 @@ class PreparedVolume:
         from them there only. Brick ranges are redone for the bricks whose range reads
         the boxes, and memos told which bricks (see :meth:`memo`); quantised normals are
         redone later only for the chunks the boxes reach (one voxel around them:
-        central differences), gradients now for those boxes."""
+        central differences), gradients now for those boxes and one voxel around them."""
         if not boxes:
             return
         self._fill = (_UNSET, None)
@@ -165,9 +165,10 @@ class PreparedVolume:
                 codes.done[tuple(slice(s.start // CHUNK, -(-s.stop // CHUNK)) for s in b)] = False
         g = self._grad[1]
         if g is not None and g is not False and self.bad is None:
-            for b, gb in zip(boxes, grown):  # differences of the box grown by one voxel
-                inner = tuple(slice(s.start - t.start, s.stop - t.start) for s, t in zip(b, gb))
-                g[b] = gradient_volume(np.ascontiguousarray(self.data[gb]), g.dtype)[inner]
+            for gb in grown:  # the box's voxels and their neighbours' differences read them
+                src = tuple(slice(max(s.start - 1, 0), min(s.stop + 1, m)) for s, m in zip(gb, n))
+                inner = tuple(slice(s.start - t.start, s.stop - t.start) for s, t in zip(gb, src))
+                g[gb] = gradient_volume(np.ascontiguousarray(self.data[src]), g.dtype)[inner]
         else:
             self._grad = (_UNSET, None)
 
