@@ -11,8 +11,12 @@ threads, are the steadier figure), the split into selection, decoding/assembly a
 rendering, and for the same view the plain renderer on the whole decoded volume (a
 PreparedVolume kept across frames), so ``ratio`` is walk / plain in CPU seconds.
 
-Writes results/render/walk.csv. Runs against a tree older than NodeAtlas as well (it
-then keeps the older dict of bricks), to measure before/after.
+With ``--paged`` the same frame is also drawn by a second atlas kept on the paged
+sampler (``resident_budget=0``), timed alike (``paged_*``), and the PSNR of each walk
+image against the plain one and of the two walk images against each other is
+recorded (``psnr_*``, dB over RGB). Writes results/render/walk.csv. Runs against a
+tree older than NodeAtlas as well (it then keeps the older dict of bricks), to
+measure before/after.
 """
 
 from __future__ import annotations
@@ -48,6 +52,10 @@ def main(argv=None) -> int:
     ap.add_argument("--shading", default="phong")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--no-plain", action="store_true", help="skip the whole-volume renders")
+    ap.add_argument("--paged", action="store_true",
+                    help="also walk with the paged sampler (resident volume off)")  # fmt: skip
+    ap.add_argument("--resident-budget", type=int, default=None,
+                    help="bytes of the resident volume (0: paged only; default the library's)")  # fmt: skip
     args = ap.parse_args(argv)
 
     vol, spacing, _ = datasets.load(args.volume)
@@ -61,27 +69,40 @@ def main(argv=None) -> int:
         tf = transfer.load_tf("auto", lo, hi, dtype=tree.dtype)
         kw = dict(tf=tf, value_range=(lo, hi), step=0.5, classification="preintegrated",
                   shading=args.shading, workers=args.workers)  # fmt: skip
+        shaded = args.shading != "none"
         if hasattr(lod, "NodeAtlas"):
-            keep = {"atlas": lod.NodeAtlas(tree, gradients=args.shading != "none")}
+            rb = {} if args.resident_budget is None else {"resident_budget": args.resident_budget}
+            keep = {"atlas": lod.NodeAtlas(tree, gradients=shaded, **rb)}
         else:  # an older tree: a dict of assembled bricks
             keep = {"bricks": {}}
+        paged = lod.NodeAtlas(tree, gradients=shaded, resident_budget=0) if args.paged else None
         full = None if args.no_plain else prepare_volume(vol, tree.spacing)
         for k in range(args.frames):
             cam = Camera(azimuth=30.0 + 360.0 * k / args.frames, elevation=20.0,
                          size=(args.size, args.size))  # fmt: skip
             w0, c0 = time.perf_counter(), time.process_time()
-            _, st = lod.render_lod(tree, camera=cam, blocks=args.budget, **keep, **kw)
+            img, st = lod.render_lod(tree, camera=cam, blocks=args.budget, **keep, **kw)
             wall, cpu = time.perf_counter() - w0, time.process_time() - c0
-            row = {"frame": k, "nodes": st.nodes, "decoded": st.decoded,
+            row = {"frame": k, "nodes": st.nodes, "levels": "/".join(
+                       f"{lv}:{n}" for lv, n in sorted(st.levels.items())),
+                   "decoded": st.decoded,
                    "wall_s": round(wall, 3), "cpu_s": round(cpu, 3),
                    "select_s": round(st.select_s, 3), "decode_s": round(st.decode_s, 3),
                    "render_s": round(st.render_s, 3)}  # fmt: skip
+            if paged is not None:
+                w0, c0 = time.perf_counter(), time.process_time()
+                pimg, _ = lod.render_lod(tree, camera=cam, blocks=args.budget, atlas=paged, **kw)
+                qw, qc = time.perf_counter() - w0, time.process_time() - c0
+                row.update(paged_wall_s=round(qw, 3), paged_cpu_s=round(qc, 3),
+                           psnr_walk_paged=psnr(img, pimg))  # fmt: skip
             if full is not None:
                 w0, c0 = time.perf_counter(), time.process_time()
-                render(full, camera=cam, **kw)
+                ref = render(full, camera=cam, **kw)
                 pw, pc = time.perf_counter() - w0, time.process_time() - c0
                 row.update(plain_wall_s=round(pw, 3), plain_cpu_s=round(pc, 3),
-                           ratio=round(cpu / pc, 2))  # fmt: skip
+                           ratio=round(cpu / pc, 2), psnr_walk_plain=psnr(img, ref))  # fmt: skip
+                if paged is not None:
+                    row.update(paged_ratio=round(qc / pc, 2), psnr_paged_plain=psnr(pimg, ref))
             rows.append(row)
             print(row, flush=True)
     args.out.parent.mkdir(parents=True, exist_ok=True)
@@ -93,6 +114,14 @@ def main(argv=None) -> int:
     print(f"wrote {args.out}; frames after the first: median {later[len(later) // 2]:.2f} "
           f"CPU s, max {later[-1]:.2f}; first {rows[0]['cpu_s']:.2f} CPU s")  # fmt: skip
     return 0
+
+
+def psnr(a, b) -> float:
+    """PSNR in dB of RGB image ``a`` against ``b`` (both pre-multiplied, peak 1)."""
+    import numpy as np
+
+    rmse = float(np.sqrt(np.mean((a[..., :3] - b[..., :3]) ** 2)))
+    return round(20 * np.log10(1 / rmse), 2) if rmse > 0 else float("inf")
 
 
 if __name__ == "__main__":

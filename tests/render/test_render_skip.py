@@ -123,3 +123,33 @@ def test_brick_ranges_hold_each_brick_and_its_overlap_voxel(shape, brick, worker
     for b in itertools.product(*(range(n) for n in nb)):
         part = vol[tuple(slice(i * brick, (i + 1) * brick + 1) for i in b)]
         assert (mins[b], maxs[b]) == (part.min(), part.max())
+
+
+def test_a_rewritten_prepared_volume_draws_what_a_fresh_one_draws():
+    # a walk's resident volume rewrites boxes of its data between frames and tells the
+    # PreparedVolume (PreparedVolume.rewritten): the brick ranges, the empty bricks,
+    # the gradients (perspective) and the quantised normals (orthographic) it keeps
+    # must then be those of the new data, also next to the boxes and at the edges
+    vol = (blobs() * 255).astype(np.uint8)
+    prep = prepare_volume(vol.copy())
+    cams = [Camera(azimuth=35, elevation=25, size=(30, 28)),
+            Camera(projection="perspective", distance=60.0, azimuth=120, size=(30, 28))]  # fmt: skip
+    kw = dict(tf=TF, value_range=(0.0, 255.0), shading="phong")
+    for cam in cams:
+        render(prep, camera=cam, **kw)  # builds what the prepared volume keeps
+    rng = np.random.default_rng(5)
+    boxes = [(slice(8, 24), slice(0, 16), slice(20, 36)), (slice(30, 40), slice(37, 44), slice(0, 9))]
+    new = vol.copy()
+    for b in boxes:
+        new[b] = rng.integers(0, 256, new[b].shape)
+        prep.data[b] = new[b]
+    prep.rewritten(boxes)
+    for cam in cams:
+        img = render(prep, camera=cam, **kw)
+        assert img[..., 3].max() > 0.05
+        np.testing.assert_array_equal(img, render(new, camera=cam, **kw))
+    mins, maxs = prep.brick_ranges(None, rc.brick_size(vol.shape), None)
+    fresh = [np.empty_like(mins), np.empty_like(maxs)]
+    rc.brick_ranges(new, rc.brick_size(vol.shape), *fresh)
+    np.testing.assert_array_equal(mins, fresh[0])
+    np.testing.assert_array_equal(maxs, fresh[1])

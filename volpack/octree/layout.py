@@ -16,6 +16,7 @@ the chunk ``0xFF << 56 | L``.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from typing import Any
 
@@ -70,26 +71,20 @@ class Geometry:
         return d
 
     def level_shape(self, level: int) -> tuple[int, int, int]:
-        n = self.shape
-        for _ in range(level):
-            n = tuple((v + 1) // 2 for v in n)
-        return n  # type: ignore[return-value]
+        return _level_shape(tuple(int(v) for v in self.shape), int(level))
 
     def grid(self, level: int) -> tuple[int, int, int]:
         return tuple(math.ceil(n / self.block) for n in self.level_shape(level))  # type: ignore[return-value]
 
     def node_box(self, level: int, b: tuple[int, int, int]) -> tuple[slice, slice, slice]:
         """The node's voxels in ``A_level`` coordinates."""
-        k = self.block
-        return tuple(slice(k * i, min(k * (i + 1), n)) for i, n in zip(b, self.level_shape(level)))  # type: ignore[return-value]
+        return _boxes(tuple(int(v) for v in self.shape), self.block, int(level),
+                      (int(b[0]), int(b[1]), int(b[2])))[0]  # fmt: skip
 
     def footprint(self, level: int, b: tuple[int, int, int]) -> tuple[slice, slice, slice]:
         """The node's region in full-resolution voxels."""
-        f = 1 << level
-        return tuple(
-            slice(s.start * f, min(s.stop * f, n))
-            for s, n in zip(self.node_box(level, b), self.shape)
-        )  # type: ignore[return-value]
+        return _boxes(tuple(int(v) for v in self.shape), self.block, int(level),
+                      (int(b[0]), int(b[1]), int(b[2])))[1]  # fmt: skip
 
     def check_level(self, level: int) -> int:
         d = self.depth
@@ -98,6 +93,22 @@ class Geometry:
                 f"expected a level in 0..{d} (0 = full resolution, {d} = the root), found {level}"
             )
         return int(level)
+
+
+@functools.lru_cache(maxsize=256)  # a walk's selection asks for it tens of thousands of times
+def _level_shape(shape: tuple[int, int, int], level: int) -> tuple[int, int, int]:
+    n = shape
+    for _ in range(level):
+        n = tuple((v + 1) // 2 for v in n)
+    return n  # type: ignore[return-value]
+
+
+@functools.lru_cache(maxsize=1 << 16)  # the nodes of a walk's selections, asked each frame
+def _boxes(shape, k: int, level: int, b) -> tuple:
+    """``(node_box, footprint)`` of node ``(level, b)`` (see :class:`Geometry`)."""
+    box = tuple(slice(k * i, min(k * (i + 1), n)) for i, n in zip(b, _level_shape(shape, level)))
+    f = 1 << level
+    return box, tuple(slice(s.start * f, min(s.stop * f, n)) for s, n in zip(box, shape))
 
 
 def node_key(level: int, index: int) -> int:

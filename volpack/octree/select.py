@@ -258,13 +258,16 @@ class _View:
         self._same: dict = {} if memo is None else memo.setdefault(tf_key, {})
 
     def _corners(self, tree, lv, b) -> np.ndarray:
-        fp = tree.geometry.footprint(lv, b)
-        return np.array(
-            [
-                [c[0] - 0.5, c[1] - 0.5, c[2] - 0.5]
-                for c in itertools.product(*((s.start, s.stop) for s in fp))
-            ]
-        )
+        key = ("corners", lv, b)  # view-independent: kept across a walk's frames
+        if key not in self._same:
+            fp = tree.geometry.footprint(lv, b)
+            self._same[key] = np.array(
+                [
+                    [c[0] - 0.5, c[1] - 0.5, c[2] - 0.5]
+                    for c in itertools.product(*((s.start, s.stop) for s in fp))
+                ]
+            )
+        return self._same[key]
 
     def project(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(t, u, v)`` of points ``p`` (n, 3): ray parameter and pixel coordinates."""
@@ -276,18 +279,20 @@ class _View:
         return s[:, 0], s[:, 1], s[:, 2]
 
     def _proj(self, tree, lv, b):
+        """``(tmin, umin, vmin, tmax, umax, vmax)`` of the node's box corners (floats:
+        reduced once a node and view, not at each test)."""
         key = (lv, b)
-        if key not in self._cache:
-            self._cache[key] = self.project(self._corners(tree, lv, b))
-        return self._cache[key]
+        r = self._cache.get(key)
+        if r is None:
+            s = np.stack(self.project(self._corners(tree, lv, b)))
+            r = self._cache[key] = (*s.min(axis=1).tolist(), *s.max(axis=1).tolist())
+        return r
 
     def visible(self, tree, lv, b) -> bool:
-        t, u, v = self._proj(tree, lv, b)
-        if self.persp and (t <= 0).any():
-            return bool((t > 0).any())  # straddles the eye plane: keep if any part is ahead
-        return not (
-            u.max() < -0.5 or u.min() > self.w - 0.5 or v.max() < -0.5 or v.min() > self.h - 0.5
-        )
+        tmin, umin, vmin, tmax, umax, vmax = self._proj(tree, lv, b)
+        if self.persp and tmin <= 0:
+            return tmax > 0  # straddles the eye plane: keep if any part is ahead
+        return not (umax < -0.5 or umin > self.w - 0.5 or vmax < -0.5 or vmin > self.h - 0.5)
 
     def depth(self, tree, lv, b) -> float:
         """Nearest distance from the eye (perspective) or the image plane (orthographic)."""
@@ -307,11 +312,11 @@ class _View:
 
     def area(self, tree, lv, b) -> float:
         """Projected area of the node's box, clipped to the image, in pixels."""
-        t, u, v = self._proj(tree, lv, b)
-        if self.persp and (t <= 0).any():
+        tmin, umin, vmin, _, umax, vmax = self._proj(tree, lv, b)
+        if self.persp and tmin <= 0:
             return float(self.w * self.h)
-        du = min(u.max(), self.w) - max(u.min(), 0.0)
-        dv = min(v.max(), self.h) - max(v.min(), 0.0)
+        du = min(umax, self.w) - max(umin, 0.0)
+        dv = min(vmax, self.h) - max(vmin, 0.0)
         return float(max(du, 0.0) * max(dv, 0.0))
 
     def transparent(self, tree, lv, b) -> bool:

@@ -28,6 +28,7 @@ import numpy as np
 from ..errors import VolpackError
 from .normals import normal_codes
 from .prepared import GRADIENT_BUDGET, SAMPLED, gradient_dtype, gradient_volume
+from .resident import RESIDENT_BUDGET, ResidentVolume, resident_bytes
 
 log = logging.getLogger(__name__)
 
@@ -67,12 +68,23 @@ class NodeAtlas:
     that orthographic frames light through one table. Gradient and normal bricks are
     dropped, and shading falls back to differences taken on the fly, when they would
     pass ``gradient_budget`` bytes.
+
+    When the tree's full-resolution grid fits ``resident_budget`` bytes,
+    :func:`render_lod` draws a walk's frames from one
+    :class:`~volpack.render.resident.ResidentVolume` instead (the plain ray caster on a
+    full-resolution grid rewritten where the selection changes, no page table); 0 keeps
+    every frame on the paged sampler.
     """
 
     def __init__(self, tree, *, gradients: bool = True, keep: float = 2.0,
-                 gradient_budget: int = GRADIENT_BUDGET) -> None:  # fmt: skip
+                 gradient_budget: int = GRADIENT_BUDGET,
+                 resident_budget: int = RESIDENT_BUDGET) -> None:  # fmt: skip
         if not keep >= 1:
             raise VolpackError(f"expected keep >= 1 (slots per drawn node), found {keep}")
+        if not (isinstance(resident_budget, (int, np.integer)) and resident_budget >= 0):
+            raise VolpackError(f"expected a resident budget in bytes >= 0, found {resident_budget!r}")
+        self.resident_budget = int(resident_budget)
+        self.resident: ResidentVolume | None = None
         self.tree = tree
         self.keep = float(keep)
         self.gradient_budget = int(gradient_budget)
@@ -125,6 +137,18 @@ class NodeAtlas:
         frange = None if np.isnan(lo) else (float(lo), float(hi))
         return PagedVolume(self.atlas, page, self.level, self.origin, shape,
                            tuple(self.tree.spacing), cell, frange, self.grad, self.codes)  # fmt: skip
+
+    def dense(self, selection, fill: float, value_range):
+        """The resident full-resolution grid of ``selection`` (uncovered cells at
+        ``fill``), or None when the tree's grid passes the resident budget or its dtype
+        cannot hold ``fill`` (the caller then takes :meth:`paged`)."""
+        if not 0 < resident_bytes(self.tree) <= self.resident_budget:
+            return None
+        if self.resident is None:
+            self.resident = ResidentVolume(self.tree, value_range, self.resident_budget)
+        if not self.resident.representable(fill):
+            return None
+        return self.resident.update(selection, fill)
 
     def _make_room(self, need: int, drawn: set) -> None:
         short = need - len(self.free)
@@ -229,9 +253,11 @@ def render_lod(
     hold); ``render_options`` go to :func:`volpack.render.raycast.render`.
     The value range defaults to the octree's recorded one; ``atlas`` (a
     :class:`NodeAtlas` of this tree kept across the frames of a walk) keeps the decoded
-    nodes, else one is made for this frame (with gradient bricks when shaded)."""
+    nodes, or the resident full-resolution grid when it fits its budget, else one is
+    made for this frame (paged, with gradient bricks when shaded)."""
     from ..octree import select
-    from .raycast import render
+    from .raycast import TABLE_SIZE, empty_value, render, transfer_table
+    from .transfer import nonempty_range
 
     if blocks is not None:
         voxels = int(blocks) * tree.geometry.block**3
@@ -249,10 +275,17 @@ def render_lod(
         img = np.zeros((h, w, 4), np.float32)
         t2 = t3 = time.perf_counter()
     else:
+        pv = None
         if atlas is None:
             shaded = render_options.get("shading", "none") != "none"
             atlas = NodeAtlas(tree, gradients=shaded, keep=1.0)
-        pv = atlas.paged(sel)
+        elif atlas.resident_budget:  # the value uncovered cells hold, as render() finds it
+            lo, hi = nonempty_range(*value_range)
+            n = int(render_options.get("table_size", TABLE_SIZE))
+            base = None if tf is None else transfer_table(tf, lo, hi, n)
+            pv = atlas.dense(sel, empty_value(base, lo, hi, lo, quiet=True), (lo, hi))
+        if pv is None:
+            pv = atlas.paged(sel)
         t2 = time.perf_counter()
         img = render(pv, tf=tf, camera=camera, value_range=value_range, **render_options)
         t3 = time.perf_counter()

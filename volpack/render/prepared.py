@@ -36,7 +36,7 @@ import numpy as np
 from .._jit import kernel
 from ..errors import VolpackError
 from ..parallel import ordered_map
-from .normals import NormalCodes
+from .normals import CHUNK, NormalCodes
 
 #: Bytes the per-voxel gradient volume may take (see the module docstring).
 GRADIENT_BUDGET = 1 << 30
@@ -57,10 +57,10 @@ class PreparedVolume:
     # (fill value, what was built for it); one entry each bounds the memory
     _fill: tuple = (_UNSET, None)  # the filled array
     _grad: tuple = (_UNSET, None)  # the gradient volume, or False over the budget
-    _ranges: tuple = (_UNSET, None)  # (mins, maxs) per brick
+    _ranges: tuple = (_UNSET, None)  # (key, (mins, maxs) per brick, kernel)
     _leap: tuple = (None, None)  # (empty bricks, leap map)
     _codes: tuple = (_UNSET, None)  # quantised normals (NormalCodes), or False over the budget
-    _memo: dict = dataclasses.field(default_factory=dict)  # name -> (key, value)
+    _memo: dict = dataclasses.field(default_factory=dict)  # name -> (key, value, boxes)
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -104,23 +104,73 @@ class PreparedVolume:
         return None if c is False else c
 
     def brick_ranges(self, fill: float | None, brick: int, kernel_fn) -> tuple:
-        """Min and max per brick of :meth:`filled` (``kernel_fn`` fills them)."""
+        """Min and max per brick of :meth:`filled` (``kernel_fn`` fills them; it is kept
+        to redo the bricks of :meth:`rewritten` boxes)."""
         if self._ranges[0] != (fill, brick):
             vol = self.filled(fill)
             nb = tuple(max(1, -(-s // brick)) for s in vol.shape)
             mins = np.empty(nb, np.float32)
             maxs = np.empty(nb, np.float32)
             kernel_fn(vol, brick, mins, maxs)
-            self._ranges = ((fill, brick), (mins, maxs))
+            self._ranges = ((fill, brick), (mins, maxs), kernel_fn)
         return self._ranges[1]
 
-    def memo(self, name: str, key, build):
-        """``build()``, kept under ``name`` (one value a name) while ``key`` stays equal."""
+    def memo(self, name: str, key, build, refresh=None):
+        """``build()``, kept under ``name`` (one value a name) while ``key`` stays equal.
+        After :meth:`rewritten`, ``refresh(value, boxes)`` updates the kept value over
+        the boxes of bricks whose ranges changed (without it the value is rebuilt)."""
         kept = self._memo.get(name)
-        if kept is None or kept[0] != key:
-            kept = (key, build())
+        if kept is None or kept[0] != key or (kept[2] and refresh is None):
+            kept = (key, build(), [])
             self._memo[name] = kept
+        elif kept[2]:
+            refresh(kept[1], kept[2])
+            kept[2].clear()
         return kept[1]
+
+    def rewritten(self, boxes) -> None:
+        """The voxels of ``data`` in ``boxes`` (three slices each) were written anew (a
+        walk's resident volume, :mod:`volpack.render.resident`): redo what was built
+        from them there only. Brick ranges are redone for the bricks whose range reads
+        the boxes, and memos told which bricks (see :meth:`memo`); quantised normals are
+        redone later only for the chunks the boxes reach (one voxel around them:
+        central differences), gradients now for those boxes and one voxel around them."""
+        if not boxes:
+            return
+        self._fill = (_UNSET, None)
+        n = self.data.shape
+        if self._ranges[0] is not _UNSET and self.bad is None:
+            brick = self._ranges[0][1]
+            (mins, maxs), fn = self._ranges[1], self._ranges[2]
+            bricks = []
+            for b in boxes:  # a brick's range holds one voxel past its high side
+                bb = tuple(slice(max(s.start - 1, 0) // brick, -(-s.stop // brick)) for s in b)
+                sub = self.data[tuple(slice(t.start * brick, min(t.stop * brick + 1, m))
+                                      for t, m in zip(bb, n))]  # fmt: skip
+                shape = tuple(t.stop - t.start for t in bb)
+                lo, hi = np.empty(shape, np.float32), np.empty(shape, np.float32)
+                fn(np.ascontiguousarray(sub), brick, lo, hi)
+                mins[bb], maxs[bb] = lo, hi
+                bricks.append(bb)
+            for kept in self._memo.values():
+                kept[2].extend(bricks)
+        else:
+            self._ranges = (_UNSET, None)
+            self._memo.clear()
+        grown = [tuple(slice(max(s.start - 1, 0), min(s.stop + 1, m)) for s, m in zip(b, n))
+                 for b in boxes]  # fmt: skip
+        codes = self._codes[1]
+        if codes:
+            for b in grown:
+                codes.done[tuple(slice(s.start // CHUNK, -(-s.stop // CHUNK)) for s in b)] = False
+        g = self._grad[1]
+        if g is not None and g is not False and self.bad is None:
+            for gb in grown:  # the box's voxels and their neighbours' differences read them
+                src = tuple(slice(max(s.start - 1, 0), min(s.stop + 1, m)) for s, m in zip(gb, n))
+                inner = tuple(slice(s.start - t.start, s.stop - t.start) for s, t in zip(gb, src))
+                g[gb] = gradient_volume(np.ascontiguousarray(self.data[src]), g.dtype)[inner]
+        else:
+            self._grad = (_UNSET, None)
 
     def leap_map(self, empty: np.ndarray, kernel_fn) -> np.ndarray:
         """The leap map (int32) of the empty-brick mask ``empty`` (``kernel_fn`` fills

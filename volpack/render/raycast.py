@@ -1450,7 +1450,7 @@ def render(
     nthreads = parse_workers(workers)
     fill = None
     if prep is not None and prep.bad is not None:
-        fill = _empty_value(base if has_vol else None, lo, hi, dmin)
+        fill = empty_value(base if has_vol else None, lo, hi, dmin)
         vol = prep.filled(fill)
 
     rgba = np.zeros((1, 1, 1, 4), np.float32)
@@ -1463,7 +1463,7 @@ def render(
     brick = BRICK
     ranges = None
     if paged:  # nodes are sampled through the page table
-        fill_p = _empty_value(base if has_vol else None, lo, hi, dmin, quiet=True)
+        fill_p = empty_value(base if has_vol else None, lo, hi, dmin, quiet=True)
         vol = page_tuple(volume, fill_p)
         shape = volume.shape
     else:
@@ -1482,7 +1482,13 @@ def render(
             # the same entries (the frames of an orbit): 10-20 ms a frame on 4^3 bricks
             key = (fill, brick, mode, has_vol, bool(isos), lo, scale,
                    tables.shown(mode == 0), _shown(iso2d))  # fmt: skip
-            empty = prep.memo("empty", key, find_empty)
+
+            def refresh(empty, boxes):  # bricks a walk's resident volume rewrote
+                for bb in boxes:
+                    empty[bb] = _invisible_range(ranges[0][bb], ranges[1][bb], mode, has_vol,
+                                                 post_tab, pre2d, iso2d, bool(isos), lo, scale)  # fmt: skip
+
+            empty = prep.memo("empty", key, find_empty, refresh)
         else:
             empty = find_empty()
     if not skip_empty:
@@ -1752,7 +1758,7 @@ def _check_isos(isos) -> list:
     return clean
 
 
-def _empty_value(base, lo, hi, dmin, quiet: bool = False) -> float:
+def empty_value(base, lo, hi, dmin, quiet: bool = False) -> float:
     """A value for non-finite voxels (or absent nodes) whose table entry is transparent
     (``dmin``: the smallest finite value, None when there is none)."""
     dmin = lo if dmin is None else float(dmin)
