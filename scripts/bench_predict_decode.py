@@ -56,7 +56,7 @@ def _decisions():
     from volpack.volume_codec.predict import bitlen
 
     @kernel(nrt=False)  # (numba's reference counts in the loop would cost more than it)
-    def count(v, mk, cf, th, shape, hi, err, perr, bias_sum, bias_cnt):
+    def count(v, mk, cf, th, shape, hi, err, perr, bias_sum, bias_cnt, bias):
         nz, ny, nx = shape[0], shape[1], shape[2]
         sz = ny * nx
         dec = 0
@@ -73,9 +73,8 @@ def _decisions():
                         i += 1
                         continue
                     pred, ctx, sctx, q0, q1, q2, q3, q4, q5 = pf._predict_kernel(
-                        v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi,
-                        bias_sum, bias_cnt,
-                    )  # fmt: skip
+                        v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, bias
+                    )
                     val = v[np.uint64(i)]
                     res = val - pred
                     dec += 1
@@ -84,7 +83,7 @@ def _decisions():
                         nm = max(min(nb - 1, 2), 0)
                         dec += 1 + min(nb + 1, pf.NLEN - 1) + nm
                         raw += max(nb - 1 - nm, 0)
-                    pf._learn(err, perr, r, val, pred, ctx, bias_sum, bias_cnt, q0, q1, q2, q3, q4, q5)
+                    pf._learn(err, perr, r, val, pred, ctx, bias_sum, bias_cnt, bias, q0, q1, q2, q3, q4, q5)
                     i += 1
         return dec, raw
 
@@ -117,10 +116,10 @@ def count_decisions(payload: bytes, brick: np.ndarray) -> tuple[int, int]:
     head = bytes(rest[: predictfit.HEAD])
     th = np.frombuffer(head, dtype="<u4", count=predictfit.NCLS - 1).astype(np.int64)
     cf = np.frombuffer(head, dtype="<i2", count=predictfit.NCLS * predictfit.NFIT, offset=4 * (predictfit.NCLS - 1))
-    err, perr, bs, bc, _ = predictfit._workspace(brick.shape)
+    *work, _ = predictfit._workspace(brick.shape)
     dec, raw = _decisions()(
         (v - lo).reshape(-1), mask.reshape(-1).astype(np.uint8), cf.astype(np.int64), th,
-        np.array(brick.shape, dtype=np.int64), np.int64(hi - lo), err, perr, bs, bc,
+        np.array(brick.shape, dtype=np.int64), np.int64(hi - lo), *work,
     )  # fmt: skip
     return int(dec), int(raw)
 

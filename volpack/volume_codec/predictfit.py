@@ -45,10 +45,10 @@ from .predict import (
     RECIP,
     bitlen,
     context,
-    context_bias,
     floor_div_nonneg,
     gather,
     learn_bias,
+    mean_error,
     store_errors,
     weight,
     workspace,
@@ -81,13 +81,20 @@ HEAD = 4 * (NCLS - 1) + 2 * NCLS * NFIT  # thresholds and weights before the str
 
 
 @kernel(inline=True)
-def _adapt(models, k, p, n, mask):
-    """Move model ``k`` (16-bit probability ``p`` of a 0, use count ``n``) towards the
-    bit coded (``mask``: -1 for a 1, 0 for a 0). ``p`` stays within 1..65535."""
+def _adapted(p, n, mask):
+    """The state of a model (16-bit probability ``p`` of a 0, use count ``n``) moved
+    towards the bit coded (``mask``: -1 for a 1, 0 for a 0). ``p`` stays within
+    1..65535."""
     r = RATE[np.uint64(n)]
     g = (65536 - p) >> r
     p += g - ((g + (p >> r)) & mask)
-    models[np.uint64(k)] = (p << 8) | (n + np.int64(n < NCAP))
+    return (p << 8) | (n + np.int64(n < NCAP))
+
+
+@kernel(inline=True)
+def _adapt(models, k, p, n, mask):
+    """:func:`_adapted`, stored back into model ``k``."""
+    models[np.uint64(k)] = _adapted(p, n, mask)
 
 
 @kernel(inline=True)
@@ -105,25 +112,38 @@ def put16(out, models, k, bit, low, rng, pos):
 
 
 @kernel(inline=True)
-def get16(data, models, k, code, rng, pos):
-    """Decode one decision coded by :func:`put16`; returns ``(bit, code, rng, pos)``."""
-    st = np.int64(models[np.uint64(k)])
+def get16_held(data, st, code, rng, pos):
+    """Decode one decision coded by :func:`put16` with the model's state ``st`` held by
+    the caller; returns ``(bit, new state, code, rng, pos)``."""
     p = st >> 8
     bound = (rng >> 16) * p
     bit = np.int64(code >= bound)
     mask = -bit
     code -= bound & mask
     rng = bound + ((rng - 2 * bound) & mask)
-    _adapt(models, k, p, st & 255, mask)
     code, rng, pos = _pull(data, code, rng, pos)
+    return bit, _adapted(p, st & 255, mask), code, rng, pos
+
+
+@kernel(inline=True)
+def get16(data, models, k, code, rng, pos):
+    """Decode one decision coded by :func:`put16`; returns ``(bit, code, rng, pos)``."""
+    bit, models[np.uint64(k)], code, rng, pos = get16_held(
+        data, np.int64(models[np.uint64(k)]), code, rng, pos
+    )
     return bit, code, rng, pos
+
+
+@kernel(inline=True)
+def _near_half(sctx):
+    """1 when the prediction's eighths (in ``sctx``) lie near a half, else 0."""
+    return ((sctx & (NFRAC - 1)) + 1) >> 1 & 1
 
 
 @kernel(inline=True)
 def _zero_model(ctx, sctx):
     """Zero flag's model: the context, and whether the prediction lies near a half."""
-    fc = sctx & (NFRAC - 1)
-    return M_ZERO + 2 * ctx + (((fc + 1) >> 1) & 1)
+    return M_ZERO + 2 * ctx + _near_half(sctx)
 
 
 @kernel(inline=True)
@@ -158,7 +178,15 @@ def put_residual(out, models, ctx, sctx, r, low, rng, pos):
 @kernel(inline=True)
 def get_residual(data, models, ctx, sctx, code, rng, pos):
     """Decode what :func:`put_residual` coded; ``NO_RESIDUAL`` for an impossible one."""
-    bit, code, rng, pos = get16(data, models, _zero_model(ctx, sctx), code, rng, pos)
+    # Both of the context's zero-flag models are loaded, then one picked by the
+    # prediction's eighths: the loads wait for the context only, not for the
+    # prediction, which comes last (out of the division).
+    kz = M_ZERO + 2 * ctx
+    st0 = np.int64(models[np.uint64(kz)])
+    st1 = np.int64(models[np.uint64(kz + 1)])
+    h = _near_half(sctx)
+    st = st0 + ((st1 - st0) & -h)
+    bit, models[np.uint64(kz + h)], code, rng, pos = get16_held(data, st, code, rng, pos)
     if bit == 0:
         return np.int64(0), code, rng, pos
     k = M_SIGN + ctx * 3 * NFRAC + sctx
@@ -231,9 +259,10 @@ def _fitted(v, cf, c, i, sy, sz):
 
 
 @kernel(inline=True)
-def _predict_kernel(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias_sum, bias_cnt):
+def _predict_kernel(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias):
     """Prediction and contexts of voxel ``i`` = (z, y, x) from the decoded ``v`` (values
-    in ``[0, hi]``) and the errors of earlier voxels (as :func:`.predict.gather`).
+    in ``[0, hi]``), the errors of earlier voxels (as :func:`.predict.gather`) and the
+    contexts' mean errors ``bias`` (kept by :func:`_learn`).
 
     Returns ``(pred, ctx, sign_ctx, q0, ..., q5)`` (the six predictors, in eighths).
     """
@@ -265,7 +294,7 @@ def _predict_kernel(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias_su
     den = w0 + w1 + w2 + w3 + w4 + w5
     ctx = context(act, (max(q0, q1, q2, q3, q4, q5) - min(q0, q1, q2, q3, q4, q5)) >> 3)
     # (num >= 0: the predictions are clipped to [0, 8 hi] and the weights are positive)
-    p8 = floor_div_nonneg(num + (den >> 1), den) + context_bias(bias_sum, bias_cnt, ctx)
+    p8 = floor_div_nonneg(num + (den >> 1), den) + bias[np.uint64(ctx)]
     p8 = min(max(p8, 0), h8)
     pred = (p8 + 4) >> 3
     frac = p8 - 8 * pred  # -4..3
@@ -274,12 +303,16 @@ def _predict_kernel(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias_su
 
 
 @kernel(inline=True)
-def _learn(err, perr, r, val, pred, ctx, bias_sum, bias_cnt, q0, q1, q2, q3, q4, q5):
+def _learn(err, perr, r, val, pred, ctx, bias_sum, bias_cnt, bias, q0, q1, q2, q3, q4, q5):
     """After voxel ``val`` at ring slot ``r`` is known: store its errors (the
-    predictors' in eighths) and update the context's bias (in eighths)."""
+    predictors' in eighths) and update the context's bias (in eighths). The bias the
+    next voxel adds is stored ready (``bias``): worked out here from the new sum and
+    count, it is not on the path from one voxel's context to the next one's prediction
+    (two dependent loads and a multiply there cost the decoder a fifth of its time)."""
     e = val - pred
     store_errors(err, perr, r, e, 8 * val, q0, q1, q2, q3, q4, q5)
-    learn_bias(bias_sum, bias_cnt, ctx, 8 * e)
+    s, c = learn_bias(bias_sum, bias_cnt, ctx, 8 * e)
+    bias[np.uint64(ctx)] = mean_error(s, c)
 
 
 @kernel(inline=True)
@@ -292,12 +325,15 @@ def _skip(err, perr, r):
 
 
 def _workspace(shape: tuple[int, ...]) -> tuple[np.ndarray, ...]:
+    """:func:`.predict.workspace`'s arrays, the contexts' mean errors (0 before any
+    error: a sum and a count of 0 mean 0) and this module's models."""
     err, perr, bias_sum, bias_cnt, _ = workspace(shape)
-    return err, perr, bias_sum, bias_cnt, np.full(N_MODELS, MODEL_INIT, dtype=np.uint32)
+    bias = np.zeros(NCTX, dtype=np.int64)
+    return err, perr, bias_sum, bias_cnt, bias, np.full(N_MODELS, MODEL_INIT, dtype=np.uint32)
 
 
 @kernel(nrt=False)
-def _encode_kernel(v, mk, cf, th, shape, hi, out, err, perr, bias_sum, bias_cnt, models):
+def _encode_kernel(v, mk, cf, th, shape, hi, out, err, perr, bias_sum, bias_cnt, bias, models):
     nz, ny, nx = shape[0], shape[1], shape[2]
     sz = ny * nx
     cap = out.size
@@ -316,18 +352,17 @@ def _encode_kernel(v, mk, cf, th, shape, hi, out, err, perr, bias_sum, bias_cnt,
                     i += 1
                     continue
                 pred, ctx, sctx, q0, q1, q2, q3, q4, q5 = _predict_kernel(
-                    v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi,
-                    bias_sum, bias_cnt,
-                )  # fmt: skip
+                    v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, bias
+                )
                 val = v[np.uint64(i)]
                 low, rng, pos = put_residual(out, models, ctx, sctx, val - pred, low, rng, pos)
-                _learn(err, perr, r, val, pred, ctx, bias_sum, bias_cnt, q0, q1, q2, q3, q4, q5)
+                _learn(err, perr, r, val, pred, ctx, bias_sum, bias_cnt, bias, q0, q1, q2, q3, q4, q5)
                 i += 1
     return finish_stream(out, low, pos)
 
 
 @kernel(nrt=False)
-def _decode_kernel(data, mk, fill, cf, th, shape, hi, v, err, perr, bias_sum, bias_cnt, models):
+def _decode_kernel(data, mk, fill, cf, th, shape, hi, v, err, perr, bias_sum, bias_cnt, bias, models):
     """Return 0 on success, 1 when the stream ran short, 2 on an impossible value, 3 when
     it does not end where its length says."""
     nz, ny, nx = shape[0], shape[1], shape[2]
@@ -349,9 +384,8 @@ def _decode_kernel(data, mk, fill, cf, th, shape, hi, v, err, perr, bias_sum, bi
                     i += 1
                     continue
                 pred, ctx, sctx, q0, q1, q2, q3, q4, q5 = _predict_kernel(
-                    v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi,
-                    bias_sum, bias_cnt,
-                )  # fmt: skip
+                    v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, bias
+                )
                 res, code, rng, pos = get_residual(data, models, ctx, sctx, code, rng, pos)
                 if res == NO_RESIDUAL:
                     return 2
@@ -359,7 +393,7 @@ def _decode_kernel(data, mk, fill, cf, th, shape, hi, v, err, perr, bias_sum, bi
                 if val < 0 or val > hi:
                     return 2
                 v[np.uint64(i)] = val
-                _learn(err, perr, r, val, pred, ctx, bias_sum, bias_cnt, q0, q1, q2, q3, q4, q5)
+                _learn(err, perr, r, val, pred, ctx, bias_sum, bias_cnt, bias, q0, q1, q2, q3, q4, q5)
                 i += 1
     return end_status(data, code, pos)
 
