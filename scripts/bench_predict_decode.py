@@ -61,6 +61,8 @@ def _decisions():
         sz = ny * nx
         dec = 0
         raw = 0
+        z0 = np.int64(0)
+        held = (z0, z0, z0, z0, z0, z0, z0, z0)
         i = 0
         for z in range(nz):
             cur = (z & 1) * sz
@@ -69,11 +71,11 @@ def _decisions():
                 for x in range(nx):
                     r = cur + y * nx + x
                     if mk[np.uint64(i)]:
-                        pf._skip(err, perr, r)
+                        held = pf._skip(err, perr, r, v[np.uint64(i)])
                         i += 1
                         continue
                     pred, ctx, sctx, q0, q1, q2, q3, q4, q5 = pf._predict_kernel(
-                        v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, bias
+                        v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, bias, held
                     )
                     val = v[np.uint64(i)]
                     res = val - pred
@@ -83,7 +85,9 @@ def _decisions():
                         nm = max(min(nb - 1, 2), 0)
                         dec += 1 + min(nb + 1, pf.NLEN - 1) + nm
                         raw += max(nb - 1 - nm, 0)
-                    pf._learn(err, perr, r, val, pred, ctx, bias_sum, bias_cnt, bias, q0, q1, q2, q3, q4, q5)
+                    held = pf._learn(
+                        err, perr, r, val, pred, ctx, bias_sum, bias_cnt, bias, q0, q1, q2, q3, q4, q5
+                    )
                     i += 1
         return dec, raw
 

@@ -199,7 +199,7 @@ def floor_div_nonneg(a, d):
 
 
 @kernel(inline=True)
-def _add_errors(perr, j, s0, s1, s2, s3, s4, s5):
+def add_errors(perr, j, s0, s1, s2, s3, s4, s5):
     """The predictors' error sums plus those of the voxel at ring slot ``j``."""
     b = j * PSTRIDE
     return (
@@ -283,11 +283,11 @@ def gather(v, err, perr, i, r, ru, z, y, x, ny, nx, lo, hi):
             + abs(err[np.uint64(r - sy + 1)])
         )
         esum = eW + eN + eU
-        s0, s1, s2, s3, s4, s5 = _add_errors(perr, r - 1, s0, s1, s2, s3, s4, s5)
-        s0, s1, s2, s3, s4, s5 = _add_errors(perr, r - sy, s0, s1, s2, s3, s4, s5)
-        s0, s1, s2, s3, s4, s5 = _add_errors(perr, r - sy - 1, s0, s1, s2, s3, s4, s5)
-        s0, s1, s2, s3, s4, s5 = _add_errors(perr, r - sy + 1, s0, s1, s2, s3, s4, s5)
-        s0, s1, s2, s3, s4, s5 = _add_errors(perr, ru, s0, s1, s2, s3, s4, s5)
+        s0, s1, s2, s3, s4, s5 = add_errors(perr, r - 1, s0, s1, s2, s3, s4, s5)
+        s0, s1, s2, s3, s4, s5 = add_errors(perr, r - sy, s0, s1, s2, s3, s4, s5)
+        s0, s1, s2, s3, s4, s5 = add_errors(perr, r - sy - 1, s0, s1, s2, s3, s4, s5)
+        s0, s1, s2, s3, s4, s5 = add_errors(perr, r - sy + 1, s0, s1, s2, s3, s4, s5)
+        s0, s1, s2, s3, s4, s5 = add_errors(perr, ru, s0, s1, s2, s3, s4, s5)
     else:
         # Neighbours, with fallbacks that turn each predictor into a lower-dimensional one.
         if hw:
@@ -311,21 +311,21 @@ def gather(v, err, perr, i, r, ru, z, y, x, ny, nx, lo, hi):
         if hw:
             act2 += 2 * abs(err[np.uint64(r - 1)])
             esum += err[np.uint64(r - 1)]
-            s0, s1, s2, s3, s4, s5 = _add_errors(perr, r - 1, s0, s1, s2, s3, s4, s5)
+            s0, s1, s2, s3, s4, s5 = add_errors(perr, r - 1, s0, s1, s2, s3, s4, s5)
         if hn:
             act2 += 2 * abs(err[np.uint64(r - sy)])
             esum += err[np.uint64(r - sy)]
-            s0, s1, s2, s3, s4, s5 = _add_errors(perr, r - sy, s0, s1, s2, s3, s4, s5)
+            s0, s1, s2, s3, s4, s5 = add_errors(perr, r - sy, s0, s1, s2, s3, s4, s5)
             if hw:
                 act2 += abs(err[np.uint64(r - sy - 1)])
-                s0, s1, s2, s3, s4, s5 = _add_errors(perr, r - sy - 1, s0, s1, s2, s3, s4, s5)
+                s0, s1, s2, s3, s4, s5 = add_errors(perr, r - sy - 1, s0, s1, s2, s3, s4, s5)
             if he:
                 act2 += abs(err[np.uint64(r - sy + 1)])
-                s0, s1, s2, s3, s4, s5 = _add_errors(perr, r - sy + 1, s0, s1, s2, s3, s4, s5)
+                s0, s1, s2, s3, s4, s5 = add_errors(perr, r - sy + 1, s0, s1, s2, s3, s4, s5)
         if hu:
             act2 += 2 * abs(err[np.uint64(ru)])
             esum += err[np.uint64(ru)]
-            s0, s1, s2, s3, s4, s5 = _add_errors(perr, ru, s0, s1, s2, s3, s4, s5)
+            s0, s1, s2, s3, s4, s5 = add_errors(perr, ru, s0, s1, s2, s3, s4, s5)
     return W, N, U, NW, NE, UW, UN, UNW, act2, esum, s0, s1, s2, s3, s4, s5
 
 
@@ -377,15 +377,23 @@ def _learn(err, perr, r, val, pred, ctx, bias_sum, bias_cnt, p0, p1, p2, p3, p4,
 @kernel(inline=True)
 def store_errors(err, perr, r, e, val, p0, p1, p2, p3, p4, p5):
     """Ring slot ``r``'s final error ``e`` and each predictor's error against ``val``
-    (capped at 2^30 - 1, so that five of them add up within an int32's reach)."""
+    (capped at 2^30 - 1, so that five of them add up within an int32's reach); returns
+    the six capped errors."""
     err[np.uint64(r)] = e
     b = r * PSTRIDE
-    perr[np.uint64(b)] = min(abs(val - p0), 0x3FFFFFFF)
-    perr[np.uint64(b + 1)] = min(abs(val - p1), 0x3FFFFFFF)
-    perr[np.uint64(b + 2)] = min(abs(val - p2), 0x3FFFFFFF)
-    perr[np.uint64(b + 3)] = min(abs(val - p3), 0x3FFFFFFF)
-    perr[np.uint64(b + 4)] = min(abs(val - p4), 0x3FFFFFFF)
-    perr[np.uint64(b + 5)] = min(abs(val - p5), 0x3FFFFFFF)
+    a0 = min(abs(val - p0), 0x3FFFFFFF)
+    a1 = min(abs(val - p1), 0x3FFFFFFF)
+    a2 = min(abs(val - p2), 0x3FFFFFFF)
+    a3 = min(abs(val - p3), 0x3FFFFFFF)
+    a4 = min(abs(val - p4), 0x3FFFFFFF)
+    a5 = min(abs(val - p5), 0x3FFFFFFF)
+    perr[np.uint64(b)] = a0
+    perr[np.uint64(b + 1)] = a1
+    perr[np.uint64(b + 2)] = a2
+    perr[np.uint64(b + 3)] = a3
+    perr[np.uint64(b + 4)] = a4
+    perr[np.uint64(b + 5)] = a5
+    return a0, a1, a2, a3, a4, a5
 
 
 def workspace(shape: tuple[int, ...]) -> tuple[np.ndarray, ...]:

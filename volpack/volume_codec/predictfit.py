@@ -42,6 +42,7 @@ from .predict import (
     NLEN,
     NO_RESIDUAL,
     PSTRIDE,
+    add_errors,
     RECIP,
     bitlen,
     context,
@@ -259,15 +260,48 @@ def _fitted(v, cf, c, i, sy, sz):
 
 
 @kernel(inline=True)
-def _predict_kernel(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias):
+def _gather(v, err, perr, i, r, ru, z, y, x, ny, nx, hi, held):
+    """:func:`.predict.gather`, with what the voxel before left (``held``: its value,
+    its error and its predictors' errors, see :func:`_learn`) taken from registers
+    inside the brick rather than read back from the arrays it was just stored in:
+    that store and load were on the decoder's one chain, from a voxel to the next."""
+    if not (x > 0 and y > 0 and z > 0 and x + 1 < nx):
+        return gather(v, err, perr, i, r, ru, z, y, x, ny, nx, 0, hi)
+    W, eW, a0, a1, a2, a3, a4, a5 = held
+    sy = nx
+    sz = ny * nx
+    N = v[np.uint64(i - sy)]
+    U = v[np.uint64(i - sz)]
+    NW = v[np.uint64(i - sy - 1)]
+    NE = v[np.uint64(i - sy + 1)]
+    UW = v[np.uint64(i - sz - 1)]
+    UN = v[np.uint64(i - sz - sy)]
+    UNW = v[np.uint64(i - sz - sy - 1)]
+    eN = err[np.uint64(r - sy)]
+    eU = err[np.uint64(ru)]
+    act2 = (
+        2 * (abs(eW) + abs(eN) + abs(eU))
+        + abs(err[np.uint64(r - sy - 1)])
+        + abs(err[np.uint64(r - sy + 1)])
+    )
+    esum = eW + eN + eU
+    s0, s1, s2, s3, s4, s5 = add_errors(perr, r - sy, a0, a1, a2, a3, a4, a5)
+    s0, s1, s2, s3, s4, s5 = add_errors(perr, r - sy - 1, s0, s1, s2, s3, s4, s5)
+    s0, s1, s2, s3, s4, s5 = add_errors(perr, r - sy + 1, s0, s1, s2, s3, s4, s5)
+    s0, s1, s2, s3, s4, s5 = add_errors(perr, ru, s0, s1, s2, s3, s4, s5)
+    return W, N, U, NW, NE, UW, UN, UNW, act2, esum, s0, s1, s2, s3, s4, s5
+
+
+@kernel(inline=True)
+def _predict_kernel(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, held):
     """Prediction and contexts of voxel ``i`` = (z, y, x) from the decoded ``v`` (values
-    in ``[0, hi]``), the errors of earlier voxels (as :func:`.predict.gather`) and the
-    contexts' mean errors ``bias`` (kept by :func:`_learn`).
+    in ``[0, hi]``), the errors of earlier voxels (as :func:`.predict.gather`; ``held``
+    as :func:`_gather`) and the contexts' mean errors ``bias`` (kept by :func:`_learn`).
 
     Returns ``(pred, ctx, sign_ctx, q0, ..., q5)`` (the six predictors, in eighths).
     """
-    W, N, U, NW, NE, UW, UN, UNW, act2, esum, s0, s1, s2, s3, s4, s5 = gather(
-        v, err, perr, i, r, ru, z, y, x, ny, nx, 0, hi
+    W, N, U, NW, NE, UW, UN, UNW, act2, esum, s0, s1, s2, s3, s4, s5 = _gather(
+        v, err, perr, i, r, ru, z, y, x, ny, nx, hi, held
     )
     h8 = 8 * hi
     q0 = min(max(8 * (W + N - NW), 0), h8)
@@ -308,20 +342,25 @@ def _learn(err, perr, r, val, pred, ctx, bias_sum, bias_cnt, bias, q0, q1, q2, q
     predictors' in eighths) and update the context's bias (in eighths). The bias the
     next voxel adds is stored ready (``bias``): worked out here from the new sum and
     count, it is not on the path from one voxel's context to the next one's prediction
-    (two dependent loads and a multiply there cost the decoder a fifth of its time)."""
+    (two dependent loads and a multiply there cost the decoder a fifth of its time).
+    Returns what the next voxel holds of this one (:func:`_gather`)."""
     e = val - pred
-    store_errors(err, perr, r, e, 8 * val, q0, q1, q2, q3, q4, q5)
+    a0, a1, a2, a3, a4, a5 = store_errors(err, perr, r, e, 8 * val, q0, q1, q2, q3, q4, q5)
     s, c = learn_bias(bias_sum, bias_cnt, ctx, 8 * e)
     bias[np.uint64(ctx)] = mean_error(s, c)
+    return val, e, a0, a1, a2, a3, a4, a5
 
 
 @kernel(inline=True)
-def _skip(err, perr, r):
-    """A masked voxel: no error anywhere."""
+def _skip(err, perr, r, val):
+    """A masked voxel (of value ``val``): no error anywhere. Returns what the next
+    voxel holds of it (:func:`_gather`)."""
     err[np.uint64(r)] = 0
     b = r * PSTRIDE
     for k in range(6):
         perr[np.uint64(b + k)] = 0
+    z = np.int64(0)
+    return val, z, z, z, z, z, z, z
 
 
 def _workspace(shape: tuple[int, ...]) -> tuple[np.ndarray, ...]:
@@ -338,6 +377,8 @@ def _encode_kernel(v, mk, cf, th, shape, hi, out, err, perr, bias_sum, bias_cnt,
     sz = ny * nx
     cap = out.size
     low, rng, pos = open_encoder(out)
+    z0 = np.int64(0)
+    held = (z0, z0, z0, z0, z0, z0, z0, z0)
     i = 0
     for z in range(nz):
         cur = (z & 1) * sz
@@ -348,15 +389,17 @@ def _encode_kernel(v, mk, cf, th, shape, hi, out, err, perr, bias_sum, bias_cnt,
                     return -1
                 r = cur + y * nx + x
                 if mk[np.uint64(i)]:
-                    _skip(err, perr, r)
+                    held = _skip(err, perr, r, v[np.uint64(i)])
                     i += 1
                     continue
                 pred, ctx, sctx, q0, q1, q2, q3, q4, q5 = _predict_kernel(
-                    v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, bias
+                    v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, bias, held
                 )
                 val = v[np.uint64(i)]
                 low, rng, pos = put_residual(out, models, ctx, sctx, val - pred, low, rng, pos)
-                _learn(err, perr, r, val, pred, ctx, bias_sum, bias_cnt, bias, q0, q1, q2, q3, q4, q5)
+                held = _learn(
+                    err, perr, r, val, pred, ctx, bias_sum, bias_cnt, bias, q0, q1, q2, q3, q4, q5
+                )
                 i += 1
     return finish_stream(out, low, pos)
 
@@ -369,6 +412,8 @@ def _decode_kernel(data, mk, fill, cf, th, shape, hi, v, err, perr, bias_sum, bi
     sz = ny * nx
     size = data.size
     code, rng, pos = open_stream(data)
+    z0 = np.int64(0)
+    held = (z0, z0, z0, z0, z0, z0, z0, z0)
     i = 0
     for z in range(nz):
         cur = (z & 1) * sz
@@ -380,11 +425,11 @@ def _decode_kernel(data, mk, fill, cf, th, shape, hi, v, err, perr, bias_sum, bi
                 r = cur + y * nx + x
                 if mk[np.uint64(i)]:
                     v[np.uint64(i)] = fill
-                    _skip(err, perr, r)
+                    held = _skip(err, perr, r, fill)
                     i += 1
                     continue
                 pred, ctx, sctx, q0, q1, q2, q3, q4, q5 = _predict_kernel(
-                    v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, bias
+                    v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, bias, held
                 )
                 res, code, rng, pos = get_residual(data, models, ctx, sctx, code, rng, pos)
                 if res == NO_RESIDUAL:
@@ -393,7 +438,9 @@ def _decode_kernel(data, mk, fill, cf, th, shape, hi, v, err, perr, bias_sum, bi
                 if val < 0 or val > hi:
                     return 2
                 v[np.uint64(i)] = val
-                _learn(err, perr, r, val, pred, ctx, bias_sum, bias_cnt, bias, q0, q1, q2, q3, q4, q5)
+                held = _learn(
+                    err, perr, r, val, pred, ctx, bias_sum, bias_cnt, bias, q0, q1, q2, q3, q4, q5
+                )
                 i += 1
     return end_status(data, code, pos)
 
