@@ -142,7 +142,7 @@ def load_blob(name: str, a: np.ndarray, blobs: Path, check: bool) -> bytes:
     return blob
 
 
-def measure(name: str, repeat: int, label: str, blobs: Path, check: bool) -> list[dict]:
+def measure(name: str, repeat: int, label: str, blobs: Path, check: bool, decisions: bool) -> list[dict]:
     import datasets
     import imagecodecs as ic
 
@@ -191,7 +191,7 @@ def measure(name: str, repeat: int, label: str, blobs: Path, check: bool) -> lis
     for p, b in items:
         k = c.describe(p)
         vox[k] += b.size
-        d, rb = count_decisions(p, b)
+        d, rb = count_decisions(p, b) if decisions else (0, 0)
         dec[k][0] += d
         dec[k][1] += rb
     mb = a.nbytes / 1e6
@@ -252,13 +252,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--check-bytes", action="store_true", help="encode again; fail on other bytes")
     ap.add_argument("--out", type=Path, default=HERE.parent / "results" / "lossless" / "arith8")
     ap.add_argument("--csv", default="decode_tools.csv")
+    ap.add_argument(
+        "--no-decisions", action="store_true",
+        help="do not count decisions (the count uses this checkout's kernels: for another checkout)",
+    )  # fmt: skip
     args = ap.parse_args(argv)
     import volpack
 
     print("volpack from", volpack.__file__, flush=True)
     rows = []
     for name in args.datasets:
-        got = measure(name, args.repeat, args.label, args.blobs, args.check_bytes)
+        got = measure(name, args.repeat, args.label, args.blobs, args.check_bytes, not args.no_decisions)
         for r in got:
             print({k: r[k] for k in ("dataset", "tool", "mb_s", "vs_jpegls", "tool_mb_s",
                                      "ns_per_voxel", "ns_per_decision", "sha256")}, flush=True)  # fmt: skip

@@ -539,4 +539,4 @@ def decode(data, shape: tuple[int, int, int], lo: int, hi: int, mask=None, fill:
         *_workspace(shape),
     )  # fmt: skip
     check_status(status, "predictive")
-    return (v + lo).reshape(shape)
+    return (v + lo if lo else v).reshape(shape)  # (palette ranks start at 0: no pass)
