@@ -46,8 +46,9 @@ def import_base(checkout: Path, where: Path):
     return LosslessCodec
 
 
-def bricks_of(name: str):
-    """The default codec's payloads of volume ``name`` with their voxels."""
+def bricks_of(name: str, blobs: Path | None):
+    """The default codec's payloads of volume ``name`` with their voxels (the blob kept
+    in ``blobs`` by ``bench_predict_decode.py`` when there is one)."""
     import datasets
 
     from volpack import api
@@ -55,7 +56,11 @@ def bricks_of(name: str):
     from volpack.volume_codec import bricks
 
     a, _, _ = datasets.load(name)
-    blob = api.compress_array(np.ascontiguousarray(a))
+    path = blobs / f"{name}.vpk" if blobs else None
+    if path and path.exists():
+        blob = path.read_bytes()
+    else:
+        blob = api.compress_array(np.ascontiguousarray(a))
     with Reader(blob) as r:
         bs = tuple(r.header["brick"])
         return [(bytes(r.read(e.t, e.node)), a[bricks.brick_slices(a.shape, bs, e.node)]) for e in r.entries]
@@ -67,6 +72,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--base", type=Path, required=True, help="checkout to compare against")
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--out", type=Path)
+    ap.add_argument("--blobs", type=Path, help="bench_predict_decode.py's stored blobs, if any")
     args = ap.parse_args(argv)
     import volpack
     from volpack.volume_codec.lossless import LosslessCodec, describe
@@ -75,7 +81,7 @@ def main(argv: list[str] | None = None) -> int:
         a_codec, b_codec = import_base(args.base, Path(tmp))(), LosslessCodec()
         rows = []
         for name in args.datasets:
-            items = bricks_of(name)
+            items = bricks_of(name, args.blobs)
             for p, b in items:
                 for c in (a_codec, b_codec):
                     if not np.array_equal(c.decode(p, b.shape, b.dtype), b):
