@@ -42,8 +42,8 @@ from .predict import (
     NLEN,
     NO_RESIDUAL,
     PSTRIDE,
-    add_errors,
     RECIP,
+    add_errors,
     bitlen,
     context,
     floor_div_nonneg,
@@ -51,7 +51,6 @@ from .predict import (
     learn_bias,
     mean_error,
     store_errors,
-    weight,
     workspace,
 )
 
@@ -405,7 +404,9 @@ def _encode_kernel(v, mk, cf, th, shape, hi, out, err, perr, bias_sum, bias_cnt,
 
 
 @kernel(nrt=False)
-def _decode_kernel(data, mk, fill, cf, th, shape, hi, v, err, perr, bias_sum, bias_cnt, bias, models):
+def _decode_kernel(
+    data, mk, fill, cf, th, shape, hi, v, err, perr, bias_sum, bias_cnt, bias, models
+):
     """Return 0 on success, 1 when the stream ran short, 2 on an impossible value, 3 when
     it does not end where its length says."""
     nz, ny, nx = shape[0], shape[1], shape[2]
