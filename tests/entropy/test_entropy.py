@@ -283,3 +283,19 @@ def test_arith2_refuses_trailing_or_missing_plain_bytes():
     for bad in (blob + b"\x00", blob[:-1], blob[:4] + blob[6:]):
         with pytest.raises(FormatError):
             CODERS["arith2"].decode(bad, s, out)
+
+
+def test_plain_digit_by_float_quotient():
+    """rangecoder.digit (a truncated float quotient) is ``code // rng`` wherever that is
+    below 2^16, and at least 2^16 wherever it is, near integers and at the extremes."""
+    from volpack.entropy.rangecoder import digit
+
+    rs = np.random.default_rng(7)
+    rng = np.concatenate([rs.integers(1, 1 << 9, 400), rs.integers(1 << 8, 1 << 32, 400)])
+    q = rs.integers(0, 1 << 17, rng.size)
+    cases = [(0, 1), ((1 << 32) - 1, 1), ((1 << 32) - 1, (1 << 32) - 1), ((1 << 16) * 257 - 1, 257)]
+    for d in (-1, 0, 1):
+        cases += [(int(c), int(r)) for c, r in zip(q * rng + d, rng) if 0 <= c < 1 << 32]
+    for c, r in cases:
+        want, got = c // r, int(digit(c, r))
+        assert got == want if want < 1 << 16 else got >= 1 << 16, (c, r)

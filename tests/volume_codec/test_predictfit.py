@@ -222,3 +222,19 @@ def test_bit_flips_raise_or_decode():
         good = bytearray(version2(a))
         assert good[1] & FLAG_FIT
         flip_bits(codec, good, a, rng, 40)
+
+
+def test_weight_table_matches_its_definition():
+    """The squared weights come from one table (W2): every entry, and the saturation past
+    it, as the reciprocal, the shift and the square of predict.weight work them out."""
+    from volpack.volume_codec.predict import RECIP
+
+    def weight2(s):  # predict.weight(s + 1), squared and shifted, in plain Python
+        t = s + 1
+        sh = max(t.bit_length() - 8, 0)
+        w = max(int(RECIP[t >> sh]) >> sh, 1)
+        return max((w * w) >> 24, 1)
+
+    ss = list(range(predictfit.W2_SPAN + 64)) + [1 << 20, 5 * (1 << 30)]
+    got = [int(predictfit.W2[min(s, predictfit.W2_SPAN - 1)]) for s in ss]
+    assert got == [weight2(s) for s in ss]

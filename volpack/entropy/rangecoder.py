@@ -38,6 +38,7 @@ __all__ = [
     "adapt",
     "adapted",
     "carry",
+    "digit",
     "finish_encoder",
     "end_status",
     "finish_stream",
@@ -256,6 +257,17 @@ def put_bits(out, v, n, low, rng, pos):
 
 
 @kernel(inline=True)
+def digit(code, rng):
+    """``code // rng`` for ``0 <= code < 2^32`` and ``rng >= 1`` wherever the quotient is
+    below ``2^16`` (a digit of :func:`put_bits`), and ``>= 2^16`` wherever it is: the
+    truncated float quotient. (Below ``2^16``, ``code / rng`` is at least ``1 / rng >
+    2^-48`` of itself under the next integer, more than a double's rounding moves it;
+    from ``2^16`` up the rounding cannot take it under that power of two. A 64-bit
+    integer division took several times the latency, on the decoder's one chain.)"""
+    return np.int64(np.float64(code) / np.float64(rng))
+
+
+@kernel(inline=True)
 def get_bits(data, v, n, code, rng, pos):
     """Decode ``n`` bits coded by :func:`put_bits`, shifted in below those of ``v``
     (uint64); returns ``(v, code, rng, pos)``. A digit of ``2^t`` or more only comes from
@@ -265,7 +277,7 @@ def get_bits(data, v, n, code, rng, pos):
         t = min(n, 16)
         n -= t
         rng >>= t
-        d = code // rng
+        d = digit(code, rng)
         if d >= (1 << t):  # past the last of the 2^t parts: only damage points there,
             d = np.int64((1 << t) - 1)  # so go on with the last part, and put the
             pos = max(pos, data.size + 5)  # position past the end: the end check fails

@@ -46,6 +46,7 @@ import numpy as np
 from .._jit import kernel, leading_zeros
 from ..entropy.common import check_status, encode_with_retry, stream_bytes
 from ..entropy.rangecoder import STATE_INIT, end_status, finish_stream, open_encoder, open_stream
+from ..entropy.rangecoder import digit as _digit
 from ..entropy.rangecoder import get as _get
 from ..entropy.rangecoder import pull as _pull
 from ..entropy.rangecoder import push as _push
@@ -153,7 +154,7 @@ def get_residual(data, state, base, ctx, sctx, code, rng, pos, rate):
         t = min(kr, 16)
         kr -= t
         rng >>= t
-        q = code // rng
+        q = _digit(code, rng)
         if q >= (1 << t):  # past the last of the 2^t parts: only damage points there
             return NO_RESIDUAL, code, rng, pos
         code -= q * rng
@@ -188,14 +189,17 @@ def floor_div_nonneg(a, d):
     """:func:`floor_div` for ``a >= 0``: the float quotient truncated (one instruction,
     where a floor is a rounding step more on the decoder's chain) is then its floor,
     and the same correction makes it exact. (A negative quotient truncates towards
-    zero, which with the float's own error can be off by two: not for this one.)"""
+    zero, which with the float's own error can be off by two: not for this one.) The
+    correction is a branch, not arithmetic: it is almost never taken."""
     q = np.int64(np.float64(a) / np.float64(d))
     r = a - q * d
-    return q + np.int64(r >= d) - np.int64(r < 0)
+    if r < 0 or r >= d:  # (rare: a branch the CPU guesses right and the decoder's chain
+        q += np.int64(r >= d) - np.int64(r < 0)  # goes on with q, not waiting for r)
+    return q
 
 
 @kernel(inline=True)
-def _add_errors(perr, j, s0, s1, s2, s3, s4, s5):
+def add_errors(perr, j, s0, s1, s2, s3, s4, s5):
     """The predictors' error sums plus those of the voxel at ring slot ``j``."""
     b = j * PSTRIDE
     return (
@@ -217,18 +221,24 @@ def context(act, spread):
 
 
 @kernel(inline=True)
-def context_bias(bias_sum, bias_cnt, ctx):
-    """The context's mean error, rounded half away from zero, by a reciprocal (the
-    count is below 64; RECIP[0] is 0). Branch-free: the signs are coin tosses."""
-    s = bias_sum[np.uint64(ctx)]
+def mean_error(s, c):
+    """Error sum ``s`` over count ``c`` (below 64), rounded half away from zero, by a
+    reciprocal (RECIP[0] is 0). Branch-free: the signs are coin tosses."""
     sg = s >> 63
-    t = ((((s ^ sg) - sg) * RECIP[np.uint64(bias_cnt[np.uint64(ctx)])]) + (1 << 23)) >> 24
+    t = ((((s ^ sg) - sg) * RECIP[np.uint64(c)]) + (1 << 23)) >> 24
     return (t ^ sg) - sg
 
 
 @kernel(inline=True)
+def context_bias(bias_sum, bias_cnt, ctx):
+    """The context's mean error (:func:`mean_error`)."""
+    return mean_error(bias_sum[np.uint64(ctx)], bias_cnt[np.uint64(ctx)])
+
+
+@kernel(inline=True)
 def learn_bias(bias_sum, bias_cnt, ctx, e):
-    """Add error ``e`` to the context's sum and count; both halve at BIAS_LIMIT."""
+    """Add error ``e`` to the context's sum and count; both halve at BIAS_LIMIT.
+    Returns the new ``(sum, count)``."""
     s = bias_sum[np.uint64(ctx)] + e
     c = bias_cnt[np.uint64(ctx)] + 1
     if c >= BIAS_LIMIT:
@@ -236,6 +246,7 @@ def learn_bias(bias_sum, bias_cnt, ctx, e):
         c >>= 1
     bias_sum[np.uint64(ctx)] = s
     bias_cnt[np.uint64(ctx)] = c
+    return s, c
 
 
 @kernel(inline=True)
@@ -272,11 +283,11 @@ def gather(v, err, perr, i, r, ru, z, y, x, ny, nx, lo, hi):
             + abs(err[np.uint64(r - sy + 1)])
         )
         esum = eW + eN + eU
-        s0, s1, s2, s3, s4, s5 = _add_errors(perr, r - 1, s0, s1, s2, s3, s4, s5)
-        s0, s1, s2, s3, s4, s5 = _add_errors(perr, r - sy, s0, s1, s2, s3, s4, s5)
-        s0, s1, s2, s3, s4, s5 = _add_errors(perr, r - sy - 1, s0, s1, s2, s3, s4, s5)
-        s0, s1, s2, s3, s4, s5 = _add_errors(perr, r - sy + 1, s0, s1, s2, s3, s4, s5)
-        s0, s1, s2, s3, s4, s5 = _add_errors(perr, ru, s0, s1, s2, s3, s4, s5)
+        s0, s1, s2, s3, s4, s5 = add_errors(perr, r - 1, s0, s1, s2, s3, s4, s5)
+        s0, s1, s2, s3, s4, s5 = add_errors(perr, r - sy, s0, s1, s2, s3, s4, s5)
+        s0, s1, s2, s3, s4, s5 = add_errors(perr, r - sy - 1, s0, s1, s2, s3, s4, s5)
+        s0, s1, s2, s3, s4, s5 = add_errors(perr, r - sy + 1, s0, s1, s2, s3, s4, s5)
+        s0, s1, s2, s3, s4, s5 = add_errors(perr, ru, s0, s1, s2, s3, s4, s5)
     else:
         # Neighbours, with fallbacks that turn each predictor into a lower-dimensional one.
         if hw:
@@ -300,21 +311,21 @@ def gather(v, err, perr, i, r, ru, z, y, x, ny, nx, lo, hi):
         if hw:
             act2 += 2 * abs(err[np.uint64(r - 1)])
             esum += err[np.uint64(r - 1)]
-            s0, s1, s2, s3, s4, s5 = _add_errors(perr, r - 1, s0, s1, s2, s3, s4, s5)
+            s0, s1, s2, s3, s4, s5 = add_errors(perr, r - 1, s0, s1, s2, s3, s4, s5)
         if hn:
             act2 += 2 * abs(err[np.uint64(r - sy)])
             esum += err[np.uint64(r - sy)]
-            s0, s1, s2, s3, s4, s5 = _add_errors(perr, r - sy, s0, s1, s2, s3, s4, s5)
+            s0, s1, s2, s3, s4, s5 = add_errors(perr, r - sy, s0, s1, s2, s3, s4, s5)
             if hw:
                 act2 += abs(err[np.uint64(r - sy - 1)])
-                s0, s1, s2, s3, s4, s5 = _add_errors(perr, r - sy - 1, s0, s1, s2, s3, s4, s5)
+                s0, s1, s2, s3, s4, s5 = add_errors(perr, r - sy - 1, s0, s1, s2, s3, s4, s5)
             if he:
                 act2 += abs(err[np.uint64(r - sy + 1)])
-                s0, s1, s2, s3, s4, s5 = _add_errors(perr, r - sy + 1, s0, s1, s2, s3, s4, s5)
+                s0, s1, s2, s3, s4, s5 = add_errors(perr, r - sy + 1, s0, s1, s2, s3, s4, s5)
         if hu:
             act2 += 2 * abs(err[np.uint64(ru)])
             esum += err[np.uint64(ru)]
-            s0, s1, s2, s3, s4, s5 = _add_errors(perr, ru, s0, s1, s2, s3, s4, s5)
+            s0, s1, s2, s3, s4, s5 = add_errors(perr, ru, s0, s1, s2, s3, s4, s5)
     return W, N, U, NW, NE, UW, UN, UNW, act2, esum, s0, s1, s2, s3, s4, s5
 
 
@@ -366,15 +377,23 @@ def _learn(err, perr, r, val, pred, ctx, bias_sum, bias_cnt, p0, p1, p2, p3, p4,
 @kernel(inline=True)
 def store_errors(err, perr, r, e, val, p0, p1, p2, p3, p4, p5):
     """Ring slot ``r``'s final error ``e`` and each predictor's error against ``val``
-    (capped at 2^30 - 1, so that five of them add up within an int32's reach)."""
+    (capped at 2^30 - 1, so that five of them add up within an int32's reach); returns
+    the six capped errors."""
     err[np.uint64(r)] = e
     b = r * PSTRIDE
-    perr[np.uint64(b)] = min(abs(val - p0), 0x3FFFFFFF)
-    perr[np.uint64(b + 1)] = min(abs(val - p1), 0x3FFFFFFF)
-    perr[np.uint64(b + 2)] = min(abs(val - p2), 0x3FFFFFFF)
-    perr[np.uint64(b + 3)] = min(abs(val - p3), 0x3FFFFFFF)
-    perr[np.uint64(b + 4)] = min(abs(val - p4), 0x3FFFFFFF)
-    perr[np.uint64(b + 5)] = min(abs(val - p5), 0x3FFFFFFF)
+    a0 = min(abs(val - p0), 0x3FFFFFFF)
+    a1 = min(abs(val - p1), 0x3FFFFFFF)
+    a2 = min(abs(val - p2), 0x3FFFFFFF)
+    a3 = min(abs(val - p3), 0x3FFFFFFF)
+    a4 = min(abs(val - p4), 0x3FFFFFFF)
+    a5 = min(abs(val - p5), 0x3FFFFFFF)
+    perr[np.uint64(b)] = a0
+    perr[np.uint64(b + 1)] = a1
+    perr[np.uint64(b + 2)] = a2
+    perr[np.uint64(b + 3)] = a3
+    perr[np.uint64(b + 4)] = a4
+    perr[np.uint64(b + 5)] = a5
+    return a0, a1, a2, a3, a4, a5
 
 
 def workspace(shape: tuple[int, ...]) -> tuple[np.ndarray, ...]:

@@ -42,14 +42,15 @@ from .predict import (
     NLEN,
     NO_RESIDUAL,
     PSTRIDE,
+    RECIP,
+    add_errors,
     bitlen,
     context,
-    context_bias,
     floor_div_nonneg,
     gather,
     learn_bias,
+    mean_error,
     store_errors,
-    weight,
     workspace,
 )
 
@@ -80,13 +81,20 @@ HEAD = 4 * (NCLS - 1) + 2 * NCLS * NFIT  # thresholds and weights before the str
 
 
 @kernel(inline=True)
-def _adapt(models, k, p, n, mask):
-    """Move model ``k`` (16-bit probability ``p`` of a 0, use count ``n``) towards the
-    bit coded (``mask``: -1 for a 1, 0 for a 0). ``p`` stays within 1..65535."""
+def _adapted(p, n, mask):
+    """The state of a model (16-bit probability ``p`` of a 0, use count ``n``) moved
+    towards the bit coded (``mask``: -1 for a 1, 0 for a 0). ``p`` stays within
+    1..65535."""
     r = RATE[np.uint64(n)]
     g = (65536 - p) >> r
     p += g - ((g + (p >> r)) & mask)
-    models[np.uint64(k)] = (p << 8) | (n + np.int64(n < NCAP))
+    return (p << 8) | (n + np.int64(n < NCAP))
+
+
+@kernel(inline=True)
+def _adapt(models, k, p, n, mask):
+    """:func:`_adapted`, stored back into model ``k``."""
+    models[np.uint64(k)] = _adapted(p, n, mask)
 
 
 @kernel(inline=True)
@@ -104,25 +112,38 @@ def put16(out, models, k, bit, low, rng, pos):
 
 
 @kernel(inline=True)
-def get16(data, models, k, code, rng, pos):
-    """Decode one decision coded by :func:`put16`; returns ``(bit, code, rng, pos)``."""
-    st = np.int64(models[np.uint64(k)])
+def get16_held(data, st, code, rng, pos):
+    """Decode one decision coded by :func:`put16` with the model's state ``st`` held by
+    the caller; returns ``(bit, new state, code, rng, pos)``."""
     p = st >> 8
     bound = (rng >> 16) * p
     bit = np.int64(code >= bound)
     mask = -bit
     code -= bound & mask
     rng = bound + ((rng - 2 * bound) & mask)
-    _adapt(models, k, p, st & 255, mask)
     code, rng, pos = _pull(data, code, rng, pos)
+    return bit, _adapted(p, st & 255, mask), code, rng, pos
+
+
+@kernel(inline=True)
+def get16(data, models, k, code, rng, pos):
+    """Decode one decision coded by :func:`put16`; returns ``(bit, code, rng, pos)``."""
+    bit, models[np.uint64(k)], code, rng, pos = get16_held(
+        data, np.int64(models[np.uint64(k)]), code, rng, pos
+    )
     return bit, code, rng, pos
+
+
+@kernel(inline=True)
+def _near_half(sctx):
+    """1 when the prediction's eighths (in ``sctx``) lie near a half, else 0."""
+    return ((sctx & (NFRAC - 1)) + 1) >> 1 & 1
 
 
 @kernel(inline=True)
 def _zero_model(ctx, sctx):
     """Zero flag's model: the context, and whether the prediction lies near a half."""
-    fc = sctx & (NFRAC - 1)
-    return M_ZERO + 2 * ctx + (((fc + 1) >> 1) & 1)
+    return M_ZERO + 2 * ctx + _near_half(sctx)
 
 
 @kernel(inline=True)
@@ -157,7 +178,15 @@ def put_residual(out, models, ctx, sctx, r, low, rng, pos):
 @kernel(inline=True)
 def get_residual(data, models, ctx, sctx, code, rng, pos):
     """Decode what :func:`put_residual` coded; ``NO_RESIDUAL`` for an impossible one."""
-    bit, code, rng, pos = get16(data, models, _zero_model(ctx, sctx), code, rng, pos)
+    # Both of the context's zero-flag models are loaded, then one picked by the
+    # prediction's eighths: the loads wait for the context only, not for the
+    # prediction, which comes last (out of the division).
+    kz = M_ZERO + 2 * ctx
+    st0 = np.int64(models[np.uint64(kz)])
+    st1 = np.int64(models[np.uint64(kz + 1)])
+    h = _near_half(sctx)
+    st = st0 + ((st1 - st0) & -h)
+    bit, models[np.uint64(kz + h)], code, rng, pos = get16_held(data, st, code, rng, pos)
     if bit == 0:
         return np.int64(0), code, rng, pos
     k = M_SIGN + ctx * 3 * NFRAC + sctx
@@ -184,11 +213,25 @@ def get_residual(data, models, ctx, sctx, code, rng, pos):
     return (-(u + 1) if neg else u + 1), code, rng, pos
 
 
+def _weight2_table() -> np.ndarray:
+    """``_weight2`` for every ``s`` below W2_SPAN, from the definition: ``w = 2^24 / t``
+    from eight bits of ``t = s + 1`` (:func:`.predict.weight`), then ``max(w^2 >> 24, 1)``.
+    From ``t = 2^13`` on, ``w < 2^12`` and the weight is 1."""
+    t = np.arange(1, W2_SPAN + 1, dtype=np.int64)
+    sh = np.maximum(np.floor(np.log2(t)).astype(np.int64) + 1 - 8, 0)
+    w = np.maximum(RECIP[t >> sh] >> sh, 1)
+    return np.maximum((w * w) >> 24, 1).astype(np.uint32)
+
+
+W2_SPAN = 1 << 13
+W2 = _weight2_table()
+
+
 @kernel(inline=True)
 def _weight2(s):
-    """``~ 2^24 / (1 + s)^2``, at least 1."""
-    w = weight(s + 1)
-    return max((w * w) >> 24, 1)
+    """``~ 2^24 / (1 + s)^2``, at least 1: one load (the arithmetic of
+    :func:`.predict.weight` and the square took a sixth of the decoder's time)."""
+    return np.int64(W2[np.uint64(min(s, W2_SPAN - 1))])
 
 
 @kernel(inline=True)
@@ -216,14 +259,48 @@ def _fitted(v, cf, c, i, sy, sz):
 
 
 @kernel(inline=True)
-def _predict_kernel(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias_sum, bias_cnt):
+def _gather(v, err, perr, i, r, ru, z, y, x, ny, nx, hi, held):
+    """:func:`.predict.gather`, with what the voxel before left (``held``: its value,
+    its error and its predictors' errors, see :func:`_learn`) taken from registers
+    inside the brick rather than read back from the arrays it was just stored in:
+    that store and load were on the decoder's one chain, from a voxel to the next."""
+    if not (x > 0 and y > 0 and z > 0 and x + 1 < nx):
+        return gather(v, err, perr, i, r, ru, z, y, x, ny, nx, 0, hi)
+    W, eW, a0, a1, a2, a3, a4, a5 = held
+    sy = nx
+    sz = ny * nx
+    N = v[np.uint64(i - sy)]
+    U = v[np.uint64(i - sz)]
+    NW = v[np.uint64(i - sy - 1)]
+    NE = v[np.uint64(i - sy + 1)]
+    UW = v[np.uint64(i - sz - 1)]
+    UN = v[np.uint64(i - sz - sy)]
+    UNW = v[np.uint64(i - sz - sy - 1)]
+    eN = err[np.uint64(r - sy)]
+    eU = err[np.uint64(ru)]
+    act2 = (
+        2 * (abs(eW) + abs(eN) + abs(eU))
+        + abs(err[np.uint64(r - sy - 1)])
+        + abs(err[np.uint64(r - sy + 1)])
+    )
+    esum = eW + eN + eU
+    s0, s1, s2, s3, s4, s5 = add_errors(perr, r - sy, a0, a1, a2, a3, a4, a5)
+    s0, s1, s2, s3, s4, s5 = add_errors(perr, r - sy - 1, s0, s1, s2, s3, s4, s5)
+    s0, s1, s2, s3, s4, s5 = add_errors(perr, r - sy + 1, s0, s1, s2, s3, s4, s5)
+    s0, s1, s2, s3, s4, s5 = add_errors(perr, ru, s0, s1, s2, s3, s4, s5)
+    return W, N, U, NW, NE, UW, UN, UNW, act2, esum, s0, s1, s2, s3, s4, s5
+
+
+@kernel(inline=True)
+def _predict_kernel(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, held):
     """Prediction and contexts of voxel ``i`` = (z, y, x) from the decoded ``v`` (values
-    in ``[0, hi]``) and the errors of earlier voxels (as :func:`.predict.gather`).
+    in ``[0, hi]``), the errors of earlier voxels (as :func:`.predict.gather`; ``held``
+    as :func:`_gather`) and the contexts' mean errors ``bias`` (kept by :func:`_learn`).
 
     Returns ``(pred, ctx, sign_ctx, q0, ..., q5)`` (the six predictors, in eighths).
     """
-    W, N, U, NW, NE, UW, UN, UNW, act2, esum, s0, s1, s2, s3, s4, s5 = gather(
-        v, err, perr, i, r, ru, z, y, x, ny, nx, 0, hi
+    W, N, U, NW, NE, UW, UN, UNW, act2, esum, s0, s1, s2, s3, s4, s5 = _gather(
+        v, err, perr, i, r, ru, z, y, x, ny, nx, hi, held
     )
     h8 = 8 * hi
     q0 = min(max(8 * (W + N - NW), 0), h8)
@@ -250,7 +327,7 @@ def _predict_kernel(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias_su
     den = w0 + w1 + w2 + w3 + w4 + w5
     ctx = context(act, (max(q0, q1, q2, q3, q4, q5) - min(q0, q1, q2, q3, q4, q5)) >> 3)
     # (num >= 0: the predictions are clipped to [0, 8 hi] and the weights are positive)
-    p8 = floor_div_nonneg(num + (den >> 1), den) + context_bias(bias_sum, bias_cnt, ctx)
+    p8 = floor_div_nonneg(num + (den >> 1), den) + bias[np.uint64(ctx)]
     p8 = min(max(p8, 0), h8)
     pred = (p8 + 4) >> 3
     frac = p8 - 8 * pred  # -4..3
@@ -259,34 +336,48 @@ def _predict_kernel(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias_su
 
 
 @kernel(inline=True)
-def _learn(err, perr, r, val, pred, ctx, bias_sum, bias_cnt, q0, q1, q2, q3, q4, q5):
+def _learn(err, perr, r, val, pred, ctx, bias_sum, bias_cnt, bias, q0, q1, q2, q3, q4, q5):
     """After voxel ``val`` at ring slot ``r`` is known: store its errors (the
-    predictors' in eighths) and update the context's bias (in eighths)."""
+    predictors' in eighths) and update the context's bias (in eighths). The bias the
+    next voxel adds is stored ready (``bias``): worked out here from the new sum and
+    count, it is not on the path from one voxel's context to the next one's prediction
+    (two dependent loads and a multiply there cost the decoder a fifth of its time).
+    Returns what the next voxel holds of this one (:func:`_gather`)."""
     e = val - pred
-    store_errors(err, perr, r, e, 8 * val, q0, q1, q2, q3, q4, q5)
-    learn_bias(bias_sum, bias_cnt, ctx, 8 * e)
+    a0, a1, a2, a3, a4, a5 = store_errors(err, perr, r, e, 8 * val, q0, q1, q2, q3, q4, q5)
+    s, c = learn_bias(bias_sum, bias_cnt, ctx, 8 * e)
+    bias[np.uint64(ctx)] = mean_error(s, c)
+    return val, e, a0, a1, a2, a3, a4, a5
 
 
 @kernel(inline=True)
-def _skip(err, perr, r):
-    """A masked voxel: no error anywhere."""
+def _skip(err, perr, r, val):
+    """A masked voxel (of value ``val``): no error anywhere. Returns what the next
+    voxel holds of it (:func:`_gather`)."""
     err[np.uint64(r)] = 0
     b = r * PSTRIDE
     for k in range(6):
         perr[np.uint64(b + k)] = 0
+    z = np.int64(0)
+    return val, z, z, z, z, z, z, z
 
 
 def _workspace(shape: tuple[int, ...]) -> tuple[np.ndarray, ...]:
+    """:func:`.predict.workspace`'s arrays, the contexts' mean errors (0 before any
+    error: a sum and a count of 0 mean 0) and this module's models."""
     err, perr, bias_sum, bias_cnt, _ = workspace(shape)
-    return err, perr, bias_sum, bias_cnt, np.full(N_MODELS, MODEL_INIT, dtype=np.uint32)
+    bias = np.zeros(NCTX, dtype=np.int64)
+    return err, perr, bias_sum, bias_cnt, bias, np.full(N_MODELS, MODEL_INIT, dtype=np.uint32)
 
 
 @kernel(nrt=False)
-def _encode_kernel(v, mk, cf, th, shape, hi, out, err, perr, bias_sum, bias_cnt, models):
+def _encode_kernel(v, mk, cf, th, shape, hi, out, err, perr, bias_sum, bias_cnt, bias, models):
     nz, ny, nx = shape[0], shape[1], shape[2]
     sz = ny * nx
     cap = out.size
     low, rng, pos = open_encoder(out)
+    z0 = np.int64(0)
+    held = (z0, z0, z0, z0, z0, z0, z0, z0)
     i = 0
     for z in range(nz):
         cur = (z & 1) * sz
@@ -297,28 +388,33 @@ def _encode_kernel(v, mk, cf, th, shape, hi, out, err, perr, bias_sum, bias_cnt,
                     return -1
                 r = cur + y * nx + x
                 if mk[np.uint64(i)]:
-                    _skip(err, perr, r)
+                    held = _skip(err, perr, r, v[np.uint64(i)])
                     i += 1
                     continue
                 pred, ctx, sctx, q0, q1, q2, q3, q4, q5 = _predict_kernel(
-                    v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi,
-                    bias_sum, bias_cnt,
-                )  # fmt: skip
+                    v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, bias, held
+                )
                 val = v[np.uint64(i)]
                 low, rng, pos = put_residual(out, models, ctx, sctx, val - pred, low, rng, pos)
-                _learn(err, perr, r, val, pred, ctx, bias_sum, bias_cnt, q0, q1, q2, q3, q4, q5)
+                held = _learn(
+                    err, perr, r, val, pred, ctx, bias_sum, bias_cnt, bias, q0, q1, q2, q3, q4, q5
+                )
                 i += 1
     return finish_stream(out, low, pos)
 
 
 @kernel(nrt=False)
-def _decode_kernel(data, mk, fill, cf, th, shape, hi, v, err, perr, bias_sum, bias_cnt, models):
+def _decode_kernel(
+    data, mk, fill, cf, th, shape, hi, v, err, perr, bias_sum, bias_cnt, bias, models
+):
     """Return 0 on success, 1 when the stream ran short, 2 on an impossible value, 3 when
     it does not end where its length says."""
     nz, ny, nx = shape[0], shape[1], shape[2]
     sz = ny * nx
     size = data.size
     code, rng, pos = open_stream(data)
+    z0 = np.int64(0)
+    held = (z0, z0, z0, z0, z0, z0, z0, z0)
     i = 0
     for z in range(nz):
         cur = (z & 1) * sz
@@ -330,13 +426,12 @@ def _decode_kernel(data, mk, fill, cf, th, shape, hi, v, err, perr, bias_sum, bi
                 r = cur + y * nx + x
                 if mk[np.uint64(i)]:
                     v[np.uint64(i)] = fill
-                    _skip(err, perr, r)
+                    held = _skip(err, perr, r, fill)
                     i += 1
                     continue
                 pred, ctx, sctx, q0, q1, q2, q3, q4, q5 = _predict_kernel(
-                    v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi,
-                    bias_sum, bias_cnt,
-                )  # fmt: skip
+                    v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, bias, held
+                )
                 res, code, rng, pos = get_residual(data, models, ctx, sctx, code, rng, pos)
                 if res == NO_RESIDUAL:
                     return 2
@@ -344,7 +439,9 @@ def _decode_kernel(data, mk, fill, cf, th, shape, hi, v, err, perr, bias_sum, bi
                 if val < 0 or val > hi:
                     return 2
                 v[np.uint64(i)] = val
-                _learn(err, perr, r, val, pred, ctx, bias_sum, bias_cnt, q0, q1, q2, q3, q4, q5)
+                held = _learn(
+                    err, perr, r, val, pred, ctx, bias_sum, bias_cnt, bias, q0, q1, q2, q3, q4, q5
+                )
                 i += 1
     return end_status(data, code, pos)
 
@@ -443,4 +540,4 @@ def decode(data, shape: tuple[int, int, int], lo: int, hi: int, mask=None, fill:
         *_workspace(shape),
     )  # fmt: skip
     check_status(status, "predictive")
-    return (v + lo).reshape(shape)
+    return (v + lo if lo else v).reshape(shape)  # (palette ranks start at 0: no pass)
