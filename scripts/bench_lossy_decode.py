@@ -251,7 +251,8 @@ def run(args) -> list[dict]:
                 f" {row['decode_MBps_sperr']:6.1f} sz3 {row['decode_MBps_sz3']:6.1f}"
                 f" | x SPERR {row['x_sperr']:.2f} x SZ3 {row['x_sz3']:.2f}"
                 + (
-                    f" | encode MB/s {row['encode_MBps_volpack']:.2f} (x SZ3 {row['enc_x_sz3']:.3f})"
+                    f" | encode MB/s {row['encode_MBps_volpack']:.2f}"
+                    f" (x SZ3 {row['enc_x_sz3']:.3f})"
                     if enc
                     else ""
                 )
