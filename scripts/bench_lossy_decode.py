@@ -20,6 +20,7 @@ walk, the rest: container, checks, casts).
 
     python scripts/bench_lossy_decode.py --profile
     python scripts/bench_lossy_decode.py --label before   # e.g. with PYTHONPATH on main
+    python scripts/bench_lossy_decode.py --encode 3 --coder arith2 --label arith2
 
 Writes (appends) ``decode.csv`` and redraws ``decode_vs_peers.png`` in ``--out``
 (default ``results/lossy/decode``).
@@ -64,11 +65,16 @@ CSV_FIELDS = [
     "x_sz3",
     *(f"bound_ok_{m}" for m in METHODS),
     *(f"ms_{s}" for s in STAGES),
+    "coder",
+    *(f"encode_MBps_{m}" for m in METHODS),
+    "enc_x_sperr",
+    "enc_x_sz3",
 ]
 
 
-def codecs():
-    """(encode(a, E) -> blob, decode(blob, a) -> array) per method."""
+def codecs(coder: str | None = None):
+    """(encode(a, E) -> blob, decode(blob, a) -> array) per method; ``coder`` is
+    volpack's entropy coder (its default when None)."""
     import imagecodecs
     from pysz import sz, szConfig, szErrorBoundMode
 
@@ -82,7 +88,9 @@ def codecs():
 
     return {
         "volpack": (
-            lambda a, e: api.compress_array(a, max_error=float(e)),
+            lambda a, e: api.compress_array(
+                a, max_error=float(e), **({"coder": coder} if coder else {})
+            ),
             lambda b, a: api.decompress_array(b),
         ),
         "sperr": (
@@ -192,7 +200,7 @@ def profile_cell(timer: StageTimer, decode, rounds: int) -> dict:
 
 
 def run(args) -> list[dict]:
-    methods = codecs()
+    methods = codecs(args.coder)
     timer = StageTimer() if args.profile else None
     rows = []
     for name in args.datasets:
@@ -211,6 +219,10 @@ def run(args) -> list[dict]:
                 if not held[m]:
                     print(f"WARNING: {name} {m} at E={e:g}: max error {err:.6g}", flush=True)
             best = best_interleaved(calls, args.rounds)
+            enc = {}
+            if args.encode:  # the encoders timed the same way (volpack's is slow: fewer rounds)
+                encs = {m: functools.partial(methods[m][0], a, e) for m in methods}
+                enc = best_interleaved(encs, args.encode)
             row = {
                 "label": args.label,
                 "dataset": name,
@@ -223,7 +235,12 @@ def run(args) -> list[dict]:
                 "x_sperr": round(best["sperr"] / best["volpack"], 3),
                 "x_sz3": round(best["sz3"] / best["volpack"], 3),
                 **{f"bound_ok_{m}": held[m] for m in METHODS},
+                "coder": args.coder or "default",
             }
+            if enc:
+                row.update({f"encode_MBps_{m}": round(mb / enc[m], 2) for m in METHODS})
+                row["enc_x_sperr"] = round(enc["sperr"] / enc["volpack"], 4)
+                row["enc_x_sz3"] = round(enc["sz3"] / enc["volpack"], 4)
             if timer is not None:
                 ms = profile_cell(timer, calls["volpack"], args.rounds)
                 row.update({f"ms_{s}": round(v, 3) for s, v in ms.items()})
@@ -233,6 +250,12 @@ def run(args) -> list[dict]:
                 f" | MB/s volpack {row['decode_MBps_volpack']:6.1f} sperr"
                 f" {row['decode_MBps_sperr']:6.1f} sz3 {row['decode_MBps_sz3']:6.1f}"
                 f" | x SPERR {row['x_sperr']:.2f} x SZ3 {row['x_sz3']:.2f}"
+                + (
+                    f" | encode MB/s {row['encode_MBps_volpack']:.2f}"
+                    f" (x SZ3 {row['enc_x_sz3']:.3f})"
+                    if enc
+                    else ""
+                )
                 + (
                     " | ms " + " ".join(f"{s} {row[f'ms_{s}']:.2f}" for s in STAGES)
                     if timer is not None
@@ -292,6 +315,10 @@ def main(argv=None) -> None:
     ap.add_argument("--rounds", type=int, default=7)
     ap.add_argument("--label", default="after")
     ap.add_argument("--profile", action="store_true", help="time volpack's decode stages")
+    ap.add_argument("--coder", default=None, help="volpack's entropy coder (default: its own)")
+    ap.add_argument(
+        "--encode", type=int, default=0, metavar="N", help="also time the encoders, best of N"
+    )
     ap.add_argument("--out", type=Path, default=ROOT / "results" / "lossy" / "decode")
     args = ap.parse_args(argv)
     args.datasets = [d for d in args.datasets.split(",") if d]

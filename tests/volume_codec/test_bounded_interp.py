@@ -156,3 +156,37 @@ def test_the_interpolation_path_refuses_integer_dtypes():
     a, codec, payload = _interp_payload()
     with pytest.raises(FormatError):
         codec.decode(payload, a.shape, np.int32)
+
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_a_transposed_walk_is_cast_straight_into_the_volume(dtype):
+    # the walk's array in axis order (2, 0, 1): its voxels reach a view of a larger
+    # volume in one pass, equal to numpy's clip, cast and C-order copy of the walk
+    from volpack.format.sections import put_section
+
+    g = rough_float((6, 7, 9), np.float64, seed=5) * 1e3
+    inner, _ = bi.encode(g, 0.5, tried=((1, ((2, 0, 1),)),))
+    codec = BoundedCodec(max_error=0.25, lo=-4e3, step=0.5, integer=False, qdtype="int32")
+    payload = bytes([FLAG_INTERP]) + put_section(inner)
+    rec = bi.decode(inner, g.shape, codec.step)
+    assert not rec.flags.c_contiguous
+    want = rec.astype(dtype, order="C")
+    got = codec.decode(payload, g.shape, dtype)
+    assert got.flags.c_contiguous
+    np.testing.assert_array_equal(got, want)
+    vol = np.zeros((8, 7, 11), dtype)
+    codec.decode_into(payload, vol[1:7, :, 2:])
+    np.testing.assert_array_equal(vol[1:7, :, 2:], want)
+    assert not vol[0].any() and not vol[:, :, :2].any()
+
+
+def test_the_one_pass_cast_of_a_strided_view_clips_as_numpy_does():
+    from volpack.volume_codec.floatcast import to_float32
+
+    v = rough_float((5, 6, 7), np.float64, seed=6) * 1e38
+    v[0, 1, 2], v[1, 2, 3], v[2, 3, 4] = 1e39, -1e300, np.nan
+    for view in (v.transpose(2, 0, 1), v[::2, 1:, ::-1]):
+        big = float(np.finfo(np.float32).max)
+        want = np.clip(view, -big, big).astype(np.float32)
+        np.testing.assert_array_equal(to_float32(view), want)

@@ -26,11 +26,31 @@ def _clip_cast(v, out, big):
         out[_U(i)] = x
 
 
+@kernel(nrt=False)
+def _clip_cast_3d(v, out, big):
+    """:func:`_clip_cast` between 3-D views of any strides (the interpolation path's
+    walk array with its axes put back; a brick of a larger volume)."""
+    nz, ny, nx = v.shape
+    for z in range(nz):
+        for y in range(ny):
+            for x in range(nx):
+                t = v[_U(z), _U(y), _U(x)]
+                if t > big:
+                    t = big
+                elif t < -big:
+                    t = -big
+                out[_U(z), _U(y), _U(x)] = t
+
+
 def to_float32(v: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
-    """``np.clip(v, -big, big).astype(np.float32)`` for a C-contiguous float64 ``v``
-    (``big`` the largest finite float32), written into ``out`` (C-contiguous float32 of
-    ``v``'s size) when given."""
+    """``np.clip(v, -big, big).astype(np.float32)`` for a float64 ``v`` (``big`` the
+    largest finite float32), written into ``out`` (float32 of ``v``'s shape) when given;
+    either may have any strides when both are 3-D, else both are C-contiguous."""
     if out is None:
         out = np.empty(v.shape, np.float32)
-    _clip_cast(v.reshape(-1), out.reshape(-1), float(np.finfo(np.float32).max))
+    big = float(np.finfo(np.float32).max)
+    if v.flags.c_contiguous and out.flags.c_contiguous:
+        _clip_cast(v.reshape(-1), out.reshape(-1), big)
+    else:  # a transposed walk, or a brick inside a larger volume: one pass all the same
+        _clip_cast_3d(v, out, big)
     return out

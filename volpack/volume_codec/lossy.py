@@ -410,15 +410,15 @@ class BoundedCodec(BrickCodec):
         return self._decode(data, tuple(shape), np.dtype(dtype), None)
 
     def decode_into(self, data: bytes | memoryview, out: np.ndarray) -> None:
-        """Into a C-ordered view of the volume the float paths write their cast straight
-        (no brick-sized copy)."""
-        if out.flags.c_contiguous and out.flags.writeable:
+        """Into a view of the volume (any strides: a brick inside a larger volume) the
+        float paths write their cast straight (no brick-sized copy)."""
+        if out.flags.writeable and out.ndim == 3:
             self._decode(data, out.shape, out.dtype, out)
         else:
             super().decode_into(data, out)
 
     def _decode(self, data, shape, dtype, into: np.ndarray | None) -> np.ndarray:
-        """The brick, written into ``into`` (C-ordered, of ``shape`` and ``dtype``) when
+        """The brick, written into ``into`` (of ``shape`` and ``dtype``, any strides) when
         given."""
         data = memoryview(data)
         n = math.prod(shape)
@@ -438,7 +438,7 @@ class BoundedCodec(BrickCodec):
                 )
             out = self._lossless().decode(inner, tuple(shape), dtype)
         elif flags & FLAG_INTERP:
-            out = self._decode_interp(flags, inner, tuple(shape), dtype)
+            out = self._decode_interp(flags, inner, tuple(shape), dtype, into)
         elif flags & FLAG_CDF97:
             out = self._decode_cdf97(flags, data, inner, pos, tuple(shape), dtype, into)
             pos = out[1]
@@ -466,7 +466,6 @@ class BoundedCodec(BrickCodec):
         if into is not None and out is not into:
             into[...] = out
             out = into
-        flat = out.reshape(-1)
         sd = storage_dtype(dtype)
         if flags & FLAG_MASK:
             body, pos = _take(data, pos, n // 8 + 1 + n * sd.itemsize, zstd=True)
@@ -475,7 +474,7 @@ class BoundedCodec(BrickCodec):
                 raise FormatError("bounded brick payload: mask section too short")
             mask = np.unpackbits(np.frombuffer(body[:nb], np.uint8), count=n).astype(bool)
             k = int(mask.sum())
-            flat[mask] = from_stored(body[nb:], (k,), dtype)
+            out[mask.reshape(out.shape)] = from_stored(body[nb:], (k,), dtype)  # C order
         if flags & FLAG_CORRECTIONS:
             body, pos = _take(data, pos, len(data))
             apply_corrections(body, out, "bounded brick payload")
@@ -483,7 +482,7 @@ class BoundedCodec(BrickCodec):
             raise FormatError(f"bounded brick payload: {len(data) - pos} stray bytes at the end")
         return out
 
-    def _decode_interp(self, flags, inner, shape, dtype):
+    def _decode_interp(self, flags, inner, shape, dtype, into=None):
         from . import bounded_interp
 
         if flags & (FLAG_COEF | FLAG_RESIDUALS | FLAG_CDF97 | FLAG_OUTLIERS) or dtype.kind != "f":
@@ -492,10 +491,10 @@ class BoundedCodec(BrickCodec):
                 "the other paths' flags"
             )
         rec = bounded_interp.decode(inner, shape, self.step)
-        if dtype != np.float64:
-            big = float(np.finfo(dtype).max)
-            np.clip(rec, -big, big, out=rec)
-        return rec.astype(dtype, order="C")  # the cast puts the axes back in C order
+        out = _to_float(rec, dtype, overwrite=True, out=into)
+        if into is not None:  # the caller copies anything else in, in one pass
+            return out
+        return np.ascontiguousarray(out)  # the axes back in C order
 
     def _decode_cdf97(self, flags, data, inner, pos, shape, dtype, into=None):
         from . import bounded_cdf97 as w
@@ -545,9 +544,10 @@ def _exact_may_pay(x: np.ndarray, max_error: float) -> bool:
 
 def _to_float(v: np.ndarray, dtype: np.dtype, overwrite: bool = False, out=None) -> np.ndarray:
     """Float64 values cast to the float ``dtype``, clipped to its finite range (in ``v``
-    itself when ``overwrite``; the float32 cast possibly into ``out``, C-ordered, of
-    ``v``'s shape)."""
-    if dtype == np.float32 and v.dtype == np.float64 and v.flags.c_contiguous:
+    itself when ``overwrite``; the float32 cast, C-ordered, possibly into ``out`` of
+    ``v``'s shape, both of any strides when 3-D)."""
+    contiguous = v.flags.c_contiguous and (out is None or out.flags.c_contiguous)
+    if dtype == np.float32 and v.dtype == np.float64 and (contiguous or v.ndim == 3):
         from .floatcast import to_float32
 
         return to_float32(v, out)  # one pass, same values
@@ -614,8 +614,9 @@ def pack_corrections(x: np.ndarray, idx: np.ndarray) -> bytes:
 
 
 def apply_corrections(data, out: np.ndarray, what: str) -> None:
-    """Put the voxels of :func:`pack_corrections` back into ``out`` (C-contiguous);
-    a corrupt section raises FormatError naming ``what``."""
+    """Put the voxels of :func:`pack_corrections` back into ``out`` (their indices
+    count in C order; ``out`` of any strides); a corrupt section raises FormatError
+    naming ``what``."""
     n = out.size
     item = 4 + storage_dtype(out.dtype).itemsize
     body = inflate(data, n * item, f"{what} corrections")
@@ -625,7 +626,11 @@ def apply_corrections(data, out: np.ndarray, what: str) -> None:
     idx = np.frombuffer(body[: 4 * k], "<u4").astype(np.int64)
     if k and idx.max() >= n:
         raise FormatError(f"{what}: a correction points outside the data")
-    out.reshape(-1)[idx] = from_stored(body[4 * k :], (k,), out.dtype)
+    values = from_stored(body[4 * k :], (k,), out.dtype)
+    if out.flags.c_contiguous:
+        out.reshape(-1)[idx] = values
+    else:  # a view of a larger volume: reshape would copy
+        out[np.unravel_index(idx, out.shape)] = values
 
 
 # -- the thesis's coefficient modes -----------------------------------------------------
