@@ -120,7 +120,9 @@ class NormalCodes:
                          int(math.ceil(reach)) + 1, need)  # fmt: skip
         todo = np.argwhere(need & ~self.done).astype(np.int64)
         if len(todo):
-            parts = np.array_split(todo, max(1, min(len(todo), 4 * workers)))
+            # C-ordered parts (argwhere's result is not): the kernel keeps one signature
+            parts = [np.ascontiguousarray(p)
+                     for p in np.array_split(todo, max(1, min(len(todo), 4 * workers)))]
             for _ in ordered_map(lambda c: _normals_kernel(self.vol, c, self.inv2, self.codes),
                                  parts, workers=workers):  # fmt: skip
                 pass
