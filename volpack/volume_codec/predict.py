@@ -250,6 +250,33 @@ def learn_bias(bias_sum, bias_cnt, ctx, e):
 
 
 @kernel(inline=True)
+def interior(v, err, perr, i, r, ru, sy, sz, W, eW, s0, s1, s2, s3, s4, s5):
+    """:func:`gather` for a voxel inside the brick, whose every neighbour is there, given
+    the voxel before's value ``W``, its final error ``eW`` and the predictors' error sums
+    with its errors already added (``s0..s5``)."""
+    N = v[np.uint64(i - sy)]
+    U = v[np.uint64(i - sz)]
+    NW = v[np.uint64(i - sy - 1)]
+    NE = v[np.uint64(i - sy + 1)]
+    UW = v[np.uint64(i - sz - 1)]
+    UN = v[np.uint64(i - sz - sy)]
+    UNW = v[np.uint64(i - sz - sy - 1)]
+    eN = err[np.uint64(r - sy)]
+    eU = err[np.uint64(ru)]
+    act2 = (
+        2 * (abs(eW) + abs(eN) + abs(eU))
+        + abs(err[np.uint64(r - sy - 1)])
+        + abs(err[np.uint64(r - sy + 1)])
+    )
+    esum = eW + eN + eU
+    s0, s1, s2, s3, s4, s5 = add_errors(perr, r - sy, s0, s1, s2, s3, s4, s5)
+    s0, s1, s2, s3, s4, s5 = add_errors(perr, r - sy - 1, s0, s1, s2, s3, s4, s5)
+    s0, s1, s2, s3, s4, s5 = add_errors(perr, r - sy + 1, s0, s1, s2, s3, s4, s5)
+    s0, s1, s2, s3, s4, s5 = add_errors(perr, ru, s0, s1, s2, s3, s4, s5)
+    return W, N, U, NW, NE, UW, UN, UNW, act2, esum, s0, s1, s2, s3, s4, s5
+
+
+@kernel(inline=True)
 def gather(v, err, perr, i, r, ru, z, y, x, ny, nx, lo, hi):
     """The causal neighbours of voxel ``i`` = (z, y, x) in the decoded ``v`` (with
     fallbacks at the brick's faces), twice the activity of the final errors ``err``
@@ -266,28 +293,11 @@ def gather(v, err, perr, i, r, ru, z, y, x, ny, nx, lo, hi):
     he = x + 1 < nx
     s0 = s1 = s2 = s3 = s4 = s5 = np.int64(0)
     if hw and hn and hu and he:  # inside the brick: every neighbour there (most voxels)
-        W = v[np.uint64(i - 1)]
-        N = v[np.uint64(i - sy)]
-        U = v[np.uint64(i - sz)]
-        NW = v[np.uint64(i - sy - 1)]
-        NE = v[np.uint64(i - sy + 1)]
-        UW = v[np.uint64(i - sz - 1)]
-        UN = v[np.uint64(i - sz - sy)]
-        UNW = v[np.uint64(i - sz - sy - 1)]
-        eW = err[np.uint64(r - 1)]
-        eN = err[np.uint64(r - sy)]
-        eU = err[np.uint64(ru)]
-        act2 = (
-            2 * (abs(eW) + abs(eN) + abs(eU))
-            + abs(err[np.uint64(r - sy - 1)])
-            + abs(err[np.uint64(r - sy + 1)])
-        )
-        esum = eW + eN + eU
         s0, s1, s2, s3, s4, s5 = add_errors(perr, r - 1, s0, s1, s2, s3, s4, s5)
-        s0, s1, s2, s3, s4, s5 = add_errors(perr, r - sy, s0, s1, s2, s3, s4, s5)
-        s0, s1, s2, s3, s4, s5 = add_errors(perr, r - sy - 1, s0, s1, s2, s3, s4, s5)
-        s0, s1, s2, s3, s4, s5 = add_errors(perr, r - sy + 1, s0, s1, s2, s3, s4, s5)
-        s0, s1, s2, s3, s4, s5 = add_errors(perr, ru, s0, s1, s2, s3, s4, s5)
+        W, N, U, NW, NE, UW, UN, UNW, act2, esum, s0, s1, s2, s3, s4, s5 = interior(
+            v, err, perr, i, r, ru, sy, sz, v[np.uint64(i - 1)], err[np.uint64(r - 1)],
+            s0, s1, s2, s3, s4, s5,
+        )  # fmt: skip
     else:
         # Neighbours, with fallbacks that turn each predictor into a lower-dimensional one.
         if hw:

@@ -43,11 +43,11 @@ from .predict import (
     NO_RESIDUAL,
     PSTRIDE,
     RECIP,
-    add_errors,
     bitlen,
     context,
     floor_div_nonneg,
     gather,
+    interior,
     learn_bias,
     mean_error,
     store_errors,
@@ -267,28 +267,7 @@ def _gather(v, err, perr, i, r, ru, z, y, x, ny, nx, hi, held):
     if not (x > 0 and y > 0 and z > 0 and x + 1 < nx):
         return gather(v, err, perr, i, r, ru, z, y, x, ny, nx, 0, hi)
     W, eW, a0, a1, a2, a3, a4, a5 = held
-    sy = nx
-    sz = ny * nx
-    N = v[np.uint64(i - sy)]
-    U = v[np.uint64(i - sz)]
-    NW = v[np.uint64(i - sy - 1)]
-    NE = v[np.uint64(i - sy + 1)]
-    UW = v[np.uint64(i - sz - 1)]
-    UN = v[np.uint64(i - sz - sy)]
-    UNW = v[np.uint64(i - sz - sy - 1)]
-    eN = err[np.uint64(r - sy)]
-    eU = err[np.uint64(ru)]
-    act2 = (
-        2 * (abs(eW) + abs(eN) + abs(eU))
-        + abs(err[np.uint64(r - sy - 1)])
-        + abs(err[np.uint64(r - sy + 1)])
-    )
-    esum = eW + eN + eU
-    s0, s1, s2, s3, s4, s5 = add_errors(perr, r - sy, a0, a1, a2, a3, a4, a5)
-    s0, s1, s2, s3, s4, s5 = add_errors(perr, r - sy - 1, s0, s1, s2, s3, s4, s5)
-    s0, s1, s2, s3, s4, s5 = add_errors(perr, r - sy + 1, s0, s1, s2, s3, s4, s5)
-    s0, s1, s2, s3, s4, s5 = add_errors(perr, ru, s0, s1, s2, s3, s4, s5)
-    return W, N, U, NW, NE, UW, UN, UNW, act2, esum, s0, s1, s2, s3, s4, s5
+    return interior(v, err, perr, i, r, ru, nx, ny * nx, W, eW, a0, a1, a2, a3, a4, a5)
 
 
 @kernel(inline=True)
