@@ -174,6 +174,7 @@ def test_resident_walk_matches_a_fresh_grid_and_the_paged_sampler(tree_path):
         np.testing.assert_array_equal(img, render(vol, tf=tf, camera=cam, value_range=vr))
 
 
+@pytest.mark.slow  # the paged sampler's own kernels; its image equality is in the fast set too
 def test_resident_volume_over_its_budget_walks_paged(tree_path):
     # a budget below the grid's bytes: every frame goes through the page table
     path, vol = tree_path
