@@ -129,6 +129,7 @@ def test_cli_render_of_an_off_centre_object_fills_80_percent_for_any_thread_coun
     assert lit.any(axis=0).sum() < 0.4 * 80  # the whole grid framed, as before
 
 
+@pytest.mark.slow  # the animation decoder's kernels: every other animation test is in the slow set
 def test_play_frames_an_animation_on_its_first_frame(tmp_path):
     from volpack.animation.stream import compress as compress_animation
 
