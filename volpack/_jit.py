@@ -28,6 +28,7 @@ import os
 import pathlib
 
 import numba
+import numpy as np
 
 CACHE = os.environ.get("VOLPACK_JIT_CACHE", "1") != "0"
 _PACKAGE = pathlib.Path(__file__).resolve().parent
@@ -151,6 +152,17 @@ def kernel(
         fastmath={"contract"} if contract else False,
         _nrt=nrt,
     )
+
+
+def read_only(a):
+    """A read-only view of array ``a``. numba compiles a kernel once for writable and
+    once more for read-only arrays (a file read through the CLI arrives read-only, an
+    array from the API writable); kernels that only read a volume get it through here,
+    so both callers share one compiled signature (and the first render after an API
+    call compiles nothing new)."""
+    v = np.asarray(a).view()
+    v.flags.writeable = False
+    return v
 
 
 def prange(*args):

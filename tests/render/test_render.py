@@ -198,6 +198,28 @@ def test_the_image_does_not_depend_on_the_thread_count():
     assert np.array_equal(one, render(vol, workers=3, **kw, progress=lambda d, t: None))
 
 
+def test_read_only_and_writable_volumes_share_compiled_kernels():
+    # a file read by the CLI arrives read-only, an API array writable: numba would
+    # compile every kernel once for each (8 s a march kernel); both must give one image
+    # from one set of compiled signatures
+    from volpack.render import raycast
+
+    vol = ball(20, 6)
+    kw = dict(tf=blob_tf(), camera=Camera(azimuth=30, size=(12, 10)), shading="phong")
+
+    def compiled():
+        kernels = {**vars(raycast), **{str(k): f for k, f in raycast._MARCH.items()}}
+        return {n: len(f.signatures) for n, f in kernels.items() if hasattr(f, "signatures")}
+
+    img = render(vol, **kw)
+    before = compiled()
+    ro = vol.copy()
+    ro.flags.writeable = False
+    assert np.array_equal(render(ro, **kw), img)
+    after = compiled()
+    assert {n for n in after if after[n] != before.get(n)} == set()
+
+
 # --------------------------------------------------------------------------- edge cases
 
 

@@ -32,7 +32,7 @@ import math
 
 import numpy as np
 
-from .._jit import kernel
+from .._jit import kernel, read_only
 from ..parallel import ordered_map
 
 #: Quantisation steps per side of the octahedral square (codes 1 .. LEVELS^2).
@@ -104,7 +104,7 @@ class NormalCodes:
     """The per-voxel codes of one (filled) volume, computed chunk by chunk on demand."""
 
     def __init__(self, vol: np.ndarray, spacing) -> None:
-        self.vol = vol
+        self.vol = read_only(vol)  # one compiled signature for every caller
         self.inv2 = np.array([0.5 / float(s) for s in spacing], np.float64)
         self.codes = np.zeros(vol.shape, np.uint16)  # zero pages until written
         self.done = np.zeros(tuple(-(-n // CHUNK) for n in vol.shape), np.bool_)

@@ -33,7 +33,7 @@ import math
 
 import numpy as np
 
-from .._jit import kernel
+from .._jit import kernel, read_only
 from ..errors import VolpackError
 from ..parallel import ordered_map
 from .normals import CHUNK, NormalCodes
@@ -69,15 +69,15 @@ class PreparedVolume:
     def filled(self, fill: float | None) -> np.ndarray:
         """The sampled array with the bad voxels set to ``fill`` (the array itself when
         there are none)."""
-        if self.bad is None:
-            return self.data
+        if self.bad is None:  # read-only whoever owns it: one signature (_jit.read_only)
+            return read_only(self.data)
         if self._fill[0] != fill:
             dt = self.data.dtype
             ok = dt.kind == "f" or (float(fill).is_integer() and np.can_cast(
                 np.min_scalar_type(int(fill)), dt))  # fmt: skip
             arr = self.data.astype(dt if ok else np.float32)
             arr[self.bad] = fill
-            self._fill = (fill, arr)
+            self._fill = (fill, read_only(arr))
         return self._fill[1]
 
     def gradients(self, fill: float | None, workers: int = 1) -> np.ndarray | None:
@@ -217,6 +217,7 @@ def gradient_volume(vol: np.ndarray, dtype=np.float32, workers: int = 1) -> np.n
     """Central differences ``(nz, ny, nx, 3)`` of ``vol`` along (z, y, x), edges clamped
     (see the module docstring); slabs of z on ``workers`` threads."""
     out = np.empty((*vol.shape, 3), dtype)
+    vol = read_only(vol)  # one compiled signature for every caller
     nz = vol.shape[0]
     chunk = max(1, math.ceil(nz / max(1, 4 * workers)))
     starts = list(range(0, nz, chunk))

@@ -111,7 +111,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from .._jit import JIT_DISABLED, kernel, leading_zeros
+from .._jit import JIT_DISABLED, kernel, leading_zeros, read_only
 from ..errors import VolpackError
 from ..parallel import ordered_map, parse_workers
 from .camera import Camera
@@ -1220,6 +1220,7 @@ def brick_ranges(vol, brick: int, mins, maxs, workers: int = 1) -> None:
     read), slabs of bricks on ``workers`` threads."""
     nbz = mins.shape[0]
     per = max(1, -(-nbz // (4 * workers)))
+    vol = read_only(vol)  # one compiled signature for every caller
     for _ in ordered_map(lambda b0: _brick_range_kernel(vol, brick, b0, min(b0 + per, nbz),
                                                         mins, maxs),
                          range(0, nbz, per), workers=workers):  # fmt: skip
@@ -1416,7 +1417,7 @@ def render(
     else:
         prep = prepare_volume(volume, spacing)
         sp = prep.spacing if spacing is None else unpack_volume(prep.data[:1, :1, :1], spacing)[2]
-        vol = prep.data
+        vol = read_only(prep.data)  # one compiled signature for API and CLI callers
         frange = prep.finite_range
     if value_range is None:
         lo, hi = frange if frange is not None else (0.0, 1.0)
