@@ -30,6 +30,7 @@ functions over the range from the median voxel to the maximum: ``semi`` (clear b
 ``peers.csv`` and ``peers.png`` (time per frame against PSNR) under ``--out``.
 
     python scripts/bench_render_peers.py [--quick] [--out results/render] [--workers 2]
+        [--volumes ct_head ...] [--tfs semi opaque]
 """
 
 from __future__ import annotations
@@ -299,6 +300,8 @@ def main(argv=None) -> int:
                     help="step of the extra pre-integrated volpack run")  # fmt: skip
     ap.add_argument("--frames", type=int, default=3, help="further frames after the first")
     ap.add_argument("--quick", action="store_true", help="256^2 images, 2 further frames")
+    ap.add_argument("--tfs", nargs="+", default=["semi", "opaque"], choices=["semi", "opaque"],
+                    help="the transfer functions to run")  # fmt: skip
     args = ap.parse_args(argv)
     if args.quick:
         args.size, args.frames = 256, 2
@@ -309,7 +312,7 @@ def main(argv=None) -> int:
         spacing = tuple(float(s) for s in spacing)
         print(f"{name} {vol.shape} {vol.dtype} spacing {spacing}", flush=True)
         warm_up(vol, spacing, args.workers)
-        for tfk in ("semi", "opaque"):
+        for tfk in args.tfs:
             for shade in (False, True):
                 run_case(name, vol, spacing, tfk, shade, args, rows)
     with open(args.out / "peers.csv", "w", newline="") as f:

@@ -176,6 +176,47 @@ def test_early_ray_termination_stays_within_its_threshold():
         assert np.abs(full[..., 3] - ert[..., 3]).max() <= 0.01
 
 
+def test_a_terminated_ray_ends_in_the_colour_of_its_last_segment():
+    # one colour everywhere: what termination leaves out is that colour, so the
+    # completed image is the one without termination, up to the light behind the ball
+    vol = ball(40, 14)
+    tf = TransferFunction(points=((0.0, 0.9, 0.6, 0.3, 0.6), (14.0, 0.9, 0.6, 0.3, 0.6),
+                                  (16.0, 0.9, 0.6, 0.3, 0.0)))  # fmt: skip
+    kw = dict(tf=tf, camera=Camera(size=(24, 24)))
+    for mode in ("post", "preintegrated"):
+        full = render(vol, ert=1.0, classification=mode, **kw)
+        ert = render(vol, ert=0.99, classification=mode, **kw)
+        centre = full[..., 3] > 0.9999
+        assert centre.sum() > 50 and np.all(ert[centre, 3] == 1.0)
+        assert np.abs(full - ert)[centre].max() < 2e-4
+
+
+def test_refinement_brings_opaque_surfaces_nearer_a_fine_step():
+    # a sharp opacity ramp crossed in one segment: the chord between the segment's
+    # samples misplaces the surface; two sub-segments halve that, semi-transparent
+    # segments are left alone
+    n = 32
+    z, y, x = np.meshgrid(*(np.linspace(0, 1, n),) * 3, indexing="ij")
+    vol = (0.5 + 0.45 * np.sin(5.0 * y + 2.0 * x) * np.cos(3.0 * z)).astype(np.float32)
+    opaque = TransferFunction(points=((0.55, 0, 0, 0, 0), (0.65, 0.9, 0.7, 0.5, 0.9),
+                                      (1.0, 1, 1, 1, 1)))  # fmt: skip
+    kw = dict(camera=Camera(azimuth=10, elevation=5, size=(24, 24)), value_range=(0.0, 1.0),
+              shading="phong", step=0.5)  # fmt: skip
+    ref = render(vol, tf=opaque, refine=1, **{**kw, "step": 0.05})
+    plain, st1 = render(vol, tf=opaque, refine=1, render_stats=True, **kw)
+    refined, st = render(vol, tf=opaque, refine=2, render_stats=True, **kw)
+    err_plain = np.abs(plain - ref).mean()
+    err_refined = np.abs(refined - ref).mean()
+    assert ref[..., 3].max() > 0.9
+    assert err_refined < 0.6 * err_plain, (err_refined, err_plain)
+    assert st1.samples < st.samples < 1.3 * st1.samples
+    faint = TransferFunction(points=((0.55, 0, 0, 0, 0), (1.0, 1, 1, 1, 0.15)))
+    np.testing.assert_array_equal(render(vol, tf=faint, refine=2, **kw),
+                                  render(vol, tf=faint, refine=1, **kw))  # fmt: skip
+    with pytest.raises(VolpackError, match="refine"):
+        render(vol, tf=faint, refine=0, **kw)
+
+
 @pytest.mark.parametrize("mode", ["post", "pre", "preintegrated"])
 def test_empty_space_skipping_leaves_the_image_unchanged(mode):
     vol = ball(48, 10)
