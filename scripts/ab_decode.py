@@ -31,8 +31,11 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 
-def import_base(checkout: Path, where: Path):
-    """The base checkout's lossless codec class, imported as ``volpack_base``."""
+CODECS = {"lossless": ("lossless", "LosslessCodec"), "fast": ("fast", "FastCodec")}
+
+
+def import_base(checkout: Path, where: Path, codec: str = "lossless"):
+    """The base checkout's codec class (``--codec``), imported as ``volpack_base``."""
     dst = where / "volpack_base"
     shutil.copytree(checkout / "volpack", dst, ignore=shutil.ignore_patterns("__pycache__"))
     for p in dst.rglob("*.py"):  # the few absolute imports of the package itself
@@ -41,14 +44,16 @@ def import_base(checkout: Path, where: Path):
         if t != s:
             p.write_text(t)
     sys.path.insert(0, str(where))
-    from volpack_base.volume_codec.lossless import LosslessCodec
+    import importlib
 
-    return LosslessCodec
+    module, cls = CODECS[codec]
+    return getattr(importlib.import_module(f"volpack_base.volume_codec.{module}"), cls)
 
 
-def bricks_of(name: str, blobs: Path | None):
-    """The default codec's payloads of volume ``name`` with their voxels (the blob kept
-    in ``blobs`` by ``bench_predict_decode.py`` when there is one)."""
+def bricks_of(name: str, blobs: Path | None, codec: str = "lossless"):
+    """The codec's payloads of volume ``name`` with their voxels (the blob kept in
+    ``blobs`` by ``bench_predict_decode.py``, ``NAME.vpk``, or for ``fast`` by
+    ``bench_workers.py``, ``NAME.fast.vpk``, when there is one)."""
     import datasets
 
     from volpack import api
@@ -56,11 +61,11 @@ def bricks_of(name: str, blobs: Path | None):
     from volpack.volume_codec import bricks
 
     a, _, _ = datasets.load(name)
-    path = blobs / f"{name}.vpk" if blobs else None
+    path = blobs / (f"{name}.vpk" if codec == "lossless" else f"{name}.{codec}.vpk") if blobs else None
     if path and path.exists():
         blob = path.read_bytes()
     else:
-        blob = api.compress_array(np.ascontiguousarray(a))
+        blob = api.compress_array(np.ascontiguousarray(a), codec=codec)
     with Reader(blob) as r:
         bs = tuple(r.header["brick"])
         return [(bytes(r.read(e.t, e.node)), a[bricks.brick_slices(a.shape, bs, e.node)]) for e in r.entries]
@@ -71,17 +76,22 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("datasets", nargs="+")
     ap.add_argument("--base", type=Path, required=True, help="checkout to compare against")
     ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--codec", choices=sorted(CODECS), default="lossless")
     ap.add_argument("--out", type=Path)
     ap.add_argument("--blobs", type=Path, help="bench_predict_decode.py's stored blobs, if any")
     args = ap.parse_args(argv)
-    import volpack
-    from volpack.volume_codec.lossless import LosslessCodec, describe
+    import importlib
 
+    import volpack
+
+    module, cls = CODECS[args.codec]
+    mod = importlib.import_module(f"volpack.volume_codec.{module}")
+    describe = mod.describe
     with tempfile.TemporaryDirectory() as tmp:
-        a_codec, b_codec = import_base(args.base, Path(tmp))(), LosslessCodec()
+        a_codec, b_codec = import_base(args.base, Path(tmp), args.codec)(), getattr(mod, cls)()
         rows = []
         for name in args.datasets:
-            items = bricks_of(name, args.blobs)
+            items = bricks_of(name, args.blobs, args.codec)
             for p, b in items:
                 for c in (a_codec, b_codec):
                     if not np.array_equal(c.decode(p, b.shape, b.dtype), b):

@@ -1,4 +1,4 @@
-"""Volume model, atomic output, the brick grid, ordered parallel map, the JIT cache policy."""
+"""Volume model, atomic output, the brick grid, ordered and as-completed parallel maps, the JIT cache policy."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ import pytest
 
 from volpack.errors import FormatError
 from volpack.format.atomic import OutputExistsError, atomic_open, check_output
-from volpack.parallel import ordered_map
+from volpack.parallel import completed_map, ordered_map
 from volpack.volume import Volume
 from volpack.volume_codec import bricks
 
@@ -128,6 +128,25 @@ def test_ordered_map_keeps_order_with_threads():
     assert list(ordered_map(lambda i: i, itertools.islice(itertools.count(), 10), 3)) == list(
         range(10)
     )
+
+
+def test_completed_map_runs_past_a_slow_item():
+    # item 0 waits for the last one: the in-order map (look-ahead 4 x 2) never submits
+    # it while 0 is pending; the as-completed map does, on the other worker
+    import threading
+
+    last = threading.Event()
+
+    def fn(i):
+        if i == 0:
+            return last.wait(timeout=20)
+        if i == 29:
+            last.set()
+        return i
+
+    got = list(completed_map(fn, range(30), 2))
+    assert sum(g is True for g in got) == 1 and sorted(g for g in got if g is not True) == list(range(1, 30))
+    assert list(completed_map(lambda i: -i, range(5), 1)) == [0, -1, -2, -3, -4]
 
 
 def test_jit_cache_dir_follows_the_sources(tmp_path):

@@ -11,7 +11,7 @@ import collections
 import contextlib
 import os
 from collections.abc import Callable, Iterable, Iterator
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 from typing import TypeVar
 
 from .errors import OptionError
@@ -57,6 +57,37 @@ def ordered_map(
                     yield pending.popleft().result()
             while pending:
                 yield pending.popleft().result()
+        finally:
+            for f in pending:
+                f.cancel()
+
+
+def completed_map(
+    fn: Callable[[T], R], items: Iterable[T], workers: int = 1, ahead: int = 4
+) -> Iterator[R]:
+    """Yield ``fn(item)`` for each item as it completes, running up to ``workers`` at once.
+
+    For work whose results do not depend on the order they arrive in (bricks decoded
+    into their own part of one output): unlike :func:`ordered_map`, a slow item never
+    holds back the next ones, so no worker waits while items are left. At most ``ahead
+    * workers`` are pending.
+    """
+    if workers <= 1:
+        yield from map(fn, items)
+        return
+    with ThreadPoolExecutor(max_workers=workers) as ex:
+        pending: set = set()
+        try:
+            for item in items:
+                pending.add(ex.submit(fn, item))
+                if len(pending) >= ahead * workers:
+                    done, pending = wait(pending, return_when=FIRST_COMPLETED)
+                    for f in done:
+                        yield f.result()
+            while pending:
+                done, pending = wait(pending, return_when=FIRST_COMPLETED)
+                for f in done:
+                    yield f.result()
         finally:
             for f in pending:
                 f.cancel()

@@ -119,6 +119,24 @@ def test_palette_pack_unpack(k):
     assert used == len(palette.pack(p))
 
 
+def test_palette_one_byte_gaps_and_their_errors():
+    # gaps below 128 take the vectorised path: values, bytes used (trailing bytes left),
+    # a multi-byte gap among them, a truncated palette, a value past 2^63 - 1
+    rng = np.random.default_rng(5)
+    p = np.cumsum(rng.integers(1, 129, 300)) - 1000
+    for q in (p, np.concatenate([p, [p[-1] + 500]])):
+        body = palette.pack(q)
+        got, used = palette.unpack(memoryview(body + b"\x07"), 1 << 16)
+        np.testing.assert_array_equal(got, q)
+        assert used == len(body)
+    with pytest.raises(FormatError, match="ends inside"):
+        palette.unpack(memoryview(palette.pack(p)[:-1]), 1 << 16)
+    top = np.array([2**63 - 3, 2**63 - 2, 2**63 - 1])
+    np.testing.assert_array_equal(palette.unpack(memoryview(palette.pack(top)), 8)[0], top)
+    with pytest.raises(FormatError, match="64-bit range"):
+        palette.unpack(memoryview(palette.pack(top)[:-1] + b"\x01"), 8)
+
+
 @pytest.mark.parametrize(
     "k,dtype", [(2, np.uint8), (255, np.uint8), (256, np.uint16), (65536, np.int32)]
 )

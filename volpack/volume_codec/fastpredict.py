@@ -115,12 +115,16 @@ def _activity_table(n: int) -> np.ndarray:
 ACTIVITY = _activity_table(4096)
 
 
-@kernel(inline=True)
-def _class(a, lut):
-    """:func:`_activity` of ``a``, looked up below the table's size (most voxels)."""
-    if a < lut.size:
-        return np.int64(lut[np.uintp(a)])
-    return _activity(a)
+_CAPPED: dict[int, np.ndarray] = {}
+
+
+def _capped_classes(nctx: int) -> np.ndarray:
+    """:data:`ACTIVITY` capped at the last of ``nctx`` contexts (the decoder's context of
+    an activity below 4096 in one look-up; one table per count, made once)."""
+    t = _CAPPED.get(nctx)
+    if t is None:
+        t = _CAPPED.setdefault(nctx, np.minimum(ACTIVITY, nctx - 1).astype(np.uint8))
+    return t
 
 
 @kernel(inline=True)
@@ -439,6 +443,7 @@ def _decode_kernel(
     ring = 2 * sz
     mid = (lo + hi) >> 1
     hictx = nctx - 1
+    span = np.uint64(hi - lo)
     x0, x1, pos = rans.open_states(data)
     reader = (np.uint64(0), np.int64(0), np.int64(0))
     bad = False
@@ -505,13 +510,14 @@ def _decode_kernel(
                 if runs and a + g == 0:
                     run = True
                     break
-                c = min(_class(a + 2 * g, act), hictx)
+                c = a + 2 * g  # its class, capped at the last context: one look-up
+                c = np.int64(act[np.uintp(c)]) if c < act.size else min(_activity(c), hictx)
                 uw, pos, x0, x1, reader = _symbol(
                     syms, info, c, data, pos, x0, x1, words, reader, tok
                 )
                 u[np.uintp(r)] = min(uw, UCAP)
                 w = p + ((uw >> 1) ^ -(uw & 1))
-                bad |= (w < lo) | (w > hi)
+                bad |= np.uint64(w - lo) > span  # outside [lo, hi]: one compare
                 v[np.uintp(i)] = w
                 i += 1
                 r += 1
@@ -841,7 +847,7 @@ def decode(
     status = _decode_kernel(
         stream, words, np.int64(8 * len(raw)), syms.reshape(-1), info.reshape(-1),
         np.int64(nctx), pid, cid, runs, rows, np.array(shape, dtype=np.int64), np.int64(lo),
-        np.int64(hi), v, ring, TOK, ACTIVITY,
+        np.int64(hi), v, ring, TOK, _capped_classes(nctx),
         np.zeros(shape[0] * shape[1], np.uint8) if kinds is None else kinds,
     )  # fmt: skip
     if status:

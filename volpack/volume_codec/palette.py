@@ -54,8 +54,18 @@ def unpack(data: memoryview, limit: int) -> tuple[np.ndarray, int]:
     if not 1 <= k <= limit:
         raise FormatError(f"corrupt palette: expected 1..{limit} values, found {k}")
     z, pos = read_uleb(data, pos)
-    out = np.empty(k, dtype=np.int64)
     value = (z >> 1) ^ -(z & 1)
+    gaps = np.frombuffer(data[pos : pos + k - 1], dtype=np.uint8)
+    if len(gaps) == k - 1 and not (gaps & 0x80).any():  # every gap one byte (most palettes):
+        # a cumulative sum instead of a Python loop a value (the decoders hold the GIL here)
+        if value + int(gaps.sum(dtype=np.int64)) + k - 1 >= 1 << 63:
+            raise FormatError("corrupt palette: a value leaves the 64-bit range")
+        out = np.empty(k, dtype=np.int64)
+        out[0] = value
+        np.cumsum(gaps.astype(np.int64) + 1, out=out[1:])
+        out[1:] += value
+        return out, pos + k - 1
+    out = np.empty(k, dtype=np.int64)
     out[0] = value
     for i in range(1, k):
         g, pos = read_uleb(data, pos)

@@ -28,7 +28,7 @@ from ..format.describe import describe
 from ..format.streams import stdin
 from ..jsonsafe import jsonable
 from ..metrics import psnr_from_sse, throughput
-from ..parallel import ordered_map, parse_workers
+from ..parallel import completed_map, ordered_map, parse_workers
 from ..volume import Volume
 from . import bricks
 from .codec import WAVELET_DTYPES, WaveletCodec, ZstdCodec
@@ -369,6 +369,14 @@ class VolumeReader(CheckedReader):
         out = np.empty((len(times), *rshape), dtype=dtype)
         nodes = bricks.bricks_in_roi(spatial, brick_t, region)
         tasks = [(i, t, node) for i, t in enumerate(times) for node in nodes]
+        if nworkers > 1:  # largest payloads first: the small ones left fill the gaps at the
+            # end, so the workers finish together (each brick writes its own part of
+            # ``out``: the output does not depend on the order)
+            if seekable:
+                size = {(e.t, e.node): e.nbytes for e in r.entries}
+            else:
+                size = {k: len(p) for k, p in cache.items()}
+            tasks.sort(key=lambda task: -size.get(task[1:], 0))
 
         lock = threading.Lock()
 
@@ -389,7 +397,7 @@ class VolumeReader(CheckedReader):
                 return None
             return (i, *dst_sl), c.decode(payload, bshape, dtype)[src_sl]
 
-        for done, part in enumerate(ordered_map(fetch, tasks, nworkers), 1):
+        for done, part in enumerate(completed_map(fetch, tasks, nworkers), 1):
             if part is not None:
                 out[part[0]] = part[1]
             if progress is not None:
