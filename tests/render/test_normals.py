@@ -116,6 +116,13 @@ def test_codes_are_bounded_and_built_for_what_the_tf_shows():
     assert 1 <= nc.done.sum() <= 8 < nc.done.size
     assert not nc.codes[CHUNK * 2 :].any()
     assert np.array_equal(render(p, **kw), one)  # kept across frames
+
+
+@pytest.mark.slow  # gradients on the fly for uint8: march variants of their own
+def test_over_the_budget_no_codes_and_gradients_on_the_fly():
+    vol = np.zeros((64, 40, 48), np.uint8)
+    vol[:16, :16, :16] = np.round(field((16, 16, 16)) * 255)
+    kw = dict(tf=semi(0, 255), camera=Camera(size=(24, 24)), shading="phong")
     # over the budget: no codes, gradients (here on the fly too: 6 bytes a voxel)
     q = prepare_volume(vol, gradient_budget=vol.size * 2 - 1)
     assert q.normal_codes(None, (1.0, 1.0, 1.0)) is None
