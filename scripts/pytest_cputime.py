@@ -9,6 +9,11 @@ Each xdist worker appends its rows to ``$VOLPACK_TEST_CPU`` (default
 ``results/test_cpu.csv``): nodeid, cpu seconds (setup, call and teardown, child processes
 included), of which compiling (in this process). A test's own cost is the difference; the compile share lands on whichever test
 first used a kernel.
+
+With ``$VOLPACK_TEST_KERNELS`` set to a path, each worker also appends a row per compiled
+kernel signature: kernel, argument types, the test that first asked for it, and the CPU
+seconds of that compile without its callees' (how the read-only duplicates of the
+renderer's kernels were found: a file read by the CLI is read-only, an API array not).
 """
 
 from __future__ import annotations
@@ -30,10 +35,42 @@ def _on_compile(event, name, seconds):
         _compile[0] += seconds or 0.0
 
 
+_current = ["?"]
+
+
+def _watch_signatures(path: str) -> None:
+    from numba.core import event
+
+    stack = []  # [start CPU, CPU of nested compiles, row]
+
+    class _Kernels(event.Listener):
+        def on_start(self, ev):
+            fn = getattr(ev.data.get("dispatcher"), "py_func", None)
+            name = f"{getattr(fn, '__module__', '?')}.{getattr(fn, '__qualname__', '?')}"
+            args = " ".join(str(ev.data.get("args")).split()).replace('"', "'")
+            stack.append([time.thread_time(), 0.0, (name, args, _current[0])])
+
+        def on_end(self, ev):
+            t0, nested, (name, args, test) = stack.pop()
+            dt = time.thread_time() - t0
+            if stack:
+                stack[-1][1] += dt
+            with open(path, "a") as f:
+                f.write(f'"{name}","{args}","{test}",{dt - nested:.3f}\n')
+
+    event.register("numba:compile", _Kernels())
+
+
 def pytest_configure(config):
     from volpack import jitwatch
 
     jitwatch.subscribe(_on_compile)
+    if os.environ.get("VOLPACK_TEST_KERNELS"):
+        _watch_signatures(os.environ["VOLPACK_TEST_KERNELS"])
+
+
+def pytest_runtest_setup(item):
+    _current[0] = item.nodeid
 
 
 def _children() -> float:
