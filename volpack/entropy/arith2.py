@@ -154,7 +154,7 @@ def below(word, probe):
 
 
 @kernel(inline=True)
-def _context(i, parent, cls, nbits, nprev, nbr):
+def context(i, parent, cls, nbits, nprev, nbr):
     """:func:`.arith._context` in unsigned arithmetic (the same values, fewer steps)."""
     ui = U(i)
     p = parent[ui]
@@ -371,7 +371,7 @@ def _model_kernel(flat, perm, end, parent, cls, nbr, starts, freqs, raw, cnt0, b
     while i < n:
         if ns + 4 > starts.size or rpos + 32 > raw.size:
             return -1, 0
-        ctx, q = _context(i, parent, cls, nbits, nprev, nbr)
+        ctx, q = context(i, parent, cls, nbits, nprev, nbr)
         e = end[i]
         if e > i + 1:
             bit = np.int64(nz[e] != nz[i])
@@ -424,7 +424,7 @@ def _decode_kernel(
     while i < n:
         if pos > nw or bitpos > rawbits:
             return 1
-        ctx, q = _context(i, parent, cls, nbits, nprev, nbr)
+        ctx, q = context(i, parent, cls, nbits, nprev, nbr)
         e = end[U(i)]
         if e > i + 1:
             bit, x, pos = get_bin(words, models, ctx, x, pos)

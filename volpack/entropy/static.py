@@ -32,6 +32,7 @@ from .arith2 import (
     ESC_BITS,
     NS,
     RAW_PAD,
+    context,
     gather,
     get_low_bits,
     get_raw,
@@ -39,9 +40,8 @@ from .arith2 import (
     put_raw,
     raw_end_status,
 )
-from .arith2 import _context as context
 from .common import check_status, flat_view, max_bits
-from .rans import LOW, TOTAL
+from .rans import TOTAL
 from .scan import Scan
 
 N_FLAG = 300  # (class, q) contexts: arith.N_FLAG
