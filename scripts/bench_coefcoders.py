@@ -1,8 +1,9 @@
-"""Coefficient coders alone: decode speed and coded size of ``arith2`` against ``arith``.
+"""Coefficient coders alone: decode speed and coded size of ``arith2`` and ``static``
+against ``arith``.
 
 Each volume is compressed once with the ``arith`` coder (lossless wavelet codec, or the
 error-bounded lossy path at ``--rel-error`` of the value range for ``lossy:NAME``) while
-every coefficient array the codec hands the coder is recorded; both coders then code and
+every coefficient array the codec hands the coder is recorded; the coders then code and
 decode exactly those arrays in this process, alternating, best of ``--repeat``. MB/s is
 the volume's raw bytes over the decode time of all its arrays (on lossy fields the
 encoder's candidates are coded too, so compare the two coders' figures, not with other
@@ -74,11 +75,12 @@ def run(name: str, rel_error: float, repeat: int) -> list[dict]:
     a = load(name.split(":", 1)[1] if lossy else name)[0]
     if lossy:
         span = float(np.nanmax(a) - np.nanmin(a))
-        options, mode = {"max_error": rel_error * span}, f"lossy {rel_error:g} of range"
+        options = {"max_error": rel_error * span, "coder": "arith"}  # (the default: auto)
+        mode = f"lossy {rel_error:g} of range"
     else:
         options, mode = {"codec": "wavelet", "coder": "arith"}, "lossless wavelet"
     jobs = record(a, options)
-    coders = ("arith", "arith2")
+    coders = ("arith", "arith2", "static")
     blobs = {c: [CODERS[c].encode(x, s) for x, s in jobs] for c in coders}
     best = dict.fromkeys(coders, float("inf"))
     for _ in range(repeat):  # alternate, so both see the same machine load
@@ -92,11 +94,14 @@ def run(name: str, rel_error: float, repeat: int) -> list[dict]:
             "bytes": sum(map(len, blobs[c])), "decode_s": round(best[c], 4),
             "decode_mb_s": round(a.nbytes / best[c] / 1e6, 2),
         })  # fmt: skip
-    one, two = rows
+    one = rows[0]
     print(
-        f"{name:20s} {mode:22s} arith {one['bytes']:9d} B {one['decode_mb_s']:6.1f} MB/s | "
-        f"arith2 {two['bytes']:9d} B ({100 * (two['bytes'] / one['bytes'] - 1):+.2f} %) "
-        f"{two['decode_mb_s']:6.1f} MB/s | speed-up {one['decode_s'] / two['decode_s']:.2f}x",
+        f"{name:20s} {mode:22s} arith {one['bytes']:9d} B {one['decode_mb_s']:6.1f} MB/s"
+        + "".join(
+            f" | {r['coder']} {r['bytes']:9d} B ({100 * (r['bytes'] / one['bytes'] - 1):+.2f} %)"
+            f" {r['decode_mb_s']:6.1f} MB/s, {one['decode_s'] / r['decode_s']:.2f}x"
+            for r in rows[1:]
+        ),
         flush=True,
     )
     return rows

@@ -377,17 +377,34 @@ LOSSY_EXACT_CASES = [
 ]
 
 
+# The coefficient coders of `bounded` (wavelet-1.md): `auto` (a byte per coefficient
+# stream naming arith or arith2), the default since it was added (every recipe above
+# names "arith", the default when its stream was made), on the float wavelet path and on
+# the integer paths (eight bricks), and `static` (fixed rANS tables) when asked for (on
+# integers: on floats the interpolation path codes this recipe shorter).
+# (stem, recipe, options, brick or None for the default)
+LOSSY_CODER_CASES = [
+    ("lossy-bounded-f32-auto", "f32-walk", {"max_error": 0.3, "fill_value": -999.0}, None),
+    ("lossy-bounded-i16-auto", "i16", {"max_error": 40}, WAVELET_BRICK),
+    ("lossy-bounded-i16-static", "i16", {"max_error": 40, "coder": "static"}, WAVELET_BRICK),
+]  # fmt: skip
+
+
 def make_lossy(folder: Path) -> Path:
     from volpack import api
 
     for stem, recipe, opts in LOSSY_CASES:
         path = folder / f"{stem}.vpk"
+        opts = {"coder": "arith", **opts}  # the default when they were made (now auto)
         api.compress(lossy_source(recipe), str(path), brick=WAVELET_BRICK, force=True, **opts)
     for stem, recipe, opts in LOSSY_CDF97_CASES + LOSSY_INTERP_CASES + LOSSY_EXACT_CASES:
         source = lossy_source("f32" if recipe == "f64" else recipe)
         if recipe == "f64":
             source = source.astype("float64")
-        api.compress(source, str(folder / f"{stem}.vpk"), force=True, **opts)
+        api.compress(source, str(folder / f"{stem}.vpk"), force=True, coder="arith", **opts)
+    for stem, recipe, opts, brick in LOSSY_CODER_CASES:
+        path = folder / f"{stem}.vpk"
+        api.compress(lossy_source(recipe), str(path), brick=brick, force=True, **opts)
     return folder
 
 
@@ -405,6 +422,7 @@ def make_compact(folder: Path) -> Path:
     from volpack import api
 
     for stem, recipe, opts in COMPACT_CASES:
+        opts = {"coder": "arith", **opts}  # the default when they were made (now auto)
         api.compress(lossy_source(recipe), str(folder / f"{stem}.vpk"), force=True, **opts)
     return folder
 

@@ -14,6 +14,9 @@ from volpack.format.container import Reader
 from volpack.format.sections import take_section
 
 GOLDEN = Path(__file__).resolve().parent.parent / "formats" / "examples"
+# The bounded streams made before the `auto` coder became the default were coded with
+# `arith` (their configs say so): their recipes are reproduced with it.
+ARITH = {"coder": "arith"}
 
 # The recipes of scripts/make_examples.py, written out again here on purpose: a test that
 # imported them would follow any change to the script.
@@ -177,7 +180,7 @@ def test_golden_float_wavelet_stream(stem, dtype, opts):
     want = _check_float_wavelet_stream(blob, dtype, opts)
     if stem in BEFORE_INTERP:
         return
-    again = api.compress_array(want, **opts)
+    again = api.compress_array(want, **{**ARITH, **opts})
     with Reader(blob) as old, Reader(again) as new:
         assert old.header == new.header
         assert [(t, n, p) for t, n, p in old] == [(t, n, p) for t, n, p in new]
@@ -219,7 +222,7 @@ def test_golden_lossy_stream_decodes_within_its_record(stem, recipe, opts):
             assert err.max() <= opts["max_error"]
     np.testing.assert_array_equal(np.isnan(got), np.isnan(want))
     np.testing.assert_array_equal(got[~ok & ~np.isnan(want)], want[~ok & ~np.isnan(want)])
-    again = api.compress_array(want, brick=16, **opts)
+    again = api.compress_array(want, brick=16, **{**ARITH, **opts})
     with Reader(blob) as old, Reader(again) as new:
         assert old.header == new.header
         assert [(t, n, p) for t, n, p in old] == [(t, n, p) for t, n, p in new]
@@ -260,7 +263,7 @@ def test_golden_interpolation_stream(stem, recipe, dtype, opts, kind):
         assert len(take_section(inner, tables_end, "raw")[0]) > 0
     if stem in BEFORE_BIN0 | BEFORE_SEPARABLE:
         return
-    again = api.compress_array(want, **opts)
+    again = api.compress_array(want, **{**ARITH, **opts})
     with Reader(blob) as old, Reader(again) as new:
         assert old.header == new.header
         assert [(t, n, p) for t, n, p in old] == [(t, n, p) for t, n, p in new]
@@ -276,7 +279,37 @@ def test_golden_separable_float_wavelet_stream():
     assert payload[0] & 16 and payload[0] & 1  # the float wavelet path, the mask
     inner = take_section(memoryview(payload), 1, "inner")[0]
     assert inner[3] == 3 and tuple(inner[:3]) == (2, 3, 4)  # separable, partial levels
-    again = api.compress_array(want, max_error=0.3, fill_value=-999.0)
+    again = api.compress_array(want, max_error=0.3, fill_value=-999.0, **ARITH)
+    with Reader(blob) as old, Reader(again) as new:
+        assert old.header == new.header
+        assert [(t, n, p) for t, n, p in old] == [(t, n, p) for t, n, p in new]
+
+
+LOSSY_CODERS = [  # (stem, recipe, options, brick): the `auto` and `static` coders
+    ("lossy-bounded-f32-auto", "f32-walk", {"max_error": 0.3, "fill_value": -999.0}, None),
+    ("lossy-bounded-i16-auto", "i16", {"max_error": 40}, 16),
+    ("lossy-bounded-i16-static", "i16", {"max_error": 40, "coder": "static"}, 16),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize("stem,recipe,opts,brick", LOSSY_CODERS, ids=[c[0] for c in LOSSY_CODERS])
+def test_golden_coefficient_coder_stream(stem, recipe, opts, brick):
+    """The bounded codec's default coder `auto` (a byte per coefficient stream: arith or
+    arith2) and the `static` coder: decoded within the bound and reproduced."""
+    blob = (GOLDEN / f"{stem}.vpk").read_bytes()
+    want = lossy_source(recipe)
+    with Reader(blob) as r:
+        assert r.header["codec"]["coder"] == opts.get("coder", "auto")
+    if want.dtype.kind == "f":
+        (payload,) = _check_float_stream(blob, want, opts["max_error"])
+        inner = take_section(memoryview(payload), 1, "inner")[0]
+        assert payload[0] & 16  # the float wavelet path: header, then the coder's bytes
+        if "coder" not in opts:
+            assert inner[12] in (0, 1)
+    else:
+        err = np.abs(api.decompress(blob).data.astype(np.int64) - want)
+        assert err.max() <= opts["max_error"]
+    again = api.compress_array(want, brick=brick, **opts)
     with Reader(blob) as old, Reader(again) as new:
         assert old.header == new.header
         assert [(t, n, p) for t, n, p in old] == [(t, n, p) for t, n, p in new]
@@ -292,7 +325,7 @@ def test_golden_sentinel_stream():
     assert payload[0] & 1  # the mask
     got = api.decompress(blob).data
     np.testing.assert_array_equal(got[want == -999.0], -999.0)
-    again = api.compress_array(want, max_error=2.0)
+    again = api.compress_array(want, max_error=2.0, **ARITH)
     with Reader(blob) as old, Reader(again) as new:
         assert old.header == new.header and old.header["codec"]["fill"] is None
         assert [(t, n, p) for t, n, p in old] == [(t, n, p) for t, n, p in new]
@@ -328,7 +361,7 @@ def test_golden_exact_path_stream(stem, recipe, bound):
     assert [p[0] for p in payloads] == [128]
     assert take_section(memoryview(payloads[0]), 1, "inner")[0][:2] == bytes([5, 1])
     np.testing.assert_array_equal(api.decompress(blob).data, want)
-    again = api.compress_array(want, max_error=bound)
+    again = api.compress_array(want, max_error=bound, **ARITH)
     with Reader(blob) as old, Reader(again) as new:
         assert old.header == new.header
         assert [(t, n, p) for t, n, p in old] == [(t, n, p) for t, n, p in new]

@@ -208,6 +208,22 @@ def test_corrupt_streams_never_crash(coder):
     assert "error" in seen  # at least the short streams are noticed
 
 
+@pytest.mark.parametrize("coder", ["static", "auto"])
+def test_truncated_or_padded_streams_raise(coder):
+    """Every strict prefix of a ``static`` or ``auto`` stream, and the stream with a byte
+    more, is refused with FormatError."""
+    shape, levels = (6, 7, 8), (2, 2, 3)
+    s = sigmap.scan(shape, levels, "dfs")
+    c = laplace(shape, 60, np.int64, 9, zeros=0.3)
+    blob = CODERS[coder].encode(c, s)
+    out = np.empty(shape, np.int64)
+    CODERS[coder].decode(blob, s, out)
+    np.testing.assert_array_equal(out, c)
+    for bad in [blob[:k] for k in range(len(blob))] + [blob + b"\x00"]:
+        with pytest.raises(FormatError):
+            CODERS[coder].decode(bad, s, out)
+
+
 def test_decode_checks_the_output_size():
     s = sigmap.scan((4, 4, 4), (2, 2, 2), "dfs")
     for coder in CODERS.values():

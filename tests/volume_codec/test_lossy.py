@@ -396,6 +396,24 @@ def test_arith2_coder_holds_the_bound_and_decodes_its_damage(kind):
     decode_damaged(codec, codec.encode(a), a.shape, a.dtype, 5, 30)
 
 
+def test_default_coder_is_auto_and_static_holds_the_bound_through_its_damage():
+    """New bounded streams name the ``auto`` coder (arith or arith2 per coefficient
+    stream); ``static`` holds the bound, and its damaged payloads (flipped bits, every
+    cut) are refused with FormatError or decode to shape, never crash."""
+    a = field("smooth", (16, 18, 20), np.float32, 3)
+    bound = 1e-3 * float(a.max() - a.min())
+    lo, hi = float(a.min()), float(a.max())
+    assert BoundedCodec.plan(a.dtype, lo, hi, bound).coder == "auto"
+    codec = BoundedCodec.plan(a.dtype, lo, hi, bound, coder="static")
+    payload = codec.encode(a)
+    assert not payload[0] & 64  # a coefficient path (not the interpolation path's rANS)
+    check_bound(a, codec.decode(payload, a.shape, a.dtype), bound)
+    for k in range(0, len(payload), max(1, len(payload) // 40)):
+        with pytest.raises(FormatError):
+            codec.decode(payload[:k], a.shape, a.dtype)
+    decode_damaged(codec, payload, a.shape, a.dtype, 5, 30)
+
+
 def _levels_field(dtype=np.float32):
     """A packed field per level: a step of 1/4 with its own offset per z slice, so no
     grid spans the volume (search.lattice finds none)."""

@@ -108,6 +108,8 @@ def compress(
     """
     from .. import api
 
+    # No --coder: each codec's own default (auto for the error-bounded codec, arith for
+    # the others); animations and octrees take arith.
     shared = {
         "codec": codec, "wavelet": wavelet, "coder": coder, "order": order,
         "max_error": max_error, "rel_error": rel_error, "psnr": psnr, "ratio": ratio,
@@ -139,6 +141,7 @@ def compress(
             )
         kind, unit = "animation", "frame"
         opts = {**shared, **animation_compress_options(extra), "max_levels": max_levels}
+        opts["coder"] = coder or "arith"
         opts.update(brick=parse_brick(brick), read_options=read_options)
     elif octree or scheduler:
         from ..octree.stream import REFUSED
@@ -148,7 +151,7 @@ def compress(
             raise click.UsageError("--octree writes a seekable file, not '-'")
         kind, unit = "octree", "super-brick"
         opts = {k: v for k, v in lossy.items() if v is not None}
-        opts.update(wavelet=wavelet, coder=coder, order=order, block=block)
+        opts.update(wavelet=wavelet, coder=coder or "arith", order=order, block=block)
         opts.update(scheduler=scheduler, workers=workers, read_options=read_options)
     else:
         kind, unit = "volume", "brick"

@@ -220,8 +220,10 @@ codec_options = options(
     option("--coder",
            "arith: best ratio; arith2: arith's model, 1.6-2x as fast to decode, up to 1 % "
            "larger; huffman: fixed code, fastest decode; rle: run-length Huffman for sparse "
-           "data.",
-           ["arith", "arith2", "huffman", "rle"], "arith"),
+           "data; static: arith's model with fixed tables; auto: arith2 unless arith is "
+           "shorter, per coefficient stream. Default: auto under an error bound (--max-error, "
+           "--rel-error, floats with --psnr/--ratio), else arith.",
+           ["arith", "arith2", "huffman", "rle", "static", "auto"]),
     option("--order",
            "Coefficient scan: octree depth-first with zero-subtree stripping, or line by line.",
            ["dfs", "line"], "dfs"),

@@ -154,7 +154,7 @@ def below(word, probe):
 
 
 @kernel(inline=True)
-def _context(i, parent, cls, nbits, nprev, nbr):
+def context(i, parent, cls, nbits, nprev, nbr):
     """:func:`.arith._context` in unsigned arithmetic (the same values, fewer steps)."""
     ui = U(i)
     p = parent[ui]
@@ -300,11 +300,45 @@ def get_raw(raw, bitpos, n):
     return w & ((np.uint64(1) << np.uint64(n)) - np.uint64(1)), bitpos + n
 
 
-@kernel
-def _model_kernel(flat, perm, end, parent, cls, nbr, starts, freqs, raw, cnt0, bnd0, mcnt0, mbnd0):
-    """The encoder's pass: run the models forward and record each symbol's interval
-    (coded afterwards by :func:`rans_encode`), plain bits into ``raw``; returns (symbols,
-    raw bytes), or (-1, 0) when a buffer is short."""
+@kernel(inline=True)
+def put_low_bits(raw, acc, cnt, rpos, v, nb):
+    """The ``nb - 3`` bits of ``v`` below its top three as plain bits (two groups when
+    more than 48: the top ``nb - 27``, then the low 24)."""
+    r = nb - 3
+    if r > 48:
+        acc, cnt, rpos = put_raw(raw, acc, cnt, rpos, v >> np.uint64(24), r - 24)
+        r = 24
+    return put_raw(raw, acc, cnt, rpos, v, r)
+
+
+@kernel(inline=True)
+def get_low_bits(raw, bitpos, v, nb):
+    """:func:`put_low_bits`' bits appended below ``v`` (the top three bits of a value
+    of ``nb`` bits)."""
+    r = nb - 3
+    if r > 48:
+        d, bitpos = get_raw(raw, bitpos, r - 24)
+        v = (v << np.uint64(r - 24)) | d
+        r = 24
+    d, bitpos = get_raw(raw, bitpos, r)
+    return (v << np.uint64(r)) | d, bitpos
+
+
+@kernel(inline=True)
+def raw_end_status(raw, bitpos):
+    """0 when the plain bits end at ``bitpos`` in the last byte (``raw`` ends in
+    RAW_PAD zeros) with zero padding bits, 1 when they ran short, else 3."""
+    if bitpos > (raw.size - RAW_PAD) * 8:
+        return 1
+    if (bitpos + 7) >> 3 != raw.size - RAW_PAD or (bitpos & 7 and raw[bitpos >> 3] >> (bitpos & 7)):
+        return 3  # plain bits left over, or padding bits that are not zero
+    return 0
+
+
+@kernel(inline=True)
+def gather(flat, perm):
+    """The coefficients in scan order and the count of non-zeros before each position
+    (a subtree ``[i, e)`` is all zero when the counts at ``i`` and ``e`` agree)."""
     n = perm.size
     vals = np.empty(n, dtype=np.int64)
     nz = np.zeros(n + 1, dtype=np.int32)
@@ -312,6 +346,16 @@ def _model_kernel(flat, perm, end, parent, cls, nbr, starts, freqs, raw, cnt0, b
         c = np.int64(flat[perm[i]])
         vals[i] = c
         nz[i + 1] = nz[i] + (c != 0)
+    return vals, nz
+
+
+@kernel
+def _model_kernel(flat, perm, end, parent, cls, nbr, starts, freqs, raw, cnt0, bnd0, mcnt0, mbnd0):
+    """The encoder's pass: run the models forward and record each symbol's interval
+    (coded afterwards by :func:`rans_encode`), plain bits into ``raw``; returns (symbols,
+    raw bytes), or (-1, 0) when a buffer is short."""
+    n = perm.size
+    vals, nz = gather(flat, perm)
     models = np.full(N_BIN, STATE_INIT, dtype=np.uint16)
     cnt = cnt0.copy()
     bnd = bnd0.copy()
@@ -327,7 +371,7 @@ def _model_kernel(flat, perm, end, parent, cls, nbr, starts, freqs, raw, cnt0, b
     while i < n:
         if ns + 4 > starts.size or rpos + 32 > raw.size:
             return -1, 0
-        ctx, q = _context(i, parent, cls, nbits, nprev, nbr)
+        ctx, q = context(i, parent, cls, nbits, nprev, nbr)
         e = end[i]
         if e > i + 1:
             bit = np.int64(nz[e] != nz[i])
@@ -352,11 +396,7 @@ def _model_kernel(flat, perm, end, parent, cls, nbr, starts, freqs, raw, cnt0, b
             mc = nb * N_CLASSES + cls[i]
             ns = put_sym(mbnd, mc * BWM, m, starts, freqs, ns)
             count_symbol(mcnt, mc * WM, mbnd, mc * BWM, 4, m, MSTEP)
-            r = nb - 3
-            if r > 48:
-                acc, nacc, rpos = put_raw(raw, acc, nacc, rpos, v >> np.uint64(24), r - 24)
-                r = 24
-            acc, nacc, rpos = put_raw(raw, acc, nacc, rpos, v, r)
+            acc, nacc, rpos = put_low_bits(raw, acc, nacc, rpos, v, nb)
         nbits[i] = nb
         nprev = nb
         i += 1
@@ -384,7 +424,7 @@ def _decode_kernel(
     while i < n:
         if pos > nw or bitpos > rawbits:
             return 1
-        ctx, q = _context(i, parent, cls, nbits, nprev, nbr)
+        ctx, q = context(i, parent, cls, nbits, nprev, nbr)
         e = end[U(i)]
         if e > i + 1:
             bit, x, pos = get_bin(words, models, ctx, x, pos)
@@ -408,14 +448,7 @@ def _decode_kernel(
             m, x, pos = get_sym(words, mbnd, mc * BWM, 1, x, pos)  # b[0..3] in one word
             x, y = y, x
             count_symbol(mcnt, mc * WM, mbnd, mc * BWM, 4, m, MSTEP)
-            r = nb - 3
-            v = np.uint64(4 | m)
-            if r > 48:
-                d, bitpos = get_raw(raw, bitpos, r - 24)
-                v = (v << np.uint64(r - 24)) | d
-                r = 24
-            d, bitpos = get_raw(raw, bitpos, r)
-            v = (v << np.uint64(r)) | d
+            v, bitpos = get_low_bits(raw, bitpos, np.uint64(4 | m), nb)
         elif nb == 2:
             bit, x, pos = get_bin(words, models, MANT_BIN + cls[U(i)], x, pos)
             x, y = y, x
@@ -426,10 +459,9 @@ def _decode_kernel(
         nbits[U(i)] = nb
         nprev = nb
         i += 1
-    if bitpos > rawbits:
-        return 1
-    if (bitpos + 7) >> 3 != raw.size - RAW_PAD or (bitpos & 7 and raw[bitpos >> 3] >> (bitpos & 7)):
-        return 3  # plain bits left over, or padding bits that are not zero
+    status = raw_end_status(raw, bitpos)
+    if status:
+        return status
     if pos != nw or x != LOW or y != LOW:
         return 3 if pos <= nw else 1
     return 0

@@ -81,7 +81,9 @@ def make_plan(
 
         if value_range is None:
             raise OptionError("expected the value range for an error-bounded octree")
-        codec = BoundedCodec.plan(dtype, value_range[0], value_range[1], max_error)
+        # Only its quantiser is used (the octree codes with its own coder): the config
+        # keeps the coder it named before the bounded codec's default became auto.
+        codec = BoundedCodec.plan(dtype, value_range[0], value_range[1], max_error, coder="arith")
         bounded = tuple(sorted(codec.get_config().items()))
         lo, hi = 0, int(np.iinfo(np.dtype(codec.qdtype)).max)
     work = dwt3.work_dtype(lo, hi, (depth,) * 3, wavelet)

@@ -51,7 +51,7 @@ MODE_CODED, MODE_RAW, MODE_CONSTANT, MODE_ZSTD = 0, 1, 2, 3
 PIECEWISE_CONSTANT = 0.5  # share of equal x-neighbours above which mode 3 is tried
 
 WAVELET_NAMES = ("53", "26", "haar", "97m")
-CODER_NAMES = ("arith", "arith2", "huffman", "rle")
+CODER_NAMES = ("arith", "arith2", "huffman", "rle", "static", "auto")
 ORDER_NAMES = ("dfs", "line")
 # Integer dtypes the lossless wavelet path takes exactly (64-bit ones may not fit int64
 # intermediates; they go through the zstd codec instead).

@@ -99,7 +99,9 @@ class BoundedCodec(BrickCodec):
     value_range: float = 0.0  # of the valid voxels: the PSNR peak
     fill: float | None = None
     wavelet: str = "53"
-    coder: str = "arith"
+    # New streams: per coefficient stream the fastest coder that costs (almost) no
+    # ratio (volpack.entropy.choose); streams made before it name "arith".
+    coder: str = "auto"
     order: str = "dfs"
     max_levels: int | None = None
     # How hard the encoder looks (the decoder never needs it): 'default' makes every
@@ -360,7 +362,7 @@ class BoundedCodec(BrickCodec):
 
     @property
     def _residual_coder(self) -> str:
-        return self.coder if self.coder in ("arith", "arith2") else "rle"
+        return self.coder if self.coder in ("arith", "arith2", "static", "auto") else "rle"
 
     def _coef_steps(self, shape, levels) -> np.ndarray:
         """Per-coefficient steps of the coefficient path, on the fine grid."""
