@@ -49,6 +49,9 @@ def test_full_resolution_selection_renders_exactly_like_the_volume(tree_path, cl
         np.testing.assert_allclose(render(pv, **kw), render(vol, **kw), atol=1e-5)
 
 
+# the page table's march variants with and without skipping are its own (about 10 CPU s of
+# compiling each); the full-resolution test above keeps the paged path in the fast set
+@pytest.mark.slow
 @pytest.mark.parametrize("cls", ["post", "preintegrated"])
 def test_empty_space_skipping_through_the_page_table_leaves_the_image_unchanged(tree_path, cls):
     # a mixed-resolution selection: bricks are judged by the value range of the node
