@@ -209,3 +209,20 @@ def test_smooth_tables_are_read_at_the_nearest_entry_in_both_kernels():
     assert 0 < err.max() <= 2 * rc.NEAREST_STEP * 3 * max(f.shape) / 0.6
     assert err.mean() < 1e-4
     assert np.array_equal(semi_lin, render(f, tf=semi(), **kw))  # bilinear there anyway
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("dtype", ["int16", "uint8"])
+def test_nearest_entries_agree_between_the_kernels_on_integer_volumes(dtype):
+    # the fast path samples integers in fixed point, the general kernel in float: both
+    # must still pick the same entries
+    f = field()
+    vol = (np.round(f * 4000 - 1024).astype(np.int16) if dtype == "int16"
+           else np.round(f * 255).astype(np.uint8))  # fmt: skip
+    lo, hi = float(vol.min()), float(vol.max())
+    base = rc.transfer_table(faint(lo, hi), lo, hi, rc.TABLE_SIZE)
+    assert rc._frame_tables(base, 0.6, True, False, "fast").nearest()
+    kw = dict(tf=faint(lo, hi), camera=Camera(azimuth=35, elevation=25, size=(28, 24)), step=0.6)
+    fast, slow = both(vol, **kw)
+    assert fast[..., 3].max() > 0.05
+    np.testing.assert_allclose(fast, slow, atol=1e-5)
