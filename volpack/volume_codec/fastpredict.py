@@ -114,7 +114,7 @@ def _activity_table(n: int) -> np.ndarray:
     return np.where(a < 4, a, c).astype(np.uint8)
 
 
-ACTIVITY = _activity_table(4096)  # capped at a brick's last context by :func:`_stream_kernel`
+ACTIVITY = _activity_table(4096)  # capped at a brick's last context by :func:`_head_kernel`
 
 
 @kernel(inline=True)
@@ -806,43 +806,40 @@ HEAD_STATUS = {
 
 
 @kernel(nrt=False)
-def _stream_kernel(
-    buf, pos, shape, lo, hi, v, ring, syms, info, act, stream, words, tok, kinds
-):  # fmt: skip
-    """Decode the stream at ``buf[pos:]`` (to the end) into ``v``: read its head (the
-    choice byte, the context count and the tables), copy the rANS bytes and the raw bits
-    into ``stream`` and ``words`` with the zero padding :func:`_decode_kernel` reads,
-    zero ``ring`` and ``kinds``, cap ``act`` (:data:`ACTIVITY`) at the last context and
-    decode: the whole set-up of a brick in one call without the GIL (before, a dozen
-    NumPy calls and allocations held it for about 50 us a coded brick of MNI152; the
-    call now costs 5-6 us of Python).
-    ``syms`` / ``info`` have room for every table, ``stream`` and ``words`` for the
-    payload plus padding. Returns 0, a :data:`STATUS` code or a :data:`HEAD_STATUS` one."""
-    if pos >= buf.size:
-        return -4
-    b = np.int64(buf[pos])
+def _head_kernel(buf, syms, info, act, stream, words, ring, kinds):
+    """Set up the decode of the stream ``buf`` without the GIL: read its head (the
+    choice byte, the context count and the tables into ``syms`` / ``info``, which have
+    room for every table), copy the rANS bytes and the raw bits into ``stream`` and
+    ``words`` (room for ``buf`` and the padding) with the zero padding
+    :func:`_decode_kernel` reads, zero ``ring`` and ``kinds``, and cap ``act``
+    (:data:`ACTIVITY`) at the last context. Before, a dozen NumPy calls and allocations
+    did this holding the GIL, about 50 us a coded brick of MNI152. Returns ``(status,
+    choice byte, contexts, rANS bytes, raw bytes)``, the status 0 or a
+    :data:`HEAD_STATUS` code. (Not a caller of :func:`_decode_kernel`: numba would
+    optimise the decoder again inside it, 0.9 s more compile time a process.)"""
+    if buf.size == 0:
+        return -4, 0, 0, 0, 0
+    b = np.int64(buf[0])
     runs, rows = (b & RUNS) != 0, (b & ROWS) != 0
-    pid, cid = b & 3, (b & ~(RUNS | ROWS)) >> 2
-    if pid >= NPRED or cid >= NCTXR or (rows and not runs):
-        return -5
-    nctx, pos = _read_uleb(buf, pos + 1)
+    if b & 3 >= NPRED or (b & ~(RUNS | ROWS)) >> 2 >= NCTXR or (rows and not runs):
+        return -5, b, 0, 0, 0
+    nctx, pos = _read_uleb(buf, 1)
     if pos < 0 or not 1 <= nctx <= NCLASS:
-        return -6
+        return -6, b, nctx, 0, 0
     ntab = nctx + 2 * runs + ROW_TABLES * rows
     pos = _tables_kernel(buf, pos, syms[:ntab], info[:ntab])
     if pos < 0:
-        return pos
+        return pos, b, nctx, 0, 0
     nbytes, pos = _read_uleb(buf, pos)
     if pos < 0 or nbytes > buf.size - pos:
-        return -7
+        return -7, b, nctx, 0, 0
     for j in range(nbytes):
         stream[j] = buf[pos + j]
     stream[nbytes] = 0
     stream[nbytes + 1] = 0
     pos += nbytes
     nraw = buf.size - pos
-    nw = (nraw + 3) // 4 + 1  # a 0 word past the end
-    for j in range(nw):
+    for j in range((nraw + 3) // 4 + 1):  # and a 0 word past the end
         words[j] = 0
     for j in range(nraw):
         words[j >> 2] |= np.uint32(buf[pos + j]) << np.uint32(8 * (j & 3))
@@ -852,10 +849,7 @@ def _stream_kernel(
         kinds[j] = 0
     for j in range(act.size):
         act[j] = min(ACTIVITY[j], nctx - 1)
-    return _decode_kernel(
-        stream[: nbytes + 2], words[:nw], np.int64(8 * nraw), syms.reshape(-1),
-        info.reshape(-1), nctx, pid, cid, runs, rows, shape, lo, hi, v, ring, tok, act, kinds,
-    )  # fmt: skip
+    return 0, b, nctx, nbytes, nraw
 
 
 class _Scratch(threading.local):
@@ -867,6 +861,7 @@ class _Scratch(threading.local):
         self.syms = np.empty((ntab, rans.TOTAL), dtype=np.uint8)
         self.info = np.empty((ntab, rans.MAX_SYMBOLS), dtype=np.uint32)
         self.act = np.empty(ACTIVITY.size, dtype=np.uint8)
+        self.flat_syms, self.flat_info = self.syms.reshape(-1), self.info.reshape(-1)
         self.bufs: dict = {}
 
     def get(self, name: str, n: int, dtype) -> np.ndarray:
@@ -900,14 +895,21 @@ def decode(
     sc = _scratch
     wd = _work_dtype(lo, hi)
     v = sc.get("v" + wd.char, n, wd) if reuse else np.empty(n, dtype=wd)
-    status = _stream_kernel(
-        buf, 0, np.array(shape, dtype=np.int64), np.int64(lo), np.int64(hi), v,
-        sc.get("ring", 2 * shape[1] * shape[2], np.int32), sc.syms, sc.info, sc.act,
-        sc.get("stream", buf.size + 2, np.uint8), sc.get("words", buf.size // 4 + 2, np.uint32),
-        TOK, sc.get("kinds", shape[0] * shape[1], np.uint8) if kinds is None else kinds,
-    )  # fmt: skip
-    if status < 0:
+    ring = sc.get("ring", 2 * shape[1] * shape[2], np.int32)
+    kinds = sc.get("kinds", shape[0] * shape[1], np.uint8) if kinds is None else kinds
+    stream = sc.get("stream", buf.size + 2, np.uint8)
+    words = sc.get("words", buf.size // 4 + 2, np.uint32)
+    status, b, nctx, nbytes, nraw = _head_kernel(
+        buf, sc.syms, sc.info, sc.act, stream, words, ring, kinds
+    )
+    if status:
         raise FormatError(f"fast stream: {HEAD_STATUS[int(status)]}")
+    status = _decode_kernel(
+        stream[: nbytes + 2], words[: (nraw + 3) // 4 + 1], np.int64(8 * nraw), sc.flat_syms,
+        sc.flat_info, np.int64(nctx), b & 3, (b & ~(RUNS | ROWS)) >> 2, bool(b & RUNS),
+        bool(b & ROWS), np.array(shape, dtype=np.int64), np.int64(lo), np.int64(hi), v, ring,
+        TOK, sc.act, kinds,
+    )  # fmt: skip
     if status:
         raise FormatError(f"corrupt fast-coded brick: {STATUS.get(int(status), status)}")
     return v.reshape(shape)
