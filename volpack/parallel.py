@@ -75,10 +75,11 @@ def completed_map(
     thread is one of the workers and ``workers - 1`` helpers join it; each takes the next
     item itself when it finishes one (under a lock), so no item passes through a pool's
     queue and no thread is woken to hand it over: with a pool (a submit, a worker woken,
-    the caller woken by each result) two workers spent 9-13 % more CPU than one on bricks
-    of about a millisecond, this way 0-4 %. Results of the helpers are yielded after the
-    caller's next item, at most ``ahead * workers`` of them waiting; an error in any
-    worker is raised here, and the helpers stop taking items when the generator ends.
+    the caller woken by each result) two workers pinned to one CPU spent 5-12 % more CPU
+    than one on bricks of about a millisecond, this way 3-5 %. Results of the helpers are
+    yielded after the caller's next item, at most ``ahead * workers`` of them waiting; an
+    error in any worker is raised here, and the helpers stop taking items when the
+    generator ends.
     """
     if workers <= 1:
         yield from map(fn, items)
