@@ -7,7 +7,9 @@ kept. Beside the wall-clock speed-up it reports what says how the work splits wh
 machine is shared: the CPU seconds two workers spend against one (extra CPU is work
 added by running in parallel), and the share of one worker's CPU spent in the brick
 decoders (the rest runs in the main thread whatever the worker count: Amdahl's serial
-part).
+part), and the CPU seconds of one decode in each of two processes decoding at once over
+one process alone (above 1: the two cores slow each other down, shared core, cache or
+memory, with no thread, GIL or hand-off of ours involved).
 
     python scripts/bench_workers.py ct_head mri_ch2better --codecs fast,default --repeat 9
 """
@@ -78,6 +80,50 @@ def decoder_share(blob: bytes) -> float:
     finally:
         stream.get_codec = orig
     return share
+
+
+_CHILD = """
+import sys, time
+from volpack import api
+blob = open(sys.argv[1], "rb").read()
+api.decompress_array(blob, workers=1)
+print("ready", flush=True)
+for line in sys.stdin:
+    t = time.process_time()
+    api.decompress_array(blob, workers=1)
+    print(time.process_time() - t, flush=True)
+"""
+
+
+def two_processes(path: Path, repeat: int) -> float:
+    """CPU seconds of a one-worker decode in each of two processes started together over
+    one process decoding alone (best of ``repeat`` each, alternated)."""
+    import subprocess
+
+    procs = [
+        subprocess.Popen(
+            [sys.executable, "-c", _CHILD, str(path)], stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE, text=True,
+        )  # fmt: skip
+        for _ in range(2)
+    ]
+    try:
+        for p in procs:
+            p.stdout.readline()
+        alone, both = [], []
+        for i in range(repeat):
+            for together in (i % 2 == 0, i % 2 != 0):
+                run = procs if together else procs[:1]
+                for p in run:
+                    p.stdin.write("go\n")
+                    p.stdin.flush()
+                times = [float(p.stdout.readline()) for p in run]
+                (both if together else alone).extend(times)
+    finally:
+        for p in procs:
+            p.stdin.close()
+            p.wait()
+    return min(both) / min(alone)
 
 
 def brick_costs(blob: bytes) -> list[tuple[float, int]]:
@@ -167,6 +213,7 @@ def measure(name, a, codec, repeat, blobs: Path):
         "speedup_median": round(statistics.median(w1) / statistics.median(w2), 3),
         "cpu2_over_cpu1": round(min(c2) / min(c1), 3),
         "decoder_share_1": round(decoder_share(blob), 3),
+        "cpu_2proc_over_1": round(two_processes(path, repeat), 3),
         **dict(zip(("model_in_order", "model_largest_first"), map(lambda x: round(x, 3), modelled(brick_costs(blob))))),
         "load": f"{min(loads):.1f}-{max(loads):.1f}",
     }
@@ -192,15 +239,19 @@ def main(argv=None) -> int:
             row = {"label": args.label, **measure(name, a, codec, args.repeat, args.blobs)}
             print(row, flush=True)
             rows.append(row)
-    args.out.mkdir(parents=True, exist_ok=True)
-    path = args.out / "two_workers.csv"
+    append_csv(rows, args.out / "two_workers.csv")
+    return 0
+
+
+def append_csv(rows: list[dict], path: Path) -> None:
+    """Add ``rows`` to the CSV at ``path`` (its header first when it is new)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
     new = not path.exists()
     with path.open("a", newline="") as f:
         w = csv.DictWriter(f, list(rows[0]))
         if new:
             w.writeheader()
         w.writerows(rows)
-    return 0
 
 
 if __name__ == "__main__":

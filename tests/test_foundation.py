@@ -149,6 +149,33 @@ def test_completed_map_runs_past_a_slow_item():
     assert list(completed_map(lambda i: -i, range(5), 1)) == [0, -1, -2, -3, -4]
 
 
+def test_completed_map_raises_a_helper_error_and_stops_early():
+    # the caller's thread works too: an error on either thread reaches the caller, and
+    # closing the generator early leaves the remaining items untaken
+    import threading
+
+    def boom(i):
+        if i == 7:
+            raise ValueError("item 7")
+        return i
+
+    with pytest.raises(ValueError, match="item 7"):
+        list(completed_map(boom, range(40), 3))
+    taken = []
+    lock = threading.Lock()
+
+    def note(i):
+        with lock:
+            taken.append(i)
+        return i
+
+    gen = completed_map(note, range(1000), 2, ahead=2)  # the helper waits with 4 results
+    first = [next(gen) for _ in range(3)]
+    gen.close()
+    assert len(set(first)) == 3 and len(taken) < 1000
+    assert sorted(completed_map(lambda i: i * 3, range(50), 2)) == [3 * i for i in range(50)]
+
+
 def test_jit_cache_dir_follows_the_sources(tmp_path):
     code = "import volpack._jit as j; print(j.cache_dir())"
     env = dict(os.environ, VOLPACK_CACHE_DIR=str(tmp_path))

@@ -83,6 +83,21 @@ def test_stream_roundtrip_every_shape(shape, predictor, context, runs, rows):
         np.testing.assert_array_equal(back, v)
 
 
+def test_work_arrays_reused_only_when_asked():
+    """``decode`` keeps a thread's work arrays between bricks: a reused result is
+    overwritten by the next call (of any size), a plain one is the caller's."""
+    small, big = blocks((3, 5, 6), 2), blocks((5, 9, 13), 3)
+    ds, db = (fastpredict.encode(v, 0, int(v.max())) for v in (small, big))
+    kept = fastpredict.decode(ds, small.shape, 0, int(small.max()))
+    shared = fastpredict.decode(ds, small.shape, 0, int(small.max()), reuse=True)
+    np.testing.assert_array_equal(shared, small)
+    again = fastpredict.decode(db, big.shape, 0, int(big.max()), reuse=True)
+    np.testing.assert_array_equal(again, big)
+    np.testing.assert_array_equal(kept, small)  # not the work array
+    again = fastpredict.decode(ds, small.shape, 0, int(small.max()), reuse=True)
+    np.testing.assert_array_equal(again, small)
+
+
 @pytest.mark.parametrize("shape", [(6, 9, 11), (3, 20, 64), (2, 3, 3)])
 def test_runs_on_labels_and_background(shape):
     """Long runs: every voxel of a background brick but its first rows and columns is in

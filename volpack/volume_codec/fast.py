@@ -204,15 +204,15 @@ class FastCodec(BrickCodec):
             p, used = pal.unpack(rest, min(pal.MAX_PALETTE, max(n, 1)))
             if p[0] < vmin or p[-1] > vmax:
                 raise FormatError(f"corrupt palette: values outside the range of {dtype}")
-            kinds = np.zeros(shape[0] * shape[1], np.uint8)
-            ranks = fastpredict.decode(rest[used:], shape, 0, len(p) - 1, kinds)
+            kinds = np.empty(shape[0] * shape[1], np.uint8)
+            ranks = fastpredict.decode(rest[used:], shape, 0, len(p) - 1, kinds, reuse=True)
             if not is_float:  # ranks to voxels to the volume in one pass, copied rows copied
                 fastpredict.store_palette(ranks, p.astype(dtype), out, kinds)
                 return
             values = pal.from_ranks(ranks, p)
         else:
             lo, hi, pos = pal.read_range(rest, vmin, vmax, f"fast brick payload of {dtype}")
-            values = fastpredict.decode(rest[pos:], shape, lo, hi)
+            values = fastpredict.decode(rest[pos:], shape, lo, hi, reuse=True)
         if is_float:
             out[...] = from_ordered(values.astype(np.int64), dtype).reshape(shape)
         else:

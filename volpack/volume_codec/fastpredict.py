@@ -30,10 +30,11 @@ The byte layout is in ``formats/fast-1.md``.
 from __future__ import annotations
 
 import math
+import threading
 
 import numpy as np
 
-from .._jit import kernel, leading_zeros
+from .._jit import kernel, leading_zeros, read_only
 from ..entropy import rans
 from ..errors import FormatError, OptionError
 from . import palette as pal
@@ -41,6 +42,7 @@ from .predict import checked_input
 
 PREDICTORS = ("med", "med3d", "mean")
 CONTEXTS = ("near", "far")  # the activity with W (better ratio) or without (faster)
+NPRED, NCTXR = len(PREDICTORS), len(CONTEXTS)
 DIRECT = 16  # tokens 0..15 are the zig-zagged residual itself
 NTOK = DIRECT + 4 * 29  # bit lengths up to 33: residuals of a span below 2^32
 NCLASS = 48  # activity classes before the encoder caps them
@@ -112,19 +114,7 @@ def _activity_table(n: int) -> np.ndarray:
     return np.where(a < 4, a, c).astype(np.uint8)
 
 
-ACTIVITY = _activity_table(4096)
-
-
-_CAPPED: dict[int, np.ndarray] = {}
-
-
-def _capped_classes(nctx: int) -> np.ndarray:
-    """:data:`ACTIVITY` capped at the last of ``nctx`` contexts (the decoder's context of
-    an activity below 4096 in one look-up; one table per count, made once)."""
-    t = _CAPPED.get(nctx)
-    if t is None:
-        t = _CAPPED.setdefault(nctx, np.minimum(ACTIVITY, nctx - 1).astype(np.uint8))
-    return t
+ACTIVITY = _activity_table(4096)  # capped at a brick's last context by :func:`_head_kernel`
 
 
 @kernel(inline=True)
@@ -804,51 +794,121 @@ def encode(
     return head + pal.uleb(len(stream)) + stream + raw
 
 
+HEAD_STATUS = {
+    -1: "a frequency table runs past the payload",
+    -2: "a frequency table has too many tokens",
+    -3: "a frequency table does not sum to M",
+    -4: "missing predictor byte",
+    -5: "unknown predictor/context byte",
+    -6: f"contexts out of 1..{NCLASS}",
+    -7: "the rANS stream runs past the payload",
+}
+
+
+@kernel(nrt=False)
+def _head_kernel(buf, syms, info, act, stream, words, ring, kinds):
+    """Set up the decode of the stream ``buf`` without the GIL: read its head (the
+    choice byte, the context count and the tables into ``syms`` / ``info``, which have
+    room for every table), copy the rANS bytes and the raw bits into ``stream`` and
+    ``words`` (room for ``buf`` and the padding) with the zero padding
+    :func:`_decode_kernel` reads, zero ``ring`` and ``kinds``, and cap ``act``
+    (:data:`ACTIVITY`) at the last context. Before, a dozen NumPy calls and allocations
+    did this holding the GIL, about 50 us a coded brick of MNI152. Returns ``(status,
+    choice byte, contexts, rANS bytes, raw bytes)``, the status 0 or a
+    :data:`HEAD_STATUS` code. (Not a caller of :func:`_decode_kernel`: numba would
+    optimise the decoder again inside it, 0.9 s more compile time a process.)"""
+    if buf.size == 0:
+        return -4, 0, 0, 0, 0
+    b = np.int64(buf[0])
+    runs, rows = (b & RUNS) != 0, (b & ROWS) != 0
+    if b & 3 >= NPRED or (b & ~(RUNS | ROWS)) >> 2 >= NCTXR or (rows and not runs):
+        return -5, b, 0, 0, 0
+    nctx, pos = _read_uleb(buf, 1)
+    if pos < 0 or not 1 <= nctx <= NCLASS:
+        return -6, b, nctx, 0, 0
+    ntab = nctx + 2 * runs + ROW_TABLES * rows
+    pos = _tables_kernel(buf, pos, syms[:ntab], info[:ntab])
+    if pos < 0:
+        return pos, b, nctx, 0, 0
+    nbytes, pos = _read_uleb(buf, pos)
+    if pos < 0 or nbytes > buf.size - pos:
+        return -7, b, nctx, 0, 0
+    for j in range(nbytes):
+        stream[j] = buf[pos + j]
+    stream[nbytes] = 0
+    stream[nbytes + 1] = 0
+    pos += nbytes
+    nraw = buf.size - pos
+    for j in range((nraw + 3) // 4 + 1):  # and a 0 word past the end
+        words[j] = 0
+    for j in range(nraw):
+        words[j >> 2] |= np.uint32(buf[pos + j]) << np.uint32(8 * (j & 3))
+    for j in range(ring.size):
+        ring[j] = 0
+    for j in range(kinds.size):
+        kinds[j] = 0
+    for j in range(act.size):
+        act[j] = min(ACTIVITY[j], nctx - 1)
+    return 0, b, nctx, nbytes, nraw
+
+
+class _Scratch(threading.local):
+    """Each thread's work arrays for :func:`decode` (grown to the largest brick and
+    payload seen, reused: no allocation a brick)."""
+
+    def __init__(self) -> None:
+        ntab = NCLASS + 2 + ROW_TABLES
+        self.syms = np.empty((ntab, rans.TOTAL), dtype=np.uint8)
+        self.info = np.empty((ntab, rans.MAX_SYMBOLS), dtype=np.uint32)
+        self.act = np.empty(ACTIVITY.size, dtype=np.uint8)
+        self.flat_syms, self.flat_info = self.syms.reshape(-1), self.info.reshape(-1)
+        self.bufs: dict = {}
+
+    def get(self, name: str, n: int, dtype) -> np.ndarray:
+        """An array ``name`` of ``n`` items of ``dtype`` (a view of one kept)."""
+        a = self.bufs.get(name)
+        if a is None or a.size < n or a.dtype != dtype:
+            a = self.bufs[name] = np.empty(max(n, 1024), dtype=dtype)
+        return a[:n]
+
+
+_scratch = _Scratch()
+
+
 def decode(
     data: bytes | memoryview,
     shape: tuple[int, int, int],
     lo: int,
     hi: int,
     kinds: np.ndarray | None = None,
+    reuse: bool = False,
 ) -> np.ndarray:
     """Decode :func:`encode`'s bytes into an integer array of ``shape`` (of
     :func:`_work_dtype`: the smallest of uint8, int32 and int64 that holds the range);
-    ``kinds`` (uint8, one a row, zeros) gets the kind of each copied row (1 N, 2 U)."""
+    ``kinds`` (uint8, one a row) gets the kind of each copied row (1 N, 2 U).
+    ``reuse``: the array is this thread's work array, valid until its next call (for a
+    caller that copies it out at once)."""
     if not (lo <= hi and hi - lo < (1 << 32)):
         raise FormatError(f"fast stream: value range [{lo}, {hi}] is out of bounds")
-    data = memoryview(data)
-    if len(data) < 1:
-        raise FormatError("fast stream: missing predictor byte")
-    runs, rows = bool(data[0] & RUNS), bool(data[0] & ROWS)
-    pid, cid = data[0] & 3, (data[0] & ~(RUNS | ROWS)) >> 2
-    if pid >= len(PREDICTORS) or cid >= len(CONTEXTS) or (rows and not runs):
-        raise FormatError(f"fast stream: unknown predictor/context byte {data[0]:#x}")
-    nctx, pos = pal.read_uleb(data, 1)
-    if not 1 <= nctx <= NCLASS:
-        raise FormatError(f"fast stream: {nctx} contexts, expected 1..{NCLASS}")
-    ntab = nctx + 2 * runs + ROW_TABLES * rows
-    syms = np.empty((ntab, rans.TOTAL), dtype=np.uint8)
-    info = np.empty((ntab, rans.MAX_SYMBOLS), dtype=np.uint32)
-    pos = _tables_kernel(np.frombuffer(data, dtype=np.uint8), pos, syms, info)
-    if pos < 0:
-        why = {-1: "runs past the payload", -2: "has too many tokens", -3: "does not sum to M"}
-        raise FormatError(f"fast stream: a frequency table {why[pos]}")
-    nbytes, pos = pal.read_uleb(data, pos)
-    if pos + nbytes > len(data):
-        raise FormatError("fast stream: the rANS stream runs past the payload")
-    stream = np.zeros(nbytes + 2, dtype=np.uint8)  # two 0 bytes past the end
-    stream[:nbytes] = np.frombuffer(data[pos : pos + nbytes], dtype=np.uint8)
-    raw = data[pos + nbytes :]
-    words = np.zeros((len(raw) + 3) // 4 + 1, dtype="<u4")  # a 0 word past the end
-    words.view(np.uint8)[: len(raw)] = np.frombuffer(raw, dtype=np.uint8)
+    buf = read_only(np.frombuffer(data, dtype=np.uint8))
     n = math.prod(shape)
-    v = np.empty(n, dtype=_work_dtype(lo, hi))
-    ring = np.zeros(2 * int(shape[1]) * int(shape[2]), dtype=np.int32)
+    sc = _scratch
+    wd = _work_dtype(lo, hi)
+    v = sc.get("v" + wd.char, n, wd) if reuse else np.empty(n, dtype=wd)
+    ring = sc.get("ring", 2 * shape[1] * shape[2], np.int32)
+    kinds = sc.get("kinds", shape[0] * shape[1], np.uint8) if kinds is None else kinds
+    stream = sc.get("stream", buf.size + 2, np.uint8)
+    words = sc.get("words", buf.size // 4 + 2, np.uint32)
+    status, b, nctx, nbytes, nraw = _head_kernel(
+        buf, sc.syms, sc.info, sc.act, stream, words, ring, kinds
+    )
+    if status:
+        raise FormatError(f"fast stream: {HEAD_STATUS[int(status)]}")
     status = _decode_kernel(
-        stream, words, np.int64(8 * len(raw)), syms.reshape(-1), info.reshape(-1),
-        np.int64(nctx), pid, cid, runs, rows, np.array(shape, dtype=np.int64), np.int64(lo),
-        np.int64(hi), v, ring, TOK, _capped_classes(nctx),
-        np.zeros(shape[0] * shape[1], np.uint8) if kinds is None else kinds,
+        stream[: nbytes + 2], words[: (nraw + 3) // 4 + 1], np.int64(8 * nraw), sc.flat_syms,
+        sc.flat_info, np.int64(nctx), b & 3, (b & ~(RUNS | ROWS)) >> 2, bool(b & RUNS),
+        bool(b & ROWS), np.array(shape, dtype=np.int64), np.int64(lo), np.int64(hi), v, ring,
+        TOK, sc.act, kinds,
     )  # fmt: skip
     if status:
         raise FormatError(f"corrupt fast-coded brick: {STATUS.get(int(status), status)}")
