@@ -157,7 +157,8 @@ def compress(
         Brick size; bricks are coded independently and decoded one by one. Default
         :func:`volpack.volume_codec.bricks.default_brick`: 64, but a float volume under an
         error bound (or a PSNR or ratio target) is one brick up to 4M voxels, else 128^3,
-        and a float volume coded exactly by the default codec takes 128^3.
+        and a float volume coded exactly by the default codec takes 128^3, as does an
+        integer volume of at most 2^21 voxels.
     workers : int or None
         Threads; ``None`` or 0 uses every core. The output does not depend on it.
     progress : callable(done, total), optional
@@ -197,7 +198,7 @@ def compress(
         raise OptionError(f"expected at most one lossy setting, found {found}")
     if brick is None:
         bounded = bool(asked) and not ({"quality", "threshold"} & set(asked))
-        brick = bricks.default_brick(vol.shape, vol.dtype, bounded, codec)
+        brick = bricks.default_brick(vol.shape, vol.dtype, bounded, codec, bool(asked))
     brick_t = bricks.parse_brick(brick)
     for name, value in (("runs", runs), ("rows", rows), ("zstd", zstd)):
         if value is not None and (codec != "fast" or asked):
