@@ -166,9 +166,9 @@ LOSSLESS_CASES = [
     ("lossless-v3-f32-packed", "f32-packed", V3),
     # version 4: the blend of predictors (mode 5, tool 2), one brick each: copies from
     # two periods, a fill value of 0 (float32) and of NaN (float64)
-    ("lossless-v4-f32-periodic", "f32-periodic", {"brick": 32}),
-    ("lossless-v4-f32-masked", "f32-masked", {"brick": 32}),
-    ("lossless-v4-f64-masked", "f64-masked", {"brick": 32}),
+    ("lossless-v4-f32-periodic", "f32-periodic", {"brick": 32, "predict_version": 4}),
+    ("lossless-v4-f32-masked", "f32-masked", {"brick": 32, "predict_version": 4}),
+    ("lossless-v4-f64-masked", "f64-masked", {"brick": 32, "predict_version": 4}),
     # version 5: the low-value models under a noise floor (flag 64), one brick
     ("lossless-v5-u8-floor", "v5-u8-floor", {"brick": 32, "predict_version": 5}),
 ]
