@@ -166,10 +166,22 @@ LOSSLESS_CASES = [
     ("lossless-v3-f32-packed", "f32-packed", V3),
     # version 4: the blend of predictors (mode 5, tool 2), one brick each: copies from
     # two periods, a fill value of 0 (float32) and of NaN (float64)
-    ("lossless-v4-f32-periodic", "f32-periodic", {"brick": 32}),
-    ("lossless-v4-f32-masked", "f32-masked", {"brick": 32}),
-    ("lossless-v4-f64-masked", "f64-masked", {"brick": 32}),
+    ("lossless-v4-f32-periodic", "f32-periodic", {"brick": 32, "predict_version": 4}),
+    ("lossless-v4-f32-masked", "f32-masked", {"brick": 32, "predict_version": 4}),
+    ("lossless-v4-f64-masked", "f64-masked", {"brick": 32, "predict_version": 4}),
+    # version 5: the low-value models under a noise floor (flag 64), one brick
+    ("lossless-v5-u8-floor", "v5-u8-floor", {"brick": 32, "predict_version": 5}),
 ]
+
+
+def noise_floor(cut):
+    """``cut`` with its zeros replaced by a fixed pattern of the values 0..5 (a noise
+    floor as magnitude images have, with a histogram no residual model fits)."""
+    import numpy as np
+
+    z, y, x = np.indices(cut.shape)
+    table = np.array([0, 2, 3, 3, 3, 4, 2, 0, 3, 5, 1, 3, 2], dtype=cut.dtype)
+    return np.where(cut == 0, table[(z * 131 + y * 71 + x * 37 + (x * y) % 11) % 13], cut)
 
 
 def lossless_source(recipe: str):
@@ -178,6 +190,8 @@ def lossless_source(recipe: str):
     denormals."""
     import numpy as np
 
+    if recipe == "v5-u8-floor":  # the head over a noise floor of small values, 1 rare
+        return noise_floor(lossless_source("v2-u8-background"))
     if recipe.startswith("v2-"):  # 32^3 cuts of the bundled MRI: head and background, tissue
         from volpack.demo import load_demo_volume
 

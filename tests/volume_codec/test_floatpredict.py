@@ -16,6 +16,7 @@ from conftest import flip_bits, float_specials, slow_case
 from volpack import api
 from volpack.errors import FormatError
 from volpack.format.container import Reader
+from volpack.volume_codec import bricks
 from volpack.volume_codec import floatpredict as fp
 from volpack.volume_codec.lossless import MODE_FLOAT, MODE_ZSTD, LosslessCodec, describe
 
@@ -267,14 +268,16 @@ def test_exact_floats_take_long_bricks_by_default():
     assert len(blob) < 0.6 * len(api.compress_array(a, brick=64))
     assert api.info(api.compress_array(a, codec="fast"))["header"]["brick"] == [64, 64, 64]
     ints = api.compress_array(np.zeros((4, 4, 4), np.int16))
-    assert api.info(ints)["header"]["brick"] == [64, 64, 64]
+    assert api.info(ints)["header"]["brick"] == [128, 128, 128]  # small integer volumes too
+    assert bricks.default_brick((129, 128, 128), np.int16, False, "auto") == (64, 64, 64)
+    assert bricks.default_brick((4, 4, 4), np.int16, False, "auto", lossy=True) == (64, 64, 64)
 
 
 def test_version_two_writes_no_float_prediction():
     a = field((16, 16, 16))
     for version in (1, 2):
         assert LosslessCodec(predict_version=version).encode(a)[0] != MODE_FLOAT
-    assert LosslessCodec().get_config()["predict_version"] == 4
+    assert LosslessCodec().get_config()["predict_version"] == 5
 
 
 # --- golden streams ----------------------------------------------------------------------

@@ -15,8 +15,10 @@ from volpack.format.container import Reader
 from volpack.volume_codec import palette, predict
 from volpack.volume_codec.floatbits import from_ordered, to_ordered
 from volpack.volume_codec.lossless import (
+    FLAG_FIT,
     FLAG_FLOAT,
     FLAG_LABELS,
+    FLAG_LOW,
     FLAG_PALETTE,
     FLAG_SPLIT,
     MODE_PREDICT,
@@ -307,6 +309,7 @@ CASES = [
     ("lossless-v2-u8-mask", "v2-u8-background", {"brick": 32, "predict_version": 2}),
     ("lossless-v2-i16-palette", "v2-i16", {"brick": 32, "predict_version": 2}),
     ("lossless-v2-predict-u8", "v2-u8", {"tools": "predict", "brick": 32, "predict_version": 2}),
+    ("lossless-v5-u8-floor", "v5-u8-floor", {"brick": 32, "predict_version": 5}),
 ]
 
 
@@ -314,6 +317,11 @@ def golden_source(recipe):
     from volpack.demo import load_demo_volume
 
     d = load_demo_volume().data
+    if recipe == "v5-u8-floor":  # the cut below over a fixed noise floor of 0..5
+        cut = golden_source("v2-u8-background")
+        z, y, x = np.indices(cut.shape)
+        table = np.array([0, 2, 3, 3, 3, 4, 2, 0, 3, 5, 1, 3, 2], dtype=np.uint8)
+        return np.where(cut == 0, table[(z * 131 + y * 71 + x * 37 + (x * y) % 11) % 13], cut)
     if recipe == "v2-u8-background":
         cut = d[16:48, 24:56, 24:56].copy()
         cut[cut < 60] = 0
@@ -362,6 +370,7 @@ def test_golden_lossless_streams_use_the_new_sections():
     assert (MODE_PREDICT, FLAG_FLOAT | FLAG_PALETTE) in seen
     assert (MODE_PREDICT, FLAG_FLOAT | FLAG_SPLIT) in seen
     assert (MODE_PREDICT, FLAG_PALETTE | FLAG_LABELS) in seen
+    assert (MODE_PREDICT, FLAG_FIT | FLAG_PALETTE | FLAG_LOW) in seen
 
 
 # --- corrupt payloads --------------------------------------------------------------------

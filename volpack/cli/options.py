@@ -229,7 +229,8 @@ codec_options = options(
            ["dfs", "line"], "dfs"),
     option("--levels max_levels", "Cap the decomposition levels per axis.", (0, 16)),
     option("--brick", "Brick size N or Z,Y,X; bricks decode independently. Default 64; a "
-           "float volume under an error bound is one brick up to 4M voxels, else 128."),
+           "float volume under an error bound is one brick up to 4M voxels, else 128; "
+           "exact floats and integer volumes up to 2M voxels coded exactly: 128."),
     option("--max-error", "Lossy: every voxel decodes within this absolute error (checked "
            "on every voxel).", float),
     option("--rel-error", "Lossy: --max-error as a fraction of the value range.", float),

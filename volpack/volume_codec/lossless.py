@@ -12,7 +12,8 @@ mode  payload after the mode byte
 0-3   as the ``wavelet`` codec's modes (coefficients, raw, constant, byte-shuffled zstd)
 4     3-D prediction: a flags byte (1: palette, 2: float bits, 4: floats split into
       exponent and mantissa, 8: labels copied from neighbours, 16: the predictive
-      stream of version 2 (:mod:`.predictfit`), 32: a background mask), then the
+      stream of version 2 (:mod:`.predictfit`), 32: a background mask, 64: version 2
+      with the low-value models), then the
       palette or the value range (none when split), the mask, then the predictive or
       label stream
 5     floats by prediction on their integer images (:mod:`.floatpredict`): a tool byte
@@ -26,7 +27,9 @@ headers have no ``predict_version`` and read as 1) or 2 (a fitted predictor, and
 mask where it pays). Version 3 codes integer bricks as 2 and adds, for float
 bricks, the tools of mode 5 and zstd at level 19 in mode 3 (where it may beat level 9:
 see ``ZSTD_19_OVER_9``). Version 4 (the default) adds mode 5's blend (tool 2) for
-float32 and float64 bricks. A decoder reads every version,
+float32 and float64 bricks. Version 5 (the default) adds, for integer bricks, version
+2's stream with the low-value models of :mod:`.predictfit` (flag 64), where it is the
+shorter. A decoder reads every version,
 whatever the config says.
 
 Floats (float16, float32, float64) are coded exactly through integer images of their
@@ -70,8 +73,10 @@ FLOAT_BLEND = 2
 BLEND_MIN_SAVING = 0.02
 EXACT_FLOATS = FLOAT_DTYPES + ("float64",)
 FLAG_PALETTE, FLAG_FLOAT, FLAG_SPLIT, FLAG_LABELS, FLAG_FIT, FLAG_MASK = 1, 2, 4, 8, 16, 32
-FLAGS = FLAG_PALETTE | FLAG_FLOAT | FLAG_SPLIT | FLAG_LABELS | FLAG_FIT | FLAG_MASK
-VERSIONS = (1, 2, 3, 4)
+FLAG_LOW = 64
+FLAGS = FLAG_PALETTE | FLAG_FLOAT | FLAG_SPLIT | FLAG_LABELS | FLAG_FIT | FLAG_MASK | FLAG_LOW
+VERSIONS = (1, 2, 3, 4, 5)
+LOW_VERSION = 5  # the first predict_version whose encoder tries the low-value models
 TOOLS = ("auto", "wavelet", "predict")
 FLOAT_ZSTD_LEVEL = 9
 FLOAT_ZSTD_LEVEL_V3 = 19  # floats compress slowly either way; 19 finds repeats 9 misses
@@ -89,11 +94,12 @@ class LosslessCodec(BrickCodec):
     tools : {"auto", "wavelet", "predict"}
         ``auto`` tries both tools on every brick and keeps the shorter; the others use
         one tool (for comparison; floats always use prediction).
-    predict_version : {1, 2, 3, 4}
+    predict_version : {1, 2, 3, 4, 5}
         The predictive stream written for integer bricks: 2 (a fitted predictor and a
         background mask) or 1 (the earlier one, for identical files); 3 codes integers
-        as 2 and floats also by Lorenzo or lattice prediction (mode 5); 4 (the default)
-        also by the blend of predictors with copies and a fill value (mode 5, tool 2).
+        as 2 and floats also by Lorenzo or lattice prediction (mode 5); 4 also by the
+        blend of predictors with copies and a fill value (mode 5, tool 2); 5 (the
+        default) as 4, integers also with the low-value models.
     """
 
     codec_id: ClassVar[str] = "lossless"
@@ -102,7 +108,7 @@ class LosslessCodec(BrickCodec):
     order: str = "dfs"
     max_levels: int | None = None
     tools: str = "auto"
-    predict_version: int = 4
+    predict_version: int = 5
 
     def __post_init__(self) -> None:
         _check_choice("tools", self.tools, TOOLS)
@@ -257,7 +263,8 @@ def describe(payload: bytes) -> str:
             return "labels"
         name = "predict2" if payload[1] & FLAG_FIT else "predict"
         name += "+palette" if payload[1] & FLAG_PALETTE else ""
-        return name + ("+mask" if payload[1] & FLAG_MASK else "")
+        name += "+mask" if payload[1] & FLAG_MASK else ""
+        return name + ("+low" if payload[1] & FLAG_LOW else "")
     if mode == MODE_FLOAT and len(payload) > 1:
         tool = FLOAT_TOOLS[payload[1]] if payload[1] < len(FLOAT_TOOLS) else payload[1]
         return f"float-{tool}"
@@ -282,7 +289,7 @@ def _encode_predict(brick: np.ndarray, version: int = 1) -> list[bytes]:
             bytes([MODE_PREDICT, flags]) + pal.pack_range(lo, hi) + predict.encode(values, lo, hi)
         ]
     if version >= 2 and not is_float:  # version 1 stays a candidate: tiny bricks pay
-        out.append(_encode_fit(values, lo, hi))  # 136 bytes of weights in version 2
+        out.append(_encode_fit(values, lo, hi, version >= LOW_VERSION))  # 136 bytes of weights
     if hi - lo + 1 > 2:
         p = pal.build(values)
         if len(p) < hi - lo + 1 and len(p) <= pal.MAX_PALETTE:
@@ -305,10 +312,11 @@ def _encode_predict(brick: np.ndarray, version: int = 1) -> list[bytes]:
     return out
 
 
-def _encode_fit(values: np.ndarray, lo: int, hi: int) -> bytes:
+def _encode_fit(values: np.ndarray, lo: int, hi: int, low: bool = False) -> bytes:
     """The shortest version-2 predictive payload of an integer brick: on its values or
     on their palette ranks (when the brick leaves values of its range unused), then
-    for the better of those with a background mask, and with one gradient class."""
+    for the better of those with a background mask, and with one gradient class; with
+    ``low``, the best of those again with the low-value models."""
     from . import predictfit
 
     head = bytes([MODE_PREDICT, FLAG_FIT]) + pal.pack_range(lo, hi)
@@ -331,8 +339,15 @@ def _encode_fit(values: np.ndarray, lo: int, hi: int) -> bytes:
         payload = head2 + sec + predictfit.encode(v, a, b, mask=m, fitted=fits[0])
         if len(payload) < len(best):
             best, head, section, mask = payload, head2, sec, m
+    fitted = fits[0]
     one = head + section + predictfit.encode(v, a, b, mask=mask, fitted=fits[1])
-    return min(best, one, key=len)
+    if len(one) < len(best):
+        best, fitted = one, fits[1]
+    if low:  # (one more run, not one per variant: the models rarely change the choice)
+        head2 = bytes([head[0], head[1] | FLAG_LOW]) + head[2:]
+        payload = head2 + section + predictfit.encode(v, a, b, mask=mask, fitted=fitted, low=True)
+        best = min(best, payload, key=len)
+    return best
 
 
 def _decode_predict(body: memoryview, shape: tuple[int, ...], dtype: np.dtype) -> np.ndarray:
@@ -347,7 +362,7 @@ def _decode_predict(body: memoryview, shape: tuple[int, ...], dtype: np.dtype) -
     if (
         flags & ~FLAGS
         or (fit and flags & (FLAG_FLOAT | FLAG_LABELS))
-        or (flags & FLAG_MASK and not fit)
+        or (flags & (FLAG_MASK | FLAG_LOW) and not fit)
         or bool(flags & FLAG_FLOAT) != is_float
         or (split and flags & (FLAG_PALETTE | FLAG_LABELS))
         or (split and not is_float)
@@ -393,10 +408,11 @@ def _decode_fit(data: memoryview, shape: tuple[int, ...], lo: int, hi: int, flag
 
     if hi - lo >= 1 << 32:
         raise FormatError(f"predictive brick payload: value range [{lo}, {hi}] is out of bounds")
+    low = bool(flags & FLAG_LOW)
     if flags & FLAG_MASK:
         fill, mask, used = bgmask.decode(data, shape, hi - lo)
-        return predictfit.decode(data[used:], shape, lo, hi, mask, lo + fill)
-    return predictfit.decode(data, shape, lo, hi)
+        return predictfit.decode(data[used:], shape, lo, hi, mask, lo + fill, low)
+    return predictfit.decode(data, shape, lo, hi, low=low)
 
 
 def _value_range(dtype: np.dtype) -> tuple[int, int]:

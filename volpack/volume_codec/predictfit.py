@@ -62,6 +62,17 @@ M_SIGN = M_ZERO + NCTX * 2
 M_LEN = M_SIGN + NCTX * 3 * NFRAC
 M_MANT = M_LEN + NCTX * NLEN
 N_MODELS = M_MANT + NLEN * 4 * 16
+# Low-value models (the payload's LOW flag): a voxel predicted below NLOW codes its zero
+# flag, sign and lengths in models keyed on the prediction itself rather than on the
+# activity, and its lengths apart by sign. Near the bottom of a brick's range the values'
+# histogram is far from a residual's smooth shape (the noise floor of a magnitude image:
+# on the brainsmall MRI 0 and 2 are each six times as common as 1), and a model of the
+# residual given the prediction learns it; the mantissa bits keep their models.
+NLOW = 16
+M_LOWZ = N_MODELS
+M_LOWS = M_LOWZ + NLOW * NFRAC
+M_LOWL = M_LOWS + NLOW * 3 * NFRAC
+N_MODELS_LOW = M_LOWL + NLOW * 2 * NLEN
 RATE_MAX = 8
 NCAP = (1 << RATE_MAX) - 1  # use counts saturate here
 # Adaptation rate by use count: a running average (1 / (n + 1)) until 2^-RATE_MAX.
@@ -152,18 +163,42 @@ def _mant_model(nb, prefix, ctx):
 
 
 @kernel(inline=True)
-def put_residual(out, models, ctx, sctx, r, low, rng, pos):
+def _low_class(pred, nlow):
+    """The low-value class of a prediction: itself below ``nlow``, else -1 (none)."""
+    return pred if pred < nlow else np.int64(-1)
+
+
+@kernel(inline=True)
+def _sign_model(ctx, sctx, q):
+    """Sign's model: by the context, or by the low-value class ``q`` when there is one."""
+    if q < 0:
+        return M_SIGN + ctx * 3 * NFRAC + sctx
+    return M_LOWS + q * 3 * NFRAC + sctx
+
+
+@kernel(inline=True)
+def _len_models(ctx, q, neg):
+    """First of the lengths' models: by the context, or by the low-value class ``q``
+    and the sign."""
+    if q < 0:
+        return M_LEN + ctx * NLEN
+    return M_LOWL + (2 * q + neg) * NLEN
+
+
+@kernel(inline=True)
+def put_residual(out, models, ctx, sctx, q, r, low, rng, pos):
     """Code residual ``r`` as :func:`.predict.put_residual` does (zero flag, sign, unary
     bit length of ``|r| - 1``, two bits below its leading one, the rest at one half),
-    with this module's models."""
-    low, rng, pos = put16(out, models, _zero_model(ctx, sctx), np.int64(r != 0), low, rng, pos)
+    with this module's models (the low-value ones for class ``q >= 0``)."""
+    kz = _zero_model(ctx, sctx) if q < 0 else M_LOWZ + q * NFRAC + (sctx & (NFRAC - 1))
+    low, rng, pos = put16(out, models, kz, np.int64(r != 0), low, rng, pos)
     if r == 0:
         return low, rng, pos
-    k = M_SIGN + ctx * 3 * NFRAC + sctx
-    low, rng, pos = put16(out, models, k, np.int64(r < 0), low, rng, pos)
+    neg = np.int64(r < 0)
+    low, rng, pos = put16(out, models, _sign_model(ctx, sctx, q), neg, low, rng, pos)
     u = abs(r) - 1
     nb = bitlen(u)
-    k0 = M_LEN + ctx * NLEN
+    k0 = _len_models(ctx, q, neg)
     for j in range(min(nb + 1, NLEN - 1)):
         low, rng, pos = put16(out, models, k0 + j, np.int64(nb > j), low, rng, pos)
     nm = min(nb - 1, 2)
@@ -176,7 +211,7 @@ def put_residual(out, models, ctx, sctx, r, low, rng, pos):
 
 
 @kernel(inline=True)
-def get_residual(data, models, ctx, sctx, code, rng, pos):
+def get_residual(data, models, ctx, sctx, q, code, rng, pos):
     """Decode what :func:`put_residual` coded; ``NO_RESIDUAL`` for an impossible one."""
     # Both of the context's zero-flag models are loaded, then one picked by the
     # prediction's eighths: the loads wait for the context only, not for the
@@ -185,13 +220,16 @@ def get_residual(data, models, ctx, sctx, code, rng, pos):
     st0 = np.int64(models[np.uint64(kz)])
     st1 = np.int64(models[np.uint64(kz + 1)])
     h = _near_half(sctx)
+    kz += h
     st = st0 + ((st1 - st0) & -h)
-    bit, models[np.uint64(kz + h)], code, rng, pos = get16_held(data, st, code, rng, pos)
+    if q >= 0:
+        kz = M_LOWZ + q * NFRAC + (sctx & (NFRAC - 1))
+        st = np.int64(models[np.uint64(kz)])
+    bit, models[np.uint64(kz)], code, rng, pos = get16_held(data, st, code, rng, pos)
     if bit == 0:
         return np.int64(0), code, rng, pos
-    k = M_SIGN + ctx * 3 * NFRAC + sctx
-    neg, code, rng, pos = get16(data, models, k, code, rng, pos)
-    k0 = M_LEN + ctx * NLEN
+    neg, code, rng, pos = get16(data, models, _sign_model(ctx, sctx, q), code, rng, pos)
+    k0 = _len_models(ctx, q, neg)
     nb = 0
     while nb < NLEN - 1:
         bit, code, rng, pos = get16(data, models, k0 + nb, code, rng, pos)
@@ -346,11 +384,11 @@ def _workspace(shape: tuple[int, ...]) -> tuple[np.ndarray, ...]:
     error: a sum and a count of 0 mean 0) and this module's models."""
     err, perr, bias_sum, bias_cnt, _ = workspace(shape)
     bias = np.zeros(NCTX, dtype=np.int64)
-    return err, perr, bias_sum, bias_cnt, bias, np.full(N_MODELS, MODEL_INIT, dtype=np.uint32)
+    return err, perr, bias_sum, bias_cnt, bias, np.full(N_MODELS_LOW, MODEL_INIT, dtype=np.uint32)
 
 
 @kernel(nrt=False)
-def _encode_kernel(v, mk, cf, th, shape, hi, out, err, perr, bias_sum, bias_cnt, bias, models):
+def _encode_kernel(v, mk, cf, th, shape, hi, nlow, out, err, perr, bias_sum, bias_cnt, bias, models):
     nz, ny, nx = shape[0], shape[1], shape[2]
     sz = ny * nx
     cap = out.size
@@ -374,7 +412,8 @@ def _encode_kernel(v, mk, cf, th, shape, hi, out, err, perr, bias_sum, bias_cnt,
                     v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, bias, held
                 )
                 val = v[np.uint64(i)]
-                low, rng, pos = put_residual(out, models, ctx, sctx, val - pred, low, rng, pos)
+                q = _low_class(pred, nlow)
+                low, rng, pos = put_residual(out, models, ctx, sctx, q, val - pred, low, rng, pos)
                 held = _learn(
                     err, perr, r, val, pred, ctx, bias_sum, bias_cnt, bias, q0, q1, q2, q3, q4, q5
                 )
@@ -384,7 +423,7 @@ def _encode_kernel(v, mk, cf, th, shape, hi, out, err, perr, bias_sum, bias_cnt,
 
 @kernel(nrt=False)
 def _decode_kernel(
-    data, mk, fill, cf, th, shape, hi, v, err, perr, bias_sum, bias_cnt, bias, models
+    data, mk, fill, cf, th, shape, hi, nlow, v, err, perr, bias_sum, bias_cnt, bias, models
 ):
     """Return 0 on success, 1 when the stream ran short, 2 on an impossible value, 3 when
     it does not end where its length says."""
@@ -411,7 +450,8 @@ def _decode_kernel(
                 pred, ctx, sctx, q0, q1, q2, q3, q4, q5 = _predict_kernel(
                     v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, bias, held
                 )
-                res, code, rng, pos = get_residual(data, models, ctx, sctx, code, rng, pos)
+                q = _low_class(pred, nlow)
+                res, code, rng, pos = get_residual(data, models, ctx, sctx, q, code, rng, pos)
                 if res == NO_RESIDUAL:
                     return 2
                 val = pred + res
@@ -471,11 +511,14 @@ def _no_mask(n: int) -> np.ndarray:
     return np.zeros(n, dtype=np.uint8)
 
 
-def encode(values: np.ndarray, lo: int, hi: int, classes: int = NCLS, mask=None, fitted=None) -> bytes:
+def encode(
+    values: np.ndarray, lo: int, hi: int, classes: int = NCLS, mask=None, fitted=None, low: bool = False
+) -> bytes:
     """Code a 3-D integer array with values in ``[lo, hi]`` (a range below 2^32): the
     thresholds (uint32) and weights (int16) of the fitted predictor (``fitted``, or
     :func:`fit` with ``classes`` 4 or 1), then the stream. Voxels where ``mask`` is
-    true are not coded (the decoder is told their value)."""
+    true are not coded (the decoder is told their value). ``low``: with the low-value
+    models (the decoder must be told)."""
     v = np.ascontiguousarray(values, dtype=np.int64)
     if v.ndim != 3:
         raise OptionError(f"expected a 3-D array, found shape {v.shape}")
@@ -490,7 +533,7 @@ def encode(values: np.ndarray, lo: int, hi: int, classes: int = NCLS, mask=None,
     shape = np.array(v.shape, dtype=np.int64)
     body = encode_with_retry(
         lambda out: _encode_kernel(
-            flat, mk, cf, th, shape, np.int64(hi - lo), out, *_workspace(v.shape)
+            flat, mk, cf, th, shape, np.int64(hi - lo), _nlow(low), out, *_workspace(v.shape)
         ),
         flat.size,
         (2, 20),
@@ -499,9 +542,13 @@ def encode(values: np.ndarray, lo: int, hi: int, classes: int = NCLS, mask=None,
     return th.astype("<u4").tobytes() + cf.astype("<i2").tobytes() + body
 
 
-def decode(data, shape: tuple[int, int, int], lo: int, hi: int, mask=None, fill: int = 0):
+def _nlow(low: bool) -> np.int64:
+    return np.int64(NLOW if low else 0)
+
+
+def decode(data, shape: tuple[int, int, int], lo: int, hi: int, mask=None, fill: int = 0, low: bool = False):
     """Decode :func:`encode`'s bytes into an int64 array of ``shape``; voxels where
-    ``mask`` is true get ``fill``."""
+    ``mask`` is true get ``fill``; ``low`` as for :func:`encode`."""
     if not (lo <= hi and hi - lo < (1 << 32)):
         raise FormatError(f"predictive payload: value range [{lo}, {hi}] is out of bounds")
     data = bytes(data)
@@ -515,7 +562,7 @@ def decode(data, shape: tuple[int, int, int], lo: int, hi: int, mask=None, fill:
     v = np.empty(n, dtype=np.int64)
     shp = np.array(shape, dtype=np.int64)
     status = _decode_kernel(
-        buf, mk, np.int64(fill - lo), cf.astype(np.int64), th, shp, np.int64(hi - lo), v,
+        buf, mk, np.int64(fill - lo), cf.astype(np.int64), th, shp, np.int64(hi - lo), _nlow(low), v,
         *_workspace(shape),
     )  # fmt: skip
     check_status(status, "predictive")

@@ -133,8 +133,9 @@ def compress(
         Wavelet codec settings (see :class:`volpack.volume_codec.codec.WaveletCodec`).
     tools : {"auto", "wavelet", "predict"}, optional
         The lossless codec's tools (:class:`volpack.volume_codec.lossless.LosslessCodec`).
-    predict_version : {1, 2, 3, 4}, optional
-        The lossless codec's predictive stream: 4 (the default: as 3, and floats also by
+    predict_version : {1, 2, 3, 4, 5}, optional
+        The lossless codec's predictive stream: 5 (the default: as 4, and integers also
+        with the low-value models of :mod:`.predictfit`), 4 (as 3, and floats also by
         a blend of predictors with copies and a fill value), 3 (as 2, and floats by
         Lorenzo or lattice prediction), 2 or 1 (as files written before, byte for byte).
     runs : bool, optional
@@ -156,7 +157,8 @@ def compress(
         Brick size; bricks are coded independently and decoded one by one. Default
         :func:`volpack.volume_codec.bricks.default_brick`: 64, but a float volume under an
         error bound (or a PSNR or ratio target) is one brick up to 4M voxels, else 128^3,
-        and a float volume coded exactly by the default codec takes 128^3.
+        and a float volume coded exactly by the default codec takes 128^3, as does an
+        integer volume of at most 2^21 voxels.
     workers : int or None
         Threads; ``None`` or 0 uses every core. The output does not depend on it.
     progress : callable(done, total), optional
@@ -196,7 +198,7 @@ def compress(
         raise OptionError(f"expected at most one lossy setting, found {found}")
     if brick is None:
         bounded = bool(asked) and not ({"quality", "threshold"} & set(asked))
-        brick = bricks.default_brick(vol.shape, vol.dtype, bounded, codec)
+        brick = bricks.default_brick(vol.shape, vol.dtype, bounded, codec, bool(asked))
     brick_t = bricks.parse_brick(brick)
     for name, value in (("runs", runs), ("rows", rows), ("zstd", zstd)):
         if value is not None and (codec != "fast" or asked):
