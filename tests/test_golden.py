@@ -341,7 +341,9 @@ LOSSY_TODAY = [  # (stem, recipe, options, brick, (flags, kind or mode) of each 
 ]  # fmt: skip
 
 
-@pytest.mark.parametrize("stem,recipe,opts,brick,kinds", LOSSY_TODAY, ids=[c[0] for c in LOSSY_TODAY])
+@pytest.mark.parametrize(
+    "stem,recipe,opts,brick,kinds", LOSSY_TODAY, ids=[c[0] for c in LOSSY_TODAY]
+)
 def test_golden_adaptive_bins_and_quantised_fit_streams(stem, recipe, opts, brick, kinds):
     """The interpolation path's bins in the adaptive coder (kind 16 + 0, linear) and the
     quantised voxels in the lossless codec's 3-D prediction (mode 4; one brick keeps the

@@ -13,7 +13,10 @@ a wavelet's quantisation error spreads over neighbours, here it stays put.
 The bins are coded with the static rANS coder (:mod:`volpack.entropy.rans`): one lookup
 per voxel instead of the adaptive binary coder's several decisions. Contexts: how large
 the two voxels it was interpolated from had their bins (the bins cluster where the field
-is rough) and the bin coded just before it.
+is rough) and the bin coded just before it. Or (kind bit 4, the encoder's choice by size)
+by :mod:`.predictfit`'s adaptive binary coder, in contexts of the predicting and the same
+pass's neighbouring bins: no tables to store, and models that follow the bins' spread
+where the static contexts saturate (every bin past 16 at tight bounds).
 
 The encoder's choices, made per brick by the estimated coded size and stored: which
 axis is interpolated in which order (the pass of the last axis covers half the voxels,
@@ -483,7 +486,9 @@ def decode(inner, shape: tuple[int, int, int], step: float) -> np.ndarray:
         data = np.frombuffer(bytes(inner[pos:]) + bytes(2), dtype=np.uint8)  # padded: see rans
         raw = np.frombuffer(bytes(raw) + bytes(8), dtype=np.uint8).copy()  # slack: _get_bits
         models = np.zeros(1, np.uint32)
-    status = _decode_walk(flat, bn, rec.shape, float(step), kind, adaptive, raw, data, table, models, z)
+    status = _decode_walk(
+        flat, bn, rec.shape, float(step), kind, adaptive, raw, data, table, models, z
+    )
     if status != 0:
         raise FormatError(f"{what}: the bin stream is corrupt")
     return rec.transpose(np.argsort(perm))
