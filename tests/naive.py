@@ -649,9 +649,10 @@ def cdf97_transform(arr, levels, backward=False):
 # --- the bounded codec's interpolation path (formats/lossy-1.md steps 14-17) ---
 
 
-def interp_walk(g, step, kind):
+def interp_walk(g, step, kind, adaptive=False):
     """``(rec, bins, contexts)`` of steps 14-17 on ``g`` (already in the walk's axis
-    order), one voxel at a time, straight from the spec."""
+    order), one voxel at a time, straight from the spec; with ``adaptive``, also the
+    adaptive coding's contexts ``4 c + t`` (step 17, bit 4 of the kind)."""
     import math
 
     import numpy as np
@@ -659,9 +660,26 @@ def interp_walk(g, step, kind):
     m = g.shape
     rec = np.zeros(m)
     bins = np.zeros(m, dtype=np.int64)
-    out_b, out_c = [], []
+    out_b, out_c, out_a = [], [], []
 
-    def code(i, p, neighbours, prev):
+    def activity_class(a):
+        if a < 4:
+            return a
+        n = a.bit_length()
+        return min(47, 2 * n - 2 + ((a >> (n - 2)) & 1))
+
+    def code(i, p, neighbours, prev, back=(), u=()):
+        # back: the voxels whose |b| and b make nb and sg (kinds 0, 1); u: kinds 2, 3
+        na = sum(abs(int(bins[j])) for j in neighbours)
+        if kind >= 2:
+            nb = sum(abs(int(bins[j])) for j in u)
+            sg = sum(int(bins[j]) for j in neighbours)
+        else:
+            nb = sum(abs(int(bins[j])) for j in back)
+            sg = sum(int(bins[j]) for j in back)
+        g_ = 0 if 2 * nb < na else (1 if nb < 2 * na else 2)
+        t_ = 0 if sg < 0 else (1 if sg == 0 else 2)
+        out_a.append(4 * min(3 * activity_class(na + nb) + g_, 143) + t_)
         d = math.floor((g[i] - p) / step + 0.5)
         b = d if abs(d) < 2**30 else 0
         rec[i] = p + b * step
@@ -670,6 +688,10 @@ def interp_walk(g, step, kind):
         out_b.append(b)
         out_c.append(3 * min(t.bit_length(), 5) + prev)
         return min(abs(b), 2)
+
+    def result():
+        out = (rec, np.array(out_b), np.array(out_c))
+        return out + (np.array(out_a),) if adaptive else out
 
     if kind >= 2:
         for i0, i1 in np.ndindex(m[0], m[1]):
@@ -684,8 +706,9 @@ def interp_walk(g, step, kind):
                     if min(j) >= 0:
                         p = p + rec[j] if sign > 0 else p - rec[j]
                 nb = [j for j in ((i0, i1, i2 - 1), (i0, i1 - 1, i2)) if min(j) >= 0]
-                prev = code((i0, i1, i2), p, nb, prev)
-        return rec, np.array(out_b), np.array(out_c)
+                u = [(i0 - 1, i1, i2)] if kind == 2 and i0 > 0 else []
+                prev = code((i0, i1, i2), p, nb, prev, u=u)
+        return result()
     top = 0
     while 2**top < max(m):
         top += 1
@@ -726,8 +749,16 @@ def interp_walk(g, step, kind):
                 sy, y0 = (2 * s if axis <= 1 else s), (s if axis == 1 else 0)
                 back = (i[0], i[1] - sy, i[2])
                 prev = min(abs(int(bins[back])), 2) if i[1] - sy >= y0 else 0
-                code(i, p, nb, prev)
-    return rec, np.array(out_b), np.array(out_c)
+                # the adaptive coding's: one step back along the two other axes
+                behind = []
+                for a in range(3):
+                    if a != axis:
+                        j = list(i)
+                        j[a] -= s if a < axis else 2 * s
+                        if j[a] >= 0:
+                            behind.append(tuple(j))
+                code(i, p, nb, prev, back=behind)
+    return result()
 
 
 # --- render: quantised normals ---

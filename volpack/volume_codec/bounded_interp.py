@@ -13,7 +13,10 @@ a wavelet's quantisation error spreads over neighbours, here it stays put.
 The bins are coded with the static rANS coder (:mod:`volpack.entropy.rans`): one lookup
 per voxel instead of the adaptive binary coder's several decisions. Contexts: how large
 the two voxels it was interpolated from had their bins (the bins cluster where the field
-is rough) and the bin coded just before it.
+is rough) and the bin coded just before it. Or (kind bit 4, the encoder's choice by size)
+by :mod:`.predictfit`'s adaptive binary coder, in contexts of the predicting and the same
+pass's neighbouring bins: no tables to store, and models that follow the bins' spread
+where the static contexts saturate (every bin past 16 at tight bounds).
 
 The encoder's choices, made per brick by the estimated coded size and stored: which
 axis is interpolated in which order (the pass of the last axis covers half the voxels,
@@ -29,9 +32,14 @@ import numpy as np
 
 from .._jit import kernel, leading_zeros
 from ..entropy import rans
+from ..entropy.common import encode_with_retry, stream_bytes
+from ..entropy.rangecoder import end_status, finish_stream, open_encoder, open_stream
 from ..errors import FormatError
 from ..format.deflate import deflate, inflate
 from ..format.sections import put_section, take_section
+from .predict import NCTX as A_NCTX
+from .predict import NO_RESIDUAL, activity_class
+from .predictfit import MODEL_INIT, N_MODELS, get_residual, put_residual
 
 MAX_BIN = 2.0**30  # larger bins (or no finite residual): bin 0, left to the corrections
 DIRECT = 32  # zigzagged bins below this are symbols themselves
@@ -42,6 +50,8 @@ N_CTX = N_ACT * N_PREV
 KINDS = (1, 0, 2, 3)  # cubic, linear, Lorenzo 3-D, Lorenzo 2-D
 PERMS = ((0, 1, 2), (1, 0, 2), (2, 1, 0), (0, 2, 1))
 HEADER = struct.Struct("<3BB")  # axis order, kind
+# Kind flag: the bins coded by the adaptive binary coder (below) instead of static rANS.
+ADAPTIVE = 16
 # What the encoder tries: (kind, axis orders). Lorenzo in 3-D hardly depends on the
 # order; in 2-D the order's first axis is the one left out.
 TRIED = ((1, PERMS), (0, PERMS), (2, PERMS[:1]), (3, PERMS[:3]))
@@ -51,27 +61,24 @@ TRIED_FAST = ((1, PERMS[:1]), (2, PERMS[:1]))
 
 
 @kernel(inline=True)
-def _predict(rec, mag, j, off, i, s, n, cubic):
+def _predict(rec, j, off, i, s, n, cubic):
     """Voxel ``j`` (flat) interpolated along an axis where it is ``i`` of ``n``, its
-    known neighbours ``off`` (flat) = ``s`` (along the axis) apart: (prediction, the
-    sum of the interpolating voxels' bin magnitudes)."""
+    known neighbours ``off`` (flat) = ``s`` (along the axis) apart."""
     b = rec[j - off]
-    a = np.int64(mag[j - off])
     if i + s >= n:  # no neighbour after: the one before
-        return b, a
+        return b
     c = rec[j + off]
-    a += np.int64(mag[j + off])
     if cubic == 0:
-        return (b + c) * 0.5, a
+        return (b + c) * 0.5
     lo = i - 3 * s >= 0
     hi = i + 3 * s < n
     if lo and hi:
-        return (9.0 * (b + c) - (rec[j - 3 * off] + rec[j + 3 * off])) * 0.0625, a
+        return (9.0 * (b + c) - (rec[j - 3 * off] + rec[j + 3 * off])) * 0.0625
     if hi:  # the quadratic through -s, s, 3s
-        return (3.0 * b + 6.0 * c - rec[j + 3 * off]) * 0.125, a
+        return (3.0 * b + 6.0 * c - rec[j + 3 * off]) * 0.125
     if lo:  # the quadratic through -3s, -s, s
-        return (6.0 * b + 3.0 * c - rec[j - 3 * off]) * 0.125, a
-    return (b + c) * 0.5, a
+        return (6.0 * b + 3.0 * c - rec[j - 3 * off]) * 0.125
+    return (b + c) * 0.5
 
 
 def _act_contexts() -> np.ndarray:
@@ -143,23 +150,71 @@ def _code_one(decode, v, p, q, c, k, sym, ctx, raw, bitpos, data, x0, x1, pos, t
 
 
 @kernel(inline=True)
-def _walk(x, rec, mag, shape, step, kind, decode, sym, ctx, raw, data, table):
+def _adaptive_context(na, nb, sg):
+    """The adaptive coder's context of a bin: the activity class of its neighbours' bin
+    magnitudes ``na`` (those it was predicted from) plus ``nb`` (the same pass's voxels
+    one step back along the two other axes), split three ways by how ``nb`` compares with
+    ``na``; and the sign context: the sign of those back neighbours' bins summed (``sg``),
+    as a prediction that is off tends to be off the same way nearby."""
+    split = 0 if 2 * nb < na else (1 if nb < 2 * na else 2)
+    ctx = min(activity_class(na + nb) * 3 + split, A_NCTX - 1)
+    return ctx, (0 if sg < 0 else (1 if sg == 0 else 2))
+
+
+@kernel(inline=True)
+def _code_any(decode, adaptive, v, p, q, c, na, nb, sg, k, state, sym, ctx, abin, adx,
+              raw, data, table, models):  # fmt: skip
+    """One voxel's bin (:func:`_code_one`) in static context ``c``; the adaptive coder's
+    context is made of ``na, nb, sg``. Encoding records both codings' symbols; decoding
+    reads the one the stream holds. ``state``: (bitpos, x0, x1, pos) of the static
+    coder, or (0, code, rng, pos) of the adaptive one. Returns (bin, k, state); the bin
+    is ``NO_RESIDUAL`` for a corrupt adaptive stream."""
+    bitpos, x0, x1, pos = state
+    if decode and adaptive:
+        ac, sc = _adaptive_context(na, nb, sg)
+        b, x0, x1, pos = get_residual(data, models, ac, sc, x0, x1, pos)
+        if b != NO_RESIDUAL and (b >= MAX_BIN or -b >= MAX_BIN):
+            b = NO_RESIDUAL
+        return b, k + 1, (bitpos, x0, x1, pos)
+    if not decode:
+        ac, sc = _adaptive_context(na, nb, sg)
+        adx[k] = 4 * ac + sc
+    b, k1, bitpos, x0, x1, pos = _code_one(
+        decode, v, p, q, c, k, sym, ctx, raw, bitpos, data, x0, x1, pos, table
+    )
+    if not decode:
+        abin[k] = b
+    return b, k1, (bitpos, x0, x1, pos)
+
+
+@kernel(inline=True)
+def _walk(x, rec, bn, shape, step, kind, adaptive, decode, sym, ctx, abin, adx, raw, data,
+          table, models):  # fmt: skip
     """Predict, quantise and rebuild every voxel of ``rec`` (flat, C order of ``shape``):
     level by level for the interpolations (``kind`` 0 linear, 1 cubic), in C order for
-    Lorenzo (2: 3-D, 3: 2-D within each slice).
+    Lorenzo (2: 3-D, 3: 2-D within each slice). ``bn`` (int32, zeroed) takes each voxel's
+    bin.
 
-    Encoding (``decode`` 0): reads ``x``, writes the symbols and contexts into ``sym``
-    and ``ctx`` and the raw bits into ``raw`` (zeroed); returns the raw bit count.
-    Decoding: reads the symbols from the rANS stream ``data`` and the bits from ``raw``;
-    returns 0, or -1 on a corrupt stream.
+    Encoding (``decode`` 0): reads ``x``, writes the static coding's symbols and contexts
+    into ``sym`` and ``ctx`` and its raw bits into ``raw`` (zeroed), and the bins and the
+    adaptive coder's contexts into ``abin`` and ``adx`` (:func:`_encode_adaptive` codes
+    them); returns the raw bit count. Decoding: reads the bins from ``data``, the static
+    rANS stream and ``raw`` or (``adaptive``) the adaptive coder's stream; returns 0, or
+    -1 on a corrupt stream.
     """
     nz, ny, nx = shape
     sty, stz = nx, ny * nx
-    x0, x1, pos = np.int64(0), np.int64(0), np.int64(0)
+    z0_ = np.int64(0)
+    state = (z0_, z0_, z0_, z0_)
     if decode:
-        x0, x1, pos = rans.open_states(data)
+        if adaptive:
+            code, rng, pos = open_stream(data)
+            state = (z0_, code, rng, np.int64(pos))
+        else:
+            x0, x1, pos = rans.open_states(data)
+            state = (z0_, x0, x1, pos)
+    size = data.size
     k = 0
-    bitpos = np.int64(0)
     v = 0.0
     q = step
     if kind >= 2:
@@ -169,17 +224,34 @@ def _walk(x, rec, mag, shape, step, kind, decode, sym, ctx, raw, data, table):
                 row = z * stz + y * sty
                 for xx in range(nx):
                     j = row + xx
-                    p, a = _lorenzo(rec, mag, j, z, y, xx, sty, stz, kind == 2)
+                    p = _lorenzo(rec, j, z, y, xx, sty, stz, kind == 2)
+                    na = np.int64(0)
+                    a = np.int64(0)
+                    sg = np.int64(0)
+                    if xx:
+                        m = abs(np.int64(bn[j - 1]))
+                        na += m
+                        a += min(m, 127)
+                        sg += bn[j - 1]
+                    if y:
+                        m = abs(np.int64(bn[j - sty]))
+                        na += m
+                        a += min(m, 127)
+                        sg += bn[j - sty]
+                    nb = abs(np.int64(bn[j - stz])) if kind == 2 and z else np.int64(0)
                     if not decode:
                         v = x[j]
-                    b, k, bitpos, x0, x1, pos = _code_one(
-                        decode, v, p, q, ACT_CONTEXT[a] + prev, k,
-                        sym, ctx, raw, bitpos, data, x0, x1, pos, table,
+                    elif adaptive and state[3] > size + 4:
+                        return -1
+                    b, k, state = _code_any(
+                        decode, adaptive, v, p, q, ACT_CONTEXT[a] + prev, na, nb, sg, k,
+                        state, sym, ctx, abin, adx, raw, data, table, models,
                     )  # fmt: skip
+                    if b == NO_RESIDUAL:
+                        return -1
                     rec[j] = p + np.float64(b) * q
-                    m = b if b >= 0 else -b
-                    mag[j] = min(m, 127)
-                    prev = min(m, N_PREV - 1)
+                    bn[j] = b
+                    prev = min(abs(b), N_PREV - 1)
     else:
         top = 0
         while (1 << top) < max(nz, ny, nx):
@@ -208,26 +280,55 @@ def _walk(x, rec, mag, shape, step, kind, decode, sym, ctx, raw, data, table):
                         row = z * stz + y * sty
                         iz = z if axis == 0 else y  # the index along the axis, but x
                         has_back = y >= y0 + sy
+                        has_z = axis > 0 and z >= z0 + sz
                         for xx in range(xs0, nxx, sx):
                             j = row + xx
+                            na = np.int64(0)
+                            a = np.int64(0)
+                            nb = np.int64(0)
+                            sg = np.int64(0)
                             if s == 0:
                                 p = 0.0
-                                a = np.int64(0)
                             else:
                                 i = xx if axis == 2 else iz
-                                p, a = _predict(rec, mag, j, off, i, s, n, kind)
+                                p = _predict(rec, j, off, i, s, n, kind)
+                                m = abs(np.int64(bn[j - off]))
+                                na += m
+                                a += min(m, 127)
+                                if i + s < n:
+                                    m = abs(np.int64(bn[j + off]))
+                                    na += m
+                                    a += min(m, 127)
+                                # the same pass's voxels one step back along the
+                                # two other axes
+                                if has_z:
+                                    nb += abs(np.int64(bn[j - sz * stz]))
+                                    sg += bn[j - sz * stz]
+                                if axis != 1 and has_back:
+                                    nb += abs(np.int64(bn[j - back]))
+                                    sg += bn[j - back]
+                                if axis != 2 and xx >= xs0 + sx:
+                                    nb += abs(np.int64(bn[j - sx]))
+                                    sg += bn[j - sx]
                             c = ACT_CONTEXT[a]
                             if has_back:
-                                c += min(np.int64(mag[j - back]), N_PREV - 1)
+                                c += min(abs(np.int64(bn[j - back])), N_PREV - 1)
                             if not decode:
                                 v = x[j]
-                            b, k, bitpos, x0, x1, pos = _code_one(
-                                decode, v, p, q, c, k,
-                                sym, ctx, raw, bitpos, data, x0, x1, pos, table,
+                            elif adaptive and state[3] > size + 4:
+                                return -1
+                            b, k, state = _code_any(
+                                decode, adaptive, v, p, q, c, na, nb, sg, k,
+                                state, sym, ctx, abin, adx, raw, data, table, models,
                             )  # fmt: skip
+                            if b == NO_RESIDUAL:
+                                return -1
                             rec[j] = p + np.float64(b) * q
-                            mag[j] = min(b if b >= 0 else -b, 127)
+                            bn[j] = b
+    bitpos, x0, x1, pos = state
     if decode:
+        if adaptive:
+            return 0 if end_status(data, x0, pos) == 0 else -1
         if bitpos > 8 * (raw.size - 8) or not rans.state_ok(data, x0, x1, pos):
             return -1
         return 0
@@ -235,34 +336,50 @@ def _walk(x, rec, mag, shape, step, kind, decode, sym, ctx, raw, data, table):
 
 
 @kernel(nrt=False)
-def _encode_walk(x, rec, mag, shape, step, kind, sym, ctx, raw, no_table):
+def _encode_walk(x, rec, bn, shape, step, kind, sym, ctx, abin, adx, raw, no_table, no_models):
     """:func:`_walk` encoding (compiled on its own: the decoding branches fold away)."""
-    return _walk(x, rec, mag, shape, step, kind, False, sym, ctx, raw, raw, no_table)
+    return _walk(
+        x, rec, bn, shape, step, kind, False, False, sym, ctx, abin, adx, raw, raw,
+        no_table, no_models,
+    )  # fmt: skip
 
 
 @kernel(nrt=False)
-def _decode_walk(rec, mag, shape, step, kind, raw, data, table, no_symbols):
+def _decode_walk(rec, bn, shape, step, kind, adaptive, raw, data, table, models, no_symbols):
     """:func:`_walk` decoding (compiled on its own: the encoding branches fold away)."""
     z = no_symbols
-    return _walk(rec, rec, mag, shape, step, kind, True, z, z, raw, data, table)
+    return _walk(
+        rec, rec, bn, shape, step, kind, adaptive, True, z, z, z, z, raw, data, table, models
+    )
+
+
+@kernel(nrt=False)
+def _encode_adaptive(abin, adx, models, out):
+    """The bins ``abin`` in the adaptive binary coder (:func:`.predictfit.put_residual`:
+    zero flag, sign, unary bit length, two bits below the leading one modelled, the rest
+    at one half) in the contexts ``adx`` (4 x context + sign context); the byte count,
+    or -1 when ``out`` is too small. ``models``: fresh (:func:`_fresh_models`)."""
+    low, rng, pos = open_encoder(out)
+    cap = out.size
+    for k in range(abin.size):
+        if pos + 64 > cap:
+            return -1
+        a = adx[k]
+        low, rng, pos = put_residual(out, models, a >> 2, a & 3, abin[k], low, rng, pos)
+    return finish_stream(out, low, pos)
 
 
 @kernel(inline=True)
-def _lorenzo(rec, mag, j, z, y, x, sty, stz, use_z):
+def _lorenzo(rec, j, z, y, x, sty, stz, use_z):
     """The Lorenzo predictor at voxel ``j`` (flat; ``z, y, x``) over the axes with a
     voxel before it (z only when ``use_z``): the sum over the corners of the unit cube
-    behind it, signed by parity; and the bin magnitudes of W and N summed."""
-    a = np.int64(0)
-    if x:
-        a += np.int64(mag[j - 1])
-    if y:
-        a += np.int64(mag[j - sty])
+    behind it, signed by parity."""
     if x and y and (z or not use_z):  # the common case first, without the tests
         p = rec[j - 1] + rec[j - sty] - rec[j - sty - 1]
         if use_z:
             u = j - stz
             p = p + rec[u] - rec[u - 1] - rec[u - sty] + rec[u - sty - 1]
-        return p, a
+        return p
     p = 0.0
     for corner in range(1, 8):
         dz, dy, dx = corner >> 2, (corner >> 1) & 1, corner & 1
@@ -270,7 +387,11 @@ def _lorenzo(rec, mag, j, z, y, x, sty, stz, use_z):
             continue
         t = rec[j - dz * stz - dy * sty - dx]
         p = p + t if (dz + dy + dx) & 1 else p - t
-    return p, a
+    return p
+
+
+def _fresh_models() -> np.ndarray:
+    return np.full(N_MODELS, MODEL_INIT, dtype=np.uint32)
 
 
 def _estimate(sym: np.ndarray, ctx: np.ndarray) -> float:
@@ -286,28 +407,45 @@ def _estimate(sym: np.ndarray, ctx: np.ndarray) -> float:
 def _run(g: np.ndarray, step: float, perm, kind: int):
     xt = np.ascontiguousarray(g.transpose(perm))  # contiguous: the walk's loads are cheap
     rec = np.empty_like(xt)
-    sym = np.empty(g.size, dtype=np.int64)
-    ctx = np.empty(g.size, dtype=np.int64)
+    sym, ctx, abin, adx = (np.empty(g.size, dtype=np.int64) for _ in range(4))
     raw = np.zeros(4 * g.size + 16, dtype=np.uint8)
-    mag = np.zeros(xt.size, dtype=np.uint8)
-    no_table = np.zeros((1, 1), np.uint32)
+    bn = np.zeros(xt.size, dtype=np.int32)
+    no_table, no_models = np.zeros((1, 1), np.uint32), np.zeros(1, np.uint32)
     flat = rec.reshape(-1)
-    nbits = _encode_walk(xt.reshape(-1), flat, mag, xt.shape, step, kind, sym, ctx, raw, no_table)
-    return rec.transpose(np.argsort(perm)), sym, ctx, raw[: (nbits + 7) // 8]
+    nbits = _encode_walk(
+        xt.reshape(-1), flat, bn, xt.shape, step, kind, sym, ctx, abin, adx, raw,
+        no_table, no_models,
+    )  # fmt: skip
+    return rec.transpose(np.argsort(perm)), sym, ctx, raw[: (nbits + 7) // 8], abin, adx
 
 
-def encode(g: np.ndarray, step: float, tried=TRIED):
+CODINGS = ("static", "adaptive")
+
+
+def encode(g: np.ndarray, step: float, tried=TRIED, codings=CODINGS):
     """Code the float64 brick ``g`` (masked voxels filled) with bins of ``step`` (= 2E).
     Returns ``(inner section, reconstruction)`` of the choice among ``tried`` ((kind,
-    axis orders) pairs) estimated shortest."""
+    axis orders) pairs) and ``codings`` of the bins estimated shortest (the static
+    one by its entropy, the adaptive one by its length)."""
     best = None
     for kind, perms in tried:
         for perm in perms:
-            rec, sym, ctx, raw = _run(g, step, perm, kind)
+            rec, sym, ctx, raw, abin, adx = _run(g, step, perm, kind)
             bits = _estimate(sym, ctx) + 8 * raw.size
-            if best is None or bits < best[0]:
-                best = (bits, perm, kind, rec, sym, ctx, raw)
-    _, perm, kind, rec, sym, ctx, raw = best
+            if "static" in codings and (best is None or bits < best[0]):
+                best = (bits, perm, kind, rec, (sym, ctx, raw))
+            if "adaptive" not in codings:
+                continue
+            body = encode_with_retry(
+                lambda out: _encode_adaptive(abin, adx, _fresh_models(), out),
+                g.size, (2, 20), coder="bin",
+            )  # fmt: skip
+            if best is None or 8 * len(body) < best[0]:
+                best = (8 * len(body), perm, kind | ADAPTIVE, rec, body)
+    _, perm, kind, rec, coded = best
+    if kind & ADAPTIVE:
+        return HEADER.pack(*perm, kind) + coded, rec
+    sym, ctx, raw = coded
     counts = np.bincount(ctx * N_SYM + sym, minlength=N_CTX * N_SYM)
     freq = rans.normalise(counts.reshape(N_CTX, N_SYM))
     inner = (
@@ -327,19 +465,30 @@ def decode(inner, shape: tuple[int, int, int], step: float) -> np.ndarray:
     if len(inner) < HEADER.size:
         raise FormatError(f"{what}: the header is cut short")
     *perm, kind = HEADER.unpack_from(inner, 0)
+    adaptive = bool(kind & ADAPTIVE)
+    kind &= ~ADAPTIVE
     if sorted(perm) != [0, 1, 2] or kind > 3:
         raise FormatError(f"{what}: axis order {perm} or kind {kind} is not one of the known")
-    body, pos = take_section(inner, HEADER.size, what)
-    tables = inflate(body, 2 * (N_SYM + 1) * N_CTX, f"{what} tables")
-    table, used = rans.unpack_tables(tables, N_CTX, N_SYM, what)
-    if used != len(tables):
-        raise FormatError(f"{what}: stray bytes after the rANS tables")
-    raw, pos = take_section(inner, pos, what)
-    data = np.frombuffer(bytes(inner[pos:]) + bytes(2), dtype=np.uint8)  # padded: see rans
     rec = np.empty(tuple(shape[a] for a in perm), dtype=np.float64)
-    mag = np.zeros(rec.size, dtype=np.uint8)
-    raw = np.frombuffer(bytes(raw) + bytes(8), dtype=np.uint8).copy()  # slack: _get_bits
+    bn = np.zeros(rec.size, dtype=np.int32)
     flat, z = rec.reshape(-1), np.zeros(1, np.int64)
-    if _decode_walk(flat, mag, rec.shape, float(step), kind, raw, data, table, z) != 0:
+    if adaptive:
+        data = stream_bytes(inner[HEADER.size :], what)
+        models = _fresh_models()
+        table, raw = np.zeros((1, 1), np.uint32), np.zeros(8, np.uint8)
+    else:
+        body, pos = take_section(inner, HEADER.size, what)
+        tables = inflate(body, 2 * (N_SYM + 1) * N_CTX, f"{what} tables")
+        table, used = rans.unpack_tables(tables, N_CTX, N_SYM, what)
+        if used != len(tables):
+            raise FormatError(f"{what}: stray bytes after the rANS tables")
+        raw, pos = take_section(inner, pos, what)
+        data = np.frombuffer(bytes(inner[pos:]) + bytes(2), dtype=np.uint8)  # padded: see rans
+        raw = np.frombuffer(bytes(raw) + bytes(8), dtype=np.uint8).copy()  # slack: _get_bits
+        models = np.zeros(1, np.uint32)
+    status = _decode_walk(
+        flat, bn, rec.shape, float(step), kind, adaptive, raw, data, table, models, z
+    )
+    if status != 0:
         raise FormatError(f"{what}: the bin stream is corrupt")
     return rec.transpose(np.argsort(perm))
