@@ -172,7 +172,7 @@ def _code_any(decode, adaptive, v, p, q, c, na, nb, sg, k, state, sym, ctx, abin
     bitpos, x0, x1, pos = state
     if decode and adaptive:
         ac, sc = _adaptive_context(na, nb, sg)
-        b, x0, x1, pos = get_residual(data, models, ac, sc, x0, x1, pos)
+        b, x0, x1, pos = get_residual(data, models, ac, sc, -1, x0, x1, pos)
         if b != NO_RESIDUAL and (b >= MAX_BIN or -b >= MAX_BIN):
             b = NO_RESIDUAL
         return b, k + 1, (bitpos, x0, x1, pos)
@@ -365,7 +365,7 @@ def _encode_adaptive(abin, adx, models, out):
         if pos + 64 > cap:
             return -1
         a = adx[k]
-        low, rng, pos = put_residual(out, models, a >> 2, a & 3, abin[k], low, rng, pos)
+        low, rng, pos = put_residual(out, models, a >> 2, a & 3, -1, abin[k], low, rng, pos)
     return finish_stream(out, low, pos)
 
 
