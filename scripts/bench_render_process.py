@@ -18,7 +18,7 @@ control points (``bench_render_peers.tf_points``), step and threads:
 
 The two processes alternate, ``--rounds`` times per case; the median wall time of each
 is kept, with the children's CPU time. Writes ``process.csv`` and ``process.png`` under
-``--out``.
+``--out``, and ``floor.csv``: the start-up any numba-based process pays (see :func:`floor`).
 
     python scripts/bench_render_process.py [--rounds 3] [--out results/render]
 """
@@ -166,6 +166,41 @@ def run_case(name, path, shape, spacing, points, tfk, shade, args, tmp, rows):
           f"(cpu {row['vtk_cpu_s']:5.2f})  volpack/vtk {row['wall_ratio']:.2f}", flush=True)
 
 
+FLOOR_KERNEL = """
+import numpy as np
+from volpack._jit import kernel
+
+@kernel()
+def total(a):
+    s = 0.0
+    for i in range(a.size):
+        s += a[i]
+    return s
+
+total(np.ones(4))
+"""
+
+
+def floor(args, tmp: Path, env: dict) -> list[dict]:
+    """What any process pays before it renders: the interpreter with numpy, and one that
+    also imports numba and calls one kernel from the on-disk cache (numba's import, its
+    typing context made ready, one cached kernel loaded). No numba-based ``render`` can
+    start faster than the second; it is set beside the VTK script's whole run."""
+    (tmp / "floor_kernel.py").write_text(FLOOR_KERNEL)
+    cmds = {"python + numpy": [sys.executable, "-c", "import numpy"],
+            "python + numpy + numba, one cached kernel": [sys.executable,
+                                                          str(tmp / "floor_kernel.py")]}
+    timed(cmds["python + numpy + numba, one cached kernel"], env)  # compiles, caches
+    rows = []
+    for what, cmd in cmds.items():
+        runs = [timed(cmd, env) for _ in range(max(5, args.rounds))]
+        rows.append({"process": what, "wall_s": round(statistics.median(w for w, _ in runs), 3),
+                     "cpu_s": round(statistics.median(c for _, c in runs), 3)})
+        print(f"  floor: {what:44s} {rows[-1]['wall_s']:6.3f} s (cpu {rows[-1]['cpu_s']:5.3f})",
+              flush=True)
+    return rows
+
+
 def chart(rows, path: Path) -> None:
     import matplotlib
 
@@ -211,6 +246,7 @@ def main(argv=None) -> int:
     rows: list[dict] = []
     with tempfile.TemporaryDirectory(prefix="volpack-bench-") as d:
         tmp = Path(d)
+        floors = floor(args, tmp, dict(os.environ))
         for name in args.volumes:
             vol, spacing, _ = datasets.load(name)
             spacing = tuple(float(s) for s in spacing)
@@ -225,8 +261,12 @@ def main(argv=None) -> int:
         wr = csv.DictWriter(f, fieldnames=list(rows[0]))
         wr.writeheader()
         wr.writerows(rows)
+    with open(args.out / "floor.csv", "w", newline="") as f:
+        wr = csv.DictWriter(f, fieldnames=list(floors[0]))
+        wr.writeheader()
+        wr.writerows(floors)
     chart(rows, args.out / "process.png")
-    print(f"wrote {args.out / 'process.csv'} and process.png")
+    print(f"wrote {args.out / 'process.csv'}, floor.csv and process.png")
     return 0
 
 
