@@ -109,7 +109,8 @@ def test_static_regions_cost_almost_nothing():
     still = np.repeat(synth.head(SHAPE)[None], 6, axis=0)
     _, stats = _code(still, gop_string="IPPBBP", max_error=1)
     sizes = [r["nbytes"] for r in stats["frames"]]
-    assert all(s < 0.02 * sizes[0] for s in sizes[1:])
+    # A still frame costs its few header bytes: well under 0.1 bit a voxel.
+    assert all(s < 0.03 * sizes[0] and s * 8 < 0.1 * still[0].size for s in sizes[1:])
 
 
 def test_scene_cut_becomes_an_i_frame():
@@ -248,6 +249,7 @@ def test_cli_round_trip(tmp_path, moving):
 # them would follow any change to the script).
 GOLDEN = [
     ("animation-ibbp-bounded-u8", {"gop_string": "IBBP", "max_error": 2}, "roll"),
+    ("animation-ibbp-bounded-u8-fit", {"gop_string": "IBBP", "max_error": 2}, "roll"),
     (
         "animation-ipp-coef-quarter-u8",
         {"gop_string": "IPP", "quality": 63, "precision": "quarter"},
@@ -264,8 +266,22 @@ GOLDEN = [
         {"gop_string": "IPB", "max_error": 0.05, "fill_value": -9999.0},
         "specials",
     ),
+    (
+        "animation-ipb-specials-f32-adaptive",
+        {"gop_string": "IPB", "max_error": 0.05, "fill_value": -9999.0},
+        "specials",
+    ),
     ("animation-ipb-lossless-f32", {"gop_string": "IPB", "fill_value": -9999.0}, "specials"),
 ]
+
+
+# Streams made before a coding that now takes some of their bricks, and the golden of the
+# same recipe today; the older ones are decoded, not reproduced.
+DECODE_ONLY = {
+    "animation-ipb-specials-f32": "animation-ipb-specials-f32-exact (the bounded exact path)",
+    "animation-ipb-specials-f32-exact": "animation-ipb-specials-f32-adaptive (adaptive bins)",
+    "animation-ibbp-bounded-u8": "animation-ibbp-bounded-u8-fit (lossless-coded quanta)",
+}
 
 
 @pytest.mark.parametrize("stem,opts,source", GOLDEN, ids=[g[0] for g in GOLDEN])
@@ -301,8 +317,8 @@ def test_golden_animation_decodes_and_is_reproduced(stem, opts, source):
         assert _err(got, valid).max() <= opts["max_error"]
     elif "quality" not in opts:
         assert np.array_equal(got.view(np.uint8), valid.view(np.uint8))  # bit for bit
-    if stem == "animation-ipb-specials-f32":
-        return  # the exact path codes some of its bricks shorter now (the -exact golden)
+    if stem in DECODE_ONLY:
+        return  # today's encoder codes some of its bricks shorter (DECODE_ONLY names the file)
     again, _ = _code(want, **opts)
     with Reader(blob) as old, Reader(again) as new:
         assert old.header == new.header
