@@ -161,6 +161,14 @@ def _adaptive_context(na, nb, sg):
     return ctx, (0 if sg < 0 else (1 if sg == 0 else 2))
 
 
+@kernel(nrt=False)
+def _adaptive_bin(data, models, ac, sc, code, rng, pos):
+    """One bin from the adaptive coder's stream (:func:`.predictfit.get_residual`),
+    compiled once for both of the walk's call sites: inlined there, its nested inlines
+    made each walk kernel take half a minute to compile."""
+    return get_residual(data, models, ac, sc, -1, code, rng, pos)
+
+
 @kernel(inline=True)
 def _code_any(decode, adaptive, v, p, q, c, na, nb, sg, k, state, sym, ctx, abin, adx,
               raw, data, table, models):  # fmt: skip
@@ -172,7 +180,7 @@ def _code_any(decode, adaptive, v, p, q, c, na, nb, sg, k, state, sym, ctx, abin
     bitpos, x0, x1, pos = state
     if decode and adaptive:
         ac, sc = _adaptive_context(na, nb, sg)
-        b, x0, x1, pos = get_residual(data, models, ac, sc, -1, x0, x1, pos)
+        b, x0, x1, pos = _adaptive_bin(data, models, ac, sc, x0, x1, pos)
         if b != NO_RESIDUAL and (b >= MAX_BIN or -b >= MAX_BIN):
             b = NO_RESIDUAL
         return b, k + 1, (bitpos, x0, x1, pos)
@@ -345,11 +353,22 @@ def _encode_walk(x, rec, bn, shape, step, kind, sym, ctx, abin, adx, raw, no_tab
 
 
 @kernel(nrt=False)
-def _decode_walk(rec, bn, shape, step, kind, adaptive, raw, data, table, models, no_symbols):
-    """:func:`_walk` decoding (compiled on its own: the encoding branches fold away)."""
+def _decode_walk(rec, bn, shape, step, kind, raw, data, table, no_models, no_symbols):
+    """:func:`_walk` decoding bins of the static coding (compiled on its own: the
+    encoding and adaptive branches fold away)."""
     z = no_symbols
     return _walk(
-        rec, rec, bn, shape, step, kind, adaptive, True, z, z, z, z, raw, data, table, models
+        rec, rec, bn, shape, step, kind, False, True, z, z, z, z, raw, data, table, no_models
+    )
+
+
+@kernel(nrt=False)
+def _decode_walk_adaptive(rec, bn, shape, step, kind, no_raw, data, no_table, models,
+                          no_symbols):  # fmt: skip
+    """:func:`_walk` decoding bins of the adaptive coding."""
+    z = no_symbols
+    return _walk(
+        rec, rec, bn, shape, step, kind, True, True, z, z, z, z, no_raw, data, no_table, models
     )
 
 
@@ -486,9 +505,8 @@ def decode(inner, shape: tuple[int, int, int], step: float) -> np.ndarray:
         data = np.frombuffer(bytes(inner[pos:]) + bytes(2), dtype=np.uint8)  # padded: see rans
         raw = np.frombuffer(bytes(raw) + bytes(8), dtype=np.uint8).copy()  # slack: _get_bits
         models = np.zeros(1, np.uint32)
-    status = _decode_walk(
-        flat, bn, rec.shape, float(step), kind, adaptive, raw, data, table, models, z
-    )
+    walk = _decode_walk_adaptive if adaptive else _decode_walk
+    status = walk(flat, bn, rec.shape, float(step), kind, raw, data, table, models, z)
     if status != 0:
         raise FormatError(f"{what}: the bin stream is corrupt")
     return rec.transpose(np.argsort(perm))
