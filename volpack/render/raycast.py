@@ -1408,8 +1408,10 @@ def brick_ranges(vol, brick: int, mins, maxs, workers: int = 1) -> None:
 @kernel
 def _brick_range_kernel(vol, brick, bz0, bz1, mins, maxs):
     """:func:`brick_ranges` of brick slabs ``bz0 .. bz1 - 1``, reading each voxel row
-    once: a row's part in brick column ``bx`` (plus its overlap voxel) updates the
-    bricks that hold the row, two along an axis where it is one's overlap layer."""
+    once: a row's range in each brick column (plus its overlap voxel), found in the
+    volume's own dtype (no float conversion a voxel: twice as fast on 8-bit data), then
+    merged into the bricks that hold the row, two along an axis where it is one's
+    overlap layer. NaN voxels are skipped."""
     nz, ny, nx = vol.shape
     nby, nbx = mins.shape[1], mins.shape[2]
     for bz in range(bz0, bz1):
@@ -1417,6 +1419,8 @@ def _brick_range_kernel(vol, brick, bz0, bz1, mins, maxs):
             for bx in range(nbx):
                 mins[bz, by, bx] = np.inf
                 maxs[bz, by, bx] = -np.inf
+    rmin = np.empty(nbx, np.float32)
+    rmax = np.empty(nbx, np.float32)
     for z in range(bz0 * brick, min(bz1 * brick + 1, nz)):
         cz1 = min(z // brick, bz1 - 1)
         cz0 = max(z // brick - 1 if z % brick == 0 else cz1, bz0)
@@ -1424,20 +1428,26 @@ def _brick_range_kernel(vol, brick, bz0, bz1, mins, maxs):
             cy1 = min(y // brick, nby - 1)
             cy0 = max(y // brick - 1 if y % brick == 0 else cy1, 0)
             for bx in range(nbx):
-                mn = np.inf
-                mx = -np.inf
-                for x in range(bx * brick, min((bx + 1) * brick + 1, nx)):
+                x0, x1 = bx * brick, min((bx + 1) * brick + 1, nx)
+                mn = vol[z, y, x0]
+                mx = mn
+                for x in range(x0 + 1, x1):
                     v = vol[z, y, x]
                     if v < mn:
                         mn = v
                     if v > mx:
                         mx = v
-                for cz in range(cz0, cz1 + 1):
-                    for cy in range(cy0, cy1 + 1):
-                        if mn < mins[cz, cy, bx]:
-                            mins[cz, cy, bx] = mn
-                        if mx > maxs[cz, cy, bx]:
-                            maxs[cz, cy, bx] = mx
+                rmin[bx] = mn
+                rmax[bx] = mx
+                if not (mn == mn):  # a NaN first voxel (never for integers): skip NaNs
+                    rmin[bx], rmax[bx] = _box_range(vol, z, z + 1, y, y + 1, x0, x1)
+            for cz in range(cz0, cz1 + 1):
+                for cy in range(cy0, cy1 + 1):
+                    for bx in range(nbx):
+                        if rmin[bx] < mins[cz, cy, bx]:
+                            mins[cz, cy, bx] = rmin[bx]
+                        if rmax[bx] > maxs[cz, cy, bx]:
+                            maxs[cz, cy, bx] = rmax[bx]
 
 
 @kernel
