@@ -181,11 +181,15 @@ class Volpack:
         cam = Camera(azimuth=azimuth, elevation=ELEVATION, size=(self.size, self.size))
         if self.prep is None:  # the first image builds its tables too, not another's
             raycast._TABLES.clear()
+        n0 = COMPILES[0]
         t, c = time.perf_counter(), time.process_time()
         if self.prep is None:
             self.prep = prepare_volume(self.vol, self.spacing)
         img = render(self.prep, tf=self.tf, camera=cam, step=step or self.step, **self.kw)
         dt, dc = time.perf_counter() - t, time.process_time() - c
+        if COMPILES[0] != n0:  # warm_up missed a kernel: the time would count the compiler
+            print(f"  warning: {COMPILES[0] - n0} kernel(s) compiled inside a timed frame",
+                  flush=True)  # fmt: skip
         self.img = img
         return dt, dc
 
@@ -308,6 +312,7 @@ def main(argv=None) -> int:
     if args.quick:
         args.size, args.frames = 256, 2
     args.out.mkdir(parents=True, exist_ok=True)
+    count_compiles()
     rows: list[dict] = []
     for name in args.volumes:
         vol, spacing, _ = datasets.load(name)
@@ -324,6 +329,24 @@ def main(argv=None) -> int:
     chart(rows, args.out / "peers.png")
     print(f"wrote {args.out / 'peers.csv'} and peers.png")
     return 0
+
+
+COMPILES = [0]  # numba compilations seen (a kernel loaded from the disk cache is not one)
+
+
+def count_compiles() -> None:
+    """Count numba's compilations in :data:`COMPILES`, to check that none happens inside
+    a timed frame."""
+    from numba.core import event
+
+    class Counter(event.Listener):
+        def on_start(self, ev):
+            COMPILES[0] += 1
+
+        def on_end(self, ev):
+            pass
+
+    event.register("numba:compile", Counter())
 
 
 def warm_up(vol, spacing, workers: int) -> None:
