@@ -298,8 +298,6 @@ def scene_args(doc: str) -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
-    import datasets
-
     ap = scene_args(__doc__)
     ap.add_argument("--ref-step", type=float, default=0.125)
     ap.add_argument("--coarse-step", type=float, default=1.0,
@@ -315,10 +313,8 @@ def main(argv=None) -> int:
     count_compiles()
     rows: list[dict] = []
     for name in args.volumes:
-        vol, spacing, _ = datasets.load(name)
-        spacing = tuple(float(s) for s in spacing)
+        vol, spacing = load_warm(name, args.workers)
         print(f"{name} {vol.shape} {vol.dtype} spacing {spacing}", flush=True)
-        warm_up(vol, spacing, args.workers)
         for tfk in args.tfs:
             for shade in (False, True):
                 run_case(name, vol, spacing, tfk, shade, args, rows)
@@ -347,6 +343,17 @@ def count_compiles() -> None:
             pass
 
     event.register("numba:compile", Counter())
+
+
+def load_warm(name: str, workers: int):
+    """Dataset ``name`` as ``(array, spacing as floats)``, volpack's kernels warmed up on it
+    (:func:`warm_up`)."""
+    import datasets
+
+    vol, spacing, _ = datasets.load(name)
+    spacing = tuple(float(s) for s in spacing)
+    warm_up(vol, spacing, workers)
+    return vol, spacing
 
 
 def warm_up(vol, spacing, workers: int) -> None:
