@@ -24,21 +24,17 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "scripts"))
 
-from bench_render_peers import Volpack, Vtk, scene_args, tf_base, tf_points, warm_up  # noqa: E402
+from bench_render_peers import Volpack, Vtk, load_warm, scene_args, tf_base, tf_points  # noqa: E402
 
 
 def main(argv=None) -> int:
-    import datasets
-
     ap = scene_args(__doc__)
     ap.add_argument("--reps", type=int, default=5)
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     rows = []
     for name in args.volumes:
-        vol, spacing, _ = datasets.load(name)
-        spacing = tuple(float(s) for s in spacing)
-        warm_up(vol, spacing, args.workers)
+        vol, spacing = load_warm(name, args.workers)
         for tfk in ("semi", "opaque"):
             points = tf_points(tfk, *tf_base(vol))
             for shade in (False, True):

@@ -17,7 +17,8 @@ EGL, ``pip install vtk``. For each volume x transfer function x shading:
   :func:`~volpack.render.prepared.prepare_volume` and tables) and then ``--frames``
   further orbit views 10 degrees apart (volpack re-renders the prepared volume; VTK
   re-renders its mapper), timed as wall seconds and process CPU seconds, the
-  renderers taking turns frame by frame so machine load hits them alike;
+  renderers taking turns frame by frame so machine load hits them alike (VTK's first
+  image also opens its offscreen window: each case builds a new scene);
 * each renderer's first image scored by PSNR (RGB on black) against its own render of
   the same view at a fine step (``--ref-step``, 0.125 voxel); VTK's default is scored
   against VTK's fine reference.
@@ -180,11 +181,15 @@ class Volpack:
         cam = Camera(azimuth=azimuth, elevation=ELEVATION, size=(self.size, self.size))
         if self.prep is None:  # the first image builds its tables too, not another's
             raycast._TABLES.clear()
+        n0 = COMPILES[0]
         t, c = time.perf_counter(), time.process_time()
         if self.prep is None:
             self.prep = prepare_volume(self.vol, self.spacing)
         img = render(self.prep, tf=self.tf, camera=cam, step=step or self.step, **self.kw)
         dt, dc = time.perf_counter() - t, time.process_time() - c
+        if COMPILES[0] != n0:  # warm_up missed a kernel: the time would count the compiler
+            print(f"  warning: {COMPILES[0] - n0} kernel(s) compiled inside a timed frame",
+                  flush=True)  # fmt: skip
         self.img = img
         return dt, dc
 
@@ -234,6 +239,7 @@ def run_case(name, vol, spacing, tfk, shade, args, rows):
             "step_world": "auto" if k == "vtk-default" else round(
                 (args.coarse_step if k.endswith("coarse") else args.step) * min(spacing), 4),
             "first_s": round(ts[0][0], 4),
+            "first_cpu_s": round(ts[0][1], 4),
             "frame_s": round(statistics.median(t for t, _ in later), 4),
             "frame_cpu_s": round(statistics.median(c for _, c in later), 4),
             "psnr_db": round(psnr(images[k], ref), 2),
@@ -243,7 +249,7 @@ def run_case(name, vol, spacing, tfk, shade, args, rows):
     for r in rows[-len(rens):]:
         r["vs_vtk_matched"] = round(r["frame_s"] / vt["frame_s"], 2)
         print(f"  {name:16s} {tfk:6s} {r['shading']:5s} {r['renderer']:15s} first "
-              f"{r['first_s']:6.3f} s  frame {r['frame_s']:6.3f} s (cpu {r['frame_cpu_s']:6.3f})"
+              f"{r['first_s']:6.3f} s (cpu {r['first_cpu_s']:6.3f})  frame {r['frame_s']:6.3f} s (cpu {r['frame_cpu_s']:6.3f})"
               f"  x{r['vs_vtk_matched']:5.2f} of VTK matched  PSNR {r['psnr_db']:5.1f} dB"
               f"  step {r['step_world']}",
               flush=True)  # fmt: skip
@@ -292,8 +298,6 @@ def scene_args(doc: str) -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
-    import datasets
-
     ap = scene_args(__doc__)
     ap.add_argument("--ref-step", type=float, default=0.125)
     ap.add_argument("--coarse-step", type=float, default=1.0,
@@ -306,12 +310,11 @@ def main(argv=None) -> int:
     if args.quick:
         args.size, args.frames = 256, 2
     args.out.mkdir(parents=True, exist_ok=True)
+    count_compiles()
     rows: list[dict] = []
     for name in args.volumes:
-        vol, spacing, _ = datasets.load(name)
-        spacing = tuple(float(s) for s in spacing)
+        vol, spacing = load_warm(name, args.workers)
         print(f"{name} {vol.shape} {vol.dtype} spacing {spacing}", flush=True)
-        warm_up(vol, spacing, args.workers)
         for tfk in args.tfs:
             for shade in (False, True):
                 run_case(name, vol, spacing, tfk, shade, args, rows)
@@ -322,6 +325,35 @@ def main(argv=None) -> int:
     chart(rows, args.out / "peers.png")
     print(f"wrote {args.out / 'peers.csv'} and peers.png")
     return 0
+
+
+COMPILES = [0]  # numba compilations seen (a kernel loaded from the disk cache is not one)
+
+
+def count_compiles() -> None:
+    """Count numba's compilations in :data:`COMPILES`, to check that none happens inside
+    a timed frame."""
+    from numba.core import event
+
+    class Counter(event.Listener):
+        def on_start(self, ev):
+            COMPILES[0] += 1
+
+        def on_end(self, ev):
+            pass
+
+    event.register("numba:compile", Counter())
+
+
+def load_warm(name: str, workers: int):
+    """Dataset ``name`` as ``(array, spacing as floats)``, volpack's kernels warmed up on it
+    (:func:`warm_up`)."""
+    import datasets
+
+    vol, spacing, _ = datasets.load(name)
+    spacing = tuple(float(s) for s in spacing)
+    warm_up(vol, spacing, workers)
+    return vol, spacing
 
 
 def warm_up(vol, spacing, workers: int) -> None:
