@@ -16,7 +16,7 @@ Also recorded per cell: which payload volpack's brick(s) took (``formats/lossy-1
 integer-coefficient path) and, with ``--profile``, where volpack's decode spends its
 time: the stage functions of the decoders are wrapped with timers for a further
 ``--rounds`` decodes (entropy decoding, inverse transform, outliers, the interpolation
-walk, the rest: container, checks, casts).
+walk, the fitted predictor, the rest: container, checks, casts).
 
     python scripts/bench_lossy_decode.py --profile
     python scripts/bench_lossy_decode.py --label before   # e.g. with PYTHONPATH on main
@@ -47,7 +47,7 @@ ROOT = Path(__file__).resolve().parent.parent
 FIELDS = ["tgv_pressure", "climate_t", "tgv_u", "cryoem_emd3001", "xray_1jzv"]
 RELS = (1e-2, 1e-3, 1e-4, 1e-5)
 METHODS = ("volpack", "sperr", "sz3")
-STAGES = ("entropy", "transform", "outliers", "interp", "rest")
+STAGES = ("entropy", "transform", "outliers", "interp", "fit", "rest")
 CSV_FIELDS = [
     "label",
     "dataset",
@@ -148,7 +148,7 @@ class StageTimer:
 
     def __init__(self):
         from volpack import entropy
-        from volpack.volume_codec import bin_field, bounded_cdf97, bounded_interp
+        from volpack.volume_codec import bin_field, bounded_cdf97, bounded_interp, predictfit
         from volpack.wavelet import cdf97, dwt3
 
         self.acc = collections.defaultdict(float)
@@ -160,6 +160,7 @@ class StageTimer:
         self._wrap(bounded_cdf97, "apply_outliers", "outliers")
         self._wrap(bin_field, "add_decoded", "outliers")
         self._wrap(bounded_interp, "decode", "interp")
+        self._wrap(predictfit, "decode", "fit")  # the fitted predictor on the quantised voxels
 
     def _wrap(self, module, name, stage):
         module_fn = getattr(module, name)
@@ -320,7 +321,15 @@ def main(argv=None) -> None:
         "--encode", type=int, default=0, metavar="N", help="also time the encoders, best of N"
     )
     ap.add_argument("--out", type=Path, default=ROOT / "results" / "lossy" / "decode")
+    ap.add_argument(
+        "--min-saving", type=float, default=None,
+        help="volpack's encoder: the saving a slower-decoding coding must make (default: its own)",
+    )  # fmt: skip
     args = ap.parse_args(argv)
+    if args.min_saving is not None:
+        from volpack.volume_codec import lossy
+
+        lossy.SLOW_MIN_SAVING = args.min_saving
     args.datasets = [d for d in args.datasets.split(",") if d]
     args.rels = [float(r) for r in args.rels.split(",") if r]
     import volpack

@@ -404,10 +404,14 @@ LOSSY_CODER_CASES = [
 ]  # fmt: skip
 # Today's coding of two recipes above (lossy-1.md): the interpolation path's bins in the
 # adaptive binary coder (kind bit 4), and the quantised voxels in the lossless codec's
-# 3-D prediction (its mode 4) in most of the eight bricks.
+# 3-D prediction (its mode 4) in most of the eight bricks, where it saves 2 % of the
+# bytes (lossy-1.md, "Decoding speed in the encoder's choice"). The same recipe coded
+# before that minimum, lossy-bounded-i16-quantised-fit.vpk (one more brick in mode 4,
+# by 0.8 %), is kept as it is: decoded, no longer reproduced.
 LOSSY_CODER_CASES += [
     ("lossy-bounded-f32-interp-adaptive", "f32", {"max_error": 2.0, "fill_value": -999.0}, None),
-    ("lossy-bounded-i16-quantised-fit", "i16", {"max_error": 40}, WAVELET_BRICK),
+    # ("lossy-bounded-i16-quantised-fit", "i16", {"max_error": 40}, WAVELET_BRICK),
+    ("lossy-bounded-i16-quantised-saving", "i16", {"max_error": 40}, WAVELET_BRICK),
 ]  # fmt: skip
 
 

@@ -338,7 +338,13 @@ LOSSY_TODAY = [  # (stem, recipe, options, brick, (flags, kind or mode) of each 
     ("lossy-bounded-f32-interp-adaptive", "f32", {"max_error": 2.0, "fill_value": -999.0},
      None, {(65, 16)}),
     ("lossy-bounded-i16-quantised-fit", "i16", {"max_error": 40}, 16, {(0, 0), (0, 4)}),
+    ("lossy-bounded-i16-quantised-saving", "i16", {"max_error": 40}, 16, {(0, 0), (0, 4)}),
 ]  # fmt: skip
+# Made before a slower-decoding coding had to save 2 % of the bytes (lossy-1.md,
+# "Decoding speed in the encoder's choice"): one of its bricks is mode 4 by 0.8 %, which
+# today's encoder codes with the wavelet; decoded, no longer reproduced
+# (lossy-bounded-i16-quantised-saving is today's coding of its recipe).
+BEFORE_MIN_SAVING = {"lossy-bounded-i16-quantised-fit"}
 
 
 @pytest.mark.parametrize(
@@ -361,6 +367,8 @@ def test_golden_adaptive_bins_and_quantised_fit_streams(stem, recipe, opts, bric
         inner = take_section(memoryview(p), 1, "inner")[0]
         seen.add((p[0], inner[3] if p[0] & 64 else inner[0]))
     assert seen == kinds
+    if stem in BEFORE_MIN_SAVING:
+        return
     again = api.compress_array(want, **({"brick": brick} if brick else {}), **opts)
     with Reader(blob) as old, Reader(again) as new:
         assert old.header == new.header

@@ -14,7 +14,9 @@ from hypothesis import strategies as st
 from volpack import api
 from volpack.errors import FormatError
 from volpack.format.container import Reader
+from volpack.format.sections import take_section
 from volpack.volume_codec.lossy import BoundedCodec, CoefCodec, band_scale
+from volpack.volume_codec.protocol import Measured
 
 
 def field(kind: str, shape, dtype, seed: int) -> np.ndarray:
@@ -498,3 +500,55 @@ def test_decode_into_a_brick_inside_a_larger_volume(dtype, bound, effort, flags)
     np.testing.assert_array_equal(vol[1:11, :, 3:17], want)
     vol[1:11, :, 3:17] = 7
     assert (vol == 7).all()
+
+
+def test_a_slower_coding_is_kept_only_where_it_saves_the_minimum():
+    """keep_faster: the shortest coding, except that one of a slower decoding tier must
+    save SLOW_MIN_SAVING of the bytes of the best faster one; ties keep the faster."""
+    from volpack.volume_codec import lossy
+
+    def m(n):
+        return Measured(bytes(n), 0.0, 0.0, 1)
+
+    s = lossy.SLOW_MIN_SAVING
+    need = int(1000 * (1 - s))  # the longest slow coding that still saves enough
+    assert 0 < s < 0.5
+    fast, mid, slow = lossy.TIER_FAST, lossy.TIER_MID, lossy.TIER_SLOW
+    assert len(lossy.keep_faster([(slow, m(need + 1)), (mid, m(1000))])[0]) == 1000
+    assert len(lossy.keep_faster([(slow, m(need - 1)), (mid, m(1000))])[0]) == need - 1
+    assert len(lossy.keep_faster([(mid, m(1000)), (fast, m(1000))])[0]) == 1000
+    # a slow coding is measured against the best of the faster tiers, not the first
+    got = lossy.keep_faster([(fast, m(1000)), (mid, m(need - 1)), (slow, m(need - 2))])
+    assert len(got[0]) == need - 1
+    # within a tier the shorter wins on any saving
+    assert len(lossy.keep_faster([(slow, m(500)), (slow, m(499)), (mid, m(2000))])[0]) == 499
+
+
+def slow_coding(payload) -> bool:
+    """Whether a bounded payload took a slower-decoding coding: adaptive interpolation
+    bins or the quantised voxels through the lossless codec's predictor."""
+    from volpack.volume_codec import bounded_interp, lossy
+    from volpack.volume_codec.lossless import MODE_PREDICT
+
+    inner, _ = take_section(memoryview(payload), 1, "inner")
+    if payload[0] & lossy.FLAG_INTERP:
+        return bounded_interp.is_adaptive(inner)
+    paths = lossy.FLAG_CDF97 | lossy.FLAG_COEF | lossy.FLAG_EXACT
+    return not payload[0] & paths and inner[0] == MODE_PREDICT
+
+
+def test_the_minimum_saving_moves_bricks_to_faster_codings_within_the_bound(monkeypatch):
+    """With a saving no coding can make, the bounded encoder keeps none of the slower
+    codings: the stream grows a little and still holds the bound."""
+    from volpack.volume_codec import lossy
+
+    monkeypatch.setattr(lossy, "_exact_may_pay", lambda x, e: False)
+    a = field("smooth", (12, 20, 24), np.float32, 5)
+    bound = 1e-3 * float(a.max() - a.min())
+    codec = BoundedCodec.plan(a.dtype, float(a.min()), float(a.max()), bound)
+    free = codec.encode(a)
+    assert slow_coding(free)  # adaptive bins, by 2 % or more
+    monkeypatch.setattr(lossy, "SLOW_MIN_SAVING", 0.999)
+    payload = codec.encode(a)
+    assert not slow_coding(payload) and len(free) < len(payload)
+    check_bound(a, codec.decode(payload, a.shape, a.dtype), bound)

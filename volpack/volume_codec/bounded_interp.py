@@ -441,26 +441,30 @@ def _run(g: np.ndarray, step: float, perm, kind: int):
 CODINGS = ("static", "adaptive")
 
 
-def encode(g: np.ndarray, step: float, tried=TRIED, codings=CODINGS):
+def encode(g: np.ndarray, step: float, tried=TRIED, codings=CODINGS, min_saving: float = 0.0):
     """Code the float64 brick ``g`` (masked voxels filled) with bins of ``step`` (= 2E).
     Returns ``(inner section, reconstruction)`` of the choice among ``tried`` ((kind,
     axis orders) pairs) and ``codings`` of the bins estimated shortest (the static
-    one by its entropy, the adaptive one by its length)."""
-    best = None
+    one by its entropy, the adaptive one by its length); the adaptive coding, slower
+    to decode, only where it saves ``min_saving`` of the best static one's bits."""
+    static = adaptive = None
     for kind, perms in tried:
         for perm in perms:
             rec, sym, ctx, raw, abin, adx = _run(g, step, perm, kind)
             bits = _estimate(sym, ctx) + 8 * raw.size
-            if "static" in codings and (best is None or bits < best[0]):
-                best = (bits, perm, kind, rec, (sym, ctx, raw))
+            if "static" in codings and (static is None or bits < static[0]):
+                static = (bits, perm, kind, rec, (sym, ctx, raw))
             if "adaptive" not in codings:
                 continue
             body = encode_with_retry(
                 lambda out: _encode_adaptive(abin, adx, _fresh_models(), out),
                 g.size, (2, 20), coder="bin",
             )  # fmt: skip
-            if best is None or 8 * len(body) < best[0]:
-                best = (8 * len(body), perm, kind | ADAPTIVE, rec, body)
+            if adaptive is None or 8 * len(body) < adaptive[0]:
+                adaptive = (8 * len(body), perm, kind | ADAPTIVE, rec, body)
+    best = static
+    if best is None or (adaptive is not None and adaptive[0] < (1.0 - min_saving) * best[0]):
+        best = adaptive
     _, perm, kind, rec, coded = best
     if kind & ADAPTIVE:
         return HEADER.pack(*perm, kind) + coded, rec
@@ -474,6 +478,11 @@ def encode(g: np.ndarray, step: float, tried=TRIED, codings=CODINGS):
         + rans.encode(sym, ctx, freq)
     )
     return inner, rec
+
+
+def is_adaptive(inner) -> bool:
+    """Whether :func:`encode`'s section codes its bins adaptively (kind bit 4)."""
+    return bool(inner[HEADER.size - 1] & ADAPTIVE)
 
 
 def decode(inner, shape: tuple[int, int, int], step: float) -> np.ndarray:

@@ -75,6 +75,16 @@ EXACT_MAX_DISTINCT = 0.125
 # error allowed on its grid (measured best on the head CT and the z-map).
 COEF_STEP = 2.0
 QUALITIES = (255, 127, 63, 31, 15)
+# Decoding speed tiers of the bounded payloads (results/lossy/lossy11/speed): the
+# interpolation walk with static rANS bins and raw quantised voxels; the wavelet paths
+# (quantised voxels, float CDF 9/7, coefficients) and the walk with adaptive bins; the
+# quantised voxels through the lossless codec's predictors, a chain of adaptive binary
+# decisions per voxel (a third to a half of the speed of the wavelet on them).
+TIER_FAST, TIER_MID, TIER_SLOW = 0, 1, 2
+# A coding of a slower tier is kept only where it is this share of the bytes shorter
+# than the best of the faster tiers (chosen by measurement: formats/lossy-1.md and the
+# README's lossy11 section). The encoder's rule alone: the decoder reads any coding.
+SLOW_MIN_SAVING = 0.02
 EFFORTS = ("default", "fast")  # of the error-bounded encoder
 
 
@@ -259,35 +269,37 @@ class BoundedCodec(BrickCodec):
         clean = x if mask is None else fill_masked(x, mask)
         fast = self.effort == "fast"
         if fast and x.size >= 64 and x.dtype.kind == "f" and not self._exact:
-            return self._interp_candidate(x, clean, mask)
+            return self._interp_candidate(x, clean, mask)[1]
         q = self._quantize(clean)
         if mask is not None:
             q = fill_masked(q, mask)  # masked voxels take their neighbour's value
-        best = self._finish(x, mask, self._reconstruct(q, x.dtype), 0, [self._code_quantised(q)])
+        rec = self._reconstruct(q, x.dtype)
+        cands = [(t, self._finish(x, mask, rec, 0, [b])) for t, b in self._code_quantised(q)]
         if self._exact or fast:
-            return best
+            return keep_faster(cands)
         if x.size >= 64:
-            coef = self._coef_candidate(x, clean, mask)
-            if len(coef[0]) < len(best[0]):
-                best = coef
+            cands.append((TIER_MID, self._coef_candidate(x, clean, mask)))
         if x.size >= 64 and x.dtype.kind == "f":
-            for cand in self._cdf97_candidates(x, clean, mask):
-                if len(cand[0]) < len(best[0]):
-                    best = cand
-            cand = self._interp_candidate(x, clean, mask)
-            if len(cand[0]) < len(best[0]):
-                best = cand
-        return best
+            cands += [(TIER_MID, c) for c in self._cdf97_candidates(x, clean, mask)]
+            cands.append(self._interp_candidate(x, clean, mask))
+        return keep_faster(cands)
 
-    def _code_quantised(self, q: np.ndarray) -> bytes:
-        """The quantised voxels' payload: the lossless codec's, which keeps the wavelet
-        payload (its modes 0-3, what this path wrote before) or its fitted 3-D predictor
-        (mode 4) where that is shorter: at tight bounds the quantised voxels of a noisy
-        or thin field are better predicted from their causal neighbours (mri_piesno_noise
-        at 1e-4 of the range: 106.0 -> 99.9 kB). 'fast' keeps the wavelet alone."""
+    def _code_quantised(self, q: np.ndarray) -> list[tuple[int, bytes]]:
+        """The quantised voxels' payloads with their decoding tiers: the lossless
+        wavelet payload (modes 0-3, what this path wrote first) and the lossless codec's
+        predictive one (mode 4, the fitted 3-D predictor; or raw): at tight bounds the
+        quantised voxels of a noisy or thin field are better predicted from their causal
+        neighbours (mri_piesno_noise at 1e-4 of the range: 106.0 -> 99.9 kB). 'fast'
+        makes the wavelet payload alone."""
+        from .lossless import MODE_PREDICT, LosslessCodec
+
+        wav = self._inner().encode(q)
         if self.effort == "fast":
-            return self._inner().encode(q)
-        return self._lossless().encode(q)
+            return [(TIER_MID, wav)]
+        other = LosslessCodec(self.wavelet, self.coder, self.order, self.max_levels, "predict")
+        p = other.encode(q)
+        tier = TIER_SLOW if p[0] == MODE_PREDICT else TIER_FAST  # (else raw or constant)
+        return [(TIER_MID, wav), (tier, p)]
 
     @property
     def _exact(self) -> bool:
@@ -305,8 +317,10 @@ class BoundedCodec(BrickCodec):
         if mask is not None:  # no value to keep: bin 0, the voxel follows its prediction
             g[mask] = np.nan
         tried = bounded_interp.TRIED_FAST if self.effort == "fast" else bounded_interp.TRIED
-        inner, rec = bounded_interp.encode(g, self.step, tried)
-        return self._finish(x, mask, _to_float(rec, x.dtype, overwrite=True), FLAG_INTERP, [inner])
+        inner, rec = bounded_interp.encode(g, self.step, tried, min_saving=SLOW_MIN_SAVING)
+        tier = TIER_MID if bounded_interp.is_adaptive(inner) else TIER_FAST
+        y = _to_float(rec, x.dtype, overwrite=True)
+        return tier, self._finish(x, mask, y, FLAG_INTERP, [inner])
 
     def _cdf97_candidates(self, x, clean, mask):
         """The float CDF 9/7 path at each step it tries; each checked on every voxel."""
@@ -521,6 +535,22 @@ class BoundedCodec(BrickCodec):
             body, pos = _take(data, pos, len(data))
             w.apply_outliers(body, rec, self.step, self._residual_coder)
         return _to_float(rec, dtype, overwrite=True, out=into), pos
+
+
+def keep_faster(cands: list[tuple[int, Measured]]) -> Measured:
+    """The coding to keep of ``(decoding tier, coding)`` pairs: the shortest, except
+    that one of a slower tier than the best of the faster ones must be shorter than it
+    by ``SLOW_MIN_SAVING`` of its bytes (the adaptive codings decode at a third to a
+    half of the speed of the static ones for a few per cent of the bytes). Ties keep
+    the faster tier, then the first."""
+    saving = SLOW_MIN_SAVING
+    order = sorted(cands, key=lambda c: c[0])
+    best_tier, best = order[0]
+    for tier, m in order[1:]:
+        limit = len(best[0]) * (1.0 - saving) if tier > best_tier else len(best[0])
+        if len(m[0]) < limit:
+            best_tier, best = tier, m
+    return best
 
 
 def _exact_may_pay(x: np.ndarray, max_error: float) -> bool:
