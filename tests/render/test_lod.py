@@ -32,8 +32,11 @@ def tf_of(vol):
     return load_tf("auto", float(vol.min()), float(vol.max()), dtype=vol.dtype)
 
 
-@pytest.mark.parametrize("grads", [slow_case(False), True])  # without gradient bricks: slow set
-@pytest.mark.parametrize("cls", [slow_case("post"), "preintegrated"])  # post: slow set
+# The paged sampler's exact-normal march, compiled for this test alone: slow set (the
+# resident walk's test below compares the paged sampler's image in the fast set).
+@pytest.mark.slow
+@pytest.mark.parametrize("grads", [False, True])
+@pytest.mark.parametrize("cls", ["post", "preintegrated"])
 def test_full_resolution_selection_renders_exactly_like_the_volume(tree_path, cls, grads):
     path, vol = tree_path
     vr = (float(vol.min()), float(vol.max()))
@@ -109,6 +112,7 @@ def test_budget_bounds_the_nodes_and_more_nodes_cost_less_error(tree_path):
         assert np.all(np.isfinite(img))
 
 
+@pytest.mark.slow  # the atlas's normal-code march: a kernel of its own
 def test_node_atlas_reuses_slots_and_bounds_gradient_memory(tree_path):
     # an orbit through views that need different nodes, with no spare slots (keep=1):
     # slots are reused, each frame equals a fresh assembly, and a gradient budget too

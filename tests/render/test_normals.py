@@ -60,7 +60,7 @@ def test_light_table():
     np.testing.assert_allclose(tab[1:, 1], 0.35 * ndv[1:] ** 24, rtol=1e-5, atol=1e-12)
 
 
-@pytest.mark.parametrize("cls", ["post", "preintegrated"])
+@pytest.mark.parametrize("cls", [slow_case("post"), "preintegrated"])  # post: its own march
 @pytest.mark.parametrize(
     "dtype", [slow_case("uint8"), slow_case("uint16"), "float32"]
 )  # own kernels: float32's are the fast set's others
@@ -129,6 +129,7 @@ def test_over_the_budget_no_codes_and_gradients_on_the_fly():
     np.testing.assert_allclose(render(q, **kw), render(vol, normals="exact", **kw), atol=1e-6)
 
 
+@pytest.mark.slow  # uint8 normal-code marches of their own; the fast path's test covers threads
 def test_images_do_not_depend_on_the_thread_count():
     vol = np.round(field((30, 26, 28)) * 255).astype(np.uint8)
     for cls in ("post", "preintegrated"):

@@ -134,6 +134,7 @@ def test_gradient_volume_is_the_central_difference_and_fits_its_dtype():
     assert gg.dtype == np.float32 and gg[1, 1, 1, 0] == 65535.0
 
 
+@pytest.mark.slow  # the uint8 Phong march with exact normals: a kernel of its own in the fast set
 def test_prepared_volume_is_reused_and_bounded():
     vol = np.round(field() * 255).astype(np.uint8)
     kw = dict(tf=semi(0, 255), camera=Camera(size=(16, 16)), shading="phong", normals="exact")

@@ -63,8 +63,10 @@ CAMERAS = [
 ]
 
 
-@pytest.mark.parametrize("cls, shading", list(itertools.product(
-    ["post", "preintegrated"], ["none", "phong"])))  # fmt: skip
+@pytest.mark.parametrize("cls, shading", [
+    ("post", "none"), ("post", "phong"), ("preintegrated", "none"),
+    pytest.param("preintegrated", "phong", marks=pytest.mark.slow),  # float32 Phong march
+])  # fmt: skip
 def test_skipping_leaves_the_fast_path_image_unchanged(cls, shading):
     vol = blobs()
     kw = dict(tf=TF, classification=cls, shading=shading, step=0.7)
