@@ -8,7 +8,6 @@ import json
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from conftest import slow_case
 
 from volpack.cli import main
 from volpack.demo import load_demo_volume
@@ -271,7 +270,10 @@ def test_render_and_walk_commands(tree_path, tmp_path):
     assert r.exit_code != 0 and "octree" in r.output
 
 
-@pytest.mark.parametrize("kind", [slow_case("uint16 full range"), "one voxel thick"])
+# both compile the atlas's Phong march for themselves: slow set (a one-voxel-thick plain
+# volume stays in the fast set: test_render.py)
+@pytest.mark.slow
+@pytest.mark.parametrize("kind", ["uint16 full range", "one voxel thick"])
 def test_gradient_bricks_match_the_plain_volume_on_16_bit_and_thin_volumes(tmp_path, kind):
     # full-range uint16 needs float32 gradient bricks (differences pass int16); a volume
     # one voxel thick has nodes that are all border; anisotropic spacing, a camera

@@ -43,8 +43,9 @@ def both(vol, **kw):
     return fast, slow
 
 
-CASES = [("post", "none"), ("post", "phong"), ("preintegrated", "none"),
-         ("preintegrated", "phong")]  # fmt: skip
+# post-classified Phong compiles a float32 march of its own: slow set
+CASES = [("post", "none"), pytest.param("post", "phong", marks=pytest.mark.slow),
+         ("preintegrated", "none"), ("preintegrated", "phong")]  # fmt: skip
 
 
 @pytest.mark.parametrize("cls, shading", CASES)
@@ -72,7 +73,7 @@ def test_fast_path_equals_the_general_kernel(cls, shading, dtype):
     np.testing.assert_allclose(fast, slow, atol=1e-5)
 
 
-@pytest.mark.parametrize("cls", ["post", "preintegrated"])
+@pytest.mark.parametrize("cls", [slow_case("post"), "preintegrated"])  # post: a Phong march
 def test_stability_cases_agree_with_the_general_kernel(cls):
     f = field()
     tf = semi()
@@ -101,7 +102,8 @@ def test_stability_cases_agree_with_the_general_kernel(cls):
     np.testing.assert_allclose(a, b, atol=1e-5)
 
 
-@pytest.mark.parametrize("cls", ["post", "preintegrated"])
+# post: the uint8 post-classified marches, compiled for this case alone
+@pytest.mark.parametrize("cls", [slow_case("post"), "preintegrated"])
 def test_fully_transparent_and_fully_opaque_on_the_fast_path(cls):
     vol = np.round(field() * 255).astype(np.uint8)
     cam = Camera(size=(20, 20))
@@ -170,6 +172,7 @@ def test_tiles_cover_every_pixel_once_in_bands_of_neighbours():
     assert np.array_equal(hit[rows], np.ones((len(rows), 75), int)) and hit.sum() == 50 * 75
 
 
+@pytest.mark.slow  # the general kernel's uint8 variant, compiled for this test alone
 def test_a_partial_last_tile_equals_the_general_kernel():
     vol = np.round(field() * 255).astype(np.uint8)
     kw = dict(tf=semi(0, 255), camera=Camera(azimuth=20, size=(rc.TILE_COLS + 5, 6)), step=0.7)

@@ -64,8 +64,9 @@ CAMERAS = [
 
 
 @pytest.mark.parametrize("cls, shading", [
-    ("post", "none"), ("post", "phong"), ("preintegrated", "none"),
-    pytest.param("preintegrated", "phong", marks=pytest.mark.slow),  # float32 Phong march
+    ("post", "none"), ("preintegrated", "none"),
+    pytest.param("post", "phong", marks=pytest.mark.slow),  # float32 Phong marches
+    pytest.param("preintegrated", "phong", marks=pytest.mark.slow),
 ])  # fmt: skip
 def test_skipping_leaves_the_fast_path_image_unchanged(cls, shading):
     vol = blobs()
