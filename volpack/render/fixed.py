@@ -14,6 +14,13 @@ benchmark's CT (int16) and MRI (uint8), pre-integrated, one thread: 20 % less ti
 per segment (36.8 -> 29.6 and 39.4 -> 31.9 ns), the image within 1e-5 of the float
 sampler's. Float volumes keep float32 lerps with the fixed-point weights.
 
+Most of a ray's samples lie where the whole trilinear cell is inside the volume; the
+steps ``k`` at which they do are found once per ray, exactly, in integers
+(:func:`interior`), and sampled there without clamping (:func:`trilinear_inner`: the
+same value). Measured on the benchmark's semi-transparent frames (one thread, CPU,
+together with refinement moved out of the loop): 0.77x on the head CT, 0.88x on
+ch2better.
+
 Positions outside ``[0, n - 1]`` take the nearest edge value, as :func:`_trilinear`.
 """
 
