@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from volpack.render.fixed import FRAC, to_fixed, trilinear_fixed, value_unit
+from volpack.render.fixed import FRAC, interior, to_fixed, trilinear_fixed, trilinear_inner, value_unit
 
 
 def reference(vol, z, y, x) -> float:
@@ -54,3 +54,37 @@ def test_to_fixed_rounds_and_steps_exactly():
     base, stride = to_fixed(-0.5), to_fixed(0.37)
     for k in (1, 10, 1000):
         assert abs((base + k * stride) / (1 << FRAC) - (-0.5 + k * 0.37)) <= k * 2.0 ** -25
+
+
+def test_interior_steps_are_exactly_those_inside():
+    """``interior(b, s, n)``: the steps k whose position b + k s lies in [0, n - 1),
+    against a walk over k, at strides of both signs, zero, and ends on the boundary."""
+    rng = np.random.default_rng(3)
+    one = 1 << FRAC
+    n = 6
+    cases = [(0, 0), (-1, 0), ((n - 1) * one, 0), ((n - 1) * one - 1, 0), (0, one // 2),
+             (-one // 2, one // 2), ((n - 1) * one, -one // 2), ((n - 1) * one - 1, -one // 3),
+             (-1, 1 << (FRAC - 1)), (n * one, -(one // 2) - 1)]  # fmt: skip
+    cases += [(int(rng.integers(-2 * one, (n + 1) * one)),
+               int(rng.integers(-one, one))) for _ in range(200)]  # fmt: skip
+    for b, s in cases:
+        lo, hi = interior(np.int64(b), np.int64(s), n)
+        ks = range(-40, 41) if s else range(-2, 3)
+        inside = [k for k in ks if 0 <= b + k * s < (n - 1) * one]
+        got = [k for k in ks if lo <= k <= hi]
+        assert got == inside, (b, s, lo, hi)
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.float32])
+def test_inner_sample_equals_the_clamped_one_inside(dtype):
+    """Inside [0, n - 1) the unclamped sampler gives the clamped one's value exactly."""
+    rng = np.random.default_rng(4)
+    shape = (4, 5, 6)
+    vol = (rng.integers(0, 256, size=shape) if dtype == np.uint8
+           else rng.normal(size=shape) * 1e3).astype(dtype)  # fmt: skip
+    top = (np.array(shape) - 1) * (1 << FRAC) - 1
+    pts = rng.integers(0, top + 1, size=(300, 3))
+    pts[:2] = [[0, 0, 0], top]
+    for pz, py, px in pts:
+        p = np.int64(pz), np.int64(py), np.int64(px)
+        assert trilinear_inner(vol, *p) == trilinear_fixed(vol, 0, *p)

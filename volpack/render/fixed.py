@@ -14,6 +14,13 @@ benchmark's CT (int16) and MRI (uint8), pre-integrated, one thread: 20 % less ti
 per segment (36.8 -> 29.6 and 39.4 -> 31.9 ns), the image within 1e-5 of the float
 sampler's. Float volumes keep float32 lerps with the fixed-point weights.
 
+Most of a ray's samples lie where the whole trilinear cell is inside the volume; the
+steps ``k`` at which they do are found once per ray, exactly, in integers
+(:func:`interior`), and sampled there without clamping (:func:`trilinear_inner`: the
+same value). Measured on the benchmark's semi-transparent frames (one thread, CPU,
+together with refinement moved out of the loop): 0.77x on the head CT, 0.88x on
+ch2better.
+
 Positions outside ``[0, n - 1]`` take the nearest edge value, as :func:`_trilinear`.
 """
 
@@ -83,6 +90,73 @@ def _trilinear_int(vol, node, pz, py, px):
 
 
 @kernel(inline=True)
+def _inner_axis(p):
+    """Lower cell index (the upper is one more) and integer weight of a fixed-point
+    position ``p`` known to lie in ``[0, n - 1)``: :func:`_axis` without the clamps."""
+    return np.uint64(p >> FRAC), (p >> (FRAC - WBITS)) & _WMASK
+
+
+@kernel(inline=True)
+def _inner_int(vol, pz, py, px):
+    """:func:`_trilinear_int` of a 3-D array at a position inside ``[0, n - 1)`` on every
+    axis (see :func:`interior`): the same value, with the eight corners one index apart
+    and no clamping."""
+    z0, fz = _inner_axis(pz)
+    y0, fy = _inner_axis(py)
+    x0, fx = _inner_axis(px)
+    one = np.uint64(1)
+    z1, y1, x1 = z0 + one, y0 + one, x0 + one
+    c000 = np.int64(vol[z0, y0, x0])
+    c00 = (c000 << WBITS) + (np.int64(vol[z0, y0, x1]) - c000) * fx
+    c010 = np.int64(vol[z0, y1, x0])
+    c01 = (c010 << WBITS) + (np.int64(vol[z0, y1, x1]) - c010) * fx
+    c100 = np.int64(vol[z1, y0, x0])
+    c10 = (c100 << WBITS) + (np.int64(vol[z1, y0, x1]) - c100) * fx
+    c110 = np.int64(vol[z1, y1, x0])
+    c11 = (c110 << WBITS) + (np.int64(vol[z1, y1, x1]) - c110) * fx
+    c0 = c00 + (((c01 - c00) * fy) >> WBITS)
+    c1 = c10 + (((c11 - c10) * fy) >> WBITS)
+    return np.float64(c0 + (((c1 - c0) * fz) >> WBITS))
+
+
+@kernel(inline=True)
+def _inner_float(vol, pz, py, px):
+    """:func:`_trilinear_float` of a 3-D array inside ``[0, n - 1)`` (see :func:`_inner_int`)."""
+    z0, iz = _inner_axis(pz)
+    y0, iy = _inner_axis(py)
+    x0, ix = _inner_axis(px)
+    one = np.uint64(1)
+    fz = np.float32(iz * _WSCALE)
+    fy = np.float32(iy * _WSCALE)
+    fx = np.float32(ix * _WSCALE)
+    return np.float64(lerp_cell(vol, 0, z0, z0 + one, fz, y0, y0 + one, fy, x0, x0 + one, fx))
+
+
+@kernel(inline=True)
+def interior(b, s, n):
+    """The steps ``k`` (``lo..hi``, empty when ``lo > hi``) at which the fixed-point
+    position ``b + k s`` along an axis of ``n`` voxels lies in ``[0, n - 1)``, where a
+    trilinear cell needs no clamping (:func:`trilinear_inner`); exact, in integers."""
+    u = (np.int64(n - 1) << FRAC) - 1  # the last position inside
+    if s > 0:
+        return -(b // s), (u - b) // s
+    if s < 0:
+        return -((u - b) // -s), b // -s
+    if 0 <= b <= u:
+        return np.int64(-(1 << 62)), np.int64(1 << 62)
+    return np.int64(1), np.int64(0)
+
+
+def trilinear_inner(vol, pz, py, px):
+    """:func:`trilinear_fixed` (the same value) of a 3-D array at a position inside
+    ``[0, n - 1)`` on every axis (see :func:`interior`), without clamping: on the
+    benchmark's head CT a fifth to a quarter less time per segment of the march."""
+    if np.issubdtype(vol.dtype, np.integer):
+        return _inner_int(vol, pz, py, px)
+    return _inner_float(vol, pz, py, px)
+
+
+@kernel(inline=True)
 def _trilinear_float(vol, node, pz, py, px):
     """Trilinear sample (float32 lerps) of a float volume (see :func:`at`) at
     fixed-point (pz, py, px)."""
@@ -148,6 +222,12 @@ if not JIT_DISABLED:
         if isinstance(vol.dtype, types.Integer):
             return lambda vol, node, pz, py, px: _trilinear_int(vol, node, pz, py, px)
         return lambda vol, node, pz, py, px: _trilinear_float(vol, node, pz, py, px)
+
+    @overload(trilinear_inner, jit_options={"nogil": True}, inline="always")
+    def _trilinear_inner_overload(vol, pz, py, px):
+        if isinstance(vol.dtype, types.Integer):
+            return lambda vol, pz, py, px: _inner_int(vol, pz, py, px)
+        return lambda vol, pz, py, px: _inner_float(vol, pz, py, px)
 
     @overload(value_unit, jit_options={"nogil": True})
     def _value_unit_overload(vol):
