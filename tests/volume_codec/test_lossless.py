@@ -83,6 +83,9 @@ def test_predict_floor_division_is_exact():
     keep = a >= 0
     got = np.array([predict.floor_div_nonneg(int(x), int(y)) for x, y in zip(a[keep], d[keep])])
     np.testing.assert_array_equal(got, a[keep] // d[keep])
+    # By the reciprocal the caller worked out (version 2's blend), same cases.
+    got = np.array([predict.floor_div_recip(int(x), int(y), 1.0 / y) for x, y in zip(a[keep], d[keep])])
+    np.testing.assert_array_equal(got, a[keep] // d[keep])
 
 
 def test_predict_beats_wavelet_on_an_edge():

@@ -199,6 +199,20 @@ def floor_div_nonneg(a, d):
 
 
 @kernel(inline=True)
+def floor_div_recip(a, d, rd):
+    """:func:`floor_div_nonneg` by a multiply with ``rd``, the double nearest ``1 / d``
+    (worked out by the caller as soon as ``d`` is known). Three roundings (``a``,
+    ``1 / d``, the product) leave the product within ``2^-51`` of ``a / d`` relatively,
+    under ``1/8`` for quotients below ``2^48``: the truncation is off by at most one and
+    the same correction makes it exact."""
+    q = np.int64(np.float64(a) * rd)
+    r = a - q * d
+    if r < 0 or r >= d:  # (rare, as in floor_div_nonneg)
+        q += np.int64(r >= d) - np.int64(r < 0)
+    return q
+
+
+@kernel(inline=True)
 def add_errors(perr, j, s0, s1, s2, s3, s4, s5):
     """The predictors' error sums plus those of the voxel at ring slot ``j``."""
     b = j * PSTRIDE

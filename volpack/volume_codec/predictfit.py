@@ -45,7 +45,7 @@ from .predict import (
     RECIP,
     bitlen,
     context,
-    floor_div_nonneg,
+    floor_div_recip,
     gather,
     interior,
     learn_bias,
@@ -340,11 +340,14 @@ def _predict_kernel(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, h
     w3 = _weight2(s3)
     w4 = _weight2(s4)
     w5 = _weight2(s5)
-    num = w0 * q0 + w1 * q1 + w2 * q2 + w3 * q3 + w4 * q4 + w5 * q5
     den = w0 + w1 + w2 + w3 + w4 + w5
+    # The reciprocal waits for the weights only (the voxel before's errors), not for the
+    # fitted predictor: the division is off the chain, a multiply is left on it.
+    rden = 1.0 / np.float64(den)
+    num = w0 * q0 + w1 * q1 + w2 * q2 + w3 * q3 + w4 * q4 + w5 * q5
     ctx = context(act, (max(q0, q1, q2, q3, q4, q5) - min(q0, q1, q2, q3, q4, q5)) >> 3)
     # (num >= 0: the predictions are clipped to [0, 8 hi] and the weights are positive)
-    p8 = floor_div_nonneg(num + (den >> 1), den) + bias[np.uint64(ctx)]
+    p8 = floor_div_recip(num + (den >> 1), den, rden) + bias[np.uint64(ctx)]
     p8 = min(max(p8, 0), h8)
     pred = (p8 + 4) >> 3
     frac = p8 - 8 * pred  # -4..3
