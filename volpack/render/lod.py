@@ -32,6 +32,10 @@ from .resident import RESIDENT_BUDGET, ResidentVolume, resident_bytes
 
 log = logging.getLogger(__name__)
 
+#: Voxels of its neighbours a node's atlas brick is read with (one stays as its border,
+#: both give the central differences of the border voxels).
+BORDER = 2
+
 
 @dataclasses.dataclass
 class PagedVolume:
@@ -113,14 +117,18 @@ class NodeAtlas:
     def nbytes(self) -> int:
         return self.atlas.nbytes + sum(0 if a is None else a.nbytes for a in (self.grad, self.codes))
 
-    def paged(self, selection) -> PagedVolume:
-        """The :class:`PagedVolume` of ``selection`` (``[(level, (bz, by, bx)), ...]``)."""
+    def paged(self, selection, workers: int = 1) -> PagedVolume:
+        """The :class:`PagedVolume` of ``selection`` (``[(level, (bz, by, bx)), ...]``),
+        the chunks of its nodes new to the atlas decoded first on ``workers`` threads."""
         sel = [(int(lv), tuple(int(i) for i in b)) for lv, b in selection]
         if not sel:
             raise VolpackError("expected at least one node to draw, found none")
         self.frame += 1
         new = [n for n in dict.fromkeys(sel) if n not in self.slot]
         self._make_room(len(new), set(sel))
+        if workers > 1:
+            self.tree.prefetch(set().union(*(self.tree.node_chunks(lv, b, BORDER) for lv, b in new)),
+                               workers)  # fmt: skip
         for n in new:
             self._place(n, self.free.pop())
         g = self.tree.geometry
@@ -138,7 +146,7 @@ class NodeAtlas:
         return PagedVolume(self.atlas, page, self.level, self.origin, shape,
                            tuple(self.tree.spacing), cell, frange, self.grad, self.codes)  # fmt: skip
 
-    def dense(self, selection, fill: float, value_range):
+    def dense(self, selection, fill: float, value_range, workers: int = 1):
         """The resident full-resolution grid of ``selection`` (uncovered cells at
         ``fill``), or None when the tree's grid passes the resident budget or its dtype
         cannot hold ``fill`` (the caller then takes :meth:`paged`)."""
@@ -148,7 +156,7 @@ class NodeAtlas:
             self.resident = ResidentVolume(self.tree, value_range, self.resident_budget)
         if not self.resident.representable(fill):
             return None
-        return self.resident.update(selection, fill)
+        return self.resident.update(selection, fill, workers)
 
     def _make_room(self, need: int, drawn: set) -> None:
         short = need - len(self.free)
@@ -187,7 +195,7 @@ class NodeAtlas:
     def _place(self, node, i: int) -> None:
         lv, b = node
         k = self.tree.geometry.block
-        raw = self.tree.brick(lv, b, border=2)
+        raw = self.tree.brick(lv, b, border=BORDER)
         pad = [(0, k + 4 - n) for n in raw.shape]
         if any(p[1] for p in pad):  # a node at the volume's far edge is smaller than k
             raw = np.pad(raw, pad, mode="edge")
@@ -259,6 +267,9 @@ def render_lod(
     from .raycast import TABLE_SIZE, empty_value, render, transfer_table
     from .transfer import nonempty_range
 
+    from ..parallel import parse_workers
+
+    workers = parse_workers(render_options.get("workers"))  # as render() takes it
     if blocks is not None:
         voxels = int(blocks) * tree.geometry.block**3
     before_nodes, before_bytes = tree.decoded_nodes, tree.bytes_read
@@ -283,9 +294,9 @@ def render_lod(
             lo, hi = nonempty_range(*value_range)
             n = int(render_options.get("table_size", TABLE_SIZE))
             base = None if tf is None else transfer_table(tf, lo, hi, n)
-            pv = atlas.dense(sel, empty_value(base, lo, hi, lo, quiet=True), (lo, hi))
+            pv = atlas.dense(sel, empty_value(base, lo, hi, lo, quiet=True), (lo, hi), workers)
         if pv is None:
-            pv = atlas.paged(sel)
+            pv = atlas.paged(sel, workers)
         t2 = time.perf_counter()
         img = render(pv, tf=tf, camera=camera, value_range=value_range, **render_options)
         t3 = time.perf_counter()

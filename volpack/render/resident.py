@@ -86,9 +86,16 @@ class ResidentVolume:
         info = np.iinfo(self.dtype)
         return float(fill).is_integer() and info.min <= fill <= info.max
 
-    def update(self, selection, fill: float) -> PreparedVolume:
+    @staticmethod
+    def border(level: int) -> int:
+        """Voxels of its level's neighbours a node's write reads around it: one for the
+        trilinear resampling of a coarse node, none at full resolution."""
+        return 1 if level > 0 else 0
+
+    def update(self, selection, fill: float, workers: int = 1) -> PreparedVolume:
         """The grid for ``selection`` (``[(level, (bz, by, bx)), ...]``, footprints
-        disjoint), writing only the cells whose content changed."""
+        disjoint), writing only the cells whose content changed; the chunks those
+        writes need are decoded first on ``workers`` threads."""
         k = self.k
         if self.prep is None or fill != self.fill:  # first frame, or a new transfer function
             data = np.full(self.shape, fill, self.dtype)
@@ -109,9 +116,12 @@ class ResidentVolume:
             box = tuple(slice(int(i) * k, min((int(i) + 1) * k, n)) for i, n in zip(c, self.shape))
             data[box] = fill
             boxes.append(box)
-        nodes = [int(key) for key in np.unique(want[changed]) if key >= 0]  # (re)drawn
-        for key in nodes:
-            lv, b = key >> 60, ((key >> 40) & _MASK, (key >> 20) & _MASK, key & _MASK)
+        nodes = [(key >> 60, ((key >> 40) & _MASK, (key >> 20) & _MASK, key & _MASK))
+                 for key in np.unique(want[changed]).tolist() if key >= 0]  # (re)drawn
+        if workers > 1:
+            self.tree.prefetch(set().union(*(self.tree.node_chunks(lv, b, self.border(lv))
+                                             for lv, b in nodes)), workers)  # fmt: skip
+        for lv, b in nodes:
             fp = g.footprint(lv, b)
             v = self.tree.assemble([(lv, b)], level=0, roi=fp, interp="linear").data
             if v.dtype.kind == "f":  # non-finite voxels are empty, as the plain renderer has them
