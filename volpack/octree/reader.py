@@ -18,6 +18,7 @@ volume decodes as usual.
 from __future__ import annotations
 
 import collections
+import functools
 import itertools
 import math
 import threading
@@ -246,27 +247,15 @@ class Octree:
             self._put(key, entry)
         return entry
 
-    def chunks_for(self, level: int, box) -> set[tuple[int, tuple[int, int, int]]]:
+    def chunks_for(self, level: int, box) -> frozenset[tuple[int, tuple[int, int, int]]]:
         """The chunks ``(level, index)`` whose decoding gives the ``A_level`` voxels in
         ``box`` (slices in level coordinates, inside the level): the nodes one level up
         whose blocks ``box`` meets, and their ancestors (the root's own voxels need none)."""
-        out: set = set()
-        if level >= self.depth:
-            return out
-        k2 = 2 * self.plan.block
-        for p in itertools.product(*(range(s.start // k2, (s.stop - 1) // k2 + 1) for s in box)):
-            lv = level + 1
-            while lv <= self.depth and (lv, p) not in out:
-                out.add((lv, p))
-                lv, p = lv + 1, (p[0] // 2, p[1] // 2, p[2] // 2)
-        return out
+        return _chunks_for(self.geometry, level, tuple((s.start, s.stop) for s in box))
 
-    def node_chunks(self, level: int, index, border: int = 0) -> set:
+    def node_chunks(self, level: int, index, border: int = 0) -> frozenset:
         """:meth:`chunks_for` the node's voxels grown by ``border`` (clipped to the level)."""
-        n = self.geometry.level_shape(level)
-        box = self.geometry.node_box(level, index)
-        return self.chunks_for(level, tuple(slice(max(0, s.start - border), min(v, s.stop + border))
-                                            for s, v in zip(box, n)))  # fmt: skip
+        return _node_chunks(self.geometry, level, tuple(index), border)
 
     def is_cached(self, level: int, index: tuple[int, int, int]) -> bool:
         """Whether chunk ``(level, index)`` is decoded and in the cache."""
@@ -481,6 +470,29 @@ class Octree:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+@functools.lru_cache(maxsize=1 << 16)  # asked for every node a walk's frames draw
+def _node_chunks(geometry, level: int, index, border: int) -> frozenset:
+    n = geometry.level_shape(level)
+    box = geometry.node_box(level, index)
+    return _chunks_for(geometry, level, tuple((max(0, s.start - border), min(v, s.stop + border))
+                                              for s, v in zip(box, n)))  # fmt: skip
+
+
+@functools.lru_cache(maxsize=1 << 16)
+def _chunks_for(geometry, level: int, box) -> frozenset:
+    out: set = set()
+    depth = geometry.depth
+    if level >= depth:
+        return frozenset()
+    k2 = 2 * geometry.block
+    for p in itertools.product(*(range(a // k2, (b - 1) // k2 + 1) for a, b in box)):
+        lv = level + 1
+        while lv <= depth and (lv, p) not in out:
+            out.add((lv, p))
+            lv, p = lv + 1, (p[0] // 2, p[1] // 2, p[2] // 2)
+    return frozenset(out)
 
 
 def parse_region(roi, shape) -> tuple[slice, slice, slice]:

@@ -22,6 +22,7 @@ import functools
 import heapq
 import itertools
 import math
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -31,8 +32,7 @@ from . import layout
 from .reader import Octree, parse_region
 
 Node = tuple[int, tuple[int, int, int]]
-_BITS = np.array(list(itertools.product((0, 1), repeat=3)))  # a box's corners: lo (0) or hi (1)
-_AXES = np.arange(3)
+_BITS = np.array(list(itertools.product((0, 1), repeat=3)), bool)  # a box's corners: lo or hi
 
 
 def by_level(tree: Octree, level: int, roi=None) -> list[Node]:
@@ -100,6 +100,8 @@ def by_view(
     max_pixel_error: float = 1.0 / 128,
     roi=None,
     memo: dict | None = None,
+    decode: int | None = None,
+    border: Callable[[int], int] | None = None,
 ) -> tuple[list[Node], dict[str, Any]]:
     """The view-dependent selection a renderer uses (seed-004 §7.3-§7.6).
 
@@ -117,10 +119,22 @@ def by_view(
     view (each node's TF error and transparency, per transfer function): most of a
     selection's time otherwise.
 
-    Returns the selection and counts (culled, transparent, stopped by projection).
+    ``decode`` caps the chunks that drawing the selection decodes (those not in the
+    tree's cache; ``border(level)``: the voxels of its neighbours a node is drawn with,
+    :class:`DecodeBudget`): refinement follows the same order, and the first refinement
+    the cap does not allow stops every later one that needs a chunk not decoded yet, so
+    what is decoded is what the uncapped selection would decode first. A walk that
+    keeps its tree's cache thus starts from coarse nodes and refines over the next
+    frames until no refinement is held back: then each frame's selection is the
+    uncapped one.
+
+    Returns the selection and counts (culled, transparent, stopped by projection,
+    ``held``: refinements the decode cap held back, ``chunks``: chunks planned).
     """
     view = _View(tree, camera, tf, memo)
-    stats = {"culled": 0, "transparent": 0, "projected": 0, "below_error": 0}
+    stats = {"culled": 0, "transparent": 0, "projected": 0, "below_error": 0, "held": 0,
+             "chunks": 0}  # fmt: skip
+    budget = None if decode is None else DecodeBudget(tree, decode, border)
 
     def priority(lv, b):
         if lv == 0:
@@ -147,8 +161,44 @@ def by_view(
             return False
         return True
 
-    sel = _refine(tree, priority, voxels, None, roi, view, keep)
+    sel = _refine(tree, priority, voxels, None, roi, view, keep, budget)
+    if budget is not None:
+        stats["held"], stats["chunks"] = budget.held, len(budget.planned)
     return sel, stats
+
+
+class DecodeBudget:
+    """The chunks a selection may have decoded: at most ``nodes`` not in the tree's
+    cache (the first refinement that needs any is allowed whatever it costs, so that a
+    walk always progresses). Drawing a node reads its voxels grown by ``border(level)``
+    voxels of its neighbours (default 2, the paged atlas's bricks), which can need the
+    chunks of neighbours that are not refined themselves: they count."""
+
+    def __init__(self, tree: Octree, nodes: int, border: Callable[[int], int] | None = None):
+        if not (isinstance(nodes, (int, np.integer)) and nodes >= 0):
+            raise OptionError(f"expected a decode budget of >= 0 nodes, found {nodes!r}")
+        self.tree, self.left = tree, int(nodes)
+        self.border = border or (lambda level: 2)
+        self.planned: set = set()
+        self.held = 0
+
+    def allows(self, node, kids) -> bool:
+        """Whether drawing ``kids`` (the kept children of refining ``node``) fits; if
+        so, their new chunks are counted as planned."""
+        t, new = self.tree, set()
+        if self.held and kids and node not in self.planned and not t.is_cached(*node):
+            self.held += 1  # its own chunk is new: held without looking further
+            return False
+        for lv, b in kids:
+            for c in t.node_chunks(lv, b, self.border(lv)):
+                if c not in self.planned and not t.is_cached(*c):
+                    new.add(c)
+        if new and (self.held or (len(new) > self.left and self.planned)):
+            self.held += 1
+            return False
+        self.planned |= new
+        self.left -= len(new)
+        return True
 
 
 # -- tree walking ----------------------------------------------------------------------
@@ -196,9 +246,11 @@ def _voxels(geometry, level: int, b) -> int:
     return math.prod(s.stop - s.start for s in geometry.node_box(level, b))
 
 
-def _refine(tree, priority, voxels, nbytes, roi, view, keep=None) -> list[Node]:
+def _refine(tree, priority, voxels, nbytes, roi, view, keep=None, decode=None) -> list[Node]:
     """Greedy refinement from the root: replace the highest-priority node by its
-    children while the budgets allow; nodes with priority 0 are final."""
+    children while the budgets allow; nodes with priority 0 are final. Past the first
+    refinement a :class:`DecodeBudget` ``decode`` holds back, only those that decode
+    nothing new go on."""
     region = parse_region(roi, tree.shape)
     keep = keep or (lambda lv, b: view is None or view.visible(tree, lv, b))
     root = (tree.depth, (0, 0, 0))
@@ -229,6 +281,9 @@ def _refine(tree, priority, voxels, nbytes, roi, view, keep=None) -> list[Node]:
             final.append((lv, b))
             final.extend(n for _, _, n in heap)
             break
+        if decode is not None and not decode.allows((lv, b), kids):
+            final.append((lv, b))
+            continue
         used_vox += add_vox
         used_bytes += add_bytes
         for c in kids:
@@ -246,11 +301,11 @@ class _View:
     solves ``p = e + t (d00 + u du + v dv)`` (perspective, eye ``e``) or
     ``p = o00 + u ou + v ov + t d`` (orthographic), giving its pixel ``(u, v)`` and depth.
 
-    The tests are found in numpy for many nodes at once and then looked up: each
-    node's transparency and transfer-function error a whole level at a time (kept in
-    ``memo`` across a walk's frames), its visibility, projected area and depth with its
-    siblings, per view. Node by node, the first frame of a walk of the 1039-node MRI
-    spent about 1 s in them and each later frame 0.1 s.
+    The tests are found in numpy a whole level at a time, the first time the
+    refinement reaches that level, and then looked up: each node's visibility,
+    projected area and depth per view, its transparency and transfer-function error
+    once for a walk (kept in ``memo``). Node by node, the first frame of a walk of the
+    1039-node MRI spent about 1 s in them and each later frame 0.1 s.
     """
 
     def __init__(self, tree: Octree, camera, tf=None, memo: dict | None = None) -> None:
@@ -274,7 +329,7 @@ class _View:
         self.o = o00
         self.fwd = d00 / np.linalg.norm(d00)
         self.tf = tf
-        self._nodes: dict = {}  # (visible, area, depth) per node, this view
+        self._levels: dict = {}  # (visible, area, depth) per level, this view
         self._grid = [tree.geometry.grid(lv) for lv in range(tree.depth + 1)]
         # view-independent results per level, for this transfer function
         tf_key = None if tf is None else tuple(map(tuple, np.asarray(tf.points).tolist()))
@@ -301,27 +356,24 @@ class _View:
             self._same[key] = (lo, hi)
         return self._same[key]
 
-    def _node(self, tree, lv, b) -> tuple[bool, float, float]:
-        """``(visible, area, depth)`` of a node, found with its siblings' (the group a
-        refinement tests) in one projection of their box corners."""
-        r = self._nodes.get((lv, b))
+    def _level(self, tree, lv) -> tuple[list, list, list]:
+        """``(visible, area, depth)`` of every node of level ``lv`` (raster order) in
+        this view, from one projection of all their box corners."""
+        r = self._levels.get(lv)
         if r is not None:
             return r
-        group = [b] if lv == tree.depth else [c for _, c in
-                                              _kids(tree.geometry, lv + 1, tuple(i // 2 for i in b))]  # fmt: skip
-        lo, hi = (a[[self._index(lv, c) for c in group]] for a in self._bounds(tree, lv))
-        corners = np.stack([lo, hi], axis=1)[:, _BITS, _AXES]  # (n, 8, 3)
-        n = len(group)
-        # one matrix product: each node's numbers as a product of its corners alone gives
-        s = ((corners.reshape(-1, 3) - self.o) @ self.m.T).reshape(n, 8, 3)
+        lo, hi = self._bounds(tree, lv)
+        n = len(lo)
+        corners = np.where(_BITS[:, None, :], hi, lo)  # (8, n, 3)
+        s = _product(corners.reshape(-1, 3) - self.o, self.m.T).reshape(8, n, 3)
         t = s[..., 0]
         if self.persp:
             safe = np.where(np.abs(t) > 1e-12, t, 1e-12)
             u, v = s[..., 1] / safe, s[..., 2] / safe
         else:
             u, v = s[..., 1], s[..., 2]
-        tmin, tmax = t.min(axis=1), t.max(axis=1)
-        umin, umax, vmin, vmax = u.min(axis=1), u.max(axis=1), v.min(axis=1), v.max(axis=1)
+        tmin, tmax = t.min(axis=0), t.max(axis=0)
+        umin, umax, vmin, vmax = u.min(axis=0), u.max(axis=0), v.min(axis=0), v.max(axis=0)
         inside = ~((umax < -0.5) | (umin > self.w - 0.5) | (vmax < -0.5) | (vmin > self.h - 0.5))
         du = np.minimum(umax, self.w) - np.maximum(umin, 0.0)
         dv = np.minimum(vmax, self.h) - np.maximum(vmin, 0.0)
@@ -334,18 +386,17 @@ class _View:
             depth = np.sqrt((near[:, None, :] @ near[:, :, None])[:, 0, 0])
         else:
             visible = inside
-            along = (corners.reshape(-1, 3) - self.o) @ self.fwd
-            depth = np.maximum(along.reshape(n, 8).min(axis=1), 0.0)
-        for c, row in zip(group, zip(visible.tolist(), area.tolist(), depth.tolist())):
-            self._nodes[(lv, c)] = row
-        return self._nodes[(lv, b)]
+            along = _product(corners.reshape(-1, 3) - self.o, self.fwd[:, None])
+            depth = np.maximum(along.reshape(8, n).min(axis=0), 0.0)
+        r = self._levels[lv] = (visible.tolist(), area.tolist(), depth.tolist())
+        return r
 
     def visible(self, tree, lv, b) -> bool:
-        return self._node(tree, lv, b)[0]
+        return self._level(tree, lv)[0][self._index(lv, b)]
 
     def depth(self, tree, lv, b) -> float:
         """Nearest distance from the eye (perspective) or the image plane (orthographic)."""
-        return self._node(tree, lv, b)[2]
+        return self._level(tree, lv)[2][self._index(lv, b)]
 
     def pixels_per_voxel(self, tree, lv, b) -> float:
         """Screen size of one of the node's voxels (2^lv input voxels), in pixels."""
@@ -356,7 +407,7 @@ class _View:
 
     def area(self, tree, lv, b) -> float:
         """Projected area of the node's box, clipped to the image, in pixels."""
-        return self._node(tree, lv, b)[1]
+        return self._level(tree, lv)[1][self._index(lv, b)]
 
     def transparent(self, tree, lv, b) -> bool:
         key = ("clear", lv)
@@ -372,6 +423,17 @@ class _View:
             diag = math.sqrt(3.0) * tree.plan.block * (1 << lv)
             self._same[key] = tf_node_errors(self.tf, tree.table(lv), diag).tolist()
         return self._same[key][self._index(lv, b)]
+
+
+def _product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a @ b`` in slices of 4096 rows: each row's numbers are those of its own product
+    (as node-by-node selection had them), and BLAS keeps each slice on one thread,
+    where its threads over a whole level took 30-90 ms on the loaded 2-core machine
+    instead of 1."""
+    out = np.empty((len(a), b.shape[1]))
+    for i in range(0, len(a), 4096):
+        np.matmul(a[i : i + 4096], b, out=out[i : i + 4096])
+    return out
 
 
 def tf_ranges(tf, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -28,7 +28,7 @@ import numpy as np
 from ..errors import VolpackError
 from .normals import normal_codes
 from .prepared import GRADIENT_BUDGET, SAMPLED, gradient_dtype, gradient_volume
-from .resident import RESIDENT_BUDGET, ResidentVolume, resident_bytes
+from .resident import RESIDENT_BUDGET, ResidentVolume, grid_dtype, holds, resident_bytes
 
 log = logging.getLogger(__name__)
 
@@ -150,13 +150,17 @@ class NodeAtlas:
         """The resident full-resolution grid of ``selection`` (uncovered cells at
         ``fill``), or None when the tree's grid passes the resident budget or its dtype
         cannot hold ``fill`` (the caller then takes :meth:`paged`)."""
-        if not 0 < resident_bytes(self.tree) <= self.resident_budget:
+        if not self.draws_resident(fill):
             return None
         if self.resident is None:
             self.resident = ResidentVolume(self.tree, value_range, self.resident_budget)
-        if not self.resident.representable(fill):
-            return None
         return self.resident.update(selection, fill, workers)
+
+    def draws_resident(self, fill: float) -> bool:
+        """Whether :meth:`dense` takes the resident grid (not the page table) for ``fill``."""
+        return 0 < resident_bytes(self.tree) <= self.resident_budget and holds(
+            grid_dtype(self.tree), fill
+        )
 
     def _make_room(self, need: int, drawn: set) -> None:
         short = need - len(self.free)
@@ -234,6 +238,8 @@ class LodStats:
     culled: int
     transparent: int
     levels: dict  # nodes per level
+    held: int = 0  # refinements the decode budget held back (0: the uncapped selection)
+    cpu_s: tuple = (0.0, 0.0, 0.0)  # CPU seconds of the process (all threads) in the three steps
 
 
 def paged_volume(tree, selection, *, gradients: bool = False) -> PagedVolume:
@@ -254,6 +260,7 @@ def render_lod(
     max_pixel_error: float = 1.0 / 128,
     value_range: tuple[float, float] | None = None,
     atlas: NodeAtlas | None = None,
+    decode: int | None = None,
     **render_options: Any,
 ) -> tuple[np.ndarray, LodStats]:
     """Render an open octree for ``camera`` within a budget of ``voxels`` (``blocks``
@@ -262,44 +269,51 @@ def render_lod(
     The value range defaults to the octree's recorded one; ``atlas`` (a
     :class:`NodeAtlas` of this tree kept across the frames of a walk) keeps the decoded
     nodes, or the resident full-resolution grid when it fits its budget, else one is
-    made for this frame (paged, with gradient bricks when shaded)."""
+    made for this frame (paged, with gradient bricks when shaded). ``decode`` caps the
+    chunks the frame decodes (:func:`volpack.octree.select.by_view`): a walk's first
+    frame then draws coarser nodes, and its next frames refine them. The chunks are
+    decoded on the ``workers`` threads of the render options."""
     from ..octree import select
+    from ..parallel import parse_workers
     from .raycast import TABLE_SIZE, empty_value, render, transfer_table
     from .transfer import nonempty_range
-
-    from ..parallel import parse_workers
 
     workers = parse_workers(render_options.get("workers"))  # as render() takes it
     if blocks is not None:
         voxels = int(blocks) * tree.geometry.block**3
-    before_nodes, before_bytes = tree.decoded_nodes, tree.bytes_read
-    t0 = time.perf_counter()
-    memo = None if atlas is None else atlas.select_memo
-    sel, st = select.by_view(
-        tree, camera, tf=tf, voxels=voxels, max_pixel_error=max_pixel_error, memo=memo
-    )
-    t1 = time.perf_counter()
     if value_range is None:
         value_range = tree_range(tree)
+    fill = None
+    if atlas is not None and atlas.resident_budget:  # the value uncovered cells hold, as render() finds it
+        lo, hi = nonempty_range(*value_range)
+        n = int(render_options.get("table_size", TABLE_SIZE))
+        base = None if tf is None else transfer_table(tf, lo, hi, n)
+        fill = empty_value(base, lo, hi, lo, quiet=True)
+        fill = fill if atlas.draws_resident(fill) else None
+    before_nodes, before_bytes = tree.decoded_nodes, tree.bytes_read
+    t0, c0 = time.perf_counter(), time.process_time()
+    memo = None if atlas is None else atlas.select_memo
+    sel, st = select.by_view(
+        tree, camera, tf=tf, voxels=voxels, max_pixel_error=max_pixel_error, memo=memo,
+        decode=decode, border=ResidentVolume.border if fill is not None else lambda lv: BORDER,
+    )  # fmt: skip
+    t1, c1 = time.perf_counter(), time.process_time()
     w, h = camera.size
     if not sel:  # nothing visible
         img = np.zeros((h, w, 4), np.float32)
         t2 = t3 = time.perf_counter()
+        c2 = c3 = time.process_time()
     else:
-        pv = None
         if atlas is None:
             shaded = render_options.get("shading", "none") != "none"
             atlas = NodeAtlas(tree, gradients=shaded, keep=1.0)
-        elif atlas.resident_budget:  # the value uncovered cells hold, as render() finds it
-            lo, hi = nonempty_range(*value_range)
-            n = int(render_options.get("table_size", TABLE_SIZE))
-            base = None if tf is None else transfer_table(tf, lo, hi, n)
-            pv = atlas.dense(sel, empty_value(base, lo, hi, lo, quiet=True), (lo, hi), workers)
-        if pv is None:
+        if fill is not None:
+            pv = atlas.dense(sel, fill, nonempty_range(*value_range), workers)
+        else:
             pv = atlas.paged(sel, workers)
-        t2 = time.perf_counter()
+        t2, c2 = time.perf_counter(), time.process_time()
         img = render(pv, tf=tf, camera=camera, value_range=value_range, **render_options)
-        t3 = time.perf_counter()
+        t3, c3 = time.perf_counter(), time.process_time()
     levels: dict[int, int] = {}
     nvox = 0
     for lv, b in sel:
@@ -309,6 +323,7 @@ def render_lod(
         nodes=len(sel), voxels=nvox, decoded=tree.decoded_nodes - before_nodes,
         bytes_read=tree.bytes_read - before_bytes, select_s=t1 - t0, decode_s=t2 - t1,
         render_s=t3 - t2, culled=st["culled"], transparent=st["transparent"], levels=levels,
+        held=st["held"], cpu_s=(c1 - c0, c2 - c1, c3 - c2),
     )  # fmt: skip
 
 
