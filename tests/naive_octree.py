@@ -89,3 +89,35 @@ def upsample_linear(a, f, shape):
             acc += wt * float(a[idx])
         out[p] = acc
     return out
+
+
+def tf_range(points, lo, hi):
+    """Component-wise (min, max) of a piecewise-linear RGBA transfer function over
+    ``[lo, hi]``, by sampling it densely plus its ends and control points."""
+    lo, hi = min(lo, hi), max(lo, hi)
+    pts = np.asarray(points, np.float64)
+    xs = np.concatenate([np.linspace(lo, hi, 257), pts[(pts[:, 0] >= lo) & (pts[:, 0] <= hi), 0]])
+    rgba = np.stack([np.interp(xs, pts[:, 0], pts[:, 1 + c]) for c in range(4)], axis=1)
+    return rgba.min(axis=0), rgba.max(axis=0)
+
+
+def tf_node_error(points, row, diag, bins=8):
+    """The eq.-2.7 error bound of one node-table row, bin by bin in plain floats (the
+    optical depths searched over a fine grid of segment lengths for the opacity term)."""
+    vmin, vmax = float(row["vmin"]), float(row["vmax"])
+    width = (vmax - vmin) / bins
+    worst = 0.0
+    ds = np.linspace(0.0, diag, 4001)
+    for j in range(bins):
+        dn, dp = float(row["hist"][j, 0]), float(row["hist"][j, 1])
+        if dn == 0.0 and dp == 0.0:
+            continue
+        cmin, cmax = tf_range(points, vmin + j * width + dn, vmin + (j + 1) * width + dp)
+        dmin = -math.log1p(-min(float(cmin[3]), 1 - 1e-12))
+        dmax = -math.log1p(-min(float(cmax[3]), 1 - 1e-12))
+        err_o = float(np.max(np.exp(-ds * dmin) - np.exp(-ds * dmax)))
+        err_o_diag = math.exp(-diag * dmin) - math.exp(-diag * dmax)
+        err_c = sum((cmax[c] - cmin[c]) * (1 - math.exp(-diag * dmax)) + cmin[c] * err_o_diag
+                    for c in range(3))  # fmt: skip
+        worst = max(worst, err_o + err_c)
+    return worst

@@ -263,7 +263,7 @@ def test_by_view_memo_keeps_the_selection_and_is_reused(monkeypatch):
                 assert kept == fresh
         assert len(memo) == 2  # one entry per transfer function
         calls = []
-        monkeypatch.setattr(sel, "tf_node_error", lambda *a: calls.append(a) or 0.0)
+        monkeypatch.setattr(sel, "tf_node_errors", lambda *a: calls.append(a) or 0.0)
         sel.by_view(t, Camera(azimuth=40, elevation=15, size=(48, 48)), tf=tfs[0],
                     voxels=40 * 4**3, max_pixel_error=1e-6, memo=memo)  # fmt: skip
         assert calls == []  # every node's error came from the memo
@@ -276,11 +276,35 @@ def test_tf_error_is_zero_for_constant_tf_and_grows_with_deviation():
     row["vmin"], row["vmax"] = 10, 20
     row["hist"][:, 0], row["hist"][:, 1] = -1, 1
     flat = TransferFunction(((0.0, 0.5, 0.5, 0.5, 0.2), (100.0, 0.5, 0.5, 0.5, 0.2)))
-    assert sel.tf_node_error(flat, row, 10.0) == pytest.approx(0.0, abs=1e-12)
+    assert sel.tf_node_errors(flat, row[None], 10.0)[0] == pytest.approx(0.0, abs=1e-12)
     ramp = TransferFunction(((0.0, 0, 0, 0, 0.0), (100.0, 1, 1, 1, 0.5)))
-    e1 = sel.tf_node_error(ramp, row, 10.0)
+    e1 = sel.tf_node_errors(ramp, row[None], 10.0)[0]
     row["hist"][:, 0], row["hist"][:, 1] = -5, 5
-    assert sel.tf_node_error(ramp, row, 10.0) > e1 > 0
+    assert sel.tf_node_errors(ramp, row[None], 10.0)[0] > e1 > 0
+
+
+def test_tf_errors_and_ranges_match_a_node_by_node_reference():
+    """The whole-level numpy forms against plain per-node loops (tests/naive_octree)."""
+    from volpack.render.transfer import TransferFunction
+
+    rng = np.random.default_rng(7)
+    rows = np.zeros(40, layout.META_DTYPE)
+    rows["vmin"] = rng.uniform(0, 150, 40)
+    rows["vmax"] = rows["vmin"] + rng.uniform(0, 80, 40)
+    rows["hist"] = rng.uniform(-6, 0, (40, 8, 2)) * [1, -1]
+    rows["hist"][::5] = 0  # exact nodes
+    tf = TransferFunction(((0.0, 0, 0, 0, 0.0), (60.0, 0.2, 0.1, 0.0, 0.0), (90.0, 1, 0.8, 0.6, 0.3),
+                           (91.0, 1, 1, 1, 0.9), (255.0, 0.5, 0.5, 1, 0.6)))  # fmt: skip
+    lo, hi = rng.uniform(0, 255, 40), rng.uniform(0, 255, 40)  # either order
+    cmin, cmax = sel.tf_ranges(tf, lo, hi)
+    for i in range(40):
+        rmin, rmax = naive_octree.tf_range(tf.points, lo[i], hi[i])
+        np.testing.assert_allclose(cmin[i], rmin, atol=1e-12)
+        np.testing.assert_allclose(cmax[i], rmax, atol=1e-12)
+    err = sel.tf_node_errors(tf, rows, 30.0)
+    ref = [naive_octree.tf_node_error(tf.points, r, 30.0) for r in rows]
+    np.testing.assert_allclose(err, ref, rtol=1e-5, atol=1e-9)
+    assert (err[::5] == 0).all() and (err > 0).sum() >= 20
 
 
 # -- decoding --------------------------------------------------------------------------

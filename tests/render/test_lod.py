@@ -180,6 +180,38 @@ def test_resident_walk_matches_a_fresh_grid_and_the_paged_sampler(tree_path):
         np.testing.assert_array_equal(img, render(vol, tf=tf, camera=cam, value_range=vr))
 
 
+def test_decode_budget_starts_coarse_and_reaches_the_uncapped_image(tree_path):
+    # a walk capped at CAP decoded chunks a frame, from an empty cache: its first frame
+    # decodes at most CAP and draws coarser nodes than the uncapped first frame (a
+    # frame's first refinement may pass the cap: here one takes 18); held back
+    # refinements go on over the next frames, and once none is held back the frame is
+    # the uncapped walk's last frame, bit for bit
+    cap = 6
+    path, vol = tree_path
+    vr = (float(vol.min()), float(vol.max()))
+    tf = tf_of(vol)
+    cams = [Camera(size=(32, 28), azimuth=az, zoom=1.5) for az in (0.0, 50.0, 100.0)]
+    kw = dict(tf=tf, value_range=vr, blocks=24, shading="phong")
+    with Octree(str(path)) as t:
+        free = NodeAtlas(t)
+        uncapped = [render_lod(t, camera=cam, atlas=free, **kw) for cam in cams]
+    assert uncapped[0][1].decoded > 2 * cap
+    with Octree(str(path)) as t:
+        capped, frames = NodeAtlas(t), []
+        for k in range(16):  # the orbit, then its last view until nothing is held back
+            frames.append(render_lod(t, camera=cams[min(k, 2)], atlas=capped, decode=cap, **kw))
+            if k >= 2 and frames[-1][1].held == 0:
+                break
+    first = frames[0][1]
+    assert first.decoded <= cap and first.held > 0
+    assert min(first.levels) > min(uncapped[0][1].levels)
+    # only chunks that the uncapped views decode too (refinements in the same order)
+    assert sum(st.decoded for _, st in frames) <= sum(st.decoded for _, st in uncapped)
+    img, st = frames[-1]
+    assert st.held == 0 and st.levels == uncapped[-1][1].levels
+    np.testing.assert_array_equal(img, uncapped[-1][0])
+
+
 @pytest.mark.slow  # the paged sampler's own kernels; its image equality is in the fast set too
 def test_resident_volume_over_its_budget_walks_paged(tree_path):
     # a budget below the grid's bytes: every frame goes through the page table
@@ -258,11 +290,15 @@ def test_render_and_walk_commands(tree_path, tmp_path):
             "30",
             "--tf",
             "mri",
+            "--decode-budget",
+            "5",
         ],
     )  # fmt: skip (the PSNR bound is for mri)
     assert r.exit_code == 0, r.output
     rep = json.loads(r.stdout)
     assert rep["frames"] == 3 and all(f["voxels"] <= 16 * 8**3 for f in rep["per_frame"])
+    assert rep["decode_budget"] == 5 and all(f["decoded"] <= 5 for f in rep["per_frame"])
+    assert all(f["held"] >= 0 for f in rep["per_frame"])
     assert all(f["psnr"] is None or f["psnr"] > 15 for f in rep["per_frame"])
     with Image.open(tmp_path / "w.gif") as im:
         assert im.n_frames == 3
@@ -301,3 +337,21 @@ def test_gradient_bricks_match_the_plain_volume_on_16_bit_and_thin_volumes(tmp_p
                     img = render(pv, **kwn)
                     assert np.all(np.isfinite(img))
                     np.testing.assert_allclose(img, render(vol, **kwn), atol=1e-6)
+
+
+def test_cell_boxes_cover_the_marked_cells_once_with_few_boxes():
+    from volpack.render.resident import cell_boxes
+
+    rng = np.random.default_rng(3)
+    shape = (37, 50, 21)  # cells of 4 voxels: 10 x 13 x 6, edge cells cut
+    for p in (0.0, 0.3, 0.9, 1.0):
+        cells = rng.random((10, 13, 6)) < p
+        cells[:4, :4, :4] = True  # one aligned block of 4^3 cells: one box
+        cover = np.zeros(shape, np.int64)
+        boxes = cell_boxes(cells, 4, shape)
+        for b in boxes:
+            cover[b] += 1
+        want = cells.repeat(4, 0).repeat(4, 1).repeat(4, 2)[:37, :50, :21]
+        np.testing.assert_array_equal(cover, want.astype(np.int64))
+        assert len(boxes) <= cells.sum() - 63
+    assert len(cell_boxes(np.ones((10, 13, 6), bool), 4, shape)) == 1

@@ -18,6 +18,7 @@ volume decodes as usual.
 from __future__ import annotations
 
 import collections
+import functools
 import itertools
 import math
 import threading
@@ -246,12 +247,38 @@ class Octree:
             self._put(key, entry)
         return entry
 
+    def chunks_for(self, level: int, box) -> frozenset[tuple[int, tuple[int, int, int]]]:
+        """The chunks ``(level, index)`` whose decoding gives the ``A_level`` voxels in
+        ``box`` (slices in level coordinates, inside the level): the nodes one level up
+        whose blocks ``box`` meets, and their ancestors (the root's own voxels need none)."""
+        return _chunks_for(self.geometry, level, tuple((s.start, s.stop) for s in box))
+
+    def node_chunks(self, level: int, index, border: int = 0) -> frozenset:
+        """:meth:`chunks_for` the node's voxels grown by ``border`` (clipped to the level)."""
+        return _node_chunks(self.geometry, level, tuple(index), border)
+
+    def is_cached(self, level: int, index: tuple[int, int, int]) -> bool:
+        """Whether chunk ``(level, index)`` is decoded and in the cache."""
+        return (level, tuple(index)) in self._cache
+
+    def prefetch(self, chunks, workers: int = 1) -> None:
+        """Decode ``chunks`` (``(level, index)`` pairs) into the cache on ``workers``
+        threads, coarsest first (each chunk needs its ancestors); what a later read
+        returns does not depend on it."""
+        by: dict[int, set] = {}
+        for lv, b in chunks:
+            by.setdefault(int(lv), set()).add(tuple(int(i) for i in b))
+        for lv in sorted(by, reverse=True):
+            self._warm(lv, by[lv], workers)
+
     def _warm(self, level: int, nodes, workers: int) -> None:
         """Decode the children of ``nodes`` (all of ``level``) on ``workers`` threads,
         their ancestors first, so that no node is decoded twice."""
         from ..parallel import ordered_map
 
-        nodes = sorted(set(nodes))
+        nodes = sorted(b for b in set(nodes) if (level, b) not in self._cache)
+        if not nodes:
+            return
         if level < self.depth:
             self._warm(level + 1, {tuple(i // 2 for i in b) for b in nodes}, workers)
         for _ in ordered_map(lambda b: self._children(level, b), nodes, workers):
@@ -329,15 +356,17 @@ class Octree:
             self._warm(level + 1, itertools.product(*ranges), workers)
         for p in itertools.product(*ranges):
             block, corr = self._children(level + 1, p)
-            vals = to_values(self.plan, block)
-            if corr is not None and level == 0:
-                apply_corrections(self.plan, corr, vals)
             src, dst = [], []
             for i, s in zip(p, box):
                 lo, hi = max(s.start, k2 * i), min(s.stop, k2 * (i + 1))
                 src.append(slice(lo - k2 * i, hi - k2 * i))
                 dst.append(slice(lo - s.start, hi - s.start))
-            out[tuple(dst)] = vals[tuple(src)]
+            if corr is not None and level == 0:  # corrections address the whole block
+                vals = to_values(self.plan, block)
+                apply_corrections(self.plan, corr, vals)
+                out[tuple(dst)] = vals[tuple(src)]
+            else:  # voxel by voxel: convert only the part asked for
+                out[tuple(dst)] = to_values(self.plan, block[tuple(src)])
         return out
 
     def decode(self, level: int = 0, roi=None, workers: int = 1):
@@ -387,6 +416,7 @@ class Octree:
         borders (seamless).
         """
         from ..volume import Volume
+        from .resample import trilinear
 
         if interp not in ("nearest", "linear"):
             raise OptionError(f"expected interp 'nearest' or 'linear', found {interp!r}")
@@ -415,7 +445,7 @@ class Octree:
                 continue
             pos = [(np.arange(s.start, s.stop) + 0.5) / fm - 0.5 for s in t]
             nl = self.geometry.level_shape(lv)
-            if interp == "nearest":
+            if interp == "nearest" or fm == 1:  # at its own level: exact voxels, weights 0
                 idx = [np.arange(s.start, s.stop) // fm for s in t]
                 src = tuple(slice(int(i[0]), int(i[-1]) + 1) for i in idx)
                 vals = self.values(lv, src)
@@ -425,15 +455,9 @@ class Octree:
                 j1 = [np.minimum(j + 1, v - 1) for j, v in zip(j0, nl)]
                 w = [np.clip(p - j, 0.0, 1.0) for p, j in zip(pos, j0)]
                 src = tuple(slice(int(a.min()), int(c.max()) + 1) for a, c in zip(j0, j1))
-                v = self.values(lv, src).astype(np.float64)
-                for ax in range(3):
-                    a = np.take(v, j0[ax] - src[ax].start, axis=ax)
-                    c = np.take(v, j1[ax] - src[ax].start, axis=ax)
-                    shape = [1, 1, 1]
-                    shape[ax] = -1
-                    ww = w[ax].reshape(shape)
-                    v = a * (1 - ww) + c * ww
-                v = _cast(v, self.dtype)
+                v = trilinear(self.values(lv, src).astype(np.float64),
+                              [j - s.start for j, s in zip(j0, src)],
+                              [j - s.start for j, s in zip(j1, src)], w, self.dtype)  # fmt: skip
             dst = tuple(slice(s.start - tb.start, s.stop - tb.start) for s, tb in zip(t, tbox))
             out[dst] = v
         return Volume(out, spacing=self._spacing(m), origin=self._origin(m, tbox))
@@ -448,11 +472,27 @@ class Octree:
         self.close()
 
 
-def _cast(v: np.ndarray, dtype: np.dtype) -> np.ndarray:
-    if dtype.kind in "iu":
-        info = np.iinfo(dtype)
-        return np.clip(np.rint(v), info.min, info.max).astype(dtype)
-    return v.astype(dtype)
+@functools.lru_cache(maxsize=1 << 16)  # asked for every node a walk's frames draw
+def _node_chunks(geometry, level: int, index, border: int) -> frozenset:
+    n = geometry.level_shape(level)
+    box = geometry.node_box(level, index)
+    return _chunks_for(geometry, level, tuple((max(0, s.start - border), min(v, s.stop + border))
+                                              for s, v in zip(box, n)))  # fmt: skip
+
+
+@functools.lru_cache(maxsize=1 << 16)
+def _chunks_for(geometry, level: int, box) -> frozenset:
+    out: set = set()
+    depth = geometry.depth
+    if level >= depth:
+        return frozenset()
+    k2 = 2 * geometry.block
+    for p in itertools.product(*(range(a // k2, (b - 1) // k2 + 1) for a, b in box)):
+        lv = level + 1
+        while lv <= depth and (lv, p) not in out:
+            out.add((lv, p))
+            lv, p = lv + 1, (p[0] // 2, p[1] // 2, p[2] // 2)
+    return frozenset(out)
 
 
 def parse_region(roi, shape) -> tuple[slice, slice, slice]:

@@ -18,9 +18,11 @@ choice reads only the node tables (no chunk is decoded):
 
 from __future__ import annotations
 
+import functools
 import heapq
 import itertools
 import math
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -30,6 +32,7 @@ from . import layout
 from .reader import Octree, parse_region
 
 Node = tuple[int, tuple[int, int, int]]
+_BITS = np.array(list(itertools.product((0, 1), repeat=3)), bool)  # a box's corners: lo or hi
 
 
 def by_level(tree: Octree, level: int, roi=None) -> list[Node]:
@@ -97,6 +100,8 @@ def by_view(
     max_pixel_error: float = 1.0 / 128,
     roi=None,
     memo: dict | None = None,
+    decode: int | None = None,
+    border: Callable[[int], int] | None = None,
 ) -> tuple[list[Node], dict[str, Any]]:
     """The view-dependent selection a renderer uses (seed-004 §7.3-§7.6).
 
@@ -114,10 +119,22 @@ def by_view(
     view (each node's TF error and transparency, per transfer function): most of a
     selection's time otherwise.
 
-    Returns the selection and counts (culled, transparent, stopped by projection).
+    ``decode`` caps the chunks that drawing the selection decodes (those not in the
+    tree's cache; ``border(level)``: the voxels of its neighbours a node is drawn with,
+    :class:`DecodeBudget`): refinement follows the same order, and the first refinement
+    the cap does not allow stops every later one that needs a chunk not decoded yet, so
+    what is decoded is what the uncapped selection would decode first. A walk that
+    keeps its tree's cache thus starts from coarse nodes and refines over the next
+    frames until no refinement is held back: then each frame's selection is the
+    uncapped one.
+
+    Returns the selection and counts (culled, transparent, stopped by projection,
+    ``held``: refinements the decode cap held back, ``chunks``: chunks planned).
     """
     view = _View(tree, camera, tf, memo)
-    stats = {"culled": 0, "transparent": 0, "projected": 0, "below_error": 0}
+    stats = {"culled": 0, "transparent": 0, "projected": 0, "below_error": 0, "held": 0,
+             "chunks": 0}  # fmt: skip
+    budget = None if decode is None else DecodeBudget(tree, decode, border)
 
     def priority(lv, b):
         if lv == 0:
@@ -144,8 +161,44 @@ def by_view(
             return False
         return True
 
-    sel = _refine(tree, priority, voxels, None, roi, view, keep)
+    sel = _refine(tree, priority, voxels, None, roi, view, keep, budget)
+    if budget is not None:
+        stats["held"], stats["chunks"] = budget.held, len(budget.planned)
     return sel, stats
+
+
+class DecodeBudget:
+    """The chunks a selection may have decoded: at most ``nodes`` not in the tree's
+    cache (the first refinement that needs any is allowed whatever it costs, so that a
+    walk always progresses). Drawing a node reads its voxels grown by ``border(level)``
+    voxels of its neighbours (default 2, the paged atlas's bricks), which can need the
+    chunks of neighbours that are not refined themselves: they count."""
+
+    def __init__(self, tree: Octree, nodes: int, border: Callable[[int], int] | None = None):
+        if not (isinstance(nodes, (int, np.integer)) and nodes >= 0):
+            raise OptionError(f"expected a decode budget of >= 0 nodes, found {nodes!r}")
+        self.tree, self.left = tree, int(nodes)
+        self.border = border or (lambda level: 2)
+        self.planned: set = set()
+        self.held = 0
+
+    def allows(self, node, kids) -> bool:
+        """Whether drawing ``kids`` (the kept children of refining ``node``) fits; if
+        so, their new chunks are counted as planned."""
+        t, new = self.tree, set()
+        if self.held and kids and node not in self.planned and not t.is_cached(*node):
+            self.held += 1  # its own chunk is new: held without looking further
+            return False
+        for lv, b in kids:
+            for c in t.node_chunks(lv, b, self.border(lv)):
+                if c not in self.planned and not t.is_cached(*c):
+                    new.add(c)
+        if new and (self.held or (len(new) > self.left and self.planned)):
+            self.held += 1
+            return False
+        self.planned |= new
+        self.left -= len(new)
+        return True
 
 
 # -- tree walking ----------------------------------------------------------------------
@@ -153,13 +206,21 @@ def by_view(
 
 def children(tree: Octree, level: int, b, region) -> list[Node]:
     """The children of node (level, b) that meet ``region``."""
-    g = tree.geometry.grid(level - 1)
+    kids = _kids(tree.geometry, level, tuple(b))
+    if all(r.start == 0 and r.stop == n for r, n in zip(region, tree.shape)):
+        return list(kids)
+    return [c for c in kids if _meets(tree, *c, region)]
+
+
+@functools.lru_cache(maxsize=1 << 16)  # asked for each refined node of every frame of a walk
+def _kids(geometry, level: int, b) -> tuple[Node, ...]:
+    g = geometry.grid(level - 1)
     out = []
     for d in itertools.product((0, 1), repeat=3):
-        c = tuple(2 * i + j for i, j in zip(b, d))
-        if all(ci < gi for ci, gi in zip(c, g)) and _meets(tree, level - 1, c, region):
+        c = (2 * b[0] + d[0], 2 * b[1] + d[1], 2 * b[2] + d[2])
+        if c[0] < g[0] and c[1] < g[1] and c[2] < g[2]:
             out.append((level - 1, c))
-    return out
+    return tuple(out)
 
 
 def _meets(tree, level, b, region) -> bool:
@@ -177,12 +238,19 @@ def _nodes_in(tree, level, region):
 
 
 def node_voxels(tree, level, b) -> int:
-    return math.prod(s.stop - s.start for s in tree.geometry.node_box(level, b))
+    return _voxels(tree.geometry, level, tuple(b))
 
 
-def _refine(tree, priority, voxels, nbytes, roi, view, keep=None) -> list[Node]:
+@functools.lru_cache(maxsize=1 << 16)
+def _voxels(geometry, level: int, b) -> int:
+    return math.prod(s.stop - s.start for s in geometry.node_box(level, b))
+
+
+def _refine(tree, priority, voxels, nbytes, roi, view, keep=None, decode=None) -> list[Node]:
     """Greedy refinement from the root: replace the highest-priority node by its
-    children while the budgets allow; nodes with priority 0 are final."""
+    children while the budgets allow; nodes with priority 0 are final. Past the first
+    refinement a :class:`DecodeBudget` ``decode`` holds back, only those that decode
+    nothing new go on."""
     region = parse_region(roi, tree.shape)
     keep = keep or (lambda lv, b: view is None or view.visible(tree, lv, b))
     root = (tree.depth, (0, 0, 0))
@@ -213,6 +281,9 @@ def _refine(tree, priority, voxels, nbytes, roi, view, keep=None) -> list[Node]:
             final.append((lv, b))
             final.extend(n for _, _, n in heap)
             break
+        if decode is not None and not decode.allows((lv, b), kids):
+            final.append((lv, b))
+            continue
         used_vox += add_vox
         used_bytes += add_bytes
         for c in kids:
@@ -229,13 +300,19 @@ class _View:
     The camera's corner rays give the image plane in voxel coordinates: a point ``p``
     solves ``p = e + t (d00 + u du + v dv)`` (perspective, eye ``e``) or
     ``p = o00 + u ou + v ov + t d`` (orthographic), giving its pixel ``(u, v)`` and depth.
+
+    The tests are found in numpy a whole level at a time, the first time the
+    refinement reaches that level, and then looked up: each node's visibility,
+    projected area and depth per view, its transparency and transfer-function error
+    once for a walk (kept in ``memo``). Node by node, the first frame of a walk of the
+    1039-node MRI spent about 1 s in them and each later frame 0.1 s.
     """
 
     def __init__(self, tree: Octree, camera, tf=None, memo: dict | None = None) -> None:
-        origins, dirs = camera.rays(tree.shape, tree.spacing)
-        h, w = dirs.shape[:2]
+        w, h = camera.size
         if w < 2 or h < 2:
             raise FormatError(f"expected an image of at least 2x2 pixels, found {w}x{h}")
+        origins, dirs = camera.corner_rays(tree.shape, tree.spacing)
         self.w, self.h = w, h
         self.persp = camera.projection == "perspective"
         o00, d00 = origins[0, 0], dirs[0, 0]
@@ -252,56 +329,74 @@ class _View:
         self.o = o00
         self.fwd = d00 / np.linalg.norm(d00)
         self.tf = tf
-        self._cache: dict = {}
-        # view-independent results per node, for this transfer function
+        self._levels: dict = {}  # (visible, area, depth) per level, this view
+        self._grid = [tree.geometry.grid(lv) for lv in range(tree.depth + 1)]
+        # view-independent results per level, for this transfer function
         tf_key = None if tf is None else tuple(map(tuple, np.asarray(tf.points).tolist()))
         self._same: dict = {} if memo is None else memo.setdefault(tf_key, {})
 
-    def _corners(self, tree, lv, b) -> np.ndarray:
-        key = ("corners", lv, b)  # view-independent: kept across a walk's frames
+    def _index(self, lv, b) -> int:
+        g = self._grid[lv]
+        return (b[0] * g[1] + b[1]) * g[2] + b[2]
+
+    def _bounds(self, tree, lv) -> tuple[np.ndarray, np.ndarray]:
+        """``(lo, hi)``, (n, 3) each: the box corners of every node of level ``lv`` in
+        raster order (voxel centres at integers, so a box spans its voxels' edges)."""
+        key = ("bounds", lv)
         if key not in self._same:
-            fp = tree.geometry.footprint(lv, b)
-            self._same[key] = np.array(
-                [
-                    [c[0] - 0.5, c[1] - 0.5, c[2] - 0.5]
-                    for c in itertools.product(*((s.start, s.stop) for s in fp))
-                ]
-            )
+            g = tree.geometry
+            k, f = g.block, 1 << lv
+            axes = []
+            for i, (n, ln) in enumerate(zip(tree.shape, g.level_shape(lv))):
+                start = np.arange(g.grid(lv)[i]) * k
+                stop = np.minimum(start + k, ln)
+                axes.append((start * f - 0.5, np.minimum(stop * f, n) - 0.5))
+            grids = [np.meshgrid(*c, indexing="ij") for c in zip(*axes)]
+            lo, hi = (np.stack([a.ravel() for a in m], axis=1).astype(np.float64) for m in grids)
+            self._same[key] = (lo, hi)
         return self._same[key]
 
-    def project(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(t, u, v)`` of points ``p`` (n, 3): ray parameter and pixel coordinates."""
-        s = (p - self.o) @ self.m.T
+    def _level(self, tree, lv) -> tuple[list, list, list]:
+        """``(visible, area, depth)`` of every node of level ``lv`` (raster order) in
+        this view, from one projection of all their box corners."""
+        r = self._levels.get(lv)
+        if r is not None:
+            return r
+        lo, hi = self._bounds(tree, lv)
+        n = len(lo)
+        corners = np.where(_BITS[:, None, :], hi, lo)  # (8, n, 3)
+        s = _product(corners.reshape(-1, 3) - self.o, self.m.T).reshape(8, n, 3)
+        t = s[..., 0]
         if self.persp:
-            t = s[:, 0]
             safe = np.where(np.abs(t) > 1e-12, t, 1e-12)
-            return t, s[:, 1] / safe, s[:, 2] / safe
-        return s[:, 0], s[:, 1], s[:, 2]
-
-    def _proj(self, tree, lv, b):
-        """``(tmin, umin, vmin, tmax, umax, vmax)`` of the node's box corners (floats:
-        reduced once a node and view, not at each test)."""
-        key = (lv, b)
-        r = self._cache.get(key)
-        if r is None:
-            s = np.stack(self.project(self._corners(tree, lv, b)))
-            r = self._cache[key] = (*s.min(axis=1).tolist(), *s.max(axis=1).tolist())
+            u, v = s[..., 1] / safe, s[..., 2] / safe
+        else:
+            u, v = s[..., 1], s[..., 2]
+        tmin, tmax = t.min(axis=0), t.max(axis=0)
+        umin, umax, vmin, vmax = u.min(axis=0), u.max(axis=0), v.min(axis=0), v.max(axis=0)
+        inside = ~((umax < -0.5) | (umin > self.w - 0.5) | (vmax < -0.5) | (vmin > self.h - 0.5))
+        du = np.minimum(umax, self.w) - np.maximum(umin, 0.0)
+        dv = np.minimum(vmax, self.h) - np.maximum(vmin, 0.0)
+        area = np.maximum(du, 0.0) * np.maximum(dv, 0.0)
+        if self.persp:
+            behind = tmin <= 0  # straddles the eye plane: kept if any part is ahead
+            visible = np.where(behind, tmax > 0, inside)
+            area = np.where(behind, float(self.w * self.h), area)
+            near = np.clip(self.o, lo, hi) - self.o
+            depth = np.sqrt((near[:, None, :] @ near[:, :, None])[:, 0, 0])
+        else:
+            visible = inside
+            along = _product(corners.reshape(-1, 3) - self.o, self.fwd[:, None])
+            depth = np.maximum(along.reshape(8, n).min(axis=0), 0.0)
+        r = self._levels[lv] = (visible.tolist(), area.tolist(), depth.tolist())
         return r
 
     def visible(self, tree, lv, b) -> bool:
-        tmin, umin, vmin, tmax, umax, vmax = self._proj(tree, lv, b)
-        if self.persp and tmin <= 0:
-            return tmax > 0  # straddles the eye plane: keep if any part is ahead
-        return not (umax < -0.5 or umin > self.w - 0.5 or vmax < -0.5 or vmin > self.h - 0.5)
+        return self._level(tree, lv)[0][self._index(lv, b)]
 
     def depth(self, tree, lv, b) -> float:
         """Nearest distance from the eye (perspective) or the image plane (orthographic)."""
-        c = self._corners(tree, lv, b)
-        if self.persp:
-            lo, hi = c.min(axis=0), c.max(axis=0)
-            nearest = np.clip(self.o, lo, hi)
-            return float(np.linalg.norm(nearest - self.o))
-        return float(max(((c - self.o) @ self.fwd).min(), 0.0))
+        return self._level(tree, lv)[2][self._index(lv, b)]
 
     def pixels_per_voxel(self, tree, lv, b) -> float:
         """Screen size of one of the node's voxels (2^lv input voxels), in pixels."""
@@ -312,88 +407,100 @@ class _View:
 
     def area(self, tree, lv, b) -> float:
         """Projected area of the node's box, clipped to the image, in pixels."""
-        tmin, umin, vmin, _, umax, vmax = self._proj(tree, lv, b)
-        if self.persp and tmin <= 0:
-            return float(self.w * self.h)
-        du = min(umax, self.w) - max(umin, 0.0)
-        dv = min(vmax, self.h) - max(vmin, 0.0)
-        return float(max(du, 0.0) * max(dv, 0.0))
+        return self._level(tree, lv)[1][self._index(lv, b)]
 
     def transparent(self, tree, lv, b) -> bool:
-        key = ("clear", lv, b)
+        key = ("clear", lv)
         if key not in self._same:
-            self._same[key] = bool(tf_range(self.tf, *value_range(tree, lv, b))[1][3] <= 0.0)
-        return self._same[key]
+            lo, hi = value_ranges(tree, lv)
+            self._same[key] = (tf_ranges(self.tf, lo, hi)[1][:, 3] <= 0.0).tolist()
+        return self._same[key][self._index(lv, b)]
 
     def tf_error(self, tree, lv, b) -> float:
         """Eq. 2.7 bound on the colour + opacity error of a ray through the node."""
-        key = ("error", lv, b)
+        key = ("error", lv)
         if key not in self._same:
-            r = tree.row(lv, b)
             diag = math.sqrt(3.0) * tree.plan.block * (1 << lv)
-            self._same[key] = tf_node_error(self.tf, r, diag)
-        return self._same[key]
+            self._same[key] = tf_node_errors(self.tf, tree.table(lv), diag).tolist()
+        return self._same[key][self._index(lv, b)]
 
 
-def tf_range(tf, lo: float, hi: float) -> tuple[np.ndarray, np.ndarray]:
-    """Component-wise (min, max) of the transfer function's RGBA over ``[lo, hi]``.
+def _product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a @ b`` in slices of 4096 rows: each row's numbers are those of its own product
+    (as node-by-node selection had them), and BLAS keeps each slice on one thread,
+    where its threads over a whole level took 30-90 ms on the loaded 2-core machine
+    instead of 1."""
+    out = np.empty((len(a), b.shape[1]))
+    for i in range(0, len(a), 4096):
+        np.matmul(a[i : i + 4096], b, out=out[i : i + 4096])
+    return out
+
+
+def tf_ranges(tf, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Component-wise ``(min, max)``, (n, 4) each, of the transfer function's RGBA over
+    each interval ``[lo[i], hi[i]]`` (ends in either order).
 
     A piecewise-linear function takes its extremes at the interval's ends or at its
     control points, so this is exact (at a step lying on an end both sides count, which
     can only widen the range). This plays the thesis's 2-D range table.
     """
-    if hi < lo:
-        lo, hi = hi, lo
+    lo, hi = np.asarray(lo, np.float64), np.asarray(hi, np.float64)
+    lo, hi = np.where(hi < lo, hi, lo), np.where(hi < lo, lo, hi)
     pts = np.asarray(tf.points, np.float64)
-    xp = pts[:, 0]
-    inside = pts[(xp >= lo) & (xp <= hi), 1:]
-    ends = np.array([[np.interp(v, xp, pts[:, 1 + c]) for c in range(4)] for v in (lo, hi)])
-    rgba = np.concatenate([ends, inside]) if inside.size else ends
-    return rgba.min(axis=0), rgba.max(axis=0)
+    xp, rgba = pts[:, 0], pts[:, 1:]
+    ends = [np.stack([np.interp(v, xp, rgba[:, c]) for c in range(4)], axis=-1) for v in (lo, hi)]
+    inside = ((xp >= lo[:, None]) & (xp <= hi[:, None]))[..., None]  # (n, points, 1)
+    cmin = np.minimum(np.minimum(*ends), np.where(inside, rgba, np.inf).min(axis=1))
+    cmax = np.maximum(np.maximum(*ends), np.where(inside, rgba, -np.inf).max(axis=1))
+    return cmin, cmax
 
 
-def value_range(tree: Octree, level: int, b) -> tuple[float, float]:
-    """Range of the input voxels under node (level, b), from the index alone: its values
-    widened by its deviations (a leaf uses its parent's row)."""
+def value_ranges(tree: Octree, level: int) -> tuple[np.ndarray, np.ndarray]:
+    """Range of the input voxels under every node of ``level`` (raster order), from the
+    index alone: its values widened by its deviations (a leaf takes its parent's row)."""
     if level == 0 and tree.depth > 0:
-        level, b = 1, tuple(i // 2 for i in b)
-    r = tree.row(level, b)
-    lo = float(r["vmin"]) + float(r["hist"][:, 0].min())
-    hi = float(r["vmax"]) + float(r["hist"][:, 1].max())
+        lo, hi = value_ranges(tree, 1)
+        g, gp = tree.geometry.grid(0), tree.geometry.grid(1)
+        iz, iy, ix = np.meshgrid(*(np.arange(n) // 2 for n in g), indexing="ij")
+        parent = ((iz * gp[1] + iy) * gp[2] + ix).ravel()
+        return lo[parent], hi[parent]
+    t = tree.table(level)
+    lo = t["vmin"].astype(np.float64) + t["hist"][:, :, 0].min(axis=1).astype(np.float64)
+    hi = t["vmax"].astype(np.float64) + t["hist"][:, :, 1].max(axis=1).astype(np.float64)
     return lo, hi
 
 
-def tf_node_error(tf, row, diag: float) -> float:
-    """Largest eq.-2.7 error over the node's 8 deviation bins.
+def tf_node_errors(tf, rows: np.ndarray, diag: float) -> np.ndarray:
+    """Largest eq.-2.7 error over each node's 8 deviation bins (``rows``: node table rows).
 
     For the values of bin ``j`` (``[a, b]``) the input voxels lie in ``[a + dn, b + dp]``.
     With the transfer function's colour range ``[Cmin, Cmax]`` and extinction range
     ``[Dmin, Dmax]`` over both, and a segment length ``d``:
     ``errO = exp(-d Dmin) - exp(-d Dmax)`` (largest at ``d = ln(Dmax/Dmin)/(Dmax-Dmin)``,
     else at the diagonal) and ``errC = (Cmax - Cmin)(1 - exp(-d Dmax)) + Cmin errO``
-    summed over r, g, b (``d`` = the diagonal).
+    summed over r, g, b (``d`` = the diagonal). A bin with no deviation (or no voxel) is
+    exact.
     """
-    vmin, vmax = float(row["vmin"]), float(row["vmax"])
-    nb = layout.HIST_BINS
+    n, nb = len(rows), layout.HIST_BINS
+    if n == 0:
+        return np.zeros(0)
+    vmin, vmax = rows["vmin"].astype(np.float64), rows["vmax"].astype(np.float64)
     width = (vmax - vmin) / nb
-    worst = 0.0
-    for j in range(nb):
-        dn, dp = float(row["hist"][j, 0]), float(row["hist"][j, 1])
-        if dn == 0.0 and dp == 0.0:
-            continue  # no deviation in this bin (or no voxel): exact
-        a = vmin + j * width
-        b = vmin + (j + 1) * width
-        cmin, cmax = tf_range(tf, a + dn, b + dp)
-        # extinction per voxel from the one-voxel opacity: tau = -ln(1 - alpha)
-        dmin = -math.log1p(-min(float(cmin[3]), 1 - 1e-12))
-        dmax = -math.log1p(-min(float(cmax[3]), 1 - 1e-12))
-        d_o = diag
-        if dmin > 0 and dmax > dmin:
-            d_o = min(diag, math.log(dmax / dmin) / (dmax - dmin))
-        err_o = math.exp(-d_o * dmin) - math.exp(-d_o * dmax)
-        err_o_diag = math.exp(-diag * dmin) - math.exp(-diag * dmax)
-        err_c = float(
-            np.sum((cmax[:3] - cmin[:3]) * (1 - math.exp(-diag * dmax)) + cmin[:3] * err_o_diag)
-        )
-        worst = max(worst, err_o + err_c)
-    return worst
+    j = np.arange(nb)
+    dn, dp = (rows["hist"][:, :, i].astype(np.float64) for i in (0, 1))  # (n, bins)
+    a = vmin[:, None] + j * width[:, None]
+    b = vmin[:, None] + (j + 1) * width[:, None]
+    cmin, cmax = tf_ranges(tf, (a + dn).ravel(), (b + dp).ravel())
+    # extinction per voxel from the one-voxel opacity: tau = -ln(1 - alpha)
+    dmin = -np.log1p(-np.minimum(cmin[:, 3], 1 - 1e-12))
+    dmax = -np.log1p(-np.minimum(cmax[:, 3], 1 - 1e-12))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        peak = np.minimum(diag, np.log(dmax / dmin) / (dmax - dmin))
+    d_o = np.where((dmin > 0) & (dmax > dmin), peak, diag)
+    err_o = np.exp(-d_o * dmin) - np.exp(-d_o * dmax)
+    err_o_diag = np.exp(-diag * dmin) - np.exp(-diag * dmax)
+    err_c = ((cmax[:, :3] - cmin[:, :3]) * (1 - np.exp(-diag * dmax))[:, None]
+             + cmin[:, :3] * err_o_diag[:, None]).sum(axis=1)  # fmt: skip
+    err = (err_o + err_c).reshape(n, nb)
+    err[(dn == 0.0) & (dp == 0.0)] = 0.0
+    return np.fmax(err, 0.0).max(axis=1)

@@ -192,12 +192,25 @@ class Camera:
     ) -> tuple[np.ndarray, np.ndarray]:
         """Return ``(origins, directions)``, each ``(h, w, 3)`` float64 in voxel index
         space ``(z, y, x)``; ``t`` along a ray counts reference lengths (module docstring)."""
+        return self._rays(shape_zyx, spacing, corners=False)
+
+    def corner_rays(
+        self, shape_zyx: tuple[int, int, int], spacing: tuple[float, float, float] = (1, 1, 1)
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The rays of the four corner pixels only, ``(2, 2, 3)`` each: the same numbers
+        as ``rays()`` at rows and columns ``0, -1`` (what a node's projection needs)."""
+        return self._rays(shape_zyx, spacing, corners=True)
+
+    def _rays(self, shape_zyx, spacing, corners: bool) -> tuple[np.ndarray, np.ndarray]:
         cam, sp, centre, radius = self.world_frame(shape_zyx, spacing)
         fwd, right, up, base, half = cam._frame(centre, radius)
         w, h = cam.size
         short = min(w, h)
         u = (np.arange(w) + 0.5) * 2 / short - w / short  # as world_rays, in one pass
         v = h / short - (np.arange(h) + 0.5) * 2 / short
+        if corners:
+            u, v = u[[0, -1]], v[[0, -1]]
+            h, w = 2, 2
         origins = np.empty((h, w, 3))
         dirs = np.empty((h, w, 3))
         with np.errstate(over="ignore", invalid="ignore"):  # still too large: checked below

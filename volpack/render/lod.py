@@ -28,9 +28,13 @@ import numpy as np
 from ..errors import VolpackError
 from .normals import normal_codes
 from .prepared import GRADIENT_BUDGET, SAMPLED, gradient_dtype, gradient_volume
-from .resident import RESIDENT_BUDGET, ResidentVolume, resident_bytes
+from .resident import RESIDENT_BUDGET, ResidentVolume, grid_dtype, holds, resident_bytes
 
 log = logging.getLogger(__name__)
+
+#: Voxels of its neighbours a node's atlas brick is read with (one stays as its border,
+#: both give the central differences of the border voxels).
+BORDER = 2
 
 
 @dataclasses.dataclass
@@ -113,14 +117,18 @@ class NodeAtlas:
     def nbytes(self) -> int:
         return self.atlas.nbytes + sum(0 if a is None else a.nbytes for a in (self.grad, self.codes))
 
-    def paged(self, selection) -> PagedVolume:
-        """The :class:`PagedVolume` of ``selection`` (``[(level, (bz, by, bx)), ...]``)."""
+    def paged(self, selection, workers: int = 1) -> PagedVolume:
+        """The :class:`PagedVolume` of ``selection`` (``[(level, (bz, by, bx)), ...]``),
+        the chunks of its nodes new to the atlas decoded first on ``workers`` threads."""
         sel = [(int(lv), tuple(int(i) for i in b)) for lv, b in selection]
         if not sel:
             raise VolpackError("expected at least one node to draw, found none")
         self.frame += 1
         new = [n for n in dict.fromkeys(sel) if n not in self.slot]
         self._make_room(len(new), set(sel))
+        if workers > 1:
+            self.tree.prefetch(set().union(*(self.tree.node_chunks(lv, b, BORDER) for lv, b in new)),
+                               workers)  # fmt: skip
         for n in new:
             self._place(n, self.free.pop())
         g = self.tree.geometry
@@ -138,17 +146,21 @@ class NodeAtlas:
         return PagedVolume(self.atlas, page, self.level, self.origin, shape,
                            tuple(self.tree.spacing), cell, frange, self.grad, self.codes)  # fmt: skip
 
-    def dense(self, selection, fill: float, value_range):
+    def dense(self, selection, fill: float, value_range, workers: int = 1):
         """The resident full-resolution grid of ``selection`` (uncovered cells at
         ``fill``), or None when the tree's grid passes the resident budget or its dtype
         cannot hold ``fill`` (the caller then takes :meth:`paged`)."""
-        if not 0 < resident_bytes(self.tree) <= self.resident_budget:
+        if not self.draws_resident(fill):
             return None
         if self.resident is None:
             self.resident = ResidentVolume(self.tree, value_range, self.resident_budget)
-        if not self.resident.representable(fill):
-            return None
-        return self.resident.update(selection, fill)
+        return self.resident.update(selection, fill, workers)
+
+    def draws_resident(self, fill: float) -> bool:
+        """Whether :meth:`dense` takes the resident grid (not the page table) for ``fill``."""
+        return 0 < resident_bytes(self.tree) <= self.resident_budget and holds(
+            grid_dtype(self.tree), fill
+        )
 
     def _make_room(self, need: int, drawn: set) -> None:
         short = need - len(self.free)
@@ -187,7 +199,7 @@ class NodeAtlas:
     def _place(self, node, i: int) -> None:
         lv, b = node
         k = self.tree.geometry.block
-        raw = self.tree.brick(lv, b, border=2)
+        raw = self.tree.brick(lv, b, border=BORDER)
         pad = [(0, k + 4 - n) for n in raw.shape]
         if any(p[1] for p in pad):  # a node at the volume's far edge is smaller than k
             raw = np.pad(raw, pad, mode="edge")
@@ -226,6 +238,8 @@ class LodStats:
     culled: int
     transparent: int
     levels: dict  # nodes per level
+    held: int = 0  # refinements the decode budget held back (0: the uncapped selection)
+    cpu_s: tuple = (0.0, 0.0, 0.0)  # CPU seconds of the process (all threads) in the three steps
 
 
 def paged_volume(tree, selection, *, gradients: bool = False) -> PagedVolume:
@@ -246,6 +260,7 @@ def render_lod(
     max_pixel_error: float = 1.0 / 128,
     value_range: tuple[float, float] | None = None,
     atlas: NodeAtlas | None = None,
+    decode: int | None = None,
     **render_options: Any,
 ) -> tuple[np.ndarray, LodStats]:
     """Render an open octree for ``camera`` within a budget of ``voxels`` (``blocks``
@@ -254,41 +269,51 @@ def render_lod(
     The value range defaults to the octree's recorded one; ``atlas`` (a
     :class:`NodeAtlas` of this tree kept across the frames of a walk) keeps the decoded
     nodes, or the resident full-resolution grid when it fits its budget, else one is
-    made for this frame (paged, with gradient bricks when shaded)."""
+    made for this frame (paged, with gradient bricks when shaded). ``decode`` caps the
+    chunks the frame decodes (:func:`volpack.octree.select.by_view`): a walk's first
+    frame then draws coarser nodes, and its next frames refine them. The chunks are
+    decoded on the ``workers`` threads of the render options."""
     from ..octree import select
+    from ..parallel import parse_workers
     from .raycast import TABLE_SIZE, empty_value, render, transfer_table
     from .transfer import nonempty_range
 
+    workers = parse_workers(render_options.get("workers"))  # as render() takes it
     if blocks is not None:
         voxels = int(blocks) * tree.geometry.block**3
-    before_nodes, before_bytes = tree.decoded_nodes, tree.bytes_read
-    t0 = time.perf_counter()
-    memo = None if atlas is None else atlas.select_memo
-    sel, st = select.by_view(
-        tree, camera, tf=tf, voxels=voxels, max_pixel_error=max_pixel_error, memo=memo
-    )
-    t1 = time.perf_counter()
     if value_range is None:
         value_range = tree_range(tree)
+    fill = None
+    if atlas is not None and atlas.resident_budget:  # the value uncovered cells hold, as render() finds it
+        lo, hi = nonempty_range(*value_range)
+        n = int(render_options.get("table_size", TABLE_SIZE))
+        base = None if tf is None else transfer_table(tf, lo, hi, n)
+        fill = empty_value(base, lo, hi, lo, quiet=True)
+        fill = fill if atlas.draws_resident(fill) else None
+    before_nodes, before_bytes = tree.decoded_nodes, tree.bytes_read
+    t0, c0 = time.perf_counter(), time.process_time()
+    memo = None if atlas is None else atlas.select_memo
+    sel, st = select.by_view(
+        tree, camera, tf=tf, voxels=voxels, max_pixel_error=max_pixel_error, memo=memo,
+        decode=decode, border=ResidentVolume.border if fill is not None else lambda lv: BORDER,
+    )  # fmt: skip
+    t1, c1 = time.perf_counter(), time.process_time()
     w, h = camera.size
     if not sel:  # nothing visible
         img = np.zeros((h, w, 4), np.float32)
         t2 = t3 = time.perf_counter()
+        c2 = c3 = time.process_time()
     else:
-        pv = None
         if atlas is None:
             shaded = render_options.get("shading", "none") != "none"
             atlas = NodeAtlas(tree, gradients=shaded, keep=1.0)
-        elif atlas.resident_budget:  # the value uncovered cells hold, as render() finds it
-            lo, hi = nonempty_range(*value_range)
-            n = int(render_options.get("table_size", TABLE_SIZE))
-            base = None if tf is None else transfer_table(tf, lo, hi, n)
-            pv = atlas.dense(sel, empty_value(base, lo, hi, lo, quiet=True), (lo, hi))
-        if pv is None:
-            pv = atlas.paged(sel)
-        t2 = time.perf_counter()
+        if fill is not None:
+            pv = atlas.dense(sel, fill, nonempty_range(*value_range), workers)
+        else:
+            pv = atlas.paged(sel, workers)
+        t2, c2 = time.perf_counter(), time.process_time()
         img = render(pv, tf=tf, camera=camera, value_range=value_range, **render_options)
-        t3 = time.perf_counter()
+        t3, c3 = time.perf_counter(), time.process_time()
     levels: dict[int, int] = {}
     nvox = 0
     for lv, b in sel:
@@ -298,6 +323,7 @@ def render_lod(
         nodes=len(sel), voxels=nvox, decoded=tree.decoded_nodes - before_nodes,
         bytes_read=tree.bytes_read - before_bytes, select_s=t1 - t0, decode_s=t2 - t1,
         render_s=t3 - t2, culled=st["culled"], transparent=st["transparent"], levels=levels,
+        held=st["held"], cpu_s=(c1 - c0, c2 - c1, c3 - c2),
     )  # fmt: skip
 
 

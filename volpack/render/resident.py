@@ -52,6 +52,20 @@ def resident_bytes(tree) -> int:
     return math.prod(int(n) for n in tree.shape) * (item + 2)
 
 
+def grid_dtype(tree) -> np.dtype:
+    """The resident grid's dtype: the tree's when the ray caster samples it, else float32."""
+    dt = np.dtype(tree.dtype)
+    return dt if dt.type in SAMPLED else np.dtype(np.float32)
+
+
+def holds(dtype: np.dtype, fill: float) -> bool:
+    """Whether ``dtype`` holds ``fill`` exactly."""
+    if dtype.kind == "f":
+        return math.isfinite(fill)
+    info = np.iinfo(dtype)
+    return float(fill).is_integer() and info.min <= fill <= info.max
+
+
 _MASK = (1 << 20) - 1
 
 
@@ -70,7 +84,7 @@ class ResidentVolume:
         self.k = tree.geometry.block
         self.shape = tuple(int(n) for n in tree.shape)
         dt = np.dtype(tree.dtype)
-        self.dtype = dt if dt.type in SAMPLED else np.dtype(np.float32)
+        self.dtype = grid_dtype(tree)
         self.cells = tuple(-(-n // self.k) for n in self.shape)
         self.have = np.full(self.cells, -1, np.int64)  # node key written per cell; -1: fill
         self.fill: float | None = None
@@ -81,14 +95,18 @@ class ResidentVolume:
 
     def representable(self, fill: float) -> bool:
         """Whether the grid's dtype holds ``fill`` exactly."""
-        if self.dtype.kind == "f":
-            return math.isfinite(fill)
-        info = np.iinfo(self.dtype)
-        return float(fill).is_integer() and info.min <= fill <= info.max
+        return holds(self.dtype, fill)
 
-    def update(self, selection, fill: float) -> PreparedVolume:
+    @staticmethod
+    def border(level: int) -> int:
+        """Voxels of its level's neighbours a node's write reads around it: one for the
+        trilinear resampling of a coarse node, none at full resolution."""
+        return 1 if level > 0 else 0
+
+    def update(self, selection, fill: float, workers: int = 1) -> PreparedVolume:
         """The grid for ``selection`` (``[(level, (bz, by, bx)), ...]``, footprints
-        disjoint), writing only the cells whose content changed."""
+        disjoint), writing only the cells whose content changed; the chunks those
+        writes need are decoded first on ``workers`` threads."""
         k = self.k
         if self.prep is None or fill != self.fill:  # first frame, or a new transfer function
             data = np.full(self.shape, fill, self.dtype)
@@ -104,21 +122,44 @@ class ResidentVolume:
             want[tuple(slice(s.start // k, -(-s.stop // k)) for s in g.footprint(lv, b))] = _key(lv, b)
         changed = want != self.have
         data = self.prep.data
-        boxes = []
-        for c in np.argwhere(changed & (want == -1)):  # no longer drawn
-            box = tuple(slice(int(i) * k, min((int(i) + 1) * k, n)) for i, n in zip(c, self.shape))
+        for box in cell_boxes(changed & (want == -1), k, self.shape):  # no longer drawn
             data[box] = fill
-            boxes.append(box)
-        nodes = [int(key) for key in np.unique(want[changed]) if key >= 0]  # (re)drawn
-        for key in nodes:
-            lv, b = key >> 60, ((key >> 40) & _MASK, (key >> 20) & _MASK, key & _MASK)
+        nodes = [(key >> 60, ((key >> 40) & _MASK, (key >> 20) & _MASK, key & _MASK))
+                 for key in np.unique(want[changed]).tolist() if key >= 0]  # (re)drawn
+        if workers > 1:
+            self.tree.prefetch(set().union(*(self.tree.node_chunks(lv, b, self.border(lv))
+                                             for lv, b in nodes)), workers)  # fmt: skip
+        for lv, b in nodes:
             fp = g.footprint(lv, b)
             v = self.tree.assemble([(lv, b)], level=0, roi=fp, interp="linear").data
             if v.dtype.kind == "f":  # non-finite voxels are empty, as the plain renderer has them
                 v = np.where(np.isfinite(v), v, fill)
             data[fp] = v
-            boxes.append(fp)
         self.have = want
         self.written += len(nodes)
-        self.prep.rewritten(boxes)
+        self.prep.rewritten(cell_boxes(changed, k, self.shape))
         return self.prep
+
+
+def cell_boxes(cells: np.ndarray, k: int, shape) -> list[tuple[slice, slice, slice]]:
+    """Boxes of full-resolution voxels that cover the marked ``cells`` (of ``k^3``
+    voxels) exactly: the largest blocks of ``2^L`` cells a side, aligned as the
+    octree's nodes are, whose cells are all marked. A refined node's children come back
+    as its one box, so what is redone per box after a frame (brick ranges, the empty
+    bricks' test) runs once per refined region, not once per child (on the MRI's walk,
+    about 500 boxes a refining frame took 0.15-0.3 s)."""
+    full = [cells]
+    while max(full[-1].shape) > 1:  # full[L]: blocks of 2^L cells all marked (outside counts)
+        f = np.pad(full[-1], [(0, n % 2) for n in full[-1].shape], constant_values=True)
+        full.append(f.reshape(f.shape[0] // 2, 2, f.shape[1] // 2, 2, f.shape[2] // 2, 2)
+                    .all(axis=(1, 3, 5)))  # fmt: skip
+    boxes = []
+    for lv in range(len(full) - 1, -1, -1):
+        f = full[lv]
+        if lv + 1 < len(full):  # a block whose parent is all marked is in the parent's box
+            up = full[lv + 1].repeat(2, 0).repeat(2, 1).repeat(2, 2)
+            f = f & ~up[: f.shape[0], : f.shape[1], : f.shape[2]]
+        size = k << lv
+        for c in np.argwhere(f).tolist():
+            boxes.append(tuple(slice(i * size, min((i + 1) * size, n)) for i, n in zip(c, shape)))
+    return boxes

@@ -1,0 +1,57 @@
+"""Trilinear resampling of a coarse node onto a finer level (``Octree.assemble`` with
+``interp="linear"``): a kernel doing numpy's three axis passes in one sweep.
+
+Each pass blends two source planes along one axis, ``a (1 - w) + c w`` in float64 with
+no fused multiply-add, so the result is the same number the pass-by-pass numpy form
+gives; integer outputs are rounded to nearest (ties to even) and clipped to the dtype's
+range in the kernel, so the caller's cast is exact. In numpy, the passes over the
+coarse nodes of a walk's first frame (21 M voxels of the MRI of the benchmark) took
+0.5 CPU s, most of the frame's node writes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._jit import kernel
+
+
+@kernel
+def _trilinear_kernel(v, z0, z1, wz, y0, y1, wy, x0, x1, wx, rounded, lo, hi, out):
+    nz, ny, nx = len(z0), len(y0), len(x0)
+    a = np.empty((nz, v.shape[1], v.shape[2]))
+    for i in range(nz):
+        w = wz[i]
+        for j in range(v.shape[1]):
+            for k in range(v.shape[2]):
+                a[i, j, k] = v[z0[i], j, k] * (1 - w) + v[z1[i], j, k] * w
+    b = np.empty((nz, ny, v.shape[2]))
+    for i in range(nz):
+        for j in range(ny):
+            w = wy[j]
+            for k in range(v.shape[2]):
+                b[i, j, k] = a[i, y0[j], k] * (1 - w) + a[i, y1[j], k] * w
+    for i in range(nz):
+        for j in range(ny):
+            for k in range(nx):
+                w = wx[k]
+                r = b[i, j, x0[k]] * (1 - w) + b[i, j, x1[k]] * w
+                if rounded:
+                    r = min(max(np.rint(r), lo), hi)
+                out[i, j, k] = r
+
+
+def trilinear(v: np.ndarray, j0, j1, w, dtype) -> np.ndarray:
+    """``v`` (float64, 3-D) resampled at positions between voxels ``j0[ax]`` and
+    ``j1[ax]`` with weights ``w[ax]`` of the second, per axis; the result in ``dtype``
+    (integers rounded and clipped to its range)."""
+    dtype = np.dtype(dtype)
+    out = np.empty(tuple(len(j) for j in j0))
+    rounded = dtype.kind in "iu"
+    info = np.iinfo(dtype) if rounded else None
+    _trilinear_kernel(np.ascontiguousarray(v, np.float64),
+                      *(np.ascontiguousarray(x, t) for ax in range(3)
+                        for x, t in ((j0[ax], np.int64), (j1[ax], np.int64), (w[ax], np.float64))),
+                      rounded, float(info.min) if rounded else 0.0,
+                      float(info.max) if rounded else 0.0, out)  # fmt: skip
+    return out.astype(dtype)
