@@ -1240,7 +1240,9 @@ def _march(
                 a = 0.0
                 if pre:
                     if not have_front:
-                        xf = grid_sample(vol, i, klo, khi, bz, by, bx, sz, sy, sx) * vs + v0
+                        # clamped: taken only after a leap, and one inlined sampler
+                        # fewer to compile (29 -> 44 -> 32 CPU s for two marches)
+                        xf = fixed_sample(vol, bz + i * sz, by + i * sy, bx + i * sx) * vs + v0
                         if near:
                             ii = _nearest(xf, n_tab)
                         else:
