@@ -191,7 +191,12 @@ def floor_div_nonneg(a, d):
     and the same correction makes it exact. (A negative quotient truncates towards
     zero, which with the float's own error can be off by two: not for this one.) The
     correction is a branch, not arithmetic: it is almost never taken."""
-    q = np.int64(np.float64(a) / np.float64(d))
+    return _floor_fix(a, d, np.int64(np.float64(a) / np.float64(d)))
+
+
+@kernel(inline=True)
+def _floor_fix(a, d, q):
+    """``a // d`` from ``q``, a quotient off by at most one (``a >= 0``, ``d > 0``)."""
     r = a - q * d
     if r < 0 or r >= d:  # (rare: a branch the CPU guesses right and the decoder's chain
         q += np.int64(r >= d) - np.int64(r < 0)  # goes on with q, not waiting for r)
@@ -205,11 +210,7 @@ def floor_div_recip(a, d, rd):
     ``1 / d``, the product) leave the product within ``2^-51`` of ``a / d`` relatively,
     under ``1/8`` for quotients below ``2^48``: the truncation is off by at most one and
     the same correction makes it exact."""
-    q = np.int64(np.float64(a) * rd)
-    r = a - q * d
-    if r < 0 or r >= d:  # (rare, as in floor_div_nonneg)
-        q += np.int64(r >= d) - np.int64(r < 0)
-    return q
+    return _floor_fix(a, d, np.int64(np.float64(a) * rd))
 
 
 @kernel(inline=True)
