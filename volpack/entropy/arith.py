@@ -162,9 +162,7 @@ def _decode_kernel(data, perm, end, parent, cls, nbr, flat, nmax):
         if e > i + 1:  # the subtree flag
             k = ctx
             bit, code, rng, pos = get(data, state, k, code, rng, pos, RATE)
-            if bit == 0:
-                for j in range(i, e):
-                    flat[_U(perm[_U(j)])] = 0
+            if bit == 0:  # the caller zeroed ``flat``
                 nprev = 0
                 i = e
                 continue
@@ -212,6 +210,7 @@ def decode(data: bytes, scan: Scan, out: np.ndarray) -> None:
     if flat.size != scan.perm.size:
         raise FormatError(f"expected {scan.perm.size} coefficients, found room for {flat.size}")
     buf = np.frombuffer(data, dtype=np.uint8)
+    flat[:] = 0  # zero subtrees are skipped, not written (one memset, not a scatter)
     status = _decode_kernel(
         buf, scan.perm, scan.end, scan.parent, scan.cls, scan.nbr, flat, max_bits(flat)
     )

@@ -38,6 +38,7 @@ import struct
 import numpy as np
 
 from ..errors import FormatError
+from .floatcast import scale_in_place
 
 STEP_FACTORS = (1.25, 1.5, 2.0, 2.5, 3.0, 4.0)
 FIRST_FACTOR = 2  # index of 2E, where the step search starts
@@ -202,7 +203,7 @@ def decode(inner: bytes | memoryview, shape: tuple[int, int, int], coder: str, m
     lv = tuple(lv)
     q = np.empty(shape, np.int64)
     CODERS[coder].decode(bytes(inner[HEADER.size :]), _scan(shape, lv, k), q)
-    return _transform(k == SEPARABLE).inverse(q * step, lv, overwrite=True)
+    return _transform(k == SEPARABLE).inverse(scale_in_place(q, step), lv, overwrite=True)
 
 
 def _transform(separable: bool):

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._jit import kernel
+from .._jit import kernel, read_only
 
 _U = np.uint64
 
@@ -54,3 +54,45 @@ def to_float32(v: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
     else:  # a transposed walk, or a brick inside a larger volume: one pass all the same
         _clip_cast_3d(v, out, big)
     return out
+
+
+@kernel(nrt=False)
+def _dequantise_3d(q, step, lo, out, big):
+    """``out = to_float32(q * step + lo)``: the quantised voxels rebuilt in double
+    precision (the same two IEEE operations) and cast, one pass between 3-D views."""
+    nz, ny, nx = q.shape
+    for z in range(nz):
+        for y in range(ny):
+            for x in range(nx):
+                t = np.float64(q[_U(z), _U(y), _U(x)]) * step
+                t = t + lo
+                if t > big:
+                    t = big
+                elif t < -big:
+                    t = -big
+                out[_U(z), _U(y), _U(x)] = t
+
+
+def dequantise_float32(q: np.ndarray, step: float, lo: float, out: np.ndarray | None = None):
+    """``to_float32(q.astype(np.float64) * step + lo)`` for a 3-D integer ``q`` without
+    the float64 temporary, into ``out`` (float32, ``q``'s shape, any strides) when
+    given."""
+    if out is None:
+        out = np.empty(q.shape, np.float32)
+    big = float(np.finfo(np.float32).max)
+    _dequantise_3d(read_only(q), float(step), float(lo), out, big)  # one signature per dtype
+    return out
+
+
+@kernel(nrt=False)
+def _scale_over(q, c, step):
+    for i in range(q.size):
+        c[_U(i)] = np.float64(q[_U(i)]) * step  # (read before written: same index)
+
+
+def scale_in_place(q: np.ndarray, step: float) -> np.ndarray:
+    """``q * step`` (float64) for a C-contiguous int64 ``q``, written over ``q``'s own
+    memory (returned as a float64 view of it): no second brick-sized array."""
+    c = q.view(np.float64)
+    _scale_over(q.reshape(-1), c.reshape(-1), float(step))
+    return c

@@ -475,6 +475,49 @@ def _lstsq(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return np.clip(np.round(w * (1 << CF_BITS)), -CF_LIMIT, CF_LIMIT).astype(np.int64)
 
 
+_FIT_STEPS = np.array(FIT_OFFSETS, dtype=np.int64)
+
+
+@kernel(inline=True)
+def _fit_varies(v, steps, z, y, x):
+    t = v[z, y, x]
+    for j in range(steps.shape[0]):
+        if v[z - steps[j, 0], y - steps[j, 1], x - steps[j, 2]] != t:
+            return True
+    return False
+
+
+@kernel(nrt=False)
+def _fit_walk(v, mk, steps, hi, xs, ys, fill):
+    """The rows of the least-squares fit (neighbours, target) over ``v[2:, 2:hi[0],
+    2:hi[1]]`` in C order, written to ``xs``, ``ys`` when ``fill`` (what boolean indexing
+    of the shifted views gives, in one pass and without a column stack); their count."""
+    k = 0
+    for z in range(2, v.shape[0]):
+        for y in range(2, hi[0]):
+            for x in range(2, hi[1]):
+                if mk[z, y, x] != 0 or not _fit_varies(v, steps, z, y, x):
+                    continue
+                if fill:
+                    for j in range(steps.shape[0]):
+                        xs[k, j] = np.float64(v[z - steps[j, 0], y - steps[j, 1], x - steps[j, 2]])
+                    ys[k] = np.float64(v[z, y, x])
+                k += 1
+    return k
+
+
+def _fit_rows(v: np.ndarray, mask) -> tuple[np.ndarray, np.ndarray]:
+    """(neighbours (N, NFIT), targets (N,)) as float64 over the voxels of ``v[2:, 2:-1,
+    2:-1]`` not masked and whose neighbours do not all equal them."""
+    mk = np.zeros(v.shape, np.uint8) if mask is None else np.ascontiguousarray(mask, np.uint8)
+    hi = np.array([v.shape[1] - 1, v.shape[2] - 1], dtype=np.int64)
+    xs, ys = np.empty((0, NFIT), np.float64), np.empty(0, np.float64)
+    n = _fit_walk(v, mk, _FIT_STEPS, hi, xs, ys, False)  # count, then fill: exact sizes
+    xs, ys = np.empty((n, NFIT), np.float64), np.empty(n, np.float64)
+    _fit_walk(v, mk, _FIT_STEPS, hi, xs, ys, True)
+    return xs, ys
+
+
 def fit(v: np.ndarray, mask: np.ndarray | None = None) -> list[tuple[np.ndarray, np.ndarray]]:
     """Weights of the fitted predictor for brick ``v`` (values from 0), in 2^-CF_BITS,
     and the gradient classes' thresholds: least squares over the voxels where every
@@ -486,17 +529,9 @@ def fit(v: np.ndarray, mask: np.ndarray | None = None) -> list[tuple[np.ndarray,
     th = np.full(NCLS - 1, NO_CLASS, dtype=np.int64)
     if nz < 3 or ny < 3 or nx < 4:
         return [(cf, th), (cf, th)]
-    f = v.astype(np.float64)
-    target = f[2:, 2:-1, 2:-1]
-    cols = [f[2 - dz : nz - dz, 2 - dy : ny - 1 - dy, 2 - dx : nx - 1 - dx] for dz, dy, dx in FIT_OFFSETS]
-    flat = np.ones(target.shape, dtype=bool)
-    for c in cols:
-        flat &= c == target
-    keep = ~flat if mask is None else ~flat & ~mask[2:, 2:-1, 2:-1]
-    if keep.sum() < 4 * NFIT:
+    x, y = _fit_rows(np.ascontiguousarray(v, dtype=np.int64), mask)
+    if y.size < 4 * NFIT:
         return [(cf, th), (cf, th)]
-    x = np.stack([c[keep] for c in cols], axis=1)
-    y = target[keep]
     W, N, U, NW, NE, UW, UN = (x[:, k] for k in range(7))
     g = np.abs(W - NW) + np.abs(N - NW) + np.abs(N - NE) + np.abs(U - UN) + np.abs(U - UW)
     th4 = np.minimum(np.quantile(g, np.arange(1, NCLS) / NCLS), NO_CLASS).astype(np.int64)
