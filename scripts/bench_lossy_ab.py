@@ -214,7 +214,8 @@ def write(rows: list[dict], out: Path, args) -> None:
         "",
         "| field | bound | ratio | same bytes | dec MB/s "
         + f"{first} / {second} | dec speed-up | x SZ3 {first} / {second} | x SPERR "
-        + f"{first} / {second} |" + (f" enc MB/s {first} / {second} | enc speed-up |" if enc else ""),
+        + f"{first} / {second} |"
+        + (f" enc MB/s {first} / {second} | enc speed-up |" if enc else ""),
         "|---|---|---:|---|---:|---:|---:|---:|" + ("---:|---:|" if enc else ""),
     ]
     by = {(r["dataset"], r["rel_bound"], r["tree"]): r for r in rows}

@@ -5,8 +5,8 @@ with ``api.compress_array(a, max_error=E)`` and decoded once to warm numba's cac
 ``--rounds`` decodes run under ``cProfile`` and each function's own time (``tottime``)
 is put into a stage by the function's module and name (:data:`STAGES`); ``python``
 (the container, headers, checks and numpy glue) is the best un-profiled CPU time of a
-decode less the other stages. Stage times are CPU milliseconds per decode. ``--encode`` profiles one encode the same way, by the
-bounded encoder's candidate paths.
+decode less the other stages. Stage times are CPU milliseconds per decode.
+``--encode`` profiles one encode the same way, by the bounded encoder's candidate paths.
 
     python scripts/profile_lossy_stages.py --datasets cam_u,tgv_u,climate_t --out results/x
 """
@@ -127,7 +127,8 @@ def main(argv=None) -> None:
             api.decompress_array(blob)  # warm: kernels loaded from numba's cache
             runs = [("decode", lambda: api.decompress_array(blob), args.rounds, STAGES)]
             if args.encode:
-                runs.append(("encode", lambda: api.compress_array(a, max_error=e), 1, ENCODE_STAGES))
+                enc = lambda: api.compress_array(a, max_error=e)  # noqa: E731
+                runs.append(("encode", enc, 1, ENCODE_STAGES))
             for what, call, rounds, table in runs:
                 acc, total = profile(call, rounds, table)
                 for s, t in sorted(acc.items(), key=lambda kv: -kv[1]):

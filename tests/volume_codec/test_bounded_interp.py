@@ -218,3 +218,21 @@ def test_the_one_pass_cast_of_a_strided_view_clips_as_numpy_does():
         big = float(np.finfo(np.float32).max)
         want = np.clip(view, -big, big).astype(np.float32)
         np.testing.assert_array_equal(to_float32(view), want)
+
+
+def test_dequantise_and_scale_match_numpy():
+    """The one-pass dequantisation (into a strided view too) and the in-place scaling give
+    numpy's values bit for bit, clipping to float32's range included."""
+    from volpack.volume_codec.floatcast import dequantise_float32, scale_in_place, to_float32
+
+    rng = np.random.default_rng(3)
+    q = rng.integers(0, 2**16, size=(3, 4, 5)).astype(np.uint16)
+    for step, lo in ((2.0e-3, -1.7), (1.0e36, -3.0e38)):  # the second passes +-big
+        want = to_float32(q.astype(np.float64) * step + lo)
+        np.testing.assert_array_equal(dequantise_float32(q, step, lo), want)
+        big = np.zeros((3, 5, 5), np.float32)
+        dequantise_float32(q, step, lo, big[:, 1:, :])
+        np.testing.assert_array_equal(big[:, 1:, :], want)
+        assert not big[:, 0, :].any()
+    c = rng.integers(-(2**40), 2**40, size=(2, 3, 4))
+    np.testing.assert_array_equal(scale_in_place(c.copy(), 0.37), c * 0.37)

@@ -287,3 +287,25 @@ def test_weight_table_matches_its_definition():
     ss = list(range(predictfit.W2_SPAN + 64)) + [1 << 20, 5 * (1 << 30)]
     got = [int(predictfit.W2[min(s, predictfit.W2_SPAN - 1)]) for s in ss]
     assert got == [weight2(s) for s in ss]
+
+
+@pytest.mark.parametrize("masked", [False, True])
+def test_fit_rows_match_the_column_stack(masked):
+    """The kernel's least-squares rows against boolean indexing of the shifted views (the
+    weights are rounded from sums over these rows: any difference changes the bytes)."""
+    rng = np.random.default_rng(7)
+    v = rng.integers(0, 4, size=(6, 7, 9)).astype(np.int64)
+    v[:, :5, :6] = 2  # a flat corner: voxels whose neighbours all equal them are left out
+    mask = rng.random(v.shape) < 0.3 if masked else None
+    nz, ny, nx = v.shape
+    f = v.astype(np.float64)
+    target = f[2:, 2:-1, 2:-1]
+    steps = predictfit.FIT_OFFSETS
+    cols = [f[2 - a : nz - a, 2 - b : ny - 1 - b, 2 - c : nx - 1 - c] for a, b, c in steps]
+    keep = ~np.logical_and.reduce([c == target for c in cols])
+    if masked:
+        keep &= ~mask[2:, 2:-1, 2:-1]
+    x, y = predictfit._fit_rows(v, mask)
+    assert 0 < y.size < target.size
+    np.testing.assert_array_equal(x, np.stack([c[keep] for c in cols], axis=1))
+    np.testing.assert_array_equal(y, target[keep])
