@@ -25,7 +25,7 @@ import numpy as np
 
 from .._jit import kernel, leading_zeros
 from ..errors import FormatError
-from .common import check_status, encode_with_retry, flat_view, max_bits
+from .common import decoded_into, encode_with_retry, flat_view, max_bits, wide
 from .rangecoder import (
     RATE,
     STATE_INIT,
@@ -197,7 +197,7 @@ def _decode_kernel(data, perm, end, parent, cls, nbr, flat, nmax):
 
 def encode(coeffs: np.ndarray, scan: Scan) -> bytes:
     """Code a coefficient array (int32 or int64) in ``scan`` order."""
-    flat = flat_view(coeffs)
+    flat = wide(flat_view(coeffs))
     return encode_with_retry(
         lambda out: _encode_kernel(flat, scan.perm, scan.end, scan.parent, scan.cls, scan.nbr, out),
         flat.size,
@@ -211,7 +211,9 @@ def decode(data: bytes, scan: Scan, out: np.ndarray) -> None:
         raise FormatError(f"expected {scan.perm.size} coefficients, found room for {flat.size}")
     buf = np.frombuffer(data, dtype=np.uint8)
     flat[:] = 0  # zero subtrees are skipped, not written (one memset, not a scatter)
-    status = _decode_kernel(
-        buf, scan.perm, scan.end, scan.parent, scan.cls, scan.nbr, flat, max_bits(flat)
+    nmax = max_bits(flat)
+    decoded_into(
+        flat,
+        lambda into: _decode_kernel(buf, scan.perm, scan.end, scan.parent, scan.cls, scan.nbr, into, nmax),
+        "arithmetic",
     )
-    check_status(status, "arithmetic")

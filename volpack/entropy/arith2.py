@@ -30,7 +30,7 @@ import numpy as np
 from .._jit import kernel, leading_zeros
 from ..errors import FormatError
 from .arith import NQ, SHARE
-from .common import check_status, flat_view, max_bits
+from .common import decoded_into, flat_view, max_bits, wide
 from .rangecoder import PROB_BITS, RATE, STATE_INIT
 from .scan import N_CLASSES, Scan
 
@@ -469,7 +469,7 @@ def _decode_kernel(
 
 def encode(coeffs: np.ndarray, scan: Scan) -> bytes:
     """Code a coefficient array (int32 or int64) in ``scan`` order."""
-    flat = flat_view(coeffs)
+    flat = wide(flat_view(coeffs))
     starts = np.empty(3 * flat.size + 8, dtype=np.int32)
     freqs = np.empty(3 * flat.size + 8, dtype=np.int32)
     raw = np.empty(9 * flat.size + 64, dtype=np.uint8)  # at most 67 plain bits each
@@ -516,21 +516,12 @@ def decode(data: bytes, scan: Scan, out: np.ndarray) -> None:
     models = np.full(N_BIN, STATE_INIT, dtype=np.uint16)
     nbits = np.zeros(flat.size, dtype=np.uint8)
     flat[:] = 0  # zero subtrees are skipped, not written
-    status = _decode_kernel(
-        rc,
-        raw,
-        scan.perm,
-        scan.end,
-        scan.parent,
-        scan.cls,
-        scan.nbr,
+    nmax = max_bits(flat)
+    decoded_into(
         flat,
-        max_bits(flat),
-        models,
-        CNT0.copy(),
-        BND0.copy(),
-        MCNT0.copy(),
-        MBND0.copy(),
-        nbits,
-    )
-    check_status(status, "arith2")
+        lambda into: _decode_kernel(
+            rc, raw, scan.perm, scan.end, scan.parent, scan.cls, scan.nbr, into, nmax,
+            models, CNT0.copy(), BND0.copy(), MCNT0.copy(), MBND0.copy(), nbits,
+        ),
+        "arith2",
+    )  # fmt: skip

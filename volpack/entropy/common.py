@@ -22,6 +22,22 @@ def flat_view(a: np.ndarray) -> np.ndarray:
     return a.reshape(-1)
 
 
+def wide(flat: np.ndarray) -> np.ndarray:
+    """``flat`` as int64, copied when int32: each coder's kernels are compiled for int64
+    only, one specialisation instead of two (the copy is small beside the coding)."""
+    return flat.astype(np.int64, copy=False)
+
+
+def decoded_into(flat: np.ndarray, decode: Callable[[np.ndarray], int], coder: str) -> None:
+    """Run ``decode`` (a kernel call writing int64 coefficients, returning a status) into
+    ``flat``, through a zeroed int64 copy when ``flat`` is int32. The kernel is passed
+    :func:`max_bits` of ``flat`` itself, so int32 output stays within 32-bit values."""
+    into = flat if flat.dtype == np.int64 else np.zeros(flat.size, np.int64)
+    check_status(decode(into), coder)
+    if into is not flat:
+        flat[:] = into
+
+
 def max_bits(flat: np.ndarray) -> int:
     """Largest bit length a mapped coefficient of this dtype can have."""
     return 32 if flat.dtype == np.int32 else 63

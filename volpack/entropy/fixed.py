@@ -22,7 +22,7 @@ import numpy as np
 
 from .._jit import kernel, leading_zeros
 from ..errors import FormatError
-from .common import check_status, encode_with_retry, flat_view, max_bits
+from .common import decoded_into, encode_with_retry, flat_view, max_bits, wide
 from .scan import Scan
 
 
@@ -255,7 +255,7 @@ def _rle_decode_kernel(data, limit, perm, flat, nmax):
 
 def encode_huffman(coeffs: np.ndarray, scan: Scan) -> bytes:
     """Subtree flags + fixed code, in ``scan`` order."""
-    flat = flat_view(coeffs)
+    flat = wide(flat_view(coeffs))
     return encode_with_retry(
         lambda out: _huffman_encode_kernel(flat, scan.perm, scan.end, out), flat.size
     )
@@ -263,20 +263,24 @@ def encode_huffman(coeffs: np.ndarray, scan: Scan) -> bytes:
 
 def decode_huffman(data: bytes, scan: Scan, out: np.ndarray) -> None:
     flat = _checked(out, scan)
-    check_status(
-        _huffman_decode_kernel(*_words(data), scan.perm, scan.end, flat, max_bits(flat)), "huffman"
+    words, limit = _words(data)
+    nmax = max_bits(flat)
+    decoded_into(
+        flat, lambda into: _huffman_decode_kernel(words, limit, scan.perm, scan.end, into, nmax), "huffman"
     )
 
 
 def encode_rle(coeffs: np.ndarray, scan: Scan) -> bytes:
     """Zero runs + fixed code, in ``scan`` order (subtree structure unused)."""
-    flat = flat_view(coeffs)
+    flat = wide(flat_view(coeffs))
     return encode_with_retry(lambda out: _rle_encode_kernel(flat, scan.perm, out), flat.size)
 
 
 def decode_rle(data: bytes, scan: Scan, out: np.ndarray) -> None:
     flat = _checked(out, scan)
-    check_status(_rle_decode_kernel(*_words(data), scan.perm, flat, max_bits(flat)), "rle")
+    words, limit = _words(data)
+    nmax = max_bits(flat)
+    decoded_into(flat, lambda into: _rle_decode_kernel(words, limit, scan.perm, into, nmax), "rle")
 
 
 def _words(data: bytes) -> tuple[np.ndarray, int]:

@@ -40,7 +40,7 @@ from .arith2 import (
     put_raw,
     raw_end_status,
 )
-from .common import check_status, flat_view, max_bits
+from .common import decoded_into, flat_view, max_bits, wide
 from .rans import TOTAL
 from .scan import Scan
 
@@ -170,7 +170,7 @@ def _model_kernel(flat, perm, end, parent, cls, nbr, sym, ctxs, raw):
 
 def encode(coeffs: np.ndarray, scan: Scan) -> bytes:
     """Code a coefficient array (int32 or int64) in ``scan`` order."""
-    flat = flat_view(coeffs).astype(np.int64, copy=False)  # one kernel specialisation
+    flat = wide(flat_view(coeffs))
     sym = np.empty(3 * flat.size + 8, dtype=np.int64)
     ctxs = np.empty(3 * flat.size + 8, dtype=np.int64)
     raw = np.empty(9 * flat.size + 64, dtype=np.uint8)
@@ -328,15 +328,14 @@ def decode(data: bytes, scan: Scan, out: np.ndarray) -> None:
     stream[: len(parts[1])] = np.frombuffer(parts[1], np.uint8)
     raw = np.zeros(len(data) - pos + RAW_PAD, dtype=np.uint8)
     raw[: len(data) - pos] = np.frombuffer(data, np.uint8, len(data) - pos, pos)
-    # Into int64 (one kernel specialisation); int32 output takes a copy, its bit lengths
-    # held to 32.
-    into = flat if flat.dtype == np.int64 else np.zeros(flat.size, np.int64)
-    into[:] = 0  # zero subtrees are skipped, not written
+    flat[:] = 0  # zero subtrees are skipped, not written
     nbits = np.zeros(flat.size, dtype=np.uint8)
-    status = _decode_kernel(
-        stream, raw, scan.perm, scan.end, scan.parent, scan.cls, scan.nbr, into,
-        max_bits(flat), cmap, syms, info, nbits,
+    nmax = max_bits(flat)
+    decoded_into(
+        flat,
+        lambda into: _decode_kernel(
+            stream, raw, scan.perm, scan.end, scan.parent, scan.cls, scan.nbr, into,
+            nmax, cmap, syms, info, nbits,
+        ),
+        "static",
     )  # fmt: skip
-    check_status(status, "static")
-    if into is not flat:
-        flat[:] = into
