@@ -40,6 +40,7 @@ import numpy as np
 
 from ..parallel import ordered_map
 from .prepared import SAMPLED, PreparedVolume
+from .raycast import brick_ranges, brick_size
 
 #: Bytes a walk's resident volume may take (data, quantised normals and, for
 #: perspective frames, gradients): 512 MiB holds an 8-bit grid of 179 M voxels (560^3).
@@ -114,6 +115,8 @@ class ResidentVolume:
             grad_budget = max(0, self.budget - data.nbytes - 2 * data.size)
             self.prep = PreparedVolume(data, tuple(self.tree.spacing), None, self.value_range,
                                        grad_budget)  # fmt: skip
+            # the ray caster's brick ranges, known here: rewritten() reads the nodes' boxes only
+            self.prep.uniform(fill, brick_size(self.shape), lambda *a: brick_ranges(*a, workers))
             self.have[:] = -1
             self.fill = fill
         g = self.tree.geometry
