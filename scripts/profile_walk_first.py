@@ -10,7 +10,8 @@ machine being shared). Compile time is not in either: run the command once befor
 inclusive of the stages it calls (e.g. ``decode: resident update`` holds the chunk
 prefetch and the node writes); ``frame 0`` counts from the start of the walk command's
 first ``render_lod`` call to the end of its PNG write. CPU seconds are the process's
-(all threads, ``time.process_time``). Prints a table and, with ``--csv``, writes one
+(all threads, ``time.process_time``); minor page faults are the process's too (the
+first touches of fresh memory, each zeroing a 4 kB page). Prints a table and, with ``--csv``, writes one
 row per (walk, stage).
 
     python scripts/profile_walk_first.py /tmp/o.vpk --warm --csv results/render/walk13/stages.csv
@@ -23,6 +24,7 @@ import contextlib
 import functools
 import io
 import json
+import resource
 import shutil
 import sys
 import tempfile
@@ -31,6 +33,11 @@ from pathlib import Path
 
 STAGES: dict[str, list[float]] = {}
 FRAME = {"n": -1}  # render_lod calls so far in the walk
+
+
+def faults() -> int:
+    """Minor page faults of the process so far (first touches of fresh memory)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_minflt
 
 
 def timed(owner, name: str, stage: str, clock=time.process_time):
@@ -43,14 +50,15 @@ def timed(owner, name: str, stage: str, clock=time.process_time):
     def wrapper(*a, **k):
         if FRAME["n"] > 0:
             return fn(*a, **k)
-        w0, c0 = time.perf_counter(), clock()
+        w0, c0, f0 = time.perf_counter(), clock(), faults()
         try:
             return fn(*a, **k)
         finally:
-            acc = STAGES.setdefault(stage, [0.0, 0.0, 0])
+            acc = STAGES.setdefault(stage, [0.0, 0.0, 0, 0])
             acc[0] += time.perf_counter() - w0
             acc[1] += clock() - c0
             acc[2] += 1
+            acc[3] += faults() - f0
 
     setattr(owner, name, wrapper)
 
@@ -92,6 +100,7 @@ def install() -> None:
         FRAME["n"] += 1
         if FRAME["n"] == 0:
             FRAME["t0"] = (time.perf_counter(), time.process_time())
+            FRAME["f0"] = faults()
         return orig(*a, **k)
 
     lod.render_lod = counted
@@ -101,7 +110,8 @@ def install() -> None:
         wr(self, rgba)
         if FRAME["n"] == 0:
             w0, c0 = FRAME["t0"]
-            STAGES["frame 0"] = [time.perf_counter() - w0, time.process_time() - c0, 1]
+            STAGES["frame 0"] = [time.perf_counter() - w0, time.process_time() - c0, 1,
+                                 faults() - FRAME["f0"]]
 
     movie.MovieWriter.write = write
 
@@ -113,14 +123,14 @@ def walk(vpk: str, orbit: int, extra: list[str]) -> dict:
     STAGES.clear()
     FRAME["n"] = -1
     buf = io.StringIO()
-    w0, c0 = time.perf_counter(), time.process_time()
+    w0, c0, f0 = time.perf_counter(), time.process_time(), faults()
     with contextlib.redirect_stdout(buf):
         try:
             cli.main(["walk", vpk, str(out) + "/", "--orbit", str(orbit), "--json", *extra],
                      standalone_mode=False)  # fmt: skip
         finally:
             shutil.rmtree(out, ignore_errors=True)
-    STAGES["walk command"] = [time.perf_counter() - w0, time.process_time() - c0, 1]
+    STAGES["walk command"] = [time.perf_counter() - w0, time.process_time() - c0, 1, faults() - f0]
     rep = json.loads(buf.getvalue())
     f0 = rep["per_frame"][0]
     return {"stages": {k: list(v) for k, v in STAGES.items()}, "frame0": f0}
@@ -134,8 +144,9 @@ def main(argv=None) -> int:
     ap.add_argument("--csv", type=Path)
     ap.add_argument("--label", default="")
     ap.add_argument("--repeat", type=int, default=3, help="walks after the first (best of)")
-    ap.add_argument("extra", nargs="*", help="more walk options (after --)")
+    ap.add_argument("--walk", default="", help="more walk options, one string ('-j 1')")
     args = ap.parse_args(argv)
+    args.extra = args.walk.split()
     if args.warm:
         import subprocess
 
@@ -145,7 +156,7 @@ def main(argv=None) -> int:
         shutil.rmtree(d, ignore_errors=True)
     t0, c0 = time.perf_counter(), time.process_time()
     import volpack.cli  # noqa: F401  (what a fresh process imports before the command)
-    imp = [time.perf_counter() - t0, time.process_time() - c0, 1]
+    imp = [time.perf_counter() - t0, time.process_time() - c0, 1, 0]
     install()
     rows = []
     runs = [("fresh process", walk(args.vpk, args.orbit, args.extra))]
@@ -162,11 +173,12 @@ def main(argv=None) -> int:
               f"{1000 * f0['select_s']:.0f}/{1000 * f0['decode_s']:.0f}/{1000 * f0['render_s']:.0f}"
               f" ms wall, {1000 * sum(f0['cpu_s']):.0f} ms CPU; {f0['nodes']} nodes,"
               f" {f0['decoded']} decoded")  # fmt: skip
-        print(f"{'stage':42s} {'calls':>5s} {'wall ms':>8s} {'CPU ms':>8s}")
-        for name, (w, c, n) in r["stages"].items():
-            print(f"{name:42s} {n:5d} {1000 * w:8.1f} {1000 * c:8.1f}")
+        print(f"{'stage':42s} {'calls':>5s} {'wall ms':>8s} {'CPU ms':>8s} {'faults':>8s}")
+        for name, (w, c, n, f) in r["stages"].items():
+            print(f"{name:42s} {n:5d} {1000 * w:8.1f} {1000 * c:8.1f} {f:8d}")
             rows.append({"label": args.label, "run": run, "stage": name, "calls": n,
-                         "wall_ms": round(1000 * w, 2), "cpu_ms": round(1000 * c, 2)})  # fmt: skip
+                         "wall_ms": round(1000 * w, 2), "cpu_ms": round(1000 * c, 2),
+                         "minor_faults": f})  # fmt: skip
     if args.csv:
         sys.path.insert(0, str(Path(__file__).resolve().parent))
         from bench_workers import append_csv

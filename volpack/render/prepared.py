@@ -115,14 +115,6 @@ class PreparedVolume:
             self._ranges = ((fill, brick), (mins, maxs), kernel_fn)
         return self._ranges[1]
 
-    def uniform(self, value: float, brick: int, kernel_fn) -> None:
-        """``data`` holds ``value`` everywhere (a walk's grid before its first nodes are
-        written): its brick ranges are known without reading it, so after
-        :meth:`rewritten` only the bricks of the boxes written are read."""
-        nb = tuple(max(1, -(-s // brick)) for s in self.data.shape)
-        v = np.float32(value)
-        self._ranges = ((None, brick), (np.full(nb, v), np.full(nb, v)), kernel_fn)
-
     def memo(self, name: str, key, build, refresh=None):
         """``build()``, kept under ``name`` (one value a name) while ``key`` stays equal.
         After :meth:`rewritten`, ``refresh(value, boxes)`` updates the kept value over

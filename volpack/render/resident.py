@@ -11,9 +11,11 @@ centres from its own level and its neighbours' voxels at that level, as
 ``interp="linear"`` does, rounded to the tree's integer dtype), and the cells no
 selected node covers hold a value the transfer function shows as transparent (what
 the page table's empty cells read). A frame rewrites only the cells of ``k^3``
-level-0 voxels whose node changed since the previous frame, tells the kept
+level-0 voxels whose node changed since the previous frame (a level's changed cells
+at once, in aligned boxes cut into pieces on the worker threads), tells the kept
 :class:`~volpack.render.prepared.PreparedVolume` which boxes changed (so that
-quantised normals, brick ranges and gradients are redone there only), and the plain
+brick ranges and gradients are redone there only and quantised normals computed again
+as samples read them), and the plain
 ray caster draws it: its fast path, its empty-space skipping and its per-volume
 caches.
 
@@ -40,7 +42,6 @@ import numpy as np
 
 from ..parallel import ordered_map
 from .prepared import SAMPLED, PreparedVolume
-from .raycast import brick_ranges, brick_size
 
 #: Bytes a walk's resident volume may take (data, quantised normals and, for
 #: perspective frames, gradients): 512 MiB holds an 8-bit grid of 179 M voxels (560^3).
@@ -115,8 +116,6 @@ class ResidentVolume:
             grad_budget = max(0, self.budget - data.nbytes - 2 * data.size)
             self.prep = PreparedVolume(data, tuple(self.tree.spacing), None, self.value_range,
                                        grad_budget)  # fmt: skip
-            # the ray caster's brick ranges, known here: rewritten() reads the nodes' boxes only
-            self.prep.uniform(fill, brick_size(self.shape), lambda *a: brick_ranges(*a, workers))
             self.have[:] = -1
             self.fill = fill
         g = self.tree.geometry
