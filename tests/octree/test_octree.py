@@ -318,6 +318,17 @@ def test_linear_assembly_has_no_seams(vol, blob):
         np.testing.assert_array_equal(out, np.clip(np.rint(ref), -32768, 32767).astype(np.int16))
 
 
+def test_a_level_resampled_over_any_box_gives_each_nodes_numbers(vol, blob):
+    # what a walk's resident grid writes per box of several nodes (resident.update):
+    # boxes cut anywhere give the voxels the whole-level upsampling gives there
+    with Octree(blob) as t:
+        ref = naive_octree.upsample_linear(t.decode(2).data, 4, vol.shape)
+        ref = np.clip(np.rint(ref), -32768, 32767).astype(np.int16)
+        for box in [(slice(0, 37), slice(0, 21), slice(0, 30)), (slice(3, 20), slice(5, 6), slice(7, 29))]:
+            np.testing.assert_array_equal(t.resampled(2, box, 4), ref[box])
+        np.testing.assert_array_equal(t.resampled(0, box, 1), vol[box])
+
+
 def test_brick_border_matches_neighbours(vol, blob):
     with Octree(blob) as t:
         full = np.pad(t.decode(1).data, 1, mode="edge")

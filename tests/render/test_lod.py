@@ -15,7 +15,8 @@ from volpack.octree import Octree, build, select
 from volpack.render.camera import Camera
 from volpack.errors import VolpackError
 from volpack.render.lod import NodeAtlas, paged_volume, render_lod
-from volpack.render.raycast import render
+from volpack.render.prepared import prepare_volume
+from volpack.render.raycast import brick_ranges, brick_size, render
 from volpack.render.transfer import load_tf
 
 
@@ -172,6 +173,12 @@ def test_resident_walk_matches_a_fresh_grid_and_the_paged_sampler(tree_path):
             assert float(np.sqrt(np.mean((img - paged) ** 2))) < 0.02
             assert len(st.levels) > 1 and kept.resident is not None and not kept.slot
             written.append(kept.resident.written)
+            # brick ranges kept from the grid's one value and the boxes written since:
+            # those of the grid read whole
+            prep, b = kept.resident.prep, brick_size(vol.shape)
+            for have, want in zip(prep.brick_ranges(None, b, brick_ranges),
+                                  prepare_volume(prep.data).brick_ranges(None, b, brick_ranges)):  # fmt: skip
+                np.testing.assert_array_equal(have, want)
             sels.add(tuple(sorted(st.levels.items())))
         assert len(sels) > 1 and written[0] < written[-1] < 3 * written[0]
         cam = Camera(size=(64, 64), azimuth=50.0, zoom=1.5)  # enough pixels for level 0

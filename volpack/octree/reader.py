@@ -416,7 +416,6 @@ class Octree:
         borders (seamless).
         """
         from ..volume import Volume
-        from .resample import trilinear
 
         if interp not in ("nearest", "linear"):
             raise OptionError(f"expected interp 'nearest' or 'linear', found {interp!r}")
@@ -443,24 +442,34 @@ class Octree:
             ]
             if any(s.stop <= s.start for s in t):
                 continue
-            pos = [(np.arange(s.start, s.stop) + 0.5) / fm - 0.5 for s in t]
-            nl = self.geometry.level_shape(lv)
-            if interp == "nearest" or fm == 1:  # at its own level: exact voxels, weights 0
-                idx = [np.arange(s.start, s.stop) // fm for s in t]
-                src = tuple(slice(int(i[0]), int(i[-1]) + 1) for i in idx)
-                vals = self.values(lv, src)
-                v = vals[np.ix_(*[i - i[0] for i in idx])]
-            else:
-                j0 = [np.clip(np.floor(p), 0, v - 1).astype(np.int64) for p, v in zip(pos, nl)]
-                j1 = [np.minimum(j + 1, v - 1) for j, v in zip(j0, nl)]
-                w = [np.clip(p - j, 0.0, 1.0) for p, j in zip(pos, j0)]
-                src = tuple(slice(int(a.min()), int(c.max()) + 1) for a, c in zip(j0, j1))
-                v = trilinear(self.values(lv, src).astype(np.float64),
-                              [j - s.start for j, s in zip(j0, src)],
-                              [j - s.start for j, s in zip(j1, src)], w, self.dtype)  # fmt: skip
+            v = self.resampled(lv, t, fm, interp)
             dst = tuple(slice(s.start - tb.start, s.stop - tb.start) for s, tb in zip(t, tbox))
             out[dst] = v
         return Volume(out, spacing=self._spacing(m), origin=self._origin(m, tbox))
+
+    def resampled(self, level: int, box, fm: int, interp: str = "linear") -> np.ndarray:
+        """Level ``level``'s voxels at the voxel centres of ``box`` (slices of a level
+        ``fm`` times finer), as :meth:`assemble` writes a node of that level there:
+        the voxels themselves at ``fm == 1``, else repeated (``"nearest"``) or
+        interpolated trilinearly with the neighbouring voxels (``"linear"``). Each
+        output voxel depends only on its position and the level's voxels, so a box
+        over several nodes gives each node's own numbers."""
+        from .resample import trilinear
+
+        if interp == "nearest" or fm == 1:  # at its own level: exact voxels, weights 0
+            idx = [np.arange(s.start, s.stop) // fm for s in box]
+            src = tuple(slice(int(i[0]), int(i[-1]) + 1) for i in idx)
+            vals = self.values(level, src)
+            return vals if fm == 1 else vals[np.ix_(*[i - i[0] for i in idx])]
+        nl = self.geometry.level_shape(level)
+        pos = [(np.arange(s.start, s.stop) + 0.5) / fm - 0.5 for s in box]
+        j0 = [np.clip(np.floor(p), 0, v - 1).astype(np.int64) for p, v in zip(pos, nl)]
+        j1 = [np.minimum(j + 1, v - 1) for j, v in zip(j0, nl)]
+        w = [np.clip(p - j, 0.0, 1.0) for p, j in zip(pos, j0)]
+        src = tuple(slice(int(a.min()), int(c.max()) + 1) for a, c in zip(j0, j1))
+        return trilinear(self.values(level, src).astype(np.float64),
+                         [j - s.start for j, s in zip(j0, src)],
+                         [j - s.start for j, s in zip(j1, src)], w, self.dtype)  # fmt: skip
 
     def close(self) -> None:
         self._r.close()

@@ -11,9 +11,11 @@ centres from its own level and its neighbours' voxels at that level, as
 ``interp="linear"`` does, rounded to the tree's integer dtype), and the cells no
 selected node covers hold a value the transfer function shows as transparent (what
 the page table's empty cells read). A frame rewrites only the cells of ``k^3``
-level-0 voxels whose node changed since the previous frame, tells the kept
+level-0 voxels whose node changed since the previous frame (a level's changed cells
+at once, in aligned boxes cut into pieces on the worker threads), tells the kept
 :class:`~volpack.render.prepared.PreparedVolume` which boxes changed (so that
-quantised normals, brick ranges and gradients are redone there only), and the plain
+brick ranges and gradients are redone there only and quantised normals computed again
+as samples read them), and the plain
 ray caster draws it: its fast path, its empty-space skipping and its per-volume
 caches.
 
@@ -38,6 +40,7 @@ import math
 
 import numpy as np
 
+from ..parallel import ordered_map
 from .prepared import SAMPLED, PreparedVolume
 
 #: Bytes a walk's resident volume may take (data, quantised normals and, for
@@ -129,16 +132,41 @@ class ResidentVolume:
         if workers > 1:
             self.tree.prefetch(set().union(*(self.tree.node_chunks(lv, b, self.border(lv))
                                              for lv, b in nodes)), workers)  # fmt: skip
-        for lv, b in nodes:
-            fp = g.footprint(lv, b)
-            v = self.tree.assemble([(lv, b)], level=0, roi=fp, interp="linear").data
+        # each level's field is written over aligned boxes of its (re)drawn cells, not node
+        # by node: one read of the level's voxels a box (what assemble() writes per node,
+        # resampled.__doc__), the boxes on the worker threads (disjoint: same bytes)
+        level = np.where(want >= 0, want >> 60, -1)
+        boxes = [(lv, piece) for lv in sorted({lv for lv, _ in nodes})
+                 for box in cell_boxes(changed & (level == lv), k, self.shape)
+                 for piece in _pieces(box, PIECE)]  # fmt: skip
+
+        def write(job) -> None:
+            lv, box = job
+            v = self.tree.resampled(lv, box, 1 << lv, "linear")
             if v.dtype.kind == "f":  # non-finite voxels are empty, as the plain renderer has them
                 v = np.where(np.isfinite(v), v, fill)
-            data[fp] = v
+            data[box] = v
+
+        for _ in ordered_map(write, boxes, workers=workers):
+            pass
         self.have = want
         self.written += len(nodes)
         self.prep.rewritten(cell_boxes(changed, k, self.shape))
         return self.prep
+
+
+#: Edge (voxels) of the pieces a frame's writes are cut into: float64 resampling
+#: buffers of 2 MB a piece, and pieces enough to share among the threads.
+PIECE = 64
+
+
+def _pieces(box, size: int):
+    """``box`` (three slices) cut into boxes of at most ``size`` voxels a side."""
+    z, y, x = (range(s.start, s.stop, size) for s in box)
+    for a in z:
+        for b in y:
+            for c in x:
+                yield tuple(slice(i, min(i + size, s.stop)) for i, s in zip((a, b, c), box))
 
 
 def cell_boxes(cells: np.ndarray, k: int, shape) -> list[tuple[slice, slice, slice]]:
