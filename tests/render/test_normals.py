@@ -39,12 +39,12 @@ def test_codes_match_the_central_difference_reference(dtype):
     zero = 0
     for z, y, x in np.ndindex(vol.shape):
         ref = render_unit_gradient(vol, sp, z, y, x)
-        c = int(codes[z, y, x])  # stored codes: 0 not computed, 1 no gradient
+        c = int(codes[z, y, x])
         if ref is None:
-            assert c == 1
+            assert c == 0
             zero += 1
             continue
-        assert 2 <= c <= LEVELS * LEVELS + 1
+        assert 1 <= c <= LEVELS * LEVELS
         cosang = abs(float(np.dot(normals[c], ref)))
         assert math.degrees(math.acos(min(cosang, 1.0))) < MAX_DEG, (z, y, x)
     assert zero > 0
@@ -54,10 +54,10 @@ def test_light_table():
     view = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
     tab = light_table(view, 0.25, 0.75, 0.35, 24.0)
     ndv = np.abs(decoded() @ view)
-    assert tab.dtype == np.float32 and tab.shape == (LEVELS * LEVELS + 2, 2)
-    assert tuple(tab[0]) == tuple(tab[1]) == (1.0, 0.0)  # no gradient: unshaded
-    np.testing.assert_allclose(tab[2:, 0], 0.25 + 0.75 * ndv[2:], rtol=1e-6)
-    np.testing.assert_allclose(tab[2:, 1], 0.35 * ndv[2:] ** 24, rtol=1e-5, atol=1e-12)
+    assert tab.dtype == np.float32 and tab.shape == (LEVELS * LEVELS + 1, 2)
+    assert tuple(tab[0]) == (1.0, 0.0)  # no gradient: unshaded
+    np.testing.assert_allclose(tab[1:, 0], 0.25 + 0.75 * ndv[1:], rtol=1e-6)
+    np.testing.assert_allclose(tab[1:, 1], 0.35 * ndv[1:] ** 24, rtol=1e-5, atol=1e-12)
 
 
 @pytest.mark.parametrize("cls", [slow_case("post"), "preintegrated"])  # post: its own march
@@ -103,7 +103,7 @@ def test_stability_cases():
         render(f, tf=semi(), normals="nearest")
 
 
-def test_codes_are_bounded_and_computed_where_samples_read_them():
+def test_codes_are_bounded_and_built_for_what_the_tf_shows():
     vol = np.zeros((64, 40, 48), np.uint8)
     vol[:16, :16, :16] = np.round(field((16, 16, 16)) * 255)  # one corner holds anything
     cam = Camera(size=(24, 24))
@@ -112,15 +112,10 @@ def test_codes_are_bounded_and_computed_where_samples_read_them():
     one = render(p, **kw)
     nc = p.normal_codes(None, (1.0, 1.0, 1.0))
     assert nc.codes.dtype == np.uint16 and nc.codes.nbytes == vol.size * 2
-    # the march computed the codes its shaded samples read (around the visible corner),
-    # each the number the whole-volume kernel gives; no chunk was computed ahead
-    got = nc.codes > 0
-    assert 0 < got.sum() and not got[CHUNK + 2 :].any() and not nc.done.any()
-    full = NormalCodes(vol, (1.0, 1.0, 1.0)).ensure(None, 4, 0.5)
-    np.testing.assert_array_equal(nc.codes[got], full[got])
+    # only the chunks around the visible corner (its 16^3 and the next along each axis)
+    assert 1 <= nc.done.sum() <= 8 < nc.done.size
+    assert not nc.codes[CHUNK * 2 :].any()
     assert np.array_equal(render(p, **kw), one)  # kept across frames
-    nc.forget((slice(0, 64), slice(0, 40), slice(0, 48)))  # as after a rewrite: again
-    assert not nc.codes.any() and np.array_equal(render(p, **kw), one)
 
 
 @pytest.mark.slow  # gradients on the fly for uint8: march variants of their own

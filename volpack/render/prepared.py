@@ -36,7 +36,7 @@ import numpy as np
 from .._jit import kernel, read_only
 from ..errors import VolpackError
 from ..parallel import ordered_map
-from .normals import NormalCodes
+from .normals import CHUNK, NormalCodes
 
 #: Bytes the per-voxel gradient volume may take (see the module docstring).
 GRADIENT_BUDGET = 1 << 30
@@ -133,8 +133,8 @@ class PreparedVolume:
         walk's resident volume, :mod:`volpack.render.resident`): redo what was built
         from them there only. Brick ranges are redone for the bricks whose range reads
         the boxes, and memos told which bricks (see :meth:`memo`); quantised normals are
-        forgotten in the boxes and one voxel around them (central differences), to be
-        computed again as samples read them, gradients redone now there."""
+        redone later only for the chunks the boxes reach (one voxel around them:
+        central differences), gradients now for those boxes and one voxel around them."""
         if not boxes:
             return
         self._fill = (_UNSET, None)
@@ -162,7 +162,7 @@ class PreparedVolume:
         codes = self._codes[1]
         if codes:
             for b in grown:
-                codes.forget(b)
+                codes.done[tuple(slice(s.start // CHUNK, -(-s.stop // CHUNK)) for s in b)] = False
         g = self._grad[1]
         if g is not None and g is not False and self.bad is None:
             for gb in grown:  # the box's voxels and their neighbours' differences read them

@@ -140,7 +140,7 @@ from ..errors import VolpackError
 from ..parallel import ordered_map, parse_workers
 from .camera import Camera
 from .fixed import FRAC, interior, lerp_cell, to_fixed, trilinear_fixed, trilinear_inner, value_unit
-from .normals import code_at, light_table
+from .normals import light_table
 from .prepared import prepare_volume, unpack_volume
 from .transfer import nonempty_range
 
@@ -250,47 +250,14 @@ def _lit8(codes, node, light, z, y, x):
     trilinearly."""
     nz, ny, nx = codes.shape[1], codes.shape[2], codes.shape[3]
     z0, z1, fz, y0, y1, fy, x0, x1, fx = _cell3(nz, ny, nx, z, y, x)
-    return _blend8(light, codes[node, z0, y0, x0], codes[node, z0, y0, x1],
-                   codes[node, z0, y1, x0], codes[node, z0, y1, x1], codes[node, z1, y0, x0],
-                   codes[node, z1, y0, x1], codes[node, z1, y1, x0], codes[node, z1, y1, x1],
-                   fz, fy, fx)  # fmt: skip
-
-
-@kernel(inline=True)
-def _code(vol, codes, z, y, x, gscale):
-    """The stored normal code of voxel (z, y, x) of a plain volume, computed now and
-    kept when no sample has read it yet (0; :mod:`volpack.render.normals`)."""
-    c = codes[0, z, y, x]
-    if c == 0:
-        c = code_at(vol, z, y, x, gscale)
-        codes[0, z, y, x] = c
-    return c
-
-
-@kernel(inline=True)
-def _lit8_lazy(vol, codes, light, gscale, z, y, x):
-    """:func:`_lit8` of a plain volume's one code volume, each corner's code computed
-    the first time a sample reads it (``gscale``: ``1 / (2 spacing)``)."""
-    nz, ny, nx = codes.shape[1], codes.shape[2], codes.shape[3]
-    z0, z1, fz, y0, y1, fy, x0, x1, fx = _cell3(nz, ny, nx, z, y, x)
-    return _blend8(light, _code(vol, codes, z0, y0, x0, gscale),
-                   _code(vol, codes, z0, y0, x1, gscale), _code(vol, codes, z0, y1, x0, gscale),
-                   _code(vol, codes, z0, y1, x1, gscale), _code(vol, codes, z1, y0, x0, gscale),
-                   _code(vol, codes, z1, y0, x1, gscale), _code(vol, codes, z1, y1, x0, gscale),
-                   _code(vol, codes, z1, y1, x1, gscale), fz, fy, fx)  # fmt: skip
-
-
-@kernel(inline=True)
-def _blend8(light, c000, c001, c010, c011, c100, c101, c110, c111, fz, fy, fx):
-    """The ``light`` factors of eight corner codes, interpolated trilinearly."""
-    d000, s000 = light[c000, 0], light[c000, 1]
-    d001, s001 = light[c001, 0], light[c001, 1]
-    d010, s010 = light[c010, 0], light[c010, 1]
-    d011, s011 = light[c011, 0], light[c011, 1]
-    d100, s100 = light[c100, 0], light[c100, 1]
-    d101, s101 = light[c101, 0], light[c101, 1]
-    d110, s110 = light[c110, 0], light[c110, 1]
-    d111, s111 = light[c111, 0], light[c111, 1]
+    d000, s000 = light[codes[node, z0, y0, x0], 0], light[codes[node, z0, y0, x0], 1]
+    d001, s001 = light[codes[node, z0, y0, x1], 0], light[codes[node, z0, y0, x1], 1]
+    d010, s010 = light[codes[node, z0, y1, x0], 0], light[codes[node, z0, y1, x0], 1]
+    d011, s011 = light[codes[node, z0, y1, x1], 0], light[codes[node, z0, y1, x1], 1]
+    d100, s100 = light[codes[node, z1, y0, x0], 0], light[codes[node, z1, y0, x0], 1]
+    d101, s101 = light[codes[node, z1, y0, x1], 0], light[codes[node, z1, y0, x1], 1]
+    d110, s110 = light[codes[node, z1, y1, x0], 0], light[codes[node, z1, y1, x0], 1]
+    d111, s111 = light[codes[node, z1, y1, x1], 0], light[codes[node, z1, y1, x1], 1]
     d00 = d000 + (d001 - d000) * fx
     d01 = d010 + (d011 - d010) * fx
     d10 = d100 + (d101 - d100) * fx
@@ -463,13 +430,12 @@ def _paged_ndv(page, meta, inv, offset, grad, z, y, x, gscale, vz, vy, vx, gmin)
 _paged_ndv_kernel = kernel(_paged_ndv, inline=True)
 
 
-def lit_codes(vol, codes, light, gscale, z, y, x):
+def lit_codes(vol, codes, light, z, y, x):
     """:func:`_lit8` at level-0 position (z, y, x): ``codes`` is the stack of one code
-    volume of a 3-D array (computed as read, :func:`_lit8_lazy`), or for a paged volume
-    its nodes' code bricks (computed when the nodes were placed)."""
+    volume of a 3-D array, or for a paged volume its nodes' code bricks."""
     if isinstance(vol, tuple):
         return _paged_lit(vol[1], vol[2], vol[3], vol[4], codes, light, z, y, x)
-    return _lit8_lazy(vol, codes, light, gscale, z, y, x)
+    return _lit8(codes, 0, light, z, y, x)
 
 
 def _paged_lit(page, meta, inv, offset, codes, light, z, y, x):
@@ -533,14 +499,12 @@ if not JIT_DISABLED:
         return lambda vol: value_unit(vol)
 
     @overload(lit_codes, jit_options={"nogil": True})
-    def _lit_codes_overload(vol, codes, light, gscale, z, y, x):
+    def _lit_codes_overload(vol, codes, light, z, y, x):
         if isinstance(vol, types.BaseTuple):
-            return lambda vol, codes, light, gscale, z, y, x: _paged_lit_kernel(
+            return lambda vol, codes, light, z, y, x: _paged_lit_kernel(
                 vol[1], vol[2], vol[3], vol[4], codes, light, z, y, x
             )
-        return lambda vol, codes, light, gscale, z, y, x: _lit8_lazy(
-            vol, codes, light, gscale, z, y, x
-        )
+        return lambda vol, codes, light, z, y, x: _lit8(codes, 0, light, z, y, x)
 
     @overload(extent, jit_options={"nogil": True})
     def _extent_overload(vol):
@@ -1413,7 +1377,7 @@ def _light_at(shade, vol, grad, has_grad, codes, light, pz, py, px, nz, ny, nx, 
     ``f`` plus ``s`` times the opacity (``shade`` 1: from gradients, 2: from the
     quantised normal ``codes``; see :func:`_march`)."""
     if shade == 2:
-        return lit_codes(vol, codes, light, gscale, pz, py, px)
+        return lit_codes(vol, codes, light, pz, py, px)
     if has_grad and (0.0 <= pz <= nz - 1 and 0.0 <= py <= ny - 1
                      and 0.0 <= px <= nx - 1):  # fmt: skip
         ndv = grad_ndv(vol, grad, pz, py, px, gscale, vz, vy, vx, gmin)
@@ -1800,8 +1764,9 @@ def render(
         if paged:
             if volume.codes is not None and sp == tuple(volume.spacing):  # codes of it
                 codes, has_codes = volume.codes, True  # the nodes' code bricks
-        elif (nc := prep.normal_codes(fill, sp)) is not None:  # computed as samples read them
-            codes, has_codes = nc.codes[None], True
+        elif (nc := prep.normal_codes(fill, sp)) is not None:
+            codes = nc.ensure(~empty if skip_empty else None, brick, 0.5 * step, nthreads)[None]
+            has_codes = True
     light = np.zeros((1, 2), np.float32)
     if has_codes:
         d = -corner[0, 0] * (np.array(sp) / min(sp))

@@ -14,8 +14,7 @@ the page table's empty cells read). A frame rewrites only the cells of ``k^3``
 level-0 voxels whose node changed since the previous frame (a level's changed cells
 at once, in aligned boxes cut into pieces on the worker threads), tells the kept
 :class:`~volpack.render.prepared.PreparedVolume` which boxes changed (so that
-brick ranges and gradients are redone there only and quantised normals computed again
-as samples read them), and the plain
+quantised normals, brick ranges and gradients are redone there only), and the plain
 ray caster draws it: its fast path, its empty-space skipping and its per-volume
 caches.
 
