@@ -499,18 +499,12 @@ def test_rays_are_world_rays_in_index_space():
             o2, d2 = cam.rays(shape, sp)
             np.testing.assert_array_equal(o2, o)
             np.testing.assert_array_equal(d2, d)
-            o3, d3, fill = cam.ray_rows(shape, sp)  # by bands of rows, in any order
-            for r0 in reversed(range(0, o3.shape[0], 5)):
-                fill(r0, r0 + 5)
-            np.testing.assert_array_equal(o3, o)
-            np.testing.assert_array_equal(d3, d)
 
 
 def test_rays_that_overflow_are_refused_before_any_row_is_traced():
     cam = Camera(size=(8, 6), projection="perspective", distance=1e307)
-    for call in (cam.rays, cam.ray_rows):
-        with pytest.raises(VolpackError, match="overflows float64"):
-            call((4, 5, 6), (1e-3, 1, 1))
+    with pytest.raises(VolpackError, match="overflows float64"):
+        cam.rays((4, 5, 6), (1e-3, 1, 1))
     with pytest.raises(VolpackError, match="overflows float64"):
         render(np.arange(120, dtype=np.float32).reshape(4, 5, 6), spacing=(1e-3, 1, 1),
                tf=flat_tf(0.5), camera=cam, shading="none", classification="post")

@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable
 
 import numpy as np
 
@@ -202,22 +201,7 @@ class Camera:
         as ``rays()`` at rows and columns ``0, -1`` (what a node's projection needs)."""
         return self._rays(shape_zyx, spacing, corners=True)
 
-    def ray_rows(
-        self, shape_zyx: tuple[int, int, int], spacing: tuple[float, float, float] = (1, 1, 1)
-    ) -> tuple[np.ndarray, np.ndarray, Callable[[int, int], None]]:
-        """``(origins, directions, fill)``: the arrays of :meth:`rays`, not yet computed,
-        and ``fill(r0, r1)``, which computes rows ``r0:r1`` of both (the same numbers), so
-        that the threads tracing an image each compute the rows they trace, where they
-        use them (a serial pass took 4-9 ms of a 0.1 s 512^2 frame). Raises as
-        :meth:`rays` does: every ray is finite when the corner rays are, as the numbers
-        before normalising are linear in the pixel position."""
-        self.corner_rays(shape_zyx, spacing)
-        fill, h, w = self._ray_filler(shape_zyx, spacing, corners=False)
-        origins, dirs = np.empty((h, w, 3)), np.empty((h, w, 3))
-        return origins, dirs, lambda r0, r1: fill(r0, r1, origins, dirs)
-
-    def _ray_filler(self, shape_zyx, spacing, corners: bool):
-        """``(fill(r0, r1, origins, dirs) -> all finite, h, w)`` of the rays."""
+    def _rays(self, shape_zyx, spacing, corners: bool) -> tuple[np.ndarray, np.ndarray]:
         cam, sp, centre, radius = self.world_frame(shape_zyx, spacing)
         fwd, right, up, base, half = cam._frame(centre, radius)
         w, h = cam.size
@@ -227,21 +211,13 @@ class Camera:
         if corners:
             u, v = u[[0, -1]], v[[0, -1]]
             h, w = 2, 2
-        base, half = np.asarray(base, float), float(half)
-        ortho, dscale = cam.projection == "orthographic", float(sp.min()) / sp
-
-        def fill(r0: int, r1: int, origins: np.ndarray, dirs: np.ndarray) -> bool:
-            with np.errstate(over="ignore", invalid="ignore"):  # too large: the caller says
-                return _index_rays(fwd, right, up, base, half, u, v[r0:r1], ortho, sp, dscale,
-                                   origins[r0:r1], dirs[r0:r1])  # fmt: skip
-
-        return fill, h, w
-
-    def _rays(self, shape_zyx, spacing, corners: bool) -> tuple[np.ndarray, np.ndarray]:
-        fill, h, w = self._ray_filler(shape_zyx, spacing, corners)
         origins = np.empty((h, w, 3))
         dirs = np.empty((h, w, 3))
-        if not fill(0, h, origins, dirs):
+        with np.errstate(over="ignore", invalid="ignore"):  # still too large: checked below
+            finite = _index_rays(fwd, right, up, np.asarray(base, float), float(half), u, v,
+                                 cam.projection == "orthographic", sp, float(sp.min()) / sp,
+                                 origins, dirs)  # fmt: skip
+        if not finite:
             raise VolpackError(
                 f"cannot place the camera: the volume's extent (shape {tuple(shape_zyx)} times "
                 f"spacing {tuple(spacing)}) overflows float64"

@@ -1750,17 +1750,12 @@ def render(
     else:
         leap = np.zeros(empty.shape, np.int32)
         _leap_kernel(np.ascontiguousarray(empty), leap)
+    origins, dirs = camera.rays(shape, sp)
     fast = FAST_PATH and has_vol and not isos and mode != 1 and shading in ("none", "phong")
-    if fast:  # each thread computes the rays of the rows it traces
-        origins, dirs, fill_rays = camera.ray_rows(shape, sp)
-    else:
-        origins, dirs = camera.rays(shape, sp)
-    # every ray has one direction iff the corner rays do (the same numbers as theirs)
-    corner = camera.corner_rays(shape, sp)[1]
     # orthographic shaded frames light quantised normals through one table per frame
     codes, has_codes = np.zeros((1, 1, 1, 1), np.uint16), False  # a stack of code volumes
     if (fast and shading == "phong" and normals == "quantised"
-            and bool(np.all(corner == corner[:1, :1]))):  # fmt: skip
+            and bool(np.all(dirs == dirs[:1, :1]))):  # fmt: skip
         if paged:
             if volume.codes is not None and sp == tuple(volume.spacing):  # codes of it
                 codes, has_codes = volume.codes, True  # the nodes' code bricks
@@ -1769,7 +1764,7 @@ def render(
             has_codes = True
     light = np.zeros((1, 2), np.float32)
     if has_codes:
-        d = -corner[0, 0] * (np.array(sp) / min(sp))
+        d = -dirs[0, 0] * (np.array(sp) / min(sp))
         light = light_table(d / np.linalg.norm(d), KA, KD, KS, SHININESS)
     grad = np.zeros((1, 1, 1, 1, 3), np.float32)  # a stack of gradient volumes (one here)
     has_grad = False
@@ -1804,7 +1799,7 @@ def render(
                 vscale, gmin, clear, refine_k, cols, out, row_samples,
             )  # fmt: skip
 
-        run_row_sets(run_tiles(run, w, fill_rays), h, nthreads, progress)
+        run_row_sets(run_tiles(run, w), h, nthreads, progress)
         return finish_render(out, row_samples, t_start, render_stats)
 
     def run(rows: np.ndarray) -> None:
@@ -1942,8 +1937,9 @@ def finish_render(out, row_samples, t_start, render_stats):
 #: Rows a thread traces in a row before its set skips ahead (see :func:`run_row_sets`).
 ROW_BAND = 16
 #: Most row sets a thread is handed (:func:`run_row_sets`): 16 rather than 4 took
-#: two-thread 512^2 frames to 0.59-0.87x the wall time (best of 12-15 interleaved, head
-#: CT and 8-bit MRI, other jobs on the machine; the same images).
+#: two-thread 512^2 frames to 0.59-0.87x the wall time with other jobs on the machine
+#: (best of 12-15 interleaved, head CT and 8-bit MRI; the same images), level when it
+#: was free.
 SETS_PER_THREAD = 16
 
 
@@ -1979,14 +1975,13 @@ def run_row_sets(run, h: int, nthreads: int, progress=None) -> None:
 TILE_COLS = 32
 
 
-def run_tiles(run, w: int, before=None):
+def run_tiles(run, w: int):
     """``run(rows, cols)`` over the columns of an image ``w`` wide in chunks of
     :data:`TILE_COLS`, as one ``run(rows)`` for :func:`run_row_sets`: a band of rows is
     traced tile by tile, so the voxels a tile's rays read stay in the thread's cache
     for the tile's next rows, where a whole row of rays read more than it holds (on
     the benchmark's int16 CT with two threads, 4-15 % less CPU a frame; each ray is
-    still computed alone, so the image does not change). ``before(r0, r1)``, if given,
-    runs ahead of each band of rows ``r0:r1`` (its rays are computed there)."""
+    still computed alone, so the image does not change)."""
 
     chunks = [np.array([c0, min(c0 + TILE_COLS, w)], np.int64) for c0 in range(0, w, TILE_COLS)]
 
@@ -1996,8 +1991,6 @@ def run_tiles(run, w: int, before=None):
         for run_rows in np.split(rows, cut):
             for b0 in range(0, len(run_rows), ROW_BAND):
                 band = run_rows[b0 : b0 + ROW_BAND]
-                if before is not None:
-                    before(int(band[0]), int(band[-1]) + 1)
                 for cols in chunks:
                     run(band, cols)
 
