@@ -25,7 +25,7 @@ import numpy as np
 
 from .._jit import kernel, leading_zeros
 from ..errors import FormatError
-from .common import decoded_into, encode_with_retry, flat_view, max_bits, wide
+from .common import decoded_into, encode_with_retry, flat_view, wide
 from .rangecoder import (
     RATE,
     STATE_INIT,
@@ -210,10 +210,11 @@ def decode(data: bytes, scan: Scan, out: np.ndarray) -> None:
     if flat.size != scan.perm.size:
         raise FormatError(f"expected {scan.perm.size} coefficients, found room for {flat.size}")
     buf = np.frombuffer(data, dtype=np.uint8)
-    flat[:] = 0  # zero subtrees are skipped, not written (one memset, not a scatter)
-    nmax = max_bits(flat)
     decoded_into(
         flat,
-        lambda into: _decode_kernel(buf, scan.perm, scan.end, scan.parent, scan.cls, scan.nbr, into, nmax),
+        lambda into, nmax: _decode_kernel(
+            buf, scan.perm, scan.end, scan.parent, scan.cls, scan.nbr, into, nmax
+        ),
         "arithmetic",
+        zeroed=True,  # zero subtrees are skipped, not written (one memset, not a scatter)
     )

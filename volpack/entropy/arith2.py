@@ -30,7 +30,7 @@ import numpy as np
 from .._jit import kernel, leading_zeros
 from ..errors import FormatError
 from .arith import NQ, SHARE
-from .common import decoded_into, flat_view, max_bits, wide
+from .common import decoded_into, flat_view, wide
 from .rangecoder import PROB_BITS, RATE, STATE_INIT
 from .scan import N_CLASSES, Scan
 
@@ -515,13 +515,12 @@ def decode(data: bytes, scan: Scan, out: np.ndarray) -> None:
     raw[: buf.size - k - used] = buf[k + used :]
     models = np.full(N_BIN, STATE_INIT, dtype=np.uint16)
     nbits = np.zeros(flat.size, dtype=np.uint8)
-    flat[:] = 0  # zero subtrees are skipped, not written
-    nmax = max_bits(flat)
     decoded_into(
         flat,
-        lambda into: _decode_kernel(
+        lambda into, nmax: _decode_kernel(
             rc, raw, scan.perm, scan.end, scan.parent, scan.cls, scan.nbr, into, nmax,
             models, CNT0.copy(), BND0.copy(), MCNT0.copy(), MBND0.copy(), nbits,
         ),
         "arith2",
+        zeroed=True,  # zero subtrees are skipped, not written
     )  # fmt: skip

@@ -28,12 +28,18 @@ def wide(flat: np.ndarray) -> np.ndarray:
     return flat.astype(np.int64, copy=False)
 
 
-def decoded_into(flat: np.ndarray, decode: Callable[[np.ndarray], int], coder: str) -> None:
-    """Run ``decode`` (a kernel call writing int64 coefficients, returning a status) into
-    ``flat``, through a zeroed int64 copy when ``flat`` is int32. The kernel is passed
-    :func:`max_bits` of ``flat`` itself, so int32 output stays within 32-bit values."""
-    into = flat if flat.dtype == np.int64 else np.zeros(flat.size, np.int64)
-    check_status(decode(into), coder)
+def decoded_into(
+    flat: np.ndarray, decode: Callable[[np.ndarray, int], int], coder: str, *, zeroed: bool
+) -> None:
+    """Run ``decode(into, nmax)`` (a kernel call writing int64 coefficients, returning a
+    status) into ``flat``: directly when int64, through an int64 copy when int32 (each
+    coder's kernels are compiled for int64 only). ``nmax`` is :func:`max_bits` of
+    ``flat`` itself, so int32 output stays within 32-bit values; ``zeroed`` clears the
+    target first, for decoders that skip zero subtrees rather than write them."""
+    into = flat if flat.dtype == np.int64 else np.empty(flat.size, np.int64)
+    if zeroed:
+        into[:] = 0
+    check_status(decode(into, max_bits(flat)), coder)
     if into is not flat:
         flat[:] = into
 

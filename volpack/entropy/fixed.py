@@ -22,7 +22,7 @@ import numpy as np
 
 from .._jit import kernel, leading_zeros
 from ..errors import FormatError
-from .common import decoded_into, encode_with_retry, flat_view, max_bits, wide
+from .common import decoded_into, encode_with_retry, flat_view, wide
 from .scan import Scan
 
 
@@ -264,9 +264,11 @@ def encode_huffman(coeffs: np.ndarray, scan: Scan) -> bytes:
 def decode_huffman(data: bytes, scan: Scan, out: np.ndarray) -> None:
     flat = _checked(out, scan)
     words, limit = _words(data)
-    nmax = max_bits(flat)
     decoded_into(
-        flat, lambda into: _huffman_decode_kernel(words, limit, scan.perm, scan.end, into, nmax), "huffman"
+        flat,
+        lambda into, nmax: _huffman_decode_kernel(words, limit, scan.perm, scan.end, into, nmax),
+        "huffman",
+        zeroed=False,  # every coefficient is written
     )
 
 
@@ -279,8 +281,12 @@ def encode_rle(coeffs: np.ndarray, scan: Scan) -> bytes:
 def decode_rle(data: bytes, scan: Scan, out: np.ndarray) -> None:
     flat = _checked(out, scan)
     words, limit = _words(data)
-    nmax = max_bits(flat)
-    decoded_into(flat, lambda into: _rle_decode_kernel(words, limit, scan.perm, into, nmax), "rle")
+    decoded_into(
+        flat,
+        lambda into, nmax: _rle_decode_kernel(words, limit, scan.perm, into, nmax),
+        "rle",
+        zeroed=False,  # every coefficient is written
+    )
 
 
 def _words(data: bytes) -> tuple[np.ndarray, int]:

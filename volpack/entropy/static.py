@@ -40,7 +40,7 @@ from .arith2 import (
     put_raw,
     raw_end_status,
 )
-from .common import decoded_into, flat_view, max_bits, wide
+from .common import decoded_into, flat_view, wide
 from .rans import TOTAL
 from .scan import Scan
 
@@ -328,14 +328,13 @@ def decode(data: bytes, scan: Scan, out: np.ndarray) -> None:
     stream[: len(parts[1])] = np.frombuffer(parts[1], np.uint8)
     raw = np.zeros(len(data) - pos + RAW_PAD, dtype=np.uint8)
     raw[: len(data) - pos] = np.frombuffer(data, np.uint8, len(data) - pos, pos)
-    flat[:] = 0  # zero subtrees are skipped, not written
     nbits = np.zeros(flat.size, dtype=np.uint8)
-    nmax = max_bits(flat)
     decoded_into(
         flat,
-        lambda into: _decode_kernel(
+        lambda into, nmax: _decode_kernel(
             stream, raw, scan.perm, scan.end, scan.parent, scan.cls, scan.nbr, into,
             nmax, cmap, syms, info, nbits,
         ),
         "static",
+        zeroed=True,  # zero subtrees are skipped, not written
     )  # fmt: skip
