@@ -184,3 +184,52 @@ def test_jit_cache_dir_follows_the_sources(tmp_path):
     )
     path = out.stdout.strip()
     assert path.startswith(str(tmp_path)) and len(os.path.basename(path)) == 16
+
+
+_INLINED = """
+import hashlib, re
+import numpy as np
+from volpack import _jit
+from volpack._jit import kernel
+
+@kernel(inline=True)
+def _step(a, i, s):
+    if a[i] > s:
+        s = s + a[i] * 3
+    else:
+        s = s - (a[i] >> 1)
+    return s
+
+@kernel(inline=True)
+def _twice(a, i, s):
+    return _step(a, i, _step(a, i, s))
+
+def _outer(a):
+    s = np.int64(0)
+    for i in range(a.size):
+        s = _twice(a, i, s)
+        if s > 1000:
+            s = _step(a, i, s) % 997
+    return s
+
+import numba
+outer = numba.njit(_outer)
+a = np.arange(50, dtype=np.int64) * 7 % 13
+v = outer(a)
+asm = re.sub(r"_ZN\\w+", "", outer.inspect_asm(outer.signatures[0]))
+print(v, _jit._inline_copies["applied"], hashlib.sha256(asm.encode()).hexdigest())
+"""
+
+
+def test_shared_inline_copies_compile_the_same_machine_code(tmp_path):
+    # volpack's cheaper copying in numba's inliner must leave the compiled code as it is:
+    # the same kernel (three levels of inlined helpers) with and without it
+    outs = []
+    for mode in ("share", "numba"):
+        env = dict(os.environ, VOLPACK_INLINE_COPY=mode, VOLPACK_JIT_CACHE="0")
+        run = subprocess.run([sys.executable, "-c", _INLINED], capture_output=True, text=True,
+                             check=True, env=env)  # fmt: skip
+        outs.append(run.stdout.split())
+    (v1, on, asm1), (v2, off, asm2) = outs
+    assert (on, off) == ("True", "False")
+    assert v1 == v2 and asm1 == asm2

@@ -78,6 +78,7 @@ def _watch_compiles() -> None:
             return getattr(fn, "__qualname__", "?")
 
         def on_start(self, ev):
+            _share_inline_copies()
             self._t0.append(time.thread_time())  # CPU: wall time would count the neighbours
             jitwatch.notify("start", self._name(ev))
 
@@ -87,6 +88,71 @@ def _watch_compiles() -> None:
 
     event.register("numba:compile", _Listener())
 
+
+def _share_inline_copies() -> None:
+    """Make numba's IR inliner copy a callee's blocks with one memo per inlining.
+
+    For every ``inline=True`` call site numba deep-copies each block of the callee with a
+    memo of its own, and each block's copy takes a copy of the whole scope (every
+    variable of the callee) along: the cost grows with blocks times variables, and was
+    most of the compile time of the kernels built from many inlined helpers (predictive
+    decoder: 58 % under cProfile). With one memo for the blocks of one inlining, the
+    copies share one scope, as the callee's blocks do. The IR is the same; only the
+    copying is cheaper (numba issues 8989 and 9204 discuss the same copies).
+    Applied on the first compile only (a process that loads cached kernels never imports
+    the inliner), and only if numba's inliner has the shape this was written for;
+    ``VOLPACK_INLINE_COPY=numba`` leaves numba as it is."""
+    if _inline_copies["done"]:
+        return
+    _inline_copies["done"] = True
+    if os.environ.get("VOLPACK_INLINE_COPY") == "numba":
+        return
+    import copy
+
+    from numba.core import inline_closurecall as icc
+    from numba.core import ir
+
+    worker = getattr(icc, "InlineWorker", None)
+    if getattr(icc, "copy", None) is not copy or not hasattr(worker, "inline_ir"):
+        return
+    memos: dict[int, tuple[dict, set]] = {}  # id(source scope) -> (memo, ids of copied blocks)
+    depth = [0]
+
+    class _Copy:
+        """``copy`` as the inliner sees it: a block copied while an inlining runs
+        shares the memo of the blocks of the same scope, until a block repeats (the
+        next copy of the same callee starts afresh)."""
+
+        def __getattr__(self, name):
+            return getattr(copy, name)
+
+        @staticmethod
+        def deepcopy(x, memo=None):
+            if memo is None and depth[0] and isinstance(x, ir.Block):
+                memo, seen = memos.get(id(x.scope)) or ({}, set())
+                if id(x) in seen:
+                    memo, seen = {}, set()
+                memos[id(x.scope)] = (memo, seen)
+                seen.add(id(x))
+            return copy.deepcopy(x, memo)
+
+    inline_ir = worker.inline_ir
+
+    def _inline_ir(self, *args, **kwargs):
+        depth[0] += 1
+        try:
+            return inline_ir(self, *args, **kwargs)
+        finally:
+            depth[0] -= 1
+            if not depth[0]:
+                memos.clear()  # nothing outlives an inlining (ids are not reused meanwhile)
+
+    icc.copy = _Copy()
+    worker.inline_ir = _inline_ir
+    _inline_copies["applied"] = True
+
+
+_inline_copies = {"done": False, "applied": False}
 
 _watch_compiles()
 

@@ -156,6 +156,9 @@ def _resident_walk(t, cams, tf, vr, blocks, **kw):
         yield img, fresh, render_lod(t, atlas=paged, **a)[0], st, kept
 
 
+# slow: the paged sampler's march and the uint8 unshaded one are this test's alone (21 CPU s
+# of compiling); the walk commands' test below runs the resident grid in the fast set
+@pytest.mark.slow
 def test_resident_walk_matches_a_fresh_grid_and_the_paged_sampler(tree_path):
     # an orbit whose selection changes between frames (a budget of 24 nodes over three
     # levels): the grid rewritten only where the selection changed gives the image a

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from conftest import slow_case
 
 from volpack.cli import main
 from volpack.errors import VolpackError
@@ -86,14 +87,19 @@ def test_whole_volume_in_view_and_axes():
 # --------------------------------------------------------------------------- compositing
 
 
-def test_empty_volume_is_black():
+# POST_PHONG: the float32 post-classified shaded march (14 CPU s to compile) is reached by
+# these stability cases alone, so their post-classified case runs in the slow set
+POST_PHONG = [slow_case("post"), "pre", "preintegrated"]
+
+
+@pytest.mark.parametrize("mode", POST_PHONG)
+def test_empty_volume_is_black(mode):
     vol = np.zeros((12, 12, 12), np.float32)
     tf = TransferFunction(points=((0.0, 1, 1, 1, 0.0), (1.0, 1, 1, 1, 0.5)))
-    for mode in ("post", "pre", "preintegrated"):
-        img = render(vol, tf=tf, camera=Camera(size=(16, 16)), classification=mode,
-                     shading="phong", value_range=(0, 1))  # fmt: skip
-        assert img.dtype == np.float32 and img.shape == (16, 16, 4)
-        assert not img.any()
+    img = render(vol, tf=tf, camera=Camera(size=(16, 16)), classification=mode,
+                 shading="phong", value_range=(0, 1))  # fmt: skip
+    assert img.dtype == np.float32 and img.shape == (16, 16, 4)
+    assert not img.any()
 
 
 @pytest.mark.parametrize("mode", ["post", "preintegrated", "pre"])
@@ -162,18 +168,18 @@ def test_preintegrated_lighting_needs_preintegrated_classification():
 # --------------------------------------------------------------------------- accelerations
 
 
-def test_early_ray_termination_stays_within_its_threshold():
+@pytest.mark.parametrize("mode", [slow_case("post"), "preintegrated"])
+def test_early_ray_termination_stays_within_its_threshold(mode):
     vol = ball()
     tf = TransferFunction(
         points=((0.0, 1, 0.8, 0.6, 0.7), (8.0, 0.9, 0.4, 0.2, 0.7), (10.0, 0.5, 0.2, 0.1, 0.0))
     )
     kw = dict(tf=tf, camera=Camera(size=(32, 32), zoom=2.5), shading="phong")
-    for mode in ("post", "preintegrated"):
-        full, s_full = render(vol, ert=1.0, classification=mode, render_stats=True, **kw)
-        ert, s_ert = render(vol, ert=0.99, classification=mode, render_stats=True, **kw)
-        assert s_ert.samples < 0.8 * s_full.samples, (s_ert, s_full)
-        assert np.abs(full - ert).max() <= 0.011
-        assert np.abs(full[..., 3] - ert[..., 3]).max() <= 0.01
+    full, s_full = render(vol, ert=1.0, classification=mode, render_stats=True, **kw)
+    ert, s_ert = render(vol, ert=0.99, classification=mode, render_stats=True, **kw)
+    assert s_ert.samples < 0.8 * s_full.samples, (s_ert, s_full)
+    assert np.abs(full - ert).max() <= 0.011
+    assert np.abs(full[..., 3] - ert[..., 3]).max() <= 0.01
 
 
 def test_a_terminated_ray_ends_in_the_colour_of_its_last_segment():
@@ -217,7 +223,7 @@ def test_refinement_brings_opaque_surfaces_nearer_a_fine_step():
         render(vol, tf=faint, refine=0, **kw)
 
 
-@pytest.mark.parametrize("mode", ["post", "pre", "preintegrated"])
+@pytest.mark.parametrize("mode", POST_PHONG)
 def test_empty_space_skipping_leaves_the_image_unchanged(mode):
     vol = ball(48, 10)
     isos = [(6.0, (1.0, 1.0, 0.0), 0.5)] if mode == "preintegrated" else None
@@ -279,17 +285,20 @@ def test_nan_voxels_are_empty():
     assert not render(all_nan, tf=blob_tf(), camera=Camera(size=(8, 8))).any()
 
 
-def test_one_voxel_thick_volume_and_a_camera_looking_away():
+@pytest.mark.parametrize("mode", POST_PHONG)
+def test_one_voxel_thick_volume(mode):
     sheet = np.zeros((1, 32, 32), np.float32)
     sheet[0, 8:24, 8:24] = 1.0
     tf = TransferFunction(points=((0.0, 1, 1, 1, 0.0), (1.0, 1, 1, 1, 0.5)))
     for el in (90, 45, 0):
-        for mode in ("post", "pre", "preintegrated"):
-            img = render(sheet, tf=tf, camera=Camera(0, el, size=(20, 20)),
-                         classification=mode, shading="phong")  # fmt: skip
-            assert np.all(np.isfinite(img)) and img.min() >= 0
-            if el == 90:  # straight down through one voxel
-                assert img[10, 10, 3] == pytest.approx(0.5, abs=1e-3)
+        img = render(sheet, tf=tf, camera=Camera(0, el, size=(20, 20)),
+                     classification=mode, shading="phong")  # fmt: skip
+        assert np.all(np.isfinite(img)) and img.min() >= 0
+        if el == 90:  # straight down through one voxel
+            assert img[10, 10, 3] == pytest.approx(0.5, abs=1e-3)
+
+
+def test_a_camera_looking_away_sees_nothing():
     away = Camera(look_at=(0, 0, 5000), zoom=40, projection="perspective", size=(16, 16))
     assert not render(ball(16, 4), tf=blob_tf(), camera=away).any()
 
@@ -314,7 +323,7 @@ def test_camera_inside_the_volume_sees_the_distance_to_the_box(mode):
 
 
 @pytest.mark.filterwarnings("error")
-@pytest.mark.parametrize("mode", ["post", "pre", "preintegrated"])
+@pytest.mark.parametrize("mode", POST_PHONG)
 def test_fully_transparent_and_fully_opaque_tfs(mode):
     vol = ball(24, 8)
     cam = Camera(size=(20, 20))

@@ -102,8 +102,10 @@ def test_stability_cases_agree_with_the_general_kernel(cls):
     np.testing.assert_allclose(a, b, atol=1e-5)
 
 
-# post: the uint8 post-classified marches, compiled for this case alone
-@pytest.mark.parametrize("cls", [slow_case("post"), "preintegrated"])
+# the uint8 unshaded marches (post and pre-integrated) are compiled for this test and the
+# resident walk's alone (10 CPU s each): both run in the slow set
+@pytest.mark.slow
+@pytest.mark.parametrize("cls", ["post", "preintegrated"])
 def test_fully_transparent_and_fully_opaque_on_the_fast_path(cls):
     vol = np.round(field() * 255).astype(np.uint8)
     cam = Camera(size=(20, 20))
