@@ -44,7 +44,6 @@ from __future__ import annotations
 import argparse
 import csv
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -54,12 +53,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import datasets  # noqa: E402
 
 from volpack._jit import kernel, leading_zeros  # noqa: E402
+from volpack.volume_codec.bounded_interp import _get_bits, _put_bits  # noqa: E402  (n < 32)
 from volpack.entropy import rans, static  # noqa: E402
 from volpack.entropy.rans import TOTAL  # noqa: E402
 from volpack.format.deflate import inflate  # noqa: E402
 
 DIRECT = 32
-N_SYM = DIRECT + 2 * (40 - 6)  # bit lengths 6..39, two symbols each (coefficients < 2^38)
+N_SYM = DIRECT + 2 * (33 - 6)  # bit lengths 6..32, two symbols each (|coefficients| < 2^31)
 N_CLS = 25
 QUAD = 81  # four values in -1..1; QUAD itself is the escape
 N_PAR = 5  # classes of the parents' magnitudes (``parents`` variants)
@@ -75,24 +75,6 @@ CSV_FIELDS = ["dataset", "rel_bound", "path", "coders", "streams", "coefficients
 
 
 # -- symbols ------------------------------------------------------------------------------
-
-
-@kernel(inline=True)
-def _put_bits(raw, bitpos, v, n):
-    w = (v & ((np.int64(1) << n) - 1)) << (bitpos & 7)
-    i = bitpos >> 3
-    for j in range(8):
-        raw[i + j] |= np.uint8((w >> (8 * j)) & 0xFF)
-    return bitpos + n
-
-
-@kernel(inline=True)
-def _get_bits(raw, bitpos, n):
-    i = bitpos >> 3
-    w = np.int64(0)
-    for j in range(8):
-        w |= np.int64(raw[i + j]) << (8 * j)
-    return (w >> (bitpos & 7)) & ((np.int64(1) << n) - 1)
 
 
 @kernel(inline=True)
@@ -242,6 +224,8 @@ def _flags(variant: str) -> tuple[bool, bool]:
 def encode(coeffs: np.ndarray, scan, pflat, variant: str) -> tuple[bytes, bytes, bytes]:
     """(deflated tables, rANS stream, raw bits) of the coefficients in scan order."""
     flat = np.ascontiguousarray(coeffs.reshape(-1), dtype=np.int64)
+    if flat.size and np.abs(flat).max() >= 2**31:
+        raise ValueError("coefficients of 2^31 or more: beyond the prototype's alphabet")
     vals = flat[scan.perm]
     runs = class_runs(scan.cls)
     n = vals.size
@@ -286,7 +270,7 @@ def decode(parts, scan, pflat, runs, out: np.ndarray, variant: str) -> None:
     static._slots(freq[used], syms, info)
     table = (cmap, syms, info)
     data = np.frombuffer(stream + bytes(2), np.uint8)
-    raw = np.frombuffer(rawb + bytes(16), np.uint8)
+    raw = np.frombuffer(rawb + bytes(16), np.uint8)  # _get_bits' slack
     flat = out.reshape(-1)
     if _decode(data, raw, table, scan.cls, runs, scan.perm, pflat, *_flags(variant), QVALS, flat):
         raise AssertionError("the prototype's states did not end where they began")
@@ -321,19 +305,8 @@ def record(blob: bytes) -> list:
     return seen
 
 
-def best_pair(calls: dict, rounds: int) -> dict:
-    best = {k: np.inf for k in calls}
-    names = list(calls)
-    for r in range(rounds):
-        for k in names[r % len(names) :] + names[: r % len(names)]:
-            t = time.process_time()
-            calls[k]()
-            best[k] = min(best[k], time.process_time() - t)
-    return best
-
-
 def run_cell(name: str, a: np.ndarray, rel: float, rounds: int) -> dict | None:
-    from bench_lossy_decode import payload_paths
+    from bench_lossy_decode import best_interleaved, payload_paths
 
     from volpack import api
 
@@ -369,7 +342,7 @@ def run_cell(name: str, a: np.ndarray, rel: float, rounds: int) -> dict | None:
         for (*_, c), o in zip(seen, outs):
             if not np.array_equal(c, o):
                 raise AssertionError(f"{k} did not decode its coefficients")
-    t = best_pair(calls, rounds)
+    t = best_interleaved(calls, rounds)
     n = sum(c.size for *_, c in seen)
     size = {v: sum(sum(len(p) for p in parts) for parts in coded[v]) for v in VARIANTS}
     coders = sorted({f"{m.__name__.rsplit('.', 1)[-1]}:{d[0]}" if m.__name__.endswith("choose")
