@@ -233,3 +233,32 @@ def test_shared_inline_copies_compile_the_same_machine_code(tmp_path):
     (v1, on, asm1), (v2, off, asm2) = outs
     assert (on, off) == ("True", "False")
     assert v1 == v2 and asm1 == asm2
+
+
+def _inlined_helper(a, i):
+    return a[i] * 2 + 1
+
+
+def test_inline_into_inlines_a_helper_into_the_named_kernel_only():
+    """``inline_into``: the helper's body in the named kernel (no call to it in its
+    LLVM), a call in the other; both compute the same."""
+    import numba
+
+    from volpack._jit import JIT_DISABLED, inline_into
+
+    if JIT_DISABLED:
+        pytest.skip("no compiled code without the JIT")
+    helper = numba.njit(inline=inline_into("inlining_caller"))(_inlined_helper)
+
+    def inlining_caller(a):
+        return helper(a, 0) + helper(a, 1)
+
+    def calling_caller(a):
+        return helper(a, 0) + helper(a, 1)
+
+    a = np.arange(5, dtype=np.int64)
+    inl, call = numba.njit(inlining_caller), numba.njit(calling_caller)
+    assert inl(a) == call(a) == 4
+    name = "_inlined_helper"
+    assert name not in "".join(inl.inspect_llvm().values())
+    assert name in "".join(call.inspect_llvm().values())

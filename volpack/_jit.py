@@ -199,6 +199,8 @@ def kernel(
     reference-count calls. Inlined helpers that take arrays otherwise leave such calls
     in hot loops (measured: a third of the predictive decoder's time).
 
+    ``inline`` may also be :func:`inline_into`'s choice: inlined into some kernels only.
+
     ``contract=True`` lets LLVM fuse a multiply and an add into one FMA instruction (one
     rounding instead of two): the result may differ in the last bit between CPUs with
     and without FMA, never between runs or thread counts on one CPU. Only for kernels
@@ -213,11 +215,23 @@ def kernel(
         cache=CACHE,
         nogil=True,
         parallel=parallel,
-        inline="always" if inline else "never",
+        inline=inline if callable(inline) else ("always" if inline else "never"),
         error_model="numpy",
         fastmath={"contract"} if contract else False,
         _nrt=nrt,
     )
+
+
+def inline_into(*names):
+    """An ``inline`` for :func:`kernel`: the helper is inlined where the kernel being
+    compiled is one of ``names`` and called elsewhere. numba inlines before it prunes
+    branches, so a helper inlined everywhere is compiled into kernels where it is dead
+    code (the interpolation walk's adaptive bin reader: half a minute per kernel)."""
+
+    def cost_model(_expr, caller_ir, _callee_ir):
+        return caller_ir.func_id.func_name in names
+
+    return cost_model
 
 
 def read_only(a):

@@ -30,7 +30,7 @@ import struct
 
 import numpy as np
 
-from .._jit import kernel, leading_zeros
+from .._jit import inline_into, kernel, leading_zeros
 from ..entropy import rans
 from ..entropy.common import encode_with_retry, stream_bytes
 from ..entropy.rangecoder import end_status, finish_stream, open_encoder, open_stream
@@ -161,11 +161,12 @@ def _adaptive_context(na, nb, sg):
     return ctx, (0 if sg < 0 else (1 if sg == 0 else 2))
 
 
-@kernel(nrt=False)
+@kernel(nrt=False, inline=inline_into("_decode_walk_adaptive"))
 def _adaptive_bin(data, models, ac, sc, code, rng, pos):
-    """One bin from the adaptive coder's stream (:func:`.predictfit.get_residual`),
-    compiled once for both of the walk's call sites: inlined there, its nested inlines
-    made each walk kernel take half a minute to compile."""
+    """One bin from the adaptive coder's stream (:func:`.predictfit.get_residual`):
+    inlined into the adaptive decoding walk only (a call per voxel there cost 5 ns, a
+    fifth of the walk at loose bounds); called, as dead code, from the other walks,
+    which took half a minute each to compile with it inlined."""
     return get_residual(data, models, ac, sc, -1, code, rng, pos)
 
 
