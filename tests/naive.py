@@ -785,6 +785,35 @@ def render_unit_gradient(vol, spacing, z, y, x):
     return tuple(s * c / n for c in g)
 
 
+def render_normal_code(vol, spacing, z, y, x, levels=255):
+    """The quantised normal code of voxel (z, y, x) (volpack.render.normals), in Python
+    floats (IEEE doubles, one rounding an operation, as the kernel's): central
+    differences scaled by ``0.5 / spacing``, 0 when their absolute sum is 0 or not
+    finite, else folded onto n_z >= 0, mapped onto the octahedron's square and each of
+    its two axes rounded half up to one of ``levels`` steps."""
+    import math
+
+    shape = vol.shape
+    pos = (z, y, x)
+    g = []
+    for ax in range(3):
+        up, dn = list(pos), list(pos)
+        up[ax] = min(pos[ax] + 1, shape[ax] - 1)
+        dn[ax] = max(pos[ax] - 1, 0)
+        g.append((float(vol[tuple(up)]) - float(vol[tuple(dn)])) * (0.5 / float(spacing[ax])))
+    gz, gy, gx = g
+    s = abs(gz) + abs(gy) + abs(gx)
+    if not (0.0 < s < math.inf):
+        return 0
+    if gz < 0.0:
+        gy, gx = -gy, -gx
+    px, py = gx / s, gy / s
+    half = 0.5 * (levels - 1)
+    qu = math.floor((px + py + 1.0) * half + 0.5)
+    qv = math.floor((px - py + 1.0) * half + 0.5)
+    return 1 + qu * levels + qv
+
+
 # --- lossless float prediction (volume_codec.floatpredict) ---
 
 
