@@ -29,7 +29,6 @@ only that part; a later frame that shows more computes the rest.
 from __future__ import annotations
 
 import math
-import mmap
 
 import numpy as np
 
@@ -147,7 +146,7 @@ class NormalCodes:
     def __init__(self, vol: np.ndarray, spacing) -> None:
         self.vol = read_only(vol)  # one compiled signature for every caller
         self.inv2 = np.array([0.5 / float(s) for s in spacing], np.float64)
-        self.codes = small_pages(vol.shape, np.uint16)  # zero pages until written
+        self.codes = np.zeros(vol.shape, np.uint16)  # zero pages until written
         self.done = np.zeros(tuple(-(-n // CHUNK) for n in vol.shape), np.bool_)
 
     def ensure(self, visible: np.ndarray | None, brick: int, reach: float, workers: int = 1):
@@ -168,20 +167,6 @@ class NormalCodes:
                 pass
             self.done |= need
         return self.codes
-
-
-def small_pages(shape, dtype) -> np.ndarray:
-    """A zeroed array on the system's small (4 kB) pages: an anonymous mapping of its own,
-    where numpy asks for 2 MB pages for arrays of 4 MB and more. A code array is written
-    a chunk at a time where the view reaches, at its first shaded frame; on this 2-core
-    virtual machine the first write to a fresh 2 MB page cost about 10 ms of system
-    time (the host backs the page as it is first touched), so the 40 MB of codes that
-    the MRI walk's first frame writes cost 100-230 ms of system CPU on 2 MB pages and
-    45-95 ms on small ones (measured in fresh processes, README walk14)."""
-    n = math.prod(int(v) for v in shape) * np.dtype(dtype).itemsize
-    if n < 4 << 20:  # numpy's own pages are small too
-        return np.zeros(shape, dtype)
-    return np.frombuffer(mmap.mmap(-1, n), dtype).reshape(shape)
 
 
 def normal_codes(vol: np.ndarray, spacing) -> np.ndarray:
