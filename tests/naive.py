@@ -764,25 +764,53 @@ def interp_walk(g, step, kind, adaptive=False):
 # --- render: quantised normals ---
 
 
+def _central_differences(vol, z, y, x):
+    """``vol`` one voxel up less one voxel down along z, y and x (indices clamped at the
+    edges), as floats."""
+    pos = (z, y, x)
+    out = []
+    for ax in range(3):
+        up, dn = list(pos), list(pos)
+        up[ax] = min(pos[ax] + 1, vol.shape[ax] - 1)
+        dn[ax] = max(pos[ax] - 1, 0)
+        out.append(float(vol[tuple(up)]) - float(vol[tuple(dn)]))
+    return out
+
+
 def render_unit_gradient(vol, spacing, z, y, x):
     """Unit world gradient (z, y, x) of voxel (z, y, x) by central differences (one voxel
     either way, the index clamped at the edges, divided by twice the spacing), folded
     onto n_z >= 0; None where it vanishes."""
     import math
 
-    shape = vol.shape
-    pos = (z, y, x)
-    g = []
-    for ax in range(3):
-        up, dn = list(pos), list(pos)
-        up[ax] = min(pos[ax] + 1, shape[ax] - 1)
-        dn[ax] = max(pos[ax] - 1, 0)
-        g.append((float(vol[tuple(up)]) - float(vol[tuple(dn)])) / (2.0 * spacing[ax]))
+    g = [d / (2.0 * sp) for d, sp in zip(_central_differences(vol, z, y, x), spacing)]
     n = math.sqrt(sum(c * c for c in g))
     if n == 0.0:
         return None
     s = -1.0 if g[0] < 0 else 1.0
     return tuple(s * c / n for c in g)
+
+
+def render_normal_code(vol, spacing, z, y, x, levels=255):
+    """The quantised normal code of voxel (z, y, x) (volpack.render.normals), in Python
+    floats (IEEE doubles, one rounding an operation, as the kernel's): central
+    differences scaled by ``0.5 / spacing``, 0 when their absolute sum is 0 or not
+    finite, else folded onto n_z >= 0, mapped onto the octahedron's square and each of
+    its two axes rounded half up to one of ``levels`` steps."""
+    import math
+
+    diff = _central_differences(vol, z, y, x)
+    gz, gy, gx = (d * (0.5 / float(sp)) for d, sp in zip(diff, spacing))
+    s = abs(gz) + abs(gy) + abs(gx)
+    if not (0.0 < s < math.inf):
+        return 0
+    if gz < 0.0:
+        gy, gx = -gy, -gx
+    px, py = gx / s, gy / s
+    half = 0.5 * (levels - 1)
+    qu = math.floor((px + py + 1.0) * half + 0.5)
+    qv = math.floor((px - py + 1.0) * half + 0.5)
+    return 1 + qu * levels + qv
 
 
 # --- lossless float prediction (volume_codec.floatpredict) ---

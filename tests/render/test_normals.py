@@ -9,11 +9,11 @@ import math
 import numpy as np
 import pytest
 from conftest import slow_case
-from naive import render_unit_gradient
+from naive import render_normal_code, render_unit_gradient
 from test_render_fast import field, semi
 
 from volpack.render.camera import Camera
-from volpack.render.normals import CHUNK, LEVELS, NormalCodes, decoded, light_table
+from volpack.render.normals import CHUNK, LEVELS, NormalCodes, chunk_runs, decoded, light_table
 from volpack.render.prepared import prepare_volume
 from volpack.render.raycast import render
 
@@ -48,6 +48,40 @@ def test_codes_match_the_central_difference_reference(dtype):
         cosang = abs(float(np.dot(normals[c], ref)))
         assert math.degrees(math.acos(min(cosang, 1.0))) < MAX_DEG, (z, y, x)
     assert zero > 0
+
+
+@pytest.mark.parametrize("dtype", ["uint8", "int16", "float32"])
+def test_codes_equal_the_scalar_reference_bit_for_bit(dtype):
+    # the row kernel's branch-free, vectorised arithmetic gives each voxel the code of
+    # the scalar computation: few values (many ties and exact halves), the volume's
+    # edges, rows of one and two voxels, runs of chunks along x, non-finite voxels
+    r = np.random.default_rng(7)
+    for shape, sp in (((5, 6, 37), (1.0, 1.0, 1.0)), ((18, 3, 2), (2.0, 1.0, 0.7)),
+                      ((4, 33, 1), (0.5, 3.0, 1.0))):  # fmt: skip
+        vol = r.integers(0, 4, shape).astype(dtype)
+        if dtype == "int16":
+            vol = vol * 9000 - 13000
+        if dtype == "float32":
+            vol = vol + r.normal(size=shape).astype(np.float32) * 0.25
+            vol.reshape(-1)[::11] = np.nan
+            vol.reshape(-1)[3::13] = np.inf
+        want = np.array([render_normal_code(vol, sp, *p) for p in np.ndindex(shape)])
+        for workers in (1, 3):
+            codes = NormalCodes(vol, sp).ensure(None, 4, 0.5, workers)
+            np.testing.assert_array_equal(codes.reshape(-1), want)
+
+
+def test_chunk_runs_cover_the_chunks_once():
+    need = np.random.default_rng(3).random((3, 4, 9)) < 0.6
+    runs = chunk_runs(np.argwhere(need))
+    got = np.zeros(need.shape, int)
+    for cz, cy, x0, x1 in runs:
+        assert x0 < x1
+        got[cz, cy, x0:x1] += 1
+    np.testing.assert_array_equal(got, need)
+    assert len(runs) == sum(  # maximal: one run per stretch of marked chunks along x
+        int(a) and not int(b) for row in need.reshape(-1, 9) for a, b in zip(row, [0, *row[:-1]])
+    )
 
 
 def test_light_table():

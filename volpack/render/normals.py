@@ -44,38 +44,78 @@ _DECODED = None  # unit normals of codes 1..LEVELS^2 (float64, (LEVELS^2 + 1, 3)
 
 @kernel(inline=True)
 def _encode(gz, gy, gx):
-    """The code of the world gradient (gz, gy, gx): 0 when it vanishes or is not finite."""
+    """The code of the world gradient (gz, gy, gx): 0 when it vanishes or is not finite.
+    Without branches, so that a row's codes vectorise (four voxels an instruction); the
+    folding, the divisions and the rounding are those of a scalar computation, operation
+    for operation (no fused multiply-adds), so every code is the same on any CPU."""
     s = abs(gz) + abs(gy) + abs(gx)
-    if not (s > 0.0 and s < np.inf):
-        return np.uint16(0)
-    if gz < 0.0:  # two-sided lighting: fold onto n_z >= 0
-        gy, gx = -gy, -gx
-    px = gx / s
-    py = gy / s
+    neg = gz < 0.0  # two-sided lighting: fold onto n_z >= 0
+    px = (-gx if neg else gx) / s
+    py = (-gy if neg else gy) / s
     half = 0.5 * (LEVELS - 1)
-    qu = int(math.floor((px + py + 1.0) * half + 0.5))
-    qv = int(math.floor((px - py + 1.0) * half + 0.5))
-    return np.uint16(1 + qu * LEVELS + qv)
+    qu = np.floor((px + py + 1.0) * half + 0.5)  # a float: int64 conversions do not vectorise
+    qv = np.floor((px - py + 1.0) * half + 0.5)
+    code = 1.0 + qu * LEVELS + qv  # an integer of at most LEVELS^2: exact in float64
+    return np.uint16(np.int32(code if s > 0.0 and s < np.inf else 0.0))
 
 
-@kernel
-def _normals_kernel(vol, chunks, inv2, out):
-    """Codes of the voxels of each chunk ``chunks[k] = (cz, cy, cx)``; ``inv2``: the
-    world scale ``1 / (2 spacing)`` of the voxel differences."""
+@kernel(inline=True)
+def _code_row(c, zm, zp, ym, yp, out, x0, x1, sz, sy, sx, clamp):
+    """Codes of row voxels ``x0 .. x1 - 1``: ``c`` the row, ``zm .. yp`` its neighbour
+    rows (already clamped), ``sz, sy, sx`` the differences' scales; ``clamp`` for the
+    row's first and last voxel, whose x neighbours are clamped to the row."""
+    nx = c.shape[0]
+    for x in range(x0, x1):
+        xm, xp = x - 1, x + 1
+        if clamp:
+            xm, xp = max(xm, 0), min(xp, nx - 1)
+        # in float64: unsigned differences would wrap
+        gz = (np.float64(zp[x]) - np.float64(zm[x])) * sz
+        gy = (np.float64(yp[x]) - np.float64(ym[x])) * sy
+        gx = (np.float64(c[xp]) - np.float64(c[xm])) * sx
+        out[x] = _encode(gz, gy, gx)
+
+
+@kernel(nrt=False)
+def _normals_kernel(vol, runs, inv2, out):
+    """Codes of the voxels of each run of chunks ``runs[k] = (cz, cy, cx0, cx1)`` (chunks
+    ``cx0 .. cx1 - 1`` along x), a row at a time: a run's rows are long enough to
+    vectorise, a chunk's 16 voxels are not; ``inv2``: the world scale
+    ``1 / (2 spacing)`` of the voxel differences."""
     nz, ny, nx = vol.shape
-    for k in range(chunks.shape[0]):
-        z0, y0, x0 = chunks[k, 0] * CHUNK, chunks[k, 1] * CHUNK, chunks[k, 2] * CHUNK
+    sz, sy, sx = inv2[0], inv2[1], inv2[2]
+    for k in range(runs.shape[0]):
+        z0, y0 = runs[k, 0] * CHUNK, runs[k, 1] * CHUNK
+        x0, x1 = runs[k, 2] * CHUNK, min(runs[k, 3] * CHUNK, nx)
+        xa = min(max(x0, 1), x1)  # the voxels whose x neighbours are in the volume
+        xb = max(min(x1, nx - 1), xa)
         for z in range(z0, min(z0 + CHUNK, nz)):
             zm, zp = max(z - 1, 0), min(z + 1, nz - 1)
             for y in range(y0, min(y0 + CHUNK, ny)):
                 ym, yp = max(y - 1, 0), min(y + 1, ny - 1)
-                for x in range(x0, min(x0 + CHUNK, nx)):
-                    xm, xp = max(x - 1, 0), min(x + 1, nx - 1)
-                    # in float64: unsigned differences would wrap
-                    gz = (np.float64(vol[zp, y, x]) - np.float64(vol[zm, y, x])) * inv2[0]
-                    gy = (np.float64(vol[z, yp, x]) - np.float64(vol[z, ym, x])) * inv2[1]
-                    gx = (np.float64(vol[z, y, xp]) - np.float64(vol[z, y, xm])) * inv2[2]
-                    out[z, y, x] = _encode(gz, gy, gx)
+                c, o = vol[z, y], out[z, y]
+                a, b, d, e = vol[zm, y], vol[zp, y], vol[z, ym], vol[z, yp]
+                _code_row(c, a, b, d, e, o, x0, xa, sz, sy, sx, True)
+                _code_row(c, a, b, d, e, o, xa, xb, sz, sy, sx, False)
+                _code_row(c, a, b, d, e, o, xb, x1, sz, sy, sx, True)
+
+
+def chunk_runs(chunks: np.ndarray) -> np.ndarray:
+    """``(cz, cy, cx0, cx1)`` rows: the chunks ``(cz, cy, cx)`` (sorted, as
+    ``np.argwhere`` gives them) merged where they follow each other along x."""
+    c = np.asarray(chunks, np.int64).reshape(-1, 3)
+    new = np.ones(len(c), bool)
+    new[1:] = (c[1:, 0] != c[:-1, 0]) | (c[1:, 1] != c[:-1, 1]) | (c[1:, 2] != c[:-1, 2] + 1)
+    start = np.flatnonzero(new)
+    stop = np.append(start[1:], len(c))
+    return np.column_stack([c[start], c[stop - 1, 2] + 1]).astype(np.int64)
+
+
+def _split_runs(runs: np.ndarray, parts: int) -> list[np.ndarray]:
+    """``runs`` cut into at most ``parts`` C-ordered pieces of about equal chunk counts."""
+    cum = np.cumsum(runs[:, 3] - runs[:, 2])
+    cuts = np.searchsorted(cum, cum[-1] * np.arange(1, parts) / parts, side="right")
+    return [np.ascontiguousarray(p) for p in np.split(runs, np.unique(cuts)) if len(p)]
 
 
 @kernel
@@ -118,12 +158,11 @@ class NormalCodes:
             need = np.zeros(self.done.shape, np.bool_)
             _mark_chunks(np.ascontiguousarray(visible), int(brick),
                          int(math.ceil(reach)) + 1, need)  # fmt: skip
-        todo = np.argwhere(need & ~self.done).astype(np.int64)
+        todo = np.argwhere(need & ~self.done)
         if len(todo):
-            # C-ordered parts (argwhere's result is not): the kernel keeps one signature
-            parts = [np.ascontiguousarray(p)
-                     for p in np.array_split(todo, max(1, min(len(todo), 4 * workers)))]
-            for _ in ordered_map(lambda c: _normals_kernel(self.vol, c, self.inv2, self.codes),
+            # C-ordered parts (the kernel keeps one signature) of about equal work
+            parts = _split_runs(chunk_runs(todo), 4 * workers)
+            for _ in ordered_map(lambda r: _normals_kernel(self.vol, r, self.inv2, self.codes),
                                  parts, workers=workers):  # fmt: skip
                 pass
             self.done |= need
