@@ -221,7 +221,7 @@ print(v, _jit._inline_copies["applied"], hashlib.sha256(asm.encode()).hexdigest(
 """
 
 
-def test_shared_inline_copies_compile_the_same_machine_code(tmp_path):
+def test_shared_inline_copies_compile_the_same_machine_code():
     # volpack's cheaper copying in numba's inliner must leave the compiled code as it is:
     # the same kernel (three levels of inlined helpers) with and without it
     outs = []

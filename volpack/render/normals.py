@@ -149,6 +149,11 @@ class NormalCodes:
         self.codes = np.zeros(vol.shape, np.uint16)  # zero pages until written
         self.done = np.zeros(tuple(-(-n // CHUNK) for n in vol.shape), np.bool_)
 
+    def stale(self, box) -> None:
+        """The voxels of ``box`` (three slices) changed: the chunks it reaches are
+        computed again when next needed."""
+        self.done[tuple(slice(s.start // CHUNK, -(-s.stop // CHUNK)) for s in box)] = False
+
     def ensure(self, visible: np.ndarray | None, brick: int, reach: float, workers: int = 1):
         """Compute the chunks within ``reach`` voxels of the ``visible`` bricks (every
         chunk when ``visible`` is None) not computed yet; return the code array."""

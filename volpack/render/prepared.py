@@ -36,7 +36,7 @@ import numpy as np
 from .._jit import kernel, read_only
 from ..errors import VolpackError
 from ..parallel import ordered_map
-from .normals import CHUNK, NormalCodes
+from .normals import NormalCodes
 
 #: Bytes the per-voxel gradient volume may take (see the module docstring).
 GRADIENT_BUDGET = 1 << 30
@@ -162,7 +162,7 @@ class PreparedVolume:
         codes = self._codes[1]
         if codes:
             for b in grown:
-                codes.done[tuple(slice(s.start // CHUNK, -(-s.stop // CHUNK)) for s in b)] = False
+                codes.stale(b)
         g = self._grad[1]
         if g is not None and g is not False and self.bad is None:
             for gb in grown:  # the box's voxels and their neighbours' differences read them
