@@ -31,6 +31,7 @@ from . import layout
 from .plan import Plan, apply_corrections, decode_lowpass, to_values
 
 DEFAULT_CACHE = 256 << 20
+_NO_BYTES = np.frombuffer(b"", np.uint8)  # read-only, as a payload's bytes: one kernel type
 
 
 class NodeDamaged(FormatError):
@@ -94,6 +95,7 @@ class Octree:
         self._cache: collections.OrderedDict = collections.OrderedDict()
         self._cached = 0
         self._tables: dict[int, np.ndarray] = {}
+        self._bounds: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._lock = threading.RLock()
         self.decoded_nodes = 0
         self._root = None
@@ -171,6 +173,10 @@ class Octree:
         shape = tuple(s.stop - s.start for s in box)
         lv = layout.lift_levels(shape)
         work = np.dtype(self.plan.work)
+        if sections != {} and self.plan.coder == "arith":  # one kernel call, without the GIL
+            c = self._lift_up_fused(level, index, low, sections, shape, lv, work)
+            if c is not None:
+                return c
         c = np.zeros(shape, work)
         body = sections.get(layout.HAS_DETAILS) if sections else None
         decoded = sections != {}  # {}: a damaged chunk, already reported
@@ -192,6 +198,48 @@ class Octree:
         with self._lock:
             self.decoded_nodes += 1
         return dwt3.inverse(c, lv, self.plan.wavelet, overwrite=True)
+
+    def _lift_up_fused(self, level, index, low, sections, shape, lv, work):
+        """:meth:`_lift_up` in one kernel (:mod:`.chunk`): the same voxels, or None when
+        the chunk fails a check (the step-by-step path then reports it)."""
+        from ..volume_codec.lossy import band_scale
+        from ..wavelet.lifting import SPECS
+        from ..wavelet.sigmap import scan as make_scan
+        from .chunk import decode_chunk
+
+        ls = layout.low_shape(shape)
+        if low.shape != ls:
+            return None
+        body = sections.get(layout.HAS_DETAILS) if sections else None
+        data = _NO_BYTES if body is None else np.frombuffer(body, np.uint8)
+        unit = self.plan.codec.step if self.plan.codec is not None else 1.0
+        norm = unit * 2.0 ** (1.5 * (level - 1))
+        lo, hi = self._energy_bounds(level)
+        n = int(np.ravel_multi_index(index, self.geometry.grid(level)))
+        c = np.empty(shape, work)
+        status = decode_chunk(data, make_scan(shape, lv, self.plan.order), 32 if work == np.int32 else 63,
+                              band_scale(shape, lv), norm, (lo[n], hi[n]),
+                              np.ascontiguousarray(low), c, lv,
+                              SPECS[self.plan.wavelet])  # fmt: skip
+        if status:
+            return None
+        with self._lock:
+            self.decoded_nodes += 1
+        return c
+
+    def _energy_bounds(self, level) -> tuple[np.ndarray, np.ndarray]:
+        """``layout.own_energy_range`` of every node of ``level``, made once."""
+        from .chunk import energy_bounds
+
+        with self._lock:
+            hit = self._bounds.get(level)
+            if hit is None:
+                e = self.table(level)["E"]
+                kids = self.table(level - 1)["E"] if level > 1 else np.zeros(0, np.float32)
+                grid = self.geometry.grid(level)
+                kgrid = self.geometry.grid(level - 1) if level > 1 else (0, 0, 0)
+                hit = self._bounds[level] = energy_bounds(e, kids, grid, kgrid)
+            return hit
 
     def _energy_matches(self, level, index, c, lv) -> bool:
         """The details' own share of ``E^2`` agrees with the node's table row less its
@@ -274,14 +322,15 @@ class Octree:
     def _warm(self, level: int, nodes, workers: int) -> None:
         """Decode the children of ``nodes`` (all of ``level``) on ``workers`` threads,
         their ancestors first, so that no node is decoded twice."""
-        from ..parallel import ordered_map
+        from ..parallel import completed_map
 
         nodes = sorted(b for b in set(nodes) if (level, b) not in self._cache)
         if not nodes:
             return
         if level < self.depth:
             self._warm(level + 1, {tuple(i // 2 for i in b) for b in nodes}, workers)
-        for _ in ordered_map(lambda b: self._children(level, b), nodes, workers):
+        # the calling thread decodes too (a pool's hand-offs took the GIL between chunks)
+        for _ in completed_map(lambda b: self._children(level, b), nodes, workers):
             pass
 
     def node_block(self, level: int, index: tuple[int, int, int]) -> np.ndarray:
