@@ -383,15 +383,21 @@ class Octree:
         n = self.geometry.level_shape(level)
         return tuple(slice(s.start // f, min(-(-s.stop // f), v)) for s, v in zip(region, n))  # type: ignore[return-value]
 
-    def values(self, level: int, box: tuple[slice, slice, slice], workers: int = 1) -> np.ndarray:
+    def values(self, level: int, box: tuple[slice, slice, slice], workers: int = 1,
+               out: np.ndarray | None = None) -> np.ndarray:  # fmt: skip
         """Voxels of level ``level`` (output dtype) in ``box`` (level coordinates),
-        decoded on ``workers`` threads."""
+        decoded on ``workers`` threads; written into ``out`` when given (the box's
+        shape, the output dtype or float64: the same numbers) and returned."""
+        from .resample import put_clipped
+
         level = self.geometry.check_level(level)
         n = self.geometry.level_shape(level)
         for s, v in zip(box, n):
             if not (0 <= s.start < s.stop <= v):
                 raise FormatError(f"expected a box inside the level-{level} shape {n}, found {box}")
-        out = np.empty(tuple(s.stop - s.start for s in box), self.dtype)
+        if out is None:
+            out = np.empty(tuple(s.stop - s.start for s in box), self.dtype)
+        clip = self.plan.clip_range
         if level == self.depth:
             low, corr = self._root_entry()
             vals = to_values(self.plan, low)
@@ -400,22 +406,25 @@ class Octree:
             out[...] = vals[box]
             return out
         k2 = 2 * self.plan.block
-        ranges = [range(s.start // k2, (s.stop - 1) // k2 + 1) for s in box]
-        if workers > 1:
-            self._warm(level + 1, itertools.product(*ranges), workers)
-        for p in itertools.product(*ranges):
-            block, corr = self._children(level + 1, p)
-            src, dst = [], []
-            for i, s in zip(p, box):
+        axes = []  # per axis: (block index, its part in the block, where it goes in out)
+        for s in box:
+            a = []
+            for i in range(s.start // k2, (s.stop - 1) // k2 + 1):
                 lo, hi = max(s.start, k2 * i), min(s.stop, k2 * (i + 1))
-                src.append(slice(lo - k2 * i, hi - k2 * i))
-                dst.append(slice(lo - s.start, hi - s.start))
+                a.append((i, slice(lo - k2 * i, hi - k2 * i), slice(lo - s.start, hi - s.start)))
+            axes.append(a)
+        if workers > 1:
+            self._warm(level + 1, itertools.product(*([i for i, _, _ in a] for a in axes)), workers)
+        for (iz, sz, dz), (iy, sy, dy), (ix, sx, dx) in itertools.product(*axes):
+            block, corr = self._children(level + 1, (iz, iy, ix))
             if corr is not None and level == 0:  # corrections address the whole block
                 vals = to_values(self.plan, block)
                 apply_corrections(self.plan, corr, vals)
-                out[tuple(dst)] = vals[tuple(src)]
+                out[dz, dy, dx] = vals[sz, sy, sx]
+            elif clip is not None:  # one kernel call: clipped, cast, written
+                put_clipped(block[sz, sy, sx], clip[0], clip[1], out[dz, dy, dx])
             else:  # voxel by voxel: convert only the part asked for
-                out[tuple(dst)] = to_values(self.plan, block[tuple(src)])
+                out[dz, dy, dx] = to_values(self.plan, block[sz, sy, sx])
         return out
 
     def decode(self, level: int = 0, roi=None, workers: int = 1):
@@ -496,29 +505,37 @@ class Octree:
             out[dst] = v
         return Volume(out, spacing=self._spacing(m), origin=self._origin(m, tbox))
 
-    def resampled(self, level: int, box, fm: int, interp: str = "linear") -> np.ndarray:
+    def resampled(self, level: int, box, fm: int, interp: str = "linear",
+                  out: np.ndarray | None = None) -> np.ndarray:  # fmt: skip
         """Level ``level``'s voxels at the voxel centres of ``box`` (slices of a level
         ``fm`` times finer), as :meth:`assemble` writes a node of that level there:
         the voxels themselves at ``fm == 1``, else repeated (``"nearest"``) or
         interpolated trilinearly with the neighbouring voxels (``"linear"``). Each
         output voxel depends only on its position and the level's voxels, so a box
-        over several nodes gives each node's own numbers."""
+        over several nodes gives each node's own numbers. Written into ``out`` (the
+        box's shape, an integer tree's dtype) when given, and returned."""
         from .resample import trilinear
 
+        if fm == 1 and out is not None:
+            return self.values(level, tuple(box), out=out)
         if interp == "nearest" or fm == 1:  # at its own level: exact voxels, weights 0
             idx = [np.arange(s.start, s.stop) // fm for s in box]
             src = tuple(slice(int(i[0]), int(i[-1]) + 1) for i in idx)
             vals = self.values(level, src)
-            return vals if fm == 1 else vals[np.ix_(*[i - i[0] for i in idx])]
+            vals = vals if fm == 1 else vals[np.ix_(*[i - i[0] for i in idx])]
+            if out is not None:
+                out[...] = vals
+                return out
+            return vals
         nl = self.geometry.level_shape(level)
         pos = [(np.arange(s.start, s.stop) + 0.5) / fm - 0.5 for s in box]
         j0 = [np.clip(np.floor(p), 0, v - 1).astype(np.int64) for p, v in zip(pos, nl)]
         j1 = [np.minimum(j + 1, v - 1) for j, v in zip(j0, nl)]
         w = [np.clip(p - j, 0.0, 1.0) for p, j in zip(pos, j0)]
         src = tuple(slice(int(a.min()), int(c.max()) + 1) for a, c in zip(j0, j1))
-        return trilinear(self.values(level, src).astype(np.float64),
-                         [j - s.start for j, s in zip(j0, src)],
-                         [j - s.start for j, s in zip(j1, src)], w, self.dtype)  # fmt: skip
+        v = self.values(level, src, out=np.empty(tuple(s.stop - s.start for s in src)))
+        return trilinear(v, [j - s.start for j, s in zip(j0, src)],
+                         [j - s.start for j, s in zip(j1, src)], w, self.dtype, out)  # fmt: skip
 
     def close(self) -> None:
         self._r.close()
