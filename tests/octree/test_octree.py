@@ -576,3 +576,20 @@ def test_budget_with_camera_refines_near_the_eye_first():
         assert near and far and np.mean(near) < np.mean(far)  # the eye is at y < 0
         plain = sel.by_budget(t, voxels=6000)
         assert sorted(plain) != sorted(nodes)
+
+
+def test_axis_weights_equal_the_numpy_steps():
+    # resampled()'s per-axis positions, in one kernel, against the numpy form it replaced
+    from volpack.octree.resample import axis_weights
+
+    for start, stop, fm, n in [(0, 37, 4, 10), (3, 20, 4, 10), (5, 6, 2, 3), (0, 301, 32, 10),
+                               (17, 90, 8, 12), (0, 1, 2, 1), (60, 64, 16, 4)]:  # fmt: skip
+        pos = (np.arange(start, stop) + 0.5) / fm - 0.5
+        j0 = np.clip(np.floor(pos), 0, n - 1).astype(np.int64)
+        j1 = np.minimum(j0 + 1, n - 1)
+        w = np.clip(pos - j0, 0.0, 1.0)
+        base, a, b, ww = axis_weights(start, stop, fm, n)
+        assert base == j0.min() and b.max() + base == j1.max()
+        np.testing.assert_array_equal(a + base, j0)
+        np.testing.assert_array_equal(b + base, j1)
+        assert ww.tobytes() == w.tobytes()  # bit for bit, signs of zeros included

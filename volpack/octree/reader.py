@@ -514,7 +514,7 @@ class Octree:
         output voxel depends only on its position and the level's voxels, so a box
         over several nodes gives each node's own numbers. Written into ``out`` (the
         box's shape, an integer tree's dtype) when given, and returned."""
-        from .resample import trilinear
+        from .resample import axis_weights, trilinear
 
         if fm == 1 and out is not None:
             return self.values(level, tuple(box), out=out)
@@ -528,14 +528,11 @@ class Octree:
                 return out
             return vals
         nl = self.geometry.level_shape(level)
-        pos = [(np.arange(s.start, s.stop) + 0.5) / fm - 0.5 for s in box]
-        j0 = [np.clip(np.floor(p), 0, v - 1).astype(np.int64) for p, v in zip(pos, nl)]
-        j1 = [np.minimum(j + 1, v - 1) for j, v in zip(j0, nl)]
-        w = [np.clip(p - j, 0.0, 1.0) for p, j in zip(pos, j0)]
-        src = tuple(slice(int(a.min()), int(c.max()) + 1) for a, c in zip(j0, j1))
+        ax = [axis_weights(s.start, s.stop, fm, v) for s, v in zip(box, nl)]
+        src = tuple(slice(b, b + int(j1[-1]) + 1) for b, _, j1, _ in ax)
         v = self.values(level, src, out=np.empty(tuple(s.stop - s.start for s in src)))
-        return trilinear(v, [j - s.start for j, s in zip(j0, src)],
-                         [j - s.start for j, s in zip(j1, src)], w, self.dtype, out)  # fmt: skip
+        return trilinear(v, [a[1] for a in ax], [a[2] for a in ax], [a[3] for a in ax],
+                         self.dtype, out)  # fmt: skip
 
     def close(self) -> None:
         self._r.close()

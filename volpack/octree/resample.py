@@ -65,6 +65,35 @@ def trilinear(v: np.ndarray, j0, j1, w, dtype, into=None) -> np.ndarray:
 
 
 @kernel
+def _axis_kernel(start, fm, n, j0, j1, w):
+    # numpy's per-axis steps of Octree.resampled, the same operations in the same order
+    for k in range(j0.size):
+        p = (np.float64(start + k) + 0.5) / fm - 0.5
+        j = np.int64(min(max(np.floor(p), 0.0), n - 1.0))
+        j0[k] = j
+        j1[k] = min(j + 1, n - 1)
+        w[k] = min(max(p - np.float64(j), 0.0), 1.0)
+    base = j0[0]  # both nondecreasing: the first is the least
+    for k in range(j0.size):
+        j0[k] -= base
+        j1[k] -= base
+    return base
+
+
+def axis_weights(start: int, stop: int, fm: int, n: int):
+    """The level voxels (``j0``, ``j1``) between which the centres of voxels
+    ``start:stop`` of a level ``fm`` times finer lie, and the weight ``w`` of the
+    second, on an axis of ``n`` level voxels (clamped at its ends): ``(base, j0, j1,
+    w)`` with the voxels counted from ``base``. The numbers of ``pos = (i + 0.5) / fm -
+    0.5; j0 = clip(floor(pos), 0, n - 1); j1 = min(j0 + 1, n - 1); w = clip(pos - j0,
+    0, 1)`` in numpy, in one call (those were 15 numpy calls a box)."""
+    m = stop - start
+    j0, j1, w = np.empty(m, np.int64), np.empty(m, np.int64), np.empty(m)
+    base = _axis_kernel(start, fm, n, j0, j1, w)
+    return int(base), j0, j1, w
+
+
+@kernel
 def _put_kernel(src, lo, hi, out):
     nz, ny, nx = src.shape
     for i in range(nz):
