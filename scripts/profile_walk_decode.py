@@ -8,8 +8,10 @@ per part of a chunk's decoding (summed over the threads, from each thread's
 ``/proc/self/task/TID/schedstat``): CPU, run-queue wait (runnable, no core free: the
 shared machine) and the rest of the wall, "blocked" (waiting for the GIL or a lock).
 The parts: ``arith`` the entropy decoder (its numba kernel releases the GIL),
-``dwt`` the inverse lifting, ``energy`` the details' energy check (numpy),
-``lift_up`` a chunk's whole decoding. Prints one line per run.
+``dwt`` the inverse lifting, ``energy`` the details' energy check (numpy), ``fused``
+the one kernel call that does all three for an ``arith`` tree since walk15
+(``octree.chunk.decode_chunk``; the three others are then 0), ``lift_up`` a chunk's
+whole decoding. Prints one line per run.
 
     python scripts/profile_walk_decode.py o.vpk --rounds 3
 """
@@ -40,6 +42,7 @@ def main(argv=None) -> int:
 
     from volpack.cli import main as cli
     from volpack.entropy import arith
+    from volpack.octree import chunk
     from volpack.octree import reader
     from volpack.render import lod
     from volpack.wavelet import dwt3
@@ -78,6 +81,7 @@ def main(argv=None) -> int:
     timed(dwt3, "inverse", "dwt")
     timed(reader.Octree, "_energy_matches", "energy")
     timed(reader.Octree, "_lift_up", "lift_up")
+    timed(chunk, "decode_chunk", "fused")
     for rnd in range(args.rounds):
         for workers in (1, 2):
             tree = reader.Octree(args.vpk)
@@ -90,7 +94,7 @@ def main(argv=None) -> int:
             detail = "; ".join(
                 f"{p} CPU {1e3 * parts[p, 'cpu']:.0f} wait {1e3 * parts[p, 'wait']:.0f}"
                 f" blocked {1e3 * parts[p, 'blocked']:.0f}"
-                for p in ("lift_up", "arith", "dwt", "energy")
+                for p in ("lift_up", "fused", "arith", "dwt", "energy")
             )  # fmt: skip
             print(f"round {rnd} workers {workers}: {len(todo)} chunks, wall {1e3 * (w1 - w0):.0f}"
                   f" ms, CPU {1e3 * (c1 - c0):.0f} ms; {detail}", flush=True)  # fmt: skip

@@ -327,6 +327,31 @@ def test_a_level_resampled_over_any_box_gives_each_nodes_numbers(vol, blob):
         for box in [(slice(0, 37), slice(0, 21), slice(0, 30)), (slice(3, 20), slice(5, 6), slice(7, 29))]:
             np.testing.assert_array_equal(t.resampled(2, box, 4), ref[box])
         np.testing.assert_array_equal(t.resampled(0, box, 1), vol[box])
+        for lv, fm in [(2, 4), (1, 2), (0, 1)]:  # written into a view of a grid, as the walk does
+            grid = np.full((40, 24, 33), 7, np.int16)
+            t.resampled(lv, box, fm, out=grid[2:19, 1:2, 0:22])
+            np.testing.assert_array_equal(grid[2:19, 1:2, 0:22], t.resampled(lv, box, fm))
+            grid[2:19, 1:2, 0:22] = 7
+            assert (grid == 7).all()  # nothing outside the box
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.int8, np.uint16, np.int32, np.int64])
+def test_values_clipped_in_one_kernel_equal_to_values(dtype):
+    # the kernel that writes a block's integers clipped into the tree's dtype (or float64)
+    # against the numpy form of plan.to_values, with values outside the dtype's range
+    from volpack.octree.plan import Plan
+    from volpack.octree.resample import put_clipped
+
+    info = np.iinfo(dtype)
+    r = np.random.default_rng(5)
+    plan = Plan((8, 8, 8), np.dtype(dtype).str, 4, "53", "arith", "dfs", "<i8", 0)
+    lo, hi = plan.clip_range
+    work = r.integers(max(info.min, -(1 << 62)) // 2 * 3 - 5, min(info.max, 1 << 62) // 2 * 3 + 5, (9, 8, 11))
+    src = work[1:8, ::2, 3:]
+    for out in (np.empty(src.shape, dtype), np.empty((12, 9, 9))[2:9, 5:9, 1:9]):
+        put_clipped(src, lo, hi, out)
+        np.testing.assert_array_equal(out, to_values(plan, src).astype(out.dtype))
+    assert Plan((8, 8, 8), "<u8", 4, "53", "arith", "dfs", "<i8", 0).clip_range is None
 
 
 def test_brick_border_matches_neighbours(vol, blob):
@@ -551,3 +576,20 @@ def test_budget_with_camera_refines_near_the_eye_first():
         assert near and far and np.mean(near) < np.mean(far)  # the eye is at y < 0
         plain = sel.by_budget(t, voxels=6000)
         assert sorted(plain) != sorted(nodes)
+
+
+def test_axis_weights_equal_the_numpy_steps():
+    # resampled()'s per-axis positions, in one kernel, against the numpy form it replaced
+    from volpack.octree.resample import axis_weights
+
+    for start, stop, fm, n in [(0, 37, 4, 10), (3, 20, 4, 10), (5, 6, 2, 3), (0, 301, 32, 10),
+                               (17, 90, 8, 12), (0, 1, 2, 1), (60, 64, 16, 4)]:  # fmt: skip
+        pos = (np.arange(start, stop) + 0.5) / fm - 0.5
+        j0 = np.clip(np.floor(pos), 0, n - 1).astype(np.int64)
+        j1 = np.minimum(j0 + 1, n - 1)
+        w = np.clip(pos - j0, 0.0, 1.0)
+        base, a, b, ww = axis_weights(start, stop, fm, n)
+        assert base == j0.min() and b.max() + base == j1.max()
+        np.testing.assert_array_equal(a + base, j0)
+        np.testing.assert_array_equal(b + base, j1)
+        assert ww.tobytes() == w.tobytes()  # bit for bit, signs of zeros included

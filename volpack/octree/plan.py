@@ -97,6 +97,15 @@ class Plan:
             raise FormatError(f"expected an int32 or int64 work dtype, found {plan.work!r}")
         return plan
 
+    @functools.cached_property
+    def clip_range(self) -> tuple[int, int] | None:
+        """``(min, max)`` of the dtype that :func:`to_values` clips into, for a tree
+        without a codec whose range int64 holds (not uint64), else None."""
+        if self.codec is not None or np.dtype(self.dtype) == np.uint64:
+            return None
+        info = np.iinfo(np.dtype(self.dtype))
+        return int(info.min), int(info.max)
+
 
 def to_values(plan: Plan, a: np.ndarray) -> np.ndarray:
     """Voxels of the output dtype from ``A_L`` integers (clipped into the dtype)."""

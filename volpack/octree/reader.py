@@ -31,6 +31,7 @@ from . import layout
 from .plan import Plan, apply_corrections, decode_lowpass, to_values
 
 DEFAULT_CACHE = 256 << 20
+_NO_BYTES = np.frombuffer(b"", np.uint8)  # read-only, as a payload's bytes: one kernel type
 
 
 class NodeDamaged(FormatError):
@@ -94,6 +95,7 @@ class Octree:
         self._cache: collections.OrderedDict = collections.OrderedDict()
         self._cached = 0
         self._tables: dict[int, np.ndarray] = {}
+        self._bounds: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._lock = threading.RLock()
         self.decoded_nodes = 0
         self._root = None
@@ -171,6 +173,10 @@ class Octree:
         shape = tuple(s.stop - s.start for s in box)
         lv = layout.lift_levels(shape)
         work = np.dtype(self.plan.work)
+        if sections != {} and self.plan.coder == "arith":  # one kernel call, without the GIL
+            c = self._lift_up_fused(level, index, low, sections, shape, lv, work)
+            if c is not None:
+                return c
         c = np.zeros(shape, work)
         body = sections.get(layout.HAS_DETAILS) if sections else None
         decoded = sections != {}  # {}: a damaged chunk, already reported
@@ -192,6 +198,48 @@ class Octree:
         with self._lock:
             self.decoded_nodes += 1
         return dwt3.inverse(c, lv, self.plan.wavelet, overwrite=True)
+
+    def _lift_up_fused(self, level, index, low, sections, shape, lv, work):
+        """:meth:`_lift_up` in one kernel (:mod:`.chunk`): the same voxels, or None when
+        the chunk fails a check (the step-by-step path then reports it)."""
+        from ..volume_codec.lossy import band_scale
+        from ..wavelet.lifting import SPECS
+        from ..wavelet.sigmap import scan as make_scan
+        from .chunk import decode_chunk
+
+        ls = layout.low_shape(shape)
+        if low.shape != ls:
+            return None
+        body = sections.get(layout.HAS_DETAILS) if sections else None
+        data = _NO_BYTES if body is None else np.frombuffer(body, np.uint8)
+        unit = self.plan.codec.step if self.plan.codec is not None else 1.0
+        norm = unit * 2.0 ** (1.5 * (level - 1))
+        lo, hi = self._energy_bounds(level)
+        n = int(np.ravel_multi_index(index, self.geometry.grid(level)))
+        c = np.empty(shape, work)
+        status = decode_chunk(data, make_scan(shape, lv, self.plan.order), 32 if work == np.int32 else 63,
+                              band_scale(shape, lv), norm, (lo[n], hi[n]),
+                              np.ascontiguousarray(low), c, lv,
+                              SPECS[self.plan.wavelet])  # fmt: skip
+        if status:
+            return None
+        with self._lock:
+            self.decoded_nodes += 1
+        return c
+
+    def _energy_bounds(self, level) -> tuple[np.ndarray, np.ndarray]:
+        """``layout.own_energy_range`` of every node of ``level``, made once."""
+        from .chunk import energy_bounds
+
+        with self._lock:
+            hit = self._bounds.get(level)
+            if hit is None:
+                e = self.table(level)["E"]
+                kids = self.table(level - 1)["E"] if level > 1 else np.zeros(0, np.float32)
+                grid = self.geometry.grid(level)
+                kgrid = self.geometry.grid(level - 1) if level > 1 else (0, 0, 0)
+                hit = self._bounds[level] = energy_bounds(e, kids, grid, kgrid)
+            return hit
 
     def _energy_matches(self, level, index, c, lv) -> bool:
         """The details' own share of ``E^2`` agrees with the node's table row less its
@@ -274,14 +322,15 @@ class Octree:
     def _warm(self, level: int, nodes, workers: int) -> None:
         """Decode the children of ``nodes`` (all of ``level``) on ``workers`` threads,
         their ancestors first, so that no node is decoded twice."""
-        from ..parallel import ordered_map
+        from ..parallel import completed_map
 
         nodes = sorted(b for b in set(nodes) if (level, b) not in self._cache)
         if not nodes:
             return
         if level < self.depth:
             self._warm(level + 1, {tuple(i // 2 for i in b) for b in nodes}, workers)
-        for _ in ordered_map(lambda b: self._children(level, b), nodes, workers):
+        # the calling thread decodes too (a pool's hand-offs took the GIL between chunks)
+        for _ in completed_map(lambda b: self._children(level, b), nodes, workers):
             pass
 
     def node_block(self, level: int, index: tuple[int, int, int]) -> np.ndarray:
@@ -334,15 +383,21 @@ class Octree:
         n = self.geometry.level_shape(level)
         return tuple(slice(s.start // f, min(-(-s.stop // f), v)) for s, v in zip(region, n))  # type: ignore[return-value]
 
-    def values(self, level: int, box: tuple[slice, slice, slice], workers: int = 1) -> np.ndarray:
+    def values(self, level: int, box: tuple[slice, slice, slice], workers: int = 1,
+               out: np.ndarray | None = None) -> np.ndarray:  # fmt: skip
         """Voxels of level ``level`` (output dtype) in ``box`` (level coordinates),
-        decoded on ``workers`` threads."""
+        decoded on ``workers`` threads; written into ``out`` when given (the box's
+        shape, the output dtype or float64: the same numbers) and returned."""
+        from .resample import put_clipped
+
         level = self.geometry.check_level(level)
         n = self.geometry.level_shape(level)
         for s, v in zip(box, n):
             if not (0 <= s.start < s.stop <= v):
                 raise FormatError(f"expected a box inside the level-{level} shape {n}, found {box}")
-        out = np.empty(tuple(s.stop - s.start for s in box), self.dtype)
+        if out is None:
+            out = np.empty(tuple(s.stop - s.start for s in box), self.dtype)
+        clip = self.plan.clip_range
         if level == self.depth:
             low, corr = self._root_entry()
             vals = to_values(self.plan, low)
@@ -351,22 +406,25 @@ class Octree:
             out[...] = vals[box]
             return out
         k2 = 2 * self.plan.block
-        ranges = [range(s.start // k2, (s.stop - 1) // k2 + 1) for s in box]
-        if workers > 1:
-            self._warm(level + 1, itertools.product(*ranges), workers)
-        for p in itertools.product(*ranges):
-            block, corr = self._children(level + 1, p)
-            src, dst = [], []
-            for i, s in zip(p, box):
+        axes = []  # per axis: (block index, its part in the block, where it goes in out)
+        for s in box:
+            a = []
+            for i in range(s.start // k2, (s.stop - 1) // k2 + 1):
                 lo, hi = max(s.start, k2 * i), min(s.stop, k2 * (i + 1))
-                src.append(slice(lo - k2 * i, hi - k2 * i))
-                dst.append(slice(lo - s.start, hi - s.start))
+                a.append((i, slice(lo - k2 * i, hi - k2 * i), slice(lo - s.start, hi - s.start)))
+            axes.append(a)
+        if workers > 1:
+            self._warm(level + 1, itertools.product(*([i for i, _, _ in a] for a in axes)), workers)
+        for (iz, sz, dz), (iy, sy, dy), (ix, sx, dx) in itertools.product(*axes):
+            block, corr = self._children(level + 1, (iz, iy, ix))
             if corr is not None and level == 0:  # corrections address the whole block
                 vals = to_values(self.plan, block)
                 apply_corrections(self.plan, corr, vals)
-                out[tuple(dst)] = vals[tuple(src)]
+                out[dz, dy, dx] = vals[sz, sy, sx]
+            elif clip is not None:  # one kernel call: clipped, cast, written
+                put_clipped(block[sz, sy, sx], clip[0], clip[1], out[dz, dy, dx])
             else:  # voxel by voxel: convert only the part asked for
-                out[tuple(dst)] = to_values(self.plan, block[tuple(src)])
+                out[dz, dy, dx] = to_values(self.plan, block[sz, sy, sx])
         return out
 
     def decode(self, level: int = 0, roi=None, workers: int = 1):
@@ -447,29 +505,34 @@ class Octree:
             out[dst] = v
         return Volume(out, spacing=self._spacing(m), origin=self._origin(m, tbox))
 
-    def resampled(self, level: int, box, fm: int, interp: str = "linear") -> np.ndarray:
+    def resampled(self, level: int, box, fm: int, interp: str = "linear",
+                  out: np.ndarray | None = None) -> np.ndarray:  # fmt: skip
         """Level ``level``'s voxels at the voxel centres of ``box`` (slices of a level
         ``fm`` times finer), as :meth:`assemble` writes a node of that level there:
         the voxels themselves at ``fm == 1``, else repeated (``"nearest"``) or
         interpolated trilinearly with the neighbouring voxels (``"linear"``). Each
         output voxel depends only on its position and the level's voxels, so a box
-        over several nodes gives each node's own numbers."""
-        from .resample import trilinear
+        over several nodes gives each node's own numbers. Written into ``out`` (the
+        box's shape, an integer tree's dtype) when given, and returned."""
+        from .resample import axis_weights, trilinear
 
+        if fm == 1 and out is not None:
+            return self.values(level, tuple(box), out=out)
         if interp == "nearest" or fm == 1:  # at its own level: exact voxels, weights 0
             idx = [np.arange(s.start, s.stop) // fm for s in box]
             src = tuple(slice(int(i[0]), int(i[-1]) + 1) for i in idx)
             vals = self.values(level, src)
-            return vals if fm == 1 else vals[np.ix_(*[i - i[0] for i in idx])]
+            vals = vals if fm == 1 else vals[np.ix_(*[i - i[0] for i in idx])]
+            if out is not None:
+                out[...] = vals
+                return out
+            return vals
         nl = self.geometry.level_shape(level)
-        pos = [(np.arange(s.start, s.stop) + 0.5) / fm - 0.5 for s in box]
-        j0 = [np.clip(np.floor(p), 0, v - 1).astype(np.int64) for p, v in zip(pos, nl)]
-        j1 = [np.minimum(j + 1, v - 1) for j, v in zip(j0, nl)]
-        w = [np.clip(p - j, 0.0, 1.0) for p, j in zip(pos, j0)]
-        src = tuple(slice(int(a.min()), int(c.max()) + 1) for a, c in zip(j0, j1))
-        return trilinear(self.values(level, src).astype(np.float64),
-                         [j - s.start for j, s in zip(j0, src)],
-                         [j - s.start for j, s in zip(j1, src)], w, self.dtype)  # fmt: skip
+        ax = [axis_weights(s.start, s.stop, fm, v) for s, v in zip(box, nl)]
+        src = tuple(slice(b, b + int(j1[-1]) + 1) for b, _, j1, _ in ax)
+        v = self.values(level, src, out=np.empty(tuple(s.stop - s.start for s in src)))
+        return trilinear(v, [a[1] for a in ax], [a[2] for a in ax], [a[3] for a in ax],
+                         self.dtype, out)  # fmt: skip
 
     def close(self) -> None:
         self._r.close()

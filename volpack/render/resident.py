@@ -39,7 +39,7 @@ import math
 
 import numpy as np
 
-from ..parallel import ordered_map
+from ..parallel import completed_map
 from .prepared import SAMPLED, PreparedVolume
 
 #: Bytes a walk's resident volume may take (data, quantised normals and, for
@@ -139,14 +139,19 @@ class ResidentVolume:
                  for box in cell_boxes(changed & (level == lv), k, self.shape)
                  for piece in _pieces(box, PIECE)]  # fmt: skip
 
+        direct = data.dtype == self.tree.dtype and data.dtype.kind in "iu"
+
         def write(job) -> None:
             lv, box = job
+            if direct:  # the tree's integers written straight into the grid
+                self.tree.resampled(lv, box, 1 << lv, "linear", out=data[box])
+                return
             v = self.tree.resampled(lv, box, 1 << lv, "linear")
             if v.dtype.kind == "f":  # non-finite voxels are empty, as the plain renderer has them
                 v = np.where(np.isfinite(v), v, fill)
             data[box] = v
 
-        for _ in ordered_map(write, boxes, workers=workers):
+        for _ in completed_map(write, boxes, workers=workers):  # disjoint boxes: any order
             pass
         self.have = want
         self.written += len(nodes)
