@@ -26,9 +26,27 @@ import functools
 import hashlib
 import os
 import pathlib
+import sys
 
-import numba
 import numpy as np
+
+
+def _numba_without_scipy():
+    """Import numba with scipy hidden: numba imports scipy only to refuse a SciPy older
+    than 1.0 (for its SciPy-based features, which no kernel here uses), 10-20 ms of
+    every process. scipy imports normally afterwards."""
+    if "numba" in sys.modules or "scipy" in sys.modules:
+        import numba
+    else:
+        sys.modules["scipy"] = None  # an ImportError for numba's version check
+        try:
+            import numba
+        finally:
+            del sys.modules["scipy"]
+    return numba
+
+
+numba = _numba_without_scipy()
 
 CACHE = os.environ.get("VOLPACK_JIT_CACHE", "1") != "0"
 _PACKAGE = pathlib.Path(__file__).resolve().parent
@@ -161,10 +179,8 @@ def _numpy_support_without_scipy() -> None:
     """Load numba's NumPy support (the registries every compile sets up) without
     scipy.linalg: numba imports it only to learn whether ``np.dot`` may call BLAS,
     which no kernel here does, and the import took 0.5-0.7 s of every process that
-    set numba's compiler up (about half of numba's set-up). scipy.linalg is hidden for this one
-    import only; it imports normally afterwards."""
-    import sys
-
+    set numba's compiler up (about half of numba's set-up). scipy.linalg is hidden
+    for this one import only; it imports normally afterwards."""
     if "numba.np.arraymath" in sys.modules or "scipy.linalg" in sys.modules:
         return
     sys.modules["scipy.linalg"] = None  # an ImportError for numba's probe
