@@ -66,8 +66,28 @@ try:
     main(["render", sys.argv[1], sys.argv[2], "--force", "--size", "24x20"], standalone_mode=False)
 except SystemExit as e:
     assert not e.code, e.code
+import gc
+assert gc.isenabled() and not gc.get_freeze_count()  # paused for imports only, no freeze
 print(" ".join(m for m in sys.argv[3:] if m in sys.modules))
 """
+
+
+def test_imports_without_gc_pauses_the_collector_and_freezes_in_a_whole_process(monkeypatch):
+    import gc
+
+    from volpack.cli import options
+
+    frozen = gc.get_freeze_count()
+    with options.imports_without_gc():
+        assert not gc.isenabled()
+    assert gc.isenabled() and gc.get_freeze_count() == frozen  # a test's process: no freeze
+    monkeypatch.setattr(options, "WHOLE_PROCESS", True)  # as volpack.cli.run sets it
+    try:
+        with options.imports_without_gc():
+            keep = [object() for _ in range(10)]  # noqa: F841
+        assert gc.isenabled() and gc.get_freeze_count() > frozen
+    finally:
+        gc.unfreeze()
 
 
 def test_a_render_imports_neither_other_commands_nor_numbas_compiler(tmp_path):

@@ -133,6 +133,9 @@ def run() -> None:
     tearing down numba and llvmlite takes about 0.25 s of CPU, a third of a small decode.
     Exceptions that escape click (none should) still take Python's normal path.
     """
+    from . import options
+
+    options.WHOLE_PROCESS = True  # what a command imports may be frozen (imports_without_gc)
     try:
         main()
         code = 0

@@ -8,7 +8,14 @@ import time
 
 import click
 
-from .options import emit_json, force_option, json_option, progress_bar, raw_options
+from .options import (
+    emit_json,
+    force_option,
+    imports_without_gc,
+    json_option,
+    progress_bar,
+    raw_options,
+)
 
 # Colour names an isosurface spec may use beside CSS names and #rrggbb.
 ISO_COLOURS = {
@@ -282,16 +289,17 @@ def render(
       volpack render mesh.vpk mesh.png --field temperature --tf generic
       volpack render big.vpk big.png --budget 2048 --tf ct-bone    # octree: level of detail
     """
-    import numpy as np
+    with imports_without_gc():
+        import numpy as np
 
-    from ..format.atomic import check_output
-    from ..io import parse_spec
-    from ..render import transfer
-    from ..render.autotf import transfer_for
-    from ..render.camera import Camera
-    from ..render.image import save_png
-    from ..render.raycast import RenderStats
-    from ..render.raycast import render as raycast
+        from ..format.atomic import check_output
+        from ..io import parse_spec
+        from ..render import transfer
+        from ..render.autotf import transfer_for
+        from ..render.camera import Camera
+        from ..render.image import save_png
+        from ..render.raycast import RenderStats
+        from ..render.raycast import render as raycast
 
     size = parse_size(size_s)
     isos = parse_isos(iso_spec) if iso_spec else None
