@@ -19,7 +19,8 @@ timed (wall and process CPU, all threads):
 
 Kernels must be in the cache (one untimed run per tree comes first). The benchmark's
 inputs (:mod:`bench_render_process`: raw NRRD, its TF JSON) are written to a temporary
-folder. Writes ``stages.csv`` (median of ``--rounds`` per tree and stage) under ``--out``.
+folder. Bytecode as in :mod:`bench_render_process` (``--no-bytecode`` likewise). Writes
+``stages.csv`` (median of ``--rounds`` per tree and stage) under ``--out``.
 
     python scripts/profile_render_process.py main=/work/main branch=. \\
         [--cases zmap_neurovault:semi:phong ...] [--rounds 7] [--out results/render/s15]
@@ -156,14 +157,18 @@ def main(argv=None) -> int:
     ap.add_argument("--rounds", type=int, default=7)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", type=Path, default=ROOT / "results" / "render" / "s15")
+    ap.add_argument("--bytecode", action=argparse.BooleanOptionalAction, default=True,
+                    help="a private bytecode cache, as bench_render_process.py gives")
     args = ap.parse_args(argv)
     trees = [t.split("=", 1) for t in args.trees]
     args.out.mkdir(parents=True, exist_ok=True)
     rows = []
     with tempfile.TemporaryDirectory(prefix="volpack-stages-") as d:
         tmp = Path(d)
-        env = dict(os.environ, PYTHONPYCACHEPREFIX=str(tmp / "pycache"))  # as installed
-        env.pop("PYTHONDONTWRITEBYTECODE", None)  # (bench_render_process.py's docstring)
+        env = dict(os.environ)
+        if args.bytecode:  # as installed (bench_render_process.py's docstring)
+            env["PYTHONPYCACHEPREFIX"] = str(tmp / "pycache")
+            env.pop("PYTHONDONTWRITEBYTECODE", None)
         for case in args.cases:
             name, tfk, shading = case.split(":")
             vol, spacing, _ = datasets.load(name)
