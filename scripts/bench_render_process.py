@@ -20,7 +20,14 @@ The two processes alternate, ``--rounds`` times per case; the median wall time o
 is kept, with the children's CPU time. Writes ``process.csv`` and ``process.png`` under
 ``--out``, and ``floor.csv``: the start-up any numba-based process pays (see :func:`floor`).
 
-    python scripts/bench_render_process.py [--rounds 3] [--out results/render]
+Python bytecode: an installed package has its ``.pyc`` files (pip writes them), so the
+children read and write theirs in a private cache under the temporary folder (the
+untimed first run writes them) even where ``PYTHONDONTWRITEBYTECODE`` is set, as on the
+machines this ran on, where an editable install otherwise compiled every imported
+module of volpack from source in every process (about 0.1 s). ``--no-bytecode`` keeps
+the environment as it is (how this measured before session 15).
+
+    python scripts/bench_render_process.py [--rounds 3] [--out results/render] [--no-bytecode]
 """
 
 from __future__ import annotations
@@ -128,7 +135,7 @@ def timed(cmd: list[str], env: dict) -> tuple[float, float]:
     return wall, cpu
 
 
-def run_case(name, path, shape, spacing, points, tfk, shade, args, tmp, rows):
+def run_case(name, path, shape, spacing, points, tfk, shade, args, tmp, rows, env):
     from bench_render_peers import KA, KD, KS, SHIN, view_frame
 
     from volpack.render.transfer import TransferFunction
@@ -140,7 +147,7 @@ def run_case(name, path, shape, spacing, points, tfk, shade, args, tmp, rows):
             "radius": float(radius)}  # fmt: skip
     tf_path = tmp / f"{name}-{tfk}.json"
     tf_path.write_text(TransferFunction(points=tuple(points), name=tfk).to_json())
-    env = dict(os.environ, VTK_DEFAULT_OPENGL_WINDOW="vtkEGLRenderWindow")
+    env = dict(env, VTK_DEFAULT_OPENGL_WINDOW="vtkEGLRenderWindow")
     volpack = [str(Path(sys.executable).with_name("volpack")), "render", str(path),
                str(tmp / "volpack.png"), "--force", "--tf", str(tf_path), "--no-fit",
                "--step", str(args.step), "--size", f"{args.size}x{args.size}",
@@ -241,12 +248,20 @@ def main(argv=None) -> int:
     ap.add_argument("--size", type=int, default=512)
     ap.add_argument("--step", type=float, default=0.5)
     ap.add_argument("--volumes", nargs="+", default=list(VOLUMES))
+    ap.add_argument("--bytecode", action=argparse.BooleanOptionalAction, default=True,
+                    help="children use a private bytecode cache (module docstring)")
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     rows: list[dict] = []
     with tempfile.TemporaryDirectory(prefix="volpack-bench-") as d:
         tmp = Path(d)
-        floors = floor(args, tmp, dict(os.environ))
+        env = dict(os.environ)
+        if args.bytecode:
+            env.pop("PYTHONDONTWRITEBYTECODE", None)
+            env["PYTHONPYCACHEPREFIX"] = str(tmp / "pycache")
+        print(f"bytecode: {'private cache' if args.bytecode else 'as the environment has it'}",
+              flush=True)
+        floors = floor(args, tmp, env)
         for name in args.volumes:
             vol, spacing, _ = datasets.load(name)
             spacing = tuple(float(s) for s in spacing)
@@ -256,7 +271,8 @@ def main(argv=None) -> int:
             for tfk in ("semi", "opaque"):
                 points = tf_points(tfk, *tf_base(vol))
                 for shade in (False, True):
-                    run_case(name, path, vol.shape, spacing, points, tfk, shade, args, tmp, rows)
+                    run_case(name, path, vol.shape, spacing, points, tfk, shade, args, tmp,
+                             rows, env)
     with open(args.out / "process.csv", "w", newline="") as f:
         wr = csv.DictWriter(f, fieldnames=list(rows[0]))
         wr.writeheader()

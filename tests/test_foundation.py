@@ -263,3 +263,55 @@ def test_inline_into_inlines_a_helper_into_the_named_kernel_only():
     name = "_inlined_helper"
     assert name not in "".join(inl.inspect_llvm().values())
     assert name in "".join(call.inspect_llvm().values())
+
+
+_CACHED_KERNELS = '''
+import numba
+import numpy as np
+from volpack._jit import kernel
+
+@kernel
+def ramp(n):  # allocates: links against the NRT
+    return np.arange(n) * 2
+
+@kernel
+def hashed(s):  # string hashing: links against numba's hash secret symbols
+    return hash(s) == hash(s + "")
+
+@kernel(parallel=True)
+def total(a):  # a parallel loop: its threading layer starts on load
+    s = 0.0
+    for i in numba.prange(a.size):
+        s += a[i]
+    return s
+'''
+
+_LOAD = """
+import sys
+import numpy as np
+sys.path.insert(0, sys.argv[1])
+import kmod
+out = [int(kmod.ramp(5).sum()), bool(kmod.hashed("volpack")), float(kmod.total(np.ones(100)))]
+hits = [sum(k._cache_hits.values()) for k in (kmod.ramp, kmod.hashed, kmod.total)]
+loaded = "numba.np.arraymath" in sys.modules or "numba.typed.dictimpl" in sys.modules
+out.append(float(kmod.total(np.ones(10, sys.argv[2]))))  # a new signature: compiled here
+print(out, hits, loaded, "numba.np.arraymath" in sys.modules)
+"""
+
+
+def test_cached_kernels_load_without_the_compilers_registries(tmp_path):
+    # A process that finds its kernels in the cache links their machine code without
+    # importing what numba compiles with; a new signature then still compiles
+    (tmp_path / "kmod.py").write_text(_CACHED_KERNELS)
+    env = dict(os.environ, VOLPACK_CACHE_DIR=str(tmp_path / "cache"))
+    env.pop("VOLPACK_JIT_CACHE", None)
+    runs = [subprocess.run([sys.executable, "-c", _LOAD, str(tmp_path), dtype],
+                           capture_output=True, text=True, check=True, env=env).stdout.split("] ")
+            for dtype in ("float32", "int32")]  # fmt: skip
+    (first, hits1, rest1), (second, hits2, rest2) = runs
+    assert first == second == "[20, True, 100.0, 10.0" and hits1 == "[0, 0, 0"
+    from volpack._jit import JIT_DISABLED, _KERNEL_CACHE
+
+    if JIT_DISABLED or _KERNEL_CACHE is None:
+        pytest.skip("kernels load numba's way (no JIT, or numba's cache has another shape)")
+    assert hits2 == "[1, 1, 1" and rest2.split() == ["False", "True"]

@@ -26,9 +26,27 @@ import functools
 import hashlib
 import os
 import pathlib
+import sys
 
-import numba
 import numpy as np
+
+
+def _numba_without_scipy():
+    """Import numba with scipy hidden: numba imports scipy only to refuse a SciPy older
+    than 1.0 (for its SciPy-based features, which no kernel here uses), 10-20 ms of
+    every process. scipy imports normally afterwards."""
+    if "numba" in sys.modules or "scipy" in sys.modules:
+        import numba
+    else:
+        sys.modules["scipy"] = None  # an ImportError for numba's version check
+        try:
+            import numba
+        finally:
+            del sys.modules["scipy"]
+    return numba
+
+
+numba = _numba_without_scipy()
 
 CACHE = os.environ.get("VOLPACK_JIT_CACHE", "1") != "0"
 _PACKAGE = pathlib.Path(__file__).resolve().parent
@@ -158,13 +176,11 @@ _watch_compiles()
 
 
 def _numpy_support_without_scipy() -> None:
-    """Load numba's NumPy support (the registries every kernel load sets up) without
+    """Load numba's NumPy support (the registries every compile sets up) without
     scipy.linalg: numba imports it only to learn whether ``np.dot`` may call BLAS,
     which no kernel here does, and the import took 0.5-0.7 s of every process that
-    runs a kernel (about half of numba's set-up). scipy.linalg is hidden for this one
-    import only; it imports normally afterwards."""
-    import sys
-
+    set numba's compiler up (about half of numba's set-up). scipy.linalg is hidden
+    for this one import only; it imports normally afterwards."""
     if "numba.np.arraymath" in sys.modules or "scipy.linalg" in sys.modules:
         return
     sys.modules["scipy.linalg"] = None  # an ImportError for numba's probe
@@ -174,9 +190,81 @@ def _numpy_support_without_scipy() -> None:
         del sys.modules["scipy.linalg"]
 
 
-_numpy_support_without_scipy()
-
 JIT_DISABLED = bool(numba.config.DISABLE_JIT)
+
+
+def _kernel_cache_class():
+    """numba's on-disk cache of one kernel, changed in two ways that cost nothing but time:
+
+    * *set up on first use*: numba builds a kernel's cache when it is decorated, which
+      checks the cache directory by creating a temporary file in it, once per kernel of
+      every imported module (80-odd for a render that runs seven: about 10 ms);
+    * *loading no compiler*: before each load numba refreshes the compiler's registries
+      (``BaseContext.refresh``: importing and installing the typing and lowering code of
+      everything numba compiles: unicode, sets, lists, random, typed containers...),
+      0.10-0.15 s of a process's first load. Machine code read from the cache needs none
+      of it, only the symbols it links against: the NRT's (``rtsys.initialize``) and
+      the hash secrets (``numba.cpython.hashing``), both made ready here, and the C
+      helpers and math functions numba registers when it is imported. A miss loads
+      numba's NumPy support (:func:`_numpy_support_without_scipy`) and refreshes as
+      numba does, and so does every compile (``CompilerBase``).
+
+    None (plain ``cache=True``) when numba's cache has not the shape this was written for.
+    """
+    from numba.core import caching
+    from numba.core.runtime import rtsys
+
+    base = getattr(caching, "FunctionCache", None)
+    if base is None or not all(
+        hasattr(base, a) for a in ("_load_overload", "_guard_against_spurious_io_errors")
+    ):
+        return None
+
+    class KernelCache(base):
+        def __init__(self, py_func):  # numba's __init__ runs on first use (_ready)
+            self._py_func = py_func
+            self._name = repr(py_func)
+
+        def _ready(self):
+            if "_impl" not in self.__dict__:
+                base.__init__(self, self._py_func)
+            return self
+
+        @property
+        def cache_path(self):
+            return self._ready()._cache_path
+
+        def load_overload(self, sig, target_context):
+            self._ready()
+            rtsys.initialize(target_context)
+            import numba.cpython.hashing  # noqa: F401  (its symbols, for code that hashes)
+
+            with self._guard_against_spurious_io_errors():
+                cres = self._load_overload(sig, target_context)
+            if cres is None:  # a miss compiles next: numba's own order
+                _numpy_support_without_scipy()
+                target_context.refresh()
+            return cres
+
+        def save_overload(self, sig, data):
+            self._ready()
+            return base.save_overload(self, sig, data)
+
+        def enable(self):
+            self._ready()._enabled = True
+
+        def disable(self):
+            self._ready()._enabled = False
+
+        def flush(self):
+            self._ready()._cache_file.flush()
+
+    return KernelCache
+
+
+_KERNEL_CACHE = None if JIT_DISABLED or not CACHE else _kernel_cache_class()
+if _KERNEL_CACHE is None:  # every kernel compiles here, or loads numba's way
+    _numpy_support_without_scipy()
 
 if JIT_DISABLED:
 
@@ -210,9 +298,9 @@ def kernel(
         return functools.partial(
             kernel, parallel=parallel, inline=inline, nrt=nrt, contract=contract
         )
-    return numba.njit(
+    disp = numba.njit(
         fn,
-        cache=CACHE,
+        cache=CACHE and _KERNEL_CACHE is None,
         nogil=True,
         parallel=parallel,
         inline=inline if callable(inline) else ("always" if inline else "never"),
@@ -220,6 +308,9 @@ def kernel(
         fastmath={"contract"} if contract else False,
         _nrt=nrt,
     )
+    if _KERNEL_CACHE is not None:
+        disp._cache = _KERNEL_CACHE(disp.py_func)  # what enable_caching() sets, lazier
+    return disp
 
 
 def inline_into(*names):

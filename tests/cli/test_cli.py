@@ -43,6 +43,74 @@ def test_help_does_not_import_numba_and_is_fast():
     assert float(out.stdout) < 0.5
 
 
+def test_the_command_table_names_the_module_of_each_command():
+    # commands load lazily from volpack.cli.COMMAND_MODULES: every command of every
+    # module must be listed there, under its own module
+    import importlib
+    import pkgutil
+
+    import volpack.cli as cli
+
+    defined = {}
+    for m in pkgutil.iter_modules(cli.__path__):
+        for cmd in getattr(importlib.import_module(f"volpack.cli.{m.name}"), "COMMANDS", ()):
+            defined[cmd.name] = m.name
+    assert defined == cli.COMMAND_MODULES
+    assert main.list_commands(None) == sorted(defined)
+
+
+_RENDER_IMPORTS = """
+import sys
+from volpack.cli import main
+try:
+    main(["render", sys.argv[1], sys.argv[2], "--force", "--size", "24x20"], standalone_mode=False)
+except SystemExit as e:
+    assert not e.code, e.code
+import gc
+assert gc.isenabled() and not gc.get_freeze_count()  # paused for imports only, no freeze
+print(" ".join(m for m in sys.argv[3:] if m in sys.modules))
+"""
+
+
+def test_imports_without_gc_pauses_the_collector_and_freezes_in_a_whole_process(monkeypatch):
+    import gc
+
+    from volpack.cli import options
+
+    frozen = gc.get_freeze_count()
+    with options.imports_without_gc():
+        assert not gc.isenabled()
+    assert gc.isenabled() and gc.get_freeze_count() == frozen  # a test's process: no freeze
+    monkeypatch.setattr(options, "WHOLE_PROCESS", True)  # as volpack.cli.run sets it
+    try:
+        with options.imports_without_gc():
+            keep = [object() for _ in range(10)]  # noqa: F841
+        assert gc.isenabled() and gc.get_freeze_count() > frozen
+    finally:
+        gc.unfreeze()
+
+
+def test_a_render_imports_neither_other_commands_nor_numbas_compiler(tmp_path):
+    """What `volpack render` needs and nothing else: no other command's module, no
+    colour-bar drawing, no scipy (numba's version probe), and, with its kernels in the
+    cache, none of numba's compiler registries (volpack._jit)."""
+    np.save(tmp_path / "a.npy", smooth_volume((12, 13, 14), np.uint8))
+    others = [f"volpack.cli.{m}" for m in
+              ("batch", "codec", "compare", "convert", "demo", "info", "jit", "play")]  # fmt: skip
+    heavy = ["PIL.ImageDraw", "scipy", "matplotlib", "h5py", "tqdm", "volpack.entropy",
+             "volpack.volume_codec", "numba.np.arraymath", "numba.typed.dictimpl"]  # fmt: skip
+    args = [str(tmp_path / "a.npy"), str(tmp_path / "a.png"), *others, *heavy]
+    for _ in range(2):  # the first may compile kernels, the second finds them cached
+        out = subprocess.run([sys.executable, "-c", _RENDER_IMPORTS, *args], capture_output=True,
+                             text=True, check=True)  # fmt: skip
+    from volpack._jit import _KERNEL_CACHE
+
+    loaded = set(out.stdout.split())
+    if _KERNEL_CACHE is None:  # kernels load numba's way (no cache, or another numba)
+        loaded -= {"numba.np.arraymath", "numba.typed.dictimpl"}
+    assert not loaded
+
+
 def test_python_dash_m_volpack():
     out = subprocess.run(
         [sys.executable, "-m", "volpack", "--version"], capture_output=True, text=True, check=True

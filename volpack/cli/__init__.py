@@ -26,10 +26,32 @@ from .. import __version__
 EXIT_INTERNAL = 3  # an exception volpack did not raise on purpose: a bug to report
 CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
 
+# Command -> the module of this package that defines it (in its COMMANDS). A command's
+# module is imported when the command runs or is listed, not the others: importing all
+# nine took 15-50 ms of every command (tests/cli/test_cli.py checks this table).
+COMMAND_MODULES = {
+    "info": "info", "convert": "convert", "compress": "codec", "decompress": "codec",
+    "compare": "compare", "batch": "batch", "demo": "demo", "warmup": "jit",
+    "render": "render", "play": "play", "walk": "play",
+}  # fmt: skip
+
 
 class VolpackGroup(click.Group):
     """A click group that reports errors: a one-line message for what the user can fix,
-    "internal error, please report" (exit 3) for anything else, which is a bug."""
+    "internal error, please report" (exit 3) for anything else, which is a bug. Its
+    commands load on first use (:data:`COMMAND_MODULES`)."""
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted({*self.commands, *COMMAND_MODULES})
+
+    def get_command(self, ctx: click.Context, name: str):
+        if name not in self.commands and name in COMMAND_MODULES:
+            import importlib
+
+            module = importlib.import_module(f"{__name__}.{COMMAND_MODULES[name]}")
+            for cmd in module.COMMANDS:
+                self.add_command(cmd)
+        return self.commands.get(name)
 
     def resolve_command(self, ctx: click.Context, args: list[str]):
         name, cmd, rest = super().resolve_command(ctx, args)
@@ -111,6 +133,9 @@ def run() -> None:
     tearing down numba and llvmlite takes about 0.25 s of CPU, a third of a small decode.
     Exceptions that escape click (none should) still take Python's normal path.
     """
+    from . import options
+
+    options.WHOLE_PROCESS = True  # what a command imports may be frozen (imports_without_gc)
     try:
         main()
         code = 0
@@ -132,14 +157,3 @@ def run() -> None:
         except (OSError, ValueError):  # a closed pipe (volpack info | head): nothing to keep
             code = code or 1
     os._exit(code or 0)
-
-
-def _register() -> None:
-    from . import batch, codec, compare, convert, demo, info, jit, play, render
-
-    for module in (info, convert, codec, compare, batch, demo, jit, render, play):
-        for cmd in module.COMMANDS:
-            main.add_command(cmd)
-
-
-_register()

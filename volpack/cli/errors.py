@@ -37,7 +37,7 @@ def flag_map(group: click.Group, command: click.Command | None) -> dict[str, str
     stack = [group]
     while stack:
         g = stack.pop()
-        for c in g.commands.values():
+        for c in (g.get_command(None, n) for n in g.list_commands(None)):  # loads them all
             if isinstance(c, click.Group):
                 stack.append(c)
             else:

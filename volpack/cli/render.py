@@ -8,7 +8,14 @@ import time
 
 import click
 
-from .options import emit_json, force_option, json_option, progress_bar, raw_options
+from .options import (
+    emit_json,
+    force_option,
+    imports_without_gc,
+    json_option,
+    progress_bar,
+    raw_options,
+)
 
 # Colour names an isosurface spec may use beside CSS names and #rrggbb.
 ISO_COLOURS = {
@@ -282,16 +289,17 @@ def render(
       volpack render mesh.vpk mesh.png --field temperature --tf generic
       volpack render big.vpk big.png --budget 2048 --tf ct-bone    # octree: level of detail
     """
-    import numpy as np
+    with imports_without_gc():
+        import numpy as np
 
-    from ..format.atomic import check_output
-    from ..io import parse_spec
-    from ..render import transfer
-    from ..render.autotf import transfer_for
-    from ..render.camera import Camera
-    from ..render.image import save_png
-    from ..render.raycast import RenderStats
-    from ..render.raycast import render as raycast
+        from ..format.atomic import check_output
+        from ..io import parse_spec
+        from ..render import transfer
+        from ..render.autotf import transfer_for
+        from ..render.camera import Camera
+        from ..render.image import save_png
+        from ..render.raycast import RenderStats
+        from ..render.raycast import render as raycast
 
     size = parse_size(size_s)
     isos = parse_isos(iso_spec) if iso_spec else None
@@ -311,12 +319,12 @@ def render(
     elif budget is not None:
         raise click.BadParameter("applies to octree .vpk files only", param_hint="--budget")
     mesh = None if tree is not None else _load_mesh(source, field)
+    ok = None  # the values that count for the range: None for all of them
     if tree is not None:
         from ..render.lod import tree_range
 
         lo, hi = tree_range(tree)
         data = np.array([lo, hi], dtype=tree.dtype)
-        ok = np.ones(2, bool)
     elif mesh is not None:
         if isos:
             raise click.BadParameter("isosurfaces are drawn for volumes only", param_hint="--iso")
@@ -325,14 +333,15 @@ def render(
             raise click.BadParameter("expected a mesh with a point or cell field, found none",
                                      param_hint="--tf")  # fmt: skip
         data = np.zeros(len(points)) if data is None else data
-        ok = np.ones(data.shape, bool)
     else:
         vol = _load(source, frame, read_options)
         data = vol.data
-        ok = np.isfinite(data) if data.dtype.kind == "f" else np.ones(data.shape, bool)
+        ok = np.isfinite(data) if data.dtype.kind == "f" else None
         if vol.mask is not None:
-            ok &= ~vol.mask
-    if ok.any():
+            ok = ~vol.mask if ok is None else ok & ~vol.mask
+    if ok is None and data.size:  # no copy of the selected values (16 ms of a CT)
+        lo, hi = float(data.min()), float(data.max())
+    elif ok is not None and ok.any():
         lo, hi = float(data[ok].min()), float(data[ok].max())
     else:
         lo, hi = 0.0, 1.0

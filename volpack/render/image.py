@@ -54,12 +54,13 @@ def compose(
     background: Sequence[float] = (0.0, 0.0, 0.0),
 ):
     """The Pillow image :func:`save_png` writes (image, and the colour bar if asked)."""
-    from PIL import Image, ImageDraw
+    from PIL import Image
 
     rgb = to_rgb8(rgba, background)
     img = Image.fromarray(rgb, "RGB")
     if colorbar_tf is None:
         return img
+    from PIL import ImageDraw
     try:
         tf, lo, hi = colorbar_tf
     except (TypeError, ValueError):
