@@ -30,7 +30,7 @@ import datasets  # noqa: E402
 
 # (module path fragment, function name or "*") -> stage; the first match wins.
 STAGES = [
-    (("entropy/arith.py", "_decode_kernel"), "entropy"),
+    (("entropy/arith.py", "decode_kernel"), "entropy"),
     (("entropy/arith2.py", "_decode_kernel"), "entropy"),
     (("entropy/static.py", "*"), "entropy"),
     (("entropy/fixed.py", "*"), "entropy"),
@@ -40,7 +40,7 @@ STAGES = [
     (("bounded_interp.py", "_decode_walk"), "entropy+predict"),
     (("bounded_interp.py", "_decode_walk_adaptive"), "entropy+predict"),
     (("wavelet/cdf97.py", "_inverse_kernel"), "inverse wavelet"),
-    (("wavelet/dwt3.py", "_dwt3_kernel"), "inverse wavelet"),
+    (("wavelet/dwt3.py", "dwt3_kernel"), "inverse wavelet"),
     (("wavelet/lifting.py", "*"), "inverse wavelet"),
     (("floatcast.py", "_scale_over"), "dequantise"),
     (("bounded_cdf97.py", "decode"), "dequantise"),  # main: q * step in its own time

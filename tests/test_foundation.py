@@ -299,6 +299,7 @@ print(out, hits, loaded, "numba.np.arraymath" in sys.modules)
 """
 
 
+@pytest.mark.slow  # compiles a parallel kernel twice in processes of its own (10 s)
 def test_cached_kernels_load_without_the_compilers_registries(tmp_path):
     # A process that finds its kernels in the cache links their machine code without
     # importing what numba compiles with; a new signature then still compiles

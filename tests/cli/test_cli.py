@@ -90,6 +90,7 @@ def test_imports_without_gc_pauses_the_collector_and_freezes_in_a_whole_process(
         gc.unfreeze()
 
 
+@pytest.mark.slow  # compiles a render's kernels in a process of its own (25 s)
 def test_a_render_imports_neither_other_commands_nor_numbas_compiler(tmp_path):
     """What `volpack render` needs and nothing else: no other command's module, no
     colour-bar drawing, no scipy (numba's version probe), and, with its kernels in the

@@ -28,7 +28,8 @@ def _all_chunks(t):
     [
         ((37, 21, 30), np.int16, {"block": 4}),
         ((33, 40, 17), np.uint8, {"block": 4}),
-        ((20, 9, 26), np.int32, {"block": 4}),  # int64 work
+        # int64 work: a signature of its own, compiled by no other fast test (5 s)
+        pytest.param((20, 9, 26), np.int32, {"block": 4}, marks=pytest.mark.slow),
         ((37, 21, 30), np.int16, {"block": 4, "max_error": 3.0}),  # bounded: a quantiser step
         ((9, 1, 33), np.uint16, {"block": 4}),  # an axis of one voxel: no lifting along it
     ],

@@ -144,7 +144,7 @@ def _encode_kernel(flat, perm, end, parent, cls, nbr, out):
 
 
 @kernel
-def _decode_kernel(data, perm, end, parent, cls, nbr, flat, nmax):
+def decode_kernel(data, perm, end, parent, cls, nbr, flat, nmax):
     """Return 0 on success, 1 when the stream ran short, 2 on an impossible symbol, 3 when
     it does not end where its length says."""
     n = perm.size
@@ -212,7 +212,7 @@ def decode(data: bytes, scan: Scan, out: np.ndarray) -> None:
     buf = np.frombuffer(data, dtype=np.uint8)
     decoded_into(
         flat,
-        lambda into, nmax: _decode_kernel(
+        lambda into, nmax: decode_kernel(
             buf, scan.perm, scan.end, scan.parent, scan.cls, scan.nbr, into, nmax
         ),
         "arithmetic",

@@ -16,8 +16,8 @@ from __future__ import annotations
 import numpy as np
 
 from .._jit import kernel
-from ..entropy.arith import _decode_kernel
-from ..wavelet.dwt3 import _dwt3_kernel
+from ..entropy.arith import decode_kernel
+from ..wavelet.dwt3 import dwt3_kernel
 
 #: statuses besides the entropy decoder's own 1-3
 ENERGY_MISMATCH = 4
@@ -91,7 +91,7 @@ def _chunk_kernel(data, perm, end, parent, cls, nbr, nmax, scale, norm, lo, hi, 
     n = c.size
     flat = np.zeros(n, np.int64)
     if data.size:
-        status = _decode_kernel(data, perm, end, parent, cls, nbr, flat, nmax)
+        status = decode_kernel(data, perm, end, parent, cls, nbr, flat, nmax)
         if status != 0:
             return status
     own = _energy_sum(flat, scale) * norm * norm
@@ -107,7 +107,7 @@ def _chunk_kernel(data, perm, end, parent, cls, nbr, nmax, scale, norm, lo, hi, 
                 c[z, y, x] = low[z, y, x]
     tmp = np.empty(n // 2 + 1, c.dtype)
     backward = n > 0  # a runtime bool: a literal True compiled the lifting anew (10 s)
-    _dwt3_kernel(c, tmp, lz, ly, lx, spec, backward)
+    dwt3_kernel(c, tmp, lz, ly, lx, spec, backward)
     return 0
 
 

@@ -140,7 +140,7 @@ def subbands(shape: tuple[int, int, int], levels) -> list[Band]:
 
 
 @kernel
-def _dwt3_kernel(a, tmp, lz, ly, lx, spec, backward):
+def dwt3_kernel(a, tmp, lz, ly, lx, spec, backward):
     """Forward (or, with ``backward``, inverse) multilevel transform of ``a`` in place."""
     nz, ny, nx = a.shape
     top = max(lz, max(ly, lx))
@@ -190,7 +190,7 @@ def _run(x: np.ndarray, levels, wavelet: str, backward: bool, overwrite: bool) -
         out = np.array(x, dtype=native, order="C", copy=True)
     if out.size and max(lz, ly, lx) > 0:
         tmp = np.empty(out.size // 2 + 1, dtype=out.dtype)
-        _dwt3_kernel(out, tmp, lz, ly, lx, spec, backward)
+        dwt3_kernel(out, tmp, lz, ly, lx, spec, backward)
     return out
 
 
