@@ -5,7 +5,9 @@ the volume, compiles volpack's kernels on a coarse copy, prepares the volume and
 renders ``--frames`` orbit views (10 degrees apart, the peers benchmark's scene: the
 ``--tf`` TF, 512x512, step 0.5) with volpack pre-integrated and VTK matched taking turns,
 and prints the best and median CPU seconds of each (process time over all threads:
-the machine is shared, so wall time is noisy) and the segments a volpack frame took.
+the machine is shared, so wall time is noisy; wall seconds are printed too) and the
+segments a volpack frame took. ``--cases tf:shading ...`` runs several cases, one
+process a case and tree, the trees alternating case by case.
 The first view's volpack image is saved per tree, and the largest difference and PSNR
 between the trees' images are printed at the end. Rows go to ``--out`` (CSV).
 
@@ -17,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import itertools
 import json
 import math
 import os
@@ -52,26 +55,30 @@ def child(args) -> None:
     prep = prepare_volume(vol, spacing)
     vtk = peers.Vtk(vol, spacing, points, shade, args.workers, args.size,
                     args.step * min(spacing)) if args.vtk else None  # fmt: skip
-    vp, vt, samples = [], [], 0
+    vp, vt, vpw, vtw, samples = [], [], [], [], 0
     for j in range(args.frames + 1):
         az = 30.0 + 10.0 * j
         cam = Camera(azimuth=az, elevation=peers.ELEVATION, size=(args.size, args.size))
-        c = time.process_time()
+        t, c = time.perf_counter(), time.process_time()
         img, st = render(prep, tf=tf, camera=cam, step=args.step, shading=args.shading,
                          workers=args.workers, render_stats=True)  # fmt: skip
-        dc = time.process_time() - c
+        dt, dc = time.perf_counter() - t, time.process_time() - c
         if j == 0:
             np.save(args.image, img)
             samples = st.samples
         else:
             vp.append(dc)
+            vpw.append(dt)
         if vtk is not None:
-            _, dv = vtk.frame(az)
+            tv, dv = vtk.frame(az)
             if j:
                 vt.append(dv)
-    res = {"volpack_best": min(vp), "volpack_median": float(np.median(vp)), "samples": samples}
+                vtw.append(tv)
+    res = {"volpack_best": min(vp), "volpack_median": float(np.median(vp)), "samples": samples,
+           "volpack_wall_median": float(np.median(vpw))}  # fmt: skip
     if vt:
-        res.update(vtk_best=min(vt), vtk_median=float(np.median(vt)))
+        res.update(vtk_best=min(vt), vtk_median=float(np.median(vt)),
+                   vtk_wall_median=float(np.median(vtw)))  # fmt: skip
     print(json.dumps(res), flush=True)
 
 
@@ -81,6 +88,8 @@ def main(argv=None) -> int:
     ap.add_argument("--volumes", nargs="+", default=["ct_head"])
     ap.add_argument("--tf", default="semi", choices=["semi", "opaque"])
     ap.add_argument("--shading", default="none")
+    ap.add_argument("--cases", nargs="+", default=None,
+                    help="tf:shading pairs (e.g. opaque:phong), instead of --tf/--shading")  # fmt: skip
     ap.add_argument("--workers", type=int, default=1)
     ap.add_argument("--size", type=int, default=512)
     ap.add_argument("--step", type=float, default=0.5)
@@ -98,12 +107,13 @@ def main(argv=None) -> int:
     rows = []
     tmp = Path(os.environ.get("TMPDIR", "/tmp")) / f"render_ab_{os.getpid()}"
     tmp.mkdir(parents=True, exist_ok=True)
-    for name in args.volumes:
+    cases = [c.split(":") for c in args.cases] if args.cases else [(args.tf, args.shading)]
+    for name, (tfk, shading) in itertools.product(args.volumes, cases):
         for rnd in range(args.rounds):
             for t, tree in enumerate(args.trees):
-                image = tmp / f"{name}_{t}.npy"
+                image = tmp / f"{name}_{tfk}_{shading}_{t}.npy"
                 cmd = [sys.executable, str(Path(__file__).resolve()), "--child", "--volume", name,
-                       "--image", str(image), "--tf", args.tf, "--shading", args.shading,
+                       "--image", str(image), "--tf", tfk, "--shading", shading,
                        "--workers", str(args.workers), "--size", str(args.size),
                        "--step", str(args.step), "--frames", str(args.frames)]  # fmt: skip
                 if not args.vtk:
@@ -112,20 +122,24 @@ def main(argv=None) -> int:
                 load = os.getloadavg()[0]
                 out = subprocess.run(cmd, env=env, capture_output=True, text=True, check=True)
                 res = json.loads(out.stdout.strip().splitlines()[-1])
-                row = {"volume": name, "tf": args.tf, "shading": args.shading,
+                row = {"volume": name, "tf": tfk, "shading": shading,
                        "workers": args.workers, "round": rnd, "tree": str(tree),
                        "load": round(load, 1), **{k: round(v, 4) if isinstance(v, float) else v
                                                   for k, v in res.items()}}  # fmt: skip
                 if "vtk_best" in res:
                     row["ratio_best"] = round(res["volpack_best"] / res["vtk_best"], 3)
+                    row["ratio_median"] = round(res["volpack_median"] / res["vtk_median"], 3)
+                    row["ratio_wall_median"] = round(
+                        res["volpack_wall_median"] / res["vtk_wall_median"], 3)
                 rows.append(row)
                 print(json.dumps(row), flush=True)
-        imgs = [np.load(tmp / f"{name}_{t}.npy") for t in range(len(args.trees))]
+        imgs = [np.load(tmp / f"{name}_{tfk}_{shading}_{t}.npy") for t in range(len(args.trees))]
         for t in range(1, len(imgs)):
             d = np.abs(imgs[t].astype(np.float64) - imgs[0])
             mse = float(np.mean(d[..., :3] ** 2))
             psnr = 99.0 if mse == 0 else 10 * math.log10(1.0 / mse)
-            print(f"{name}: tree {t} against tree 0: max abs {d.max():.3g}, PSNR {psnr:.1f} dB")
+            print(f"{name} {tfk} {shading}: tree {t} against tree 0: max abs {d.max():.3g}, "
+                  f"PSNR {psnr:.1f} dB")  # fmt: skip
     if args.out is not None:
         args.out.parent.mkdir(parents=True, exist_ok=True)
         keys = list(dict.fromkeys(k for r in rows for k in r))

@@ -201,7 +201,19 @@ class Camera:
         as ``rays()`` at rows and columns ``0, -1`` (what a node's projection needs)."""
         return self._rays(shape_zyx, spacing, corners=True)
 
-    def _rays(self, shape_zyx, spacing, corners: bool) -> tuple[np.ndarray, np.ndarray]:
+    def ray_grid(
+        self, shape_zyx: tuple[int, int, int], spacing: tuple[float, float, float] = (1, 1, 1)
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(frame, u, v)``: what :func:`pixel_ray` needs to make the ray of any pixel,
+        the same numbers as :meth:`rays` without its two ``(h, w, 3)`` arrays (12 MB a
+        512^2 frame: a kernel makes each ray where it traces it). Refuses, as
+        :meth:`rays` does, a framing whose rays overflow float64 (checked on the corner
+        rays: a ray's numbers are affine in the pixel's ``(u, v)``, their squares convex,
+        so the largest are at the corners)."""
+        self.corner_rays(shape_zyx, spacing)
+        return self._grid(shape_zyx, spacing, corners=False)
+
+    def _grid(self, shape_zyx, spacing, corners: bool):
         cam, sp, centre, radius = self.world_frame(shape_zyx, spacing)
         fwd, right, up, base, half = cam._frame(centre, radius)
         w, h = cam.size
@@ -210,13 +222,17 @@ class Camera:
         v = h / short - (np.arange(h) + 0.5) * 2 / short
         if corners:
             u, v = u[[0, -1]], v[[0, -1]]
-            h, w = 2, 2
-        origins = np.empty((h, w, 3))
-        dirs = np.empty((h, w, 3))
+        frame = np.concatenate([fwd, right, up, np.asarray(base, float), [float(half)],
+                                [float(cam.projection == "orthographic")], sp,
+                                float(sp.min()) / sp])  # fmt: skip
+        return frame, u, v
+
+    def _rays(self, shape_zyx, spacing, corners: bool) -> tuple[np.ndarray, np.ndarray]:
+        frame, u, v = self._grid(shape_zyx, spacing, corners)
+        origins = np.empty((len(v), len(u), 3))
+        dirs = np.empty((len(v), len(u), 3))
         with np.errstate(over="ignore", invalid="ignore"):  # still too large: checked below
-            finite = _index_rays(fwd, right, up, np.asarray(base, float), float(half), u, v,
-                                 cam.projection == "orthographic", sp, float(sp.min()) / sp,
-                                 origins, dirs)  # fmt: skip
+            finite = _index_rays(frame, u, v, origins, dirs)
         if not finite:
             raise VolpackError(
                 f"cannot place the camera: the volume's extent (shape {tuple(shape_zyx)} times "
@@ -226,30 +242,39 @@ class Camera:
 
 
 @kernel
-def _index_rays(fwd, right, up, base, half, u, v, ortho, sp, dscale, origins, dirs):
-    """:meth:`Camera.world_rays` divided by the spacing (origins) and scaled to
-    reference lengths (directions), in one pass and with the same operations in the
-    same order (the same numbers): 12 MB of rays a 512^2 frame, where numpy's passes
-    took 30-40 ms. Returns whether every number is finite."""
+def pixel_ray(frame, u, v, r, c):
+    """``(oz, oy, ox, dz, dy, dx)``: the ray of pixel ``(r, c)`` of :meth:`Camera.ray_grid`,
+    :meth:`Camera.world_rays` divided by the spacing (origin) and scaled to reference
+    lengths (direction), with the same operations in the same order. Not inlined and
+    compiled without fused multiply-adds, so a march compiled with them (``contract``)
+    gets the same numbers as :meth:`Camera.rays`."""
+    if frame[13] != 0.0:  # orthographic
+        o0 = (u[c] * frame[3] + v[r] * frame[6]) * frame[12] + frame[9]
+        o1 = (u[c] * frame[4] + v[r] * frame[7]) * frame[12] + frame[10]
+        o2 = (u[c] * frame[5] + v[r] * frame[8]) * frame[12] + frame[11]
+        return (o0 / frame[14], o1 / frame[15], o2 / frame[16], frame[0] * frame[17],
+                frame[1] * frame[18], frame[2] * frame[19])  # fmt: skip
+    half = frame[12]
+    d0 = frame[0] + half * (u[c] * frame[3] + v[r] * frame[6])
+    d1 = frame[1] + half * (u[c] * frame[4] + v[r] * frame[7])
+    d2 = frame[2] + half * (u[c] * frame[5] + v[r] * frame[8])
+    nrm = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+    return (frame[9] / frame[14], frame[10] / frame[15], frame[11] / frame[16],
+            d0 / nrm * frame[17], d1 / nrm * frame[18], d2 / nrm * frame[19])  # fmt: skip
+
+
+@kernel
+def _index_rays(frame, u, v, origins, dirs):
+    """Every pixel's :func:`pixel_ray` into ``origins`` and ``dirs`` (``(h, w, 3)``): 12 MB
+    of rays a 512^2 frame, where numpy's passes took 30-40 ms. Returns whether every
+    number is finite."""
     h, w = v.shape[0], u.shape[0]
     ok = True
     for r in range(h):
         for c in range(w):
-            if ortho:
-                for k in range(3):
-                    o = (u[c] * right[k] + v[r] * up[k]) * half + base[k]
-                    origins[r, c, k] = o / sp[k]
-                    dirs[r, c, k] = fwd[k] * dscale[k]
-            else:
-                d0 = fwd[0] + half * (u[c] * right[0] + v[r] * up[0])
-                d1 = fwd[1] + half * (u[c] * right[1] + v[r] * up[1])
-                d2 = fwd[2] + half * (u[c] * right[2] + v[r] * up[2])
-                nrm = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-                dirs[r, c, 0] = d0 / nrm * dscale[0]
-                dirs[r, c, 1] = d1 / nrm * dscale[1]
-                dirs[r, c, 2] = d2 / nrm * dscale[2]
-                for k in range(3):
-                    origins[r, c, k] = base[k] / sp[k]
-            for k in range(3):
-                ok = ok and math.isfinite(origins[r, c, k]) and math.isfinite(dirs[r, c, k])
+            ray = pixel_ray(frame, u, v, r, c)
+            origins[r, c, 0], origins[r, c, 1], origins[r, c, 2] = ray[0], ray[1], ray[2]
+            dirs[r, c, 0], dirs[r, c, 1], dirs[r, c, 2] = ray[3], ray[4], ray[5]
+            for k in range(6):
+                ok = ok and math.isfinite(ray[k])
     return ok

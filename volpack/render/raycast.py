@@ -138,7 +138,7 @@ import numpy as np
 from .._jit import JIT_DISABLED, kernel, leading_zeros, read_only
 from ..errors import VolpackError
 from ..parallel import ordered_map, parse_workers
-from .camera import Camera
+from .camera import Camera, pixel_ray
 from .fixed import FRAC, interior, lerp_cell, to_fixed, trilinear_fixed, trilinear_inner, value_unit
 from .normals import light_table
 from .prepared import prepare_volume, unpack_volume
@@ -1147,7 +1147,7 @@ def _ndv(grad, node, z, y, x, gscale, vz, vy, vx, gmin, s):
 
 
 def _march(
-    vol, grad, has_grad, codes, light, origins, dirs, rows, pre, post_tab, pre2d, sub2d,
+    vol, grad, has_grad, codes, light, frame, u, v, rows, pre, post_tab, pre2d, sub2d,
     lo, scale, step, leap, brick, skip, ert, shade, shading, gscale, vscale, gmin, clear,
     refine, cols, out, row_samples,
 ):  # fmt: skip
@@ -1184,7 +1184,7 @@ def _march(
         r = rows[k]
         count = 0
         for c in range(cols[0], cols[1]):
-            oz, oy, ox, dz, dy, dx = ray_at(origins, dirs, r, c)
+            oz, oy, ox, dz, dy, dx = pixel_ray(frame, u, v, r, c)
             tnear, tfar, nseg, vz, vy, vx = _ray_span(
                 oz, oy, ox, dz, dy, dx, nz, ny, nx, vscale, step
             )
@@ -1398,11 +1398,11 @@ def _lerp2(tab, ch, i0, i1, f):
 def _march_specialised(pre, shade):
     """The fast kernel for one (pre-integrated?, shaded?) pair (see :func:`_march`)."""
 
-    def run(vol, grad, has_grad, codes, light, origins, dirs, rows, post_tab, pre2d, sub2d,
+    def run(vol, grad, has_grad, codes, light, frame, u, v, rows, post_tab, pre2d, sub2d,
             lo, scale, step, leap, brick, skip, ert, shading, gscale, vscale, gmin, clear,
             refine, cols, out, row_samples):  # fmt: skip
         _march_inline(
-            vol, grad, has_grad, codes, light, origins, dirs, rows, pre, post_tab,
+            vol, grad, has_grad, codes, light, frame, u, v, rows, pre, post_tab,
             pre2d, sub2d, lo, scale, step, leap, brick, skip, ert, shade, shading, gscale,
             vscale, gmin, clear, refine, cols, out, row_samples,
         )  # fmt: skip
@@ -1750,12 +1750,15 @@ def render(
     else:
         leap = np.zeros(empty.shape, np.int32)
         _leap_kernel(np.ascontiguousarray(empty), leap)
-    origins, dirs = camera.rays(shape, sp)
     fast = FAST_PATH and has_vol and not isos and mode != 1 and shading in ("none", "phong")
+    # the fast march makes each pixel's ray as it traces it (pixel_ray): 12 MB of rays
+    # made and read again took 4-6 ms of a frame before the threads started
+    ray_grid = camera.ray_grid(shape, sp) if fast else None
+    origins, dirs = (None, None) if fast else camera.rays(shape, sp)
     # orthographic shaded frames light quantised normals through one table per frame
     codes, has_codes = np.zeros((1, 1, 1, 1), np.uint16), False  # a stack of code volumes
-    if (fast and shading == "phong" and normals == "quantised"
-            and bool(np.all(dirs == dirs[:1, :1]))):  # fmt: skip
+    parallel = camera.projection == "orthographic" or camera.size == (1, 1)  # one direction
+    if fast and shading == "phong" and normals == "quantised" and parallel:
         if paged:
             if volume.codes is not None and sp == tuple(volume.spacing):  # codes of it
                 codes, has_codes = volume.codes, True  # the nodes' code bricks
@@ -1764,7 +1767,7 @@ def render(
             has_codes = True
     light = np.zeros((1, 2), np.float32)
     if has_codes:
-        d = -dirs[0, 0] * (np.array(sp) / min(sp))
+        d = -np.array(pixel_ray(*ray_grid, 0, 0)[3:]) * (np.array(sp) / min(sp))
         light = light_table(d / np.linalg.norm(d), KA, KD, KS, SHININESS)
     grad = np.zeros((1, 1, 1, 1, 3), np.float32)  # a stack of gradient volumes (one here)
     has_grad = False
@@ -1793,7 +1796,7 @@ def render(
 
         def run(rows: np.ndarray, cols: np.ndarray) -> None:  # the fast path (see _march)
             march(
-                vol, grad, has_grad, codes, light, origins, dirs, rows, post_tab,
+                vol, grad, has_grad, codes, light, *ray_grid, rows, post_tab,
                 pre2d, sub2d, lo, scale,
                 float(step), leap, brick, bool(skip_empty), float(ert), shading_k, gscale,
                 vscale, gmin, clear, refine_k, cols, out, row_samples,
