@@ -164,13 +164,20 @@ def test_images_do_not_depend_on_the_thread_count_on_the_fast_path():
 
 
 def test_tiles_cover_every_pixel_once_in_bands_of_neighbours():
-    seen = []
+    # the fast march's loop (_march_specialised): bands by band_end, then tiles
     rows = np.concatenate([np.arange(0, 40), np.arange(60, 70)])  # two runs of rows
-    rc.run_tiles(lambda r, c: seen.append((r.copy(), tuple(c))), 75)(rows)
+    tiles = np.append(np.arange(0, 75, rc.TILE_COLS), 75)
     hit = np.zeros((70, 75), int)
-    for r, (c0, c1) in seen:
-        assert np.all(np.diff(r) == 1) and len(r) <= rc.ROW_BAND and c1 - c0 <= rc.TILE_COLS
-        hit[r, c0:c1] += 1
+    k0 = 0
+    while k0 < len(rows):
+        k1 = rc.band_end(rows, k0, rc.ROW_BAND)
+        r = rows[k0:k1]
+        assert np.all(np.diff(r) == 1) and 1 <= len(r) <= rc.ROW_BAND
+        assert k1 == len(rows) or len(r) == rc.ROW_BAND or rows[k1] != rows[k1 - 1] + 1
+        for c0, c1 in zip(tiles[:-1], tiles[1:]):
+            assert c1 - c0 <= rc.TILE_COLS
+            hit[r, c0:c1] += 1
+        k0 = k1
     assert np.array_equal(hit[rows], np.ones((len(rows), 75), int)) and hit.sum() == 50 * 75
 
 

@@ -11,8 +11,8 @@ exact integer multiply-add) and samples integer volumes with integer weights.
 
 Threads: image rows are split into interleaved sets of bands of 16 rows
 (:func:`run_row_sets`; the fast path traces a band in tiles of 32 columns,
-:func:`run_tiles`) that run on ``workers`` threads through the nogil kernel
-(:func:`volpack.parallel.ordered_map`), rather than a numba ``prange``: the parallel
+:data:`TILE_COLS`) that run on ``workers`` threads through the nogil kernel
+(:func:`volpack.parallel.completed_map`), rather than a numba ``prange``: the parallel
 build of this kernel took three times as long to compile (about 9 s against 3 s), and
 interleaving balances the threads however the volume sits in the image.
 
@@ -137,7 +137,7 @@ import numpy as np
 
 from .._jit import JIT_DISABLED, kernel, leading_zeros, read_only
 from ..errors import VolpackError
-from ..parallel import ordered_map, parse_workers
+from ..parallel import completed_map, parse_workers
 from .camera import Camera, pixel_ray
 from .fixed import FRAC, interior, lerp_cell, to_fixed, trilinear_fixed, trilinear_inner, value_unit
 from .normals import light_table
@@ -1163,7 +1163,7 @@ def _march(
     reads is zero (:func:`clear_bounds`): a segment with both ends there (a sample, for
     post-classification) skips its look-up, as it would read zero opacity. ``cols``:
     the image columns ``[cols[0], cols[1])`` of those rows (a tile, see
-    :func:`run_tiles`); ``row_samples`` gains each row's segments there.
+    :func:`_march_specialised`); ``row_samples`` gains each row's segments there.
     ``refine = (m, threshold)``: a full pre-integrated segment whose share of the
     pixel's opacity, ``(1 - A_acc) A``, exceeds ``threshold`` is marched again as ``m``
     sub-segments through ``sub2d``, the table for ``step / m`` (see
@@ -1400,12 +1400,22 @@ def _march_specialised(pre, shade):
 
     def run(vol, grad, has_grad, codes, light, frame, u, v, rows, post_tab, pre2d, sub2d,
             lo, scale, step, leap, brick, skip, ert, shading, gscale, vscale, gmin, clear,
-            refine, cols, out, row_samples):  # fmt: skip
-        _march_inline(
-            vol, grad, has_grad, codes, light, frame, u, v, rows, pre, post_tab,
-            pre2d, sub2d, lo, scale, step, leap, brick, skip, ert, shade, shading, gscale,
-            vscale, gmin, clear, refine, cols, out, row_samples,
-        )  # fmt: skip
+            refine, tiles, out, row_samples):  # fmt: skip
+        # rows (ascending) in bands of at most ROW_BAND consecutive ones, each band traced
+        # tile by tile (column edges ``tiles``), so that the voxels a tile's rays read stay
+        # in the thread's cache for the tile's next rows (a whole row of rays read more
+        # than it holds: on the benchmark's int16 CT with two threads, 4-15 % less CPU a
+        # frame); in the kernel, where a call a tile from Python cost 512 calls a frame
+        k0 = 0
+        while k0 < rows.shape[0]:
+            k1 = band_end(rows, k0, ROW_BAND)
+            for t in range(tiles.shape[0] - 1):
+                _march_inline(
+                    vol, grad, has_grad, codes, light, frame, u, v, rows[k0:k1], pre, post_tab,
+                    pre2d, sub2d, lo, scale, step, leap, brick, skip, ert, shade, shading, gscale,
+                    vscale, gmin, clear, refine, tiles[t : t + 2], out, row_samples,
+                )  # fmt: skip
+            k0 = k1
 
     run.__name__ = run.__qualname__ = f"_march_{'pre' if pre else 'post'}_{SHADE_NAMES[shade]}"
     # allocates nothing: no reference counts in the loops; multiply-adds fused (12-15 %
@@ -1794,15 +1804,17 @@ def render(
         march = _MARCH[mode == 2, 2 if has_codes else int(shading == "phong")]
         clear = tables.clear(mode == 0)
 
-        def run(rows: np.ndarray, cols: np.ndarray) -> None:  # the fast path (see _march)
+        tiles = np.append(np.arange(0, w, TILE_COLS, dtype=np.int64), np.int64(w))
+
+        def run(rows: np.ndarray) -> None:  # the fast path (see _march)
             march(
                 vol, grad, has_grad, codes, light, *ray_grid, rows, post_tab,
                 pre2d, sub2d, lo, scale,
                 float(step), leap, brick, bool(skip_empty), float(ert), shading_k, gscale,
-                vscale, gmin, clear, refine_k, cols, out, row_samples,
+                vscale, gmin, clear, refine_k, tiles, out, row_samples,
             )  # fmt: skip
 
-        run_row_sets(run_tiles(run, w), h, nthreads, progress)
+        run_row_sets(run, h, nthreads, progress)
         return finish_render(out, row_samples, t_start, render_stats)
 
     def run(rows: np.ndarray) -> None:
@@ -1967,37 +1979,25 @@ def run_row_sets(run, h: int, nthreads: int, progress=None) -> None:
         run(rows)
         return len(rows)
 
-    done = 0
-    for rows_done in ordered_map(one, range(m), workers=nthreads):
+    done = 0  # sets as they finish (the calling thread traces sets too: no pool to start)
+    for rows_done in completed_map(one, range(m), workers=nthreads):
         done += rows_done
         if progress is not None:
             progress(done, h)
 
 
-#: Columns of a tile of the fast path (see :func:`run_tiles`).
+#: Columns of a tile of the fast path (see :func:`_march_specialised`).
 TILE_COLS = 32
 
 
-def run_tiles(run, w: int):
-    """``run(rows, cols)`` over the columns of an image ``w`` wide in chunks of
-    :data:`TILE_COLS`, as one ``run(rows)`` for :func:`run_row_sets`: a band of rows is
-    traced tile by tile, so the voxels a tile's rays read stay in the thread's cache
-    for the tile's next rows, where a whole row of rays read more than it holds (on
-    the benchmark's int16 CT with two threads, 4-15 % less CPU a frame; each ray is
-    still computed alone, so the image does not change)."""
-
-    chunks = [np.array([c0, min(c0 + TILE_COLS, w)], np.int64) for c0 in range(0, w, TILE_COLS)]
-
-    def by_tile(rows: np.ndarray) -> None:
-        # bands: runs of consecutive rows, at most ROW_BAND long
-        cut = np.flatnonzero(np.diff(rows) != 1) + 1
-        for run_rows in np.split(rows, cut):
-            for b0 in range(0, len(run_rows), ROW_BAND):
-                band = run_rows[b0 : b0 + ROW_BAND]
-                for cols in chunks:
-                    run(band, cols)
-
-    return by_tile
+@kernel(inline=True)
+def band_end(rows, k0, band):
+    """End of the band of ``rows`` (ascending image rows) that starts at ``rows[k0]``:
+    ``k1`` such that ``rows[k0:k1]`` are consecutive rows, at most ``band`` of them."""
+    k1 = k0 + 1
+    while k1 < rows.shape[0] and k1 - k0 < band and rows[k1] == rows[k1 - 1] + 1:
+        k1 += 1
+    return k1
 
 
 def transfer_table(tf, lo, hi, n) -> np.ndarray:
