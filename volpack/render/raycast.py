@@ -137,7 +137,7 @@ import numpy as np
 
 from .._jit import JIT_DISABLED, kernel, leading_zeros, read_only
 from ..errors import VolpackError
-from ..parallel import completed_map, parse_workers
+from ..parallel import completed_map, ordered_map, parse_workers
 from .camera import Camera, pixel_ray
 from .fixed import FRAC, interior, lerp_cell, to_fixed, trilinear_fixed, trilinear_inner, value_unit
 from .normals import light_table
