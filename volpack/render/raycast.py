@@ -154,6 +154,11 @@ BRICK = 8
 #: volumes), larger ones by BRICK^3; the per-brick ranges (8 bytes) and leap map (4
 #: bytes) stay under 25 MB.
 FINE_BRICK, FINE_BRICKS = 4, 1 << 21
+#: Plain volumes with at most this many 2^3 bricks (a 64^3 volume) skip by 2^3 bricks: a
+#: small volume fills a frame with many rays per voxel, and on the benchmark's 64^3
+#: float skull they took 13 % (semi-transparent TF) and 27 % (opaque) fewer segments,
+#: the same image; the maps stay under 400 KB.
+SMALL_BRICK, SMALL_BRICKS = 2, 1 << 15
 TABLE_SIZE = 256
 #: Send the common case through the fast path, :func:`_march` (tests turn it
 #: off to compare the two kernels).
@@ -2077,9 +2082,12 @@ def empty_value(base, lo, hi, dmin, quiet: bool = False) -> float:
 
 
 def brick_size(shape) -> int:
-    """Edge of the empty-space bricks of a plain volume (see :data:`FINE_BRICKS`)."""
-    nb = math.prod(max(1, -(-int(s) // FINE_BRICK)) for s in shape)
-    return FINE_BRICK if nb <= FINE_BRICKS else BRICK
+    """Edge of the empty-space bricks of a plain volume (see :data:`FINE_BRICKS` and
+    :data:`SMALL_BRICKS`)."""
+    for edge, most in ((SMALL_BRICK, SMALL_BRICKS), (FINE_BRICK, FINE_BRICKS)):
+        if math.prod(max(1, -(-int(s) // edge)) for s in shape) <= most:
+            return edge
+    return BRICK
 
 
 def _empty_bricks(
