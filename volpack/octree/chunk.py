@@ -91,7 +91,8 @@ def _chunk_kernel(data, perm, ctab, cls, nmax, scale, norm, lo, hi, low, c, lz, 
     energy against ``[lo, hi]``, put ``low`` in the corner and lift ``c`` back in place.
     Returns 0, the decoder's status or :data:`ENERGY_MISMATCH` (``c`` then unfinished)."""
     n = c.size
-    flat = np.zeros(n, np.int64)
+    flat = c.reshape(n)  # decoded in place: a bit length of at most nmax fits the work dtype
+    flat[:] = 0
     if data.size:
         status = decode_tabled_kernel(data, perm, ctab, cls, flat, nmax)
         if status != 0:
@@ -99,9 +100,6 @@ def _chunk_kernel(data, perm, ctab, cls, nmax, scale, norm, lo, hi, low, c, lz, 
     own = _energy_sum(flat, scale) * norm * norm
     if not (lo <= own <= hi):
         return ENERGY_MISMATCH
-    c1 = c.reshape(n)
-    for i in range(n):
-        c1[i] = flat[i]
     nz, ny, nx = low.shape
     for z in range(nz):
         for y in range(ny):
