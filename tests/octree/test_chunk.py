@@ -100,3 +100,36 @@ def test_a_chunk_failing_the_energy_check_is_reported_as_before():
         t._energy_matches = lambda *a: False  # the step-by-step path agrees
         with pytest.raises(NodeDamaged, match="error E"):
             t.decode(0)
+
+
+# the tabled decoder called on its own: a signature no fast test compiles (the fast set
+# runs it inside the fused kernel, on valid chunks, above)
+@pytest.mark.slow
+@pytest.mark.parametrize("shape", [(32, 32, 32), (9, 1, 33), (5, 6, 2)])
+def test_tabled_decoder_equals_the_arith_decoder_on_valid_and_damaged_streams(shape):
+    from volpack.entropy import arith
+    from volpack.wavelet.sigmap import scan as make_scan
+
+    rng = np.random.default_rng(sum(shape))
+    lv = layout.lift_levels(shape)
+    s = make_scan(shape, lv, "dfs")
+    tab = arith.context_table(s)
+    c = np.round(rng.laplace(0, 3, shape) * (rng.random(shape) < 0.3)).astype(np.int64)
+    c[rng.random(shape) < 0.01] = 1 << 20  # long bit lengths: the count up to 21
+    good = np.frombuffer(arith.encode(c, s), np.uint8)
+    cases = [good, good[:-1], good[: len(good) // 2], np.append(good, np.uint8(7)),
+             np.zeros(0, np.uint8)]  # fmt: skip
+    for k in range(20):  # one byte flipped somewhere
+        bad = good.copy()
+        bad[rng.integers(len(bad))] ^= np.uint8(1 << rng.integers(8))
+        cases.append(bad)
+    for nmax in (63, 12):  # 12: an "impossible" bit length for the long coefficients
+        for data in cases:
+            a, b = np.zeros(c.size, np.int64), np.zeros(c.size, np.int64)
+            sa = arith.decode_kernel(data, s.perm, s.end, s.parent, s.cls, s.nbr, a, nmax)
+            sb = arith.decode_tabled_kernel(data, s.perm, tab, s.cls, b, nmax)
+            assert sa == sb
+            np.testing.assert_array_equal(a, b)
+    a = np.zeros(c.size, np.int64)
+    assert arith.decode_tabled_kernel(good, s.perm, tab, s.cls, a, 63) == 0
+    np.testing.assert_array_equal(a, c.reshape(-1))

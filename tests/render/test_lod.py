@@ -222,6 +222,45 @@ def test_decode_budget_starts_coarse_and_reaches_the_uncapped_image(tree_path):
     np.testing.assert_array_equal(img, uncapped[-1][0])
 
 
+def test_reserved_grid_and_codes_give_the_same_walk(tree_path):
+    # a walk whose first frame's grid and normal codes were made beforehand on a helper
+    # thread (NodeAtlas.reserve) draws every frame as the walk that makes them in the
+    # frame; one worker reserves nothing
+    path, vol = tree_path
+    vr = (float(vol.min()), float(vol.max()))
+    cams = [Camera(size=(32, 28), azimuth=az, zoom=1.5) for az in (0.0, 50.0, 100.0)]
+    kw = dict(tf=tf_of(vol), value_range=vr, blocks=24, shading="phong", workers=2)
+    with Octree(str(path)) as t:
+        one = NodeAtlas(t)
+        one.reserve(vr, codes=True, workers=1)
+        assert one.resident is None
+        kept = NodeAtlas(t)
+        kept.reserve(vr, codes=True, workers=2)
+        assert kept.resident.reserved is not None
+        frames = [render_lod(t, camera=cam, atlas=kept, **kw) for cam in cams]
+        prep = kept.resident.prep
+        assert kept.resident.reserved is None and prep.codes_out is None  # both taken
+    with Octree(str(path)) as t:
+        made = NodeAtlas(t)
+        ref = [render_lod(t, camera=cam, atlas=made, **kw) for cam in cams]
+    for (img, st), (want, wst) in zip(frames, ref):
+        np.testing.assert_array_equal(img, want)
+        assert st.levels == wst.levels
+    np.testing.assert_array_equal(prep.data, made.resident.prep.data)
+    np.testing.assert_array_equal(prep.normal_codes(None, prep.spacing).codes,
+                                  made.resident.prep.normal_codes(None, prep.spacing).codes)  # fmt: skip
+
+
+def test_reserved_arrays_are_zeroed_and_taken_once():
+    from volpack.render.resident import Reserved
+
+    r = Reserved({"grid": ((5, 6, 7), np.uint8), "codes": ((5, 6, 7), np.uint16)})
+    assert r.take("codes", (5, 6, 8), np.uint16) is None  # another shape: not handed out
+    g = r.take("grid", (5, 6, 7), np.uint8)
+    assert g.shape == (5, 6, 7) and g.dtype == np.uint8 and not g.any()
+    assert r.take("grid", (5, 6, 7), np.uint8) is None  # once
+
+
 @pytest.mark.slow  # the paged sampler's own kernels; its image equality is in the fast set too
 def test_resident_volume_over_its_budget_walks_paged(tree_path):
     # a budget below the grid's bytes: every frame goes through the page table

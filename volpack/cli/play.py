@@ -196,6 +196,11 @@ def walk(ctx, source, output, orbit, budget, decode_budget, tf_spec, fps, compar
     rows = []
     with Octree(source, cache_bytes=1 << 30) as tree:
         lo, hi = tree_range(tree)
+        # decoded nodes and their gradient bricks, kept while they stay in view; the first
+        # frame's grid and normal codes are made on a helper thread meanwhile
+        atlas = NodeAtlas(tree, gradients=shading != "none")
+        atlas.reserve((lo, hi), workers=workers, codes=shading == "phong" and normals == "quantised"
+                      and not perspective and classification != "pre")  # fmt: skip
         sample, factor = coarse_level(tree)
         tf = transfer_for(tf_spec, sample.data, lo=lo, hi=hi, dtype=tree.dtype,
                           mask=sample.mask, size=max(tree.shape))  # fmt: skip
@@ -208,8 +213,6 @@ def walk(ctx, source, output, orbit, budget, decode_budget, tf_spec, fps, compar
                               shape=tree.shape, factor=factor, mask=sample.mask,
                               azimuths=azimuths)  # fmt: skip
         full = prepare_volume(tree.decode(0).data) if compare else None
-        # decoded nodes and their gradient bricks, kept while they stay in view
-        atlas = NodeAtlas(tree, gradients=shading != "none")
         with (
             _movie(output, fps, force) as writer,
             progress_bar(ctx, "walk", unit="frame") as progress,

@@ -13,11 +13,14 @@ so the same chunks pass, and the same voxels come out.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from .._jit import kernel
-from ..entropy.arith import decode_kernel
+from ..entropy.arith import context_table, decode_tabled_kernel
 from ..wavelet.dwt3 import dwt3_kernel
+from ..wavelet.sigmap import scan as make_scan
 
 #: statuses besides the entropy decoder's own 1-3
 ENERGY_MISMATCH = 4
@@ -83,23 +86,20 @@ def _energy_sum(flat, scale):
 
 
 @kernel
-def _chunk_kernel(data, perm, end, parent, cls, nbr, nmax, scale, norm, lo, hi, low, c,
-                  lz, ly, lx, spec):  # fmt: skip
+def _chunk_kernel(data, perm, ctab, cls, nmax, scale, norm, lo, hi, low, c, lz, ly, lx, spec):
     """Decode the details ``data`` (empty: none) into ``c`` (zeroed here), check their
     energy against ``[lo, hi]``, put ``low`` in the corner and lift ``c`` back in place.
     Returns 0, the decoder's status or :data:`ENERGY_MISMATCH` (``c`` then unfinished)."""
     n = c.size
-    flat = np.zeros(n, np.int64)
+    flat = c.reshape(n)  # decoded in place: a bit length of at most nmax fits the work dtype
+    flat[:] = 0
     if data.size:
-        status = decode_kernel(data, perm, end, parent, cls, nbr, flat, nmax)
+        status = decode_tabled_kernel(data, perm, ctab, cls, flat, nmax)
         if status != 0:
             return status
     own = _energy_sum(flat, scale) * norm * norm
     if not (lo <= own <= hi):
         return ENERGY_MISMATCH
-    c1 = c.reshape(n)
-    for i in range(n):
-        c1[i] = flat[i]
     nz, ny, nx = low.shape
     for z in range(nz):
         for y in range(ny):
@@ -111,14 +111,23 @@ def _chunk_kernel(data, perm, end, parent, cls, nbr, nmax, scale, norm, lo, hi, 
     return 0
 
 
+@functools.lru_cache(maxsize=64)
+def chunk_scan(shape, levels, order: str):
+    """``(scan, its arith context table)`` of a child block (both made once)."""
+    s = make_scan(shape, levels, order)
+    return s, context_table(s)
+
+
 def decode_chunk(data, scan, nmax: int, scale, norm: float, bounds, low, c, levels, spec) -> int:
     """Fill ``c`` (C-contiguous work integers of the node's child block) with the
-    children's voxels: details ``data`` (uint8 array, empty for none) in ``scan`` order,
-    their energy ``sum((c scale)^2) norm^2`` checked within ``bounds``, ``low`` in the
-    low-pass corner, one inverse lifting level ``levels`` of wavelet table ``spec``.
-    Returns 0, or the status that sends the caller to the step-by-step path."""
-    return int(_chunk_kernel(data, scan.perm, scan.end, scan.parent, scan.cls, scan.nbr, nmax,
-                             scale, norm, bounds[0], bounds[1], low, c, *levels, spec))  # fmt: skip
+    children's voxels: details ``data`` (uint8 array, empty for none) in the order of
+    ``scan`` (:func:`chunk_scan`'s pair), their energy ``sum((c scale)^2) norm^2``
+    checked within ``bounds``, ``low`` in the low-pass corner, one inverse lifting level
+    ``levels`` of wavelet table ``spec``. Returns 0, or the status that sends the
+    caller to the step-by-step path."""
+    s, ctab = scan
+    return int(_chunk_kernel(data, s.perm, ctab, s.cls, nmax, scale, norm, bounds[0],
+                             bounds[1], low, c, *levels, spec))  # fmt: skip
 
 
 @kernel(inline=True)

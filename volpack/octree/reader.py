@@ -204,8 +204,7 @@ class Octree:
         the chunk fails a check (the step-by-step path then reports it)."""
         from ..volume_codec.lossy import band_scale
         from ..wavelet.lifting import SPECS
-        from ..wavelet.sigmap import scan as make_scan
-        from .chunk import decode_chunk
+        from .chunk import chunk_scan, decode_chunk
 
         ls = layout.low_shape(shape)
         if low.shape != ls:
@@ -217,7 +216,7 @@ class Octree:
         lo, hi = self._energy_bounds(level)
         n = int(np.ravel_multi_index(index, self.geometry.grid(level)))
         c = np.empty(shape, work)
-        status = decode_chunk(data, make_scan(shape, lv, self.plan.order), 32 if work == np.int32 else 63,
+        status = decode_chunk(data, chunk_scan(shape, lv, self.plan.order), 32 if work == np.int32 else 63,
                               band_scale(shape, lv), norm, (lo[n], hi[n]),
                               np.ascontiguousarray(low), c, lv,
                               SPECS[self.plan.wavelet])  # fmt: skip

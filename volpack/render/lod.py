@@ -146,6 +146,21 @@ class NodeAtlas:
         return PagedVolume(self.atlas, page, self.level, self.origin, shape,
                            tuple(self.tree.spacing), cell, frange, self.grad, self.codes)  # fmt: skip
 
+    def reserve(self, value_range, *, codes: bool, workers: int | None = None) -> None:
+        """Before a walk's first frame, when the frames will draw the resident grid:
+        make that grid's memory (and, with ``codes``, its quantised normals') on a helper
+        thread while the caller goes on (:meth:`ResidentVolume.reserve`). Not with one
+        worker: the helper needs a core of its own."""
+        from ..parallel import parse_workers
+        from .transfer import nonempty_range
+
+        if parse_workers(workers) < 2 or not 0 < resident_bytes(self.tree) <= self.resident_budget:
+            return
+        if self.resident is None:
+            self.resident = ResidentVolume(self.tree, nonempty_range(*value_range),
+                                           self.resident_budget)  # fmt: skip
+        self.resident.reserve(codes)
+
     def dense(self, selection, fill: float, value_range, workers: int = 1):
         """The resident full-resolution grid of ``selection`` (uncovered cells at
         ``fill``), or None when the tree's grid passes the resident budget or its dtype

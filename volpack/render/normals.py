@@ -141,12 +141,15 @@ def _mark_chunks(visible, brick, reach, need):
 
 
 class NormalCodes:
-    """The per-voxel codes of one (filled) volume, computed chunk by chunk on demand."""
+    """The per-voxel codes of one (filled) volume, computed chunk by chunk on demand
+    (into ``out``, a zeroed uint16 array of the volume's shape, when given)."""
 
-    def __init__(self, vol: np.ndarray, spacing) -> None:
+    def __init__(self, vol: np.ndarray, spacing, out: np.ndarray | None = None) -> None:
         self.vol = read_only(vol)  # one compiled signature for every caller
         self.inv2 = np.array([0.5 / float(s) for s in spacing], np.float64)
-        self.codes = np.zeros(vol.shape, np.uint16)  # zero pages until written
+        ok = (out is not None and out.shape == vol.shape and out.dtype == np.uint16
+              and out.flags.c_contiguous and out.flags.writeable)  # fmt: skip
+        self.codes = out if ok else np.zeros(vol.shape, np.uint16)  # zero pages until written
         self.done = np.zeros(tuple(-(-n // CHUNK) for n in vol.shape), np.bool_)
 
     def stale(self, box) -> None:

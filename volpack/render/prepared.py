@@ -61,6 +61,9 @@ class PreparedVolume:
     _leap: tuple = (None, None)  # (empty bricks, leap map)
     _codes: tuple = (_UNSET, None)  # quantised normals (NormalCodes), or False over the budget
     _memo: dict = dataclasses.field(default_factory=dict)  # name -> (key, value, boxes)
+    # a zeroed uint16 array of the data's shape the first quantised normals take as
+    # theirs (a walk's, made beforehand: render.resident.Reserved), or None
+    codes_out: np.ndarray | None = None
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -99,7 +102,8 @@ class PreparedVolume:
         if self._codes[0] != key:
             vol = self.filled(fill)
             ok = vol.size * 2 <= self.gradient_budget
-            self._codes = (key, NormalCodes(vol, spacing) if ok else False)
+            out, self.codes_out = self.codes_out, None
+            self._codes = (key, NormalCodes(vol, spacing, out) if ok else False)
         c = self._codes[1]
         return None if c is False else c
 

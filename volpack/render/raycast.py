@@ -848,32 +848,39 @@ def _leap_kernel(empty, out):
 @kernel
 def _chebyshev(mask, out):
     """Chebyshev distance (in bricks) of each True brick to the nearest False one, 0 on
-    False ones: two raster passes over the 26-neighbourhood, exact for this metric."""
+    False ones: two raster passes, forward over the 13 neighbours already passed and
+    backward over the other 13 (the chamfer masks, exact for this metric), on a copy
+    padded with a value that never lowers a distance (no bounds tests: 3-4x faster
+    than the whole 26-neighbourhood in both passes with them, the same numbers)."""
     nbz, nby, nbx = mask.shape
     big = nbz + nby + nbx + 1
+    d = np.full((nbz + 2, nby + 2, nbx + 2), big, np.int32)
     for z in range(nbz):
         for y in range(nby):
             for x in range(nbx):
-                out[z, y, x] = big if mask[z, y, x] else 0
+                d[z + 1, y + 1, x + 1] = big if mask[z, y, x] else 0
     for rev in range(2):
+        s = -1 if rev else 1  # the passed side: z - s, then y - s in the plane, x - s
         for zz in range(nbz):
-            z = nbz - 1 - zz if rev else zz
+            z = nbz - zz if rev else zz + 1
             for yy in range(nby):
-                y = nby - 1 - yy if rev else yy
+                y = nby - yy if rev else yy + 1
                 for xx in range(nbx):
-                    x = nbx - 1 - xx if rev else xx
-                    v = out[z, y, x]
+                    x = nbx - xx if rev else xx + 1
+                    v = d[z, y, x]
                     if v == 0:
                         continue
-                    for dz in range(-1, 2):
-                        for dy in range(-1, 2):
-                            for dx in range(-1, 2):
-                                qz, qy, qx = z + dz, y + dy, x + dx
-                                if 0 <= qz < nbz and 0 <= qy < nby and 0 <= qx < nbx:
-                                    w = out[qz, qy, qx] + 1
-                                    if w < v:
-                                        v = w
-                    out[z, y, x] = v
+                    m = d[z, y, x - s]
+                    for dx in range(-1, 2):
+                        m = min(m, d[z, y - s, x + dx])
+                    for dy in range(-1, 2):
+                        for dx in range(-1, 2):
+                            m = min(m, d[z - s, y + dy, x + dx])
+                    d[z, y, x] = min(v, m + 1)
+    for z in range(nbz):
+        for y in range(nby):
+            for x in range(nbx):
+                out[z, y, x] = d[z + 1, y + 1, x + 1]
 
 
 @kernel
