@@ -224,7 +224,8 @@ def fit(brick: np.ndarray) -> np.ndarray | None:
     nz, ny, nx = brick.shape
     if nz < 3 or ny < 4 or nx < 4:
         return None
-    v = brick.astype(np.float64)
+    with np.errstate(invalid="ignore"):  # signalling NaNs
+        v = brick.astype(np.float64)
     cols = [
         v[2 - dz : nz - dz, 2 - dy : ny - 1 - dy, 2 - dx : nx - 1 - dx].reshape(-1)
         for dz, dy, dx in FIT_OFFSETS
@@ -235,13 +236,16 @@ def fit(brick: np.ndarray) -> np.ndarray | None:
     x, y = x[keep], y[keep]
     if y.size < FIT_MIN_ROWS:
         return None
-    scale = np.abs(y).max()  # the normal equations of huge values overflow: scaled
+    scale = max(np.abs(x).max(), np.abs(y).max())  # the normal equations of huge values overflow
     if not scale > 0:
         return None
     x, y = x / scale, y / scale
     with np.errstate(all="ignore"):
-        w, *_ = np.linalg.lstsq(x.T @ x, x.T @ y, rcond=None)
-    w = w.astype(np.float32)
+        try:
+            w, *_ = np.linalg.lstsq(x.T @ x, x.T @ y, rcond=None)
+        except np.linalg.LinAlgError:  # an SVD that does not converge (denormal-scale rows)
+            return None
+        w = w.astype(np.float32)
     return w if np.isfinite(w).all() else None
 
 
