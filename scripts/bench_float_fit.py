@@ -58,7 +58,8 @@ def main(argv: list[str] | None = None) -> int:
             blobs = {}
             for _ in range(args.encode_repeat):
                 for v in versions:
-                    t, blobs[v] = cpu(lambda v=v: api.compress_array(a, predict_version=v, workers=1))
+                    run = lambda v=v: api.compress_array(a, predict_version=v, workers=1)  # noqa: E731
+                    t, blobs[v] = cpu(run)
                     enc[v].append(t)
             dec = {v: [] for v in versions}
             for _ in range(args.repeat):
@@ -82,7 +83,8 @@ def main(argv: list[str] | None = None) -> int:
             f.flush()
             r5, r6 = a.nbytes / len(blobs[5]), a.nbytes / len(blobs[6])
             print(
-                f"{name} {shape}: ratio v5 {r5:.4f} v6 {r6:.4f} ({100 * (r6 / r5 - 1):+.2f} %) {tools}; "
+                f"{name} {shape}: ratio v5 {r5:.4f} v6 {r6:.4f} "
+                f"({100 * (r6 / r5 - 1):+.2f} %) {tools}; "
                 f"encode MB/s {e[5]:.2f} -> {e[6]:.2f}; decode MB/s {d[5]:.1f} -> {d[6]:.1f} "
                 f"({d[6] / d[5]:.2f}x); load {load}",
                 flush=True,

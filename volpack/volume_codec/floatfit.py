@@ -26,7 +26,14 @@ import numpy as np
 
 from .._jit import kernel
 from ..entropy.common import check_status, encode_with_retry, stream_bytes
-from ..entropy.rangecoder import end_status, finish_stream, get_bits, open_encoder, open_stream, put_bits
+from ..entropy.rangecoder import (
+    end_status,
+    finish_stream,
+    get_bits,
+    open_encoder,
+    open_stream,
+    put_bits,
+)
 from ..errors import FormatError
 from .floatbits import from_signed, to_signed
 from .floatpredict import NCF, activity, predict, scratch, usable, wrap
@@ -144,7 +151,8 @@ def get_residual(data, models, ctx, sctx, code, rng, pos):
     nm = min(nb - 1, MANT_BITS)
     prefix = np.int64(1)
     for _ in range(nm):
-        bit, code, rng, pos = get16(data, models, M_MANT + (nb << MANT_BITS) + prefix, code, rng, pos)
+        k = M_MANT + (nb << MANT_BITS) + prefix
+        bit, code, rng, pos = get16(data, models, k, code, rng, pos)
         prefix = 2 * prefix + bit
     rest = nb - 1 - nm
     v, code, rng, pos = get_bits(data, np.uint64(0), rest, code, rng, pos)
@@ -253,7 +261,8 @@ def encode(brick: np.ndarray, face: int, weights: np.ndarray | None = None) -> b
     """Code a 3-D float32/64 brick: the predictor byte (``face``, the Lorenzo predictor,
     plus :data:`FITTED` with ``weights``), the weights (float32, little-endian), then
     the range-coded residuals."""
-    if brick.ndim != 3 or brick.dtype.name not in ("float32", "float64") or face not in usable(brick.dtype):
+    floats = brick.dtype.name in ("float32", "float64")
+    if brick.ndim != 3 or not floats or face not in usable(brick.dtype):
         raise ValueError(f"expected a 3-D float32/64 brick, found {brick.dtype} {brick.shape}")
     s = to_signed(brick).reshape(-1)
     with np.errstate(invalid="ignore"):  # signalling NaNs
@@ -313,11 +322,11 @@ def decode(data: bytes | memoryview, shape: tuple[int, ...], dtype: np.dtype) ->
     return from_signed(s, dtype).reshape(shape)
 
 
-def encode_best(brick: np.ndarray, face: int) -> bytes:
-    """The shorter of the stream with Lorenzo predictor ``face`` everywhere and the
-    fitted one (``face`` on the faces), when a fit exists."""
-    tried = [encode(brick, face)]
+def encode_best(brick: np.ndarray, face: int) -> bytes | None:
+    """The shorter of the fitted stream (Lorenzo predictor ``face`` on the faces) and the
+    stream with ``face`` everywhere; ``None`` when the brick has no fit (too few
+    interior voxels: a small brick, where the coding alone saves a few bytes at most)."""
     w = fit(brick)
-    if w is not None:
-        tried.append(encode(brick, face, w))
-    return min(tried, key=len)
+    if w is None:
+        return None
+    return min((encode(brick, face, w), encode(brick, face)), key=len)

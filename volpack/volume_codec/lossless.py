@@ -186,7 +186,9 @@ class LosslessCodec(BrickCodec):
         if brick.itemsize >= 4 and version >= FIT_VERSION:
             from . import floatfit
 
-            out.append(bytes([MODE_FLOAT, FLOAT_FIT]) + floatfit.encode_best(brick, lorenzo[0]))
+            fitted = floatfit.encode_best(brick, lorenzo[0])
+            if fitted is not None:
+                out.append(bytes([MODE_FLOAT, FLOAT_FIT]) + fitted)
         if brick.itemsize >= 4 and version >= 4:
             offsets, fill = fm.copy_offsets(brick), fm.fill_value(brick)
             blend = fm.encode(brick, offsets=offsets, fill=fill)
