@@ -70,6 +70,8 @@ KINDS = {
     "float-lattice": ("lossless-v3-f32-packed.vpk", VOLUME_PATHS),
     # version 4's float blend (mode 5, tool 2): copies from two periods
     "float-blend": ("lossless-v4-f32-periodic.vpk", VOLUME_PATHS),
+    # version 6's fitted float predictor (mode 5, tool 3): 23 float32 weights, specials
+    "float-fit": ("lossless-v6-f32-fit.vpk", VOLUME_PATHS),
     "fast": ("fast-u8-background.vpk", VOLUME_PATHS),
     # the fast codec's run mode (the default since the `runs` header field)
     "fast-runs": ("fast-runs-mixed.vpk", VOLUME_PATHS),

@@ -171,6 +171,8 @@ LOSSLESS_CASES = [
     ("lossless-v4-f64-masked", "f64-masked", {"brick": 32, "predict_version": 4}),
     # version 5: the low-value models under a noise floor (flag 64), one brick
     ("lossless-v5-u8-floor", "v5-u8-floor", {"brick": 32, "predict_version": 5}),
+    # version 6: the fitted float predictor (mode 5, tool 3), one brick
+    ("lossless-v6-f32-fit", "f32-rough", {"brick": 32, "predict_version": 6}),
 ]
 
 
@@ -231,6 +233,18 @@ def lossless_source(recipe: str):
             0.0 if recipe == "f32-masked" else np.nan
         )
         f[10, 12, 14:17] = (-0.0, np.inf, 5e-324 if recipe == "f64-masked" else 1e-42)
+        return f
+    if recipe == "f32-rough":  # a smooth field under correlated noise, specials
+        rng = np.random.default_rng(7)
+        z, y, x = np.indices((20, 24, 28))
+        f = np.sin(x * 0.3 + z * 0.2) * np.cos(y * 0.25) * 10.0
+        noise = rng.normal(0, 0.05, f.shape)
+        f += noise + 0.5 * np.roll(noise, 1, axis=2) + 0.5 * np.roll(noise, 1, axis=1)
+        f = f.astype(np.float32)
+        flat = f.reshape(-1)
+        flat[1007:1009] = (np.nan, np.array([0x7FC01234], np.uint32).view(np.float32)[0])
+        flat[1108:1111] = (-0.0, np.inf, -np.inf)
+        flat[1313], flat[1567] = 1e-45, -1e-45  # the smallest denormals
         return f
     if recipe == "f32-lattice":  # tenths of a unit: a geopotential height in metres
         c = wavelet_source("u8").astype(np.float64)

@@ -156,10 +156,10 @@ def test_version_one_headers():
     old = LosslessCodec(predict_version=1)
     assert "predict_version" not in old.get_config()
     assert LosslessCodec.from_config(old.get_config()) == old
-    assert LosslessCodec().get_config()["predict_version"] == 5
+    assert LosslessCodec().get_config()["predict_version"] == 6
     assert LosslessCodec.from_config(LosslessCodec().get_config()) == LosslessCodec()
     with pytest.raises(OptionError):
-        LosslessCodec(predict_version=6)
+        LosslessCodec(predict_version=7)
     with pytest.raises(FormatError):
         LosslessCodec.from_config({**LosslessCodec().get_config(), "predict_version": 7})
 

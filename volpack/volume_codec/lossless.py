@@ -18,7 +18,8 @@ mode  payload after the mode byte
       label stream
 5     floats by prediction on their integer images (:mod:`.floatpredict`): a tool byte
       (0: Lorenzo, 1: lattice, 2: blend of predictors with copies and a fill value,
-      :mod:`.floatmix`), then its stream
+      :mod:`.floatmix`, 3: a least-squares predictor fitted per brick, or Lorenzo,
+      with 16-bit models, :mod:`.floatfit`), then its stream
 ====  ===============================================================================
 
 ``predict_version`` (a config field) says which predictive stream the encoder writes for
@@ -26,11 +27,11 @@ integer bricks: 1 (:mod:`.predict`, the files written before version 2 existed; 
 headers have no ``predict_version`` and read as 1) or 2 (a fitted predictor, and a background
 mask where it pays). Version 3 codes integer bricks as 2 and adds, for float
 bricks, the tools of mode 5 and zstd at level 19 in mode 3 (where it may beat level 9:
-see ``ZSTD_19_OVER_9``). Version 4 (the default) adds mode 5's blend (tool 2) for
-float32 and float64 bricks. Version 5 (the default) adds, for integer bricks, version
+see ``ZSTD_19_OVER_9``). Version 4 adds mode 5's blend (tool 2) for
+float32 and float64 bricks. Version 5 adds, for integer bricks, version
 2's stream with the low-value models of :mod:`.predictfit` (flag 64), where it is the
-shorter. A decoder reads every version,
-whatever the config says.
+shorter. Version 6 (the default) adds mode 5's fitted predictor (tool 3) for float32 and
+float64 bricks. A decoder reads every version, whatever the config says.
 
 Floats (float16, float32, float64) are coded exactly through integer images of their
 bits (:mod:`.floatbits`, :mod:`.floatpredict`); NaN, -0.0, denormals and Inf come back
@@ -66,8 +67,10 @@ from .protocol import from_stored as _from_stored
 
 MODE_PREDICT = 4
 MODE_FLOAT = 5
-FLOAT_TOOLS = ("lorenzo", "lattice", "blend")  # the tool byte of mode 5 indexes this
+FLOAT_TOOLS = ("lorenzo", "lattice", "blend", "fit")  # the tool byte of mode 5 indexes this
 FLOAT_BLEND = 2
+FLOAT_FIT = 3
+FIT_VERSION = 6  # the first predict_version whose encoder tries the fitted predictor
 # The blend (mode 5, tool 2) decodes at about 0.7x the speed of one Lorenzo predictor
 # (and far slower than zstd): it is kept only when it saves this share of the bytes.
 BLEND_MIN_SAVING = 0.02
@@ -75,7 +78,7 @@ EXACT_FLOATS = FLOAT_DTYPES + ("float64",)
 FLAG_PALETTE, FLAG_FLOAT, FLAG_SPLIT, FLAG_LABELS, FLAG_FIT, FLAG_MASK = 1, 2, 4, 8, 16, 32
 FLAG_LOW = 64
 FLAGS = FLAG_PALETTE | FLAG_FLOAT | FLAG_SPLIT | FLAG_LABELS | FLAG_FIT | FLAG_MASK | FLAG_LOW
-VERSIONS = (1, 2, 3, 4, 5)
+VERSIONS = (1, 2, 3, 4, 5, 6)
 LOW_VERSION = 5  # the first predict_version whose encoder tries the low-value models
 TOOLS = ("auto", "wavelet", "predict")
 FLOAT_ZSTD_LEVEL = 9
@@ -94,12 +97,13 @@ class LosslessCodec(BrickCodec):
     tools : {"auto", "wavelet", "predict"}
         ``auto`` tries both tools on every brick and keeps the shorter; the others use
         one tool (for comparison; floats always use prediction).
-    predict_version : {1, 2, 3, 4, 5}
+    predict_version : {1, 2, 3, 4, 5, 6}
         The predictive stream written for integer bricks: 2 (a fitted predictor and a
         background mask) or 1 (the earlier one, for identical files); 3 codes integers
         as 2 and floats also by Lorenzo or lattice prediction (mode 5); 4 also by the
-        blend of predictors with copies and a fill value (mode 5, tool 2); 5 (the
-        default) as 4, integers also with the low-value models.
+        blend of predictors with copies and a fill value (mode 5, tool 2); 5 as 4,
+        integers also with the low-value models; 6 (the default) as 5, float32 and
+        float64 also by a predictor fitted per brick (mode 5, tool 3).
     """
 
     codec_id: ClassVar[str] = "lossless"
@@ -108,7 +112,7 @@ class LosslessCodec(BrickCodec):
     order: str = "dfs"
     max_levels: int | None = None
     tools: str = "auto"
-    predict_version: int = 5
+    predict_version: int = 6
 
     def __post_init__(self) -> None:
         _check_choice("tools", self.tools, TOOLS)
@@ -171,12 +175,20 @@ class LosslessCodec(BrickCodec):
 
     def _encode_float(self, brick: np.ndarray, version: int) -> list[bytes]:
         """Mode-5 payloads of a float brick: Lorenzo, the blend (with the brick's copy
-        offsets and fill value; float32/64), and the lattice when the values sit on one
+        offsets and fill value; float32/64), the fitted predictor (float32/64, with the
+        best Lorenzo predictor on its faces), and the lattice when the values sit on one
         (its integer fields coded by this codec as int32 bricks)."""
         from . import floatmix as fm
         from . import floatpredict as fp
 
-        out = [bytes([MODE_FLOAT, 0]) + fp.encode_best_lorenzo(brick)]
+        lorenzo = fp.encode_best_lorenzo(brick)
+        out = [bytes([MODE_FLOAT, 0]) + lorenzo]
+        if brick.itemsize >= 4 and version >= FIT_VERSION:
+            from . import floatfit
+
+            fitted = floatfit.encode_best(brick, lorenzo[0])
+            if fitted is not None:
+                out.append(bytes([MODE_FLOAT, FLOAT_FIT]) + fitted)
         if brick.itemsize >= 4 and version >= 4:
             offsets, fill = fm.copy_offsets(brick), fm.fill_value(brick)
             blend = fm.encode(brick, offsets=offsets, fill=fill)
@@ -197,13 +209,17 @@ class LosslessCodec(BrickCodec):
         from . import floatpredict as fp
 
         if len(body) < 1 or body[0] >= len(FLOAT_TOOLS):
-            raise FormatError("float brick payload: expected tool byte 0, 1 or 2")
+            raise FormatError("float brick payload: expected tool byte 0, 1, 2 or 3")
         if body[0] == 0:
             return fp.decode_lorenzo(body[1:], shape, dtype)
         if body[0] == FLOAT_BLEND:
             from . import floatmix
 
             return floatmix.decode(body[1:], shape, dtype)
+        if body[0] == FLOAT_FIT:
+            from . import floatfit
+
+            return floatfit.decode(body[1:], shape, dtype)
         m, pos = pal.read_uleb(body, 1)
         if m not in (1, shape[0]) or pos + 16 * m > len(body):
             raise FormatError(

@@ -133,9 +133,10 @@ def compress(
         Wavelet codec settings (see :class:`volpack.volume_codec.codec.WaveletCodec`).
     tools : {"auto", "wavelet", "predict"}, optional
         The lossless codec's tools (:class:`volpack.volume_codec.lossless.LosslessCodec`).
-    predict_version : {1, 2, 3, 4, 5}, optional
-        The lossless codec's predictive stream: 5 (the default: as 4, and integers also
-        with the low-value models of :mod:`.predictfit`), 4 (as 3, and floats also by
+    predict_version : {1, 2, 3, 4, 5, 6}, optional
+        The lossless codec's predictive stream: 6 (the default: as 5, and float32 and
+        float64 also by a predictor fitted per brick, :mod:`.floatfit`), 5 (as 4, and
+        integers also with the low-value models of :mod:`.predictfit`), 4 (as 3, and floats also by
         a blend of predictors with copies and a fill value), 3 (as 2, and floats by
         Lorenzo or lattice prediction), 2 or 1 (as files written before, byte for byte).
     runs : bool, optional
