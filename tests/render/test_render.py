@@ -391,6 +391,7 @@ def test_png_output_and_colour_bar(tmp_path):
     assert sorted(os.listdir(tmp_path)) == ["a.png", "b.png"]  # no temporary left
 
 
+@pytest.mark.slow  # the only fast user of the uint8 isosurface kernel (5 CPU s to compile)
 def test_cli_render_png_orbit_iso_and_json(tmp_path):
     import json
 

@@ -153,6 +153,7 @@ def test_codec_roundtrip_specials_constant_and_noise(dtype):
     assert len(payload) <= len(z)
 
 
+@pytest.mark.slow  # float64 encoder signatures no other fast test compiles
 def test_float64_volumes_take_the_lossless_codec():
     z, y, x = np.indices((20, 20, 20))
     a = np.sin(x * 0.1031 + z * 0.0537 + 0.3) * np.cos(y * 0.0713 - z * 0.0291) * 50  # smooth
@@ -179,7 +180,9 @@ def test_smooth_field_beats_every_earlier_tool():
 # --- lattice ---------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("dtype", [np.float32, np.float64])  # float16 cannot hold tenths of 5000
+@pytest.mark.parametrize(
+    "dtype", [np.float32, slow_case(np.float64)]
+)  # float16 cannot hold tenths of 5000
 def test_lattice_found_and_exact(dtype):
     rng = np.random.default_rng(4)
     k = np.cumsum(rng.integers(-40, 41, (12, 13, 14)), axis=2) + 48000
@@ -360,6 +363,7 @@ def test_corrupt_float_payloads_raise_format_error():
         codec.decode(lor, a.shape, np.int16)
 
 
+@pytest.mark.slow  # compiles the float64 encoder and decoder
 def test_bit_flips_raise_or_decode():
     codec = LosslessCodec()
     rng = np.random.default_rng(5)

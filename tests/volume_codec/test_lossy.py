@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import smooth_volume
+from conftest import slow_case, smooth_volume
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -93,6 +93,7 @@ def test_max_error_holds_on_every_voxel(kind, dtype, shape, rel, nan_island, see
         assert r.summary["max_error"] <= bound
 
 
+@pytest.mark.slow  # the float64 lossless encoders, which no other fast test compiles
 def test_float_extremes_and_denormals():
     a = np.array([0.0, 1e-45, -1e-45, 3.4e38, -3.4e38, 1.0, np.nan, np.inf], np.float32)
     a = np.resize(a, (4, 4, 8)).copy()
@@ -293,7 +294,7 @@ def test_64_bit_integers_are_refused_with_a_clear_error():
     np.testing.assert_array_equal(api.decompress_array(api.compress_array(a)), a)
 
 
-@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("dtype", [np.float32, slow_case(np.float64)])
 @pytest.mark.parametrize("value", [-9999.0, 1e20])
 def test_an_undeclared_fill_value_is_masked_when_shorter(dtype, value):
     """A sentinel marking a region (below or above the others) is taken out into the
@@ -363,7 +364,7 @@ def test_whole_number_floats_under_a_bound_below_half_come_back_exactly(dtype, e
         assert len(blob) < len(blob2) / 1.3
 
 
-@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("dtype", [np.float32, slow_case(np.float64)])
 def test_floats_on_a_decimal_grid_take_its_spacing_as_bins(dtype):
     """A field stored to 0.1 (GRIB-packed model output): under a bound below 0.05 the
     bins are the grid's spacing (0.1, refined from the data), every voxel within the
