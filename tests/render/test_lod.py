@@ -308,6 +308,7 @@ def test_resident_walk_into_the_volume_keeps_gradients_and_normals_exact(tree_pa
             np.testing.assert_array_equal(img, fresh)
 
 
+@pytest.mark.slow  # a uint8 Phong march of its own (9.5 CPU s to compile) that no other fast test needs
 def test_render_and_walk_commands(tree_path, tmp_path):
     from PIL import Image
 

@@ -154,6 +154,7 @@ def test_prepared_volume_is_reused_and_bounded():
         prepare_volume(vol, gradient_budget=-1)
 
 
+@pytest.mark.slow  # a uint8 Phong march of its own (9.5 CPU s to compile) that no other fast test needs
 def test_images_do_not_depend_on_the_thread_count_on_the_fast_path():
     vol = np.round(field((30, 26, 28)) * 255).astype(np.uint8)
     kw = dict(tf=semi(0, 255), camera=Camera(azimuth=70, size=(30, 26), projection="perspective"),

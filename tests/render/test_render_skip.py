@@ -143,6 +143,7 @@ def test_brick_ranges_hold_each_brick_and_its_overlap_voxel(shape, brick, worker
         assert (mins[b], maxs[b]) == ((part.min(), part.max()) if part.size else (np.inf, -np.inf))
 
 
+@pytest.mark.slow  # a uint8 Phong march of its own (9.5 CPU s to compile) that no other fast test needs
 def test_a_rewritten_prepared_volume_draws_what_a_fresh_one_draws():
     # a walk's resident volume rewrites boxes of its data between frames and tells the
     # PreparedVolume (PreparedVolume.rewritten): the brick ranges, the empty bricks,
