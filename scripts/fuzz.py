@@ -65,6 +65,8 @@ KINDS = {
     "lossless-v2": ("lossless-v2-u8-mask.vpk", VOLUME_PATHS),
     # version 5's low-value models (flag 64) under a noise floor
     "lossless-v5": ("lossless-v5-u8-floor.vpk", VOLUME_PATHS),
+    # version 7's texture bias (flag 128)
+    "lossless-v7": ("lossless-v7-u8-tex.vpk", VOLUME_PATHS),
     # version 3's float tools (mode 5): Lorenzo on the floats' signed images, and lattices
     "float-lorenzo": ("lossless-v3-f32-smooth.vpk", VOLUME_PATHS),
     "float-lattice": ("lossless-v3-f32-packed.vpk", VOLUME_PATHS),

@@ -173,6 +173,8 @@ LOSSLESS_CASES = [
     ("lossless-v5-u8-floor", "v5-u8-floor", {"brick": 32, "predict_version": 5}),
     # version 6: the fitted float predictor (mode 5, tool 3), one brick
     ("lossless-v6-f32-fit", "f32-rough", {"brick": 32, "predict_version": 6}),
+    # version 7: the texture bias (flag 128, with the low-value models), one brick
+    ("lossless-v7-u8-tex", "v2-u8", {"brick": 32, "predict_version": 7}),
 ]
 
 

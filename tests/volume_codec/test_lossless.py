@@ -21,6 +21,7 @@ from volpack.volume_codec.lossless import (
     FLAG_LOW,
     FLAG_PALETTE,
     FLAG_SPLIT,
+    FLAG_TEX,
     MODE_PREDICT,
     LosslessCodec,
     _encode_predict,
@@ -314,6 +315,7 @@ CASES = [
     ("lossless-v2-i16-palette", "v2-i16", {"brick": 32, "predict_version": 2}),
     ("lossless-v2-predict-u8", "v2-u8", {"tools": "predict", "brick": 32, "predict_version": 2}),
     ("lossless-v5-u8-floor", "v5-u8-floor", {"brick": 32, "predict_version": 5}),
+    ("lossless-v7-u8-tex", "v2-u8", {"brick": 32, "predict_version": 7}),
 ]
 
 
@@ -375,6 +377,7 @@ def test_golden_lossless_streams_use_the_new_sections():
     assert (MODE_PREDICT, FLAG_FLOAT | FLAG_SPLIT) in seen
     assert (MODE_PREDICT, FLAG_PALETTE | FLAG_LABELS) in seen
     assert (MODE_PREDICT, FLAG_FIT | FLAG_PALETTE | FLAG_LOW) in seen
+    assert (MODE_PREDICT, FLAG_FIT | FLAG_LOW | FLAG_TEX) in seen
 
 
 # --- corrupt payloads --------------------------------------------------------------------

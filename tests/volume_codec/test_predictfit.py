@@ -20,6 +20,7 @@ from volpack.volume_codec.lossless import (
     FLAG_LOW,
     FLAG_MASK,
     FLAG_PALETTE,
+    FLAG_TEX,
     MODE_PREDICT,
     LosslessCodec,
     _encode_fit,
@@ -156,12 +157,12 @@ def test_version_one_headers():
     old = LosslessCodec(predict_version=1)
     assert "predict_version" not in old.get_config()
     assert LosslessCodec.from_config(old.get_config()) == old
-    assert LosslessCodec().get_config()["predict_version"] == 6
+    assert LosslessCodec().get_config()["predict_version"] == 7
     assert LosslessCodec.from_config(LosslessCodec().get_config()) == LosslessCodec()
     with pytest.raises(OptionError):
-        LosslessCodec(predict_version=7)
+        LosslessCodec(predict_version=8)
     with pytest.raises(FormatError):
-        LosslessCodec.from_config({**LosslessCodec().get_config(), "predict_version": 7})
+        LosslessCodec.from_config({**LosslessCodec().get_config(), "predict_version": 8})
 
 
 def test_golden_streams_use_the_new_sections():
@@ -223,6 +224,50 @@ def test_corrupt_low_value_sections_raise_format_error():
         with pytest.raises(FormatError):
             codec.decode(data, a.shape, a.dtype)
     flip_bits(codec, bytearray(good), a, np.random.default_rng(7), 20)
+
+
+def tissue():
+    """A 32^3 cut of the bundled MRI's tissue (the golden lossless-v7 example's)."""
+    from volpack.demo import load_demo_volume
+
+    return np.ascontiguousarray(load_demo_volume().data[30:62, 40:72, 40:72]).astype(np.int64)
+
+
+@pytest.mark.slow
+def test_texture_bias_roundtrips_and_pays():
+    v = tissue()
+    lo, hi = int(v.min()), int(v.max())
+    for low in (False, True):
+        plain = predictfit.encode(v, lo, hi, low=low)
+        tex = predictfit.encode(v, lo, hi, low=low, tex=True)
+        np.testing.assert_array_equal(predictfit.decode(tex, v.shape, lo, hi, low=low, tex=True), v)
+        assert len(tex) < len(plain)  # (measured: 0.996 of the bytes)
+    b = brain()
+    m = b == 0
+    tex = predictfit.encode(b, 0, 255, mask=m, tex=True)
+    np.testing.assert_array_equal(predictfit.decode(tex, b.shape, 0, 255, m, 0, tex=True), b)
+    payload = LosslessCodec().encode(v.astype(np.uint8))
+    before = LosslessCodec(predict_version=6).encode(v.astype(np.uint8))
+    assert payload[1] & FLAG_TEX and not before[1] & FLAG_TEX
+    assert len(payload) < len(before)
+
+
+@pytest.mark.slow
+def test_corrupt_texture_bias_sections_raise_format_error():
+    codec = LosslessCodec()
+    a = tissue().astype(np.uint8)
+    good = codec.encode(a)
+    assert good[0] == MODE_PREDICT and good[1] & FLAG_TEX
+    bad = [
+        bytes([MODE_PREDICT, FLAG_TEX]) + good[2:],  # the texture bias without version 2
+        bytes([MODE_PREDICT, FLAG_TEX | FLAG_PALETTE]) + good[2:],
+        good[: len(good) // 2],  # truncated
+        good + b"\x00",  # trailing byte
+    ]
+    for data in bad:
+        with pytest.raises(FormatError):
+            codec.decode(data, a.shape, a.dtype)
+    flip_bits(codec, bytearray(good), a, np.random.default_rng(8), 20)
 
 
 def version2(a):

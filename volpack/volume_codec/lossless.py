@@ -13,7 +13,7 @@ mode  payload after the mode byte
 4     3-D prediction: a flags byte (1: palette, 2: float bits, 4: floats split into
       exponent and mantissa, 8: labels copied from neighbours, 16: the predictive
       stream of version 2 (:mod:`.predictfit`), 32: a background mask, 64: version 2
-      with the low-value models), then the
+      with the low-value models, 128: version 2 with the texture bias), then the
       palette or the value range (none when split), the mask, then the predictive or
       label stream
 5     floats by prediction on their integer images (:mod:`.floatpredict`): a tool byte
@@ -30,8 +30,10 @@ bricks, the tools of mode 5 and zstd at level 19 in mode 3 (where it may beat le
 see ``ZSTD_19_OVER_9``). Version 4 adds mode 5's blend (tool 2) for
 float32 and float64 bricks. Version 5 adds, for integer bricks, version
 2's stream with the low-value models of :mod:`.predictfit` (flag 64), where it is the
-shorter. Version 6 (the default) adds mode 5's fitted predictor (tool 3) for float32 and
-float64 bricks. A decoder reads every version, whatever the config says.
+shorter. Version 6 adds mode 5's fitted predictor (tool 3) for float32 and
+float64 bricks. Version 7 (the default) adds, for integer bricks, version 2's stream with
+the texture bias of :mod:`.predictfit` (flag 128), where it is the shorter. A decoder
+reads every version, whatever the config says.
 
 Floats (float16, float32, float64) are coded exactly through integer images of their
 bits (:mod:`.floatbits`, :mod:`.floatpredict`); NaN, -0.0, denormals and Inf come back
@@ -76,10 +78,11 @@ FIT_VERSION = 6  # the first predict_version whose encoder tries the fitted pred
 BLEND_MIN_SAVING = 0.02
 EXACT_FLOATS = FLOAT_DTYPES + ("float64",)
 FLAG_PALETTE, FLAG_FLOAT, FLAG_SPLIT, FLAG_LABELS, FLAG_FIT, FLAG_MASK = 1, 2, 4, 8, 16, 32
-FLAG_LOW = 64
-FLAGS = FLAG_PALETTE | FLAG_FLOAT | FLAG_SPLIT | FLAG_LABELS | FLAG_FIT | FLAG_MASK | FLAG_LOW
-VERSIONS = (1, 2, 3, 4, 5, 6)
+FLAG_LOW, FLAG_TEX = 64, 128
+FLAGS = FLAG_PALETTE | FLAG_FLOAT | FLAG_SPLIT | FLAG_LABELS | FLAG_FIT | FLAG_MASK | FLAG_LOW | FLAG_TEX
+VERSIONS = (1, 2, 3, 4, 5, 6, 7)
 LOW_VERSION = 5  # the first predict_version whose encoder tries the low-value models
+TEX_VERSION = 7  # the first predict_version whose encoder tries the texture bias
 TOOLS = ("auto", "wavelet", "predict")
 FLOAT_ZSTD_LEVEL = 9
 FLOAT_ZSTD_LEVEL_V3 = 19  # floats compress slowly either way; 19 finds repeats 9 misses
@@ -97,13 +100,14 @@ class LosslessCodec(BrickCodec):
     tools : {"auto", "wavelet", "predict"}
         ``auto`` tries both tools on every brick and keeps the shorter; the others use
         one tool (for comparison; floats always use prediction).
-    predict_version : {1, 2, 3, 4, 5, 6}
+    predict_version : {1, 2, 3, 4, 5, 6, 7}
         The predictive stream written for integer bricks: 2 (a fitted predictor and a
         background mask) or 1 (the earlier one, for identical files); 3 codes integers
         as 2 and floats also by Lorenzo or lattice prediction (mode 5); 4 also by the
         blend of predictors with copies and a fill value (mode 5, tool 2); 5 as 4,
-        integers also with the low-value models; 6 (the default) as 5, float32 and
-        float64 also by a predictor fitted per brick (mode 5, tool 3).
+        integers also with the low-value models; 6 as 5, float32 and float64 also by a
+        predictor fitted per brick (mode 5, tool 3); 7 (the default) as 6, integers also
+        with the texture bias.
     """
 
     codec_id: ClassVar[str] = "lossless"
@@ -112,7 +116,7 @@ class LosslessCodec(BrickCodec):
     order: str = "dfs"
     max_levels: int | None = None
     tools: str = "auto"
-    predict_version: int = 6
+    predict_version: int = 7
 
     def __post_init__(self) -> None:
         _check_choice("tools", self.tools, TOOLS)
@@ -280,7 +284,8 @@ def describe(payload: bytes) -> str:
         name = "predict2" if payload[1] & FLAG_FIT else "predict"
         name += "+palette" if payload[1] & FLAG_PALETTE else ""
         name += "+mask" if payload[1] & FLAG_MASK else ""
-        return name + ("+low" if payload[1] & FLAG_LOW else "")
+        name += "+low" if payload[1] & FLAG_LOW else ""
+        return name + ("+tex" if payload[1] & FLAG_TEX else "")
     if mode == MODE_FLOAT and len(payload) > 1:
         tool = FLOAT_TOOLS[payload[1]] if payload[1] < len(FLOAT_TOOLS) else payload[1]
         return f"float-{tool}"
@@ -305,7 +310,7 @@ def _encode_predict(brick: np.ndarray, version: int = 1) -> list[bytes]:
             bytes([MODE_PREDICT, flags]) + pal.pack_range(lo, hi) + predict.encode(values, lo, hi)
         ]
     if version >= 2 and not is_float:  # version 1 stays a candidate: tiny bricks pay
-        out.append(_encode_fit(values, lo, hi, version >= LOW_VERSION))  # 136 bytes of weights
+        out.append(_encode_fit(values, lo, hi, version >= LOW_VERSION, version >= TEX_VERSION))
     if hi - lo + 1 > 2:
         p = pal.build(values)
         if len(p) < hi - lo + 1 and len(p) <= pal.MAX_PALETTE:
@@ -328,11 +333,12 @@ def _encode_predict(brick: np.ndarray, version: int = 1) -> list[bytes]:
     return out
 
 
-def _encode_fit(values: np.ndarray, lo: int, hi: int, low: bool = False) -> bytes:
+def _encode_fit(values: np.ndarray, lo: int, hi: int, low: bool = False, tex: bool = False) -> bytes:
     """The shortest version-2 predictive payload of an integer brick: on its values or
     on their palette ranks (when the brick leaves values of its range unused), then
     for the better of those with a background mask, and with one gradient class; with
-    ``low``, the best of those again with the low-value models."""
+    ``low``, the best of those again with the low-value models; with ``tex``, the best
+    again with the texture bias."""
     from . import predictfit
 
     head = bytes([MODE_PREDICT, FLAG_FIT]) + pal.pack_range(lo, hi)
@@ -363,6 +369,13 @@ def _encode_fit(values: np.ndarray, lo: int, hi: int, low: bool = False) -> byte
         head2 = bytes([head[0], head[1] | FLAG_LOW]) + head[2:]
         payload = head2 + section + predictfit.encode(v, a, b, mask=mask, fitted=fitted, low=True)
         best = min(best, payload, key=len)
+    if tex:  # (likewise one more run, with the low-value models if they were kept)
+        with_low = bool(best[1] & FLAG_LOW)
+        head2 = bytes([head[0], head[1] | FLAG_TEX | (FLAG_LOW if with_low else 0)]) + head[2:]
+        payload = head2 + section + predictfit.encode(
+            v, a, b, mask=mask, fitted=fitted, low=with_low, tex=True
+        )
+        best = min(best, payload, key=len)
     return best
 
 
@@ -378,7 +391,7 @@ def _decode_predict(body: memoryview, shape: tuple[int, ...], dtype: np.dtype) -
     if (
         flags & ~FLAGS
         or (fit and flags & (FLAG_FLOAT | FLAG_LABELS))
-        or (flags & (FLAG_MASK | FLAG_LOW) and not fit)
+        or (flags & (FLAG_MASK | FLAG_LOW | FLAG_TEX) and not fit)
         or bool(flags & FLAG_FLOAT) != is_float
         or (split and flags & (FLAG_PALETTE | FLAG_LABELS))
         or (split and not is_float)
@@ -424,11 +437,11 @@ def _decode_fit(data: memoryview, shape: tuple[int, ...], lo: int, hi: int, flag
 
     if hi - lo >= 1 << 32:
         raise FormatError(f"predictive brick payload: value range [{lo}, {hi}] is out of bounds")
-    low = bool(flags & FLAG_LOW)
+    low, tex = bool(flags & FLAG_LOW), bool(flags & FLAG_TEX)
     if flags & FLAG_MASK:
         fill, mask, used = bgmask.decode(data, shape, hi - lo)
-        return predictfit.decode(data[used:], shape, lo, hi, mask, lo + fill, low)
-    return predictfit.decode(data, shape, lo, hi, low=low)
+        return predictfit.decode(data[used:], shape, lo, hi, mask, lo + fill, low, tex)
+    return predictfit.decode(data, shape, lo, hi, low=low, tex=tex)
 
 
 def _value_range(dtype: np.dtype) -> tuple[int, int]:

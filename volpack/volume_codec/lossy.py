@@ -258,7 +258,8 @@ class BoundedCodec(BrickCodec):
     def _lossless(self):
         from .lossless import LosslessCodec
 
-        return LosslessCodec(self.wavelet, self.coder, self.order, self.max_levels)
+        # (version 6: the quantised voxels' streams stay as they were before version 7)
+        return LosslessCodec(self.wavelet, self.coder, self.order, self.max_levels, predict_version=6)
 
     def _exact_candidate(self, x, mask) -> Measured:
         """The brick coded exactly by the lossless codec (its special voxels too): within
@@ -300,7 +301,9 @@ class BoundedCodec(BrickCodec):
         wav = self._inner().encode(q)
         if self.effort == "fast":
             return [(TIER_MID, wav)]
-        other = LosslessCodec(self.wavelet, self.coder, self.order, self.max_levels, "predict")
+        other = LosslessCodec(
+            self.wavelet, self.coder, self.order, self.max_levels, "predict", predict_version=6
+        )
         p = other.encode(q)
         tier = TIER_SLOW if p[0] == MODE_PREDICT else TIER_FAST  # (else raw or constant)
         return [(TIER_MID, wav), (tier, p)]
