@@ -351,8 +351,8 @@ def lossy_source(recipe: str):
         f = np.zeros(z.shape)
         for _ in range(6):
             k = rng.uniform(0.2, 1.1, 3) * rng.choice([-1, 1], 3)
-            phase = k[0] * z + k[1] * y + k[2] * x + rng.uniform(0, 6.3)
-            f += rng.uniform(0.5, 1.5) * np.sin(phase)
+            a = rng.uniform(0.5, 1.5)  # (drawn before the phase)
+            f += a * np.sin(k[0] * z + k[1] * y + k[2] * x + rng.uniform(0, 6.3))
         return (f * 10 + 20).astype(np.float32)
     if recipe == "f64-off":  # the f32 recipe in float64 moved off its grid of 1/3
         f = lossy_source("f32").astype(np.float64)
