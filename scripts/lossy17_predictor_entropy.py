@@ -26,29 +26,13 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import datasets  # noqa: E402
 
+from volpack.volume_codec.bounded_longfit import long_offsets, near_offsets  # noqa: E402
+
 P16 = (
     (0, 0, 1), (0, 1, 0), (1, 0, 0), (0, 1, 1), (0, 1, -1), (1, 0, 1), (1, 1, 0), (1, 1, 1),
     (0, 0, 2), (0, 2, 0), (2, 0, 0), (1, 0, -1), (1, -1, 0), (1, 1, -1), (1, -1, 1), (1, -1, -1),
 )  # fmt: skip
 P23 = P16 + ((0, 1, 2), (0, 2, 1), (0, 2, -1), (2, 1, 0), (2, 0, 1), (1, 2, 0), (1, 0, 2))
-
-
-def causal(r: int) -> tuple:
-    """Every causal (dz, dy, dx) step back within the cube of radius ``r``."""
-    out = []
-    for dz in range(0, r + 1):
-        for dy in range(-r, r + 1):
-            for dx in range(-r, r + 1):
-                if dz == 0 and (dy < 0 or (dy == 0 and dx <= 0)):
-                    continue
-                out.append((dz, dy, dx))
-    return tuple(out)
-
-
-def long_set(k: int) -> tuple:
-    """:func:`causal` (2) and the steps 3..k back along each axis."""
-    axes = [(0, 0, d) for d in range(3, k + 1)] + [(0, d, 0) for d in range(3, k + 1)]
-    return causal(2) + tuple(axes + [(d, 0, 0) for d in range(3, k + 1)])
 
 
 def design(q: np.ndarray, offs, m: int):
@@ -82,7 +66,7 @@ def main() -> None:
     ap.add_argument("--rels", default="1e-3,1e-4,1e-5")
     ap.add_argument("--volpack", action="store_true", help="also code with volpack (bits/voxel)")
     a = ap.parse_args()
-    sets = {"p16": P16, "p23": P23, "r2": causal(2), "r2+axes8": long_set(8)}
+    sets = {"p16": P16, "p23": P23, "r2": near_offsets(), "r2+axes8": long_offsets(8)}
     print("field,rel,volpack_bpv,lorenzo," + ",".join(sets))
     for name in a.datasets.split(","):
         x, _, _ = datasets.load(name)
