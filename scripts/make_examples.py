@@ -346,6 +346,16 @@ def lossy_source(recipe: str):
         return (u * 0.25 + 250.0 + 0.37 * np.arange(u.shape[0])[:, None, None]).astype(
             np.float32
         )
+    if recipe == "f32-waves":  # six plane waves: predictable from far along each axis
+        rng = np.random.default_rng(17)
+        axes = [np.arange(s, dtype=np.float64) for s in (20, 24, 28)]
+        z, y, x = np.meshgrid(*axes, indexing="ij")
+        f = np.zeros(z.shape)
+        for _ in range(6):
+            k = rng.uniform(0.2, 1.1, 3) * rng.choice([-1, 1], 3)
+            a = rng.uniform(0.5, 1.5)  # (drawn before the phase)
+            f += a * np.sin(k[0] * z + k[1] * y + k[2] * x + rng.uniform(0, 6.3))
+        return (f * 10 + 20).astype(np.float32)
     if recipe == "f64-off":  # the f32 recipe in float64 moved off its grid of 1/3
         f = lossy_source("f32").astype(np.float64)
         ok = np.isfinite(f) & (f != -999.0)
@@ -429,6 +439,9 @@ LOSSY_CODER_CASES += [
     # ("lossy-bounded-i16-quantised-fit", "i16", {"max_error": 40}, WAVELET_BRICK),
     ("lossy-bounded-i16-quantised-saving", "i16", {"max_error": 40}, WAVELET_BRICK),
 ]  # fmt: skip
+# The quantised voxels by the long fitted predictor (lossy-1.md step 20, flag bit 3 alone):
+# plane waves at 1e-4 of their range, where it codes shortest.
+LOSSY_CODER_CASES += [("lossy-bounded-f32-longfit", "f32-waves", {"max_error": 0.005}, None)]
 
 
 def make_lossy(folder: Path) -> Path:

@@ -86,6 +86,12 @@ TIER_FAST, TIER_MID, TIER_SLOW = 0, 1, 2
 # README's lossy11 section). The encoder's rule alone: the decoder reads any coding.
 SLOW_MIN_SAVING = 0.02
 EFFORTS = ("default", "fast")  # of the error-bounded encoder
+# The long fitted predictor of the quantised voxels is tried only where the shortest
+# other coding spends this many bits a voxel (tight bounds; see _longfit).
+LONGFIT_MIN_BITS = 1.0
+# ... and coded only where its residuals' zeroth-order entropy is at most this share of
+# the shortest other coding (the lossless codec codes them up to 15 % below it: cam_u).
+LONGFIT_MAX_ENTROPY = 1.2
 
 
 # -- error-bounded quantisation ---------------------------------------------------------
@@ -280,14 +286,20 @@ class BoundedCodec(BrickCodec):
             q = fill_masked(q, mask)  # masked voxels take their neighbour's value
         rec = self._reconstruct(q, x.dtype)
         cands = [(t, self._finish(x, mask, rec, 0, [b])) for t, b in self._code_quantised(q)]
-        if self._exact or fast:
+        if fast:
             return keep_faster(cands)
-        if x.size >= 64:
+        if x.size >= 64 and not self._exact:
             cands.append((TIER_MID, self._coef_candidate(x, clean, mask)))
-        if x.size >= 64 and x.dtype.kind == "f":
+        if x.size >= 64 and x.dtype.kind == "f" and not self._exact:
             cands += [(TIER_MID, c) for c in self._cdf97_candidates(x, clean, mask)]
             cands.append(self._interp_candidate(x, clean, mask))
-        return keep_faster(cands)
+        best = keep_faster(cands)
+        if x.dtype.kind == "f":
+            long = self._longfit(q, len(best[0]))
+            if long is not None:
+                long = self._finish(x, mask, rec, FLAG_RESIDUALS, [long])
+                best = keep_faster([(TIER_FAST, best), (TIER_SLOW, long)])
+        return best
 
     def _code_quantised(self, q: np.ndarray) -> list[tuple[int, bytes]]:
         """The quantised voxels' payloads with their decoding tiers: the lossless
@@ -307,6 +319,26 @@ class BoundedCodec(BrickCodec):
         p = other.encode(q)
         tier = TIER_SLOW if p[0] == MODE_PREDICT else TIER_FAST  # (else raw or constant)
         return [(TIER_MID, wav), (tier, p)]
+
+    def _longfit(self, q: np.ndarray, best: int) -> bytes | None:
+        """The quantised voxels by the long fitted predictor
+        (:mod:`volpack.volume_codec.bounded_longfit`) at the axis reach whose residuals'
+        entropy is least; made only where that entropy is under LONGFIT_MAX_ENTROPY times
+        ``best`` bytes (the shortest coding so far), and not tried where that spends less than
+        LONGFIT_MIN_BITS a voxel (loose bounds: the wavelet and interpolation paths)."""
+        from . import bounded_longfit as lf
+        from .lossless import LosslessCodec
+
+        small = q.ndim != 3 or min(q.shape) < 4 or q.size < 4096
+        if small or 8 * best < LONGFIT_MIN_BITS * q.size:
+            return None
+        first = lf.residuals(q, lf.K_TRIED[0])
+        tried = [first] + [lf.residuals(q, k, first[2]) for k in lf.K_TRIED[1:]]
+        bits, i = min((lf.estimate_bits(t[0]), i) for i, t in enumerate(tried))
+        if bits / 8 > best * LONGFIT_MAX_ENTROPY:
+            return None
+        other = LosslessCodec(self.wavelet, self.coder, self.order, self.max_levels, "predict")
+        return lf.encode(tried[i], other)
 
     @property
     def _exact(self) -> bool:
@@ -492,9 +524,12 @@ class BoundedCodec(BrickCodec):
                 g += res * (2 * self._fine()[1] + 1)
             out = self._from_grid(g, dtype)
         else:
-            if flags & FLAG_RESIDUALS:
-                raise FormatError("bounded brick payload: residuals without coefficients")
-            q = self._lossless().decode(inner, shape, np.dtype(self.qdtype))
+            if flags & FLAG_RESIDUALS:  # the quantised voxels by the long fitted predictor
+                from . import bounded_longfit
+
+                q = bounded_longfit.decode(inner, shape, np.dtype(self.qdtype), self._lossless())
+            else:
+                q = self._lossless().decode(inner, shape, np.dtype(self.qdtype))
             out = self._reconstruct(q, dtype, into)
         if into is not None and out is not into:
             into[...] = out
