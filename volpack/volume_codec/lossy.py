@@ -337,7 +337,9 @@ class BoundedCodec(BrickCodec):
         bits, i = min((lf.estimate_bits(t[0]), i) for i, t in enumerate(tried))
         if bits / 8 > best * LONGFIT_MAX_ENTROPY:
             return None
-        other = LosslessCodec(self.wavelet, self.coder, self.order, self.max_levels, "predict")
+        other = LosslessCodec(
+            self.wavelet, self.coder, self.order, self.max_levels, "predict", predict_version=6
+        )
         return lf.encode(tried[i], other)
 
     @property
