@@ -13,6 +13,7 @@ from .floatwave import FloatWaveletCodec
 from .lossless import LosslessCodec
 from .lossy import BoundedCodec, CoefCodec
 from .protocol import BrickCodec
+from .tucker import TuckerCodec
 
 CODECS: dict[str, type[BrickCodec]] = {
     c.codec_id: c
@@ -24,6 +25,7 @@ CODECS: dict[str, type[BrickCodec]] = {
         CoefCodec,
         FloatWaveletCodec,
         FastCodec,
+        TuckerCodec,
     )
 }
 
