@@ -92,6 +92,9 @@ LONGFIT_MIN_BITS = 1.0
 # ... and coded only where its residuals' zeroth-order entropy is at most this share of
 # the shortest other coding (the lossless codec codes them up to 15 % below it: cam_u).
 LONGFIT_MAX_ENTROPY = 1.2
+# The lossless codec's version for the quantised voxels: their streams stay as they were
+# before version 7 (its texture bias), so the lossy goldens are unchanged.
+QUANTISED_VERSION = 6
 
 
 # -- error-bounded quantisation ---------------------------------------------------------
@@ -264,8 +267,18 @@ class BoundedCodec(BrickCodec):
     def _lossless(self):
         from .lossless import LosslessCodec
 
-        # (version 6: the quantised voxels' streams stay as they were before version 7)
-        return LosslessCodec(self.wavelet, self.coder, self.order, self.max_levels, predict_version=6)
+        return LosslessCodec(
+            self.wavelet, self.coder, self.order, self.max_levels,
+            predict_version=QUANTISED_VERSION,
+        )
+
+    def _predictive(self):
+        """The lossless codec's predictive tool alone, for the quantised voxels."""
+        from .lossless import LosslessCodec
+
+        return LosslessCodec(
+            self.wavelet, self.coder, self.order, self.max_levels, "predict", QUANTISED_VERSION
+        )
 
     def _exact_candidate(self, x, mask) -> Measured:
         """The brick coded exactly by the lossless codec (its special voxels too): within
@@ -308,15 +321,12 @@ class BoundedCodec(BrickCodec):
         quantised voxels of a noisy or thin field are better predicted from their causal
         neighbours (mri_piesno_noise at 1e-4 of the range: 106.0 -> 99.9 kB). 'fast'
         makes the wavelet payload alone."""
-        from .lossless import MODE_PREDICT, LosslessCodec
+        from .lossless import MODE_PREDICT
 
         wav = self._inner().encode(q)
         if self.effort == "fast":
             return [(TIER_MID, wav)]
-        other = LosslessCodec(
-            self.wavelet, self.coder, self.order, self.max_levels, "predict", predict_version=6
-        )
-        p = other.encode(q)
+        p = self._predictive().encode(q)
         tier = TIER_SLOW if p[0] == MODE_PREDICT else TIER_FAST  # (else raw or constant)
         return [(TIER_MID, wav), (tier, p)]
 
@@ -327,7 +337,6 @@ class BoundedCodec(BrickCodec):
         ``best`` bytes (the shortest coding so far), and not tried where that spends less than
         LONGFIT_MIN_BITS a voxel (loose bounds: the wavelet and interpolation paths)."""
         from . import bounded_longfit as lf
-        from .lossless import LosslessCodec
 
         small = q.ndim != 3 or min(q.shape) < 4 or q.size < 4096
         if small or 8 * best < LONGFIT_MIN_BITS * q.size:
@@ -337,10 +346,7 @@ class BoundedCodec(BrickCodec):
         bits, i = min((lf.estimate_bits(t[0]), i) for i, t in enumerate(tried))
         if bits / 8 > best * LONGFIT_MAX_ENTROPY:
             return None
-        other = LosslessCodec(
-            self.wavelet, self.coder, self.order, self.max_levels, "predict", predict_version=6
-        )
-        return lf.encode(tried[i], other)
+        return lf.encode(tried[i], self._predictive())
 
     @property
     def _exact(self) -> bool:
