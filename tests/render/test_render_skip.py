@@ -121,15 +121,23 @@ def test_a_prepared_volume_follows_the_transfer_function():
             np.testing.assert_array_equal(kept, fresh)
 
 
-@pytest.mark.parametrize("shape, brick, workers, nan", [((9, 13, 8), 4, 1, False),
-                                                        ((17, 5, 11), 4, 3, False),
-                                                        ((12, 9, 20), 8, 2, False),
-                                                        ((9, 6, 13), 4, 1, True)])  # fmt: skip
-def test_brick_ranges_hold_each_brick_and_its_overlap_voxel(shape, brick, workers, nan,
+@pytest.mark.parametrize("shape, brick, workers, nan, dtype", [((9, 13, 8), 4, 1, False, "f4"),
+                                                               ((17, 5, 11), 4, 3, False, "f4"),
+                                                               ((12, 9, 20), 8, 2, False, "f4"),
+                                                               ((9, 6, 13), 4, 1, True, "f4"),
+                                                               ((9, 13, 8), 4, 1, False, "u1"),
+                                                               ((17, 5, 11), 2, 3, False, "i2"),
+                                                               ((1, 6, 1), 4, 1, False, "i2")])  # fmt: skip
+def test_brick_ranges_hold_each_brick_and_its_overlap_voxel(shape, brick, workers, nan, dtype,
                                                             monkeypatch):  # fmt: skip
+    # integer volumes take their own kernel (planes, then rows, then bricks)
     monkeypatch.setattr(rc, "SMALL_RANGES", 0)  # the threads' slabs too, on a small volume
     rng = np.random.default_rng(sum(shape))
-    vol = rng.normal(size=shape).astype(np.float32)
+    if dtype == "f4":
+        vol = rng.normal(size=shape).astype(np.float32)
+    else:
+        info = np.iinfo(dtype)
+        vol = rng.integers(info.min, info.max, shape, endpoint=True).astype(dtype)
     if nan:  # NaN voxels are skipped, a row's first voxel among them
         vol[rng.random(shape) < 0.3] = np.nan
         vol[:, :, ::brick] = np.nan

@@ -1476,14 +1476,67 @@ def brick_ranges(vol, brick: int, mins, maxs, workers: int = 1) -> None:
     read), slabs of bricks on ``workers`` threads."""
     nbz = mins.shape[0]
     vol = read_only(vol)  # one compiled signature for every caller
+    # integers have no NaN to skip: their ranges come from whole planes and rows
+    fn = _int_brick_range_kernel if vol.dtype.kind in "iu" else _brick_range_kernel
     if workers <= 1 or vol.size < SMALL_RANGES:  # a walk's rewritten box: a pool per
-        _brick_range_kernel(vol, brick, 0, nbz, mins, maxs)  # call cost more than it
+        fn(vol, brick, 0, nbz, mins, maxs)  # call cost more than it
         return
     per = max(1, -(-nbz // (4 * workers)))
-    for _ in ordered_map(lambda b0: _brick_range_kernel(vol, brick, b0, min(b0 + per, nbz),
-                                                        mins, maxs),
+    for _ in ordered_map(lambda b0: fn(vol, brick, b0, min(b0 + per, nbz), mins, maxs),
                          range(0, nbz, per), workers=workers):  # fmt: skip
         pass
+
+
+@kernel
+def _int_brick_range_kernel(vol, brick, bz0, bz1, mins, maxs):
+    """:func:`brick_ranges` of brick slabs ``bz0 .. bz1 - 1`` of an integer volume: the
+    element-wise min and max of a slab's planes (its overlap plane included), then of a
+    brick row's rows, then of each brick's voxels along x. The first two are branch-free
+    loops over contiguous rows that LLVM vectorises (the voxel-by-voxel kernel with its
+    NaN test does not: 85 ms against 8 on the MRI walk's grid). The ranges are the same
+    numbers: the float32 rounding of integers keeps their order, so it commutes with
+    min and max."""
+    nz, ny, nx = vol.shape
+    nby, nbx = mins.shape[1], mins.shape[2]
+    pmin = np.empty((ny, nx), vol.dtype)
+    pmax = np.empty((ny, nx), vol.dtype)
+    rmin = np.empty(nx, vol.dtype)
+    rmax = np.empty(nx, vol.dtype)
+    for bz in range(bz0, bz1):
+        z0 = bz * brick
+        for y in range(ny):
+            src = vol[z0, y]
+            lo_row, hi_row = pmin[y], pmax[y]
+            for x in range(nx):
+                lo_row[x] = src[x]
+                hi_row[x] = src[x]
+        for z in range(z0 + 1, min(z0 + brick + 1, nz)):
+            for y in range(ny):
+                src = vol[z, y]
+                lo_row, hi_row = pmin[y], pmax[y]
+                for x in range(nx):
+                    v = src[x]
+                    lo_row[x] = min(lo_row[x], v)
+                    hi_row[x] = max(hi_row[x], v)
+        for by in range(nby):
+            y0 = by * brick
+            for x in range(nx):
+                rmin[x] = pmin[y0, x]
+                rmax[x] = pmax[y0, x]
+            for y in range(y0 + 1, min(y0 + brick + 1, ny)):
+                lo_row, hi_row = pmin[y], pmax[y]
+                for x in range(nx):
+                    rmin[x] = min(rmin[x], lo_row[x])
+                    rmax[x] = max(rmax[x], hi_row[x])
+            for bx in range(nbx):
+                x0 = bx * brick
+                mn = rmin[x0]
+                mx = rmax[x0]
+                for x in range(x0 + 1, min(x0 + brick + 1, nx)):
+                    mn = min(mn, rmin[x])
+                    mx = max(mx, rmax[x])
+                mins[bz, by, bx] = mn
+                maxs[bz, by, bx] = mx
 
 
 @kernel
