@@ -2194,6 +2194,28 @@ def _empty_bricks(
     return invisible
 
 
+@kernel
+def _invisible_kernel(mins, maxs, lo, scale, n, cum, has_cum, sat, has_sat, out):
+    """:func:`_invisibility`'s test, brick by brick (numpy's passes over half a million
+    bricks made a dozen temporaries: 55 ms against 10 on the MRI walk's frame 0). The
+    table entries a range can touch (bilinear neighbours, with a little slack) are found
+    with numpy's operations in its order; a brick is invisible if, with ``has_cum``, no
+    entry of the 1-D table between them is visible (``cum``, their running count) and,
+    with ``has_sat``, none in their square of the 2-D tables (``sat``, a summed-area
+    table). ``mins`` and ``maxs`` hold no NaN (brick ranges skip NaN voxels)."""
+    for i in range(mins.size):
+        f0 = np.floor((np.float64(mins[i]) - lo) * scale - 1e-3)
+        f1 = np.floor((np.float64(maxs[i]) - lo) * scale + 1e-3) + 1
+        i0 = int(min(max(f0, 0.0), n - 1.0))
+        i1 = int(min(max(f1, 0.0), n - 1.0))
+        hidden = True
+        if has_cum:
+            hidden = cum[i1 + 1] - cum[i0] == 0
+        if has_sat and hidden:
+            hidden = sat[i1 + 1, i1 + 1] - sat[i0, i1 + 1] - sat[i1 + 1, i0] + sat[i0, i0] == 0
+        out[i] = hidden
+
+
 def _shown(tab: np.ndarray) -> bytes:
     """Which entries of a table are not all zero, packed (what empty space depends on)."""
     return np.packbits(np.any(tab != 0, axis=-1)).tobytes()
@@ -2222,21 +2244,14 @@ def _invisibility(mode, has_vol, post_tab, pre2d, iso2d, has_iso, lo, scale):
         sat = np.zeros((n + 1, n + 1), np.int64)
         sat[1:, 1:] = np.cumsum(np.cumsum(nonzero2, axis=0), axis=1)
 
+    cum_a = np.zeros(1, np.int64) if cum is None else cum.astype(np.int64)
+    sat_a = np.zeros((1, 1), np.int64) if sat is None else sat
+
     def test(mins, maxs):
-        # table entries a value range can touch (bilinear neighbours, with a little slack)
-        i0 = np.clip(np.floor((mins.astype(np.float64) - lo) * scale - 1e-3), 0, n - 1).astype(int)
-        i1 = np.clip(np.floor((maxs.astype(np.float64) - lo) * scale + 1e-3) + 1, 0,
-                     n - 1).astype(int)  # fmt: skip
-        if cum is not None:
-            vol_empty = (cum[i1 + 1] - cum[i0]) == 0
-        elif has_vol and mode == 2:
-            vol_empty = None
-        else:  # pre-classified (the caller judges the classified volume) or no TF
-            vol_empty = np.ones(mins.shape, bool)
-        if sat is None:  # nothing visible through the 2-D tables anywhere
-            return np.ones(mins.shape, np.bool_) if vol_empty is None else vol_empty
-        count = sat[i1 + 1, i1 + 1] - sat[i0, i1 + 1] - sat[i1 + 1, i0] + sat[i0, i0]
-        sq_empty = count == 0
-        return sq_empty if vol_empty is None else (sq_empty & vol_empty)
+        out = np.empty(mins.shape, np.bool_)
+        _invisible_kernel(np.ascontiguousarray(mins, np.float32).ravel(),
+                          np.ascontiguousarray(maxs, np.float32).ravel(), float(lo), float(scale),
+                          n, cum_a, cum is not None, sat_a, sat is not None, out.reshape(-1))  # fmt: skip
+        return out
 
     return test
