@@ -22,11 +22,13 @@ Environment:
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import os
 import pathlib
 import sys
+import threading
 
 import numpy as np
 
@@ -75,6 +77,32 @@ if CACHE and not os.environ.get("NUMBA_CACHE_DIR"):
     numba.config.CACHE_DIR = str(cache_dir())
 
 
+class NotCached(RuntimeError):
+    """A kernel that :func:`cached_only` forbade to compile (it is not in the cache for
+    the arguments it was called with)."""
+
+
+_only_cached = threading.local()
+
+
+def _compiling_forbidden() -> bool:
+    return getattr(_only_cached, "on", False)
+
+
+@contextlib.contextmanager
+def cached_only():
+    """On this thread, a kernel that would compile raises :class:`NotCached` instead;
+    cached kernels load as usual. For work done ahead on a helper thread to load
+    kernels off the main thread (:mod:`volpack.render.rehearse`): compiling there would
+    hold numba's compiler lock and the GIL for seconds and could not pay off."""
+    before = _compiling_forbidden()
+    _only_cached.on = True
+    try:
+        yield
+    finally:
+        _only_cached.on = before
+
+
 def _watch_compiles() -> None:
     """Forward numba's compile events to :mod:`volpack.jitwatch` (the CLI's notices)."""
     import time
@@ -96,12 +124,18 @@ def _watch_compiles() -> None:
             return getattr(fn, "__qualname__", "?")
 
         def on_start(self, ev):
+            if _compiling_forbidden():  # any dispatcher, cached on disk or not
+                self._t0.append(None)
+                raise NotCached(f"{self._name(ev)} is not compiled for these arguments")
             _share_inline_copies()
             self._t0.append(time.thread_time())  # CPU: wall time would count the neighbours
             jitwatch.notify("start", self._name(ev))
 
         def on_end(self, ev):
-            dt = time.thread_time() - self._t0.pop() if self._t0 else 0.0
+            t0 = self._t0.pop() if self._t0 else time.thread_time()
+            if t0 is None:  # refused by cached_only: nothing compiled
+                return
+            dt = time.thread_time() - t0
             jitwatch.notify("end", self._name(ev), dt)
 
     event.register("numba:compile", _Listener())
@@ -241,6 +275,8 @@ def _kernel_cache_class():
 
             with self._guard_against_spurious_io_errors():
                 cres = self._load_overload(sig, target_context)
+            if cres is None and _compiling_forbidden():  # before the compiler's set-up
+                raise NotCached(f"{self._name} is not in the kernel cache for {sig}")
             if cres is None:  # a miss compiles next: numba's own order
                 _numpy_support_without_scipy()
                 target_context.refresh()

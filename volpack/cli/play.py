@@ -52,6 +52,7 @@ def play(ctx, source, output, tf_spec, fps, spin, show_stats, azimuth, elevation
     from ..render.camera import Camera
     from ..render.framing import fit_camera
     from ..render.raycast import render as raycast
+    from ..render.rehearse import rehearse
 
     size = parse_size(size_s)
     if output is not None and not _is_folder(output):
@@ -124,6 +125,20 @@ def _movie(output, fps: float, force: bool):
     return contextlib.nullcontext() if output is None else MovieWriter(output, fps=fps, force=force)
 
 
+def since_start() -> float | None:
+    """Seconds since this process started (what a user waits for a frame, imports
+    included; 10 ms resolution, from /proc), or None where there is no /proc."""
+    import os
+    import time
+
+    try:
+        with open("/proc/self/stat") as f:
+            ticks = int(f.read().rsplit(")", 1)[1].split()[19])  # field 22, starttime
+        return time.clock_gettime(time.CLOCK_BOOTTIME) - ticks / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError, AttributeError):
+        return None
+
+
 def _is_folder(path: str) -> bool:
     from ..render.movie import movie_kind
 
@@ -187,6 +202,7 @@ def walk(ctx, source, output, orbit, budget, decode_budget, tf_spec, fps, compar
     from ..render.lod import NodeAtlas, coarse_level, render_lod, tree_range
     from ..render.prepared import prepare_volume
     from ..render.raycast import render as raycast
+    from ..render.rehearse import rehearse
 
     size = parse_size(size_s)
     if output is not None and not _is_folder(output):
@@ -201,6 +217,8 @@ def walk(ctx, source, output, orbit, budget, decode_budget, tf_spec, fps, compar
         atlas = NodeAtlas(tree, gradients=shading != "none")
         atlas.reserve((lo, hi), workers=workers, codes=shading == "phong" and normals == "quantised"
                       and not perspective and classification != "pre")  # fmt: skip
+        # and the first frame's chunk scans, write and render kernels loaded on another
+        rehearsal = rehearse(atlas, (lo, hi), opts, perspective, workers)
         sample, factor = coarse_level(tree)
         tf = transfer_for(tf_spec, sample.data, lo=lo, hi=hi, dtype=tree.dtype,
                           mask=sample.mask, size=max(tree.shape))  # fmt: skip
@@ -217,12 +235,15 @@ def walk(ctx, source, output, orbit, budget, decode_budget, tf_spec, fps, compar
             _movie(output, fps, force) as writer,
             progress_bar(ctx, "walk", unit="frame") as progress,
         ):
+            if rehearsal is not None:  # done by now, or the frame would wait on its loads
+                rehearsal.wait()
             for k in range(orbit):
                 cam = dataclasses.replace(view, azimuth=azimuths[k])
                 img, st = render_lod(tree, tf=tf, camera=cam, blocks=budget,
                                      value_range=(lo, hi), atlas=atlas,
                                      decode=decode_budget or None, **opts)  # fmt: skip
-                row = {"frame": k, "azimuth": cam.azimuth, **vars(st)}
+                row = {"frame": k, "azimuth": cam.azimuth, **vars(st),
+                       "finished_at": since_start()}  # fmt: skip
                 if full is not None:
                     ref = raycast(full, tf=tf, camera=cam, value_range=(lo, hi), **opts)
                     rmse = float(np.sqrt(np.mean((img[..., :3] - ref[..., :3]) ** 2)))
