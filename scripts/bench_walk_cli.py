@@ -4,8 +4,10 @@
 For each round, volume and configuration, runs ``volpack walk TREE.vpk OUT/ --orbit N
 --json`` in a fresh process (PNG frames written, 512x512, auto TF, Phong) with the
 configuration's PYTHONPATH and extra options, and records each frame's select / decode
-/ render milliseconds, nodes drawn and decoded and refinements held back, and the
-process's wall, user and system seconds (``resource.getrusage`` of the child). The
+/ render milliseconds and CPU, nodes drawn and decoded and refinements held back, when
+frame 0 was done since the process started (``finished_at``, walk18 on) and when its PNG
+appeared in the output folder after the spawn (polled, every tree), and the process's
+wall, user and system seconds (``resource.getrusage`` of the child). The
 first round only compiles kernels (``--warm``, not recorded). Also records whether
 each configuration's last PNG frame equals the first configuration's, byte for byte
 (the converged image). Writes ``OUT_DIR/frames.csv``, ``OUT_DIR/runs.csv`` and a
@@ -26,6 +28,7 @@ import shutil
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -41,15 +44,28 @@ def run(tree: str, vpk: str, out: Path, orbit: int, extra: list[str], cache: str
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     # run from the output's folder: "-m volpack" from a source tree would import that tree
-    p = subprocess.run(cmd, env=env, capture_output=True, text=True, cwd=out.parent)
+    err = tempfile.TemporaryFile("w+")  # not a pipe: nobody reads it while polling
+    p = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=err, text=True,
+                         cwd=out.parent)  # fmt: skip
+    # when frame 0's PNG appears, seen from here (any tree: "since start" of a user)
+    first_png = None
+    while first_png is None and p.poll() is None:
+        if out.is_dir() and any(out.iterdir()):
+            first_png = time.perf_counter() - t0
+        else:
+            time.sleep(0.005)
+    stdout, _ = p.communicate()
+    err.seek(0)
+    stderr = err.read()
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if p.returncode != 0:
-        raise SystemExit(f"{cmd} failed: {p.stderr[-2000:]}")
-    rep = json.loads(p.stdout)
+        raise SystemExit(f"{cmd} failed: {stderr[-2000:]}")
+    rep = json.loads(stdout)
     last = sorted(out.glob("*.png"))[-1].read_bytes()
     return {"report": rep, "wall": wall, "user": after.ru_utime - before.ru_utime,
-            "sys": after.ru_stime - before.ru_stime, "last_png": last}  # fmt: skip
+            "sys": after.ru_stime - before.ru_stime, "last_png": last,
+            "first_png": first_png}  # fmt: skip
 
 
 def main(argv=None) -> int:
@@ -86,7 +102,8 @@ def main(argv=None) -> int:
                 rep = r["report"]
                 runs.append({"round": rnd, "volume": vname, "config": cname, "wall_s": r["wall"],
                              "user_s": r["user"], "sys_s": r["sys"], "load": load,
-                             "decode_budget": rep.get("decode_budget", "")})  # fmt: skip
+                             "decode_budget": rep.get("decode_budget", ""),
+                             "first_png_s": r["first_png"]})  # fmt: skip
                 for f in rep["per_frame"]:
                     frames.append({"round": rnd, "volume": vname, "config": cname,
                                    "frame": f["frame"], "nodes": f["nodes"],
@@ -94,7 +111,11 @@ def main(argv=None) -> int:
                                    "select_ms": 1000 * f["select_s"],
                                    "decode_ms": 1000 * f["decode_s"],
                                    "render_ms": 1000 * f["render_s"],
-                                   "cpu_ms": 1000 * sum(f["cpu_s"]) if "cpu_s" in f else ""})  # fmt: skip
+                                   "cpu_ms": 1000 * sum(f["cpu_s"]) if "cpu_s" in f else "",
+                                   # seconds since the process started (walk --json's
+                                   # finished_at; trees before walk18 do not report it)
+                                   "finished_ms": 1000 * f["finished_at"]
+                                   if f.get("finished_at") is not None else ""})  # fmt: skip
     for name, rows in (("frames", frames), ("runs", runs)):
         with open(args.out / f"{name}.csv", "w", newline="") as fh:
             w = csv.DictWriter(fh, fieldnames=list(rows[0]))
@@ -108,6 +129,8 @@ def main(argv=None) -> int:
             ru = [r for r in runs if r["volume"] == vname and r["config"] == cname]
             tot = {k: [f[k] for f in fr if f["frame"] == 0] for k in ("select_ms", "decode_ms", "render_ms")}
             f0 = [sum(x) for x in zip(*tot.values())]
+            cpu0 = [f["cpu_ms"] for f in fr if f["frame"] == 0 and f["cpu_ms"] != ""]
+            since = [f["finished_ms"] for f in fr if f["frame"] == 0 and f["finished_ms"] != ""]
             later = [f["select_ms"] + f["decode_ms"] + f["render_ms"] for f in fr if f["frame"] > 0]
             same = lasts[vname][cname] == lasts[vname][first]
             lines.append(
@@ -115,7 +138,12 @@ def main(argv=None) -> int:
                 + ", ".join(f"{x:.0f}" for x in f0) + " ms (select "
                 + "/".join(f"{x:.0f}" for x in tot["select_ms"]) + ", decode "
                 + "/".join(f"{x:.0f}" for x in tot["decode_ms"]) + ", render "
-                + "/".join(f"{x:.0f}" for x in tot["render_ms"]) + "); later frames "
+                + "/".join(f"{x:.0f}" for x in tot["render_ms"]) + "); frame 0 CPU "
+                + (", ".join(f"{x:.0f}" for x in cpu0) or "n/a") + " ms (mean "
+                + (f"{statistics.mean(cpu0):.0f}" if cpu0 else "n/a") + "); frame 0 done "
+                + (", ".join(f"{x:.0f}" for x in since) or "n/a") + " ms since start, its PNG seen "
+                + ", ".join(f"{1000 * r['first_png_s']:.0f}" for r in ru if r["first_png_s"])
+                + " ms after spawn; later frames "
                 f"{min(later):.0f}-{max(later):.0f} ms (median {statistics.median(later):.0f},"
                 f" {sum(x > 1000 for x in later)} of {len(later)} over 1 s); process wall "
                 + "/".join(f"{r['wall_s']:.1f}" for r in ru) + " s, user "

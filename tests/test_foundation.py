@@ -7,6 +7,7 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 
 import numpy as np
 import pytest
@@ -288,6 +289,7 @@ def total(a):  # a parallel loop: its threading layer starts on load
 
 _LOAD = """
 import sys
+import threading
 import numpy as np
 sys.path.insert(0, sys.argv[1])
 import kmod
@@ -316,3 +318,33 @@ def test_cached_kernels_load_without_the_compilers_registries(tmp_path):
     if JIT_DISABLED or _KERNEL_CACHE is None:
         pytest.skip("kernels load numba's way (no JIT, or numba's cache has another shape)")
     assert hits2 == "[1, 1, 1" and rest2.split() == ["False", "True"]
+
+
+def test_cached_only_refuses_to_compile():
+    # a helper thread that loads kernels ahead (render.rehearse) must never compile: under
+    # cached_only a dispatcher without the signature raises NotCached, compiling nothing,
+    # and runs what it has
+    from volpack._jit import JIT_DISABLED, NotCached, cached_only, numba
+
+    if JIT_DISABLED:
+        pytest.skip("no JIT: nothing compiles")
+
+    @numba.njit
+    def plus_one(x):
+        return x + 1
+
+    with pytest.raises(NotCached), cached_only():
+        plus_one(1)
+    assert plus_one.signatures == []
+    assert plus_one(2) == 3  # outside: compiles as usual
+    with cached_only():
+        assert plus_one(4) == 5  # compiled already: runs
+        with pytest.raises(NotCached):
+            plus_one(1.5)  # another signature
+    assert len(plus_one.signatures) == 1
+    seen = []  # another thread compiles meanwhile: the flag is this thread's only
+    with cached_only():
+        th = threading.Thread(target=lambda: seen.append(plus_one(2.5)))
+        th.start()
+        th.join()
+    assert seen == [3.5]

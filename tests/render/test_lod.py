@@ -251,6 +251,32 @@ def test_reserved_grid_and_codes_give_the_same_walk(tree_path):
                                   made.resident.prep.normal_codes(None, prep.spacing).codes)  # fmt: skip
 
 
+def test_a_rehearsed_walk_draws_what_an_unrehearsed_one_draws(tree_path):
+    # the first frame rehearsed on a helper thread (render.rehearse: chunk scans, energy
+    # bounds, the write and render kernels loaded, never compiled) changes no frame;
+    # one worker rehearses nothing
+    from volpack.render.rehearse import rehearse
+
+    path, vol = tree_path
+    vr = (float(vol.min()), float(vol.max()))
+    cams = [Camera(size=(32, 28), azimuth=az, zoom=1.5) for az in (0.0, 50.0, 100.0)]
+    opts = dict(shading="phong", workers=2)
+    kw = dict(tf=tf_of(vol), value_range=vr, blocks=24, **opts)
+    with Octree(str(path)) as t:
+        made = NodeAtlas(t)
+        ref = [render_lod(t, camera=cam, atlas=made, **kw) for cam in cams]
+    with Octree(str(path)) as t:
+        assert rehearse(NodeAtlas(t), vr, opts, False, 1) is None
+        atlas = NodeAtlas(t)
+        r = rehearse(atlas, vr, opts, False, 2)
+        r.wait()  # the kernels the walk above ran are loaded: every step runs
+        assert r.done == ["scans", "writes", "render"] and not r.skipped
+        frames = [render_lod(t, camera=cam, atlas=atlas, **kw) for cam in cams]
+    for (img, st), (want, wst) in zip(frames, ref):
+        np.testing.assert_array_equal(img, want)
+        assert st.levels == wst.levels and st.decoded == wst.decoded
+
+
 def test_reserved_arrays_are_zeroed_and_taken_once():
     from volpack.render.resident import Reserved
 

@@ -91,7 +91,7 @@ class Rehearsal:
         clip = tree.plan.clip_range
         grid = grid_dtype(tree)
         j = axis_weights(0, 4, 2, 3)
-        trilinear(np.zeros((2, 2, 2)), [j[1]] * 3, [j[2]] * 3, [j[3]] * 3, grid,
+        trilinear(np.zeros((3, 3, 3)), [j[1]] * 3, [j[2]] * 3, [j[3]] * 3, grid,
                   np.zeros((4, 4, 4), grid))  # fmt: skip
         if clip is None:
             return
