@@ -376,6 +376,8 @@ def test_render_and_walk_commands(tree_path, tmp_path):
     assert rep["decode_budget"] == 5 and all(f["decoded"] <= 5 for f in rep["per_frame"])
     assert all(f["held"] >= 0 for f in rep["per_frame"])
     assert all(f["psnr"] is None or f["psnr"] > 15 for f in rep["per_frame"])
+    done = [f["finished_at"] for f in rep["per_frame"]]  # seconds since the process started
+    assert done == sorted(done) and done[0] > 0
     with Image.open(tmp_path / "w.gif") as im:
         assert im.n_frames == 3
     r = run(main, ["render", str(tmp_path / "a.png"), str(tmp_path / "b.png"), "--budget", "3"])
