@@ -52,7 +52,6 @@ def play(ctx, source, output, tf_spec, fps, spin, show_stats, azimuth, elevation
     from ..render.camera import Camera
     from ..render.framing import fit_camera
     from ..render.raycast import render as raycast
-    from ..render.rehearse import rehearse
 
     size = parse_size(size_s)
     if output is not None and not _is_folder(output):
