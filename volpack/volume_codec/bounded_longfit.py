@@ -21,6 +21,7 @@ into classes by how much of it is left on each axis, each class with its own fit
 
 from __future__ import annotations
 
+import functools
 import itertools
 import struct
 
@@ -45,8 +46,10 @@ MIN_VOXELS_PER_WEIGHT = 8
 # The off-row sums run in float64 (vectorised) where no partial sum can pass 2^53
 # (exact integers), else in int64.
 _EXACT_FLOAT = float(1 << 53)
+_U = np.uint64  # numba tests signed indices for a wrap-around, which stops vectorising
 
 
+@functools.lru_cache(maxsize=1)
 def near_offsets() -> tuple:
     """Every causal (dz, dy, dx) step back within two voxels (62)."""
     out = []
@@ -64,6 +67,7 @@ def long_offsets(k: int) -> tuple:
     return class_offsets((k, 2), (k, 2), (k, 2))
 
 
+@functools.lru_cache(maxsize=4096)  # a decoder meets the same classes brick after brick
 def class_offsets(z: tuple, y: tuple, x: tuple) -> tuple:
     """The steps of a class whose neighbourhood reaches ``(back, ahead)`` voxels along
     each axis: the near steps inside it, then 3..back along x, y, z."""
@@ -76,6 +80,7 @@ def class_offsets(z: tuple, y: tuple, x: tuple) -> tuple:
     return tuple(near + ext + [(d, 0, 0) for d in range(3, bz + 1)])
 
 
+@functools.lru_cache(maxsize=64)
 def grades(k: int) -> tuple:
     """How far back a face class may reach along an axis of reach ``k``."""
     return tuple(sorted({0, 1, 2, k} | {g for g in (4, 8, 12) if g < k}))
@@ -108,23 +113,24 @@ class Plan:
                 tab[s] = -1 if min(s) == 0 else (0 if min(s) == 2 else 1)
             self.table = tab
             self.offsets = [long_offsets(k), near_offsets()]
-            self.counts = None
             return
         self.states = [
             axis_states(n, k, a) for n, k, a in zip(self.shape, self.reach, (False, True, True))
         ]
-        used = [np.unique(s) for s in self.states]
-        self.used = used
-        self.offsets = []
-        self.counts = []
-        self.boxes = []
-        for sz, sy, sx in itertools.product(*used):
-            parts = [(grades(k)[s // 3], s % 3) for k, s in zip(self.reach, (sz, sy, sx))]
-            self.offsets.append(class_offsets(*parts))
-            box = [_interval(st, s) for st, s in zip(self.states, (sz, sy, sx))]
-            self.boxes.append(box)
-            self.counts.append(int(np.prod([b - a for a, b in box])))
+        self.used = [np.unique(s).tolist() for s in self.states]
+        self.keys = [
+            tuple((grades(k)[s // 3], s % 3) for k, s in zip(self.reach, t))
+            for t in itertools.product(*self.used)
+        ]
+        self.offsets = [class_offsets(*key) for key in self.keys]  # (cached: decoding)
         self.table = None  # set by :meth:`keep`
+
+    def boxes(self) -> list:
+        """Per class, the ``(first, end)`` indices of its voxels along each axis (the
+        encoder's fits)."""
+        ends = [{v: (int(np.argmax(st == v)), int(st.size - np.argmax(st[::-1] == v)))
+                 for v in used} for st, used in zip(self.states, self.used)]  # fmt: skip
+        return [[e[v] for e, v in zip(ends, t)] for t in itertools.product(*self.used)]
 
     def keep(self, present) -> None:
         """The classes with weights (the rest: Lorenzo)."""
@@ -142,30 +148,35 @@ class Plan:
         off_s, off_w, in_s, in_w = [], [], [], []
         s_off, s_in, fl = [0], [0], []
         for offs, w in zip(self.offsets, weights):
-            w = np.asarray(w, np.int64) if w is not None else np.zeros(0, np.int64)
-            for (dz, dy, dx), wk in zip(offs, w):
-                if dz == 0 and dy == 0:
-                    in_s.append(dx)
-                    in_w.append(wk)
-                else:
-                    off_s.append(dz * ny * nx + dy * nx + dx)
-                    off_w.append(wk)
-            s_off.append(len(off_s))
-            s_in.append(len(in_s))
-            fl.append(float(np.abs(w).sum()) * float(qmax) < _EXACT_FLOAT)
+            if w is not None and len(offs):
+                st = _steps(offs)
+                row = (st[:, 0] == 0) & (st[:, 1] == 0)
+                w = np.asarray(w, np.int64)
+                off_s.append(st[~row] @ np.array([ny * nx, nx, 1]))
+                off_w.append(w[~row])
+                in_s.append(st[row, 2])
+                in_w.append(w[row])
+                fl.append(float(np.abs(w).sum()) * float(qmax) < _EXACT_FLOAT)
+            else:  # Lorenzo: no steps
+                for v in (off_s, off_w, in_s, in_w):
+                    v.append(np.zeros(0, np.int64))
+                fl.append(True)
+            s_off.append(s_off[-1] + len(off_s[-1]))
+            s_in.append(s_in[-1] + len(in_s[-1]))
         xb = np.flatnonzero(np.diff(self.states[2])) + 1
         i64 = lambda v: np.array(v, np.int64)  # noqa: E731
+        cat = lambda v: np.concatenate([np.zeros(0, np.int64), *v]).astype(np.int64)  # noqa: E731
         return (
             self.states[0], self.states[1], self.states[2],
             i64([0, *xb.tolist(), nx]), self.table.astype(np.int64),
-            i64(s_off), i64(off_s), i64(off_w), i64(s_in), i64(in_s), i64(in_w),
+            i64(s_off), cat(off_s), cat(off_w), i64(s_in), cat(in_s), cat(in_w),
             np.array(fl, np.bool_),
         )  # fmt: skip
 
 
-def _interval(states: np.ndarray, s: int) -> tuple[int, int]:
-    i = np.flatnonzero(states == s)
-    return int(i[0]), int(i[-1]) + 1
+@functools.lru_cache(maxsize=4096)
+def _steps(offs: tuple) -> np.ndarray:
+    return np.array(offs, np.int64).reshape(-1, 3)
 
 
 def _v1_states(n: int, k: int, ahead: bool) -> np.ndarray:
@@ -222,9 +233,9 @@ def _walk(q, qf, r, zs, ys, xs, xb, table, s_off, o_off, w_off, s_in, o_in, w_in
                         acc[x] = 0.0
                     for k in range(s_off[c], s_off[c + 1]):
                         wk = np.float64(w_off[k])
-                        b = row - o_off[k]
-                        for x in range(x0, x1):
-                            acc[x] += wk * qf[b + x]
+                        b = row - o_off[k]  # >= 0: the step exists
+                        for x in range(x0, x1):  # unsigned indices: vectorised
+                            acc[_U(x)] += wk * qf[_U(b + x)]
                     for x in range(x0, x1):
                         acci[x] = np.int64(acc[x])
                 elif c >= 0:
@@ -234,7 +245,7 @@ def _walk(q, qf, r, zs, ys, xs, xb, table, s_off, o_off, w_off, s_in, o_in, w_in
                         wk = w_off[k]
                         b = row - o_off[k]
                         for x in range(x0, x1):
-                            acci[x] += wk * q[b + x]
+                            acci[_U(x)] += wk * q[_U(b + x)]
                 for x in range(x0, x1):
                     i = row + x
                     if c >= 0:
@@ -354,7 +365,8 @@ def fit(q: np.ndarray, reach) -> tuple[Plan, list]:
     """The version-2 plan at ``reach`` and each class's weights (None: Lorenzo)."""
     plan = Plan(q.shape, reach)
     weights = []
-    for offs, box, count in zip(plan.offsets, plan.boxes, plan.counts):
+    for offs, box in zip(plan.offsets, plan.boxes()):
+        count = int(np.prod([b - a for a, b in box]))
         ok = offs and count >= MIN_VOXELS_PER_WEIGHT * len(offs)
         weights.append(_fit(q, offs, box) if ok else None)
     plan.keep([w is not None for w in weights])
