@@ -45,7 +45,8 @@ def leads(rows: list[dict]) -> dict:
 def summary(lead: dict) -> str:
     xs = [v[1] for v in lead.values()]
     gm = math.exp(sum(math.log(x) for x in xs) / len(xs))
-    return f"{sum(x >= 1.1 for x in xs)} of {len(xs)} at 1.1x, geomean {gm:.3f}, lowest {min(xs):.3f}"
+    hits = sum(x >= 1.1 for x in xs)
+    return f"{hits} of {len(xs)} at 1.1x, geomean {gm:.3f}, lowest {min(xs):.3f}"
 
 
 def main() -> int:
@@ -74,7 +75,10 @@ def main() -> int:
     for key in before:
         (r0, l0), (r1, l1) = before[key], after[key]
         mark = "" if abs(r1 / r0 - 1) < 1e-4 else " *"
-        print(f"{key[0]:18s} {key[1]:<10.4g} ratio {r0:8.2f} -> {r1:8.2f}  lead {l0:.3f} -> {l1:.3f}{mark}")
+        print(
+            f"{key[0]:18s} {key[1]:<10.4g} ratio {r0:8.2f} -> {r1:8.2f}  "
+            f"lead {l0:.3f} -> {l1:.3f}{mark}"
+        )
     print(f"before: {summary(before)}")
     print(f"after:  {summary(after)}")
     print(f"wrote {a.out} ({len(merged)} rows)")
