@@ -85,6 +85,9 @@ KINDS = {
     # the float wavelet path: Mallat layout with the outlier bin field, and separable
     "lossy-cdf97": ("lossy-bounded-f32-cdf97-bins.vpk", VOLUME_PATHS),
     "lossy-separable": ("lossy-bounded-f32-separable.vpk", VOLUME_PATHS),
+    # the quantised voxels by the long fitted predictor: its payload's version 1 and 2
+    "lossy-longfit": ("lossy-bounded-f32-longfit.vpk", VOLUME_PATHS),
+    "lossy-longfit-reach": ("lossy-bounded-f32-longfit-reach.vpk", VOLUME_PATHS),
     # container format version 2 (formats/vpk-2.md): varint records, dictionary-coded
     # header and summary; one brick, and eight
     "compact": ("vpk2-lossy-bounded-f32.vpk", VOLUME_PATHS),

@@ -346,9 +346,10 @@ def lossy_source(recipe: str):
         return (u * 0.25 + 250.0 + 0.37 * np.arange(u.shape[0])[:, None, None]).astype(
             np.float32
         )
-    if recipe == "f32-waves":  # six plane waves: predictable from far along each axis
+    if recipe in ("f32-waves", "f32-waves-long"):  # six plane waves: predictable from far
         rng = np.random.default_rng(17)
-        axes = [np.arange(s, dtype=np.float64) for s in (20, 24, 28)]
+        shape = (20, 24, 28) if recipe == "f32-waves" else (12, 36, 52)  # (-long: thin in z)
+        axes = [np.arange(s, dtype=np.float64) for s in shape]
         z, y, x = np.meshgrid(*axes, indexing="ij")
         f = np.zeros(z.shape)
         for _ in range(6):
@@ -447,8 +448,14 @@ LOSSY_CODER_CASES += [
     ("lossy-bounded-i16-quantised-saving", "i16", {"max_error": 40}, WAVELET_BRICK),
 ]  # fmt: skip
 # The quantised voxels by the long fitted predictor (lossy-1.md step 20, flag bit 3 alone):
-# plane waves at 1e-4 of their range, where it codes shortest.
-LOSSY_CODER_CASES += [("lossy-bounded-f32-longfit", "f32-waves", {"max_error": 0.005}, None)]
+# plane waves at 1e-4 of their range, where it codes shortest. Made by version 1 of its
+# payload, which today's encoder no longer writes: kept as it is (decoded, no longer
+# reproduced).
+# LOSSY_CODER_CASES += [("lossy-bounded-f32-longfit", "f32-waves", {"max_error": 0.005}, None)]
+# Version 2 (step 21): a reach per axis (Kz = 2 on this thin field), face classes.
+LOSSY_CODER_CASES += [
+    ("lossy-bounded-f32-longfit-reach", "f32-waves-long", {"max_error": 0.005}, None)
+]
 
 
 def make_lossy(folder: Path) -> Path:

@@ -117,9 +117,10 @@ def lossy_source(recipe):
         u = source("u8").astype(np.float64)
         z = np.arange(u.shape[0])[:, None, None]
         return (u * 0.25 + 250.0 + 0.37 * z).astype(np.float32)
-    if recipe == "f32-waves":  # six plane waves: predictable from far along each axis
+    if recipe in ("f32-waves", "f32-waves-long"):  # six plane waves: predictable from far
         rng = np.random.default_rng(17)
-        axes = [np.arange(s, dtype=np.float64) for s in (20, 24, 28)]
+        shape = (20, 24, 28) if recipe == "f32-waves" else (12, 36, 52)  # (-long: thin in z)
+        axes = [np.arange(s, dtype=np.float64) for s in shape]
         z, y, x = np.meshgrid(*axes, indexing="ij")
         f = np.zeros(z.shape)
         for _ in range(6):
@@ -351,12 +352,18 @@ LOSSY_TODAY = [  # (stem, recipe, options, brick, (flags, kind or mode) of each 
     ("lossy-bounded-i16-quantised-saving", "i16", {"max_error": 40}, 16, {(0, 0), (0, 4)}),
     # the long fitted predictor (flag bit 3 with corrections, reach K = 4; lossy-1.md step 20)
     ("lossy-bounded-f32-longfit", "f32-waves", {"max_error": 0.005}, None, {(10, 4)}),
+    # its version 2 (first byte 0; step 21): reach (2, 8, 8), face classes
+    ("lossy-bounded-f32-longfit-reach", "f32-waves-long", {"max_error": 0.005}, None,
+     {(10, 0)}),
 ]  # fmt: skip
 # Made before a slower-decoding coding had to save 2 % of the bytes (lossy-1.md,
 # "Decoding speed in the encoder's choice"): one of its bricks is mode 4 by 0.8 %, which
 # today's encoder codes with the wavelet; decoded, no longer reproduced
 # (lossy-bounded-i16-quantised-saving is today's coding of its recipe).
 BEFORE_MIN_SAVING = {"lossy-bounded-i16-quantised-fit"}
+# Made by version 1 of the long fit's payload (lossy-1.md step 20), which today's encoder
+# no longer writes (version 2 codes the recipe 13 % shorter): decoded, no longer reproduced.
+BEFORE_LONGFIT_2 = {"lossy-bounded-f32-longfit"}
 
 
 @pytest.mark.parametrize(
@@ -379,7 +386,10 @@ def test_golden_adaptive_bins_and_quantised_fit_streams(stem, recipe, opts, bric
         inner = take_section(memoryview(p), 1, "inner")[0]
         seen.add((p[0], inner[3] if p[0] & 64 else inner[0]))
     assert seen == kinds
-    if stem in BEFORE_MIN_SAVING:
+    if stem == "lossy-bounded-f32-longfit-reach":
+        inner = take_section(memoryview(payloads[0]), 1, "inner")[0]
+        assert tuple(inner[1:4]) == (2, 8, 8)  # Kz = 2 on the thin axis, 8 on the others
+    if stem in BEFORE_MIN_SAVING | BEFORE_LONGFIT_2:
         return
     again = api.compress_array(want, **({"brick": brick} if brick else {}), **opts)
     with Reader(blob) as old, Reader(again) as new:

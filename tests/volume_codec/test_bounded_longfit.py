@@ -1,7 +1,12 @@
-"""The quantised voxels by the long fitted predictor (formats/lossy-1.md step 20): exact
-round trips of the integers, the bound on every voxel through the bounded codec, and
-damaged payloads refused. Slow set: the walk kernel compiles here (about 1 CPU s); the
-golden stream's test in test_golden.py is the fast one."""
+"""The quantised voxels by the long fitted predictor (formats/lossy-1.md steps 20 and 21):
+exact round trips of the integers in both payload versions, the walk against sums in
+plain Python (face classes, the float64 off-row sums and their int64 fallback past
+2^53), the bound on every voxel through the bounded codec on a band-limited field and
+on real ones, and damaged payloads refused. Slow set: the walk kernel compiles here
+(about 2 CPU s); the golden streams' tests in test_golden.py are the fast ones."""
+
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,7 +19,10 @@ from volpack.volume_codec import bounded_longfit as lf
 from volpack.volume_codec.lossless import LosslessCodec
 
 pytestmark = pytest.mark.slow
-HEAD = 10  # reach, residual type, offset (formats/lossy-1.md step 20)
+GOLDEN = Path(__file__).resolve().parents[2] / "formats" / "examples"
+HEAD1 = 10  # version 1: reach, residual type, offset (formats/lossy-1.md step 20)
+HEAD2 = 13  # version 2: 0, Kz, Ky, Kx, residual type, offset (step 21)
+BOUNDED = LosslessCodec(coder="auto", predict_version=6)  # as the bounded codec reads it
 
 
 def band_limited(shape, seed=3):
@@ -30,45 +38,138 @@ def band_limited(shape, seed=3):
     return (np.fft.ifftn(f).real * 100).astype(np.float32)
 
 
-@pytest.mark.parametrize("k", [2, 4, 12])
+def _v2(q, reach, codec):
+    r, plan, weights = lf.residuals(q, reach, int(np.iinfo(q.dtype).max))
+    head, res = lf.encode_head(r, plan, weights)
+    return head + codec.encode(res)
+
+
+@pytest.mark.parametrize("reach", [(2, 4, 12), (4, 8, 4), (12, 12, 12)])
 @pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.int32])
-def test_integers_round_trip(k, dtype):
-    """Any quantised brick decodes to itself (faces, edges and the two tiers), whatever
-    the residuals' type."""
-    rng = np.random.default_rng(k)
+def test_integers_round_trip(reach, dtype):
+    """Any quantised brick decodes to itself (faces, edges, every class), whatever the
+    residuals' type, with the residual by the wavelet and by the predictive tool."""
+    rng = np.random.default_rng(sum(reach))
     top = min(np.iinfo(dtype).max, 1 << 20)
     q = np.cumsum(rng.integers(-3, 4, (9, 21, 30)), axis=2) % (top + 1)
     q = q.astype(dtype)
+    for codec in (LosslessCodec(tools="predict"), LosslessCodec(tools="wavelet")):
+        got = lf.decode(_v2(q, reach, codec), q.shape, np.dtype(dtype), codec)
+        assert got.dtype == dtype
+        np.testing.assert_array_equal(got, q)
+
+
+@pytest.mark.parametrize("k", [2, 4, 12])
+def test_version_1_round_trip(k):
+    """Version 1's payload (lossy17's encoder) still decodes to its integers."""
+    q = np.cumsum(np.random.default_rng(k).integers(-3, 4, (9, 21, 30)), axis=2) % 4000
+    q = q.astype(np.uint16)
     codec = LosslessCodec(tools="predict")
-    data = lf.encode(lf.residuals(q, k), codec)
-    got = lf.decode(data, q.shape, np.dtype(dtype), codec)
-    assert got.dtype == dtype
-    np.testing.assert_array_equal(got, q)
+    data = lf.encode_v1(lf.residuals_v1(q, k), codec)
+    assert data[0] == k
+    np.testing.assert_array_equal(lf.decode(data, q.shape, np.dtype(np.uint16), codec), q)
 
 
-def test_walk_matches_numpy_prediction():
-    """The walk's residuals against the same sums in numpy (interior tier)."""
-    q = np.random.default_rng(1).integers(0, 1000, (14, 16, 18)).astype(np.int64)
-    r, w1, _ = lf.residuals(q, 4)
-    offs = lf.long_offsets(4)
-    z, y, x = 10, 7, 9  # inside the long set's box
-    acc = sum(int(w) * int(q[z - dz, y - dy, x - dx]) for w, (dz, dy, dx) in zip(w1, offs))
-    assert r[z, y, x] == q[z, y, x] - ((acc + (1 << 15)) >> 16)
+def _golden_v1():
+    """The version-1 golden stream's inner payload, and its source quantised."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "scripts"))
+    import make_examples
+
+    blob = (GOLDEN / "lossy-bounded-f32-longfit.vpk").read_bytes()
+    f = make_examples.lossy_source("f32-waves")
+    with Reader(blob) as r:
+        (p,) = [p for _, _, p in r]
+        c = r.header["codec"]
+    q = np.rint((f.astype(np.float64) - c["lo"]) / c["step"]).astype(np.int64)
+    return bytes(take_section(memoryview(p), 1, "inner")[0]), q, np.dtype(c["qdtype"])
+
+
+def test_version_1_golden_decodes_to_its_integers():
+    """The lossy17 golden stream's payload (version 1, K = 4) decodes to the quantised
+    source exactly (the walk was rewritten; its integers are the same)."""
+    inner, q, qd = _golden_v1()
+    assert inner[0] == 4
+    np.testing.assert_array_equal(lf.decode(inner, q.shape, qd, LosslessCodec()), q)
+
+
+def _naive_residuals(q, plan, weights):
+    """Every voxel's residual from the plan's classes, in Python integers."""
+    nz, ny, nx = q.shape
+    r = np.zeros(q.shape, np.int64)
+    for z in range(nz):
+        for y in range(ny):
+            for x in range(nx):
+                c = plan.table[plan.states[0][z], plan.states[1][y], plan.states[2][x]]
+                if c < 0:
+                    continue  # Lorenzo: not compared here
+                acc = sum(
+                    int(w) * int(q[z - dz, y - dy, x - dx])
+                    for w, (dz, dy, dx) in zip(weights[c], plan.offsets[c])
+                )
+                r[z, y, x] = int(q[z, y, x]) - ((acc + (1 << 15)) >> 16)
+    return r
+
+
+def _fitted_voxels(plan, shape):
+    s = [np.asarray(x) for x in plan.states]
+    return plan.table[np.ix_(s[0], s[1], s[2])] >= 0
+
+
+def test_walk_matches_python_sums():
+    """The walk's residuals against the same sums in Python (every fitted class, the
+    float64 off-row sums: weights and voxels far below 2^53)."""
+    q = np.random.default_rng(1).integers(0, 1000, (12, 30, 30)).astype(np.int64)
+    r, plan, weights = lf.residuals(q, (2, 4, 4), 999)
+    assert sum(w is not None for w in weights) >= 3  # face classes fitted too
+    fitted = _fitted_voxels(plan, q.shape)
+    want = _naive_residuals(q, plan, weights)
+    np.testing.assert_array_equal(r[fitted], want[fitted])
+
+
+def test_walk_past_2_53_takes_int64():
+    """Voxels near 2^32 and weights near 2^20: the off-row sums could pass 2^53 in
+    float64, so the walk sums them in int64 (exact); the same weights on small voxels
+    take float64. Both against Python's integers, and decoded back."""
+    rng = np.random.default_rng(5)
+    shape = (6, 9, 11)
+    plan = lf.Plan(shape, (2, 4, 4))
+    weights = [
+        rng.integers(-lf.W_LIMIT, lf.W_LIMIT + 1, len(o)) if o else None for o in plan.offsets
+    ]
+    plan.keep([w is not None for w in weights])
+    for top in ((1 << 32) - 1, 255):
+        fl = plan.kernel_args(weights, top)[-1][plan.present]  # float64 off-row sums
+        assert fl.all() == (top == 255)  # (classes of a few steps stay under 2^53)
+        q = rng.integers(top - 200, top + 1, shape).astype(np.int64)
+        r = np.empty(q.size, np.int64)
+        lf.walk(q.reshape(-1), r, plan, weights, top, False)
+        fitted = _fitted_voxels(plan, shape)
+        want = _naive_residuals(q, plan, weights)
+        np.testing.assert_array_equal(r.reshape(shape)[fitted], want[fitted])
+        back = np.empty(q.size, np.int64)
+        assert lf.walk(back, r, plan, weights, top, True) == -1
+        np.testing.assert_array_equal(back, q.reshape(-1))
+
+
+def _payload(f, e):
+    blob = api.compress_array(f, max_error=e)
+    with Reader(blob) as r:
+        payloads = [p for _, _, p in r]
+    assert payloads and all(p[0] in (8, 10) for p in payloads)  # the long fitted predictor
+    return blob, bytes(take_section(memoryview(payloads[0]), 1, "inner")[0])
 
 
 @pytest.mark.parametrize("rel", [1e-4, 1e-5])
 def test_bound_on_every_voxel(rel):
-    """A band-limited field at tight bounds: the encoder picks the long fitted predictor
-    (flag bit 3 alone, perhaps with corrections) and every voxel is within E."""
+    """A band-limited field at tight bounds: the encoder picks the long fitted predictor,
+    version 2 (flag bit 3 alone, perhaps with corrections), every voxel within E, and
+    shorter than the best coding without it."""
     f = band_limited((40, 40, 40))
     e = rel * float(f.max() - f.min())
-    blob = api.compress_array(f, max_error=e)
-    with Reader(blob) as r:
-        flags = {p[0] for _, _, p in r}
-    assert flags <= {8, 10} and flags
+    blob, inner = _payload(f, e)
+    assert inner[0] == 0 and tuple(inner[1:4]) in lf.reach_choices(f.shape)
     got = api.decompress_array(blob)
     assert np.abs(got.astype(np.float64) - f).max() <= e
-    # shorter than the best coding without it
     from volpack.volume_codec import lossy
 
     old = lossy.LONGFIT_MIN_BITS
@@ -79,30 +180,89 @@ def test_bound_on_every_voxel(rel):
         lossy.LONGFIT_MIN_BITS = old
 
 
-def _payload(f, e):
-    blob = api.compress_array(f, max_error=e)
-    with Reader(blob) as r:
-        (p,) = [p for _, _, p in r]
-    assert p[0] in (8, 10)  # the long fitted predictor
-    return bytes(take_section(memoryview(p), 1, "inner")[0])
+@pytest.mark.parametrize("name,rel", [("tgv_u", 1e-5), ("climate_t", 1e-5), ("cam_t", 1e-4)])
+def test_real_fields(name, rel):
+    """Fields of the lossy benchmark (data cache; skipped without it) where version 2 is
+    kept: every voxel within its bound, decoded by one worker and by two."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "scripts"))
+    datasets = pytest.importorskip("datasets")
+    try:
+        f = datasets.load(name)[0]
+    except (FileNotFoundError, ImportError) as err:
+        pytest.skip(f"{name}: {err}")
+    e = rel * float(f.max() - f.min())
+    blob, inner = _payload(f, e)
+    assert inner[0] == 0
+    for workers in (1, 2):
+        got = api.decompress_array(blob, workers=workers)
+        assert np.abs(got.astype(np.float64) - f).max() <= e
 
 
 def test_damaged_payloads_refused():
     f = band_limited((40, 40, 40))
-    inner = _payload(f, 1e-5 * float(f.max() - f.min()))
-    codec = LosslessCodec()
+    _, inner = _payload(f, 1e-5 * float(f.max() - f.min()))
+    codec = BOUNDED
     qd = np.dtype("uint16")
     assert lf.decode(inner, f.shape, qd, codec).shape == f.shape
+    n = int.from_bytes(inner[HEAD2 : HEAD2 + 4], "little")  # the weights' section
     bad = [
-        inner[:5],  # header cut
-        inner[: HEAD + 10],  # weights cut
-        bytes([40]) + inner[1:],  # reach past 16
-        inner[:1] + bytes([7]) + inner[2:],  # residual type
-        inner[: HEAD] + (1 << 30).to_bytes(4, "little") + inner[HEAD + 4 :],
-        inner[:2] + (1 << 40).to_bytes(8, "little", signed=True) + inner[10:],  # out of range
+        inner[:9],  # header cut
+        inner[: HEAD2 + 10],  # weights cut
+        inner[:1] + bytes([40]) + inner[2:],  # Kz past 16
+        inner[:3] + bytes([1]) + inner[4:],  # Kx below 2
+        inner[:4] + bytes([7]) + inner[5:],  # residual type
+        inner[: HEAD2 + 4] + bytes(n) + inner[HEAD2 + 4 + n :],  # weights not zstd
+        inner[: HEAD2 + 4 + n],  # no residuals
+        inner[:5] + (1 << 40).to_bytes(8, "little", signed=True) + inner[HEAD2:],  # range
     ]
     for data in bad:
         with pytest.raises(FormatError):
             lf.decode(data, f.shape, qd, codec)
+    with pytest.raises(FormatError):  # the classes of another shape
+        lf.decode(inner, (40, 40, 36), qd, codec)
     with pytest.raises(FormatError):
         lf.decode(inner, (40, 40), qd, codec)
+
+
+def test_damaged_weights_refused():
+    """A weights section whose class bits or weights do not match the brick's classes,
+    or a weight past 2^20."""
+    from volpack.format.deflate import deflate
+    from volpack.format.sections import put_section
+
+    q = np.cumsum(np.random.default_rng(2).integers(-3, 4, (12, 20, 24)), axis=2) % 3000
+    q = q.astype(np.uint16)
+    codec = LosslessCodec()
+    r, plan, weights = lf.residuals(q, (2, 4, 4), 65535)
+    head, res = lf.encode_head(r, plan, weights)
+    body = codec.encode(res)
+    assert lf.decode(head + body, q.shape, np.dtype("uint16"), codec).shape == q.shape
+    bits = np.packbits(plan.present).tobytes()
+    w = np.concatenate([v for v in weights if v is not None]).astype("<i4")
+    big = w.copy()
+    big[0] = lf.W_LIMIT + 1
+    for section in (
+        bits,  # no weights
+        bits + w.view(np.uint8).reshape(-1, 4).T.tobytes()[:-4],  # one short
+        bits[:-1] + bytes([bits[-1] ^ 0xFF]) + w.view(np.uint8).reshape(-1, 4).T.tobytes(),
+        bits + big.view(np.uint8).reshape(-1, 4).T.tobytes(),
+    ):
+        data = head[:HEAD2] + put_section(deflate(section)) + body
+        with pytest.raises(FormatError):
+            lf.decode(data, q.shape, np.dtype("uint16"), codec)
+
+
+def test_damaged_version_1_refused():
+    inner, q, qd = _golden_v1()
+    codec = LosslessCodec()
+    bad = [
+        inner[:5],  # header cut
+        inner[: HEAD1 + 10],  # weights cut
+        bytes([40]) + inner[1:],  # reach past 16
+        inner[:1] + bytes([7]) + inner[2:],  # residual type
+        inner[:HEAD1] + (1 << 30).to_bytes(4, "little") + inner[HEAD1 + 4 :],
+        inner[:2] + (1 << 40).to_bytes(8, "little", signed=True) + inner[10:],  # out of range
+    ]
+    for data in bad:
+        with pytest.raises(FormatError):
+            lf.decode(data, q.shape, qd, codec)

@@ -1,38 +1,55 @@
 """The quantised voxels predicted by a long least-squares predictor, the residual coded
 by the lossless codec (the bounded codec's flag ``residuals`` alone; formats/lossy-1.md
-step 20).
+steps 20 and 21).
 
 On a field sampled finer than its content (a spectral simulation's velocity, de-aliased
-to 2/3 of the grid's wavenumbers), a voxel is predictable from far along each axis: a
-linear predictor over the 62 causal neighbours within two voxels and the next ``K`` back
-along each axis, fitted per brick by least squares on the quantised voxels (which the
-decoder has: closed-loop prediction on the decoded values), leaves a residual 2-3x
-smaller than 16 neighbours do on the Taylor-Green velocity (scripts/
-lossy17_predictor_entropy.py). Voxels whose long neighbourhood leaves the brick take
-the fitted predictor over the 62 near neighbours, and those nearer the faces a Lorenzo
-predictor of the neighbours there. Weights are fixed point (2^-16), sums in int64:
-encoder and decoder compute the same integers on any machine. The residual volume,
-shifted to start at 0, is coded by the lossless codec (its predictive tools give it
-the local activity contexts).
+to 2/3 of the grid's wavenumbers; climate fields along latitude and longitude), a voxel
+is predictable from far along each axis: a linear predictor over the 62 causal
+neighbours within two voxels and the next ones back along each axis, fitted per brick by
+least squares on the quantised voxels (which the decoder has: closed-loop prediction on
+the decoded values), leaves a residual 2-3x smaller than 16 neighbours do on the
+Taylor-Green velocity (scripts/lossy17_predictor_entropy.py). Weights are fixed point
+(2^-16), sums exact integers: encoder and decoder compute the same on any machine.
+
+Version 1 (lossy17, step 20): one reach ``K`` on every axis, one fit where the whole
+neighbourhood exists, one for the 62 near neighbours, a Lorenzo predictor nearer the
+faces. Version 2 (step 21, first byte 0): a reach per axis (``Kz`` 2 on thin or
+anisotropic fields), and the voxels near the faces, whose neighbourhood is cut, sorted
+into classes by how much of it is left on each axis, each class with its own fit (half a
+64^3 brick lies within 12 voxels of a face it predicts from).
 """
 
 from __future__ import annotations
 
+import functools
+import itertools
 import struct
 
 import numpy as np
 
 from .._jit import kernel
 from ..errors import FormatError
+from ..format.deflate import deflate, inflate
+from ..format.sections import put_section, take_section
 
 FB = 16  # fixed-point bits of the weights
 W_LIMIT = 1 << 20  # |weight| < 16
-K_TRIED = (4, 8, 12)  # axis reaches the encoder tries
+K_TRIED = (4, 8, 12)  # axis reaches the encoder tries, each at most a quarter of the axis
+K_THIN = 2  # and along z, the near neighbours alone (thin or anisotropic fields)
 K_MAX = 16
 _DTYPES = (np.uint8, np.uint16, np.uint32)
-_HEAD = struct.Struct("<BBq")  # K, residual dtype code, residual offset
+_HEAD = struct.Struct("<BBq")  # version 1: K, residual dtype code, residual offset
+_HEAD2 = struct.Struct("<BBBBBq")  # version 2: 0, Kz, Ky, Kx, residual dtype code, offset
+# A face class is fitted where it holds this many voxels a weight (fewer: Lorenzo; its
+# weights would cost more than they save).
+MIN_VOXELS_PER_WEIGHT = 8
+# The off-row sums run in float64 (vectorised) where no partial sum can pass 2^53
+# (exact integers), else in int64.
+_EXACT_FLOAT = float(1 << 53)
+_U = np.uint64  # numba tests signed indices for a wrap-around, which stops vectorising
 
 
+@functools.lru_cache(maxsize=1)
 def near_offsets() -> tuple:
     """Every causal (dz, dy, dx) step back within two voxels (62)."""
     out = []
@@ -46,28 +63,127 @@ def near_offsets() -> tuple:
 
 
 def long_offsets(k: int) -> tuple:
-    """:func:`near_offsets` and the steps 3..k back along each axis."""
-    extra = [(0, 0, d) for d in range(3, k + 1)] + [(0, d, 0) for d in range(3, k + 1)]
-    return near_offsets() + tuple(extra + [(d, 0, 0) for d in range(3, k + 1)])
+    """:func:`near_offsets` and the steps 3..k back along each axis (version 1)."""
+    return class_offsets((k, 2), (k, 2), (k, 2))
 
 
-def _box(offs) -> np.ndarray:
-    """(back z, back y, ahead y, back x, ahead x): where every neighbour exists."""
-    o = np.array(offs)
-    return np.array(
-        [o[:, 0].max(), o[:, 1].max(), max(0, -o[:, 1].min()), o[:, 2].max(),
-         max(0, -o[:, 2].min())], dtype=np.int64,
-    )  # fmt: skip
+@functools.lru_cache(maxsize=4096)  # a decoder meets the same classes brick after brick
+def class_offsets(z: tuple, y: tuple, x: tuple) -> tuple:
+    """The steps of a class whose neighbourhood reaches ``(back, ahead)`` voxels along
+    each axis: the near steps inside it, then 3..back along x, y, z."""
+    (bz, _), (by, ay), (bx, ax) = z, y, x
+    near = [
+        (dz, dy, dx) for dz, dy, dx in near_offsets()
+        if dz <= bz and -ay <= dy <= by and -ax <= dx <= bx
+    ]  # fmt: skip
+    ext = [(0, 0, d) for d in range(3, bx + 1)] + [(0, d, 0) for d in range(3, by + 1)]
+    return tuple(near + ext + [(d, 0, 0) for d in range(3, bz + 1)])
 
 
-def _flat(offs, shape) -> np.ndarray:
-    _, ny, nx = shape
-    return np.array([dz * ny * nx + dy * nx + dx for dz, dy, dx in offs], dtype=np.int64)
+@functools.lru_cache(maxsize=64)
+def grades(k: int) -> tuple:
+    """How far back a face class may reach along an axis of reach ``k``."""
+    return tuple(sorted({0, 1, 2, k} | {g for g in (4, 8, 12) if g < k}))
 
 
-@kernel(inline=True)
-def _inside(z, y, x, ny, nx, b):
-    return z >= b[0] and y >= b[1] and y + b[2] < ny and x >= b[3] and x + b[4] < nx
+def axis_states(n: int, k: int, ahead: bool) -> np.ndarray:
+    """Per position along an axis of length ``n``: ``3 * (index of the largest grade
+    within reach back) + (voxels ahead, at most 2)`` (ahead always 2 along z)."""
+    g = np.array(grades(k))
+    p = np.arange(n)
+    back = np.searchsorted(g, np.minimum(p, k), side="right") - 1
+    a = np.minimum(n - 1 - p, 2) if ahead else np.full(n, 2)
+    return (3 * back + a).astype(np.int64)
+
+
+class Plan:
+    """The classes of a brick of ``shape`` at reach ``(kz, ky, kx)`` (version 2), or of a
+    version-1 brick: per-axis states, the class of each state triple (-1: Lorenzo), the
+    steps of each class."""
+
+    def __init__(self, shape, reach, v1: bool = False):
+        self.shape = tuple(int(n) for n in shape)
+        self.reach = tuple(int(k) for k in reach)
+        nz, ny, nx = self.shape
+        if v1:
+            k = self.reach[0]
+            self.states = [_v1_states(n, k, a) for n, a in ((nz, False), (ny, True), (nx, True))]
+            tab = np.full((3, 3, 3), -1, np.int64)
+            for s in itertools.product(range(3), repeat=3):
+                tab[s] = -1 if min(s) == 0 else (0 if min(s) == 2 else 1)
+            self.table = tab
+            self.offsets = [long_offsets(k), near_offsets()]
+            return
+        self.states = [
+            axis_states(n, k, a) for n, k, a in zip(self.shape, self.reach, (False, True, True))
+        ]
+        self.used = [np.unique(s).tolist() for s in self.states]
+        self.keys = [
+            tuple((grades(k)[s // 3], s % 3) for k, s in zip(self.reach, t))
+            for t in itertools.product(*self.used)
+        ]
+        self.offsets = [class_offsets(*key) for key in self.keys]  # (cached: decoding)
+        self.table = None  # set by :meth:`keep`
+
+    def boxes(self) -> list:
+        """Per class, the ``(first, end)`` indices of its voxels along each axis (the
+        encoder's fits)."""
+        ends = [{v: (int(np.argmax(st == v)), int(st.size - np.argmax(st[::-1] == v)))
+                 for v in used} for st, used in zip(self.states, self.used)]  # fmt: skip
+        return [[e[v] for e, v in zip(ends, t)] for t in itertools.product(*self.used)]
+
+    def keep(self, present) -> None:
+        """The classes with weights (the rest: Lorenzo)."""
+        self.present = np.asarray(present, bool)
+        tab = np.full(tuple(int(s.max()) + 1 for s in self.states), -1, np.int64)
+        for c, (s, p) in enumerate(zip(itertools.product(*self.used), self.present)):
+            if p:
+                tab[s] = c
+        self.table = tab
+
+    def kernel_args(self, weights, qmax):
+        """The walk's arrays: per class its off-row steps (flat) and in-row steps (dx)
+        with their weights, and whether its off-row sums may run in float64."""
+        nz, ny, nx = self.shape
+        off_s, off_w, in_s, in_w = [], [], [], []
+        s_off, s_in, fl = [0], [0], []
+        for offs, w in zip(self.offsets, weights):
+            if w is not None and len(offs):
+                st = _steps(offs)
+                row = (st[:, 0] == 0) & (st[:, 1] == 0)
+                w = np.asarray(w, np.int64)
+                off_s.append(st[~row] @ np.array([ny * nx, nx, 1]))
+                off_w.append(w[~row])
+                in_s.append(st[row, 2])
+                in_w.append(w[row])
+                fl.append(float(np.abs(w).sum()) * float(qmax) < _EXACT_FLOAT)
+            else:  # Lorenzo: no steps
+                for v in (off_s, off_w, in_s, in_w):
+                    v.append(np.zeros(0, np.int64))
+                fl.append(True)
+            s_off.append(s_off[-1] + len(off_s[-1]))
+            s_in.append(s_in[-1] + len(in_s[-1]))
+        xb = np.flatnonzero(np.diff(self.states[2])) + 1
+        i64 = lambda v: np.array(v, np.int64)  # noqa: E731
+        cat = lambda v: np.concatenate([np.zeros(0, np.int64), *v]).astype(np.int64)  # noqa: E731
+        return (
+            self.states[0], self.states[1], self.states[2],
+            i64([0, *xb.tolist(), nx]), self.table.astype(np.int64),
+            i64(s_off), cat(off_s), cat(off_w), i64(s_in), cat(in_s), cat(in_w),
+            np.array(fl, np.bool_),
+        )  # fmt: skip
+
+
+@functools.lru_cache(maxsize=4096)
+def _steps(offs: tuple) -> np.ndarray:
+    return np.array(offs, np.int64).reshape(-1, 3)
+
+
+def _v1_states(n: int, k: int, ahead: bool) -> np.ndarray:
+    """Version 1 along an axis: 0 Lorenzo, 1 the near set's box, 2 the long set's."""
+    p = np.arange(n)
+    ok = (p + 2 < n) if ahead else np.ones(n, bool)
+    return np.where(~ok | (p < 2), 0, np.where(p >= k, 2, 1)).astype(np.int64)
 
 
 @kernel(inline=True)
@@ -93,129 +209,308 @@ def _lorenzo(q, i, z, y, x, sy, sz):
 
 
 @kernel
-def _walk(q, r, o1, w1, b1, o2, w2, b2, nz, ny, nx, decode, qmax):
+def _walk(q, qf, r, zs, ys, xs, xb, table, s_off, o_off, w_off, s_in, o_in, w_in, fl,
+          nz, ny, nx, decode, qmax):  # fmt: skip
     """Residuals ``r = q - prediction`` (encode) or ``q = r + prediction`` (decode) in C
-    order; returns the first voxel decoded outside ``[0, qmax]`` or -1."""
+    order, row by row: on a run of a row in one class, the sums over the steps in other
+    rows (decoded already) first, for the whole run (float64 where exact: ``fl``), then
+    the steps back along the row voxel by voxel. ``qf`` holds ``q`` as float64 (filled
+    here when decoding). Returns the first voxel decoded outside ``[0, qmax]`` or -1."""
     sy = nx
     sz = ny * nx
     half = np.int64(1) << (FB - 1)
-    i = 0
+    acc = np.zeros(nx, np.float64)
+    acci = np.zeros(nx, np.int64)
     for z in range(nz):
         for y in range(ny):
-            for x in range(nx):
-                if _inside(z, y, x, ny, nx, b1):
-                    acc = np.int64(0)
-                    for k in range(o1.size):
-                        acc += w1[k] * q[i - o1[k]]
-                    p = (acc + half) >> FB
-                elif _inside(z, y, x, ny, nx, b2):
-                    acc = np.int64(0)
-                    for k in range(o2.size):
-                        acc += w2[k] * q[i - o2[k]]
-                    p = (acc + half) >> FB
-                else:
-                    p = _lorenzo(q, i, z, y, x, sy, sz)
-                if decode:
-                    v = r[i] + p
-                    if v < 0 or v > qmax:
-                        return i
-                    q[i] = v
-                else:
-                    r[i] = q[i] - p
-                i += 1
+            row = z * sz + y * sy
+            for seg in range(xb.size - 1):
+                x0 = xb[seg]
+                x1 = xb[seg + 1]
+                c = table[zs[z], ys[y], xs[x0]]
+                if c >= 0 and fl[c]:
+                    for x in range(x0, x1):
+                        acc[x] = 0.0
+                    for k in range(s_off[c], s_off[c + 1]):
+                        wk = np.float64(w_off[k])
+                        b = row - o_off[k]  # >= 0: the step exists
+                        for x in range(x0, x1):  # unsigned indices: vectorised
+                            acc[_U(x)] += wk * qf[_U(b + x)]
+                    for x in range(x0, x1):
+                        acci[x] = np.int64(acc[x])
+                elif c >= 0:
+                    for x in range(x0, x1):
+                        acci[x] = 0
+                    for k in range(s_off[c], s_off[c + 1]):
+                        wk = w_off[k]
+                        b = row - o_off[k]
+                        for x in range(x0, x1):
+                            acci[_U(x)] += wk * q[_U(b + x)]
+                for x in range(x0, x1):
+                    i = row + x
+                    if c >= 0:
+                        s = acci[x]
+                        for k in range(s_in[c], s_in[c + 1]):
+                            s += w_in[k] * q[i - o_in[k]]
+                        p = (s + half) >> FB
+                    else:
+                        p = _lorenzo(q, i, z, y, x, sy, sz)
+                    if decode:
+                        v = r[i] + p
+                        if v < 0 or v > qmax:
+                            return i
+                        q[i] = v
+                        qf[i] = np.float64(v)
+                    else:
+                        r[i] = q[i] - p
     return -1
 
 
-def _fit(q: np.ndarray, offs) -> np.ndarray:
-    """Fixed-point least-squares weights of ``offs`` over the voxels where all exist,
-    every other row and column of them (normal equations summed slab by slab; a
-    quarter of the work, the same bytes within 0.1 % on the Taylor-Green fields); zeros
-    where too few voxels."""
-    nz, ny, nx = q.shape
-    b = _box(offs)
-    z0, y0, y1, x0, x1 = int(b[0]), int(b[1]), ny - int(b[2]), int(b[3]), nx - int(b[4])
+def walk(q: np.ndarray, r: np.ndarray, plan: Plan, weights, qmax: int, decode: bool) -> int:
+    """:func:`_walk` over flat int64 ``q`` and ``r`` of ``plan``'s shape."""
+    qf = np.empty(q.size, np.float64) if decode else q.astype(np.float64)
+    nz, ny, nx = plan.shape
+    return int(_walk(q, qf, r, *plan.kernel_args(weights, qmax), nz, ny, nx, decode,
+                     np.int64(qmax)))  # fmt: skip
+
+
+def _fit(q: np.ndarray, offs, box, ata_out=None) -> np.ndarray | None:
+    """Fixed-point least-squares weights of ``offs`` over the voxels of ``box``
+    (``[(z0, z1), (y0, y1), (x0, x1)]``, where every step exists), every other row and
+    column of large boxes (normal equations summed slab by slab; a quarter of the work,
+    the same bytes within 0.1 % on the Taylor-Green fields); None where too few voxels."""
+    (z0, z1), (y0, y1), (x0, x1) = box
     n = len(offs)
-    if nz - z0 <= 0 or y1 - y0 <= 0 or x1 - x0 <= 0 or (nz - z0) * (y1 - y0) * (x1 - x0) < 4 * n:
-        return np.zeros(n, np.int64)
-    f = q.astype(np.float64)
-    ata = np.zeros((n, n))
-    aty = np.zeros(n)
-    for z in range(z0, nz):
-        a = np.stack(
-            [f[z - dz, y0 - dy:y1 - dy:2, x0 - dx:x1 - dx:2].ravel() for dz, dy, dx in offs],
-            axis=1,
-        )
-        t = f[z, y0:y1:2, x0:x1:2].ravel()
-        ata += a.T @ a
-        aty += a.T @ t
-    try:
-        w = np.linalg.solve(ata + 1e-9 * np.trace(ata) / n * np.eye(n), aty)
-    except np.linalg.LinAlgError:
-        return np.zeros(n, np.int64)
+    count = (z1 - z0) * (y1 - y0) * (x1 - x0)
+    if n == 0 or count < 4 * n:
+        return None
+    s = 2 if count >= 64 * n and min(y1 - y0, x1 - x0) > 1 else 1
+    ata, aty, _ = _normal(q, offs, box, s)
+    w = _solve(ata, aty)
+    if w is None:
+        return None
     return np.clip(np.rint(w * (1 << FB)), -W_LIMIT, W_LIMIT).astype(np.int64)
 
 
-def residuals(q: np.ndarray, k: int, w2: np.ndarray | None = None):
-    """(residuals (int64, the brick's shape), long weights, near weights) of reach k
-    (the near weights fitted unless given)."""
-    q = np.ascontiguousarray(q, dtype=np.int64)
-    o1, o2 = long_offsets(k), near_offsets()
-    w1 = _fit(q, o1)
-    w2 = _fit(q, o2) if w2 is None else w2
-    r = np.empty_like(q)
+def _normal(q, offs, box, s):
+    """(A^T A, A^T y, y^T y) of ``offs`` over ``box`` at stride ``s`` along y and x."""
+    (z0, z1), (y0, y1), (x0, x1) = box
+    n = len(offs)
+    ata = np.zeros((n, n))
+    aty = np.zeros(n)
+    yty = 0.0
+    for z in range(z0, z1):
+        a = np.stack(
+            [q[z - dz, y0 - dy:y1 - dy:s, x0 - dx:x1 - dx:s].ravel() for dz, dy, dx in offs],
+            axis=1,
+        ).astype(np.float64)
+        t = q[z, y0:y1:s, x0:x1:s].ravel().astype(np.float64)
+        ata += a.T @ a
+        aty += a.T @ t
+        yty += float(t @ t)
+    return ata, aty, yty
+
+
+def _solve(ata, aty):
+    """Least-squares weights under a ridge, raised until every weight fits the fixed
+    point's range (far steps along a smooth axis are nearly collinear: clipped weights
+    of an unstable fit cost 40 % of the bytes on climate_rh at 1e-5 of its range)."""
+    n = len(aty)
+    for ridge in (1e-9, 1e-7, 1e-5, 1e-3, 1e-1):
+        try:
+            w = np.linalg.solve(ata + ridge * np.trace(ata) / n * np.eye(n), aty)
+        except np.linalg.LinAlgError:
+            continue
+        if np.abs(w).max(initial=0) * (1 << FB) < W_LIMIT:
+            return w
+    return None
+
+
+def reach_choices(shape) -> list[tuple[int, int, int]]:
+    """Every reach the encoder may use on a brick of ``shape``: per axis 4, 8, 12 up to
+    a quarter of its length (2 where none fits), and 2 along z."""
+    per = []
+    for a, n in enumerate(shape):
+        ks = [k for k in K_TRIED if k <= n // 4] or [K_THIN]
+        if a == 0 and K_THIN not in ks:
+            ks = [K_THIN, *ks]
+        per.append(ks)
+    return list(itertools.product(*per))
+
+
+def rank_reaches(q: np.ndarray) -> list[tuple[int, int, int]]:
+    """The reaches of :func:`reach_choices`, best first by the squared residual of the
+    fit of their full neighbourhood, over one sample (where the largest exists, every
+    other row and column): one set of normal equations, a solve per reach."""
+    choices = reach_choices(q.shape)
+    top = [max(c[a] for c in choices) for a in range(3)]
+    union = class_offsets((top[0], 2), (top[1], 2), (top[2], 2))
     nz, ny, nx = q.shape
-    _walk(q.reshape(-1), r.reshape(-1), _flat(o1, q.shape), w1, _box(o1), _flat(o2, q.shape),
-          w2, _box(o2), nz, ny, nx, False, np.int64(0))  # fmt: skip
-    return r, w1, w2
+    box = [(top[0], nz), (top[1], ny - 2), (top[2], nx - 2)]
+    if min(b - a for a, b in box) <= 0 or np.prod([b - a for a, b in box]) < 16 * len(union):
+        return choices
+    ata, aty, yty = _normal(q, union, box, 2)
+    index = {o: i for i, o in enumerate(union)}
+    scored = []
+    for c in choices:
+        sel = [index[o] for o in class_offsets((c[0], 2), (c[1], 2), (c[2], 2))]
+        w = _solve(ata[np.ix_(sel, sel)], aty[sel])
+        a, b = ata[np.ix_(sel, sel)], aty[sel]
+        rss = np.inf if w is None else yty - 2 * float(w @ b) + float(w @ a @ w)
+        scored.append((rss, c))
+    return [c for _, c in sorted(scored)]
+
+
+def fit(q: np.ndarray, reach) -> tuple[Plan, list]:
+    """The version-2 plan at ``reach`` and each class's weights (None: Lorenzo)."""
+    plan = Plan(q.shape, reach)
+    weights = []
+    for offs, box in zip(plan.offsets, plan.boxes()):
+        count = int(np.prod([b - a for a, b in box]))
+        ok = offs and count >= MIN_VOXELS_PER_WEIGHT * len(offs)
+        weights.append(_fit(q, offs, box) if ok else None)
+    plan.keep([w is not None for w in weights])
+    return plan, weights
+
+
+def residuals(q: np.ndarray, reach, qmax: int | None = None):
+    """(residuals (int64, the brick's shape), plan, weights) of a version-2 fit at
+    ``reach`` (an int: the same on every axis)."""
+    if isinstance(reach, int):
+        reach = (reach, reach, reach)
+    q = np.ascontiguousarray(q, dtype=np.int64)
+    plan, weights = fit(q, reach)
+    r = np.empty_like(q)
+    top = int(q.max(initial=0)) if qmax is None else qmax
+    walk(q.reshape(-1), r.reshape(-1), plan, weights, top, False)
+    return r, plan, weights
+
+
+def residuals_v1(q: np.ndarray, k: int):
+    """(residuals, long weights, near weights) of version 1 (lossy17's encoder: one
+    reach, two fits), kept to test its decoder."""
+    q = np.ascontiguousarray(q, dtype=np.int64)
+    plan = Plan(q.shape, (k, k, k), v1=True)
+    nz, ny, nx = q.shape
+    w = []
+    for offs in plan.offsets:
+        b = _box(offs)
+        fitted = _fit(q, offs, [(b[0], nz), (b[1], ny - b[2]), (b[3], nx - b[4])])
+        w.append(np.zeros(len(offs), np.int64) if fitted is None else fitted)
+    r = np.empty_like(q)
+    walk(q.reshape(-1), r.reshape(-1), plan, w, int(q.max(initial=0)), False)
+    return r, w[0], w[1]
+
+
+def _box(offs) -> list:
+    o = np.array(offs)
+    return [int(o[:, 0].max()), int(o[:, 1].max()), max(0, -int(o[:, 1].min())),
+            int(o[:, 2].max()), max(0, -int(o[:, 2].min()))]  # fmt: skip
 
 
 def estimate_bits(r: np.ndarray) -> float:
-    """Zeroth-order entropy of the residuals, bits in all (the encoder's choice of the
-    reach and its gate; the lossless codec's activity contexts code 0-15 % below it)."""
+    """Zeroth-order entropy of the residuals, bits in all (the encoder's gate; the
+    lossless codec's activity contexts code 0-15 % below it)."""
     _, n = np.unique(r, return_counts=True)
     p = n / r.size
     return float(-(n * np.log2(p)).sum())
 
 
-def encode(fitted, codec) -> bytes | None:
-    """Code :func:`residuals`' ``(r, w1, w2)`` (its reach from the weights' count), the
-    residual by ``codec`` (a lossless brick codec); ``None`` where the residuals span
-    more than 32 bits."""
-    r, w1, w2 = fitted
-    k = (len(w1) - len(w2)) // 3 + 2
+def _shifted(r: np.ndarray):
+    """(residual type code, offset) of ``r`` shifted to start at 0; None past 32 bits."""
     lo = int(r.min())
     span = int(r.max()) - lo
     code = next((c for c, d in enumerate(_DTYPES) if span <= np.iinfo(d).max), None)
-    if code is None:
+    return None if code is None else (code, lo)
+
+
+def encode_v1(fitted, codec) -> bytes | None:
+    """Version 1's bytes of :func:`residuals_v1`' ``(r, w1, w2)``."""
+    r, w1, w2 = fitted
+    k = (len(w1) - len(w2)) // 3 + 2
+    shift = _shifted(r)
+    if shift is None:
         return None
+    code, lo = shift
     body = codec.encode((r - lo).astype(_DTYPES[code]))
     head = _HEAD.pack(k, code, lo) + w1.astype("<i4").tobytes() + w2.astype("<i4").tobytes()
     return head + body
 
 
+def encode_head(r: np.ndarray, plan: Plan, weights) -> tuple[bytes, np.ndarray] | None:
+    """Version 2's fields before the residual, and the residual to code (shifted to
+    start at 0, as its type); None where it spans more than 32 bits."""
+    shift = _shifted(r)
+    if shift is None:
+        return None
+    code, lo = shift
+    bits = np.packbits(plan.present).tobytes()
+    w = np.concatenate([np.zeros(0, "<i4")] + [v.astype("<i4") for v in weights if v is not None])
+    planes = w.view(np.uint8).reshape(-1, 4).T.tobytes()  # byte planes: 16 % shorter zstd'd
+    head = _HEAD2.pack(0, *plan.reach, code, lo) + put_section(deflate(bits + planes))
+    return head, (r - lo).astype(_DTYPES[code])
+
+
 def decode(data, shape: tuple[int, ...], qdtype: np.dtype, codec) -> np.ndarray:
-    """Decode :func:`encode`'s bytes into the quantised voxels (``qdtype``)."""
+    """Decode a long-fit payload (either version) into the quantised voxels."""
     buf = bytes(data)
     if len(shape) != 3 or len(buf) < _HEAD.size:
         raise FormatError("bounded long-fit payload: too short or not a 3-D brick")
+    if buf[0] == 0:
+        plan, weights, code, lo, pos = _read_v2(buf, shape)
+    else:
+        plan, weights, code, lo, pos = _read_v1(buf, shape)
+    if len(buf) <= pos:
+        raise FormatError("bounded long-fit payload: no residuals after the weights")
+    res = codec.decode(buf[pos:], tuple(shape), np.dtype(_DTYPES[code]))
+    r = res.astype(np.int64).reshape(-1) + lo
+    q = np.empty(r.size, np.int64)
+    qmax = int(np.iinfo(np.dtype(qdtype)).max)
+    bad = walk(q, r, plan, weights, qmax, True)
+    if bad >= 0:
+        raise FormatError(f"bounded long-fit payload: voxel {bad} decodes out of range")
+    return q.reshape(shape).astype(qdtype)
+
+
+def _read_v1(buf: bytes, shape):
     k, code, lo = _HEAD.unpack_from(buf)
     if not 2 <= k <= K_MAX or code >= len(_DTYPES):
         raise FormatError(f"bounded long-fit payload: reach {k} or residual type {code} unknown")
     o1, o2 = long_offsets(k), near_offsets()
     pos = _HEAD.size + 4 * (len(o1) + len(o2))
-    if len(buf) <= pos:
-        raise FormatError("bounded long-fit payload: no residuals after the weights")
+    if len(buf) < pos:
+        raise FormatError("bounded long-fit payload: weights cut")
     w = np.frombuffer(buf[_HEAD.size:pos], "<i4").astype(np.int64)
-    w1, w2 = w[: len(o1)], w[len(o1):]
     if np.abs(w).max(initial=0) > W_LIMIT:
         raise FormatError("bounded long-fit payload: a weight out of range")
-    res = codec.decode(buf[pos:], tuple(shape), np.dtype(_DTYPES[code]))
-    r = res.astype(np.int64).reshape(-1) + lo
-    q = np.empty(r.size, np.int64)
-    nz, ny, nx = shape
-    qmax = np.int64(np.iinfo(np.dtype(qdtype)).max)
-    bad = _walk(q, r, _flat(o1, shape), w1, _box(o1), _flat(o2, shape), w2, _box(o2),
-                nz, ny, nx, True, qmax)  # fmt: skip
-    if bad >= 0:
-        raise FormatError(f"bounded long-fit payload: voxel {bad} decodes out of range")
-    return q.reshape(shape).astype(qdtype)
+    return Plan(shape, (k, k, k), v1=True), [w[: len(o1)], w[len(o1):]], code, lo, pos
+
+
+def _read_v2(buf: bytes, shape):
+    if len(buf) < _HEAD2.size:
+        raise FormatError("bounded long-fit payload: version 2 header cut")
+    _, kz, ky, kx, code, lo = _HEAD2.unpack_from(buf)
+    if not all(2 <= k <= K_MAX for k in (kz, ky, kx)) or code >= len(_DTYPES):
+        raise FormatError(
+            f"bounded long-fit payload: reach {(kz, ky, kx)} or residual type {code} unknown"
+        )
+    plan = Plan(shape, (kz, ky, kx))
+    nc = len(plan.offsets)
+    nb = (nc + 7) // 8
+    limit = nb + 4 * sum(len(o) for o in plan.offsets)
+    frame, pos = take_section(memoryview(buf), _HEAD2.size, "bounded long-fit weights")
+    body = inflate(frame, limit, "bounded long-fit weights")
+    if len(body) < nb:
+        raise FormatError("bounded long-fit payload: class bits cut")
+    present = np.unpackbits(np.frombuffer(body[:nb], np.uint8), count=nc).astype(bool)
+    sizes = [len(o) if p else 0 for o, p in zip(plan.offsets, present)]
+    if any(p and not n for p, n in zip(present, sizes)) or len(body) != nb + 4 * sum(sizes):
+        raise FormatError("bounded long-fit payload: weights do not match the classes")
+    planes = np.frombuffer(body[nb:], np.uint8).reshape(4, -1)
+    w = np.ascontiguousarray(planes.T).view("<i4").reshape(-1).astype(np.int64)
+    if np.abs(w).max(initial=0) > W_LIMIT:
+        raise FormatError("bounded long-fit payload: a weight out of range")
+    ends = np.cumsum(sizes)
+    weights = [w[e - n:e] if n else None for n, e in zip(sizes, ends)]
+    plan.keep(present)
+    return plan, weights, code, lo, pos

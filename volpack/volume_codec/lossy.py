@@ -310,8 +310,9 @@ class BoundedCodec(BrickCodec):
         if x.dtype.kind == "f":
             long = self._longfit(q, len(best[0]))
             if long is not None:
+                tier, long = long
                 long = self._finish(x, mask, rec, FLAG_RESIDUALS, [long])
-                best = keep_faster([(TIER_FAST, best), (TIER_SLOW, long)])
+                best = keep_faster([*cands, (tier, long)])
         return best
 
     def _code_quantised(self, q: np.ndarray) -> list[tuple[int, bytes]]:
@@ -330,23 +331,41 @@ class BoundedCodec(BrickCodec):
         tier = TIER_SLOW if p[0] == MODE_PREDICT else TIER_FAST  # (else raw or constant)
         return [(TIER_MID, wav), (tier, p)]
 
-    def _longfit(self, q: np.ndarray, best: int) -> bytes | None:
-        """The quantised voxels by the long fitted predictor
-        (:mod:`volpack.volume_codec.bounded_longfit`) at the axis reach whose residuals'
-        entropy is least; made only where that entropy is under LONGFIT_MAX_ENTROPY times
-        ``best`` bytes (the shortest coding so far), and not tried where that spends less than
+    def _longfit(self, q: np.ndarray, best: int) -> tuple[int, bytes] | None:
+        """(decoding tier, payload) of the quantised voxels by the long fitted
+        predictor, version 2 (:mod:`volpack.volume_codec.bounded_longfit`): the two
+        reaches whose fits leave the least squared residual are coded and the shorter
+        kept, its residual by the lossless codec's wavelet (the middle tier: the walk
+        costs about what the wavelet does), or by its predictive tool (the slow tier)
+        where that is SLOW_MIN_SAVING shorter. Made only where the first
+        one's residual entropy is under LONGFIT_MAX_ENTROPY times ``best`` bytes (the
+        shortest coding so far), and not tried where that spends less than
         LONGFIT_MIN_BITS a voxel (loose bounds: the wavelet and interpolation paths)."""
         from . import bounded_longfit as lf
 
         small = q.ndim != 3 or min(q.shape) < 4 or q.size < 4096
         if small or 8 * best < LONGFIT_MIN_BITS * q.size:
             return None
-        first = lf.residuals(q, lf.K_TRIED[0])
-        tried = [first] + [lf.residuals(q, k, first[2]) for k in lf.K_TRIED[1:]]
-        bits, i = min((lf.estimate_bits(t[0]), i) for i, t in enumerate(tried))
-        if bits / 8 > best * LONGFIT_MAX_ENTROPY:
+        qmax = int(np.iinfo(q.dtype).max)
+        wav = self._inner()
+        kept = None
+        for i, reach in enumerate(lf.rank_reaches(np.ascontiguousarray(q, np.int64))[:2]):
+            r, plan, weights = lf.residuals(q, reach, qmax)
+            if i == 0 and lf.estimate_bits(r) / 8 > best * LONGFIT_MAX_ENTROPY:
+                return None
+            head = lf.encode_head(r, plan, weights)
+            if head is None:
+                continue
+            data = head[0] + wav.encode(head[1])
+            if kept is None or len(data) < len(kept[0]):
+                kept = data, head
+        if kept is None:
             return None
-        return lf.encode(tried[i], self._predictive())
+        data, (head, res) = kept
+        slow = head + self._predictive().encode(res)
+        if len(slow) < len(data) * (1.0 - SLOW_MIN_SAVING):
+            return TIER_SLOW, slow
+        return TIER_MID, data
 
     @property
     def _exact(self) -> bool:
