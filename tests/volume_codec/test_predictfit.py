@@ -157,7 +157,7 @@ def test_version_one_headers():
     old = LosslessCodec(predict_version=1)
     assert "predict_version" not in old.get_config()
     assert LosslessCodec.from_config(old.get_config()) == old
-    assert LosslessCodec().get_config()["predict_version"] == 7
+    assert LosslessCodec().get_config()["predict_version"] == 8
     assert LosslessCodec.from_config(LosslessCodec().get_config()) == LosslessCodec()
     with pytest.raises(OptionError):
         LosslessCodec(predict_version=8)
