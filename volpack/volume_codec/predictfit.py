@@ -453,6 +453,19 @@ def _predict_kernel(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, h
 
 
 @kernel(inline=True)
+def _predict_mix(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, held, tex, mix):
+    """:func:`_predict_kernel`, with the voxel's slots of the mixed estimates
+    (:func:`.residmix.contexts`, or ``NO_MIX``) in place of the activity."""
+    pred, ctx, bctx, sctx, act, q0, q1, q2, q3, q4, q5 = _predict_kernel(
+        v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, held, tex
+    )
+    mx = NO_MIX
+    if mix:
+        mx = residmix.contexts(err, r, ru, y, x, ny, nx, act, ctx, pred)
+    return pred, ctx, bctx, sctx, mx, q0, q1, q2, q3, q4, q5
+
+
+@kernel(inline=True)
 def _learn(err, perr, r, val, pred, ctx, bias_sum, bias_cnt, bias, q0, q1, q2, q3, q4, q5):
     """After voxel ``val`` at ring slot ``r`` is known: store its errors (the
     predictors' in eighths) and update the context's bias (in eighths). The bias the
@@ -512,13 +525,9 @@ def _encode_kernel(
                     held = _skip(err, perr, r, v[np.uint64(i)])
                     i += 1
                     continue
-                ru = r - cur + prev
-                pred, ctx, bctx, sctx, act, q0, q1, q2, q3, q4, q5 = _predict_kernel(
-                    v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, held, tex
+                pred, ctx, bctx, sctx, mx, q0, q1, q2, q3, q4, q5 = _predict_mix(
+                    v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, bias, held, tex, mix
                 )
-                mx = NO_MIX
-                if mix:
-                    mx = residmix.contexts(err, r, ru, y, x, ny, nx, act, ctx, pred)
                 val = v[np.uint64(i)]
                 q = _low_class(pred, nlow)
                 low, rng, pos = put_residual_mix(
@@ -558,13 +567,9 @@ def _decode_kernel(
                     held = _skip(err, perr, r, fill)
                     i += 1
                     continue
-                ru = r - cur + prev
-                pred, ctx, bctx, sctx, act, q0, q1, q2, q3, q4, q5 = _predict_kernel(
-                    v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, held, tex
+                pred, ctx, bctx, sctx, mx, q0, q1, q2, q3, q4, q5 = _predict_mix(
+                    v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, bias, held, tex, mix
                 )
-                mx = NO_MIX
-                if mix:
-                    mx = residmix.contexts(err, r, ru, y, x, ny, nx, act, ctx, pred)
                 q = _low_class(pred, nlow)
                 res, code, rng, pos = get_residual_mix(
                     data, models, ctx, sctx, q, code, rng, pos, aux, mx
