@@ -227,24 +227,97 @@ def _len_models(ctx, q, neg):
 
 
 @kernel(inline=True)
+def _zero_model_q(ctx, sctx, q):
+    """Zero flag's model: :func:`_zero_model`, or by the low-value class ``q``."""
+    return _zero_model(ctx, sctx) if q < 0 else M_LOWZ + q * NFRAC + (sctx & (NFRAC - 1))
+
+
+@kernel(inline=True)
+def _zero_state(models, ctx, sctx, q):
+    """The zero flag's model and its state. Both of the context's zero-flag models are
+    loaded, then one picked by the prediction's eighths: the loads wait for the context
+    only, not for the prediction, which comes last (out of the division)."""
+    kz = M_ZERO + 2 * ctx
+    st0 = np.int64(models[np.uint64(kz)])
+    st1 = np.int64(models[np.uint64(kz + 1)])
+    h = _near_half(sctx)
+    kz += h
+    st = st0 + ((st1 - st0) & -h)
+    if q >= 0:
+        kz = M_LOWZ + q * NFRAC + (sctx & (NFRAC - 1))
+        st = np.int64(models[np.uint64(kz)])
+    return kz, st
+
+
+@kernel(inline=True)
+def _low_bits(data, u, nb, nm, neg, code, rng, pos):
+    """The residual from its decoded leading bits ``u``: the bits at one half, the sign."""
+    # (a damaged low part moves pos past the end: the end check refuses the stream)
+    w, code, rng, pos = get_bits(data, np.uint64(u), nb - 1 - max(nm, 0), code, rng, pos)
+    u = np.int64(w)
+    return (-(u + 1) if neg else u + 1), code, rng, pos
+
+
+# put_residual and get_residual code without the mix (the lossy path's adaptive bins
+# use them too): written apart from the mixed pair below, whose dead code took the
+# lossy kernels 3-7 s more each to compile even with the mix pruned (measured).
+@kernel(inline=True)
 def put_residual(out, models, ctx, sctx, q, r, low, rng, pos):
     """Code residual ``r`` as :func:`.predict.put_residual` does (zero flag, sign, unary
     bit length of ``|r| - 1``, two bits below its leading one, the rest at one half),
     with this module's models (the low-value ones for class ``q >= 0``)."""
-    return put_residual_mix(out, models, ctx, sctx, q, r, low, rng, pos, models, NO_MIX)
+    kz = _zero_model_q(ctx, sctx, q)
+    low, rng, pos = put16(out, models, kz, np.int64(r != 0), low, rng, pos)
+    if r == 0:
+        return low, rng, pos
+    neg = np.int64(r < 0)
+    low, rng, pos = put16(out, models, _sign_model(ctx, sctx, q), neg, low, rng, pos)
+    u = abs(r) - 1
+    nb = bitlen(u)
+    k0 = _len_models(ctx, q, neg)
+    for j in range(min(nb + 1, NLEN - 1)):
+        low, rng, pos = put16(out, models, k0 + j, np.int64(nb > j), low, rng, pos)
+    nm = min(nb - 1, 2)
+    prefix = 1
+    for jm in range(nm):
+        bit = (u >> (nb - 2 - jm)) & 1
+        low, rng, pos = put16(out, models, _mant_model(nb, prefix, ctx), bit, low, rng, pos)
+        prefix = 2 * prefix + bit
+    return put_bits(out, np.uint64(u), nb - 1 - max(nm, 0), low, rng, pos)
 
 
 @kernel(inline=True)
 def get_residual(data, models, ctx, sctx, q, code, rng, pos):
     """Decode what :func:`put_residual` coded; ``NO_RESIDUAL`` for an impossible one."""
-    return get_residual_mix(data, models, ctx, sctx, q, code, rng, pos, models, NO_MIX)
+    kz, st = _zero_state(models, ctx, sctx, q)
+    bit, models[np.uint64(kz)], code, rng, pos = get16_held(data, st, code, rng, pos)
+    if bit == 0:
+        return np.int64(0), code, rng, pos
+    neg, code, rng, pos = get16(data, models, _sign_model(ctx, sctx, q), code, rng, pos)
+    k0 = _len_models(ctx, q, neg)
+    nb = 0
+    while nb < NLEN - 1:
+        bit, code, rng, pos = get16(data, models, k0 + nb, code, rng, pos)
+        if bit == 0:
+            break
+        nb += 1
+    if nb > 62:
+        return NO_RESIDUAL, code, rng, pos
+    u = np.int64(1 if nb >= 1 else 0)
+    nm = min(nb - 1, 2)
+    prefix = 1
+    for _ in range(nm):
+        bit, code, rng, pos = get16(data, models, _mant_model(nb, prefix, ctx), code, rng, pos)
+        prefix = 2 * prefix + bit
+        u = (u << 1) | bit
+    return _low_bits(data, u, nb, nm, neg, code, rng, pos)
 
 
 @kernel(inline=True)
 def put_residual_mix(out, models, ctx, sctx, q, r, low, rng, pos, aux, mx):
     """:func:`put_residual`, each decision mixed with models 2-4 of ``aux`` at the slots
     ``mx`` (:func:`.residmix.contexts`; ``NO_MIX``: not mixed)."""
-    kz = _zero_model(ctx, sctx) if q < 0 else M_LOWZ + q * NFRAC + (sctx & (NFRAC - 1))
+    kz = _zero_model_q(ctx, sctx, q)
     sz = residmix.S_ZERO + (sctx & (NFRAC - 1))
     low, rng, pos = _put16m(out, models, kz, np.int64(r != 0), low, rng, pos, aux, mx, sz, 0)
     if r == 0:
@@ -283,18 +356,7 @@ def _mant_slot(nb, prefix):
 @kernel(inline=True)
 def get_residual_mix(data, models, ctx, sctx, q, code, rng, pos, aux, mx):
     """Decode what :func:`put_residual_mix` coded; ``NO_RESIDUAL`` for an impossible one."""
-    # Both of the context's zero-flag models are loaded, then one picked by the
-    # prediction's eighths: the loads wait for the context only, not for the
-    # prediction, which comes last (out of the division).
-    kz = M_ZERO + 2 * ctx
-    st0 = np.int64(models[np.uint64(kz)])
-    st1 = np.int64(models[np.uint64(kz + 1)])
-    h = _near_half(sctx)
-    kz += h
-    st = st0 + ((st1 - st0) & -h)
-    if q >= 0:
-        kz = M_LOWZ + q * NFRAC + (sctx & (NFRAC - 1))
-        st = np.int64(models[np.uint64(kz)])
+    kz, st = _zero_state(models, ctx, sctx, q)
     sz = residmix.S_ZERO + (sctx & (NFRAC - 1))
     bit, models[np.uint64(kz)], code, rng, pos = _get16m_held(data, st, code, rng, pos, aux, mx, sz, 0)
     if bit == 0:
@@ -320,10 +382,7 @@ def get_residual_mix(data, models, ctx, sctx, q, code, rng, pos, aux, mx):
         bit, code, rng, pos = _get16m(data, models, km, code, rng, pos, aux, mx, sl, 14 + jm)
         prefix = 2 * prefix + bit
         u = (u << 1) | bit
-    # (a damaged low part moves pos past the end: the end check refuses the stream)
-    w, code, rng, pos = get_bits(data, np.uint64(u), nb - 1 - max(nm, 0), code, rng, pos)
-    u = np.int64(w)
-    return (-(u + 1) if neg else u + 1), code, rng, pos
+    return _low_bits(data, u, nb, nm, neg, code, rng, pos)
 
 
 def _weight2_table() -> np.ndarray:
