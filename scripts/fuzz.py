@@ -67,6 +67,8 @@ KINDS = {
     "lossless-v5": ("lossless-v5-u8-floor.vpk", VOLUME_PATHS),
     # version 7's texture bias (flag 128)
     "lossless-v7": ("lossless-v7-u8-tex.vpk", VOLUME_PATHS),
+    # version 8's mixed estimates (flag 256, a second flags byte)
+    "lossless-v8": ("lossless-v8-u8-mix.vpk", VOLUME_PATHS),
     # version 3's float tools (mode 5): Lorenzo on the floats' signed images, and lattices
     "float-lorenzo": ("lossless-v3-f32-smooth.vpk", VOLUME_PATHS),
     "float-lattice": ("lossless-v3-f32-packed.vpk", VOLUME_PATHS),

@@ -234,7 +234,7 @@ def cost(v, hi, mask, offsets, cf, th, low=True, gmode=0, tex=0, coarse=0, sgn=0
     flat = np.ascontiguousarray(v, np.int64).reshape(-1)
     mk = np.zeros(flat.size, np.uint8) if mask is None else np.ascontiguousarray(mask, np.uint8).reshape(-1)
     out = np.zeros(5, np.float64)
-    err, perr, _, _, _, models = pf._workspace(v.shape)
+    err, perr, _, _, _, models, _ = pf._workspace(v.shape)
     models = np.concatenate([models, np.full(pr.NCTX * 12 * 4, pf.MODEL_INIT, models.dtype)])
     nb = pr.NCTX * 64
     ws = (err, perr, np.zeros(nb, np.int64), np.zeros(nb, np.int64), np.zeros(nb, np.int64), models)

@@ -175,6 +175,8 @@ LOSSLESS_CASES = [
     ("lossless-v6-f32-fit", "f32-rough", {"brick": 32, "predict_version": 6}),
     # version 7: the texture bias (flag 128, with the low-value models), one brick
     ("lossless-v7-u8-tex", "v2-u8", {"brick": 32, "predict_version": 7}),
+    # version 8: the mixed estimates (flag 256: a second flags byte), one brick
+    ("lossless-v8-u8-mix", "v2-u8", {"brick": 32, "predict_version": 8}),
 ]
 
 

@@ -98,7 +98,7 @@ def test_fit_codes_shorter_than_lorenzo_and_the_codec_keeps_it():
     assert same_bits(api.decompress_array(blob), a)
     with Reader(blob) as r:
         assert [describe(p) for _, _, p in r] == ["float-fit"]
-        assert r.header["codec"]["predict_version"] == 7
+        assert r.header["codec"]["predict_version"] == 8
     older = api.compress_array(a, predict_version=5)
     with Reader(older) as r:
         assert "float-fit" not in {describe(p) for _, _, p in r}

@@ -158,7 +158,7 @@ def test_codec_picks_the_blend_for_periodic_and_masked_bricks():
         assert same_bits(api.decompress_array(blob), v)
         with Reader(blob) as r:
             assert Counter(describe(p) for _, _, p in r) == {"float-blend": 1}
-            assert r.header["codec"]["predict_version"] == 7
+            assert r.header["codec"]["predict_version"] == 8
         older = api.compress_array(v, predict_version=3)
         assert same_bits(api.decompress_array(older), v)
         with Reader(older) as r:

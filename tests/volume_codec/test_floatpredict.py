@@ -283,7 +283,7 @@ def test_version_two_writes_no_float_prediction():
     a = field((16, 16, 16))
     for version in (1, 2):
         assert LosslessCodec(predict_version=version).encode(a)[0] != MODE_FLOAT
-    assert LosslessCodec().get_config()["predict_version"] == 7
+    assert LosslessCodec().get_config()["predict_version"] == 8
 
 
 # --- golden streams ----------------------------------------------------------------------

@@ -19,6 +19,7 @@ from volpack.volume_codec.lossless import (
     FLAG_FLOAT,
     FLAG_LABELS,
     FLAG_LOW,
+    FLAG_MORE,
     FLAG_PALETTE,
     FLAG_SPLIT,
     FLAG_TEX,
@@ -316,6 +317,8 @@ CASES = [
     ("lossless-v2-predict-u8", "v2-u8", {"tools": "predict", "brick": 32, "predict_version": 2}),
     ("lossless-v5-u8-floor", "v5-u8-floor", {"brick": 32, "predict_version": 5}),
     ("lossless-v7-u8-tex", "v2-u8", {"brick": 32, "predict_version": 7}),
+    # version 8: the mixed estimates (flag 256: a second flags byte), one brick
+    ("lossless-v8-u8-mix", "v2-u8", {"brick": 32, "predict_version": 8}),
 ]
 
 
@@ -378,6 +381,7 @@ def test_golden_lossless_streams_use_the_new_sections():
     assert (MODE_PREDICT, FLAG_PALETTE | FLAG_LABELS) in seen
     assert (MODE_PREDICT, FLAG_FIT | FLAG_PALETTE | FLAG_LOW) in seen
     assert (MODE_PREDICT, FLAG_FIT | FLAG_LOW | FLAG_TEX) in seen
+    assert (MODE_PREDICT, FLAG_FIT | FLAG_LOW | FLAG_TEX | FLAG_MORE) in seen  # MIX
 
 
 # --- corrupt payloads --------------------------------------------------------------------

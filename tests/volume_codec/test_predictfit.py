@@ -157,12 +157,12 @@ def test_version_one_headers():
     old = LosslessCodec(predict_version=1)
     assert "predict_version" not in old.get_config()
     assert LosslessCodec.from_config(old.get_config()) == old
-    assert LosslessCodec().get_config()["predict_version"] == 7
+    assert LosslessCodec().get_config()["predict_version"] == 8
     assert LosslessCodec.from_config(LosslessCodec().get_config()) == LosslessCodec()
     with pytest.raises(OptionError):
-        LosslessCodec(predict_version=8)
+        LosslessCodec(predict_version=9)
     with pytest.raises(FormatError):
-        LosslessCodec.from_config({**LosslessCodec().get_config(), "predict_version": 8})
+        LosslessCodec.from_config({**LosslessCodec().get_config(), "predict_version": 9})
 
 
 def test_golden_streams_use_the_new_sections():

@@ -13,9 +13,10 @@ mode  payload after the mode byte
 4     3-D prediction: a flags byte (1: palette, 2: float bits, 4: floats split into
       exponent and mantissa, 8: labels copied from neighbours, 16: the predictive
       stream of version 2 (:mod:`.predictfit`), 32: a background mask, 64: version 2
-      with the low-value models, 128: version 2 with the texture bias), then the
-      palette or the value range (none when split), the mask, then the predictive or
-      label stream
+      with the low-value models, 128: version 2 with the texture bias; 8 with 16, which
+      excludes labels: a second flags byte follows, bit 0 of it (flag 256) the mixed
+      estimates), then the palette or the value range (none when split), the mask,
+      then the predictive or label stream
 5     floats by prediction on their integer images (:mod:`.floatpredict`): a tool byte
       (0: Lorenzo, 1: lattice, 2: blend of predictors with copies and a fill value,
       :mod:`.floatmix`, 3: a least-squares predictor fitted per brick, or Lorenzo,
@@ -31,9 +32,12 @@ see ``ZSTD_19_OVER_9``). Version 4 adds mode 5's blend (tool 2) for
 float32 and float64 bricks. Version 5 adds, for integer bricks, version
 2's stream with the low-value models of :mod:`.predictfit` (flag 64), where it is the
 shorter. Version 6 adds mode 5's fitted predictor (tool 3) for float32 and
-float64 bricks. Version 7 (the default) adds, for integer bricks, version 2's stream with
-the texture bias of :mod:`.predictfit` (flag 128), where it is the shorter. A decoder
-reads every version, whatever the config says.
+float64 bricks. Version 7 adds, for integer bricks, version 2's stream with
+the texture bias of :mod:`.predictfit` (flag 128), where it is the shorter. Version 8 (the
+default) adds, for integer bricks, version 2's stream with the residual's decisions
+coded by a mix of four estimates (:mod:`.residmix`, flag 256), where it saves
+``MIX_MIN_SAVING`` of the bytes (it decodes slower). A decoder reads every version,
+whatever the config says.
 
 Floats (float16, float32, float64) are coded exactly through integer images of their
 bits (:mod:`.floatbits`, :mod:`.floatpredict`); NaN, -0.0, denormals and Inf come back
@@ -79,10 +83,20 @@ BLEND_MIN_SAVING = 0.02
 EXACT_FLOATS = FLOAT_DTYPES + ("float64",)
 FLAG_PALETTE, FLAG_FLOAT, FLAG_SPLIT, FLAG_LABELS, FLAG_FIT, FLAG_MASK = 1, 2, 4, 8, 16, 32
 FLAG_LOW, FLAG_TEX = 64, 128
-FLAGS = FLAG_PALETTE | FLAG_FLOAT | FLAG_SPLIT | FLAG_LABELS | FLAG_FIT | FLAG_MASK | FLAG_LOW | FLAG_TEX
-VERSIONS = (1, 2, 3, 4, 5, 6, 7)
+# With FIT, the LABELS bit (which FIT excludes) says a second flags byte follows: flags
+# 256 and up. MIX (256) is its only flag.
+FLAG_MORE, FLAG_MIX = FLAG_LABELS, 256
+FLAGS = (
+    FLAG_PALETTE | FLAG_FLOAT | FLAG_SPLIT | FLAG_LABELS | FLAG_FIT | FLAG_MASK | FLAG_LOW | FLAG_TEX
+    | FLAG_MIX
+)  # fmt: skip
+VERSIONS = (1, 2, 3, 4, 5, 6, 7, 8)
 LOW_VERSION = 5  # the first predict_version whose encoder tries the low-value models
 TEX_VERSION = 7  # the first predict_version whose encoder tries the texture bias
+MIX_VERSION = 8  # the first predict_version whose encoder tries the mixed estimates
+# The mix decodes at about half the speed of version 7's stream: kept only when it saves
+# this share of the brick's bytes.
+MIX_MIN_SAVING = 0.003
 TOOLS = ("auto", "wavelet", "predict")
 FLOAT_ZSTD_LEVEL = 9
 FLOAT_ZSTD_LEVEL_V3 = 19  # floats compress slowly either way; 19 finds repeats 9 misses
@@ -100,14 +114,14 @@ class LosslessCodec(BrickCodec):
     tools : {"auto", "wavelet", "predict"}
         ``auto`` tries both tools on every brick and keeps the shorter; the others use
         one tool (for comparison; floats always use prediction).
-    predict_version : {1, 2, 3, 4, 5, 6, 7}
+    predict_version : {1, 2, 3, 4, 5, 6, 7, 8}
         The predictive stream written for integer bricks: 2 (a fitted predictor and a
         background mask) or 1 (the earlier one, for identical files); 3 codes integers
         as 2 and floats also by Lorenzo or lattice prediction (mode 5); 4 also by the
         blend of predictors with copies and a fill value (mode 5, tool 2); 5 as 4,
         integers also with the low-value models; 6 as 5, float32 and float64 also by a
-        predictor fitted per brick (mode 5, tool 3); 7 (the default) as 6, integers also
-        with the texture bias.
+        predictor fitted per brick (mode 5, tool 3); 7 as 6, integers also with the
+        texture bias; 8 (the default) as 7, integers also with the mixed estimates.
     """
 
     codec_id: ClassVar[str] = "lossless"
@@ -116,7 +130,7 @@ class LosslessCodec(BrickCodec):
     order: str = "dfs"
     max_levels: int | None = None
     tools: str = "auto"
-    predict_version: int = 7
+    predict_version: int = 8
 
     def __post_init__(self) -> None:
         _check_choice("tools", self.tools, TOOLS)
@@ -277,15 +291,17 @@ def describe(payload: bytes) -> str:
     """The tool a brick payload used, as ``volpack info`` lists it."""
     mode = payload[0] if payload else -1
     if mode == MODE_PREDICT and len(payload) > 1:
-        if payload[1] & FLAG_SPLIT:
+        flags = payload[1]
+        if flags & FLAG_SPLIT:
             return "predict-float"
-        if payload[1] & FLAG_LABELS:
+        if flags & FLAG_LABELS and not flags & FLAG_FIT:
             return "labels"
-        name = "predict2" if payload[1] & FLAG_FIT else "predict"
-        name += "+palette" if payload[1] & FLAG_PALETTE else ""
-        name += "+mask" if payload[1] & FLAG_MASK else ""
-        name += "+low" if payload[1] & FLAG_LOW else ""
-        return name + ("+tex" if payload[1] & FLAG_TEX else "")
+        name = "predict2" if flags & FLAG_FIT else "predict"
+        name += "+palette" if flags & FLAG_PALETTE else ""
+        name += "+mask" if flags & FLAG_MASK else ""
+        name += "+low" if flags & FLAG_LOW else ""
+        name += "+tex" if flags & FLAG_TEX else ""
+        return name + ("+mix" if flags & FLAG_FIT and flags & FLAG_MORE else "")
     if mode == MODE_FLOAT and len(payload) > 1:
         tool = FLOAT_TOOLS[payload[1]] if payload[1] < len(FLOAT_TOOLS) else payload[1]
         return f"float-{tool}"
@@ -310,7 +326,11 @@ def _encode_predict(brick: np.ndarray, version: int = 1) -> list[bytes]:
             bytes([MODE_PREDICT, flags]) + pal.pack_range(lo, hi) + predict.encode(values, lo, hi)
         ]
     if version >= 2 and not is_float:  # version 1 stays a candidate: tiny bricks pay
-        out.append(_encode_fit(values, lo, hi, version >= LOW_VERSION, version >= TEX_VERSION))
+        out.append(
+            _encode_fit(
+                values, lo, hi, version >= LOW_VERSION, version >= TEX_VERSION, version >= MIX_VERSION
+            )
+        )
     if hi - lo + 1 > 2:
         p = pal.build(values)
         if len(p) < hi - lo + 1 and len(p) <= pal.MAX_PALETTE:
@@ -333,12 +353,15 @@ def _encode_predict(brick: np.ndarray, version: int = 1) -> list[bytes]:
     return out
 
 
-def _encode_fit(values: np.ndarray, lo: int, hi: int, low: bool = False, tex: bool = False) -> bytes:
+def _encode_fit(
+    values: np.ndarray, lo: int, hi: int, low: bool = False, tex: bool = False, mix: bool = False
+) -> bytes:
     """The shortest version-2 predictive payload of an integer brick: on its values or
     on their palette ranks (when the brick leaves values of its range unused), then
     for the better of those with a background mask, and with one gradient class; with
     ``low``, the best of those again with the low-value models; with ``tex``, the best
-    again with the texture bias."""
+    again with the texture bias; with ``mix``, the best again with the mixed estimates
+    (kept when ``MIX_MIN_SAVING`` shorter)."""
     from . import predictfit
 
     head = bytes([MODE_PREDICT, FLAG_FIT]) + pal.pack_range(lo, hi)
@@ -376,6 +399,15 @@ def _encode_fit(values: np.ndarray, lo: int, hi: int, low: bool = False, tex: bo
             v, a, b, mask=mask, fitted=fitted, low=with_low, tex=True
         )
         best = min(best, payload, key=len)
+    if mix:  # (the same settings as the best, mixed)
+        flags = best[1]
+        head2 = bytes([head[0], flags | FLAG_MORE, FLAG_MIX >> 8]) + head[2:]
+        low_, tex_ = bool(flags & FLAG_LOW), bool(flags & FLAG_TEX)
+        payload = head2 + section + predictfit.encode(
+            v, a, b, mask=mask, fitted=fitted, low=low_, tex=tex_, mix=True
+        )
+        if len(payload) < (1 - MIX_MIN_SAVING) * len(best):
+            best = payload
     return best
 
 
@@ -385,13 +417,19 @@ def _decode_predict(body: memoryview, shape: tuple[int, ...], dtype: np.dtype) -
     if len(body) < 1:
         raise FormatError("predictive brick payload: missing flags byte")
     flags = body[0]
+    rest = body[1:]
+    if flags & FLAG_FIT and flags & FLAG_MORE:  # a second flags byte: MIX alone
+        if len(body) < 2 or body[1] != FLAG_MIX >> 8:
+            raise FormatError("predictive brick payload: expected the second flags byte 1 (MIX)")
+        flags = (flags & ~FLAG_MORE) | FLAG_MIX
+        rest = body[2:]
     is_float = dtype.kind == "f"
     split = bool(flags & FLAG_SPLIT)
     fit = bool(flags & FLAG_FIT)
     if (
         flags & ~FLAGS
         or (fit and flags & (FLAG_FLOAT | FLAG_LABELS))
-        or (flags & (FLAG_MASK | FLAG_LOW | FLAG_TEX) and not fit)
+        or (flags & (FLAG_MASK | FLAG_LOW | FLAG_TEX | FLAG_MIX) and not fit)
         or bool(flags & FLAG_FLOAT) != is_float
         or (split and flags & (FLAG_PALETTE | FLAG_LABELS))
         or (split and not is_float)
@@ -399,7 +437,6 @@ def _decode_predict(body: memoryview, shape: tuple[int, ...], dtype: np.dtype) -
     ):
         raise FormatError(f"predictive brick payload: flags {flags:#x} do not fit {dtype} voxels")
     vmin, vmax = _value_range(dtype)
-    rest = body[1:]
     n = int(np.prod(shape))
     if split:
         from . import floatcode
@@ -437,11 +474,11 @@ def _decode_fit(data: memoryview, shape: tuple[int, ...], lo: int, hi: int, flag
 
     if hi - lo >= 1 << 32:
         raise FormatError(f"predictive brick payload: value range [{lo}, {hi}] is out of bounds")
-    low, tex = bool(flags & FLAG_LOW), bool(flags & FLAG_TEX)
+    low, tex, mix = bool(flags & FLAG_LOW), bool(flags & FLAG_TEX), bool(flags & FLAG_MIX)
     if flags & FLAG_MASK:
         fill, mask, used = bgmask.decode(data, shape, hi - lo)
-        return predictfit.decode(data[used:], shape, lo, hi, mask, lo + fill, low, tex)
-    return predictfit.decode(data, shape, lo, hi, low=low, tex=tex)
+        return predictfit.decode(data[used:], shape, lo, hi, mask, lo + fill, low, tex, mix)
+    return predictfit.decode(data, shape, lo, hi, low=low, tex=tex, mix=mix)
 
 
 def _value_range(dtype: np.dtype) -> tuple[int, int]:

@@ -37,6 +37,7 @@ from ..entropy.rangecoder import end_status, finish_stream, get_bits, open_encod
 from ..entropy.rangecoder import pull as _pull
 from ..entropy.rangecoder import push as _push
 from ..errors import FormatError, OptionError
+from . import residmix
 from .predict import (
     NCTX,
     NLEN,
@@ -53,6 +54,8 @@ from .predict import (
     store_errors,
     workspace,
 )
+from .residmix import MODEL_INIT, NCAP, NO_MIX, RATE, RATE_MAX  # noqa: F401 (users import them here)
+from .residmix import adapted as _adapted
 
 NFRAC = 4  # classes of the prediction's eighths (the sign's context)
 # Model layout: zero flags (2 per context), signs (3 x NFRAC per context), unary bit
@@ -82,11 +85,6 @@ N_MODELS_LOW = M_LOWL + NLOW * 2 * NLEN
 NTEX = 64
 NTEXG = 12
 NBIAS = NCTX + (NCTX // NTEXG) * NTEX
-RATE_MAX = 8
-NCAP = (1 << RATE_MAX) - 1  # use counts saturate here
-# Adaptation rate by use count: a running average (1 / (n + 1)) until 2^-RATE_MAX.
-RATE = np.array([min(n.bit_length(), RATE_MAX) for n in range(1, NCAP + 2)], dtype=np.int64)
-MODEL_INIT = (1 << 15) << 8  # probability one half, used 0 times
 CF_BITS = 12  # fixed-point bits of the fitted weights
 CF_LIMIT = (1 << 15) - 1
 NCLS = 4  # gradient classes of the fitted predictor
@@ -98,17 +96,6 @@ FIT_OFFSETS = (
 )  # fmt: skip
 NFIT = len(FIT_OFFSETS)
 HEAD = 4 * (NCLS - 1) + 2 * NCLS * NFIT  # thresholds and weights before the stream
-
-
-@kernel(inline=True)
-def _adapted(p, n, mask):
-    """The state of a model (16-bit probability ``p`` of a 0, use count ``n``) moved
-    towards the bit coded (``mask``: -1 for a 1, 0 for a 0). ``p`` stays within
-    1..65535."""
-    r = RATE[np.uint64(n)]
-    g = (65536 - p) >> r
-    p += g - ((g + (p >> r)) & mask)
-    return (p << 8) | (n + np.int64(n < NCAP))
 
 
 @kernel(inline=True)
@@ -155,6 +142,51 @@ def get16(data, models, k, code, rng, pos):
 
 
 @kernel(inline=True)
+def _put16m(out, models, k, bit, low, rng, pos, aux, mx, slot, kind):
+    """:func:`put16`, or with ``MIX`` (``mx`` from :func:`.residmix.contexts`) the
+    decision coded with the mix of model ``k`` and models 2-4 at ``slot`` (weights of
+    decision ``kind``); model ``k`` adapts as in :func:`put16` either way."""
+    st = np.int64(models[np.uint64(k)])
+    p1 = st >> 8
+    if not residmix.mixing(mx, p1):
+        return put16(out, models, k, bit, low, rng, pos)
+    mask = -np.int64(bit)
+    p, s1, s2, s3, s4, wb = residmix.mix(p1, aux, mx, slot, kind)
+    bound = (rng >> 16) * p
+    low += bound & mask
+    rng = bound + ((rng - 2 * bound) & mask)
+    _adapt(models, k, p1, st & 255, mask)
+    residmix.learn(aux, mx, slot, p, s1, s2, s3, s4, wb, mask)
+    return _push(out, low, rng, pos)
+
+
+@kernel(inline=True)
+def _get16m_held(data, st, code, rng, pos, aux, mx, slot, kind):
+    """Decode one decision coded by :func:`_put16m` (model 1's state ``st`` held by the
+    caller); returns ``(bit, model 1's new state, code, rng, pos)``."""
+    p1 = st >> 8
+    if not residmix.mixing(mx, p1):
+        return get16_held(data, st, code, rng, pos)
+    p, s1, s2, s3, s4, wb = residmix.mix(p1, aux, mx, slot, kind)
+    bound = (rng >> 16) * p
+    bit = np.int64(code >= bound)
+    mask = -bit
+    code -= bound & mask
+    rng = bound + ((rng - 2 * bound) & mask)
+    code, rng, pos = _pull(data, code, rng, pos)
+    residmix.learn(aux, mx, slot, p, s1, s2, s3, s4, wb, mask)
+    return bit, _adapted(p1, st & 255, mask), code, rng, pos
+
+
+@kernel(inline=True)
+def _get16m(data, models, k, code, rng, pos, aux, mx, slot, kind):
+    bit, models[np.uint64(k)], code, rng, pos = _get16m_held(
+        data, np.int64(models[np.uint64(k)]), code, rng, pos, aux, mx, slot, kind
+    )
+    return bit, code, rng, pos
+
+
+@kernel(inline=True)
 def _near_half(sctx):
     """1 when the prediction's eighths (in ``sctx``) lie near a half, else 0."""
     return ((sctx & (NFRAC - 1)) + 1) >> 1 & 1
@@ -195,11 +227,46 @@ def _len_models(ctx, q, neg):
 
 
 @kernel(inline=True)
+def _zero_model_q(ctx, sctx, q):
+    """Zero flag's model: :func:`_zero_model`, or by the low-value class ``q``."""
+    return _zero_model(ctx, sctx) if q < 0 else M_LOWZ + q * NFRAC + (sctx & (NFRAC - 1))
+
+
+@kernel(inline=True)
+def _zero_state(models, ctx, sctx, q):
+    """The zero flag's model and its state. Both of the context's zero-flag models are
+    loaded, then one picked by the prediction's eighths: the loads wait for the context
+    only, not for the prediction, which comes last (out of the division)."""
+    kz = M_ZERO + 2 * ctx
+    st0 = np.int64(models[np.uint64(kz)])
+    st1 = np.int64(models[np.uint64(kz + 1)])
+    h = _near_half(sctx)
+    kz += h
+    st = st0 + ((st1 - st0) & -h)
+    if q >= 0:
+        kz = M_LOWZ + q * NFRAC + (sctx & (NFRAC - 1))
+        st = np.int64(models[np.uint64(kz)])
+    return kz, st
+
+
+@kernel(inline=True)
+def _low_bits(data, u, nb, nm, neg, code, rng, pos):
+    """The residual from its decoded leading bits ``u``: the bits at one half, the sign."""
+    # (a damaged low part moves pos past the end: the end check refuses the stream)
+    w, code, rng, pos = get_bits(data, np.uint64(u), nb - 1 - max(nm, 0), code, rng, pos)
+    u = np.int64(w)
+    return (-(u + 1) if neg else u + 1), code, rng, pos
+
+
+# put_residual and get_residual code without the mix (the lossy path's adaptive bins
+# use them too): written apart from the mixed pair below, whose dead code took the
+# lossy kernels 3-7 s more each to compile even with the mix pruned (measured).
+@kernel(inline=True)
 def put_residual(out, models, ctx, sctx, q, r, low, rng, pos):
     """Code residual ``r`` as :func:`.predict.put_residual` does (zero flag, sign, unary
     bit length of ``|r| - 1``, two bits below its leading one, the rest at one half),
     with this module's models (the low-value ones for class ``q >= 0``)."""
-    kz = _zero_model(ctx, sctx) if q < 0 else M_LOWZ + q * NFRAC + (sctx & (NFRAC - 1))
+    kz = _zero_model_q(ctx, sctx, q)
     low, rng, pos = put16(out, models, kz, np.int64(r != 0), low, rng, pos)
     if r == 0:
         return low, rng, pos
@@ -222,18 +289,7 @@ def put_residual(out, models, ctx, sctx, q, r, low, rng, pos):
 @kernel(inline=True)
 def get_residual(data, models, ctx, sctx, q, code, rng, pos):
     """Decode what :func:`put_residual` coded; ``NO_RESIDUAL`` for an impossible one."""
-    # Both of the context's zero-flag models are loaded, then one picked by the
-    # prediction's eighths: the loads wait for the context only, not for the
-    # prediction, which comes last (out of the division).
-    kz = M_ZERO + 2 * ctx
-    st0 = np.int64(models[np.uint64(kz)])
-    st1 = np.int64(models[np.uint64(kz + 1)])
-    h = _near_half(sctx)
-    kz += h
-    st = st0 + ((st1 - st0) & -h)
-    if q >= 0:
-        kz = M_LOWZ + q * NFRAC + (sctx & (NFRAC - 1))
-        st = np.int64(models[np.uint64(kz)])
+    kz, st = _zero_state(models, ctx, sctx, q)
     bit, models[np.uint64(kz)], code, rng, pos = get16_held(data, st, code, rng, pos)
     if bit == 0:
         return np.int64(0), code, rng, pos
@@ -254,10 +310,79 @@ def get_residual(data, models, ctx, sctx, q, code, rng, pos):
         bit, code, rng, pos = get16(data, models, _mant_model(nb, prefix, ctx), code, rng, pos)
         prefix = 2 * prefix + bit
         u = (u << 1) | bit
-    # (a damaged low part moves pos past the end: the end check refuses the stream)
-    w, code, rng, pos = get_bits(data, np.uint64(u), nb - 1 - max(nm, 0), code, rng, pos)
-    u = np.int64(w)
-    return (-(u + 1) if neg else u + 1), code, rng, pos
+    return _low_bits(data, u, nb, nm, neg, code, rng, pos)
+
+
+@kernel(inline=True)
+def put_residual_mix(out, models, ctx, sctx, q, r, low, rng, pos, aux, mx):
+    """:func:`put_residual`, each decision mixed with models 2-4 of ``aux`` at the slots
+    ``mx`` (:func:`.residmix.contexts`; ``NO_MIX``: not mixed)."""
+    kz = _zero_model_q(ctx, sctx, q)
+    sz = residmix.S_ZERO + (sctx & (NFRAC - 1))
+    low, rng, pos = _put16m(out, models, kz, np.int64(r != 0), low, rng, pos, aux, mx, sz, 0)
+    if r == 0:
+        return low, rng, pos
+    neg = np.int64(r < 0)
+    ks = _sign_model(ctx, sctx, q)
+    low, rng, pos = _put16m(out, models, ks, neg, low, rng, pos, aux, mx, residmix.S_SIGN + sctx, 1)
+    u = abs(r) - 1
+    nb = bitlen(u)
+    k0 = _len_models(ctx, q, neg)
+    for j in range(min(nb + 1, NLEN - 1)):
+        sl, kind = _len_slot(j)
+        low, rng, pos = _put16m(out, models, k0 + j, np.int64(nb > j), low, rng, pos, aux, mx, sl, kind)
+    nm = min(nb - 1, 2)
+    prefix = 1
+    for jm in range(nm):
+        bit = (u >> (nb - 2 - jm)) & 1
+        km = _mant_model(nb, prefix, ctx)
+        sl = _mant_slot(nb, prefix)
+        low, rng, pos = _put16m(out, models, km, bit, low, rng, pos, aux, mx, sl, 14 + jm)
+        prefix = 2 * prefix + bit
+    return put_bits(out, np.uint64(u), nb - 1 - max(nm, 0), low, rng, pos)
+
+
+@kernel(inline=True)
+def _len_slot(j):
+    """Models 2-4's slot and the weights' kind of length bit ``j``."""
+    return residmix.S_LEN + min(j, residmix.NLENS - 1), 2 + min(j, 11)
+
+
+@kernel(inline=True)
+def _mant_slot(nb, prefix):
+    return residmix.S_MANT + 4 * min(nb, 15) + prefix
+
+
+@kernel(inline=True)
+def get_residual_mix(data, models, ctx, sctx, q, code, rng, pos, aux, mx):
+    """Decode what :func:`put_residual_mix` coded; ``NO_RESIDUAL`` for an impossible one."""
+    kz, st = _zero_state(models, ctx, sctx, q)
+    sz = residmix.S_ZERO + (sctx & (NFRAC - 1))
+    bit, models[np.uint64(kz)], code, rng, pos = _get16m_held(data, st, code, rng, pos, aux, mx, sz, 0)
+    if bit == 0:
+        return np.int64(0), code, rng, pos
+    ks = _sign_model(ctx, sctx, q)
+    neg, code, rng, pos = _get16m(data, models, ks, code, rng, pos, aux, mx, residmix.S_SIGN + sctx, 1)
+    k0 = _len_models(ctx, q, neg)
+    nb = 0
+    while nb < NLEN - 1:
+        sl, kind = _len_slot(nb)
+        bit, code, rng, pos = _get16m(data, models, k0 + nb, code, rng, pos, aux, mx, sl, kind)
+        if bit == 0:
+            break
+        nb += 1
+    if nb > 62:
+        return NO_RESIDUAL, code, rng, pos
+    u = np.int64(1 if nb >= 1 else 0)
+    nm = min(nb - 1, 2)
+    prefix = 1
+    for jm in range(nm):
+        km = _mant_model(nb, prefix, ctx)
+        sl = _mant_slot(nb, prefix)
+        bit, code, rng, pos = _get16m(data, models, km, code, rng, pos, aux, mx, sl, 14 + jm)
+        prefix = 2 * prefix + bit
+        u = (u << 1) | bit
+    return _low_bits(data, u, nb, nm, neg, code, rng, pos)
 
 
 def _weight2_table() -> np.ndarray:
@@ -339,8 +464,8 @@ def _predict_kernel(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, h
     as :func:`_gather`) and the mean errors ``bias`` (kept by :func:`_learn`): of the
     coding context, or with ``tex`` of the texture (:func:`_texture_bias`).
 
-    Returns ``(pred, ctx, bias slot, sign_ctx, q0, ..., q5)`` (the six predictors, in
-    eighths).
+    Returns ``(pred, ctx, bias slot, sign_ctx, activity, q0, ..., q5)`` (the six
+    predictors, in eighths).
     """
     W, N, U, NW, NE, UW, UN, UNW, act2, esum, s0, s1, s2, s3, s4, s5 = _gather(
         v, err, perr, i, r, ru, z, y, x, ny, nx, hi, held
@@ -383,7 +508,20 @@ def _predict_kernel(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, h
     pred = (p8 + 4) >> 3
     frac = p8 - 8 * pred  # -4..3
     sctx = (np.int64(esum > 0) + 2 * np.int64(esum < 0)) * NFRAC + ((frac + 4) >> 1)
-    return pred, ctx, bctx, sctx, q0, q1, q2, q3, q4, q5
+    return pred, ctx, bctx, sctx, act, q0, q1, q2, q3, q4, q5
+
+
+@kernel(inline=True)
+def _predict_mix(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, held, tex, mix):
+    """:func:`_predict_kernel`, with the voxel's slots of the mixed estimates
+    (:func:`.residmix.contexts`, or ``NO_MIX``) in place of the activity."""
+    pred, ctx, bctx, sctx, act, q0, q1, q2, q3, q4, q5 = _predict_kernel(
+        v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, held, tex
+    )
+    mx = NO_MIX
+    if mix:
+        mx = residmix.contexts(err, r, ru, y, x, ny, nx, act, ctx, pred)
+    return pred, ctx, bctx, sctx, mx, q0, q1, q2, q3, q4, q5
 
 
 @kernel(inline=True)
@@ -416,14 +554,17 @@ def _skip(err, perr, r, val):
 def _workspace(shape: tuple[int, ...]) -> tuple[np.ndarray, ...]:
     """:func:`.predict.workspace`'s ring arrays, the bias slots' error sums, counts and
     means (0 before any error: a sum and a count of 0 mean 0; the coding contexts', then
-    the texture bias's) and this module's models."""
+    the texture bias's), this module's models and the mix's (:func:`.residmix.workspace`)."""
     err, perr, _, _, _ = workspace(shape)
     bias_sum, bias_cnt, bias = (np.zeros(NBIAS, dtype=np.int64) for _ in range(3))
-    return err, perr, bias_sum, bias_cnt, bias, np.full(N_MODELS_LOW, MODEL_INIT, dtype=np.uint32)
+    models = np.full(N_MODELS_LOW, MODEL_INIT, dtype=np.uint32)
+    return err, perr, bias_sum, bias_cnt, bias, models, residmix.workspace()
 
 
 @kernel(nrt=False)
-def _encode_kernel(v, mk, cf, th, shape, hi, nlow, tex, out, err, perr, bias_sum, bias_cnt, bias, models):
+def _encode_kernel(
+    v, mk, cf, th, shape, hi, nlow, tex, mix, out, err, perr, bias_sum, bias_cnt, bias, models, aux
+):
     nz, ny, nx = shape[0], shape[1], shape[2]
     sz = ny * nx
     cap = out.size
@@ -443,12 +584,14 @@ def _encode_kernel(v, mk, cf, th, shape, hi, nlow, tex, out, err, perr, bias_sum
                     held = _skip(err, perr, r, v[np.uint64(i)])
                     i += 1
                     continue
-                pred, ctx, bctx, sctx, q0, q1, q2, q3, q4, q5 = _predict_kernel(
-                    v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, bias, held, tex
+                pred, ctx, bctx, sctx, mx, q0, q1, q2, q3, q4, q5 = _predict_mix(
+                    v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, bias, held, tex, mix
                 )
                 val = v[np.uint64(i)]
                 q = _low_class(pred, nlow)
-                low, rng, pos = put_residual(out, models, ctx, sctx, q, val - pred, low, rng, pos)
+                low, rng, pos = put_residual_mix(
+                    out, models, ctx, sctx, q, val - pred, low, rng, pos, aux, mx
+                )
                 held = _learn(
                     err, perr, r, val, pred, bctx, bias_sum, bias_cnt, bias, q0, q1, q2, q3, q4, q5
                 )
@@ -458,7 +601,8 @@ def _encode_kernel(v, mk, cf, th, shape, hi, nlow, tex, out, err, perr, bias_sum
 
 @kernel(nrt=False)
 def _decode_kernel(
-    data, mk, fill, cf, th, shape, hi, nlow, tex, v, err, perr, bias_sum, bias_cnt, bias, models
+    data, mk, fill, cf, th, shape, hi, nlow, tex, mix, v, err, perr, bias_sum, bias_cnt, bias, models,
+    aux,
 ):
     """Return 0 on success, 1 when the stream ran short, 2 on an impossible value, 3 when
     it does not end where its length says."""
@@ -482,11 +626,13 @@ def _decode_kernel(
                     held = _skip(err, perr, r, fill)
                     i += 1
                     continue
-                pred, ctx, bctx, sctx, q0, q1, q2, q3, q4, q5 = _predict_kernel(
-                    v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, bias, held, tex
+                pred, ctx, bctx, sctx, mx, q0, q1, q2, q3, q4, q5 = _predict_mix(
+                    v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, bias, held, tex, mix
                 )
                 q = _low_class(pred, nlow)
-                res, code, rng, pos = get_residual(data, models, ctx, sctx, q, code, rng, pos)
+                res, code, rng, pos = get_residual_mix(
+                    data, models, ctx, sctx, q, code, rng, pos, aux, mx
+                )
                 if res == NO_RESIDUAL:
                     return 2
                 val = pred + res
@@ -590,12 +736,14 @@ def encode(
     fitted=None,
     low: bool = False,
     tex: bool = False,
+    mix: bool = False,
 ) -> bytes:
     """Code a 3-D integer array with values in ``[lo, hi]`` (a range below 2^32): the
     thresholds (uint32) and weights (int16) of the fitted predictor (``fitted``, or
     :func:`fit` with ``classes`` 4 or 1), then the stream. Voxels where ``mask`` is
     true are not coded (the decoder is told their value). ``low``: with the low-value
-    models, ``tex``: with the texture bias (the decoder must be told of either)."""
+    models, ``tex``: with the texture bias, ``mix``: with the mixed estimates of
+    :mod:`.residmix` (the decoder must be told of each)."""
     v = np.ascontiguousarray(values, dtype=np.int64)
     if v.ndim != 3:
         raise OptionError(f"expected a 3-D array, found shape {v.shape}")
@@ -610,7 +758,7 @@ def encode(
     shape = np.array(v.shape, dtype=np.int64)
     body = encode_with_retry(
         lambda out: _encode_kernel(
-            flat, mk, cf, th, shape, np.int64(hi - lo), _nlow(low), np.int64(tex), out,
+            flat, mk, cf, th, shape, np.int64(hi - lo), _nlow(low), np.int64(tex), np.int64(mix), out,
             *_workspace(v.shape),
         ),
         flat.size,
@@ -633,9 +781,10 @@ def decode(
     fill: int = 0,
     low: bool = False,
     tex: bool = False,
+    mix: bool = False,
 ):
     """Decode :func:`encode`'s bytes into an int64 array of ``shape``; voxels where
-    ``mask`` is true get ``fill``; ``low`` and ``tex`` as for :func:`encode`."""
+    ``mask`` is true get ``fill``; ``low``, ``tex`` and ``mix`` as for :func:`encode`."""
     if not (lo <= hi and hi - lo < (1 << 32)):
         raise FormatError(f"predictive payload: value range [{lo}, {hi}] is out of bounds")
     data = bytes(data)
@@ -650,7 +799,7 @@ def decode(
     shp = np.array(shape, dtype=np.int64)
     status = _decode_kernel(
         buf, mk, np.int64(fill - lo), cf.astype(np.int64), th, shp, np.int64(hi - lo), _nlow(low),
-        np.int64(tex), v,
+        np.int64(tex), np.int64(mix), v,
         *_workspace(shape),
     )  # fmt: skip
     check_status(status, "predictive")

@@ -133,8 +133,9 @@ def compress(
         Wavelet codec settings (see :class:`volpack.volume_codec.codec.WaveletCodec`).
     tools : {"auto", "wavelet", "predict"}, optional
         The lossless codec's tools (:class:`volpack.volume_codec.lossless.LosslessCodec`).
-    predict_version : {1, 2, 3, 4, 5, 6, 7}, optional
-        The lossless codec's predictive stream: 7 (the default: as 6, and integers also
+    predict_version : {1, 2, 3, 4, 5, 6, 7, 8}, optional
+        The lossless codec's predictive stream: 8 (the default: as 7, and integers also
+        with the mixed estimates of :mod:`.residmix`), 7 (as 6, and integers also
         with the texture bias of :mod:`.predictfit`), 6 (as 5, and float32 and
         float64 also by a predictor fitted per brick, :mod:`.floatfit`), 5 (as 4, and
         integers also with the low-value models of :mod:`.predictfit`), 4 (as 3, and floats also by
