@@ -420,7 +420,9 @@ def _decode_predict(body: memoryview, shape: tuple[int, ...], dtype: np.dtype) -
     rest = body[1:]
     if flags & FLAG_FIT and flags & FLAG_MORE:  # a second flags byte: MIX alone
         if len(body) < 2 or body[1] != FLAG_MIX >> 8:
-            raise FormatError("predictive brick payload: expected the second flags byte 1 (MIX)")
+            found = f"{body[1]:#x}" if len(body) >= 2 else "the end of the payload"
+            raise FormatError(f"predictive brick payload: expected the second flags byte 1 (MIX), "
+                              f"found {found}")
         flags = (flags & ~FLAG_MORE) | FLAG_MIX
         rest = body[2:]
     is_float = dtype.kind == "f"
