@@ -14,7 +14,8 @@ each named with its package in the table. Peers, as their authors run them:
 * integers: zstd-19 (byte-shuffled for 16 bits), blosc2 (zstd 9 + bitshuffle), zfp
   reversible (int32 copy), and per z slice via imagecodecs: JPEG-LS (CharLS), JPEG 2000
   (OpenJPEG, reversible 5/3), HTJ2K (OpenJPH, reversible) and JPEG-XL lossless at efforts
-  3, 7 (its default) and 9; the table reports JPEG-XL's best effort. JPEG-LS, HTJ2K and
+  3, 7 (its default), 9 and 10 (libjxl's highest: 11 codes as 10 through imagecodecs);
+  the table reports JPEG-XL's best effort. JPEG-LS, HTJ2K and
   JPEG-XL take unsigned samples, so signed volumes are shifted by ``2**(bits-1)`` (a
   sign-bit flip) and back.
 * floats: zstd-19 byte-shuffled, blosc2, zfp reversible, fpzip (``precision=0``,
@@ -74,7 +75,7 @@ FIELDS = [
     "raw_bytes",
     "compressed_bytes",
 ]
-JPEGXL_EFFORTS = (3, 7, 9)
+JPEGXL_EFFORTS = (3, 7, 9, 10)  # 10 is the highest libjxl takes (11 codes as 10)
 # volpack rows beyond the default: (row name, api options). Integer and float volumes.
 VOLPACK_ROWS_INT = (
     ("volpack-wavelet", {"codec": "wavelet"}),  # the wavelet codec alone (the old default)
