@@ -16,7 +16,12 @@ control points (``bench_render_peers.tf_points``), step and threads:
   the step in world units, ``ImageSampleDistance`` 1), off screen through EGL, and writes
   the PNG with ``vtkPNGWriter``. This file runs itself with ``--vtk-child`` for it.
 
-The two processes alternate, ``--rounds`` times per case; the median wall time of each
+* ``served`` (with ``--serve``): the same ``volpack render`` command while a ``volpack
+  serve`` of this install listens (started once, kernels warm, before the first case):
+  the process forwards its arguments over the server's socket and prints its answer.
+  The plain ``volpack`` row then runs with ``VOLPACK_SERVE=0``.
+
+The processes alternate, ``--rounds`` times per case; the median wall time of each
 is kept, with the children's CPU time. Writes ``process.csv`` and ``process.png`` under
 ``--out``, and ``floor.csv``: the start-up any numba-based process pays (see :func:`floor`).
 
@@ -135,7 +140,7 @@ def timed(cmd: list[str], env: dict) -> tuple[float, float]:
     return wall, cpu
 
 
-def run_case(name, path, shape, spacing, points, tfk, shade, args, tmp, rows, env):
+def run_case(name, path, shape, spacing, points, tfk, shade, args, tmp, rows, env, served_env=None):
     from bench_render_peers import KA, KD, KS, SHIN, view_frame
 
     from volpack.render.transfer import TransferFunction
@@ -155,11 +160,25 @@ def run_case(name, path, shape, spacing, points, tfk, shade, args, tmp, rows, en
     vtk = [sys.executable, __file__, "--vtk-child", str(path), str(tmp / "vtk.png"),
            json.dumps(case)]  # fmt: skip
     runs: dict[str, list[tuple[float, float]]] = {"volpack": [], "vtk": []}
-    timed(volpack, env)  # untimed: compiles kernels for a dtype not seen before, warms caches
-    timed(vtk, env)
-    for _ in range(args.rounds):  # alternate, so machine load hits both alike
-        runs["volpack"].append(timed(volpack, env))
-        runs["vtk"].append(timed(vtk, env))
+    sides = [("volpack", volpack, dict(env, VOLPACK_SERVE="0") if served_env else env),
+             ("vtk", vtk, env)]  # fmt: skip
+    if served_env is not None:
+        runs["served"] = []
+        served_png = str(tmp / "served.png")
+        sides.append(("served", [served_png if a == str(tmp / "volpack.png") else a
+                                 for a in volpack], served_env))  # fmt: skip
+    for _, cmd, e in sides:
+        timed(cmd, e)  # untimed: compiles kernels for a dtype not seen before, warms caches
+    for _ in range(args.rounds):  # alternate, so machine load hits all alike
+        for key, cmd, e in sides:
+            runs[key].append(timed(cmd, e))
+    if served_env is not None:
+        if Path(served_png).read_bytes() != (tmp / "volpack.png").read_bytes():
+            raise SystemExit(f"{name} {tfk}: the served image differs from the local one")
+        status = subprocess.run([volpack[0], "serve", "--status", "--json"], env=served_env,
+                                capture_output=True, text=True, check=True)  # fmt: skip
+        if not json.loads(status.stdout)["listening"]:  # else the 'served' runs ran locally
+            raise SystemExit(f"{name} {tfk}: the server stopped listening")
     med = {k: (statistics.median(w for w, _ in v), statistics.median(c for _, c in v))
            for k, v in runs.items()}  # fmt: skip
     row = {"volume": name, "tf": tfk, "shading": "phong" if shade else "none",
@@ -167,10 +186,15 @@ def run_case(name, path, shape, spacing, points, tfk, shade, args, tmp, rows, en
            "volpack_cpu_s": round(med["volpack"][1], 3),
            "vtk_wall_s": round(med["vtk"][0], 3), "vtk_cpu_s": round(med["vtk"][1], 3),
            "wall_ratio": round(med["volpack"][0] / med["vtk"][0], 3)}  # fmt: skip
+    if "served" in med:
+        row.update(served_wall_s=round(med["served"][0], 3), served_cpu_s=round(med["served"][1], 3),
+                   served_ratio=round(med["served"][0] / med["vtk"][0], 3))  # fmt: skip
     rows.append(row)
     print(f"  {name:16s} {tfk:6s} {row['shading']:5s} volpack {row['volpack_wall_s']:6.2f} s "
           f"(cpu {row['volpack_cpu_s']:5.2f})  vtk {row['vtk_wall_s']:6.2f} s "
-          f"(cpu {row['vtk_cpu_s']:5.2f})  volpack/vtk {row['wall_ratio']:.2f}", flush=True)
+          f"(cpu {row['vtk_cpu_s']:5.2f})  volpack/vtk {row['wall_ratio']:.2f}"
+          + (f"  served {row['served_wall_s']:5.2f} s ({row['served_ratio']:.2f})"
+             if "served" in med else ""), flush=True)
 
 
 FLOOR_KERNEL = """
@@ -217,8 +241,14 @@ def chart(rows, path: Path) -> None:
     labels = [f"{r['volume']}\n{r['tf']} {r['shading']}" for r in rows]
     x = range(len(rows))
     fig, ax = plt.subplots(figsize=(max(7.0, 0.8 * len(rows)), 4.5))
-    ax.bar([i - 0.2 for i in x], [r["volpack_wall_s"] for r in rows], 0.4, label="volpack render")
-    ax.bar([i + 0.2 for i in x], [r["vtk_wall_s"] for r in rows], 0.4, label="VTK script")
+    served = "served_wall_s" in rows[0]
+    w = 0.27 if served else 0.4
+    ax.bar([i - w / 2 - (w / 2 if served else 0) for i in x], [r["volpack_wall_s"] for r in rows],
+           w, label="volpack render")  # fmt: skip
+    if served:
+        ax.bar(list(x), [r["served_wall_s"] for r in rows], w, label="volpack render, served")
+    ax.bar([i + w / 2 + (w / 2 if served else 0) for i in x], [r["vtk_wall_s"] for r in rows],
+           w, label="VTK script")  # fmt: skip
     ax.set_xticks(list(x))
     ax.set_xticklabels(labels, fontsize=6, rotation=60, ha="right")
     ax.set_ylabel("wall seconds, whole process (median)")
@@ -248,6 +278,8 @@ def main(argv=None) -> int:
     ap.add_argument("--size", type=int, default=512)
     ap.add_argument("--step", type=float, default=0.5)
     ap.add_argument("--volumes", nargs="+", default=list(VOLUMES))
+    ap.add_argument("--serve", action="store_true",
+                    help="also time volpack render through a warm `volpack serve`")
     ap.add_argument("--bytecode", action=argparse.BooleanOptionalAction, default=True,
                     help="children use a private bytecode cache (module docstring)")
     args = ap.parse_args(argv)
@@ -262,6 +294,12 @@ def main(argv=None) -> int:
         print(f"bytecode: {'private cache' if args.bytecode else 'as the environment has it'}",
               flush=True)
         floors = floor(args, tmp, env)
+        served_env = None
+        if args.serve:
+            (tmp / "serve").mkdir(mode=0o700)
+            served_env = dict(env, VOLPACK_SERVE_DIR=str(tmp / "serve"))
+            exe = str(Path(sys.executable).with_name("volpack"))
+            subprocess.run([exe, "serve", "--detach", "--idle", "0"], env=served_env, check=True)
         for name in args.volumes:
             vol, spacing, _ = datasets.load(name)
             spacing = tuple(float(s) for s in spacing)
@@ -272,7 +310,9 @@ def main(argv=None) -> int:
                 points = tf_points(tfk, *tf_base(vol))
                 for shade in (False, True):
                     run_case(name, path, vol.shape, spacing, points, tfk, shade, args, tmp,
-                             rows, env)
+                             rows, env, served_env)
+        if served_env is not None:
+            subprocess.run([exe, "serve", "--stop"], env=served_env, check=True)
     with open(args.out / "process.csv", "w", newline="") as f:
         wr = csv.DictWriter(f, fieldnames=list(rows[0]))
         wr.writeheader()

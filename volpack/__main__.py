@@ -1,6 +1,6 @@
-"""``python -m volpack`` runs the command-line interface."""
+"""``python -m volpack`` runs the command-line interface (through a listening server where one may run the command: :mod:`volpack.launch`)."""
 
-from volpack.cli import run
+from volpack.launch import run
 
 if __name__ == "__main__":
     run()

@@ -23,7 +23,7 @@ def run(*args, input=None, ok=True):
 
 
 @pytest.mark.parametrize(
-    "cmd", [[], ["info"], ["convert"], ["compress"], ["decompress"], ["demo"], ["warmup"]]
+    "cmd", [[], ["info"], ["convert"], ["compress"], ["decompress"], ["demo"], ["warmup"], ["serve"]]
 )
 def test_help_of_every_command(cmd):
     r = run(*cmd, "--help")

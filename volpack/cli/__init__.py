@@ -32,7 +32,7 @@ CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
 COMMAND_MODULES = {
     "info": "info", "convert": "convert", "compress": "codec", "decompress": "codec",
     "compare": "compare", "batch": "batch", "demo": "demo", "warmup": "jit",
-    "render": "render", "play": "play", "walk": "play",
+    "render": "render", "play": "play", "walk": "play", "serve": "serve",
 }  # fmt: skip
 
 

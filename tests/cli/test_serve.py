@@ -1,0 +1,184 @@
+"""``volpack serve``: commands forwarded to a resident process give what a process of
+their own gives (output, exit code, bytes written); everything else runs locally."""
+
+from __future__ import annotations
+
+import json
+import os
+import socket
+import subprocess
+import sys
+import threading
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from conftest import smooth_volume
+
+from volpack import serve as sv
+from volpack.cli import main
+from volpack.cli.serve import _runner
+from volpack.errors import OptionError
+
+
+@pytest.fixture
+def server(tmp_path, monkeypatch):
+    """A server of this install in a thread, on a private socket folder; yields its path."""
+    d = tmp_path / "sock"
+    d.mkdir(mode=0o700)
+    monkeypatch.setenv("VOLPACK_SERVE_DIR", str(d))
+    monkeypatch.delenv("VOLPACK_SERVE", raising=False)
+    path = sv.socket_path()
+    up = threading.Event()
+    done: list[int] = []
+    t = threading.Thread(
+        target=lambda: done.append(sv.serve(_runner, path, idle=60, warm=False, ready=up.set)),
+        daemon=True,
+    )
+    t.start()
+    assert up.wait(30)
+    yield path
+    if t.is_alive():
+        assert sv.stop(path)
+    t.join(30)
+    assert not t.is_alive() and not path.exists()  # the socket goes with the server
+
+
+def local(*args):
+    return CliRunner().invoke(main, [str(a) for a in args])
+
+
+@pytest.mark.parametrize(
+    "argv, command",
+    [
+        (["render", "a.npy", "b.png"], "render"),
+        (["-q", "--debug", "info", "a.npy"], "info"),
+        (["info", "-", "--json"], None),  # standard input
+        (["render", "a.npy", "b.png", "--help"], None),
+        (["--version"], None),
+        (["compress", "a.npy", "a.vpk"], None),
+        (["serve", "--stop"], None),
+        ([], None),
+    ],
+)
+def test_which_commands_a_server_may_run(argv, command):
+    assert sv.served_command(argv) == command
+
+
+def test_info_served_as_run_locally(server, tmp_path, capfd):
+    src = tmp_path / "a.npy"
+    np.save(src, np.arange(60, dtype=np.int16).reshape(3, 4, 5))
+    want = local("info", src, "--json")
+    assert sv.forward(["info", str(src), "--json"]) == 0
+    got = capfd.readouterr().out
+    assert json.loads(got) == json.loads(want.stdout)
+    # a relative path is the client's: the server works in the client's folder
+    os.chdir(tmp_path)
+    assert sv.forward(["info", "a.npy"]) == 0
+    assert "3 x 4 x 5" in capfd.readouterr().out
+    # errors keep their exit code and their one line
+    assert sv.forward(["info", str(tmp_path / "missing.npy")]) == 1
+    err = capfd.readouterr().err
+    assert err.startswith("volpack: error:") and "missing.npy" in err
+    assert sv.forward(["info", str(src), "--no-such-flag"]) == 2
+
+
+def test_render_served_writes_the_same_bytes(server, tmp_path):
+    src = tmp_path / "ball.npy"
+    np.save(src, smooth_volume((24, 24, 24), np.uint8))  # uint8, as test_render's CLI case
+    assert local("render", src, tmp_path / "local.png", "--size", "40x30").exit_code == 0
+    assert sv.forward(["-q", "render", str(src), str(tmp_path / "served.png"), "--size", "40x30"]) == 0
+    assert (tmp_path / "served.png").read_bytes() == (tmp_path / "local.png").read_bytes()
+    # refused without --force, as locally, and the file is untouched
+    assert sv.forward(["render", str(src), str(tmp_path / "served.png"), "--size", "40x30"]) == 1
+    assert (tmp_path / "served.png").read_bytes() == (tmp_path / "local.png").read_bytes()
+
+
+def test_what_runs_locally(server, tmp_path, monkeypatch):
+    src = tmp_path / "a.npy"
+    np.save(src, np.zeros((2, 2, 2), np.uint8))
+    assert sv.forward(["info", str(src)]) == 0
+    assert sv.forward(["compress", str(src), str(tmp_path / "a.vpk")]) is None
+    monkeypatch.setenv("VOLPACK_SERVE", "0")
+    assert sv.forward(["info", str(src)]) is None
+    monkeypatch.delenv("VOLPACK_SERVE")
+    # other settings: another stamp, so another socket, where nothing listens
+    monkeypatch.setenv("VOLPACK_THREADS", "1")
+    assert sv.forward(["info", str(src)]) is None
+    monkeypatch.delenv("VOLPACK_THREADS")
+    assert sv.forward(["info", str(src)]) == 0
+
+
+def test_a_request_with_another_stamp_is_refused(server, tmp_path):
+    with socket.socket(socket.AF_UNIX) as s:
+        s.connect(str(server))
+        sv._send(s, {"v": sv.PROTOCOL, "argv": ["info", "x"], "cwd": str(tmp_path),
+                     "stamp": "0" * 16})  # fmt: skip
+        reply = sv._receive(s)
+    assert reply["code"] is None and "stale" in reply["error"]
+
+
+@pytest.mark.parametrize(
+    "raw",
+    [b"not json\n", b"[1, 2]\n", b'{"v": 99}\n', b'{"v": 1, "argv": "info"}\n',
+     b'{"v": 1, "argv": ["compress", "a", "b"], "cwd": "/"}\n', b'{"v": 1, "argv": ["info"]}\n',
+     b"", b"{" + b" " * 1000],  # closed early; cut short
+)  # fmt: skip
+def test_bad_requests_leave_the_server_serving(server, tmp_path, raw):
+    with socket.socket(socket.AF_UNIX) as s:
+        s.connect(str(server))
+        s.sendall(raw)
+        s.shutdown(socket.SHUT_WR)
+        reply = sv._receive(s)
+    assert reply is None or reply.get("code") is None
+    src = tmp_path / "a.npy"
+    np.save(src, np.zeros((2, 2, 2), np.uint8))
+    assert sv.forward(["info", str(src)]) == 0
+
+
+def test_a_folder_others_can_enter_is_refused(tmp_path, monkeypatch):
+    d = tmp_path / "open"
+    d.mkdir(mode=0o755)
+    os.chmod(d, 0o755)
+    monkeypatch.setenv("VOLPACK_SERVE_DIR", str(d))
+    with pytest.raises(OptionError, match="0700"):
+        sv.serve(_runner, sv.socket_path(), warm=False, idle=1)
+    assert sv.forward(["info", "a.npy"]) is None
+
+
+def test_a_second_server_is_refused_and_a_stale_socket_replaced(server, tmp_path):
+    with pytest.raises(OptionError, match="already listens"):
+        sv.serve(_runner, server, warm=False, idle=1)
+    stale = server.parent / "stale.sock"
+    with socket.socket(socket.AF_UNIX) as s:
+        s.bind(str(stale))  # bound, never listening: what a killed server leaves
+    assert sv.serve(_runner, stale, warm=False, idle=0.2) == 0  # idles out
+    assert not stale.exists()
+
+
+@pytest.mark.slow  # two processes; the detached one warms the render kernels
+def test_the_volpack_command_through_a_detached_server(tmp_path):
+    d = tmp_path / "sock"
+    d.mkdir(mode=0o700)
+    env = dict(os.environ, VOLPACK_SERVE_DIR=str(d))
+    env.pop("VOLPACK_SERVE", None)
+    exe = [sys.executable, "-c", "from volpack.launch import run; run()"]
+    up = subprocess.run([*exe, "serve", "--detach", "--no-warm", "--idle", "120", "--json"],
+                        env=env, capture_output=True, text=True, check=True)  # fmt: skip
+    pid = json.loads(up.stdout)["pid"]
+    try:
+        src = tmp_path / "a.npy"
+        np.save(src, np.arange(24, dtype=np.uint8).reshape(2, 3, 4))
+        got = subprocess.run([*exe, "info", str(src)], env=env, capture_output=True, text=True)
+        want = subprocess.run([*exe, "info", str(src)], env=dict(env, VOLPACK_SERVE="0"),
+                              capture_output=True, text=True)  # fmt: skip
+        assert (got.returncode, got.stdout) == (want.returncode, want.stdout) == (0, want.stdout)
+        status = subprocess.run([*exe, "serve", "--status", "--json"], env=env,
+                                capture_output=True, text=True, check=True)  # fmt: skip
+        assert json.loads(status.stdout)["listening"]
+    finally:
+        subprocess.run([*exe, "serve", "--stop"], env=env, check=True, capture_output=True)
+    status = subprocess.run([*exe, "serve", "--status", "--json"], env=env,
+                            capture_output=True, text=True, check=True)  # fmt: skip
+    assert not json.loads(status.stdout)["listening"]
+    assert pid > 0

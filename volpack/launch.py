@@ -1,0 +1,23 @@
+"""The ``volpack`` console entry: a server of this install runs the command if one is
+listening (:mod:`volpack.serve`), else this process does (:func:`volpack.cli.run`).
+
+Kept apart from :mod:`volpack.cli` so that a forwarded command imports neither click
+nor numpy: the client's whole cost is the interpreter and a socket round trip.
+"""
+
+from __future__ import annotations
+
+import sys
+
+
+def run() -> None:
+    from . import serve
+
+    code = serve.forward(sys.argv[1:])
+    if code is not None:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        raise SystemExit(code)
+    from .cli import run as run_here
+
+    run_here()
