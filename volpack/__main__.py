@@ -1,4 +1,5 @@
-"""``python -m volpack`` runs the command-line interface (through a listening server where one may run the command: :mod:`volpack.launch`)."""
+"""``python -m volpack`` runs the command-line interface (through a listening server
+where one may run the command: :mod:`volpack.launch`)."""
 
 from volpack.launch import run
 

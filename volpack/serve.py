@@ -246,7 +246,7 @@ def serve(
         while True:
             try:
                 conn, _ = server.accept()
-            except socket.timeout:
+            except TimeoutError:
                 log(f"idle for {idle:g} s: exiting")
                 break
             with conn:

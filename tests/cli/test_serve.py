@@ -87,7 +87,9 @@ def test_render_served_writes_the_same_bytes(server, tmp_path):
     src = tmp_path / "ball.npy"
     np.save(src, smooth_volume((24, 24, 24), np.uint8))  # uint8, as test_render's CLI case
     assert local("render", src, tmp_path / "local.png", "--size", "40x30").exit_code == 0
-    assert sv.forward(["-q", "render", str(src), str(tmp_path / "served.png"), "--size", "40x30"]) == 0
+    assert (
+        sv.forward(["-q", "render", str(src), str(tmp_path / "served.png"), "--size", "40x30"]) == 0
+    )
     assert (tmp_path / "served.png").read_bytes() == (tmp_path / "local.png").read_bytes()
     # refused without --force, as locally, and the file is untouched
     assert sv.forward(["render", str(src), str(tmp_path / "served.png"), "--size", "40x30"]) == 1

@@ -19,12 +19,22 @@ def _runner(argv: list[str]) -> None:
 
 
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})
-@click.option("--idle", type=click.FloatRange(min=0), default=1800.0, show_default=True,
-              help="Exit after this many seconds without a request (0: never).")
-@click.option("--warm/--no-warm", default=True, show_default=True,
-              help="Load the ray caster's kernels for uint8, int16, uint16 and float32 first.")
-@click.option("--detach", is_flag=True,
-              help="Start the server in the background and return once it listens.")
+@click.option(
+    "--idle",
+    type=click.FloatRange(min=0),
+    default=1800.0,
+    show_default=True,
+    help="Exit after this many seconds without a request (0: never).",
+)
+@click.option(
+    "--warm/--no-warm",
+    default=True,
+    show_default=True,
+    help="Load the ray caster's kernels for uint8, int16, uint16 and float32 first.",
+)
+@click.option(
+    "--detach", is_flag=True, help="Start the server in the background and return once it listens."
+)
 @click.option("--stop", "stop_", is_flag=True, help="Ask this install's server to exit.")
 @click.option("--status", is_flag=True, help="Say whether this install's server listens.")
 @json_option
@@ -81,7 +91,11 @@ def serve(idle: float, warm: bool, detach: bool, stop_: bool, status: bool, as_j
         else:
             click.echo(f"listening on {path} (process {child.pid}; 'volpack serve --stop' ends it)")
         return
-    say = (lambda line: None) if as_json else (lambda line: click.echo(f"volpack serve: {line}", err=True))
+    say = (
+        (lambda line: None)
+        if as_json
+        else (lambda line: click.echo(f"volpack serve: {line}", err=True))
+    )
     served = sv.serve(_runner, idle=idle, warm=warm, log=say)
     if as_json:
         emit_json({"socket": str(path), "served": served, "pid": os.getpid()})
