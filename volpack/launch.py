@@ -7,6 +7,7 @@ nor numpy: the client's whole cost is the interpreter and a socket round trip.
 
 from __future__ import annotations
 
+import os
 import sys
 
 
@@ -15,9 +16,12 @@ def run() -> None:
 
     code = serve.forward(sys.argv[1:])
     if code is not None:
-        sys.stdout.flush()
-        sys.stderr.flush()
-        raise SystemExit(code)
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except (OSError, ValueError):  # a closed pipe (volpack info | head)
+                code = code or 1
+        os._exit(code)  # as volpack.cli.run: nothing left to tear down or flush again
     from .cli import run as run_here
 
     run_here()

@@ -139,7 +139,10 @@ def forward(argv: list[str]) -> int | None:
     for stream, key in ((sys.stdout, "out"), (sys.stderr, "err")):
         text = reply.get(key)
         if isinstance(text, str) and text:
-            stream.write(text)
+            try:
+                stream.write(text)
+            except (OSError, ValueError):  # a closed pipe: the command itself succeeded
+                pass
     return reply["code"]
 
 
