@@ -11,7 +11,8 @@ nothing of numpy or numba.
 What is shared and what is not. Only code stays resident: every request reads its
 files, builds its tables and writes its output as a fresh process would (a test checks
 the bytes against a local run), so nothing about a file is remembered from one request
-to the next. Requests run one at a time, in the client's working directory.
+to the next. Requests run one at a time, in the client's working directory and with its
+umask.
 
 When the client runs the command itself instead:
 
@@ -124,7 +125,10 @@ def forward(argv: list[str]) -> int | None:
     path = d / f"volpack-{stamp()}.sock"
     if not path.exists() or not _private(d):
         return None
-    request = {"v": PROTOCOL, "argv": argv, "cwd": os.getcwd(), "stamp": path.stem[8:]}
+    umask = os.umask(0o022)  # read it (there is no other way), then put it back
+    os.umask(umask)
+    request = {"v": PROTOCOL, "argv": argv, "cwd": os.getcwd(), "stamp": path.stem[8:],
+               "umask": umask}  # fmt: skip
     try:
         with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as s:
             s.settimeout(CONNECT_TIMEOUT)
@@ -336,6 +340,8 @@ def _run(runner, request: dict) -> dict:
 
     out, err = io.StringIO(), io.StringIO()
     here = os.getcwd()
+    umask = request.get("umask")
+    mask = os.umask(umask if isinstance(umask, int) and 0 <= umask <= 0o777 else 0o022)
     root = logging.getLogger()
     handlers = root.handlers[:]
     root.handlers.clear()  # each command configures logging onto its own stderr
@@ -355,6 +361,7 @@ def _run(runner, request: dict) -> dict:
                 code = EXIT_INTERNAL
     finally:
         os.chdir(here)
+        os.umask(mask)
         root.handlers[:] = handlers
         gc.collect()
     return {"code": code, "out": out.getvalue(), "err": err.getvalue()}

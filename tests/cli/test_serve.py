@@ -91,6 +91,17 @@ def test_render_served_writes_the_same_bytes(server, tmp_path):
         sv.forward(["-q", "render", str(src), str(tmp_path / "served.png"), "--size", "40x30"]) == 0
     )
     assert (tmp_path / "served.png").read_bytes() == (tmp_path / "local.png").read_bytes()
+    # the client's umask, not the server's (this process keeps its own)
+    with socket.socket(socket.AF_UNIX) as s:
+        s.connect(str(server))
+        argv = ["render", str(src), str(tmp_path / "private.png"), "--size", "8x8"]
+        sv._send(s, {"v": sv.PROTOCOL, "argv": argv, "cwd": str(tmp_path), "stamp": sv.stamp(),
+                     "umask": 0o077})  # fmt: skip
+        assert sv._receive(s)["code"] == 0
+    assert (tmp_path / "private.png").stat().st_mode & 0o777 == 0o600
+    mask = os.umask(0o022)
+    os.umask(mask)
+    assert mask != 0o077  # put back after the request
     # refused without --force, as locally, and the file is untouched
     assert sv.forward(["render", str(src), str(tmp_path / "served.png"), "--size", "40x30"]) == 1
     assert (tmp_path / "served.png").read_bytes() == (tmp_path / "local.png").read_bytes()
