@@ -14,7 +14,7 @@ for n in sys.argv[1].split(','):
     out = []
     for conf, nlow, uselp in confs:
         saved = list(residmix.KNOBS)
-        for i, v in conf.items(): residmix.KNOBS[i] = v
+        for i, v in (conf or {}).items(): residmix.KNOBS[i] = v
         b = enc(2 if conf is not None else True, nlow, lp if uselp else None)
         residmix.KNOBS[:] = saved
         out.append(f"{100*(b8/b-1):+.2f}")
