@@ -335,9 +335,10 @@ class BoundedCodec(BrickCodec):
         """(decoding tier, payload) of the quantised voxels by the long fitted
         predictor, version 2 (:mod:`volpack.volume_codec.bounded_longfit`): the two
         reaches whose fits leave the least squared residual are coded and the shorter
-        kept, its residual by the lossless codec's wavelet (the middle tier: the walk
-        costs about what the wavelet does), or by its predictive tool (the slow tier)
-        where that is SLOW_MIN_SAVING shorter. Made only where the first
+        kept, its residual by the adaptive coder in contexts of the residual's
+        magnitudes or by the lossless codec's wavelet, whichever is shorter (the middle
+        tier: the walk costs about what the wavelet does), or by the lossless codec's
+        predictive tool (the slow tier) where that is SLOW_MIN_SAVING shorter. Made only where the first
         one's residual entropy is under LONGFIT_MAX_ENTROPY times ``best`` bytes (the
         shortest coding so far), and not tried where that spends less than
         LONGFIT_MIN_BITS a voxel (loose bounds: the wavelet and interpolation paths)."""
@@ -348,24 +349,25 @@ class BoundedCodec(BrickCodec):
             return None
         qmax = int(np.iinfo(q.dtype).max)
         wav = self._inner()
-        kept = None
+        kept = shifted = None
         for i, reach in enumerate(lf.rank_reaches(np.ascontiguousarray(q, np.int64))[:2]):
-            r, plan, weights = lf.residuals(q, reach, qmax)
+            r, plan, weights = lf.residuals(q, reach, qmax, prune=True)
             if i == 0 and lf.estimate_bits(r) / 8 > best * LONGFIT_MAX_ENTROPY:
                 return None
+            coded = [lf.encode_head(r, plan, weights, context=True)[0] + lf.code_residuals(r)]
             head = lf.encode_head(r, plan, weights)
-            if head is None:
-                continue
-            data = head[0] + wav.encode(head[1])
-            if kept is None or len(data) < len(kept[0]):
-                kept = data, head
-        if kept is None:
-            return None
-        data, (head, res) = kept
+            if head is not None:
+                coded.append(head[0] + wav.encode(head[1]))
+            data = min(coded, key=len)
+            if kept is None or len(data) < len(kept):
+                kept, shifted = data, head
+        if shifted is None:
+            return TIER_MID, kept
+        head, res = shifted
         slow = head + self._predictive().encode(res)
-        if len(slow) < len(data) * (1.0 - SLOW_MIN_SAVING):
+        if len(slow) < len(kept) * (1.0 - SLOW_MIN_SAVING):
             return TIER_SLOW, slow
-        return TIER_MID, data
+        return TIER_MID, kept
 
     @property
     def _exact(self) -> bool:
