@@ -370,6 +370,17 @@ def rank_reaches(q: np.ndarray) -> list[tuple[int, int, int]]:
     return [c for _, c in sorted(scored)]
 
 
+def tried_reaches(q: np.ndarray) -> list[tuple[int, int, int]]:
+    """The reaches the encoder codes: the two best of :func:`rank_reaches`, and the
+    shortest (least steps) where it is not one of them. The ranking sees the interior
+    alone; on a field that is not band-limited, a long reach's larger faces and weights
+    cost more than its fit saves there (tgv_vorticity at 1e-3 of the range: reach 12
+    ranked first, 191.6 kB coded; reach (2, 4, 4) 186.9 kB)."""
+    ranked = rank_reaches(q)
+    short = min(reach_choices(q.shape), key=sum)
+    return ranked[:2] + ([short] if short not in ranked[:2] else [])
+
+
 def fit(q: np.ndarray, reach) -> tuple[Plan, list]:
     """The version-2 plan at ``reach`` and each class's weights (None: Lorenzo)."""
     plan = Plan(q.shape, reach)

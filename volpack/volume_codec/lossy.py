@@ -334,8 +334,8 @@ class BoundedCodec(BrickCodec):
     def _longfit(self, q: np.ndarray, best: int) -> tuple[int, bytes] | None:
         """(decoding tier, payload) of the quantised voxels by the long fitted
         predictor, version 2 (:mod:`volpack.volume_codec.bounded_longfit`): the two
-        reaches whose fits leave the least squared residual are coded and the shorter
-        kept, its residual by the adaptive coder in contexts of the residual's
+        reaches whose fits leave the least squared residual and the shortest reach are
+        coded and the shortest coding kept, its residual by the adaptive coder in contexts of the residual's
         magnitudes or by the lossless codec's wavelet, whichever is shorter (the middle
         tier: the walk costs about what the wavelet does), or by the lossless codec's
         predictive tool (the slow tier) where that is SLOW_MIN_SAVING shorter. Made only where the first
@@ -350,7 +350,7 @@ class BoundedCodec(BrickCodec):
         qmax = int(np.iinfo(q.dtype).max)
         wav = self._inner()
         kept = shifted = None
-        for i, reach in enumerate(lf.rank_reaches(np.ascontiguousarray(q, np.int64))[:2]):
+        for i, reach in enumerate(lf.tried_reaches(np.ascontiguousarray(q, np.int64))):
             r, plan, weights = lf.residuals(q, reach, qmax, prune=True)
             if i == 0 and lf.estimate_bits(r) / 8 > best * LONGFIT_MAX_ENTROPY:
                 return None
