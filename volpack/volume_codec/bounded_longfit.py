@@ -481,21 +481,35 @@ _ACT_CAP = np.int64(1) << 40  # a magnitude counts at most this much (damaged st
 
 
 @kernel(inline=True)
+def _mag(v):
+    return min(abs(v), _ACT_CAP)
+
+
+@kernel(inline=True)
 def _context(r, i, z, y, x, ny, nx):
     """``(activity class, sign context)`` of voxel ``i``: the class of the weighted sum
     of the causal residuals' magnitudes (:data:`_ACT`), scaled by 16 over the weight of
     the steps inside the brick (the faces' sums are not taken for calm ones: -0.2 %);
     and whether the residual before it along x, and the sum of those before it along y
     and z, are positive (a sign context of 0..3: -0.2 to -0.8 % against none)."""
-    a = np.int64(0)
-    ws = np.int64(0)
-    for k in range(_ACT.shape[0]):
-        dz, dy, dx = _ACT[k, 0], _ACT[k, 1], _ACT[k, 2]
-        if dz <= z and 0 <= y - dy < ny and 0 <= x - dx < nx:
-            a += _ACT[k, 3] * min(abs(r[i - (dz * ny + dy) * nx - dx]), _ACT_CAP)
-            ws += _ACT[k, 3]
-    if ws > 0:
-        a = (16 * a) // ws
+    sy = nx
+    sz = ny * nx
+    if z >= 2 and y >= 2 and y + 1 < ny and x >= 2 and x + 1 < nx:  # every step inside
+        a = 2 * (_mag(r[i - 1]) + _mag(r[i - sy]) + _mag(r[i - sz]))
+        a += _mag(r[i - sy - 1]) + _mag(r[i - sy + 1]) + _mag(r[i - 2]) + _mag(r[i - 2 * sy])
+        u = i - sz
+        a += _mag(r[u - sy]) + _mag(r[u - 1]) + _mag(r[u + sy]) + _mag(r[u + 1])
+        a = (16 * (a + _mag(r[i - 2 * sz]))) // 15  # (the weights' sum)
+    else:
+        a = np.int64(0)
+        ws = np.int64(0)
+        for k in range(_ACT.shape[0]):
+            dz, dy, dx = _ACT[k, 0], _ACT[k, 1], _ACT[k, 2]
+            if dz <= z and 0 <= y - dy < ny and 0 <= x - dx < nx:
+                a += _ACT[k, 3] * _mag(r[i - dz * sz - dy * sy - dx])
+                ws += _ACT[k, 3]
+        if ws > 0:
+            a = (16 * a) // ws
     s = np.int64(0)
     if x > 0 and r[i - 1] > 0:
         s = np.int64(1)
