@@ -90,6 +90,8 @@ KINDS = {
     # the quantised voxels by the long fitted predictor: its payload's version 1 and 2
     "lossy-longfit": ("lossy-bounded-f32-longfit.vpk", VOLUME_PATHS),
     "lossy-longfit-reach": ("lossy-bounded-f32-longfit-reach.vpk", VOLUME_PATHS),
+    # and version 2's residual by the adaptive coder in activity contexts (type 3)
+    "lossy-longfit-context": ("lossy-bounded-f32-longfit-context.vpk", VOLUME_PATHS),
     # container format version 2 (formats/vpk-2.md): varint records, dictionary-coded
     # header and summary; one brick, and eight
     "compact": ("vpk2-lossy-bounded-f32.vpk", VOLUME_PATHS),

@@ -454,9 +454,15 @@ LOSSY_CODER_CASES += [
 # payload, which today's encoder no longer writes: kept as it is (decoded, no longer
 # reproduced).
 # LOSSY_CODER_CASES += [("lossy-bounded-f32-longfit", "f32-waves", {"max_error": 0.005}, None)]
-# Version 2 (step 21): a reach per axis (Kz = 2 on this thin field), face classes.
+# Version 2 (step 21): a reach per axis (Kz = 2 on this thin field), face classes. Its
+# residual by the lossless codec's wavelet is no longer what today's encoder writes there
+# (kept as it is: decoded, no longer reproduced); today's: the residual by the adaptive
+# coder in activity contexts (residual type 3, step 22).
+# LOSSY_CODER_CASES += [
+#     ("lossy-bounded-f32-longfit-reach", "f32-waves-long", {"max_error": 0.005}, None)
+# ]
 LOSSY_CODER_CASES += [
-    ("lossy-bounded-f32-longfit-reach", "f32-waves-long", {"max_error": 0.005}, None)
+    ("lossy-bounded-f32-longfit-context", "f32-waves-long", {"max_error": 0.005}, None)
 ]
 
 

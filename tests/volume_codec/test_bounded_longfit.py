@@ -1,5 +1,5 @@
-"""The quantised voxels by the long fitted predictor (formats/lossy-1.md steps 20 and 21):
-exact round trips of the integers in both payload versions, the walk against sums in
+"""The quantised voxels by the long fitted predictor (formats/lossy-1.md steps 20-22):
+exact round trips of the integers in both payload versions and both residual codings, the walk against sums in
 plain Python (face classes, the float64 off-row sums and their int64 fallback past
 2^53), the bound on every voxel through the bounded codec on a band-limited field and
 on real ones, and damaged payloads refused. Slow set: the walk kernel compiles here
@@ -57,6 +57,63 @@ def test_integers_round_trip(reach, dtype):
         got = lf.decode(_v2(q, reach, codec), q.shape, np.dtype(dtype), codec)
         assert got.dtype == dtype
         np.testing.assert_array_equal(got, q)
+
+
+def _v2_context(q, reach, prune=False):
+    r, plan, weights = lf.residuals(q, reach, int(np.iinfo(q.dtype).max), prune)
+    head, res = lf.encode_head(r, plan, weights, context=True)
+    assert head[4] == lf.CONTEXT_CODED and res is r
+    return head + lf.code_residuals(r)
+
+
+@pytest.mark.parametrize("reach", [(2, 4, 12), (4, 8, 4), (12, 12, 12)])
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.int32])
+@pytest.mark.parametrize("prune", [False, True])
+def test_context_coded_round_trip(reach, dtype, prune):
+    """The residual by the adaptive coder in activity contexts (step 22), with and without
+    the encoder's pruning of classes: any quantised brick decodes to itself."""
+    rng = np.random.default_rng(sum(reach) + 7)
+    top = np.iinfo(dtype).max if dtype == np.int32 else min(np.iinfo(dtype).max, 1 << 20)
+    q = np.cumsum(rng.integers(-3, 4, (9, 21, 30)), axis=2) % (top + 1)
+    if dtype == np.int32:  # residuals near 2^31 as well
+        q[rng.random(q.shape) < 0.05] = top
+    q = q.astype(dtype)
+    got = lf.decode(_v2_context(q, reach, prune), q.shape, np.dtype(dtype), None)
+    assert got.dtype == dtype
+    np.testing.assert_array_equal(got, q)
+
+
+def test_context_coder_any_residuals():
+    """:func:`code_residuals` and :func:`decode_residuals` on signed int64 of every size
+    (magnitudes past the context's cap of 2^40, up to 2^61), odd shapes."""
+    rng = np.random.default_rng(5)
+    for shape in [(1, 1, 1), (3, 1, 7), (5, 6, 2), (4, 9, 11)]:
+        bits = rng.integers(0, 62, shape)
+        r = (rng.integers(0, 1 << 62, shape) >> (62 - bits)) * rng.choice([-1, 1], shape)
+        got = lf.decode_residuals(lf.code_residuals(r), shape)
+        np.testing.assert_array_equal(got, r.reshape(-1))
+
+
+def test_prune_keeps_what_pays():
+    """The encoder's pruning: every class it keeps saves more estimated bits than its
+    weights' WEIGHT_BITS each, every fitted class it drops does not; a dropped class's
+    voxels carry the Lorenzo residual."""
+    q = np.cumsum(np.random.default_rng(4).integers(-3, 4, (12, 40, 48)), axis=2) % 3000
+    q = np.ascontiguousarray(q, np.int64)
+    r0, plan0, w0 = lf.residuals(q, (2, 8, 8), 65535)
+    r1, plan1, w1 = lf.residuals(q, (2, 8, 8), 65535, prune=True)
+    plan_l = lf.Plan(q.shape, (2, 8, 8))
+    plan_l.keep(np.zeros(len(plan_l.offsets), bool))
+    lor = np.empty_like(q)
+    lf.walk(q.reshape(-1), lor.reshape(-1), plan_l, w0, 65535, False)
+    cls = plan0.table[np.ix_(*plan0.states)]
+    assert plan1.present.sum() < plan0.present.sum()  # something to prune here
+    for c in np.flatnonzero(plan0.present):
+        m = cls == c
+        n = m.sum()
+        gain = n * np.log2((np.abs(lor[m]).sum() + n + 1.0) / (np.abs(r0[m]).sum() + n + 1.0))
+        assert plan1.present[c] == (gain > lf.WEIGHT_BITS * len(w0[c]))
+        np.testing.assert_array_equal(r1[m], r0[m] if plan1.present[c] else lor[m])
 
 
 @pytest.mark.parametrize("k", [2, 4, 12])
@@ -180,10 +237,15 @@ def test_bound_on_every_voxel(rel):
         lossy.LONGFIT_MIN_BITS = old
 
 
-@pytest.mark.parametrize("name,rel", [("tgv_u", 1e-5), ("climate_t", 1e-5), ("cam_t", 1e-4)])
+@pytest.mark.parametrize(
+    "name,rel",
+    [("tgv_u", 1e-5), ("climate_t", 1e-5), ("cam_t", 1e-4), ("tgv_vorticity", 1e-3),
+     ("tas_monthly", 1e-5)],
+)  # fmt: skip
 def test_real_fields(name, rel):
     """Fields of the lossy benchmark (data cache; skipped without it) where version 2 is
-    kept: every voxel within its bound, decoded by one worker and by two."""
+    kept: every voxel within its bound, decoded by one worker and by two. On the last
+    two the residual is context coded (step 22)."""
     sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "scripts"))
     datasets = pytest.importorskip("datasets")
     try:
@@ -193,6 +255,8 @@ def test_real_fields(name, rel):
     e = rel * float(f.max() - f.min())
     blob, inner = _payload(f, e)
     assert inner[0] == 0
+    if name in ("tgv_vorticity", "tas_monthly"):
+        assert inner[4] == lf.CONTEXT_CODED
     for workers in (1, 2):
         got = api.decompress_array(blob, workers=workers)
         assert np.abs(got.astype(np.float64) - f).max() <= e
@@ -222,6 +286,28 @@ def test_damaged_payloads_refused():
         lf.decode(inner, (40, 40, 36), qd, codec)
     with pytest.raises(FormatError):
         lf.decode(inner, (40, 40), qd, codec)
+
+
+def test_damaged_context_coded_refused():
+    """A type-3 residual stream cut, lengthened, with a byte changed, or under an offset
+    other than 0 (step 22)."""
+    q = np.cumsum(np.random.default_rng(6).integers(-9, 10, (10, 24, 30)), axis=2) % 5000
+    q = q.astype(np.uint16)
+    data = _v2_context(q, (2, 4, 4))
+    qd = np.dtype("uint16")
+    np.testing.assert_array_equal(lf.decode(data, q.shape, qd, None), q)
+    n = int.from_bytes(data[HEAD2 : HEAD2 + 4], "little")
+    start = HEAD2 + 4 + n  # the stream
+    bad = [
+        data[:-1],
+        data + b"\x00",
+        data[:start] + bytes([data[start] ^ 1]) + data[start + 1 :],  # its first byte
+        data[: start + 40] + bytes([data[start + 40] ^ 0x5A]) + data[start + 41 :],
+        data[:5] + (1).to_bytes(8, "little", signed=True) + data[HEAD2:],
+    ]
+    for d in bad:
+        with pytest.raises(FormatError):
+            lf.decode(d, q.shape, qd, None)
 
 
 def test_damaged_weights_refused():

@@ -308,11 +308,13 @@ class BoundedCodec(BrickCodec):
             cands.append(self._interp_candidate(x, clean, mask))
         best = keep_faster(cands)
         if x.dtype.kind == "f":
-            long = self._longfit(q, len(best[0]))
-            if long is not None:
-                tier, long = long
-                long = self._finish(x, mask, rec, FLAG_RESIDUALS, [long])
-                best = keep_faster([*cands, (tier, long)])
+            longs = self._longfit(q, len(best[0]))
+            if longs:
+                cands += [
+                    (tier, self._finish(x, mask, rec, FLAG_RESIDUALS, [long]))
+                    for tier, long in longs
+                ]  # fmt: skip
+                best = keep_faster(cands)
         return best
 
     def _code_quantised(self, q: np.ndarray) -> list[tuple[int, bytes]]:
@@ -331,41 +333,44 @@ class BoundedCodec(BrickCodec):
         tier = TIER_SLOW if p[0] == MODE_PREDICT else TIER_FAST  # (else raw or constant)
         return [(TIER_MID, wav), (tier, p)]
 
-    def _longfit(self, q: np.ndarray, best: int) -> tuple[int, bytes] | None:
-        """(decoding tier, payload) of the quantised voxels by the long fitted
-        predictor, version 2 (:mod:`volpack.volume_codec.bounded_longfit`): the two
-        reaches whose fits leave the least squared residual are coded and the shorter
-        kept, its residual by the lossless codec's wavelet (the middle tier: the walk
-        costs about what the wavelet does), or by its predictive tool (the slow tier)
-        where that is SLOW_MIN_SAVING shorter. Made only where the first
-        one's residual entropy is under LONGFIT_MAX_ENTROPY times ``best`` bytes (the
+    def _longfit(self, q: np.ndarray, best: int) -> list[tuple[int, bytes]]:
+        """(decoding tier, payload) pairs of the quantised voxels by the long fitted
+        predictor, version 2 (:mod:`volpack.volume_codec.bounded_longfit`), for
+        ``keep_faster``: at each reach it tries (the two whose fits leave the least
+        squared residual, and the shortest), the residual by the lossless codec's
+        wavelet (the middle tier: the walk costs about what the wavelet does) and by
+        the adaptive coder in contexts of the residual's magnitudes (the slow tier: a
+        chain of adaptive binary decisions per voxel, as the lossless codec's
+        predictor); the shortest of each kind, and the wavelet's residual by the
+        lossless codec's predictive tool (slow tier). Made only where the first reach's
+        residual entropy is under LONGFIT_MAX_ENTROPY times ``best`` bytes (the
         shortest coding so far), and not tried where that spends less than
         LONGFIT_MIN_BITS a voxel (loose bounds: the wavelet and interpolation paths)."""
         from . import bounded_longfit as lf
 
         small = q.ndim != 3 or min(q.shape) < 4 or q.size < 4096
         if small or 8 * best < LONGFIT_MIN_BITS * q.size:
-            return None
+            return []
         qmax = int(np.iinfo(q.dtype).max)
         wav = self._inner()
-        kept = None
-        for i, reach in enumerate(lf.rank_reaches(np.ascontiguousarray(q, np.int64))[:2]):
-            r, plan, weights = lf.residuals(q, reach, qmax)
+        ctx = by_wav = shifted = None
+        for i, reach in enumerate(lf.tried_reaches(np.ascontiguousarray(q, np.int64))):
+            r, plan, weights = lf.residuals(q, reach, qmax, prune=True)
             if i == 0 and lf.estimate_bits(r) / 8 > best * LONGFIT_MAX_ENTROPY:
-                return None
+                return []
+            data = lf.encode_head(r, plan, weights, context=True)[0] + lf.code_residuals(r)
+            if ctx is None or len(data) < len(ctx):
+                ctx = data
             head = lf.encode_head(r, plan, weights)
-            if head is None:
-                continue
-            data = head[0] + wav.encode(head[1])
-            if kept is None or len(data) < len(kept[0]):
-                kept = data, head
-        if kept is None:
-            return None
-        data, (head, res) = kept
-        slow = head + self._predictive().encode(res)
-        if len(slow) < len(data) * (1.0 - SLOW_MIN_SAVING):
-            return TIER_SLOW, slow
-        return TIER_MID, data
+            if head is not None:
+                data = head[0] + wav.encode(head[1])
+                if by_wav is None or len(data) < len(by_wav):
+                    by_wav, shifted = data, head
+        out = [(TIER_SLOW, ctx)]
+        if shifted is not None:
+            head, res = shifted
+            out += [(TIER_MID, by_wav), (TIER_SLOW, head + self._predictive().encode(res))]
+        return out
 
     @property
     def _exact(self) -> bool:

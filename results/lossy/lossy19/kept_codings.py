@@ -1,0 +1,25 @@
+"""Which coding the encoder keeps per brick of a cell: the flag byte, and for the long
+fit (flag bit 3) its residual type (0-2: the lossless codec, 3: context coded, step 22).
+
+    python results/lossy/lossy19/kept_codings.py cam_u:1e-3,tgv_vorticity:1e-3
+"""
+import sys
+from collections import Counter
+
+from cells import cells
+
+from volpack import api
+from volpack.format.container import Reader
+from volpack.format.sections import take_section
+
+for name, rel, a, e in cells(sys.argv[1]):
+    blob = api.compress_array(a, max_error=e)
+    kinds = Counter()
+    with Reader(blob) as r:
+        for _, _, p in r:
+            kind = f"flags {p[0]}"
+            if p[0] & 8 and not p[0] & (4 | 16 | 64 | 128):
+                inner = take_section(memoryview(p), 1, "inner")[0]
+                kind += " long fit, residual " + ("context coded" if inner[4] == 3 else "lossless")
+            kinds[kind] += 1
+    print(f"{name} {rel} {len(blob)} B: " + ", ".join(f"{k} x{n}" for k, n in kinds.items()), flush=True)
