@@ -237,13 +237,19 @@ def serve(
         for line in _warm(runner):
             log(f"warming failed: {line}")
         log(f"kernels loaded in {time.perf_counter() - t:.1f} s")
+    if warm and listening(path):  # another server started while this one warmed
+        raise OptionError(f"a volpack server already listens on {path}")
     with contextlib.suppress(FileNotFoundError):
         path.unlink()  # a stale socket of a server that died
     server = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    try:
+        server.bind(str(path))
+    except OSError:
+        server.close()  # another server bound it first: its socket is not ours to remove
+        raise OptionError(f"a volpack server already listens on {path}") from None
     served = 0
     _exit_on_sigterm()
     try:
-        server.bind(str(path))
         os.chmod(path, 0o600)
         server.listen(16)
         server.settimeout(idle or None)
@@ -286,6 +292,10 @@ def serve(
     return served
 
 
+class Terminate(BaseException):
+    """SIGTERM in a server: not an exception of the command it was running."""
+
+
 def _exit_on_sigterm() -> None:
     """``kill`` ends the server through its ``finally`` (the socket removed), as Ctrl-C
     does; only the main thread may set a handler (a server in a thread keeps Python's)."""
@@ -295,7 +305,7 @@ def _exit_on_sigterm() -> None:
     if threading.current_thread() is threading.main_thread():
 
         def terminate(signum, frame):
-            raise SystemExit(128 + signum)
+            raise Terminate(signum)
 
         signal.signal(signal.SIGTERM, terminate)
 
@@ -339,7 +349,14 @@ def _run(runner, request: dict) -> dict:
     import logging
 
     out, err = io.StringIO(), io.StringIO()
-    here = os.getcwd()
+    try:
+        here = os.getcwd()
+    except OSError:  # the server's own folder was removed
+        here = "/"
+    try:
+        os.chdir(request["cwd"])
+    except OSError as e:  # removed since: the client runs the command itself
+        return {"code": None, "error": f"cannot work in {request['cwd']}: {e.strerror}"}
     umask = request.get("umask")
     mask = os.umask(umask if isinstance(umask, int) and 0 <= umask <= 0o777 else 0o022)
     root = logging.getLogger()
@@ -347,7 +364,6 @@ def _run(runner, request: dict) -> dict:
     root.handlers.clear()  # each command configures logging onto its own stderr
     code: int = 0
     try:
-        os.chdir(request["cwd"])
         with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
             try:
                 runner(request["argv"])
@@ -355,12 +371,15 @@ def _run(runner, request: dict) -> dict:
                 code = e.code if isinstance(e.code, int) else (0 if e.code is None else 1)
                 if code == 1 and not isinstance(e.code, int):
                     print(e.code, file=sys.stderr)
+            except (KeyboardInterrupt, Terminate):
+                raise  # the server is asked to end: the client gets no answer, runs it itself
             except BaseException as e:  # noqa: BLE001  (a server survives its commands)
                 print(f"volpack: internal error, please report: {type(e).__name__}: {e}",
                       file=sys.stderr)  # fmt: skip
                 code = EXIT_INTERNAL
     finally:
-        os.chdir(here)
+        with contextlib.suppress(OSError):
+            os.chdir(here)
         os.umask(mask)
         root.handlers[:] = handlers
         gc.collect()

@@ -5,10 +5,12 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import socket
 import subprocess
 import sys
 import threading
+import time
 
 import numpy as np
 import pytest
@@ -65,7 +67,7 @@ def test_which_commands_a_server_may_run(argv, command):
     assert sv.served_command(argv) == command
 
 
-def test_info_served_as_run_locally(server, tmp_path, capfd):
+def test_info_served_as_run_locally(server, tmp_path, capfd, monkeypatch):
     src = tmp_path / "a.npy"
     np.save(src, np.arange(60, dtype=np.int16).reshape(3, 4, 5))
     want = local("info", src, "--json")
@@ -73,7 +75,7 @@ def test_info_served_as_run_locally(server, tmp_path, capfd):
     got = capfd.readouterr().out
     assert json.loads(got) == json.loads(want.stdout)
     # a relative path is the client's: the server works in the client's folder
-    os.chdir(tmp_path)
+    monkeypatch.chdir(tmp_path)
     assert sv.forward(["info", "a.npy"]) == 0
     assert "3 x 4 x 5" in capfd.readouterr().out
     # errors keep their exit code and their one line
@@ -194,4 +196,14 @@ def test_the_volpack_command_through_a_detached_server(tmp_path):
     status = subprocess.run([*exe, "serve", "--status", "--json"], env=env,
                             capture_output=True, text=True, check=True)  # fmt: skip
     assert not json.loads(status.stdout)["listening"]
-    assert pid > 0
+    # `kill` ends a server as --stop does: its socket removed
+    up = subprocess.run([*exe, "serve", "--detach", "--no-warm", "--idle", "120", "--json"],
+                        env=env, capture_output=True, text=True, check=True)  # fmt: skip
+    pid = json.loads(up.stdout)["pid"]
+    sock = json.loads(up.stdout)["socket"]
+    os.kill(pid, signal.SIGTERM)
+    for _ in range(200):
+        if not os.path.exists(sock):
+            break
+        time.sleep(0.05)
+    assert not os.path.exists(sock)

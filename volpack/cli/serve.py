@@ -96,7 +96,11 @@ def serve(idle: float, warm: bool, detach: bool, stop_: bool, status: bool, as_j
         if as_json
         else (lambda line: click.echo(f"volpack serve: {line}", err=True))
     )
-    served = sv.serve(_runner, idle=idle, warm=warm, log=say)
+    try:
+        served = sv.serve(_runner, idle=idle, warm=warm, log=say)
+    except (KeyboardInterrupt, sv.Terminate):
+        say("stopped")
+        raise SystemExit(0) from None
     if as_json:
         emit_json({"socket": str(path), "served": served, "pid": os.getpid()})
 
