@@ -191,6 +191,9 @@ def test_the_volpack_command_through_a_detached_server(tmp_path):
         status = subprocess.run([*exe, "serve", "--status", "--json"], env=env,
                                 capture_output=True, text=True, check=True)  # fmt: skip
         assert json.loads(status.stdout)["listening"]
+        again = subprocess.run([*exe, "serve", "--detach", "--no-warm", "--json"], env=env,
+                               capture_output=True, text=True, check=True)  # fmt: skip
+        assert json.loads(again.stdout)["pid"] is None  # the one listening is kept
     finally:
         subprocess.run([*exe, "serve", "--stop"], env=env, check=True, capture_output=True)
     status = subprocess.run([*exe, "serve", "--status", "--json"], env=env,
@@ -207,3 +210,15 @@ def test_the_volpack_command_through_a_detached_server(tmp_path):
             break
         time.sleep(0.05)
     assert not os.path.exists(sock)
+
+
+def test_detach_says_when_the_server_ends_at_once(tmp_path):
+    d = tmp_path / "open"
+    d.mkdir(mode=0o755)
+    os.chmod(d, 0o755)  # refused by the server: the parent must not wait for it
+    env = dict(os.environ, VOLPACK_SERVE_DIR=str(d))
+    out = subprocess.run(
+        [sys.executable, "-m", "volpack", "serve", "--detach", "--no-warm"],
+        env=env, capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert out.returncode == 1 and "ended at once" in out.stderr

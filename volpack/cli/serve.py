@@ -73,6 +73,12 @@ def serve(idle: float, warm: bool, detach: bool, stop_: bool, status: bool, as_j
         else:
             click.echo(f"listening on {path}" if up else f"no server listens on {path}")
         return
+    if detach and sv.listening(path):  # already up: nothing to start
+        if as_json:
+            emit_json({"socket": str(path), "listening": True, "pid": None})
+        else:
+            click.echo(f"a server already listens on {path}")
+        return
     if detach:
         if not as_json:
             click.echo("volpack serve: starting in the background (loading the kernels; on an "
@@ -83,6 +89,11 @@ def serve(idle: float, warm: bool, detach: bool, stop_: bool, status: bool, as_j
                          stderr=subprocess.DEVNULL, start_new_session=True)  # fmt: skip
         deadline = time.monotonic() + 600.0  # warming compiles on an empty kernel cache
         while not sv.listening(path):
+            if child.poll() is not None:
+                raise click.ClickException(
+                    f"the server ended at once (exit {child.returncode}); "
+                    "'volpack serve' in the foreground says why"
+                )
             if time.monotonic() > deadline:
                 raise click.ClickException(f"the server did not start listening on {path}")
             time.sleep(0.05)
