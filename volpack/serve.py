@@ -26,7 +26,9 @@ When the client runs the command itself instead:
 
 Security: the socket lives in a directory only its owner can enter (``0700``, checked),
 and the server answers only its own user (``SO_PEERCRED`` where the platform has it).
-The protocol: one JSON line each way, capped at :data:`MAX_MESSAGE` bytes.
+The protocol: JSON objects, one a line, each capped at :data:`MAX_MESSAGE` bytes: the
+request; then the command's stderr as it is written (``{"err": ...}``), and last its
+exit code with its stdout (``{"code": ..., "out": ...}``).
 """
 
 from __future__ import annotations
@@ -129,25 +131,33 @@ def forward(argv: list[str]) -> int | None:
     os.umask(umask)
     request = {"v": PROTOCOL, "argv": argv, "cwd": os.getcwd(), "stamp": path.stem[8:],
                "umask": umask}  # fmt: skip
+    reply = None
     try:
         with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as s:
             s.settimeout(CONNECT_TIMEOUT)
             s.connect(str(path))
             s.settimeout(None)  # a long render is not a dead server
             _send(s, request)
-            reply = _receive(s)
+            for message in _messages(s):  # what the command says on stderr, as it says it
+                if "code" in message or "error" in message:
+                    reply = message
+                    break
+                _write(sys.stderr, message.get("err"))
     except OSError:
         return None  # stale socket, refused: run here
-    if not isinstance(reply, dict) or not isinstance(reply.get("code"), int):
-        return None  # the server ended without answering (or answered nonsense)
-    for stream, key in ((sys.stdout, "out"), (sys.stderr, "err")):
-        text = reply.get(key)
-        if isinstance(text, str) and text:
-            try:
-                stream.write(text)
-            except (OSError, ValueError):  # a closed pipe: the command itself succeeded
-                pass
+    if reply is None or not isinstance(reply.get("code"), int):
+        return None  # the server ended without answering, or refused the request
+    _write(sys.stdout, reply.get("out"))
     return reply["code"]
+
+
+def _write(stream, text) -> None:
+    if isinstance(text, str) and text:
+        try:
+            stream.write(text)
+            stream.flush()
+        except (OSError, ValueError):  # a closed pipe: the command itself goes on
+            pass
 
 
 def stop(path: Path | None = None) -> bool:
@@ -179,24 +189,54 @@ def _send(s: socket.socket, message: dict) -> None:
     s.sendall(json.dumps(message).encode() + b"\n")
 
 
-def _receive(s: socket.socket):
-    """One JSON line, at most :data:`MAX_MESSAGE` bytes; None if the peer closed first or
-    sent more or something that is not JSON."""
-    chunks, size = [], 0
-    while True:
-        chunk = s.recv(1 << 16)
-        if not chunk:
-            return None
-        chunks.append(chunk)
-        size += len(chunk)
-        if chunk.endswith(b"\n"):
-            break
-        if size > MAX_MESSAGE:
-            return None
-    try:
-        return json.loads(b"".join(chunks))
-    except ValueError:
-        return None
+def _messages(s: socket.socket):
+    """The JSON objects the peer sends, one a line, each at most :data:`MAX_MESSAGE`
+    bytes; ends where the peer closes, or sends a longer line or one that is not a JSON
+    object."""
+    with s.makefile("rb") as f:
+        while True:
+            line = f.readline(MAX_MESSAGE + 1)
+            if not line.endswith(b"\n"):
+                return
+            try:
+                message = json.loads(line)
+            except ValueError:
+                return
+            if not isinstance(message, dict):
+                return
+            yield message
+
+
+def _receive(s: socket.socket) -> dict | None:
+    """The first message of :func:`_messages`, or None."""
+    return next(_messages(s), None)
+
+
+class _Relay(io.TextIOBase):
+    """A command's stderr in a server: each write goes to the client at once (notices,
+    progress lines, errors), so a long request is not silent. Writes may come from the
+    command's threads too."""
+
+    def __init__(self, conn: socket.socket):
+        import threading
+
+        self.conn = conn
+        self.lock = threading.Lock()
+        self.gone = False
+
+    def writable(self) -> bool:
+        return True
+
+    def write(self, text) -> int:
+        if isinstance(text, (bytes, bytearray)):  # a writer that found no text layer
+            text = bytes(text).decode("utf-8", "replace")
+        if text and not self.gone:
+            with self.lock:
+                try:
+                    _send(self.conn, {"err": text})
+                except OSError:
+                    self.gone = True  # the client left (interrupted): the command goes on
+        return len(text)
 
 
 # -- server ------------------------------------------------------------------------
@@ -280,7 +320,7 @@ def serve(
                 if request.get("ping"):
                     _reply(conn, {"served": served})
                     continue
-                reply = _run(runner, request)
+                reply = _run(runner, request, _Relay(conn))
                 served += reply.get("code") is not None
                 _reply(conn, reply)
                 if reply.get("code") is not None:
@@ -340,15 +380,18 @@ def _valid(request: dict) -> str | None:
     return None
 
 
-def _run(runner, request: dict) -> dict:
-    """Run one command as ``volpack ARGV`` would in ``cwd``; what it printed is returned."""
+def _run(runner, request: dict, err=None) -> dict:
+    """Run one command as ``volpack ARGV`` would in ``cwd``: what it printed on stdout is
+    returned, its stderr goes to ``err`` (a :class:`_Relay`), else is returned too."""
     problem = _valid(request)
     if problem is not None:
         return {"code": None, "error": problem}
     import gc
     import logging
 
-    out, err = io.StringIO(), io.StringIO()
+    out = io.StringIO()
+    kept = err is None
+    err = io.StringIO() if kept else err
     try:
         here = os.getcwd()
     except OSError:  # the server's own folder was removed
@@ -383,7 +426,10 @@ def _run(runner, request: dict) -> dict:
         os.umask(mask)
         root.handlers[:] = handlers
         gc.collect()
-    return {"code": code, "out": out.getvalue(), "err": err.getvalue()}
+    reply = {"code": code, "out": out.getvalue()}
+    if kept:
+        reply["err"] = err.getvalue()
+    return reply
 
 
 def _warm(runner) -> list[str]:

@@ -99,7 +99,8 @@ def test_render_served_writes_the_same_bytes(server, tmp_path):
         argv = ["render", str(src), str(tmp_path / "private.png"), "--size", "8x8"]
         sv._send(s, {"v": sv.PROTOCOL, "argv": argv, "cwd": str(tmp_path), "stamp": sv.stamp(),
                      "umask": 0o077})  # fmt: skip
-        assert sv._receive(s)["code"] == 0
+        *said, last = sv._messages(s)  # what it printed on stderr first, then its code
+        assert last["code"] == 0 and said and all("err" in m for m in said)
     assert (tmp_path / "private.png").stat().st_mode & 0o777 == 0o600
     mask = os.umask(0o022)
     os.umask(mask)
