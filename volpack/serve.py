@@ -45,7 +45,7 @@ import time
 from pathlib import Path
 
 PROTOCOL = 1
-SERVED = frozenset({"render", "info"})  # short commands whose time is mostly start-up
+SERVED = frozenset({"render", "info", "walk", "play"})  # previews: start-up is much of their time
 MAX_MESSAGE = 64 << 20  # a reply carries what the command printed; more is an error
 CONNECT_TIMEOUT = 1.0
 EXIT_INTERNAL = 3  # as the CLI's: an exception volpack did not raise on purpose
@@ -100,6 +100,26 @@ def socket_path() -> Path:
     return socket_dir() / f"volpack-{stamp()}.sock"
 
 
+_client_started: float | None = None  # while a server runs a request: its client's start
+
+
+def _process_started() -> float | None:
+    """When this process started, in ``CLOCK_BOOTTIME`` seconds (from /proc, 10 ms
+    resolution), or None where there is no /proc."""
+    try:
+        with open("/proc/self/stat") as f:
+            ticks = int(f.read().rsplit(")", 1)[1].split()[19])  # field 22, starttime
+        return ticks / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError, AttributeError):
+        return None
+
+
+def started() -> float | None:
+    """When the process a user waits on started (``CLOCK_BOOTTIME`` seconds): the
+    client's while a server runs its request, else this process's; None if unknown."""
+    return _client_started if _client_started is not None else _process_started()
+
+
 # -- client ------------------------------------------------------------------------
 
 
@@ -130,7 +150,7 @@ def forward(argv: list[str]) -> int | None:
     umask = os.umask(0o022)  # read it (there is no other way), then put it back
     os.umask(umask)
     request = {"v": PROTOCOL, "argv": argv, "cwd": os.getcwd(), "stamp": path.stem[8:],
-               "umask": umask}  # fmt: skip
+               "umask": umask, "started": _process_started()}  # fmt: skip
     reply = None
     try:
         with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as s:
@@ -402,6 +422,9 @@ def _run(runner, request: dict, err=None) -> dict:
         return {"code": None, "error": f"cannot work in {request['cwd']}: {e.strerror}"}
     umask = request.get("umask")
     mask = os.umask(umask if isinstance(umask, int) and 0 <= umask <= 0o777 else 0o022)
+    global _client_started
+    t0 = request.get("started")
+    _client_started = float(t0) if isinstance(t0, (int, float)) and t0 >= 0 else None
     root = logging.getLogger()
     handlers = root.handlers[:]
     root.handlers.clear()  # each command configures logging onto its own stderr
@@ -421,6 +444,7 @@ def _run(runner, request: dict, err=None) -> dict:
                       file=sys.stderr)  # fmt: skip
                 code = EXIT_INTERNAL
     finally:
+        _client_started = None
         with contextlib.suppress(OSError):
             os.chdir(here)
         os.umask(mask)

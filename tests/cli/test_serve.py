@@ -25,7 +25,8 @@ from volpack.errors import OptionError
 
 @pytest.fixture
 def server(tmp_path, monkeypatch):
-    """A server of this install in a thread, on a private socket folder; yields its path."""
+    """A server of this install in a thread, on a private socket folder; yields its path.
+    It never idles out: a test may compile kernels for minutes before its first request."""
     d = tmp_path / "sock"
     d.mkdir(mode=0o700)
     monkeypatch.setenv("VOLPACK_SERVE_DIR", str(d))
@@ -34,7 +35,7 @@ def server(tmp_path, monkeypatch):
     up = threading.Event()
     done: list[int] = []
     t = threading.Thread(
-        target=lambda: done.append(sv.serve(_runner, path, idle=60, warm=False, ready=up.set)),
+        target=lambda: done.append(sv.serve(_runner, path, idle=0, warm=False, ready=up.set)),
         daemon=True,
     )
     t.start()
@@ -59,6 +60,7 @@ def local(*args):
         (["render", "a.npy", "b.png", "--help"], None),
         (["--version"], None),
         (["compress", "a.npy", "a.vpk"], None),
+        (["walk", "o.vpk", "out/", "--orbit", "3"], "walk"),
         (["serve", "--stop"], None),
         ([], None),
     ],
@@ -223,3 +225,32 @@ def test_detach_says_when_the_server_ends_at_once(tmp_path):
         env=env, capture_output=True, text=True, timeout=120,
     )  # fmt: skip
     assert out.returncode == 1 and "ended at once" in out.stderr
+
+
+@pytest.mark.slow  # a walk's kernels
+def test_walk_served_writes_a_local_walks_frames_and_times_the_clients_wait(server, tmp_path):
+    from volpack.demo import load_demo_volume
+    from volpack.octree import build
+
+    path = tmp_path / "brain.vpk"
+    build(load_demo_volume().data[10:42, 20:60, 16:64], str(path), block=8)
+
+    def args(out):
+        return ["walk", str(path), f"{out}/", "--orbit", "2", "--size", "32x32", "--json"]
+
+    r = local(*args(tmp_path / "own"))
+    assert r.exit_code == 0, r.output
+    with socket.socket(socket.AF_UNIX) as s:
+        s.connect(str(server))
+        t0 = time.clock_gettime(time.CLOCK_BOOTTIME)  # "the client started now"
+        sv._send(s, {"v": sv.PROTOCOL, "argv": args(tmp_path / "served"), "cwd": str(tmp_path),
+                     "stamp": sv.stamp(), "started": t0})  # fmt: skip
+        *_, last = sv._messages(s)
+        waited = time.clock_gettime(time.CLOCK_BOOTTIME) - t0
+    assert last["code"] == 0
+    frames = sorted(os.listdir(tmp_path / "own"))
+    assert frames == sorted(os.listdir(tmp_path / "served")) and len(frames) == 2
+    for f in frames:
+        assert (tmp_path / "own" / f).read_bytes() == (tmp_path / "served" / f).read_bytes()
+    done = [f["finished_at"] for f in json.loads(last["out"])["per_frame"]]
+    assert 0 <= done[0] <= done[-1] <= waited  # since the client's start, not the server's

@@ -125,16 +125,19 @@ def _movie(output, fps: float, force: bool):
 
 
 def since_start() -> float | None:
-    """Seconds since this process started (what a user waits for a frame, imports
-    included; 10 ms resolution, from /proc), or None where there is no /proc."""
-    import os
+    """Seconds since the user's process started (what a user waits for a frame, imports
+    included; 10 ms resolution, from /proc): the client's when a server runs the
+    command (:func:`volpack.serve.started`); None where there is no /proc."""
     import time
 
+    from ..serve import started
+
+    t0 = started()
+    if t0 is None:
+        return None
     try:
-        with open("/proc/self/stat") as f:
-            ticks = int(f.read().rsplit(")", 1)[1].split()[19])  # field 22, starttime
-        return time.clock_gettime(time.CLOCK_BOOTTIME) - ticks / os.sysconf("SC_CLK_TCK")
-    except (OSError, ValueError, IndexError, AttributeError):
+        return time.clock_gettime(time.CLOCK_BOOTTIME) - t0
+    except (OSError, AttributeError):
         return None
 
 

@@ -39,8 +39,8 @@ def _runner(argv: list[str]) -> None:
 @click.option("--status", is_flag=True, help="Say whether this install's server listens.")
 @json_option
 def serve(idle: float, warm: bool, detach: bool, stop_: bool, status: bool, as_json: bool) -> None:
-    """Run volpack as a resident server, so that `volpack render` and `volpack info`
-    start at once.
+    """Run volpack as a resident server, so that `volpack render`, `info`, `walk` and
+    `play` start at once.
 
     A new process spends about half a second loading numba and its kernels before it
     renders anything. While a server of this install listens, the `volpack` command
