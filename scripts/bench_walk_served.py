@@ -1,40 +1,121 @@
-"""Time `volpack walk` as a user runs it, in its own process (``VOLPACK_SERVE=0``) and
-served by a listening ``volpack serve``: when frame 0's PNG appears after the spawn, and
-the whole command; alternating rounds after one untimed run of each, medians printed,
-and whether the two runs' frames are byte-identical.
+"""`volpack walk` as a user runs it, in a process of its own and served by `volpack serve`.
 
-    volpack serve --detach && python scripts/bench_walk_served.py o.vpk 3 6   # VPK ROUNDS FRAMES
+For each round, runs ``volpack -q walk VPK OUT/ --orbit N --json`` twice, alternating:
+once with ``VOLPACK_SERVE=0`` (the command in its own process) and once while a server of
+this install listens (started here on a private socket, warm, before the first round).
+Records when frame 0's PNG appears after the spawn (polled every 5 ms) and the whole
+command's wall time; one untimed run of each comes first. Checks that both runs wrote
+the same frames, byte for byte. Writes ``OUT_DIR/walk.csv`` (one row a run) and
+``OUT_DIR/walk.png``, and prints the medians.
+
+    python scripts/bench_walk_served.py o.vpk --rounds 3 --orbit 6 --out results/render/serve19
 """
-import json, os, shutil, statistics, subprocess, sys, time
+
+from __future__ import annotations
+
+import argparse
+import csv
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
 from pathlib import Path
-vpk, rounds, orbit = sys.argv[1], int(sys.argv[2]), sys.argv[3]
-exe = str(Path(sys.executable).with_name("volpack"))
-base = dict(os.environ)
-res = {"own": [], "served": []}
-def once(kind):
-    out = Path(f"/tmp/walkbench/{kind}")
-    shutil.rmtree(out, ignore_errors=True); out.mkdir(parents=True)
-    env = dict(base, VOLPACK_SERVE="0") if kind == "own" else base
+
+EXE = str(Path(sys.executable).with_name("volpack"))
+
+
+def once(vpk: str, out: Path, orbit: int, env: dict) -> tuple[float, float]:
+    """(seconds to frame 0's PNG, seconds for the whole command) of one walk."""
+    shutil.rmtree(out, ignore_errors=True)
+    out.mkdir(parents=True)
+    first_png = out / "frame_00000.png"
+    cmd = [EXE, "-q", "walk", vpk, f"{out}/", "--orbit", str(orbit), "--json"]
     t0 = time.perf_counter()
-    p = subprocess.Popen([exe, "-q", "walk", vpk, str(out) + "/", "--orbit", orbit, "--json"],
-                         env=env, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    p = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     first = None
     while p.poll() is None:
-        if first is None and (out / "frame_00000.png").exists():
+        if first is None and first_png.exists():
             first = time.perf_counter() - t0
         time.sleep(0.005)
     total = time.perf_counter() - t0
-    if first is None and (out / "frame_00000.png").exists(): first = total
-    assert p.returncode == 0, p.returncode
-    return first, total
-for kind in ("own", "served"):
-    once(kind)  # untimed
-for _ in range(rounds):
-    for kind in ("own", "served"):
-        res[kind].append(once(kind))
-for kind, v in res.items():
-    print(kind, "frame 0 at", [round(a, 3) for a, _ in v], "whole", [round(b, 3) for _, b in v],
-          "median frame0 %.3f whole %.3f" % (statistics.median(a for a, _ in v), statistics.median(b for _, b in v)))
-same = all((Path("/tmp/walkbench/own") / f).read_bytes() == (Path("/tmp/walkbench/served") / f).read_bytes()
-           for f in os.listdir("/tmp/walkbench/own") if f.endswith(".png"))
-print("frames byte-identical:", same, len(os.listdir("/tmp/walkbench/own")))
+    if p.returncode:
+        raise SystemExit(f"{' '.join(cmd)} failed with exit {p.returncode}")
+    return (total if first is None else first), total
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("vpk", help="an octree .vpk (volpack compress --octree)")
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--orbit", type=int, default=6, help="frames of the walk")
+    ap.add_argument("--out", type=Path, default=Path("results/render/serve"))
+    args = ap.parse_args(argv)
+    args.out.mkdir(parents=True, exist_ok=True)
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="volpack-walk-") as d:
+        tmp = Path(d)
+        (tmp / "serve").mkdir(mode=0o700)
+        served = dict(os.environ, VOLPACK_SERVE_DIR=str(tmp / "serve"))
+        served.pop("VOLPACK_SERVE", None)
+        sides = {"own process": dict(served, VOLPACK_SERVE="0"), "served": served}
+        subprocess.run([EXE, "serve", "--detach", "--idle", "0"], env=served, check=True)
+        try:
+            for side, env in sides.items():  # untimed: caches warm, kernels loaded
+                once(args.vpk, tmp / side, args.orbit, env)
+            for r in range(args.rounds):
+                for side, env in sides.items():
+                    first, total = once(args.vpk, tmp / side, args.orbit, env)
+                    rows.append({"round": r, "side": side, "frame0_s": round(first, 3),
+                                 "whole_s": round(total, 3)})  # fmt: skip
+                    print(f"  round {r} {side:12s} frame 0 {first:6.3f} s  whole {total:6.3f} s",
+                          flush=True)  # fmt: skip
+        finally:
+            subprocess.run([EXE, "serve", "--stop"], env=served, check=True, capture_output=True)
+        frames = sorted(os.listdir(tmp / "own process"))
+        same = frames == sorted(os.listdir(tmp / "served")) and all(
+            (tmp / "own process" / f).read_bytes() == (tmp / "served" / f).read_bytes()
+            for f in frames
+        )
+    for row in rows:
+        row["frames_identical"] = same
+    with open(args.out / "walk.csv", "w", newline="") as f:
+        wr = csv.DictWriter(f, fieldnames=list(rows[0]))
+        wr.writeheader()
+        wr.writerows(rows)
+    med = {s: [statistics.median(r[k] for r in rows if r["side"] == s)
+               for k in ("frame0_s", "whole_s")] for s in sides}  # fmt: skip
+    for s, (f0, whole) in med.items():
+        print(f"{s:12s} median frame 0 {f0:.3f} s, whole walk {whole:.3f} s")
+    print(f"frames byte-identical: {same} ({len(frames)} frames)")
+    chart(med, args.out / "walk.png", args.orbit)
+    print(f"wrote {args.out / 'walk.csv'} and walk.png")
+    return 0 if same else 1
+
+
+def chart(med: dict, path: Path, orbit: int) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 3.5))
+    for i, key in enumerate((0, 1)):
+        ax.bar([i - 0.2, i + 0.2], [med["own process"][key], med["served"][key]], 0.4,
+               color=["tab:blue", "tab:orange"])  # fmt: skip
+    ax.set_xticks([0, 1])
+    ax.set_xticklabels(["frame 0 on disk", f"whole walk, {orbit} frames"])
+    ax.set_ylabel("wall seconds from the spawn (median)")
+    ax.legend(handles=[plt.Rectangle((0, 0), 1, 1, color="tab:blue"),
+                       plt.Rectangle((0, 0), 1, 1, color="tab:orange")],
+              labels=["own process", "served"], fontsize=8)  # fmt: skip
+    ax.set_title("volpack walk: in its own process and served")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
