@@ -22,6 +22,23 @@ def need(module: str, extra: str):
     )
 
 
+def benchmark_volume(name: str) -> np.ndarray:
+    """A real volume of the benchmarks (``scripts/datasets.py``, from the data cache that
+    ``scripts/fetch_data.py`` fills), or skip the test where it is not fetched or its
+    reader is missing."""
+    import sys
+    from pathlib import Path
+
+    scripts = str(Path(__file__).resolve().parents[1] / "scripts")
+    if scripts not in sys.path:
+        sys.path.insert(0, scripts)
+    datasets = pytest.importorskip("datasets")
+    try:
+        return datasets.load(name)[0]
+    except (FileNotFoundError, ImportError) as e:  # not fetched here, or its reader absent
+        pytest.skip(f"{name}: {e}")
+
+
 # Compiling is most of the fast set, and a kernel both xdist workers first ask for at
 # once is compiled twice (64 CPU s in session 17's profile). Work stealing hands each
 # worker one half of the list, in order; the renderer's and the mesh coder's tests go at

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import benchmark_volume
 
 from volpack import api
 from volpack.errors import FormatError
@@ -246,12 +247,7 @@ def test_real_fields(name, rel):
     """Fields of the lossy benchmark (data cache; skipped without it) where version 2 is
     kept: every voxel within its bound, decoded by one worker and by two. On the last
     two the residual is context coded (step 22)."""
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "scripts"))
-    datasets = pytest.importorskip("datasets")
-    try:
-        f = datasets.load(name)[0]
-    except (FileNotFoundError, ImportError) as err:
-        pytest.skip(f"{name}: {err}")
+    f = benchmark_volume(name)
     e = rel * float(f.max() - f.min())
     blob, inner = _payload(f, e)
     assert inner[0] == 0

@@ -8,13 +8,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import float_specials, slow_case
+from conftest import benchmark_volume, float_specials, slow_case
 
 from volpack import api
 from volpack.entropy import rans
 from volpack.errors import FormatError, OptionError
 from volpack.format.container import Reader
 from volpack.volume_codec import fastpredict, palette
+from volpack.volume_codec.codec import ZstdCodec
 from volpack.volume_codec.fast import (
     FLAG_FLOAT,
     FLAG_PALETTE,
@@ -27,7 +28,6 @@ from volpack.volume_codec.fast import (
     FastCodec,
     describe,
 )
-from volpack.volume_codec.codec import ZstdCodec
 from volpack.volume_codec.registry import get_codec
 
 GOLDEN = Path(__file__).resolve().parents[2] / "formats" / "examples"
@@ -512,14 +512,7 @@ def test_rows_round_trip_real_label_maps(name, cut):
     """Cuts of the CGAL liver and the frog segmentation (data cache; skipped without it
     or without its reader): every brick the same with the row kinds forced, left to the
     encoder, and off."""
-    import sys
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "scripts"))
-    datasets = pytest.importorskip("datasets")
-    try:
-        a = datasets.load(name)[0]
-    except (FileNotFoundError, ImportError) as e:  # not fetched here, or its reader absent
-        pytest.skip(f"{name}: {e}")
+    a = benchmark_volume(name)
     v = np.ascontiguousarray(a[cut]).astype(np.int64)
     p = palette.build(v)
     ranks = palette.to_ranks(v, p)

@@ -4,12 +4,9 @@ edge cases and real scans, what it saves, version 7 streams unchanged, corrupt f
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
-from conftest import flip_bits
+from conftest import benchmark_volume, flip_bits
 from test_predictfit import brain, noisy, tissue
 
 from volpack import api
@@ -140,12 +137,7 @@ REAL = ["brainsmall", "mri_dipy_s0", "mri_nibabel_t1", "mri_epi_nibabel"]
 def test_real_scans_roundtrip_and_version_8_is_no_longer(name):
     """The four short scans of issue 20 (data cache; skipped without it): version 8
     round-trips and is shorter than version 7 on every one."""
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "scripts"))
-    datasets = pytest.importorskip("datasets")
-    try:
-        a = datasets.load(name)[0]
-    except (FileNotFoundError, ImportError) as e:
-        pytest.skip(f"{name}: {e}")
+    a = benchmark_volume(name)
     v8 = api.compress_array(a)
     np.testing.assert_array_equal(api.decompress_array(v8, workers=2), a)
     assert len(v8) < len(api.compress_array(a, predict_version=7))
