@@ -48,7 +48,6 @@ PROTOCOL = 1
 SERVED = frozenset({"render", "info", "walk", "play"})  # previews: start-up is much of their time
 MAX_MESSAGE = 64 << 20  # a reply carries what the command printed; more is an error
 CONNECT_TIMEOUT = 1.0
-EXIT_INTERNAL = 3  # as the CLI's: an exception volpack did not raise on purpose
 _PACKAGE = Path(__file__).resolve().parent
 _GLOBAL_FLAGS = frozenset({"-v", "-vv", "--verbose", "-q", "--quiet", "--debug"})
 _LOCAL_FLAGS = frozenset({"-h", "--help", "--version"})
@@ -442,6 +441,8 @@ def _run(runner, request: dict, err=None) -> dict:
             except BaseException as e:  # noqa: BLE001  (a server survives its commands)
                 print(f"volpack: internal error, please report: {type(e).__name__}: {e}",
                       file=sys.stderr)  # fmt: skip
+                from .errors import EXIT_INTERNAL
+
                 code = EXIT_INTERNAL
     finally:
         _client_started = None

@@ -22,8 +22,8 @@ import traceback
 import click
 
 from .. import __version__
+from ..errors import EXIT_INTERNAL
 
-EXIT_INTERNAL = 3  # an exception volpack did not raise on purpose: a bug to report
 CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
 
 # Command -> the module of this package that defines it (in its COMMANDS). A command's
