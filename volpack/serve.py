@@ -280,9 +280,9 @@ def serve(
 
     if not hasattr(socket, "AF_UNIX"):
         raise OptionError("volpack serve needs Unix sockets, which this platform lacks")
+    own = stamp()  # of the code this process loads; later edits never reach it
     if path is None:
-        socket_dir(create=True)
-        path = socket_path()
+        path = socket_dir(create=True) / f"volpack-{own}.sock"
     if not _private(path.parent):
         raise OptionError(
             f"{path.parent}: expected a directory only you can enter (mode 0700), "
@@ -293,7 +293,7 @@ def serve(
     log = log or (lambda line: None)
     if warm:
         t = time.perf_counter()
-        for line in _warm(runner):
+        for line in _warm(runner, own):
             log(f"warming failed: {line}")
         log(f"kernels loaded in {time.perf_counter() - t:.1f} s")
     if warm and listening(path):  # another server started while this one warmed
@@ -339,7 +339,7 @@ def serve(
                 if request.get("ping"):
                     _reply(conn, {"served": served})
                     continue
-                reply = _run(runner, request, _Relay(conn))
+                reply = _run(runner, request, own, _Relay(conn))
                 served += reply.get("code") is not None
                 _reply(conn, reply)
                 if reply.get("code") is not None:
@@ -386,7 +386,7 @@ def _reply(conn: socket.socket, message: dict) -> None:
         pass  # the client went away (interrupted): its answer is lost, nothing else
 
 
-def _valid(request: dict) -> str | None:
+def _valid(request: dict, own: str) -> str | None:
     argv, cwd = request.get("argv"), request.get("cwd")
     if not isinstance(argv, list) or not all(isinstance(a, str) for a in argv):
         return "expected argv as a list of strings"
@@ -394,15 +394,16 @@ def _valid(request: dict) -> str | None:
         return f"expected one of the served commands {sorted(SERVED)}, found {argv[:2]}"
     if not isinstance(cwd, str) or not os.path.isdir(cwd):
         return f"expected an existing working directory, found {cwd!r}"
-    if request.get("stamp") != stamp():
+    if request.get("stamp") != own:
         return "stale: this server belongs to another install or environment"
     return None
 
 
-def _run(runner, request: dict, err=None) -> dict:
-    """Run one command as ``volpack ARGV`` would in ``cwd``: what it printed on stdout is
-    returned, its stderr goes to ``err`` (a :class:`_Relay`), else is returned too."""
-    problem = _valid(request)
+def _run(runner, request: dict, own: str, err=None) -> dict:
+    """Run one command as ``volpack ARGV`` would in ``cwd``, if the request carries this
+    server's stamp ``own``: what it printed on stdout is returned, its stderr goes to
+    ``err`` (a :class:`_Relay`), else is returned too."""
+    problem = _valid(request, own)
     if problem is not None:
         return {"code": None, "error": problem}
     import gc
@@ -457,7 +458,7 @@ def _run(runner, request: dict, err=None) -> dict:
     return reply
 
 
-def _warm(runner) -> list[str]:
+def _warm(runner, own: str) -> list[str]:
     """Load the kernels a first preview of each common dtype needs: render a small
     sphere of uint8, int16, uint16 and float32, shaded and not, into a scratch folder.
     Returns what failed (nothing, unless volpack is broken)."""
@@ -478,7 +479,7 @@ def _warm(runner) -> list[str]:
             for shading in ("none", "phong"):
                 reply = _run(runner, {"argv": ["-q", "render", src, os.path.join(d, "out.png"),
                                                "--force", "--size", "32x32", "--shading", shading],
-                                      "cwd": d, "stamp": stamp()})  # fmt: skip
+                                      "cwd": d, "stamp": own}, own)  # fmt: skip
                 if reply["code"] != 0:
                     lines = (reply.get("err") or reply.get("error") or "").strip().splitlines()
                     failed.append(f"{dtype} {shading}: {lines[-1] if lines else reply['code']}")
