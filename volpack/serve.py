@@ -152,10 +152,7 @@ def forward(argv: list[str]) -> int | None:
                "umask": umask, "started": _process_started()}  # fmt: skip
     reply = None
     try:
-        with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as s:
-            s.settimeout(CONNECT_TIMEOUT)
-            s.connect(str(path))
-            s.settimeout(None)  # a long render is not a dead server
+        with _connect(path) as s:
             _send(s, request)
             for message in _messages(s):  # what the command says on stderr, as it says it
                 if "code" in message or "error" in message:
@@ -179,27 +176,38 @@ def _write(stream, text) -> None:
             pass
 
 
-def stop(path: Path | None = None) -> bool:
-    """Ask the server on ``path`` (default: this install's) to exit; False if none listens."""
+def _connect(path: Path | None) -> socket.socket:
+    """A socket connected to the server on ``path`` (default: this install's), blocking
+    from then on; OSError where nothing listens (no file, or a stale one: refused)."""
+    s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
     try:
-        with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as s:
-            s.settimeout(CONNECT_TIMEOUT)
-            s.connect(str(path or socket_path()))
-            s.settimeout(30.0)
+        s.settimeout(CONNECT_TIMEOUT)
+        s.connect(str(path or socket_path()))
+        s.settimeout(None)  # a long request under way is not a dead server
+    except OSError:
+        s.close()
+        raise
+    return s
+
+
+def stop(path: Path | None = None) -> bool:
+    """Ask the server on ``path`` (default: this install's) to exit, once the request it
+    runs (if any) is done; False if none listens."""
+    try:
+        with _connect(path) as s:
             _send(s, {"v": PROTOCOL, "stop": True})
-            return isinstance(_receive(s), dict)
+            return _receive(s) is not None
     except OSError:
         return False
 
 
 def listening(path: Path | None = None) -> bool:
-    """Whether a server answers on ``path`` (default: this install's socket)."""
+    """Whether a server listens on ``path`` (default: this install's socket): it takes
+    the connection, even while it runs a request (a server that died leaves a socket
+    file that refuses it)."""
     try:
-        with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as s:
-            s.settimeout(CONNECT_TIMEOUT)
-            s.connect(str(path or socket_path()))
-            _send(s, {"v": PROTOCOL, "ping": True})
-            return isinstance(_receive(s), dict)
+        with _connect(path):
+            return True
     except OSError:
         return False
 
@@ -336,9 +344,6 @@ def serve(
                     _reply(conn, {"stopped": True})
                     log("asked to stop")
                     break
-                if request.get("ping"):
-                    _reply(conn, {"served": served})
-                    continue
                 reply = _run(runner, request, own, _Relay(conn))
                 served += reply.get("code") is not None
                 _reply(conn, reply)

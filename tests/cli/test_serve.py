@@ -254,3 +254,14 @@ def test_walk_served_writes_a_local_walks_frames_and_times_the_clients_wait(serv
         assert (tmp_path / "own" / f).read_bytes() == (tmp_path / "served" / f).read_bytes()
     done = [f["finished_at"] for f in json.loads(last["out"])["per_frame"]]
     assert 0 <= done[0] <= done[-1] <= waited  # since the client's start, not the server's
+
+
+def test_a_busy_server_still_counts_as_listening(server):
+    # a client that connected and sends nothing keeps the server in its request (30 s):
+    # it is busy, not gone, so no second server may take its socket
+    with socket.socket(socket.AF_UNIX) as s:
+        s.connect(str(server))
+        assert sv.listening(server)
+        with pytest.raises(OptionError, match="already listens"):
+            sv.serve(_runner, server, warm=False, idle=1)
+    assert server.exists()
