@@ -28,11 +28,13 @@ import struct
 import numpy as np
 
 from .._jit import kernel
+from ..entropy import rans
 from ..entropy.common import encode_with_retry, stream_bytes
 from ..entropy.rangecoder import end_status, finish_stream, open_encoder, open_stream
 from ..errors import FormatError
 from ..format.deflate import deflate, inflate
 from ..format.sections import put_section, take_section
+from . import fastpredict as fp
 from .predict import NO_RESIDUAL, activity_class
 from .predictfit import MODEL_INIT, N_MODELS, get_residual, put_residual
 
@@ -486,12 +488,10 @@ def _mag(v):
 
 
 @kernel(inline=True)
-def _context(r, i, z, y, x, ny, nx):
-    """``(activity class, sign context)`` of voxel ``i``: the class of the weighted sum
-    of the causal residuals' magnitudes (:data:`_ACT`), scaled by 16 over the weight of
-    the steps inside the brick (the faces' sums are not taken for calm ones: -0.2 %);
-    and whether the residual before it along x, and the sum of those before it along y
-    and z, are positive (a sign context of 0..3: -0.2 to -0.8 % against none)."""
+def _activity(r, i, z, y, x, ny, nx):
+    """The activity class of voxel ``i``: the class of the weighted sum of the causal
+    residuals' magnitudes (:data:`_ACT`), scaled by 16 over the weight of the steps
+    inside the brick (the faces' sums are not taken for calm ones: -0.2 %)."""
     sy = nx
     sz = ny * nx
     if z >= 2 and y >= 2 and y + 1 < ny and x >= 2 and x + 1 < nx:  # every step inside
@@ -510,6 +510,14 @@ def _context(r, i, z, y, x, ny, nx):
                 ws += _ACT[k, 3]
         if ws > 0:
             a = (16 * a) // ws
+    return activity_class(a)
+
+
+@kernel(inline=True)
+def _context(r, i, z, y, x, ny, nx):
+    """``(activity class, sign context)`` of voxel ``i``: :func:`_activity`, and whether
+    the residual before it along x, and the sum of those before it along y and z, are
+    positive (a sign context of 0..3: -0.2 to -0.8 % against none)."""
     s = np.int64(0)
     if x > 0 and r[i - 1] > 0:
         s = np.int64(1)
@@ -518,7 +526,7 @@ def _context(r, i, z, y, x, ny, nx):
         t += min(max(r[i - nx], -_ACT_CAP), _ACT_CAP)
     if z > 0:
         t += min(max(r[i - ny * nx], -_ACT_CAP), _ACT_CAP)
-    return activity_class(a), s + (2 if t > 0 else 0)
+    return _activity(r, i, z, y, x, ny, nx), s + (2 if t > 0 else 0)
 
 
 @kernel(nrt=False)
@@ -582,6 +590,111 @@ def decode_residuals(data, shape) -> np.ndarray:
     return r
 
 
+# Residual type 4 (step 23): the tokens of the fast predictive coder (:mod:`.fastpredict`:
+# the zig-zagged residual, 16 direct, then 4 a bit length and raw low bits) by static
+# rANS, one table per activity class of :func:`_activity` (type 3's contexts without the
+# sign: its tables cost more than it saves), the top classes merged by the encoder. One
+# table look-up a voxel where type 3 makes about ten adaptive decisions; 0.2-0.4 % longer
+# on the Taylor-Green fields (results/lossy/lossy20/static_probe.txt).
+STATIC_CODED = CONTEXT_CODED + 1
+_U_LIMIT = np.int64(1) << 33  # zig-zagged residuals past 33 bits have no token
+
+
+@kernel(nrt=False)
+def _static_tokens(r, nz, ny, nx, toks, ctxs, counts, bits):
+    """Every voxel's token and activity class (``toks``, ``ctxs``), the counts per
+    (class, token) and the raw bits (``bits``, LSB first). Returns the raw bit count, -1
+    when ``bits`` is too small, -2 for a residual without a token."""
+    acc = np.uint64(0)
+    nacc = 0
+    bpos = 0
+    i = 0
+    for z in range(nz):
+        for y in range(ny):
+            for x in range(nx):
+                v = r[i]
+                if v >= _U_LIMIT >> 1 or v < -(_U_LIMIT >> 1):
+                    return -2
+                u = 2 * v if v >= 0 else -2 * v - 1
+                c = _activity(r, i, z, y, x, ny, nx)
+                bpos, acc, nacc = fp._emit(toks, ctxs, counts, i, c, u, bits, bpos, acc, nacc)
+                if bpos < 0:
+                    return -1
+                i += 1
+    if nacc > 0:
+        bits[bpos] = np.uint8(acc & np.uint64(0xFF))
+        bpos += 1
+    return bpos * 8 - ((8 - nacc) & 7)
+
+
+@kernel(nrt=False)
+def _get_static(data, words, nbits, syms, info, nctx, r, nz, ny, nx, tok):
+    """Decode :func:`code_static`'s tokens into ``r``: 0, or 1 (a stream that does not
+    end where its lengths say). ``data`` and ``words`` carry the zero padding that
+    :func:`.fastpredict._symbol` reads past their ends; an unused context's slots give a
+    token of a residual past any voxel's range (the walk rejects it)."""
+    x0, x1, pos = rans.open_states(data)
+    reader = (np.uint64(0), np.int64(0), np.int64(0))
+    top = nctx - 1
+    i = 0
+    for z in range(nz):
+        for y in range(ny):
+            for x in range(nx):
+                c = min(_activity(r, i, z, y, x, ny, nx), top)
+                u, pos, x0, x1, reader = fp._symbol(syms, info, c, data, pos, x0, x1, words,
+                                                    reader, tok)  # fmt: skip
+                r[i] = (u >> 1) ^ -(u & 1)
+                i += 1
+    used = 32 * reader[2] - reader[1]
+    if used > nbits or (used + 7) >> 3 != (nbits + 7) >> 3:
+        return 1
+    return 0 if rans.state_ok(data, x0, x1, pos) else 1
+
+
+def code_static(r: np.ndarray) -> bytes | None:
+    """The residual volume (int64, 3-D) as residual type :data:`STATIC_CODED`: the class
+    count (u8), the tables (:func:`.fastpredict.pack_tables`), the rANS stream (u32
+    length first) and the raw bits to the end; None where a residual has no token."""
+    nz, ny, nx = r.shape
+    flat = np.ascontiguousarray(r, np.int64).reshape(-1)
+    toks = np.empty(flat.size, np.uint8)
+    ctxs = np.empty(flat.size, np.uint8)
+    counts = np.zeros((fp.NCLASS, rans.MAX_SYMBOLS), np.int64)
+    bits = np.zeros(5 * flat.size + 16, np.uint8)  # raw fields are at most 30 bits
+    nbits = _static_tokens(flat, nz, ny, nx, toks, ctxs, counts, bits)
+    if nbits < 0:
+        return None
+    nctx, freqs, _ = fp._cap_contexts(counts)
+    ctx = np.minimum(ctxs.astype(np.int64), nctx - 1)
+    stream = rans.encode(toks, ctx, freqs)
+    head = bytes([nctx]) + fp.pack_tables(freqs)
+    return head + put_section(stream) + bits[: (nbits + 7) >> 3].tobytes()
+
+
+def decode_static(data, shape) -> np.ndarray:
+    """:func:`code_static`'s residuals, flat int64."""
+    what = "bounded long-fit residual (static)"
+    buf = np.frombuffer(bytes(data), np.uint8)
+    nctx = int(buf[0]) if buf.size else 0
+    if not 1 <= nctx <= fp.NCLASS:
+        raise FormatError(f"{what}: {nctx} activity classes, expected 1..{fp.NCLASS}")
+    syms = np.empty((nctx, rans.TOTAL), np.uint8)
+    info = np.empty((nctx, rans.MAX_SYMBOLS), np.uint32)
+    pos = int(fp._tables_kernel(buf, 1, syms, info))
+    if pos < 0:
+        raise FormatError(f"{what}: {fp.HEAD_STATUS[pos]}")
+    stream, pos = take_section(memoryview(buf), pos, what)
+    data = np.frombuffer(bytes(stream) + bytes(2), np.uint8)  # padded: see rans
+    raw = bytes(buf[pos:])
+    words = np.frombuffer(raw + bytes(-len(raw) % 4 + 4), "<u4").astype(np.uint32)
+    r = np.empty(int(np.prod(shape)), np.int64)
+    status = _get_static(data, words, np.int64(8 * len(raw)), syms.reshape(-1),
+                         info.reshape(-1), np.int64(nctx), r, *shape, fp.TOK)  # fmt: skip
+    if status != 0:
+        raise FormatError(f"{what}: the stream does not end where its lengths say")
+    return r
+
+
 def encode_v1(fitted, codec) -> bytes | None:
     """Version 1's bytes of :func:`residuals_v1`' ``(r, w1, w2)``."""
     r, w1, w2 = fitted
@@ -595,11 +708,14 @@ def encode_v1(fitted, codec) -> bytes | None:
     return head + body
 
 
-def encode_head(r: np.ndarray, plan: Plan, weights, context: bool = False):
+def encode_head(r: np.ndarray, plan: Plan, weights, context: bool = False, code=None):
     """Version 2's fields before the residual, and the residual to code: shifted to
     start at 0, as its type, for the lossless codec (None where it spans more than 32
-    bits), or with ``context`` as it is, for :func:`code_residuals`."""
-    shift = (CONTEXT_CODED, 0) if context else _shifted(r)
+    bits), or with ``context`` (type 3, or ``code``: type 4) as it is, for
+    :func:`code_residuals` (:func:`code_static`)."""
+    if context and code is None:
+        code = CONTEXT_CODED
+    shift = (code, 0) if code is not None else _shifted(r)
     if shift is None:
         return None
     code, lo = shift
@@ -607,7 +723,7 @@ def encode_head(r: np.ndarray, plan: Plan, weights, context: bool = False):
     w = np.concatenate([np.zeros(0, "<i4")] + [v.astype("<i4") for v in weights if v is not None])
     planes = w.view(np.uint8).reshape(-1, 4).T.tobytes()  # byte planes: 16 % shorter zstd'd
     head = _HEAD2.pack(0, *plan.reach, code, lo) + put_section(deflate(bits + planes))
-    return head, (r if context else (r - lo).astype(_DTYPES[code]))
+    return head, (r if code >= CONTEXT_CODED else (r - lo).astype(_DTYPES[code]))
 
 
 def decode(data, shape: tuple[int, ...], qdtype: np.dtype, codec) -> np.ndarray:
@@ -623,6 +739,8 @@ def decode(data, shape: tuple[int, ...], qdtype: np.dtype, codec) -> np.ndarray:
         raise FormatError("bounded long-fit payload: no residuals after the weights")
     if code == CONTEXT_CODED:
         r = decode_residuals(buf[pos:], tuple(shape))
+    elif code == STATIC_CODED:
+        r = decode_static(buf[pos:], tuple(shape))
     else:
         res = codec.decode(buf[pos:], tuple(shape), np.dtype(_DTYPES[code]))
         r = res.astype(np.int64).reshape(-1) + lo
@@ -652,9 +770,9 @@ def _read_v2(buf: bytes, shape):
     if len(buf) < _HEAD2.size:
         raise FormatError("bounded long-fit payload: version 2 header cut")
     _, kz, ky, kx, code, lo = _HEAD2.unpack_from(buf)
-    if code == CONTEXT_CODED and lo != 0:
+    if code >= CONTEXT_CODED and lo != 0:
         raise FormatError(f"bounded long-fit payload: offset {lo} of a context-coded residual")
-    if not all(2 <= k <= K_MAX for k in (kz, ky, kx)) or code > CONTEXT_CODED:
+    if not all(2 <= k <= K_MAX for k in (kz, ky, kx)) or code > STATIC_CODED:
         raise FormatError(
             f"bounded long-fit payload: reach {(kz, ky, kx)} or residual type {code} unknown"
         )
