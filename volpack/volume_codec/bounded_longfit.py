@@ -514,10 +514,9 @@ def _activity(r, i, z, y, x, ny, nx):
 
 
 @kernel(inline=True)
-def _context(r, i, z, y, x, ny, nx):
-    """``(activity class, sign context)`` of voxel ``i``: :func:`_activity`, and whether
-    the residual before it along x, and the sum of those before it along y and z, are
-    positive (a sign context of 0..3: -0.2 to -0.8 % against none)."""
+def _sign_context(r, i, z, y, x, ny, nx):
+    """Whether the residual before voxel ``i`` along x, and the sum of those before it
+    along y and z, are positive: a sign context of 0..3 (-0.2 to -0.8 % against none)."""
     s = np.int64(0)
     if x > 0 and r[i - 1] > 0:
         s = np.int64(1)
@@ -526,7 +525,13 @@ def _context(r, i, z, y, x, ny, nx):
         t += min(max(r[i - nx], -_ACT_CAP), _ACT_CAP)
     if z > 0:
         t += min(max(r[i - ny * nx], -_ACT_CAP), _ACT_CAP)
-    return _activity(r, i, z, y, x, ny, nx), s + (2 if t > 0 else 0)
+    return s + (2 if t > 0 else 0)
+
+
+@kernel(inline=True)
+def _context(r, i, z, y, x, ny, nx):
+    """``(activity class, sign context)`` of voxel ``i``."""
+    return _activity(r, i, z, y, x, ny, nx), _sign_context(r, i, z, y, x, ny, nx)
 
 
 @kernel(nrt=False)
@@ -590,61 +595,79 @@ def decode_residuals(data, shape) -> np.ndarray:
     return r
 
 
-# Residual type 4 (step 23): the tokens of the fast predictive coder (:mod:`.fastpredict`:
-# the zig-zagged residual, 16 direct, then 4 a bit length and raw low bits) by static
-# rANS, one table per activity class of :func:`_activity` (type 3's contexts without the
-# sign: its tables cost more than it saves), the top classes merged by the encoder. One
-# table look-up a voxel where type 3 makes about ten adaptive decisions; 0.2-0.4 % longer
-# on the Taylor-Green fields (results/lossy/lossy20/static_probe.txt).
+# Residual type 4 (step 23): type 3's contexts with static rANS tables. The magnitude as
+# a token of the fast predictive coder (:mod:`.fastpredict`: 16 direct, then 4 a bit
+# length and raw low bits) in its activity class (the top classes merged by the
+# encoder), then a nonzero one's sign as a symbol in its sign context. One table look-up
+# where type 3 makes about ten adaptive decisions; 0.2-0.4 % longer on the Taylor-Green
+# fields (results/lossy/lossy20/static_probe.txt, sign_probe.txt).
 STATIC_CODED = CONTEXT_CODED + 1
-_U_LIMIT = np.int64(1) << 33  # zig-zagged residuals past 33 bits have no token
+_M_LIMIT = np.int64(1) << 32  # magnitudes from here have no token
+N_SIGN = 4  # sign contexts, their tables after the activity classes'
 
 
 @kernel(nrt=False)
 def _static_tokens(r, nz, ny, nx, toks, ctxs, counts, bits):
-    """Every voxel's token and activity class (``toks``, ``ctxs``), the counts per
-    (class, token) and the raw bits (``bits``, LSB first). Returns the raw bit count, -1
-    when ``bits`` is too small, -2 for a residual without a token."""
+    """Every voxel's magnitude token in its activity class, and a nonzero one's sign
+    (token 0 or 1) in context ``fastpredict.NCLASS + sign context`` (``toks``, ``ctxs``:
+    room for two a voxel), the counts per (context, token) and the raw bits (``bits``,
+    LSB first). Returns (raw bit count, symbols), the count -1 when ``bits`` is too
+    small, -2 for a residual without a token."""
     acc = np.uint64(0)
     nacc = 0
     bpos = 0
     i = 0
+    k = 0
     for z in range(nz):
         for y in range(ny):
             for x in range(nx):
                 v = r[i]
-                if v >= _U_LIMIT >> 1 or v < -(_U_LIMIT >> 1):
-                    return -2
-                u = 2 * v if v >= 0 else -2 * v - 1
-                c = _activity(r, i, z, y, x, ny, nx)
-                bpos, acc, nacc = fp._emit(toks, ctxs, counts, i, c, u, bits, bpos, acc, nacc)
+                if v >= _M_LIMIT or v <= -_M_LIMIT:
+                    return -2, k
+                c, s = _context(r, i, z, y, x, ny, nx)
+                bpos, acc, nacc = fp._emit(toks, ctxs, counts, k, c, abs(v), bits, bpos, acc,
+                                           nacc)  # fmt: skip
+                k += 1
+                if v != 0:
+                    bpos, acc, nacc = fp._emit(toks, ctxs, counts, k, fp.NCLASS + s,
+                                               np.int64(v < 0), bits, bpos, acc, nacc)  # fmt: skip
+                    k += 1
                 if bpos < 0:
-                    return -1
+                    return -1, k
                 i += 1
     if nacc > 0:
         bits[bpos] = np.uint8(acc & np.uint64(0xFF))
         bpos += 1
-    return bpos * 8 - ((8 - nacc) & 7)
+    return bpos * 8 - ((8 - nacc) & 7), k
 
 
 @kernel(nrt=False)
 def _get_static(data, words, nbits, syms, info, nctx, r, nz, ny, nx, tok):
-    """Decode :func:`code_static`'s tokens into ``r``: 0, or 1 (a stream that does not
-    end where its lengths say). ``data`` and ``words`` carry the zero padding that
-    :func:`.fastpredict._symbol` reads past their ends; an unused context's slots give a
-    token of a residual past any voxel's range (the walk rejects it)."""
+    """Decode :func:`code_static`'s symbols into ``r``: 0, 1 (a stream that does not end
+    where its lengths say) or 2 (a sign symbol past 1). ``data`` and ``words`` carry the
+    zero padding that :func:`.fastpredict._symbol` reads past their ends; an unused
+    context's slots give a magnitude past any voxel's range (the walk rejects it)."""
     x0, x1, pos = rans.open_states(data)
     reader = (np.uint64(0), np.int64(0), np.int64(0))
     top = nctx - 1
+    bad = False
     i = 0
     for z in range(nz):
         for y in range(ny):
             for x in range(nx):
                 c = min(_activity(r, i, z, y, x, ny, nx), top)
-                u, pos, x0, x1, reader = fp._symbol(syms, info, c, data, pos, x0, x1, words,
+                m, pos, x0, x1, reader = fp._symbol(syms, info, c, data, pos, x0, x1, words,
                                                     reader, tok)  # fmt: skip
-                r[i] = (u >> 1) ^ -(u & 1)
+                if m != 0:
+                    c = nctx + _sign_context(r, i, z, y, x, ny, nx)
+                    t, pos, x0, x1, reader = fp._symbol(syms, info, c, data, pos, x0, x1,
+                                                        words, reader, tok)  # fmt: skip
+                    bad |= t > 1
+                    m = -m if t else m
+                r[i] = m
                 i += 1
+    if bad:
+        return 2
     used = 32 * reader[2] - reader[1]
     if used > nbits or (used + 7) >> 3 != (nbits + 7) >> 3:
         return 1
@@ -652,21 +675,24 @@ def _get_static(data, words, nbits, syms, info, nctx, r, nz, ny, nx, tok):
 
 
 def code_static(r: np.ndarray) -> bytes | None:
-    """The residual volume (int64, 3-D) as residual type :data:`STATIC_CODED`: the class
-    count (u8), the tables (:func:`.fastpredict.pack_tables`), the rANS stream (u32
-    length first) and the raw bits to the end; None where a residual has no token."""
+    """The residual volume (int64, 3-D) as residual type :data:`STATIC_CODED`: the
+    activity class count ``n`` (u8), the tables of the ``n`` classes and the
+    :data:`N_SIGN` sign contexts (:func:`.fastpredict.pack_tables`), the rANS stream
+    (u32 length first) and the raw bits to the end; None where a residual has no token."""
     nz, ny, nx = r.shape
     flat = np.ascontiguousarray(r, np.int64).reshape(-1)
-    toks = np.empty(flat.size, np.uint8)
-    ctxs = np.empty(flat.size, np.uint8)
-    counts = np.zeros((fp.NCLASS, rans.MAX_SYMBOLS), np.int64)
+    toks = np.empty(2 * flat.size, np.uint8)
+    ctxs = np.empty(2 * flat.size, np.uint8)
+    counts = np.zeros((fp.NCLASS + N_SIGN, rans.MAX_SYMBOLS), np.int64)
     bits = np.zeros(5 * flat.size + 16, np.uint8)  # raw fields are at most 30 bits
-    nbits = _static_tokens(flat, nz, ny, nx, toks, ctxs, counts, bits)
+    nbits, nsym = _static_tokens(flat, nz, ny, nx, toks, ctxs, counts, bits)
     if nbits < 0:
         return None
-    nctx, freqs, _ = fp._cap_contexts(counts)
-    ctx = np.minimum(ctxs.astype(np.int64), nctx - 1)
-    stream = rans.encode(toks, ctx, freqs)
+    nctx, freqs, _ = fp._cap_contexts(counts[: fp.NCLASS])
+    freqs = np.vstack([freqs, rans.normalise(counts[fp.NCLASS :])])
+    ctx = ctxs[:nsym].astype(np.int64)
+    ctx = np.where(ctx >= fp.NCLASS, ctx - fp.NCLASS + nctx, np.minimum(ctx, nctx - 1))
+    stream = rans.encode(toks[:nsym], ctx, freqs)
     head = bytes([nctx]) + fp.pack_tables(freqs)
     return head + put_section(stream) + bits[: (nbits + 7) >> 3].tobytes()
 
@@ -678,8 +704,8 @@ def decode_static(data, shape) -> np.ndarray:
     nctx = int(buf[0]) if buf.size else 0
     if not 1 <= nctx <= fp.NCLASS:
         raise FormatError(f"{what}: {nctx} activity classes, expected 1..{fp.NCLASS}")
-    syms = np.empty((nctx, rans.TOTAL), np.uint8)
-    info = np.empty((nctx, rans.MAX_SYMBOLS), np.uint32)
+    syms = np.empty((nctx + N_SIGN, rans.TOTAL), np.uint8)
+    info = np.empty((nctx + N_SIGN, rans.MAX_SYMBOLS), np.uint32)
     pos = int(fp._tables_kernel(buf, 1, syms, info))
     if pos < 0:
         raise FormatError(f"{what}: {fp.HEAD_STATUS[pos]}")
@@ -690,6 +716,8 @@ def decode_static(data, shape) -> np.ndarray:
     r = np.empty(int(np.prod(shape)), np.int64)
     status = _get_static(data, words, np.int64(8 * len(raw)), syms.reshape(-1),
                          info.reshape(-1), np.int64(nctx), r, *shape, fp.TOK)  # fmt: skip
+    if status == 2:
+        raise FormatError(f"{what}: a sign symbol past 1")
     if status != 0:
         raise FormatError(f"{what}: the stream does not end where its lengths say")
     return r

@@ -338,10 +338,11 @@ class BoundedCodec(BrickCodec):
         predictor, version 2 (:mod:`volpack.volume_codec.bounded_longfit`), for
         ``keep_faster``: at each reach it tries (the two whose fits leave the least
         squared residual, and the shortest), the residual by the lossless codec's
-        wavelet (the middle tier: the walk costs about what the wavelet does) and by
-        the adaptive coder in contexts of the residual's magnitudes (the slow tier: a
-        chain of adaptive binary decisions per voxel, as the lossless codec's
-        predictor); the shortest of each kind, and the wavelet's residual by the
+        wavelet (the middle tier: the walk costs about what the wavelet does), by
+        static rANS tables in contexts of the residual's magnitudes (middle tier: it
+        decodes faster than the wavelet) and by the adaptive coder in those contexts
+        (the slow tier: a chain of adaptive binary decisions per voxel, as the lossless
+        codec's predictor); the shortest of each kind, and the wavelet's residual by the
         lossless codec's predictive tool (slow tier). Made only where the first reach's
         residual entropy is under LONGFIT_MAX_ENTROPY times ``best`` bytes (the
         shortest coding so far), and not tried where that spends less than
@@ -353,7 +354,7 @@ class BoundedCodec(BrickCodec):
             return []
         qmax = int(np.iinfo(q.dtype).max)
         wav = self._inner()
-        ctx = by_wav = shifted = None
+        ctx = by_wav = shifted = static = None
         for i, reach in enumerate(lf.tried_reaches(np.ascontiguousarray(q, np.int64))):
             r, plan, weights = lf.residuals(q, reach, qmax, prune=True)
             if i == 0 and lf.estimate_bits(r) / 8 > best * LONGFIT_MAX_ENTROPY:
@@ -361,12 +362,17 @@ class BoundedCodec(BrickCodec):
             data = lf.encode_head(r, plan, weights, context=True)[0] + lf.code_residuals(r)
             if ctx is None or len(data) < len(ctx):
                 ctx = data
+            body = lf.code_static(r)
+            if body is not None:
+                data = lf.encode_head(r, plan, weights, code=lf.STATIC_CODED)[0] + body
+                if static is None or len(data) < len(static):
+                    static = data
             head = lf.encode_head(r, plan, weights)
             if head is not None:
                 data = head[0] + wav.encode(head[1])
                 if by_wav is None or len(data) < len(by_wav):
                     by_wav, shifted = data, head
-        out = [(TIER_SLOW, ctx)]
+        out = [(TIER_SLOW, ctx)] + ([(TIER_MID, static)] if static is not None else [])
         if shifted is not None:
             head, res = shifted
             out += [(TIER_MID, by_wav), (TIER_SLOW, head + self._predictive().encode(res))]

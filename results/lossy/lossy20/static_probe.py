@@ -58,28 +58,33 @@ def cost(tok, ctx, raw, nctx):
     return sym + tab + raw / 8, tab, top
 
 
-for name, rel, a, e in cells(sys.argv[1]):
-    for codec, q, _ in quantised(a, e):
-        qmax = int(np.iinfo(q.dtype).max)
-        for reach in lf.tried_reaches(np.ascontiguousarray(q, np.int64)):
-            r, plan, w = lf.residuals(q, reach, qmax, prune=True)
-            flat = r.reshape(-1)
-            t3 = len(lf.code_residuals(r))
-            head, res = lf.encode_head(r, plan, w)
-            wav = len(codec._inner().encode(res))
-            act, sg = contexts(flat, *r.shape)
-            tok, raw = tokens(flat)
-            out = [f"{name} {rel} {reach}: type3 {t3} wavelet {wav} raw {raw // 8}"]
-            # sign by flipping: negate where the sign context says negative is likelier
-            flip = np.where((sg == 0), -flat, flat)
-            tokf, rawf = tokens(flip)
-            for label, tk, rw, c, n in (
-                ("act", tok, raw, act, 48),
-                ("act+sign", tok, raw, act * 4 + sg, 192),
-                ("act,flip0", tokf, rawf, act, 48),
-                ("act/2", tok, raw, act // 2, 24),
-                ("act/2+sign", tok, raw, (act // 2) * 4 + sg, 96),
-            ):
-                b, tab, top = cost(tk, c, rw, n)
-                out.append(f"  {label}: {b:.0f} B (tables {tab}, {top} ctx) {100 * (b / t3 - 1):+.2f} % vs type3")
-            print("\n".join(out), flush=True)
+def main():
+    for name, rel, a, e in cells(sys.argv[1]):
+        for codec, q, _ in quantised(a, e):
+            qmax = int(np.iinfo(q.dtype).max)
+            for reach in lf.tried_reaches(np.ascontiguousarray(q, np.int64)):
+                r, plan, w = lf.residuals(q, reach, qmax, prune=True)
+                flat = r.reshape(-1)
+                t3 = len(lf.code_residuals(r))
+                head, res = lf.encode_head(r, plan, w)
+                wav = len(codec._inner().encode(res))
+                act, sg = contexts(flat, *r.shape)
+                tok, raw = tokens(flat)
+                out = [f"{name} {rel} {reach}: type3 {t3} wavelet {wav} raw {raw // 8}"]
+                # sign by flipping: negate where the sign context says negative is likelier
+                flip = np.where((sg == 0), -flat, flat)
+                tokf, rawf = tokens(flip)
+                for label, tk, rw, c, n in (
+                    ("act", tok, raw, act, 48),
+                    ("act+sign", tok, raw, act * 4 + sg, 192),
+                    ("act,flip0", tokf, rawf, act, 48),
+                    ("act/2", tok, raw, act // 2, 24),
+                    ("act/2+sign", tok, raw, (act // 2) * 4 + sg, 96),
+                ):
+                    b, tab, top = cost(tk, c, rw, n)
+                    out.append(f"  {label}: {b:.0f} B (tables {tab}, {top} ctx) {100 * (b / t3 - 1):+.2f} % vs type3")
+                print("\n".join(out), flush=True)
+
+
+if __name__ == "__main__":
+    main()
