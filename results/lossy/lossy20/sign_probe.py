@@ -6,15 +6,10 @@ split at 4 (small residuals: their signs follow the neighbours' more?).
     python results/lossy/lossy20/sign_probe.py tas_monthly:1e-5
 """
 import sys
-from pathlib import Path
 
 import numpy as np
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "lossy19"))
-from cells import cells, quantised  # noqa: E402
-from static_probe import contexts  # noqa: E402
-
-from volpack.volume_codec import bounded_longfit as lf  # noqa: E402
+from common import residuals
+from static_probe import contexts
 
 
 def cond_bits(sign, ctx):
@@ -27,15 +22,12 @@ def cond_bits(sign, ctx):
     return bits
 
 
-for name, rel, a, e in cells(sys.argv[1]):
-    for codec, q, _ in quantised(a, e):
-        reach = lf.tried_reaches(np.ascontiguousarray(q, np.int64))[-1]
-        r, plan, w = lf.residuals(q, reach, int(np.iinfo(q.dtype).max), prune=True)
-        flat = r.reshape(-1)
-        act, sg = contexts(flat, *r.shape)
-        nz = flat != 0
-        sign = (flat[nz] < 0).astype(np.int64)
-        small = np.minimum(np.abs(flat[nz]), 4)
-        print(f"{name} {rel}: {nz.sum()} signs {nz.sum() / 8:.0f} B; given the sign context "
-              f"{cond_bits(sign, sg[nz]) / 8:.0f} B; and |r| (1..4+) "
-              f"{cond_bits(sign, sg[nz] * 8 + small) / 8:.0f} B", flush=True)
+for name, rel, a, codec, q, (r, plan, w) in residuals(sys.argv[1]):
+    flat = r.reshape(-1)
+    act, sg = contexts(flat, *r.shape)
+    nz = flat != 0
+    sign = (flat[nz] < 0).astype(np.int64)
+    small = np.minimum(np.abs(flat[nz]), 4)
+    print(f"{name} {rel}: {nz.sum()} signs {nz.sum() / 8:.0f} B; given the sign context "
+          f"{cond_bits(sign, sg[nz]) / 8:.0f} B; and |r| (1..4+) "
+          f"{cond_bits(sign, sg[nz] * 8 + small) / 8:.0f} B", flush=True)

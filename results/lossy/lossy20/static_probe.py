@@ -1,16 +1,16 @@
 """Static-table estimates of the long fit's residual in type 3's contexts: tokens as the
 fast predictive coder's (zig-zag, 16 direct, 4 per octave, raw low bits), per-brick rANS
-tables (their bytes counted), against type 3's coded bytes and the wavelet's.
+tables (their bytes counted), against type 3's coded bytes and the wavelet's, at the
+encoder's shortest reach (static_probe.txt: a first version's run over the three reaches
+the encoder tries).
 
     python results/lossy/lossy20/static_probe.py tgv_pressure:1e-5,tgv_vorticity:1e-3
 """
 import sys
-from pathlib import Path
 
 import numba
 import numpy as np
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "lossy19"))
-from cells import cells, quantised  # noqa: E402
+from common import residuals
 
 from volpack.volume_codec import bounded_longfit as lf
 from volpack.volume_codec import fastpredict as fp
@@ -59,31 +59,27 @@ def cost(tok, ctx, raw, nctx):
 
 
 def main():
-    for name, rel, a, e in cells(sys.argv[1]):
-        for codec, q, _ in quantised(a, e):
-            qmax = int(np.iinfo(q.dtype).max)
-            for reach in lf.tried_reaches(np.ascontiguousarray(q, np.int64)):
-                r, plan, w = lf.residuals(q, reach, qmax, prune=True)
-                flat = r.reshape(-1)
-                t3 = len(lf.code_residuals(r))
-                head, res = lf.encode_head(r, plan, w)
-                wav = len(codec._inner().encode(res))
-                act, sg = contexts(flat, *r.shape)
-                tok, raw = tokens(flat)
-                out = [f"{name} {rel} {reach}: type3 {t3} wavelet {wav} raw {raw // 8}"]
-                # sign by flipping: negate where the sign context says negative is likelier
-                flip = np.where((sg == 0), -flat, flat)
-                tokf, rawf = tokens(flip)
-                for label, tk, rw, c, n in (
-                    ("act", tok, raw, act, 48),
-                    ("act+sign", tok, raw, act * 4 + sg, 192),
-                    ("act,flip0", tokf, rawf, act, 48),
-                    ("act/2", tok, raw, act // 2, 24),
-                    ("act/2+sign", tok, raw, (act // 2) * 4 + sg, 96),
-                ):
-                    b, tab, top = cost(tk, c, rw, n)
-                    out.append(f"  {label}: {b:.0f} B (tables {tab}, {top} ctx) {100 * (b / t3 - 1):+.2f} % vs type3")
-                print("\n".join(out), flush=True)
+    for name, rel, a, codec, q, (r, plan, w) in residuals(sys.argv[1]):
+        flat = r.reshape(-1)
+        t3 = len(lf.code_residuals(r))
+        head, res = lf.encode_head(r, plan, w)
+        wav = len(codec._inner().encode(res))
+        act, sg = contexts(flat, *r.shape)
+        tok, raw = tokens(flat)
+        out = [f"{name} {rel} {plan.reach}: type3 {t3} wavelet {wav} raw {raw // 8}"]
+        # sign by flipping: negate where the sign context says negative is likelier
+        flip = np.where((sg == 0), -flat, flat)
+        tokf, rawf = tokens(flip)
+        for label, tk, rw, c, n in (
+            ("act", tok, raw, act, 48),
+            ("act+sign", tok, raw, act * 4 + sg, 192),
+            ("act,flip0", tokf, rawf, act, 48),
+            ("act/2", tok, raw, act // 2, 24),
+            ("act/2+sign", tok, raw, (act // 2) * 4 + sg, 96),
+        ):
+            b, tab, top = cost(tk, c, rw, n)
+            out.append(f"  {label}: {b:.0f} B (tables {tab}, {top} ctx) {100 * (b / t3 - 1):+.2f} % vs type3")
+        print("\n".join(out), flush=True)
 
 
 if __name__ == "__main__":
