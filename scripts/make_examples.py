@@ -337,6 +337,10 @@ LOSSY_CASES = [
 ]
 
 
+# The plane waves' shapes (-long: thin in z; -noisy: with a little noise).
+WAVES = {"f32-waves": (20, 24, 28), "f32-waves-long": (12, 36, 52), "f32-waves-noisy": (12, 40, 48)}
+
+
 def lossy_source(recipe: str):
     """The volume a lossy example codes; ``f32`` adds NaN, -Inf and a fill value."""
     import numpy as np
@@ -348,9 +352,9 @@ def lossy_source(recipe: str):
         return (u * 0.25 + 250.0 + 0.37 * np.arange(u.shape[0])[:, None, None]).astype(
             np.float32
         )
-    if recipe in ("f32-waves", "f32-waves-long"):  # six plane waves: predictable from far
+    if recipe in WAVES:  # six plane waves: predictable from far
         rng = np.random.default_rng(17)
-        shape = (20, 24, 28) if recipe == "f32-waves" else (12, 36, 52)  # (-long: thin in z)
+        shape = WAVES[recipe]
         axes = [np.arange(s, dtype=np.float64) for s in shape]
         z, y, x = np.meshgrid(*axes, indexing="ij")
         f = np.zeros(z.shape)
@@ -358,6 +362,8 @@ def lossy_source(recipe: str):
             k = rng.uniform(0.2, 1.1, 3) * rng.choice([-1, 1], 3)
             a = rng.uniform(0.5, 1.5)  # (drawn before the phase)
             f += a * np.sin(k[0] * z + k[1] * y + k[2] * x + rng.uniform(0, 6.3))
+        if recipe == "f32-waves-noisy":  # and a little noise: a residual worth its tables
+            f += 0.02 * rng.standard_normal(f.shape)
         return (f * 10 + 20).astype(np.float32)
     if recipe == "f64-off":  # the f32 recipe in float64 moved off its grid of 1/3
         f = lossy_source("f32").astype(np.float64)
@@ -463,6 +469,11 @@ LOSSY_CODER_CASES += [
 # ]
 LOSSY_CODER_CASES += [
     ("lossy-bounded-f32-longfit-context", "f32-waves-long", {"max_error": 0.005}, None)
+]
+# The residual by static rANS tables in the same contexts (residual type 4, step 23): the
+# plane waves with a little noise, where its tables cost less than type 3 would save.
+LOSSY_CODER_CASES += [
+    ("lossy-bounded-f32-longfit-static", "f32-waves-noisy", {"max_error": 0.005}, None)
 ]
 
 

@@ -110,6 +110,10 @@ LOSSY = [
 ]
 
 
+# The plane waves' shapes (-long: thin in z; -noisy: with a little noise).
+WAVES = {"f32-waves": (20, 24, 28), "f32-waves-long": (12, 36, 52), "f32-waves-noisy": (12, 40, 48)}
+
+
 def lossy_source(recipe):
     if recipe == "f32-whole":
         return source("u8").astype(np.float32)
@@ -117,9 +121,9 @@ def lossy_source(recipe):
         u = source("u8").astype(np.float64)
         z = np.arange(u.shape[0])[:, None, None]
         return (u * 0.25 + 250.0 + 0.37 * z).astype(np.float32)
-    if recipe in ("f32-waves", "f32-waves-long"):  # six plane waves: predictable from far
+    if recipe in WAVES:  # six plane waves: predictable from far
         rng = np.random.default_rng(17)
-        shape = (20, 24, 28) if recipe == "f32-waves" else (12, 36, 52)  # (-long: thin in z)
+        shape = WAVES[recipe]
         axes = [np.arange(s, dtype=np.float64) for s in shape]
         z, y, x = np.meshgrid(*axes, indexing="ij")
         f = np.zeros(z.shape)
@@ -127,6 +131,8 @@ def lossy_source(recipe):
             k = rng.uniform(0.2, 1.1, 3) * rng.choice([-1, 1], 3)
             a = rng.uniform(0.5, 1.5)  # (drawn before the phase)
             f += a * np.sin(k[0] * z + k[1] * y + k[2] * x + rng.uniform(0, 6.3))
+        if recipe == "f32-waves-noisy":  # and a little noise: a residual worth its tables
+            f += 0.02 * rng.standard_normal(f.shape)
         return (f * 10 + 20).astype(np.float32)
     if recipe == "f64-off":  # the f32 recipe in float64 moved off its grid of 1/3
         f = lossy_source("f32").astype(np.float64)
@@ -358,6 +364,9 @@ LOSSY_TODAY = [  # (stem, recipe, options, brick, (flags, kind or mode) of each 
     # its residual by the adaptive coder in activity contexts (residual type 3; step 22)
     ("lossy-bounded-f32-longfit-context", "f32-waves-long", {"max_error": 0.005}, None,
      {(10, 0)}),
+    # by static rANS tables in those contexts (residual type 4; step 23)
+    ("lossy-bounded-f32-longfit-static", "f32-waves-noisy", {"max_error": 0.005}, None,
+     {(8, 0)}),
 ]  # fmt: skip
 # Made before a slower-decoding coding had to save 2 % of the bytes (lossy-1.md,
 # "Decoding speed in the encoder's choice"): one of its bricks is mode 4 by 0.8 %, which
@@ -396,9 +405,10 @@ def test_golden_adaptive_bins_and_quantised_fit_streams(stem, recipe, opts, bric
     if stem == "lossy-bounded-f32-longfit-reach":
         inner = take_section(memoryview(payloads[0]), 1, "inner")[0]
         assert tuple(inner[1:4]) == (2, 8, 8)  # Kz = 2 on the thin axis, 8 on the others
-    if stem.startswith("lossy-bounded-f32-longfit-"):  # the residual: a dtype, or 3
+    if stem.startswith("lossy-bounded-f32-longfit-"):  # the residual: a dtype, 3 or 4
         inner = take_section(memoryview(payloads[0]), 1, "inner")[0]
         assert (inner[4] == 3) == stem.endswith("context")
+        assert (inner[4] == 4) == stem.endswith("static")
     if stem in BEFORE_MIN_SAVING | BEFORE_LONGFIT_2 | BEFORE_CONTEXT:
         return
     again = api.compress_array(want, **({"brick": brick} if brick else {}), **opts)
