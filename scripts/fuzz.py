@@ -92,6 +92,8 @@ KINDS = {
     "lossy-longfit-reach": ("lossy-bounded-f32-longfit-reach.vpk", VOLUME_PATHS),
     # and version 2's residual by the adaptive coder in activity contexts (type 3)
     "lossy-longfit-context": ("lossy-bounded-f32-longfit-context.vpk", VOLUME_PATHS),
+    # and by static rANS tables in those contexts (type 4)
+    "lossy-longfit-static": ("lossy-bounded-f32-longfit-static.vpk", VOLUME_PATHS),
     # container format version 2 (formats/vpk-2.md): varint records, dictionary-coded
     # header and summary; one brick, and eight
     "compact": ("vpk2-lossy-bounded-f32.vpk", VOLUME_PATHS),

@@ -525,6 +525,9 @@ class BoundedCodec(BrickCodec):
         given."""
         data = memoryview(data)
         n = math.prod(shape)
+        if dtype.kind not in ("iu" if self.integer else "f"):  # (a damaged header's dtype)
+            kind = "integers" if self.integer else "floats"
+            raise FormatError(f"bounded brick payload: voxels of {dtype}, a config for {kind}")
         if len(data) < 5:
             raise FormatError(
                 f"bounded brick payload: expected at least 5 bytes, found {len(data)}"
