@@ -62,26 +62,31 @@ def test_integers_round_trip(reach, dtype):
         np.testing.assert_array_equal(got, q)
 
 
-def _v2_context(q, reach, prune=False):
+def _v2_coded(q, reach, prune=False, code=lf.CONTEXT_CODED):
+    """Version 2 with the residual context coded (type 3) or by static tables (4)."""
     r, plan, weights = lf.residuals(q, reach, int(np.iinfo(q.dtype).max), prune)
-    head, res = lf.encode_head(r, plan, weights, context=True)
-    assert head[4] == lf.CONTEXT_CODED and res is r
-    return head + lf.code_residuals(r)
+    head, res = lf.encode_head(r, plan, weights, code=code)
+    assert head[4] == code and res is r
+    return head + (lf.code_residuals(r) if code == lf.CONTEXT_CODED else lf.code_static(r))
 
 
 @pytest.mark.parametrize("reach", [(2, 4, 12), (4, 8, 4), (12, 12, 12)])
 @pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.int32])
 @pytest.mark.parametrize("prune", [False, True])
-def test_context_coded_round_trip(reach, dtype, prune):
-    """The residual by the adaptive coder in activity contexts (step 22), with and without
-    the encoder's pruning of classes: any quantised brick decodes to itself."""
+@pytest.mark.parametrize("code", [lf.CONTEXT_CODED, lf.STATIC_CODED])
+def test_context_coded_round_trip(reach, dtype, prune, code):
+    """The residual in activity contexts, by the adaptive coder (step 22) and by static
+    rANS tables (step 23), with and without the encoder's pruning of classes: any
+    quantised brick decodes to itself."""
     rng = np.random.default_rng(sum(reach) + 7)
     top = np.iinfo(dtype).max if dtype == np.int32 else min(np.iinfo(dtype).max, 1 << 20)
+    if code == lf.STATIC_CODED and dtype == np.int32:
+        top = 1 << 30  # residuals from 2^32 have no token: the encoder codes them otherwise
     q = np.cumsum(rng.integers(-3, 4, (9, 21, 30)), axis=2) % (top + 1)
-    if dtype == np.int32:  # residuals near 2^31 as well
+    if dtype == np.int32:  # residuals near 2^31 (2^30) as well
         q[rng.random(q.shape) < 0.05] = top
     q = q.astype(dtype)
-    got = lf.decode(_v2_context(q, reach, prune), q.shape, np.dtype(dtype), None)
+    got = lf.decode(_v2_coded(q, reach, prune, code), q.shape, np.dtype(dtype), None)
     assert got.dtype == dtype
     np.testing.assert_array_equal(got, q)
 
@@ -95,31 +100,6 @@ def test_context_coder_any_residuals():
         r = (rng.integers(0, 1 << 62, shape) >> (62 - bits)) * rng.choice([-1, 1], shape)
         got = lf.decode_residuals(lf.code_residuals(r), shape)
         np.testing.assert_array_equal(got, r.reshape(-1))
-
-
-def _v2_static(q, reach, prune=False):
-    r, plan, weights = lf.residuals(q, reach, int(np.iinfo(q.dtype).max), prune)
-    head, res = lf.encode_head(r, plan, weights, code=lf.STATIC_CODED)
-    assert head[4] == lf.STATIC_CODED and res is r
-    return head + lf.code_static(r)
-
-
-@pytest.mark.parametrize("reach", [(2, 4, 12), (4, 8, 4), (12, 12, 12)])
-@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.int32])
-@pytest.mark.parametrize("prune", [False, True])
-def test_static_coded_round_trip(reach, dtype, prune):
-    """The residual by static rANS tables in the activity and sign contexts (step 23),
-    with and without the pruning: any quantised brick decodes to itself."""
-    rng = np.random.default_rng(sum(reach) + 11)
-    top = (1 << 30) if dtype == np.int32 else min(np.iinfo(dtype).max, 1 << 20)
-    q = np.cumsum(rng.integers(-3, 4, (9, 21, 30)), axis=2) % (top + 1)
-    if dtype == np.int32:  # residuals past 2^30 as well (from 2^32 they have no token)
-        q[rng.random(q.shape) < 0.05] = top
-    q = q.astype(dtype)
-    data = _v2_static(q, reach, prune)
-    got = lf.decode(data, q.shape, np.dtype(dtype), None)
-    assert got.dtype == dtype
-    np.testing.assert_array_equal(got, q)
 
 
 def test_static_coder_any_residuals():
@@ -154,7 +134,7 @@ def test_damaged_static_coded_refused():
     decode that differs: raw bits carry no check of their own)."""
     q = np.cumsum(np.random.default_rng(9).integers(-40, 41, (10, 24, 30)), axis=2) % 60000
     q = q.astype(np.uint16)
-    data = _v2_static(q, (2, 4, 4))
+    data = _v2_coded(q, (2, 4, 4), code=lf.STATIC_CODED)
     qd = np.dtype("uint16")
     np.testing.assert_array_equal(lf.decode(data, q.shape, qd, None), q)
     n = int.from_bytes(data[HEAD2 : HEAD2 + 4], "little")
@@ -423,7 +403,7 @@ def test_damaged_context_coded_refused():
     other than 0 (step 22)."""
     q = np.cumsum(np.random.default_rng(6).integers(-9, 10, (10, 24, 30)), axis=2) % 5000
     q = q.astype(np.uint16)
-    data = _v2_context(q, (2, 4, 4))
+    data = _v2_coded(q, (2, 4, 4))
     qd = np.dtype("uint16")
     np.testing.assert_array_equal(lf.decode(data, q.shape, qd, None), q)
     n = int.from_bytes(data[HEAD2 : HEAD2 + 4], "little")
