@@ -31,8 +31,9 @@ def contexts(r, nz, ny, nx):
     return act, sg
 
 
-def tokens(v):
-    u = np.where(v >= 0, 2 * v, -2 * v - 1)
+def tokens(v, zigzag=True):
+    """(fast predictive tokens, raw bit count) of ``v`` zig-zagged (or ``v >= 0`` itself)."""
+    u = np.where(v >= 0, 2 * v, -2 * v - 1) if zigzag else v
     n = np.floor(np.log2(np.maximum(u, 1))).astype(np.int64) + 1
     tok = np.where(u < fp.DIRECT, u, fp.DIRECT + 4 * (n - 5) + ((u >> np.maximum(n - 3, 0)) & 3))
     raw = np.where(u < fp.DIRECT, 0, n - 3)
