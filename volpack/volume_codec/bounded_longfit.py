@@ -16,7 +16,9 @@ neighbourhood exists, one for the 62 near neighbours, a Lorenzo predictor nearer
 faces. Version 2 (step 21, first byte 0): a reach per axis (``Kz`` 2 on thin or
 anisotropic fields), and the voxels near the faces, whose neighbourhood is cut, sorted
 into classes by how much of it is left on each axis, each class with its own fit (half a
-64^3 brick lies within 12 voxels of a face it predicts from).
+64^3 brick lies within 12 voxels of a face it predicts from). Its residual may also be
+coded in contexts of the residual's own magnitudes: by the adaptive binary coder (type 3,
+step 22) or by static rANS tables (type 4, step 23, as fast to decode as the wavelet).
 """
 
 from __future__ import annotations
@@ -599,8 +601,8 @@ def decode_residuals(data, shape) -> np.ndarray:
 # a token of the fast predictive coder (:mod:`.fastpredict`: 16 direct, then 4 a bit
 # length and raw low bits) in its activity class (the top classes merged by the
 # encoder), then a nonzero one's sign as a symbol in its sign context. One table look-up
-# where type 3 makes about ten adaptive decisions; 0.2-0.4 % longer on the Taylor-Green
-# fields (results/lossy/lossy20/static_probe.txt, sign_probe.txt).
+# where type 3 makes about ten adaptive decisions: 0.2-0.3 % longer on the Taylor-Green
+# fields and tas_monthly, decoded 2.1-2.5x faster (results/lossy/lossy20/decode_stages.txt).
 STATIC_CODED = CONTEXT_CODED + 1
 _M_LIMIT = np.int64(1) << 32  # magnitudes from here have no token
 N_SIGN = 4  # sign contexts, their tables after the activity classes'
