@@ -177,6 +177,11 @@ LOSSLESS_CASES = [
     ("lossless-v7-u8-tex", "v2-u8", {"brick": 32, "predict_version": 7}),
     # version 8: the mixed estimates (flag 256: a second flags byte), one brick
     ("lossless-v8-u8-mix", "v2-u8", {"brick": 32, "predict_version": 8}),
+    # version 9: the local fit (flag 512 in the second flags byte), alone and with a mask
+    # and the palette (the refits skipped at masked pairs), one brick each
+    ("lossless-v9-u8-local", "v2-u8", {"brick": 32, "predict_version": 9}),
+    ("lossless-v9-u8-local-mask", "v2-u8-background", {"brick": 32, "predict_version": 9}),
+    ("lossless-v9-i16-local-palette", "v2-i16", {"brick": 32, "predict_version": 9}),
 ]
 
 

@@ -972,3 +972,50 @@ def float_blend_residuals(a, nset=127, offsets=(), fill=None):
                     res[z, y, x] = wrap(int(s[z, y, x]) - p)
                 last = int(s[z, y, x])
     return res, cp, fl
+
+
+# --- the local fit of the predictive stream (volume_codec/localfit.py) ---
+
+
+def localfit_estimates(v, offsets, r=4, ru=3, min_samples=40, ridge=1e-3):
+    """Every voxel's local-fit estimate in eighths (None where there is none), each
+    window's training voxels listed afresh and its system solved by numpy; a voxel at
+    odd ``x`` takes the weights of the voxel before it (fitted at even ``x``)."""
+    import numpy as np
+
+    nz, ny, nx = v.shape
+    v = v.astype(np.float64)
+    out = np.full(v.shape, None, dtype=object)
+
+    def vector(z, y, x):
+        return [v[z - dz, y - dy, x - dx] for dz, dy, dx in offsets] + [1.0]
+
+    def weights(z, y, x):
+        xs, ts = [], []
+        for yy in range(max(2, y - r), y + 1):  # the rows above, then the row's left part
+            for xx in range(max(2, x - r), min(nx - 2, x + r) + 1):
+                if yy == y and xx >= x:
+                    break
+                xs.append(vector(z, yy, xx))
+                ts.append(v[z, yy, xx])
+        if z >= 3:
+            for yy in range(max(2, y - ru), min(ny - 2, y + ru) + 1):
+                for xx in range(max(2, x - ru), min(nx - 2, x + ru) + 1):
+                    xs.append(vector(z - 1, yy, xx))
+                    ts.append(v[z - 1, yy, xx])
+        if len(ts) < min_samples or len(set(ts)) == 1:
+            return None
+        a, t = np.array(xs), np.array(ts)
+        m = a.T @ a
+        m += np.eye(len(m)) * (ridge * np.trace(m) / len(m) + 1e-9)
+        return np.linalg.solve(m, a.T @ t)
+
+    for z in range(2, nz):
+        for y in range(2, ny - 1):
+            w = None
+            for x in range(2, nx - 1):
+                if x % 2 == 0:
+                    w = weights(z, y, x)
+                if w is not None:
+                    out[z, y, x] = int(np.floor(8 * (np.array(vector(z, y, x)) @ w) + 0.5))
+    return out

@@ -45,10 +45,11 @@ def brain(shape=(24, 40, 40), seed=1):
     return np.where(inside, noisy(shape, seed), 0)
 
 
-def roundtrip_stream(v, lo, hi, classes=4, mask=None):
-    data = predictfit.encode(v, lo, hi, classes=classes, mask=mask)
+def roundtrip_stream(v, lo, hi, classes=4, mask=None, **opts):
+    """Code and decode ``v`` with ``opts`` (``low``, ``tex``, ``mix``, ``local``)."""
+    data = predictfit.encode(v, lo, hi, classes=classes, mask=mask, **opts)
     fill = int(v[mask].flat[0]) if mask is not None and mask.any() else lo
-    back = predictfit.decode(data, v.shape, lo, hi, mask, fill)
+    back = predictfit.decode(data, v.shape, lo, hi, mask, fill, **opts)
     np.testing.assert_array_equal(back, v)
     return data
 
@@ -160,9 +161,9 @@ def test_version_one_headers():
     assert LosslessCodec().get_config()["predict_version"] == 8
     assert LosslessCodec.from_config(LosslessCodec().get_config()) == LosslessCodec()
     with pytest.raises(OptionError):
-        LosslessCodec(predict_version=9)
+        LosslessCodec(predict_version=10)
     with pytest.raises(FormatError):
-        LosslessCodec.from_config({**LosslessCodec().get_config(), "predict_version": 9})
+        LosslessCodec.from_config({**LosslessCodec().get_config(), "predict_version": 10})
 
 
 def test_golden_streams_use_the_new_sections():

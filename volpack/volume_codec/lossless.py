@@ -15,7 +15,7 @@ mode  payload after the mode byte
       stream of version 2 (:mod:`.predictfit`), 32: a background mask, 64: version 2
       with the low-value models, 128: version 2 with the texture bias; 8 with 16, which
       excludes labels: a second flags byte follows, bit 0 of it (flag 256) the mixed
-      estimates), then the palette or the value range (none when split), the mask,
+      estimates, bit 1 (flag 512) the local fit), then the palette or the value range (none when split), the mask,
       then the predictive or label stream
 5     floats by prediction on their integer images (:mod:`.floatpredict`): a tool byte
       (0: Lorenzo, 1: lattice, 2: blend of predictors with copies and a fill value,
@@ -36,7 +36,9 @@ float64 bricks. Version 7 adds, for integer bricks, version 2's stream with
 the texture bias of :mod:`.predictfit` (flag 128), where it is the shorter. Version 8 (the
 default) adds, for integer bricks, version 2's stream with the residual's decisions
 coded by a mix of four estimates (:mod:`.residmix`, flag 256), where it saves
-``MIX_MIN_SAVING`` of the bytes (it decodes slower). A decoder reads every version,
+``MIX_MIN_SAVING`` of the bytes (it decodes slower). Version 9 adds the blend averaged
+with a predictor refitted at every voxel (:mod:`.localfit`, flag 512), where it saves
+``LOCAL_MIN_SAVING`` (it decodes slower again). A decoder reads every version,
 whatever the config says.
 
 Floats (float16, float32, float64) are coded exactly through integer images of their
@@ -84,19 +86,24 @@ EXACT_FLOATS = FLOAT_DTYPES + ("float64",)
 FLAG_PALETTE, FLAG_FLOAT, FLAG_SPLIT, FLAG_LABELS, FLAG_FIT, FLAG_MASK = 1, 2, 4, 8, 16, 32
 FLAG_LOW, FLAG_TEX = 64, 128
 # With FIT, the LABELS bit (which FIT excludes) says a second flags byte follows: flags
-# 256 and up. MIX (256) is its only flag.
-FLAG_MORE, FLAG_MIX = FLAG_LABELS, 256
+# 256 and up, MIX (256) and LOCAL (512).
+FLAG_MORE, FLAG_MIX, FLAG_LOCAL = FLAG_LABELS, 256, 512
 FLAGS = (
     FLAG_PALETTE | FLAG_FLOAT | FLAG_SPLIT | FLAG_LABELS | FLAG_FIT | FLAG_MASK | FLAG_LOW | FLAG_TEX
-    | FLAG_MIX
+    | FLAG_MIX | FLAG_LOCAL
 )  # fmt: skip
-VERSIONS = (1, 2, 3, 4, 5, 6, 7, 8)
+VERSIONS = (1, 2, 3, 4, 5, 6, 7, 8, 9)
 LOW_VERSION = 5  # the first predict_version whose encoder tries the low-value models
 TEX_VERSION = 7  # the first predict_version whose encoder tries the texture bias
 MIX_VERSION = 8  # the first predict_version whose encoder tries the mixed estimates
 # The mix decodes at about half the speed of version 7's stream: kept only when it saves
 # this share of the brick's bytes.
 MIX_MIN_SAVING = 0.003
+LOCAL_VERSION = 9  # the first predict_version whose encoder tries the local fit
+# The local fit decodes at a quarter to a tenth of the mix's speed (a 17 x 17 system
+# solved at every second voxel); version 9 is asked for ratio (effort 'max'), so it is
+# kept wherever it is shorter.
+LOCAL_MIN_SAVING = 0.0
 TOOLS = ("auto", "wavelet", "predict")
 FLOAT_ZSTD_LEVEL = 9
 FLOAT_ZSTD_LEVEL_V3 = 19  # floats compress slowly either way; 19 finds repeats 9 misses
@@ -114,14 +121,15 @@ class LosslessCodec(BrickCodec):
     tools : {"auto", "wavelet", "predict"}
         ``auto`` tries both tools on every brick and keeps the shorter; the others use
         one tool (for comparison; floats always use prediction).
-    predict_version : {1, 2, 3, 4, 5, 6, 7, 8}
+    predict_version : {1, 2, 3, 4, 5, 6, 7, 8, 9}
         The predictive stream written for integer bricks: 2 (a fitted predictor and a
         background mask) or 1 (the earlier one, for identical files); 3 codes integers
         as 2 and floats also by Lorenzo or lattice prediction (mode 5); 4 also by the
         blend of predictors with copies and a fill value (mode 5, tool 2); 5 as 4,
         integers also with the low-value models; 6 as 5, float32 and float64 also by a
         predictor fitted per brick (mode 5, tool 3); 7 as 6, integers also with the
-        texture bias; 8 (the default) as 7, integers also with the mixed estimates.
+        texture bias; 8 (the default) as 7, integers also with the mixed estimates; 9
+        as 8, integers also averaged with the local fit (slower to decode).
     """
 
     codec_id: ClassVar[str] = "lossless"
@@ -301,7 +309,9 @@ def describe(payload: bytes) -> str:
         name += "+mask" if flags & FLAG_MASK else ""
         name += "+low" if flags & FLAG_LOW else ""
         name += "+tex" if flags & FLAG_TEX else ""
-        return name + ("+mix" if flags & FLAG_FIT and flags & FLAG_MORE else "")
+        more = payload[2] if flags & FLAG_FIT and flags & FLAG_MORE and len(payload) > 2 else 0
+        name += "+mix" if more & FLAG_MIX >> 8 else ""
+        return name + ("+local" if more & FLAG_LOCAL >> 8 else "")
     if mode == MODE_FLOAT and len(payload) > 1:
         tool = FLOAT_TOOLS[payload[1]] if payload[1] < len(FLOAT_TOOLS) else payload[1]
         return f"float-{tool}"
@@ -328,7 +338,8 @@ def _encode_predict(brick: np.ndarray, version: int = 1) -> list[bytes]:
     if version >= 2 and not is_float:  # version 1 stays a candidate: tiny bricks pay
         out.append(
             _encode_fit(
-                values, lo, hi, version >= LOW_VERSION, version >= TEX_VERSION, version >= MIX_VERSION
+                values, lo, hi, version >= LOW_VERSION, version >= TEX_VERSION, version >= MIX_VERSION,
+                version >= LOCAL_VERSION,
             )
         )
     if hi - lo + 1 > 2:
@@ -354,14 +365,16 @@ def _encode_predict(brick: np.ndarray, version: int = 1) -> list[bytes]:
 
 
 def _encode_fit(
-    values: np.ndarray, lo: int, hi: int, low: bool = False, tex: bool = False, mix: bool = False
+    values: np.ndarray, lo: int, hi: int, low: bool = False, tex: bool = False, mix: bool = False,
+    local: bool = False,
 ) -> bytes:
     """The shortest version-2 predictive payload of an integer brick: on its values or
     on their palette ranks (when the brick leaves values of its range unused), then
     for the better of those with a background mask, and with one gradient class; with
     ``low``, the best of those again with the low-value models; with ``tex``, the best
     again with the texture bias; with ``mix``, the best again with the mixed estimates
-    (kept when ``MIX_MIN_SAVING`` shorter)."""
+    (kept when ``MIX_MIN_SAVING`` shorter); with ``local``, the best again averaged with
+    the local fit (kept when ``LOCAL_MIN_SAVING`` shorter)."""
     from . import predictfit
 
     head = bytes([MODE_PREDICT, FLAG_FIT]) + pal.pack_range(lo, hi)
@@ -408,6 +421,16 @@ def _encode_fit(
         )
         if len(payload) < (1 - MIX_MIN_SAVING) * len(best):
             best = payload
+    if local and predictfit.localfit.usable(v.shape, b - a):  # (the best again, with the local fit)
+        flags = best[1]
+        more = best[2] if flags & FLAG_MORE else 0
+        head2 = bytes([head[0], flags | FLAG_MORE, more | FLAG_LOCAL >> 8]) + head[2:]
+        payload = head2 + section + predictfit.encode(
+            v, a, b, mask=mask, fitted=fitted, low=bool(flags & FLAG_LOW), tex=bool(flags & FLAG_TEX),
+            mix=bool(more & FLAG_MIX >> 8), local=True,
+        )  # fmt: skip
+        if len(payload) < (1 - LOCAL_MIN_SAVING) * len(best):
+            best = payload
     return best
 
 
@@ -418,12 +441,12 @@ def _decode_predict(body: memoryview, shape: tuple[int, ...], dtype: np.dtype) -
         raise FormatError("predictive brick payload: missing flags byte")
     flags = body[0]
     rest = body[1:]
-    if flags & FLAG_FIT and flags & FLAG_MORE:  # a second flags byte: MIX alone
-        if len(body) < 2 or body[1] != FLAG_MIX >> 8:
+    if flags & FLAG_FIT and flags & FLAG_MORE:  # a second flags byte: MIX, LOCAL or both
+        if len(body) < 2 or body[1] not in (1, 2, 3):
             found = f"{body[1]:#x}" if len(body) >= 2 else "the end of the payload"
             raise FormatError(f"predictive brick payload: expected the second flags byte 1 (MIX), "
-                              f"found {found}")
-        flags = (flags & ~FLAG_MORE) | FLAG_MIX
+                              f"2 (LOCAL) or 3 (both), found {found}")
+        flags = (flags & ~FLAG_MORE) | (body[1] << 8)
         rest = body[2:]
     is_float = dtype.kind == "f"
     split = bool(flags & FLAG_SPLIT)
@@ -431,7 +454,7 @@ def _decode_predict(body: memoryview, shape: tuple[int, ...], dtype: np.dtype) -
     if (
         flags & ~FLAGS
         or (fit and flags & (FLAG_FLOAT | FLAG_LABELS))
-        or (flags & (FLAG_MASK | FLAG_LOW | FLAG_TEX | FLAG_MIX) and not fit)
+        or (flags & (FLAG_MASK | FLAG_LOW | FLAG_TEX | FLAG_MIX | FLAG_LOCAL) and not fit)
         or bool(flags & FLAG_FLOAT) != is_float
         or (split and flags & (FLAG_PALETTE | FLAG_LABELS))
         or (split and not is_float)
@@ -477,10 +500,11 @@ def _decode_fit(data: memoryview, shape: tuple[int, ...], lo: int, hi: int, flag
     if hi - lo >= 1 << 32:
         raise FormatError(f"predictive brick payload: value range [{lo}, {hi}] is out of bounds")
     low, tex, mix = bool(flags & FLAG_LOW), bool(flags & FLAG_TEX), bool(flags & FLAG_MIX)
+    local = bool(flags & FLAG_LOCAL)
     if flags & FLAG_MASK:
         fill, mask, used = bgmask.decode(data, shape, hi - lo)
-        return predictfit.decode(data[used:], shape, lo, hi, mask, lo + fill, low, tex, mix)
-    return predictfit.decode(data, shape, lo, hi, low=low, tex=tex, mix=mix)
+        return predictfit.decode(data[used:], shape, lo, hi, mask, lo + fill, low, tex, mix, local)
+    return predictfit.decode(data, shape, lo, hi, low=low, tex=tex, mix=mix, local=local)
 
 
 def _value_range(dtype: np.dtype) -> tuple[int, int]:

@@ -37,7 +37,7 @@ from ..entropy.rangecoder import end_status, finish_stream, get_bits, open_encod
 from ..entropy.rangecoder import pull as _pull
 from ..entropy.rangecoder import push as _push
 from ..errors import FormatError, OptionError
-from . import residmix
+from . import localfit, residmix
 from .predict import (
     NCTX,
     NLEN,
@@ -95,6 +95,10 @@ FIT_OFFSETS = (
     (0, 0, 2), (0, 2, 0), (2, 0, 0), (1, 0, -1), (1, -1, 0), (1, 1, -1), (1, -1, 1), (1, -1, -1),
 )  # fmt: skip
 NFIT = len(FIT_OFFSETS)
+# The local fit's weight against the blend (in 16ths) follows the two estimates' mean
+# absolute errors in the coding context, squared (as the weights of two estimates with
+# independent errors go); both sums halve past LOCAL_LIMIT (eighths).
+LOCAL_LIMIT = 8192
 HEAD = 4 * (NCLS - 1) + 2 * NCLS * NFIT  # thresholds and weights before the stream
 
 
@@ -458,14 +462,17 @@ def _texture_bias(ctx, p0, W, N, U, NE, NW, UN):
 
 
 @kernel(inline=True)
-def _predict_kernel(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, held, tex):
+def _predict_kernel(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, held, tex, lpe, lw):
     """Prediction and contexts of voxel ``i`` = (z, y, x) from the decoded ``v`` (values
     in ``[0, hi]``), the errors of earlier voxels (as :func:`.predict.gather`; ``held``
     as :func:`_gather`) and the mean errors ``bias`` (kept by :func:`_learn`): of the
-    coding context, or with ``tex`` of the texture (:func:`_texture_bias`).
+    coding context, or with ``tex`` of the texture (:func:`_texture_bias`). The blend
+    is averaged with the local fit's estimate ``lpe`` (:mod:`.localfit`, in eighths)
+    unless that is ``localfit.NONE``, weighted by the two's errors in the context
+    (``lw``, kept by :func:`_learn_local`).
 
-    Returns ``(pred, ctx, bias slot, sign_ctx, activity, q0, ..., q5)`` (the six
-    predictors, in eighths).
+    Returns ``(pred, ctx, bias slot, sign_ctx, activity, q0, ..., q5, blend, local fit)``
+    (the six predictors, the blend and the clipped local fit in eighths).
     """
     W, N, U, NW, NE, UW, UN, UNW, act2, esum, s0, s1, s2, s3, s4, s5 = _gather(
         v, err, perr, i, r, ru, z, y, x, ny, nx, hi, held
@@ -503,25 +510,49 @@ def _predict_kernel(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, h
     ctx = context(act, (max(q0, q1, q2, q3, q4, q5) - min(q0, q1, q2, q3, q4, q5)) >> 3)
     # (num >= 0: the predictions are clipped to [0, 8 hi] and the weights are positive)
     p0 = floor_div_recip(num + (den >> 1), den, rden)
+    pb = p0
+    lq = localfit.NONE
+    if lpe != localfit.NONE:
+        lq = min(max(lpe, 0), h8)
+        eb = lw[np.uint64(2 * ctx)]
+        el = lw[np.uint64(2 * ctx + 1)]
+        eb *= eb  # (below 2^47: the sums stay below LOCAL_LIMIT + 8 * 2^20)
+        el *= el
+        k = (16 * eb + ((eb + el) >> 1)) // (eb + el) if eb + el > 0 else 8
+        p0 = (p0 * (16 - k) + lq * k + 8) >> 4
     bctx = _texture_bias(ctx, p0, W, N, U, NE, NW, UN) if tex else ctx
     p8 = min(max(p0 + bias[np.uint64(bctx)], 0), h8)
     pred = (p8 + 4) >> 3
     frac = p8 - 8 * pred  # -4..3
     sctx = (np.int64(esum > 0) + 2 * np.int64(esum < 0)) * NFRAC + ((frac + 4) >> 1)
-    return pred, ctx, bctx, sctx, act, q0, q1, q2, q3, q4, q5
+    return pred, ctx, bctx, sctx, act, q0, q1, q2, q3, q4, q5, pb, lq
 
 
 @kernel(inline=True)
-def _predict_mix(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, held, tex, mix):
+def _learn_local(lw, ctx, val, pb, lq):
+    """After voxel ``val`` is known: add the blend's (``pb``) and the local fit's
+    (``lq``, unless ``localfit.NONE``) absolute errors to the context's sums."""
+    if lq != localfit.NONE:
+        eb = lw[np.uint64(2 * ctx)] + abs(8 * val - pb)
+        el = lw[np.uint64(2 * ctx + 1)] + abs(8 * val - lq)
+        if eb + el > LOCAL_LIMIT:
+            eb >>= 1
+            el >>= 1
+        lw[np.uint64(2 * ctx)] = eb
+        lw[np.uint64(2 * ctx + 1)] = el
+
+
+@kernel(inline=True)
+def _predict_mix(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, held, tex, mix, lpe, lw):
     """:func:`_predict_kernel`, with the voxel's slots of the mixed estimates
     (:func:`.residmix.contexts`, or ``NO_MIX``) in place of the activity."""
-    pred, ctx, bctx, sctx, act, q0, q1, q2, q3, q4, q5 = _predict_kernel(
-        v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, held, tex
+    pred, ctx, bctx, sctx, act, q0, q1, q2, q3, q4, q5, pb, lq = _predict_kernel(
+        v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, held, tex, lpe, lw
     )
     mx = NO_MIX
     if mix:
         mx = residmix.contexts(err, r, ru, y, x, ny, nx, act, ctx, pred)
-    return pred, ctx, bctx, sctx, mx, q0, q1, q2, q3, q4, q5
+    return pred, ctx, bctx, sctx, mx, q0, q1, q2, q3, q4, q5, pb, lq
 
 
 @kernel(inline=True)
@@ -554,17 +585,22 @@ def _skip(err, perr, r, val):
 def _workspace(shape: tuple[int, ...]) -> tuple[np.ndarray, ...]:
     """:func:`.predict.workspace`'s ring arrays, the bias slots' error sums, counts and
     means (0 before any error: a sum and a count of 0 mean 0; the coding contexts', then
-    the texture bias's), this module's models and the mix's (:func:`.residmix.workspace`)."""
+    the texture bias's), this module's models and the mix's (:func:`.residmix.workspace`).
+    Then the local fit's error sums per context (:func:`_learn_local`; its sums and
+    system are the decoder's alone: the encoder is handed the estimates)."""
     err, perr, _, _, _ = workspace(shape)
     bias_sum, bias_cnt, bias = (np.zeros(NBIAS, dtype=np.int64) for _ in range(3))
     models = np.full(N_MODELS_LOW, MODEL_INIT, dtype=np.uint32)
-    return err, perr, bias_sum, bias_cnt, bias, models, residmix.workspace()
+    return err, perr, bias_sum, bias_cnt, bias, models, residmix.workspace(), np.zeros(2 * NCTX, np.int64)
 
 
 @kernel(nrt=False)
 def _encode_kernel(
-    v, mk, cf, th, shape, hi, nlow, tex, mix, out, err, perr, bias_sum, bias_cnt, bias, models, aux
+    v, mk, cf, th, shape, hi, nlow, tex, mix, lp, ls, out, err, perr, bias_sum, bias_cnt, bias, models,
+    aux, lw,
 ):
+    """``lp``: the local fit's estimate of every voxel (:func:`.localfit.estimates`),
+    used when ``ls``."""
     nz, ny, nx = shape[0], shape[1], shape[2]
     sz = ny * nx
     cap = out.size
@@ -584,8 +620,10 @@ def _encode_kernel(
                     held = _skip(err, perr, r, v[np.uint64(i)])
                     i += 1
                     continue
-                pred, ctx, bctx, sctx, mx, q0, q1, q2, q3, q4, q5 = _predict_mix(
-                    v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, bias, held, tex, mix
+                lpe = lp[np.uint64(i)] if ls else localfit.NONE
+                pred, ctx, bctx, sctx, mx, q0, q1, q2, q3, q4, q5, pb, lq = _predict_mix(
+                    v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, bias, held, tex, mix,
+                    lpe, lw,
                 )
                 val = v[np.uint64(i)]
                 q = _low_class(pred, nlow)
@@ -595,17 +633,21 @@ def _encode_kernel(
                 held = _learn(
                     err, perr, r, val, pred, bctx, bias_sum, bias_cnt, bias, q0, q1, q2, q3, q4, q5
                 )
+                _learn_local(lw, ctx, val, pb, lq)
                 i += 1
     return finish_stream(out, low, pos)
 
 
 @kernel(nrt=False)
 def _decode_kernel(
-    data, mk, fill, cf, th, shape, hi, nlow, tex, mix, v, err, perr, bias_sum, bias_cnt, bias, models,
-    aux,
+    data, mk, fill, cf, th, shape, hi, nlow, tex, mix, ls, st, cs, ws, a, g, v, err, perr, bias_sum,
+    bias_cnt, bias, models, aux, lw,
 ):
     """Return 0 on success, 1 when the stream ran short, 2 on an impossible value, 3 when
-    it does not end where its length says."""
+    it does not end where its length says. With ``ls``, the local fit's sums are moved
+    along at every voxel of its region (coded or masked), its weights fitted where
+    :func:`.localfit.refits` and its estimate made at the coded voxels (``st``, ``cs``, ``ws``, ``a``, ``g``: :mod:`.localfit`'s steps and
+    workspace)."""
     nz, ny, nx = shape[0], shape[1], shape[2]
     sz = ny * nx
     size = data.size
@@ -617,17 +659,30 @@ def _decode_kernel(
         cur = (z & 1) * sz
         prev = sz - cur
         for y in range(ny):
+            fits = ls and z >= 2
+            if fits:
+                localfit.row_start(cs, v, z, y, ny, nx, st, g)
+            fits = fits and 2 <= y <= ny - 2
+            fitted = False
             for x in range(nx):
                 if pos > size + 4:
                     return 1
                 r = cur + y * nx + x
+                here = fits and 2 <= x <= nx - 2
+                if here:
+                    localfit.advance(cs, ws, v, i, x, nx, st, g)
+                    if localfit.refits(x):  # (not for two masked voxels: no use)
+                        fitted = (mk[np.uint64(i)] == 0 or (x < nx - 2 and mk[np.uint64(i + 1)] == 0))
+                        fitted = fitted and localfit.solve(ws, a)
                 if mk[np.uint64(i)]:
                     v[np.uint64(i)] = fill
                     held = _skip(err, perr, r, fill)
                     i += 1
                     continue
-                pred, ctx, bctx, sctx, mx, q0, q1, q2, q3, q4, q5 = _predict_mix(
-                    v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, bias, held, tex, mix
+                lpe = localfit.estimate(a, v, i, st) if here and fitted else localfit.NONE
+                pred, ctx, bctx, sctx, mx, q0, q1, q2, q3, q4, q5, pb, lq = _predict_mix(
+                    v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, bias, held, tex, mix,
+                    lpe, lw,
                 )
                 q = _low_class(pred, nlow)
                 res, code, rng, pos = get_residual_mix(
@@ -642,6 +697,7 @@ def _decode_kernel(
                 held = _learn(
                     err, perr, r, val, pred, bctx, bias_sum, bias_cnt, bias, q0, q1, q2, q3, q4, q5
                 )
+                _learn_local(lw, ctx, val, pb, lq)
                 i += 1
     return end_status(data, code, pos)
 
@@ -737,13 +793,15 @@ def encode(
     low: bool = False,
     tex: bool = False,
     mix: bool = False,
+    local: bool = False,
 ) -> bytes:
     """Code a 3-D integer array with values in ``[lo, hi]`` (a range below 2^32): the
     thresholds (uint32) and weights (int16) of the fitted predictor (``fitted``, or
     :func:`fit` with ``classes`` 4 or 1), then the stream. Voxels where ``mask`` is
     true are not coded (the decoder is told their value). ``low``: with the low-value
     models, ``tex``: with the texture bias, ``mix``: with the mixed estimates of
-    :mod:`.residmix` (the decoder must be told of each)."""
+    :mod:`.residmix`, ``local``: averaged with the local fit of :mod:`.localfit` (the
+    decoder must be told of each; ``local`` only where :func:`.localfit.usable`)."""
     v = np.ascontiguousarray(values, dtype=np.int64)
     if v.ndim != 3:
         raise OptionError(f"expected a 3-D array, found shape {v.shape}")
@@ -756,10 +814,14 @@ def encode(
     flat = v.reshape(-1)
     mk = _no_mask(flat.size) if mask is None else np.ascontiguousarray(mask, np.uint8).reshape(-1)
     shape = np.array(v.shape, dtype=np.int64)
+    if local and not localfit.usable(v.shape, hi - lo):
+        raise OptionError(f"the local fit takes bricks of at least 3x5x5 with values below "
+                          f"2^{localfit.MAX_BITS}, found shape {v.shape} and range [{lo}, {hi}]")
+    lp = localfit.estimates(v, FIT_OFFSETS).reshape(-1) if local else np.zeros(1, np.int64)
     body = encode_with_retry(
         lambda out: _encode_kernel(
-            flat, mk, cf, th, shape, np.int64(hi - lo), _nlow(low), np.int64(tex), np.int64(mix), out,
-            *_workspace(v.shape),
+            flat, mk, cf, th, shape, np.int64(hi - lo), _nlow(low), np.int64(tex), np.int64(mix), lp,
+            local, out, *_workspace(v.shape),
         ),
         flat.size,
         (2, 20),
@@ -782,11 +844,16 @@ def decode(
     low: bool = False,
     tex: bool = False,
     mix: bool = False,
+    local: bool = False,
 ):
     """Decode :func:`encode`'s bytes into an int64 array of ``shape``; voxels where
-    ``mask`` is true get ``fill``; ``low``, ``tex`` and ``mix`` as for :func:`encode`."""
+    ``mask`` is true get ``fill``; ``low``, ``tex``, ``mix`` and ``local`` as for
+    :func:`encode`."""
     if not (lo <= hi and hi - lo < (1 << 32)):
         raise FormatError(f"predictive payload: value range [{lo}, {hi}] is out of bounds")
+    if local and not localfit.usable(shape, hi - lo):
+        raise FormatError(f"predictive payload: the local fit is flagged on a brick it does not "
+                          f"apply to (shape {tuple(shape)}, range [{lo}, {hi}])")
     data = bytes(data)
     if len(data) < HEAD:
         raise FormatError("predictive payload: the fitted predictor's weights are cut short")
@@ -799,8 +866,8 @@ def decode(
     shp = np.array(shape, dtype=np.int64)
     status = _decode_kernel(
         buf, mk, np.int64(fill - lo), cf.astype(np.int64), th, shp, np.int64(hi - lo), _nlow(low),
-        np.int64(tex), np.int64(mix), v,
-        *_workspace(shape),
+        np.int64(tex), np.int64(mix), local, localfit.steps(FIT_OFFSETS, shape),
+        *localfit.workspace(shape if local else (1, 1, 1)), v, *_workspace(shape),
     )  # fmt: skip
     check_status(status, "predictive")
     return (v + lo if lo else v).reshape(shape)  # (palette ranks start at 0: no pass)
