@@ -69,6 +69,9 @@ KINDS = {
     "lossless-v7": ("lossless-v7-u8-tex.vpk", VOLUME_PATHS),
     # version 8's mixed estimates (flag 256, a second flags byte)
     "lossless-v8": ("lossless-v8-u8-mix.vpk", VOLUME_PATHS),
+    # version 9's local fit (flag 512 in the second flags byte), with a mask and palette
+    "lossless-v9": ("lossless-v9-u8-local.vpk", VOLUME_PATHS),
+    "lossless-v9-mask": ("lossless-v9-u8-local-mask.vpk", VOLUME_PATHS),
     # version 3's float tools (mode 5): Lorenzo on the floats' signed images, and lattices
     "float-lorenzo": ("lossless-v3-f32-smooth.vpk", VOLUME_PATHS),
     "float-lattice": ("lossless-v3-f32-packed.vpk", VOLUME_PATHS),
