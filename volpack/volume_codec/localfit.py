@@ -124,7 +124,7 @@ def _row(r, ny):
     return r if 2 <= r <= ny - 2 else -1
 
 
-@kernel(inline=True)
+@kernel(nrt=False)
 def row_start(cs, v, z, y, ny, nx, st, g):
     """Move the column sums to row ``y`` of slice ``z`` (``z >= 2``; called for every
     row in order): the slice's hold rows ``[max(2, y - R), y - 1]``, the slice before's
@@ -170,7 +170,7 @@ def _column(c, nx):
     return c if 2 <= c <= nx - 2 else -1
 
 
-@kernel(inline=True)
+@kernel(nrt=False)
 def advance(cs, ws, v, i, x, nx, st, g):
     """Move the window's sums to voxel ``i`` at column ``x`` (``2 <= x <= nx - 2``, on a
     row :func:`row_start` has moved to; called for every such voxel in order, coded or
@@ -188,7 +188,7 @@ def advance(cs, ws, v, i, x, nx, st, g):
     _exchange(ws, 0, v, i - 1, i - R - 1 if x - R - 1 >= 2 else -1, st, g)
 
 
-@kernel(inline=True)
+@kernel(nrt=False)
 def solve(ws, a):
     """Fit the weights to the window's sums (:func:`advance`) into ``a[W_AT:]``; False
     (no weights) with fewer than ``MIN_SAMPLES`` training voxels, training voxels all of
