@@ -84,9 +84,11 @@ def compress(
 ) -> None:
     """Compress the volume or tetrahedral mesh SOURCE into the .vpk file TARGET ('-' for stdout).
 
-    Lossless by default: every voxel decodes bit-exactly. Integer volumes (8, 16 and
-    32 bit) use the integer lifting wavelet codec; floats are stored exactly by
-    byte-shuffled zstd. One lossy setting turns on lossy coding: --max-error and
+    Lossless by default: every voxel decodes bit-exactly (floats bit for bit). Each
+    brick takes the shortest of the integer lifting wavelet, 3-D prediction, a palette,
+    label coding or, for floats, float prediction; --effort max also tries a predictor
+    refitted along every row (1-10 % smaller, several times slower to decode). One lossy
+    setting turns on lossy coding: --max-error and
     --rel-error promise a bound on every voxel (integers and floats; NaN, Inf and
     --fill-value voxels come back exactly); --psnr and --ratio search the setting that
     reaches the target; --quality and --threshold are the method's own knobs.
@@ -94,6 +96,7 @@ def compress(
     \b
     Examples:
       volpack compress ct.nii.gz ct.vpk
+      volpack compress ct.nii.gz ct.vpk --effort max
       volpack compress ct.nii.gz ct.vpk --wavelet 26 --coder huffman --brick 64
       volpack compress big.h5:/density big.vpk --workers 2
       volpack compress sim.h5:/T T.vpk --max-error 0.01
