@@ -139,3 +139,17 @@ def test_effort_max_is_version_9():
         api.compress_array(v.astype(np.float32), effort="max", max_error=0.5)
     with pytest.raises(OptionError, match="predict_version=9"):
         api.compress_array(v, effort="max", codec="wavelet")
+
+
+def test_golden_streams_use_the_local_fit():
+    from pathlib import Path
+
+    from volpack.format.container import Reader
+
+    golden = Path(__file__).resolve().parents[2] / "formats" / "examples"
+    for stem in ("lossless-v9-u8-local", "lossless-v9-u8-local-mask", "lossless-v9-i16-local-palette"):
+        with Reader((golden / f"{stem}.vpk").read_bytes()) as r:
+            tools = [describe(r.read(e.t, e.node)) for e in r.entries]
+        assert tools and all(t.endswith("+mix+local") for t in tools), (stem, tools)
+    with Reader((golden / "lossless-v9-u8-local-mask.vpk").read_bytes()) as r:
+        assert all("+mask" in describe(r.read(e.t, e.node)) for e in r.entries)
