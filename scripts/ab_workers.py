@@ -27,7 +27,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
-KERNELS = ("_head_kernel", "_decode_kernel", "_tables_kernel", "_palette_kernel")
+KERNELS = ("_head_kernel", "_decode_kernel", "tables_kernel", "_palette_kernel")
 
 
 def serve(blobs: Path, pin: bool) -> None:

@@ -7,7 +7,7 @@ its own range, no palette), in one process, CPU seconds, best of ``--repeat``:
 * ``head``: the head alone (tables read into the decoder's look-ups, stream copied);
 * ``entropy``: the same symbols (tokens and raw bits) decoded with their contexts given
   (the encoder's sequence), no prediction, no context computation: the rANS chain and the
-  bit reader as the decoder runs them (:func:`fastpredict._symbol`);
+  bit reader as the decoder runs them (:func:`fastpredict.take_symbol`);
 * ``rans``: the tokens alone, no raw bits;
 * ``predict``: the prediction chain alone (MED inside the slice, plus the 3-D correction
   of the brick's predictor) with the residuals given, every voxel predicted;
@@ -47,7 +47,7 @@ def _entropy_kernel(data, words, syms, info, ctx, tok, raw):
     total = np.int64(0)
     if raw:
         for k in range(ctx.size):
-            ue, pos, x0, x1, reader = fp._symbol(
+            ue, pos, x0, x1, reader = fp.take_symbol(
                 syms, info, np.int64(ctx[k]), data, pos, x0, x1, words, reader, tok
             )
             total += ue

@@ -187,7 +187,7 @@ def _tables(body):
     nctx = body[0]
     syms = np.empty((nctx + lf.N_SIGN, rans.TOTAL), np.uint8)
     info = np.empty((nctx + lf.N_SIGN, rans.MAX_SYMBOLS), np.uint32)
-    end = int(fp._tables_kernel(np.frombuffer(body, np.uint8), 1, syms, info))
+    end = int(fp.tables_kernel(np.frombuffer(body, np.uint8), 1, syms, info))
     freqs = np.zeros((nctx + lf.N_SIGN, rans.MAX_SYMBOLS), np.int64)
     for c in range(nctx + lf.N_SIGN):
         t, f = np.unique(syms[c], return_counts=True)

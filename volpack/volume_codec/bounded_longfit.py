@@ -627,11 +627,11 @@ def _static_tokens(r, nz, ny, nx, toks, ctxs, counts, bits):
                 if v >= _M_LIMIT or v <= -_M_LIMIT:
                     return -2, k
                 c, s = _context(r, i, z, y, x, ny, nx)
-                bpos, acc, nacc = fp._emit(toks, ctxs, counts, k, c, abs(v), bits, bpos, acc,
+                bpos, acc, nacc = fp.emit(toks, ctxs, counts, k, c, abs(v), bits, bpos, acc,
                                            nacc)  # fmt: skip
                 k += 1
                 if v != 0:
-                    bpos, acc, nacc = fp._emit(toks, ctxs, counts, k, fp.NCLASS + s,
+                    bpos, acc, nacc = fp.emit(toks, ctxs, counts, k, fp.NCLASS + s,
                                                np.int64(v < 0), bits, bpos, acc, nacc)  # fmt: skip
                     k += 1
                 if bpos < 0:
@@ -647,7 +647,7 @@ def _static_tokens(r, nz, ny, nx, toks, ctxs, counts, bits):
 def _get_static(data, words, nbits, syms, info, nctx, r, nz, ny, nx, tok):
     """Decode :func:`code_static`'s symbols into ``r``: 0, 1 (a stream that does not end
     where its lengths say) or 2 (a sign symbol past 1). ``data`` and ``words`` carry the
-    zero padding that :func:`.fastpredict._symbol` reads past their ends; an unused
+    zero padding that :func:`.fastpredict.take_symbol` reads past their ends; an unused
     context's slots give a magnitude past any voxel's range (the walk rejects it)."""
     x0, x1, pos = rans.open_states(data)
     reader = (np.uint64(0), np.int64(0), np.int64(0))
@@ -658,11 +658,11 @@ def _get_static(data, words, nbits, syms, info, nctx, r, nz, ny, nx, tok):
         for y in range(ny):
             for x in range(nx):
                 c = min(_activity(r, i, z, y, x, ny, nx), top)
-                m, pos, x0, x1, reader = fp._symbol(syms, info, c, data, pos, x0, x1, words,
+                m, pos, x0, x1, reader = fp.take_symbol(syms, info, c, data, pos, x0, x1, words,
                                                     reader, tok)  # fmt: skip
                 if m != 0:
                     c = nctx + _sign_context(r, i, z, y, x, ny, nx)
-                    t, pos, x0, x1, reader = fp._symbol(syms, info, c, data, pos, x0, x1,
+                    t, pos, x0, x1, reader = fp.take_symbol(syms, info, c, data, pos, x0, x1,
                                                         words, reader, tok)  # fmt: skip
                     bad |= t > 1
                     m = -m if t else m
@@ -690,7 +690,7 @@ def code_static(r: np.ndarray) -> bytes | None:
     nbits, nsym = _static_tokens(flat, nz, ny, nx, toks, ctxs, counts, bits)
     if nbits < 0:
         return None
-    nctx, freqs, _ = fp._cap_contexts(counts[: fp.NCLASS])
+    nctx, freqs, _ = fp.cap_contexts(counts[: fp.NCLASS])
     freqs = np.vstack([freqs, rans.normalise(counts[fp.NCLASS :])])
     ctx = ctxs[:nsym].astype(np.int64)
     ctx = np.where(ctx >= fp.NCLASS, ctx - fp.NCLASS + nctx, np.minimum(ctx, nctx - 1))
@@ -708,7 +708,7 @@ def decode_static(data, shape) -> np.ndarray:
         raise FormatError(f"{what}: {nctx} activity classes, expected 1..{fp.NCLASS}")
     syms = np.empty((nctx + N_SIGN, rans.TOTAL), np.uint8)
     info = np.empty((nctx + N_SIGN, rans.MAX_SYMBOLS), np.uint32)
-    pos = int(fp._tables_kernel(buf, 1, syms, info))
+    pos = int(fp.tables_kernel(buf, 1, syms, info))
     if pos < 0:
         raise FormatError(f"{what}: {fp.HEAD_STATUS[pos]}")
     stream, pos = take_section(memoryview(buf), pos, what)

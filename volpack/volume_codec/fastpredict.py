@@ -206,7 +206,7 @@ def _put_bits(bits, bpos, acc, nacc, value, nb):
 
 
 @kernel(inline=True)
-def _emit(toks, ctxs, counts, k, c, value, bits, bpos, acc, nacc):
+def emit(toks, ctxs, counts, k, c, value, bits, bpos, acc, nacc):
     """Symbol ``k``: the token of ``value`` in context ``c``, its raw bits appended."""
     t, nb = _token(value)
     toks[k] = t
@@ -281,13 +281,13 @@ def _tokens_kernel(v, shape, lo, hi, pid, cid, runs, rows, toks, ctxs, u, counts
         for y in range(ny):
             if rows and (y > 0 or z > 0) and copies == 0:
                 kind, more = _row_run(v, i, nx, ny, nz, y, z)
-                bpos, acc, nacc = _emit(
+                bpos, acc, nacc = emit(
                     toks, ctxs, counts, k, ROW_KIND + prev, kind, bits, bpos, acc, nacc
                 )
                 k += 1
                 prev = kind
                 if kind != 0:
-                    bpos, acc, nacc = _emit(
+                    bpos, acc, nacc = emit(
                         toks, ctxs, counts, k, ROW_COUNT + kind - 1, more, bits, bpos, acc, nacc
                     )
                     k += 1
@@ -318,23 +318,23 @@ def _tokens_kernel(v, shape, lo, hi, pid, cid, runs, rows, toks, ctxs, u, counts
                         covered += 1
                         if rows and x == nx - 1:  # the run stops with its row
                             inrun = False
-                            bpos, acc, nacc = _emit(
+                            bpos, acc, nacc = emit(
                                 toks, ctxs, counts, k, RUN_LENGTH, length, bits, bpos, acc, nacc
                             )
                             k += 1
                         continue
                     inrun = False
-                    bpos, acc, nacc = _emit(
+                    bpos, acc, nacc = emit(
                         toks, ctxs, counts, k, RUN_LENGTH, length, bits, bpos, acc, nacc
                     )
                     k += 1
                     c = RUN_BREAK
-                bpos, acc, nacc = _emit(toks, ctxs, counts, k, c, ue, bits, bpos, acc, nacc)
+                bpos, acc, nacc = emit(toks, ctxs, counts, k, c, ue, bits, bpos, acc, nacc)
                 k += 1
                 if bpos < 0:
                     return -1, k, covered, copied
     if inrun:  # the last run ends with the brick
-        bpos, acc, nacc = _emit(toks, ctxs, counts, k, RUN_LENGTH, length, bits, bpos, acc, nacc)
+        bpos, acc, nacc = emit(toks, ctxs, counts, k, RUN_LENGTH, length, bits, bpos, acc, nacc)
         k += 1
         if bpos < 0:
             return -1, k, covered, copied
@@ -376,7 +376,7 @@ def _flat_until(v, i, end, sy, sz, pz):
 
 
 @kernel(inline=True)
-def _symbol(syms, info, c, data, pos, x0, x1, words, reader, tok):
+def take_symbol(syms, info, c, data, pos, x0, x1, words, reader, tok):
     """Decode the next zig-zagged number: its token from state ``x0`` in context ``c``
     (:func:`volpack.entropy.rans.decode_symbol_split`), then its raw low bits from the
     bit reader ``(acc, nacc, k)`` (``nacc`` bits in ``acc``, ``k`` 32-bit words of
@@ -418,7 +418,7 @@ def _decode_kernel(
     """Decode a brick into ``v`` (flat; ``u`` a zeroed int32 ring of two slices: voxel
     ``i``'s residual, capped at :data:`UCAP`, in slot ``i mod 2 ny nx``); 0, or a
     :data:`STATUS` code. ``data`` (the rANS stream) and ``words`` (the raw bits, 32-bit
-    little-endian words) carry the zero padding :func:`_symbol` reads past their ends;
+    little-endian words) carry the zero padding :func:`take_symbol` reads past their ends;
     ``nbits`` counts the raw stream's bits. Inside a row the loop keeps W and its
     residual in registers, reads the neighbours without edge tests or signed indices
     and looks the context class up (``act``); a run (``runs``) fills its voxels at once;
@@ -444,14 +444,14 @@ def _decode_kernel(
     while i < n:
         pz = pid if z > 0 else 0
         if rows and x == 0 and (y > 0 or z > 0):
-            kind, pos, x0, x1, reader = _symbol(
+            kind, pos, x0, x1, reader = take_symbol(
                 syms, info, nctx + 2 + prev, data, pos, x0, x1, words, reader, tok
             )
             prev = kind
             if kind != 0:
                 if not (kind == 1 and y > 0) and not (kind == 2 and z > 0):
                     return 5
-                more, pos, x0, x1, reader = _symbol(
+                more, pos, x0, x1, reader = take_symbol(
                     syms, info, nctx + 4 + kind, data, pos, x0, x1, words, reader, tok
                 )
                 if more >= (ny - y if kind == 1 else (nz - z) * ny - y):
@@ -502,7 +502,7 @@ def _decode_kernel(
                     break
                 c = a + 2 * g  # its class, capped at the last context: one look-up
                 c = np.int64(act[np.uintp(c)]) if c < act.size else min(_activity(c), hictx)
-                uw, pos, x0, x1, reader = _symbol(
+                uw, pos, x0, x1, reader = take_symbol(
                     syms, info, c, data, pos, x0, x1, words, reader, tok
                 )
                 u[np.uintp(r)] = min(uw, UCAP)
@@ -514,7 +514,7 @@ def _decode_kernel(
                 x += 1
             if not run:
                 continue
-            length, pos, x0, x1, reader = _symbol(
+            length, pos, x0, x1, reader = take_symbol(
                 syms, info, nctx, data, pos, x0, x1, words, reader, tok
             )
             if length > (nx - x if rows else n - i):
@@ -567,7 +567,7 @@ def _decode_kernel(
         else:
             ru = r + sz if r < sz else r - sz
             c = min(_context(v, u, i, r, ru, z, y, x, nx, cid), hictx)
-        ue, pos, x0, x1, reader = _symbol(syms, info, c, data, pos, x0, x1, words, reader, tok)
+        ue, pos, x0, x1, reader = take_symbol(syms, info, c, data, pos, x0, x1, words, reader, tok)
         u[r] = min(ue, UCAP)
         val = p + ((ue >> 1) ^ -(ue & 1))
         bad |= (val < lo) | (val > hi)
@@ -593,7 +593,7 @@ def decode_ns(coded: int, runs: int, filled: int, copied: int, nx: int) -> float
     return 15.0 * coded + 60.0 * runs + (0.6 + 40.0 / nx) * filled + 0.2 * copied
 
 
-def _cap_contexts(counts: np.ndarray) -> tuple[int, np.ndarray, float]:
+def cap_contexts(counts: np.ndarray) -> tuple[int, np.ndarray, float]:
     """Choose how many activity classes keep their own table (the top ones merge into
     the last) by the coded size, tables included: ``(nctx, freqs, bits)``."""
     used = np.flatnonzero(counts.sum(axis=1))
@@ -655,7 +655,7 @@ def _read_uleb(data, pos):
 
 
 @kernel(nrt=False)
-def _tables_kernel(data, pos, syms, info):
+def tables_kernel(data, pos, syms, info):
     """Read the frequency tables of :func:`pack_tables` from ``data[pos:]`` into the
     decoder's split look-up (:func:`volpack.entropy.rans.decode_symbol_split`: one row
     of ``syms`` and of ``info`` per context; every slot of an unused context decodes to
@@ -736,7 +736,7 @@ def encode(
             flat, shape, np.int64(lo), np.int64(hi), pid, cid, run, row, toks, ctxs, ring,
             counts, bits,
         )  # fmt: skip
-        nctx, freqs, cost = _cap_contexts(counts[:NCLASS])
+        nctx, freqs, cost = cap_contexts(counts[:NCLASS])
         if run:
             more = counts[NCLASS : ROW_KIND + ROW_TABLES * row]
             extra = rans.normalise(more)
@@ -827,7 +827,7 @@ def _head_kernel(buf, syms, info, act, stream, words, ring, kinds):
     if pos < 0 or not 1 <= nctx <= NCLASS:
         return -6, b, nctx, 0, 0
     ntab = nctx + 2 * runs + ROW_TABLES * rows
-    pos = _tables_kernel(buf, pos, syms[:ntab], info[:ntab])
+    pos = tables_kernel(buf, pos, syms[:ntab], info[:ntab])
     if pos < 0:
         return pos, b, nctx, 0, 0
     nbytes, pos = _read_uleb(buf, pos)

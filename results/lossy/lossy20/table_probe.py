@@ -20,7 +20,7 @@ for name, rel, a, codec, q, (r, plan, w) in residuals(sys.argv[1]):
     tok, _ = tokens(flat)
     counts = np.zeros((fp.NCLASS, 256), np.int64)
     np.add.at(counts, (act, tok), 1)
-    nctx, freqs, cost = fp._cap_contexts(counts)
+    nctx, freqs, cost = fp.cap_contexts(counts)
     packed = fp.pack_tables(freqs)
     prev = np.zeros(freqs.shape[1], np.int64)
     delta = bytearray()
