@@ -114,9 +114,9 @@ INT_REL_BOUNDS = (1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2)
 FLOAT_REL_BOUNDS = (1e-2, 1e-3, 1e-4, 1e-5)
 QUALITIES = (255, 127, 63, 31, 15)
 PSNR_TARGETS = (40.0, 60.0, 80.0, 100.0)
-BOUND_METHODS = ["volpack", "volpack-huffman", "volpack-arith2", "volpack-fast", "zfp", "sz3", "sz3-best", "sperr", "sperr-h5"]
+BOUND_METHODS = ["volpack", "volpack-huffman", "volpack-arith2", "volpack-fast", "volpack-max", "zfp", "sz3", "sz3-best", "sperr", "sperr-h5"]
 ALL_METHODS = [*BOUND_METHODS, "volpack-quality", "volpack-psnr", "tthresh"]
-OPT_IN = ("volpack-huffman", "volpack-arith2", "volpack-fast", "volpack-psnr")
+OPT_IN = ("volpack-huffman", "volpack-arith2", "volpack-fast", "volpack-max", "volpack-psnr")
 DEFAULT_METHODS = [m for m in ALL_METHODS if m not in OPT_IN] + [
     "mgard"
 ]
@@ -332,6 +332,7 @@ def build_methods(wanted: list[str]) -> tuple[list[Method], list[str]]:
         "volpack-huffman": lambda: _volpack_method("volpack-huffman", coder="huffman"),
         "volpack-arith2": lambda: _volpack_method("volpack-arith2", coder="arith2"),
         "volpack-fast": lambda: _volpack_method("volpack-fast", effort="fast"),
+        "volpack-max": lambda: _volpack_method("volpack-max", effort="max"),
         "volpack-quality": lambda: _volpack_method("volpack-quality"),
         "volpack-psnr": lambda: _volpack_method("volpack-psnr"),
         "zfp": _zfp_method,
@@ -545,6 +546,7 @@ _STYLE = {
     "volpack-huffman": ("tab:orange", "s"),
     "volpack-arith2": ("tab:brown", "v"),
     "volpack-fast": ("tab:pink", "h"),
+    "volpack-max": ("darkred", "P"),
     "volpack-quality": ("tab:purple", "D"),
     "zfp": ("tab:blue", "^"),
     "sz3": ("tab:green", "v"),

@@ -135,8 +135,6 @@ def test_effort_max_is_version_9():
     b = api.compress_array(v, predict_version=9)
     assert a == b and api.decompress(a).data.tobytes() == v.tobytes()
     assert api.compress_array(v, effort="max", workers=2) == a
-    with pytest.raises(OptionError, match="lossless"):
-        api.compress_array(v.astype(np.float32), effort="max", max_error=0.5)
     with pytest.raises(OptionError, match="predict_version=9"):
         api.compress_array(v, effort="max", codec="wavelet")
 

@@ -269,9 +269,10 @@ codec_options = options(
     option("--effort", "Lossy with a bound (--max-error, --rel-error; --psnr, --ratio on "
            "floats): 'default' makes every coding of each brick and keeps the shortest; "
            "'fast' makes one (floats: interpolation), several times faster to encode and "
-           "to decode, at some ratio. The bound holds either way. Lossless: 'max' also "
-           "refits a predictor along every row of integer bricks: 1-9 % smaller on "
-           "scans, 4-10x slower to decode. [default: default]",
+           "to decode, at some ratio; 'max' keeps the shortest coding whatever its "
+           "decoding speed. The bound holds either way. Lossless: 'max' also refits a "
+           "predictor along every row of integer bricks: 1-10 % smaller on scans, 4-10x "
+           "slower to decode. [default: default]",
            ["default", "fast", "max"]),
     option("--fill-value", "A value meaning 'no data' (e.g. -2.56e33); restored exactly, "
            "like NaN and Inf.", float),

@@ -85,7 +85,7 @@ TIER_FAST, TIER_MID, TIER_SLOW = 0, 1, 2
 # than the best of the faster tiers (chosen by measurement: formats/lossy-1.md and the
 # README's lossy11 section). The encoder's rule alone: the decoder reads any coding.
 SLOW_MIN_SAVING = 0.02
-EFFORTS = ("default", "fast")  # of the error-bounded encoder
+EFFORTS = ("default", "fast", "max")  # of the error-bounded encoder
 # The long fitted predictor of the quantised voxels is tried only where the shortest
 # other coding spends this many bits a voxel (tight bounds; see _longfit).
 LONGFIT_MIN_BITS = 1.0
@@ -124,8 +124,10 @@ class BoundedCodec(BrickCodec):
     order: str = "dfs"
     max_levels: int | None = None
     # How hard the encoder looks (the decoder never needs it): 'default' makes every
-    # coding of a brick and keeps the shortest; 'fast' makes one (floats: the
-    # interpolation path, two predictors; integers: the quantised voxels).
+    # coding of a brick and keeps the shortest, a slower-decoding one only where it
+    # saves SLOW_MIN_SAVING; 'fast' makes one (floats: the interpolation path, two
+    # predictors; integers: the quantised voxels); 'max' keeps the shortest whatever its
+    # decoding speed, the lossless codec's predictive tool with its local fit (version 9).
     effort: str = "default"
 
     @classmethod
@@ -264,12 +266,21 @@ class BoundedCodec(BrickCodec):
                 best = cand
         return best
 
+    def _min_saving(self) -> float:
+        """What a slower-decoding coding must save to be kept (none with effort 'max')."""
+        return 0.0 if self.effort == "max" else SLOW_MIN_SAVING
+
+    def _quantised_version(self) -> int:
+        from .lossless import LOCAL_VERSION
+
+        return LOCAL_VERSION if self.effort == "max" else QUANTISED_VERSION
+
     def _lossless(self):
         from .lossless import LosslessCodec
 
         return LosslessCodec(
             self.wavelet, self.coder, self.order, self.max_levels,
-            predict_version=QUANTISED_VERSION,
+            predict_version=self._quantised_version(),
         )
 
     def _predictive(self):
@@ -277,7 +288,8 @@ class BoundedCodec(BrickCodec):
         from .lossless import LosslessCodec
 
         return LosslessCodec(
-            self.wavelet, self.coder, self.order, self.max_levels, "predict", QUANTISED_VERSION
+            self.wavelet, self.coder, self.order, self.max_levels, "predict",
+            self._quantised_version(),
         )
 
     def _exact_candidate(self, x, mask) -> Measured:
@@ -300,13 +312,13 @@ class BoundedCodec(BrickCodec):
         rec = self._reconstruct(q, x.dtype)
         cands = [(t, self._finish(x, mask, rec, 0, [b])) for t, b in self._code_quantised(q)]
         if fast:
-            return keep_faster(cands)
+            return keep_faster(cands, self._min_saving())
         if x.size >= 64 and not self._exact:
             cands.append((TIER_MID, self._coef_candidate(x, clean, mask)))
         if x.size >= 64 and x.dtype.kind == "f" and not self._exact:
             cands += [(TIER_MID, c) for c in self._cdf97_candidates(x, clean, mask)]
             cands.append(self._interp_candidate(x, clean, mask))
-        best = keep_faster(cands)
+        best = keep_faster(cands, self._min_saving())
         if x.dtype.kind == "f":
             longs = self._longfit(q, len(best[0]))
             if longs:
@@ -314,7 +326,7 @@ class BoundedCodec(BrickCodec):
                     (tier, self._finish(x, mask, rec, FLAG_RESIDUALS, [long]))
                     for tier, long in longs
                 ]  # fmt: skip
-                best = keep_faster(cands)
+                best = keep_faster(cands, self._min_saving())
         return best
 
     def _code_quantised(self, q: np.ndarray) -> list[tuple[int, bytes]]:
@@ -394,7 +406,7 @@ class BoundedCodec(BrickCodec):
         if mask is not None:  # no value to keep: bin 0, the voxel follows its prediction
             g[mask] = np.nan
         tried = bounded_interp.TRIED_FAST if self.effort == "fast" else bounded_interp.TRIED
-        inner, rec = bounded_interp.encode(g, self.step, tried, min_saving=SLOW_MIN_SAVING)
+        inner, rec = bounded_interp.encode(g, self.step, tried, min_saving=self._min_saving())
         tier = TIER_MID if bounded_interp.is_adaptive(inner) else TIER_FAST
         y = _to_float(rec, x.dtype, overwrite=True)
         return tier, self._finish(x, mask, y, FLAG_INTERP, [inner])
@@ -620,13 +632,12 @@ class BoundedCodec(BrickCodec):
         return _to_float(rec, dtype, overwrite=True, out=into), pos
 
 
-def keep_faster(cands: list[tuple[int, Measured]]) -> Measured:
+def keep_faster(cands: list[tuple[int, Measured]], saving: float = SLOW_MIN_SAVING) -> Measured:
     """The coding to keep of ``(decoding tier, coding)`` pairs: the shortest, except
     that one of a slower tier than the best of the faster ones must be shorter than it
-    by ``SLOW_MIN_SAVING`` of its bytes (the adaptive codings decode at a third to a
-    half of the speed of the static ones for a few per cent of the bytes). Ties keep
-    the faster tier, then the first."""
-    saving = SLOW_MIN_SAVING
+    by ``saving`` of its bytes (``SLOW_MIN_SAVING``: the adaptive codings decode at a
+    third to a half of the speed of the static ones for a few per cent of the bytes).
+    Ties keep the faster tier, then the first."""
     order = sorted(cands, key=lambda c: c[0])
     best_tier, best = order[0]
     for tier, m in order[1:]:

@@ -104,11 +104,6 @@ def plan(
     dtype = vol.dtype
     if dtype.kind not in "iuf":
         raise OptionError(f"expected integer or float voxels, found {dtype}")
-    if effort == "max":
-        raise OptionError(
-            f"effort='max' applies to lossless coding (no lossy setting); under {what}= "
-            "use 'default' or 'fast'"
-        )
     check_choice("effort", effort, EFFORTS)
     lo, hi = value_range(vol.data, fill_value)
     rng = hi - lo

@@ -157,7 +157,9 @@ def compress(
         The error-bounded encoder's (``max_error``, ``rel_error``, or ``psnr``/``ratio``
         on floats): ``default`` makes every coding of a brick and keeps the shortest;
         ``fast`` makes one (floats: the interpolation path), several times faster to
-        encode and to decode, at some ratio. The bound holds either way. Lossless
+        encode and to decode, at some ratio; ``max`` keeps the shortest coding
+        whatever its decoding speed, the quantised voxels also by the lossless codec's
+        local fit. The bound holds either way. Lossless
         (the ``auto`` or ``lossless`` codec): ``max`` also tries, on integer bricks,
         the prediction refitted along every row (``predict_version=9``): 1-9 % fewer
         bytes on scans and more on some label maps, decoding 4-10x slower.
