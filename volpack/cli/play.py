@@ -169,6 +169,9 @@ class _Ahead:
         except BaseException as e:  # re-raised by result()
             self._out = (None, e)
 
+    def running(self) -> bool:
+        return self._thread is not None and self._thread.is_alive()
+
     def result(self):
         if self._thread is not None:
             self._thread.join()
@@ -265,6 +268,10 @@ def walk(ctx, source, output, orbit, budget, decode_budget, tf_spec, fps, compar
                       and not perspective and classification != "pre")  # fmt: skip
         # and the first frame's chunk scans, write and render kernels loaded on another
         rehearsal = rehearse(atlas, (lo, hi), opts, perspective, workers)
+        if coarse.running():  # this thread would wait: Pillow's set-up for the frames now
+            from ..render.image import ready_png
+
+            ready_png()
         sample, factor = coarse.result()
         tf = transfer_for(tf_spec, sample.data, lo=lo, hi=hi, dtype=tree.dtype,
                           mask=sample.mask, size=max(tree.shape))  # fmt: skip

@@ -111,6 +111,14 @@ def save_rgb8(path: str | os.PathLike, rgb: np.ndarray, *, force: bool = False) 
     _save(path, Image.fromarray(rgb, "RGB"), force)
 
 
+def ready_png() -> None:
+    """Import Pillow and let it register its formats now (about 20 ms, which its first
+    ``save`` would otherwise spend), for a caller with time to spare before it writes."""
+    from PIL import Image
+
+    Image.preinit()
+
+
 def _save(path, img, force: bool) -> None:
     with atomic_open(path, force=force) as f:
         img.save(f, format="PNG")
