@@ -315,3 +315,19 @@ def test_plain_digit_by_float_quotient():
     for c, r in cases:
         want, got = c // r, int(digit(c, r))
         assert got == want if want < 1 << 16 else got >= 1 << 16, (c, r)
+
+
+def test_coders_load_on_first_use_and_stay_the_same_objects():
+    # CODERS imports a coder's module when it is first asked for (an octree reader needs
+    # one); the mapping still lists every coder, and hands out one object per name
+    from volpack.entropy import arith, arith2, choose, fixed, static
+
+    assert sorted(CODERS) == ["arith", "arith2", "auto", "huffman", "rle", "static"]
+    assert len(CODERS) == 6
+    assert CODERS["arith"] is arith and CODERS["arith2"] is arith2
+    assert CODERS["static"] is static and CODERS["auto"] is choose
+    assert CODERS["huffman"] is CODERS["huffman"]
+    assert CODERS["huffman"].encode is fixed.encode_huffman
+    assert CODERS["rle"].decode is fixed.decode_rle
+    with pytest.raises(KeyError):
+        CODERS["lzma"]

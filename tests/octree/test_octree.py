@@ -594,3 +594,26 @@ def test_axis_weights_equal_the_numpy_steps():
         np.testing.assert_array_equal(a + base, j0)
         np.testing.assert_array_equal(b + base, j1)
         assert ww.tobytes() == w.tobytes()  # bit for bit, signs of zeros included
+
+
+def test_reading_an_integer_tree_imports_no_codec_it_does_not_use(tmp_path):
+    # an integer tree stores no codec: opening it and decoding its levels needs neither
+    # the codec registry, nor the lossy codec, nor the entropy coders other than its own
+    # (they were 50-65 ms of a walk's start)
+    import subprocess
+    import sys
+
+    path = tmp_path / "t.vpk"
+    build((np.arange(40**3) % 251).astype(np.uint8).reshape(40, 40, 40), path)
+    code = (
+        "import sys; import numpy as np; from volpack.octree import Octree\n"
+        "with Octree(sys.argv[1]) as t:\n"
+        "    assert t.decode(0).data.shape == (40, 40, 40)\n"
+        "print(' '.join(m for m in sys.modules if m.startswith('volpack.')))"
+    )
+    out = subprocess.run([sys.executable, "-c", code, str(path)], capture_output=True,
+                         text=True, check=True).stdout.split()  # fmt: skip
+    assert "volpack.entropy.arith" in out  # the tree's coder: the check can fail
+    for unused in ("volpack.volume_codec.registry", "volpack.volume_codec.lossy",
+                   "volpack.entropy.arith2", "volpack.entropy.static"):  # fmt: skip
+        assert unused not in out

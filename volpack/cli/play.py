@@ -147,6 +147,47 @@ def _is_folder(path: str) -> bool:
     return movie_kind(path) == "png"
 
 
+class _Ahead:
+    """``fn(*args)`` on a helper thread (here and now with ``inline``); :meth:`result`
+    waits for it and raises its exception here."""
+
+    def __init__(self, fn, *args, inline: bool = False) -> None:
+        import threading
+
+        self._out: tuple = ()
+        self._thread = None
+        if inline:
+            self._run(fn, args)
+            return
+        self._thread = threading.Thread(target=self._run, args=(fn, args), daemon=True,
+                                        name="volpack-ahead")  # fmt: skip
+        self._thread.start()
+
+    def _run(self, fn, args) -> None:
+        try:
+            self._out = (fn(*args), None)
+        except BaseException as e:  # re-raised by result()
+            self._out = (None, e)
+
+    def running(self) -> bool:
+        return self._thread is not None and self._thread.is_alive()
+
+    def result(self):
+        if self._thread is not None:
+            self._thread.join()
+        value, error = self._out
+        if error is not None:
+            raise error
+        return value
+
+
+def _coarse(tree):
+    """:func:`~volpack.render.lod.coarse_level` of ``tree`` (its module imported here)."""
+    from ..render.lod import coarse_level
+
+    return coarse_level(tree)
+
+
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})
 @click.argument("source")
 @click.argument("output", required=False)
@@ -198,13 +239,7 @@ def walk(ctx, source, output, orbit, budget, decode_budget, tf_spec, fps, compar
 
     from ..format.atomic import check_output
     from ..octree import Octree
-    from ..render.autotf import transfer_for
-    from ..render.camera import Camera
-    from ..render.framing import fit_camera
-    from ..render.lod import NodeAtlas, coarse_level, render_lod, tree_range
-    from ..render.prepared import prepare_volume
-    from ..render.raycast import render as raycast
-    from ..render.rehearse import rehearse
+    from ..parallel import parse_workers
 
     size = parse_size(size_s)
     if output is not None and not _is_folder(output):
@@ -213,6 +248,18 @@ def walk(ctx, source, output, orbit, budget, decode_budget, tf_spec, fps, compar
                 preint_method=preint_method, workers=workers)  # fmt: skip
     rows = []
     with Octree(source, cache_bytes=1 << 30) as tree:
+        # the coarse level (for the TF and the framing) decodes on a helper thread while
+        # this one imports the renderer: a fresh process's first kernel loads and chunk
+        # decodes there run without the GIL, the imports here hold it (one worker: here)
+        coarse = _Ahead(_coarse, tree, inline=parse_workers(workers) < 2)
+        from ..render.autotf import transfer_for
+        from ..render.camera import Camera
+        from ..render.framing import fit_camera
+        from ..render.lod import NodeAtlas, render_lod, tree_range
+        from ..render.prepared import prepare_volume
+        from ..render.raycast import render as raycast
+        from ..render.rehearse import rehearse
+
         lo, hi = tree_range(tree)
         # decoded nodes and their gradient bricks, kept while they stay in view; the first
         # frame's grid and normal codes are made on a helper thread meanwhile
@@ -221,7 +268,11 @@ def walk(ctx, source, output, orbit, budget, decode_budget, tf_spec, fps, compar
                       and not perspective and classification != "pre")  # fmt: skip
         # and the first frame's chunk scans, write and render kernels loaded on another
         rehearsal = rehearse(atlas, (lo, hi), opts, perspective, workers)
-        sample, factor = coarse_level(tree)
+        if coarse.running():  # this thread would wait: Pillow's set-up for the frames now
+            from ..render.image import ready_png
+
+            ready_png()
+        sample, factor = coarse.result()
         tf = transfer_for(tf_spec, sample.data, lo=lo, hi=hi, dtype=tree.dtype,
                           mask=sample.mask, size=max(tree.shape))  # fmt: skip
         azimuths = [azimuth + 360.0 * k / orbit for k in range(orbit)]

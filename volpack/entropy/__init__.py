@@ -21,15 +21,45 @@ Each coder module has ``encode(coeffs, scan) -> bytes`` and ``decode(data, scan,
 
 from __future__ import annotations
 
-from types import SimpleNamespace
+import importlib
+from collections.abc import Iterator, Mapping
+from types import ModuleType, SimpleNamespace
 
-from . import arith, arith2, choose, fixed, static
-
-CODERS = {
-    "arith": arith,
-    "arith2": arith2,
-    "static": static,
-    "auto": choose,
-    "huffman": SimpleNamespace(encode=fixed.encode_huffman, decode=fixed.decode_huffman),
-    "rle": SimpleNamespace(encode=fixed.encode_rle, decode=fixed.decode_rle),
+# name -> (module of this package, None for the module itself or the fixed code's kind)
+_WHERE = {
+    "arith": ("arith", None),
+    "arith2": ("arith2", None),
+    "static": ("static", None),
+    "auto": ("choose", None),
+    "huffman": ("fixed", "huffman"),
+    "rle": ("fixed", "rle"),
 }
+
+
+class _Coders(Mapping):
+    """The coders by name, each module imported on first use: a reader needs one coder,
+    and importing all of them (``arith2`` alone 30-50 ms) was on the way to a walk's
+    first frame."""
+
+    def __init__(self) -> None:
+        self._loaded: dict[str, ModuleType | SimpleNamespace] = {}
+
+    def __getitem__(self, name: str):
+        coder = self._loaded.get(name)
+        if coder is None:
+            module, kind = _WHERE[name]
+            m = importlib.import_module(f"{__name__}.{module}")
+            coder = m if kind is None else SimpleNamespace(
+                encode=getattr(m, f"encode_{kind}"), decode=getattr(m, f"decode_{kind}")
+            )  # fmt: skip
+            self._loaded[name] = coder
+        return coder
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(_WHERE)
+
+    def __len__(self) -> int:
+        return len(_WHERE)
+
+
+CODERS: Mapping[str, ModuleType | SimpleNamespace] = _Coders()

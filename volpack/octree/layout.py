@@ -217,7 +217,7 @@ def check_table(rows: np.ndarray, level: int, present: np.ndarray) -> np.ndarray
 def detail_energy(c: np.ndarray, lv: tuple[int, int, int], level: int, unit: float) -> float:
     """A node's own share of ``E^2``: ``sum_c (c w_c u 2^(1.5 (level - 1)))^2`` over its
     details ``c`` (low-pass corner zero; ``formats/octree-1.md`` step 7)."""
-    from ..volume_codec.lossy import band_scale
+    from ..wavelet.dwt3 import band_scale
 
     scale = band_scale(tuple(c.shape), lv).reshape(c.shape)
     norm = unit * 2.0 ** (1.5 * (level - 1))

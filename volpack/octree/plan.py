@@ -68,11 +68,14 @@ class Plan:
         that may hold anything); the shape within ``max_voxels``."""
         from ..format import header as hh
         from ..volume_codec.codec import CODER_NAMES, ORDER_NAMES, WAVELET_NAMES
-        from ..volume_codec.registry import get_codec
 
         o = hh.field(h, "octree")
         codec = h.get("codec")
         if codec is not None:
+            # imported here: an integer tree has no codec, and the registry imports
+            # every codec (entropy coders included), 50-65 ms of a walk's start
+            from ..volume_codec.registry import get_codec
+
             c = get_codec(codec)  # checks it
             integer = hh.dtype(hh.field(h, "dtype")).kind in "iu"
             if c.codec_id != "bounded" or c.integer != integer:

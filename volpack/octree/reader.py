@@ -202,7 +202,7 @@ class Octree:
     def _lift_up_fused(self, level, index, low, sections, shape, lv, work):
         """:meth:`_lift_up` in one kernel (:mod:`.chunk`): the same voxels, or None when
         the chunk fails a check (the step-by-step path then reports it)."""
-        from ..volume_codec.lossy import band_scale
+        from ..wavelet.dwt3 import band_scale
         from ..wavelet.lifting import SPECS
         from .chunk import chunk_scan, decode_chunk
 

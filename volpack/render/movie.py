@@ -16,7 +16,7 @@ import numpy as np
 
 from ..errors import VolpackError
 from ..format.atomic import atomic_path, check_output
-from .image import save_png, to_rgb8
+from .image import save_rgb8, to_rgb8
 
 KINDS = ("mp4", "gif", "png")
 
@@ -78,7 +78,7 @@ class MovieWriter:
         elif rgb.shape[:2] != self._size:
             raise VolpackError(f"expected frames of {self._size}, found {rgb.shape[:2]}")
         if self.kind == "png":
-            save_png(self.path_of(self.count), rgba, force=self.force)
+            save_rgb8(self.path_of(self.count), rgb, force=self.force)
         elif self.kind == "gif":
             from PIL import Image
 

@@ -26,7 +26,6 @@ the first in its index. Payloads are specified in ``formats/lossy-1.md``.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import math
 from typing import Any, ClassVar
 
@@ -885,29 +884,11 @@ def _dequantize_coefs(q: np.ndarray, steps: np.ndarray, dead_zone: bool) -> np.n
     return np.ascontiguousarray(c, dtype=np.int64)
 
 
-@functools.lru_cache(maxsize=32)
 def band_scale(shape: tuple[int, int, int], levels: tuple[int, int, int]) -> np.ndarray:
-    """Per-coefficient factor from the integer lifting's units to orthonormal units.
+    """:func:`volpack.wavelet.dwt3.band_scale` (imported on first call: it loads numba)."""
+    from ..wavelet.dwt3 import band_scale as scale
 
-    Each low-pass step of the reversible filters keeps the mean (orthonormal: times
-    sqrt 2), each high-pass step keeps a difference (orthonormal: divided by sqrt 2), so a
-    subband reached by ``l`` low and ``h`` high steps over the three axes scales by
-    ``2 ** ((l - h) / 2)``.
-    """
-    from ..wavelet.dwt3 import subbands
-
-    out = np.empty(shape, np.float64)
-    for b in subbands(shape, levels):
-        ex = 0
-        for a in range(3):
-            if b.level < levels[a]:  # this axis was split at the band's level
-                ex += b.level + (0 if b.bits[a] else 1) - b.bits[a]
-            else:
-                ex += levels[a]
-        out[b.slices] = 2.0 ** (ex / 2)
-    out = out.reshape(-1)
-    out.flags.writeable = False
-    return out
+    return scale(shape, levels)
 
 
 def _check_inner(c) -> None:

@@ -139,6 +139,30 @@ def subbands(shape: tuple[int, int, int], levels) -> list[Band]:
     return out
 
 
+@functools.lru_cache(maxsize=32)
+def band_scale(shape: tuple[int, int, int], levels: tuple[int, int, int]) -> np.ndarray:
+    """Per-coefficient factor from the integer lifting's units to orthonormal units.
+
+    Each low-pass step of the reversible filters keeps the mean (orthonormal: times
+    sqrt 2), each high-pass step keeps a difference (orthonormal: divided by sqrt 2), so a
+    subband reached by ``l`` low and ``h`` high steps over the three axes scales by
+    ``2 ** ((l - h) / 2)``. (Here, not with the codec that uses it most, so that an
+    octree reader does not import the codecs.)
+    """
+    out = np.empty(shape, np.float64)
+    for b in subbands(shape, levels):
+        ex = 0
+        for a in range(3):
+            if b.level < levels[a]:  # this axis was split at the band's level
+                ex += b.level + (0 if b.bits[a] else 1) - b.bits[a]
+            else:
+                ex += levels[a]
+        out[b.slices] = 2.0 ** (ex / 2)
+    out = out.reshape(-1)
+    out.flags.writeable = False
+    return out
+
+
 @kernel
 def dwt3_kernel(a, tmp, lz, ly, lx, spec, backward):
     """Forward (or, with ``backward``, inverse) multilevel transform of ``a`` in place."""
