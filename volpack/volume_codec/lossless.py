@@ -15,8 +15,8 @@ mode  payload after the mode byte
       stream of version 2 (:mod:`.predictfit`), 32: a background mask, 64: version 2
       with the low-value models, 128: version 2 with the texture bias; 8 with 16, which
       excludes labels: a second flags byte follows, bit 0 of it (flag 256) the mixed
-      estimates, bit 1 (flag 512) the local fit), then the palette or the value range (none when split), the mask,
-      then the predictive or label stream
+      estimates, bit 1 (flag 512) the local fit), then the palette or the value range
+      (none when split), the mask, then the predictive or label stream
 5     floats by prediction on their integer images (:mod:`.floatpredict`): a tool byte
       (0: Lorenzo, 1: lattice, 2: blend of predictors with copies and a fill value,
       :mod:`.floatmix`, 3: a least-squares predictor fitted per brick, or Lorenzo,
@@ -36,9 +36,9 @@ float64 bricks. Version 7 adds, for integer bricks, version 2's stream with
 the texture bias of :mod:`.predictfit` (flag 128), where it is the shorter. Version 8 (the
 default) adds, for integer bricks, version 2's stream with the residual's decisions
 coded by a mix of four estimates (:mod:`.residmix`, flag 256), where it saves
-``MIX_MIN_SAVING`` of the bytes (it decodes slower). Version 9 adds the blend averaged
-with a predictor refitted at every voxel (:mod:`.localfit`, flag 512), where it saves
-``LOCAL_MIN_SAVING`` (it decodes slower again). A decoder reads every version,
+``MIX_MIN_SAVING`` of the bytes (it decodes slower). Version 9 (``effort='max'``) adds
+the blend weighted against a predictor refitted along every row (:mod:`.localfit`, flag
+512), wherever it is shorter (it decodes 3-11x slower again). A decoder reads every version,
 whatever the config says.
 
 Floats (float16, float32, float64) are coded exactly through integer images of their
@@ -100,7 +100,7 @@ MIX_VERSION = 8  # the first predict_version whose encoder tries the mixed estim
 # this share of the brick's bytes.
 MIX_MIN_SAVING = 0.003
 LOCAL_VERSION = 9  # the first predict_version whose encoder tries the local fit
-# The local fit decodes at a quarter to a tenth of the mix's speed (a 17 x 17 system
+# The local fit decodes at a third to a tenth of the mix's speed (a 17 x 17 system
 # solved at every second voxel); version 9 is asked for ratio (effort 'max'), so it is
 # kept wherever it is shorter.
 LOCAL_MIN_SAVING = 0.0

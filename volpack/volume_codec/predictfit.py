@@ -646,8 +646,8 @@ def _decode_kernel(
     """Return 0 on success, 1 when the stream ran short, 2 on an impossible value, 3 when
     it does not end where its length says. With ``ls``, the local fit's sums are moved
     along at every voxel of its region (coded or masked), its weights fitted where
-    :func:`.localfit.refits` and its estimate made at the coded voxels (``st``, ``cs``, ``ws``, ``a``, ``g``: :mod:`.localfit`'s steps and
-    workspace)."""
+    :func:`.localfit.refits` and its estimate made at the coded voxels (``st``, ``cs``,
+    ``ws``, ``a``, ``g``: :mod:`.localfit`'s steps and workspace)."""
     nz, ny, nx = shape[0], shape[1], shape[2]
     sz = ny * nx
     size = data.size
@@ -815,8 +815,10 @@ def encode(
     mk = _no_mask(flat.size) if mask is None else np.ascontiguousarray(mask, np.uint8).reshape(-1)
     shape = np.array(v.shape, dtype=np.int64)
     if local and not localfit.usable(v.shape, hi - lo):
-        raise OptionError(f"the local fit takes bricks of at least 3x5x5 with values below "
-                          f"2^{localfit.MAX_BITS}, found shape {v.shape} and range [{lo}, {hi}]")
+        raise OptionError(
+            f"the local fit takes bricks of at least 3x5x5 with values below "
+            f"2^{localfit.MAX_BITS}, found shape {v.shape} and range [{lo}, {hi}]"
+        )
     lp = localfit.estimates(v, FIT_OFFSETS).reshape(-1) if local else np.zeros(1, np.int64)
     body = encode_with_retry(
         lambda out: _encode_kernel(
@@ -852,8 +854,10 @@ def decode(
     if not (lo <= hi and hi - lo < (1 << 32)):
         raise FormatError(f"predictive payload: value range [{lo}, {hi}] is out of bounds")
     if local and not localfit.usable(shape, hi - lo):
-        raise FormatError(f"predictive payload: the local fit is flagged on a brick it does not "
-                          f"apply to (shape {tuple(shape)}, range [{lo}, {hi}])")
+        raise FormatError(
+            f"predictive payload: the local fit is flagged on a brick it does not apply to "
+            f"(shape {tuple(shape)}, range [{lo}, {hi}])"
+        )
     data = bytes(data)
     if len(data) < HEAD:
         raise FormatError("predictive payload: the fitted predictor's weights are cut short")
