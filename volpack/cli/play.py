@@ -147,38 +147,22 @@ def _is_folder(path: str) -> bool:
     return movie_kind(path) == "png"
 
 
-class _Ahead:
-    """``fn(*args)`` on a helper thread (here and now with ``inline``); :meth:`result`
-    waits for it and raises its exception here."""
+def _ahead(fn, *args, inline: bool = False):
+    """A future of ``fn(*args)``: run on a helper thread, or here and now with
+    ``inline``; its ``result()`` raises ``fn``'s exception here."""
+    from concurrent.futures import Future, ThreadPoolExecutor
 
-    def __init__(self, fn, *args, inline: bool = False) -> None:
-        import threading
-
-        self._out: tuple = ()
-        self._thread = None
-        if inline:
-            self._run(fn, args)
-            return
-        self._thread = threading.Thread(target=self._run, args=(fn, args), daemon=True,
-                                        name="volpack-ahead")  # fmt: skip
-        self._thread.start()
-
-    def _run(self, fn, args) -> None:
-        try:
-            self._out = (fn(*args), None)
-        except BaseException as e:  # re-raised by result()
-            self._out = (None, e)
-
-    def running(self) -> bool:
-        return self._thread is not None and self._thread.is_alive()
-
-    def result(self):
-        if self._thread is not None:
-            self._thread.join()
-        value, error = self._out
-        if error is not None:
-            raise error
-        return value
+    if not inline:
+        pool = ThreadPoolExecutor(1, thread_name_prefix="volpack-ahead")
+        future = pool.submit(fn, *args)
+        pool.shutdown(wait=False)  # (the task runs on; the thread ends after it)
+        return future
+    future = Future()
+    try:
+        future.set_result(fn(*args))
+    except BaseException as e:  # re-raised by result()
+        future.set_exception(e)
+    return future
 
 
 def _coarse(tree):
@@ -251,7 +235,7 @@ def walk(ctx, source, output, orbit, budget, decode_budget, tf_spec, fps, compar
         # the coarse level (for the TF and the framing) decodes on a helper thread while
         # this one imports the renderer: a fresh process's first kernel loads and chunk
         # decodes there run without the GIL, the imports here hold it (one worker: here)
-        coarse = _Ahead(_coarse, tree, inline=parse_workers(workers) < 2)
+        coarse = _ahead(_coarse, tree, inline=parse_workers(workers) < 2)
         from ..render.autotf import transfer_for
         from ..render.camera import Camera
         from ..render.framing import fit_camera
@@ -268,7 +252,7 @@ def walk(ctx, source, output, orbit, budget, decode_budget, tf_spec, fps, compar
                       and not perspective and classification != "pre")  # fmt: skip
         # and the first frame's chunk scans, write and render kernels loaded on another
         rehearsal = rehearse(atlas, (lo, hi), opts, perspective, workers)
-        if coarse.running():  # this thread would wait: Pillow's set-up for the frames now
+        if not coarse.done():  # this thread would wait: Pillow's set-up for the frames now
             from ..render.image import ready_png
 
             ready_png()
