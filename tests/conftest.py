@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import io
+import tracemalloc
 
 import numpy as np
 import pytest
@@ -94,6 +95,16 @@ def float_specials(cut: np.ndarray) -> np.ndarray:
     f[7, 7, 7:9] = -0.0
     f[8, 8, 8] = np.float32(1e-42)
     return f
+
+
+def traced_peak(fn, *args):
+    """``(fn(*args), the peak of the bytes Python and numpy allocated meanwhile)``."""
+    tracemalloc.start()
+    try:
+        got = fn(*args)
+        return got, tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
 
 
 def flip_bits(codec, good: bytes, a: np.ndarray, rng: np.random.Generator, count: int) -> None:

@@ -1019,3 +1019,41 @@ def localfit_estimates(v, offsets, r=4, ru=3, min_samples=40, ridge=1e-3):
                 if w is not None:
                     out[z, y, x] = int(np.floor(8 * (np.array(vector(z, y, x)) @ w) + 0.5))
     return out
+
+
+# --- the fitted predictor of the predictive stream (volume_codec/predictfit.py) ---
+
+
+def predict_fit_weights(v, offsets, mask=None, ncls=4, cf_bits=12, cf_limit=(1 << 15) - 1):
+    """The fitted predictor's weights as the format's encoder defines them, by the book:
+    the rows (neighbours at ``offsets``, target) of ``v[2:, 2:-1, 2:-1]`` not masked and
+    not equal to all their neighbours, stacked whole; the gradient |W-NW|+|N-NW|+|N-NE|+
+    |U-UN|+|U-UW| split at its quartiles; per class (and over all rows) least squares by
+    the normal equations, rounded to 2^-cf_bits. Returns (per-class weights, thresholds,
+    all-row weights)."""
+    import numpy as np
+
+    nz, ny, nx = v.shape
+    f = v.astype(np.float64)
+    target = f[2:, 2:-1, 2:-1]
+    cols = [f[2 - a : nz - a, 2 - b : ny - 1 - b, 2 - c : nx - 1 - c] for a, b, c in offsets]
+    keep = ~np.logical_and.reduce([c == target for c in cols])
+    if mask is not None:
+        keep &= ~np.asarray(mask, bool)[2:, 2:-1, 2:-1]
+    x = np.stack([c[keep] for c in cols], axis=1)
+    y = target[keep]
+    W, N, U, NW, NE, UW, UN = (x[:, k] for k in range(7))
+    g = np.abs(W - NW) + np.abs(N - NW) + np.abs(N - NE) + np.abs(U - UN) + np.abs(U - UW)
+    th = np.quantile(g, np.arange(1, ncls) / ncls)
+    cls = (g[:, None] > th[None, :]).sum(axis=1)
+
+    def solve(xs, ys):
+        w = np.linalg.solve(xs.T @ xs, xs.T @ ys)
+        return np.clip(np.round(w * (1 << cf_bits)), -cf_limit, cf_limit).astype(np.int64)
+
+    every = solve(x, y)
+    per = [
+        solve(x[cls == k], y[cls == k]) if (cls == k).sum() >= 4 * len(offsets) else every
+        for k in range(ncls)
+    ]
+    return np.concatenate(per), th, every

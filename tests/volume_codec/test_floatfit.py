@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import flip_bits, slow_case
+from conftest import flip_bits, slow_case, traced_peak
 from volume_codec.test_floatpredict import field, same_bits
 
 from volpack import api
@@ -17,6 +17,7 @@ from volpack.errors import FormatError
 from volpack.format.container import Reader
 from volpack.volume_codec import floatfit as ff
 from volpack.volume_codec import floatpredict as fp
+from volpack.volume_codec import lossless
 from volpack.volume_codec.floatbits import to_signed
 from volpack.volume_codec.lossless import MODE_FLOAT, LosslessCodec, describe
 
@@ -104,6 +105,50 @@ def test_fit_codes_shorter_than_lorenzo_and_the_codec_keeps_it():
         assert "float-fit" not in {describe(p) for _, _, p in r}
 
 
+def test_fit_summed_in_slabs_matches_one_sum(monkeypatch):
+    """The normal equations summed slab by slab give the weights of one whole-brick sum
+    (to float32 rounding, on a well-conditioned noisy field), with and without rows left
+    out for non-finite values."""
+    a = rough((20, 24, 28), seed=5)
+    b = with_specials(a)
+    whole = [ff.fit(a), ff.fit(b)]
+    monkeypatch.setattr(ff, "FIT_CHUNK_ROWS", 2 * 21 * 25)  # two slices a slab
+    slabs = [ff.fit(a), ff.fit(b)]
+    for w0, w1 in zip(whole, slabs):
+        assert w0 is not None and w1 is not None
+        np.testing.assert_allclose(w1, w0, rtol=1e-4, atol=1e-6)
+    assert not np.array_equal(whole[0], whole[1])  # the specials' rows were left out
+
+
+def test_fit_memory_does_not_grow_with_the_brick():
+    """A 64x128x128 brick's fit allocates a few slabs of neighbours, not the whole
+    matrix (1M rows x 23 float64 = 190 MB, three copies of it before)."""
+    a = rough((64, 128, 128), seed=2)
+    w, peak = traced_peak(ff.fit, a)
+    assert w is not None
+    assert peak < a.size * 8 + 40 * 2**20  # the float64 copy + slabs of FIT_CHUNK_ROWS
+
+
+def test_fit_not_run_where_a_lattice_is_far_shorter(monkeypatch):
+    """Integers stored as floats: the lattice codes far shorter than any Lorenzo
+    predictor, so the fit (at most a few per cent under Lorenzo) is not run, and the
+    payload is the one the encoder keeps when it is run."""
+    rng = np.random.default_rng(8)
+    a = (np.cumsum(rng.integers(-3, 4, (10, 16, 18)), axis=2) - 40).astype(np.float32)
+    codec = LosslessCodec(predict_version=6)
+    calls = []
+    real = ff.encode_best
+    monkeypatch.setattr(ff, "encode_best", lambda *args: calls.append(1) or real(*args))
+    kept = codec.encode(a)
+    assert calls == [] and describe(kept) == "float-lattice"
+    monkeypatch.setattr(lossless, "FIT_MAX_GAIN", 1.0)  # never skipped
+    assert codec.encode(a) == kept and calls == [1]
+    calls.clear()
+    monkeypatch.setattr(lossless, "FIT_MAX_GAIN", 0.25)
+    codec.encode(rough((10, 16, 18)))  # full mantissas: no shorter tool, the fit runs
+    assert calls == [1]
+
+
 def test_corrupt_payloads_raise_format_error():
     codec = LosslessCodec()
     a = rough((8, 9, 10))
@@ -111,7 +156,7 @@ def test_corrupt_payloads_raise_format_error():
     assert good[2] == 6  # fitted, Lorenzo 2 on the faces
     bad = [
         good[:2] + bytes([8]) + good[3:],  # predictor byte past 7
-        good[:3 + 4 * ff.NFIT],  # weights but no stream
+        good[: 3 + 4 * ff.NFIT],  # weights but no stream
         good[:2] + bytes([2]),  # a predictor byte alone
         good[:2],  # no predictor byte
         good[:-3],  # a stream cut short

@@ -188,7 +188,9 @@ def test_lattice_found_and_exact(dtype):
     k = np.cumsum(rng.integers(-40, 41, (12, 13, 14)), axis=2) + 48000
     a = (k * 0.1).astype(dtype)
     found = fp.find_lattices(a)
-    assert len(found) == 2  # one lattice, and one per slice
+    # one lattice; one per slice finds the same k and gap under 12 parameter rows, longer
+    # whatever codes them, so it is not offered (its integer fields cost a second encode)
+    assert len(found) == 1
     assert np.allclose(found[0][0][:, 1], 0.1, rtol=0, atol=1e-9)
     for params, kk, gap in found:
         assert same_bits(fp.apply_lattice(params, kk, gap, dtype), a)
@@ -218,6 +220,7 @@ def test_lattice_per_slice():
     found = fp.find_lattices(a)
     params, kk, gap = found[-1]
     assert params.shape == (5, 2) and np.count_nonzero(gap) == 0
+    assert all(not np.array_equal(kk, other[1]) for other in found[:-1])
     assert same_bits(fp.apply_lattice(params, kk, gap, np.float32), a)
     payload = LosslessCodec().encode(a)
     assert describe(payload) == "float-lattice" and payload[2] == 5  # five lattices

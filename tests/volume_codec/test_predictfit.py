@@ -8,7 +8,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import flip_bits
+from conftest import flip_bits, traced_peak
+from naive import predict_fit_weights
 
 from volpack import api
 from volpack.errors import FormatError, OptionError
@@ -336,22 +337,27 @@ def test_weight_table_matches_its_definition():
 
 
 @pytest.mark.parametrize("masked", [False, True])
-def test_fit_rows_match_the_column_stack(masked):
-    """The kernel's least-squares rows against boolean indexing of the shifted views (the
-    weights are rounded from sums over these rows: any difference changes the bytes)."""
+def test_fit_matches_the_whole_row_matrix(masked):
+    """The fit's two passes (gradients, then each class's normal equations summed row by
+    row) against the row matrix stacked whole and solved per class (tests/naive.py): the
+    sums are of integers, exact in any order, so the rounded weights are the same."""
     rng = np.random.default_rng(7)
-    v = rng.integers(0, 4, size=(6, 7, 9)).astype(np.int64)
+    v = np.cumsum(rng.integers(-3, 4, size=(9, 14, 17)), axis=2) + 40
     v[:, :5, :6] = 2  # a flat corner: voxels whose neighbours all equal them are left out
     mask = rng.random(v.shape) < 0.3 if masked else None
-    nz, ny, nx = v.shape
-    f = v.astype(np.float64)
-    target = f[2:, 2:-1, 2:-1]
-    steps = predictfit.FIT_OFFSETS
-    cols = [f[2 - a : nz - a, 2 - b : ny - 1 - b, 2 - c : nx - 1 - c] for a, b, c in steps]
-    keep = ~np.logical_and.reduce([c == target for c in cols])
-    if masked:
-        keep &= ~mask[2:, 2:-1, 2:-1]
-    x, y = predictfit._fit_rows(v, mask)
-    assert 0 < y.size < target.size
-    np.testing.assert_array_equal(x, np.stack([c[keep] for c in cols], axis=1))
-    np.testing.assert_array_equal(y, target[keep])
+    (cf, th4), (cf1, th1) = predictfit.fit(v, mask)
+    want, want_th, want_every = predict_fit_weights(v, predictfit.FIT_OFFSETS, mask)
+    np.testing.assert_array_equal(th4, np.minimum(want_th, predictfit.NO_CLASS).astype(np.int64))
+    np.testing.assert_array_equal(cf, want)
+    np.testing.assert_array_equal(cf1[: predictfit.NFIT], want_every)
+    assert (th1 == predictfit.NO_CLASS).all() and not cf1[predictfit.NFIT :].any()
+
+
+def test_fit_memory_does_not_grow_with_the_rows():
+    """A 96x128x128 brick's fit holds a gradient a voxel (8 bytes), not the rows (136
+    bytes a voxel: 214 MB here)."""
+    rng = np.random.default_rng(3)
+    v = np.cumsum(rng.integers(-2, 3, size=(96, 128, 128)), axis=2) + 500
+    fits, peak = traced_peak(predictfit.fit, v)
+    assert fits[0][0].any()
+    assert peak < 20 * v.size  # the gradients, their sorted copy, the mask

@@ -58,6 +58,7 @@ M_SIGN = M_TREE + NCF * 128
 M_MANT = M_SIGN + 27
 N_MODELS = M_MANT + (65 << MANT_BITS)
 FIT_MIN_ROWS = 4 * NFIT  # fewer interior voxels: no fit
+FIT_CHUNK_ROWS = 1 << 16  # rows of the neighbour matrix summed at once (11.5 MB)
 
 
 @kernel(inline=True)
@@ -228,29 +229,56 @@ def _steps(shape: tuple[int, ...]) -> np.ndarray:
 def fit(brick: np.ndarray) -> np.ndarray | None:
     """Least-squares weights (float32, :data:`FIT_OFFSETS` order) of each interior
     voxel's value on its neighbours' (float64; rows with a value that is not finite are
-    left out), or ``None`` with too few rows or weights that are not finite."""
+    left out), or ``None`` with too few rows or weights that are not finite.
+
+    The normal equations are summed over slabs of at most :data:`FIT_CHUNK_ROWS` rows,
+    so the neighbour matrix is never whole (23 float64 columns of a 2^21-voxel brick
+    were 0.4 GB, three copies of it 1.2 GB); a brick of one slab sums as before."""
     nz, ny, nx = brick.shape
     if nz < 3 or ny < 4 or nx < 4:
         return None
     with np.errstate(invalid="ignore"):  # signalling NaNs
         v = brick.astype(np.float64)
-    cols = [
-        v[2 - dz : nz - dz, 2 - dy : ny - 1 - dy, 2 - dx : nx - 1 - dx].reshape(-1)
-        for dz, dy, dx in FIT_OFFSETS
-    ]
-    x = np.stack(cols, axis=1)
-    y = v[2:, 2 : ny - 1, 2 : nx - 1].reshape(-1)
-    keep = np.isfinite(x).all(axis=1) & np.isfinite(y)
-    x, y = x[keep], y[keep]
-    if y.size < FIT_MIN_ROWS:
+
+    def rows(z0: int, z1: int) -> tuple[list[np.ndarray], np.ndarray]:
+        """The neighbour windows and target of interior slices ``z0 .. z1 - 1`` (from 2)."""
+        cols = [
+            v[z0 - dz : z1 - dz, 2 - dy : ny - 1 - dy, 2 - dx : nx - 1 - dx]
+            for dz, dy, dx in FIT_OFFSETS
+        ]
+        return cols, v[z0:z1, 2 : ny - 1, 2 : nx - 1]
+
+    cols, y = rows(2, nz)
+    keep = None
+    if not np.isfinite(v).all():
+        keep = np.isfinite(y)
+        for c in cols:
+            keep &= np.isfinite(c)
+    count = y.size if keep is None else int(keep.sum())
+    if count < FIT_MIN_ROWS:
         return None
-    scale = max(np.abs(x).max(), np.abs(y).max())  # the normal equations of huge values overflow
+    # the normal equations of huge values overflow: scale by the largest value a row uses
+    scale = max(float(np.abs(a if keep is None else a[keep]).max()) for a in cols + [y])
     if not scale > 0:
         return None
-    x, y = x / scale, y / scale
+    per_slice = (ny - 3) * (nx - 3)
+    step = max(1, FIT_CHUNK_ROWS // per_slice)
+    xtx = np.zeros((NFIT, NFIT))
+    xty = np.zeros(NFIT)
     with np.errstate(all="ignore"):
+        for z0 in range(2, nz, step):
+            z1 = min(nz, z0 + step)
+            cols, yc = rows(z0, z1)
+            x = np.stack([c.reshape(-1) for c in cols], axis=1)
+            yc = yc.reshape(-1)
+            if keep is not None:
+                k = keep[z0 - 2 : z1 - 2].reshape(-1)
+                x, yc = x[k], yc[k]
+            x, yc = x / scale, yc / scale
+            xtx += x.T @ x
+            xty += x.T @ yc
         try:
-            w, *_ = np.linalg.lstsq(x.T @ x, x.T @ y, rcond=None)
+            w, *_ = np.linalg.lstsq(xtx, xty, rcond=None)
         except np.linalg.LinAlgError:  # an SVD that does not converge (denormal-scale rows)
             return None
         w = w.astype(np.float32)

@@ -426,6 +426,8 @@ def find_lattices(brick: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, np.nd
             rows.append(min(scored)[2])
         params = np.array(rows)
         got = _lattice_k(brick, params)
+        if got is not None and found and all(map(np.array_equal, got[1:], found[0][1:])):
+            got = None  # the one lattice's k and gap again, under more parameters
         if got is not None and got[0] <= limit and _narrow(brick, got[1]):
             found.append((params, got[1], got[2]))
     return found

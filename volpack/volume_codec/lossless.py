@@ -82,6 +82,10 @@ FIT_VERSION = 6  # the first predict_version whose encoder tries the fitted pred
 # The blend (mode 5, tool 2) decodes at about 0.7x the speed of one Lorenzo predictor
 # (and far slower than zstd): it is kept only when it saves this share of the bytes.
 BLEND_MIN_SAVING = 0.02
+# The fitted predictor saves 0.4-6.3 % of the best Lorenzo stream's bytes on the 28 float
+# fields of the benchmark: where another tool is already this share shorter than Lorenzo
+# (lattices, split floats: integers stored as floats), the fit cannot win and is not run.
+FIT_MAX_GAIN = 0.25
 EXACT_FLOATS = FLOAT_DTYPES + ("float64",)
 FLAG_PALETTE, FLAG_FLOAT, FLAG_SPLIT, FLAG_LABELS, FLAG_FIT, FLAG_MASK = 1, 2, 4, 8, 16, 32
 FLAG_LOW, FLAG_TEX = 64, 128
@@ -185,7 +189,7 @@ class LosslessCodec(BrickCodec):
             candidates += _encode_predict(brick, self.predict_version)
         blend = b""
         if is_float and self.predict_version >= 3:
-            floats = self._encode_float(brick, self.predict_version)
+            floats = self._encode_float(brick, self.predict_version, min(map(len, candidates)))
             blend = next((c for c in floats if c[1] == FLOAT_BLEND), b"")
             candidates += [c for c in floats if c[1] != FLOAT_BLEND]
             # zstd at 19 rarely saves a tenth over 9, and takes most of the encoder's
@@ -199,17 +203,32 @@ class LosslessCodec(BrickCodec):
             return blend
         return best
 
-    def _encode_float(self, brick: np.ndarray, version: int) -> list[bytes]:
+    def _encode_float(self, brick: np.ndarray, version: int, known: int) -> list[bytes]:
         """Mode-5 payloads of a float brick: Lorenzo, the blend (with the brick's copy
         offsets and fill value; float32/64), the fitted predictor (float32/64, with the
-        best Lorenzo predictor on its faces), and the lattice when the values sit on one
-        (its integer fields coded by this codec as int32 bricks)."""
+        best Lorenzo predictor on its faces; not run where a payload of the lattice or
+        one ``known`` already is :data:`FIT_MAX_GAIN` shorter than Lorenzo's), and the
+        lattice when the values sit on one (its integer fields coded by this codec as
+        int32 bricks)."""
         from . import floatmix as fm
         from . import floatpredict as fp
 
         lorenzo = fp.encode_best_lorenzo(brick)
         out = [bytes([MODE_FLOAT, 0]) + lorenzo]
-        if brick.itemsize >= 4 and version >= FIT_VERSION:
+        lattices = []
+        for params, k, gap in fp.find_lattices(brick):
+            kp = self.encode(k)
+            lattices.append(
+                bytes([MODE_FLOAT, 1])
+                + pal.uleb(len(params))
+                + params.astype("<f8").tobytes()
+                + pal.uleb(len(kp))
+                + kp
+                + self.encode(gap)
+            )
+        shortest = min([known, len(out[0])] + [len(c) for c in lattices])
+        fit_may_win = shortest >= (1 - FIT_MAX_GAIN) * len(out[0])
+        if brick.itemsize >= 4 and version >= FIT_VERSION and fit_may_win:
             from . import floatfit
 
             fitted = floatfit.encode_best(brick, lorenzo[0])
@@ -219,17 +238,7 @@ class LosslessCodec(BrickCodec):
             offsets, fill = fm.copy_offsets(brick), fm.fill_value(brick)
             blend = fm.encode(brick, offsets=offsets, fill=fill)
             out.append(bytes([MODE_FLOAT, FLOAT_BLEND]) + blend)
-        for params, k, gap in fp.find_lattices(brick):
-            kp = self.encode(k)
-            out.append(
-                bytes([MODE_FLOAT, 1])
-                + pal.uleb(len(params))
-                + params.astype("<f8").tobytes()
-                + pal.uleb(len(kp))
-                + kp
-                + self.encode(gap)
-            )
-        return out
+        return out + lattices
 
     def _decode_float(self, body: memoryview, shape: tuple[int, ...], dtype: np.dtype) -> np.ndarray:
         from . import floatpredict as fp
