@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import flip_bits, slow_case
-from volume_codec.test_floatpredict import field, same_bits
+from volume_codec.test_floatpredict import same_bits
 
 from volpack import api
 from volpack.errors import FormatError
@@ -59,7 +59,8 @@ def test_residuals_match_a_numpy_reference():
     out = np.empty(8 * s.size + 1024, np.uint8)
     w64, steps = w.astype(np.float64), ff._steps(a.shape)
     shape = np.array(a.shape, dtype=np.int64)
-    args = (s, f, si, sf, w64, steps, shape, np.int64(32), np.int64(2), True, out, el, rs, models)
+    nobox = (np.zeros(1), steps[:1], np.zeros(3, np.int64))
+    args = (s, f, si, sf, w64, steps, *nobox, shape, np.int64(32), np.int64(2), True, out, el, rs, models)
     assert ff._encode_kernel(*args) > 0
     nz, ny, nx = a.shape
     v = a.astype(np.float64)
