@@ -59,6 +59,7 @@ BOXED = 8
 BOX_MAX = (3, 15, 15)
 BOX_SHAPES = ((1, 7, 7), (1, 10, 10))
 BOX_FIT_ROWS = 1 << 16  # the box fit's normal equations take at most about this many rows
+BOX_TRIM = 16  # the box fit is fitted again without rows past this many median residuals
 MANT_BITS = 3  # bits below a residual's leading one coded with models
 # Models: the bit length on a 7-level tree in NCF contexts, 27 signs, the mantissa bits.
 M_TREE = 0
@@ -332,8 +333,10 @@ def fit(brick: np.ndarray) -> np.ndarray | None:
 def fit_box(brick: np.ndarray, shape: tuple[int, int, int]) -> np.ndarray | None:
     """Least-squares weights (float32, :func:`box_offsets` order) of the voxels whose
     whole box ``shape`` exists, on a subset of whole slices (every ``k``-th, about
-    :data:`BOX_FIT_ROWS` rows: the normal equations of K columns cost K^2 a row), or
-    ``None`` as :func:`fit`."""
+    :data:`BOX_FIT_ROWS` rows: the normal equations of K columns cost K^2 a row), fitted
+    again without the rows whose residual is past :data:`BOX_TRIM` times the median (a
+    few values far out, a special value's neighbours in a smooth field, pull the
+    weights of every other voxel); ``None`` as :func:`fit`."""
     rz, ry, rx = shape
     nz, ny, nx = brick.shape
     offsets = box_offsets(rz, ry, rx)
@@ -347,9 +350,8 @@ def fit_box(brick: np.ndarray, shape: tuple[int, int, int]) -> np.ndarray | None
     if not scale > 0:
         return None
     v = v / scale
-    k = len(offsets)
-    xtx, xty, used = np.zeros((k, k)), np.zeros(k), 0
-    for z in range(rz, nz, -(-rows // BOX_FIT_ROWS)):
+
+    def slab(z):
         x = np.stack(
             [v[z - dz, ry - dy : ny - ry - dy, rx - dx : nx - rx - dx].reshape(-1)
              for dz, dy, dx in offsets],
@@ -357,10 +359,28 @@ def fit_box(brick: np.ndarray, shape: tuple[int, int, int]) -> np.ndarray | None
         )  # fmt: skip
         y = v[z, ry : ny - ry, rx : nx - rx].reshape(-1)
         keep = np.isfinite(x).all(axis=1) & np.isfinite(y)
-        x, y = x[keep], y[keep]
+        return x[keep], y[keep]
+
+    k = len(offsets)
+    zs = range(rz, nz, -(-rows // BOX_FIT_ROWS))
+    xtx, xty, used = np.zeros((k, k)), np.zeros(k), 0
+    for z in zs:
+        x, y = slab(z)
         xtx += x.T @ x
         xty += x.T @ y
         used += y.size
+    w = _solve(xtx, xty) if used >= 4 * k else None
+    if w is None:
+        return None
+    w = w.astype(np.float64)
+    errs = [np.abs(y - x @ w) for x, y in map(slab, zs)]
+    cut = BOX_TRIM * np.median(np.concatenate(errs))
+    for z, e in zip(zs, errs):
+        x, y = slab(z)
+        far = e > cut
+        xtx -= x[far].T @ x[far]
+        xty -= x[far].T @ y[far]
+        used -= int(far.sum())
     return _solve(xtx, xty) if used >= 4 * k else None
 
 
