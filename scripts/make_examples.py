@@ -265,7 +265,7 @@ def lossless_source(recipe: str):
         f += noise + 0.5 * np.roll(noise, 1, axis=2) + 0.5 * np.roll(noise, 1, axis=1)
         return place_specials(f.astype(np.float32))
     if recipe == "f32-wide":  # smooth waves with no noise: a wide box fit pays, specials
-        z, y, x = np.indices((6, 40, 48))
+        z, y, x = np.indices((10, 40, 48))
         f = np.sin(x * 0.21 + z * 0.3) * np.cos(y * 0.17) * 10.0 + np.sin(x * 0.05 + y * 0.11) * 30
         return place_specials(f.astype(np.float32), 4000)
     if recipe == "f32-lattice":  # tenths of a unit: a geopotential height in metres

@@ -173,7 +173,7 @@ def test_golden_fit_stream():
 # --- the box fit (predictor byte 8 + P, version 10) --------------------------------------
 
 
-def wide(shape=(6, 40, 48)):
+def wide(shape=(10, 40, 48)):
     """The recipe of scripts/make_examples.py's ``f32-wide``, written out again on
     purpose: smooth waves with no noise (a wide fit predicts them better than 23
     neighbours), special values in place."""
