@@ -6,8 +6,10 @@ decoded and compared bit for bit, and the CPU seconds of ``api.compress_array`` 
 alternating in each round.
 
     python scripts/bench_float_fit.py tgv_u cam_u --repeat 5 --out results/lossless/float16
+    python scripts/bench_float_fit.py cam_u --versions 9 10 --out results/lossless/float21
 
-Output: ``OUT/float_fit.csv`` (appended, one row per volume) and a line per volume.
+Output: ``OUT/float_fit.csv`` (``OUT/float_fit_vA_vB.csv`` for other ``--versions A B``;
+appended, one row per volume) and a line per volume.
 """
 
 from __future__ import annotations
@@ -39,17 +41,19 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--encode-repeat", type=int, default=1)
     parser.add_argument("--out", type=Path, default=Path("results/lossless/float16"))
+    parser.add_argument("--versions", type=int, nargs=2, default=(5, 6), metavar=("OLD", "NEW"))
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
-    path = args.out / "float_fit.csv"
+    vo, vn = versions = tuple(args.versions)
+    path = args.out / ("float_fit.csv" if versions == (5, 6) else f"float_fit_v{vo}_v{vn}.csv")
     new_file = not path.exists()
-    versions = (5, 6)
     with open(path, "a", newline="") as f:
         w = csv.writer(f)
         if new_file:
             w.writerow(
-                ["dataset", "shape", "dtype", "raw_bytes", "v5_bytes", "v6_bytes", "v6_tools",
-                 "v5_enc_mb_s", "v6_enc_mb_s", "v5_dec_mb_s", "v6_dec_mb_s", "repeat", "load"]
+                ["dataset", "shape", "dtype", "raw_bytes", f"v{vo}_bytes", f"v{vn}_bytes",
+                 f"v{vn}_tools", f"v{vo}_enc_mb_s", f"v{vn}_enc_mb_s", f"v{vo}_dec_mb_s",
+                 f"v{vn}_dec_mb_s", "repeat", "load"]
             )  # fmt: skip
         for name in args.datasets:
             a, _, _ = datasets.load(name)
@@ -71,22 +75,22 @@ def main(argv: list[str] | None = None) -> int:
                         np.ascontiguousarray(a).reshape(-1).view(f"u{a.itemsize}"),
                     ):
                         raise AssertionError(f"{name}: version {v} is not bit exact")
-            tools = api.info(blobs[6])["summary"].get("tools", {})
+            tools = api.info(blobs[vn])["summary"].get("tools", {})
             shape = "x".join(map(str, a.shape))
             e = {v: mb / min(enc[v]) for v in versions}
             d = {v: mb / min(dec[v]) for v in versions}
             load = f"{__import__('os').getloadavg()[0]:.1f}"
             w.writerow(
-                [name, shape, a.dtype, a.nbytes, len(blobs[5]), len(blobs[6]), tools,
-                 f"{e[5]:.2f}", f"{e[6]:.2f}", f"{d[5]:.2f}", f"{d[6]:.2f}", args.repeat, load]
+                [name, shape, a.dtype, a.nbytes, len(blobs[vo]), len(blobs[vn]), tools,
+                 f"{e[vo]:.2f}", f"{e[vn]:.2f}", f"{d[vo]:.2f}", f"{d[vn]:.2f}", args.repeat, load]
             )  # fmt: skip
             f.flush()
-            r5, r6 = a.nbytes / len(blobs[5]), a.nbytes / len(blobs[6])
+            r5, r6 = a.nbytes / len(blobs[vo]), a.nbytes / len(blobs[vn])
             print(
-                f"{name} {shape}: ratio v5 {r5:.4f} v6 {r6:.4f} "
+                f"{name} {shape}: ratio v{vo} {r5:.4f} v{vn} {r6:.4f} "
                 f"({100 * (r6 / r5 - 1):+.2f} %) {tools}; "
-                f"encode MB/s {e[5]:.2f} -> {e[6]:.2f}; decode MB/s {d[5]:.1f} -> {d[6]:.1f} "
-                f"({d[6] / d[5]:.2f}x); load {load}",
+                f"encode MB/s {e[vo]:.2f} -> {e[vn]:.2f}; "
+                f"decode MB/s {d[vo]:.1f} -> {d[vn]:.1f} ({d[vn] / d[vo]:.2f}x); load {load}",
                 flush=True,
             )
     return 0

@@ -22,8 +22,9 @@ each named with its package in the table. Peers, as their authors run them:
   lossless) and pcodec (``standalone.simple_compress``, default level).
 
 volpack rows: ``volpack`` (the default: the ``lossless`` codec, per brick the wavelet,
-3-D prediction, labels or floats split; 1 and 2 workers), ``volpack-max`` (integers:
-``effort='max'``, the predictive stream also with the local fit), ``volpack-wavelet`` (the
+3-D prediction, labels or floats split; 1 and 2 workers), ``volpack-max``
+(``effort='max'``: on integers the predictive stream also with the local fit, on floats
+the fitted predictor also with a box fit), ``volpack-wavelet`` (the
 wavelet codec alone, the previous default), ``volpack-wavelet-huffman`` (its fast
 coder), ``volpack-arith2`` and ``volpack-wavelet-arith2`` (both with the ``arith2`` coder); floats: ``volpack`` and ``volpack-zstd`` (byte-shuffled zstd, the previous float
 path). ``--grid`` adds every wavelet x coder of the wavelet codec.
@@ -79,13 +80,16 @@ FIELDS = [
 JPEGXL_EFFORTS = (3, 7, 9, 10)  # 10 is the highest libjxl takes (11 codes as 10)
 # volpack rows beyond the default: (row name, api options). Integer and float volumes.
 VOLPACK_ROWS_INT = (
-    ("volpack-max", {"effort": "max"}),  # version 9: the local fit where it is shorter
+    ("volpack-max", {"effort": "max"}),  # version 10: the local fit where it is shorter
     ("volpack-wavelet", {"codec": "wavelet"}),  # the wavelet codec alone (the old default)
     ("volpack-wavelet-huffman", {"codec": "wavelet", "coder": "huffman"}),
     ("volpack-arith2", {"coder": "arith2"}),  # the default with the multi-symbol rANS coder
     ("volpack-wavelet-arith2", {"codec": "wavelet", "coder": "arith2"}),
 )
-VOLPACK_ROWS_FLOAT = (("volpack-zstd", {"codec": "zstd"}),)
+VOLPACK_ROWS_FLOAT = (
+    ("volpack-max", {"effort": "max"}),  # version 10: the box fit where it is shorter
+    ("volpack-zstd", {"codec": "zstd"}),
+)
 ALSO_VS_PEER = ("volpack-max",)  # rows the table also sets against the best peer
 GRID_WAVELETS = ("53", "26", "haar", "97m")
 GRID_CODERS = ("arith", "arith2", "huffman", "rle")

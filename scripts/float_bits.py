@@ -123,7 +123,8 @@ def residuals(a: np.ndarray):
     el, rs, models = ff._workspace(s.size)
     steps = ff._steps(a.shape)
     w64 = w.astype(np.float64)
-    args = (s, f, si, sf, w64, steps, shape, width, np.int64(face), True, out, el, rs, models)
+    nobox = (np.zeros(1), steps[:1], np.zeros(3, np.int64))
+    args = (s, f, si, sf, w64, steps, *nobox, shape, width, np.int64(face), True, out, el, rs, models)
     ff._encode_kernel(*args)
     return face, rl, rs
 

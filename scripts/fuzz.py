@@ -79,6 +79,8 @@ KINDS = {
     "float-blend": ("lossless-v4-f32-periodic.vpk", VOLUME_PATHS),
     # version 6's fitted float predictor (mode 5, tool 3): 23 float32 weights, specials
     "float-fit": ("lossless-v6-f32-fit.vpk", VOLUME_PATHS),
+    # version 10's box fit in tool 3 (predictor byte 8 + P: a shape and K more weights)
+    "float-fit-box": ("lossless-v10-f32-fit-box.vpk", VOLUME_PATHS),
     "fast": ("fast-u8-background.vpk", VOLUME_PATHS),
     # the fast codec's run mode (the default since the `runs` header field)
     "fast-runs": ("fast-runs-mixed.vpk", VOLUME_PATHS),

@@ -182,6 +182,8 @@ LOSSLESS_CASES = [
     ("lossless-v9-u8-local", "v2-u8", {"brick": 32, "predict_version": 9}),
     ("lossless-v9-u8-local-mask", "v2-u8-background", {"brick": 32, "predict_version": 9}),
     ("lossless-v9-i16-local-palette", "v2-i16", {"brick": 32, "predict_version": 9}),
+    # version 10: the fitted float predictor with a box fit (tool 3, predictor byte 8 + P)
+    ("lossless-v10-f32-fit-box", "f32-wide", {"brick": 64, "predict_version": 10}),
 ]
 
 
@@ -193,6 +195,18 @@ def noise_floor(cut):
     z, y, x = np.indices(cut.shape)
     table = np.array([0, 2, 3, 3, 3, 4, 2, 0, 3, 5, 1, 3, 2], dtype=cut.dtype)
     return np.where(cut == 0, table[(z * 131 + y * 71 + x * 37 + (x * y) % 11) % 13], cut)
+
+
+def place_specials(f, at=0):
+    """Float32 ``f`` with NaN (one with a payload), -0.0, +-Inf and the smallest
+    denormals at fixed flat positions from ``at`` on."""
+    import numpy as np
+
+    flat = f.reshape(-1)[at:]
+    flat[1007:1009] = (np.nan, np.array([0x7FC01234], np.uint32).view(np.float32)[0])
+    flat[1108:1111] = (-0.0, np.inf, -np.inf)
+    flat[1313], flat[1567] = 1e-45, -1e-45  # the smallest denormals
+    return f
 
 
 def lossless_source(recipe: str):
@@ -249,12 +263,11 @@ def lossless_source(recipe: str):
         f = np.sin(x * 0.3 + z * 0.2) * np.cos(y * 0.25) * 10.0
         noise = rng.normal(0, 0.05, f.shape)
         f += noise + 0.5 * np.roll(noise, 1, axis=2) + 0.5 * np.roll(noise, 1, axis=1)
-        f = f.astype(np.float32)
-        flat = f.reshape(-1)
-        flat[1007:1009] = (np.nan, np.array([0x7FC01234], np.uint32).view(np.float32)[0])
-        flat[1108:1111] = (-0.0, np.inf, -np.inf)
-        flat[1313], flat[1567] = 1e-45, -1e-45  # the smallest denormals
-        return f
+        return place_specials(f.astype(np.float32))
+    if recipe == "f32-wide":  # smooth waves with no noise: a wide box fit pays, specials
+        z, y, x = np.indices((10, 40, 48))
+        f = np.sin(x * 0.21 + z * 0.3) * np.cos(y * 0.17) * 10.0 + np.sin(x * 0.05 + y * 0.11) * 30
+        return place_specials(f.astype(np.float32), 4000)
     if recipe == "f32-lattice":  # tenths of a unit: a geopotential height in metres
         c = wavelet_source("u8").astype(np.float64)
         return (np.round(np.cumsum(c - c.mean(), axis=2) * 3 + 50000.0) * 0.1).astype(np.float32)

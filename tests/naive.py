@@ -1057,3 +1057,61 @@ def predict_fit_weights(v, offsets, mask=None, ncls=4, cf_bits=12, cf_limit=(1 <
         for k in range(ncls)
     ]
     return np.concatenate(per), th, every
+
+
+# --- lossless float fit (volume_codec.floatfit) ---
+
+
+def float_fit_residuals(a, face, w, box=None):
+    """Residuals of mode 5's tool 3, voxel by voxel as ``formats/lossless-1.md`` step 10
+    words it: the box fit ``box = ((rz, ry, rx), weights)`` where its whole box exists,
+    else the 23 weights ``w`` where their neighbours exist, else (and where a sum is not
+    finite) Lorenzo predictor ``face``; the sums on the values in float64, in four
+    chains (product k into chain k mod 4, W's product added last)."""
+    import numpy as np
+
+    fit23 = [
+        (0, 1, 0), (1, 0, 0), (0, 1, 1), (0, 1, -1), (1, 0, 1), (1, 1, 0), (1, 1, 1),
+        (0, 0, 2), (0, 2, 0), (2, 0, 0), (1, 0, -1), (1, -1, 0), (1, 1, -1), (1, -1, 1),
+        (1, -1, -1), (0, 1, 2), (0, 2, 1), (0, 2, -1), (2, 1, 0), (2, 0, 1), (1, 2, 0),
+        (1, 0, 2), (0, 0, 1),
+    ]  # fmt: skip
+    lor = float_lorenzo_residuals(a, in_slice=face % 2 == 1, in_floats=face >= 2)
+    s = float_signed_image(a)
+    v = a.astype(np.float64)
+    b = 8 * a.dtype.itemsize
+    nz, ny, nx = a.shape
+
+    def chains(z, y, x, offsets, weights, extra):
+        acc = [0.0, 0.0, 0.0, 0.0]
+        for k, (dz, dy, dx) in enumerate(offsets[:-1]):
+            acc[k % 4 if k < extra else k - extra] += float(weights[k]) * v[z - dz, y - dy, x - dx]
+        return ((acc[0] + acc[1]) + (acc[2] + acc[3])) + float(weights[-1]) * v[z, y, x - 1]
+
+    if box is not None:
+        (rz, ry, rx), wb = box
+        offsets = []  # farthest first: dz, then dy, then dx from the largest down
+        for dz in reversed(range(rz + 1)):
+            for dy in reversed(range(-ry, ry + 1)):
+                for dx in reversed(range(-rx, rx + 1)):
+                    causal = dz > 0 or dy > 0 or (dy == 0 and dx > 0)
+                    if causal and (dz, dy, dx) != (0, 0, 1):
+                        offsets.append((dz, dy, dx))
+        offsets.append((0, 0, 1))  # W last
+        assert len(offsets) == len(wb)
+    out = lor.copy()
+    with np.errstate(all="ignore"):
+        for z in range(nz):
+            for y in range(ny):
+                for x in range(nx):
+                    q = None
+                    if box is not None and z >= rz and ry <= y < ny - ry and rx <= x < nx - rx:
+                        q = chains(z, y, x, offsets, wb, len(offsets))
+                    if (q is None or not np.isfinite(q)) and w is not None:
+                        if z >= 2 and 2 <= y < ny - 1 and 2 <= x < nx - 1:
+                            q = chains(z, y, x, fit23, w, 20)
+                    if q is None or not np.isfinite(q):
+                        continue
+                    p = int(float_signed_image(np.array([q]).astype(a.dtype))[0])
+                    out[z, y, x] = (s[z, y, x] - p + (1 << (b - 1))) % (1 << b) - (1 << (b - 1))
+    return out

@@ -129,14 +129,14 @@ def test_cli_effort(tmp_path):
     assert r.exit_code == 2 and "slow" in r.output
 
 
-def test_cli_effort_max_is_lossless_version_9(tmp_path):
+def test_cli_effort_max_is_lossless_version_10(tmp_path):
     v = np.clip(smooth_float((12, 16, 18), np.float32) * 20 + 100, 0, 255).astype(np.uint8)
     src = tmp_path / "v.npy"
     np.save(src, v)
     out = tmp_path / "v.vpk"
     r = CliRunner().invoke(main, ["compress", str(src), str(out), "--effort", "max", "--json"])
     assert r.exit_code == 0, r.output
-    assert header_codec(out.read_bytes())["predict_version"] == 9
+    assert header_codec(out.read_bytes())["predict_version"] == 10
     assert api.decompress(out.read_bytes()).data.tobytes() == v.tobytes()
     w = tmp_path / "w.vpk"
     r = CliRunner().invoke(main, ["compress", str(src), str(w), "--effort", "max", "--max-error", "1"])

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import flip_bits, slow_case, traced_peak
-from volume_codec.test_floatpredict import field, same_bits
+from volume_codec.test_floatpredict import same_bits
 
 from volpack import api
 from volpack.errors import FormatError
@@ -36,11 +36,11 @@ def rough(shape=(12, 13, 14), dtype=np.float32, seed=1):
     return f.astype(dtype)
 
 
-def with_specials(a):
+def with_specials(a, at=0):
     """``a`` with NaN (one with a payload), -0.0, +-Inf and the smallest denormals in
-    place (at the same flat positions whatever the shape)."""
+    place (at the same flat positions, ``at`` on, whatever the shape)."""
     a = a.copy()
-    flat = a.reshape(-1)
+    flat = a.reshape(-1)[at:]
     payload = np.array([0x7FC01234], np.uint32).view(np.float32)[0]
     flat[1007:1009] = (np.nan, payload if a.itemsize == 4 else -np.nan)
     flat[1108:1111] = (-0.0, np.inf, -np.inf)
@@ -60,7 +60,24 @@ def test_residuals_match_a_numpy_reference():
     out = np.empty(8 * s.size + 1024, np.uint8)
     w64, steps = w.astype(np.float64), ff._steps(a.shape)
     shape = np.array(a.shape, dtype=np.int64)
-    args = (s, f, si, sf, w64, steps, shape, np.int64(32), np.int64(2), True, out, el, rs, models)
+    nobox = (np.zeros(1), steps[:1], np.zeros(3, np.int64))
+    args = (
+        s,
+        f,
+        si,
+        sf,
+        w64,
+        steps,
+        *nobox,
+        shape,
+        np.int64(32),
+        np.int64(2),
+        True,
+        out,
+        el,
+        rs,
+        models,
+    )
     assert ff._encode_kernel(*args) > 0
     nz, ny, nx = a.shape
     v = a.astype(np.float64)
@@ -180,14 +197,144 @@ def golden_source():
     return with_specials(rough((20, 24, 28), np.float32, seed=7))
 
 
-def test_golden_fit_stream():
-    blob = (GOLDEN / "lossless-v6-f32-fit.vpk").read_bytes()
-    want = golden_source()
+def golden_payloads(stem, want, **options):
+    """The payloads of golden file ``stem``, after checking that it decodes to ``want``
+    and that the encoder writes it again byte for byte with ``options``."""
+    blob = (GOLDEN / f"{stem}.vpk").read_bytes()
     assert same_bits(api.decompress(blob).data, want)
-    again = api.compress_array(want, brick=32, predict_version=6)
+    again = api.compress_array(want, **options)
     with Reader(blob) as old, Reader(again) as new:
         assert old.header == new.header
         assert [(t, n, p) for t, n, p in old] == [(t, n, p) for t, n, p in new]
-        payloads = [p for _, _, p in old]
+        return [p for _, _, p in old]
+
+
+def test_golden_fit_stream():
+    payloads = golden_payloads("lossless-v6-f32-fit", golden_source(), brick=32, predict_version=6)
     assert [describe(p) for p in payloads] == ["float-fit"]
     assert payloads[0][2] >= ff.FITTED  # the fitted variant
+
+
+# --- the box fit (predictor byte 8 + P, version 10) --------------------------------------
+
+
+def wide(shape=(10, 40, 48)):
+    """The recipe of scripts/make_examples.py's ``f32-wide``, written out again on
+    purpose: smooth waves with no noise (a wide fit predicts them better than 23
+    neighbours), special values in place."""
+    z, y, x = np.indices(shape)
+    f = np.sin(x * 0.21 + z * 0.3) * np.cos(y * 0.17) * 10.0 + np.sin(x * 0.05 + y * 0.11) * 30
+    return with_specials(f.astype(np.float32), 4000)
+
+
+def kernel_residuals(a, face, w, box):
+    """The residuals the encoder kernel codes."""
+    s = to_signed(a).reshape(-1)
+    f = a.astype(np.float64).reshape(-1)
+    si, sf = fp.scratch(a.dtype)
+    el, rs, models = ff._workspace(s.size)
+    out = np.empty(8 * s.size + 1024, np.uint8)
+    (shape3, wb) = box
+    args = (
+        s, f, si, sf, w.astype(np.float64), ff._steps(a.shape), wb.astype(np.float64),
+        ff._steps(a.shape, ff.box_offsets(*shape3)), np.array(shape3, np.int64),
+        np.array(a.shape, np.int64), np.int64(8 * a.itemsize), np.int64(face), True, out,
+        el, rs, models,
+    )  # fmt: skip
+    assert ff._encode_kernel(*args) > 0
+    return rs.reshape(a.shape)
+
+
+@pytest.mark.parametrize("shape3", [(1, 3, 3), (2, 2, 2), (3, 1, 1)])
+def test_box_residuals_match_the_naive_reference(shape3):
+    from naive import float_fit_residuals
+
+    a = with_specials(rough((5, 18, 20)))
+    w, wb = ff.fit(a), ff.fit_box(a, shape3)
+    assert w is not None and wb is not None and wb.size == len(ff.box_offsets(*shape3))
+    a[3, 10, 11] = np.float32(3e38)  # box sums that overflow: the 23-fit's sums instead
+    for face in (1, 2):
+        want = float_fit_residuals(a, face, w, (shape3, wb))
+        assert np.array_equal(kernel_residuals(a, face, w, (shape3, wb)), want)
+
+
+def test_box_offsets_are_causal_and_w_last():
+    for shape3 in [(1, 1, 1), (1, 7, 7), (3, 15, 15)]:
+        offs = ff.box_offsets(*shape3)
+        rz, ry, rx = shape3
+        assert offs[-1] == (0, 0, 1) and len(set(offs)) == len(offs)
+        assert len(offs) == rz * (2 * ry + 1) * (2 * rx + 1) + ry * (2 * rx + 1) + rx
+        assert all(dz > 0 or dy > 0 or (dy == 0 and dx > 0) for dz, dy, dx in offs)
+
+
+@pytest.mark.parametrize("dtype", DTYPES)
+def test_box_round_trips_are_bit_exact(dtype):
+    a = with_specials(rough((6, 20, 22), dtype=dtype))
+    w = ff.fit(a)
+    for shape3 in [(1, 3, 3), (2, 4, 2)]:
+        wb = ff.fit_box(a, shape3)
+        assert wb is not None
+        for face in fp.PREDICTORS:
+            data = ff.encode(a, face, w, (shape3, wb))
+            assert data[0] == ff.BOXED + face and tuple(data[1:4]) == shape3
+            assert same_bits(ff.decode(data, a.shape, dtype), a)
+    # the largest box the decoder takes, in a brick too small for any voxel to use it,
+    # and weights that overflow to Inf everywhere: every voxel falls back
+    big = (3, 15, 15)
+    k = len(ff.box_offsets(*big))
+    for wb in (np.full(k, 1.0 / k, np.float32), np.full(k, 3e38, np.float32)):
+        assert same_bits(ff.decode(ff.encode(a, 2, w, (big, wb)), a.shape, dtype), a)
+    with pytest.raises(ValueError):
+        ff.encode(a, 2, None, ((1, 1, 1), np.zeros(13, np.float32)))
+
+
+def test_version_10_keeps_the_box_where_shorter():
+    a = wide()
+    lor = fp.encode_best_lorenzo(a)
+    plain = ff.encode_best(a, lor[0])
+    boxed = ff.encode_best(a, lor[0], ff.BOX_SHAPES)
+    assert boxed[0] >= ff.BOXED and len(boxed) < 0.97 * len(plain)
+    assert plain == ff.encode_best(a, lor[0], ())  # versions before 10: no box
+    b10 = api.compress_array(a, brick=64, predict_version=10)
+    assert b10 == api.compress_array(a, brick=64, effort="max")
+    assert b10 == api.compress_array(a, brick=64, effort="max", workers=2)
+    assert same_bits(api.decompress_array(b10), a)
+    with Reader(b10) as r:
+        assert [describe(p) for _, _, p in r] == ["float-fit+box"]
+    with Reader(api.compress_array(a, brick=64, predict_version=9)) as r:
+        assert [describe(p) for _, _, p in r] == ["float-fit"]
+    # a noisy field: the box's hundreds of weights do not pay, the 23 stay
+    n = rough((8, 24, 28))
+    assert ff.encode_best(n, 2, ff.BOX_SHAPES) == ff.encode_best(n, 2)
+
+
+def test_corrupt_box_payloads_raise_format_error():
+    from volpack.volume_codec.lossless import FIT_BOXED
+
+    assert FIT_BOXED == ff.BOXED
+    codec = LosslessCodec()
+    a = rough((6, 12, 14))
+    shape3 = (1, 2, 3)
+    good = bytes([MODE_FLOAT, 3]) + ff.encode(a, 2, ff.fit(a), (shape3, ff.fit_box(a, shape3)))
+    assert good[2] == ff.BOXED + 2
+    head = 3 + 3 + 4 * (ff.NFIT + len(ff.box_offsets(*shape3)))
+    bad = [
+        good[:2] + bytes([12]) + good[3:],  # predictor byte past 11
+        good[:3] + bytes([0]) + good[4:],  # a half-width of 0
+        good[:3] + bytes([4]) + good[4:],  # past BOX_MAX
+        good[:5] + bytes([16]) + good[6:],
+        good[:5],  # a shape cut short
+        good[:head],  # weights but no stream
+        good[: head - 5],  # weights cut short
+        good[:-3],  # a stream cut short
+    ]
+    for data in bad:
+        with pytest.raises(FormatError):
+            codec.decode(data, a.shape, a.dtype)
+    flip_bits(codec, good, a, np.random.default_rng(6), 40)
+
+
+def test_golden_box_stream():
+    payloads = golden_payloads("lossless-v10-f32-fit-box", wide(), brick=64, predict_version=10)
+    assert [describe(p) for p in payloads] == ["float-fit+box"]
+    assert payloads[0][3:6] == bytes(ff.BOX_SHAPES[0])

@@ -129,13 +129,13 @@ def test_corrupt_second_flags_byte_and_bit_flips():
     flip_bits(codec, good, v, np.random.default_rng(11), 40)
 
 
-def test_effort_max_is_version_9():
+def test_effort_max_is_version_10():
     v = tissue().astype(np.uint8)
     a = api.compress_array(v, effort="max")
-    b = api.compress_array(v, predict_version=9)
+    b = api.compress_array(v, predict_version=10)  # 10 adds only a float tool
     assert a == b and api.decompress(a).data.tobytes() == v.tobytes()
     assert api.compress_array(v, effort="max", workers=2) == a
-    with pytest.raises(OptionError, match="predict_version=9"):
+    with pytest.raises(OptionError, match="predict_version=10"):
         api.compress_array(v, effort="max", codec="wavelet")
 
 

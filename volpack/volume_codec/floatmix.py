@@ -51,6 +51,7 @@ from .floatpredict import (
     predict,
     put_residual_at,
     scratch,
+    signed_image,
     wrap,
 )
 from .palette import read_uleb, uleb
@@ -70,14 +71,6 @@ ERR_CAP = 1 << 30  # a predictor's error is counted up to this many units
 USES = np.array([127, 1 | 2 | 8, 4 | 1 | 16, 4 | 2 | 32, 1, 2, 4], dtype=np.int64)
 # the copy offsets the encoder tries: exact repeats at one offset for this share of voxels
 COPY_MIN_SHARE = 0.01
-
-
-@kernel(inline=True)
-def _image(q, si, sf, width):
-    """Signed image of ``q`` rounded to the float (``sf`` viewed by ``si``)."""
-    sf[0] = q
-    b = np.int64(si[0])
-    return b ^ ((np.int64(1) << (width - 1)) - 1) if b < 0 else b
 
 
 @kernel(inline=True)
@@ -135,7 +128,7 @@ def _blend(s, f, si, sf, fl, masked, err, pk, pi, i, x, y, z, ny, nx, nset, widt
         q = pk[k]
         if q - q != 0.0:  # NaN or Inf: not blended
             continue
-        pi[k] = _image(q, si, sf, width)
+        pi[k] = signed_image(q, si, sf, width)
         e = 1.0 + err[i - 1, k] + err[i - sy, k] + err[i - sy - 1, k] + err[i - sz, k]
         if x + 1 < nx:
             e += err[i - sy + 1, k]
@@ -146,7 +139,7 @@ def _blend(s, f, si, sf, fl, masked, err, pk, pi, i, x, y, z, ny, nx, nset, widt
     if den > 0.0:
         q = num / den
         if q - q == 0.0:
-            return _image(q, si, sf, width), used / den
+            return signed_image(q, si, sf, width), used / den
     return last, -1.0
 
 

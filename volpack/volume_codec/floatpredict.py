@@ -85,6 +85,14 @@ def wrap(v, width):
 
 
 @kernel(inline=True)
+def signed_image(q, si, sf, width):
+    """Signed image of ``q`` rounded to the float (``sf`` viewed by ``si``)."""
+    sf[0] = q
+    b = np.int64(si[0])
+    return b ^ ((np.int64(1) << (width - 1)) - 1) if b < 0 else b
+
+
+@kernel(inline=True)
 def predict(s, f, si, sf, i, x, y, z, ny, nx, predictor, width):
     """Lorenzo prediction of voxel ``i`` (its signed image) over the axes that have a
     neighbour. The float predictors sum the values in float64, round the sum to the

@@ -79,6 +79,7 @@ FLOAT_TOOLS = ("lorenzo", "lattice", "blend", "fit")  # the tool byte of mode 5 
 FLOAT_BLEND = 2
 FLOAT_FIT = 3
 FIT_VERSION = 6  # the first predict_version whose encoder tries the fitted predictor
+FIT_BOXED = 8  # tool 3's predictor byte from here on: with a box fit (floatfit.BOXED)
 # The blend (mode 5, tool 2) decodes at about 0.7x the speed of one Lorenzo predictor
 # (and far slower than zstd): it is kept only when it saves this share of the bytes.
 BLEND_MIN_SAVING = 0.02
@@ -86,6 +87,7 @@ BLEND_MIN_SAVING = 0.02
 # fields of the benchmark: where another tool is already this share shorter than Lorenzo
 # (lattices, split floats: integers stored as floats), the fit cannot win and is not run.
 FIT_MAX_GAIN = 0.25
+FIT_MAX_GAIN_BOX = 0.5  # with the box fit (version 10), up to 20 % on the CAM fields
 EXACT_FLOATS = FLOAT_DTYPES + ("float64",)
 FLAG_PALETTE, FLAG_FLOAT, FLAG_SPLIT, FLAG_LABELS, FLAG_FIT, FLAG_MASK = 1, 2, 4, 8, 16, 32
 FLAG_LOW, FLAG_TEX = 64, 128
@@ -96,7 +98,7 @@ FLAGS = (
     FLAG_PALETTE | FLAG_FLOAT | FLAG_SPLIT | FLAG_LABELS | FLAG_FIT | FLAG_MASK | FLAG_LOW | FLAG_TEX
     | FLAG_MIX | FLAG_LOCAL
 )  # fmt: skip
-VERSIONS = (1, 2, 3, 4, 5, 6, 7, 8, 9)
+VERSIONS = (1, 2, 3, 4, 5, 6, 7, 8, 9, 10)
 LOW_VERSION = 5  # the first predict_version whose encoder tries the low-value models
 TEX_VERSION = 7  # the first predict_version whose encoder tries the texture bias
 MIX_VERSION = 8  # the first predict_version whose encoder tries the mixed estimates
@@ -108,6 +110,9 @@ LOCAL_VERSION = 9  # the first predict_version whose encoder tries the local fit
 # solved at every second voxel); version 9 is asked for ratio (effort 'max'), so it is
 # kept wherever it is shorter.
 LOCAL_MIN_SAVING = 0.0
+# The first predict_version whose encoder tries tool 3 with a box fit (effort 'max': its
+# hundreds of weights a voxel decode several times slower than the 23 of version 6).
+BOX_VERSION = 10
 TOOLS = ("auto", "wavelet", "predict")
 FLOAT_ZSTD_LEVEL = 9
 FLOAT_ZSTD_LEVEL_V3 = 19  # floats compress slowly either way; 19 finds repeats 9 misses
@@ -125,7 +130,7 @@ class LosslessCodec(BrickCodec):
     tools : {"auto", "wavelet", "predict"}
         ``auto`` tries both tools on every brick and keeps the shorter; the others use
         one tool (for comparison; floats always use prediction).
-    predict_version : {1, 2, 3, 4, 5, 6, 7, 8, 9}
+    predict_version : {1, 2, 3, 4, 5, 6, 7, 8, 9, 10}
         The predictive stream written for integer bricks: 2 (a fitted predictor and a
         background mask) or 1 (the earlier one, for identical files); 3 codes integers
         as 2 and floats also by Lorenzo or lattice prediction (mode 5); 4 also by the
@@ -133,7 +138,8 @@ class LosslessCodec(BrickCodec):
         integers also with the low-value models; 6 as 5, float32 and float64 also by a
         predictor fitted per brick (mode 5, tool 3); 7 as 6, integers also with the
         texture bias; 8 (the default) as 7, integers also with the mixed estimates; 9
-        as 8, integers also averaged with the local fit (slower to decode).
+        as 8, integers also averaged with the local fit (slower to decode); 10 as 9,
+        float32 and float64 also by tool 3 with a box fit (slower to decode).
     """
 
     codec_id: ClassVar[str] = "lossless"
@@ -227,11 +233,13 @@ class LosslessCodec(BrickCodec):
                 + self.encode(gap)
             )
         shortest = min([known, len(out[0])] + [len(c) for c in lattices])
-        fit_may_win = shortest >= (1 - FIT_MAX_GAIN) * len(out[0])
+        gain = FIT_MAX_GAIN_BOX if version >= BOX_VERSION else FIT_MAX_GAIN
+        fit_may_win = shortest >= (1 - gain) * len(out[0])
         if brick.itemsize >= 4 and version >= FIT_VERSION and fit_may_win:
             from . import floatfit
 
-            fitted = floatfit.encode_best(brick, lorenzo[0])
+            boxes = floatfit.BOX_SHAPES if version >= BOX_VERSION else ()
+            fitted = floatfit.encode_best(brick, lorenzo[0], boxes)
             if fitted is not None:
                 out.append(bytes([MODE_FLOAT, FLOAT_FIT]) + fitted)
         if brick.itemsize >= 4 and version >= 4:
@@ -323,7 +331,8 @@ def describe(payload: bytes) -> str:
         return name + ("+local" if more & FLAG_LOCAL >> 8 else "")
     if mode == MODE_FLOAT and len(payload) > 1:
         tool = FLOAT_TOOLS[payload[1]] if payload[1] < len(FLOAT_TOOLS) else payload[1]
-        return f"float-{tool}"
+        boxed = payload[1] == FLOAT_FIT and len(payload) > 2 and payload[2] >= FIT_BOXED
+        return f"float-{tool}" + ("+box" if boxed else "")
     return {0: "wavelet", 1: "raw", 2: "constant", 3: "zstd"}.get(mode, f"mode {mode}")
 
 
