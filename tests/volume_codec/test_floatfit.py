@@ -308,6 +308,17 @@ def test_version_10_keeps_the_box_where_shorter():
     assert ff.encode_best(n, 2, ff.BOX_SHAPES) == ff.encode_best(n, 2)
 
 
+def test_wider_boxes_not_tried_after_one_that_does_not_pay(monkeypatch):
+    fitted = []
+    real = ff.fit_box
+    monkeypatch.setattr(ff, "fit_box", lambda b, shape: fitted.append(shape) or real(b, shape))
+    ff.encode_best(rough((16, 48, 56)), 2, ff.BOX_SHAPES)  # noise: the first box loses
+    assert fitted == [ff.BOX_SHAPES[0]]
+    fitted.clear()
+    ff.encode_best(wide(), 2, ff.BOX_SHAPES)  # the box pays: every shape is tried
+    assert fitted == list(ff.BOX_SHAPES)
+
+
 def test_corrupt_box_payloads_raise_format_error():
     from volpack.volume_codec.lossless import FIT_BOXED
 

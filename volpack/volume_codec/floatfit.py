@@ -525,7 +525,8 @@ def decode(data: bytes | memoryview, shape: tuple[int, ...], dtype: np.dtype) ->
 def encode_best(brick: np.ndarray, face: int, boxes=()) -> bytes | None:
     """The shortest of the fitted stream (Lorenzo predictor ``face`` on the faces), the
     stream with ``face`` everywhere and the fitted streams with a box fit of each shape in
-    ``boxes`` (version 10: :data:`BOX_SHAPES`); ``None`` when the brick has no fit (too
+    ``boxes`` (version 10: :data:`BOX_SHAPES`, narrowest first, the wider ones not tried
+    once a box codes no shorter than the fit without one); ``None`` when the brick has no fit (too
     few interior voxels: a small brick, where the coding alone saves a few bytes at most)."""
     w = fit(brick)
     if w is None:
@@ -533,6 +534,10 @@ def encode_best(brick: np.ndarray, face: int, boxes=()) -> bytes | None:
     out = [encode(brick, face, w), encode(brick, face)]
     for shape in boxes:
         wb = fit_box(brick, shape)
-        if wb is not None:
-            out.append(encode(brick, face, w, (shape, wb)))
+        if wb is None:
+            continue
+        boxed = encode(brick, face, w, (shape, wb))
+        out.append(boxed)
+        if len(boxed) >= len(out[0]):
+            break  # a box that does not pay: no wider one did on the fields measured
     return min(out, key=len)
