@@ -30,7 +30,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-DRIVER = r'''
+DRIVER = r"""
 import json, os, sys, threading, time, importlib.abc, importlib.util
 def _start():
     with open("/proc/self/stat") as f:
@@ -129,7 +129,7 @@ atexit.register(dump)
 sys.argv = ["volpack"] + json.loads(os.environ["TIMELINE_ARGS"])
 from volpack.launch import run
 run()
-'''
+"""
 
 
 def one(tree: Path, vpk: str, orbit: int, extra: list[str]) -> list:

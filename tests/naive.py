@@ -1046,7 +1046,11 @@ def sigmap_scan(shape, levels, order):
                         continue
                     p = [min(v // 2 if lv > b.level + 1 else v, n - 1)
                          for v, lv, n in zip((z, y, x), levels, pb.size)]  # fmt: skip
-                    up[f] = ((pb.start[0] + p[0]) * shape[1] + pb.start[1] + p[1]) * shape[2] + pb.start[2] + p[2]
+                    up[f] = (
+                        ((pb.start[0] + p[0]) * shape[1] + pb.start[1] + p[1]) * shape[2]
+                        + pb.start[2]
+                        + p[2]
+                    )
     n = len(line)
     if order == "dfs":
         kids = {f: [] for f in line}

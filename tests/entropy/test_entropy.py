@@ -56,7 +56,9 @@ def test_scan_is_a_forest_in_preorder(shape, levels):
     np.testing.assert_array_equal(s.end - np.arange(n), size)
 
 
-@pytest.mark.parametrize("shape,levels", [*SHAPES, ((16, 12, 9), (1, 1, 1)), ((9, 16, 4), (3, 3, 2))])
+@pytest.mark.parametrize(
+    "shape,levels", [*SHAPES, ((16, 12, 9), (1, 1, 1)), ((9, 16, 4), (3, 3, 2))]
+)
 @pytest.mark.parametrize("order", sigmap.ORDERS)
 def test_scan_and_context_table_against_plain_python(shape, levels, order):
     # the scan (one kernel) and the arith context table, array for array, against the

@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from .options import emit_json, force_option, json_option, progress_bar, table
-from .render import parse_look_at, parse_size, view_options
+from .view import parse_look_at, parse_size, view_options
 
 
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})

@@ -115,7 +115,9 @@ def _scan_kernel(ny, nx, bands, dfs, rows, perm, end, parent, cls, nbr):
                         pz = min(z // 2 if bands[b, 8] else z, bands[pb, 3] - 1)
                         py = min(y // 2 if bands[b, 9] else y, bands[pb, 4] - 1)
                         px = min(x // 2 if bands[b, 10] else x, bands[pb, 5] - 1)
-                        up[f] = ((bands[pb, 0] + pz) * ny + bands[pb, 1] + py) * nx + bands[pb, 2] + px
+                        up[f] = (
+                            ((bands[pb, 0] + pz) * ny + bands[pb, 1] + py) * nx + bands[pb, 2] + px
+                        )
     if dfs:
         # children in line order (CSR), subtree sizes (a child comes after its parent in
         # line order, so backwards every size is complete before it is added), then the
