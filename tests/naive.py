@@ -170,6 +170,70 @@ def entropy_scan_parents(shape, levels):
     return [parent.get(i, -1) for i in range(total)]
 
 
+def sigmap_scan(shape, levels, order):
+    """The coefficient scan of :func:`volpack.wavelet.sigmap.scan` written out in plain
+    Python: ``(perm, end, parent, cls, nbr)`` as lists (positions, -1 for none)."""
+    from volpack.wavelet.dwt3 import subbands
+    from volpack.wavelet.sigmap import APPROX_CLASS
+
+    nlev = max(levels)
+    bands = sorted(subbands(shape, levels), key=lambda b: (-b.level, b.bits))
+    by_key = {(b.level, b.bits): b for b in bands}
+    line, up, near, kind = [], {}, {}, {}
+    for b in bands:
+        pb = by_key.get((b.level + 1, b.bits)) if b.level < nlev else None
+        for z in range(b.size[0]):
+            for y in range(b.size[1]):
+                for x in range(b.size[2]):
+                    f = ((b.start[0] + z) * shape[1] + b.start[1] + y) * shape[2] + b.start[2] + x
+                    line.append(f)
+                    kind[f] = APPROX_CLASS if b.level == nlev else min(b.level, 5) * 4 + sum(b.bits)
+                    near[f] = [f - shape[1] * shape[2] if z else -1, f - shape[2] if y else -1,
+                               f - 1 if x else -1]  # fmt: skip
+                    if pb is None:
+                        up[f] = -1
+                        continue
+                    p = [min(v // 2 if lv > b.level + 1 else v, n - 1)
+                         for v, lv, n in zip((z, y, x), levels, pb.size)]  # fmt: skip
+                    up[f] = (
+                        ((pb.start[0] + p[0]) * shape[1] + pb.start[1] + p[1]) * shape[2]
+                        + pb.start[2]
+                        + p[2]
+                    )
+    n = len(line)
+    if order == "dfs":
+        kids = {f: [] for f in line}
+        for f in line:
+            if up[f] >= 0:
+                kids[up[f]].append(f)
+
+        def walk(f):
+            out = [f]
+            for k in kids[f]:
+                out += walk(k)
+            return out
+
+        perm, end = [], []
+        for f in line:
+            if up[f] < 0:
+                sub = walk(f)
+                end += [len(perm) + j + len(walk(g)) for j, g in enumerate(sub)]
+                perm += sub
+    else:
+        perm, end = list(line), list(range(1, n + 1))
+        if order == "rows":
+            start = 0
+            for b in bands:
+                bz, by, bx = b.size
+                for r in range(bz * by if bx > 1 else 0):
+                    end[start + bx * r] = start + bx * r + bx
+                start += bz * by * bx
+    at = {f: i for i, f in enumerate(perm)}
+    parent = [at[up[f]] if up[f] >= 0 else -1 for f in perm]
+    nbr = [[at[g] if g >= 0 else -1 for g in near[f]] for f in perm]
+    return perm, end, parent, [kind[f] for f in perm], nbr
+
+
 def fixed_code_bits(m):
     """The fixed prefix code of m as a string of '0'/'1'."""
     if m == 0:

@@ -187,6 +187,66 @@ def test_jit_cache_dir_follows_the_sources(tmp_path):
     assert path.startswith(str(tmp_path)) and len(os.path.basename(path)) == 16
 
 
+_YAML = """
+import sys
+import volpack._jit as j
+config = j.numba.core.config
+print("yaml" in sys.modules, config.BOUNDSCHECK)
+open(".numba_config.yaml", "w").write("boundscheck: 1\\n")
+config.reload_config()  # what numba does before a compile
+print("yaml" in sys.modules, config.BOUNDSCHECK)
+"""
+
+
+def test_numba_config_file_read_with_yaml_imported_on_demand(tmp_path):
+    # numba is imported without PyYAML where no .numba_config.yaml is in the working
+    # directory (16 ms of every process); one found later is still read, and one present
+    # at the start is read at the import, as numba reads them
+    pytest.importorskip("yaml")
+    import volpack
+
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_BOUNDSCHECK"}
+    env["PYTHONPATH"] = os.path.dirname(os.path.dirname(volpack.__file__))  # this tree, from cwd
+    run = [sys.executable, "-c", _YAML]
+    out = subprocess.run(run, cwd=tmp_path, capture_output=True, text=True, check=True, env=env)
+    assert out.stdout.split("\n")[:2] == ["False None", "True 1"]
+    out = subprocess.run(run, cwd=tmp_path, capture_output=True, text=True, check=True, env=env)
+    assert out.stdout.split("\n")[:2] == ["True 1", "True 1"]  # the file left by the first run
+
+
+def test_llvm_lock_events_quiet_on_this_thread_only():
+    # a kernel's load calls into LLVM hundreds of times without numba's llvm_lock events
+    # (QUIET_LLVM); other threads, and this one outside it, still broadcast them
+    from llvmlite import binding as ll
+    from numba.core import event
+
+    from volpack._jit import QUIET_LLVM
+
+    def calls():
+        ll.parse_assembly("define i32 @f() {\n  ret i32 1\n}\n").verify()
+
+    class Threads(event.Listener):  # the thread of each event
+        def __init__(self):
+            self.names = []
+
+        def on_start(self, ev):
+            self.names.append(threading.current_thread().name)
+
+        def on_end(self, ev):
+            self.names.append(threading.current_thread().name)
+
+    outside, quiet = Threads(), Threads()
+    with event.install_listener("numba:llvm_lock", outside):
+        calls()
+    with event.install_listener("numba:llvm_lock", quiet), QUIET_LLVM():
+        calls()
+        th = threading.Thread(target=calls)
+        th.start()
+        th.join()
+    assert len(outside.names) >= 4 and len(quiet.names) == len(outside.names)
+    assert set(quiet.names) == {th.name}  # none from this thread
+
+
 _INLINED = """
 import hashlib, re
 import numpy as np

@@ -33,22 +33,54 @@ import threading
 import numpy as np
 
 
-def _numba_without_scipy():
-    """Import numba with scipy hidden: numba imports scipy only to refuse a SciPy older
-    than 1.0 (for its SciPy-based features, which no kernel here uses), 10-20 ms of
-    every process. scipy imports normally afterwards."""
-    if "numba" in sys.modules or "scipy" in sys.modules:
+def _import_numba():
+    """Import numba without two optional imports it makes at load and rarely uses:
+
+    * scipy, which numba imports only to refuse a SciPy older than 1.0 (for its
+      SciPy-based features, which no kernel here uses), 10-20 ms: hidden for the import;
+      scipy imports normally afterwards;
+    * PyYAML, which numba's config imports to read a ``.numba_config.yaml`` in the
+      working directory, 16 ms of every process: where there is no such file, numba's
+      config gets :class:`_YamlOnDemand` instead, so that a file found later (numba
+      reads the config again before each compile) is read as numba would read it.
+    """
+    if "numba" in sys.modules:
         import numba
-    else:
-        sys.modules["scipy"] = None  # an ImportError for numba's version check
-        try:
-            import numba
-        finally:
-            del sys.modules["scipy"]
+
+        return numba
+    hidden = [m for m in ("scipy", "yaml") if m not in sys.modules]
+    if "yaml" in hidden and (os.path.exists(".numba_config.yaml") or not _installed("yaml")):
+        hidden.remove("yaml")  # numba reads the file now (or warns that it cannot)
+    for m in hidden:
+        sys.modules[m] = None  # an ImportError for numba's import
+    try:
+        import numba
+    finally:
+        for m in hidden:
+            del sys.modules[m]
+    if "yaml" in hidden:
+        numba.core.config.yaml = _YamlOnDemand()
+        numba.core.config._HAVE_YAML = True
     return numba
 
 
-numba = _numba_without_scipy()
+def _installed(name: str) -> bool:
+    import importlib.util
+
+    return importlib.util.find_spec(name) is not None
+
+
+class _YamlOnDemand:
+    """What numba's config calls of PyYAML, importing it on the first call."""
+
+    @staticmethod
+    def safe_load(stream):
+        import yaml
+
+        return yaml.safe_load(stream)
+
+
+numba = _import_numba()
 
 CACHE = os.environ.get("VOLPACK_JIT_CACHE", "1") != "0"
 _PACKAGE = pathlib.Path(__file__).resolve().parent
@@ -243,6 +275,12 @@ def _kernel_cache_class():
       numba's NumPy support (:func:`_numpy_support_without_scipy`) and refreshes as
       numba does, and so does every compile (``CompilerBase``).
 
+    * *without LLVM's lock events*: numba broadcasts an event on entering and on leaving
+      every call into LLVM (``numba:llvm_lock``, to time a compile), and a load makes
+      100-400 such calls, reading its module's symbols one by one; without the events
+      the 22 loads before a walk's first frame took 14-33 ms less. A load makes its
+      calls on its own thread without them (:func:`_quiet_llvm_events`).
+
     None (plain ``cache=True``) when numba's cache has not the shape this was written for.
     """
     from numba.core import caching
@@ -253,6 +291,8 @@ def _kernel_cache_class():
         hasattr(base, a) for a in ("_load_overload", "_guard_against_spurious_io_errors")
     ):
         return None
+
+    quiet = QUIET_LLVM
 
     class KernelCache(base):
         def __init__(self, py_func):  # numba's __init__ runs on first use (_ready)
@@ -270,11 +310,12 @@ def _kernel_cache_class():
 
         def load_overload(self, sig, target_context):
             self._ready()
-            rtsys.initialize(target_context)
-            import numba.cpython.hashing  # noqa: F401  (its symbols, for code that hashes)
+            with quiet():
+                rtsys.initialize(target_context)
+                import numba.cpython.hashing  # noqa: F401  (its symbols, for code that hashes)
 
-            with self._guard_against_spurious_io_errors():
-                cres = self._load_overload(sig, target_context)
+                with self._guard_against_spurious_io_errors():
+                    cres = self._load_overload(sig, target_context)
             if cres is None and _compiling_forbidden():  # before the compiler's set-up
                 raise NotCached(f"{self._name} is not in the kernel cache for {sig}")
             if cres is None:  # a miss compiles next: numba's own order
@@ -298,6 +339,41 @@ def _kernel_cache_class():
     return KernelCache
 
 
+def _quiet_llvm_events():
+    """A context manager under which this thread's calls into LLVM broadcast none of
+    numba's ``numba:llvm_lock`` events (see :func:`_kernel_cache_class`). Only a compile
+    listens to them, to record its LLVM time in its metadata, and a load holds the
+    compiler lock, so no compile runs meanwhile. numba's callbacks are wrapped, once,
+    not removed: a call another thread is inside of leaves as it entered."""
+    from llvmlite.binding import ffi
+
+    cbs = getattr(getattr(getattr(ffi, "lib", None), "_lock", None), "_cblist", None)
+    if not isinstance(cbs, list):  # not the llvmlite this was written for
+        return contextlib.nullcontext
+    off = threading.local()
+
+    def unless_quiet(fn):
+        def callback():
+            if not getattr(off, "on", False):
+                fn()
+
+        return callback
+
+    cbs[:] = [(unless_quiet(enter), unless_quiet(leave)) for enter, leave in cbs]
+
+    @contextlib.contextmanager
+    def quiet():
+        before = getattr(off, "on", False)
+        off.on = True
+        try:
+            yield
+        finally:
+            off.on = before
+
+    return quiet
+
+
+QUIET_LLVM = _quiet_llvm_events()
 _KERNEL_CACHE = None if JIT_DISABLED or not CACHE else _kernel_cache_class()
 if _KERNEL_CACHE is None:  # every kernel compiles here, or loads numba's way
     _numpy_support_without_scipy()

@@ -7,13 +7,15 @@ nor numpy: the client's whole cost is the interpreter and a socket round trip.
 
 from __future__ import annotations
 
+import contextlib
+import gc
 import os
 import sys
 
 
 def run() -> None:
-    from . import serve
-
+    with _collector_paused():  # imports make objects, not garbage (cli.options.imports_without_gc)
+        from . import serve
     code = serve.forward(sys.argv[1:])
     if code is not None:
         for stream in (sys.stdout, sys.stderr):
@@ -22,6 +24,20 @@ def run() -> None:
             except (OSError, ValueError):  # a closed pipe (volpack info | head)
                 code = code or 1
         os._exit(code)  # as volpack.cli.run: nothing left to tear down or flush again
-    from .cli import run as run_here
-
+    with _collector_paused():
+        from .cli import run as run_here
     run_here()
+
+
+@contextlib.contextmanager
+def _collector_paused():
+    """The cycle collector paused, and what was made meanwhile frozen: ``run`` is a
+    process's console entry, so nothing made here is ever garbage to collect."""
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        gc.freeze()
+        if enabled:
+            gc.enable()

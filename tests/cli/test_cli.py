@@ -59,6 +59,19 @@ def test_the_command_table_names_the_module_of_each_command():
     assert main.list_commands(None) == sorted(defined)
 
 
+def test_walk_and_play_import_the_view_options_not_the_render_command(tmp_path):
+    # play and walk share the view options with render, which live in cli.view: a walk's
+    # start compiles neither the render command's module nor numba's YAML reader
+    import volpack
+
+    code = "import sys, volpack.cli.play, volpack._jit; print(sorted(sys.modules))"
+    env = dict(os.environ, PYTHONPATH=os.path.dirname(os.path.dirname(volpack.__file__)))
+    out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True,
+                         text=True, check=True).stdout  # fmt: skip
+    assert "'volpack.cli.view'" in out and "'numba'" in out  # the check can fail
+    assert "'volpack.cli.render'" not in out and "'yaml'" not in out
+
+
 _RENDER_IMPORTS = """
 import sys
 from volpack.cli import main

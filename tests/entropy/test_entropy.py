@@ -56,6 +56,29 @@ def test_scan_is_a_forest_in_preorder(shape, levels):
     np.testing.assert_array_equal(s.end - np.arange(n), size)
 
 
+@pytest.mark.parametrize(
+    "shape,levels", [*SHAPES, ((16, 12, 9), (1, 1, 1)), ((9, 16, 4), (3, 3, 2))]
+)
+@pytest.mark.parametrize("order", sigmap.ORDERS)
+def test_scan_and_context_table_against_plain_python(shape, levels, order):
+    # the scan (one kernel) and the arith context table, array for array, against the
+    # scan written out in Python and the table's rule (golden streams decode through both)
+    from volpack.entropy.arith import context_table
+
+    s = sigmap.scan(shape, levels, order)
+    perm, end, parent, cls, nbr = naive.sigmap_scan(shape, levels, order)
+    assert [a.dtype for a in s] == [np.int32, np.int32, np.int32, np.uint8, np.int32]
+    assert not any(a.flags.writeable for a in s)
+    assert (s.perm.tolist(), s.end.tolist(), s.parent.tolist(), s.cls.tolist(),
+            s.nbr.tolist()) == (perm, end, parent, cls, nbr)  # fmt: skip
+    n = len(perm)
+    want = [[v if 0 <= v < i else n for v in nbr[i]]
+            + [1 + sum(0 <= v < i for v in nbr[i]), parent[i] if parent[i] >= 0 else n, end[i]]
+            for i in range(n)]  # fmt: skip
+    t = context_table(s)
+    assert t.dtype == np.int32 and t.tolist() == want
+
+
 @pytest.mark.parametrize("shape,levels", SHAPES)
 @pytest.mark.parametrize("order", sigmap.ORDERS)
 def test_band_neighbours(shape, levels, order):

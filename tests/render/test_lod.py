@@ -277,6 +277,45 @@ def test_a_rehearsed_walk_draws_what_an_unrehearsed_one_draws(tree_path):
         assert st.levels == wst.levels and st.decoded == wst.decoded
 
 
+def test_walk_pauses_the_collector_until_its_first_frame(tree_path, tmp_path, monkeypatch):
+    # from its imports to its first frame a walk makes objects, not garbage: the cycle
+    # collector is paused (on every thread) and runs again from the first frame on
+    import gc
+
+    from volpack.render import autotf, lod
+
+    path, _ = tree_path
+    seen = {"phase": "start", "paused": [], "runs": []}
+    gc.callbacks.append(cb := lambda phase, info: seen["runs"].append(seen["phase"]))
+    pick, draw = autotf.transfer_for, lod.render_lod
+
+    def transfer_for(*a, **k):  # before the first frame: many container objects
+        seen["phase"] = "before the first frame"
+        seen["paused"].append(gc.isenabled())
+        junk = [[i] for i in range(50_000)]  # noqa: F841
+        try:
+            return pick(*a, **k)
+        finally:
+            seen["phase"] = "after the TF"
+
+    def render_lod(*a, **k):
+        seen["phase"] = "frames"
+        seen["paused"].append(gc.isenabled())
+        junk = [[i] for i in range(50_000)]  # noqa: F841
+        return draw(*a, **k)
+
+    monkeypatch.setattr(autotf, "transfer_for", transfer_for)
+    monkeypatch.setattr(lod, "render_lod", render_lod)
+    try:
+        r = CliRunner().invoke(main, ["walk", str(path), "--orbit", "2", "--budget", "8",
+                                      "--size", "16x16", "-j", "2"])  # fmt: skip
+    finally:
+        gc.callbacks.remove(cb)
+    assert r.exit_code == 0, r.output
+    assert seen["paused"] == [False, True, True] and gc.isenabled()
+    assert "before the first frame" not in seen["runs"] and "frames" in seen["runs"]
+
+
 def test_reserved_arrays_are_zeroed_and_taken_once():
     from volpack.render.resident import Reserved
 

@@ -4,8 +4,15 @@ from __future__ import annotations
 
 import click
 
-from .options import emit_json, force_option, json_option, progress_bar, table
-from .render import parse_look_at, parse_size, view_options
+from .options import (
+    emit_json,
+    force_option,
+    imports_without_gc,
+    json_option,
+    progress_bar,
+    table,
+)
+from .view import parse_look_at, parse_size, view_options
 
 
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})
@@ -44,14 +51,15 @@ def play(ctx, source, output, tf_spec, fps, spin, show_stats, azimuth, elevation
     """
     import dataclasses
 
-    import numpy as np
+    with imports_without_gc():
+        import numpy as np
 
-    from ..animation import player
-    from ..format.atomic import check_output
-    from ..render.autotf import transfer_for
-    from ..render.camera import Camera
-    from ..render.framing import fit_camera
-    from ..render.raycast import render as raycast
+        from ..animation import player
+        from ..format.atomic import check_output
+        from ..render.autotf import transfer_for
+        from ..render.camera import Camera
+        from ..render.framing import fit_camera
+        from ..render.raycast import render as raycast
 
     size = parse_size(size_s)
     if output is not None and not _is_folder(output):
@@ -216,14 +224,16 @@ def walk(ctx, source, output, orbit, budget, decode_budget, tf_spec, fps, compar
       volpack walk big.vpk walk.mp4 --decode-budget 64   # a quicker, coarser first frame
       volpack walk big.vpk fly/ --perspective --distance 60 --orbit 48   # through the volume
     """
+    import contextlib
     import dataclasses
     import math
 
-    import numpy as np
+    with imports_without_gc():  # numba among them
+        import numpy as np
 
-    from ..format.atomic import check_output
-    from ..octree import Octree
-    from ..parallel import parse_workers
+        from ..format.atomic import check_output
+        from ..octree import Octree
+        from ..parallel import parse_workers
 
     size = parse_size(size_s)
     if output is not None and not _is_folder(output):
@@ -231,7 +241,12 @@ def walk(ctx, source, output, orbit, budget, decode_budget, tf_spec, fps, compar
     opts = dict(step=step, classification=classification, shading=shading, normals=normals,
                 preint_method=preint_method, workers=workers)  # fmt: skip
     rows = []
-    with Octree(source, cache_bytes=1 << 30) as tree:
+    with Octree(source, cache_bytes=1 << 30) as tree, contextlib.ExitStack() as paused:
+        # up to the first frame, the collector is paused (imports_without_gc) here and on
+        # the helper threads: their imports and kernel loads make many objects and no
+        # garbage (on the MRI's walk 43-94 ms of collections went before the first frame,
+        # and a full one of 34-40 ms into it)
+        paused.enter_context(imports_without_gc())
         # the coarse level (for the TF and the framing) decodes on a helper thread while
         # this one imports the renderer: a fresh process's first kernel loads and chunk
         # decodes there run without the GIL, the imports here hold it (one worker: here)
@@ -274,6 +289,7 @@ def walk(ctx, source, output, orbit, budget, decode_budget, tf_spec, fps, compar
         ):
             if rehearsal is not None:  # done by now, or the frame would wait on its loads
                 rehearsal.wait()
+            paused.close()  # what was made so far frozen (a whole process), collected as usual
             for k in range(orbit):
                 cam = dataclasses.replace(view, azimuth=azimuths[k])
                 img, st = render_lod(tree, tf=tf, camera=cam, blocks=budget,
