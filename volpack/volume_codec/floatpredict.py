@@ -101,9 +101,7 @@ def predict(s, f, si, sf, i, x, y, z, ny, nx, predictor, width):
     if predictor >= LORENZO3F:
         q = _lorenzo(f, i, x, y, z, ny, nx, predictor == LORENZO3F, np.float64(0.0))
         if q == q:  # not NaN
-            sf[0] = q
-            b = np.int64(si[0])
-            return b ^ ((np.int64(1) << (width - 1)) - 1) if b < 0 else b
+            return signed_image(q, si, sf, width)
     return _lorenzo(s, i, x, y, z, ny, nx, predictor % 2 == LORENZO3, np.int64(0))
 
 
