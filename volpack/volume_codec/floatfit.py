@@ -313,6 +313,20 @@ def _solve(xtx: np.ndarray, xty: np.ndarray) -> np.ndarray | None:
     return w if np.isfinite(w).all() else None
 
 
+def _windows(v, offsets, zr, yr, xr) -> tuple[list[np.ndarray], np.ndarray]:
+    """The least-squares rows of the voxels ``v[zr[0]:zr[1], yr[0]:yr[1], xr[0]:xr[1]]``
+    as views: the window of each neighbour at ``offsets`` (steps back), and the targets."""
+    (z0, z1), (y0, y1), (x0, x1) = zr, yr, xr
+    cols = [v[z0 - dz : z1 - dz, y0 - dy : y1 - dy, x0 - dx : x1 - dx] for dz, dy, dx in offsets]
+    return cols, v[z0:z1, y0:y1, x0:x1]
+
+
+def _rows(v, offsets, zr, yr, xr) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_windows` as a row matrix (a column a neighbour) and a target vector."""
+    cols, y = _windows(v, offsets, zr, yr, xr)
+    return np.stack([c.reshape(-1) for c in cols], axis=1), y.reshape(-1)
+
+
 def fit(brick: np.ndarray) -> np.ndarray | None:
     """Least-squares weights (float32, :data:`FIT_OFFSETS` order) of each interior
     voxel's value on its neighbours' (float64; rows with a value that is not finite are
@@ -326,16 +340,8 @@ def fit(brick: np.ndarray) -> np.ndarray | None:
         return None
     with np.errstate(invalid="ignore"):  # signalling NaNs
         v = brick.astype(np.float64)
-
-    def rows(z0: int, z1: int) -> tuple[list[np.ndarray], np.ndarray]:
-        """The neighbour windows and target of interior slices ``z0 .. z1 - 1`` (from 2)."""
-        cols = [
-            v[z0 - dz : z1 - dz, 2 - dy : ny - 1 - dy, 2 - dx : nx - 1 - dx]
-            for dz, dy, dx in FIT_OFFSETS
-        ]
-        return cols, v[z0:z1, 2 : ny - 1, 2 : nx - 1]
-
-    cols, y = rows(2, nz)
+    inner = ((2, ny - 1), (2, nx - 1))  # every voxel with all 23 neighbours, from z = 2
+    cols, y = _windows(v, FIT_OFFSETS, (2, nz), *inner)
     keep = None
     if not np.isfinite(v).all():
         keep = np.isfinite(y)
@@ -355,9 +361,7 @@ def fit(brick: np.ndarray) -> np.ndarray | None:
     with np.errstate(all="ignore"):
         for z0 in range(2, nz, step):
             z1 = min(nz, z0 + step)
-            cols, yc = rows(z0, z1)
-            x = np.stack([c.reshape(-1) for c in cols], axis=1)
-            yc = yc.reshape(-1)
+            x, yc = _rows(v, FIT_OFFSETS, (z0, z1), *inner)
             if keep is not None:
                 k = keep[z0 - 2 : z1 - 2].reshape(-1)
                 x, yc = x[k], yc[k]
@@ -389,12 +393,7 @@ def fit_box(brick: np.ndarray, shape: tuple[int, int, int]) -> np.ndarray | None
     v = v / scale
 
     def slab(z):
-        x = np.stack(
-            [v[z - dz, ry - dy : ny - ry - dy, rx - dx : nx - rx - dx].reshape(-1)
-             for dz, dy, dx in offsets],
-            axis=1,
-        )  # fmt: skip
-        y = v[z, ry : ny - ry, rx : nx - rx].reshape(-1)
+        x, y = _rows(v, offsets, (z, z + 1), (ry, ny - ry), (rx, nx - rx))
         keep = np.isfinite(x).all(axis=1) & np.isfinite(y)
         return x[keep], y[keep]
 
