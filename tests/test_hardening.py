@@ -1,5 +1,6 @@
 """Inputs that used to change meaning or crash: bool volumes, meshes without tets or
-fields, headers whose values pass the checksums but not the types, huge spacings."""
+fields, headers whose values pass the checksums but not the types, huge spacings,
+volumes with an axis of length 0."""
 
 from __future__ import annotations
 
@@ -35,6 +36,26 @@ def test_a_bool_volume_comes_back_as_bool(tmp_path):
     assert _cli("decompress", tmp_path / "b.vpk", tmp_path / "c.npy").exit_code == 0
     c = np.load(tmp_path / "c.npy")
     assert c.dtype == bool and (c == a).all()
+
+
+@pytest.mark.parametrize(
+    "shape, args",
+    [
+        ((0, 3, 4), ()),
+        ((5, 0, 4), ("--codec", "fast")),
+        ((5, 3, 0), ("--max-error", "0.1")),
+        ((2, 3, 0, 5), ()),
+        ((3, 4, 0, 5), ("--gop", "IPP")),
+        ((0, 4, 4, 5), ("--gop", "IPP")),
+    ],
+)
+def test_a_volume_without_voxels_is_refused(tmp_path, shape, args):
+    np.save(tmp_path / "e.npy", np.zeros(shape, np.float32))
+    line = _one_line_error(_cli("compress", tmp_path / "e.npy", tmp_path / "e.vpk", *args))
+    assert "at least one voxel" in line and str(shape) in line, line
+    assert not (tmp_path / "e.vpk").exists()
+    with pytest.raises(FormatError, match="at least one voxel"):
+        api.compress_array(np.zeros(shape, np.uint8))
 
 
 def test_a_mesh_without_tetrahedra_is_refused(tmp_path):

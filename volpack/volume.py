@@ -108,6 +108,13 @@ class Volume:
         return out
 
 
+def require_voxels(shape: tuple[int, ...]) -> None:
+    """Refuse a shape with an axis of length 0: there is nothing to code, and the
+    codecs' value ranges and brick grids need at least one voxel."""
+    if 0 in tuple(shape):
+        raise FormatError(f"expected a volume with at least one voxel, found shape {tuple(shape)}")
+
+
 def _triple(value: Any, name: str, positive: bool = False) -> tuple[float, float, float]:
     try:
         t = tuple(float(v) for v in value)

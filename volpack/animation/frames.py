@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import FormatError
-from ..volume import Volume
+from ..volume import Volume, require_voxels
 
 # -- frame sources -----------------------------------------------------------------------
 
@@ -29,6 +29,9 @@ class FrameSource:
     spacing: tuple[float, float, float] = (1.0, 1.0, 1.0)
     origin: tuple[float, float, float] = (0.0, 0.0, 0.0)
     meta: dict = dataclasses.field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        require_voxels(self.shape)
 
 
 def _natural_key(path: str) -> list:

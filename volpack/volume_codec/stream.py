@@ -29,7 +29,7 @@ from ..format.streams import stdin
 from ..jsonsafe import jsonable
 from ..metrics import psnr_from_sse, throughput
 from ..parallel import completed_map, ordered_map, parse_workers
-from ..volume import Volume
+from ..volume import Volume, require_voxels
 from . import bricks
 from .codec import WAVELET_DTYPES, WaveletCodec, ZstdCodec
 from .protocol import storage_dtype
@@ -194,6 +194,7 @@ def compress(
         check_output(target, force=force, inputs=(vio.parse_spec(source)[0],))
         source = vio.read_volume(source, **(read_options or {}))
     vol = source if isinstance(source, Volume) else Volume(np.asarray(source))
+    require_voxels(vol.data.shape)
     t0 = time.perf_counter()  # the setting search counts: the speed is the whole coding's
     nworkers = parse_workers(workers)
     inner = {"wavelet": wavelet, "coder": coder, "order": order, "max_levels": max_levels}
