@@ -152,8 +152,13 @@ def test_psnr_target_is_reached(scan16, target):
 
 @pytest.mark.parametrize("target", [8.0, 30.0])
 def test_ratio_target_is_reached(scan16, target):
-    st, _ = run(scan16, ratio=target, workers=2)
+    st, blob = run(scan16, ratio=target, workers=2)
     assert abs(st["ratio"] / target - 1) <= 0.05, st["search"]
+    # the file keeps what `info` shows, not the search's steps (the caller has those)
+    kept = api.info(blob)["summary"]["search"]
+    assert len(st["search"]["steps"]) >= 2 and "steps" not in kept
+    assert kept["target"] == "ratio" and kept["value"] == target
+    assert kept["reached"] == pytest.approx(st["ratio"], rel=1e-5)
 
 
 @pytest.mark.slow

@@ -311,7 +311,11 @@ def compress(
             if isinstance(summary.get(key), float):
                 summary[key] = float(f"{summary[key]:.6g}")
         if search is not None:
-            summary["search"] = search
+            # what `volpack info` shows (target, value, the setting, what it reached); the
+            # steps of the search (300-500 B, a tenth of a small field's file) are the
+            # caller's alone
+            summary["search"] = {k: v for k, v in search.items() if k != "steps"}
+            summary["search"]["reached"] = float(f"{search['reached']:.6g}")
         if tools_used:
             summary["tools"] = dict(sorted(tools_used.items()))
         w.close(summary=summary)
