@@ -258,6 +258,23 @@ def test_usage_errors_exit_2():
     assert r.exit_code == 2
 
 
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (("--size", "0x10"), "1..16384 per side"),
+        (("--size", "100000x100000"), "1..16384 per side"),
+        (("--step", "1e-9"), "x>=0.01"),
+        (("--iso", ","), "at least one isosurface"),
+        (("--frame", "9"), "a frame in 0..1"),
+    ],
+)
+def test_bad_view_options_are_usage_errors_naming_the_option(tmp_path, args, words):
+    np.save(tmp_path / "v.npy", np.zeros((2, 4, 5, 6), np.float32))
+    r = run("render", tmp_path / "v.npy", tmp_path / "o.png", *args, ok=False)
+    assert r.exit_code == 2 and words in r.output and args[0] in r.output, r.output
+    assert "internal error" not in r.output and not (tmp_path / "o.png").exists()
+
+
 def test_convert_crop_downsample_quantize(tmp_path):
     a = smooth_volume((20, 30, 40), np.int16)
     np.save(tmp_path / "a.npy", a)

@@ -66,7 +66,7 @@ def parse_isos(spec: str) -> list[tuple[float, tuple[float, float, float], float
                 ) from None
         isos.append((value, rgb, opacity))
     if not isos:
-        raise click.BadParameter(f"expected at least one isosurface, found {spec!r}", "--iso")
+        raise click.BadParameter(f"expected at least one isosurface, found {spec!r}", param_hint="--iso")
     return isos
 
 
@@ -139,7 +139,7 @@ def _load(source: str, frame: int | None, raw: dict):
         t = frame or 0
         if not 0 <= t < vol.data.shape[0]:
             raise click.BadParameter(
-                f"expected a frame in 0..{vol.data.shape[0] - 1}, found {t}", "--frame"
+                f"expected a frame in 0..{vol.data.shape[0] - 1}, found {t}", param_hint="--frame"
             )
         mask = None if vol.mask is None else vol.mask[t]
         vol = Volume(vol.data[t], spacing=vol.spacing, origin=vol.origin, mask=mask)

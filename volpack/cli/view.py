@@ -25,7 +25,7 @@ def parse_size(value: str) -> tuple[int, int]:
     except ValueError:
         raise click.BadParameter(f"expected WxH, found {value!r}", param_hint="--size") from None
     if not (1 <= w <= 16384 and 1 <= h <= 16384):
-        raise click.BadParameter(f"expected 1..16384 per side, found {value!r}", "--size")
+        raise click.BadParameter(f"expected 1..16384 per side, found {value!r}", param_hint="--size")
     return w, h
 
 
@@ -47,8 +47,9 @@ def view_options(f):
                      "(meshes: in their units; default the centre of what is shown)."),
         click.option("--size", "size_s", default="512x512", show_default=True,
                      help="Image WxH."),
-        click.option("--step", type=click.FloatRange(min=0, min_open=True), default=0.5,
-                     show_default=True, help="Ray step in voxels (of the smallest spacing)."),
+        click.option("--step", type=click.FloatRange(min=0.01), default=0.5, show_default=True,
+                     help="Ray step in voxels (of the smallest spacing), at least 0.01 "
+                     "(0.01 takes about 50x the default's time)."),
         click.option("--classification", type=click.Choice(["preintegrated", "post", "pre"]),
                      default="preintegrated", show_default=True,
                      help="Where the TF is applied: pre-integrated segments, samples, or voxels."),
