@@ -143,7 +143,7 @@ def write_volume(vol: Volume | np.ndarray, spec: str, *, force: bool = False) ->
     ``.vpk`` path is compressed losslessly."""
     from . import io as vio
 
-    if spec != "-" and vio.detect_format(vio.parse_spec(spec)[0]) == "vpk":
+    if spec != "-" and vio.output_format(vio.parse_spec(spec)[0]) == "vpk":
         from .volume_codec.stream import compress as compress_volume
 
         compress_volume(vol if isinstance(vol, Volume) else np.asarray(vol), spec, force=force)

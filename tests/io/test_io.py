@@ -226,7 +226,7 @@ def test_detect_format(tmp_path):
 def test_unknown_extension_errors(tmp_path):
     with pytest.raises(FormatError, match="extensions"):
         vio.read_volume(str(tmp_path / "v.xyz"))
-    with pytest.raises(FormatError, match="extensions"):
+    with pytest.raises(FormatError, match="output ending in"):
         vio.write_volume(_ramp(np.uint8), str(tmp_path / "v.xyz"))
 
 
@@ -315,6 +315,18 @@ def test_refuse_overwrite(tmp_path):
         vio.write_volume(_ramp(np.uint8) + 1, spec, force=True)
         kw = _raw_kw(name, np.uint8)
         np.testing.assert_array_equal(vio.read_volume(spec, **kw).data, _ramp(np.uint8) + 1)
+
+
+@pytest.mark.parametrize("name", ["v.xyz", "slices/", "v.dcm", "v.npy/"])
+def test_an_output_volpack_cannot_write_names_the_writable_extensions(tmp_path, name):
+    from volpack import api
+
+    spec = f"{tmp_path}/{name}"  # (a Path would drop the trailing slash)
+    for write in (vio.write_volume, api.write_volume):
+        with pytest.raises(FormatError, match=r"expected an output ending in .*\.nii\.gz") as e:
+            write(_ramp(np.uint8), spec)
+        assert "folder" not in str(e.value) and ".dcm," not in str(e.value)
+    assert os.listdir(tmp_path) == []
 
 
 def test_failed_write_leaves_nothing(tmp_path, monkeypatch):

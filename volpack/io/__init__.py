@@ -28,7 +28,7 @@ from ..volume import Volume
 from .common import DEFAULT_MAX_VOXELS, ReadOptions, header_dict, prepare_for_write, wrap_errors
 from .registry import FORMATS, detect_format, parse_spec, writable
 
-__all__ = ["parse_spec", "detect_format", "read_volume", "write_volume", "read_header"]
+__all__ = ["parse_spec", "detect_format", "output_format", "read_volume", "write_volume", "read_header"]
 
 DEFAULT_H5_DATASET = "/data"
 
@@ -108,6 +108,14 @@ def read_header(spec: str, **raw_options: Any) -> dict[str, Any]:
         return f.function(f.header)(path, opts)
 
 
+def output_format(path: str) -> str:
+    """The format :func:`write_volume` writes to ``path`` (a name of ``FORMATS``), or a
+    FormatError naming the extensions it writes (not the ones it only reads)."""
+    if not path.lower().endswith(tuple(writable())):
+        raise FormatError(f"expected an output ending in {', '.join(writable())}, found {path!r}")
+    return detect_format(path)
+
+
 def write_volume(vol: Volume | np.ndarray, spec: str, *, force: bool = False) -> None:
     """Write a volume to ``spec``: ``.npy``, ``.raw``/``.bin``, ``.nii``/``.nii.gz``,
     ``.nrrd``, ``file.h5[:/dataset]`` (default ``/data``), ``.tif``/``.tiff``
@@ -129,7 +137,7 @@ def write_volume(vol: Volume | np.ndarray, spec: str, *, force: bool = False) ->
         out.write(buf.getvalue())
         out.flush()
         return
-    fmt = detect_format(path)
+    fmt = output_format(path)
     f = FORMATS[fmt]
     if not path.lower().endswith(f.writes or ("\0",)):
         raise FormatError(
