@@ -253,6 +253,17 @@ def test_an_unexpected_exception_is_an_internal_error_with_exit_3(tmp_path, monk
     assert r.exit_code == 3 and "Traceback" in r.output and "boom" in r.output
 
 
+def test_global_flags_may_follow_the_command(tmp_path):
+    from volpack.cli import hoist_global_flags
+
+    np.save(tmp_path / "a.npy", np.arange(4 * 5 * 6, dtype=np.int16).reshape(4, 5, 6))
+    run("compress", tmp_path / "a.npy", tmp_path / "b.vpk", "-q", "--debug")
+    run("-q", "compress", tmp_path / "a.npy", tmp_path / "c.vpk")
+    assert (tmp_path / "b.vpk").read_bytes() == (tmp_path / "c.vpk").read_bytes()
+    args = ["render", "a.npy", "o.png", "-vv", "--", "-q"]
+    assert hoist_global_flags(args) == ["-vv", "render", "a.npy", "o.png", "--", "-q"]
+
+
 def test_usage_errors_exit_2():
     r = run("compress", "--coder", "nonsense", "a", "b", ok=False)
     assert r.exit_code == 2

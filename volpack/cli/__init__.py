@@ -36,10 +36,25 @@ COMMAND_MODULES = {
 }  # fmt: skip
 
 
+GLOBAL_FLAGS = frozenset({"-q", "--quiet", "-v", "-vv", "-vvv", "--verbose", "--debug"})
+
+
+def hoist_global_flags(args: list[str]) -> list[str]:
+    """``volpack compress a b -q`` as ``volpack -q compress a b``: the group's flags
+    (which no command reuses) are taken from anywhere before a ``--``."""
+    cut = args.index("--") if "--" in args else len(args)
+    head = args[:cut]
+    flags = [a for a in head if a in GLOBAL_FLAGS]
+    return flags + [a for a in head if a not in GLOBAL_FLAGS] + args[cut:]
+
+
 class VolpackGroup(click.Group):
     """A click group that reports errors: a one-line message for what the user can fix,
     "internal error, please report" (exit 3) for anything else, which is a bug. Its
     commands load on first use (:data:`COMMAND_MODULES`)."""
+
+    def parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:
+        return super().parse_args(ctx, hoist_global_flags(args))
 
     def list_commands(self, ctx: click.Context) -> list[str]:
         return sorted({*self.commands, *COMMAND_MODULES})
@@ -112,7 +127,8 @@ def main(ctx: click.Context, verbose: int, quiet: bool, debug: bool) -> None:
 
     Files: .npy, .raw (--shape/--dtype), .nii/.nii.gz, .nrrd/.nhdr, .h5:/dataset,
     .tif (multi-page) or a folder of slices, a DICOM folder, VolPack .den, and '-' for
-    standard input/output (npy or vpk streams). Run 'volpack COMMAND --help' for more.
+    standard input/output (npy or vpk streams). Run 'volpack COMMAND --help' for more;
+    -q, -v and --debug may also follow the command.
     """
     ctx.ensure_object(dict)
     ctx.obj.update(quiet=quiet, debug=debug, verbose=verbose)
