@@ -371,13 +371,40 @@ def fit(brick: np.ndarray) -> np.ndarray | None:
     return _solve(xtx, xty)
 
 
+@kernel(nrt=False)
+def _gather_rows(f, steps, idx, x, y):
+    """Row ``r`` of ``x``: the values at ``idx[r] - steps`` (one neighbour a column), and
+    ``y[r] = f[idx[r]]``: the same numbers as stacking the neighbours' windows, written in
+    row order (a stacking writes a column at a time, a stride of K floats apart)."""
+    k = steps.size
+    for r in range(idx.size):
+        i = idx[r]
+        for j in range(k):
+            x[r, j] = f[i - steps[j]]
+        y[r] = f[i]
+
+
+def box_rows(f: np.ndarray, steps: np.ndarray, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The box fit's least-squares rows of the voxels at flat indices ``idx`` of the
+    flattened brick ``f`` (float64): a row of the neighbours at ``steps`` back each, and
+    the targets."""
+    x = np.empty((idx.size, steps.size))
+    y = np.empty(idx.size)
+    _gather_rows(f, steps, idx, x, y)
+    return x, y
+
+
 def fit_box(brick: np.ndarray, shape: tuple[int, int, int]) -> np.ndarray | None:
     """Least-squares weights (float32, :func:`box_offsets` order) of the voxels whose
     whole box ``shape`` exists, on a subset of whole slices (every ``k``-th, about
     :data:`BOX_FIT_ROWS` rows: the normal equations of K columns cost K^2 a row), fitted
     again without the rows whose residual is past :data:`BOX_TRIM` times the median (a
     few values far out, a special value's neighbours in a smooth field, pull the
-    weights of every other voxel); ``None`` as :func:`fit`."""
+    weights of every other voxel); ``None`` as :func:`fit`.
+
+    A slice's rows are gathered once for the normal equations and once for the
+    residuals; the refit gathers only the rows it takes out, and solves again only when
+    there are any (the same equations, the same weights)."""
     rz, ry, rx = shape
     nz, ny, nx = brick.shape
     offsets = box_offsets(rz, ry, rx)
@@ -390,18 +417,25 @@ def fit_box(brick: np.ndarray, shape: tuple[int, int, int]) -> np.ndarray | None
     scale = np.abs(v[finite]).max() if finite.any() else 0.0
     if not scale > 0:
         return None
-    v = v / scale
+    f = (v / scale).reshape(-1)
+    steps = _steps(brick.shape, offsets)
+    plane = (np.arange(ry, ny - ry)[:, None] * nx + np.arange(rx, nx - rx)).reshape(-1)
+    all_finite = bool(finite.all())
 
     def slab(z):
-        x, y = _rows(v, offsets, (z, z + 1), (ry, ny - ry), (rx, nx - rx))
+        """The rows of slice ``z`` with every value finite, and their voxels."""
+        idx = z * ny * nx + plane
+        x, y = box_rows(f, steps, idx)
+        if all_finite:
+            return x, y, idx
         keep = np.isfinite(x).all(axis=1) & np.isfinite(y)
-        return x[keep], y[keep]
+        return x[keep], y[keep], idx[keep]
 
     k = len(offsets)
     zs = range(rz, nz, -(-rows // BOX_FIT_ROWS))
     xtx, xty, used = np.zeros((k, k)), np.zeros(k), 0
     for z in zs:
-        x, y = slab(z)
+        x, y, _ = slab(z)
         xtx += x.T @ x
         xty += x.T @ y
         used += y.size
@@ -409,14 +443,21 @@ def fit_box(brick: np.ndarray, shape: tuple[int, int, int]) -> np.ndarray | None
     if w is None:
         return None
     w = w.astype(np.float64)
-    errs = [np.abs(y - x @ w) for x, y in map(slab, zs)]
+    errs, voxels = [], []
+    for z in zs:
+        x, y, idx = slab(z)
+        errs.append(np.abs(y - x @ w))
+        voxels.append(idx)
     cut = BOX_TRIM * np.median(np.concatenate(errs))
-    for z, e in zip(zs, errs):
-        x, y = slab(z)
-        far = e > cut
-        xtx -= x[far].T @ x[far]
-        xty -= x[far].T @ y[far]
-        used -= int(far.sum())
+    trimmed = 0
+    for e, idx in zip(errs, voxels):
+        x, y = box_rows(f, steps, idx[e > cut])
+        xtx -= x.T @ x.copy()  # a general product (numpy's syrk sums x.T @ x otherwise)
+        xty -= x.T @ y
+        trimmed += y.size
+    if not trimmed:
+        return w.astype(np.float32)
+    used -= trimmed
     return _solve(xtx, xty) if used >= 4 * k else None
 
 
