@@ -25,6 +25,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import datasets  # noqa: E402
+import numpy as np  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -32,7 +33,7 @@ def main(argv: list[str] | None = None) -> int:
     from volpack.volume_codec import floatfit as ff
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("datasets", nargs="+", metavar="NAME")
+    parser.add_argument("datasets", nargs="+", metavar="NAME", help="a dataset or a .npy file")
     parser.add_argument("--blas-threads", type=int, default=0, help="0: the library's default")
     parser.add_argument("--out", type=Path)
     args = parser.parse_args(argv)
@@ -72,7 +73,7 @@ def main(argv: list[str] | None = None) -> int:
     ff.encode = timed(variant, ff.encode)
     rows = []
     for name in args.datasets:
-        a, _, _ = datasets.load(name)
+        a = np.load(name) if name.endswith(".npy") else datasets.load(name)[0]
         api.compress_array(a[:8, :32, :32].copy(), effort="max", workers=1)  # compile
         cpu_t.clear()
         wall_t.clear()
