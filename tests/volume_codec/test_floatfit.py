@@ -288,11 +288,11 @@ def test_box_weights_equal_the_row_matrix_formula():
     assert np.array_equal(got.view(np.uint32), want.view(np.uint32))
 
 
-def test_box_rows_are_the_neighbours_windows():
+def test_fit_rows_are_the_neighbours_windows():
     a = rough((5, 9, 11)).astype(np.float64)
     offs = ff.box_offsets(1, 2, 3)
     idx = np.array([(1 * 9 + 2) * 11 + 3, (4 * 9 + 6) * 11 + 7], np.int64)
-    x, y = ff.box_rows(a.reshape(-1), ff._steps(a.shape, offs), idx)
+    x, y = ff.fit_rows(a.reshape(-1), ff._steps(a.shape, offs), idx)
     for r, (z, yy, xx) in enumerate([(1, 2, 3), (4, 6, 7)]):
         assert y[r] == a[z, yy, xx]
         assert list(x[r]) == [a[z - dz, yy - dy, xx - dx] for dz, dy, dx in offs]

@@ -321,10 +321,27 @@ def _windows(v, offsets, zr, yr, xr) -> tuple[list[np.ndarray], np.ndarray]:
     return cols, v[z0:z1, y0:y1, x0:x1]
 
 
-def _rows(v, offsets, zr, yr, xr) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`_windows` as a row matrix (a column a neighbour) and a target vector."""
-    cols, y = _windows(v, offsets, zr, yr, xr)
-    return np.stack([c.reshape(-1) for c in cols], axis=1), y.reshape(-1)
+@kernel(nrt=False)
+def _gather_rows(f, steps, idx, x, y):
+    """Row ``r`` of ``x``: the values at ``idx[r] - steps`` (one neighbour a column), and
+    ``y[r] = f[idx[r]]``: the same numbers as stacking the neighbours' windows, written in
+    row order (a stacking writes a column at a time, a stride of K floats apart)."""
+    k = steps.size
+    for r in range(idx.size):
+        i = idx[r]
+        for j in range(k):
+            x[r, j] = f[i - steps[j]]
+        y[r] = f[i]
+
+
+def fit_rows(f: np.ndarray, steps: np.ndarray, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The least-squares rows of the voxels at flat indices ``idx`` of the flattened
+    brick ``f`` (float64): a row of the neighbours at ``steps`` back each, and the
+    targets (both fits' rows: five times faster than stacking their windows)."""
+    x = np.empty((idx.size, steps.size))
+    y = np.empty(idx.size)
+    _gather_rows(f, steps, idx, x, y)
+    return x, y
 
 
 def fit(brick: np.ndarray) -> np.ndarray | None:
@@ -354,14 +371,16 @@ def fit(brick: np.ndarray) -> np.ndarray | None:
     scale = max(float(np.abs(a if keep is None else a[keep]).max()) for a in cols + [y])
     if not scale > 0:
         return None
-    per_slice = (ny - 3) * (nx - 3)
-    step = max(1, FIT_CHUNK_ROWS // per_slice)
+    plane = (np.arange(2, ny - 1)[:, None] * nx + np.arange(2, nx - 1)).reshape(-1)
+    step = max(1, FIT_CHUNK_ROWS // plane.size)
+    f, steps = v.reshape(-1), _steps(brick.shape)
     xtx = np.zeros((NFIT, NFIT))
     xty = np.zeros(NFIT)
     with np.errstate(all="ignore"):
         for z0 in range(2, nz, step):
             z1 = min(nz, z0 + step)
-            x, yc = _rows(v, FIT_OFFSETS, (z0, z1), *inner)
+            idx = (np.arange(z0, z1)[:, None] * (ny * nx) + plane).reshape(-1)
+            x, yc = fit_rows(f, steps, idx)
             if keep is not None:
                 k = keep[z0 - 2 : z1 - 2].reshape(-1)
                 x, yc = x[k], yc[k]
@@ -369,29 +388,6 @@ def fit(brick: np.ndarray) -> np.ndarray | None:
             xtx += x.T @ x
             xty += x.T @ yc
     return _solve(xtx, xty)
-
-
-@kernel(nrt=False)
-def _gather_rows(f, steps, idx, x, y):
-    """Row ``r`` of ``x``: the values at ``idx[r] - steps`` (one neighbour a column), and
-    ``y[r] = f[idx[r]]``: the same numbers as stacking the neighbours' windows, written in
-    row order (a stacking writes a column at a time, a stride of K floats apart)."""
-    k = steps.size
-    for r in range(idx.size):
-        i = idx[r]
-        for j in range(k):
-            x[r, j] = f[i - steps[j]]
-        y[r] = f[i]
-
-
-def box_rows(f: np.ndarray, steps: np.ndarray, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The box fit's least-squares rows of the voxels at flat indices ``idx`` of the
-    flattened brick ``f`` (float64): a row of the neighbours at ``steps`` back each, and
-    the targets."""
-    x = np.empty((idx.size, steps.size))
-    y = np.empty(idx.size)
-    _gather_rows(f, steps, idx, x, y)
-    return x, y
 
 
 def fit_box(brick: np.ndarray, shape: tuple[int, int, int]) -> np.ndarray | None:
@@ -425,7 +421,7 @@ def fit_box(brick: np.ndarray, shape: tuple[int, int, int]) -> np.ndarray | None
     def slab(z):
         """The rows of slice ``z`` with every value finite, and their voxels."""
         idx = z * ny * nx + plane
-        x, y = box_rows(f, steps, idx)
+        x, y = fit_rows(f, steps, idx)
         if all_finite:
             return x, y, idx
         keep = np.isfinite(x).all(axis=1) & np.isfinite(y)
@@ -451,7 +447,7 @@ def fit_box(brick: np.ndarray, shape: tuple[int, int, int]) -> np.ndarray | None
     cut = BOX_TRIM * np.median(np.concatenate(errs))
     trimmed = 0
     for e, idx in zip(errs, voxels):
-        x, y = box_rows(f, steps, idx[e > cut])
+        x, y = fit_rows(f, steps, idx[e > cut])
         xtx -= x.T @ x.copy()  # a general product (numpy's syrk sums x.T @ x otherwise)
         xty -= x.T @ y
         trimmed += y.size
