@@ -1,6 +1,6 @@
 """The float box fit's encoder (``effort="max"``) before and after, in one process: the
-``fit_box`` of an older tree's ``floatfit.py`` (loaded beside this tree's, the rest of the
-codec shared) against this tree's, ``api.compress_array(a, effort="max", workers=1)``
+``fit`` and ``fit_box`` of an older tree's ``floatfit.py`` (loaded beside this tree's, the
+rest of the codec shared) against this tree's, ``api.compress_array(a, effort="max", workers=1)``
 timed in CPU seconds with the two alternating, best of ``--repeat``; the files compared
 byte for byte and decoded bit for bit; the peak traced memory (tracemalloc) of one more
 encode each. With ``--default-box``, also what the box would cost and give in the
@@ -37,8 +37,9 @@ def cpu(fn):
     return time.process_time() - t, out
 
 
-def old_fit_box(tree: Path):
-    """``fit_box`` of ``tree``'s ``floatfit.py``, as a module of this tree's package."""
+def old_fits(tree: Path):
+    """``fit`` and ``fit_box`` of ``tree``'s ``floatfit.py``, as a module of this tree's
+    package."""
     name = "volpack.volume_codec.floatfit_before"
     spec = importlib.util.spec_from_file_location(
         name, tree / "volpack" / "volume_codec" / "floatfit.py"
@@ -46,7 +47,7 @@ def old_fit_box(tree: Path):
     mod = importlib.util.module_from_spec(spec)
     sys.modules[name] = mod
     spec.loader.exec_module(mod)
-    return mod.fit_box
+    return mod.fit, mod.fit_box
 
 
 def traced_peak(fn) -> float:
@@ -75,7 +76,7 @@ def main(argv: list[str] | None = None) -> int:
         from threadpoolctl import threadpool_limits
 
         threadpool_limits(args.blas_threads)
-    fits = {"before": old_fit_box(args.before), "after": ff.fit_box}
+    fits = {"before": old_fits(args.before), "after": (ff.fit, ff.fit_box)}
     args.out.parent.mkdir(parents=True, exist_ok=True)
     new_file = not args.out.exists()
     with open(args.out, "a", newline="") as fh:
@@ -98,7 +99,7 @@ def main(argv: list[str] | None = None) -> int:
             blobs, peaks = {}, {}
 
             def setup(k):
-                ff.fit_box = fits["before"] if k == "before" else fits["after"]
+                ff.fit, ff.fit_box = fits["before"] if k == "before" else fits["after"]
                 lossless.BOX_VERSION = 8 if k == "v8+box" else 10
 
             try:
