@@ -7,7 +7,8 @@ workers=1)``, by wrapping :mod:`volpack.volume_codec.floatfit`'s functions with 
         --out results/lossless/boxfast22/stages.csv
 
 Stages: ``fit`` (the 23 weights), ``fit_box`` (the box's normal equations, residuals,
-trimmed refit, less the two below), ``rows`` (building row matrices), ``solve``
+trimmed refit, less the two below), ``rows`` (building row matrices: the 23-weight
+fit's before session 22, both fits' after), ``solve``
 (``_solve``), ``encode:<variant>`` (the residual coding of one stream), ``other``
 (everything else: Lorenzo, lattice, blend, zstd, the container).
 """
@@ -68,7 +69,8 @@ def main(argv: list[str] | None = None) -> int:
 
     ff.fit = timed(lambda a, k: "fit", ff.fit)
     ff.fit_box = timed(lambda a, k: "fit_box", ff.fit_box)
-    ff._rows = timed(lambda a, k: "rows", ff._rows)
+    rows_fn = "fit_rows" if hasattr(ff, "fit_rows") else "_rows"  # (the tree before: _rows)
+    setattr(ff, rows_fn, timed(lambda a, k: "rows", getattr(ff, rows_fn)))
     ff._solve = timed(lambda a, k: "solve", ff._solve)
     ff.encode = timed(variant, ff.encode)
     rows = []
