@@ -1154,14 +1154,7 @@ def float_fit_residuals(a, face, w, box=None):
 
     if box is not None:
         (rz, ry, rx), wb = box
-        offsets = []  # farthest first: dz, then dy, then dx from the largest down
-        for dz in reversed(range(rz + 1)):
-            for dy in reversed(range(-ry, ry + 1)):
-                for dx in reversed(range(-rx, rx + 1)):
-                    causal = dz > 0 or dy > 0 or (dy == 0 and dx > 0)
-                    if causal and (dz, dy, dx) != (0, 0, 1):
-                        offsets.append((dz, dy, dx))
-        offsets.append((0, 0, 1))  # W last
+        offsets = float_box_offsets(rz, ry, rx)
         assert len(offsets) == len(wb)
     out = lor.copy()
     with np.errstate(all="ignore"):
@@ -1179,3 +1172,79 @@ def float_fit_residuals(a, face, w, box=None):
                     p = int(float_signed_image(np.array([q]).astype(a.dtype))[0])
                     out[z, y, x] = (s[z, y, x] - p + (1 << (b - 1))) % (1 << b) - (1 << (b - 1))
     return out
+
+
+def float_box_offsets(rz, ry, rx):
+    """The box fit's neighbours as ``formats/lossless-1.md`` step 10 lists them: every
+    causal (dz, dy, dx) within the box, farthest first (dz, then dy, then dx from the
+    largest down), W = (0, 0, 1) moved to the end."""
+    offsets = []
+    for dz in reversed(range(rz + 1)):
+        for dy in reversed(range(-ry, ry + 1)):
+            for dx in reversed(range(-rx, rx + 1)):
+                causal = dz > 0 or dy > 0 or (dy == 0 and dx > 0)
+                if causal and (dz, dy, dx) != (0, 0, 1):
+                    offsets.append((dz, dy, dx))
+    return offsets + [(0, 0, 1)]
+
+
+def float_box_weights(a, shape, max_rows=1 << 16, trim=16):
+    """The box fit's weights by the row-matrix formula of session 21: per sampled slice
+    (every k-th from ``rz``, about ``max_rows`` rows in all) a matrix stacked from the
+    neighbours' windows, rows with a value that is not finite dropped; the normal
+    equations (``x.T @ x``, ``x.T @ y``) summed, solved by ``lstsq``; then each slice's
+    rows built again, those with a residual past ``trim`` medians taken out of the sums
+    (``x[far].T @ x[far]``) and the equations solved again. The same numpy calls on the
+    same numbers as the encoder, so the same float32 weights bit for bit."""
+    import numpy as np
+
+    rz, ry, rx = shape
+    nz, ny, nx = a.shape
+    offsets = float_box_offsets(rz, ry, rx)
+    k = len(offsets)
+    count = (nz - rz) * (ny - 2 * ry) * (nx - 2 * rx)
+    if nz <= rz or ny <= 2 * ry or nx <= 2 * rx or count < 4 * k:
+        return None
+    with np.errstate(invalid="ignore"):
+        v = a.astype(np.float64)
+    ok = np.isfinite(v)
+    top = np.abs(v[ok]).max() if ok.any() else 0.0
+    if not top > 0:
+        return None
+    v = v / top
+
+    def matrix(z):
+        cols = [v[z - dz, ry - dy : ny - ry - dy, rx - dx : nx - rx - dx].reshape(-1)
+                for dz, dy, dx in offsets]  # fmt: skip
+        x = np.stack(cols, axis=1)
+        y = v[z, ry : ny - ry, rx : nx - rx].reshape(-1)
+        good = np.isfinite(x).all(axis=1) & np.isfinite(y)
+        return x[good], y[good]
+
+    def solve(m, b):
+        with np.errstate(all="ignore"):
+            try:
+                sol = np.linalg.lstsq(m, b, rcond=None)[0].astype(np.float32)
+            except np.linalg.LinAlgError:
+                return None
+        return sol if np.isfinite(sol).all() else None
+
+    slices = list(range(rz, nz, -(-count // max_rows)))
+    m, b, n = np.zeros((k, k)), np.zeros(k), 0
+    for z in slices:
+        x, y = matrix(z)
+        m += x.T @ x
+        b += x.T @ y
+        n += len(y)
+    sol = solve(m, b) if n >= 4 * k else None
+    if sol is None:
+        return None
+    w = sol.astype(np.float64)
+    res = [np.abs(y - x @ w) for x, y in map(matrix, slices)]
+    cut = trim * np.median(np.concatenate(res))
+    for z, r in zip(slices, res):
+        x, y = matrix(z)
+        m -= x[r > cut].T @ x[r > cut]
+        b -= x[r > cut].T @ y[r > cut]
+        n -= int((r > cut).sum())
+    return solve(m, b) if n >= 4 * k else None

@@ -258,6 +258,46 @@ def test_box_residuals_match_the_naive_reference(shape3):
         assert np.array_equal(kernel_residuals(a, face, w, (shape3, wb)), want)
 
 
+def test_box_weights_equal_the_row_matrix_formula():
+    """The rows gathered once per pass, the refit gathering only the rows it takes out:
+    the same numpy sums on the same numbers as the stacked row matrices, so the same
+    weights bit for bit (with special values, which drop rows, and with a trimmed refit
+    on the smooth waves)."""
+    from naive import float_box_offsets, float_box_weights
+
+    cases = [
+        (with_specials(rough((6, 20, 22))), (1, 3, 3)),
+        (with_specials(rough((6, 20, 22))), (2, 4, 2)),
+        (rough((9, 30, 34), seed=3), (1, 7, 7)),
+        (wide(), (1, 7, 7)),
+        (wide(), (1, 10, 10)),
+    ]
+    for a, shape3 in cases:
+        want = float_box_weights(a, shape3, max_rows=ff.BOX_FIT_ROWS, trim=ff.BOX_TRIM)
+        got = ff.fit_box(a, shape3)
+        assert want is not None and got.dtype == np.float32
+        assert np.array_equal(got.view(np.uint32), want.view(np.uint32))
+    assert ff.box_offsets(3, 2, 4) == float_box_offsets(3, 2, 4)
+    # more rows than a fit takes: every 8th slice, as the formula samples them
+    a = rough((12, 40, 44), seed=5)
+    want = float_box_weights(a, (1, 3, 3), max_rows=2000, trim=ff.BOX_TRIM)
+    import unittest.mock
+
+    with unittest.mock.patch.object(ff, "BOX_FIT_ROWS", 2000):
+        got = ff.fit_box(a, (1, 3, 3))
+    assert np.array_equal(got.view(np.uint32), want.view(np.uint32))
+
+
+def test_fit_rows_are_the_neighbours_windows():
+    a = rough((5, 9, 11)).astype(np.float64)
+    offs = ff.box_offsets(1, 2, 3)
+    idx = np.array([(1 * 9 + 2) * 11 + 3, (4 * 9 + 6) * 11 + 7], np.int64)
+    x, y = ff.fit_rows(a.reshape(-1), ff._steps(a.shape, offs), idx)
+    for r, (z, yy, xx) in enumerate([(1, 2, 3), (4, 6, 7)]):
+        assert y[r] == a[z, yy, xx]
+        assert list(x[r]) == [a[z - dz, yy - dy, xx - dx] for dz, dy, dx in offs]
+
+
 def test_box_offsets_are_causal_and_w_last():
     for shape3 in [(1, 1, 1), (1, 7, 7), (3, 15, 15)]:
         offs = ff.box_offsets(*shape3)
