@@ -22,6 +22,24 @@ T = TypeVar("T")
 R = TypeVar("R")
 
 
+@contextlib.contextmanager
+def one_blas_thread():
+    """Run the body (or the decorated function) with BLAS on one thread.
+
+    OpenBLAS splits a matrix product over its threads, and the split changes the order
+    of the sums: a fit's normal equations, and so its float32 weights and the file, then
+    depend on the machine's core count (the effort-max box fit of the CAM wind gave
+    247,443 bytes on one BLAS thread and 247,440 on two). The encoders' entry points run
+    under this guard, so their fits sum in one order on any machine with the same BLAS
+    build; volpack's parallelism is its own workers. threadpoolctl lets only the thread
+    that set a limit change it: the outermost guard (the caller's thread) holds it for
+    the workers it starts, and guards met inside them change nothing."""
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1, user_api="blas"):
+        yield
+
+
 def default_workers() -> int:
     """Cores this process may use."""
     try:

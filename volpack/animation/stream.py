@@ -35,6 +35,7 @@ from ..errors import FormatError, OptionError
 from ..format.checked import CheckedReader
 from ..jsonsafe import jsonable
 from ..metrics import psnr_from_sse, throughput
+from ..parallel import one_blas_thread
 from ..volume import Volume
 from ..volume_codec import bricks
 from . import gop, motion, specials
@@ -52,6 +53,7 @@ ANIMATION_DTYPES = ("uint8", "int8", "uint16", "int16", "float32", "float64")
 Progress = Callable[[int, int], None]
 
 
+@one_blas_thread()
 def compress(
     source: Any,
     target: str | BinaryIO,

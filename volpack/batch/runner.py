@@ -17,6 +17,7 @@ from typing import Any
 from ..errors import OptionError
 from ..jsonsafe import jsonable
 from ..metrics import throughput
+from ..parallel import one_blas_thread
 from .convert import convert_one, one_line
 from .journal import Journal, input_stat, is_done
 from .planning import READ_KEYS, BatchError, Task
@@ -66,6 +67,7 @@ def estimate_nbytes(task: Task) -> int:
         return 0
 
 
+@one_blas_thread()
 def run(
     tasks: Iterable[Task],
     *,

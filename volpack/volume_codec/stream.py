@@ -28,7 +28,7 @@ from ..format.describe import describe
 from ..format.streams import stdin
 from ..jsonsafe import jsonable
 from ..metrics import psnr_from_sse, throughput
-from ..parallel import completed_map, ordered_map, parse_workers
+from ..parallel import completed_map, one_blas_thread, ordered_map, parse_workers
 from ..volume import Volume, require_voxels
 from . import bricks
 from .codec import WAVELET_DTYPES, WaveletCodec, ZstdCodec
@@ -78,6 +78,7 @@ def make_codec(codec: str = "auto", dtype: Any = None, **options: Any):
     )
 
 
+@one_blas_thread()
 def compress(
     source: Volume | np.ndarray | str,
     target: str | BinaryIO,
