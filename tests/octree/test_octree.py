@@ -297,6 +297,7 @@ def test_tf_errors_and_ranges_match_a_node_by_node_reference():
     tf = TransferFunction(((0.0, 0, 0, 0, 0.0), (60.0, 0.2, 0.1, 0.0, 0.0), (90.0, 1, 0.8, 0.6, 0.3),
                            (91.0, 1, 1, 1, 0.9), (255.0, 0.5, 0.5, 1, 0.6)))  # fmt: skip
     lo, hi = rng.uniform(0, 255, 40), rng.uniform(0, 255, 40)  # either order
+    lo[:4], hi[4:8], hi[8] = (60.0, 90.0, 91.0, 0.0), (91.0, 90.0, 255.0, 60.0), lo[8]  # ends on points
     cmin, cmax = sel.tf_ranges(tf, lo, hi)
     for i in range(40):
         rmin, rmax = naive_octree.tf_range(tf.points, lo[i], hi[i])
