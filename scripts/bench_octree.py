@@ -4,7 +4,7 @@ Reproduces the measurements of seed-004 §2.3.8 that a CPU can make (digest §12
 
 1. **build** - synthetic CT-like volumes (air around a body of nested ellipsoids with
    smooth texture and noise; uint16) of growing size, written to ``.npy`` without holding
-   them in memory, each built by a fresh child process (``volpack.octree.build`` from the
+   them in memory, each built by a fresh child process (``volpack.octree.builder`` from the
    file, read box by box). Columns: MB/s, ratio, peak resident memory of the child
    (``ru_maxrss``) and, with ``--limit-mb``, the address-space limit the child ran under.
 2. **first view** - bytes read and seconds to open the file and decode the first level

@@ -1248,3 +1248,30 @@ def float_box_weights(a, shape, max_rows=1 << 16, trim=16):
         b -= x[r > cut].T @ y[r > cut]
         n -= int((r > cut).sum())
     return solve(m, b) if n >= 4 * k else None
+
+
+# --- render: 8-bit output ---
+
+
+def render_rgb8(rgba, background=(0.0, 0.0, 0.0)):
+    """Pre-multiplied RGBA over ``background``, pixel by pixel in float32 as the writer
+    composites it: NaN as 0, each channel clipped to [0, 1], scaled to 255, rounded half
+    to even."""
+    import math
+
+    import numpy as np
+
+    f32 = np.float32
+    h, w = rgba.shape[:2]
+    out = np.zeros((h, w, 3), np.uint8)
+    for i in range(h):
+        for j in range(w):
+            a = f32(rgba[i, j, 3])
+            a = f32(0.0) if math.isnan(a) else min(max(a, f32(0.0)), f32(1.0))
+            for c in range(3):
+                v = f32(rgba[i, j, c])
+                v = f32(0.0) if math.isnan(v) else v
+                v = f32(v + f32(f32(1.0) - a) * f32(background[c]))
+                v = min(max(v, f32(0.0)), f32(1.0))
+                out[i, j, c] = int(np.rint(f32(v * f32(255.0))))
+    return out

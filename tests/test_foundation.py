@@ -214,6 +214,48 @@ def test_numba_config_file_read_with_yaml_imported_on_demand(tmp_path):
     assert out.stdout.split("\n")[:2] == ["True 1", "True 1"]  # the file left by the first run
 
 
+_EXTENSIONS = """
+import sys
+import volpack._jit as j
+j.numba.core.entrypoints.init_all()  # what numba calls before a kernel's first compile or load
+print("importlib.metadata" in sys.modules, j.numba.core.entrypoints._already_initialized)
+"""
+
+
+def _numba_extensions_run(tmp_path, extra_path=None):
+    import volpack
+
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+        [os.path.dirname(os.path.dirname(volpack.__file__))] + ([str(extra_path)] if extra_path else [])))  # fmt: skip
+    out = subprocess.run([sys.executable, "-c", _EXTENSIONS], cwd=tmp_path, capture_output=True,
+                         text=True, check=True, env=env)  # fmt: skip
+    return out.stdout.split("\n")[0]
+
+
+def test_numba_extensions_listed_without_importlib_metadata_where_none_is_declared(tmp_path):
+    # numba lists the numba_extensions entry points of every distribution before its
+    # first compile or load (importlib.metadata: 11 ms to import, 3 ms to list); where no
+    # entry_points.txt names the group, the listing is empty without it
+    from importlib import metadata
+
+    if metadata.entry_points().select(group="numba_extensions"):
+        pytest.skip("a numba extension is installed here")
+    assert _numba_extensions_run(tmp_path) == "False True"
+
+
+def test_numba_extension_declared_by_a_distribution_is_still_loaded(tmp_path):
+    # a distribution on the path that declares one: numba lists and runs it as before
+    dist = tmp_path / "site" / "fakeext-1.0.dist-info"
+    dist.mkdir(parents=True)
+    (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: fakeext\nVersion: 1.0\n")
+    (dist / "entry_points.txt").write_text("[numba_extensions]\ninit = fakeext:init\n")
+    mark = tmp_path / "loaded"
+    (tmp_path / "site" / "fakeext.py").write_text(
+        f"def init():\n    open({str(mark)!r}, 'w').write('ok')\n")  # fmt: skip
+    assert _numba_extensions_run(tmp_path, tmp_path / "site") == "True True"
+    assert mark.read_text() == "ok"
+
+
 def test_llvm_lock_events_quiet_on_this_thread_only():
     # a kernel's load calls into LLVM hundreds of times without numba's llvm_lock events
     # (QUIET_LLVM); other threads, and this one outside it, still broadcast them

@@ -297,6 +297,7 @@ def test_tf_errors_and_ranges_match_a_node_by_node_reference():
     tf = TransferFunction(((0.0, 0, 0, 0, 0.0), (60.0, 0.2, 0.1, 0.0, 0.0), (90.0, 1, 0.8, 0.6, 0.3),
                            (91.0, 1, 1, 1, 0.9), (255.0, 0.5, 0.5, 1, 0.6)))  # fmt: skip
     lo, hi = rng.uniform(0, 255, 40), rng.uniform(0, 255, 40)  # either order
+    lo[:4], hi[4:8], hi[8] = (60.0, 90.0, 91.0, 0.0), (91.0, 90.0, 255.0, 60.0), lo[8]  # ends on points
     cmin, cmax = sel.tf_ranges(tf, lo, hi)
     for i in range(40):
         rmin, rmax = naive_octree.tf_range(tf.points, lo[i], hi[i])
@@ -450,7 +451,7 @@ def test_same_bytes_any_worker_count_and_from_files(vol, blob, tmp_path):
 def test_super_bricks_give_the_same_tree_as_one_task(vol, blob, monkeypatch):
     import importlib
 
-    build_mod = importlib.import_module("volpack.octree.build")
+    build_mod = importlib.import_module("volpack.octree.builder")
 
     monkeypatch.setattr(build_mod, "SUPER_BRICK", 8)  # s = 1: many tasks, deep top
     many = _build(vol, block=4)
@@ -599,7 +600,7 @@ def test_axis_weights_equal_the_numpy_steps():
 def test_reading_an_integer_tree_imports_no_codec_it_does_not_use(tmp_path):
     # an integer tree stores no codec: opening it and decoding its levels needs neither
     # the codec registry, nor the lossy codec, nor the entropy coders other than its own
-    # (they were 50-65 ms of a walk's start)
+    # (they were 50-65 ms of a walk's start), nor the builder (10 ms)
     import subprocess
     import sys
 
@@ -615,5 +616,26 @@ def test_reading_an_integer_tree_imports_no_codec_it_does_not_use(tmp_path):
                          text=True, check=True).stdout.split()  # fmt: skip
     assert "volpack.entropy.arith" in out  # the tree's coder: the check can fail
     for unused in ("volpack.volume_codec.registry", "volpack.volume_codec.lossy",
-                   "volpack.entropy.arith2", "volpack.entropy.static"):  # fmt: skip
+                   "volpack.entropy.arith2", "volpack.entropy.static",
+                   "volpack.octree.builder", "volpack.metrics"):  # fmt: skip
         assert unused not in out
+
+
+def test_octree_build_stays_the_function_once_the_builder_is_imported():
+    # the package hands out build() on first use; importing the builder module (as
+    # octree.stream does) must not put the module in its place
+    import subprocess
+    import sys
+
+    code = (
+        "import volpack.octree as o, volpack.octree.builder as b, volpack.octree.stream\n"
+        "from volpack.octree import build\n"
+        "assert build is b.build and o.build is b.build and callable(build), build\n"
+        "from volpack.octree import *\n"
+        "try:\n"
+        "    o.nothing\n"
+        "except AttributeError:\n"
+        "    print('ok')\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["ok"]

@@ -372,6 +372,28 @@ def test_isosurface_of_a_sphere_is_a_disc_of_its_radius():
 # --------------------------------------------------------------------------- images, CLI
 
 
+@pytest.mark.parametrize("background", [(0.0, 0.0, 0.0), (1.0, 1.0, 1.0), (0.2, 0.7, 0.0)])
+def test_rgb8_matches_the_pixel_by_pixel_composite(background):
+    # NaN, infinities, -0.0, out-of-range values and exact rounding ties, float64 input too
+    from naive import render_rgb8
+
+    rng = np.random.default_rng(7)
+    for dtype in (np.float32, np.float64):
+        a = (rng.standard_normal((9, 11, 4)) * 1.5).astype(dtype)
+        m = rng.random(a.shape)
+        a[m < 0.06] = np.nan
+        a[(m >= 0.06) & (m < 0.1)] = np.inf
+        a[(m >= 0.1) & (m < 0.13)] = -np.inf
+        a[(m >= 0.13) & (m < 0.16)] = -0.0
+        ties = (m >= 0.16) & (m < 0.3)
+        a[ties] = (rng.integers(0, 255, ties.sum()) + 0.5) / 255
+        before = a.copy()
+        got = to_rgb8(a, background)
+        assert got.dtype == np.uint8 and got.shape == (9, 11, 3)
+        np.testing.assert_array_equal(got, render_rgb8(a, background))
+        np.testing.assert_array_equal(a, before)  # the caller's image is left alone
+
+
 def test_png_output_and_colour_bar(tmp_path):
     rgba = np.zeros((10, 12, 4), np.float32)
     rgba[2:5, 3:7] = (0.5, 0.25, 0.0, 0.5)

@@ -28,12 +28,12 @@ def compress(
 ) -> dict[str, Any]:
     """Build the octree of ``source`` (an array, a Volume, or a volume file spec read box
     by box with ``read_options``) into the seekable file ``target``; ``options`` are those
-    of :func:`volpack.octree.build.build`, which lists them and the returned summary.
+    of :func:`volpack.octree.builder.build`, which lists them and the returned summary.
     Lossless, or within ``max_error``: the other lossy settings are refused."""
     import inspect
 
     from ..format.atomic import check_output
-    from .build import build
+    from .builder import build
 
     accepted = set(inspect.signature(build).parameters) - {"source", "target", "force"}
     given = [k for k in REFUSED if options.get(k) is not None]

@@ -27,9 +27,14 @@ def to_rgb8(rgba: np.ndarray, background: Sequence[float] = (0.0, 0.0, 0.0)) -> 
     bg = np.asarray(background, dtype=np.float32)
     if bg.shape != (3,) or not np.all((bg >= 0) & (bg <= 1)):
         raise VolpackError(f"expected a background (r, g, b) in [0, 1], found {background}")
-    alpha = np.clip(np.nan_to_num(a[..., 3:4]), 0.0, 1.0)
-    rgb = np.nan_to_num(a[..., :3]) + (1.0 - alpha) * bg
-    return np.rint(np.clip(rgb, 0.0, 1.0) * 255.0).astype(np.uint8)
+    # one float32 copy worked in place (a 512x512 frame: 10 -> 4 ms, on every frame of
+    # a walk's critical path); NaN counts as 0, infinities clip, as nan_to_num had them
+    rgb = np.nan_to_num(a[..., :3])  # a copy: the caller's image is left alone
+    if bg.any():  # over black the composite adds zeros (only a -0.0 would turn +0.0)
+        rgb += (1.0 - np.clip(np.nan_to_num(a[..., 3:4]), 0.0, 1.0)) * bg
+    np.clip(rgb, 0.0, 1.0, out=rgb)
+    rgb *= 255.0
+    return np.rint(rgb, out=rgb).astype(np.uint8)
 
 
 def colorbar(table: np.ndarray, width: int, height: int) -> np.ndarray:
