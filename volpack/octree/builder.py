@@ -33,7 +33,7 @@ import numpy as np
 from .._jit import kernel
 from ..errors import FormatError, OptionError
 from ..metrics import psnr_from_sse, throughput
-from ..parallel import ordered_map, parse_workers
+from ..parallel import one_blas_thread, ordered_map, parse_workers
 from . import layout
 from .layout import Geometry
 from .plan import Plan, encode_lowpass, to_values
@@ -259,6 +259,7 @@ def _node_stats(values: np.ndarray, mn: np.ndarray, mx: np.ndarray, row: np.ndar
     row["hist"][0, :, 1] = layout.f4_up(hist[:, 1])
 
 
+@one_blas_thread()
 def build(
     source: Any,
     target: Any,
