@@ -35,6 +35,27 @@ MAX_STEPS = 14
 TUCKER_MIN_VOXELS = 1 << 16
 
 
+def exact_bound(vol, asked: dict[str, float], fill_value: float | None, effort: str) -> bool:
+    """Whether ``asked`` is an error bound under 1 on integer voxels (``max_error``, or
+    ``rel_error`` of the value range), which no coding but the exact one meets: the
+    lossless codec then codes the volume (with ``effort`` 'default' or 'max'), as it would
+    without the bound, rather than the bounded codec's quantised voxels at its faster
+    predictive version (3 % longer on an 8-bit scan)."""
+    if vol.dtype.kind not in "iu" or effort == "fast" or len(asked) != 1:
+        return False
+    ((what, target),) = asked.items()
+    if what not in ("max_error", "rel_error"):
+        return False
+    try:
+        e = float(target)
+    except (TypeError, ValueError):
+        return False
+    if what == "rel_error" and math.isfinite(e):
+        lo, hi = value_range(vol.data, fill_value)
+        e *= hi - lo
+    return math.isfinite(e) and 0 <= e < 1
+
+
 def value_range(data: np.ndarray, fill_value: float | None) -> tuple[float, float]:
     """Smallest and largest valid voxel (finite, not the fill value), slab by slab so a
     memory-mapped volume is never loaded whole."""

@@ -211,6 +211,12 @@ def compress(
     if len(asked) > 1:
         found = ", ".join(f"{k}={v}" for k, v in sorted(asked.items()))
         raise OptionError(f"expected at most one lossy setting, found {found}")
+    if asked and codec in ("auto", "lossless") and not any(inner.values()):
+        from .search import exact_bound
+
+        if exact_bound(vol, asked, fill_value, effort):
+            log.info("an error bound under 1 on integer voxels: coded exactly")
+            asked = {}
     if brick is None:
         bounded = bool(asked) and not ({"quality", "threshold"} & set(asked))
         brick = bricks.default_brick(vol.shape, vol.dtype, bounded, codec, bool(asked))
