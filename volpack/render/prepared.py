@@ -36,6 +36,7 @@ import numpy as np
 from .._jit import kernel, read_only
 from ..errors import VolpackError
 from ..parallel import ordered_map
+from ..volume import require_voxels
 from .normals import NormalCodes
 
 #: Bytes the per-voxel gradient volume may take (see the module docstring).
@@ -265,8 +266,7 @@ def unpack_volume(volume, spacing):
     data = np.asarray(volume)
     if data.ndim != 3:
         raise VolpackError(f"expected a 3-D (z, y, x) array, found shape {data.shape}")
-    if data.size == 0:
-        raise VolpackError(f"expected a non-empty volume, found shape {data.shape}")
+    require_voxels(data.shape)
     if not (np.issubdtype(data.dtype, np.number) or data.dtype == bool):
         raise VolpackError(f"expected numeric voxels, found dtype {data.dtype}")
     if np.iscomplexobj(data):

@@ -35,25 +35,33 @@ MAX_STEPS = 14
 TUCKER_MIN_VOXELS = 1 << 16
 
 
-def exact_bound(vol, asked: dict[str, float], fill_value: float | None, effort: str) -> bool:
+def absolute_bound(what: str, target: float, rng: float) -> float:
+    """The error bound in value units: ``max_error`` as it is, ``rel_error`` times the
+    value range ``rng``."""
+    return float(target) * (rng if what == "rel_error" else 1.0)
+
+
+def exact_bound(
+    vol, asked: dict[str, float], fill_value: float | None, effort: str
+) -> tuple[bool, tuple[float, float] | None]:
     """Whether ``asked`` is an error bound under 1 on integer voxels (``max_error``, or
     ``rel_error`` of the value range), which no coding but the exact one meets: the
     lossless codec then codes the volume (with ``effort`` 'default' or 'max'), as it would
     without the bound, rather than the bounded codec's quantised voxels at its faster
-    predictive version (3 % longer on an 8-bit scan)."""
+    predictive version (3 % longer on an 8-bit scan). Also the value range when it was
+    read (for :func:`plan`, so that the volume is scanned once)."""
     if vol.dtype.kind not in "iu" or effort == "fast" or len(asked) != 1:
-        return False
+        return False, None
     ((what, target),) = asked.items()
     if what not in ("max_error", "rel_error"):
-        return False
+        return False, None
     try:
-        e = float(target)
+        float(target)
     except (TypeError, ValueError):
-        return False
-    if what == "rel_error" and math.isfinite(e):
-        lo, hi = value_range(vol.data, fill_value)
-        e *= hi - lo
-    return math.isfinite(e) and 0 <= e < 1
+        return False, None
+    known = value_range(vol.data, fill_value) if what == "rel_error" else None
+    e = absolute_bound(what, target, known[1] - known[0] if known else 1.0)
+    return math.isfinite(e) and 0 <= e < 1, known
 
 
 def value_range(data: np.ndarray, fill_value: float | None) -> tuple[float, float]:
@@ -118,15 +126,17 @@ def plan(
     fill_value: float | None,
     inner: dict[str, Any],
     effort: str = "default",
+    known_range: tuple[float, float] | None = None,
 ) -> tuple[Any, dict[str, Any] | None]:
     """Return ``(codec, search record or None)`` for one lossy setting in ``asked``;
-    ``effort`` is the error-bounded encoder's (:class:`BoundedCodec`)."""
+    ``effort`` is the error-bounded encoder's (:class:`BoundedCodec`); ``known_range``
+    the valid voxels' range if already read (:func:`value_range`)."""
     ((what, target),) = asked.items()
     dtype = vol.dtype
     if dtype.kind not in "iuf":
         raise OptionError(f"expected integer or float voxels, found {dtype}")
     check_choice("effort", effort, EFFORTS)
-    lo, hi = value_range(vol.data, fill_value)
+    lo, hi = known_range if known_range is not None else value_range(vol.data, fill_value)
     rng = hi - lo
     inner = {k: v for k, v in inner.items() if v is not None}
     bounded_path = what in ("max_error", "rel_error") or (
@@ -156,7 +166,7 @@ def plan(
         return BoundedCodec.plan(dtype, lo, hi, e, grid, fill=fill_value, effort=effort, **inner)
 
     if what in ("max_error", "rel_error"):
-        e = float(target) * (rng if what == "rel_error" else 1.0)
+        e = absolute_bound(what, target, rng)
         if not (e >= 0 and math.isfinite(e)):
             raise OptionError(f"expected a non-negative finite {what}, found {target!r}")
         if e == 0 and dtype.kind == "f":

@@ -211,10 +211,12 @@ def compress(
     if len(asked) > 1:
         found = ", ".join(f"{k}={v}" for k, v in sorted(asked.items()))
         raise OptionError(f"expected at most one lossy setting, found {found}")
+    known_range = None  # the valid voxels' range, once read
     if asked and codec in ("auto", "lossless") and not any(inner.values()):
         from .search import exact_bound
 
-        if exact_bound(vol, asked, fill_value, effort):
+        exact, known_range = exact_bound(vol, asked, fill_value, effort)
+        if exact:
             log.info("an error bound under 1 on integer voxels: coded exactly")
             asked = {}
     if brick is None:
@@ -229,7 +231,9 @@ def compress(
     if asked:
         from . import search as lossy_plan
 
-        c, search = lossy_plan.plan(vol, brick_t, nworkers, asked, fill_value, inner, effort)
+        c, search = lossy_plan.plan(
+            vol, brick_t, nworkers, asked, fill_value, inner, effort, known_range
+        )
     else:
         if effort == "max":
             from .lossless import BOX_VERSION
@@ -312,17 +316,13 @@ def compress(
             "ratio": vol.nbytes / max(nbytes, 1),
             **quality_stats,
         }
-        # measured figures to 6 significant digits (as `volpack info` shows them): the 17
-        # of a float64 cost ~30 bytes of a small file; max_error stays exact (the bound held)
-        for key in ("ratio", "rmse", "psnr"):
-            if isinstance(summary.get(key), float):
-                summary[key] = float(f"{summary[key]:.6g}")
+        _six_digits(summary, ("ratio", "rmse", "psnr"))
         if search is not None:
             # what `volpack info` shows (target, value, the setting, what it reached); the
             # steps of the search (300-500 B, a tenth of a small field's file) are the
             # caller's alone
             summary["search"] = {k: v for k, v in search.items() if k != "steps"}
-            summary["search"]["reached"] = float(f"{search['reached']:.6g}")
+            _six_digits(summary["search"], ("reached",))
         if tools_used:
             summary["tools"] = dict(sorted(tools_used.items()))
         w.close(summary=summary)
@@ -341,6 +341,14 @@ def compress(
         **quality_stats,
         **({"search": search} if search is not None else {}),
     }
+
+
+def _six_digits(d: dict[str, Any], keys: tuple[str, ...]) -> None:
+    """Measured figures of a summary to 6 significant digits (as `volpack info` shows
+    them): the 17 of a float64 cost ~30 bytes of a small file. Bounds stay exact."""
+    for key in keys:
+        if isinstance(d.get(key), float):
+            d[key] = float(f"{d[key]:.6g}")
 
 
 def measured_quality(c, worst: float, sse: float, nvalid: int) -> dict[str, Any]:
