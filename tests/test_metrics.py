@@ -84,6 +84,25 @@ def test_chunked_pass_equals_single_pass(monkeypatch):
     assert whole["max_error"] == naive.metric_max_error(a[keep], b[keep])
 
 
+def test_errors_whose_squares_overflow(monkeypatch):
+    """float64 data near 1e300: the squared errors overflow, RMSE and PSNR do not; they
+    equal those of the same data scaled down by an exact power of two (chunked too, the
+    largest error arriving in a later chunk)."""
+    r = np.random.default_rng(5)
+    a = r.normal(0, 1, (6, 7, 8))
+    b = a + r.normal(0, 1e-2, a.shape)
+    b[5, 6, 7] += 0.5  # the largest error in the last chunk
+    k = 2.0**990
+    small, big = metrics.summary(a, b), metrics.summary(a * k, b * k)
+    assert math.isfinite(big["psnr"]) and big["psnr"] == pytest.approx(small["psnr"], rel=1e-12)
+    assert big["rmse"] == pytest.approx(small["rmse"] * k, rel=1e-12)
+    assert metrics.rmse(a * k, b * k) == big["rmse"]
+    assert metrics.psnr(a * k, b * k) == big["psnr"]
+    monkeypatch.setattr(metrics, "_CHUNK", 13)
+    assert metrics.summary(a * k, b * k) == pytest.approx(big, rel=1e-12)
+    assert metrics.summary(a, b) == pytest.approx(small, rel=1e-12)
+
+
 def test_mask_and_special_values():
     a = np.array([[[np.nan, np.inf, -np.inf, 1.0, 5.0]]])
     b = np.array([[[np.nan, np.inf, -np.inf, 2.0, 100.0]]])

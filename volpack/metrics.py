@@ -40,8 +40,8 @@ def max_error(a, b, mask=None) -> float:
 
 def rmse(a, b, mask=None) -> float:
     """Return the root mean square difference over the valid voxels (0.0 when none)."""
-    _, sq, n = _error_stats(a, b, mask)
-    return math.sqrt(sq / n) if n else 0.0
+    _, sq, n, scale = _error_stats(a, b, mask)
+    return _rmse(sq, n, scale)
 
 
 def psnr(a, b, *, peak=None, mask=None) -> float:
@@ -65,8 +65,8 @@ def psnr(a, b, *, peak=None, mask=None) -> float:
         ``inf`` when the valid voxels are equal; ``-inf`` when the peak is 0 but they
         differ.
     """
-    _, sq, n = _error_stats(a, b, mask)
-    return _psnr(sq, n, a, peak, mask)
+    _, sq, n, scale = _error_stats(a, b, mask)
+    return _psnr(sq, n, scale, a, peak, mask)
 
 
 def ratio(raw_nbytes: int, compressed_nbytes: int) -> float:
@@ -98,10 +98,10 @@ def summary(a, b, compressed_nbytes=None, mask=None) -> dict[str, Any]:
     """Return ``psnr``, ``rmse``, ``max_error`` (and ``ratio``, ``bpv`` when the compressed
     size is given) as plain Python floats, from one pass over the data."""
     a = np.asarray(a)
-    mx, sq, n = _error_stats(a, b, mask)
+    mx, sq, n, scale = _error_stats(a, b, mask)
     out: dict[str, Any] = {
-        "psnr": _psnr(sq, n, a, None, mask),
-        "rmse": math.sqrt(sq / n) if n else 0.0,
+        "psnr": _psnr(sq, n, scale, a, None, mask),
+        "rmse": _rmse(sq, n, scale),
         "max_error": mx,
     }
     if compressed_nbytes is not None:
@@ -148,10 +148,14 @@ def _abs_diff(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return d
 
 
-def _error_stats(a, b, mask) -> tuple[float, float, int]:
-    """Return (max abs error, sum of squared errors, valid voxel count)."""
+def _error_stats(a, b, mask) -> tuple[float, float, int, float]:
+    """Return (max abs error, sum of squared errors / scale**2, valid voxel count, scale).
+
+    The squares are summed in units of ``scale``, a power of two at or above the largest
+    finite error so far (the sum rescaled when a chunk raises it): errors of float64 data
+    near 1e300 would overflow squared, yet their RMSE and PSNR are ordinary numbers."""
     a, b, mask = _prepare(a, b, mask)
-    mx, sq, n = 0.0, 0.0, 0
+    mx, sq, n, scale = 0.0, 0.0, 0, 1.0
     for s in range(0, a.size, _CHUNK):
         ca, cb = a[s : s + _CHUNK], b[s : s + _CHUNK]
         if mask is not None:
@@ -160,11 +164,22 @@ def _error_stats(a, b, mask) -> tuple[float, float, int]:
         if ca.size == 0:
             continue
         d = _abs_diff(ca, cb)
-        mx = max(mx, float(d.max()))
-        f = d.astype(np.float64)
+        top = float(d.max())
+        mx = max(mx, top)
+        if math.isinf(top):
+            sq = math.inf
+        elif top > scale:
+            grown = math.ldexp(1.0, math.frexp(top)[1])  # exact powers of two: no rounding
+            sq *= (scale / grown) ** 2
+            scale = grown
+        f = d.astype(np.float64) / scale
         sq += float(np.dot(f, f))
         n += int(ca.size)
-    return mx, sq, n
+    return mx, sq, n, scale
+
+
+def _rmse(sq: float, n: int, scale: float) -> float:
+    return scale * math.sqrt(sq / n) if n else 0.0
 
 
 def psnr_from_sse(sse: float, n: int, peak: float) -> float:
@@ -183,10 +198,12 @@ def psnr_from_sse(sse: float, n: int, peak: float) -> float:
     return 10.0 * math.log10(peak * peak / mse)
 
 
-def _psnr(sq: float, n: int, a, peak, mask) -> float:
+def _psnr(sq: float, n: int, scale: float, a, peak, mask) -> float:
+    """The PSNR of ``sq`` (squared errors in units of ``scale``): the peak is divided by
+    the same scale, so neither square overflows."""
     if peak is None and n and sq:
         peak = _value_range(a, mask)
-    return psnr_from_sse(sq, n, peak)
+    return psnr_from_sse(sq, n, peak / scale if peak is not None else None)
 
 
 def _value_range(a, mask) -> float:

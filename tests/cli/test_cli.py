@@ -380,6 +380,23 @@ def test_lossy_compress_info_and_decompress(tmp_path):
     assert r.exit_code == 1 and "at most one" in r.output
 
 
+def test_float64_near_1e300_reports_what_it_knows(tmp_path):
+    """Errors whose squares overflow float64: `info` and the compress line say the PSNR
+    and RMSE of the stored summary are unknown (they used to crash `info` or print
+    'PSNR inf'); `compare` of the decoded file computes them anyway."""
+    a = np.random.default_rng(2).normal(0, 1, (8, 9, 10)) * 2.0**995
+    src, vpk, back = tmp_path / "a.npy", tmp_path / "a.vpk", tmp_path / "b.npy"
+    np.save(src, a)
+    r = run("compress", src, vpk, "--rel-error", "1e-3")
+    assert "PSNR unknown" in r.output and "PSNR inf" not in r.output
+    text = run("info", vpk).output
+    assert "PSNR         unknown" in text and "RMSE         unknown" in text
+    run("decompress", vpk, back)
+    got = json.loads(run("compare", src, back, "--json").stdout)
+    assert np.isfinite(got["psnr"]) and 50 < got["psnr"] < 200
+    assert 0 < got["rmse"] <= got["max_error"] <= 1e-3 * np.ptp(a)
+
+
 @pytest.mark.slow
 def test_warmup_runs_every_kernel_path():
     r = CliRunner().invoke(main, ["warmup", "--json"])

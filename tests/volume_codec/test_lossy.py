@@ -162,12 +162,23 @@ def test_psnr_target_is_reached(scan16, target):
 @pytest.mark.parametrize("target", [8.0, 30.0])
 def test_ratio_target_is_reached(scan16, target):
     st, blob = run(scan16, ratio=target, workers=2)
-    assert abs(st["ratio"] / target - 1) <= 0.05, st["search"]
+    # the target is the file's ratio, container included (what `ls` shows)
+    assert abs(st["file_ratio"] / target - 1) <= 0.05, st["search"]
+    assert st["file_ratio"] == scan16.nbytes / len(blob)
     # the file keeps what `info` shows, not the search's steps (the caller has those)
     kept = api.info(blob)["summary"]["search"]
     assert len(st["search"]["steps"]) >= 2 and "steps" not in kept
     assert kept["target"] == "ratio" and kept["value"] == target
-    assert kept["reached"] == pytest.approx(st["ratio"], rel=1e-5)
+    assert kept["reached"] == pytest.approx(st["file_ratio"], rel=0.01)  # container estimated
+
+
+def test_ratio_target_is_the_files_on_a_small_field():
+    """On a 64 KB field the container is 5-7 % of a 20:1 file: the search counts it, so
+    the file itself comes out within 5 % of the target (it was 18.7:1 for 20)."""
+    a = smooth_volume((16, 32, 32), np.int16, seed=3).astype(np.float32) / 7
+    for target in (10.0, 20.0):
+        st, blob = run(a, ratio=target)
+        assert abs(a.nbytes / len(blob) / target - 1) <= 0.05, (target, st["search"])
 
 
 @pytest.mark.slow

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import click
 
-from .options import fmt_bytes, fmt_speed, option, options, table
+from .options import db, fmt_bytes, fmt_speed, option, options, table
 
 animation_options = options(
     option("--gop",
@@ -75,7 +75,7 @@ def animation_line(target: str, stats: dict) -> str:
     acc = (
         "lossless"
         if stats["lossless"]
-        else f"max error {stats['max_error']:g}, PSNR {_db(stats['psnr'])}"
+        else f"max error {stats['max_error']:g}, PSNR {db(stats['psnr'], stats['max_error'])}"
     )
     return (
         f"{target}: {fmt_bytes(stats['nbytes'])} from {fmt_bytes(stats['raw_nbytes'])}, "
@@ -83,10 +83,6 @@ def animation_line(target: str, stats: dict) -> str:
         f"B {counts['B']} ({stats['scene_cuts']} planned P/B coded as I), "
         f"{fmt_speed(stats['mb_per_s'], stats['seconds'])}"
     )
-
-
-def _db(v) -> str:
-    return "inf" if v is None else f"{v:.2f} dB"
 
 
 SHORT = {"forward": "fwd", "backward": "bwd", "bidirectional": "bi", "intra": "intra"}
@@ -107,7 +103,7 @@ def frame_table(d: dict) -> str:
                 r["type"] + ("" if r["type"] == r["planned"] else f" (was {r['planned']})"),
                 str(r["nbytes"]),
                 str(r["motion_nbytes"]),
-                _db(r.get("psnr")),
+                db(r.get("psnr"), r["max_error"]),
                 f"{r['max_error']:g}",
                 used,
             ]

@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from .listing import listing_table
-from .options import dtype_name, emit_json, fmt_bytes, json_option, raw_options, table
+from .options import db, dtype_name, emit_json, fmt_bytes, json_option, raw_options, table
 
 
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})
@@ -135,9 +135,9 @@ def _human(d: dict, chunks: bool) -> str:
     if not s.get("lossless", True):
         if s.get("error_bound") is not None:
             rows.append(["error bound", f"{s['error_bound']:g} (held on every voxel; NaN, Inf and the fill value exact)"])
-        psnr = s.get("psnr")
-        rows.append(["PSNR", "inf" if psnr is None else f"{psnr:.2f} dB"])
-        rows.append(["RMSE", f"{s.get('rmse', 0.0):g}"])
+        rows.append(["PSNR", db(s.get("psnr"), s.get("max_error"))])
+        rmse = s.get("rmse", 0.0)
+        rows.append(["RMSE", "unknown" if rmse is None else f"{rmse:g}"])
         if s.get("search"):
             q = s["search"]
             rows.append(["target", f"{q['target']} {q['value']:g}: reached {q['reached']:.4g}"])

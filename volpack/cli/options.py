@@ -191,9 +191,17 @@ def accuracy(stats: dict, bound: float | None = None) -> str:
     """'lossless', or 'max error E, PSNR P dB' (``bound``: the bound asked, beside E)."""
     if stats.get("lossless", True):
         return "lossless"
-    psnr = stats.get("psnr")
     asked = "" if bound is None else f" (bound {bound:g})"
-    return f"max error {stats['max_error']:g}{asked}, PSNR {'inf' if psnr is None else f'{psnr:.2f}'} dB"
+    return f"max error {stats['max_error']:g}{asked}, PSNR {db(stats.get('psnr'), stats['max_error'])}"
+
+
+def db(psnr: float | None, max_error: float | None) -> str:
+    """A PSNR for people: 'P dB', 'inf' when nothing differs, and 'unknown' when the
+    summary has none although voxels differ (errors so large that their squares
+    overflow float64, e.g. float64 data near 1e300)."""
+    if psnr is not None:
+        return f"{psnr:.2f} dB"
+    return "inf" if not max_error else "unknown (squared errors overflow float64)"
 
 
 def plural(word: str, n: int) -> str:
@@ -261,7 +269,11 @@ codec_options = options(
            "on every voxel).", float),
     option("--rel-error", "Lossy: --max-error as a fraction of the value range.", float),
     option("--psnr", "Lossy: reach this PSNR in dB (within 0.5 dB).", float),
-    option("--ratio", "Lossy: reach this compression ratio (within 5%).", float),
+    option(
+        "--ratio",
+        "Lossy: reach this compression ratio of the file, container included (within 5%).",
+        float,
+    ),
     option("--quality", "Lossy, the method's scale: 255 (best), 127, 63, 31, 15 (integer "
            "volumes).", (1, 65535)),
     option("--threshold", "Lossy: drop wavelet coefficients below this size, in value units "
