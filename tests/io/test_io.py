@@ -154,6 +154,48 @@ def test_nifti_scl_slope_keeps_integers(tmp_path):
     np.testing.assert_allclose(again.get_fdata(), xyz * 0.5 - 10.0)
 
 
+@pytest.mark.parametrize(
+    ("name", "fmt", "dtype", "scaled"),
+    [
+        ("test.mgz", "mgh", "float32", False),  # FreeSurfer MGZ
+        ("minc1_1_scale.mnc", "minc", "float64", False),  # scaled per slice
+        ("minc2-no-att.mnc", "minc", "float64", False),
+        ("example4d+orig.HEAD", "afni", "int16", False),
+        ("example4d+orig.BRIK.gz", "afni", "int16", False),
+        ("phantom_EPI_asc_CLEAR_2_1.PAR", "parrec", "uint16", True),  # one slope for all
+        ("phantom_varscale.REC", "parrec", "float64", False),  # a slope per slice
+    ],
+)
+def test_other_nibabel_formats_read_as_nibabel_scales_them(name, fmt, dtype, scaled, tmp_path):
+    """MGH/MGZ, MINC, AFNI and PAR/REC through the NIfTI reader: the stored integers where
+    one (slope, intercept) maps them all (kept as nifti_scl), else the scaled float64
+    values; either way the physical values equal nibabel's, in (t,) z, y, x order."""
+    nib = pytest.importorskip("nibabel")
+    path = str(Path(nib.__file__).parent / "tests" / "data" / name)
+    img = nib.load(path)
+    vol = vio.read_volume(path)
+    assert vio.detect_format(path) == fmt and vol.meta["source_format"] == fmt
+    assert vol.dtype == np.dtype(dtype) and ("nifti_scl" in vol.meta) == scaled
+    assert vio.read_header(path)["dtype"] == dtype
+    phys = vol.data.astype(np.float64)
+    if scaled:
+        slope, inter = vol.meta["nifti_scl"]
+        phys = phys * slope + inter
+    ref = np.asarray(img.dataobj, dtype=np.float64)
+    opened = getattr(img.dataobj, "file_like", None)
+    if hasattr(opened, "close"):  # nibabel's PAR/REC keeps its .REC open
+        opened.close()
+    ref = ref.reshape(ref.shape[:4]).transpose(tuple(range(min(ref.ndim, 4) - 1, -1, -1)))
+    np.testing.assert_array_equal(phys, ref.reshape(phys.shape))
+    assert vol.spacing == tuple(float(z) for z in img.header.get_zooms()[:3][::-1])
+    # out as NIfTI: the same physical values (NIfTI keeps its slope as float32)
+    out = str(tmp_path / "o.nii.gz")
+    vio.write_volume(vol, out)
+    back = nib.load(out)
+    want = ref.transpose(tuple(range(ref.ndim - 1, -1, -1))).reshape(back.shape)
+    np.testing.assert_allclose(np.asarray(back.dataobj, dtype=np.float64), want, rtol=1e-6)
+
+
 def test_nrrd_fortran_file_is_read_as_zyx(tmp_path):
     nrrd = pytest.importorskip("nrrd")
     a = _ramp(np.uint16)
@@ -202,6 +244,10 @@ def test_detect_format(tmp_path):
         "a.nii": "nifti",
         "a.nii.gz": "nifti",
         "a.hdr": "nifti",
+        "a.mgz": "mgh",
+        "a.MNC": "minc",
+        "a+orig.HEAD": "afni",
+        "a.PAR": "parrec",
         "a.nrrd": "nrrd",
         "a.nhdr": "nrrd",
         "a.hdf5": "hdf5",

@@ -49,6 +49,11 @@ for _f in (
     # .img becomes "nifti" when a sibling .hdr exists (Analyze 7.5)
     Format("raw", "raw", (".raw", ".bin", ".img"), (".raw", ".bin", ".img")),
     Format("nifti", "nifti", (".nii", ".nii.gz", ".hdr"), (".nii", ".nii.gz")),
+    # the other formats nibabel reads, through the NIfTI reader (read-only)
+    Format("mgh", "nifti", (".mgh", ".mgz")),
+    Format("minc", "nifti", (".mnc",), header=None),
+    Format("afni", "nifti", (".head", ".brik", ".brik.gz"), header=None),
+    Format("parrec", "nifti", (".par", ".rec"), header=None),
     Format("nrrd", "nrrd", (".nrrd", ".nhdr"), (".nrrd",)),
     Format("hdf5", "hdf5", _HDF5_EXTS, _HDF5_EXTS),
     Format("tiff", "tiff", _TIFF_EXTS, _TIFF_EXTS),
@@ -95,8 +100,8 @@ def parse_spec(spec: str) -> tuple[str, str | None]:
 def detect_format(path: str) -> str:
     """Name the format of ``path`` from its extension (folders: from their content).
 
-    Returns a name of :data:`FORMATS` (``npy, raw, nifti, nrrd, hdf5, tiff, tiff-folder,
-    metaimage, vti, inr, den, dicom, vpk``).
+    Returns a name of :data:`FORMATS` (``npy, raw, nifti, mgh, minc, afni, parrec,
+    nrrd, hdf5, tiff, tiff-folder, metaimage, vti, inr, den, dicom, vpk``).
     """
     path, _ = parse_spec(os.fspath(path))
     if path == "-":
