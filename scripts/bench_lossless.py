@@ -339,7 +339,9 @@ def peer_methods(dtype: np.dtype, shape) -> list[Method]:
 # volpack
 
 
-def volpack_methods(dtype: np.dtype, shape, brick: int | None, grid: bool) -> list[Method]:
+def volpack_methods(
+    dtype: np.dtype, shape, brick: int | None, grid: bool, workers=(1, 2)
+) -> list[Method]:
     try:
         from volpack import api
     except Exception as exc:
@@ -357,7 +359,7 @@ def volpack_methods(dtype: np.dtype, shape, brick: int | None, grid: bool) -> li
     out = []
     for name, opts in rows:
         opts = {**base, **opts}
-        for w in (1, 2) if name == "volpack" else (1,):
+        for w in workers if name == "volpack" else (1,):
             out.append(
                 Method(
                     name,
@@ -450,7 +452,7 @@ def run(names, args, checkpoint=None):
         t_ds = time.perf_counter()
         methods = []
         if not args.no_volpack:
-            methods += volpack_methods(a.dtype, a.shape, args.brick, args.grid)
+            methods += volpack_methods(a.dtype, a.shape, args.brick, args.grid, args.workers)
         if not args.no_peers:
             methods += peer_methods(a.dtype, a.shape)
         if args.methods:
@@ -796,6 +798,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--methods", nargs="+", help="run only these method names")
     parser.add_argument("--no-volpack", action="store_true", help="peers only")
     parser.add_argument("--no-peers", action="store_true", help="volpack only")
+    parser.add_argument(
+        "--workers", type=int, nargs="+", default=[1, 2],
+        help="worker counts of the default volpack row (default 1 2; 1 on a shared machine)",
+    )
     parser.add_argument("--speed-dataset", default=SPEED_DATASET)
     parser.add_argument("--replot", action="store_true", help="redraw from OUT/lossless.csv")
     parser.add_argument(

