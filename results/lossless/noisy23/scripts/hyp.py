@@ -15,6 +15,12 @@ Modes (per brick, all causal: they read only the prediction and the activity):
                (first pass; stored as a 48-bit map, 6 B)
   actint:KA:KI activity classes from KA-1 thresholds at quantiles of the activity within
                each of KI buckets of the value (noise scaled by intensity; stored)
+  spreadint:3:KIND  the three classes of the predictors' spread replaced by three
+               buckets of the prediction (as many contexts as version 9)
+  warm:N       a bound, not a coder: the coding models (and the mix) start as a first pass
+               over the same brick left them, their use counts capped at N
+  wpow:P       (prediction side) the blend's weights ~ 1 / (1 + s)^P instead of P = 2
+               (the choice stored: 1 B)
   bias:K:KIND  the bias correction kept per (bias slot, bucket of the blend)
     PYTHONPATH=. python results/lossless/noisy23/scripts/hyp.py NAMES MODE...
 """
@@ -25,11 +31,12 @@ import datasets
 from volpack import api
 from volpack._jit import kernel
 from volpack.volume_codec import predictfit as pf, localfit, residmix
-from volpack.volume_codec.predict import floor_div_recip, context, NCTX, NACT, NSPREAD, activity_class
+from volpack.volume_codec.predict import weight, floor_div_recip, context, NCTX, NACT, NSPREAD, activity_class
 from volpack.entropy.rangecoder import open_encoder, finish_stream
 
 ORIG = pf._encode_kernel
 NBIAS = pf.NBIAS
+CFGW = [2]  # the blend's weight exponent (version 9: 2), passed to the kernel
 
 
 @kernel(inline=True)
@@ -41,7 +48,17 @@ def bucket(p, th):
 
 
 @kernel(inline=True)
-def predict(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, held, tex, lpe, lw, bmode, thb):
+def wt(s, p):
+    if p == 2:
+        return pf._weight2(s)
+    w = weight(s + 1)
+    if p == 1:
+        return w
+    return max((pf._weight2(s) * w) >> 24, 1)  # p == 3
+
+
+@kernel(inline=True)
+def predict(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, held, tex, lpe, lw, bmode, thb, wp):
     # a copy of predictfit._predict_kernel, the bias slot optionally split by bucket
     W, N, U, NW, NE, UW, UN, UNW, act2, esum, s0, s1, s2, s3, s4, s5 = pf._gather(
         v, err, perr, i, r, ru, z, y, x, ny, nx, hi, held)
@@ -62,8 +79,8 @@ def predict(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, held, tex
         act = (act2 + g) >> 1
     else:
         act = act2 >> 1
-    w0 = pf._weight2(s0); w1 = pf._weight2(s1); w2 = pf._weight2(s2)
-    w3 = pf._weight2(s3); w4 = pf._weight2(s4); w5 = pf._weight2(s5)
+    w0 = wt(s0, wp); w1 = wt(s1, wp); w2 = wt(s2, wp)
+    w3 = wt(s3, wp); w4 = wt(s4, wp); w5 = wt(s5, wp)
     den = w0 + w1 + w2 + w3 + w4 + w5
     rden = 1.0 / np.float64(den)
     num = w0 * q0 + w1 * q1 + w2 * q2 + w3 * q3 + w4 * q4 + w5 * q5
@@ -91,7 +108,7 @@ def predict(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, held, tex
 
 @kernel(nrt=False)
 def enc(v, mk, cf, th, shape, hi, nlow, tex, mix, lp, ls, out, err, perr, bias_sum, bias_cnt, bias,
-        models, aux, lw, mode, thi, tha, lut, rec):
+        models, aux, lw, mode, thi, tha, lut, rec, wp):
     nz, ny, nx = shape[0], shape[1], shape[2]
     sz = ny * nx
     cap = out.size
@@ -114,7 +131,7 @@ def enc(v, mk, cf, th, shape, hi, nlow, tex, mix, lp, ls, out, err, perr, bias_s
                 lpe = lp[np.uint64(i)] if ls else localfit.NONE
                 pred, ctx, bctx, sctx, act, q0, q1, q2, q3, q4, q5, pb, lq = predict(
                     v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, bias, held, tex,
-                    lpe, lw, mode == 4, thi)
+                    lpe, lw, mode == 4, thi, wp)
                 mx = residmix.NO_MIX
                 if mix:
                     mx = residmix.contexts(err, r, r - cur + prev, y, x, ny, nx, act, ctx, pred)
@@ -127,6 +144,8 @@ def enc(v, mk, cf, th, shape, hi, nlow, tex, mix, lp, ls, out, err, perr, bias_s
                     b = bucket(pred, thi)
                 elif mode == 2:
                     cc = min(bucket(act, tha[0]), NACT - 1) * NSPREAD + ctx % NSPREAD
+                elif mode == 6:
+                    cc = (ctx // NSPREAD) * NSPREAD + min(bucket(pred, thi), NSPREAD - 1)
                 elif mode == 5:
                     cc = min(bucket(act, tha[bucket(pred, thi)]), NACT - 1) * NSPREAD + ctx % NSPREAD
                 elif mode == 3:
@@ -147,12 +166,12 @@ EXTRA = [0]
 def run_kernel(args, mode, thi, tha, lut, rec):
     (flat, mk, cf, th, shape, hi, nlow, tex, mix, lp, ls, out, err, perr, bias_sum, bias_cnt, bias,
      models, aux, lw) = args
-    K = max(thi.size + 1, 1) if mode != 5 else 1
+    K = max(thi.size + 1, 1) if mode not in (5, 6) else 1
     models2 = np.repeat(models[None, :], K, axis=0)
     if mode == 4:
         bias_sum = np.zeros(NBIAS * K, np.int64); bias_cnt = bias_sum.copy(); bias = bias_sum.copy()
     return enc(flat, mk, cf, th, shape, hi, nlow, tex, mix, lp, ls, out, err, perr, bias_sum, bias_cnt,
-               bias, models2, aux, lw, mode, thi, tha, lut, rec)
+               bias, models2, aux, lw, mode, thi, tha, lut, rec, CFGW[0])
 
 
 def patched(*args):
@@ -168,7 +187,7 @@ def patched(*args):
     lut = np.arange(NACT, dtype=np.int64)
     rec = np.zeros(flat.size, np.int64)
     coded = mk == 0
-    if mode in (1, 4):
+    if mode in (1, 4, 6):
         if kind == "q":
             thi = np.unique(np.quantile(flat[coded], np.arange(1, k) / k).astype(np.int64))
             EXTRA[0] += 1 + 4 * thi.size
@@ -200,6 +219,27 @@ def patched(*args):
             if n and cur > 0 and n < CFG["m"]:  # fold a small last class into the one before
                 lut[lut == cur] = cur - 1
             EXTRA[0] += 6
+    if mode == 8:
+        CFGW[0] = CFG["m"]
+        EXTRA[0] = max(EXTRA[0], extra0, 1)
+        try:
+            return run_kernel(args, 0, thi, tha, lut, rec)
+        finally:
+            CFGW[0] = 2
+    if mode == 7:  # the bound of a perfect start: the coding models as a first pass left them
+        a = fresh(); a[11] = out.copy()
+        K = 1
+        models2 = a[17][None, :].copy()
+        enc(*a[:17], models2, a[18], *a[19:], 0, e, tha, lut, rec, CFGW[0])
+        m, x = models2[0], a[18]
+        n = CFG["m"]
+        m = (m & ~np.uint32(255)) | np.minimum(m & np.uint32(255), n).astype(np.uint32)
+        x = x.copy()
+        x[:residmix.W_BASE] = (x[:residmix.W_BASE] & ~np.uint32(255)) | np.minimum(
+            x[:residmix.W_BASE] & np.uint32(255), n).astype(np.uint32)
+        args = list(args)
+        args[17], args[18] = m, x
+        mode = 0
     EXTRA[0] = max(EXTRA[0], extra0)  # one brick's stored bytes (the largest of the calls)
     return run_kernel(args, mode, thi, tha, lut, rec)
 
@@ -214,14 +254,14 @@ def _ac(a):
 
 def size(arr, spec):
     parts = spec.split(":")
-    CFG.update(mode={"base": 0, "int": 1, "act": 2, "actm": 3, "bias": 4, "actint": 5}[parts[0]])
-    if parts[0] in ("int", "bias"):
+    CFG.update(mode={"base": 0, "int": 1, "act": 2, "actm": 3, "bias": 4, "actint": 5, "spreadint": 6, "warm": 7, "wpow": 8}[parts[0]])
+    if parts[0] in ("int", "bias", "spreadint"):
         CFG.update(k=int(parts[1]), kind=parts[2])
     elif parts[0] == "act":
         CFG.update(k=int(parts[1]))
     elif parts[0] == "actint":
         CFG.update(k=int(parts[1]), m=int(parts[2]))
-    elif parts[0] == "actm":
+    elif parts[0] in ("actm", "warm", "wpow"):
         CFG.update(m=int(parts[1]))
     EXTRA[0] = 0
     pf._encode_kernel = patched
