@@ -21,6 +21,8 @@ Modes (per brick, all causal: they read only the prediction and the activity):
                over the same brick left them, their use counts capped at N
   wpow:P       (prediction side) the blend's weights ~ 1 / (1 + s)^P instead of P = 2
                (the choice stored: 1 B)
+  pswap:S      (prediction side) one of the blend's six predictors replaced: 1 (W+NE)/2
+               by W+NE-N, 2 by (W+N+NE+NW)/4; U by 3 W+NE-N, 4 (W+N+NE+NW)/4, 5 (W+N)/2
   bias:K:KIND  the bias correction kept per (bias slot, bucket of the blend)
     PYTHONPATH=. python results/lossless/noisy23/scripts/hyp.py NAMES MODE...
 """
@@ -58,7 +60,7 @@ def wt(s, p):
 
 
 @kernel(inline=True)
-def predict(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, held, tex, lpe, lw, bmode, thb, wp):
+def predict(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, held, tex, lpe, lw, bmode, thb, wp, ps):
     # a copy of predictfit._predict_kernel, the bias slot optionally split by bucket
     W, N, U, NW, NE, UW, UN, UNW, act2, esum, s0, s1, s2, s3, s4, s5 = pf._gather(
         v, err, perr, i, r, ru, z, y, x, ny, nx, hi, held)
@@ -74,6 +76,16 @@ def predict(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, held, tex
     q3 = min(max(8 * (W + N + U - NW - UW - UN + UNW), 0), h8)
     q4 = 8 * U
     q5 = 4 * (W + NE)
+    if ps == 1:
+        q5 = min(max(8 * (W + NE - N), 0), h8)
+    elif ps == 2:
+        q5 = 2 * (W + N + NE + NW)
+    elif ps == 3:
+        q4 = min(max(8 * (W + NE - N), 0), h8)
+    elif ps == 4:
+        q4 = 2 * (W + N + NE + NW)
+    elif ps == 5:
+        q4 = 4 * (W + N)
     if tex:
         g = abs(W - NW) + abs(N - NW) + abs(N - NE) + abs(U - UN) + abs(U - UW)
         act = (act2 + g) >> 1
@@ -131,7 +143,7 @@ def enc(v, mk, cf, th, shape, hi, nlow, tex, mix, lp, ls, out, err, perr, bias_s
                 lpe = lp[np.uint64(i)] if ls else localfit.NONE
                 pred, ctx, bctx, sctx, act, q0, q1, q2, q3, q4, q5, pb, lq = predict(
                     v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, bias, held, tex,
-                    lpe, lw, mode == 4, thi, wp)
+                    lpe, lw, mode == 4, thi, wp % 16, wp // 16)
                 mx = residmix.NO_MIX
                 if mix:
                     mx = residmix.contexts(err, r, r - cur + prev, y, x, ny, nx, act, ctx, pred)
@@ -219,8 +231,8 @@ def patched(*args):
             if n and cur > 0 and n < CFG["m"]:  # fold a small last class into the one before
                 lut[lut == cur] = cur - 1
             EXTRA[0] += 6
-    if mode == 8:
-        CFGW[0] = CFG["m"]
+    if mode in (8, 9):
+        CFGW[0] = CFG["m"] if mode == 8 else 2 + 16 * CFG["m"]
         EXTRA[0] = max(EXTRA[0], extra0, 1)
         try:
             return run_kernel(args, 0, thi, tha, lut, rec)
@@ -254,14 +266,14 @@ def _ac(a):
 
 def size(arr, spec):
     parts = spec.split(":")
-    CFG.update(mode={"base": 0, "int": 1, "act": 2, "actm": 3, "bias": 4, "actint": 5, "spreadint": 6, "warm": 7, "wpow": 8}[parts[0]])
+    CFG.update(mode={"base": 0, "int": 1, "act": 2, "actm": 3, "bias": 4, "actint": 5, "spreadint": 6, "warm": 7, "wpow": 8, "pswap": 9}[parts[0]])
     if parts[0] in ("int", "bias", "spreadint"):
         CFG.update(k=int(parts[1]), kind=parts[2])
     elif parts[0] == "act":
         CFG.update(k=int(parts[1]))
     elif parts[0] == "actint":
         CFG.update(k=int(parts[1]), m=int(parts[2]))
-    elif parts[0] in ("actm", "warm", "wpow"):
+    elif parts[0] in ("actm", "warm", "wpow", "pswap"):
         CFG.update(m=int(parts[1]))
     EXTRA[0] = 0
     pf._encode_kernel = patched
