@@ -148,7 +148,9 @@ def enc(v, mk, cf, th, shape, hi, nlow, tex, mix, lp, ls, out, err, perr, bias_s
                 if mix:
                     mx = residmix.contexts(err, r, r - cur + prev, y, x, ny, nx, act, ctx, pred)
                 val = v[np.uint64(i)]
-                rec[np.uint64(i)] = act
+                rec[np.uint64(3 * i)] = act
+                rec[np.uint64(3 * i + 1)] = pred
+                rec[np.uint64(3 * i + 2)] = val - pred
                 q = pf._low_class(pred, nlow)
                 b = 0
                 cc = ctx
@@ -173,6 +175,7 @@ def enc(v, mk, cf, th, shape, hi, nlow, tex, mix, lp, ls, out, err, perr, bias_s
 
 CFG = {"mode": 0, "k": 1, "kind": "q", "m": 0}
 EXTRA = [0]
+LAST = []
 
 
 def run_kernel(args, mode, thi, tha, lut, rec):
@@ -197,7 +200,7 @@ def patched(*args):
     thi = e
     tha = np.zeros((1, 0), np.int64)
     lut = np.arange(NACT, dtype=np.int64)
-    rec = np.zeros(flat.size, np.int64)
+    rec = np.zeros(3 * flat.size, np.int64)
     coded = mk == 0
     if mode in (1, 4, 6):
         if kind == "q":
@@ -208,7 +211,7 @@ def patched(*args):
     if mode in (2, 3, 5):
         a = fresh(); a[11] = out.copy()
         run_kernel(a, 0, e, tha, lut, rec)
-        acts = rec[coded]
+        acts = rec[0::3][coded]
         if mode == 2:
             tha = np.quantile(acts, np.arange(1, k) / k).astype(np.int64)[None, :]
             EXTRA[0] += 1 + 2 * tha.size
@@ -231,6 +234,10 @@ def patched(*args):
             if n and cur > 0 and n < CFG["m"]:  # fold a small last class into the one before
                 lut[lut == cur] = cur - 1
             EXTRA[0] += 6
+    if mode == 10:  # diagnostic: version 9's own run, its activity, prediction and residual kept
+        st = run_kernel(args, 0, thi, tha, lut, rec)
+        LAST[:] = [rec.reshape(-1, 3)[coded].copy()]
+        return st
     if mode in (8, 9):
         CFGW[0] = CFG["m"] if mode == 8 else 2 + 16 * CFG["m"]
         EXTRA[0] = max(EXTRA[0], extra0, 1)
@@ -266,7 +273,7 @@ def _ac(a):
 
 def size(arr, spec):
     parts = spec.split(":")
-    CFG.update(mode={"base": 0, "int": 1, "act": 2, "actm": 3, "bias": 4, "actint": 5, "spreadint": 6, "warm": 7, "wpow": 8, "pswap": 9}[parts[0]])
+    CFG.update(mode={"base": 0, "int": 1, "act": 2, "actm": 3, "bias": 4, "actint": 5, "spreadint": 6, "warm": 7, "wpow": 8, "pswap": 9, "diag": 10}[parts[0]])
     if parts[0] in ("int", "bias", "spreadint"):
         CFG.update(k=int(parts[1]), kind=parts[2])
     elif parts[0] == "act":
