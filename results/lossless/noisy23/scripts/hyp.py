@@ -23,6 +23,8 @@ Modes (per brick, all causal: they read only the prediction and the activity):
                (the choice stored: 1 B)
   pswap:S      (prediction side) one of the blend's six predictors replaced: 1 (W+NE)/2
                by W+NE-N, 2 by (W+N+NE+NW)/4; U by 3 W+NE-N, 4 (W+N+NE+NW)/4, 5 (W+N)/2
+  spreadlf     the spread class of model 1's context counts the local fit's estimate too
+  spreadbl     the spread class from 2 |blend - local fit| alone (where there is a local fit)
   bias:K:KIND  the bias correction kept per (bias slot, bucket of the blend)
     PYTHONPATH=. python results/lossless/noisy23/scripts/hyp.py NAMES MODE...
 """
@@ -38,6 +40,7 @@ from volpack.entropy.rangecoder import open_encoder, finish_stream
 
 ORIG = pf._encode_kernel
 NBIAS = pf.NBIAS
+CFG_K = 2  # (spreadbl's scale of |blend - local fit|)
 CFGW = [2]  # the blend's weight exponent (version 9: 2), passed to the kernel
 
 
@@ -160,6 +163,11 @@ def enc(v, mk, cf, th, shape, hi, nlow, tex, mix, lp, ls, out, err, perr, bias_s
                     cc = min(bucket(act, tha[0]), NACT - 1) * NSPREAD + ctx % NSPREAD
                 elif mode == 6:
                     cc = (ctx // NSPREAD) * NSPREAD + min(bucket(pred, thi), NSPREAD - 1)
+                elif mode == 11 and lq != localfit.NONE:  # the local fit's disagreement in the spread
+                    sp = max(q0, q1, q2, q3, q4, q5, lq) - min(q0, q1, q2, q3, q4, q5, lq)
+                    cc = context(act, sp >> 3)
+                elif mode == 12 and lq != localfit.NONE:  # spread classes from |blend - local fit|
+                    cc = context(act, (CFG_K * abs(pb - lq)) >> 3)
                 elif mode == 5:
                     cc = min(bucket(act, tha[bucket(pred, thi)]), NACT - 1) * NSPREAD + ctx % NSPREAD
                 elif mode == 3:
@@ -234,6 +242,8 @@ def patched(*args):
             if n and cur > 0 and n < CFG["m"]:  # fold a small last class into the one before
                 lut[lut == cur] = cur - 1
             EXTRA[0] += 6
+    if mode in (11, 12):
+        return run_kernel(args, mode, thi, tha, lut, rec)
     if mode == 10:  # diagnostic: version 9's own run, its activity, prediction and residual kept
         st = run_kernel(args, 0, thi, tha, lut, rec)
         LAST[:] = [rec.reshape(-1, 3)[coded].copy()]
@@ -273,7 +283,7 @@ def _ac(a):
 
 def size(arr, spec):
     parts = spec.split(":")
-    CFG.update(mode={"base": 0, "int": 1, "act": 2, "actm": 3, "bias": 4, "actint": 5, "spreadint": 6, "warm": 7, "wpow": 8, "pswap": 9, "diag": 10}[parts[0]])
+    CFG.update(mode={"base": 0, "int": 1, "act": 2, "actm": 3, "bias": 4, "actint": 5, "spreadint": 6, "warm": 7, "wpow": 8, "pswap": 9, "diag": 10, "spreadlf": 11, "spreadbl": 12}[parts[0]])
     if parts[0] in ("int", "bias", "spreadint"):
         CFG.update(k=int(parts[1]), kind=parts[2])
     elif parts[0] == "act":
