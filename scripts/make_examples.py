@@ -494,6 +494,12 @@ LOSSY_CODER_CASES += [
     ("lossy-bounded-f32-longfit-static", "f32-waves-noisy", {"max_error": 0.005}, None)
 ]
 
+# effort 'fast' on integers (session 23): the quantised voxels in the fast codec's payload
+# (inner byte 6, lossy-1.md "the quantised voxels by the fast codec"), every brick.
+LOSSY_CODER_CASES += [
+    ("lossy-bounded-i16-fast", "i16", {"max_error": 40, "effort": "fast"}, WAVELET_BRICK)
+]
+
 
 def make_lossy(folder: Path) -> Path:
     from volpack import api

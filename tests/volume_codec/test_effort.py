@@ -13,9 +13,10 @@ from conftest import slow_case, smooth_volume
 
 from volpack import api
 from volpack.cli import main
-from volpack.errors import OptionError
+from volpack.errors import FormatError, OptionError
 from volpack.format.container import Reader
-from volpack.volume_codec.lossy import FLAG_INTERP
+from volpack.format.sections import take_section
+from volpack.volume_codec.lossy import FLAG_INTERP, QVOX_FAST, BoundedCodec
 
 
 def smooth_float(shape, dtype, seed=3):
@@ -165,3 +166,45 @@ def test_effort_max_under_a_bound_is_the_shortest_within_it():
     m = api.compress_array(v, effort="max", max_error=1)
     assert np.abs(api.decompress_array(m).astype(int) - v).max() <= 1
     assert payload(m) <= payload(api.compress_array(v, max_error=1))
+
+
+def inner_bytes(blob: bytes) -> list[int]:
+    """The first byte of each brick's inner section (after the flag byte)."""
+    with Reader(blob) as r:
+        return [take_section(memoryview(p), 1, "inner")[0][0] for _, _, p in r]
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.int16, np.uint16, np.int32])
+@pytest.mark.parametrize("e", [1, 7, 60])
+def test_fast_integers_decode_to_the_quantisers_reconstruction(dtype, e):
+    """effort 'fast' codes the quantised voxels of integers with the fast codec (inner
+    byte 6): the decoder gives back exactly lo + q * step of lossy-1.md steps 1 and 3,
+    computed here in Python integers, clipped to the dtype, on every voxel."""
+    a = smooth_volume((18, 21, 40), np.int16, seed=9).astype(np.int64)
+    info = np.iinfo(dtype)
+    a = np.clip((a - a.min()) * (min(info.max, 3000) - max(info.min, 0)) // np.ptp(a), 0, None)
+    a = (a + max(info.min, 0) if dtype != np.int32 else a * 1000 - 70000).astype(dtype)
+    blob = api.compress_array(a, max_error=e, effort="fast", brick=16)
+    assert set(inner_bytes(blob)) == {QVOX_FAST}
+    back = api.decompress_array(blob)
+    lo, step = int(a.min()), 2 * e + 1
+    q = (a.astype(np.int64) - lo + e) // step
+    want = np.clip(lo + q * step, info.min, info.max).astype(dtype)
+    assert back.dtype == dtype and np.array_equal(back, want)
+    assert np.abs(back.astype(np.int64) - a).max() <= e
+
+
+def test_fast_integer_payload_cut_or_damaged_is_a_format_error():
+    a = smooth_volume((16, 16, 16), np.int16, seed=2)
+    codec = BoundedCodec.plan(a.dtype, int(a.min()), int(a.max()), 5.0, effort="fast")
+    payload = codec.encode(a)
+    assert payload[5] == QVOX_FAST
+    np.testing.assert_array_equal(codec.decode(payload, a.shape, a.dtype), api.decompress_array(
+        api.compress_array(a, max_error=5, effort="fast", brick=16)))
+    for cut in (6, len(payload) // 2, len(payload) - 1):
+        with pytest.raises(FormatError):
+            codec.decode(payload[:cut], a.shape, a.dtype)
+    bad = bytearray(payload)
+    bad[6] = 9  # the fast payload's mode byte: no such mode
+    with pytest.raises(FormatError):
+        codec.decode(bytes(bad), a.shape, a.dtype)
