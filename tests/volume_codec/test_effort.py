@@ -16,7 +16,8 @@ from volpack.cli import main
 from volpack.errors import FormatError, OptionError
 from volpack.format.container import Reader
 from volpack.format.sections import take_section
-from volpack.volume_codec.lossy import FLAG_INTERP, QVOX_FAST, BoundedCodec
+from volpack.volume_codec import bounded_interp
+from volpack.volume_codec.lossy import FAST_ADAPTIVE_SAVING, FLAG_INTERP, QVOX_FAST, BoundedCodec
 
 
 def smooth_float(shape, dtype, seed=3):
@@ -208,3 +209,28 @@ def test_fast_integer_payload_cut_or_damaged_is_a_format_error():
     bad[6] = 9  # the fast payload's mode byte: no such mode
     with pytest.raises(FormatError):
         codec.decode(bytes(bad), a.shape, a.dtype)
+
+
+@pytest.mark.parametrize("rel", [1e-2, 1e-4])
+def test_fast_floats_keep_the_adaptive_bins_only_where_they_save_enough(rel):
+    """effort 'fast' codes a float brick's interpolation bins with the static rANS
+    coding unless the adaptive one is FAST_ADAPTIVE_SAVING shorter (it decodes 1.3-3.5x
+    slower); the decoder rebuilds the encoder's reconstruction bit for bit."""
+    a = smooth_float((22, 26, 30), np.float64, seed=6)  # off its grid of 1/7: no exact path
+    a = (a + np.random.default_rng(6).uniform(0, 0.1, a.shape)).astype(np.float32)
+    e = float(np.ptp(a)) * rel
+    codec = BoundedCodec.plan(a.dtype, float(a.min()), float(a.max()), e, effort="fast")
+    payload, err, sse, _ = codec.encode_measured(a)
+    inner = take_section(memoryview(payload), 1, "inner")[0]
+    g = a.astype(np.float64)
+    static, rec = bounded_interp.encode(g, codec.step, bounded_interp.TRIED_FAST, ("static",))
+    adaptive, _ = bounded_interp.encode(g, codec.step, bounded_interp.TRIED_FAST, ("adaptive",))
+    want = static if len(adaptive) >= (1 - FAST_ADAPTIVE_SAVING) * len(static) else adaptive
+    assert bytes(inner) == want
+    back = codec.decode(payload, a.shape, a.dtype)
+    assert np.abs(back.astype(np.float64) - a).max() == err <= e
+    if want is static:  # the encoder's reconstruction, cast, is what the decoder gives
+        rebuilt = np.clip(rec, -np.finfo(np.float32).max, np.finfo(np.float32).max)
+        rebuilt = rebuilt.astype(np.float32)
+        # but at the voxels the cast pushed past E, stored exactly (the corrections)
+        assert np.all((back == rebuilt) | ((back == a) & (np.abs(rebuilt - a) > e)))
