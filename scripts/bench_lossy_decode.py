@@ -16,8 +16,9 @@ Also recorded per cell: which payload volpack's brick(s) took (``formats/lossy-1
 through the fast codec (``--effort fast``), ``exact`` the lossless codec, ``coef`` the
 integer-coefficient path) and, with ``--profile``, where volpack's decode spends its
 time: the stage functions of the decoders are wrapped with timers for a further
-``--rounds`` decodes (entropy decoding, inverse transform, outliers, the interpolation
-walk, the fitted predictor, the rest: container, checks, casts).
+``--rounds`` decodes (entropy decoding, the fast codec's walk counted with it, inverse
+transform, outliers, the interpolation walk, the fitted predictor, the rest: container,
+checks, casts).
 
     python scripts/bench_lossy_decode.py --profile
     python scripts/bench_lossy_decode.py --label before   # e.g. with PYTHONPATH on main
@@ -155,7 +156,9 @@ class StageTimer:
 
     def __init__(self):
         from volpack import entropy
-        from volpack.volume_codec import bin_field, bounded_cdf97, bounded_interp, predictfit
+        from volpack.volume_codec import (
+            bin_field, bounded_cdf97, bounded_interp, fastpredict, predictfit,
+        )  # fmt: skip
         from volpack.wavelet import cdf97, dwt3
 
         self.acc = collections.defaultdict(float)
@@ -169,6 +172,9 @@ class StageTimer:
         self._wrap(bin_field, "add_decoded", "outliers")
         self._wrap(bounded_interp, "decode", "interp")
         self._wrap(predictfit, "decode", "fit")  # the fitted predictor on the quantised voxels
+        # the fast codec's walk (prediction and static rANS: the quantised voxels of effort
+        # 'fast') counted as entropy decoding
+        self._wrap(fastpredict, "decode", "entropy")
 
     def _wrap(self, module, name, stage):
         module_fn = getattr(module, name)
