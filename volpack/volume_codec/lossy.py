@@ -95,6 +95,12 @@ EFFORTS = ("default", "fast", "max")  # of the error-bounded encoder
 # voxels, for 15 % of the bytes). Chosen on those fields: no held-out set.
 FAST_ADAPTIVE_SAVING = 0.15
 FAST_EXACT_SAVING = 0.25
+# ... and a float brick's interpolation path against its quantised voxels by the fast
+# codec (the walk with static bins took 1.1-2.3x the fast codec's time at 1e-3..1e-5 of
+# the range, where the fast codec codes within 5 % of it, often shorter; at 1e-2 the
+# interpolation is 2-35 % shorter). 5 % left eta_u at 1e-3 below SZ3's ratio (the
+# interpolation 4.4 % shorter); chosen on the README's fast23 fields, no held-out set.
+FAST_INTERP_SAVING = 0.04
 # The long fitted predictor of the quantised voxels is tried only where the shortest
 # other coding spends this many bits a voxel (tight bounds; see _longfit).
 LONGFIT_MIN_BITS = 1.0
@@ -103,8 +109,10 @@ LONGFIT_MIN_BITS = 1.0
 LONGFIT_MAX_ENTROPY = 1.2
 # The quantised voxels' inner section under effort 'fast': this byte, then a `fast` codec
 # payload (formats/fast-1.md) of them: MED prediction and static rANS decode 3-10x faster
-# than the wavelet and its adaptive coder, and code as short on the head CT (a lossless
-# payload's mode byte is 0-4 for these integer voxels, so the two cannot be confused).
+# than the wavelet and its adaptive coder and code as short on the head CT, and on float
+# fields at 1e-3..1e-5 of the range within a few per cent of the interpolation path, at
+# up to twice its speed (a lossless payload's mode byte is 0-4 for these integer voxels,
+# so the two cannot be confused).
 QVOX_FAST = 6
 # The lossless codec's version for the quantised voxels: their streams stay as they were
 # before version 7 (its texture bias), so the lossy goldens are unchanged.
@@ -139,8 +147,8 @@ class BoundedCodec(BrickCodec):
     max_levels: int | None = None
     # How hard the encoder looks (the decoder never needs it): 'default' makes every
     # coding of a brick and keeps the shortest, a slower-decoding one only where it
-    # saves SLOW_MIN_SAVING; 'fast' makes one (floats: the interpolation path, two
-    # predictors; integers: the quantised voxels); 'max' keeps the shortest whatever its
+    # saves SLOW_MIN_SAVING; 'fast' makes one or two (integers: the quantised voxels by
+    # the fast codec; floats: those and the interpolation path, two predictors); 'max' keeps the shortest whatever its
     # decoding speed, the lossless codec's predictive tool with its local fit (version 9).
     effort: str = "default"
 
@@ -323,14 +331,16 @@ class BoundedCodec(BrickCodec):
         """:meth:`encode_measured` with the voxels of ``mask`` stored exactly."""
         clean = x if mask is None else fill_masked(x, mask)
         fast = self.effort == "fast"
-        if fast and x.size >= 64 and x.dtype.kind == "f" and not self._exact:
-            return self._interp_candidate(x, clean, mask)[1]
         q = self._quantize(clean)
         if mask is not None:
             q = fill_masked(q, mask)  # masked voxels take their neighbour's value
         rec = self._reconstruct(q, x.dtype)
         cands = [(t, self._finish(x, mask, rec, 0, [b])) for t, b in self._code_quantised(q)]
         if fast:
+            if x.size >= 64 and x.dtype.kind == "f" and not self._exact:
+                # the interpolation walk decodes 1.3-2x slower than the fast codec
+                cands.append((TIER_MID, self._interp_candidate(x, clean, mask)[1]))
+                return keep_faster(cands, FAST_INTERP_SAVING)
             return keep_faster(cands, self._min_saving())
         if x.size >= 64 and not self._exact:
             cands.append((TIER_MID, self._coef_candidate(x, clean, mask)))
