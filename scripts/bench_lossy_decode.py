@@ -12,11 +12,13 @@ measured side by side, not the MB/s (the machine is shared).
 
 Also recorded per cell: which payload volpack's brick(s) took (``formats/lossy-1.md``:
 ``cdf97`` the float wavelet path with its layout, ``interp`` the interpolation path,
-``qvox`` the quantised voxels through the lossless wavelet codec, ``coef`` the
+``qvox`` the quantised voxels through the lossless wavelet codec, ``qvox(fast)``
+through the fast codec (``--effort fast``), ``exact`` the lossless codec, ``coef`` the
 integer-coefficient path) and, with ``--profile``, where volpack's decode spends its
 time: the stage functions of the decoders are wrapped with timers for a further
-``--rounds`` decodes (entropy decoding, inverse transform, outliers, the interpolation
-walk, the fitted predictor, the rest: container, checks, casts).
+``--rounds`` decodes (entropy decoding, the fast codec's walk counted with it, inverse
+transform, outliers, the interpolation walk, the fitted predictor, the rest: container,
+checks, casts).
 
     python scripts/bench_lossy_decode.py --profile
     python scripts/bench_lossy_decode.py --label before   # e.g. with PYTHONPATH on main
@@ -46,6 +48,7 @@ import datasets  # noqa: E402
 ROOT = Path(__file__).resolve().parent.parent
 FIELDS = ["tgv_pressure", "climate_t", "tgv_u", "cryoem_emd3001", "xray_1jzv"]
 RELS = (1e-2, 1e-3, 1e-4, 1e-5)
+INT_RELS = (3e-4, 1e-3, 3e-3, 1e-2, 3e-2)  # scripts/bench_lossy.py's integer bounds
 METHODS = ("volpack", "sperr", "sz3")
 STAGES = ("entropy", "transform", "outliers", "interp", "fit", "rest")
 CSV_FIELDS = [
@@ -66,15 +69,17 @@ CSV_FIELDS = [
     *(f"bound_ok_{m}" for m in METHODS),
     *(f"ms_{s}" for s in STAGES),
     "coder",
+    "effort",
     *(f"encode_MBps_{m}" for m in METHODS),
     "enc_x_sperr",
     "enc_x_sz3",
 ]
 
 
-def codecs(coder: str | None = None):
+def codecs(coder: str | None = None, effort: str | None = None):
     """(encode(a, E) -> blob, decode(blob, a) -> array) per method; ``coder`` is
-    volpack's entropy coder (its default when None)."""
+    volpack's entropy coder and ``effort`` its encoder's effort (their defaults when
+    None)."""
     import imagecodecs
     from pysz import sz, szConfig, szErrorBoundMode
 
@@ -89,7 +94,8 @@ def codecs(coder: str | None = None):
     return {
         "volpack": (
             lambda a, e: api.compress_array(
-                a, max_error=float(e), **({"coder": coder} if coder else {})
+                a, max_error=float(e), **({"coder": coder} if coder else {}),
+                **({"effort": effort} if effort else {}),
             ),
             lambda b, a: api.decompress_array(b),
         ),
@@ -121,8 +127,10 @@ def payload_paths(blob: bytes) -> str:
                 kind = f"cdf97({'separable' if order == 3 else 'mallat'} {lv[0]},{lv[1]},{lv[2]})"
             elif flags & 4:
                 kind = "coef"
-            else:
-                kind = "qvox"
+            elif flags & 128:
+                kind = "exact"
+            else:  # inner byte 6: the fast codec's payload (effort 'fast')
+                kind = "qvox(fast)" if p[5] == 6 else "qvox"
             if flags & 32:
                 kind += "+outliers"
             if flags & 2:
@@ -148,19 +156,25 @@ class StageTimer:
 
     def __init__(self):
         from volpack import entropy
-        from volpack.volume_codec import bin_field, bounded_cdf97, bounded_interp, predictfit
+        from volpack.volume_codec import (
+            bin_field, bounded_cdf97, bounded_interp, fastpredict, predictfit,
+        )  # fmt: skip
         from volpack.wavelet import cdf97, dwt3
 
         self.acc = collections.defaultdict(float)
         self.depth = 0
-        for name in list(entropy.CODERS):
-            entropy.CODERS[name] = _CoderProxy(entropy.CODERS[name], self)
+        for name in list(entropy.CODERS):  # each loaded (a module or a namespace) and wrapped
+            coder = entropy.CODERS[name]
+            coder.decode = self.timed(coder.decode, "entropy")
         self._wrap(cdf97, "inverse", "transform")
         self._wrap(dwt3, "inverse", "transform")
         self._wrap(bounded_cdf97, "apply_outliers", "outliers")
         self._wrap(bin_field, "add_decoded", "outliers")
         self._wrap(bounded_interp, "decode", "interp")
         self._wrap(predictfit, "decode", "fit")  # the fitted predictor on the quantised voxels
+        # the fast codec's walk (prediction and static rANS: the quantised voxels of effort
+        # 'fast') counted as entropy decoding
+        self._wrap(fastpredict, "decode", "entropy")
 
     def _wrap(self, module, name, stage):
         module_fn = getattr(module, name)
@@ -182,12 +196,6 @@ class StageTimer:
         return run
 
 
-class _CoderProxy:
-    def __init__(self, coder, timer: StageTimer):
-        self.encode = coder.encode
-        self.decode = timer.timed(coder.decode, "entropy")
-
-
 def profile_cell(timer: StageTimer, decode, rounds: int) -> dict:
     """Mean CPU milliseconds per stage over ``rounds`` decodes."""
     timer.acc.clear()
@@ -201,7 +209,7 @@ def profile_cell(timer: StageTimer, decode, rounds: int) -> dict:
 
 
 def run(args) -> list[dict]:
-    methods = codecs(args.coder)
+    methods = codecs(args.coder, args.effort)
     timer = StageTimer() if args.profile else None
     rows = []
     for name in args.datasets:
@@ -209,10 +217,13 @@ def run(args) -> list[dict]:
         a = np.ascontiguousarray(a)
         vrange = float(a.max()) - float(a.min())
         mb = a.nbytes / 1e6
-        for rel in args.rels:
+        for rel in args.rels if a.dtype.kind == "f" else args.int_rels:
             e = float(f"{vrange * rel:.4g}")
-            blobs = {m: enc(a, e) for m, (enc, _dec) in methods.items()}
-            calls = {m: functools.partial(methods[m][1], blobs[m], a) for m in methods}
+            # the peers get integers as float32, as in scripts/bench_lossy.py
+            given = {m: a if m == "volpack" or a.dtype.kind == "f" else a.astype(np.float32)
+                     for m in methods}  # fmt: skip
+            blobs = {m: enc(given[m], e) for m, (enc, _dec) in methods.items()}
+            calls = {m: functools.partial(methods[m][1], blobs[m], given[m]) for m in methods}
             held = {}
             for m, call in calls.items():  # the bound on every voxel, and a warm-up
                 err = np.abs(np.asarray(call(), np.float64) - a).max()
@@ -222,7 +233,7 @@ def run(args) -> list[dict]:
             best = best_interleaved(calls, args.rounds)
             enc = {}
             if args.encode:  # the encoders timed the same way (volpack's is slow: fewer rounds)
-                encs = {m: functools.partial(methods[m][0], a, e) for m in methods}
+                encs = {m: functools.partial(methods[m][0], given[m], e) for m in methods}
                 enc = best_interleaved(encs, args.encode)
             row = {
                 "label": args.label,
@@ -237,6 +248,7 @@ def run(args) -> list[dict]:
                 "x_sz3": round(best["sz3"] / best["volpack"], 3),
                 **{f"bound_ok_{m}": held[m] for m in METHODS},
                 "coder": args.coder or "default",
+                "effort": args.effort or "default",
             }
             if enc:
                 row.update({f"encode_MBps_{m}": round(mb / enc[m], 2) for m in METHODS})
@@ -313,10 +325,16 @@ def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--datasets", default=",".join(FIELDS))
     ap.add_argument("--rels", default=",".join(f"{r:g}" for r in RELS))
+    ap.add_argument(
+        "--int-rels", default=",".join(f"{r:g}" for r in INT_RELS),
+        help="the bounds of integer volumes (relative to their range; 1e-4 of a 12-bit "
+        "range is under 1, coded losslessly)",
+    )  # fmt: skip
     ap.add_argument("--rounds", type=int, default=7)
     ap.add_argument("--label", default="after")
     ap.add_argument("--profile", action="store_true", help="time volpack's decode stages")
     ap.add_argument("--coder", default=None, help="volpack's entropy coder (default: its own)")
+    ap.add_argument("--effort", default=None, help="volpack's encoder effort (default: its own)")
     ap.add_argument(
         "--encode", type=int, default=0, metavar="N", help="also time the encoders, best of N"
     )
@@ -332,6 +350,7 @@ def main(argv=None) -> None:
         lossy.SLOW_MIN_SAVING = args.min_saving
     args.datasets = [d for d in args.datasets.split(",") if d]
     args.rels = [float(r) for r in args.rels.split(",") if r]
+    args.int_rels = [float(r) for r in args.int_rels.split(",") if r]
     import volpack
 
     print(f"volpack from {Path(volpack.__file__).parent}", flush=True)

@@ -89,6 +89,10 @@ KINDS = {
     # its zstd bricks (mode 3, the default since the `zstd` header field), beside the others
     "fast-zstd": ("fast-zstd-mixed.vpk", VOLUME_PATHS),
     "lossy-interp": ("lossy-bounded-f32-interp.vpk", VOLUME_PATHS),
+    # effort 'fast' on integers: the quantised voxels as a fast codec payload (inner byte 6)
+    "lossy-fast-int": ("lossy-bounded-i16-fast.vpk", VOLUME_PATHS),
+    # ... and of floats, with the mask of a fill value
+    "lossy-fast-float": ("lossy-bounded-f32-fast.vpk", VOLUME_PATHS),
     # the float wavelet path: Mallat layout with the outlier bin field, and separable
     "lossy-cdf97": ("lossy-bounded-f32-cdf97-bins.vpk", VOLUME_PATHS),
     "lossy-separable": ("lossy-bounded-f32-separable.vpk", VOLUME_PATHS),

@@ -494,6 +494,15 @@ LOSSY_CODER_CASES += [
     ("lossy-bounded-f32-longfit-static", "f32-waves-noisy", {"max_error": 0.005}, None)
 ]
 
+# effort 'fast' on integers (session 23): the quantised voxels in the fast codec's payload
+# (inner byte 6, lossy-1.md "the quantised voxels by the fast codec"), every brick.
+LOSSY_CODER_CASES += [
+    ("lossy-bounded-i16-fast", "i16", {"max_error": 40, "effort": "fast"}, WAVELET_BRICK),
+    # and on floats, where it codes shorter than the interpolation path (with a mask)
+    ("lossy-bounded-f32-fast", "f32", {"max_error": 2.0, "fill_value": -999.0, "effort": "fast"},
+     None),
+]  # fmt: skip
+
 
 def make_lossy(folder: Path) -> Path:
     from volpack import api

@@ -115,6 +115,7 @@ def main(argv=None) -> None:
     ap.add_argument("--rounds", type=int, default=20)
     ap.add_argument("--encode", action="store_true", help="profile one encode too")
     ap.add_argument("--label", default="")
+    ap.add_argument("--effort", default="default", help="volpack's encoder effort")
     ap.add_argument("--out", type=Path, required=True)
     args = ap.parse_args(argv)
     rows = []
@@ -123,11 +124,11 @@ def main(argv=None) -> None:
         vrange = float(a.max()) - float(a.min())
         for rel in [float(r) for r in args.rels.split(",") if r]:
             e = float(f"{vrange * rel:.4g}")
-            blob = api.compress_array(a, max_error=e)
+            blob = api.compress_array(a, max_error=e, effort=args.effort)
             api.decompress_array(blob)  # warm: kernels loaded from numba's cache
             runs = [("decode", lambda: api.decompress_array(blob), args.rounds, STAGES)]
             if args.encode:
-                enc = lambda: api.compress_array(a, max_error=e)  # noqa: E731
+                enc = lambda: api.compress_array(a, max_error=e, effort=args.effort)  # noqa: E731
                 runs.append(("encode", enc, 1, ENCODE_STAGES))
             for what, call, rounds, table in runs:
                 acc, total = profile(call, rounds, table)

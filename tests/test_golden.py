@@ -356,6 +356,11 @@ LOSSY_TODAY = [  # (stem, recipe, options, brick, (flags, kind or mode) of each 
      None, {(65, 16)}),
     ("lossy-bounded-i16-quantised-fit", "i16", {"max_error": 40}, 16, {(0, 0), (0, 4)}),
     ("lossy-bounded-i16-quantised-saving", "i16", {"max_error": 40}, 16, {(0, 0), (0, 4)}),
+    # effort 'fast' on integers: the quantised voxels as a fast codec payload (inner byte 6)
+    ("lossy-bounded-i16-fast", "i16", {"max_error": 40, "effort": "fast"}, 16, {(0, 6)}),
+    # and on floats (flag 1: the mask of the fill value), where it is the shorter coding
+    ("lossy-bounded-f32-fast", "f32", {"max_error": 2.0, "fill_value": -999.0, "effort": "fast"},
+     None, {(1, 6)}),
     # the long fitted predictor (flag bit 3 with corrections, reach K = 4; lossy-1.md step 20)
     ("lossy-bounded-f32-longfit", "f32-waves", {"max_error": 0.005}, None, {(10, 4)}),
     # its version 2 (first byte 0; step 21): reach (2, 8, 8), face classes

@@ -13,9 +13,11 @@ from conftest import slow_case, smooth_volume
 
 from volpack import api
 from volpack.cli import main
-from volpack.errors import OptionError
+from volpack.errors import FormatError, OptionError
 from volpack.format.container import Reader
-from volpack.volume_codec.lossy import FLAG_INTERP
+from volpack.format.sections import take_section
+from volpack.volume_codec import bounded_interp
+from volpack.volume_codec.lossy import FAST_ADAPTIVE_SAVING, FLAG_INTERP, QVOX_FAST, BoundedCodec
 
 
 def smooth_float(shape, dtype, seed=3):
@@ -47,8 +49,10 @@ def test_fast_holds_the_bound_on_every_voxel_with_specials(dtype, rel):
     err = np.abs(back[~special].astype(np.float64) - a[~special].astype(np.float64))
     assert err.max() <= e
     assert header_codec(blob)["effort"] == "fast"
-    # every float brick takes the interpolation path (flag byte of the payload)
-    assert all(flag & FLAG_INTERP for flag in payload_flags(blob))
+    # every float brick takes the interpolation path (flag byte of the payload) or its
+    # quantised voxels go to the fast codec (inner byte 6)
+    with Reader(blob) as r:
+        assert all(p[0] & FLAG_INTERP or p[5] == QVOX_FAST for _, _, p in r)
 
 
 def test_default_keeps_its_bytes_and_leaves_effort_out_of_the_header():
@@ -60,8 +64,11 @@ def test_default_keeps_its_bytes_and_leaves_effort_out_of_the_header():
     assert "effort" not in header_codec(implicit)
 
 
-def test_fast_is_the_same_bytes_for_any_worker_count():
+@pytest.mark.parametrize("dtype", [np.float32, np.int16])  # interpolation / fast codec
+def test_fast_is_the_same_bytes_for_any_worker_count(dtype):
     a = smooth_float((40, 36, 30), np.float32)
+    if dtype == np.int16:
+        a = (a * 9).astype(np.int16)
     e = float(np.ptp(a)) * 1e-3
     one = api.compress_array(a, max_error=e, effort="fast", brick=16, workers=1)
     two = api.compress_array(a, max_error=e, effort="fast", brick=16, workers=2)
@@ -165,3 +172,79 @@ def test_effort_max_under_a_bound_is_the_shortest_within_it():
     m = api.compress_array(v, effort="max", max_error=1)
     assert np.abs(api.decompress_array(m).astype(int) - v).max() <= 1
     assert payload(m) <= payload(api.compress_array(v, max_error=1))
+
+
+def inner_bytes(blob: bytes) -> list[int]:
+    """The first byte of each brick's inner section (after the flag byte)."""
+    with Reader(blob) as r:
+        return [take_section(memoryview(p), 1, "inner")[0][0] for _, _, p in r]
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.int16, np.uint16, np.int32])
+@pytest.mark.parametrize("e", [1, 7, 60])
+def test_fast_integers_decode_to_the_quantisers_reconstruction(dtype, e):
+    """effort 'fast' codes the quantised voxels of integers with the fast codec (inner
+    byte 6): the decoder gives back exactly lo + q * step of lossy-1.md steps 1 and 3,
+    computed here in Python integers, clipped to the dtype, on every voxel."""
+    a = smooth_volume((18, 21, 40), np.int16, seed=9).astype(np.int64)
+    info = np.iinfo(dtype)
+    a = np.clip((a - a.min()) * (min(info.max, 3000) - max(info.min, 0)) // np.ptp(a), 0, None)
+    a = (a + max(info.min, 0) if dtype != np.int32 else a * 1000 - 70000).astype(dtype)
+    blob = api.compress_array(a, max_error=e, effort="fast", brick=16)
+    assert set(inner_bytes(blob)) == {QVOX_FAST}
+    back = api.decompress_array(blob)
+    lo, step = int(a.min()), 2 * e + 1
+    q = (a.astype(np.int64) - lo + e) // step
+    want = np.clip(lo + q * step, info.min, info.max).astype(dtype)
+    assert back.dtype == dtype and np.array_equal(back, want)
+    assert np.abs(back.astype(np.int64) - a).max() <= e
+
+
+def test_fast_integer_payload_cut_or_damaged_is_a_format_error():
+    a = smooth_volume((16, 16, 16), np.int16, seed=2)
+    codec = BoundedCodec.plan(a.dtype, int(a.min()), int(a.max()), 5.0, effort="fast")
+    payload = codec.encode(a)
+    assert payload[5] == QVOX_FAST
+    np.testing.assert_array_equal(codec.decode(payload, a.shape, a.dtype), api.decompress_array(
+        api.compress_array(a, max_error=5, effort="fast", brick=16)))
+    for cut in (6, len(payload) // 2, len(payload) - 1):
+        with pytest.raises(FormatError):
+            codec.decode(payload[:cut], a.shape, a.dtype)
+    bad = bytearray(payload)
+    bad[6] = 9  # the fast payload's mode byte: no such mode
+    with pytest.raises(FormatError):
+        codec.decode(bytes(bad), a.shape, a.dtype)
+
+
+@pytest.mark.parametrize("rel", [1e-2, 1e-3, 1e-4])
+def test_fast_floats_decode_to_the_encoders_reconstruction(rel):
+    """effort 'fast' on a float brick: the interpolation path, its bins by the static
+    rANS coding unless the adaptive one is FAST_ADAPTIVE_SAVING shorter (it decodes
+    1.3-3.5x slower), or the quantised voxels by the fast codec (inner byte 6); either
+    way the decoder gives the encoder's reconstruction cast to float32 bit for bit, but
+    at the voxels the cast pushed past E (stored exactly), and the bound on every voxel."""
+    a = smooth_float((22, 26, 30), np.float64, seed=6)  # off its grid of 1/7: no exact path
+    a = (a + np.random.default_rng(6).uniform(0, 0.1, a.shape)).astype(np.float32)
+    e = float(np.ptp(a)) * rel
+    codec = BoundedCodec.plan(a.dtype, float(a.min()), float(a.max()), e, effort="fast")
+    payload, err, _sse, _n = codec.encode_measured(a)
+    inner = take_section(memoryview(payload), 1, "inner")[0]
+    back = codec.decode(payload, a.shape, a.dtype)
+    assert np.abs(back.astype(np.float64) - a).max() == err <= e
+    g = a.astype(np.float64)
+    if payload[0] & FLAG_INTERP:
+        static, rec = bounded_interp.encode(g, codec.step, bounded_interp.TRIED_FAST, ("static",))
+        adaptive, _ = bounded_interp.encode(
+            g, codec.step, bounded_interp.TRIED_FAST, ("adaptive",)
+        )  # fmt: skip
+        want = static if len(adaptive) >= (1 - FAST_ADAPTIVE_SAVING) * len(static) else adaptive
+        assert bytes(inner) == want
+        if want is not static:
+            return
+    else:
+        assert inner[0] == QVOX_FAST
+        q = np.clip(np.rint((g - codec.lo) / codec.step), 0, np.iinfo(codec.qdtype).max)
+        rec = q * codec.step + codec.lo
+    big = np.finfo(np.float32).max
+    rebuilt = np.clip(rec, -big, big).astype(np.float32)
+    assert np.all((back == rebuilt) | ((back == a) & (np.abs(rebuilt - a) > e)))

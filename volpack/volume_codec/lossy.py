@@ -85,12 +85,35 @@ TIER_FAST, TIER_MID, TIER_SLOW = 0, 1, 2
 # README's lossy11 section). The encoder's rule alone: the decoder reads any coding.
 SLOW_MIN_SAVING = 0.02
 EFFORTS = ("default", "fast", "max")  # of the error-bounded encoder
+# Under effort 'fast' a coding that decodes slower is kept only where it saves a share
+# of the bytes of the faster one that grows with its cost: the interpolation path's
+# adaptive bins (1.3-1.8x the static coding's decode time where most bins are 0,
+# 2.5-3.5x at tight bounds; on the six fields of the README's fast23 section they saved
+# 4-9 % at 1e-3..1e-5 of the range, 9-29 % at 1e-2, and the static coding alone fell
+# below SZ3's ratio where they saved 16 % or more: eta_u and cam_t at 1e-2) and the exact
+# path (the lossless float tools: 5x the fast codec's decode time on eta_u's quantised
+# voxels, for 15 % of the bytes). Chosen on those fields: no held-out set.
+FAST_ADAPTIVE_SAVING = 0.15
+FAST_EXACT_SAVING = 0.25
+# ... and a float brick's interpolation path against its quantised voxels by the fast
+# codec (the walk with static bins took 1.1-2.3x the fast codec's time at 1e-3..1e-5 of
+# the range, where the fast codec codes within 5 % of it, often shorter; at 1e-2 the
+# interpolation is 2-35 % shorter). 5 % left eta_u at 1e-3 below SZ3's ratio (the
+# interpolation 4.4 % shorter); chosen on the README's fast23 fields, no held-out set.
+FAST_INTERP_SAVING = 0.04
 # The long fitted predictor of the quantised voxels is tried only where the shortest
 # other coding spends this many bits a voxel (tight bounds; see _longfit).
 LONGFIT_MIN_BITS = 1.0
 # ... and coded only where its residuals' zeroth-order entropy is at most this share of
 # the shortest other coding (the lossless codec codes them up to 15 % below it: cam_u).
 LONGFIT_MAX_ENTROPY = 1.2
+# The quantised voxels' inner section under effort 'fast': this byte, then a `fast` codec
+# payload (formats/fast-1.md) of them: MED prediction and static rANS decode 3-10x faster
+# than the wavelet and its adaptive coder and code as short on the head CT, and on float
+# fields at 1e-3..1e-5 of the range within a few per cent of the interpolation path, at
+# up to twice its speed (a lossless payload's mode byte is 0-4 for these integer voxels,
+# so the two cannot be confused).
+QVOX_FAST = 6
 # The lossless codec's version for the quantised voxels: their streams stay as they were
 # before version 7 (its texture bias), so the lossy goldens are unchanged.
 QUANTISED_VERSION = 6
@@ -124,8 +147,8 @@ class BoundedCodec(BrickCodec):
     max_levels: int | None = None
     # How hard the encoder looks (the decoder never needs it): 'default' makes every
     # coding of a brick and keeps the shortest, a slower-decoding one only where it
-    # saves SLOW_MIN_SAVING; 'fast' makes one (floats: the interpolation path, two
-    # predictors; integers: the quantised voxels); 'max' keeps the shortest whatever its
+    # saves SLOW_MIN_SAVING; 'fast' makes one or two (integers: the quantised voxels by
+    # the fast codec; floats: those and the interpolation path, two predictors); 'max' keeps the shortest whatever its
     # decoding speed, the lossless codec's predictive tool with its local fit (version 9).
     effort: str = "default"
 
@@ -226,6 +249,10 @@ class BoundedCodec(BrickCodec):
         return np.clip(q, 0, np.iinfo(qd).max).astype(qd)
 
     def _reconstruct(self, q: np.ndarray, dtype: np.dtype, into=None) -> np.ndarray:
+        if self.integer and q.ndim == 3:
+            from .floatcast import dequantise_integer
+
+            return dequantise_integer(q, int(self.step), int(self.lo), dtype, into)  # one pass
         if self.integer:
             v = q.astype(np.int64) * int(self.step) + int(self.lo)
             return _clip_to(v, dtype)
@@ -261,7 +288,8 @@ class BoundedCodec(BrickCodec):
                 best = cand
         if x.dtype.kind == "f" and _exact_may_pay(x, self.max_error):
             cand = self._exact_candidate(x, mask)
-            if len(cand[0]) < len(best[0]):
+            keep = 1.0 - (FAST_EXACT_SAVING if self.effort == "fast" else 0.0)
+            if len(cand[0]) < keep * len(best[0]):
                 best = cand
         return best
 
@@ -303,14 +331,16 @@ class BoundedCodec(BrickCodec):
         """:meth:`encode_measured` with the voxels of ``mask`` stored exactly."""
         clean = x if mask is None else fill_masked(x, mask)
         fast = self.effort == "fast"
-        if fast and x.size >= 64 and x.dtype.kind == "f" and not self._exact:
-            return self._interp_candidate(x, clean, mask)[1]
         q = self._quantize(clean)
         if mask is not None:
             q = fill_masked(q, mask)  # masked voxels take their neighbour's value
         rec = self._reconstruct(q, x.dtype)
         cands = [(t, self._finish(x, mask, rec, 0, [b])) for t, b in self._code_quantised(q)]
         if fast:
+            if x.size >= 64 and x.dtype.kind == "f" and not self._exact:
+                # the interpolation walk decodes 1.3-2x slower than the fast codec
+                cands.append((TIER_MID, self._interp_candidate(x, clean, mask)[1]))
+                return keep_faster(cands, FAST_INTERP_SAVING)
             return keep_faster(cands, self._min_saving())
         if x.size >= 64 and not self._exact:
             cands.append((TIER_MID, self._coef_candidate(x, clean, mask)))
@@ -334,12 +364,16 @@ class BoundedCodec(BrickCodec):
         predictive one (mode 4, the fitted 3-D predictor; or raw): at tight bounds the
         quantised voxels of a noisy or thin field are better predicted from their causal
         neighbours (mri_piesno_noise at 1e-4 of the range: 106.0 -> 99.9 kB). 'fast'
-        makes the wavelet payload alone."""
+        makes the fast codec's payload alone (:data:`QVOX_FAST`)."""
         from .lossless import MODE_PREDICT
 
-        wav = self._inner().encode(q)
         if self.effort == "fast":
-            return [(TIER_MID, wav)]
+            from .fast import FastCodec
+
+            # without its zstd mode: level 19 took 60 % of the head CT's encode (3.3 s),
+            # for 1.1x the decode speed on most bricks it kept (2.3x at 3e-2 of the range)
+            return [(TIER_FAST, bytes([QVOX_FAST]) + FastCodec(zstd=False).encode(q))]
+        wav = self._inner().encode(q)
         p = self._predictive().encode(q)
         tier = TIER_SLOW if p[0] == MODE_PREDICT else TIER_FAST  # (else raw or constant)
         return [(TIER_MID, wav), (tier, p)]
@@ -404,8 +438,11 @@ class BoundedCodec(BrickCodec):
         g = clean.astype(np.float64)
         if mask is not None:  # no value to keep: bin 0, the voxel follows its prediction
             g[mask] = np.nan
-        tried = bounded_interp.TRIED_FAST if self.effort == "fast" else bounded_interp.TRIED
-        inner, rec = bounded_interp.encode(g, self.step, tried, min_saving=self._min_saving())
+        if self.effort == "fast":
+            tried, saving = bounded_interp.TRIED_FAST, FAST_ADAPTIVE_SAVING
+        else:
+            tried, saving = bounded_interp.TRIED, self._min_saving()
+        inner, rec = bounded_interp.encode(g, self.step, tried, min_saving=saving)
         tier = TIER_MID if bounded_interp.is_adaptive(inner) else TIER_FAST
         y = _to_float(rec, x.dtype, overwrite=True)
         return tier, self._finish(x, mask, y, FLAG_INTERP, [inner])
@@ -580,6 +617,10 @@ class BoundedCodec(BrickCodec):
                 from . import bounded_longfit
 
                 q = bounded_longfit.decode(inner, shape, np.dtype(self.qdtype), self._lossless())
+            elif len(inner) and inner[0] == QVOX_FAST:
+                from .fast import FastCodec
+
+                q = FastCodec().decode(memoryview(inner)[1:], shape, np.dtype(self.qdtype))
             else:
                 q = self._lossless().decode(inner, shape, np.dtype(self.qdtype))
             out = self._reconstruct(q, dtype, into)
