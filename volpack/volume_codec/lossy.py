@@ -148,8 +148,9 @@ class BoundedCodec(BrickCodec):
     # How hard the encoder looks (the decoder never needs it): 'default' makes every
     # coding of a brick and keeps the shortest, a slower-decoding one only where it
     # saves SLOW_MIN_SAVING; 'fast' makes one or two (integers: the quantised voxels by
-    # the fast codec; floats: those and the interpolation path, two predictors); 'max' keeps the shortest whatever its
-    # decoding speed, the lossless codec's predictive tool with its local fit (version 9).
+    # the fast codec; floats: those and the interpolation path, two predictors); 'max'
+    # keeps the shortest whatever its decoding speed, the lossless codec's predictive
+    # tool with its local fit (version 9).
     effort: str = "default"
 
     @classmethod
