@@ -280,8 +280,9 @@ codec_options = options(
            "(integer volumes).", float),
     option("--effort", "Lossy with a bound (--max-error, --rel-error; --psnr, --ratio on "
            "floats): 'default' makes every coding of each brick and keeps the shortest; "
-           "'fast' makes one (floats: interpolation), several times faster to encode and "
-           "to decode, at some ratio; 'max' keeps the shortest coding whatever its "
+           "'fast' makes one or two (the quantised voxels by the fast lossless codec; "
+           "floats: also interpolation), faster to encode and 2-4x faster to decode, at "
+           "some ratio; 'max' keeps the shortest coding whatever its "
            "decoding speed. The bound holds either way. Lossless: 'max' also refits a "
            "predictor along every row of integer bricks: 1-10 % smaller on scans, 4-10x "
            "slower to decode. [default: default]",

@@ -158,8 +158,9 @@ def compress(
     effort : {"default", "fast", "max"}
         The error-bounded encoder's (``max_error``, ``rel_error``, or ``psnr``/``ratio``
         on floats): ``default`` makes every coding of a brick and keeps the shortest;
-        ``fast`` makes one (floats: the interpolation path), several times faster to
-        encode and to decode, at some ratio; ``max`` keeps the shortest coding
+        ``fast`` makes one or two (the quantised voxels by the fast lossless codec;
+        floats: also the interpolation path), faster to encode and 2-4x faster to
+        decode, at some ratio; ``max`` keeps the shortest coding
         whatever its decoding speed, the quantised voxels also by the lossless codec's
         local fit. The bound holds either way. Lossless
         (the ``auto`` or ``lossless`` codec): ``max`` also tries, on integer bricks,
