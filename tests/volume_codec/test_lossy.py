@@ -186,8 +186,9 @@ def test_unreachable_target_reports_the_closest(brain):
     # 8-bit noise makes the rate jump where a whole band's |c| = 8 leaves the zero bin:
     # no step gives 8:1 within 5 %, so the closest is used and reported as reached.
     st, _ = run(brain, ratio=8.0, workers=2)
-    assert st["search"]["reached"] == pytest.approx(st["ratio"], rel=1e-9)
-    assert abs(st["ratio"] / 8 - 1) < 0.2
+    # reached: the file's ratio as the search estimates the container (a few hundred bytes)
+    assert st["search"]["reached"] == pytest.approx(st["file_ratio"], rel=2e-3)
+    assert abs(st["file_ratio"] / 8 - 1) < 0.2
 
 
 def test_float_psnr_target_uses_the_bounded_path():
