@@ -599,10 +599,13 @@ def cap_contexts(counts: np.ndarray) -> tuple[int, np.ndarray, float]:
     used = np.flatnonzero(counts.sum(axis=1))
     top = int(used[-1]) + 1 if used.size else 1
     best = None
+    # a row's table does not depend on the others: the classes below every cut are
+    # scaled once, not once a cut (13 cuts: 20 % of the encode of a head CT brick)
+    own = rans.normalise(counts[: top - 1])
     for nctx in range(max(1, top - 12), top + 1):
         merged = counts[:nctx].copy()
         merged[nctx - 1] += counts[nctx:].sum(axis=0)
-        freqs = rans.normalise(merged)
+        freqs = np.vstack([own[: nctx - 1], rans.normalise(merged[nctx - 1 :])])
         cost = _coded_bits(merged, freqs)
         if best is None or cost < best[2]:
             best = (nctx, freqs, cost)
