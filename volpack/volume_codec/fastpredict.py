@@ -602,11 +602,14 @@ def cap_contexts(counts: np.ndarray) -> tuple[int, np.ndarray, float]:
     # a row's table does not depend on the others: the classes below every cut are
     # scaled once, not once a cut (13 cuts: 20 % of the encode of a head CT brick)
     own = rans.normalise(counts[: top - 1])
+    own_bytes = np.cumsum(_row_table_bytes(own))  # and their tables' bytes summed once
     for nctx in range(max(1, top - 12), top + 1):
         merged = counts[:nctx].copy()
         merged[nctx - 1] += counts[nctx:].sum(axis=0)
-        freqs = np.vstack([own[: nctx - 1], rans.normalise(merged[nctx - 1 :])])
-        cost = _coded_bits(merged, freqs)
+        last = rans.normalise(merged[nctx - 1 :])
+        freqs = np.vstack([own[: nctx - 1], last])
+        head = int(_row_table_bytes(last)[0]) + (int(own_bytes[nctx - 2]) if nctx > 1 else 0)
+        cost = _symbol_bits(merged, freqs) + 8 * head
         if best is None or cost < best[2]:
             best = (nctx, freqs, cost)
     return best
@@ -615,17 +618,22 @@ def cap_contexts(counts: np.ndarray) -> tuple[int, np.ndarray, float]:
 def _coded_bits(counts: np.ndarray, freqs: np.ndarray) -> float:
     """The bits of the symbols ``counts`` under the tables ``freqs``, the tables' own
     bytes included."""
+    return _symbol_bits(counts, freqs) + 8 * int(_row_table_bytes(freqs).sum())
+
+
+def _symbol_bits(counts: np.ndarray, freqs: np.ndarray) -> float:
+    """The bits of the symbols ``counts`` under the tables ``freqs``, tables left out."""
     used = counts > 0
-    return -(counts[used] * np.log2(freqs[used] / rans.TOTAL)).sum() + 8 * _table_bytes(freqs)
+    return -(counts[used] * np.log2(freqs[used] / rans.TOTAL)).sum()
 
 
-def _table_bytes(freqs: np.ndarray) -> int:
-    """``len(pack_tables(freqs))`` without packing (numbers below 2^14: one LEB128 byte
-    below 128, else two)."""
+def _row_table_bytes(freqs: np.ndarray) -> np.ndarray:
+    """Each row's share of ``len(pack_tables(freqs))``, without packing (numbers below
+    2^14: one LEB128 byte below 128, else two)."""
     nz = freqs > 0
     t = np.where(nz.any(axis=1), freqs.shape[1] - np.argmax(nz[:, ::-1], axis=1), 0)
     inside = np.arange(freqs.shape[1]) < t[:, None]
-    return int((1 + (t >= 128)).sum() + (inside * (1 + (freqs >= 128))).sum())
+    return (1 + (t >= 128)) + (inside * (1 + (freqs >= 128))).sum(axis=1)
 
 
 def pack_tables(freqs: np.ndarray) -> bytes:
