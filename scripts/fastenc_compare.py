@@ -1,7 +1,7 @@
 """The fast codec's encoder against main's (28ad5ad) in one process: the same bytes on
 every brick :mod:`fastenc_bricks` collected, and the encode speed, interleaved, best of N.
 
-    python scripts/fastenc_compare.py BRICKDIR [--rounds 5] [--csv OUT]
+    python scripts/fastenc_compare.py BRICKDIR [--rounds 5] [--csv OUT] [--no-zstd] [--only A,B]
 
 Main's ``fast.py`` and ``fastpredict.py`` are read from git and loaded beside this tree's.
 """
@@ -52,13 +52,17 @@ def main() -> None:
     ap.add_argument("--rounds", type=int, default=5)
     ap.add_argument("--csv")
     ap.add_argument("--tmp", default="/tmp/fastenc23/main_src")
+    ap.add_argument("--no-zstd", action="store_true", help="every brick without mode 3")
+    ap.add_argument("--only", help="comma-separated volume stems")
     a = ap.parse_args()
     MainCodec = load_main(Path(a.tmp))
     rows = []
     total = same = 0
     for path in sorted(Path(a.bricks).glob("*.npz")):
         d = np.load(path)
-        zs = [bool(z) for z in d["zstd"]]
+        if a.only and path.stem not in a.only.split(","):
+            continue
+        zs = [bool(z) and not a.no_zstd for z in d["zstd"]]
         bricks = [d[f"b{i}"] for i in range(len(zs))]
         codecs = [(MainCodec(zstd=z), FastCodec(zstd=z)) for z in zs]
         for (m, o), b in zip(codecs[:1], bricks[:1]):  # compile outside the clock
