@@ -20,12 +20,21 @@ from volpack import api  # noqa: E402
 from volpack.volume_codec.fast import FastCodec  # noqa: E402
 
 LOSSLESS = ["ct_head", "mri_ch2better", "brainsmall", "liver_labels", "atlas_aal"]
-LOSSY = [("tgv_u", 1e-3), ("tgv_u", 1e-4), ("cam_t", 1e-3), ("cam_t", 1e-4),
-         ("md_water", 1e-3), ("md_water", 1e-4), ("eta_u", 1e-3), ("xray_1jzv", 1e-4)]
+LOSSY = [
+    ("tgv_u", 1e-3),
+    ("tgv_u", 1e-4),
+    ("cam_t", 1e-3),
+    ("cam_t", 1e-4),
+    ("md_water", 1e-3),
+    ("md_water", 1e-4),
+    ("eta_u", 1e-3),
+    ("xray_1jzv", 1e-4),
+]
 
 
-def capture(call) -> tuple[list[np.ndarray], list[bool]]:
-    """The bricks (and each call's ``zstd`` option) ``FastCodec.encode`` sees in ``call``."""
+def capture(x: np.ndarray, opts: dict) -> tuple[list[np.ndarray], list[bool]]:
+    """The bricks (and each call's ``zstd`` option) ``FastCodec.encode`` sees when ``x``
+    is compressed with ``opts`` on one worker."""
     seen, zs = [], []
     orig = FastCodec.encode
 
@@ -36,7 +45,7 @@ def capture(call) -> tuple[list[np.ndarray], list[bool]]:
 
     FastCodec.encode = spy
     try:
-        call()
+        api.compress_array(x, workers=1, **opts)
     finally:
         FastCodec.encode = orig
     return seen, zs
@@ -53,19 +62,17 @@ def main() -> None:
             print(f"{name}: skipped ({e})")
             continue
         if rel is None:
-            call = lambda: api.compress_array(x, codec="fast", workers=1)  # noqa: E731
-            tag = name
+            opts, tag = {"codec": "fast"}, name
         else:
             rng = float(np.nanmax(x)) - float(np.nanmin(x))
-            call = lambda: api.compress_array(  # noqa: E731
-                x, max_error=rel * rng, effort="fast", workers=1
-            )
-            tag = f"{name}@{rel:g}"
-        bricks, zs = capture(call)
+            opts, tag = {"max_error": rel * rng, "effort": "fast"}, f"{name}@{rel:g}"
+        bricks, zs = capture(x, opts)
         arrs = {f"b{i}": b for i, b in enumerate(bricks)}
         np.savez(out / f"{tag}.npz", zstd=np.array(zs), **arrs)
-        print(f"{tag}: {len(bricks)} bricks, {sum(b.size for b in bricks)} voxels, "
-              f"dtypes {sorted({str(b.dtype) for b in bricks})}, zstd {set(zs)}")
+        print(
+            f"{tag}: {len(bricks)} bricks, {sum(b.size for b in bricks)} voxels, "
+            f"dtypes {sorted({str(b.dtype) for b in bricks})}, zstd {set(zs)}"
+        )
 
 
 if __name__ == "__main__":

@@ -31,9 +31,13 @@ def load_main(tmp: Path):
     for name in ("fastpredict", "fast"):
         src = subprocess.run(
             ["git", "-C", str(ROOT), "show", f"{BASE}:volpack/volume_codec/{name}.py"],
-            check=True, capture_output=True, text=True,
+            check=True,
+            capture_output=True,
+            text=True,
         ).stdout
-        src = src.replace("from . import fastpredict", "from . import main_fastpredict as fastpredict")
+        src = src.replace(
+            "from . import fastpredict", "from . import main_fastpredict as fastpredict"
+        )
         path = tmp / f"main_{name}.py"
         path.write_text(src)
         full = f"volpack.volume_codec.main_{name}"
@@ -79,8 +83,11 @@ def main() -> None:
                 best[k] = min(best[k], time.perf_counter() - t)
         mb = sum(b.nbytes for b in bricks) / 1e6
         rows.append((path.stem, len(bricks), mb / best[0], mb / best[1], best[0] / best[1]))
-        print(f"{path.stem:22s} {len(bricks):4d} bricks  MB/s main {mb / best[0]:7.2f}  "
-              f"this {mb / best[1]:7.2f}  x{best[0] / best[1]:.2f}", flush=True)
+        print(
+            f"{path.stem:22s} {len(bricks):4d} bricks  MB/s main {mb / best[0]:7.2f}  "
+            f"this {mb / best[1]:7.2f}  x{best[0] / best[1]:.2f}",
+            flush=True,
+        )
     print(f"same bytes: {same} of {total} bricks")
     if a.csv:
         with open(a.csv, "w") as f:

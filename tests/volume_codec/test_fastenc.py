@@ -75,9 +75,11 @@ def test_cap_contexts_matches_scaling_every_cut(seed):
         if rng.random() < 0.2:
             continue  # an empty class between used ones
         width = rng.integers(1, 200)  # tables past 128 entries take two-byte lengths
-        counts[c, :width] = rng.geometric(rng.uniform(0.01, 0.5), width) * rng.integers(
-            0, 2, width
-        ) * rng.integers(1, 3000)
+        counts[c, :width] = (
+            rng.geometric(rng.uniform(0.01, 0.5), width)
+            * rng.integers(0, 2, width)
+            * rng.integers(1, 3000)
+        )
     if seed == 0:
         counts[:] = 0  # nothing coded
     if seed == 1:
@@ -89,8 +91,16 @@ def test_cap_contexts_matches_scaling_every_cut(seed):
     assert np.array_equal(freqs, want[1])
 
 
-@pytest.mark.parametrize("lo,span,n", [(0, 255, 5000), (-3000, 9000, 3000), (7, 0, 10),
-                                       (-(1 << 40), 1 << 33, 2000), (0, (1 << 22) - 1, 100)])
+@pytest.mark.parametrize(
+    "lo,span,n",
+    [
+        (0, 255, 5000),
+        (-3000, 9000, 3000),
+        (7, 0, 10),
+        (-(1 << 40), 1 << 33, 2000),
+        (0, (1 << 22) - 1, 100),
+    ],
+)
 def test_palette_over_a_range_matches_sorting(lo, span, n):
     rng = np.random.default_rng(span % 97)
     v = lo + rng.integers(0, span + 1, size=(n,), dtype=np.int64)
