@@ -136,9 +136,9 @@ class FastCodec(BrickCodec):
                 plain,
             ),
         ]
-        p = pal.build(values)
+        p = pal.build_span(values, lo, hi)
         if len(p) < hi - lo + 1 and len(p) <= pal.MAX_PALETTE:
-            ranks = pal.to_ranks(values, p)
+            ranks = pal.to_ranks_span(values, p)
             candidates.append(
                 (
                     bytes([MODE_CODED, flags | FLAG_PALETTE])

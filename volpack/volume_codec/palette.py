@@ -30,6 +30,29 @@ def to_ranks(values: np.ndarray, palette: np.ndarray) -> np.ndarray:
     return np.searchsorted(palette, np.asarray(values, dtype=np.int64)).astype(np.int64)
 
 
+DENSE_SPAN = 1 << 22  # a value range this narrow is mapped through a table, not sorted
+
+
+def build_span(values: np.ndarray, lo: int, hi: int) -> np.ndarray:
+    """:func:`build` of int64 ``values`` known to lie in ``[lo, hi]``: over a narrow range,
+    one pass marking the values seen (a head CT brick: 10 ms of hashing and sorting)."""
+    if hi - lo >= DENSE_SPAN:
+        return build(values)
+    seen = np.zeros(hi - lo + 1, dtype=bool)
+    seen[values.reshape(-1) - lo] = True
+    return np.flatnonzero(seen).astype(np.int64) + lo
+
+
+def to_ranks_span(values: np.ndarray, palette: np.ndarray) -> np.ndarray:
+    """:func:`to_ranks` of int64 ``values``: over a narrow range, one look-up a value."""
+    lo = int(palette[0])
+    if int(palette[-1]) - lo >= DENSE_SPAN:
+        return to_ranks(values, palette)
+    rank = np.zeros(int(palette[-1]) - lo + 1, dtype=np.int64)
+    rank[palette - lo] = np.arange(len(palette))
+    return rank[values - lo]
+
+
 def from_ranks(ranks: np.ndarray, palette: np.ndarray) -> np.ndarray:
     """The values of ``ranks`` (each in ``0..len(palette)-1``, checked by the caller)."""
     return palette[ranks]
