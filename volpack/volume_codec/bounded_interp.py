@@ -554,13 +554,14 @@ CODINGS = ("static", "adaptive")
 CODINGS_FAST = ("grouped", "static", "adaptive")
 
 
-def encode(g: np.ndarray, step: float, tried=TRIED, codings=CODINGS, min_saving: float = 0.0):
+def encode(g: np.ndarray, step: float, tried=TRIED, codings=CODINGS, min_saving=0.0):
     """Code the float64 brick ``g`` (masked voxels filled) with bins of ``step`` (= 2E).
     Returns ``(inner section, reconstruction)`` of the choice among ``tried`` ((kind,
     axis orders) pairs) and ``codings`` of the bins estimated shortest (the static
     one by its entropy, the others by their length). ``codings`` go from the fastest
     to decode to the slowest; each is kept over the faster ones only where it saves
-    ``min_saving`` of the best of them's bits."""
+    ``min_saving`` (one share, or one per coding) of the best of them's bits."""
+    savings = np.broadcast_to(np.asarray(min_saving, dtype=np.float64), (len(codings),))
     best = {}
     for kind, perms in tried:
         for perm in perms:
@@ -581,8 +582,8 @@ def encode(g: np.ndarray, step: float, tried=TRIED, codings=CODINGS, min_saving:
                 if name not in best or bits < best[name][0]:
                     best[name] = (bits, perm, k, rec, coded)
     chosen = None
-    for name in codings:
-        if chosen is None or best[name][0] < (1.0 - min_saving) * chosen[0]:
+    for name, saving in zip(codings, savings):
+        if chosen is None or best[name][0] < (1.0 - saving) * chosen[0]:
             chosen = best[name]
     _, perm, kind, rec, coded = chosen
     if kind & (ADAPTIVE | GROUPED):
