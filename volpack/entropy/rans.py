@@ -77,22 +77,25 @@ def unpack_tables(body: bytes, nctx: int, nsym: int, what: str, bits: int = PROB
     ``2^bits`` is corrupt. Returns it and the bytes read."""
     full = 1 << bits
     freq = np.zeros((nctx, nsym), dtype=np.int64)
-    pos = 0
-    for c in range(nctx):
-        if pos + 2 > len(body):
+    words = np.frombuffer(body[: len(body) & ~1], "<u2")
+    pos = 0  # in words
+    for c in range(nctx):  # the rows' lengths in turn; the sums checked at once below
+        if pos >= words.size:
             raise FormatError(f"{what}: the rANS tables are cut short")
-        m = int.from_bytes(body[pos : pos + 2], "little")
-        pos += 2
-        if m > nsym or pos + 2 * m > len(body):
+        m = int(words[pos])
+        pos += 1
+        if m > nsym or pos + m > words.size:
             raise FormatError(f"{what}: a rANS table of {m} symbols runs past its data")
-        freq[c, :m] = np.frombuffer(body[pos : pos + 2 * m], "<u2")
-        pos += 2 * m
-        s = int(freq[c].sum())
-        if s not in (0, full) or freq[c].max() == full:
-            raise FormatError(
-                f"{what}: a rANS table sums to {s}, expected {full} over two or more symbols"
-            )
-    return slot_table(freq, bits), pos
+        freq[c, :m] = words[pos : pos + m]
+        pos += m
+    sums, tops = freq.sum(axis=1), freq.max(axis=1, initial=0)
+    bad = np.flatnonzero(((sums != 0) & (sums != full)) | (tops == full))
+    if bad.size:
+        raise FormatError(
+            f"{what}: a rANS table sums to {int(sums[bad[0]])}, expected {full} over two or "
+            "more symbols"
+        )
+    return slot_table(freq, bits), 2 * pos
 
 
 def slot_table(freq: np.ndarray, bits: int = PROB_BITS) -> np.ndarray:

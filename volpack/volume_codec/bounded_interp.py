@@ -58,7 +58,9 @@ ADAPTIVE = 16
 # nothing more is coded); the class is coded in the context of the previous group's,
 # then each symbol of a group of class c in context N_CLASS - 1 + c. GROUP_BITS of
 # precision: the 15 tables (4 KB each) fit in the L1 cache, where the 18 of 16 KB of
-# the static coding did not.
+# the static coding did not. The tokens alternate between two rANS streams (lanes) of
+# two states each: a state's renormalisation reads at its stream's position, so with
+# one stream every symbol waited for the one before; two lanes overlap.
 GROUPED = 32
 GROUP = 16
 N_CLASS = 8  # N_SYM <= 128: bit lengths 0..7
@@ -476,17 +478,28 @@ def _group_tokens(sym, n, toks, ctx):
     return t
 
 
+@kernel(inline=True)
+def _lane_token(lanes, c, table):
+    """The next token, in context ``c``, of the lanes' rotation (token ``t`` is lane
+    ``t mod 2``'s, its state ``t div 2 mod 2`` of that lane's two): it reads from the
+    first lane's first state, then the lanes swap and so do the states within."""
+    d0, d1, p0, p1, x0, x1, x2, x3 = lanes
+    u, x0, p0 = rans.decode_symbol_bits(d0, x0, p0, c, table, GROUP_BITS)
+    return u, (d1, d0, p1, p0, x1, x2, x3, x0)
+
+
 @kernel(nrt=False)
-def _decode_groups(data, table, raw, bins):
-    """The grouped coding's bins into ``bins`` (zeroed; walk order): 0, or -1 on a
-    corrupt stream. The two rANS states take turns, swapped after every token."""
-    xa, xb, pos = rans.open_states(data)
+def _decode_groups(data0, data1, table, raw, bins):
+    """The grouped coding's bins into ``bins`` (zeroed; walk order) from the two lanes'
+    streams: 0, or -1 on a corrupt stream."""
+    a0, a1, p0 = rans.open_states(data0)
+    b0, b1, p1 = rans.open_states(data1)
+    lanes = (data0, data1, p0, p1, a0, b0, a1, b1)
     n = bins.size
     bitpos = np.int64(0)
     prev = np.int64(0)
     for g in range(0, n, GROUP):
-        c, xa, pos = rans.decode_symbol_bits(data, xa, pos, prev, table, GROUP_BITS)
-        xa, xb = xb, xa
+        c, lanes = _lane_token(lanes, prev, table)
         if c >= N_CLASS:
             return -1
         prev = c
@@ -494,12 +507,14 @@ def _decode_groups(data, table, raw, bins):
             continue
         cc = N_CLASS - 1 + c
         for j in range(g, min(g + GROUP, n)):
-            u, xa, pos = rans.decode_symbol_bits(data, xa, pos, cc, table, GROUP_BITS)
-            xa, xb = xb, xa
+            u, lanes = _lane_token(lanes, cc, table)
             b, bitpos = _symbol_bin(u, raw, bitpos)
             bins[j] = b
-    # the states end where the encoder began (both at its start: which is which is moot)
-    if bitpos > 8 * (raw.size - 8) or not rans.state_ok(data, xa, xb, pos):
+    d0, d1, p0, p1, x0, x1, x2, x3 = lanes
+    # each lane ends where its encoder began (all four states at its start value, so
+    # which state is which after the rotation is moot)
+    ok = rans.state_ok(d0, x0, x2, p0) and rans.state_ok(d1, x1, x3, p1)
+    if bitpos > 8 * (raw.size - 8) or not ok:
         return -1
     return 0
 
@@ -513,10 +528,12 @@ def _grouped(sym: np.ndarray, raw: np.ndarray) -> bytes:
     toks, ctx = toks[:t], ctx[:t]
     counts = np.bincount(ctx * N_SYM + toks, minlength=N_GROUP_CTX * N_SYM)
     freq = rans.normalise(counts.reshape(N_GROUP_CTX, N_SYM), GROUP_BITS)
+    lane0, lane1 = (rans.encode(toks[i::2], ctx[i::2], freq, GROUP_BITS) for i in (0, 1))
     return (
         put_section(deflate(rans.pack_tables(freq)))
         + put_section(raw.tobytes())
-        + rans.encode(toks, ctx, freq, GROUP_BITS)
+        + put_section(lane0)
+        + lane1
     )
 
 
@@ -641,8 +658,11 @@ def decode(inner, shape: tuple[int, int, int], step: float) -> np.ndarray:
         raw = np.frombuffer(bytes(raw) + bytes(8), dtype=np.uint8).copy()  # slack: _get_bits
         models = np.zeros(1, np.uint32)
     if grouped:  # the bins first, in a pass of their own; then the walk takes them
+        lane0, pos = take_section(inner, pos, what)
+        data0 = np.frombuffer(lane0 + bytes(2), dtype=np.uint8)
+        data = np.frombuffer(bytes(inner[pos:]) + bytes(2), dtype=np.uint8)
         bins = np.zeros(rec.size, dtype=np.int32)
-        status = _decode_groups(data, table, raw, bins)
+        status = _decode_groups(data0, data, table, raw, bins)
         if status == 0:
             status = _decode_walk_given(flat, bn, rec.shape, float(step), kind, bins, table, models)
     else:
