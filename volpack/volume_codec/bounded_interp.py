@@ -56,7 +56,9 @@ ADAPTIVE = 16
 # in a pass of their own, then the walk predicts without contexts. A group of GROUP
 # bins in walk order has a class, the bit length of its largest symbol (0: all bins 0,
 # nothing more is coded); the class is coded in the context of the previous group's,
-# then each symbol of a group of class c in context N_CLASS - 1 + c. GROUP_BITS of
+# then the group's symbols in context N_CLASS - 1 + c, PACK[c] to a token (c bits each,
+# the first lowest): fewer tokens where the symbols are small, the common case at loose
+# bounds, and never longer (a pair's entropy is at most its parts'). GROUP_BITS of
 # precision: the 15 tables (4 KB each) fit in the L1 cache, where the 18 of 16 KB of
 # the static coding did not. The tokens alternate between two rANS streams (lanes) of
 # two states each: a state's renormalisation reads at its stream's position, so with
@@ -66,6 +68,7 @@ GROUP = 16
 N_CLASS = 8  # N_SYM <= 128: bit lengths 0..7
 N_GROUP_CTX = 2 * N_CLASS - 1
 GROUP_BITS = 10
+PACK = np.array([1, 4, 2, 2, 1, 1, 1, 1])  # symbols a token, by class (tokens < N_SYM)
 # What the encoder tries: (kind, axis orders). Lorenzo in 3-D hardly depends on the
 # order; in 2-D the order's first axis is the one left out.
 TRIED = ((1, PERMS), (0, PERMS), (2, PERMS[:1]), (3, PERMS[:3]))
@@ -471,8 +474,12 @@ def _group_tokens(sym, n, toks, ctx):
         t += 1
         prev = c
         if c:
-            for j in range(g, end):
-                toks[t] = sym[j]
+            k = PACK[c]
+            for j in range(g, end, k):
+                v = 0
+                for i in range(min(k, end - j)):  # past the end: symbols 0
+                    v |= sym[j + i] << (c * i)
+                toks[t] = v
                 ctx[t] = N_CLASS - 1 + c
                 t += 1
     return t
@@ -490,12 +497,12 @@ def _lane_token(lanes, c, table):
 
 @kernel(nrt=False)
 def _decode_groups(data0, data1, table, raw, bins):
-    """The grouped coding's bins into ``bins`` (zeroed; walk order) from the two lanes'
-    streams: 0, or -1 on a corrupt stream."""
+    """The grouped coding's bins into ``bins`` (zeroed; walk order, ``GROUP`` more than
+    the voxels) from the two lanes' streams: 0, or -1 on a corrupt stream."""
     a0, a1, p0 = rans.open_states(data0)
     b0, b1, p1 = rans.open_states(data1)
     lanes = (data0, data1, p0, p1, a0, b0, a1, b1)
-    n = bins.size
+    n = bins.size - GROUP
     bitpos = np.int64(0)
     prev = np.int64(0)
     for g in range(0, n, GROUP):
@@ -506,10 +513,19 @@ def _decode_groups(data0, data1, table, raw, bins):
         if c == 0:
             continue
         cc = N_CLASS - 1 + c
-        for j in range(g, min(g + GROUP, n)):
-            u, lanes = _lane_token(lanes, cc, table)
-            b, bitpos = _symbol_bin(u, raw, bitpos)
-            bins[j] = b
+        k = PACK[c]
+        if k == 1:
+            for j in range(g, min(g + GROUP, n)):
+                u, lanes = _lane_token(lanes, cc, table)
+                b, bitpos = _symbol_bin(u, raw, bitpos)
+                bins[j] = b
+            continue
+        mask = (1 << c) - 1  # small symbols: no raw bits
+        for j in range(g, min(g + GROUP, n), k):  # bins has GROUP of slack at its end
+            v, lanes = _lane_token(lanes, cc, table)
+            for i in range(k):
+                u = (v >> (c * i)) & mask
+                bins[j + i] = (u >> 1) ^ -(u & 1)
     d0, d1, p0, p1, x0, x1, x2, x3 = lanes
     # each lane ends where its encoder began (all four states at its start value, so
     # which state is which after the rotation is moot)
@@ -661,7 +677,7 @@ def decode(inner, shape: tuple[int, int, int], step: float) -> np.ndarray:
         lane0, pos = take_section(inner, pos, what)
         data0 = np.frombuffer(lane0 + bytes(2), dtype=np.uint8)
         data = np.frombuffer(bytes(inner[pos:]) + bytes(2), dtype=np.uint8)
-        bins = np.zeros(rec.size, dtype=np.int32)
+        bins = np.zeros(rec.size + GROUP, dtype=np.int32)  # slack: _decode_groups
         status = _decode_groups(data0, data, table, raw, bins)
         if status == 0:
             status = _decode_walk_given(flat, bn, rec.shape, float(step), kind, bins, table, models)
