@@ -69,6 +69,21 @@ N_CLASS = 8  # N_SYM <= 128: bit lengths 0..7
 N_GROUP_CTX = 2 * N_CLASS - 1
 GROUP_BITS = 10
 PACK = np.array([1, 4, 2, 2, 1, 1, 1, 1])  # symbols a token, by class (tokens < N_SYM)
+
+
+def _unpacked() -> np.ndarray:
+    """The bins of each packed token (classes 1-3, tokens below 64), four a row (zeros
+    past the token's own): the decoder copies a row instead of splitting the token."""
+    out = np.zeros((4, 64, 4), dtype=np.int32)
+    for c in (1, 2, 3):
+        for v in range(1 << (c * PACK[c])):
+            for i in range(PACK[c]):
+                u = (v >> (c * i)) & ((1 << c) - 1)
+                out[c, v, i] = (u >> 1) ^ -(u & 1)
+    return out
+
+
+UNPACKED = _unpacked()
 # What the encoder tries: (kind, axis orders). Lorenzo in 3-D hardly depends on the
 # order; in 2-D the order's first axis is the one left out.
 TRIED = ((1, PERMS), (0, PERMS), (2, PERMS[:1]), (3, PERMS[:3]))
@@ -520,12 +535,11 @@ def _decode_groups(data0, data1, table, raw, bins):
                 b, bitpos = _symbol_bin(u, raw, bitpos)
                 bins[j] = b
             continue
-        mask = (1 << c) - 1  # small symbols: no raw bits
         for j in range(g, min(g + GROUP, n), k):  # bins has GROUP of slack at its end
             v, lanes = _lane_token(lanes, cc, table)
-            for i in range(k):
-                u = (v >> (c * i)) & mask
-                bins[j + i] = (u >> 1) ^ -(u & 1)
+            row = UNPACKED[c, v & 63]  # four bins: those past the token's are 0, so
+            for i in range(4):  # writing them over the next token's or group's is safe
+                bins[j + i] = row[i]
     d0, d1, p0, p1, x0, x1, x2, x3 = lanes
     # each lane ends where its encoder began (all four states at its start value, so
     # which state is which after the rotation is moot)
