@@ -621,7 +621,9 @@ def encode(g: np.ndarray, step: float, tried=TRIED, codings=CODINGS, min_saving=
                 found["grouped"] = (8 * len(body), kind | GROUPED, body)
             if "adaptive" in codings:
                 body = encode_with_retry(
-                    lambda out: _encode_adaptive(abin, adx, _fresh_models(), out),
+                    lambda out, abin=abin, adx=adx: _encode_adaptive(
+                        abin, adx, _fresh_models(), out
+                    ),
                     g.size, (2, 20), coder="bin",
                 )  # fmt: skip
                 found["adaptive"] = (8 * len(body), kind | ADAPTIVE, body)

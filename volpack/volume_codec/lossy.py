@@ -101,14 +101,15 @@ FAST_EXACT_SAVING = 0.25
 # interpolation is 2-35 % shorter). 5 % left eta_u at 1e-3 below SZ3's ratio (the
 # interpolation 4.4 % shorter); chosen on the README's fast23 fields, no held-out set.
 FAST_INTERP_SAVING = 0.04
-# The interpolation path's bins under effort 'fast' (FAST_GROUPED): the grouped coding
-# (bounded_interp.GROUPED) decodes 1.4-1.7x faster than the static one and 2.2-3.5x
-# faster than the adaptive one, for 1-7 % more bytes than the static coding; the static
-# coding is kept over it where it saves FAST_ADAPTIVE_SAVING (a cost like the adaptive
-# bins' over the static ones), the adaptive one where it saves FAST_EXACT_SAVING (a cost
-# like the exact path's). Grouped, the walk decodes about as fast as the fast codec: it
-# competes with it in the same tier (no saving asked). Chosen on the README's fast23
-# fields (fastbins24 section).
+# The interpolation path's bins under effort 'fast', in bounded_interp.CODINGS_FAST's
+# order (grouped, static, adaptive): what each must save over the best of those before
+# it. The grouped coding (bounded_interp.GROUPED) decodes 1.4-1.7x faster than the
+# static one, 2-3.5x faster than the adaptive one, and codes within -13..+4 % of the
+# static one; the static coding pays like the adaptive bins did over it
+# (FAST_ADAPTIVE_SAVING), the adaptive one like the exact path (FAST_EXACT_SAVING).
+# Grouped, the walk decodes about as fast as the fast codec: it competes with it in the
+# same tier (no saving asked). Chosen on the README's fast23 fields (fastbins24 section).
+FAST_BIN_SAVINGS = (0.0, FAST_ADAPTIVE_SAVING, FAST_EXACT_SAVING)
 # The long fitted predictor of the quantised voxels is tried only where the shortest
 # other coding spends this many bits a voxel (tight bounds; see _longfit).
 LONGFIT_MIN_BITS = 1.0
@@ -442,16 +443,16 @@ class BoundedCodec(BrickCodec):
         """The interpolation path (:mod:`volpack.volume_codec.bounded_interp`), checked on
         every voxel like the others."""
         from . import bounded_interp
+        from .bounded_interp import CODINGS, CODINGS_FAST, TRIED, TRIED_FAST
 
         g = clean.astype(np.float64)
         if mask is not None:  # no value to keep: bin 0, the voxel follows its prediction
             g[mask] = np.nan
         fast = self.effort == "fast"
         if fast:
-            tried, codings = bounded_interp.TRIED_FAST, bounded_interp.CODINGS_FAST
-            saving = (0.0, FAST_ADAPTIVE_SAVING, FAST_EXACT_SAVING)  # FAST_GROUPED above
+            tried, codings, saving = TRIED_FAST, CODINGS_FAST, FAST_BIN_SAVINGS
         else:
-            tried, codings, saving = bounded_interp.TRIED, bounded_interp.CODINGS, self._min_saving()
+            tried, codings, saving = TRIED, CODINGS, self._min_saving()
         inner, rec = bounded_interp.encode(g, self.step, tried, codings, saving)
         if fast:  # against the fast codec: the grouped bins decode as fast, the rest not
             tier = TIER_FAST if bounded_interp.is_grouped(inner) else TIER_MID
