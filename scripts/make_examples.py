@@ -498,20 +498,16 @@ LOSSY_CODER_CASES += [
 # (inner byte 6, lossy-1.md "the quantised voxels by the fast codec"), every brick.
 LOSSY_CODER_CASES += [
     ("lossy-bounded-i16-fast", "i16", {"max_error": 40, "effort": "fast"}, WAVELET_BRICK),
+    # and on floats, where it codes shorter than the interpolation path (with a mask)
+    ("lossy-bounded-f32-fast", "f32", {"max_error": 2.0, "fill_value": -999.0, "effort": "fast"},
+     None),
 ]  # fmt: skip
-# ... and on floats, where it coded shorter than the interpolation path (with a mask);
-# since session 24 the interpolation path's grouped bins code this recipe 0.5 % shorter
-# (kept as it is: decoded, no longer reproduced):
-# LOSSY_CODER_CASES += [
-#     ("lossy-bounded-f32-fast", "f32", {"max_error": 2.0, "fill_value": -999.0,
-#      "effort": "fast"}, None),
-# ]
 # The interpolation path's grouped bins (session 24, lossy-1.md step 17, kind 32 + kind):
-# that recipe today (cubic, with a mask), and plane waves at a bound where 3-D Lorenzo
-# wins and many symbols take raw bits.
+# the walk recipe with a mask (3-D Lorenzo), and plane waves where many symbols take raw
+# bits.
 FAST_BINS_CASES = [
-    ("lossy-bounded-f32-fastbins", "f32", {"max_error": 2.0, "fill_value": -999.0,
-     "effort": "fast"}, None),
+    ("lossy-bounded-f32-fastbins", "f32-walk",
+     {"max_error": 0.05, "fill_value": -999.0, "effort": "fast"}, None),
     ("lossy-bounded-f32-fastbins-raw", "f32-waves", {"max_error": 0.02, "effort": "fast"}, None),
 ]  # fmt: skip
 LOSSY_CODER_CASES += FAST_BINS_CASES

@@ -601,14 +601,10 @@ CODINGS = ("static", "adaptive")
 CODINGS_FAST = ("grouped", "static", "adaptive")
 
 
-def encode(g: np.ndarray, step: float, tried=TRIED, codings=CODINGS, min_saving=0.0):
-    """Code the float64 brick ``g`` (masked voxels filled) with bins of ``step`` (= 2E).
-    Returns ``(inner section, reconstruction)`` of the choice among ``tried`` ((kind,
-    axis orders) pairs) and ``codings`` of the bins estimated shortest (the static
-    one by its entropy, the others by their length). ``codings`` go from the fastest
-    to decode to the slowest; each is kept over the faster ones only where it saves
-    ``min_saving`` (one share, or one per coding) of the best of them's bits."""
-    savings = np.broadcast_to(np.asarray(min_saving, dtype=np.float64), (len(codings),))
+def _best_each(g: np.ndarray, step: float, tried, codings) -> dict:
+    """Per coding of ``codings``: (bits, axis order, kind byte, reconstruction, coded
+    form) of its shortest among ``tried`` ((kind, axis orders) pairs); the static
+    coding by its estimated size, the others by their length."""
     best = {}
     for kind, perms in tried:
         for perm in perms:
@@ -630,11 +626,12 @@ def encode(g: np.ndarray, step: float, tried=TRIED, codings=CODINGS, min_saving=
             for name, (bits, k, coded) in found.items():
                 if name not in best or bits < best[name][0]:
                     best[name] = (bits, perm, k, rec, coded)
-    chosen = None
-    for name, saving in zip(codings, savings):
-        if chosen is None or best[name][0] < (1.0 - saving) * chosen[0]:
-            chosen = best[name]
-    _, perm, kind, rec, coded = chosen
+    return best
+
+
+def _section(best) -> tuple[bytes, np.ndarray]:
+    """The inner section and reconstruction of one of :func:`_best_each`'s entries."""
+    _, perm, kind, rec, coded = best
     if kind & (ADAPTIVE | GROUPED):
         return HEADER.pack(*perm, kind) + coded, rec
     sym, ctx, raw = coded
@@ -647,6 +644,27 @@ def encode(g: np.ndarray, step: float, tried=TRIED, codings=CODINGS, min_saving=
         + rans.encode(sym, ctx, freq)
     )
     return inner, rec
+
+
+def encode(g: np.ndarray, step: float, tried=TRIED, codings=CODINGS, min_saving: float = 0.0):
+    """Code the float64 brick ``g`` (masked voxels filled) with bins of ``step`` (= 2E).
+    Returns ``(inner section, reconstruction)`` of the choice among ``tried`` ((kind,
+    axis orders) pairs) and ``codings`` of the bins estimated shortest (the static
+    one by its entropy, the others by their length). ``codings`` go from the fastest
+    to decode to the slowest; each is kept over the faster ones only where it saves
+    ``min_saving`` of the best of them's bits."""
+    best = _best_each(g, step, tried, codings)
+    chosen = None
+    for name in codings:
+        if chosen is None or best[name][0] < (1.0 - min_saving) * chosen[0]:
+            chosen = best[name]
+    return _section(chosen)
+
+
+def encode_each(g: np.ndarray, step: float, tried=TRIED_FAST, codings=CODINGS_FAST) -> dict:
+    """:func:`encode`'s section and reconstruction for each of ``codings`` (its shortest
+    among ``tried``), for a caller that weighs them against other paths itself."""
+    return {name: _section(b) for name, b in _best_each(g, step, tried, codings).items()}
 
 
 def is_adaptive(inner) -> bool:
