@@ -646,25 +646,20 @@ def _section(best) -> tuple[bytes, np.ndarray]:
     return inner, rec
 
 
-def encode(g: np.ndarray, step: float, tried=TRIED, codings=CODINGS, min_saving: float = 0.0):
+def encode(g: np.ndarray, step: float, tried=TRIED, codings=CODINGS, min_saving=0.0):
     """Code the float64 brick ``g`` (masked voxels filled) with bins of ``step`` (= 2E).
     Returns ``(inner section, reconstruction)`` of the choice among ``tried`` ((kind,
     axis orders) pairs) and ``codings`` of the bins estimated shortest (the static
     one by its entropy, the others by their length). ``codings`` go from the fastest
     to decode to the slowest; each is kept over the faster ones only where it saves
-    ``min_saving`` of the best of them's bits."""
+    ``min_saving`` (one share, or one per coding) of the best of them's bits."""
     best = _best_each(g, step, tried, codings)
+    shares = min_saving if isinstance(min_saving, tuple) else (min_saving,) * len(codings)
     chosen = None
-    for name in codings:
-        if chosen is None or best[name][0] < (1.0 - min_saving) * chosen[0]:
+    for name, share in zip(codings, shares):
+        if chosen is None or best[name][0] < (1.0 - share) * chosen[0]:
             chosen = best[name]
     return _section(chosen)
-
-
-def encode_each(g: np.ndarray, step: float, tried=TRIED_FAST, codings=CODINGS_FAST) -> dict:
-    """:func:`encode`'s section and reconstruction for each of ``codings`` (its shortest
-    among ``tried``), for a caller that weighs them against other paths itself."""
-    return {name: _section(b) for name, b in _best_each(g, step, tried, codings).items()}
 
 
 def is_adaptive(inner) -> bool:

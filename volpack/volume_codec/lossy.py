@@ -101,20 +101,19 @@ FAST_EXACT_SAVING = 0.25
 # interpolation is 2-35 % shorter). 5 % left eta_u at 1e-3 below SZ3's ratio (the
 # interpolation 4.4 % shorter); chosen on the README's fast23 fields, no held-out set.
 FAST_INTERP_SAVING = 0.04
-# Under effort 'fast' a float brick's codings are ranked by decoding speed: the
-# quantised voxels by the fast codec, then the interpolation path with its bins grouped
-# (bounded_interp.GROUPED), static, adaptive; each is kept only where it saves its share
-# of the bytes of the best of those before it. The grouped walk decodes as fast as the
-# fast codec at loose bounds but slower at tight ones (tgv_u at 1e-3: 0.46x SZ3's speed
-# against 0.48x; xray_1jzv at 1e-4: 0.48x against 0.59x), so it saves FAST_INTERP_SAVING
-# as the interpolation path did; the static bins (1.4-1.7x its decode time) save
-# FAST_ADAPTIVE_SAVING; the adaptive ones (2-3.5x) save FAST_ADAPTIVE_OVER_GROUPED:
-# 19.6 % on xray_1jzv at 1e-2 and 17.7 % on cam_t (grouped: 0.6x SZ3's speed, at or
-# above its ratio), 24 % on contour_t (held out) at 1e-2, where the grouped bins or the
-# fast codec fell below SZ3's ratio (22.7 against 23.9) with 25 %. README: fastbins24.
+# Under effort 'fast' the interpolation path's bins are coded grouped
+# (bounded_interp.GROUPED), static or adaptive, in that order of decoding speed, each
+# kept only where it saves its share of the best of those before it: the static bins
+# (1.4-1.7x the grouped decode time) FAST_ADAPTIVE_SAVING, the adaptive ones (2-3.5x)
+# FAST_ADAPTIVE_OVER_GROUPED. They save 17.7 % on cam_t and 19.6 % on xray_1jzv at 1e-2
+# of the range (grouped: 0.44x and 0.66x SZ3's decode speed, at or above its ratio) and
+# 24 % on contour_t at 1e-2, held out, which fell below SZ3's ratio with 25 % (22.7
+# against 23.9): chosen after seeing it. Then FAST_INTERP_SAVING against the fast codec,
+# whatever the coding: the grouped walk decodes slower than it at tight bounds (tgv_u at
+# 1e-3: 0.46x SZ3's speed against 0.48x; xray_1jzv at 1e-4: 0.48x against 0.59x).
+# README: fastbins24.
 FAST_ADAPTIVE_OVER_GROUPED = 0.22
-FAST_RANKS = {"grouped": 1, "static": 2, "adaptive": 3}  # the fast codec's: 0
-FAST_SAVINGS = (0.0, FAST_INTERP_SAVING, FAST_ADAPTIVE_SAVING, FAST_ADAPTIVE_OVER_GROUPED)
+FAST_BIN_SAVINGS = (0.0, FAST_ADAPTIVE_SAVING, FAST_ADAPTIVE_OVER_GROUPED)
 # The long fitted predictor of the quantised voxels is tried only where the shortest
 # other coding spends this many bits a voxel (tight bounds; see _longfit).
 LONGFIT_MIN_BITS = 1.0
@@ -353,8 +352,9 @@ class BoundedCodec(BrickCodec):
         cands = [(t, self._finish(x, mask, rec, 0, [b])) for t, b in self._code_quantised(q)]
         if fast:
             if x.size >= 64 and x.dtype.kind == "f" and not self._exact:
-                cands += self._interp_fast_candidates(x, clean, mask)
-                return keep_faster(cands, FAST_SAVINGS)
+                # the interpolation walk decodes slower than the fast codec at tight bounds
+                cands.append((TIER_MID, self._interp_candidate(x, clean, mask)[1]))
+                return keep_faster(cands, FAST_INTERP_SAVING)
             return keep_faster(cands, self._min_saving())
         if x.size >= 64 and not self._exact:
             cands.append((TIER_MID, self._coef_candidate(x, clean, mask)))
@@ -452,24 +452,14 @@ class BoundedCodec(BrickCodec):
         g = clean.astype(np.float64)
         if mask is not None:  # no value to keep: bin 0, the voxel follows its prediction
             g[mask] = np.nan
-        inner, rec = bounded_interp.encode(g, self.step, min_saving=self._min_saving())
+        tried, codings, saving = bounded_interp.TRIED, bounded_interp.CODINGS, self._min_saving()
+        if self.effort == "fast":
+            tried, codings = bounded_interp.TRIED_FAST, bounded_interp.CODINGS_FAST
+            saving = FAST_BIN_SAVINGS
+        inner, rec = bounded_interp.encode(g, self.step, tried, codings, saving)
         tier = TIER_MID if bounded_interp.is_adaptive(inner) else TIER_FAST
         y = _to_float(rec, x.dtype, overwrite=True)
         return tier, self._finish(x, mask, y, FLAG_INTERP, [inner])
-
-    def _interp_fast_candidates(self, x, clean, mask):
-        """Effort 'fast': the interpolation path with each coding of its bins, ranked
-        (``FAST_RANKS``) for :func:`keep_faster` with ``FAST_SAVINGS``."""
-        from . import bounded_interp
-
-        g = clean.astype(np.float64)
-        if mask is not None:
-            g[mask] = np.nan
-        out = []
-        for name, (inner, rec) in bounded_interp.encode_each(g, self.step).items():
-            y = _to_float(rec, x.dtype)  # rec may be another coding's too: not overwritten
-            out.append((FAST_RANKS[name], self._finish(x, mask, y, FLAG_INTERP, [inner])))
-        return out
 
     def _cdf97_candidates(self, x, clean, mask):
         """The float CDF 9/7 path at each step it tries; each checked on every voxel."""
@@ -700,14 +690,12 @@ def keep_faster(cands: list[tuple[int, Measured]], saving: float = SLOW_MIN_SAVI
     """The coding to keep of ``(decoding tier, coding)`` pairs: the shortest, except
     that one of a slower tier than the best of the faster ones must be shorter than it
     by ``saving`` of its bytes (``SLOW_MIN_SAVING``: the adaptive codings decode at a
-    third to a half of the speed of the static ones for a few per cent of the bytes),
-    or by ``saving[tier]`` when it is a tuple. Ties keep the faster tier, then the
-    first."""
+    third to a half of the speed of the static ones for a few per cent of the bytes).
+    Ties keep the faster tier, then the first."""
     order = sorted(cands, key=lambda c: c[0])
     best_tier, best = order[0]
     for tier, m in order[1:]:
-        share = saving[tier] if isinstance(saving, tuple) else saving
-        limit = len(best[0]) * (1.0 - share) if tier > best_tier else len(best[0])
+        limit = len(best[0]) * (1.0 - saving) if tier > best_tier else len(best[0])
         if len(m[0]) < limit:
             best_tier, best = tier, m
     return best
