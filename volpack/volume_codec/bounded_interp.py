@@ -652,13 +652,15 @@ def encode(g: np.ndarray, step: float, tried=TRIED, codings=CODINGS, min_saving=
     axis orders) pairs) and ``codings`` of the bins estimated shortest (the static
     one by its entropy, the others by their length). ``codings`` go from the fastest
     to decode to the slowest; each is kept over the faster ones only where it saves
-    ``min_saving`` (one share, or one per coding) of the best of them's bits."""
+    ``min_saving`` (one share, or one per coding) of the shortest of them's bits."""
     best = _best_each(g, step, tried, codings)
     shares = min_saving if isinstance(min_saving, tuple) else (min_saving,) * len(codings)
-    chosen = None
+    chosen, shortest = None, np.inf
     for name, share in zip(codings, shares):
-        if chosen is None or best[name][0] < (1.0 - share) * chosen[0]:
+        bits = best[name][0]
+        if chosen is None or bits < (1.0 - share) * shortest:
             chosen = best[name]
+        shortest = min(shortest, bits)
     return _section(chosen)
 
 

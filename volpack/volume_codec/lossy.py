@@ -103,10 +103,10 @@ FAST_EXACT_SAVING = 0.25
 FAST_INTERP_SAVING = 0.04
 # Under effort 'fast' the interpolation path's bins are coded grouped
 # (bounded_interp.GROUPED), static or adaptive, in that order of decoding speed, each
-# kept only where it saves its share of the best of those before it: the static bins
+# kept only where it saves its share of the shortest of those before it: the static bins
 # (1.4-1.7x the grouped decode time) FAST_ADAPTIVE_SAVING, the adaptive ones (2-3.5x)
-# FAST_ADAPTIVE_OVER_GROUPED. They save 17.7 % on cam_t and 19.6 % on xray_1jzv at 1e-2
-# of the range (grouped: 0.44x and 0.66x SZ3's decode speed, at or above its ratio) and
+# FAST_ADAPTIVE_OVER_GROUPED. They save 17.7 % on cam_t and 16.5 % on xray_1jzv at 1e-2
+# of the range (grouped: 0.42x and 0.67x SZ3's decode speed, at or above its ratio) and
 # 24 % on contour_t at 1e-2, held out, which fell below SZ3's ratio with 25 % (22.7
 # against 23.9): chosen after seeing it. Then FAST_INTERP_SAVING against the fast codec,
 # whatever the coding: the grouped walk decodes slower than it at tight bounds (tgv_u at
