@@ -452,11 +452,12 @@ class BoundedCodec(BrickCodec):
         g = clean.astype(np.float64)
         if mask is not None:  # no value to keep: bin 0, the voxel follows its prediction
             g[mask] = np.nan
-        tried, codings, saving = bounded_interp.TRIED, bounded_interp.CODINGS, self._min_saving()
         if self.effort == "fast":
             tried, codings = bounded_interp.TRIED_FAST, bounded_interp.CODINGS_FAST
-            saving = FAST_BIN_SAVINGS
-        inner, rec = bounded_interp.encode(g, self.step, tried, codings, saving)
+            inner, rec = bounded_interp.encode(g, self.step, tried, codings, FAST_BIN_SAVINGS)
+        else:  # (codings left to encode's default: tests narrow it)
+            saving = self._min_saving()
+            inner, rec = bounded_interp.encode(g, self.step, bounded_interp.TRIED, min_saving=saving)
         tier = TIER_MID if bounded_interp.is_adaptive(inner) else TIER_FAST
         y = _to_float(rec, x.dtype, overwrite=True)
         return tier, self._finish(x, mask, y, FLAG_INTERP, [inner])
