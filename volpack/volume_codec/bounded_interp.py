@@ -16,7 +16,9 @@ the two voxels it was interpolated from had their bins (the bins cluster where t
 is rough) and the bin coded just before it. Or (kind bit 4, the encoder's choice by size)
 by :mod:`.predictfit`'s adaptive binary coder, in contexts of the predicting and the same
 pass's neighbouring bins: no tables to store, and models that follow the bins' spread
-where the static contexts saturate (every bin past 16 at tight bounds).
+where the static contexts saturate (every bin past 16 at tight bounds). Or (kind bit 5,
+effort 'fast' only) grouped for decoding speed (:data:`GROUPED`): the bins are decoded
+in a pass of their own, then the walk takes them from an array, with no contexts.
 
 The encoder's choices, made per brick by the estimated coded size and stored: which
 axis is interpolated in which order (the pass of the last axis covers half the voxels,
@@ -667,11 +669,6 @@ def encode(g: np.ndarray, step: float, tried=TRIED, codings=CODINGS, min_saving=
 def is_adaptive(inner) -> bool:
     """Whether :func:`encode`'s section codes its bins adaptively (kind bit 4)."""
     return bool(inner[HEADER.size - 1] & ADAPTIVE)
-
-
-def is_grouped(inner) -> bool:
-    """Whether :func:`encode`'s section codes its bins in groups (kind bit 5)."""
-    return bool(inner[HEADER.size - 1] & GROUPED)
 
 
 def decode(inner, shape: tuple[int, int, int], step: float) -> np.ndarray:
