@@ -502,6 +502,15 @@ LOSSY_CODER_CASES += [
     ("lossy-bounded-f32-fast", "f32", {"max_error": 2.0, "fill_value": -999.0, "effort": "fast"},
      None),
 ]  # fmt: skip
+# The interpolation path's grouped bins (session 24, lossy-1.md step 17, kind 32 + kind):
+# the walk recipe with a mask (3-D Lorenzo), and plane waves where many symbols take raw
+# bits.
+FAST_BINS_CASES = [
+    ("lossy-bounded-f32-fastbins", "f32-walk",
+     {"max_error": 0.05, "fill_value": -999.0, "effort": "fast"}, None),
+    ("lossy-bounded-f32-fastbins-raw", "f32-waves", {"max_error": 0.02, "effort": "fast"}, None),
+]  # fmt: skip
+LOSSY_CODER_CASES += FAST_BINS_CASES
 
 
 def make_lossy(folder: Path) -> Path:

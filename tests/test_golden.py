@@ -361,6 +361,12 @@ LOSSY_TODAY = [  # (stem, recipe, options, brick, (flags, kind or mode) of each 
     # and on floats (flag 1: the mask of the fill value), where it is the shorter coding
     ("lossy-bounded-f32-fast", "f32", {"max_error": 2.0, "fill_value": -999.0, "effort": "fast"},
      None, {(1, 6)}),
+    # the interpolation path's grouped bins (kind 32 + 2, 3-D Lorenzo; session 24), with
+    # the mask; and without, with raw bits
+    ("lossy-bounded-f32-fastbins", "f32-walk",
+     {"max_error": 0.05, "fill_value": -999.0, "effort": "fast"}, None, {(65, 34)}),
+    ("lossy-bounded-f32-fastbins-raw", "f32-waves", {"max_error": 0.02, "effort": "fast"}, None,
+     {(64, 34)}),
     # the long fitted predictor (flag bit 3 with corrections, reach K = 4; lossy-1.md step 20)
     ("lossy-bounded-f32-longfit", "f32-waves", {"max_error": 0.005}, None, {(10, 4)}),
     # its version 2 (first byte 0; step 21): reach (2, 8, 8), face classes
@@ -414,6 +420,10 @@ def test_golden_adaptive_bins_and_quantised_fit_streams(stem, recipe, opts, bric
         inner = take_section(memoryview(payloads[0]), 1, "inner")[0]
         assert (inner[4] == 3) == stem.endswith("context")
         assert (inner[4] == 4) == stem.endswith("static")
+    if stem == "lossy-bounded-f32-fastbins-raw":  # escapes: the raw bit field is not empty
+        inner = take_section(memoryview(payloads[0]), 1, "inner")[0]
+        _, pos = take_section(inner, 4, "tables")
+        assert len(take_section(inner, pos, "raw")[0]) > 0
     if stem in BEFORE_MIN_SAVING | BEFORE_LONGFIT_2 | BEFORE_CONTEXT:
         return
     again = api.compress_array(want, **({"brick": brick} if brick else {}), **opts)

@@ -33,25 +33,26 @@ LOW = 1 << 16  # the states' lower end
 MAX_SYMBOLS = 256
 
 
-def normalise(counts: np.ndarray) -> np.ndarray:
-    """Counts (one row per context) scaled so each non-empty row sums to ``TOTAL`` and
-    every symbol seen keeps at least 1."""
+def normalise(counts: np.ndarray, bits: int = PROB_BITS) -> np.ndarray:
+    """Counts (one row per context) scaled so each non-empty row sums to ``2^bits``
+    (``TOTAL`` by default) and every symbol seen keeps at least 1."""
+    full = 1 << bits
     counts = np.asarray(counts, dtype=np.int64)
     out = np.zeros(counts.shape, dtype=np.int64)
     for c, row in enumerate(counts):
         total = int(row.sum())
         if total == 0:
             continue
-        f = np.where(row > 0, np.maximum(1, np.rint(row * (TOTAL / total))), 0).astype(np.int64)
-        diff = TOTAL - int(f.sum())
+        f = np.where(row > 0, np.maximum(1, np.rint(row * (full / total))), 0).astype(np.int64)
+        diff = full - int(f.sum())
         while diff != 0:  # settle the rounding on the largest entries
             k = int(np.argmax(f))
             give = diff if diff > 0 else max(diff, 1 - int(f[k]))
-            if give == 0:  # the largest is 1: cannot happen with <= TOTAL symbols
+            if give == 0:  # the largest is 1: cannot happen with <= full symbols
                 raise AssertionError("rANS table does not fit")
             f[k] += give
             diff -= give
-        if f.max() == TOTAL:  # one symbol: a second, never coded, keeps it below TOTAL
+        if f.max() == full:  # one symbol: a second, never coded, keeps it below full
             k = int(np.argmax(f))
             f[k] -= 1
             f[k + 1 if k + 1 < f.size else k - 1] += 1
@@ -70,33 +71,37 @@ def pack_tables(freqs: np.ndarray) -> bytes:
     return b"".join(parts)
 
 
-def unpack_tables(body: bytes, nctx: int, nsym: int, what: str):
+def unpack_tables(body: bytes, nctx: int, nsym: int, what: str, bits: int = PROB_BITS):
     """Read :func:`pack_tables`' bytes for ``nctx`` contexts of up to ``nsym`` symbols
     into the decoder's :func:`slot_table`; a row that is not empty and does not sum to
-    ``TOTAL`` is corrupt. Returns it and the bytes read."""
+    ``2^bits`` is corrupt. Returns it and the bytes read."""
+    full = 1 << bits
     freq = np.zeros((nctx, nsym), dtype=np.int64)
-    pos = 0
-    for c in range(nctx):
-        if pos + 2 > len(body):
+    words = np.frombuffer(body[: len(body) & ~1], "<u2")
+    pos = 0  # in words
+    for c in range(nctx):  # the rows' lengths in turn; the sums checked at once below
+        if pos >= words.size:
             raise FormatError(f"{what}: the rANS tables are cut short")
-        m = int.from_bytes(body[pos : pos + 2], "little")
-        pos += 2
-        if m > nsym or pos + 2 * m > len(body):
+        m = int(words[pos])
+        pos += 1
+        if m > nsym or pos + m > words.size:
             raise FormatError(f"{what}: a rANS table of {m} symbols runs past its data")
-        freq[c, :m] = np.frombuffer(body[pos : pos + 2 * m], "<u2")
-        pos += 2 * m
-        s = int(freq[c].sum())
-        if s not in (0, TOTAL) or freq[c].max() == TOTAL:
-            raise FormatError(
-                f"{what}: a rANS table sums to {s}, expected {TOTAL} over two or more symbols"
-            )
-    return slot_table(freq), pos
+        freq[c, :m] = words[pos : pos + m]
+        pos += m
+    sums, tops = freq.sum(axis=1), freq.max(axis=1, initial=0)
+    bad = np.flatnonzero(((sums != 0) & (sums != full)) | (tops == full))
+    if bad.size:
+        raise FormatError(
+            f"{what}: a rANS table sums to {int(sums[bad[0]])}, expected {full} over two or "
+            "more symbols"
+        )
+    return slot_table(freq, bits), 2 * pos
 
 
-def slot_table(freq: np.ndarray) -> np.ndarray:
+def slot_table(freq: np.ndarray, bits: int = PROB_BITS) -> np.ndarray:
     """The decoder's table: for each context and slot, ``symbol | freq << 8 | (slot -
     cum) << 20`` (uint32), so one load gives all a symbol needs; empty contexts are 0."""
-    out = np.zeros((freq.shape[0], TOTAL), dtype=np.uint32)
+    out = np.zeros((freq.shape[0], 1 << bits), dtype=np.uint32)
     _fill_slots(np.ascontiguousarray(freq, dtype=np.int64), out)
     return out
 
@@ -113,24 +118,24 @@ def _fill_slots(freq, out):
 
 
 @kernel
-def encode_symbols(sym, ctx, freq, cum, out):
-    """Code ``sym[i]`` in table ``ctx[i]``, last to first, into the end of ``out``;
-    returns the start of the stream in ``out`` (the two final states first), or -1 when
-    ``out`` is too small."""
+def encode_symbols(sym, ctx, freq, cum, out, bits):
+    """Code ``sym[i]`` in table ``ctx[i]`` (frequencies summing to ``2^bits``), last to
+    first, into the end of ``out``; returns the start of the stream in ``out`` (the two
+    final states first), or -1 when ``out`` is too small."""
     xs = np.full(2, LOW, dtype=np.int64)
     pos = out.size
     for i in range(sym.size - 1, -1, -1):
         c, s = ctx[i], sym[i]
         f = freq[c, s]
         x = xs[i & 1]
-        if x >= ((LOW >> PROB_BITS) << 16) * f:
+        if x >= ((LOW >> bits) << 16) * f:
             if pos < 10:
                 return -1
             pos -= 2
             out[pos] = x & 0xFF
             out[pos + 1] = (x >> 8) & 0xFF
             x >>= 16
-        xs[i & 1] = ((x // f) << PROB_BITS) + (x % f) + cum[c, s]
+        xs[i & 1] = ((x // f) << bits) + (x % f) + cum[c, s]
     if pos < 8:
         return -1
     for x in (xs[1], xs[0]):
@@ -158,8 +163,15 @@ def decode_symbol(data, x, pos, c, table):
     test); past its end the state is fed zeros and :func:`state_ok` tells afterwards.
     The renormalisation has no branch: which way it goes depends on the data, and a
     mispredicted branch costs more than the arithmetic."""
-    e = np.int64(table[c, x & (TOTAL - 1)])
-    x, pos = _renorm(data, ((e >> 8) & 0xFFF) * (x >> PROB_BITS) + (e >> 20), pos)
+    return decode_symbol_bits(data, x, pos, c, table, PROB_BITS)
+
+
+@kernel(inline=True)
+def decode_symbol_bits(data, x, pos, c, table, bits):
+    """:func:`decode_symbol` at ``bits`` of precision (up to 12; a compile-time
+    constant in the caller, so the masks fold)."""
+    e = np.int64(table[c, x & ((1 << bits) - 1)])
+    x, pos = _renorm(data, ((e >> 8) & 0xFFF) * (x >> bits) + (e >> 20), pos)
     return e & 0xFF, x, pos
 
 
@@ -192,11 +204,12 @@ def state_ok(data, x0, x1, pos):
     return x0 == LOW and x1 == LOW and pos == data.size - 2
 
 
-def encode(sym: np.ndarray, ctx: np.ndarray, freq: np.ndarray) -> bytes:
+def encode(sym: np.ndarray, ctx: np.ndarray, freq: np.ndarray, bits: int = PROB_BITS) -> bytes:
     """The stream of :func:`encode_symbols` as bytes (no tables)."""
     sym = np.ascontiguousarray(sym, dtype=np.int64)
     out = np.empty(2 * sym.size + 64, dtype=np.uint8)  # under 16 bits a symbol
-    start = encode_symbols(sym, np.ascontiguousarray(ctx, dtype=np.int64), freq, _cum(freq), out)
+    ctx = np.ascontiguousarray(ctx, dtype=np.int64)
+    start = encode_symbols(sym, ctx, freq, _cum(freq), out, bits)
     if start < 0:
         raise AssertionError("rANS stream overflowed its worst-case buffer")
     return out[start:].tobytes()

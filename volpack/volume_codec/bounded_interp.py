@@ -16,7 +16,9 @@ the two voxels it was interpolated from had their bins (the bins cluster where t
 is rough) and the bin coded just before it. Or (kind bit 4, the encoder's choice by size)
 by :mod:`.predictfit`'s adaptive binary coder, in contexts of the predicting and the same
 pass's neighbouring bins: no tables to store, and models that follow the bins' spread
-where the static contexts saturate (every bin past 16 at tight bounds).
+where the static contexts saturate (every bin past 16 at tight bounds). Or (kind bit 5,
+effort 'fast' only) grouped for decoding speed (:data:`GROUPED`): the bins are decoded
+in a pass of their own, then the walk takes them from an array, with no contexts.
 
 The encoder's choices, made per brick by the estimated coded size and stored: which
 axis is interpolated in which order (the pass of the last axis covers half the voxels,
@@ -52,6 +54,38 @@ PERMS = ((0, 1, 2), (1, 0, 2), (2, 1, 0), (0, 2, 1))
 HEADER = struct.Struct("<3BB")  # axis order, kind
 # Kind flag: the bins coded by the adaptive binary coder (below) instead of static rANS.
 ADAPTIVE = 16
+# Kind flag: the bins coded in groups for decoding speed (effort 'fast' only): decoded
+# in a pass of their own, then the walk predicts without contexts. A group of GROUP
+# bins in walk order has a class, the bit length of its largest symbol (0: all bins 0,
+# nothing more is coded); the class is coded in the context of the previous group's,
+# then the group's symbols in context N_CLASS - 1 + c, PACK[c] to a token (c bits each,
+# the first lowest): fewer tokens where the symbols are small, the common case at loose
+# bounds, and never longer (a pair's entropy is at most its parts'). GROUP_BITS of
+# precision: the 15 tables (4 KB each) fit in the L1 cache, where the 18 of 16 KB of
+# the static coding did not. The tokens alternate between two rANS streams (lanes) of
+# two states each: a state's renormalisation reads at its stream's position, so with
+# one stream every symbol waited for the one before; two lanes overlap.
+GROUPED = 32
+GROUP = 16
+N_CLASS = 8  # N_SYM <= 128: bit lengths 0..7
+N_GROUP_CTX = 2 * N_CLASS - 1
+GROUP_BITS = 10
+PACK = np.array([1, 4, 2, 2, 1, 1, 1, 1])  # symbols a token, by class (tokens < N_SYM)
+
+
+def _unpacked() -> np.ndarray:
+    """The bins of each packed token (classes 1-3, tokens below 64), four a row (zeros
+    past the token's own): the decoder copies a row instead of splitting the token."""
+    out = np.zeros((4, 64, 4), dtype=np.int32)
+    for c in (1, 2, 3):
+        for v in range(1 << (c * PACK[c])):
+            for i in range(PACK[c]):
+                u = (v >> (c * i)) & ((1 << c) - 1)
+                out[c, v, i] = (u >> 1) ^ -(u & 1)
+    return out
+
+
+UNPACKED = _unpacked()
 # What the encoder tries: (kind, axis orders). Lorenzo in 3-D hardly depends on the
 # order; in 2-D the order's first axis is the one left out.
 TRIED = ((1, PERMS), (0, PERMS), (2, PERMS[:1]), (3, PERMS[:3]))
@@ -116,6 +150,19 @@ def _get_bits(raw, bitpos, n):
 
 
 @kernel(inline=True)
+def _symbol_bin(u, raw, bitpos):
+    """The bin of symbol ``u`` (:func:`_code_one`), its raw bits read from ``raw`` at
+    ``bitpos``: (bin, bitpos)."""
+    if u >= DIRECT:
+        t = u - DIRECT
+        n = 6 + (t >> 1)
+        low = _get_bits(raw, bitpos, n - 2)
+        bitpos += n - 2
+        u = (np.int64(1) << (n - 1)) | ((t & 1) << (n - 2)) | low
+    return (u >> 1) ^ -(u & 1), bitpos
+
+
+@kernel(inline=True)
 def _code_one(decode, v, p, q, c, k, sym, ctx, raw, bitpos, data, x0, x1, pos, table):
     """Quantise voxel value ``v`` against its prediction ``p`` in bins of ``q`` (encoding)
     or read its bin (decoding), in context ``c``. Returns (bin, k, bitpos, x0, x1, pos).
@@ -129,13 +176,7 @@ def _code_one(decode, v, p, q, c, k, sym, ctx, raw, bitpos, data, x0, x1, pos, t
             u, x1, pos = rans.decode_symbol(data, x1, pos, c, table)
         else:
             u, x0, pos = rans.decode_symbol(data, x0, pos, c, table)
-        if u >= DIRECT:
-            t = u - DIRECT
-            n = 6 + (t >> 1)
-            low = _get_bits(raw, bitpos, n - 2)
-            bitpos += n - 2
-            u = (np.int64(1) << (n - 1)) | ((t & 1) << (n - 2)) | low
-        b = (u >> 1) ^ -(u & 1)
+        b, bitpos = _symbol_bin(u, raw, bitpos)
     else:
         d = np.floor((v - p) / q + 0.5)
         b = np.int64(d) if abs(d) < MAX_BIN else np.int64(0)
@@ -198,7 +239,7 @@ def _code_any(decode, adaptive, v, p, q, c, na, nb, sg, k, state, sym, ctx, abin
 
 @kernel(inline=True)
 def _walk(x, rec, bn, shape, step, kind, adaptive, decode, sym, ctx, abin, adx, raw, data,
-          table, models):  # fmt: skip
+          table, models, given, bins):  # fmt: skip
     """Predict, quantise and rebuild every voxel of ``rec`` (flat, C order of ``shape``):
     level by level for the interpolations (``kind`` 0 linear, 1 cubic), in C order for
     Lorenzo (2: 3-D, 3: 2-D within each slice). ``bn`` (int32, zeroed) takes each voxel's
@@ -209,7 +250,8 @@ def _walk(x, rec, bn, shape, step, kind, adaptive, decode, sym, ctx, abin, adx, 
     adaptive coder's contexts into ``abin`` and ``adx`` (:func:`_encode_adaptive` codes
     them); returns the raw bit count. Decoding: reads the bins from ``data``, the static
     rANS stream and ``raw`` or (``adaptive``) the adaptive coder's stream; returns 0, or
-    -1 on a corrupt stream.
+    -1 on a corrupt stream. With ``given``: takes the bins, in walk order, from ``bins``
+    (decoded beforehand by :func:`_decode_groups`; no contexts, no stream).
     """
     nz, ny, nx = shape
     sty, stz = nx, ny * nx
@@ -252,10 +294,14 @@ def _walk(x, rec, bn, shape, step, kind, adaptive, decode, sym, ctx, abin, adx, 
                         v = x[j]
                     elif adaptive and state[3] > size + 4:
                         return -1
-                    b, k, state = _code_any(
-                        decode, adaptive, v, p, q, ACT_CONTEXT[a] + prev, na, nb, sg, k,
-                        state, sym, ctx, abin, adx, raw, data, table, models,
-                    )  # fmt: skip
+                    if given:
+                        b = np.int64(bins[k])
+                        k += 1
+                    else:
+                        b, k, state = _code_any(
+                            decode, adaptive, v, p, q, ACT_CONTEXT[a] + prev, na, nb, sg, k,
+                            state, sym, ctx, abin, adx, raw, data, table, models,
+                        )  # fmt: skip
                     if b == NO_RESIDUAL:
                         return -1
                     rec[j] = p + np.float64(b) * q
@@ -326,6 +372,10 @@ def _walk(x, rec, bn, shape, step, kind, adaptive, decode, sym, ctx, abin, adx, 
                                 v = x[j]
                             elif adaptive and state[3] > size + 4:
                                 return -1
+                            if given:
+                                rec[j] = p + np.float64(bins[k]) * q
+                                k += 1
+                                continue
                             b, k, state = _code_any(
                                 decode, adaptive, v, p, q, c, na, nb, sg, k,
                                 state, sym, ctx, abin, adx, raw, data, table, models,
@@ -335,6 +385,8 @@ def _walk(x, rec, bn, shape, step, kind, adaptive, decode, sym, ctx, abin, adx, 
                             rec[j] = p + np.float64(b) * q
                             bn[j] = b
     bitpos, x0, x1, pos = state
+    if given:
+        return 0
     if decode:
         if adaptive:
             return 0 if end_status(data, x0, pos) == 0 else -1
@@ -349,7 +401,7 @@ def _encode_walk(x, rec, bn, shape, step, kind, sym, ctx, abin, adx, raw, no_tab
     """:func:`_walk` encoding (compiled on its own: the decoding branches fold away)."""
     return _walk(
         x, rec, bn, shape, step, kind, False, False, sym, ctx, abin, adx, raw, raw,
-        no_table, no_models,
+        no_table, no_models, False, bn,
     )  # fmt: skip
 
 
@@ -359,8 +411,9 @@ def _decode_walk(rec, bn, shape, step, kind, raw, data, table, no_models, no_sym
     encoding and adaptive branches fold away)."""
     z = no_symbols
     return _walk(
-        rec, rec, bn, shape, step, kind, False, True, z, z, z, z, raw, data, table, no_models
-    )
+        rec, rec, bn, shape, step, kind, False, True, z, z, z, z, raw, data, table, no_models,
+        False, bn,
+    )  # fmt: skip
 
 
 @kernel(nrt=False)
@@ -369,8 +422,18 @@ def _decode_walk_adaptive(rec, bn, shape, step, kind, no_raw, data, no_table, mo
     """:func:`_walk` decoding bins of the adaptive coding."""
     z = no_symbols
     return _walk(
-        rec, rec, bn, shape, step, kind, True, True, z, z, z, z, no_raw, data, no_table, models
-    )
+        rec, rec, bn, shape, step, kind, True, True, z, z, z, z, no_raw, data, no_table, models,
+        False, bn,
+    )  # fmt: skip
+
+
+@kernel(nrt=False)
+def _decode_walk_given(rec, bn, shape, step, kind, bins, no_table, no_models):
+    """:func:`_walk` with the bins given in walk order (the grouped coding's); the
+    stream and symbol arguments are never read: ``bins`` stands in for them."""
+    b = bins
+    return _walk(rec, rec, bn, shape, step, kind, False, True, b, b, b, b, b, b, no_table,
+                 no_models, True, b)  # fmt: skip
 
 
 @kernel(nrt=False)
@@ -410,6 +473,102 @@ def _lorenzo(rec, j, z, y, x, sty, stz, use_z):
     return p
 
 
+@kernel
+def _group_tokens(sym, n, toks, ctx):
+    """The grouped coding's tokens of the ``n`` symbols ``sym`` (walk order) into
+    ``toks`` and their contexts into ``ctx`` (each of ``n + n // GROUP + 1``); their
+    count."""
+    t = 0
+    prev = 0
+    for g in range(0, n, GROUP):
+        end = min(g + GROUP, n)
+        top = 0
+        for j in range(g, end):
+            top |= sym[j]
+        c = 64 - np.int64(leading_zeros(np.uint64(top)))  # the class: the OR's bit length
+        toks[t] = c
+        ctx[t] = prev
+        t += 1
+        prev = c
+        if c:
+            k = PACK[c]
+            for j in range(g, end, k):
+                v = 0
+                for i in range(min(k, end - j)):  # past the end: symbols 0
+                    v |= sym[j + i] << (c * i)
+                toks[t] = v
+                ctx[t] = N_CLASS - 1 + c
+                t += 1
+    return t
+
+
+@kernel(inline=True)
+def _lane_token(lanes, c, table):
+    """The next token, in context ``c``, of the lanes' rotation (token ``t`` is lane
+    ``t mod 2``'s, its state ``t div 2 mod 2`` of that lane's two): it reads from the
+    first lane's first state, then the lanes swap and so do the states within."""
+    d0, d1, p0, p1, x0, x1, x2, x3 = lanes
+    u, x0, p0 = rans.decode_symbol_bits(d0, x0, p0, c, table, GROUP_BITS)
+    return u, (d1, d0, p1, p0, x1, x2, x3, x0)
+
+
+@kernel(nrt=False)
+def _decode_groups(data0, data1, table, raw, bins):
+    """The grouped coding's bins into ``bins`` (zeroed; walk order, ``GROUP`` more than
+    the voxels) from the two lanes' streams: 0, or -1 on a corrupt stream."""
+    a0, a1, p0 = rans.open_states(data0)
+    b0, b1, p1 = rans.open_states(data1)
+    lanes = (data0, data1, p0, p1, a0, b0, a1, b1)
+    n = bins.size - GROUP
+    bitpos = np.int64(0)
+    prev = np.int64(0)
+    for g in range(0, n, GROUP):
+        c, lanes = _lane_token(lanes, prev, table)
+        if c >= N_CLASS:
+            return -1
+        prev = c
+        if c == 0:
+            continue
+        cc = N_CLASS - 1 + c
+        k = PACK[c]
+        if k == 1:
+            for j in range(g, min(g + GROUP, n)):
+                u, lanes = _lane_token(lanes, cc, table)
+                b, bitpos = _symbol_bin(u, raw, bitpos)
+                bins[j] = b
+            continue
+        for j in range(g, min(g + GROUP, n), k):  # bins has GROUP of slack at its end
+            v, lanes = _lane_token(lanes, cc, table)
+            row = UNPACKED[c, v & 63]  # four bins: those past the token's are 0, so
+            for i in range(4):  # writing them over the next token's or group's is safe
+                bins[j + i] = row[i]
+    d0, d1, p0, p1, x0, x1, x2, x3 = lanes
+    # each lane ends where its encoder began (all four states at its start value, so
+    # which state is which after the rotation is moot)
+    ok = rans.state_ok(d0, x0, x2, p0) and rans.state_ok(d1, x1, x3, p1)
+    if bitpos > 8 * (raw.size - 8) or not ok:
+        return -1
+    return 0
+
+
+def _grouped(sym: np.ndarray, raw: np.ndarray) -> bytes:
+    """The grouped coding (after the header) of the walk's symbols ``sym``."""
+    n = sym.size
+    toks = np.empty(n + n // GROUP + 1, dtype=np.int64)
+    ctx = np.empty_like(toks)
+    t = _group_tokens(sym, n, toks, ctx)
+    toks, ctx = toks[:t], ctx[:t]
+    counts = np.bincount(ctx * N_SYM + toks, minlength=N_GROUP_CTX * N_SYM)
+    freq = rans.normalise(counts.reshape(N_GROUP_CTX, N_SYM), GROUP_BITS)
+    lane0, lane1 = (rans.encode(toks[i::2], ctx[i::2], freq, GROUP_BITS) for i in (0, 1))
+    return (
+        put_section(deflate(rans.pack_tables(freq)))
+        + put_section(raw.tobytes())
+        + put_section(lane0)
+        + lane1
+    )
+
+
 def _fresh_models() -> np.ndarray:
     return np.full(N_MODELS, MODEL_INIT, dtype=np.uint32)
 
@@ -440,34 +599,42 @@ def _run(g: np.ndarray, step: float, perm, kind: int):
 
 
 CODINGS = ("static", "adaptive")
+# effort='fast': the grouped coding too, first: the fastest to decode.
+CODINGS_FAST = ("grouped", "static", "adaptive")
 
 
-def encode(g: np.ndarray, step: float, tried=TRIED, codings=CODINGS, min_saving: float = 0.0):
-    """Code the float64 brick ``g`` (masked voxels filled) with bins of ``step`` (= 2E).
-    Returns ``(inner section, reconstruction)`` of the choice among ``tried`` ((kind,
-    axis orders) pairs) and ``codings`` of the bins estimated shortest (the static
-    one by its entropy, the adaptive one by its length); the adaptive coding, slower
-    to decode, only where it saves ``min_saving`` of the best static one's bits."""
-    static = adaptive = None
+def _best_each(g: np.ndarray, step: float, tried, codings) -> dict:
+    """Per coding of ``codings``: (bits, axis order, kind byte, reconstruction, coded
+    form) of its shortest among ``tried`` ((kind, axis orders) pairs); the static
+    coding by its estimated size, the others by their length."""
+    best = {}
     for kind, perms in tried:
         for perm in perms:
             rec, sym, ctx, raw, abin, adx = _run(g, step, perm, kind)
-            bits = _estimate(sym, ctx) + 8 * raw.size
-            if "static" in codings and (static is None or bits < static[0]):
-                static = (bits, perm, kind, rec, (sym, ctx, raw))
-            if "adaptive" not in codings:
-                continue
-            body = encode_with_retry(
-                lambda out: _encode_adaptive(abin, adx, _fresh_models(), out),
-                g.size, (2, 20), coder="bin",
-            )  # fmt: skip
-            if adaptive is None or 8 * len(body) < adaptive[0]:
-                adaptive = (8 * len(body), perm, kind | ADAPTIVE, rec, body)
-    best = static
-    if best is None or (adaptive is not None and adaptive[0] < (1.0 - min_saving) * best[0]):
-        best = adaptive
+            found = {}
+            if "static" in codings:
+                found["static"] = (_estimate(sym, ctx) + 8 * raw.size, kind, (sym, ctx, raw))
+            if "grouped" in codings:
+                body = _grouped(sym, raw)
+                found["grouped"] = (8 * len(body), kind | GROUPED, body)
+            if "adaptive" in codings:
+                body = encode_with_retry(
+                    lambda out, abin=abin, adx=adx: _encode_adaptive(
+                        abin, adx, _fresh_models(), out
+                    ),
+                    g.size, (2, 20), coder="bin",
+                )  # fmt: skip
+                found["adaptive"] = (8 * len(body), kind | ADAPTIVE, body)
+            for name, (bits, k, coded) in found.items():
+                if name not in best or bits < best[name][0]:
+                    best[name] = (bits, perm, k, rec, coded)
+    return best
+
+
+def _section(best) -> tuple[bytes, np.ndarray]:
+    """The inner section and reconstruction of one of :func:`_best_each`'s entries."""
     _, perm, kind, rec, coded = best
-    if kind & ADAPTIVE:
+    if kind & (ADAPTIVE | GROUPED):
         return HEADER.pack(*perm, kind) + coded, rec
     sym, ctx, raw = coded
     counts = np.bincount(ctx * N_SYM + sym, minlength=N_CTX * N_SYM)
@@ -479,6 +646,24 @@ def encode(g: np.ndarray, step: float, tried=TRIED, codings=CODINGS, min_saving:
         + rans.encode(sym, ctx, freq)
     )
     return inner, rec
+
+
+def encode(g: np.ndarray, step: float, tried=TRIED, codings=CODINGS, min_saving=0.0):
+    """Code the float64 brick ``g`` (masked voxels filled) with bins of ``step`` (= 2E).
+    Returns ``(inner section, reconstruction)`` of the choice among ``tried`` ((kind,
+    axis orders) pairs) and ``codings`` of the bins estimated shortest (the static
+    one by its entropy, the others by their length). ``codings`` go from the fastest
+    to decode to the slowest; each is kept over the faster ones only where it saves
+    ``min_saving`` (one share, or one per coding) of the shortest of them's bits."""
+    best = _best_each(g, step, tried, codings)
+    shares = min_saving if isinstance(min_saving, tuple) else (min_saving,) * len(codings)
+    chosen, shortest = None, np.inf
+    for name, share in zip(codings, shares):
+        bits = best[name][0]
+        if chosen is None or bits < (1.0 - share) * shortest:
+            chosen = best[name]
+        shortest = min(shortest, bits)
+    return _section(chosen)
 
 
 def is_adaptive(inner) -> bool:
@@ -494,9 +679,9 @@ def decode(inner, shape: tuple[int, int, int], step: float) -> np.ndarray:
     if len(inner) < HEADER.size:
         raise FormatError(f"{what}: the header is cut short")
     *perm, kind = HEADER.unpack_from(inner, 0)
-    adaptive = bool(kind & ADAPTIVE)
-    kind &= ~ADAPTIVE
-    if sorted(perm) != [0, 1, 2] or kind > 3:
+    adaptive, grouped = bool(kind & ADAPTIVE), bool(kind & GROUPED)
+    kind &= ~(ADAPTIVE | GROUPED)
+    if sorted(perm) != [0, 1, 2] or kind > 3 or (adaptive and grouped):
         raise FormatError(f"{what}: axis order {perm} or kind {kind} is not one of the known")
     rec = np.empty(tuple(shape[a] for a in perm), dtype=np.float64)
     bn = np.zeros(rec.size, dtype=np.int32)
@@ -506,17 +691,27 @@ def decode(inner, shape: tuple[int, int, int], step: float) -> np.ndarray:
         models = _fresh_models()
         table, raw = np.zeros((1, 1), np.uint32), np.zeros(8, np.uint8)
     else:
+        nctx, bits = (N_GROUP_CTX, GROUP_BITS) if grouped else (N_CTX, rans.PROB_BITS)
         body, pos = take_section(inner, HEADER.size, what)
-        tables = inflate(body, 2 * (N_SYM + 1) * N_CTX, f"{what} tables")
-        table, used = rans.unpack_tables(tables, N_CTX, N_SYM, what)
+        tables = inflate(body, 2 * (N_SYM + 1) * nctx, f"{what} tables")
+        table, used = rans.unpack_tables(tables, nctx, N_SYM, what, bits)
         if used != len(tables):
             raise FormatError(f"{what}: stray bytes after the rANS tables")
         raw, pos = take_section(inner, pos, what)
         data = np.frombuffer(bytes(inner[pos:]) + bytes(2), dtype=np.uint8)  # padded: see rans
         raw = np.frombuffer(bytes(raw) + bytes(8), dtype=np.uint8).copy()  # slack: _get_bits
         models = np.zeros(1, np.uint32)
-    walk = _decode_walk_adaptive if adaptive else _decode_walk
-    status = walk(flat, bn, rec.shape, float(step), kind, raw, data, table, models, z)
+    if grouped:  # the bins first, in a pass of their own; then the walk takes them
+        lane0, pos = take_section(inner, pos, what)
+        data0 = np.frombuffer(lane0 + bytes(2), dtype=np.uint8)
+        data = np.frombuffer(bytes(inner[pos:]) + bytes(2), dtype=np.uint8)
+        bins = np.zeros(rec.size + GROUP, dtype=np.int32)  # slack: _decode_groups
+        status = _decode_groups(data0, data, table, raw, bins)
+        if status == 0:
+            status = _decode_walk_given(flat, bn, rec.shape, float(step), kind, bins, table, models)
+    else:
+        walk = _decode_walk_adaptive if adaptive else _decode_walk
+        status = walk(flat, bn, rec.shape, float(step), kind, raw, data, table, models, z)
     if status != 0:
         raise FormatError(f"{what}: the bin stream is corrupt")
     return rec.transpose(np.argsort(perm))

