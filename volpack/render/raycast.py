@@ -409,6 +409,14 @@ def grid_sample(vol, k, lo, hi, bz, by, bx, sz, sy, sx):
     return fixed_sample(vol, pz, py, px)
 
 
+def interior_sample(vol, pz, py, px):
+    """:func:`fixed_sample` at a position whose trilinear cell lies inside the volume
+    (see :func:`grid_sample`): for a 3-D array without clamping, the same value."""
+    if isinstance(vol, tuple):
+        return fixed_sample(vol, pz, py, px)
+    return trilinear_inner(vol, pz, py, px)
+
+
 def fixed_unit(vol):
     """What :func:`fixed_sample` scales a value of ``vol`` by."""
     return value_unit(vol[0] if isinstance(vol, tuple) else vol)
@@ -497,6 +505,12 @@ if not JIT_DISABLED:
 
         return inner_or_clamped
 
+    @overload(interior_sample, jit_options={"nogil": True}, inline="always")
+    def _interior_sample_overload(vol, pz, py, px):
+        if isinstance(vol, types.BaseTuple):  # pages: no interior shortcut
+            return lambda vol, pz, py, px: fixed_sample(vol, pz, py, px)
+        return lambda vol, pz, py, px: trilinear_inner(vol, pz, py, px)
+
     @overload(fixed_unit, jit_options={"nogil": True})
     def _fixed_unit_overload(vol):
         if isinstance(vol, types.BaseTuple):
@@ -573,8 +587,10 @@ def _lookup2(tab, xf, xb, out):
 
 @kernel(inline=True)
 def _nearest(p, n):
-    """The table entry nearest fractional index ``p`` (clamped to ``[0, n - 1]``)."""
-    return np.uint64(int(min(max(p, 0.0), n - 1.0) + 0.5))
+    """The table entry nearest fractional index ``p`` (clamped to ``[0, n - 1]``): the
+    clamp after the conversion, in integers (the same entry as clamping ``p`` first, two
+    float operations fewer on the path from a sample to its look-up)."""
+    return np.uint64(min(max(np.int64(p + 0.5), np.int64(0)), np.int64(n - 1)))
 
 
 @kernel
@@ -1377,7 +1393,9 @@ def _near_run(vol, pre2d, bz, by, bx, sz, sy, sx, klo, khi, i, end, tnear, tfar,
     ray. Returns ``(i, ii, xf, ar, ag, ab, aa, done)``: the next segment, its front's
     entry and position, the pixel so far and whether the ray ended. Measured on the
     benchmark's semi-transparent MRIs, one thread: the frame 0.86-0.89x."""
-    xn = grid_sample(vol, i + 1, klo, khi, bz, by, bx, sz, sy, sx) * vs + v0
+    k = i + 1
+    pz, py, px = bz + k * sz, by + k * sy, bx + k * sx  # the next back sample's position
+    xn = interior_sample(vol, pz, py, px) * vs + v0
     jn = _nearest(xn, n_tab)
     while i < end:
         t0 = tnear + i * step
@@ -1385,15 +1403,16 @@ def _near_run(vol, pre2d, bz, by, bx, sz, sy, sx, klo, khi, i, end, tnear, tfar,
             break
         xb, jj = xn, jn
         if i + 1 < end:
-            xn = grid_sample(vol, i + 2, klo, khi, bz, by, bx, sz, sy, sx) * vs + v0
+            pz, py, px = pz + sz, py + sy, px + sx
+            xn = interior_sample(vol, pz, py, px) * vs + v0
             jn = _nearest(xn, n_tab)
         if not ((xf < cl and xb < cl) or (xf > ch_ and xb > ch_)):
             a = pre2d[ii, jj, 3]
             if a > 0.0:
-                if nsub > 1 and (1.0 - aa) * a > a_ref:
+                wgt = 1.0 - aa
+                if nsub > 1 and wgt * a > a_ref:
                     break
                 cr, cg, cb = pre2d[ii, jj, 0], pre2d[ii, jj, 1], pre2d[ii, jj, 2]
-                wgt = 1.0 - aa
                 ar, ag, ab, aa = ar + wgt * cr, ag + wgt * cg, ab + wgt * cb, aa + wgt * a
                 if aa > ert:
                     ar, ag, ab, aa = _complete(ar, ag, ab, aa, cr, cg, cb, a)
