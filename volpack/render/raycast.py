@@ -166,6 +166,9 @@ FAST_PATH = True
 #: Read smooth pre-integrated tables at the nearest entry (:data:`NEAREST_STEP`; tests
 #: turn it off to compare with the bilinear look-up).
 NEAREST = True
+#: March the fast path's unshaded nearest-entry segments through :func:`_near_run`
+#: (tests turn it off to check that it gives the plain loop's image bit for bit).
+NEAR_RUN = True
 #: Refinement: a pre-integrated segment carrying more than this share of its pixel's
 #: opacity is marched again in ``refine`` sub-segments (see :func:`render`).
 REFINE_OPACITY = 0.1
@@ -1200,6 +1203,7 @@ def _march(
     nsub = int(refine[0])
     a_ref = refine[1]
     near = refine[2] > 0.0
+    runs = near and refine[3] > 0.0  # through _near_run
     cl, ch_ = clear[0], clear[1]
     n_tab = pre2d.shape[0] if pre else post_tab.shape[0]
     ka, kd, ks, shin = shading[0], shading[1], shading[2], shading[3]
@@ -1265,7 +1269,7 @@ def _march(
                         break
                     if state == 1:
                         have_front = False
-                if pre and shade == 0 and near and have_front:
+                if pre and shade == 0 and runs and have_front:
                     # full segments whose back sample is interior and before the next
                     # empty-space test: marched by _near_run (the same values)
                     e = min(nseg - 1, khi)
@@ -1948,7 +1952,7 @@ def render(
     nsub = int(refine) if has_vol and mode == 2 else 1
     sub2d = tables.sub(nsub) if nsub > 1 else pre2d
     near = has_vol and mode == 2 and NEAREST and tables.nearest()
-    refine_k = np.array([nsub, REFINE_OPACITY, float(near)], np.float64)
+    refine_k = np.array([nsub, REFINE_OPACITY, float(near), float(NEAR_RUN)], np.float64)
     if fast and paged and shading == "phong" and volume.grad is not None:
         grad, has_grad = volume.grad, True  # the nodes' gradient bricks
     if fast:
