@@ -166,8 +166,9 @@ FAST_PATH = True
 #: Read smooth pre-integrated tables at the nearest entry (:data:`NEAREST_STEP`; tests
 #: turn it off to compare with the bilinear look-up).
 NEAREST = True
-#: March the fast path's unshaded nearest-entry segments through :func:`_near_run`
-#: (tests turn it off to check that it gives the plain loop's image bit for bit).
+#: March the fast path's unshaded nearest-entry frames with the kernel that sends their
+#: segments through :func:`_near_run` (tests turn it off to check that it gives the plain
+#: loop's image bit for bit).
 NEAR_RUN = True
 #: Refinement: a pre-integrated segment carrying more than this share of its pixel's
 #: opacity is marched again in ``refine`` sub-segments (see :func:`render`).
@@ -1186,7 +1187,9 @@ def _march(
     ``shade``: 0 unshaded, 1 Phong at the segment midpoint from gradients, 2 Phong lit
     through the quantised normal ``codes`` and the frame's ``light`` table
     (:func:`_lit8`; positions clamped to the volume like the samples', so the kernel
-    holds no gradient code at all). Other arguments as for :func:`_render_kernel`.
+    holds no gradient code at all); ``pre`` 2 (a constant too): pre-integrated, and full
+    segments of unshaded rays read at nearest entries go through :func:`_near_run`.
+    Other arguments as for :func:`_render_kernel`.
     Inlined into one small kernel per (``pre``, ``shade``) pair, where both are
     constants: each kernel's loop holds only its own branch (measured: a third of the
     time per segment on the benchmark's volumes, against one loop testing both).
@@ -1203,7 +1206,7 @@ def _march(
     nsub = int(refine[0])
     a_ref = refine[1]
     near = refine[2] > 0.0
-    runs = near and refine[3] > 0.0  # through _near_run
+    runs = pre == 2  # a constant: one kernel of its own (_march_specialised)
     cl, ch_ = clear[0], clear[1]
     n_tab = pre2d.shape[0] if pre else post_tab.shape[0]
     ka, kd, ks, shin = shading[0], shading[1], shading[2], shading[3]
@@ -1269,7 +1272,7 @@ def _march(
                         break
                     if state == 1:
                         have_front = False
-                if pre and shade == 0 and runs and have_front:
+                if runs and pre and shade == 0 and near and have_front:
                     # full segments whose back sample is interior and before the next
                     # empty-space test: marched by _near_run (the same values)
                     e = min(nseg - 1, khi)
@@ -1498,7 +1501,10 @@ def _lerp2(tab, ch, i0, i1, f):
 
 
 def _march_specialised(pre, shade):
-    """The fast kernel for one (pre-integrated?, shaded?) pair (see :func:`_march`)."""
+    """The fast kernel for one (pre-integrated?, shaded?) pair (see :func:`_march`);
+    ``pre`` 2: unshaded pre-integrated frames read at nearest entries, their segments
+    through :func:`_near_run`. A kernel of its own: compiled into the one that also
+    marches opaque (bilinear) frames, the unused call slowed those by 6-10 %."""
 
     def run(vol, grad, has_grad, codes, light, frame, u, v, rows, post_tab, pre2d, sub2d,
             lo, scale, step, leap, brick, skip, ert, shading, gscale, vscale, gmin, clear,
@@ -1519,7 +1525,8 @@ def _march_specialised(pre, shade):
                 )  # fmt: skip
             k0 = k1
 
-    run.__name__ = run.__qualname__ = f"_march_{'pre' if pre else 'post'}_{SHADE_NAMES[shade]}"
+    run.__name__ = run.__qualname__ = (
+        f"_march_{'pre' if pre else 'post'}_{SHADE_NAMES[shade]}{'_runs' if pre == 2 else ''}")
     # allocates nothing: no reference counts in the loops; multiply-adds fused (12-15 %
     # faster on the benchmark's volumes, the image moves by at most 6e-8)
     return kernel(run, nrt=False, contract=True)
@@ -1529,6 +1536,8 @@ def _march_specialised(pre, shade):
 SHADE_NAMES = ("none", "phong", "codes")
 #: The fast path's kernels by (pre-integrated, shading variant).
 _MARCH = {(p, sh): _march_specialised(p, sh) for p in (False, True) for sh in range(3)}
+#: The fast path's kernel for unshaded pre-integrated frames read at nearest entries.
+_NEAR_MARCH = _march_specialised(2, 0)
 
 
 @kernel
@@ -1952,11 +1961,13 @@ def render(
     nsub = int(refine) if has_vol and mode == 2 else 1
     sub2d = tables.sub(nsub) if nsub > 1 else pre2d
     near = has_vol and mode == 2 and NEAREST and tables.nearest()
-    refine_k = np.array([nsub, REFINE_OPACITY, float(near), float(NEAR_RUN)], np.float64)
+    refine_k = np.array([nsub, REFINE_OPACITY, float(near)], np.float64)
     if fast and paged and shading == "phong" and volume.grad is not None:
         grad, has_grad = volume.grad, True  # the nodes' gradient bricks
     if fast:
         march = _MARCH[mode == 2, 2 if has_codes else int(shading == "phong")]
+        if mode == 2 and shading == "none" and near and NEAR_RUN:
+            march = _NEAR_MARCH
         clear = tables.clear(mode == 0)
 
         tiles = np.append(np.arange(0, w, TILE_COLS, dtype=np.int64), np.int64(w))
