@@ -225,6 +225,33 @@ def test_smooth_tables_are_read_at_the_nearest_entry_in_both_kernels():
     assert np.array_equal(semi_lin, render(f, tf=semi(), **kw))  # bilinear there anyway
 
 
+@pytest.mark.parametrize("case", ["plain", "no skipping", "terminated", "refined"])
+def test_the_near_run_gives_the_plain_loops_image_bit_for_bit(case):
+    # _near_run marches most segments of an unshaded nearest-entry frame; with it off, the
+    # march's own loop takes them: the same pixels and segment counts, through empty-space
+    # leaps, early termination (a low threshold) and refinement (a low trigger)
+    vol = np.round(field((26, 30, 28)) * 255).astype(np.uint8)
+    vol[8:14, 10:20, 6:12] = 0  # clear bricks inside, for leaps
+    lo, hi = float(vol.min()), float(vol.max())
+    kw = dict(spacing=(1.0, 0.9, 1.1), tf=faint(lo, hi), step=0.5, render_stats=True,
+              camera=Camera(azimuth=35, elevation=25, size=(40, 36)),
+              skip_empty=case != "no skipping", ert=0.1 if case == "terminated" else 0.99)  # fmt: skip
+    trigger = rc.REFINE_OPACITY
+    rc.REFINE_OPACITY = 0.005 if case == "refined" else trigger
+    try:
+        fast, st = render(vol, **kw)
+        rc.NEAR_RUN = False
+        try:
+            plain, st_plain = render(vol, **kw)
+        finally:
+            rc.NEAR_RUN = True
+    finally:
+        rc.REFINE_OPACITY = trigger
+    assert fast[..., 3].max() > (0.09 if case == "terminated" else 0.05)
+    assert np.array_equal(fast, plain)
+    assert st.samples == st_plain.samples > 0
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("dtype", ["int16", "uint8"])
 def test_nearest_entries_agree_between_the_kernels_on_integer_volumes(dtype):
