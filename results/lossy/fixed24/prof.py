@@ -1,5 +1,10 @@
-import sys, time, cProfile, pstats
-sys.path.insert(0, '/work/wt/fixed24/scripts')
+"""cProfile and best-of-20 process time of one lossy decode (``api.decompress_array``)
+of a real field at a bound relative to its range, ``effort="fast"``:
+
+    python results/lossy/fixed24/prof.py cam_t 1e-2
+"""
+import os, sys, time, cProfile, pstats
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "..", "scripts"))
 import datasets, numpy as np
 from volpack import api
 name = sys.argv[1]; rel = float(sys.argv[2])
