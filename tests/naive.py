@@ -1275,3 +1275,22 @@ def render_rgb8(rgba, background=(0.0, 0.0, 0.0)):
                 v = min(max(v, f32(0.0)), f32(1.0))
                 out[i, j, c] = int(np.rint(f32(v * f32(255.0))))
     return out
+
+
+def rans_read_tables(body, nctx, nsym, bits=12):
+    """``formats/lossy-1.md``'s rANS tables read row by row in plain Python: the rows as
+    lists and the bytes read, or the error's text (``"cut"``, ``"past"``, ``"sum"``)."""
+    words = [body[i] | body[i + 1] << 8 for i in range(0, len(body) - 1, 2)]
+    rows, pos = [], 0
+    for _ in range(nctx):
+        if pos >= len(words):
+            return "cut"
+        m = words[pos]
+        if m > nsym or pos + 1 + m > len(words):
+            return "past"
+        rows.append(words[pos + 1 : pos + 1 + m] + [0] * (nsym - m))
+        pos += 1 + m
+    for row in rows:
+        if sum(row) not in (0, 1 << bits) or max(row) == 1 << bits:
+            return "sum"
+    return rows, 2 * pos

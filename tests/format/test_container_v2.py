@@ -332,3 +332,52 @@ def test_describe_names_the_version_and_lists_the_same_entries():
     strip = [{k: v for k, v in e.items() if k != "offset"} for e in new["entries"]]
     assert strip == [{k: v for k, v in e.items() if k != "offset"} for e in old["entries"]]
     assert new["file_nbytes"] < old["file_nbytes"] - 700
+
+
+def test_reused_decompressors_recover_after_damage_and_serve_threads():
+    """The header text and side frames are decoded by one decompressor per thread, kept:
+    a damaged frame leaves it fit for the next, a frame asking for a huge window is still
+    refused, and threads decoding at once each get their own text back."""
+    import threading
+
+    from volpack.format.deflate import deflate, inflate
+
+    texts = [b'{"kind":"volume","n":%d,"pad":"%s"}' % (i, b"xy" * i) for i in range(40)]
+    frames = [compact.dict_frame(t) for t in texts]
+    for i, (t, f) in enumerate(zip(texts, frames)):
+        bad = bytearray(f)
+        bad[len(bad) // 2] ^= 0x5A
+        try:
+            compact.unpack_text(compact.TEXT_DICT, bytes(bad), 1 << 16, "header")
+        except FormatError:
+            pass
+        assert compact.unpack_text(compact.TEXT_DICT, f, 1 << 16, "header") == t
+        side = deflate(t)
+        with pytest.raises(FormatError):
+            inflate(side[: len(side) // 2], 1 << 16, "side")
+        assert inflate(side, 1 << 16, "side") == t
+    # a frame that declares a window past the bound (2^25) is refused on a reused one too
+    import zstandard
+
+    params = zstandard.ZstdCompressionParameters.from_level(
+        3, window_log=27, format=zstandard.FORMAT_ZSTD1_MAGICLESS, write_content_size=1
+    )
+    wide = zstandard.ZstdCompressor(compression_params=params).compress(b"a" * (1 << 26))
+    with pytest.raises((FormatError, LimitError)):
+        compact.unpack_text(compact.TEXT_DICT, wide, 1 << 27, "header")
+    got: dict = {}
+
+    def work(k: int) -> None:
+        got[k] = all(
+            compact.unpack_text(compact.TEXT_DICT, frames[(k + j) % 40], 1 << 16, "h")
+            == texts[(k + j) % 40]
+            and inflate(deflate(texts[j % 40]), 1 << 16, "s") == texts[j % 40]
+            for j in range(300)
+        )
+
+    threads = [threading.Thread(target=work, args=(k,)) for k in range(4)]
+    for th in threads:
+        th.start()
+    for th in threads:
+        th.join()
+    assert got == dict.fromkeys(range(4), True)

@@ -284,3 +284,33 @@ def test_dequantise_and_scale_match_numpy():
         assert not big[:, 0, :].any()
     c = rng.integers(-(2**40), 2**40, size=(2, 3, 4))
     np.testing.assert_array_equal(scale_in_place(c.copy(), 0.37), c * 0.37)
+
+
+def test_rans_tables_kernel_matches_the_plain_reading():
+    """The kernel that reads the tables against tests/naive.py's row-by-row reading, on
+    valid tables and on thousands of damaged ones (cut, a byte changed, a length raised)."""
+    import naive
+
+    rng = np.random.default_rng(24)
+    errors = {"cut": "cut short", "past": "runs past", "sum": "sums to"}
+    seen = set()
+    for trial in range(3000):
+        nctx, nsym = int(rng.integers(1, 6)), int(rng.integers(2, 9))
+        counts = rng.integers(0, 50, (nctx, nsym)) * (rng.random((nctx, 1)) < 0.8)
+        body = bytearray(rans.pack_tables(rans.normalise(counts)))
+        if trial % 3 == 1 and len(body):
+            body[int(rng.integers(len(body)))] ^= 1 << int(rng.integers(8))
+        elif trial % 3 == 2:
+            body = body[: int(rng.integers(len(body) + 1))]
+        body = bytes(body)
+        want = naive.rans_read_tables(body, nctx, nsym)
+        if isinstance(want, str):
+            seen.add(want)
+            with pytest.raises(FormatError, match=errors[want]):
+                rans.unpack_tables(body, nctx, nsym, "t")
+            continue
+        seen.add("ok")
+        table, used = rans.unpack_tables(body, nctx, nsym, "t")
+        assert used == want[1]
+        np.testing.assert_array_equal(table, rans.slot_table(np.array(want[0], np.int64)))
+    assert seen == {"ok", "cut", "past", "sum"}

@@ -579,3 +579,27 @@ def test_the_minimum_saving_moves_bricks_to_faster_codings_within_the_bound(monk
     payload = codec.encode(a)
     assert not slow_coding(payload) and len(free) < len(payload)
     check_bound(a, codec.decode(payload, a.shape, a.dtype), bound)
+
+
+def test_rebuilt_codecs_are_reused_only_for_configs_checked_alike():
+    """get_codec keeps the codecs it rebuilt: an equal config gives the same object, but
+    a value of another JSON type (True or 1.0 for 1) or sign (-0.0) is checked afresh."""
+    from volpack.volume_codec.registry import get_codec
+
+    a = smooth_volume((12, 10, 9)).astype(np.float32)
+    cfg = Reader(api.compress_array(a, max_error=0.5)).header["codec"]
+    cfg = {**cfg, "max_levels": 1}
+    c = get_codec(cfg)
+    assert get_codec(dict(cfg)) is c and c.max_levels == 1
+    for bad in (True, 1.0, "1"):
+        with pytest.raises(FormatError):
+            get_codec({**cfg, "max_levels": bad})
+    assert get_codec(cfg) is c
+    plus = get_codec({**cfg, "value_range": 0.0})
+    minus = get_codec({**cfg, "value_range": -0.0})
+    assert math.copysign(1.0, plus.value_range) == 1.0
+    assert math.copysign(1.0, minus.value_range) == -1.0
+    for i in range(200):  # many configs: each still rebuilt right
+        assert get_codec({**cfg, "max_error": 1.0 + i}).max_error == 1.0 + i
+    with pytest.raises(FormatError):
+        get_codec({**cfg, "max_error": float("nan")})

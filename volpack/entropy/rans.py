@@ -75,27 +75,48 @@ def unpack_tables(body: bytes, nctx: int, nsym: int, what: str, bits: int = PROB
     """Read :func:`pack_tables`' bytes for ``nctx`` contexts of up to ``nsym`` symbols
     into the decoder's :func:`slot_table`; a row that is not empty and does not sum to
     ``2^bits`` is corrupt. Returns it and the bytes read."""
-    full = 1 << bits
     freq = np.zeros((nctx, nsym), dtype=np.int64)
     words = np.frombuffer(body[: len(body) & ~1], "<u2")
-    pos = 0  # in words
-    for c in range(nctx):  # the rows' lengths in turn; the sums checked at once below
+    status, value = _read_tables(words, freq, 1 << bits)
+    if status == 1:
+        raise FormatError(f"{what}: the rANS tables are cut short")
+    if status == 2:
+        raise FormatError(f"{what}: a rANS table of {value} symbols runs past its data")
+    if status == 3:
+        raise FormatError(
+            f"{what}: a rANS table sums to {value}, expected {1 << bits} over two or more symbols"
+        )
+    return slot_table(freq, bits), 2 * value
+
+
+@kernel(nrt=False)
+def _read_tables(words, freq, full):
+    """The rows of :func:`pack_tables`' ``words`` into ``freq`` (zeroed), then their sums
+    checked (a kernel: a brick's tables are read per decode, 15 to 40 rows, and a Python
+    loop over them cost about as much as the rest of a small brick's set-up). Returns
+    (0, words read), or on corrupt tables (1, 0) cut short, (2, m) a row of ``m`` symbols
+    running past the words, (3, sum) the first row not summing to 0 or ``full`` or
+    holding a single symbol."""
+    nctx, nsym = freq.shape
+    pos = 0
+    for c in range(nctx):
         if pos >= words.size:
-            raise FormatError(f"{what}: the rANS tables are cut short")
-        m = int(words[pos])
+            return 1, 0
+        m = np.int64(words[pos])
         pos += 1
         if m > nsym or pos + m > words.size:
-            raise FormatError(f"{what}: a rANS table of {m} symbols runs past its data")
-        freq[c, :m] = words[pos : pos + m]
+            return 2, m
+        for s in range(m):
+            freq[c, s] = words[pos + s]
         pos += m
-    sums, tops = freq.sum(axis=1), freq.max(axis=1, initial=0)
-    bad = np.flatnonzero(((sums != 0) & (sums != full)) | (tops == full))
-    if bad.size:
-        raise FormatError(
-            f"{what}: a rANS table sums to {int(sums[bad[0]])}, expected {full} over two or "
-            "more symbols"
-        )
-    return slot_table(freq, bits), 2 * pos
+    for c in range(nctx):
+        total, top = 0, 0
+        for s in range(nsym):
+            total += freq[c, s]
+            top = max(top, freq[c, s])
+        if (total != 0 and total != full) or top == full:
+            return 3, total
+    return 0, pos
 
 
 def slot_table(freq: np.ndarray, bits: int = PROB_BITS) -> np.ndarray:

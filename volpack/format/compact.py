@@ -26,6 +26,7 @@ import struct
 from importlib import resources
 
 from ..errors import FormatError, LimitError
+from .deflate import decompressor
 
 VERSION = 2
 RECORD_TAG = 0x43  # "C": a chunk record follows
@@ -131,6 +132,14 @@ def pack_text(text: bytes) -> tuple[int, bytes]:
     return (TEXT_DICT, frame) if len(frame) < len(text) else (TEXT_JSON, text)
 
 
+def _text_decompressor():
+    import zstandard
+
+    # a crafted frame may ask for a large window: the decoder's memory stays bounded
+    fmt = zstandard.FORMAT_ZSTD1_MAGICLESS
+    return zstandard.ZstdDecompressor(dict_data=_dictionary(), format=fmt, max_window_size=1 << 25)
+
+
 def unpack_text(form: int, data: bytes, limit: int, what: str) -> bytes:
     """The JSON bytes of a header or summary stored in ``form``; a frame must declare its
     size, within ``limit``, and hold exactly one frame."""
@@ -149,9 +158,7 @@ def unpack_text(form: int, data: bytes, limit: int, what: str) -> bytes:
         raise FormatError(f"corrupt {what} frame: expected it to declare its size, found none")
     if size > limit:
         raise LimitError(f"expected a {what} of at most {limit} bytes, found {size} declared")
-    # a crafted frame may ask for a large window: the decoder's memory stays bounded
-    dctx = zstandard.ZstdDecompressor(dict_data=_dictionary(), format=fmt, max_window_size=1 << 25)
-    dobj = dctx.decompressobj()
+    dobj = decompressor("vpk-2 text", _text_decompressor).decompressobj()
     try:
         out = dobj.decompress(data)
     except zstandard.ZstdError as e:
