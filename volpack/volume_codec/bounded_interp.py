@@ -658,7 +658,7 @@ def encode(g: np.ndarray, step: float, tried=TRIED, codings=CODINGS, min_saving=
     best = _best_each(g, step, tried, codings)
     shares = min_saving if isinstance(min_saving, tuple) else (min_saving,) * len(codings)
     chosen, shortest = None, np.inf
-    for name, share in zip(codings, shares):
+    for name, share in zip(codings, shares, strict=True):
         bits = best[name][0]
         if chosen is None or bits < (1.0 - share) * shortest:
             chosen = best[name]

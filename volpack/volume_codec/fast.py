@@ -138,7 +138,7 @@ class FastCodec(BrickCodec):
         ]
         p = pal.build_span(values, lo, hi)
         if len(p) < hi - lo + 1 and len(p) <= pal.MAX_PALETTE:
-            ranks = pal.to_ranks_span(values, p)
+            ranks = pal.to_ranks(values, p)
             candidates.append(
                 (
                     bytes([MODE_CODED, flags | FLAG_PALETTE])
