@@ -4,7 +4,7 @@ lossy bound."""
 
 from __future__ import annotations
 
-import builtins
+import sys
 
 import numpy as np
 import pytest
@@ -96,21 +96,16 @@ def test_netcdf_damage_and_wrong_files_give_one_line_errors(tmp_path):
         vio.read_volume(str(cut) + ":u")
     other = tmp_path / "other.cdf"
     other.write_bytes(b"GRIB" + bytes(60))
-    with pytest.raises(FormatError, match=r"expected a netCDF file .* found it starting with b'GRIB"):
+    with pytest.raises(
+        FormatError, match=r"expected a netCDF file .* found it starting with b'GRIB"
+    ):
         vio.read_volume(str(other))
 
 
 def test_netcdf_classic_without_the_library_names_the_extra(tmp_path, monkeypatch):
     path = str(tmp_path / "f.nc")
     _write(path, "NETCDF3_CLASSIC", _wind())
-    real = builtins.__import__
-
-    def no_netcdf4(name, *args, **kwargs):
-        if name == "netCDF4":
-            raise ImportError(name)
-        return real(name, *args, **kwargs)
-
-    monkeypatch.setattr(builtins, "__import__", no_netcdf4)
+    monkeypatch.setitem(sys.modules, "netCDF4", None)  # as if not installed
     with pytest.raises(FormatError, match=r"volpack\[netcdf\]"):
         vio.read_volume(path + ":u")
 

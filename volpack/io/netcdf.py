@@ -22,8 +22,17 @@ from .common import ReadOptions, check_voxels, header_dict, native, to_volume
 
 HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
 CLASSIC_MAGICS = {b"CDF\x01": "CDF-1", b"CDF\x02": "CDF-2", b"CDF\x05": "CDF-5"}
-_ATTRS = ("units", "long_name", "standard_name", "scale_factor", "add_offset", "_FillValue",
-          "missing_value", "valid_min", "valid_max")
+_ATTRS = (
+    "units",
+    "long_name",
+    "standard_name",
+    "scale_factor",
+    "add_offset",
+    "_FillValue",
+    "missing_value",
+    "valid_min",
+    "valid_max",
+)
 
 
 def kind(path: str) -> str:
@@ -77,8 +86,10 @@ def _pick(ds, inner: str | None, path: str):
             )
         return name, ds.variables[name]
     fields = [
-        n for n in names
-        if not _is_coordinate(n, ds.variables[n]) and len(ds.variables[n].shape) >= 2
+        n
+        for n in names
+        if not _is_coordinate(n, ds.variables[n])
+        and len(ds.variables[n].shape) >= 2
         and np.dtype(ds.variables[n].dtype).kind in "biuf"
     ]
     if len(fields) == 1:
@@ -103,16 +114,21 @@ def _variable(ds, inner, path) -> tuple[str, Any, tuple[int, ...], np.dtype, dic
     name, var = _pick(ds, inner, path)
     dtype = np.dtype(var.dtype)
     if dtype.kind not in "biuf":
-        raise FormatError(f"expected integer or float values in {name!r} of {path!r}, found {dtype}")
+        raise FormatError(
+            f"expected integer or float values in {name!r} of {path!r}, found {dtype}"
+        )
     shape = _volume_shape(var.shape)
     if len(shape) not in (3, 4):
         raise FormatError(
             f"expected a 2-D, 3-D (z, y, x) or 4-D (t, z, y, x) variable {name!r} in "
             f"{path!r}, found dimensions {var.dimensions} of shape {tuple(var.shape)}"
         )
-    meta: dict[str, Any] = {"source_format": "netcdf", "netcdf_variable": name,
-                            "netcdf_dimensions": list(var.dimensions),
-                            "netcdf_format": ds.data_model}
+    meta: dict[str, Any] = {
+        "source_format": "netcdf",
+        "netcdf_variable": name,
+        "netcdf_dimensions": list(var.dimensions),
+        "netcdf_format": ds.data_model,
+    }
     attrs = {key: var.getncattr(key) for key in var.ncattrs()}
     return name, var, shape, dtype, _attributes(attrs, meta)
 
@@ -145,8 +161,11 @@ def _hdf5_options(path: str, opts: ReadOptions) -> ReadOptions:
     fields: list[str] = []
 
     def visit(name, obj):
-        if (isinstance(obj, h5py.Dataset) and obj.ndim >= 2
-                and obj.attrs.get("CLASS") != b"DIMENSION_SCALE"):
+        if (
+            isinstance(obj, h5py.Dataset)
+            and obj.ndim >= 2
+            and obj.attrs.get("CLASS") != b"DIMENSION_SCALE"
+        ):
             fields.append("/" + name)
 
     with h5py.File(path, "r") as f:

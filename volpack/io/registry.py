@@ -19,6 +19,9 @@ from ..errors import FormatError
 _HDF5_EXTS = (".h5", ".hdf5", ".hdf")
 _NETCDF_EXTS = (".nc", ".cdf", ".nc4")
 _TIFF_EXTS = (".tif", ".tiff")
+_MRC_EXTS = (".mrc", ".map", ".ccp4", ".mrcs") + tuple(
+    e + z for e in (".mrc", ".map", ".ccp4") for z in (".gz", ".bz2")
+)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -66,6 +69,7 @@ for _f in (
     Format("inr", "inr", (".inr", ".inr.gz"), (".inr", ".inr.gz")),
     Format("den", "den", (".den",), (".den",)),
     Format("dicom", "dicom", (".dcm",), header=None),
+    Format("mrc", "mrc", _MRC_EXTS, _MRC_EXTS[:4]),
     Format("vpk", "vpk", (".vpk",), (".vpk",)),
 ):
     register(_f)
@@ -104,7 +108,7 @@ def detect_format(path: str) -> str:
     """Name the format of ``path`` from its extension (folders: from their content).
 
     Returns a name of :data:`FORMATS` (``npy, raw, nifti, mgh, minc, afni, parrec,
-    nrrd, hdf5, netcdf, tiff, tiff-folder, metaimage, vti, inr, den, dicom, vpk``).
+    nrrd, hdf5, netcdf, tiff, tiff-folder, metaimage, vti, inr, den, dicom, mrc, vpk``).
     """
     path, _ = parse_spec(os.fspath(path))
     if path == "-":
