@@ -252,6 +252,8 @@ def test_detect_format(tmp_path):
         "a.nhdr": "nrrd",
         "a.hdf5": "hdf5",
         "a.h5:/x": "hdf5",
+        "a.nc": "netcdf",
+        "a.CDF:u": "netcdf",
         "a.tiff": "tiff",
         "a.den": "den",
         "a.vpk": "vpk",

@@ -16,8 +16,12 @@ from types import ModuleType
 
 from ..errors import FormatError
 
-_HDF5_EXTS = (".h5", ".hdf5", ".hdf", ".nc")
+_HDF5_EXTS = (".h5", ".hdf5", ".hdf")
+_NETCDF_EXTS = (".nc", ".cdf", ".nc4")
 _TIFF_EXTS = (".tif", ".tiff")
+_MRC_EXTS = (".mrc", ".map", ".ccp4", ".mrcs") + tuple(
+    e + z for e in (".mrc", ".map", ".ccp4") for z in (".gz", ".bz2")
+)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -56,6 +60,8 @@ for _f in (
     Format("parrec", "nifti", (".par", ".rec"), header=None),
     Format("nrrd", "nrrd", (".nrrd", ".nhdr"), (".nrrd",)),
     Format("hdf5", "hdf5", _HDF5_EXTS, _HDF5_EXTS),
+    # netCDF-4 files go on to the HDF5 reader; classic ones need the netCDF4 library
+    Format("netcdf", "netcdf", _NETCDF_EXTS, (".nc",)),
     Format("tiff", "tiff", _TIFF_EXTS, _TIFF_EXTS),
     Format("tiff-folder", "tiff", read="read_folder", header=None),
     Format("metaimage", "metaimage", (".mha", ".mhd"), (".mha", ".mhd")),
@@ -63,6 +69,7 @@ for _f in (
     Format("inr", "inr", (".inr", ".inr.gz"), (".inr", ".inr.gz")),
     Format("den", "den", (".den",), (".den",)),
     Format("dicom", "dicom", (".dcm",), header=None),
+    Format("mrc", "mrc", _MRC_EXTS, _MRC_EXTS[:4]),
     Format("vpk", "vpk", (".vpk",), (".vpk",)),
 ):
     register(_f)
@@ -80,14 +87,14 @@ def writable() -> list[str]:
 def parse_spec(spec: str) -> tuple[str, str | None]:
     """Split ``"file.h5:/group/ds"`` into ``("file.h5", "/group/ds")``.
 
-    Only a part before ``:`` that ends in an HDF5 extension (.h5, .hdf5, .hdf, .nc) is
-    split off; any other spec, and ``'-'``, comes back as ``(spec, None)``.
+    Only a part before ``:`` that ends in an HDF5 or netCDF extension (.h5, .hdf5, .hdf,
+    .nc, .cdf, .nc4) is split off; any other spec, and ``'-'``, comes back as ``(spec, None)``.
     """
     spec = os.fspath(spec)
     if spec == "-":
         return "-", None
     low = spec.lower()
-    for ext in _HDF5_EXTS:
+    for ext in _HDF5_EXTS + _NETCDF_EXTS:
         i = low.find(ext + ":")
         if i >= 0:
             path, inner = spec[: i + len(ext)], spec[i + len(ext) + 1 :]
@@ -101,7 +108,7 @@ def detect_format(path: str) -> str:
     """Name the format of ``path`` from its extension (folders: from their content).
 
     Returns a name of :data:`FORMATS` (``npy, raw, nifti, mgh, minc, afni, parrec,
-    nrrd, hdf5, tiff, tiff-folder, metaimage, vti, inr, den, dicom, vpk``).
+    nrrd, hdf5, netcdf, tiff, tiff-folder, metaimage, vti, inr, den, dicom, mrc, vpk``).
     """
     path, _ = parse_spec(os.fspath(path))
     if path == "-":

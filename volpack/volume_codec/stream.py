@@ -79,6 +79,20 @@ def make_codec(codec: str = "auto", dtype: Any = None, **options: Any):
 
 
 @one_blas_thread()
+def declared_fill(vol: Volume) -> float | None:
+    """The no-data value the source file declares for float voxels (netCDF's
+    ``_FillValue``, else ``missing_value``), so that a lossy bound, and a bound relative
+    to the value range, apply to the data and not to the fill; None when there is none."""
+    if vol.dtype.kind != "f":
+        return None
+    for key in ("_FillValue", "missing_value"):
+        value = vol.meta.get(key)
+        if isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value):
+            log.info("%s %r of the source taken as the fill value", key, value)
+            return float(value)
+    return None
+
+
 def compress(
     source: Volume | np.ndarray | str,
     target: str | BinaryIO,
@@ -115,7 +129,8 @@ def compress(
     ``ratio`` (the file's, ``file_ratio``, reached within 5 %), ``quality`` (the
     method's 255/127/63/31/15 scale) or
     ``threshold`` (coefficients below it, in value units, are dropped). ``fill_value``
-    marks voxels that are no data; they, NaN and +-Inf are restored exactly.
+    marks voxels that are no data; they, NaN and +-Inf are restored exactly. Under a lossy
+    setting it defaults to the fill a netCDF source declares (:func:`declared_fill`).
 
     Parameters
     ----------
@@ -213,6 +228,8 @@ def compress(
     if len(asked) > 1:
         found = ", ".join(f"{k}={v}" for k, v in sorted(asked.items()))
         raise OptionError(f"expected at most one lossy setting, found {found}")
+    if asked and fill_value is None:
+        fill_value = declared_fill(vol)
     known_range = None  # the valid voxels' range, once read
     if asked and codec in ("auto", "lossless") and not any(inner.values()):
         from .search import exact_bound

@@ -1,0 +1,136 @@
+"""netCDF input: classic (CDF-1/2/5) through the netCDF4 library, netCDF-4 through h5py;
+the stored values bit for bit, the variable picked or named, the declared fill used by a
+lossy bound."""
+
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+import pytest
+
+from volpack import api
+from volpack import io as vio
+from volpack.errors import FormatError
+from volpack.io import netcdf
+
+netCDF4 = pytest.importorskip("netCDF4")
+
+FORMATS = ["NETCDF3_CLASSIC", "NETCDF3_64BIT_OFFSET", "NETCDF3_64BIT_DATA", "NETCDF4"]
+FILL = -9999.0
+
+
+def _wind() -> np.ndarray:
+    rng = np.random.default_rng(7)
+    a = (rng.standard_normal((3, 4, 9, 11)) * 8).astype(np.float32)
+    a[:, :, :2, :3] = FILL  # land
+    a[0, 0, 5, 5] = -0.0
+    a[1, 2, 3, 4] = np.float32(1e-42)  # a denormal
+    return a
+
+
+def _write(path, fmt: str, wind: np.ndarray, packed: bool = True, one_step: bool = False):
+    w = wind[:1] if one_step else wind
+    with netCDF4.Dataset(path, "w", format=fmt) as d:
+        for name, size in zip("tzyx", w.shape):
+            d.createDimension(name, size)
+            d.createVariable(name, "f8", (name,))[:] = np.arange(size) * 2.5
+        v = d.createVariable("u", "f4", ("t", "z", "y", "x"), fill_value=FILL)
+        v.set_auto_maskandscale(False)
+        v.units = "m/s"
+        v[:] = w
+        if packed:
+            p = d.createVariable("ps", "i2", ("z", "y", "x"))
+            p.scale_factor, p.add_offset = 0.01, 1000.0
+            p.set_auto_maskandscale(False)
+            p[:] = np.arange(-200, 196, dtype=np.int16).reshape(4, 9, 11)
+
+
+@pytest.mark.parametrize("fmt", FORMATS)
+def test_netcdf_variables_read_bit_for_bit(tmp_path, fmt):
+    path = str(tmp_path / "f.nc")
+    wind = _wind()
+    _write(path, fmt, wind)
+    vol = vio.read_volume(path + ":u")
+    assert vol.shape == wind.shape and vol.dtype == np.float32
+    np.testing.assert_array_equal(vol.data.view(np.uint32), wind.view(np.uint32))
+    assert vol.meta["_FillValue"] == FILL and vol.meta["units"] == "m/s"
+    packed = vio.read_volume(path + ":/ps")  # the HDF5 spelling names it too
+    assert packed.dtype == np.int16  # stored integers, not the scaled floats
+    np.testing.assert_array_equal(packed.data.ravel(), np.arange(-200, 196))
+    assert packed.meta["scale_factor"] == pytest.approx(0.01)
+    assert packed.meta["add_offset"] == 1000.0
+    head = vio.read_header(path + ":u")
+    assert head["shape"] == list(wind.shape) and head["dtype"] == "float32"
+    assert head["meta"]["_FillValue"] == FILL
+
+
+@pytest.mark.parametrize("fmt", ["NETCDF3_CLASSIC", "NETCDF4"])
+def test_netcdf_one_field_is_found_and_a_unit_time_axis_dropped(tmp_path, fmt):
+    path = str(tmp_path / "f.cdf")
+    wind = _wind()
+    _write(path, fmt, wind, packed=False, one_step=True)
+    vol = vio.read_volume(path)  # coordinate variables do not count
+    assert vol.shape == wind.shape[1:]
+    np.testing.assert_array_equal(vol.data, wind[0])
+    assert vio.read_header(path)["shape"] == list(wind.shape[1:])
+
+
+def test_netcdf_names_the_variables_when_one_must_be_chosen(tmp_path):
+    path = str(tmp_path / "f.nc")
+    _write(path, "NETCDF3_CLASSIC", _wind())
+    with pytest.raises(FormatError, match=r"found u \(3x4x9x11\), ps \(4x9x11\)"):
+        vio.read_volume(path)
+    with pytest.raises(FormatError, match="expected a variable 'v' in"):
+        vio.read_volume(path + ":v")
+    with pytest.raises(FormatError, match="expected a 2-D, 3-D"):
+        vio.read_volume(path + ":x")  # a coordinate: 1-D
+
+
+def test_netcdf_damage_and_wrong_files_give_one_line_errors(tmp_path):
+    path = tmp_path / "f.nc"
+    _write(str(path), "NETCDF3_CLASSIC", _wind())
+    cut = tmp_path / "cut.nc"
+    cut.write_bytes(path.read_bytes()[:200])
+    with pytest.raises(FormatError, match="could not read netcdf file"):
+        vio.read_volume(str(cut) + ":u")
+    other = tmp_path / "other.cdf"
+    other.write_bytes(b"GRIB" + bytes(60))
+    with pytest.raises(
+        FormatError, match=r"expected a netCDF file .* found it starting with b'GRIB"
+    ):
+        vio.read_volume(str(other))
+
+
+def test_netcdf_classic_without_the_library_names_the_extra(tmp_path, monkeypatch):
+    path = str(tmp_path / "f.nc")
+    _write(path, "NETCDF3_CLASSIC", _wind())
+    monkeypatch.setitem(sys.modules, "netCDF4", None)  # as if not installed
+    with pytest.raises(FormatError, match=r"volpack\[netcdf\]"):
+        vio.read_volume(path + ":u")
+
+
+def test_netcdf_fill_bounds_the_data_not_the_fill(tmp_path):
+    path = str(tmp_path / "f.nc")
+    wind = _wind()
+    _write(path, "NETCDF3_64BIT_OFFSET", wind)
+    data = wind != FILL
+    rel = 1e-2
+    bound = rel * float(wind[data].max() - wind[data].min())
+    out = str(tmp_path / "u.vpk")
+    api.compress(path + ":u", out, rel_error=rel)
+    back = api.decompress(out).data
+    assert np.all(back[~data] == FILL)
+    assert np.abs(back[data].astype(np.float64) - wind[data]).max() <= bound
+    # the bound of the range with the fill in it would have been 400x looser
+    assert api.info(out)["header"]["codec"]["max_error"] == pytest.approx(bound)
+    # lossless keeps every bit, the fill included
+    api.compress(path + ":u", out, force=True)
+    np.testing.assert_array_equal(api.decompress(out).data.view(np.uint32), wind.view(np.uint32))
+
+
+def test_netcdf_kind_reads_the_signature(tmp_path):
+    for fmt, want in (("NETCDF3_CLASSIC", "classic"), ("NETCDF4", "hdf5")):
+        path = str(tmp_path / f"{fmt}.nc")
+        _write(path, fmt, _wind(), packed=False)
+        assert netcdf.kind(path) == want
