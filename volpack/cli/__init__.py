@@ -126,8 +126,8 @@ def main(ctx: click.Context, verbose: int, quiet: bool, debug: bool) -> None:
       volpack decompress ct.vpk roi.npy --roi 40:80,100:200,100:200
 
     Files: .npy, .raw (--shape/--dtype), .nii/.nii.gz, .nrrd/.nhdr, .h5:/dataset,
-    .nc/.cdf (netCDF, :VARIABLE), .mrc/.map/.ccp4 (MRC/CCP4 maps), .tif (multi-page)
-    or a folder of slices, a DICOM folder, VolPack .den, and '-' for
+    .nc/.cdf (netCDF, :VARIABLE), .mrc/.map/.ccp4 (MRC/CCP4 maps), .zarr stores,
+    .tif (multi-page) or a folder of slices, a DICOM folder, VolPack .den, and '-' for
     standard input/output (npy or vpk streams). Run 'volpack COMMAND --help' for more;
     -q, -v and --debug may also follow the command.
     """

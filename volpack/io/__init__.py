@@ -102,7 +102,7 @@ def read_header(spec: str, **raw_options: Any) -> dict[str, Any]:
     if path == "-" or f.header is None:
         vol = read_volume(spec, **raw_options)
         return header_dict(fmt, vol.shape, vol.dtype, vol.spacing, vol.origin, vol.meta)
-    if not os.path.isfile(path):
+    if not (os.path.isdir if fmt == "zarr" else os.path.isfile)(path):
         raise FormatError(f"expected an existing {fmt} file, found nothing at {path!r}")
     with wrap_errors(fmt, path):
         return f.function(f.header)(path, opts)
@@ -144,7 +144,7 @@ def write_volume(vol: Volume | np.ndarray, spec: str, *, force: bool = False) ->
             f"expected an output ending in {', '.join(writable())}, found {path!r} "
             f"({fmt} is read-only{' here' if f.writes else ''})"
         )
-    if vol.dtype.kind == "b" and fmt not in ("npy", "hdf5", "netcdf"):  # the others have no bool type
+    if vol.dtype.kind == "b" and fmt not in ("npy", "hdf5", "netcdf"):  # others have no bool
         vol = vol.replace(data=vol.data.astype(np.uint8))
     with wrap_errors(fmt, path, writing=True):
         f.function("write")(vol, path, force, inner)

@@ -74,6 +74,24 @@ def as_volume_array(arr: np.ndarray, meta: dict, where: str) -> np.ndarray:
     return np.ascontiguousarray(arr)
 
 
+def field_shape(shape, where: str, squeeze: bool = True) -> tuple[int, ...]:
+    """The volume shape of an array in a container format (HDF5, netCDF, zarr): 2-D is
+    one slice, 3-D (z, y, x) and 4-D (t, z, y, x) stay; with ``squeeze``, leading axes of
+    length 1 (one time point, one channel) are dropped down to 3-D first."""
+    found = tuple(int(s) for s in shape)
+    out = found
+    while squeeze and len(out) > 3 and out[0] == 1:
+        out = out[1:]
+    if len(out) == 2:
+        out = (1, *out)
+    if len(out) not in (3, 4):
+        raise FormatError(
+            f"expected a 2-D, 3-D (z, y, x) or 4-D (t, z, y, x) array in {where}, found "
+            f"shape {found}"
+        )
+    return out
+
+
 def spacing3(values, default: float = 1.0) -> tuple[float, float, float]:
     """Three positive finite numbers, anything else replaced by ``default``."""
     out = []

@@ -13,6 +13,7 @@ from ..volume import Volume
 from .common import (
     ReadOptions,
     check_voxels,
+    field_shape,
     header_dict,
     meta_json,
     native,
@@ -67,15 +68,7 @@ def geometry(ds) -> tuple[tuple, tuple, dict]:
 
 
 def _h5_shape(ds, path: str) -> tuple[int, ...]:
-    shape = tuple(int(s) for s in ds.shape)
-    if len(shape) == 2:
-        shape = (1, *shape)
-    if len(shape) not in (3, 4):
-        raise FormatError(
-            f"expected a 3-D (z, y, x) or 4-D (t, z, y, x) dataset {ds.name!r} in {path!r}, "
-            f"found shape {tuple(ds.shape)}"
-        )
-    return shape
+    return field_shape(ds.shape, f"the dataset {ds.name!r} of {path!r}", squeeze=False)
 
 
 def read(path: str, opts: ReadOptions) -> Volume:

@@ -18,7 +18,7 @@ import numpy as np
 from ..errors import FormatError
 from ..volume import Volume
 from . import hdf5
-from .common import ReadOptions, check_voxels, header_dict, native, to_volume
+from .common import ReadOptions, check_voxels, field_shape, header_dict, native, to_volume
 
 HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
 CLASSIC_MAGICS = {b"CDF\x01": "CDF-1", b"CDF\x02": "CDF-2", b"CDF\x05": "CDF-5"}
@@ -59,17 +59,6 @@ def _library():
             "pip install 'volpack[netcdf]'"
         ) from None
     return netCDF4
-
-
-def _volume_shape(shape: tuple[int, ...]) -> tuple[int, ...]:
-    """What a variable becomes: a 2-D field one slice, leading axes of length 1 dropped
-    down to 3-D, four axes (t, z, y, x) an animation."""
-    shape = tuple(int(s) for s in shape)
-    while len(shape) > 3 and shape[0] == 1:
-        shape = shape[1:]
-    if len(shape) == 2:
-        shape = (1, *shape)
-    return shape
 
 
 def _is_coordinate(name: str, var) -> bool:
@@ -117,12 +106,7 @@ def _variable(ds, inner, path) -> tuple[str, Any, tuple[int, ...], np.dtype, dic
         raise FormatError(
             f"expected integer or float values in {name!r} of {path!r}, found {dtype}"
         )
-    shape = _volume_shape(var.shape)
-    if len(shape) not in (3, 4):
-        raise FormatError(
-            f"expected a 2-D, 3-D (z, y, x) or 4-D (t, z, y, x) variable {name!r} in "
-            f"{path!r}, found dimensions {var.dimensions} of shape {tuple(var.shape)}"
-        )
+    shape = field_shape(var.shape, f"the variable {name!r} {var.dimensions} of {path!r}")
     meta: dict[str, Any] = {
         "source_format": "netcdf",
         "netcdf_variable": name,
@@ -176,7 +160,7 @@ def _hdf5_options(path: str, opts: ReadOptions) -> ReadOptions:
 def read(path: str, opts: ReadOptions) -> Volume:
     if kind(path) == "hdf5":
         vol = hdf5.read(path, _hdf5_options(path, opts))
-        data = vol.data.reshape(_volume_shape(vol.data.shape))  # a time axis of 1 dropped
+        data = vol.data.reshape(field_shape(vol.data.shape, repr(path)))  # a time axis of 1 dropped
         return vol.replace(data=data, meta=_hdf5_attributes(path, dict(vol.meta)))
     with _open(path) as ds:
         _, var, shape, _, meta = _variable(ds, opts.inner, path)
@@ -189,7 +173,7 @@ def header(path: str, opts: ReadOptions) -> dict[str, Any]:
     if kind(path) == "hdf5":
         head = hdf5.header(path, _hdf5_options(path, opts))
         head["meta"] = _hdf5_attributes(path, head["meta"])
-        head["shape"] = list(_volume_shape(head["shape"]))
+        head["shape"] = list(field_shape(head["shape"], repr(path)))
         return head
     with _open(path) as ds:
         _, _, shape, dtype, meta = _variable(ds, opts.inner, path)

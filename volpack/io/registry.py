@@ -19,6 +19,7 @@ from ..errors import FormatError
 _HDF5_EXTS = (".h5", ".hdf5", ".hdf")
 _NETCDF_EXTS = (".nc", ".cdf", ".nc4")
 _TIFF_EXTS = (".tif", ".tiff")
+_ZARR_MARKERS = ("zarr.json", ".zarray", ".zgroup")  # a zarr store's metadata at its top
 _MRC_EXTS = (".mrc", ".map", ".ccp4", ".mrcs") + tuple(
     e + z for e in (".mrc", ".map", ".ccp4") for z in (".gz", ".bz2")
 )
@@ -70,6 +71,7 @@ for _f in (
     Format("den", "den", (".den",), (".den",)),
     Format("dicom", "dicom", (".dcm",), header=None),
     Format("mrc", "mrc", _MRC_EXTS, _MRC_EXTS[:4]),
+    Format("zarr", "zarrstore", (".zarr",)),  # a folder (format 2 or 3, OME-Zarr)
     Format("vpk", "vpk", (".vpk",), (".vpk",)),
 ):
     register(_f)
@@ -87,14 +89,15 @@ def writable() -> list[str]:
 def parse_spec(spec: str) -> tuple[str, str | None]:
     """Split ``"file.h5:/group/ds"`` into ``("file.h5", "/group/ds")``.
 
-    Only a part before ``:`` that ends in an HDF5 or netCDF extension (.h5, .hdf5, .hdf,
-    .nc, .cdf, .nc4) is split off; any other spec, and ``'-'``, comes back as ``(spec, None)``.
+    Only a part before ``:`` that ends in an HDF5, netCDF or zarr extension (.h5, .hdf5,
+    .hdf, .nc, .cdf, .nc4, .zarr) is split off; any other spec, and ``'-'``, comes back
+    as ``(spec, None)``.
     """
     spec = os.fspath(spec)
     if spec == "-":
         return "-", None
     low = spec.lower()
-    for ext in _HDF5_EXTS + _NETCDF_EXTS:
+    for ext in _HDF5_EXTS + _NETCDF_EXTS + (".zarr",):
         i = low.find(ext + ":")
         if i >= 0:
             path, inner = spec[: i + len(ext)], spec[i + len(ext) + 1 :]
@@ -108,7 +111,7 @@ def detect_format(path: str) -> str:
     """Name the format of ``path`` from its extension (folders: from their content).
 
     Returns a name of :data:`FORMATS` (``npy, raw, nifti, mgh, minc, afni, parrec,
-    nrrd, hdf5, netcdf, tiff, tiff-folder, metaimage, vti, inr, den, dicom, mrc, vpk``).
+    nrrd, hdf5, netcdf, tiff, tiff-folder, metaimage, vti, inr, den, dicom, mrc, zarr, vpk``).
     """
     path, _ = parse_spec(os.fspath(path))
     if path == "-":
@@ -131,13 +134,18 @@ def detect_format(path: str) -> str:
 
 
 def _detect_folder(path: str) -> str:
+    if any(os.path.exists(os.path.join(path, m)) for m in _ZARR_MARKERS):
+        return "zarr"
     names = [n for n in sorted(os.listdir(path)) if not n.startswith(".")]
     if any(n.lower().endswith(_TIFF_EXTS) for n in names):
         return "tiff-folder"
     for n in names:
         if n.lower().endswith(".dcm") or _has_dicom_magic(os.path.join(path, n)):
             return "dicom"
-    raise FormatError(f"expected a folder of .tif/.tiff or DICOM slices, found none in {path!r}")
+    raise FormatError(
+        f"expected a folder of .tif/.tiff or DICOM slices, or a zarr store, found none of "
+        f"them in {path!r}"
+    )
 
 
 def _has_dicom_magic(path: str) -> bool:

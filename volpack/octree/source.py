@@ -182,6 +182,13 @@ def _open_spec(s: SourceSpec):
     if fmt == "hdf5":
         with wrap_errors(fmt, path):
             return _H5Source(path, inner)
+    if fmt == "zarr":  # read box by box, as zarr reads chunks
+        from ..io import zarrstore
+
+        with wrap_errors(fmt, path):
+            arr, shape, spacing, origin, _ = zarrstore.open_array(path, inner)
+        if arr.ndim == 3:
+            return ArraySource(arr, spacing, origin)
     if fmt in ("tiff", "tiff-folder"):
         with wrap_errors(fmt, path):
             return _TiffSource(path)
