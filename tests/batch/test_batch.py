@@ -69,6 +69,20 @@ def test_glob_and_folder_mirror_the_tree(tree, tmp_path):
 
 
 @pytest.mark.slow  # compiles the lossy float paths for one file of two
+def test_zarr_store_in_a_folder_is_one_input(tree, tmp_path):
+    zarr = pytest.importorskip("zarr")
+    root, _ = tree
+    a = smooth_volume(SHAPE, np.uint16, seed=5)
+    zarr.create_array(str(root / "a" / "m.zarr"), shape=SHAPE, chunks=(8, 8, 8), dtype=a.dtype)[
+        ...
+    ] = a  # chunk files under it: not inputs of their own
+    out = tmp_path / "out"
+    tasks = batch.plan(str(root), str(out))
+    assert rels(tasks, out) == ["a/b/y.vpk", "a/m.vpk", "a/x.vpk", "c/w.vpk", "c/z.vpk"]
+    batch.run([t for t in tasks if t.input.endswith("m.zarr")], workers=1)
+    np.testing.assert_array_equal(api.decompress(str(out / "a" / "m.vpk")).data, a)
+
+
 def test_manifest_csv_with_per_file_options(tree, tmp_path):
     root, arrays = tree
     manifest = root / "manifest.csv"

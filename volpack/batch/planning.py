@@ -244,6 +244,8 @@ def _left_out(path: str, kind: str, opts: dict, out_abs: str, tree: bool) -> str
 
 
 def _walk(folder: str, kind: str, opts: dict, out_abs: str, skipped=None) -> list[str]:
+    from ..io.registry import is_zarr_store
+
     found = []
     for here, dirs, files in os.walk(folder):
         dirs[:] = sorted(
@@ -251,6 +253,10 @@ def _walk(folder: str, kind: str, opts: dict, out_abs: str, skipped=None) -> lis
             for d in dirs
             if not d.startswith(".") and os.path.abspath(os.path.join(here, d)) != out_abs
         )
+        if kind != "decompress":  # a zarr store is one input, not a tree of chunk files
+            stores = {d for d in dirs if is_zarr_store(os.path.join(here, d))}
+            found += [os.path.join(here, d) for d in sorted(stores)]
+            dirs[:] = [d for d in dirs if d not in stores]
         for name in sorted(files):
             p = os.path.join(here, name)
             if _selectable(p, kind, opts, out_abs, tree=True, skipped=skipped):

@@ -133,8 +133,13 @@ def detect_format(path: str) -> str:
     )
 
 
+def is_zarr_store(path: str) -> bool:
+    """A folder with zarr metadata at its top (read as one volume, not as slices)."""
+    return os.path.isdir(path) and any(os.path.exists(os.path.join(path, m)) for m in _ZARR_MARKERS)
+
+
 def _detect_folder(path: str) -> str:
-    if any(os.path.exists(os.path.join(path, m)) for m in _ZARR_MARKERS):
+    if is_zarr_store(path):
         return "zarr"
     names = [n for n in sorted(os.listdir(path)) if not n.startswith(".")]
     if any(n.lower().endswith(_TIFF_EXTS) for n in names):
