@@ -11,6 +11,7 @@ import pytest
 from volpack import api
 from volpack import io as vio
 from volpack.errors import FormatError
+from volpack.volume import Volume
 
 zarr = pytest.importorskip("zarr")
 
@@ -110,3 +111,44 @@ def test_zarr_store_builds_an_octree_box_by_box(tmp_path):
     out = str(tmp_path / "o.vpk")
     api.compress(path, out, kind="octree", block=16)
     np.testing.assert_array_equal(api.decompress(out, level=0).data, a)
+
+
+@pytest.mark.parametrize("shape", [(6, 7, 9), (3, 6, 7, 9)])
+def test_zarr_output_is_an_ome_image_that_reads_back(tmp_path, shape):
+    a = _ramp(shape, np.float32) / 3
+    vol = Volume(a, spacing=(2.5, 1.0, 0.5), origin=(1.0, 2.0, -3.0), meta={"units": "mm"})
+    path = str(tmp_path / "out.zarr")
+    vio.write_volume(vol, path)
+    back = vio.read_volume(path)
+    np.testing.assert_array_equal(back.data, a)
+    assert back.spacing == vol.spacing and back.origin == vol.origin
+    assert back.meta["units"] == "mm"
+    ome = zarr.open_group(path, mode="r").attrs["ome"]  # what viewers read
+    assert ome["multiscales"][0]["datasets"][0]["path"] == "0"
+    assert [ax["name"] for ax in ome["multiscales"][0]["axes"]][-3:] == ["z", "y", "x"]
+
+
+def test_zarr_output_replaces_only_with_force_and_never_half_written(tmp_path, monkeypatch):
+    path = str(tmp_path / "out.zarr")
+    first = _ramp()
+    vio.write_volume(first, path)
+    with pytest.raises(FileExistsError):
+        vio.write_volume(first * 2, path)
+
+    def broken(*args, **kwargs):
+        raise OSError("disk full")
+
+    real = zarr.open_group
+    monkeypatch.setattr(zarr, "open_group", broken)
+    with pytest.raises(FormatError, match="disk full"):
+        vio.write_volume(first * 2, path, force=True)
+    monkeypatch.setattr(zarr, "open_group", real)
+    np.testing.assert_array_equal(vio.read_volume(path).data, first)  # the old one intact
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.zarr"]  # nothing left behind
+    stale = tmp_path / ".volpack-999999999-0123abcd.part"  # a dead writer's folder
+    (stale / "0").mkdir(parents=True)
+    vio.write_volume(first * 2, path, force=True)
+    np.testing.assert_array_equal(vio.read_volume(path).data, first * 2)
+    assert not stale.exists()
+    with pytest.raises(FormatError, match="whole zarr store"):
+        vio.write_volume(first, path + ":/x", force=True)

@@ -92,6 +92,35 @@ def atomic_path(path: str | os.PathLike, *, force: bool = False, suffix: str = "
         raise
 
 
+@contextlib.contextmanager
+def atomic_dir(path: str | os.PathLike, *, force: bool = False) -> Iterator[str]:
+    """Yield a temporary folder beside ``path`` for outputs that are folders (a zarr
+    store); it takes the name ``path`` when the block succeeds, and an existing folder of
+    that name (``force``) is removed only after that."""
+    import shutil
+
+    p = os.fspath(path)
+    check_output(p, force=force)
+    directory = os.path.dirname(os.path.abspath(p))
+    _sweep(directory, p)
+    tmp = _part_name(directory, ".part")
+    os.mkdir(tmp)
+    old = None
+    try:
+        yield tmp
+        if os.path.isdir(p) and not os.path.islink(p):
+            old = _part_name(directory, ".old")
+            os.rename(p, old)
+        _rename(tmp, p)
+    except BaseException:
+        if old is not None and not os.path.exists(p):
+            os.rename(old, p)  # the earlier output back under its name
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    if old is not None:
+        shutil.rmtree(old, ignore_errors=True)
+
+
 _PART = re.compile(r"\.volpack-(\d+)-[0-9a-f]{8}\.")
 
 
@@ -161,8 +190,14 @@ def _sweep(directory: str, target: str) -> None:
         m = _PART.match(name)
         if m is None or _alive(int(m.group(1))):
             continue
+        part = os.path.join(directory, name)
         with contextlib.suppress(OSError):
-            os.unlink(os.path.join(directory, name))
+            if os.path.isdir(part) and not os.path.islink(part):  # an atomic_dir's
+                import shutil
+
+                shutil.rmtree(part)
+            else:
+                os.unlink(part)
 
 
 def _alive(pid: int) -> bool:

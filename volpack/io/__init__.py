@@ -144,7 +144,7 @@ def write_volume(vol: Volume | np.ndarray, spec: str, *, force: bool = False) ->
             f"expected an output ending in {', '.join(writable())}, found {path!r} "
             f"({fmt} is read-only{' here' if f.writes else ''})"
         )
-    if vol.dtype.kind == "b" and fmt not in ("npy", "hdf5", "netcdf"):  # others have no bool
+    if vol.dtype.kind == "b" and fmt not in ("npy", "hdf5", "netcdf", "zarr"):  # no bool
         vol = vol.replace(data=vol.data.astype(np.uint8))
     with wrap_errors(fmt, path, writing=True):
         f.function("write")(vol, path, force, inner)

@@ -71,7 +71,7 @@ for _f in (
     Format("den", "den", (".den",), (".den",)),
     Format("dicom", "dicom", (".dcm",), header=None),
     Format("mrc", "mrc", _MRC_EXTS, _MRC_EXTS[:4]),
-    Format("zarr", "zarrstore", (".zarr",)),  # a folder (format 2 or 3, OME-Zarr)
+    Format("zarr", "zarrstore", (".zarr",), (".zarr",)),  # a folder (format 2/3, OME-Zarr)
     Format("vpk", "vpk", (".vpk",), (".vpk",)),
 ):
     register(_f)

@@ -5,7 +5,9 @@ A store holding one array, or an OME-Zarr image, needs no path: the image's firs
 (finest) multiscale level is read, with its ``scale`` and ``translation`` as spacing and
 origin; name another level (``img.zarr:/2``) to read that one. Axes of length 1 in front
 (a single time point or channel) are dropped; what is left must be 2-D, 3-D (z, y, x) or
-4-D (t, z, y, x). Read-only; the octree builder reads such an array box by box.
+4-D (t, z, y, x). The octree builder reads such an array box by box. Written as an
+OME-Zarr 0.5 image of one level (zarr format 3, chunks of up to 64 voxels a side, zarr's
+default compression), so that viewers place it with its spacing and origin.
 """
 
 from __future__ import annotations
@@ -21,9 +23,11 @@ from .common import (
     check_voxels,
     field_shape,
     header_dict,
+    meta_json,
     native,
     origin3,
     spacing3,
+    stored_meta,
     to_volume,
 )
 
@@ -97,7 +101,8 @@ def open_array(path: str, inner: str | None):
     if np.dtype(arr.dtype).kind not in "biuf":
         raise FormatError(f"expected integer or float voxels in {path!r}, found {arr.dtype}")
     spacing, origin = _transforms(group, name, arr.ndim)
-    meta: dict[str, Any] = {"source_format": "zarr", "zarr_array": "/" + name if name else "/"}
+    meta = stored_meta(group.attrs if group is not None else arr.attrs, "zarr")
+    meta["zarr_array"] = "/" + name if name else "/"
     return arr, field_shape(arr.shape, repr(path)), spacing, origin, meta
 
 
@@ -110,3 +115,34 @@ def read(path: str, opts: ReadOptions) -> Volume:
 def header(path: str, opts: ReadOptions) -> dict[str, Any]:
     arr, shape, spacing, origin, meta = open_array(path, opts.inner)
     return header_dict("zarr", shape, native(arr.dtype), spacing, origin, meta)
+
+
+def write(vol: Volume, path: str, force: bool, inner: str | None = None) -> None:
+    from ..format.atomic import atomic_dir
+
+    if inner:
+        raise FormatError(
+            f"expected a whole zarr store as output ({path}), found an array path {inner!r} in it"
+        )
+    zarr = _library()
+    data = vol.data
+    lead = data.ndim - 3  # a time axis
+    axes = [{"name": "t", "type": "time"}] * lead + [{"name": n, "type": "space"} for n in "zyx"]
+    level = {
+        "path": "0",
+        "coordinateTransformations": [
+            {"type": "scale", "scale": [1.0] * lead + [float(s) for s in vol.spacing]},
+            {"type": "translation", "translation": [0.0] * lead + [float(o) for o in vol.origin]},
+        ],
+    }
+    with atomic_dir(path, force=force) as tmp:
+        group = zarr.open_group(tmp, mode="w", zarr_format=3)
+        chunks = (1,) * lead + tuple(min(64, int(n)) for n in data.shape[lead:])
+        group.create_array("0", shape=data.shape, chunks=chunks, dtype=data.dtype)[...] = data
+        attrs: dict[str, Any] = {
+            "ome": {"version": "0.5", "multiscales": [{"axes": axes, "datasets": [level]}]}
+        }
+        text = meta_json(vol)
+        if text is not None:
+            attrs["volpack_meta"] = text
+        group.attrs.update(attrs)
