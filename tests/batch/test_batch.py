@@ -312,6 +312,10 @@ def test_cli_batch_report_resume_and_decompress_batch(tree, tmp_path):
         assert np.array_equal(np.load(back / (batch.strip_volume_ext(rel) + ".npy")), a)
     cli("-q", "decompress", lossless, tmp_path / "nii", "--batch", "--format", "nii.gz")
     assert (tmp_path / "nii" / "a" / "b" / "y.nii.gz").exists()
+    cli("-q", "decompress", lossless, tmp_path / "maps", "--batch", "--format", "mrc")
+    assert np.array_equal(
+        vio.read_volume(str(tmp_path / "maps" / "c" / "z.mrc")).data, arrays["c/z.npy"]
+    )
     r = cli("-q", "decompress", lossless, back, "--batch", code=1)
     assert "exist already" in r.stderr
 

@@ -189,7 +189,7 @@ def compress(
 @click.option(
     "--format",
     "out_format",
-    type=click.Choice(["npy", "nii", "nii.gz", "nrrd", "h5", "tif", "raw"]),
+    type=click.Choice(["npy", "nii", "nii.gz", "nrrd", "h5", "tif", "raw", "mha", "vti", "mrc"]),
     default="npy",
     show_default=True,
     help="With --batch: the format of the decoded files.",
