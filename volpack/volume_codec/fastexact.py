@@ -22,19 +22,20 @@ import numpy as np
 from .._jit import kernel
 from ..errors import FormatError
 from . import palette as pal
+from .fast import MODE_CONSTANT, FastCodec
 
 # The inner section's first byte (a lossless payload's mode byte is 0-5, so the two
 # cannot be confused; the quantised voxels' fast payload uses 6 on another path).
 MARK = 6
 
 _U = np.uint64
+_NO_GAP = bytes([MODE_CONSTANT]) + bytes(4)  # a fast payload of a constant int32 0
 
 
 def encode(brick: np.ndarray) -> list[bytes]:
     """The payloads of a float brick, one per lattice that the lossless codec's lattice
     tool finds on it (none where its values are on none, or not all finite)."""
     from . import floatpredict as fp
-    from .fast import FastCodec
 
     codec = FastCodec(zstd=False)  # as the quantised voxels': level 19 costs the encoder
     out = []
@@ -55,7 +56,6 @@ def decode(data: bytes | memoryview, shape: tuple[int, int, int], dtype: np.dtyp
     """The brick of an :func:`encode` payload ``data`` (``shape``, float ``dtype``),
     bit for bit."""
     from . import floatpredict as fp
-    from .fast import FastCodec
 
     data = memoryview(data)
     dtype = np.dtype(dtype)
@@ -72,9 +72,11 @@ def decode(data: bytes | memoryview, shape: tuple[int, int, int], dtype: np.dtyp
     if pos + n > len(data):
         raise FormatError("fast exact payload: its k field runs past the payload")
     k = codec.decode(data[pos : pos + n], shape, np.int32)
-    gap = codec.decode(data[pos + n :], shape, np.int32)
-    if gap.any():  # voxels off the lattice: the lossless codec's arithmetic
-        return fp.apply_lattice(params.astype(np.float64), k, gap, dtype)
+    rest = data[pos + n :]
+    if rest != _NO_GAP:  # (the usual gap, a constant 0, read at no cost)
+        gap = codec.decode(rest, shape, np.int32)
+        if gap.any():  # voxels off the lattice: the lossless codec's arithmetic
+            return fp.apply_lattice(params.astype(np.float64), k, gap, dtype)
     out = np.empty(shape, dtype)
     rows = np.ascontiguousarray(np.broadcast_to(params, (shape[0], 2)), np.float64)
     _lattice(rows, k.reshape(shape[0], -1), out.reshape(shape[0], -1))
