@@ -35,7 +35,9 @@ def spec_floats(params, k, gap, dtype):
     b = 8 * dtype.itemsize
     rows = np.broadcast_to(params, (k.shape[0], 2))
     with np.errstate(all="ignore"):
-        points = np.stack([rows[z, 0] + rows[z, 1] * k[z].astype(np.float64) for z in range(k.shape[0])])
+        points = np.stack(
+            [rows[z, 0] + rows[z, 1] * k[z].astype(np.float64) for z in range(k.shape[0])]
+        )
     s = float_signed_image(points.astype(dtype)).reshape(-1).tolist()
     out = []
     for v, g in zip(s, gap.reshape(-1).tolist()):
