@@ -1304,19 +1304,16 @@ def palette_unpack(data, limit):
 
     data = bytes(data)
 
-    def leb(pos):
-        v = shift = 0
-        while True:
-            if pos >= len(data):
-                raise FormatError("corrupt palette: the stream ends inside a number")
-            b = data[pos]
-            pos += 1
-            v |= (b & 0x7F) << shift
-            if not b & 0x80:
-                return v, pos
-            shift += 7
-            if shift > 63:
+    def leb(pos):  # 7-bit groups, low first, while the byte before has bit 7 set
+        groups = []
+        while not groups or data[pos - 1] >= 0x80:
+            if len(groups) == 10:
                 raise FormatError("corrupt palette: a number longer than 64 bits")
+            if pos == len(data):
+                raise FormatError("corrupt palette: the stream ends inside a number")
+            groups.append(data[pos] % 128)
+            pos += 1
+        return sum(g * 128**i for i, g in enumerate(groups)), pos
 
     k, pos = leb(0)
     if not 1 <= k <= limit:
