@@ -78,18 +78,19 @@ def decode(data: bytes | memoryview, shape: tuple[int, int, int], dtype: np.dtyp
         if gap.any():  # voxels off the lattice: the lossless codec's arithmetic
             return fp.apply_lattice(params.astype(np.float64), k, gap, dtype)
     out = np.empty(shape, dtype)
-    rows = np.ascontiguousarray(np.broadcast_to(params, (shape[0], 2)), np.float64)
-    _lattice(rows, k.reshape(shape[0], -1), out.reshape(shape[0], -1))
+    _lattice(params, k.reshape(shape[0], -1), out.reshape(shape[0], -1))
     return out
 
 
 @kernel(nrt=False)
 def _lattice(rows, k, out):
     """``out[z, i] = dtype(offset_z + step_z * k[z, i])`` in float64, one rounding a
-    step and none fused: the same bits as :func:`floatpredict.rebuild`."""
+    step and none fused: the same bits as :func:`floatpredict.rebuild`; ``rows``: one
+    (offset, step) row, or one a z slice."""
     nz, n = k.shape
     for z in range(nz):
-        off = rows[_U(z), 0]
-        step = rows[_U(z), 1]
+        r = z if rows.shape[0] > 1 else 0
+        off = rows[_U(r), 0]
+        step = rows[_U(r), 1]
         for i in range(n):
             out[_U(z), _U(i)] = off + step * np.float64(k[_U(z), _U(i)])
