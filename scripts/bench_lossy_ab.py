@@ -3,8 +3,8 @@
 Each tree runs in a worker process of its own (``PYTHONPATH`` set to the tree, one BLAS
 thread); the workers take turns, never at once. For every field and bound (relative to the
 value range, as ``bench_lossy_decode.py``) each worker encodes the field with volpack's
-defaults, SPERR (imagecodecs ``sperr_encode(a, mode="pwe", level=E)``) and SZ3 (pysz, its
-defaults, absolute bound E), checks the bound on every voxel, then per round decodes the
+defaults (with ``--effort``, that effort), SPERR (imagecodecs ``sperr_encode(a,
+mode="pwe", level=E)``) and SZ3 (pysz, its defaults, absolute bound E), checks the bound on every voxel, then per round decodes the
 three in a rotating order, timing each in CPU seconds of its own process
 (``time.process_time``); the order of the two workers alternates every round. The best
 time of each is kept. ``--encode N`` times the encoders the same way over N rounds.
@@ -44,14 +44,14 @@ METHODS = ("volpack", "sperr", "sz3")
 # -- the worker: one tree, commands on stdin, one JSON line out per command ----------
 
 
-def _worker() -> None:
+def _worker(effort: str | None = None) -> None:
     sys.path.insert(0, str(HERE))
     import datasets
     from bench_lossy_decode import codecs
 
     import volpack
 
-    methods = codecs()
+    methods = codecs(effort=effort)
     cell = {}
 
     def reply(obj):
@@ -105,12 +105,13 @@ def _worker() -> None:
 
 
 class Worker:
-    def __init__(self, label: str, tree: str):
+    def __init__(self, label: str, tree: str, effort: str | None = None):
         env = dict(os.environ, PYTHONPATH=str(Path(tree).resolve()), OPENBLAS_NUM_THREADS="1",
                    OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")  # fmt: skip
         self.label = label
         self.proc = subprocess.Popen(
-            [sys.executable, str(Path(__file__).resolve()), "--worker"],
+            [sys.executable, str(Path(__file__).resolve()), "--worker"]
+            + ([effort] if effort else []),
             stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=env,
         )  # fmt: skip
         self.where = self.read()["volpack"]
@@ -144,7 +145,7 @@ def best_of(workers, op: str, rounds: int) -> dict:
 
 
 def run(args) -> list[dict]:
-    workers = [Worker(label, tree) for label, tree in args.trees]
+    workers = [Worker(label, tree, args.effort) for label, tree in args.trees]
     for w in workers:
         print(f"{w.label}: volpack from {w.where}", flush=True)
     rows = []
@@ -239,8 +240,8 @@ def write(rows: list[dict], out: Path, args) -> None:
 
 
 def main(argv=None) -> None:
-    if argv is None and sys.argv[1:] == ["--worker"]:
-        _worker()
+    if argv is None and sys.argv[1:2] == ["--worker"]:
+        _worker(*sys.argv[2:3])
         return
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--trees", required=True, help="label=path,label=path (first: the base)")
@@ -249,6 +250,7 @@ def main(argv=None) -> None:
     ap.add_argument("--rounds", type=int, default=7)
     ap.add_argument("--encode", type=int, default=0, metavar="N")
     ap.add_argument("--out", type=Path, required=True)
+    ap.add_argument("--effort", default=None, help="volpack's encoder effort (default: its own)")
     args = ap.parse_args(argv)
     args.trees = [tuple(t.split("=", 1)) for t in args.trees.split(",") if t]
     args.datasets = [d for d in args.datasets.split(",") if d]

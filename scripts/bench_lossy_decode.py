@@ -13,7 +13,8 @@ measured side by side, not the MB/s (the machine is shared).
 Also recorded per cell: which payload volpack's brick(s) took (``formats/lossy-1.md``:
 ``cdf97`` the float wavelet path with its layout, ``interp`` the interpolation path,
 ``qvox`` the quantised voxels through the lossless wavelet codec, ``qvox(fast)``
-through the fast codec (``--effort fast``), ``exact`` the lossless codec, ``coef`` the
+through the fast codec (``--effort fast``), ``exact`` the lossless codec (``exact(fast)``
+its lattices by the fast codec, ``--effort fast``), ``coef`` the
 integer-coefficient path) and, with ``--profile``, where volpack's decode spends its
 time: the stage functions of the decoders are wrapped with timers for a further
 ``--rounds`` decodes (entropy decoding, the fast codec's walk counted with it, inverse
@@ -127,8 +128,8 @@ def payload_paths(blob: bytes) -> str:
                 kind = f"cdf97({'separable' if order == 3 else 'mallat'} {lv[0]},{lv[1]},{lv[2]})"
             elif flags & 4:
                 kind = "coef"
-            elif flags & 128:
-                kind = "exact"
+            elif flags & 128:  # inner byte 6: lattices by the fast codec (effort 'fast')
+                kind = "exact(fast)" if p[5] == 6 else "exact"
             else:  # inner byte 6: the fast codec's payload (effort 'fast')
                 kind = "qvox(fast)" if p[5] == 6 else "qvox"
             if flags & 32:

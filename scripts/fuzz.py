@@ -95,6 +95,8 @@ KINDS = {
     "lossy-fast-float": ("lossy-bounded-f32-fast.vpk", VOLUME_PATHS),
     # ... and the interpolation path's grouped bins (kind bit 5), with raw bits
     "lossy-fast-bins": ("lossy-bounded-f32-fastbins-raw.vpk", VOLUME_PATHS),
+    # ... and the exact path's lattices with their integers by the fast codec (step 19b)
+    "lossy-fast-exact": ("lossy-bounded-f32-levels-fast.vpk", VOLUME_PATHS),
     # the float wavelet path: Mallat layout with the outlier bin field, and separable
     "lossy-cdf97": ("lossy-bounded-f32-cdf97-bins.vpk", VOLUME_PATHS),
     "lossy-separable": ("lossy-bounded-f32-separable.vpk", VOLUME_PATHS),

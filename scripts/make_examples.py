@@ -448,6 +448,9 @@ LOSSY_INTERP_CASES = [
 LOSSY_EXACT_CASES = [
     ("lossy-bounded-f32-whole-exact", "f32-whole", {"max_error": 0.25}),
     ("lossy-bounded-f32-levels", "f32-levels", {"max_error": 0.01}),
+    # under effort 'fast': the lattice per slice and its integers by the fast codec
+    # (inner byte 6, lossy-1.md step 19b)
+    ("lossy-bounded-f32-levels-fast", "f32-levels", {"max_error": 0.01, "effort": "fast"}),
 ]
 
 

@@ -1294,3 +1294,39 @@ def rans_read_tables(body, nctx, nsym, bits=12):
         if sum(row) not in (0, 1 << bits) or max(row) == 1 << bits:
             return "sum"
     return rows, 2 * pos
+
+
+def palette_unpack(data, limit):
+    """A palette read value by value (lossless-1.md): ``K`` and the zig-zagged first
+    value, then ``K - 1`` gaps less one, each unsigned LEB128. Returns (values, bytes
+    used), or raises FormatError naming what is wrong, as ``palette.unpack`` must."""
+    from volpack.errors import FormatError
+
+    data = bytes(data)
+
+    def leb(pos):  # 7-bit groups, low first, while the byte before has bit 7 set
+        groups = []
+        while not groups or data[pos - 1] >= 0x80:
+            if len(groups) == 10:
+                raise FormatError("corrupt palette: a number longer than 64 bits")
+            if pos == len(data):
+                raise FormatError("corrupt palette: the stream ends inside a number")
+            groups.append(data[pos] % 128)
+            pos += 1
+        return sum(g * 128**i for i, g in enumerate(groups)), pos
+
+    k, pos = leb(0)
+    if not 1 <= k <= limit:
+        raise FormatError(f"corrupt palette: expected 1..{limit} values, found {k}")
+    z, pos = leb(pos)
+    values = [(z >> 1) ^ -(z & 1)]
+    if values[0] < -(1 << 63):
+        raise FormatError("corrupt palette: a value leaves the 64-bit range")
+    for _ in range(k - 1):
+        g, pos = leb(pos)
+        values.append(values[-1] + g + 1)
+        if values[-1] >= 1 << 63:
+            raise FormatError("corrupt palette: a value leaves the 64-bit range")
+    if values[0] >= 1 << 63:
+        raise FormatError("corrupt palette: a value leaves the 64-bit range")
+    return values, pos

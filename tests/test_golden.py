@@ -462,27 +462,31 @@ def test_golden_whole_number_float_stream():
     np.testing.assert_array_equal(api.decompress(blob).data, want)
 
 
-LOSSY_EXACT = [  # (stem, recipe, max_error)
-    ("lossy-bounded-f32-whole-exact", "f32-whole", 0.25),
-    ("lossy-bounded-f32-levels", "f32-levels", 0.01),
-]
+LOSSY_EXACT = [  # (stem, recipe, options, the inner section's first bytes)
+    ("lossy-bounded-f32-whole-exact", "f32-whole", {"max_error": 0.25}, bytes([5, 1])),
+    ("lossy-bounded-f32-levels", "f32-levels", {"max_error": 0.01}, bytes([5, 1])),
+    # effort 'fast': step 19b, a lattice per z slice (20) and the fast codec
+    ("lossy-bounded-f32-levels-fast", "f32-levels", {"max_error": 0.01, "effort": "fast"},
+     bytes([6, 20])),
+]  # fmt: skip
 
 
-@pytest.mark.parametrize("stem,recipe,bound", LOSSY_EXACT, ids=[c[0] for c in LOSSY_EXACT])
-def test_golden_exact_path_stream(stem, recipe, bound):
+@pytest.mark.parametrize("stem,recipe,opts,head", LOSSY_EXACT, ids=[c[0] for c in LOSSY_EXACT])
+def test_golden_exact_path_stream(stem, recipe, opts, head):
     """The exact path (flag bit 7, the brick coded by the lossless codec's lattice
-    tool) decodes bit for bit, records no error, and is reproduced."""
+    tool, or under effort 'fast' its lattices and the fast codec) decodes bit for bit,
+    records no error, and is reproduced."""
     blob = (GOLDEN / f"{stem}.vpk").read_bytes()
     want = lossy_source(recipe)
     with Reader(blob) as r:
         payloads = [p for _, _, p in r]
         assert r.summary["max_error"] == 0.0
     assert [p[0] for p in payloads] == [128]
-    assert take_section(memoryview(payloads[0]), 1, "inner")[0][:2] == bytes([5, 1])
+    assert take_section(memoryview(payloads[0]), 1, "inner")[0][: len(head)] == head
     np.testing.assert_array_equal(api.decompress(blob).data, want)
     if stem in BEFORE_LOSSLESS_Q:
         return
-    again = api.compress_array(want, max_error=bound, **ARITH)
+    again = api.compress_array(want, **opts, **ARITH)
     with Reader(blob) as old, Reader(again) as new:
         assert old.header == new.header
         assert [(t, n, p) for t, n, p in old] == [(t, n, p) for t, n, p in new]

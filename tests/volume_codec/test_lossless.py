@@ -3,6 +3,7 @@ golden streams and corrupt payloads."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -142,6 +143,42 @@ def test_palette_one_byte_gaps_and_their_errors():
     np.testing.assert_array_equal(palette.unpack(memoryview(palette.pack(top)), 8)[0], top)
     with pytest.raises(FormatError, match="64-bit range"):
         palette.unpack(memoryview(palette.pack(top)[:-1] + b"\x01"), 8)
+
+
+def test_palette_multi_byte_gaps_read_as_value_by_value():
+    """Gaps of one to ten LEB128 bytes (numpy passes up to six, the loop beyond), whole,
+    cut, bit-flipped and followed by other bytes: the same values and bytes used as a
+    plain reading of the format (naive.palette_unpack), or the same error."""
+    from naive import palette_unpack
+
+    rng = np.random.default_rng(11)
+    seen = set()
+    for t in range(6000):
+        scale = (2, 200, 2**20, 2**40, 2**50, 2**62)[t % 6]
+        q = np.cumsum(rng.integers(1, scale, int(rng.integers(1, 60))))
+        q = q - int(rng.integers(0, 2**40)) + (2**62 if t % 11 == 0 else 0)
+        if q[-1] >= 2**63 - 1 or q[0] < -(2**63):
+            continue
+        d = bytearray(palette.pack(q))
+        if t % 4 == 1:
+            d = d[: rng.integers(0, len(d) + 1)]
+        elif t % 4 == 2:
+            for j in rng.integers(0, len(d), 2):
+                d[j] ^= 1 << int(rng.integers(0, 8))
+        elif t % 4 == 3:
+            d += rng.integers(0, 256, 5).astype(np.uint8).tobytes()
+        limit = 8 if t % 7 == 0 else 64
+        try:
+            want = palette_unpack(bytes(d), limit)
+        except FormatError as e:
+            with pytest.raises(FormatError, match=re.escape(str(e))):
+                palette.unpack(memoryview(bytes(d)), limit)
+            seen.add(str(e).split(":")[1][:12])
+            continue
+        got, used = palette.unpack(memoryview(bytes(d)), limit)
+        assert (got.tolist(), used) == want
+        seen.add("read")
+    assert len(seen) == 5  # read, and each of the four errors
 
 
 @pytest.mark.parametrize(

@@ -94,7 +94,17 @@ EFFORTS = ("default", "fast", "max")  # of the error-bounded encoder
 # path (the lossless float tools: 5x the fast codec's decode time on eta_u's quantised
 # voxels, for 15 % of the bytes). Chosen on those fields: no held-out set.
 FAST_ADAPTIVE_SAVING = 0.15
-FAST_EXACT_SAVING = 0.25
+# Since session 25 the exact path under 'fast' is coded by the fast codec too
+# (:mod:`.fastexact`), kept where it is shorter than the other paths; the lossless
+# codec's exact payload is then kept only where the bytes it saves pay for its modelled
+# extra decode time at FAST_BYTES_PER_NS: a model of a voxel's decode, not a measured
+# time (the same brick gives the same bytes). The lossless exact path decoded its
+# lattices at 62-70 ns a voxel, the fast one at 7-12 (sst_monthly, contour_t; README
+# fastpath25); the rate is the fast codec's own for its zstd mode (fast.ZSTD_RATE, 4 KB
+# a millisecond of decode).
+EXACT_LOSSLESS_NS = 60.0
+EXACT_FAST_NS = 10.0
+FAST_BYTES_PER_NS = 0.004
 # ... and a float brick's interpolation path against its quantised voxels by the fast
 # codec (the walk with static bins took 1.1-2.3x the fast codec's time at 1e-3..1e-5 of
 # the range, where the fast codec codes within 5 % of it, often shorter; at 1e-2 the
@@ -301,10 +311,29 @@ class BoundedCodec(BrickCodec):
             if len(cand[0]) < len(best[0]):
                 best = cand
         if x.dtype.kind == "f" and _exact_may_pay(x, self.max_error):
+            if self.effort == "fast":
+                return self._exact_fast(x, mask, best)
             cand = self._exact_candidate(x, mask)
-            keep = 1.0 - (FAST_EXACT_SAVING if self.effort == "fast" else 0.0)
-            if len(cand[0]) < keep * len(best[0]):
+            if len(cand[0]) < len(best[0]):
                 best = cand
+        return best
+
+    def _exact_fast(self, x, mask, best: Measured) -> Measured:
+        """Under effort 'fast': the exact path by the fast codec (:mod:`.fastexact`),
+        kept where it is shorter than ``best``, then by the lossless codec, kept only
+        where it saves FAST_BYTES_PER_NS a nanosecond of its modelled extra decode time
+        over the shorter of those two."""
+        from . import fastexact
+
+        valid = x.size - (int(mask.sum()) if mask is not None else 0)
+        for body in fastexact.encode(x):
+            body = bytes([FLAG_EXACT]) + put_section(body)
+            if len(body) < len(best[0]):
+                best = Measured(body, 0.0, 0.0, valid)
+        cand = self._exact_candidate(x, mask)
+        extra_ns = (EXACT_LOSSLESS_NS - EXACT_FAST_NS) * x.size
+        if len(best[0]) - len(cand[0]) > FAST_BYTES_PER_NS * extra_ns:
+            best = cand
         return best
 
     def _min_saving(self) -> float:
@@ -605,7 +634,12 @@ class BoundedCodec(BrickCodec):
                 raise FormatError(
                     "bounded brick payload: the exact path is for float voxels, alone"
                 )
-            out = self._lossless().decode(inner, tuple(shape), dtype)
+            from . import fastexact
+
+            if len(inner) and inner[0] == fastexact.MARK:  # effort 'fast': step 19b
+                out = fastexact.decode(inner, tuple(shape), dtype)
+            else:
+                out = self._lossless().decode(inner, tuple(shape), dtype)
         elif flags & FLAG_INTERP:
             out = self._decode_interp(flags, inner, tuple(shape), dtype, into)
         elif flags & FLAG_CDF97:
