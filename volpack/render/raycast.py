@@ -54,12 +54,7 @@ other). On semi-transparent transfer functions no segment is that thick at step 
 on opaque ones it is the few segments where a ray meets a surface or crosses a thin
 sheet. Measured on the benchmark's opaque TF (``scripts/bench_render_peers.py``):
 the step-0.5 image 8-15 dB nearer its step-0.125 one for 3-8 % more segments (more
-CPU than that: the refined segments are the visible, shaded ones). The chord's error in
-a sub-segment falls as the square of its length, so ``m = 3`` (:data:`REFINE`, the
-default) leaves about 4/9 of ``m = 2``'s for one more sample per refined segment; on
-the benchmark's opaque TF that was 1.5-5.6 dB nearer the reference on five volumes for
-1-9 % more CPU, while semi-transparent frames, with no segment that thick, keep their
-image and time (``results/render/psnr25``).
+CPU than that: the refined segments are the visible, shaded ones).
 
 Shading (``shading="phong"``): a headlight (light and eye directions equal), two-sided,
 ``ka + kd |n.v| + ks |n.v|^shininess`` with white specular. The normal is the world
@@ -178,11 +173,6 @@ NEAR_RUN = True
 #: Refinement: a pre-integrated segment carrying more than this share of its pixel's
 #: opacity is marched again in ``refine`` sub-segments (see :func:`render`).
 REFINE_OPACITY = 0.1
-#: Sub-segments of a refined segment by default (``render(refine=)``): the chord's
-#: error falls as ``1 / m^2`` (module docstring); 3 rather than 2 took the opaque
-#: frames of 64^3 skull field and a 10-slice b0 slab 5.4 and 1.7 dB nearer their fine
-#: reference for 5 % and 1-3 % more CPU.
-REFINE = 3
 #: Pre-integrated tables whose neighbouring entries differ by at most this (every
 #: channel, along both axes) are read at the nearest entry instead of bilinearly: the
 #: two differ by at most twice this per segment, and the look-up costs 4 reads instead
@@ -1752,7 +1742,7 @@ def render(
     ert: float = 0.99,
     skip_empty: bool = True,
     normals: str = "quantised",
-    refine: int = REFINE,
+    refine: int = 2,
     workers: int | None = None,
     progress: Callable[[int, int], None] | None = None,
     render_stats: bool = False,
@@ -1796,9 +1786,8 @@ def render(
     refine : int
         Pre-integrated segments that carry more than :data:`REFINE_OPACITY` of their
         pixel's opacity (the entry into an opaque surface, a thin sheet crossed) are
-        marched again as ``refine`` sub-segments, ``refine - 1`` samples more, through
-        the table of their length (module docstring; default :data:`REFINE`); 1 never
-        refines.
+        marched again as ``refine`` sub-segments, one sample each more, through the
+        table of their length (module docstring); 1 never refines.
     workers : int or None
         Threads (None or 0 = every core). The image does not depend on it.
     progress : callable(done, total)

@@ -6,6 +6,12 @@ thread; CPU seconds best of 3 frames (nothing else is cleared between them, as i
 orbit); samples from RenderStats.
 
     python results/render/psnr25/refine_sweep.py --volumes mri_dipy_s0 ct_skull_float
+
+``--ab``: instead, the frame time of main's refinement (2 sub-segments) against the tried
+default (3, commit 3d8d833 of branch psnr25, not kept), taking turns: azimuth 40 (a later
+frame: tables and normals built), best CPU of ``--rounds`` per setting. The tried change
+was only the default of ``refine``, so ``refine=2`` is main's frame (written to
+``ab_time.csv``).
 """
 
 import argparse
@@ -29,9 +35,13 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--volumes", nargs="+", default=["mri_dipy_s0", "ct_skull_float"])
     ap.add_argument("--tfs", nargs="+", default=["opaque"])
+    ap.add_argument("--ab", action="store_true", help="time refine=2 against refine=3")
+    ap.add_argument("--rounds", type=int, default=5)
     ap.add_argument("--settings", nargs="+", default=["2:0.1", "3:0.1", "4:0.1", "2:0.03",
                                                        "4:0.03", "2:0.01", "4:0.01"])
     args = ap.parse_args()
+    if args.ab:
+        return ab(args)
     print("volume,tf,shading,refine,threshold,psnr_db,samples,cpu_s")
     for name in args.volumes:
         vol, sp, _ = datasets.load(name)
@@ -56,6 +66,29 @@ def main():
                     print(f"{name},{tfk},{sh},{m},{thr},{psnr(im[..., :3], ref):.2f},"
                           f"{st.samples},{best:.4f}", flush=True)
     raycast.REFINE_OPACITY = 0.1
+
+
+def ab(args):
+    print("volume,tf,shading,cpu_refine2_s,cpu_refine3_s,ratio,load1")
+    for name in args.volumes:
+        vol, sp, _ = datasets.load(name)
+        prep = prepare_volume(vol, tuple(float(s) for s in sp))
+        for tfk in args.tfs:
+            tf = TransferFunction(points=tf_points(tfk, *tf_base(vol)))
+            cam = Camera(azimuth=40.0, elevation=ELEVATION, size=(512, 512))
+            for sh in ("none", "phong"):
+                kw = dict(tf=tf, camera=cam, shading=sh, workers=1)
+                best = {2: 1e9, 3: 1e9}
+                for m in (2, 3):  # warm: the tables of both
+                    raycast.render(prep, refine=m, **kw)
+                for _ in range(args.rounds):
+                    for m in (2, 3):
+                        c = time.process_time()
+                        raycast.render(prep, refine=m, **kw)
+                        best[m] = min(best[m], time.process_time() - c)
+                load = open("/proc/loadavg").read().split()[0]
+                print(f"{name},{tfk},{sh},{best[2]:.4f},{best[3]:.4f},"
+                      f"{best[3] / best[2]:.3f},{load}", flush=True)
 
 
 if __name__ == "__main__":
