@@ -1,5 +1,18 @@
-import sys, time
-sys.path.insert(0, "/work/wt/psnr25/scripts")
+"""Refinement gated by the bend of the scalar along the ray: PSNR against the
+benchmark's reference (step 0.125, the defaults of the code run), samples and best CPU
+of 3, one thread, the benchmark's opaque TF and scene.
+
+    python results/render/psnr25/bend_sweep.py <volumes,...> <refine:bend,...>
+
+bend_sweep.csv: a prototype that skipped refinement below the bend (not kept: the skull
+lost 5 dB); bend_count_sweep.csv: two sub-segments below the bend, ``refine`` above it
+(the rule kept, ``sub_count``; its reference then was main's refine 2).
+"""
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "scripts"))
 import datasets
 from bench_render_peers import ELEVATION, psnr, tf_base, tf_points
 from volpack.render import raycast

@@ -7,11 +7,11 @@ orbit); samples from RenderStats.
 
     python results/render/psnr25/refine_sweep.py --volumes mri_dipy_s0 ct_skull_float
 
-``--ab``: instead, the frame time of main's refinement (2 sub-segments) against the tried
-default (3, commit 3d8d833 of branch psnr25, not kept), taking turns: azimuth 40 (a later
-frame: tables and normals built), best CPU of ``--rounds`` per setting. The tried change
-was only the default of ``refine``, so ``refine=2`` is main's frame (written to
-``ab_time.csv``).
+``--ab``: instead, the frame time of ``refine=2`` (main's frame) against ``refine=3``,
+taking turns: azimuth 40 (a later frame: tables and normals built), best CPU of
+``--rounds`` per setting. Run on commit 3d8d833 (three sub-segments wherever refined,
+not kept) it wrote ``ab_time.csv``; on the final code (three where the scalar bends,
+the default) ``ab_time_final.csv``.
 """
 
 import argparse
