@@ -59,8 +59,8 @@ a sub-segment falls as the square of its length, so three sub-segments leave 4/9
 two's; the third is taken only where the scalar bends along the ray (the second
 difference of the samples, :func:`sub_count`, at least :data:`REFINE_BEND` table
 entries), where the chord errs: ``refine=3``, the default, gave the benchmark's opaque
-frames 1.5-2.3 dB more on the b0 slab, MECCA field and whole-head MRI for 2-6 % more
-segments (three everywhere cost those 7-9 % more CPU; ``results/render/psnr25``).
+frames 0.9-1.9 dB more on ten volumes for 1-8 % more CPU (three sub-segments wherever
+refined: 2-10 %; ``results/render/psnr25``).
 
 Shading (``shading="phong"``): a headlight (light and eye directions equal), two-sided,
 ``ka + kd |n.v| + ks |n.v|^shininess`` with white specular. The normal is the world
