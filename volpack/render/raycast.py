@@ -1217,9 +1217,10 @@ def _march(
     the image columns ``[cols[0], cols[1])`` of those rows (a tile, see
     :func:`_march_specialised`); ``row_samples`` gains each row's segments there.
     ``refine = (m, threshold)``: a full pre-integrated segment whose share of the
-    pixel's opacity, ``w = (1 - A_acc) A``, exceeds ``threshold`` is marched again as
-    :func:`sub_count` ``(w, threshold, m)`` sub-segments ``k`` through ``subs[k - 2]``,
-    the table for ``step / k`` (see :func:`render`, ``refine``); ``m = 1`` never does."""
+    pixel's opacity, ``(1 - A_acc) A``, exceeds ``threshold`` is marched again as ``k``
+    sub-segments through ``subs[k - 2]``, the table for ``step / k``: ``k = m``, or 2
+    where the samples show the scalar nearly straight (:func:`sub_count`; see
+    :func:`render`, ``refine``); ``m = 1`` never does."""
     nz, ny, nx = extent(vol)
     nsub = int(refine[0])
     a_ref = refine[1]
@@ -1461,8 +1462,8 @@ def _refined(vol, grad, has_grad, codes, light, subs, pz0, py0, px0, sz, sy, sx,
              u0, u1, fu, j0, j1, fj, t0, step, shade, oz, oy, ox, dz, dy, dx, gscale, vz, vy,
              vx, gmin, shading, ert, ar, ag, ab, aa):  # fmt: skip
     """A thick segment of the fast march (see :func:`_march`, ``refine``) composited as
-    ``nsub`` sub-segments through their table ``subs[nsub - 2]``: from fixed-point ``p0`` (the front, in table
-    cell ``u``) by ``nsub - 1`` samples more to the back (cell ``j``). Returns the pixel
+    ``nsub`` sub-segments through their table ``subs[nsub - 2]``: from fixed-point
+    ``p0`` (the front, in table cell ``u``) by ``nsub - 1`` samples more to the back (cell ``j``). Returns the pixel
     so far and whether it terminated. A call of its own, not inlined: the few segments
     that take it (none on semi-transparent TFs) keep it out of the march's loop, whose
     registers it crowded (measured: the loop without it 5-13 % faster on the
@@ -1526,10 +1527,10 @@ def sub_count(bend, bend_min, nsub):
     """Sub-segments for a refined segment: ``nsub``, but at most 2 where the scalar is
     nearly straight along the ray there. ``bend`` is the second difference of the
     samples ending the segment and the one before (``x_b - 2 x_f + x_p``, table
-    entries; NaN when the one before is not known): the chord of two sub-segments then
-    strays from the curve by about ``bend / 32`` of an entry, and a third sample would
-    move it less than the table resolves. Where the scalar bends, a third sub-segment
-    leaves 4/9 of two's chord error (it falls as the square of the length)."""
+    entries; NaN when the one before is not known): below ``bend_min`` the chord of
+    two sub-segments strays from the curve by about ``bend / 32`` of an entry or less.
+    Where the scalar bends, a third sub-segment leaves 4/9 of two's chord error (it
+    falls as the square of the length)."""
     if nsub > 2 and bend < bend_min:
         return 2
     return nsub
