@@ -54,7 +54,13 @@ other). On semi-transparent transfer functions no segment is that thick at step 
 on opaque ones it is the few segments where a ray meets a surface or crosses a thin
 sheet. Measured on the benchmark's opaque TF (``scripts/bench_render_peers.py``):
 the step-0.5 image 8-15 dB nearer its step-0.125 one for 3-8 % more segments (more
-CPU than that: the refined segments are the visible, shaded ones).
+CPU than that: the refined segments are the visible, shaded ones). The chord's error in
+a sub-segment falls as the square of its length, so three sub-segments leave 4/9 of
+two's; the third is taken only where the scalar bends along the ray (the second
+difference of the samples, :func:`sub_count`, at least :data:`REFINE_BEND` table
+entries), where the chord errs: ``refine=3``, the default, gave the benchmark's opaque
+frames 0.9-1.9 dB more on ten volumes for 1-8 % more CPU (three sub-segments wherever
+refined: 2-10 %; ``results/render/psnr25``).
 
 Shading (``shading="phong"``): a headlight (light and eye directions equal), two-sided,
 ``ka + kd |n.v| + ks |n.v|^shininess`` with white specular. The normal is the world
@@ -173,6 +179,13 @@ NEAR_RUN = True
 #: Refinement: a pre-integrated segment carrying more than this share of its pixel's
 #: opacity is marched again in ``refine`` sub-segments (see :func:`render`).
 REFINE_OPACITY = 0.1
+#: Sub-segments of a refined segment by default (``render(refine=)``), where the scalar
+#: bends along the ray (:data:`REFINE_BEND`; elsewhere two).
+REFINE = 3
+#: A refined segment whose samples' second difference along the ray (this one's two and
+#: the one before) is under this many table entries takes two sub-segments, not
+#: ``refine`` (:func:`sub_count`).
+REFINE_BEND = 1.0
 #: Pre-integrated tables whose neighbouring entries differ by at most this (every
 #: channel, along both axes) are read at the nearest entry instead of bilinearly: the
 #: two differ by at most twice this per segment, and the look-up costs 4 reads instead
@@ -916,7 +929,7 @@ def _render_kernel(
     has_vol,
     post_tab,
     pre2d,
-    sub2d,
+    subs,
     refine,
     iso2d,
     iso_vals,
@@ -943,6 +956,7 @@ def _render_kernel(
     nsub = int(refine[0])
     a_ref = refine[1]
     near = refine[2] > 0.0
+    bend_min = refine[3]
     need_ends = mode == 2 or has_iso
     for k in range(rows.shape[0]):
         r = rows[k]
@@ -960,6 +974,7 @@ def _render_kernel(
             ab = 0.0
             aa = 0.0
             sf = 0.0
+            sp_ = math.nan  # the front sample of the segment before (NaN: not known)
             have_front = False
             # front normal of the segment, carried over from the last one's back
             nfz, nfy, nfx, lf = 0.0, 0.0, 0.0, -1.0
@@ -978,6 +993,7 @@ def _render_kernel(
                     if state == 1:
                         have_front = False
                         have_nf = False
+                        sp_ = math.nan
                         continue
                 t1 = min(t0 + step, tfar)
                 seglen = t1 - t0
@@ -1045,8 +1061,8 @@ def _render_kernel(
                     hq = seglen
                     if (mode == 2 and nsub > 1 and c4[3] > 0.0 and (1.0 - aa) * c4[3] > a_ref
                             and i < nseg - 1):  # fmt: skip
-                        npieces = nsub
-                        hq = step / nsub
+                        npieces = sub_count(abs(sb - 2.0 * sf + sp_) * scale, bend_min, nsub)
+                        hq = step / npieces
                     s_prev = sf
                     for q in range(npieces):
                         p0 = t0 + q * hq
@@ -1055,7 +1071,8 @@ def _render_kernel(
                             sq = sb
                             if q < npieces - 1:
                                 sq = sample(vol, oz + p1 * dz, oy + p1 * dy, ox + p1 * dx)
-                            _lookup2(sub2d, (s_prev - lo) * scale, (sq - lo) * scale, c4)
+                            _lookup2(subs[npieces - 2], (s_prev - lo) * scale,
+                                     (sq - lo) * scale, c4)  # fmt: skip
                             s_prev = sq
                         a = c4[3]
                         lit_now = False
@@ -1119,6 +1136,7 @@ def _render_kernel(
                         have_nf = lit_now
                         if aa > ert:
                             break
+                sp_ = sf
                 sf = sb
                 if aa > ert:
                     if ea > 0.0:
@@ -1179,7 +1197,7 @@ def _ndv(grad, node, z, y, x, gscale, vz, vy, vx, gmin, s):
 
 
 def _march(
-    vol, grad, has_grad, codes, light, frame, u, v, rows, pre, post_tab, pre2d, sub2d,
+    vol, grad, has_grad, codes, light, frame, u, v, rows, pre, post_tab, pre2d, subs,
     lo, scale, step, leap, brick, skip, ert, shade, shading, gscale, vscale, gmin, clear,
     refine, cols, out, row_samples,
 ):  # fmt: skip
@@ -1199,13 +1217,15 @@ def _march(
     the image columns ``[cols[0], cols[1])`` of those rows (a tile, see
     :func:`_march_specialised`); ``row_samples`` gains each row's segments there.
     ``refine = (m, threshold)``: a full pre-integrated segment whose share of the
-    pixel's opacity, ``(1 - A_acc) A``, exceeds ``threshold`` is marched again as ``m``
-    sub-segments through ``sub2d``, the table for ``step / m`` (see
+    pixel's opacity, ``(1 - A_acc) A``, exceeds ``threshold`` is marched again as ``k``
+    sub-segments through ``subs[k - 2]``, the table for ``step / k``: ``k = m``, or 2
+    where the samples show the scalar nearly straight (:func:`sub_count`; see
     :func:`render`, ``refine``); ``m = 1`` never does."""
     nz, ny, nx = extent(vol)
     nsub = int(refine[0])
     a_ref = refine[1]
     near = refine[2] > 0.0
+    bend_min = refine[3]
     runs = pre == 2  # a constant: one kernel of its own (_march_specialised)
     cl, ch_ = clear[0], clear[1]
     n_tab = pre2d.shape[0] if pre else post_tab.shape[0]
@@ -1260,7 +1280,8 @@ def _march(
             i0, i1, fi = _ucell(0.0, n_tab)  # the front's table cell, carried along
             j0, j1, fj = i0, i1, fi
             ii = jj = np.uint64(0)  # the front's and back's nearest entries (near)
-            xfront = 0.0
+            xfront = math.nan  # the segment's front (NaN: the one before is not known)
+            xprev = math.nan
             have_front = False
             while i < nseg:
                 if skip and i >= next_k:
@@ -1272,6 +1293,7 @@ def _march(
                         break
                     if state == 1:
                         have_front = False
+                        xfront = math.nan
                 if runs and pre and shade == 0 and near and have_front:
                     # full segments whose back sample is interior and before the next
                     # empty-space test: marched by _near_run (the same values)
@@ -1279,11 +1301,13 @@ def _march(
                     if skip:
                         e = min(e, next_k)
                     if e > i and i + 1 >= klo:
-                        i2, ii, xf, ar, ag, ab, aa, done = _near_run(
+                        i2, ii, xf, xp, ar, ag, ab, aa, done = _near_run(
                             vol, pre2d, bz, by, bx, sz, sy, sx, klo, khi, i, e, tnear, tfar, step,
                             ii, xf, vs, v0, n_tab, cl, ch_, nsub, a_ref, ert, ar, ag, ab, aa,
                         )  # fmt: skip
                         count += i2 - i
+                        if i2 > i:  # the front of the segment before the next
+                            xfront = xp
                         i = i2
                         if done:
                             break
@@ -1320,7 +1344,7 @@ def _march(
                         j0, j1, fj = _ucell(xb, n_tab)
                         if not ((xf < cl and xb < cl) or (xf > ch_ and xb > ch_)):
                             a = _bilerp(pre2d, 3, i0, i1, fi, j0, j1, fj)
-                    xfront = xf
+                    xprev, xfront = xfront, xf
                     xf = xb
                 else:
                     if seglen < step:
@@ -1337,13 +1361,14 @@ def _march(
                     if near:
                         i0, i1, fi = _ucell(xfront, n_tab)
                         j0, j1, fj = _ucell(xf, n_tab)
+                    m = sub_count(abs(xf - 2.0 * xfront + xprev), bend_min, nsub)
                     ar, ag, ab, aa, done = _refined(
-                        vol, grad, has_grad, codes, light, sub2d, bz + i * sz, by + i * sy,
-                        bx + i * sx, sz, sy, sx, nsub, vs, v0, i0, i1, fi, j0, j1, fj, t0, step,
+                        vol, grad, has_grad, codes, light, subs, bz + i * sz, by + i * sy,
+                        bx + i * sx, sz, sy, sx, m, vs, v0, i0, i1, fi, j0, j1, fj, t0, step,
                         shade, oz, oy, ox, dz, dy, dx, gscale, vz, vy, vx, gmin, shading, ert,
                         ar, ag, ab, aa,
                     )  # fmt: skip
-                    count += nsub - 1
+                    count += m - 1
                     if done:
                         break
                 elif a > 0.0:  # colour only where there is opacity
@@ -1397,10 +1422,13 @@ def _near_run(vol, pre2d, bz, by, bx, sz, sy, sx, klo, khi, i, end, tnear, tfar,
     plain loop the next sample's latency (eight reads, three lerps, the entry) started
     over behind each one. Stops before a segment that is shorter than ``step`` or
     that needs refining (the caller's loop takes it), or after the one that ends the
-    ray. Returns ``(i, ii, xf, ar, ag, ab, aa, done)``: the next segment, its front's
-    entry and position, the pixel so far and whether the ray ended. Measured on the
+    ray. Returns ``(i, ii, xf, xp, ar, ag, ab, aa, done)``: the next segment, its
+    front's entry and position, the position of the front before (for
+    :func:`sub_count`; NaN if no segment was taken), the pixel so far and whether the
+    ray ended. Measured on the
     benchmark's semi-transparent MRIs, one thread: the frame 0.86-0.89x."""
     k = i + 1
+    xp = math.nan
     pz, py, px = bz + k * sz, by + k * sy, bx + k * sx  # the next back sample's position
     xn = interior_sample(vol, pz, py, px) * vs + v0
     jn = _nearest(xn, n_tab)
@@ -1423,24 +1451,25 @@ def _near_run(vol, pre2d, bz, by, bx, sz, sy, sx, klo, khi, i, end, tnear, tfar,
                 ar, ag, ab, aa = ar + wgt * cr, ag + wgt * cg, ab + wgt * cb, aa + wgt * a
                 if aa > ert:
                     ar, ag, ab, aa = _complete(ar, ag, ab, aa, cr, cg, cb, a)
-                    return i + 1, jj, xb, ar, ag, ab, aa, True
-        ii, xf = jj, xb
+                    return i + 1, jj, xb, xf, ar, ag, ab, aa, True
+        ii, xp, xf = jj, xf, xb
         i += 1
-    return i, ii, xf, ar, ag, ab, aa, False
+    return i, ii, xf, xp, ar, ag, ab, aa, False
 
 
 @kernel(nrt=False, contract=True)
-def _refined(vol, grad, has_grad, codes, light, sub2d, pz0, py0, px0, sz, sy, sx, nsub, vs, v0,
+def _refined(vol, grad, has_grad, codes, light, subs, pz0, py0, px0, sz, sy, sx, nsub, vs, v0,
              u0, u1, fu, j0, j1, fj, t0, step, shade, oz, oy, ox, dz, dy, dx, gscale, vz, vy,
              vx, gmin, shading, ert, ar, ag, ab, aa):  # fmt: skip
     """A thick segment of the fast march (see :func:`_march`, ``refine``) composited as
-    ``nsub`` sub-segments through ``sub2d``: from fixed-point ``p0`` (the front, in table
-    cell ``u``) by ``nsub - 1`` samples more to the back (cell ``j``). Returns the pixel
+    ``nsub`` sub-segments through their table ``subs[nsub - 2]``: from fixed-point
+    ``p0`` (the front, in table cell ``u``) by ``nsub - 1`` samples more to the back (cell ``j``). Returns the pixel
     so far and whether it terminated. A call of its own, not inlined: the few segments
     that take it (none on semi-transparent TFs) keep it out of the march's loop, whose
     registers it crowded (measured: the loop without it 5-13 % faster on the
     benchmark's head CT)."""
     nz, ny, nx = extent(vol)
+    sub2d = subs[nsub - 2]
     n_tab = sub2d.shape[0]
     ka, kd, ks, shin = shading[0], shading[1], shading[2], shading[3]
     ishin = int(shin)
@@ -1494,6 +1523,20 @@ def _light_at(shade, vol, grad, has_grad, codes, light, pz, py, px, nz, ny, nx, 
 
 
 @kernel(inline=True)
+def sub_count(bend, bend_min, nsub):
+    """Sub-segments for a refined segment: ``nsub``, but at most 2 where the scalar is
+    nearly straight along the ray there. ``bend`` is the second difference of the
+    samples ending the segment and the one before (``x_b - 2 x_f + x_p``, table
+    entries; NaN when the one before is not known): below ``bend_min`` the chord of
+    two sub-segments strays from the curve by about ``bend / 32`` of an entry or less.
+    Where the scalar bends, a third sub-segment leaves 4/9 of two's chord error (it
+    falls as the square of the length)."""
+    if nsub > 2 and bend < bend_min:
+        return 2
+    return nsub
+
+
+@kernel(inline=True)
 def _lerp2(tab, ch, i0, i1, f):
     """Linear lookup of channel ``ch`` of the (n, 4) table."""
     a = tab[i0, ch]
@@ -1506,7 +1549,7 @@ def _march_specialised(pre, shade):
     through :func:`_near_run`. A kernel of its own: compiled into the one that also
     marches opaque (bilinear) frames, the unused call slowed those by 6-10 %."""
 
-    def run(vol, grad, has_grad, codes, light, frame, u, v, rows, post_tab, pre2d, sub2d,
+    def run(vol, grad, has_grad, codes, light, frame, u, v, rows, post_tab, pre2d, subs,
             lo, scale, step, leap, brick, skip, ert, shading, gscale, vscale, gmin, clear,
             refine, tiles, out, row_samples):  # fmt: skip
         # rows (ascending) in bands of at most ROW_BAND consecutive ones, each band traced
@@ -1520,7 +1563,7 @@ def _march_specialised(pre, shade):
             for t in range(tiles.shape[0] - 1):
                 _march_inline(
                     vol, grad, has_grad, codes, light, frame, u, v, rows[k0:k1], pre, post_tab,
-                    pre2d, sub2d, lo, scale, step, leap, brick, skip, ert, shade, shading, gscale,
+                    pre2d, subs, lo, scale, step, leap, brick, skip, ert, shade, shading, gscale,
                     vscale, gmin, clear, refine, tiles[t : t + 2], out, row_samples,
                 )  # fmt: skip
             k0 = k1
@@ -1742,7 +1785,7 @@ def render(
     ert: float = 0.99,
     skip_empty: bool = True,
     normals: str = "quantised",
-    refine: int = 2,
+    refine: int = REFINE,
     workers: int | None = None,
     progress: Callable[[int, int], None] | None = None,
     render_stats: bool = False,
@@ -1786,8 +1829,10 @@ def render(
     refine : int
         Pre-integrated segments that carry more than :data:`REFINE_OPACITY` of their
         pixel's opacity (the entry into an opaque surface, a thin sheet crossed) are
-        marched again as ``refine`` sub-segments, one sample each more, through the
-        table of their length (module docstring); 1 never refines.
+        marched again as ``refine`` sub-segments (``refine - 1`` samples more; two
+        where the scalar is nearly straight along the ray, :data:`REFINE_BEND`),
+        through the table of their length (module docstring; default :data:`REFINE`);
+        1 never refines.
     workers : int or None
         Threads (None or 0 = every core). The image does not depend on it.
     progress : callable(done, total)
@@ -1959,9 +2004,9 @@ def render(
     shading_k = np.array([KA, KD, KS, SHININESS], np.float64)
 
     nsub = int(refine) if has_vol and mode == 2 else 1
-    sub2d = tables.sub(nsub) if nsub > 1 else pre2d
+    subs = tables.subs(nsub) if nsub > 1 else pre2d[None]
     near = has_vol and mode == 2 and NEAREST and tables.nearest()
-    refine_k = np.array([nsub, REFINE_OPACITY, float(near)], np.float64)
+    refine_k = np.array([nsub, REFINE_OPACITY, float(near), REFINE_BEND], np.float64)
     if fast and paged and shading == "phong" and volume.grad is not None:
         grad, has_grad = volume.grad, True  # the nodes' gradient bricks
     if fast:
@@ -1975,7 +2020,7 @@ def render(
         def run(rows: np.ndarray) -> None:  # the fast path (see _march)
             march(
                 vol, grad, has_grad, codes, light, *ray_grid, rows, post_tab,
-                pre2d, sub2d, lo, scale,
+                pre2d, subs, lo, scale,
                 float(step), leap, brick, bool(skip_empty), float(ert), shading_k, gscale,
                 vscale, gmin, clear, refine_k, tiles, out, row_samples,
             )  # fmt: skip
@@ -1986,7 +2031,7 @@ def render(
     def run(rows: np.ndarray) -> None:
         _render_kernel(
             vol, grad, has_grad, rgba, origins, dirs, rows, mode, has_vol,
-            post_tab, pre2d, sub2d, refine_k, iso2d, iso_vals, bool(isos), lo, scale, float(step),
+            post_tab, pre2d, subs, refine_k, iso2d, iso_vals, bool(isos), lo, scale, float(step),
             leap, brick, bool(skip_empty), float(ert), SHADINGS.index(shading), shading_k,
             gscale, vscale, gmin, out, row_samples,
         )  # fmt: skip
@@ -2028,6 +2073,16 @@ class _Tables:
                 preintegrate(self.base, self.step / m, method=self.method, lighting=self.lit),
                 np.float32,
             )
+            t.flags.writeable = False
+            self._derived[key] = t
+        return self._derived[key]
+
+    def subs(self, m: int) -> np.ndarray:
+        """The tables of segments ``1 / 2 .. 1 / m`` as long, stacked (refinement picks
+        one per segment, :func:`sub_count`)."""
+        key = ("subs", m)
+        if key not in self._derived:
+            t = np.ascontiguousarray(np.stack([self.sub(k) for k in range(2, m + 1)]))
             t.flags.writeable = False
             self._derived[key] = t
         return self._derived[key]
