@@ -78,7 +78,6 @@ def make_codec(codec: str = "auto", dtype: Any = None, **options: Any):
     )
 
 
-@one_blas_thread()
 def declared_fill(vol: Volume) -> float | None:
     """The no-data value the source file declares for float voxels (netCDF's
     ``_FillValue``, else ``missing_value``), so that a lossy bound, and a bound relative
@@ -93,6 +92,7 @@ def declared_fill(vol: Volume) -> float | None:
     return None
 
 
+@one_blas_thread()
 def compress(
     source: Volume | np.ndarray | str,
     target: str | BinaryIO,
