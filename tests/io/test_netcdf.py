@@ -134,3 +134,29 @@ def test_netcdf_kind_reads_the_signature(tmp_path):
         path = str(tmp_path / f"{fmt}.nc")
         _write(path, fmt, _wind(), packed=False)
         assert netcdf.kind(path) == want
+
+
+def test_info_lists_the_variables_when_none_is_named(tmp_path):
+    import json
+
+    from click.testing import CliRunner
+
+    from volpack.cli import main
+
+    path = str(tmp_path / "f.nc")
+    _write(path, "NETCDF3_CLASSIC", _wind())
+    r = CliRunner().invoke(main, ["info", path])
+    assert r.exit_code == 0, r.output
+    assert f"{path}:NAME" in r.output and "4 x 9 x 11" in r.output and "int16" in r.output
+    r = CliRunner().invoke(main, ["info", path, "--json"])
+    found = {a["name"]: a for a in json.loads(r.output)["arrays"]}
+    assert found["u"]["shape"] == [3, 4, 9, 11] and found["x"]["dtype"] == "float64"
+    assert vio.list_arrays(path) == json.loads(r.output)["arrays"]
+    r = CliRunner().invoke(main, ["info", path + ":u", "--json"])  # named: described
+    assert json.loads(r.output)["shape"] == [3, 4, 9, 11]
+    h5 = str(tmp_path / "two.h5")
+    vio.write_volume(_wind()[0], h5 + ":/a/one")
+    vio.write_volume(_wind()[1], h5 + ":/b", force=True)
+    assert [a["name"] for a in vio.list_arrays(h5)] == ["/a/one", "/b"]
+    with pytest.raises(FormatError, match="several arrays"):
+        vio.list_arrays(str(tmp_path / "x.npy"))

@@ -88,6 +88,7 @@ def test_zarr_group_without_image_names_its_arrays(tmp_path):
     with pytest.raises(FormatError, match=r"found (pressure, density|density, pressure)"):
         vio.read_volume(path)
     assert vio.read_volume(path + ":density").shape == (3, 4, 5)
+    assert [a["name"] for a in vio.list_arrays(path)] == ["/density", "/pressure"]
     with pytest.raises(FormatError, match="expected an array 'nope'"):
         vio.read_volume(path + ":/nope")
     g.create_array("line", shape=(5,), dtype="f4")

@@ -35,6 +35,7 @@ def info(sources, as_json: bool, chunks: bool, levels: bool, read_options) -> No
       volpack info big.vpk --levels
       volpack compress ct.nii.gz - | volpack info -
       volpack info scans/*.nii.gz out/*.vpk
+      volpack info era5.nc                  a file of several variables: lists them
     """
     if len(sources) > 1:
         from .listing import listing
@@ -60,7 +61,44 @@ def info(sources, as_json: bool, chunks: bool, levels: bool, read_options) -> No
 
         with spool(stdin()) as f:  # a .vpk on a pipe: its index comes last, so keep it whole
             return _show(api.info(f), as_json, chunks)
-    _show(api.info(source, **read_options), as_json, chunks)
+    from ..errors import FormatError
+
+    try:
+        d = api.info(source, **read_options)
+    except FormatError:
+        found = _arrays(source)
+        if found is None:
+            raise
+        return _show_arrays(source, found, as_json)
+    _show(d, as_json, chunks)
+
+
+def _arrays(source: str) -> list[dict] | None:
+    """The arrays of an HDF5, netCDF or zarr file that names none of its several
+    arrays (so that ``info`` lists them rather than fail), else None."""
+    from .. import io as vio
+    from ..errors import FormatError
+
+    if source == "-" or vio.parse_spec(source)[1] is not None:
+        return None
+    try:
+        found = vio.list_arrays(source)
+    except FormatError:
+        return None
+    return found if len(found) > 1 else None
+
+
+def _show_arrays(source: str, found: list[dict], as_json: bool) -> None:
+    from .. import io as vio
+
+    fmt = vio.detect_format(source)
+    if as_json:
+        emit_json({"path": source, "format": fmt, "arrays": found})
+        return
+    click.echo(f"{'path':<12} {source}\n{'format':<12} {fmt}")
+    click.echo(f"{'arrays':<12} {len(found)}; name one to read it: {source}:NAME")
+    rows = [[a["name"], " x ".join(map(str, a["shape"])) or "scalar", a["dtype"]] for a in found]
+    click.echo(table(rows, ["name", "shape", "dtype"]))
 
 
 def _show(d: dict, as_json: bool, chunks: bool) -> None:
@@ -134,7 +172,12 @@ def _human(d: dict, chunks: bool) -> str:
     ]
     if not s.get("lossless", True):
         if s.get("error_bound") is not None:
-            rows.append(["error bound", f"{s['error_bound']:g} (held on every voxel; NaN, Inf and the fill value exact)"])
+            rows.append(
+                [
+                    "error bound",
+                    f"{s['error_bound']:g} (held on every voxel; NaN, Inf and the fill value exact)",
+                ]
+            )
         rows.append(["PSNR", db(s.get("psnr"), s.get("max_error"))])
         rmse = s.get("rmse", 0.0)
         rows.append(["RMSE", "unknown" if rmse is None else f"{rmse:g}"])

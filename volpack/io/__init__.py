@@ -28,7 +28,10 @@ from ..volume import Volume
 from .common import DEFAULT_MAX_VOXELS, ReadOptions, header_dict, prepare_for_write, wrap_errors
 from .registry import FORMATS, detect_format, parse_spec, writable
 
-__all__ = ["parse_spec", "detect_format", "output_format", "read_volume", "write_volume", "read_header"]
+__all__ = [
+    "parse_spec", "detect_format", "output_format", "read_volume", "write_volume", "read_header",
+    "list_arrays",
+]  # fmt: skip
 
 DEFAULT_H5_DATASET = "/data"
 
@@ -106,6 +109,18 @@ def read_header(spec: str, **raw_options: Any) -> dict[str, Any]:
         raise FormatError(f"expected an existing {fmt} file, found nothing at {path!r}")
     with wrap_errors(fmt, path):
         return f.function(f.header)(path, opts)
+
+
+def list_arrays(spec: str) -> list[dict[str, Any]]:
+    """The arrays of a file that holds several (HDF5, netCDF, zarr): ``name`` (what
+    follows ``:`` in a spec), ``shape`` and ``dtype``, in the file's order."""
+    path, _ = parse_spec(spec)
+    fmt = detect_format(path) if path != "-" else "npy"
+    f = FORMATS[fmt]
+    if not hasattr(f.load(), "arrays"):
+        raise FormatError(f"expected a file of several arrays (HDF5, netCDF, zarr), found {fmt}")
+    with wrap_errors(fmt, path):
+        return f.function("arrays")(path)
 
 
 def output_format(path: str) -> str:

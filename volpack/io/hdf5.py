@@ -52,6 +52,22 @@ def pick_dataset(f, inner: str | None, path: str):
     )
 
 
+def arrays(path: str) -> list[dict[str, Any]]:
+    """Every dataset of the file: name, shape and dtype (``volpack info`` lists them when
+    it cannot tell which one is meant)."""
+    import h5py
+
+    found: list[dict[str, Any]] = []
+
+    def visit(name, obj):
+        if isinstance(obj, h5py.Dataset):
+            found.append({"name": "/" + name, "shape": list(obj.shape), "dtype": str(obj.dtype)})
+
+    with h5py.File(path, "r") as f:
+        f.visititems(visit)
+    return found
+
+
 def geometry(ds) -> tuple[tuple, tuple, dict]:
     attrs = ds.attrs
     meta = stored_meta(attrs, "hdf5")

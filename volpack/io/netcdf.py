@@ -157,6 +157,18 @@ def _hdf5_options(path: str, opts: ReadOptions) -> ReadOptions:
     return opts._replace(inner=fields[0]) if len(fields) == 1 else opts
 
 
+def arrays(path: str) -> list[dict[str, Any]]:
+    """Every variable of the file: name, shape and dtype (the HDF5 datasets of a
+    netCDF-4 file)."""
+    if kind(path) == "hdf5":
+        return hdf5.arrays(path)
+    with _open(path) as ds:
+        return [
+            {"name": n, "shape": list(v.shape), "dtype": str(np.dtype(v.dtype))}
+            for n, v in ds.variables.items()
+        ]
+
+
 def read(path: str, opts: ReadOptions) -> Volume:
     if kind(path) == "hdf5":
         vol = hdf5.read(path, _hdf5_options(path, opts))

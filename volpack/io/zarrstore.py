@@ -94,6 +94,19 @@ def _pick(path: str, inner: str | None):
     )
 
 
+def arrays(path: str) -> list[dict[str, Any]]:
+    """Every array of the store, at any depth: name, shape and dtype."""
+    zarr = _library()
+    root = zarr.open(store=path, mode="r")
+    if isinstance(root, zarr.Array):
+        return [{"name": "/", "shape": list(root.shape), "dtype": str(root.dtype)}]
+    return [
+        {"name": "/" + name, "shape": list(node.shape), "dtype": str(node.dtype)}
+        for name, node in sorted(root.members(max_depth=None))
+        if isinstance(node, zarr.Array)
+    ]
+
+
 def open_array(path: str, inner: str | None):
     """(array, shape, spacing, origin, meta) of the array a spec names; the array reads
     lazily, by slices."""
