@@ -16,6 +16,7 @@ import errno
 import os
 import re
 import secrets
+import shutil
 import sys
 from collections.abc import Iterator
 from typing import BinaryIO
@@ -97,8 +98,6 @@ def atomic_dir(path: str | os.PathLike, *, force: bool = False) -> Iterator[str]
     """Yield a temporary folder beside ``path`` for outputs that are folders (a zarr
     store); it takes the name ``path`` when the block succeeds, and an existing folder of
     that name (``force``) is removed only after that."""
-    import shutil
-
     p = os.fspath(path)
     check_output(p, force=force)
     directory = os.path.dirname(os.path.abspath(p))
@@ -193,8 +192,6 @@ def _sweep(directory: str, target: str) -> None:
         part = os.path.join(directory, name)
         with contextlib.suppress(OSError):
             if os.path.isdir(part) and not os.path.islink(part):  # an atomic_dir's
-                import shutil
-
                 shutil.rmtree(part)
             else:
                 os.unlink(part)

@@ -35,9 +35,8 @@ def _mrcfile():
     return mrcfile
 
 
-def _layout(m, path: str) -> tuple[tuple[int, ...], tuple[int, ...], tuple, tuple, dict]:
-    """The header's shape (sections, rows, columns), the array axes that hold z, y and
-    x, spacing, origin and meta of an open map."""
+def _layout(m, path: str) -> tuple[tuple[int, ...], tuple, tuple, dict]:
+    """The array axes that hold z, y and x, spacing, origin and meta of an open map."""
     h = m.header
     labels = (int(h.maps), int(h.mapr), int(h.mapc))  # what array axes 0, 1, 2 hold
     if sorted(labels) != [1, 2, 3]:
@@ -46,7 +45,6 @@ def _layout(m, path: str) -> tuple[tuple[int, ...], tuple[int, ...], tuple, tupl
             f"{path!r}, found {labels[::-1]}"
         )
     axes = tuple(labels.index(a) for a in (3, 2, 1))  # array axes holding z, y, x
-    shape = tuple(int(n) for n in (h.nz, h.ny, h.nx))  # sections, rows, columns
     size = m.voxel_size
     spacing = spacing3((float(size.z), float(size.y), float(size.x)))
     origin_xyz = [float(h.origin.x), float(h.origin.y), float(h.origin.z)]
@@ -64,7 +62,7 @@ def _layout(m, path: str) -> tuple[tuple[int, ...], tuple[int, ...], tuple, tupl
         "mrc_axis_order": [int(h.mapc), int(h.mapr), int(h.maps)],
         "mrc_space_group": int(h.ispg),
     }
-    return shape, axes, spacing, origin3(origin_xyz[::-1]), meta
+    return axes, spacing, origin3(origin_xyz[::-1]), meta
 
 
 def _open(path: str):
@@ -80,7 +78,7 @@ def _zyx(shape: tuple[int, ...], axes: tuple[int, ...]) -> tuple[int, ...]:
 
 def read(path: str, opts: ReadOptions) -> Volume:
     with _open(path) as m:
-        _, axes, spacing, origin, meta = _layout(m, path)
+        axes, spacing, origin, meta = _layout(m, path)
         shape = tuple(int(n) for n in m.data.shape)
         check_voxels(shape, opts.max_voxels, path)
         data = np.asarray(m.data)
@@ -97,7 +95,7 @@ def header(path: str, opts: ReadOptions) -> dict[str, Any]:
     mrcfile = _mrcfile()
     packed = path.lower().endswith((".gz", ".bz2"))  # no memory map through a decompressor
     with _open(path) if packed else mrcfile.mmap(path, mode="r", permissive=False) as m:
-        _, axes, spacing, origin, meta = _layout(m, path)
+        axes, spacing, origin, meta = _layout(m, path)
         shape, dtype = tuple(int(n) for n in m.data.shape), np.dtype(m.data.dtype)
     return header_dict("mrc", _zyx(shape, axes), native(dtype), spacing, origin, meta)
 

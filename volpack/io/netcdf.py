@@ -21,7 +21,7 @@ from . import hdf5
 from .common import ReadOptions, check_voxels, field_shape, header_dict, native, to_volume
 
 HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
-CLASSIC_MAGICS = {b"CDF\x01": "CDF-1", b"CDF\x02": "CDF-2", b"CDF\x05": "CDF-5"}
+CLASSIC_MAGICS = (b"CDF\x01", b"CDF\x02", b"CDF\x05")  # CDF-1, CDF-2 (64-bit offsets), CDF-5
 _ATTRS = (
     "units",
     "long_name",
