@@ -148,8 +148,11 @@ def test_zarr_output_replaces_only_with_force_and_never_half_written(tmp_path, m
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.zarr"]  # nothing left behind
     stale = tmp_path / ".volpack-999999999-0123abcd.part"  # a dead writer's folder
     (stale / "0").mkdir(parents=True)
+    kept = tmp_path / ".volpack-999999999-4567abcd.old"  # an output it had set aside
+    kept.mkdir()
     vio.write_volume(first * 2, path, force=True)
     np.testing.assert_array_equal(vio.read_volume(path).data, first * 2)
-    assert not stale.exists()
+    assert not stale.exists() and kept.exists()
+    kept.rmdir()
     with pytest.raises(FormatError, match="whole zarr store"):
         vio.write_volume(first, path + ":/x", force=True)

@@ -108,7 +108,7 @@ def atomic_dir(path: str | os.PathLike, *, force: bool = False) -> Iterator[str]
     try:
         yield tmp
         if os.path.isdir(p) and not os.path.islink(p):
-            old = _part_name(directory, ".old")
+            old = _part_name(directory, ".old")  # never swept: killed here, it is kept
             os.rename(p, old)
         _rename(tmp, p)
     except BaseException:
@@ -187,8 +187,8 @@ def _sweep(directory: str, target: str) -> None:
         return
     for name in names:
         m = _PART.match(name)
-        if m is None or _alive(int(m.group(1))):
-            continue
+        if m is None or name.endswith(".old") or _alive(int(m.group(1))):
+            continue  # an ``.old`` folder is an earlier output a killed atomic_dir set aside
         part = os.path.join(directory, name)
         with contextlib.suppress(OSError):
             if os.path.isdir(part) and not os.path.islink(part):  # an atomic_dir's
