@@ -37,10 +37,7 @@ def pick_dataset(f, inner: str | None, path: str):
         if not isinstance(ds, h5py.Dataset):
             raise FormatError(f"expected {inner!r} in {path!r} to be a dataset, found a group")
         return ds
-    found: list[str] = []
-    f.visititems(
-        lambda name, obj: found.append("/" + name) if isinstance(obj, h5py.Dataset) else None
-    )
+    found = [name for name, _ in datasets(f)]
     if DEFAULT_DATASET in found:
         return f[DEFAULT_DATASET]
     if len(found) == 1:
@@ -52,20 +49,27 @@ def pick_dataset(f, inner: str | None, path: str):
     )
 
 
+def datasets(f) -> list[tuple[str, Any]]:
+    """``("/name", dataset)`` of every dataset of the open file ``f``, in its order."""
+    import h5py
+
+    found: list[tuple[str, Any]] = []
+    f.visititems(
+        lambda name, obj: found.append(("/" + name, obj)) if isinstance(obj, h5py.Dataset) else None
+    )
+    return found
+
+
 def arrays(path: str) -> list[dict[str, Any]]:
     """Every dataset of the file: name, shape and dtype (``volpack info`` lists them when
     it cannot tell which one is meant)."""
     import h5py
 
-    found: list[dict[str, Any]] = []
-
-    def visit(name, obj):
-        if isinstance(obj, h5py.Dataset):
-            found.append({"name": "/" + name, "shape": list(obj.shape), "dtype": str(obj.dtype)})
-
     with h5py.File(path, "r") as f:
-        f.visititems(visit)
-    return found
+        return [
+            {"name": name, "shape": list(ds.shape), "dtype": str(ds.dtype)}
+            for name, ds in datasets(f)
+        ]
 
 
 def geometry(ds) -> tuple[tuple, tuple, dict]:

@@ -142,18 +142,12 @@ def _hdf5_options(path: str, opts: ReadOptions) -> ReadOptions:
         return opts
     import h5py
 
-    fields: list[str] = []
-
-    def visit(name, obj):
-        if (
-            isinstance(obj, h5py.Dataset)
-            and obj.ndim >= 2
-            and obj.attrs.get("CLASS") != b"DIMENSION_SCALE"
-        ):
-            fields.append("/" + name)
-
     with h5py.File(path, "r") as f:
-        f.visititems(visit)
+        fields = [
+            name
+            for name, ds in hdf5.datasets(f)
+            if ds.ndim >= 2 and ds.attrs.get("CLASS") != b"DIMENSION_SCALE"
+        ]
     return opts._replace(inner=fields[0]) if len(fields) == 1 else opts
 
 

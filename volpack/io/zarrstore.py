@@ -65,10 +65,15 @@ def _transforms(group, name: str, ndim: int) -> tuple[tuple, tuple]:
     return spacing3(scale[-3:]), origin3(shift[-3:])
 
 
+def _root(path: str):
+    """zarr-python and the store's top node (an array or a group), opened to read."""
+    zarr = _library()
+    return zarr, zarr.open(store=path, mode="r")
+
+
 def _pick(path: str, inner: str | None):
     """The array to read, the group holding it and its name there."""
-    zarr = _library()
-    root = zarr.open(store=path, mode="r")
+    zarr, root = _root(path)
     if inner:
         name = inner.strip("/")
         try:
@@ -96,8 +101,7 @@ def _pick(path: str, inner: str | None):
 
 def arrays(path: str) -> list[dict[str, Any]]:
     """Every array of the store, at any depth: name, shape and dtype."""
-    zarr = _library()
-    root = zarr.open(store=path, mode="r")
+    zarr, root = _root(path)
     if isinstance(root, zarr.Array):
         return [{"name": "/", "shape": list(root.shape), "dtype": str(root.dtype)}]
     return [

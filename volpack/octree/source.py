@@ -186,7 +186,7 @@ def _open_spec(s: SourceSpec):
         from ..io import zarrstore
 
         with wrap_errors(fmt, path):
-            arr, shape, spacing, origin, _ = zarrstore.open_array(path, inner)
+            arr, _, spacing, origin, _ = zarrstore.open_array(path, inner)
         if arr.ndim == 3:
             return ArraySource(arr, spacing, origin)
     if fmt in ("tiff", "tiff-folder"):
