@@ -51,7 +51,6 @@ import platform
 import sys
 import time
 from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -60,6 +59,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import datasets  # noqa: E402
+
+from volpack import peers as peer_codecs  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 FIELDS = [
@@ -111,12 +112,6 @@ def warn(message: str) -> None:
     print(f"warning: {message}", file=sys.stderr, flush=True)
 
 
-def nbytes_of(blob) -> int:
-    if isinstance(blob, (bytes, bytearray, memoryview)):
-        return len(blob)
-    return sum(len(b) for b in blob)
-
-
 def same_bits(a: np.ndarray, b: np.ndarray) -> bool:
     """Equal dtype, shape and bytes (floats compared as bit patterns)."""
     b = np.asarray(b)
@@ -129,210 +124,18 @@ def same_bits(a: np.ndarray, b: np.ndarray) -> bool:
 # Peers
 
 
-def _to_unsigned(a: np.ndarray) -> np.ndarray:
-    """Signed -> unsigned of the same width by adding 2**(bits-1) (a sign-bit flip)."""
-    if a.dtype.kind != "i":
-        return a
-    u = np.dtype(f"u{a.dtype.itemsize}")
-    return a.view(u) ^ u.type(1 << (8 * a.dtype.itemsize - 1))
-
-
-def _from_unsigned(u: np.ndarray, dtype: np.dtype) -> np.ndarray:
-    if dtype.kind != "i":
-        return u
-    return (u ^ u.dtype.type(1 << (8 * dtype.itemsize - 1))).view(dtype)
-
-
-def _zstd_methods(dtype: np.dtype, shape) -> list[Method]:
-    import zstandard
-
-    dctx = zstandard.ZstdDecompressor()
-    cctx = zstandard.ZstdCompressor(level=19)
-    size = dtype.itemsize
-    if size == 1:
-        return [
-            Method(
-                "zstd-19",
-                1,
-                lambda a: cctx.compress(a),
-                lambda b: np.frombuffer(dctx.decompress(b), dtype).reshape(shape),
-            )
-        ]
-    return [
-        Method(
-            "zstd-19+shuffle",
-            1,
-            lambda a: cctx.compress(a.view(np.uint8).reshape(-1, size).T.copy()),
-            lambda b: (
-                np.frombuffer(dctx.decompress(b), np.uint8)
-                .reshape(size, -1)
-                .T.copy()
-                .view(dtype)
-                .reshape(shape)
-            ),
-            "numpy byte shuffle, then zstd level 19",
-        )
-    ]
-
-
-def _blosc2_methods(dtype: np.dtype, shape) -> list[Method]:
-    import blosc2
-
-    cparams = blosc2.CParams(
-        codec=blosc2.Codec.ZSTD,
-        clevel=9,
-        filters=[blosc2.Filter.BITSHUFFLE],
-        typesize=dtype.itemsize,
-        nthreads=1,
-    )
-    dparams = blosc2.DParams(nthreads=1)
-    return [
-        Method(
-            "blosc2-zstd9+bitshuffle",
-            1,
-            lambda a: blosc2.compress2(a, cparams=cparams),
-            lambda b: np.frombuffer(blosc2.decompress2(b, dparams=dparams), dtype).reshape(shape),
-            f"python-blosc2 {blosc2.__version__}, typesize = itemsize, 1 thread",
-        )
-    ]
-
-
-def _zfp_methods(dtype: np.dtype, shape) -> list[Method]:
-    import zfpy
-
-    if dtype.kind == "f":
-        return [
-            Method(
-                "zfp-rev",
-                1,
-                lambda a: zfpy.compress_numpy(a),
-                lambda b: zfpy.decompress_numpy(b),
-                "zfpy reversible mode on the floats",
-            )
-        ]
-    return [
-        Method(
-            "zfp-rev",
-            1,
-            lambda a: zfpy.compress_numpy(a.astype(np.int32)),
-            lambda b: zfpy.decompress_numpy(b).astype(dtype),
-            "zfpy reversible mode on an int32 copy",
-        )
-    ]
-
-
-def _float_methods(dtype: np.dtype, shape) -> list[Method]:
-    out = []
-    try:
-        import fpzip
-
-        out.append(
-            Method(
-                "fpzip",
-                1,
-                lambda a: fpzip.compress(np.array(a), precision=0),  # it needs a writable array
-                lambda b: fpzip.decompress(b).reshape(shape),
-                "fpzip.compress(precision=0): lossless",
-            )
-        )
-    except ImportError as exc:
-        warn(f"skipping fpzip: {exc}")
-    try:
-        import pcodec
-        from pcodec import standalone
-
-        out.append(
-            Method(
-                "pcodec",
-                1,
-                lambda a: standalone.simple_compress(a.ravel(), pcodec.ChunkConfig()),
-                lambda b: standalone.simple_decompress(b).reshape(shape),
-                f"pcodec {pcodec.__version__}, standalone.simple_compress, default level",
-            )
-        )
-    except ImportError as exc:
-        warn(f"skipping pcodec: {exc}")
-    return out
-
-
-def _slice_methods(dtype: np.dtype, shape) -> list[Method]:
-    import imagecodecs as ic
-
-    shift = "; signed volumes shifted by +2**(bits-1) to unsigned and back"
-    per = "; coded per z slice"
-    out = [
-        Method(
-            "jpegls",
-            w,
-            lambda a, w=w: _map(lambda s: ic.jpegls_encode(_to_unsigned(s)), list(a), w),
-            lambda bs, w=w: np.stack(
-                _map(lambda b: _from_unsigned(ic.jpegls_decode(b), dtype), bs, w)
-            ).reshape(shape),
-            f"CharLS {ic.jpegls_version()}{shift}{per}, workers = threads over slices",
-        )
-        for w in (1, 2)
-    ]
-    out.append(
-        Method(
-            "jpeg2k",
-            1,
-            lambda a: [ic.jpeg2k_encode(s, level=0, reversible=True, numthreads=1) for s in a],
-            lambda bs: np.stack(
-                [ic.jpeg2k_decode(b, numthreads=1).astype(dtype, copy=False) for b in bs]
-            ).reshape(shape),
-            f"{ic.jpeg2k_version()}, reversible 5/3, the volume's own dtype{per}",
-        )
-    )
-    out.append(
-        Method(
-            "htj2k",
-            1,
-            lambda a: [ic.htj2k_encode(_to_unsigned(s), reversible=True) for s in a],
-            lambda bs: np.stack([_from_unsigned(ic.htj2k_decode(b), dtype) for b in bs]).reshape(
-                shape
-            ),
-            f"{ic.htj2k_version()}, reversible{shift}{per}",
-        )
-    )
-    for e in JPEGXL_EFFORTS:
-        out.append(
-            Method(
-                f"jpegxl-e{e}",
-                1,
-                lambda a, e=e: [
-                    ic.jpegxl_encode(_to_unsigned(s), lossless=True, effort=e, numthreads=1)
-                    for s in a
-                ],
-                lambda bs: np.stack(
-                    [_from_unsigned(ic.jpegxl_decode(b, numthreads=1), dtype) for b in bs]
-                ).reshape(shape),
-                f"{ic.jpegxl_version()}, lossless, effort {e}{shift}{per}",
-                encode_repeat=1 if e >= 9 else None,
-            )
-        )
-    return out
-
-
-_POOLS: dict[int, ThreadPoolExecutor] = {}
-
-
-def _map(fn, items, workers: int) -> list:
-    if workers <= 1:
-        return [fn(x) for x in items]
-    pool = _POOLS.setdefault(workers, ThreadPoolExecutor(workers))
-    return list(pool.map(fn, items))
-
-
 def peer_methods(dtype: np.dtype, shape) -> list[Method]:
-    makers = [_zstd_methods, _blosc2_methods, _zfp_methods]
-    makers += [_float_methods] if dtype.kind == "f" else [_slice_methods]
-    out: list[Method] = []
-    for make in makers:
-        try:
-            out += make(dtype, shape)
-        except ImportError as exc:
-            warn(f"skipping {make.__name__}: {exc}")
-    return out
+    """The peers of :mod:`volpack.peers` (the settings ``volpack compare --peers`` runs),
+    JPEG-XL at every effort of ``JPEGXL_EFFORTS`` and JPEG-LS on one and two threads."""
+    found, skipped = peer_codecs.lossless(
+        dtype, shape, jpegxl_efforts=JPEGXL_EFFORTS, workers=(1, 2)
+    )
+    for line in skipped:
+        warn(f"skipping {line}")
+    return [
+        Method(p.name, p.workers, p.encode, p.decode, p.note, encode_repeat=1 if p.slow else None)
+        for p in found
+    ]
 
 
 # ---------------------------------------------------------------------------------------
@@ -417,7 +220,7 @@ def measure(method: Method, a: np.ndarray, repeat: int) -> dict:
             f"{method.name} (workers {method.workers}) did not round-trip exactly: "
             f"got {back.dtype} {back.shape}, expected {a.dtype} {a.shape}"
         )
-    size = nbytes_of(blob)
+    size = peer_codecs.nbytes(blob)
     return {
         "method": method.name,
         "workers": method.workers,

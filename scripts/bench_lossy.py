@@ -85,6 +85,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import datasets  # noqa: E402
 
+from volpack import peers as peer_codecs  # noqa: E402
+
 ROOT = Path(__file__).resolve().parent.parent
 # Float fields volpack's settings were tuned on, and fields kept aside to check them.
 TUNE_FIELDS = [
@@ -201,20 +203,16 @@ def _volpack_method(name: str, **extra) -> Method:
 
 
 def _zfp_method() -> Method:
-    import zfpy
-
     def enc(x, e):
-        blob = zfpy.compress_numpy(x, tolerance=float(e))
+        blob = peer_codecs.zfp_bounded(x, e)
         return blob, len(blob)
 
-    return Method("zfp", enc, lambda b, x: zfpy.decompress_numpy(b), True)
+    return Method("zfp", enc, lambda b, x: peer_codecs.zfp_decode(b), True)
 
 
 def _sz3_encoder(algo: str | None, interp: str | None):
     """An SZ3 encoder at an absolute bound: its defaults, or a predictor from a config."""
     import tempfile
-
-    from pysz import sz, szConfig, szErrorBoundMode
 
     cfg = None
     if algo is not None and (algo, interp) != SZ3_CONFIGS[0]:
@@ -224,24 +222,17 @@ def _sz3_encoder(algo: str | None, interp: str | None):
         with tempfile.NamedTemporaryFile("w", suffix=".cfg", delete=False) as f:
             f.write(text)
         cfg = f.name
+    encode = peer_codecs.sz3_encoder(cfg)
 
     def enc(x, e):
-        conf = szConfig(x.shape)
-        if cfg is not None:
-            conf.loadcfg(cfg)
-        conf.errorBoundMode = szErrorBoundMode.ABS
-        conf.absErrorBound = float(e)
-        blob, _ratio = sz.compress(x, conf)
+        blob = encode(x, e)
         return blob, int(blob.nbytes)
 
     return enc
 
 
 def _sz3_decode(b, x):
-    from pysz import sz
-
-    out, _conf = sz.decompress(b, x.dtype, x.shape)
-    return out
+    return peer_codecs.sz3_decode(b, x.dtype, x.shape)
 
 
 def _sz3_method() -> Method:
@@ -260,13 +251,11 @@ def _sz3_best_method() -> Method:
 
 
 def _sperr_method() -> Method:
-    import imagecodecs
-
     def enc(x, e):
-        blob = imagecodecs.sperr_encode(x, mode="pwe", level=float(e))
+        blob = peer_codecs.sperr_bounded(x, e)
         return blob, len(blob)
 
-    return Method("sperr", enc, lambda b, x: imagecodecs.sperr_decode(b), True)
+    return Method("sperr", enc, lambda b, x: peer_codecs.sperr_decode(b), True)
 
 
 def _sperr_h5_method() -> Method:
@@ -384,10 +373,8 @@ def center_crop(a: np.ndarray, size: int = 128) -> np.ndarray:
 
 
 def float_copy(a: np.ndarray) -> np.ndarray:
-    """What the peers get: float data as is; integers as float32 (float64 past 16 bits)."""
-    if a.dtype.kind == "f":
-        return a
-    return a.astype(np.float32 if a.dtype.itemsize <= 2 else np.float64)
+    """What the peers get (:func:`volpack.peers.float_copy`)."""
+    return peer_codecs.float_copy(a)
 
 
 def bounds_for(a: np.ndarray) -> list[float]:

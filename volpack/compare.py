@@ -103,3 +103,73 @@ def measure(reference: Volume | np.ndarray, test: Volume | np.ndarray) -> dict[s
         "differing": differing,
         "identical": differing == 0 and a.dtype == b.dtype,
     }
+
+
+def compare_peers(
+    vol: Volume | np.ndarray,
+    max_error: float | None = None,
+    *,
+    jpegxl_efforts: tuple[int, ...] | None = None,
+    progress=None,
+) -> tuple[list[dict[str, Any]], list[str]]:
+    """Run the peer codecs of :mod:`volpack.peers` on ``vol``: losslessly, or with every
+    voxel within ``max_error``; each encoded and decoded once, in this process. Returns
+    a row per peer (``name``, ``note``, ``file_nbytes``, ``ratio``, ``enc_mb_s``,
+    ``dec_mb_s``, ``enc_seconds``, ``dec_seconds``, ``max_error``, ``psnr``, ``rmse``,
+    ``lossless`` and, under a bound, ``bound_held``), best ratio first, and a line for
+    each peer left out (not installed, the array's dtype or shape, NaN/Inf voxels under
+    a bound, or the error a peer raised). ``progress(done, total)`` is called as peers
+    finish."""
+    from . import metrics, peers
+
+    vol = vol if isinstance(vol, Volume) else Volume(np.asarray(vol))
+    a = np.ascontiguousarray(vol.data)
+    skipped: list[str] = []
+    if max_error is None:
+        efforts = peers.JPEGXL_EFFORTS if jpegxl_efforts is None else tuple(jpegxl_efforts)
+        found, skipped = peers.lossless(a.dtype, a.shape, jpegxl_efforts=efforts)
+    elif vol.mask is not None or (a.dtype.kind == "f" and not np.isfinite(a).all()):
+        # zfp, SZ3 and SPERR have no notion of a voxel left out: NaN, Inf or a fill value
+        # would spread into the bound or the coding; volpack keeps them exact
+        found = []
+        skipped = [
+            "every bounded peer: the volume has NaN, Inf or fill voxels, which zfp, SZ3 and SPERR do not keep"
+        ]
+    else:
+        found, skipped = peers.bounded(a.dtype, a.shape, max_error)
+    rows = []
+    for done, peer in enumerate(found):
+        try:
+            t0 = time.perf_counter()
+            blob = peer.encode(a)
+            enc = time.perf_counter() - t0
+            t0 = time.perf_counter()
+            back = np.asarray(peer.decode(blob)).reshape(a.shape)
+            dec = time.perf_counter() - t0
+        except Exception as exc:  # a peer's own failure is reported, not raised
+            skipped.append(f"{peer.name}: failed ({type(exc).__name__}: {exc})")
+            continue
+        size = peers.nbytes(blob)
+        m = measure(vol, back)  # NaN/Inf matched exactly are left out, as for volpack
+        row = {
+            "name": peer.name,
+            "note": peer.note,
+            "file_nbytes": size,
+            "ratio": metrics.ratio(a.nbytes, size),
+            "bpv": metrics.bits_per_voxel(size, a.size),
+            "max_error": m["max_error"],
+            "psnr": m["psnr"],
+            "rmse": m["rmse"],
+            "lossless": m["identical"],
+            "enc_seconds": enc,
+            "dec_seconds": dec,
+            "enc_mb_s": metrics.throughput(a.nbytes, enc),
+            "dec_mb_s": metrics.throughput(a.nbytes, dec),
+        }
+        if max_error is not None:
+            row["bound_held"] = bool(m["max_error"] <= max_error)
+        rows.append(row)
+        if progress is not None:
+            progress(done + 1, len(found))
+    rows.sort(key=lambda r: -r["ratio"])
+    return rows, skipped

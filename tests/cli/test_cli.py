@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import os
 import subprocess
@@ -522,6 +523,30 @@ def test_compare_measures_a_second_volume_against_the_first(tmp_path):
     assert r.exit_code == 1 and "same shape, found 6x7x8 and 3x7x8" in r.stderr
     r = run("compare", tmp_path / "a.npy", tmp_path / "b.npy", "--max-error", "1", ok=False)
     assert r.exit_code == 1 and "found --max-error with a second volume" in r.stderr
+
+
+def test_compare_with_peers_runs_them_on_the_same_voxels(tmp_path):
+    a = smooth_volume((6, 20, 24), np.int16, noise=8.0)
+    np.save(tmp_path / "a.npy", a)
+    src = tmp_path / "a.npy"
+    r = json.loads(run("compare", src, "--peers", "--jpegxl-efforts", "1", "--json").stdout)
+    assert r["peers_bound"] is None and r["lossless"]
+    zstd = next(p for p in r["peers"] if p["name"] == "zstd-19+shuffle")
+    assert zstd["lossless"] and zstd["ratio"] == pytest.approx(a.nbytes / zstd["file_nbytes"])
+    text = run("compare", src, "--peers", "--jpegxl-efforts", "1").output
+    assert "peers, losslessly" in text and "zstd-19+shuffle" in text and "exact" in text
+    if importlib.util.find_spec("pysz") is not None:  # a bound: the same absolute one for all
+        r = json.loads(run("compare", src, "--rel-error", "1e-3", "--peers", "--json").stdout)
+        assert r["peers_bound"] == r["compress"]["error_bound"] > 0
+        sz3 = next(p for p in r["peers"] if p["name"] == "sz3")
+        assert sz3["bound_held"] and sz3["max_error"] <= r["peers_bound"]
+    for args, message in [
+        (("--psnr", "40"), "--peers compares losslessly or at one error bound"),
+        ((src,), "does not apply with a second volume"),
+        (("--jpegxl-efforts", "11"), "expected efforts 1-10"),
+    ]:
+        r = run("compare", src, "--peers", *args, ok=False)
+        assert r.exit_code == 2 and message in r.output
 
 
 def test_messages_name_flags_only(tmp_path):
