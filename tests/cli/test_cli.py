@@ -531,10 +531,12 @@ def test_compare_with_peers_runs_them_on_the_same_voxels(tmp_path):
     src = tmp_path / "a.npy"
     r = json.loads(run("compare", src, "--peers", "--jpegxl-efforts", "1", "--json").stdout)
     assert r["peers_bound"] is None and r["lossless"]
+    assert r["dec_mb_s_warm"] > 0 and r["dec_seconds_warm"] > 0  # decoded again, kernels loaded
     zstd = next(p for p in r["peers"] if p["name"] == "zstd-19+shuffle")
     assert zstd["lossless"] and zstd["ratio"] == pytest.approx(a.nbytes / zstd["file_nbytes"])
     text = run("compare", src, "--peers", "--jpegxl-efforts", "1").output
     assert "peers, losslessly" in text and "zstd-19+shuffle" in text and "exact" in text
+    assert "(kernels loaded)" in text
     if importlib.util.find_spec("pysz") is not None:  # a bound: the same absolute one for all
         r = json.loads(run("compare", src, "--rel-error", "1e-3", "--peers", "--json").stdout)
         assert r["peers_bound"] == r["compress"]["error_bound"] > 0
