@@ -289,6 +289,23 @@ class BoundedCodec(BrickCodec):
         v += self.lo
         return _to_float(v, dtype, overwrite=True, out=into)
 
+    def _reconstruct_fast(self, payload, shape, dtype: np.dtype, into=None) -> np.ndarray:
+        """:meth:`_reconstruct` of the quantised voxels of a fast payload, from the fast
+        decoder's own work array (no ``qdtype`` copy between); with a palette each of its
+        values is rebuilt once, by the same code, and each voxel is a look-up of that
+        table (same values, one pass)."""
+        from .fast import decode_parts
+        from .fastpredict import store_palette
+
+        qd = np.dtype(self.qdtype)
+        values, p, kinds = decode_parts(payload, shape, qd)
+        if p is None:
+            return self._reconstruct(values, dtype, into)
+        table = self._reconstruct(p.astype(qd).reshape(1, 1, -1), dtype).reshape(-1)
+        out = np.empty(shape, dtype) if into is None else into
+        store_palette(values, table, out, kinds)
+        return out
+
     def _special(self, x: np.ndarray) -> np.ndarray | None:
         return special_mask(x, self.fill)
 
@@ -661,15 +678,13 @@ class BoundedCodec(BrickCodec):
                 )
                 g += res * (2 * self._fine()[1] + 1)
             out = self._from_grid(g, dtype)
+        elif not flags & FLAG_RESIDUALS and len(inner) and inner[0] == QVOX_FAST:
+            out = self._reconstruct_fast(memoryview(inner)[1:], shape, dtype, into)
         else:
             if flags & FLAG_RESIDUALS:  # the quantised voxels by the long fitted predictor
                 from . import bounded_longfit
 
                 q = bounded_longfit.decode(inner, shape, np.dtype(self.qdtype), self._lossless())
-            elif len(inner) and inner[0] == QVOX_FAST:
-                from .fast import FastCodec
-
-                q = FastCodec().decode(memoryview(inner)[1:], shape, np.dtype(self.qdtype))
             else:
                 q = self._lossless().decode(inner, shape, np.dtype(self.qdtype))
             out = self._reconstruct(q, dtype, into)
