@@ -137,6 +137,12 @@ LONGFIT_MAX_ENTROPY = 1.2
 # up to twice its speed (a lossless payload's mode byte is 0-4 for these integer voxels,
 # so the two cannot be confused).
 QVOX_FAST = 6
+# ... coded with the fast codec's far context rule alone (qvox26): on the six tuning fields
+# the near rule was kept in 9 of 25 cells (ct_head at every bound, md_water at every one),
+# where it saved 0.8-4.4 % of the bytes of its bricks and cost 0.35-2.4 ns a voxel of
+# decode (10-40 % of the kernel's time); at fastpath25's rate (FAST_BYTES_PER_NS) it paid
+# for its time in 2 of the 9 (0.0042 and 0.0058 bytes a ns), so it is not tried.
+FAST_NEAR = False
 # The lossless codec's version for the quantised voxels: their streams stay as they were
 # before version 7 (its texture bias), so the lossy goldens are unchanged.
 QUANTISED_VERSION = 6
@@ -431,8 +437,10 @@ class BoundedCodec(BrickCodec):
             from .fast import FastCodec
 
             # without its zstd mode: level 19 took 60 % of the head CT's encode (3.3 s),
-            # for 1.1x the decode speed on most bricks it kept (2.3x at 3e-2 of the range)
-            return [(TIER_FAST, bytes([QVOX_FAST]) + FastCodec(zstd=False).encode(q))]
+            # for 1.1x the decode speed on most bricks it kept (2.3x at 3e-2 of the range);
+            # without the near context rule since qvox26 (FAST_NEAR)
+            codec = FastCodec(zstd=False, near=FAST_NEAR)
+            return [(TIER_FAST, bytes([QVOX_FAST]) + codec.encode(q))]
         wav = self._inner().encode(q)
         p = self._predictive().encode(q)
         tier = TIER_SLOW if p[0] == MODE_PREDICT else TIER_FAST  # (else raw or constant)
