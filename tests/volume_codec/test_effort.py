@@ -338,3 +338,20 @@ def test_fast_quantised_voxels_rebuilt_from_the_work_array_match_the_plain_readi
     fixed = back != want  # the corrections' voxels, stored exactly
     np.testing.assert_array_equal(back[fixed], a[fixed])
     assert np.abs(back.astype(np.float64) - a).max() <= e
+
+
+def test_fast_quantised_voxels_of_float16_take_numpys_path():
+    """A palette payload of quantised voxels rebuilt as float16 (no kernel takes it): the
+    plain step 3 of the fast codec's decoding, not an internal error."""
+    import naive
+
+    from volpack.volume_codec.fast import FastCodec, decode_parts
+
+    a = _palette_field(np.float32).astype(np.float16)
+    codec = BoundedCodec.plan(a.dtype, a.min().item(), a.max().item(), 0.01)
+    qd = np.dtype(codec.qdtype)
+    payload = FastCodec(zstd=False).encode(codec._quantize(a))
+    assert decode_parts(payload, a.shape, qd)[1] is not None  # a palette
+    q = FastCodec().decode(payload, a.shape, qd)
+    want = naive.bounded_reconstruct(q, codec.lo, codec.step, np.float16)
+    np.testing.assert_array_equal(codec._reconstruct_fast(payload, a.shape, a.dtype), want)
