@@ -1,7 +1,12 @@
-import sys, hashlib
+import hashlib
+import sys
+
 sys.path.insert(0, "scripts")
-import numpy as np, datasets
+import datasets
+import numpy as np
+
 from volpack import api
+
 for name, rel in (("ct_head", 1e-3), ("mri_inia19_float", 1e-3), ("md_water", 1e-4)):
     a = np.ascontiguousarray(datasets.load(name)[0])
     e = float(f"{(float(a.max())-float(a.min()))*rel:.4g}")
