@@ -1330,3 +1330,27 @@ def palette_unpack(data, limit):
     if values[0] >= 1 << 63:
         raise FormatError("corrupt palette: a value leaves the 64-bit range")
     return values, pos
+
+
+# --- bounded codec: the reconstruction of the quantised voxels ---
+
+
+def bounded_reconstruct(q, lo, step, dtype):
+    """lossy-1.md step 3, voxel by voxel in Python numbers: integers ``lo + q * step``
+    exactly, clipped to the dtype; floats ``q * step`` then ``+ lo`` in double precision,
+    clipped to the dtype's largest finite magnitude, then rounded to the dtype."""
+    import numpy as np
+
+    dtype = np.dtype(dtype)
+    flat = np.asarray(q).reshape(-1).tolist()
+    if dtype.kind in "iu":
+        info = np.iinfo(dtype)
+        vals = [min(max(int(lo) + int(v) * int(step), int(info.min)), int(info.max)) for v in flat]
+    else:
+        big = float(np.finfo(dtype).max)
+        vals = [min(max(float(v) * float(step) + float(lo), -big), big) for v in flat]
+    return (
+        np.array(vals, dtype=np.float64 if dtype.kind == "f" else np.int64)
+        .astype(dtype)
+        .reshape(np.shape(q))
+    )

@@ -314,3 +314,31 @@ def test_rans_tables_kernel_matches_the_plain_reading():
         assert used == want[1]
         np.testing.assert_array_equal(table, rans.slot_table(np.array(want[0], np.int64)))
     assert seen == {"ok", "cut", "past", "sum"}
+
+
+@pytest.mark.parametrize("qdtype", [np.uint8, np.uint16, np.int32])
+def test_flat_and_strided_dequantisation_match_the_plain_reading(qdtype):
+    """The flat kernels (both arrays C-contiguous) and the 3-D ones (a brick of a larger
+    volume) give tests/naive.py's voxel-by-voxel step 3, float32 clipping and integer
+    clipping included, from any integer work type."""
+    import naive
+
+    from volpack.volume_codec.floatcast import dequantise_float32, dequantise_integer
+
+    rng = np.random.default_rng(26)
+    top = min(int(np.iinfo(qdtype).max), 70000)
+    q = rng.integers(0, top + 1, size=(4, 5, 7)).astype(qdtype)
+    for step, lo in ((2.0e-3, -1.7), (0.2238, 191.8859100341797), (1.0e36, -3.0e38)):
+        want = naive.bounded_reconstruct(q, lo, step, np.float32)
+        np.testing.assert_array_equal(dequantise_float32(q, step, lo), want)
+        big = np.zeros((4, 6, 7), np.float32)
+        dequantise_float32(q, step, lo, big[:, 1:, :])
+        np.testing.assert_array_equal(big[:, 1:, :], want)
+        assert not big[:, 0, :].any()
+    for dtype, step, lo in ((np.int16, 7, -300), (np.uint8, 3, 2), (np.int32, 40001, -(2**31))):
+        want = naive.bounded_reconstruct(q, lo, step, dtype)
+        np.testing.assert_array_equal(dequantise_integer(q, step, lo, dtype), want)
+        big = np.zeros((4, 5, 9), dtype)
+        dequantise_integer(q, step, lo, dtype, big[:, :, 2:])
+        np.testing.assert_array_equal(big[:, :, 2:], want)
+        assert not big[:, :, :2].any()

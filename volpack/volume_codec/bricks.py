@@ -88,9 +88,10 @@ def brick_slices(
     g = grid_shape(shape, brick)
     if not 0 <= node < math.prod(g):
         raise FormatError(f"expected a brick number in 0..{math.prod(g) - 1}, found {node}")
-    idx = np.unravel_index(node, g)
+    zy, x = divmod(int(node), g[2])  # (np.unravel_index: 2-3 us, once a brick decoded)
+    z, y = divmod(zy, g[1])
     return tuple(
-        slice(int(i) * b, min((int(i) + 1) * b, n)) for i, b, n in zip(idx, brick, shape[-3:])
+        slice(i * b, min((i + 1) * b, n)) for i, b, n in zip((z, y, x), brick, shape[-3:])
     )  # type: ignore[return-value]
 
 
@@ -119,4 +120,6 @@ def bricks_in_roi(
         if stop <= start:
             return []
         ranges.append(range(start // b, min(gn, (stop - 1) // b + 1)))
-    return [int(np.ravel_multi_index(idx, g)) for idx in itertools.product(*ranges)]
+    # raster order by arithmetic (np.ravel_multi_index cost 5 us a brick, a small field's
+    # decode reads one)
+    return [(z * g[1] + y) * g[2] + x for z, y, x in itertools.product(*ranges)]

@@ -74,6 +74,21 @@ def _dequantise_3d(q, step, lo, out, big):
                 out[_U(z), _U(y), _U(x)] = t
 
 
+@kernel(nrt=False)
+def _dequantise_flat(q, step, lo, out, big):
+    """:func:`_dequantise_3d` of C-contiguous arrays, flat: one loop the compiler can
+    vectorise (on the short rows of small fields the 3-D loop took 0.4-0.5 ns a voxel,
+    this one 0.2), the same operations a voxel."""
+    for i in range(q.size):
+        t = np.float64(q[_U(i)]) * step
+        t = t + lo
+        if t > big:
+            t = big
+        elif t < -big:
+            t = -big
+        out[_U(i)] = t
+
+
 def dequantise_float32(q: np.ndarray, step: float, lo: float, out: np.ndarray | None = None):
     """``to_float32(q.astype(np.float64) * step + lo)`` for a 3-D integer ``q`` without
     the float64 temporary, into ``out`` (float32, ``q``'s shape, any strides) when
@@ -81,7 +96,10 @@ def dequantise_float32(q: np.ndarray, step: float, lo: float, out: np.ndarray | 
     if out is None:
         out = np.empty(q.shape, np.float32)
     big = float(np.finfo(np.float32).max)
-    _dequantise_3d(read_only(q), float(step), float(lo), out, big)  # one signature per dtype
+    if q.flags.c_contiguous and out.flags.c_contiguous:
+        _dequantise_flat(read_only(q).reshape(-1), float(step), float(lo), out.reshape(-1), big)
+    else:  # a brick inside a larger volume
+        _dequantise_3d(read_only(q), float(step), float(lo), out, big)  # one signature per dtype
     return out
 
 
@@ -115,6 +133,18 @@ def _dequantise_int_3d(q, step, lo, out, vmin, vmax):
                 out[_U(z), _U(y), _U(x)] = t
 
 
+@kernel(nrt=False)
+def _dequantise_int_flat(q, step, lo, out, vmin, vmax):
+    """:func:`_dequantise_int_3d` of C-contiguous arrays, flat."""
+    for i in range(q.size):
+        t = np.int64(q[_U(i)]) * step + lo
+        if t > vmax:
+            t = vmax
+        elif t < vmin:
+            t = vmin
+        out[_U(i)] = t
+
+
 def dequantise_integer(q: np.ndarray, step: int, lo: int, dtype, out: np.ndarray | None = None):
     """``np.clip(q.astype(np.int64) * step + lo, min, max).astype(dtype)`` (the integer
     ``dtype``'s range) for a 3-D integer ``q`` without the int64 temporaries (the
@@ -123,5 +153,11 @@ def dequantise_integer(q: np.ndarray, step: int, lo: int, dtype, out: np.ndarray
     info = np.iinfo(dtype)
     if out is None:
         out = np.empty(q.shape, dtype)
-    _dequantise_int_3d(read_only(q), int(step), int(lo), out, int(info.min), int(info.max))
+    args = (int(step), int(lo))
+    if q.flags.c_contiguous and out.flags.c_contiguous:  # (as in dequantise_float32)
+        _dequantise_int_flat(
+            read_only(q).reshape(-1), *args, out.reshape(-1), int(info.min), int(info.max)
+        )
+    else:
+        _dequantise_int_3d(read_only(q), *args, out, int(info.min), int(info.max))
     return out

@@ -137,6 +137,12 @@ LONGFIT_MAX_ENTROPY = 1.2
 # up to twice its speed (a lossless payload's mode byte is 0-4 for these integer voxels,
 # so the two cannot be confused).
 QVOX_FAST = 6
+# ... coded with the fast codec's far context rule alone (qvox26): on the six tuning fields
+# the near rule was kept in 9 of 25 cells (ct_head at every bound, md_water at every one),
+# where it saved 0.8-4.4 % of the bytes of its bricks and cost 0.35-2.4 ns a voxel of
+# decode (10-40 % of the kernel's time); at fastpath25's rate (FAST_BYTES_PER_NS) it paid
+# for its time in 2 of the 9 (0.0042 and 0.0058 bytes a ns), so it is not tried.
+FAST_NEAR = False
 # The lossless codec's version for the quantised voxels: their streams stay as they were
 # before version 7 (its texture bias), so the lossy goldens are unchanged.
 QUANTISED_VERSION = 6
@@ -289,6 +295,25 @@ class BoundedCodec(BrickCodec):
         v += self.lo
         return _to_float(v, dtype, overwrite=True, out=into)
 
+    def _reconstruct_fast(self, payload, shape, dtype: np.dtype, into=None) -> np.ndarray:
+        """:meth:`_reconstruct` of the quantised voxels of a fast payload, from the fast
+        decoder's own work array (no ``qdtype`` copy between); with a palette each of its
+        values is rebuilt once, by the same code, and each voxel is a look-up of that
+        table (same values, one pass)."""
+        from .fast import decode_parts
+        from .fastpredict import store_palette
+
+        qd = np.dtype(self.qdtype)
+        values, p, kinds = decode_parts(payload, shape, qd)
+        if p is not None and dtype == np.float16:  # no kernel takes float16: numpy's path
+            values, p = p.astype(qd)[values], None
+        if p is None:
+            return self._reconstruct(values, dtype, into)
+        table = self._reconstruct(p.astype(qd).reshape(1, 1, -1), dtype).reshape(-1)
+        out = np.empty(shape, dtype) if into is None else into
+        store_palette(values, table, out, kinds)
+        return out
+
     def _special(self, x: np.ndarray) -> np.ndarray | None:
         return special_mask(x, self.fill)
 
@@ -414,8 +439,10 @@ class BoundedCodec(BrickCodec):
             from .fast import FastCodec
 
             # without its zstd mode: level 19 took 60 % of the head CT's encode (3.3 s),
-            # for 1.1x the decode speed on most bricks it kept (2.3x at 3e-2 of the range)
-            return [(TIER_FAST, bytes([QVOX_FAST]) + FastCodec(zstd=False).encode(q))]
+            # for 1.1x the decode speed on most bricks it kept (2.3x at 3e-2 of the range);
+            # without the near context rule since qvox26 (FAST_NEAR)
+            codec = FastCodec(zstd=False, near=FAST_NEAR)
+            return [(TIER_FAST, bytes([QVOX_FAST]) + codec.encode(q))]
         wav = self._inner().encode(q)
         p = self._predictive().encode(q)
         tier = TIER_SLOW if p[0] == MODE_PREDICT else TIER_FAST  # (else raw or constant)
@@ -661,15 +688,13 @@ class BoundedCodec(BrickCodec):
                 )
                 g += res * (2 * self._fine()[1] + 1)
             out = self._from_grid(g, dtype)
+        elif not flags & FLAG_RESIDUALS and len(inner) and inner[0] == QVOX_FAST:
+            out = self._reconstruct_fast(memoryview(inner)[1:], shape, dtype, into)
         else:
             if flags & FLAG_RESIDUALS:  # the quantised voxels by the long fitted predictor
                 from . import bounded_longfit
 
                 q = bounded_longfit.decode(inner, shape, np.dtype(self.qdtype), self._lossless())
-            elif len(inner) and inner[0] == QVOX_FAST:
-                from .fast import FastCodec
-
-                q = FastCodec().decode(memoryview(inner)[1:], shape, np.dtype(self.qdtype))
             else:
                 q = self._lossless().decode(inner, shape, np.dtype(self.qdtype))
             out = self._reconstruct(q, dtype, into)
