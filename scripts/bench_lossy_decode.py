@@ -81,17 +81,9 @@ def codecs(coder: str | None = None, effort: str | None = None):
     """(encode(a, E) -> blob, decode(blob, a) -> array) per method; ``coder`` is
     volpack's entropy coder and ``effort`` its encoder's effort (their defaults when
     None)."""
-    import imagecodecs
-    from pysz import sz, szConfig, szErrorBoundMode
+    from volpack import api, peers
 
-    from volpack import api
-
-    def sz3_encode(a, e):
-        conf = szConfig(a.shape)
-        conf.errorBoundMode = szErrorBoundMode.ABS
-        conf.absErrorBound = float(e)
-        return sz.compress(a, conf)[0]
-
+    sz3_encode = peers.sz3_encoder()
     return {
         "volpack": (
             lambda a, e: api.compress_array(
@@ -100,11 +92,8 @@ def codecs(coder: str | None = None, effort: str | None = None):
             ),
             lambda b, a: api.decompress_array(b),
         ),
-        "sperr": (
-            lambda a, e: imagecodecs.sperr_encode(a, mode="pwe", level=float(e)),
-            lambda b, a: imagecodecs.sperr_decode(b),
-        ),
-        "sz3": (sz3_encode, lambda b, a: sz.decompress(b, a.dtype, a.shape)[0]),
+        "sperr": (peers.sperr_bounded, lambda b, a: peers.sperr_decode(b)),
+        "sz3": (sz3_encode, lambda b, a: peers.sz3_decode(b, a.dtype, a.shape)),
     }
 
 
