@@ -380,6 +380,24 @@ def test_threads_decode_each_node_once_and_give_the_same_result(vol, blob):
         )
 
 
+@pytest.mark.parametrize("shape, block", [((37, 21, 30), 4), ((5, 70, 33), 4), ((64, 64, 64), 8),
+                                          ((3, 3, 3), 2), ((129, 7, 50), 2)])  # fmt: skip
+def test_selection_chunks_are_the_union_of_each_nodes(shape, block):
+    # a frame's chunks found level by level on grids equal the union of the nodes' own
+    # sets, for borders of 0-2 voxels, wider than a block, and one per level
+    from volpack.octree.reader import _node_chunks, selection_chunks
+
+    g = layout.Geometry(shape, block)
+    rng = np.random.default_rng(sum(shape) + block)
+    every = [(lv, b) for lv in range(g.depth + 1) for b in np.ndindex(*g.grid(lv))]
+    for n in (0, 1, 7, len(every) // 3, len(every)):
+        nodes = [every[i] for i in rng.choice(len(every), n, replace=False)]
+        for border in (0, 1, 2, block + 3, lambda lv: 1 if lv > 0 else 0):
+            grow = border if callable(border) else (lambda _lv, b=border: b)
+            want = set().union(*(_node_chunks(g, lv, b, grow(lv)) for lv, b in nodes))
+            assert selection_chunks(g, nodes, border) == want
+
+
 # -- stability -------------------------------------------------------------------------
 
 

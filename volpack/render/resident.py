@@ -181,8 +181,7 @@ class ResidentVolume:
         nodes = [(key >> 60, ((key >> 40) & _MASK, (key >> 20) & _MASK, key & _MASK))
                  for key in np.unique(want[changed]).tolist() if key >= 0]  # (re)drawn
         if workers > 1:
-            self.tree.prefetch(set().union(*(self.tree.node_chunks(lv, b, self.border(lv))
-                                             for lv, b in nodes)), workers)  # fmt: skip
+            self.tree.prefetch(self.tree.selection_chunks(nodes, self.border), workers)
         # each level's field is written over aligned boxes of its (re)drawn cells, not node
         # by node: one read of the level's voxels a box (what assemble() writes per node,
         # resampled.__doc__), the boxes on the worker threads (disjoint: same bytes)
