@@ -222,12 +222,14 @@ def test_decode_budget_starts_coarse_and_reaches_the_uncapped_image(tree_path):
     np.testing.assert_array_equal(img, uncapped[-1][0])
 
 
-def test_reserved_grid_and_codes_give_the_same_walk(tree_path):
+@pytest.mark.parametrize("lift", [0, 3])
+def test_reserved_grid_and_codes_give_the_same_walk(tree_path, lift):
     # a walk whose first frame's grid and normal codes were made beforehand on a helper
     # thread (NodeAtlas.reserve) draws every frame as the walk that makes them in the
-    # frame; one worker reserves nothing
+    # frame; one worker reserves nothing. The empty cells' value is 0 (the zeroed grid
+    # kept as it is) or, with the range's low end lifted, not (the grid filled)
     path, vol = tree_path
-    vr = (float(vol.min()), float(vol.max()))
+    vr = (float(vol.min()) + lift, float(vol.max()))
     cams = [Camera(size=(32, 28), azimuth=az, zoom=1.5) for az in (0.0, 50.0, 100.0)]
     kw = dict(tf=tf_of(vol), value_range=vr, blocks=24, shading="phong", workers=2)
     with Octree(str(path)) as t:
@@ -240,6 +242,7 @@ def test_reserved_grid_and_codes_give_the_same_walk(tree_path):
         frames = [render_lod(t, camera=cam, atlas=kept, **kw) for cam in cams]
         prep = kept.resident.prep
         assert kept.resident.reserved is None and prep.codes_out is None  # both taken
+        assert (kept.resident.fill == 0) == (lift == 0)
     with Octree(str(path)) as t:
         made = NodeAtlas(t)
         ref = [render_lod(t, camera=cam, atlas=made, **kw) for cam in cams]

@@ -160,7 +160,7 @@ class ResidentVolume:
             data = None if res is None else res.take("grid", self.shape, self.dtype)
             if data is None:
                 data = np.full(self.shape, fill, self.dtype)
-            else:
+            elif fill != 0 or math.copysign(1.0, fill) < 0:  # reserved zeroed: +0 is there
                 data.fill(fill)
             grad_budget = max(0, self.budget - data.nbytes - 2 * data.size)
             self.prep = PreparedVolume(data, tuple(self.tree.spacing), None, self.value_range,
