@@ -337,6 +337,29 @@ def test_a_level_resampled_over_any_box_gives_each_nodes_numbers(vol, blob):
             assert (grid == 7).all()  # nothing outside the box
 
 
+@pytest.mark.parametrize("dtype", [np.uint8, np.int8, np.int16, np.uint16, np.int32, np.float32])
+def test_trilinear_written_into_a_view_equals_the_cast_result(dtype):
+    # an integer ``into`` of the dtype is stored by the kernel itself (no float64 copy):
+    # the same numbers as the float64 result cast, at the clip limits and on rounding
+    # ties too; nothing outside the view changes
+    from volpack.octree.resample import axis_weights, trilinear
+
+    rng = np.random.default_rng(5)
+    top = np.iinfo(dtype).max if np.dtype(dtype).kind in "iu" else 1e3
+    v = rng.choice([-1e9, -0.5, 0.5, 1.5, 2.5, top - 0.5, top + 0.5, 1e9], (5, 4, 6))
+    v[1] = rng.normal(0, top / 2, (4, 6))
+    ax = [axis_weights(1, 9, 2, n) for n in v.shape]
+    v = v[tuple(slice(b, None) for b, *_ in ax)]
+    want = trilinear(v, [a[1] for a in ax], [a[2] for a in ax], [a[3] for a in ax], dtype)
+    grid = np.full((10, 11, 12), 3, dtype)
+    got = trilinear(v, [a[1] for a in ax], [a[2] for a in ax], [a[3] for a in ax], dtype,
+                    grid[1:9, 2:10, 3:11])  # fmt: skip
+    assert got.base is grid or got.base is grid.base
+    np.testing.assert_array_equal(grid[1:9, 2:10, 3:11], want)
+    grid[1:9, 2:10, 3:11] = 3
+    assert (grid == 3).all()
+
+
 @pytest.mark.parametrize("dtype", [np.uint8, np.int8, np.uint16, np.int32, np.int64])
 def test_values_clipped_in_one_kernel_equal_to_values(dtype):
     # the kernel that writes a block's integers clipped into the tree's dtype (or float64)
