@@ -4,6 +4,7 @@ budgets, caches across a walkthrough, and the render/walk commands."""
 from __future__ import annotations
 
 import json
+import threading
 
 import numpy as np
 import pytest
@@ -475,3 +476,63 @@ def test_cell_boxes_cover_the_marked_cells_once_with_few_boxes():
         np.testing.assert_array_equal(cover, want.astype(np.int64))
         assert len(boxes) <= cells.sum() - 63
     assert len(cell_boxes(np.ones((10, 13, 6), bool), 4, shape)) == 1
+
+
+def _two_levels(t):
+    """Every level-1 node of ``t``, the first one replaced by its level-0 children."""
+    g = t.geometry
+    ones = [(1, b) for b in np.ndindex(*g.grid(1))]
+    kids = [(0, (2 * z + i, 2 * y + j, 2 * x + k)) for (_, (z, y, x)) in ones[:1]
+            for i, j, k in np.ndindex(2, 2, 2)
+            if 2 * z + i < g.grid(0)[0] and 2 * y + j < g.grid(0)[1] and 2 * x + k < g.grid(0)[2]]  # fmt: skip
+    return kids + ones[1:]
+
+
+def test_resident_writes_a_level_while_a_helper_decodes_the_next_ones_chunks(tree_path, monkeypatch):
+    # two workers: the coarse level's chunks first on both, then this thread writes that
+    # level's boxes while a helper ("volpack-decode") decodes the chunks the finer
+    # level's nodes need; the grid is the one-worker grid, byte for byte
+    from volpack.octree.reader import Octree as Reader
+    from volpack.render.resident import ResidentVolume
+
+    path, vol = tree_path
+    vr = (float(vol.min()), float(vol.max()))
+    grids, seen = [], []
+    children = Reader._children
+
+    def spy(self, level, index):
+        hit = (level, index) in self._cache
+        if not hit:
+            seen.append((threading.current_thread().name, level))
+        return children(self, level, index)
+
+    monkeypatch.setattr(Reader, "_children", spy)
+    for workers in (1, 2):
+        seen.clear()
+        with Octree(str(path)) as t:
+            rv = ResidentVolume(t, vr)
+            grids.append(rv.update(_two_levels(t), 0.0, workers).data.copy())
+    helper = {lv for name, lv in seen if name == "volpack-decode"}
+    assert helper == {1}, seen  # chunks of level 1 give the level-0 nodes' voxels
+    assert {lv for name, lv in seen if name != "volpack-decode"} >= {2}
+    np.testing.assert_array_equal(grids[1], grids[0])
+
+
+def test_resident_write_levels_raise_the_helpers_error(tree_path, monkeypatch):
+    # a chunk the helper cannot decode fails the frame as it would on one worker
+    from volpack.errors import FormatError
+    from volpack.octree.reader import Octree as Reader
+    from volpack.render.resident import ResidentVolume
+
+    path, vol = tree_path
+    children = Reader._children
+
+    def damaged(self, level, index):
+        if level == 1 and (level, index) not in self._cache:
+            raise FormatError("damaged chunk")
+        return children(self, level, index)
+
+    monkeypatch.setattr(Reader, "_children", damaged)
+    for workers in (1, 2):
+        with Octree(str(path)) as t, pytest.raises(FormatError, match="damaged chunk"):
+            ResidentVolume(t, (float(vol.min()), float(vol.max()))).update(_two_levels(t), 0.0, workers)
