@@ -478,26 +478,27 @@ def test_cell_boxes_cover_the_marked_cells_once_with_few_boxes():
     assert len(cell_boxes(np.ones((10, 13, 6), bool), 4, shape)) == 1
 
 
-def _two_levels(t):
-    """Every level-1 node of ``t``, the first one replaced by its level-0 children."""
+def _two_levels(t, split: int):
+    """Every level-1 node of ``t``, the first ``split`` replaced by their level-0 children."""
     g = t.geometry
     ones = [(1, b) for b in np.ndindex(*g.grid(1))]
-    kids = [(0, (2 * z + i, 2 * y + j, 2 * x + k)) for (_, (z, y, x)) in ones[:1]
+    kids = [(0, (2 * z + i, 2 * y + j, 2 * x + k)) for (_, (z, y, x)) in ones[:split]
             for i, j, k in np.ndindex(2, 2, 2)
             if 2 * z + i < g.grid(0)[0] and 2 * y + j < g.grid(0)[1] and 2 * x + k < g.grid(0)[2]]  # fmt: skip
-    return kids + ones[1:]
+    return kids + ones[split:]
 
 
 def test_resident_writes_a_level_while_a_helper_decodes_the_next_ones_chunks(tree_path, monkeypatch):
     # two workers: the coarse level's chunks first on both, then this thread writes that
     # level's boxes while a helper ("volpack-decode") decodes the chunks the finer
-    # level's nodes need; the grid is the one-worker grid, byte for byte
+    # level's nodes need, when they are many (a first frame; a few are decoded with the
+    # rest first, as a later frame's); the grid is the one-worker grid, byte for byte
     from volpack.octree.reader import Octree as Reader
-    from volpack.render.resident import ResidentVolume
+    from volpack.render.resident import BESIDE, ResidentVolume
 
     path, vol = tree_path
     vr = (float(vol.min()), float(vol.max()))
-    grids, seen = [], []
+    seen = []
     children = Reader._children
 
     def spy(self, level, index):
@@ -507,15 +508,19 @@ def test_resident_writes_a_level_while_a_helper_decodes_the_next_ones_chunks(tre
         return children(self, level, index)
 
     monkeypatch.setattr(Reader, "_children", spy)
-    for workers in (1, 2):
-        seen.clear()
-        with Octree(str(path)) as t:
-            rv = ResidentVolume(t, vr)
-            grids.append(rv.update(_two_levels(t), 0.0, workers).data.copy())
-    helper = {lv for name, lv in seen if name == "volpack-decode"}
-    assert helper == {1}, seen  # chunks of level 1 give the level-0 nodes' voxels
-    assert {lv for name, lv in seen if name != "volpack-decode"} >= {2}
-    np.testing.assert_array_equal(grids[1], grids[0])
+    for split, many in ((40, True), (1, False)):
+        grids = []
+        for workers in (1, 2):
+            seen.clear()
+            with Octree(str(path)) as t:
+                rv = ResidentVolume(t, vr)
+                grids.append(rv.update(_two_levels(t, split), 0.0, workers).data.copy())
+        finer = sum(lv == 1 for _, lv in seen)  # level-1 chunks give the level-0 voxels
+        assert (finer >= BESIDE) == many, finer
+        helper = {lv for name, lv in seen if name == "volpack-decode"}
+        assert helper == ({1} if many else set()), seen
+        assert {lv for name, lv in seen if name != "volpack-decode"} >= {2}
+        np.testing.assert_array_equal(grids[1], grids[0])
 
 
 def test_resident_write_levels_raise_the_helpers_error(tree_path, monkeypatch):
@@ -535,4 +540,5 @@ def test_resident_write_levels_raise_the_helpers_error(tree_path, monkeypatch):
     monkeypatch.setattr(Reader, "_children", damaged)
     for workers in (1, 2):
         with Octree(str(path)) as t, pytest.raises(FormatError, match="damaged chunk"):
-            ResidentVolume(t, (float(vol.min()), float(vol.max()))).update(_two_levels(t), 0.0, workers)
+            ResidentVolume(t, (float(vol.min()), float(vol.max()))).update(_two_levels(t, 40), 0.0,
+                                                                           workers)

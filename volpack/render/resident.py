@@ -212,31 +212,48 @@ class ResidentVolume:
         return self.prep
 
     def _write_levels(self, levels, nodes, boxes, write, workers: int) -> None:
-        """Decode the chunks of each level's (re)drawn nodes and ``write`` its ``boxes``,
-        coarsest level first: the first level's chunks on every worker, then, while this
-        thread writes a level's boxes, the other workers decode the next level's chunks
-        (the writes gain nothing from a second thread on this machine: the MRI walk's
-        first frame wrote for 69 ms on one thread and 70 on two, 100 ms of CPU; its
-        level-1 writes and level-0 chunks take about as long, so the one hides the
-        other). The last level's boxes are written on every worker."""
+        """Decode the chunks of the (re)drawn nodes and ``write`` the levels' ``boxes``.
+        When the levels below the coarsest drawn one leave at least :data:`BESIDE`
+        chunks to decode (a walk's first frame), coarsest level first: its chunks on
+        every worker, then, while this thread writes a level's boxes, the other workers
+        decode the next level's chunks (the writes gain nothing from a second thread on
+        this machine: the MRI walk's first frame wrote for 69 ms on one thread and 70 on
+        two, 100 ms of CPU; its level-1 writes and level-0 chunks take about as long, so
+        the one hides the other). Otherwise (a later frame's few new nodes, where the
+        hand-overs would cost more than they hide) all the chunks on every worker, then
+        all the boxes."""
         if not levels:
             return
         need = [self.tree.selection_chunks([n for n in nodes if n[0] == lv], self.border)
                 for lv in levels]  # fmt: skip
+        finer = set().union(*need[1:]) - need[0]
+        if sum(not self.tree.is_cached(*c) for c in finer) < BESIDE:
+            self.tree.prefetch(set().union(*need), workers)
+            for _ in completed_map(write, [job for lv in levels for job in boxes[lv]], workers=workers):
+                pass
+            return
         self.tree.prefetch(need[0], workers)
         for i, lv in enumerate(levels):
-            if i + 1 == len(levels):
+            todo = set() if i + 1 == len(levels) else {
+                c for c in need[i + 1] if not self.tree.is_cached(*c)}  # fmt: skip
+            if not todo:  # the last level, or nothing to decode beside: every worker writes
                 for _ in completed_map(write, boxes[lv], workers=workers):
                     pass
-                return
-            finer = beside(self.tree.prefetch, need[i + 1], workers - 1, name="volpack-decode")
+                continue
+            ahead = beside(self.tree.prefetch, todo, workers - 1, name="volpack-decode")
             try:
                 for job in boxes[lv]:
                     write(job)
             finally:
-                failed = finer.exception()  # waits for it (this thread's error goes first)
+                failed = ahead.exception()  # waits for it (this thread's error goes first)
             if failed is not None:
                 raise failed
+
+
+#: Chunks left to decode below the coarsest drawn level from which a frame's writes
+#: overlap that decoding (:meth:`ResidentVolume._write_levels`): the MRI walk's first
+#: frame has about 80, its later frames a few.
+BESIDE = 16
 
 
 #: Edge (voxels) of the pieces a frame's writes are cut into: float64 resampling

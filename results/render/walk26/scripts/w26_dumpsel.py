@@ -1,20 +1,5 @@
-import cProfile, pstats, time, sys
-import numpy as np
-from volpack.octree import Octree, select
-from volpack.render.lod import coarse_level, tree_range, NodeAtlas
-from volpack.render.camera import Camera
-from volpack.render.resident import ResidentVolume
-from volpack.render.autotf import transfer_for
-from volpack.render.framing import fit_camera
-from volpack.render.raycast import TABLE_SIZE, empty_value, transfer_table
-from volpack.render.transfer import nonempty_range
-tree = Octree('/work/lead/walk/o.vpk', cache_bytes=1<<30)
-sample, factor = coarse_level(tree)
-lo, hi = tree_range(tree)
-tf = transfer_for(None, sample.data, lo=lo, hi=hi, dtype=tree.dtype, mask=sample.mask, size=max(tree.shape))
-view = fit_camera(Camera(size=(512,512)), sample.data, tf, lo, hi, spacing=tree.spacing, shape=tree.shape, factor=factor, mask=sample.mask, azimuths=[60.0*k for k in range(6)])
-atlas = NodeAtlas(tree, gradients=True)
-l2, h2 = nonempty_range(lo, hi)
-fill = empty_value(transfer_table(tf, l2, h2, TABLE_SIZE), l2, h2, l2, quiet=True)
-sel, st = select.by_view(tree, view, tf=tf, voxels=1024*4096, memo=atlas.select_memo, border=ResidentVolume.border)
-import pickle; pickle.dump([(int(lv), tuple(int(i) for i in b)) for lv, b in sel], open('/tmp/w26_sel.pkl','wb'))
+"""The MRI walk's first selection pickled to /tmp/w26_sel.pkl (for w26_sc.py)."""
+import pickle, sys
+sys.argv = [sys.argv[0], "time"]
+exec(open('/tmp/w26_prof_upd.py').read().split("mode = sys.argv[1]")[0])
+pickle.dump([(int(lv), tuple(int(i) for i in b)) for lv, b in sel], open('/tmp/w26_sel.pkl', 'wb'))
