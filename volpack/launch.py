@@ -13,7 +13,16 @@ import os
 import sys
 
 
+#: OpenBLAS's idle threads poll for work for 2^28 cycles (its THREAD_TIMEOUT, about 0.1 s)
+#: before they sleep, and numpy's import starts them: 0.11 s of a core burnt at the start
+#: of every command, with no BLAS work to wait for (volpack's own workers do the heavy
+#: lifting; the encoders hold BLAS to one thread, parallel.one_blas_thread). 2^4 cycles
+#: make them sleep at once; a product large enough to use them still does.
+BLAS_IDLE = ("OPENBLAS_THREAD_TIMEOUT", "4")
+
+
 def run() -> None:
+    os.environ.setdefault(*BLAS_IDLE)  # read when numpy loads OpenBLAS: before any import
     with _collector_paused():  # imports make objects, not garbage (cli.options.imports_without_gc)
         from . import serve
     code = serve.forward(sys.argv[1:])

@@ -13,7 +13,7 @@ import os
 import queue
 import threading
 from collections.abc import Callable, Iterable, Iterator
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from typing import TypeVar
 
 from .errors import OptionError
@@ -80,6 +80,22 @@ def ordered_map(
         finally:
             for f in pending:
                 f.cancel()
+
+
+def beside(fn: Callable[..., R], *args, name: str = "volpack-beside") -> Future:
+    """A future of ``fn(*args)`` run on a thread of its own, started now; its
+    ``result()`` (or ``exception()``) waits for it and hands back what it returned or
+    raised. For one piece of work beside the caller's own (no pool to start or stop)."""
+    future: Future = Future()
+
+    def run() -> None:
+        try:
+            future.set_result(fn(*args))
+        except BaseException as e:  # re-raised by result()
+            future.set_exception(e)
+
+    threading.Thread(target=run, name=name, daemon=True).start()
+    return future
 
 
 def completed_map(

@@ -126,6 +126,45 @@ def test_a_render_imports_neither_other_commands_nor_numbas_compiler(tmp_path):
     assert not loaded
 
 
+_BLAS_IDLE = """
+import atexit, os, sys, time
+def spent():  # CPU seconds of the threads other than the main one (OpenBLAS's)
+    time.sleep(0.15)  # an idle stretch after the command: a polling thread burns it
+    main, cpu = str(os.getpid()), 0
+    for tid in os.listdir("/proc/self/task"):
+        if tid != main:
+            with open(f"/proc/self/task/{tid}/schedstat") as f:
+                cpu += int(f.read().split()[0])
+    print(f"{os.environ.get('OPENBLAS_THREAD_TIMEOUT')} BLAS {cpu / 1e9:.4f}", file=sys.stderr)
+atexit.register(spent)
+from volpack.launch import run
+run()
+"""
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/task"), reason="per-thread CPU from /proc")
+def test_the_console_entry_keeps_blas_threads_from_polling(tmp_path):
+    # numpy's import starts OpenBLAS's threads, which poll for work 0.1 s before they
+    # sleep: 0.11 CPU s of every command on this machine. The entry sets their timeout
+    # short unless the user chose one, and a command's process then spends (next to)
+    # nothing outside its own threads while it idles.
+    np.save(tmp_path / "a.npy", smooth_volume((8, 9, 10), np.uint8))
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_THREAD_TIMEOUT"}
+    env["VOLPACK_SERVE"] = "0"
+
+    def idle(**more):
+        out = subprocess.run([sys.executable, "-c", _BLAS_IDLE, "info", str(tmp_path / "a.npy")],
+                             env=dict(env, **more), capture_output=True, text=True,
+                             check=True)  # fmt: skip
+        timeout, _, cpu = out.stderr.strip().splitlines()[-1].split()
+        assert "(8, 9, 10)" in out.stdout or "8" in out.stdout  # the command ran
+        return timeout, float(cpu)
+
+    timeout, cpu = idle()
+    assert timeout == "4" and cpu < 0.03, (timeout, cpu)
+    assert idle(OPENBLAS_THREAD_TIMEOUT="6")[0] == "6"  # the user's choice is kept
+
+
 def test_python_dash_m_volpack():
     out = subprocess.run(
         [sys.executable, "-m", "volpack", "--version"], capture_output=True, text=True, check=True

@@ -337,6 +337,29 @@ def test_a_level_resampled_over_any_box_gives_each_nodes_numbers(vol, blob):
             assert (grid == 7).all()  # nothing outside the box
 
 
+@pytest.mark.parametrize("dtype", [np.uint8, np.int8, np.int16, np.uint16, np.int32, np.float32])
+def test_trilinear_written_into_a_view_equals_the_cast_result(dtype):
+    # an integer ``into`` of the dtype is stored by the kernel itself (no float64 copy):
+    # the same numbers as the float64 result cast, at the clip limits and on rounding
+    # ties too; nothing outside the view changes
+    from volpack.octree.resample import axis_weights, trilinear
+
+    rng = np.random.default_rng(5)
+    top = np.iinfo(dtype).max if np.dtype(dtype).kind in "iu" else 1e3
+    v = rng.choice([-1e9, -0.5, 0.5, 1.5, 2.5, top - 0.5, top + 0.5, 1e9], (5, 4, 6))
+    v[1] = rng.normal(0, top / 2, (4, 6))
+    ax = [axis_weights(1, 9, 2, n) for n in v.shape]
+    v = v[tuple(slice(b, None) for b, *_ in ax)]
+    want = trilinear(v, [a[1] for a in ax], [a[2] for a in ax], [a[3] for a in ax], dtype)
+    grid = np.full((10, 11, 12), 3, dtype)
+    got = trilinear(v, [a[1] for a in ax], [a[2] for a in ax], [a[3] for a in ax], dtype,
+                    grid[1:9, 2:10, 3:11])  # fmt: skip
+    assert got.base is grid or got.base is grid.base
+    np.testing.assert_array_equal(grid[1:9, 2:10, 3:11], want)
+    grid[1:9, 2:10, 3:11] = 3
+    assert (grid == 3).all()
+
+
 @pytest.mark.parametrize("dtype", [np.uint8, np.int8, np.uint16, np.int32, np.int64])
 def test_values_clipped_in_one_kernel_equal_to_values(dtype):
     # the kernel that writes a block's integers clipped into the tree's dtype (or float64)
@@ -378,6 +401,24 @@ def test_threads_decode_each_node_once_and_give_the_same_result(vol, blob):
         np.testing.assert_array_equal(
             two.decode(1, "3:30,0:21,9:30", workers=2).data, one.decode(1, "3:30,0:21,9:30").data
         )
+
+
+@pytest.mark.parametrize("shape, block", [((37, 21, 30), 4), ((5, 70, 33), 4), ((64, 64, 64), 8),
+                                          ((3, 3, 3), 2), ((129, 7, 50), 2)])  # fmt: skip
+def test_selection_chunks_are_the_union_of_each_nodes(shape, block):
+    # a frame's chunks found level by level on grids equal the union of the nodes' own
+    # sets, for borders of 0-2 voxels, wider than a block, and one per level
+    from volpack.octree.reader import _node_chunks, selection_chunks
+
+    g = layout.Geometry(shape, block)
+    rng = np.random.default_rng(sum(shape) + block)
+    every = [(lv, b) for lv in range(g.depth + 1) for b in np.ndindex(*g.grid(lv))]
+    for n in (0, 1, 7, len(every) // 3, len(every)):
+        nodes = [every[i] for i in rng.choice(len(every), n, replace=False)]
+        for border in (0, 1, 2, block + 3, lambda lv: 1 if lv > 0 else 0):
+            grow = border if callable(border) else (lambda _lv, b=border: b)
+            want = set().union(*(_node_chunks(g, lv, b, grow(lv)) for lv, b in nodes))
+            assert selection_chunks(g, nodes, border) == want
 
 
 # -- stability -------------------------------------------------------------------------

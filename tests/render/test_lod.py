@@ -4,6 +4,7 @@ budgets, caches across a walkthrough, and the render/walk commands."""
 from __future__ import annotations
 
 import json
+import threading
 
 import numpy as np
 import pytest
@@ -222,12 +223,14 @@ def test_decode_budget_starts_coarse_and_reaches_the_uncapped_image(tree_path):
     np.testing.assert_array_equal(img, uncapped[-1][0])
 
 
-def test_reserved_grid_and_codes_give_the_same_walk(tree_path):
+@pytest.mark.parametrize("lift", [0, 3])
+def test_reserved_grid_and_codes_give_the_same_walk(tree_path, lift):
     # a walk whose first frame's grid and normal codes were made beforehand on a helper
     # thread (NodeAtlas.reserve) draws every frame as the walk that makes them in the
-    # frame; one worker reserves nothing
+    # frame; one worker reserves nothing. The empty cells' value is 0 (the zeroed grid
+    # kept as it is) or, with the range's low end lifted, not (the grid filled)
     path, vol = tree_path
-    vr = (float(vol.min()), float(vol.max()))
+    vr = (float(vol.min()) + lift, float(vol.max()))
     cams = [Camera(size=(32, 28), azimuth=az, zoom=1.5) for az in (0.0, 50.0, 100.0)]
     kw = dict(tf=tf_of(vol), value_range=vr, blocks=24, shading="phong", workers=2)
     with Octree(str(path)) as t:
@@ -240,6 +243,7 @@ def test_reserved_grid_and_codes_give_the_same_walk(tree_path):
         frames = [render_lod(t, camera=cam, atlas=kept, **kw) for cam in cams]
         prep = kept.resident.prep
         assert kept.resident.reserved is None and prep.codes_out is None  # both taken
+        assert (kept.resident.fill == 0) == (lift == 0)
     with Octree(str(path)) as t:
         made = NodeAtlas(t)
         ref = [render_lod(t, camera=cam, atlas=made, **kw) for cam in cams]
@@ -472,3 +476,69 @@ def test_cell_boxes_cover_the_marked_cells_once_with_few_boxes():
         np.testing.assert_array_equal(cover, want.astype(np.int64))
         assert len(boxes) <= cells.sum() - 63
     assert len(cell_boxes(np.ones((10, 13, 6), bool), 4, shape)) == 1
+
+
+def _two_levels(t, split: int):
+    """Every level-1 node of ``t``, the first ``split`` replaced by their level-0 children."""
+    g = t.geometry
+    ones = [(1, b) for b in np.ndindex(*g.grid(1))]
+    kids = [(0, (2 * z + i, 2 * y + j, 2 * x + k)) for (_, (z, y, x)) in ones[:split]
+            for i, j, k in np.ndindex(2, 2, 2)
+            if 2 * z + i < g.grid(0)[0] and 2 * y + j < g.grid(0)[1] and 2 * x + k < g.grid(0)[2]]  # fmt: skip
+    return kids + ones[split:]
+
+
+def test_resident_writes_a_level_while_a_helper_decodes_the_next_ones_chunks(tree_path, monkeypatch):
+    # two workers: the coarse level's chunks first on both, then this thread writes that
+    # level's boxes while a helper ("volpack-decode") decodes the chunks the finer
+    # level's nodes need, when they are many (a first frame; a few are decoded with the
+    # rest first, as a later frame's); the grid is the one-worker grid, byte for byte
+    from volpack.octree.reader import Octree as Reader
+    from volpack.render.resident import BESIDE, ResidentVolume
+
+    path, vol = tree_path
+    vr = (float(vol.min()), float(vol.max()))
+    seen = []
+    children = Reader._children
+
+    def spy(self, level, index):
+        hit = (level, index) in self._cache
+        if not hit:
+            seen.append((threading.current_thread().name, level))
+        return children(self, level, index)
+
+    monkeypatch.setattr(Reader, "_children", spy)
+    for split, many in ((40, True), (1, False)):
+        grids = []
+        for workers in (1, 2):
+            seen.clear()
+            with Octree(str(path)) as t:
+                rv = ResidentVolume(t, vr)
+                grids.append(rv.update(_two_levels(t, split), 0.0, workers).data.copy())
+        finer = sum(lv == 1 for _, lv in seen)  # level-1 chunks give the level-0 voxels
+        assert (finer >= BESIDE) == many, finer
+        helper = {lv for name, lv in seen if name == "volpack-decode"}
+        assert helper == ({1} if many else set()), seen
+        assert {lv for name, lv in seen if name != "volpack-decode"} >= {2}
+        np.testing.assert_array_equal(grids[1], grids[0])
+
+
+def test_resident_write_levels_raise_the_helpers_error(tree_path, monkeypatch):
+    # a chunk the helper cannot decode fails the frame as it would on one worker
+    from volpack.errors import FormatError
+    from volpack.octree.reader import Octree as Reader
+    from volpack.render.resident import ResidentVolume
+
+    path, vol = tree_path
+    children = Reader._children
+
+    def damaged(self, level, index):
+        if level == 1 and (level, index) not in self._cache:
+            raise FormatError("damaged chunk")
+        return children(self, level, index)
+
+    monkeypatch.setattr(Reader, "_children", damaged)
+    for workers in (1, 2):
+        with Octree(str(path)) as t, pytest.raises(FormatError, match="damaged chunk"):
+            ResidentVolume(t, (float(vol.min()), float(vol.max()))).update(_two_levels(t, 40), 0.0,
+                                                                           workers)

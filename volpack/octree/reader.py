@@ -304,6 +304,12 @@ class Octree:
         """:meth:`chunks_for` the node's voxels grown by ``border`` (clipped to the level)."""
         return _node_chunks(self.geometry, level, tuple(index), border)
 
+    def selection_chunks(self, nodes, border) -> set:
+        """The union of :meth:`node_chunks` over ``nodes`` (``(level, index)`` pairs),
+        each grown by ``border(level)`` voxels (or ``border`` itself, an int): the chunks
+        a frame's selection needs (:func:`selection_chunks`)."""
+        return selection_chunks(self.geometry, nodes, border)
+
     def is_cached(self, level: int, index: tuple[int, int, int]) -> bool:
         """Whether chunk ``(level, index)`` is decoded and in the cache."""
         return (level, tuple(index)) in self._cache
@@ -549,6 +555,48 @@ def _node_chunks(geometry, level: int, index, border: int) -> frozenset:
     box = geometry.node_box(level, index)
     return _chunks_for(geometry, level, tuple((max(0, s.start - border), min(v, s.stop + border))
                                               for s, v in zip(box, n)))  # fmt: skip
+
+
+def selection_chunks(geometry, nodes, border) -> set:
+    """:meth:`Octree.selection_chunks`: per level, the chunk ranges of all its nodes
+    marked at once on the grid of the level above, then their ancestors level by level.
+    A walk's first frame asked :func:`_node_chunks` for each of its 1039 nodes, 15-20 ms
+    of Python (a node's set, its ancestors', then the union) before any decoding began,
+    with the other core idle."""
+    grow = border if callable(border) else (lambda _level: border)
+    by: dict[int, list] = {}
+    for lv, b in nodes:
+        by.setdefault(int(lv), []).append(b)
+    depth, k = geometry.depth, geometry.block
+    marks: dict[int, np.ndarray] = {}  # level -> its grid's chunks needed
+    for lv, idx in by.items():
+        if lv >= depth:  # the root's own voxels need no chunk
+            continue
+        idx = np.array(idx, np.int64).reshape(-1, 3)
+        n = np.array(geometry.level_shape(lv), np.int64)
+        g = grow(lv)
+        lo = np.maximum(idx * k - g, 0) // (2 * k)  # the node box grown, clipped to the level
+        hi = (np.minimum(np.minimum((idx + 1) * k, n) + g, n) - 1) // (2 * k)
+        up = marks.setdefault(lv + 1, np.zeros(geometry.grid(lv + 1), bool))
+        span = hi - lo
+        if span.max() <= 1:  # a node's grown box meets at most two chunks an axis
+            for d in np.ndindex(2, 2, 2):
+                ok = (span >= d).all(axis=1)
+                up[tuple((lo[ok] + d).T)] = True
+        else:  # borders wider than a block
+            for a, b in zip(lo.tolist(), hi.tolist()):
+                up[a[0] : b[0] + 1, a[1] : b[1] + 1, a[2] : b[2] + 1] = True
+    out: set = set()
+    for lv in range(min(marks, default=depth + 1), depth + 1):
+        m = marks.get(lv)
+        if m is None:
+            continue
+        at = np.argwhere(m)
+        out.update((lv, (int(z), int(y), int(x))) for z, y, x in at.tolist())
+        if lv < depth:  # their ancestors
+            up = marks.setdefault(lv + 1, np.zeros(geometry.grid(lv + 1), bool))
+            up[tuple((at // 2).T)] = True
+    return out
 
 
 @functools.lru_cache(maxsize=1 << 16)

@@ -50,16 +50,21 @@ def trilinear(v: np.ndarray, j0, j1, w, dtype, into=None) -> np.ndarray:
     (integers rounded and clipped to its range), or cast into ``into`` (exact for an
     integer ``into`` of ``dtype``: the values are whole and within its range)."""
     dtype = np.dtype(dtype)
-    out = np.empty(tuple(len(j) for j in j0))
     rounded = dtype.kind in "iu"
     info = np.iinfo(dtype) if rounded else None
+    # an integer ``into`` of ``dtype`` is written by the kernel itself: its values are
+    # whole and in range, so the store converts them exactly (a walk's first frame wrote
+    # 21 M voxels through a float64 copy and a cast pass otherwise)
+    direct = rounded and into is not None and into.dtype == dtype
+    out = into if direct else np.empty(tuple(len(j) for j in j0))
     _trilinear_kernel(np.ascontiguousarray(v, np.float64),
                       *(np.ascontiguousarray(x, t) for ax in range(3)
                         for x, t in ((j0[ax], np.int64), (j1[ax], np.int64), (w[ax], np.float64))),
                       rounded, float(info.min) if rounded else 0.0,
                       float(info.max) if rounded else 0.0, out)  # fmt: skip
     if into is not None:
-        into[...] = out
+        if not direct:
+            into[...] = out
         return into
     return out.astype(dtype)
 

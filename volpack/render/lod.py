@@ -127,8 +127,7 @@ class NodeAtlas:
         new = [n for n in dict.fromkeys(sel) if n not in self.slot]
         self._make_room(len(new), set(sel))
         if workers > 1:
-            self.tree.prefetch(set().union(*(self.tree.node_chunks(lv, b, BORDER) for lv, b in new)),
-                               workers)  # fmt: skip
+            self.tree.prefetch(self.tree.selection_chunks(new, BORDER), workers)
         for n in new:
             self._place(n, self.free.pop())
         g = self.tree.geometry

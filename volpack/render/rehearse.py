@@ -92,7 +92,7 @@ class Rehearsal:
         grid = grid_dtype(tree)
         j = axis_weights(0, 4, 2, 3)
         trilinear(np.zeros((3, 3, 3)), [j[1]] * 3, [j[2]] * 3, [j[3]] * 3, grid,
-                  np.zeros((4, 4, 4), grid))  # fmt: skip
+                  np.zeros((4, 4, 5), grid)[..., :4])  # a box of the grid: a strided view  # fmt: skip
         if clip is None:
             return
         work = np.dtype(tree.plan.work)

@@ -40,7 +40,7 @@ import threading
 
 import numpy as np
 
-from ..parallel import completed_map
+from ..parallel import beside, completed_map
 from .prepared import SAMPLED, PreparedVolume
 
 #: Bytes a walk's resident volume may take (data, quantised normals and, for
@@ -153,14 +153,15 @@ class ResidentVolume:
     def update(self, selection, fill: float, workers: int = 1) -> PreparedVolume:
         """The grid for ``selection`` (``[(level, (bz, by, bx)), ...]``, footprints
         disjoint), writing only the cells whose content changed; the chunks those
-        writes need are decoded first on ``workers`` threads."""
+        writes need are decoded on ``workers`` threads, each level's before its writes
+        (:meth:`_write_levels`)."""
         k = self.k
         if self.prep is None or fill != self.fill:  # first frame, or a new transfer function
             res, self.reserved = self.reserved, None
             data = None if res is None else res.take("grid", self.shape, self.dtype)
             if data is None:
                 data = np.full(self.shape, fill, self.dtype)
-            else:
+            elif fill != 0 or math.copysign(1.0, fill) < 0:  # reserved zeroed: +0 is there
                 data.fill(fill)
             grad_budget = max(0, self.budget - data.nbytes - 2 * data.size)
             self.prep = PreparedVolume(data, tuple(self.tree.spacing), None, self.value_range,
@@ -180,17 +181,13 @@ class ResidentVolume:
             data[box] = fill
         nodes = [(key >> 60, ((key >> 40) & _MASK, (key >> 20) & _MASK, key & _MASK))
                  for key in np.unique(want[changed]).tolist() if key >= 0]  # (re)drawn
-        if workers > 1:
-            self.tree.prefetch(set().union(*(self.tree.node_chunks(lv, b, self.border(lv))
-                                             for lv, b in nodes)), workers)  # fmt: skip
         # each level's field is written over aligned boxes of its (re)drawn cells, not node
         # by node: one read of the level's voxels a box (what assemble() writes per node,
-        # resampled.__doc__), the boxes on the worker threads (disjoint: same bytes)
+        # resampled.__doc__); the boxes are disjoint, so any thread and order give the bytes
         level = np.where(want >= 0, want >> 60, -1)
-        boxes = [(lv, piece) for lv in sorted({lv for lv, _ in nodes})
-                 for box in cell_boxes(changed & (level == lv), k, self.shape)
-                 for piece in _pieces(box, PIECE)]  # fmt: skip
-
+        levels = sorted({lv for lv, _ in nodes}, reverse=True)  # coarsest first
+        boxes = {lv: [(lv, piece) for box in cell_boxes(changed & (level == lv), k, self.shape)
+                      for piece in _pieces(box, PIECE)] for lv in levels}  # fmt: skip
         direct = data.dtype == self.tree.dtype and data.dtype.kind in "iu"
 
         def write(job) -> None:
@@ -203,12 +200,60 @@ class ResidentVolume:
                 v = np.where(np.isfinite(v), v, fill)
             data[box] = v
 
-        for _ in completed_map(write, boxes, workers=workers):  # disjoint boxes: any order
-            pass
+        if workers > 1:
+            self._write_levels(levels, nodes, boxes, write, workers)
+        else:
+            for lv in levels:
+                for job in boxes[lv]:
+                    write(job)
         self.have = want
         self.written += len(nodes)
         self.prep.rewritten(cell_boxes(changed, k, self.shape))
         return self.prep
+
+    def _write_levels(self, levels, nodes, boxes, write, workers: int) -> None:
+        """Decode the chunks of the (re)drawn nodes and ``write`` the levels' ``boxes``.
+        When the levels below the coarsest drawn one leave at least :data:`BESIDE`
+        chunks to decode (a walk's first frame), coarsest level first: its chunks on
+        every worker, then, while this thread writes a level's boxes, the other workers
+        decode the next level's chunks (the writes gain nothing from a second thread on
+        this machine: the MRI walk's first frame wrote for 69 ms on one thread and 70 on
+        two, 100 ms of CPU; its level-1 writes and level-0 chunks take about as long, so
+        the one hides the other). Otherwise (a later frame's few new nodes, where the
+        hand-overs would cost more than they hide) all the chunks on every worker, then
+        all the boxes."""
+        if not levels:
+            return
+        need = [self.tree.selection_chunks([n for n in nodes if n[0] == lv], self.border)
+                for lv in levels]  # fmt: skip
+        finer = set().union(*need[1:]) - need[0]
+        if sum(not self.tree.is_cached(*c) for c in finer) < BESIDE:
+            self.tree.prefetch(set().union(*need), workers)
+            for _ in completed_map(write, [job for lv in levels for job in boxes[lv]], workers=workers):
+                pass
+            return
+        self.tree.prefetch(need[0], workers)
+        for i, lv in enumerate(levels):
+            todo = set() if i + 1 == len(levels) else {
+                c for c in need[i + 1] if not self.tree.is_cached(*c)}  # fmt: skip
+            if not todo:  # the last level, or nothing to decode beside: every worker writes
+                for _ in completed_map(write, boxes[lv], workers=workers):
+                    pass
+                continue
+            ahead = beside(self.tree.prefetch, todo, workers - 1, name="volpack-decode")
+            try:
+                for job in boxes[lv]:
+                    write(job)
+            finally:
+                failed = ahead.exception()  # waits for it (this thread's error goes first)
+            if failed is not None:
+                raise failed
+
+
+#: Chunks left to decode below the coarsest drawn level from which a frame's writes
+#: overlap that decoding (:meth:`ResidentVolume._write_levels`): the MRI walk's first
+#: frame has about 80, its later frames a few.
+BESIDE = 16
 
 
 #: Edge (voxels) of the pieces a frame's writes are cut into: float64 resampling
