@@ -346,11 +346,17 @@ def count_compiles() -> None:
 
 
 def load_warm(name: str, workers: int):
-    """Dataset ``name`` as ``(array, spacing as floats)``, volpack's kernels warmed up on it
-    (:func:`warm_up`)."""
-    import datasets
+    """Dataset ``name`` (or a volume file volpack reads, e.g. ``field.npy``) as ``(array,
+    spacing as floats)``, volpack's kernels warmed up on it (:func:`warm_up`)."""
+    if Path(name).is_file():
+        from volpack.api import read_volume
 
-    vol, spacing, _ = datasets.load(name)
+        v = read_volume(name)
+        vol, spacing = v.data, v.spacing
+    else:
+        import datasets
+
+        vol, spacing, _ = datasets.load(name)
     spacing = tuple(float(s) for s in spacing)
     warm_up(vol, spacing, workers)
     return vol, spacing
