@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+import itertools
 import time
 
 import numpy as np
 
 
 def warm() -> dict:
-    """Run each codec path on tiny bricks of each integer dtype; return what was done."""
+    """Run each wavelet codec path on tiny bricks of each integer dtype, the default
+    coders on each of :data:`CODEC_DTYPES` and the renderer on each dtype it samples;
+    return what was done."""
     from . import _jit
     from .volume_codec.codec import CODER_NAMES, ORDER_NAMES, WAVELET_NAMES, WaveletCodec
 
@@ -29,6 +32,7 @@ def warm() -> dict:
                     ):
                         raise AssertionError(f"warm-up round trip failed for {c}")
                     n += 1
+    n += _warm_codecs()
     paths = _warm_beyond_bricks()
     return {
         "kernels": n,
@@ -37,6 +41,91 @@ def warm() -> dict:
         "cache_dir": str(_jit.cache_dir()),
         "cache": _jit.CACHE,
     }
+
+
+# The dtypes volumes come in most (8-bit MRI, CT, 16-bit scans and microscopy, float
+# fields): the default coders' kernels are typed by them, so each is compressed once.
+CODEC_DTYPES = (np.uint8, np.int16, np.uint16, np.float32)
+
+
+def _sample(dtype, noise: float = 4.0, levels: int = 0) -> np.ndarray:
+    """A small smooth volume of ``dtype`` with ``noise`` (or on ``levels`` values, as a
+    label map or a coarsely quantised scan) and a zeroed corner (the background mask's
+    path), spanning a range of that dtype's kind."""
+    z, y, x = np.mgrid[:20, :22, :24]
+    noise = np.random.default_rng(2).normal(0, noise, z.shape)
+    field = 900 * np.sin(x / 5) * np.cos(y / 4) + 40 * z + noise
+    if levels:
+        field = np.round((field - field.min()) / np.ptp(field) * (levels - 1)) * 90
+    if dtype == np.uint8:
+        field = field / 12 + 120
+    elif dtype == np.uint16:
+        field = field + 2000
+    if np.issubdtype(dtype, np.integer):
+        field = np.clip(field, np.iinfo(dtype).min, np.iinfo(dtype).max)
+    a = field.astype(dtype)
+    a[:6, :7, :8] = 0
+    return a
+
+
+def _warm_codecs() -> int:
+    """Compress and decompress a sample of each of :data:`CODEC_DTYPES` the ways a user
+    does most (lossless by default and by the fast codec; lossy at a bound by default
+    and with ``effort='fast'``), each checked against its input; return how many."""
+    from .api import compress_array, decompress_array
+
+    n = 0
+    # noisy, smooth, on few values; in one brick and in bricks of 16 (partial ones too):
+    # the coders' paths depend on the data and the bound, and a kernel writing into a
+    # brick of a larger volume is typed apart from one writing a whole array
+    variants = [({"noise": 4.0}, {})] + [
+        (data, {"brick": 16}) for data in ({"noise": 4.0}, {"noise": 0.0}, {"levels": 7})
+    ]
+    for dtype, (data, more) in itertools.product(CODEC_DTYPES, variants):
+        a = _sample(dtype, **data)
+        ways = [dict(more), {"codec": "fast", **more}]
+        for rel, effort in itertools.product((1e-2, 1e-3, 1e-4), ("default", "fast")):
+            ways.append({"max_error": rel * float(np.ptp(a)), "effort": effort, **more})
+        for opts in ways:
+            back = decompress_array(compress_array(a, **opts))
+            err = np.abs(back.astype(np.float64) - a.astype(np.float64)).max()
+            if err > opts.get("max_error", 0.0):
+                raise AssertionError(f"warm-up {np.dtype(dtype)} {opts} missed its bound")
+            n += 1
+    return n
+
+
+def _warm_render(cam) -> None:
+    """Render a sample of each dtype the ray caster samples as it is
+    (:data:`~volpack.render.prepared.SAMPLED`; its kernels are typed by it) in every
+    classification and shading, with a smooth semi-transparent and an opaque transfer
+    function as a user's (smooth tables take the nearest-entry march, an opaque one the
+    refined segments)."""
+    from .render.prepared import SAMPLED
+    from .render.raycast import render
+    from .render.transfer import TransferFunction
+
+    for dtype in SAMPLED:
+        vol = _sample(np.uint8 if dtype == np.int8 else dtype)
+        vol = (vol // 2).astype(np.int8) if dtype == np.int8 else vol
+        lo, hi = float(vol.min()), float(vol.max())
+        r = hi - lo
+        tfs = (
+            TransferFunction(((lo + 0.1 * r, 0, 0, 0, 0), (lo + 0.4 * r, 0.9, 0.6, 0.5, 0.02),
+                              (hi, 1, 1, 1, 0.15))),
+            TransferFunction(((lo + 0.3 * r, 0, 0, 0, 0), (lo + 0.45 * r, 0.9, 0.75, 0.6, 0.9),
+                              (hi, 1, 1, 1, 1))),
+        )  # fmt: skip
+        for tf in tfs:
+            for cls in ("post", "pre", "preintegrated"):
+                for shading in ("none", "phong") + (
+                    ("centroid", "preintegrated") if cls == "preintegrated" else ()
+                ):
+                    img = render(vol, tf=tf, camera=cam, classification=cls, shading=shading)
+                    if not np.all(np.isfinite(img)):
+                        raise AssertionError(
+                            f"warm-up render {np.dtype(dtype)} {cls}/{shading} is not finite"
+                        )
 
 
 def _warm_beyond_bricks() -> list[str]:
@@ -60,13 +149,7 @@ def _warm_beyond_bricks() -> list[str]:
     tab = np.clip(rng.random((16, 4)), 0, 1)
     tab[:2, 3] = 0.0  # a transparent end, as real transfer functions have
     cam = Camera(size=(6, 5))
-    for cls in ("post", "pre", "preintegrated"):
-        for shading in ("none", "phong") + (
-            ("centroid", "preintegrated") if cls == "preintegrated" else ()
-        ):
-            img = render(vol, tf=tab, camera=cam, classification=cls, shading=shading)
-            if not np.all(np.isfinite(img)):
-                raise AssertionError(f"warm-up render {cls}/{shading} is not finite")
+    _warm_render(cam)
     done.append("render")
     frames = np.stack([np.roll(vol, t, axis=2) for t in range(3)])
     buf = io.BytesIO()

@@ -443,6 +443,37 @@ def test_warmup_runs_every_kernel_path():
     assert r.exit_code == 0, r.output
     rep = json.loads(r.stdout)
     assert rep["kernels"] > 0 and rep["paths"] == ["render", "animation", "octree", "mesh"]
+    # what a user does first then compiles nothing more: the default coders and the
+    # renderer on a CT-like int16 volume and a float field of other shapes than warm-up's
+    from numba.core import event
+
+    from volpack import api
+    from volpack.render.camera import Camera
+    from volpack.render.raycast import render
+    from volpack.render.transfer import TransferFunction
+
+    compiled = []
+
+    class Listener(event.Listener):
+        def on_start(self, ev):
+            compiled.append(ev.data["dispatcher"].py_func.__name__)
+
+        def on_end(self, ev):
+            pass
+
+    event.register("numba:compile", Listener())
+    z, y, x = np.mgrid[:30, :70, :41]
+    field = 800 * np.sin(x / 7 + y / 9) + 20 * z + np.random.default_rng(5).normal(0, 3, z.shape)
+    for a in (field.astype(np.int16), (field / 100).astype(np.float32)):
+        r = float(np.ptp(a))
+        for opts in ({}, {"rel_error": 1e-3}, {"rel_error": 1e-3, "effort": "fast"}):
+            api.decompress_array(api.compress_array(a, **opts))
+        lo = float(np.median(a))
+        points = ((lo, 0, 0, 0, 0), (lo + 0.3 * r, 1, 0.8, 0.6, 0.9), (float(a.max()), 1, 1, 1, 1))
+        tf = TransferFunction(points)
+        for shading in ("none", "phong"):
+            render(a, tf=tf, camera=Camera(size=(64, 48)), shading=shading)
+    assert compiled == [], f"compiled after warm-up: {sorted(set(compiled))}"
 
 
 def test_convert_sets_spacing_and_origin_and_resample_has_its_own_name(tmp_path):
