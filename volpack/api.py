@@ -132,7 +132,7 @@ def read_volume(spec: str, **read_options: Any) -> Volume:
     from . import io as vio
 
     path = vio.parse_spec(spec)[0] if spec != "-" else spec
-    if path != "-" and kind_of(path) is not None:
+    if kind_of(path) is not None:  # a .vpk file, or a .vpk stream on standard input
         keep = {k: v for k, v in read_options.items() if k == "max_voxels"}
         return read_volume_from(path, **keep)
     return vio.read_volume(spec, **read_options)

@@ -153,3 +153,13 @@ def test_convert_never_overwrites_a_raw_input_as_a_metaimage_data_file(tmp_path)
             "--byteorder", "big")  # fmt: skip
     assert r.exit_code == 0 and (tmp_path / "t.raw").read_bytes() != before  # little-endian
 
+
+def test_a_vpk_stream_on_standard_input_converts(tmp_path):
+    # 'volpack --help' says '-' takes npy or vpk streams, but convert, compare and render
+    # took only npy: "expected a .npy stream on standard input, found ... b'VPK..."
+    r = CliRunner().invoke(main, ["convert", "-", str(tmp_path / "a.npy")],
+                           input=VOLUME_VPK.read_bytes())  # fmt: skip
+    assert r.exit_code == 0, r.output
+    assert run("decompress", VOLUME_VPK, tmp_path / "b.npy").exit_code == 0
+    np.testing.assert_array_equal(np.load(tmp_path / "a.npy"), np.load(tmp_path / "b.npy"))
+

@@ -132,7 +132,7 @@ def _load(source: str, frame: int | None, raw: dict):
     from ..volume import Volume
 
     path = vio.parse_spec(source)[0]
-    if path != "-" and path.lower().endswith(".vpk"):
+    if api.kind_of(path) is not None or path.lower().endswith(".vpk"):  # '-': a .vpk stream too
         vol = api.decompress(path, frame=frame)
     else:
         vol = vio.read_volume(source, **raw)
