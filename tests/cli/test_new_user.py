@@ -163,3 +163,37 @@ def test_a_vpk_stream_on_standard_input_converts(tmp_path):
     assert run("decompress", VOLUME_VPK, tmp_path / "b.npy").exit_code == 0
     np.testing.assert_array_equal(np.load(tmp_path / "a.npy"), np.load(tmp_path / "b.npy"))
 
+
+def write_inv3(path: Path, array: np.ndarray, spacing_xyz, extra: bytes = b"") -> None:
+    """An InVesalius project as InVesalius 3 writes one: main.plist and matrix.dat in a
+    folder of a gzip-compressed tar."""
+    import io
+    import plistlib
+    import tarfile
+
+    plist = {"matrix": {"dtype": array.dtype.name, "filename": "matrix.dat",
+                        "shape": list(array.shape)},
+             "spacing": list(spacing_xyz), "modality": "CT", "name": "test"}  # fmt: skip
+    with tarfile.open(path, "w:gz") as tar:
+        for name, blob in (("main.plist", plistlib.dumps(plist)),
+                           ("matrix.dat", array.astype("<" + array.dtype.str[1:]).tobytes() + extra)):  # fmt: skip
+            info = tarfile.TarInfo(f"tmpabc/{name}")
+            info.size = len(blob)
+            tar.addfile(info, io.BytesIO(blob))
+
+
+def test_an_invesalius_project_reads_as_its_ct(tmp_path):
+    # the head CT of the data folder, Cranium.inv3, was "expected a volume file with one
+    # of the extensions ..."; its voxels had to be cut out as raw by hand
+    a = (np.arange(3 * 4 * 5, dtype=np.int16) * 37 - 1024).reshape(3, 4, 5)
+    write_inv3(tmp_path / "head.inv3", a, (0.5, 0.75, 2.0))
+    r = run("info", tmp_path / "head.inv3", "--json")
+    d = json.loads(r.stdout)
+    assert r.exit_code == 0 and d["format"] == "inv3" and d["shape"] == [3, 4, 5]
+    assert d["dtype"] == "int16" and d["spacing"] == [2.0, 0.75, 0.5]  # (z, y, x)
+    r = run("convert", tmp_path / "head.inv3", tmp_path / "head.npy")
+    assert r.exit_code == 0
+    np.testing.assert_array_equal(np.load(tmp_path / "head.npy"), a)
+    write_inv3(tmp_path / "long.inv3", a, (1, 1, 1), extra=b"\0\0")
+    r = run("info", tmp_path / "long.inv3")
+    assert r.exit_code == 1 and "expected 120 bytes of int16 voxels" in one_error_line(r)
