@@ -100,7 +100,7 @@ def compress(
     Examples:
       volpack compress ct.nii.gz ct.vpk
       volpack compress ct.nii.gz ct.vpk --effort max
-      volpack compress ct.nii.gz ct.vpk --wavelet 26 --coder huffman --brick 64
+      volpack compress ct.nii.gz ct.vpk --codec wavelet --wavelet 26 --coder huffman --brick 64
       volpack compress big.h5:/density big.vpk --workers 2
       volpack compress sim.h5:/T T.vpk --max-error 0.01
       volpack compress ct.nii.gz ct.vpk --psnr 50

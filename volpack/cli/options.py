@@ -271,7 +271,9 @@ codec_options = options(
            ["auto", "lossless", "fast", "wavelet", "zstd"], "auto"),
     option("--wavelet",
            "Reversible lifting filter: 5/3 (CDF 2,2), 2/6 (TS), Haar (S-transform), 9/7-M; "
-           "or, lossy only, the float Daubechies-4, Coiflet-6 and CDF 9/7 (for comparison).",
+           "or, lossy only, the float Daubechies-4, Coiflet-6 and CDF 9/7 (for comparison). "
+           "Lossless (--codec auto), it and --coder apply only to the bricks the wavelet codes "
+           "shortest; --codec wavelet codes every brick with them.",
            ["53", "26", "haar", "97m", "d4", "c6", "cdf97"], "53"),
     option("--coder",
            "arith: best ratio; arith2: arith's model, 1.6-2x as fast to decode, up to 1 % "
