@@ -164,6 +164,15 @@ def test_a_vpk_stream_on_standard_input_converts(tmp_path):
     np.testing.assert_array_equal(np.load(tmp_path / "a.npy"), np.load(tmp_path / "b.npy"))
 
 
+def test_the_first_compile_notice_does_not_say_first_run_on_this_machine():
+    # after an upgrade (or an edit of the sources) the cache is new and the notice said
+    # "first run on this machine" on a machine that had run volpack for months
+    from volpack.cli.notices import FIRST_RUN
+
+    line = FIRST_RUN.format(what="k", where="/c")
+    assert "this machine" not in line and "empty kernel cache" in line and "/c" in line
+
+
 def write_inv3(path: Path, array: np.ndarray, spacing_xyz, extra: bytes = b"") -> None:
     """An InVesalius project as InVesalius 3 writes one: main.plist and matrix.dat in a
     folder of a gzip-compressed tar."""

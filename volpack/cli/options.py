@@ -64,6 +64,8 @@ def imports_without_gc() -> Iterator[None]:
 
 
 force_option = option("-f --force", "Replace an existing output file.", bool)
+
+
 def _note_json(ctx: click.Context, param: click.Parameter, value: bool) -> bool:
     """Remember --json: an error is then reported on standard output as JSON too
     (:meth:`volpack.cli.VolpackGroup.invoke`), so a script's parser never gets nothing."""
