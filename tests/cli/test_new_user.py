@@ -173,6 +173,19 @@ def test_the_first_compile_notice_does_not_say_first_run_on_this_machine():
     assert "this machine" not in line and "empty kernel cache" in line and "/c" in line
 
 
+def test_decompress_of_a_file_of_another_format_names_the_format(npy, tmp_path):
+    # it said which magic bytes the container expected: "expected the vpk magic
+    # b'VPK\x00\r\n\x1a\n', found b'\x93NUMPY\x01\x00'"
+    r = run("decompress", npy, tmp_path / "o.npy")
+    assert r.exit_code == 1 and one_error_line(r) == (
+        f"volpack: error: expected a .vpk file, found the npy file '{npy}' "
+        "(volpack convert and volpack compress read it)"
+    )
+    cut = tmp_path / "cut.vpk"  # a damaged .vpk still reports its damage
+    cut.write_bytes(VOLUME_VPK.read_bytes()[:200])
+    assert "truncated" in one_error_line(run("decompress", cut, tmp_path / "o.npy"))
+
+
 def write_inv3(path: Path, array: np.ndarray, spacing_xyz, extra: bytes = b"") -> None:
     """An InVesalius project as InVesalius 3 writes one: main.plist and matrix.dat in a
     folder of a gzip-compressed tar."""
