@@ -132,7 +132,7 @@ def read_volume(spec: str, **read_options: Any) -> Volume:
     from . import io as vio
 
     path = vio.parse_spec(spec)[0] if spec != "-" else spec
-    if path != "-" and kind_of(path) is not None:
+    if kind_of(path) is not None:  # a .vpk file, or a .vpk stream on standard input
         keep = {k: v for k, v in read_options.items() if k == "max_voxels"}
         return read_volume_from(path, **keep)
     return vio.read_volume(spec, **read_options)
@@ -151,6 +151,25 @@ def write_volume(vol: Volume | np.ndarray, spec: str, *, force: bool = False) ->
     vio.write_volume(vol, spec, force=force)
 
 
+def _refuse_other_format(path: str) -> None:
+    """A file of another format by its name and first bytes ('volpack decompress ct.npy'):
+    say so, rather than which magic bytes the container expected."""
+    from .format.container import MAGIC
+    from .io.registry import detect_format
+
+    try:
+        with _io.open(path, "rb") as f:  # this module's open() is volpack.open
+            head = f.read(len(MAGIC))
+        fmt = detect_format(path)
+    except (OSError, FormatError):
+        return  # the container's own error follows
+    if len(head) == len(MAGIC) and head != MAGIC and fmt != "vpk":
+        raise FormatError(
+            f"expected a .vpk file, found the {fmt} file {path!r} (volpack convert and "
+            "volpack compress read it)"
+        )
+
+
 def _header_kind(source: Any) -> str:
     """The ``kind`` in the header of a ``.vpk`` path, bytes or seekable binary file."""
     from .format.container import Reader
@@ -158,6 +177,7 @@ def _header_kind(source: Any) -> str:
     if isinstance(source, (str, os.PathLike)) and source != "-":
         kind = kind_of(source)
         if kind is None:  # not a .vpk: let the container say what is wrong
+            _refuse_other_format(os.fspath(source))
             with Reader(source) as r:
                 return r.header.get("kind")
         return kind

@@ -459,7 +459,12 @@ class AnimationReader(CheckedReader):
 def check_header(hdr: dict, max_voxels: int = 1 << 34) -> dict:
     """Validate an animation header (kind, keys, shape, dtype, frame types); return it."""
     need = ("shape", "dtype", "brick", "types", "codec", "motion", "spacing", "origin")
-    if hdr.get("kind") != KIND_ANIMATION or any(k not in hdr for k in need):
+    if hdr.get("kind") != KIND_ANIMATION:
+        raise FormatError(
+            f"expected an animation .vpk (kind {KIND_ANIMATION!r}), found kind "
+            f"{hdr.get('kind')!r}; build one with gop='IPPP'"
+        )
+    if any(k not in hdr for k in need):
         raise FormatError(f"expected an animation header with {need}, found keys {sorted(hdr)}")
     from ..format import header as h
 

@@ -92,10 +92,9 @@ class VolpackGroup(click.Group):
                 if debug:
                     traceback.print_exc()
                 line = str(e).splitlines()[0] if str(e) else ""
-                click.echo(
-                    f"volpack: internal error, please report: {type(e).__name__}: {line}",
-                    err=True,
-                )
+                msg = f"internal error, please report: {type(e).__name__}: {line}"
+                click.echo(f"volpack: {msg}", err=True)
+                _json_error(ctx, msg)
                 sys.exit(EXIT_INTERNAL)
             if debug:
                 raise
@@ -105,7 +104,17 @@ class VolpackGroup(click.Group):
             elif isinstance(e, VolpackError):
                 msg = as_flags(msg, flag_map(self, ctx.meta.get("volpack.command")))
             click.echo(f"volpack: error: {msg}", err=True)
+            _json_error(ctx, msg)
             sys.exit(1)
+
+
+def _json_error(ctx: click.Context, message: str) -> None:
+    """With --json, the error on standard output as well: a script reading the JSON
+    gets an object with "error" rather than no output at all."""
+    if ctx.meta.get("volpack.json"):
+        import json
+
+        click.echo(json.dumps({"error": message}))
 
 
 @click.group(cls=VolpackGroup, context_settings=CONTEXT)
@@ -128,8 +137,8 @@ def main(ctx: click.Context, verbose: int, quiet: bool, debug: bool) -> None:
     Files: .npy, .raw (--shape/--dtype), .nii/.nii.gz, .nrrd/.nhdr, .h5:/dataset,
     .nc/.cdf (netCDF, :VARIABLE), .mrc/.map/.ccp4 (MRC/CCP4 maps), .zarr stores,
     .mha/.mhd (MetaImage), .vti (VTK image data), .inr/.inr.gz, .tif (multi-page) or a
-    folder of slices, a DICOM folder, VolPack .den, and '-' for standard input/output
-    (npy or vpk streams). Run 'volpack COMMAND --help' for more;
+    folder of slices, a DICOM folder, VolPack .den, InVesalius .inv3 (read), and '-'
+    for standard input/output (npy or vpk streams). Run 'volpack COMMAND --help' for more;
     -q, -v and --debug may also follow the command.
     """
     ctx.ensure_object(dict)

@@ -17,6 +17,7 @@ from .mesh import mesh_line
 from .octree import octree_decoded_line, octree_line
 from .options import (
     accuracy,
+    check_json_output,
     codec_options,
     emit_json,
     fmt_speed,
@@ -99,7 +100,7 @@ def compress(
     Examples:
       volpack compress ct.nii.gz ct.vpk
       volpack compress ct.nii.gz ct.vpk --effort max
-      volpack compress ct.nii.gz ct.vpk --wavelet 26 --coder huffman --brick 64
+      volpack compress ct.nii.gz ct.vpk --codec wavelet --wavelet 26 --coder huffman --brick 64
       volpack compress big.h5:/density big.vpk --workers 2
       volpack compress sim.h5:/T T.vpk --max-error 0.01
       volpack compress ct.nii.gz ct.vpk --psnr 50
@@ -113,6 +114,8 @@ def compress(
     """
     from .. import api
 
+    check_json_output(as_json, target)
+    _check_vpk_target(target)
     # No --coder: each codec's own default (auto for the error-bounded codec, arith for
     # the others); animations and octrees take arith.
     shared = {
@@ -233,6 +236,7 @@ def decompress(
       volpack decompress big.vpk coarse.npy --level 3
       volpack decompress big.vpk approx.npy --error 10
     """
+    check_json_output(as_json, target)
     if batch_mode:
         if roi or frame is not None:
             raise click.UsageError("--roi and --frame do not apply with --batch")
@@ -244,7 +248,6 @@ def decompress(
         return
     from .. import api
     from .. import io as vio
-    from ..format.atomic import check_output
     from ..metrics import throughput
 
     kind = api.kind_of(source)
@@ -253,7 +256,7 @@ def decompress(
     if level is not None or error is not None or kind == "octree":
         from ..octree.stream import decode
 
-        check_output(vio.parse_spec(target)[0], force=force, inputs=(source,))
+        vio.check_outputs(target, force=force, inputs=(source,))
         d = decode(source, level=level, error=error, roi=roi, workers=workers)
         api.write_volume(d.volume, target, force=force)
         stats = {"target": target, "shape": list(d.volume.shape), "dtype": str(d.volume.dtype)}
@@ -264,7 +267,7 @@ def decompress(
         elif target != "-":
             click.echo(octree_decoded_line(target, stats), err=True)
         return
-    check_output(vio.parse_spec(target)[0], force=force, inputs=(source,))
+    vio.check_outputs(target, force=force, inputs=(source,))
     t0 = time.perf_counter()
     with progress_bar(ctx, "decompress") as progress:
         vol = api.read_volume_from(source, roi=roi, frame=frame, workers=workers, progress=progress)
@@ -284,6 +287,22 @@ def decompress(
             f"{target}: {'x'.join(map(str, vol.shape))} {vol.dtype}, "
             f"{fmt_speed(stats['mb_per_s'], seconds)}",
             err=True,
+        )
+
+
+def _check_vpk_target(target: str) -> None:
+    """compress writes a .vpk: under the name of another format (ct.nii.gz, ct.npy) it
+    would mislead every other program that opens it."""
+    from ..errors import OptionError
+    from ..io.registry import extensions, parse_spec
+    from ..tetra import is_mesh_path
+
+    path = parse_spec(target)[0]
+    named = [f for e, f in extensions().items() if path.lower().endswith(e) and f != "vpk"]
+    if named or (path != "-" and is_mesh_path(path)):
+        raise OptionError(
+            f"expected a TARGET ending in .vpk (compress writes volpack's own format; "
+            f"'volpack convert' writes the others), found {target!r}"
         )
 
 

@@ -4,7 +4,15 @@ from __future__ import annotations
 
 import click
 
-from .options import emit_json, force_option, json_option, option, options, raw_options
+from .options import (
+    check_json_output,
+    emit_json,
+    force_option,
+    json_option,
+    option,
+    options,
+    raw_options,
+)
 
 
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})
@@ -71,9 +79,9 @@ def convert(
     """
     from .. import api, prep
     from .. import io as vio
-    from ..format.atomic import check_output
 
-    check_output(vio.parse_spec(target)[0], force=force, inputs=(source,))
+    check_json_output(as_json, target)
+    vio.check_outputs(target, force=force, inputs=(source,))
     vol = api.read_volume(source, **read_options)
     steps = []
     if set_spacing or set_origin:

@@ -15,7 +15,8 @@ import time
 
 INTERVAL = 5.0
 FIRST_RUN = (
-    "volpack: first run on this machine: compiling numba kernels ({what}); a command "
+    "volpack: first run of this volpack (a new version or source tree has an empty "
+    "kernel cache): compiling numba kernels ({what}); a command "
     "compiles only the kernels it uses, about 1-2 min for the first compress, once: they "
     "are cached in {where}. 'volpack warmup' compiles them all ahead."
 )

@@ -64,7 +64,22 @@ def imports_without_gc() -> Iterator[None]:
 
 
 force_option = option("-f --force", "Replace an existing output file.", bool)
-json_option = option("--json as_json", "Print machine-readable JSON instead of a table.", bool)
+
+
+def _note_json(ctx: click.Context, param: click.Parameter, value: bool) -> bool:
+    """Remember --json: an error is then reported on standard output as JSON too
+    (:meth:`volpack.cli.VolpackGroup.invoke`), so a script's parser never gets nothing."""
+    if value:
+        ctx.meta["volpack.json"] = True
+    return value
+
+
+json_option = option(
+    "--json as_json",
+    'Print machine-readable JSON instead of a table (an error as {"error": MESSAGE}).',
+    bool,
+    callback=_note_json,
+)
 workers_option = option(
     "-j --workers", "Threads for bricks (0 = every core). The output does not depend on it.",
     (0, None), 1,
@@ -155,6 +170,15 @@ def progress_bar(ctx: click.Context, desc: str, unit: str | None = "brick") -> I
 def emit_json(obj) -> None:
     """Print ``obj`` as strict JSON (infinite or NaN numbers become null)."""
     click.echo(json.dumps(jsonable(obj), indent=2, sort_keys=True, allow_nan=False))
+
+
+def check_json_output(as_json: bool, *outputs: str) -> None:
+    """--json prints on standard output, so not where an output of '-' writes its data:
+    the JSON would trail the stream and break its reader."""
+    if as_json and "-" in outputs:
+        raise click.UsageError(
+            "expected --json or an output of '-', found both (both write to standard output)"
+        )
 
 
 def dtype_name(dtype) -> str:
@@ -249,7 +273,9 @@ codec_options = options(
            ["auto", "lossless", "fast", "wavelet", "zstd"], "auto"),
     option("--wavelet",
            "Reversible lifting filter: 5/3 (CDF 2,2), 2/6 (TS), Haar (S-transform), 9/7-M; "
-           "or, lossy only, the float Daubechies-4, Coiflet-6 and CDF 9/7 (for comparison).",
+           "or, lossy only, the float Daubechies-4, Coiflet-6 and CDF 9/7 (for comparison). "
+           "Lossless (--codec auto), it and --coder apply only to the bricks the wavelet codes "
+           "shortest; --codec wavelet codes every brick with them.",
            ["53", "26", "haar", "97m", "d4", "c6", "cdf97"], "53"),
     option("--coder",
            "arith: best ratio; arith2: arith's model, 1.6-2x as fast to decode, up to 1 % "

@@ -9,6 +9,7 @@ import time
 import click
 
 from .options import (
+    check_json_output,
     emit_json,
     force_option,
     imports_without_gc,
@@ -131,7 +132,7 @@ def _load(source: str, frame: int | None, raw: dict):
     from ..volume import Volume
 
     path = vio.parse_spec(source)[0]
-    if path != "-" and path.lower().endswith(".vpk"):
+    if api.kind_of(path) is not None or path.lower().endswith(".vpk"):  # '-': a .vpk stream too
         vol = api.decompress(path, frame=frame)
     else:
         vol = vio.read_volume(source, **raw)
@@ -225,6 +226,7 @@ def render(
     with imports_without_gc():
         import numpy as np
 
+        from ..errors import OptionError
         from ..format.atomic import check_output
         from ..io import parse_spec
         from ..render import transfer
@@ -236,11 +238,17 @@ def render(
 
     size = parse_size(size_s)
     isos = parse_isos(iso_spec) if iso_spec else None
+    check_json_output(as_json, output)
     if orbit:
         if os.path.exists(output) and not os.path.isdir(output):
             raise click.BadParameter(f"expected a folder with --orbit, found the file {output!r}")
         targets = [os.path.join(output, f"frame_{k:03d}.png") for k in range(orbit)]
     else:
+        if output != "-" and not output.lower().endswith(".png"):  # PNG bytes, whatever the name
+            raise OptionError(
+                f"expected an OUTPUT ending in .png (or '-', or a folder with --orbit), "
+                f"found {output!r}"
+            )
         targets = [output]
     inputs = (parse_spec(source)[0],)
     for t in targets:

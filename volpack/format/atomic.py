@@ -68,10 +68,13 @@ def atomic_open(path: str | os.PathLike, *, force: bool = False) -> Iterator[Bin
         if tmp is not None:
             os.chmod(tmp, _default_mode())  # a named temporary file is made 0600
             _rename(tmp, p)
-    except BaseException:
+    except BaseException as e:
         if tmp is not None:
             with contextlib.suppress(FileNotFoundError):
                 os.unlink(tmp)
+        named = write_error(e, p) if isinstance(e, OSError) else e
+        if named is not e:
+            raise named from None
         raise
 
 
@@ -119,6 +122,9 @@ def atomic_dir(path: str | os.PathLike, *, force: bool = False) -> Iterator[str]
     if old is not None:
         shutil.rmtree(old, ignore_errors=True)
 
+
+# errors of a write, which name no file: a full disk, a quota, a file size limit
+_WRITE_ERRNOS = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
 
 _PART = re.compile(r"\.volpack-(\d+)-[0-9a-f]{8}\.")
 
@@ -172,6 +178,14 @@ def _rename(tmp: str, target: str) -> None:
         os.replace(tmp, target)
     except OSError as e:
         raise _naming(e, target) from None
+
+
+def write_error(e: OSError, target: str | None) -> OSError:
+    """``e`` naming ``target`` where it is a failed write, which names no file (a full
+    disk: "[Errno 28] No space left on device", not which output); else ``e`` itself."""
+    if target is None or e.filename is not None or e.errno not in _WRITE_ERRNOS:
+        return e
+    return _naming(e, target)
 
 
 def _naming(e: OSError, target: str) -> OSError:

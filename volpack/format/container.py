@@ -194,10 +194,12 @@ class Writer:
         self._closed = False
         self._entries: list[Entry] = []
         self._keys: set[tuple[int, int]] = set()
+        self._name = None  # the output's path, for write errors
         if isinstance(target, (str, os.PathLike)):
             from .atomic import atomic_open
 
             self._file = self._stack.enter_context(atomic_open(target, force=force))
+            self._name = os.fspath(target)
         else:
             self._file = target
         self._pos = 0
@@ -225,7 +227,15 @@ class Writer:
         return self._pos
 
     def _put(self, data: bytes) -> None:
-        self._file.write(data)
+        try:
+            self._file.write(data)
+        except OSError as e:
+            from .atomic import write_error
+
+            named = write_error(e, self._name)
+            if named is not e:
+                raise named from None
+            raise
         self._pos += len(data)
 
     def write(self, t: int, node: int, payload: bytes, error: float = 0.0) -> Entry:

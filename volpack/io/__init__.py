@@ -30,7 +30,7 @@ from .registry import FORMATS, detect_format, parse_spec, writable
 
 __all__ = [
     "parse_spec", "detect_format", "output_format", "read_volume", "write_volume", "read_header",
-    "list_arrays",
+    "list_arrays", "check_outputs",
 ]  # fmt: skip
 
 DEFAULT_H5_DATASET = "/data"
@@ -121,6 +121,22 @@ def list_arrays(spec: str) -> list[dict[str, Any]]:
         raise FormatError(f"expected a file of several arrays (HDF5, netCDF, zarr), found {fmt}")
     with wrap_errors(fmt, path):
         return f.function("arrays")(path)
+
+
+def check_outputs(spec: str, *, force: bool = False, inputs: tuple = ()) -> None:
+    """:func:`volpack.format.atomic.check_output` for every file :func:`write_volume`
+    makes for ``spec``: a ``.mhd`` header's data file too, which may be the raw input
+    (``volpack convert s.raw s.mhd --force`` overwrote it)."""
+    from ..format.atomic import check_output
+
+    path = parse_spec(spec)[0]
+    outputs = [path]
+    if path.lower().endswith(".mhd"):
+        from .metaimage import data_file
+
+        outputs.append(data_file(path))
+    for out in outputs:
+        check_output(out, force=force, inputs=inputs)
 
 
 def output_format(path: str) -> str:

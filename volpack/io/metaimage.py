@@ -153,6 +153,11 @@ def header(path: str, opts: ReadOptions) -> dict[str, Any]:
     return header_dict("metaimage", h["shape"], native(h["dtype"]), h["spacing"], h["origin"])
 
 
+def data_file(path: str) -> str:
+    """The data file a ``.mhd`` header ``path`` is written with: ``<name>.raw`` beside it."""
+    return os.path.join(os.path.dirname(path), os.path.splitext(os.path.basename(path))[0] + ".raw")
+
+
 def write(vol: Volume, path: str, force: bool, inner: str | None = None) -> None:
     """``.mha``: one file; ``.mhd``: the header plus ``<name>.raw`` beside it."""
     from ..format.atomic import atomic_open
@@ -164,7 +169,7 @@ def write(vol: Volume, path: str, force: bool, inner: str | None = None) -> None
         )
     nd = vol.data.ndim
     local = path.lower().endswith(".mha")
-    raw_name = os.path.splitext(os.path.basename(path))[0] + ".raw"
+    raw_name = os.path.basename(data_file(path))
     rev = lambda t: " ".join(repr(float(v)) for v in t[::-1])  # noqa: E731
     lines = [
         "ObjectType = Image",
@@ -183,7 +188,7 @@ def write(vol: Volume, path: str, force: bool, inner: str | None = None) -> None
     head = ("\n".join(lines) + "\n").encode("ascii")
     data = memoryview(np.ascontiguousarray(vol.data, vol.dtype.newbyteorder("<"))).cast("B")
     if not local:  # the data file first, so a header never names a missing file
-        with atomic_open(os.path.join(os.path.dirname(path), raw_name), force=force) as f:
+        with atomic_open(data_file(path), force=force) as f:
             f.write(data)
     with atomic_open(path, force=force) as f:
         f.write(head)

@@ -70,6 +70,7 @@ for _f in (
     Format("inr", "inr", (".inr", ".inr.gz"), (".inr", ".inr.gz")),
     Format("den", "den", (".den",), (".den",)),
     Format("dicom", "dicom", (".dcm",), header=None),
+    Format("inv3", "inv3", (".inv3",)),  # InVesalius projects (read-only)
     Format("mrc", "mrc", _MRC_EXTS, _MRC_EXTS[:4]),
     Format("zarr", "zarrstore", (".zarr",), (".zarr",)),  # a folder (format 2/3, OME-Zarr)
     Format("vpk", "vpk", (".vpk",), (".vpk",)),
@@ -111,7 +112,8 @@ def detect_format(path: str) -> str:
     """Name the format of ``path`` from its extension (folders: from their content).
 
     Returns a name of :data:`FORMATS` (``npy, raw, nifti, mgh, minc, afni, parrec,
-    nrrd, hdf5, netcdf, tiff, tiff-folder, metaimage, vti, inr, den, dicom, mrc, zarr, vpk``).
+    nrrd, hdf5, netcdf, tiff, tiff-folder, metaimage, vti, inr, den, dicom, inv3, mrc, zarr,
+    vpk``).
     """
     path, _ = parse_spec(os.fspath(path))
     if path == "-":

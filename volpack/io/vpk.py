@@ -14,6 +14,10 @@ from .common import ReadOptions, header_dict
 
 
 def read(path: str, opts: ReadOptions) -> Volume:
+    from ..format.container import Reader
+
+    with Reader(path):  # reached for a .vpk the stream kinds could not open: say why
+        pass
     raise FormatError(
         f"expected a volume file, found the .vpk {path!r}: read it with "
         "volpack.read_volume or volpack.decompress"

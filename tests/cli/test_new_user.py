@@ -1,0 +1,221 @@
+"""What a new user met on the command line (session 27, results/cli/user27/findings.md):
+each test failed before its fix."""
+
+from __future__ import annotations
+
+import errno
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from volpack.cli import main
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "formats" / "examples"
+VOLUME_VPK = EXAMPLES / "lossless-auto-u8.vpk"  # a golden stream of kind "volume"
+
+
+def run(*args):
+    return CliRunner().invoke(main, [str(a) for a in args], catch_exceptions=False)
+
+
+def one_error_line(r) -> str:
+    lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("volpack: error: "), r.stderr
+    return lines[0]
+
+
+@pytest.fixture
+def npy(tmp_path) -> Path:
+    p = tmp_path / "a.npy"
+    np.save(p, np.arange(4 * 5 * 6, dtype=np.uint8).reshape(4, 5, 6))
+    return p
+
+
+@pytest.mark.parametrize("name", ["out.nii.gz", "out.npy", "out.h5:/x", "out.tif", "out.vtu"])
+def test_compress_refuses_a_target_named_as_another_format(npy, tmp_path, name):
+    # it wrote a .vpk called out.nii.gz, which every other program then failed to open
+    r = run("compress", npy, tmp_path / name)
+    assert r.exit_code == 1
+    assert "expected a TARGET ending in .vpk" in one_error_line(r) and name in r.stderr
+    assert sorted(os.listdir(tmp_path)) == ["a.npy"]
+
+
+def test_render_refuses_an_output_that_is_not_a_png(tmp_path):
+    # it wrote PNG bytes into r.jpg (play and walk already refused a wrong suffix)
+    for name in ("r.jpg", "r.npy"):
+        r = run("render", VOLUME_VPK, tmp_path / name)
+        assert r.exit_code == 1 and "expected an OUTPUT ending in .png" in one_error_line(r)
+    assert os.listdir(tmp_path) == []
+
+
+@pytest.mark.parametrize("keep", [0, 30, 200])
+def test_a_damaged_vpk_reports_its_damage_in_info_convert_and_compare(tmp_path, keep):
+    # info said "expected a volume file, found the .vpk ...: read it with
+    # volpack.read_volume", as if the file were fine, for an empty or truncated .vpk
+    bad = tmp_path / "cut.vpk"
+    bad.write_bytes(VOLUME_VPK.read_bytes()[:keep])
+    for args in (["info", bad], ["convert", bad, tmp_path / "o.npy"], ["compare", bad]):
+        r = run(*args)
+        line = one_error_line(r)
+        assert r.exit_code == 1 and "truncated" in line and "read_volume" not in line, line
+    assert sorted(os.listdir(tmp_path)) == ["cut.vpk"]
+
+
+def test_a_full_disk_names_the_output(npy, tmp_path, monkeypatch):
+    # "volpack: error: [Errno 28] No space left on device", naming no file
+    import volpack.format.atomic as atomic
+
+    real = os.fdopen
+
+    class Full:  # a file on a full disk: every write fails
+        def __init__(self, fd, mode):
+            self.f = real(fd, mode)
+
+        def write(self, data):
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+        def __getattr__(self, name):
+            return getattr(self.f, name)
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            self.f.close()
+
+    monkeypatch.setattr(atomic.os, "fdopen", Full)
+    target = tmp_path / "o.vpk"
+    r = run("compress", npy, target)
+    assert r.exit_code == 1
+    assert one_error_line(r) == f"volpack: error: {target}: No space left on device"
+    assert not target.exists()
+
+
+def test_play_of_a_vpk_of_another_kind_says_so(tmp_path):
+    # it listed the animation header's keys against the volume header's
+    r = run("play", VOLUME_VPK, tmp_path / "p.gif")
+    assert r.exit_code == 1
+    assert one_error_line(r) == (
+        "volpack: error: expected an animation .vpk (kind 'animation'), found kind "
+        "'volume'; build one with --gop IPPP"
+    )
+    assert os.listdir(tmp_path) == []
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["compress", "{npy}", "-"],
+        ["decompress", VOLUME_VPK, "-"],
+        ["convert", "{npy}", "-"],
+        ["render", VOLUME_VPK, "-"],
+    ],
+)
+def test_json_and_an_output_on_standard_output_are_refused_together(npy, args):
+    # the JSON followed the stream on stdout: `compress a.npy - --json | decompress - b.npy`
+    # failed with "expected the end of the stream after the footer, found b'{'"
+    r = run(*[str(a).format(npy=npy) for a in args], "--json")
+    assert r.exit_code == 2 and "expected --json or an output of '-'" in r.stderr
+    assert r.stdout == ""
+
+
+def test_json_errors_are_json_on_standard_output(npy, tmp_path):
+    # an error printed nothing on stdout: `volpack info x --json | jq` had nothing to parse
+    for args in (
+        ["info", tmp_path / "nope.npy"],
+        ["compress", tmp_path / "nope.npy", tmp_path / "o.vpk"],
+        ["decompress", npy, tmp_path / "o.npy"],
+    ):
+        r = run(*args, "--json")
+        assert r.exit_code == 1
+        line = one_error_line(r)
+        assert json.loads(r.stdout) == {"error": line.removeprefix("volpack: error: ")}
+    r = run("info", npy, "--json")  # and a success is as before
+    assert r.exit_code == 0 and json.loads(r.stdout)["shape"] == [4, 5, 6]
+
+
+def test_convert_never_overwrites_a_raw_input_as_a_metaimage_data_file(tmp_path):
+    # s.mhd is written with its data in s.raw: with --force that replaced the raw input
+    # (here byte-swapped); without it, the error named s.raw as an existing output
+    raw = tmp_path / "s.raw"
+    np.arange(60, dtype=">i2").reshape(3, 4, 5).tofile(raw)
+    before = raw.read_bytes()
+    r = run("convert", raw, tmp_path / "s.mhd", "--shape", "3,4,5", "--dtype", "int16",
+            "--byteorder", "big", "--force")  # fmt: skip
+    last = r.stderr.splitlines()[-1]  # after the line that echoes the raw shape
+    assert r.exit_code == 1 and last.startswith("volpack: error: refusing to overwrite the input")
+    assert raw.read_bytes() == before and sorted(os.listdir(tmp_path)) == ["s.raw"]
+    r = run("convert", raw, tmp_path / "t.mhd", "--shape", "3,4,5", "--dtype", "int16",
+            "--byteorder", "big")  # fmt: skip
+    assert r.exit_code == 0 and (tmp_path / "t.raw").read_bytes() != before  # little-endian
+
+
+def test_a_vpk_stream_on_standard_input_converts(tmp_path):
+    # 'volpack --help' says '-' takes npy or vpk streams, but convert, compare and render
+    # took only npy: "expected a .npy stream on standard input, found ... b'VPK..."
+    r = CliRunner().invoke(main, ["convert", "-", str(tmp_path / "a.npy")],
+                           input=VOLUME_VPK.read_bytes())  # fmt: skip
+    assert r.exit_code == 0, r.output
+    assert run("decompress", VOLUME_VPK, tmp_path / "b.npy").exit_code == 0
+    np.testing.assert_array_equal(np.load(tmp_path / "a.npy"), np.load(tmp_path / "b.npy"))
+
+
+def test_the_first_compile_notice_does_not_say_first_run_on_this_machine():
+    # after an upgrade (or an edit of the sources) the cache is new and the notice said
+    # "first run on this machine" on a machine that had run volpack for months
+    from volpack.cli.notices import FIRST_RUN
+
+    line = FIRST_RUN.format(what="k", where="/c")
+    assert "this machine" not in line and "empty kernel cache" in line and "/c" in line
+
+
+def test_decompress_of_a_file_of_another_format_names_the_format(npy, tmp_path):
+    # it said which magic bytes the container expected: "expected the vpk magic
+    # b'VPK\x00\r\n\x1a\n', found b'\x93NUMPY\x01\x00'"
+    r = run("decompress", npy, tmp_path / "o.npy")
+    assert r.exit_code == 1 and one_error_line(r) == (
+        f"volpack: error: expected a .vpk file, found the npy file '{npy}' "
+        "(volpack convert and volpack compress read it)"
+    )
+    cut = tmp_path / "cut.vpk"  # a damaged .vpk still reports its damage
+    cut.write_bytes(VOLUME_VPK.read_bytes()[:200])
+    assert "truncated" in one_error_line(run("decompress", cut, tmp_path / "o.npy"))
+
+
+def write_inv3(path: Path, array: np.ndarray, spacing_xyz, extra: bytes = b"") -> None:
+    """An InVesalius project as InVesalius 3 writes one: main.plist and matrix.dat in a
+    folder of a gzip-compressed tar."""
+    import io
+    import plistlib
+    import tarfile
+
+    plist = {"matrix": {"dtype": array.dtype.name, "filename": "matrix.dat",
+                        "shape": list(array.shape)},
+             "spacing": list(spacing_xyz), "modality": "CT", "name": "test"}  # fmt: skip
+    with tarfile.open(path, "w:gz") as tar:
+        for name, blob in (("main.plist", plistlib.dumps(plist)),
+                           ("matrix.dat", array.astype("<" + array.dtype.str[1:]).tobytes() + extra)):  # fmt: skip
+            info = tarfile.TarInfo(f"tmpabc/{name}")
+            info.size = len(blob)
+            tar.addfile(info, io.BytesIO(blob))
+
+
+def test_an_invesalius_project_reads_as_its_ct(tmp_path):
+    # the head CT of the data folder, Cranium.inv3, was "expected a volume file with one
+    # of the extensions ..."; its voxels had to be cut out as raw by hand
+    a = (np.arange(3 * 4 * 5, dtype=np.int16) * 37 - 1024).reshape(3, 4, 5)
+    write_inv3(tmp_path / "head.inv3", a, (0.5, 0.75, 2.0))
+    r = run("info", tmp_path / "head.inv3", "--json")
+    d = json.loads(r.stdout)
+    assert r.exit_code == 0 and d["format"] == "inv3" and d["shape"] == [3, 4, 5]
+    assert d["dtype"] == "int16" and d["spacing"] == [2.0, 0.75, 0.5]  # (z, y, x)
+    r = run("convert", tmp_path / "head.inv3", tmp_path / "head.npy")
+    assert r.exit_code == 0
+    np.testing.assert_array_equal(np.load(tmp_path / "head.npy"), a)
+    write_inv3(tmp_path / "long.inv3", a, (1, 1, 1), extra=b"\0\0")
+    r = run("info", tmp_path / "long.inv3")
+    assert r.exit_code == 1 and "expected 120 bytes of int16 voxels" in one_error_line(r)
