@@ -44,7 +44,7 @@ def warm() -> dict:
 
 
 # The dtypes volumes come in most (8-bit MRI, CT, 16-bit scans and microscopy, float
-# fields): the default coders' kernels are typed by them, so each is compressed once.
+# fields): the default coders' kernels are typed by them, so each has samples of its own.
 CODEC_DTYPES = (np.uint8, np.int16, np.uint16, np.float32)
 
 
@@ -53,8 +53,8 @@ def _sample(dtype, noise: float = 4.0, levels: int = 0) -> np.ndarray:
     label map or a coarsely quantised scan) and a zeroed corner (the background mask's
     path), spanning a range of that dtype's kind."""
     z, y, x = np.mgrid[:20, :22, :24]
-    noise = np.random.default_rng(2).normal(0, noise, z.shape)
-    field = 900 * np.sin(x / 5) * np.cos(y / 4) + 40 * z + noise
+    jitter = np.random.default_rng(2).normal(0, noise, z.shape)
+    field = 900 * np.sin(x / 5) * np.cos(y / 4) + 40 * z + jitter
     if levels:
         field = np.round((field - field.min()) / np.ptp(field) * (levels - 1)) * 90
     if dtype == np.uint8:
