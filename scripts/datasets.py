@@ -25,9 +25,7 @@ from __future__ import annotations
 
 import gzip
 import os
-import plistlib
 import re
-import tarfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -512,15 +510,12 @@ def _check(name: str) -> str:
 
 
 def read_inv3(path: Path):
-    """InVesalius project: a gzip'd tar holding ``main.plist`` and raw C-order ``matrix.dat``."""
-    with tarfile.open(path, "r:gz") as tar:
-        members = {Path(m.name).name: m for m in tar.getmembers() if m.isfile()}
-        meta = plistlib.loads(tar.extractfile(members["main.plist"]).read())
-        mat = meta["matrix"]
-        raw = tar.extractfile(members[mat["filename"]]).read()
-    array = np.frombuffer(raw, dtype=np.dtype(mat["dtype"])).reshape(mat["shape"])
-    sx, sy, sz = meta["spacing"]  # InVesalius stores spacing as (x, y, z)
-    return array.copy(), (sz, sy, sx)
+    """InVesalius project, by volpack's own reader (``volpack/io/inv3.py``); a writable
+    copy of its voxels."""
+    from volpack import io as vio
+
+    vol = vio.read_volume(str(path))
+    return vol.data.copy(), vol.spacing
 
 
 def read_nifti(path: Path):
