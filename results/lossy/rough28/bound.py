@@ -11,6 +11,7 @@ voxel within E (the most entropy an error in [-E, E] can have is log2(2E)): a 32
 field's ratio is at most 32 over it. Note: the spectrum is the periodogram of the whole (periodic or not) volume; for a
 non-periodic field the faces add power at high k, so the figure is a rough guide.
 """
+
 import sys
 
 import numpy as np

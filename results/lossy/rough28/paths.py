@@ -3,12 +3,13 @@
 python results/lossy/rough28/paths.py FIELD.npy|dataset-name [REL ...]
 Prints per bound: each candidate's (tier, flag byte, bytes), the one kept.
 """
+
 import sys
 import time
 
-import numpy as np
+sys.path.insert(0, "results/lossy/rough28")
+from bound import load  # noqa: E402
 
-sys.path.insert(0, "scripts")
 from volpack.volume_codec import lossy  # noqa: E402
 
 log = []
@@ -24,15 +25,16 @@ def spy(cands, saving=lossy.SLOW_MIN_SAVING):
 lossy.keep_faster = spy
 
 
-def load(name):
-    if name.endswith(".npy"):
-        return np.load(name)
-    from datasets import load as dl
-
-    return dl(name)[0]
-
-
-FLAGS = {1: "mask", 2: "corr", 4: "coef", 8: "resid", 16: "cdf97", 32: "outl", 64: "interp", 128: "exact"}
+FLAGS = {
+    1: "mask",
+    2: "corr",
+    4: "coef",
+    8: "resid",
+    16: "cdf97",
+    32: "outl",
+    64: "interp",
+    128: "exact",
+}
 
 
 def names(f):
@@ -49,6 +51,8 @@ if __name__ == "__main__":
         t = time.perf_counter()
         m = c.encode_measured(x)
         dt = time.perf_counter() - t
-        print(f"rel {rel:g}: {len(m[0])} B, ratio {x.nbytes / len(m[0]):.3f}, bpv {8 * len(m[0]) / x.size:.3f}, {dt:.1f} s")
+        print(
+            f"rel {rel:g}: {len(m[0])} B, ratio {x.nbytes / len(m[0]):.3f}, bpv {8 * len(m[0]) / x.size:.3f}, {dt:.1f} s"
+        )
         for call in log:
             print("   ", ", ".join(f"{t}:{names(f)}:{n}" for t, f, n in call))

@@ -18,22 +18,17 @@ python results/lossy/rough28/predictors.py FIELD.npy|name [REL ...]
 The hierarchical ones wrap around the faces (np.roll): exact for the periodic synthetic
 field, a small favour to them elsewhere.
 """
+
 import sys
 
 import numpy as np
 
-sys.path.insert(0, "scripts")
 sys.path.insert(0, ".")
+sys.path.insert(0, "results/lossy/rough28")
+
+from bound import load  # noqa: E402
 
 from volpack.volume_codec import bounded_longfit as lf  # noqa: E402
-
-
-def load(name):
-    if name.endswith(".npy"):
-        return np.load(name)
-    from datasets import load as dl
-
-    return dl(name)[0]
 
 
 def h0(r):
@@ -62,15 +57,28 @@ def causal_ctx(r):
     """Context of each voxel of a causal (raster) residual: its decoded neighbours."""
     a = np.abs(np.pad(r, ((1, 0), (1, 0), (1, 1)))).astype(np.float64)
     nz, ny, nx = r.shape
-    mags = [a[1:, 1:, 0:nx], a[1:, 0:ny, 1:nx + 1], a[0:nz, 1:, 1:nx + 1],
-            a[1:, 0:ny, 2:], a[1:, 0:ny, 0:nx], a[0:nz, 0:ny, 1:nx + 1]]
+    mags = [
+        a[1:, 1:, 0:nx],
+        a[1:, 0:ny, 1 : nx + 1],
+        a[0:nz, 1:, 1 : nx + 1],
+        a[1:, 0:ny, 2:],
+        a[1:, 0:ny, 0:nx],
+        a[0:nz, 0:ny, 1 : nx + 1],
+    ]
     return ctx_of(mags)
 
 
 def lorenzo(q):
     p = np.pad(q, ((1, 0), (1, 0), (1, 0)))
-    pred = (p[1:, 1:, :-1] + p[1:, :-1, 1:] + p[:-1, 1:, 1:] - p[1:, :-1, :-1]
-            - p[:-1, 1:, :-1] - p[:-1, :-1, 1:] + p[:-1, :-1, :-1])
+    pred = (
+        p[1:, 1:, :-1]
+        + p[1:, :-1, 1:]
+        + p[:-1, 1:, 1:]
+        - p[1:, :-1, :-1]
+        - p[:-1, 1:, :-1]
+        - p[:-1, :-1, 1:]
+        + p[:-1, :-1, :-1]
+    )
     return q - pred
 
 
@@ -89,8 +97,7 @@ TWO_SIDED = {
 CAUSAL = {
     "x": [(0, 0, -2), (0, -2, -1), (0, -2, 1), (-2, 0, -1), (-2, 0, 1)],
     "y": [(0, 0, -1), (0, 0, -2), (0, -2, -1), (0, -2, 1), (-2, -1, 0), (-2, 1, 0)],
-    "z": [(0, 0, -1), (0, -1, 0), (0, -1, -1), (0, -1, 1), (0, 0, -2), (0, -2, 0),
-          (-2, 0, 0)],
+    "z": [(0, 0, -1), (0, -1, 0), (0, -1, -1), (0, -1, 1), (0, 0, -2), (0, -2, 0), (-2, 0, 0)],
 }
 
 
@@ -118,8 +125,11 @@ def wide_offsets(p, two=3, causal=2):
     """Every known point within ``two`` (box, L1 <= two + 1) and every earlier target of
     the pass within ``causal`` (box) of the target."""
     r = range(-two, two + 1)
-    out = [d for d in ((a, b, c) for a in r for b in r for c in r)
-           if _known(p, d) and sum(map(abs, d)) <= two + 1]
+    out = [
+        d
+        for d in ((a, b, c) for a in r for b in r for c in r)
+        if _known(p, d) and sum(map(abs, d)) <= two + 1
+    ]
     r = range(-causal, causal + 1)
     out += [d for d in ((a, b, c) for a in r for b in r for c in r) if _in_pass(p, d)]
     return out
@@ -164,8 +174,9 @@ def hier(q, causal=False, top=32, wide=False):
             rg = res[::s, ::s, ::s]
             rg[sl] = r.reshape(rg[sl].shape)
             near = [d for d in offs if max(map(abs, d)) <= 1][:8]
-            mags = [np.abs(np.roll(rg, tuple(-v for v in d), (0, 1, 2))[sl]).reshape(-1)
-                    for d in near]
+            mags = [
+                np.abs(np.roll(rg, tuple(-v for v in d), (0, 1, 2))[sl]).reshape(-1) for d in near
+            ]
             cbits += h_ctx(r, ctx_of(mags)) + 32 * len(offs)
             count += t.size
             per.append((s, p, t.size, b / t.size))
@@ -199,8 +210,12 @@ def main():
                 out["hier wide"], _ = hier(q, True, top, wide=True)
         print(f"rel {rel:g}: " + ", ".join(f"{k} {v:.3f}" for k, v in out.items()), flush=True)
         if "hier" in out:
-            print("   last passes (s=1) hier:", ", ".join(f"{p} {b:.3f}" for s, p, _, b in per[:-1] if s == 1),
-                  "| +causal:", ", ".join(f"{p} {b:.3f}" for s, p, _, b in per2[:-1] if s == 1))
+            print(
+                "   last passes (s=1) hier:",
+                ", ".join(f"{p} {b:.3f}" for s, p, _, b in per[:-1] if s == 1),
+                "| +causal:",
+                ", ".join(f"{p} {b:.3f}" for s, p, _, b in per2[:-1] if s == 1),
+            )
 
 
 if __name__ == "__main__":

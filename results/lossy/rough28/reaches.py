@@ -4,6 +4,7 @@ static-context payload's bytes (head included).
 
 python results/lossy/rough28/reaches.py FIELD.npy|name REL [REL ...]
 """
+
 import sys
 
 import numpy as np
@@ -14,8 +15,17 @@ from predictors import h0, load  # noqa: E402
 
 from volpack.volume_codec import bounded_longfit as lf  # noqa: E402
 
-REACHES = ((2, 2, 2), (2, 3, 3), (3, 3, 3), (2, 4, 4), (4, 4, 4), (2, 8, 8), (8, 8, 8),
-           (12, 12, 12), (16, 16, 16))
+REACHES = (
+    (2, 2, 2),
+    (2, 3, 3),
+    (3, 3, 3),
+    (2, 4, 4),
+    (4, 4, 4),
+    (2, 8, 8),
+    (8, 8, 8),
+    (12, 12, 12),
+    (16, 16, 16),
+)
 
 if __name__ == "__main__":
     x = load(sys.argv[1]).astype(np.float64)

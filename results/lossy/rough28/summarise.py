@@ -5,6 +5,7 @@ reach on them (32 bits over the Shannon lower bound of bound.py).
 python results/lossy/rough28/summarise.py  (reads json/F_E.json: `volpack -q compare
 F.npy --rel-error E --peers --json`; turb's are the lead's, /work/wt/shared28/L_turb_*)
 """
+
 import json
 import sys
 from pathlib import Path
@@ -24,8 +25,10 @@ FIELDS = {
 
 
 def main():
-    print("| field | E / range | volpack | SZ3 | SPERR | x best | at most (SLB) | at most x best "
-          "| volpack / bound | decode MB/s volpack / SZ3 / SPERR |")
+    print(
+        "| field | E / range | volpack | SZ3 | SPERR | x best | at most (SLB) | at most x best "
+        "| volpack / bound | decode MB/s volpack / SZ3 / SPERR |"
+    )
     print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---|")
     for f, what in FIELDS.items():
         path = HERE / f"{f}.npy"
