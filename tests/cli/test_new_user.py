@@ -100,8 +100,8 @@ def test_play_of_a_vpk_of_another_kind_says_so(tmp_path):
     r = run("play", VOLUME_VPK, tmp_path / "p.gif")
     assert r.exit_code == 1
     assert one_error_line(r) == (
-        "volpack: error: expected an animation .vpk (kind 'animation'), found kind "
-        "'volume'; build one with --gop IPPP"
+        f"volpack: error: {VOLUME_VPK}: expected an animation .vpk (kind 'animation'), "
+        "found kind 'volume'; build one with --gop IPPP"
     )
     assert os.listdir(tmp_path) == []
 
@@ -219,3 +219,52 @@ def test_an_invesalius_project_reads_as_its_ct(tmp_path):
     write_inv3(tmp_path / "long.inv3", a, (1, 1, 1), extra=b"\0\0")
     r = run("info", tmp_path / "long.inv3")
     assert r.exit_code == 1 and "expected 120 bytes of int16 voxels" in one_error_line(r)
+
+
+# session 28 (results/cli/user28/findings.md)
+
+
+@pytest.mark.parametrize("command", ["play", "walk"])
+def test_play_and_walk_of_a_file_of_another_format_name_the_format(npy, tmp_path, command):
+    # they answered with the container's magic bytes: "expected the vpk magic
+    # b'VPK\x00\r\n\x1a\n', found b'\x93NUMPY\x01\x00'" (user27's finding 14)
+    r = run(command, npy, tmp_path / "o.gif")
+    assert r.exit_code == 1 and one_error_line(r) == (
+        f"volpack: error: expected a .vpk file, found the npy file '{npy}' "
+        "(volpack convert and volpack compress read it)"
+    )
+    assert sorted(os.listdir(tmp_path)) == ["a.npy"]
+
+
+@pytest.mark.parametrize("command", ["info", "decompress", "compare", "play", "walk"])
+def test_a_damaged_vpk_is_named_before_its_damage(tmp_path, command):
+    # "expected 248 bytes of header at offset 20, found 180 (truncated)": which file?
+    # (user27's finding 14; the library's message is unchanged, the CLI names the file)
+    from volpack.errors import FormatError
+    from volpack.format.container import Reader
+
+    cut = tmp_path / "cut.vpk"
+    cut.write_bytes(VOLUME_VPK.read_bytes()[:200])
+    with pytest.raises(FormatError) as e:
+        Reader(cut)
+    args = [command, cut] + ([tmp_path / "o.npy"] if command == "decompress" else [])
+    r = run(*args, "--json")
+    line = one_error_line(r)
+    assert r.exit_code == 1 and line.startswith(f"volpack: error: {cut}: "), line
+    assert "truncated" in line and line.count(str(cut)) == 1
+    assert json.loads(r.stdout) == {"error": line.removeprefix("volpack: error: ")}
+    if command != "play":  # (play reads the file as a stream: its message differs)
+        assert line == f"volpack: error: {cut}: {e.value}"
+    assert str(cut) not in str(e.value) and e.value.path == str(cut)
+
+
+def test_a_damaged_chunk_names_its_file(tmp_path):
+    # a chunk whose bytes no longer match their checksum: the file is named once
+    blob = bytearray(VOLUME_VPK.read_bytes())
+    blob[400] ^= 0xFF  # inside the first chunk's payload
+    bad = tmp_path / "bad.vpk"
+    bad.write_bytes(bytes(blob))
+    r = run("decompress", bad, tmp_path / "o.npy")
+    line = one_error_line(r)
+    assert r.exit_code == 1 and line.startswith(f"volpack: error: {bad}: ") and "CRC" in line
+    assert line.count(str(bad)) == 1
