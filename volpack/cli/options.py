@@ -292,8 +292,10 @@ codec_options = options(
            "float volume under an error bound is one brick up to 4M voxels, else 128; "
            "exact floats and integer volumes up to 2M voxels coded exactly: 128."),
     option("--max-error", "Lossy: every voxel decodes within this absolute error (checked "
-           "on every voxel).", float),
-    option("--rel-error", "Lossy: --max-error as a fraction of the value range.", float),
+           "on every voxel); 0 is exact: coded losslessly (with --effort fast, by --codec "
+           "fast).", float),
+    option("--rel-error", "Lossy: --max-error as a fraction of the value range (0: "
+           "lossless).", float),
     option("--psnr", "Lossy: reach this PSNR in dB (within 0.5 dB).", float),
     option(
         "--ratio",
