@@ -289,3 +289,15 @@ def test_an_error_bound_of_0_is_coded_losslessly(tmp_path, dtype):
         assert out.stat().st_size <= size
         assert run("decompress", out, tmp_path / "b.npy", "--force").exit_code == 0
         assert np.load(tmp_path / "b.npy").tobytes() == a.tobytes()
+
+
+def test_serve_status_without_a_server_exits_1(tmp_path, monkeypatch):
+    # it printed "no server listens on ..." and exited 0, so `volpack serve --status &&
+    # ...` went on as if one listened (user27's finding 18)
+    monkeypatch.setenv("VOLPACK_SERVE_DIR", str(tmp_path))
+    r = run("serve", "--status")
+    assert r.exit_code == 1 and r.stdout.startswith("no server listens on ")
+    r = run("serve", "--status", "--json")
+    d = json.loads(r.stdout)
+    assert r.exit_code == 1 and d["listening"] is False and "no server listens" in d["error"]
+    assert run("serve", "--stop").exit_code == 0  # nothing to stop is no failure
