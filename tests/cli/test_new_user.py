@@ -301,3 +301,27 @@ def test_serve_status_without_a_server_exits_1(tmp_path, monkeypatch):
     d = json.loads(r.stdout)
     assert r.exit_code == 1 and d["listening"] is False and "no server listens" in d["error"]
     assert run("serve", "--stop").exit_code == 0  # nothing to stop is no failure
+
+
+def test_walk_counts_the_nodes_decoded_before_its_frames(tmp_path):
+    # brainsmall as an octree: "120 frames, 1.85 frames/s, 0 nodes decoded" (user27's
+    # finding 22): a tree this small is decoded whole as the coarse level (for the
+    # transfer function and the framing) before the first frame, so no frame decodes
+    z, y, x = np.mgrid[:40, :36, :32]
+    a = (100 + 80 * np.sin(x / 4) * np.cos(y / 5) + z).astype(np.uint8)
+    np.save(tmp_path / "a.npy", a)
+    tree = tmp_path / "t.vpk"
+    assert run("compress", tmp_path / "a.npy", tree, "--octree").exit_code == 0
+    r = run("walk", tree, "--orbit", "2", "--size", "16x16", "--json")
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.stdout)
+    frames = sum(f["decoded"] for f in d["per_frame"])
+    assert d["decoded_before"] > 0 and frames == 0  # every node came from the coarse level
+    from volpack.octree import Octree
+
+    with Octree(tree) as t:  # what decoding the whole tree counts
+        t.decode(0)
+        assert d["decoded_before"] == t.decoded_nodes
+    r = run("walk", tree, "--orbit", "2", "--size", "16x16")
+    assert r.exit_code == 0
+    assert f"0 nodes decoded in the frames, {d['decoded_before']} before them" in r.stderr
