@@ -107,10 +107,12 @@ def _warm_data_dependent() -> int:
     r = rng.integers(-40, 40, size=(6, 7, 8))
     if not np.array_equal(longfit.decode_static(longfit.code_static(r), r.shape), r.ravel()):
         raise AssertionError("warm-up long-fit static residuals round trip failed")
-    for dtype in (np.float32, np.float64):  # the lookup into a float brick's palette
-        palette = np.array([-1.5, 0.25, 3.0], dtype)
-        ranks = rng.integers(0, 3, size=(4, 5, 6))
-        back = labels.decode(labels.encode(ranks, 3), ranks.shape, 3, palette)
+    # the lookup into a float brick's palette (its values' ordered bits: int32 or int64),
+    # by ranks of up to 256 labels (uint8) and more (uint16)
+    for dtype, k in itertools.product((np.int32, np.int64), (3, 300)):
+        palette = np.arange(k, dtype=dtype) * 7 - 5
+        ranks = rng.integers(0, k, size=(4, 5, 6))
+        back = labels.decode(labels.encode(ranks, k), ranks.shape, k, palette)
         if not np.array_equal(back, palette[ranks]):
             raise AssertionError(f"warm-up {np.dtype(dtype)} label palette round trip failed")
     g = np.cumsum(rng.normal(0, 1, (8, 9, 10)), axis=2)  # the static rANS bins' walk
