@@ -15,7 +15,7 @@ from typing import Any, BinaryIO
 
 import numpy as np
 
-from .errors import FormatError, reading
+from .errors import FormatError, OptionError, reading
 from .kinds import choose, get_kind
 from .volume import Volume
 
@@ -151,6 +151,22 @@ def write_volume(vol: Volume | np.ndarray, spec: str, *, force: bool = False) ->
         compress_volume(vol if isinstance(vol, Volume) else np.asarray(vol), spec, force=force)
         return
     vio.write_volume(vol, spec, force=force)
+
+
+def check_vpk_name(path: str, what: str = "an output", why: str = "a .vpk") -> None:
+    """Refuse to write a ``.vpk`` under the name of another format (``ct.nii.gz``,
+    ``m.vtu``): every other program would then fail on it. A name of no known format
+    (``out``, ``x.txt``) is taken."""
+    from .io.registry import extensions, parse_spec
+    from .tetra import is_mesh_path
+
+    p = parse_spec(path)[0]
+    named = [f for e, f in extensions().items() if p.lower().endswith(e) and f != "vpk"]
+    if named or (p != "-" and is_mesh_path(p)):
+        raise OptionError(
+            f"expected {what} ending in .vpk ({why}; 'volpack convert' writes the others), "
+            f"found {path!r}"
+        )
 
 
 def refuse_other_format(path: str) -> None:
