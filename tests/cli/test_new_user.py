@@ -392,3 +392,21 @@ def test_every_help_example_parses():
                 raise AssertionError(
                     f"volpack {name} {' '.join(args)}: {e.format_message()}"
                 ) from None
+
+
+def test_a_bound_under_1_on_integers_is_exact_from_the_command_line_too(tmp_path):
+    # the library codes an integer volume under a bound below 1 exactly (no coding but
+    # the exact one meets it); the command line passed its --wavelet and --order
+    # defaults as if asked for, which kept the bounded codec: brainsmall at --max-error
+    # 0.5 gave 402,384 B against 390,835 B lossless
+    z, y, x = np.mgrid[:24, :26, :28]
+    noise = np.random.default_rng(6).normal(0, 3, z.shape)
+    a = (60 * np.sin(x / 5) * np.cos(y / 4) + 2 * z + noise + 100).astype(np.uint8)
+    np.save(tmp_path / "a.npy", a)
+    assert run("compress", tmp_path / "a.npy", tmp_path / "l.vpk").exit_code == 0
+    r = run("compress", tmp_path / "a.npy", tmp_path / "h.vpk", "--max-error", "0.5", "--json")
+    assert r.exit_code == 0 and json.loads(r.stdout)["codec"]["id"] == "lossless"
+    assert (tmp_path / "h.vpk").read_bytes() == (tmp_path / "l.vpk").read_bytes()
+    r = run("compress", tmp_path / "a.npy", tmp_path / "w.vpk", "--max-error", "0.5",
+            "--wavelet", "53", "--json")  # fmt: skip
+    assert r.exit_code == 0 and json.loads(r.stdout)["codec"]["id"] == "bounded"  # as asked

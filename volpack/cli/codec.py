@@ -159,7 +159,8 @@ def compress(
             raise click.UsageError("--octree writes a seekable file, not '-'")
         kind, unit = "octree", "super-brick"
         opts = {k: v for k, v in lossy.items() if v is not None}
-        opts.update(wavelet=wavelet, coder=coder or "arith", order=order, block=block)
+        opts.update(wavelet=wavelet or "53", coder=coder or "arith", order=order or "dfs",
+                    block=block)  # fmt: skip
         opts.update(scheduler=scheduler, workers=workers, read_options=read_options)
     else:
         kind, unit = "volume", "brick"

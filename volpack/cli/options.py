@@ -275,8 +275,8 @@ codec_options = options(
            "Reversible lifting filter: 5/3 (CDF 2,2), 2/6 (TS), Haar (S-transform), 9/7-M; "
            "or, lossy only, the float Daubechies-4, Coiflet-6 and CDF 9/7 (for comparison). "
            "Lossless (--codec auto), it and --coder apply only to the bricks the wavelet codes "
-           "shortest; --codec wavelet codes every brick with them.",
-           ["53", "26", "haar", "97m", "d4", "c6", "cdf97"], "53"),
+           "shortest; --codec wavelet codes every brick with them. Default: 53.",
+           ["53", "26", "haar", "97m", "d4", "c6", "cdf97"]),
     option("--coder",
            "arith: best ratio; arith2: arith's model, 1.6-2x as fast to decode, up to 1 % "
            "larger; huffman: fixed code, fastest decode; rle: run-length Huffman for sparse "
@@ -285,8 +285,9 @@ codec_options = options(
            "--rel-error, floats with --psnr/--ratio), else arith.",
            ["arith", "arith2", "huffman", "rle", "static", "auto"]),
     option("--order",
-           "Coefficient scan: octree depth-first with zero-subtree stripping, or line by line.",
-           ["dfs", "line"], "dfs"),
+           "Coefficient scan: octree depth-first with zero-subtree stripping, or line by line. "
+           "Default: dfs.",
+           ["dfs", "line"]),
     option("--levels max_levels", "Cap the decomposition levels per axis.", (0, 16)),
     option("--brick", "Brick size N or Z,Y,X; bricks decode independently. Default 64; a "
            "float volume under an error bound is one brick up to 4M voxels, else 128; "
