@@ -1,10 +1,10 @@
+# ruff: noqa: E402
 """The README's damaged-input table, header rows, as the command line now prints them
 (session 28: the file named before a .vpk's structural error).
 
-    python results/cli/user28/damaged_table.py      (from the repository root)
+    PYTHONPATH=. python results/cli/user28/damaged_table.py      (from the repository root)
 """
 
-import io
 import subprocess
 import sys
 import tempfile
@@ -12,24 +12,10 @@ from pathlib import Path
 
 import numpy as np
 
+sys.path.insert(0, "tests")
+from test_hardening import _rewrite as rewrite  # header fields replaced, checksums redone
+
 from volpack import api
-from volpack.format.container import Reader, Writer
-
-
-def rewrite(src: bytes, **fields) -> bytes:
-    """``src`` with header ``fields`` replaced (checksums recomputed), as
-    tests/test_hardening.py makes them."""
-    with Reader(src) as r:
-        hdr, summ = dict(r.header), r.summary
-        chunks = [(t, n, r.read(t, n), e.error) for (t, n), e in zip(r.keys(), r.entries)]
-    hdr.update(fields)
-    buf = io.BytesIO()
-    w = Writer(buf, hdr)
-    for t, n, p, e in chunks:
-        w.write(t, n, p, e)
-    w.close(summ)
-    return buf.getvalue()
-
 
 ROWS = [
     ("spacing", None),

@@ -1,4 +1,4 @@
-# ruff: noqa: E402  (the compile listener is registered before volpack is imported)
+# ruff: noqa: E402  (the compile subscriber is registered before a kernel is loaded)
 """Which kernels compile inside bench_render_peers' timed volpack frames after its
 warm_up, on an empty kernel cache.
 
@@ -7,26 +7,19 @@ Run from the repository root, on an empty DIR each time:
 (default: the benchmark's three volumes; SIZE the frames' side, the benchmark's 512 or
 256 with --quick). Each case renders as the benchmark's Volpack renderer does:
 preintegrated and post at step 0.5, preintegrated at 1 voxel and at the reference's
-0.125, x the semi/opaque transfer functions x unshaded/Phong, two threads."""
+0.125, x the semi/opaque transfer functions x unshaded/Phong, two threads. (The logs of
+session 28 were made with numba's compile event listened to directly, as
+results/warmup27/probe.py does, and without PYTHONPATH for the first, 64-pixel one:
+/work/main's volpack of that time, the base's renderer.)"""
 
 import sys
 import time
 
 sys.path.insert(0, "scripts")
-from numba.core import event
+from volpack import jitwatch
 
-names = []
-
-
-class L(event.Listener):
-    def on_start(self, ev):
-        names.append(getattr(ev.data.get("dispatcher"), "py_func", None).__name__)
-
-    def on_end(self, ev):
-        pass
-
-
-event.register("numba:compile", L())
+names = []  # kernels compiled (volpack forwards numba's compile events to jitwatch)
+jitwatch.subscribe(lambda event, name, _: names.append(name) if event == "start" else None)
 import bench_render_peers as b
 import datasets
 import numpy as np
