@@ -92,7 +92,6 @@ def declared_fill(vol: Volume) -> float | None:
     return None
 
 
-@one_blas_thread()
 def _zero_bound(asked: dict[str, Any]) -> bool:
     """Whether ``asked`` is ``max_error`` or ``rel_error`` of 0 (of any dtype): every
     voxel exact."""
@@ -105,6 +104,7 @@ def _zero_bound(asked: dict[str, Any]) -> bool:
         return False
 
 
+@one_blas_thread()
 def compress(
     source: Volume | np.ndarray | str,
     target: str | BinaryIO,
