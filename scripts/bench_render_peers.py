@@ -363,13 +363,18 @@ def load_warm(name: str, workers: int):
 
 
 def warm_up(vol, spacing, workers: int) -> None:
-    """Compile volpack's kernels outside the timings (VTK's code is compiled already): a
-    coarse copy rendered with the cases' TFs, so that everything the first images run
-    is compiled (a corner of the volume, often all background, left the normals out)."""
+    """Compile volpack's kernels outside the timings (VTK's code is compiled already):
+    ``volpack warmup``'s renders (:func:`volpack.warmup.warm_render`: a sample of each
+    dtype the ray caster samples, every classification and shading), then a coarse copy
+    of the volume with the cases' TFs on ``workers`` threads. The coarse copy alone (this
+    function before session 28) left a kernel to compile inside a timed frame on an empty
+    cache (``results/warmup/user28/``)."""
     from volpack.render.camera import Camera
     from volpack.render.raycast import render
     from volpack.render.transfer import TransferFunction
+    from volpack.warmup import warm_render
 
+    warm_render()
     k = max(1, max(vol.shape) // 16)
     small = vol[::k, ::k, ::k]
     sp_small = tuple(s * k for s in spacing)

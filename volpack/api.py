@@ -15,7 +15,7 @@ from typing import Any, BinaryIO
 
 import numpy as np
 
-from .errors import FormatError
+from .errors import FormatError, OptionError, reading
 from .kinds import choose, get_kind
 from .volume import Volume
 
@@ -66,7 +66,8 @@ def decompress(source: str | bytes | BinaryIO, **options: Any):
     from .format.container import Reader
 
     if isinstance(source, (str, os.PathLike)) and source != "-":
-        return get_kind(_header_kind(source)).decompress(source, **options)
+        with reading(source):  # a damaged chunk's error names the file too
+            return get_kind(_header_kind(source)).decompress(source, **options)
     if isinstance(source, str):
         from .format.streams import stdin
 
@@ -112,7 +113,8 @@ def info(source: str | bytes | BinaryIO, **read_options: Any) -> dict[str, Any]:
     if isinstance(source, (bytes, bytearray, memoryview)):
         source = _io.BytesIO(bytes(source))
     if not isinstance(source, str) or (source != "-" and kind_of(source) is not None):
-        return get_kind(_header_kind(source)).info(source)
+        with reading(source if isinstance(source, str) else None):
+            return get_kind(_header_kind(source)).info(source)
     from .tetra import is_mesh_path
 
     if source != "-" and is_mesh_path(source):
@@ -151,7 +153,23 @@ def write_volume(vol: Volume | np.ndarray, spec: str, *, force: bool = False) ->
     vio.write_volume(vol, spec, force=force)
 
 
-def _refuse_other_format(path: str) -> None:
+def check_vpk_name(path: str, what: str = "an output", why: str = "a .vpk") -> None:
+    """Refuse to write a ``.vpk`` under the name of another format (``ct.nii.gz``,
+    ``m.vtu``): every other program would then fail on it. A name of no known format
+    (``out``, ``x.txt``) is taken."""
+    from .io.registry import extensions, parse_spec
+    from .tetra import is_mesh_path
+
+    p = parse_spec(path)[0]
+    named = [f for e, f in extensions().items() if p.lower().endswith(e) and f != "vpk"]
+    if named or (p != "-" and is_mesh_path(p)):
+        raise OptionError(
+            f"expected {what} ending in .vpk ({why}; 'volpack convert' writes the others), "
+            f"found {path!r}"
+        )
+
+
+def refuse_other_format(path: str) -> None:
     """A file of another format by its name and first bytes ('volpack decompress ct.npy'):
     say so, rather than which magic bytes the container expected."""
     from .format.container import MAGIC
@@ -177,7 +195,7 @@ def _header_kind(source: Any) -> str:
     if isinstance(source, (str, os.PathLike)) and source != "-":
         kind = kind_of(source)
         if kind is None:  # not a .vpk: let the container say what is wrong
-            _refuse_other_format(os.fspath(source))
+            refuse_other_format(os.fspath(source))
             with Reader(source) as r:
                 return r.header.get("kind")
         return kind

@@ -6,6 +6,9 @@ raise :class:`OptionError`, bad files and streams :class:`FormatError`; both are
 what was found.
 """
 
+import contextlib
+import os
+
 # The exit status of a command that met an exception volpack did not raise on purpose (a
 # bug to report): the CLI's and, for the commands it runs, the resident server's.
 EXIT_INTERNAL = 3
@@ -24,7 +27,26 @@ class OptionError(VolpackError, ValueError):
 
 
 class FormatError(VolpackError, ValueError):
-    """A file or stream does not have the expected form."""
+    """A file or stream does not have the expected form.
+
+    :attr:`path` is the file it came from when a reader of a named file raised it (the
+    command line puts it before the message, which stays the library's); None for bytes,
+    streams and errors of no file.
+    """
+
+    path: str | None = None
+
+
+@contextlib.contextmanager
+def reading(path):
+    """Name ``path`` (a file's path, or None) in the :class:`FormatError` raised inside,
+    unless an inner reader named its own file."""
+    try:
+        yield
+    except FormatError as e:
+        if path is not None and e.path is None:
+            e.path = os.fspath(path)
+        raise
 
 
 class ChecksumError(FormatError):

@@ -92,26 +92,49 @@ def _warm_codecs() -> int:
             if err > opts.get("max_error", 0.0):
                 raise AssertionError(f"warm-up {np.dtype(dtype)} {opts} missed its bound")
             n += 1
-    # the long fit's residuals by static tables (lossy floats, smooth fields at mid
-    # bounds) are kept only on data larger than a sample: their kernels run directly
-    from .volume_codec import bounded_longfit as longfit
+    return n + _warm_data_dependent()
 
-    r = np.random.default_rng(3).integers(-40, 40, size=(6, 7, 8))
+
+def _warm_data_dependent() -> int:
+    """Run directly the kernels that only data larger or other than a sample picks (a
+    storm field's float bricks on few values, its interpolated bricks under --effort
+    fast, smooth fields at mid bounds), each round trip checked; return how many."""
+    from .volume_codec import bounded_interp as interp
+    from .volume_codec import bounded_longfit as longfit
+    from .volume_codec import labels
+
+    rng = np.random.default_rng(3)
+    r = rng.integers(-40, 40, size=(6, 7, 8))
     if not np.array_equal(longfit.decode_static(longfit.code_static(r), r.shape), r.ravel()):
         raise AssertionError("warm-up long-fit static residuals round trip failed")
-    return n + 1
+    # the lookup into a float brick's palette (its values' ordered bits: int32 or int64),
+    # by ranks of up to 256 labels (uint8) and more (uint16)
+    for dtype, k in itertools.product((np.int32, np.int64), (3, 300)):
+        palette = np.arange(k, dtype=dtype) * 7 - 5
+        ranks = rng.integers(0, k, size=(4, 5, 6))
+        back = labels.decode(labels.encode(ranks, k), ranks.shape, k, palette)
+        if not np.array_equal(back, palette[ranks]):
+            raise AssertionError(f"warm-up {np.dtype(dtype)} label palette round trip failed")
+    g = np.cumsum(rng.normal(0, 1, (8, 9, 10)), axis=2)  # the static rANS bins' walk
+    inner, _ = interp.encode(g, 0.1, tried=interp.TRIED_FAST[:1], codings=("static",))
+    if np.abs(interp.decode(inner, g.shape, 0.1) - g).max() > 0.05 + 1e-9:
+        raise AssertionError("warm-up interpolation static bins missed their bound")
+    return 4
 
 
-def _warm_render(cam) -> None:
+def warm_render(cam=None) -> None:
     """Render a sample of each dtype the ray caster samples as it is
     (:data:`~volpack.render.prepared.SAMPLED`; its kernels are typed by it) in every
     classification and shading, with a smooth semi-transparent and an opaque transfer
     function as a user's (smooth tables take the nearest-entry march, an opaque one the
-    refined segments)."""
+    refined segments), through ``cam`` (default: 6x5 pixels). Benchmarks call it to
+    keep the compiler out of their timings."""
+    from .render.camera import Camera
     from .render.prepared import SAMPLED
     from .render.raycast import render
     from .render.transfer import TransferFunction
 
+    cam = cam or Camera(size=(6, 5))
     for dtype in SAMPLED:
         vol = _sample(np.uint8 if dtype == np.int8 else dtype)
         vol = (vol // 2).astype(np.int8) if dtype == np.int8 else vol
@@ -156,7 +179,7 @@ def _warm_beyond_bricks() -> list[str]:
     tab = np.clip(rng.random((16, 4)), 0, 1)
     tab[:2, 3] = 0.0  # a transparent end, as real transfer functions have
     cam = Camera(size=(6, 5))
-    _warm_render(cam)
+    warm_render(cam)
     done.append("render")
     frames = np.stack([np.roll(vol, t, axis=2) for t in range(3)])
     buf = io.BytesIO()

@@ -608,7 +608,8 @@ def test_compare_with_peers_runs_them_on_the_same_voxels(tmp_path):
     assert "peers, losslessly" in text and "zstd-19+shuffle" in text and "exact" in text
     assert "(kernels loaded)" in text
     if importlib.util.find_spec("pysz") is not None:  # a bound: the same absolute one for all
-        r = json.loads(run("compare", src, "--rel-error", "1e-3", "--peers", "--json").stdout)
+        # (of at least 1: under it integer voxels are coded exactly)
+        r = json.loads(run("compare", src, "--rel-error", "1e-2", "--peers", "--json").stdout)
         assert r["peers_bound"] == r["compress"]["error_bound"] > 0
         sz3 = next(p for p in r["peers"] if p["name"] == "sz3")
         assert sz3["bound_held"] and sz3["max_error"] <= r["peers_bound"]

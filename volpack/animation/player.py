@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import FormatError
+from ..errors import FormatError, reading
 
 
 @dataclasses.dataclass
@@ -74,9 +74,6 @@ def frame_count(path: str) -> int | None:
 def play(source: Any) -> Iterator[tuple[np.ndarray, FrameStats, dict]]:
     """Yield ``(frame, stats, header)`` in display order; ``stats.decode_ms`` is the
     decoding done during that step (the first step holds the two start-up decodes)."""
-    from . import gop, specials
-    from .stream import AnimationReader, decode_frame
-
     own = None
     if isinstance(source, str) and source != "-":
         own = open(source, "rb")  # noqa: SIM115 - closed below
@@ -88,51 +85,58 @@ def play(source: Any) -> Iterator[tuple[np.ndarray, FrameStats, dict]]:
     else:
         src = source
     try:
-        reader = AnimationReader(src)
-        records = iter(reader._r)
-        coded: dict[int, tuple[str, int]] = {}
-        spent = [0.0]
-
-        def decode(t: int, prev, nxt):
-            t0 = time.perf_counter()
-            try:
-                tt, node, payload = next(records)
-            except StopIteration:
-                raise FormatError(f"stream ends before frame {t}") from None
-            except FormatError as e:
-                raise FormatError(f"frame {t}: {e}") from None
-            if (tt, node) != (t, 0):
-                raise FormatError(
-                    f"expected frame {t} next in the stream, found chunk ({tt}, {node})"
-                )
-            try:
-                kind, frame = decode_frame(
-                    payload,
-                    reader.shape[1:],
-                    reader.dtype,
-                    prev,
-                    nxt,
-                    reader.settings,
-                    reader.brick,
-                )
-            except FormatError as e:
-                raise FormatError(f"frame {t}: {e}") from None
-            coded[t] = (kind, len(payload))
-            spent[0] += time.perf_counter() - t0
-            return specials.reference(frame, reader.settings.fill_value)
-
-        steps = gop.play(reader.types, decode)
-        while True:
-            spent[0] = 0.0
-            try:
-                t, ref = next(steps)
-            except StopIteration:
-                break
-            kind, nbytes = coded.pop(t, (reader.types[t], 0))
-            yield ref.exact, FrameStats(t, kind, nbytes, 1000.0 * spent[0]), reader.header
+        with reading(source if own is not None else None):  # the CLI names the file
+            yield from _frames(src)
     finally:
         if own is not None:
             own.close()
+
+
+def _frames(src: Any) -> Iterator[tuple[np.ndarray, FrameStats, dict]]:
+    """:func:`play` of an opened source."""
+    from . import gop, specials
+    from .stream import AnimationReader, decode_frame
+
+    reader = AnimationReader(src)
+    records = iter(reader._r)
+    coded: dict[int, tuple[str, int]] = {}
+    spent = [0.0]
+
+    def decode(t: int, prev, nxt):
+        t0 = time.perf_counter()
+        try:
+            tt, node, payload = next(records)
+        except StopIteration:
+            raise FormatError(f"stream ends before frame {t}") from None
+        except FormatError as e:
+            raise FormatError(f"frame {t}: {e}") from None
+        if (tt, node) != (t, 0):
+            raise FormatError(f"expected frame {t} next in the stream, found chunk ({tt}, {node})")
+        try:
+            kind, frame = decode_frame(
+                payload,
+                reader.shape[1:],
+                reader.dtype,
+                prev,
+                nxt,
+                reader.settings,
+                reader.brick,
+            )
+        except FormatError as e:
+            raise FormatError(f"frame {t}: {e}") from None
+        coded[t] = (kind, len(payload))
+        spent[0] += time.perf_counter() - t0
+        return specials.reference(frame, reader.settings.fill_value)
+
+    steps = gop.play(reader.types, decode)
+    while True:
+        spent[0] = 0.0
+        try:
+            t, ref = next(steps)
+        except StopIteration:
+            break
+        kind, nbytes = coded.pop(t, (reader.types[t], 0))
+        yield ref.exact, FrameStats(t, kind, nbytes, 1000.0 * spent[0]), reader.header
 
 
 def play_rendered(

@@ -139,6 +139,10 @@ def plan(
             continue
         seen_inputs.add(key)
         if explicit:
+            if kind == "compress":  # a .vpk named ct.nii.gz misleads every other program
+                from ..api import check_vpk_name
+
+                check_vpk_name(explicit, "a manifest's output", "batch compresses to .vpk")
             out = explicit if os.path.isabs(explicit) else os.path.join(out_dir, explicit)
         else:
             rel = os.path.relpath(os.path.abspath(path), root)
@@ -165,7 +169,9 @@ def normalize_options(options: dict) -> dict:
     out: dict[str, Any] = {}
     for k, v in options.items():
         if k not in OPTION_KEYS:
-            raise BatchError(f"expected options among {', '.join(OPTION_KEYS)}, found {k!r}")
+            # quoted: they are a manifest's columns and the API's names, not flags
+            known = ", ".join(repr(k) for k in OPTION_KEYS)
+            raise BatchError(f"expected options among {known}, found {k!r}")
         if v is None or (isinstance(v, str) and not v.strip()):
             continue
         try:
@@ -268,7 +274,7 @@ def _read_manifest(path: str) -> list[tuple[str, str, dict, str | None]]:
     base = os.path.dirname(path)
     try:
         if path.lower().endswith(".json"):
-            with open(path, encoding="utf-8") as f:
+            with open(path, encoding="utf-8-sig") as f:  # (a BOM, as some editors write)
                 rows = json.load(f)
             if isinstance(rows, dict):
                 rows = rows.get("files")
@@ -277,7 +283,7 @@ def _read_manifest(path: str) -> list[tuple[str, str, dict, str | None]]:
                     f"expected a JSON list of objects (or {{'files': [...]}}) in {path!r}"
                 )
         else:
-            with open(path, newline="", encoding="utf-8") as f:
+            with open(path, newline="", encoding="utf-8-sig") as f:  # Excel's "CSV UTF-8"
                 rows = list(csv.DictReader(f))
     except (json.JSONDecodeError, csv.Error, UnicodeDecodeError) as e:
         raise BatchError(f"cannot read the manifest {path!r}: {e}") from None

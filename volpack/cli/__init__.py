@@ -103,9 +103,27 @@ class VolpackGroup(click.Group):
                 msg = f"{e.filename}: {e.strerror}"
             elif isinstance(e, VolpackError):
                 msg = as_flags(msg, flag_map(self, ctx.meta.get("volpack.command")))
+                msg = _naming_the_file(e, msg)
             click.echo(f"volpack: error: {msg}", err=True)
             _json_error(ctx, msg)
             sys.exit(1)
+
+
+def _naming_the_file(e: Exception, message: str) -> str:
+    """A FormatError from reading a named file: that file before the message (one line;
+    the library's message is kept), or, for a file of another format, what it is."""
+    from ..errors import FormatError
+
+    path = getattr(e, "path", None)
+    if not isinstance(e, FormatError) or not path:
+        return message
+    from ..api import refuse_other_format  # only now: walk's start imports no more
+
+    try:
+        refuse_other_format(path)
+    except FormatError as other:  # 'found the npy file ...' rather than magic bytes
+        return str(other)
+    return message if path in message else f"{path}: {message}"
 
 
 def _json_error(ctx: click.Context, message: str) -> None:

@@ -159,7 +159,8 @@ def compress(
             raise click.UsageError("--octree writes a seekable file, not '-'")
         kind, unit = "octree", "super-brick"
         opts = {k: v for k, v in lossy.items() if v is not None}
-        opts.update(wavelet=wavelet, coder=coder or "arith", order=order, block=block)
+        opts.update(wavelet=wavelet or "53", coder=coder or "arith", order=order or "dfs",
+                    block=block)  # fmt: skip
         opts.update(scheduler=scheduler, workers=workers, read_options=read_options)
     else:
         kind, unit = "volume", "brick"
@@ -293,17 +294,9 @@ def decompress(
 def _check_vpk_target(target: str) -> None:
     """compress writes a .vpk: under the name of another format (ct.nii.gz, ct.npy) it
     would mislead every other program that opens it."""
-    from ..errors import OptionError
-    from ..io.registry import extensions, parse_spec
-    from ..tetra import is_mesh_path
+    from ..api import check_vpk_name
 
-    path = parse_spec(target)[0]
-    named = [f for e, f in extensions().items() if path.lower().endswith(e) and f != "vpk"]
-    if named or (path != "-" and is_mesh_path(path)):
-        raise OptionError(
-            f"expected a TARGET ending in .vpk (compress writes volpack's own format; "
-            f"'volpack convert' writes the others), found {target!r}"
-        )
+    check_vpk_name(target, "a TARGET", "compress writes volpack's own format")
 
 
 def _refuse(message: str, given: dict, refused: tuple[str, ...]) -> None:

@@ -275,8 +275,8 @@ codec_options = options(
            "Reversible lifting filter: 5/3 (CDF 2,2), 2/6 (TS), Haar (S-transform), 9/7-M; "
            "or, lossy only, the float Daubechies-4, Coiflet-6 and CDF 9/7 (for comparison). "
            "Lossless (--codec auto), it and --coder apply only to the bricks the wavelet codes "
-           "shortest; --codec wavelet codes every brick with them.",
-           ["53", "26", "haar", "97m", "d4", "c6", "cdf97"], "53"),
+           "shortest; --codec wavelet codes every brick with them. Default: 53.",
+           ["53", "26", "haar", "97m", "d4", "c6", "cdf97"]),
     option("--coder",
            "arith: best ratio; arith2: arith's model, 1.6-2x as fast to decode, up to 1 % "
            "larger; huffman: fixed code, fastest decode; rle: run-length Huffman for sparse "
@@ -285,15 +285,18 @@ codec_options = options(
            "--rel-error, floats with --psnr/--ratio), else arith.",
            ["arith", "arith2", "huffman", "rle", "static", "auto"]),
     option("--order",
-           "Coefficient scan: octree depth-first with zero-subtree stripping, or line by line.",
-           ["dfs", "line"], "dfs"),
+           "Coefficient scan: octree depth-first with zero-subtree stripping, or line by line. "
+           "Default: dfs.",
+           ["dfs", "line"]),
     option("--levels max_levels", "Cap the decomposition levels per axis.", (0, 16)),
     option("--brick", "Brick size N or Z,Y,X; bricks decode independently. Default 64; a "
            "float volume under an error bound is one brick up to 4M voxels, else 128; "
            "exact floats and integer volumes up to 2M voxels coded exactly: 128."),
     option("--max-error", "Lossy: every voxel decodes within this absolute error (checked "
-           "on every voxel).", float),
-    option("--rel-error", "Lossy: --max-error as a fraction of the value range.", float),
+           "on every voxel); 0 is exact: coded losslessly (with --effort fast, by --codec "
+           "fast).", float),
+    option("--rel-error", "Lossy: --max-error as a fraction of the value range (0: "
+           "lossless).", float),
     option("--psnr", "Lossy: reach this PSNR in dB (within 0.5 dB).", float),
     option(
         "--ratio",

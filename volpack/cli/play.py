@@ -290,6 +290,9 @@ def walk(ctx, source, output, orbit, budget, decode_budget, tf_spec, fps, compar
             if rehearsal is not None:  # done by now, or the frame would wait on its loads
                 rehearsal.wait()
             paused.close()  # what was made so far frozen (a whole process), collected as usual
+            # the coarse level (and with --compare the whole volume) was decoded before the
+            # frames: on a small tree every node the frames draw, so they decode none
+            ahead = tree.decoded_nodes
             for k in range(orbit):
                 cam = dataclasses.replace(view, azimuth=azimuths[k])
                 img, st = render_lod(tree, tf=tf, camera=cam, blocks=budget,
@@ -309,7 +312,7 @@ def walk(ctx, source, output, orbit, budget, decode_budget, tf_spec, fps, compar
                     progress(k + 1, orbit)
     secs = sum(r["select_s"] + r["decode_s"] + r["render_s"] for r in rows)
     report = {"output": output, "frames": len(rows), "budget": budget,
-              "decode_budget": decode_budget, "tf": tf.name,
+              "decode_budget": decode_budget, "tf": tf.name, "decoded_before": ahead,
               "fps": len(rows) / secs if secs > 0 else None, "per_frame": rows}  # fmt: skip
     if as_json:
         emit_json(report)
@@ -326,6 +329,9 @@ def walk(ctx, source, output, orbit, budget, decode_budget, tf_spec, fps, compar
     held = [r["frame"] for r in rows if r["held"]]
     click.echo(f"{output or source}: {len(rows)} frames, {report['fps'] or 0:.2f} frames/s, "
                f"{sum(r['decoded'] for r in rows)} nodes decoded"
+               + (f" in the frames, {ahead} before them (the coarse level for the transfer "
+                  "function and framing" + (", the whole volume for --compare" if compare else "")
+                  + ")" if ahead else "")
                + (f", refinement held back by --decode-budget on frames {held[0]}-{held[-1]}"
                   if held else ""), err=True)  # fmt: skip
 

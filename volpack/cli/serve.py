@@ -36,7 +36,8 @@ def _runner(argv: list[str]) -> None:
     "--detach", is_flag=True, help="Start the server in the background and return once it listens."
 )
 @click.option("--stop", "stop_", is_flag=True, help="Ask this install's server to exit.")
-@click.option("--status", is_flag=True, help="Say whether this install's server listens.")
+@click.option("--status", is_flag=True, help="Say whether this install's server listens: "
+              "exit 0 if it does, 1 if none does.")  # fmt: skip
 @json_option
 def serve(idle: float, warm: bool, detach: bool, stop_: bool, status: bool, as_json: bool) -> None:
     """Run volpack as a resident server, so that `volpack render`, `info`, `walk` and
@@ -66,12 +67,16 @@ def serve(idle: float, warm: bool, detach: bool, stop_: bool, status: bool, as_j
     path = sv.socket_path()
     if stop_ or status:
         up = sv.stop(path) if stop_ else sv.listening(path)
+        none = f"no server listens on {path} ('volpack serve --detach' starts one)"
         if as_json:
-            emit_json({"socket": str(path), "listening": up and not stop_, "stopped": stop_ and up})
+            report = {"socket": str(path), "listening": up and not stop_, "stopped": stop_ and up}
+            emit_json(report if up or stop_ else {**report, "error": none})
         elif stop_:
-            click.echo(f"stopped the server on {path}" if up else f"no server listens on {path}")
+            click.echo(f"stopped the server on {path}" if up else none)
         else:
-            click.echo(f"listening on {path}" if up else f"no server listens on {path}")
+            click.echo(f"listening on {path}" if up else none)
+        if status and not up:  # scripts test the status: `volpack serve --status || ...`
+            raise SystemExit(1)
         return
     if detach and sv.listening(path):  # already up: nothing to start
         if as_json:

@@ -6,6 +6,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+from ..errors import reading
 from .container import Reader
 
 
@@ -16,7 +17,8 @@ class CheckedReader:
     def __init__(self, source: Any, check: Callable[..., dict], *args: Any) -> None:
         self._r = source if isinstance(source, Reader) else Reader(source)
         try:
-            self.header = check(self._r.header, *args)
+            with reading(self._r.path):
+                self.header = check(self._r.header, *args)
         except BaseException:
             self._r.close()
             raise

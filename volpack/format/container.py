@@ -33,7 +33,7 @@ import zlib
 from collections.abc import Iterator
 from typing import BinaryIO, NamedTuple
 
-from ..errors import ChecksumError, FormatError, LimitError, OptionError
+from ..errors import ChecksumError, FormatError, LimitError, OptionError, reading
 from . import compact
 
 __all__ = [
@@ -381,9 +381,11 @@ class Reader:
         self._by_key: dict[tuple[int, int], Entry] = {}
         self._owned: BinaryIO | None = None
         self._consumed = False
+        self.path: str | None = None  # named in its FormatErrors (FormatError.path)
         if isinstance(source, (str, os.PathLike)):
             self._f: BinaryIO = open(source, "rb")  # noqa: SIM115 - closed by close()
             self._owned = self._f
+            self.path = os.fspath(source)
         elif isinstance(source, (bytes, bytearray, memoryview)):
             self._f = io.BytesIO(source if isinstance(source, bytes) else bytes(source))
         elif hasattr(source, "read"):
@@ -401,10 +403,11 @@ class Reader:
             else:
                 self._start, self._length = 0, None
             self._pos = 0  # position relative to the start (streams)
-            self.header = self._read_preamble()
-            self._data_start = self._pos
-            if self.seekable:
-                self._read_index_seekable()
+            with reading(self.path):
+                self.header = self._read_preamble()
+                self._data_start = self._pos
+                if self.seekable:
+                    self._read_index_seekable()
         except BaseException:
             self.close()
             raise
@@ -736,8 +739,9 @@ class Reader:
         e = self._by_key.get((int(t), int(node)))
         if e is None:
             raise FormatError(f"expected a chunk (t={t}, node={node}), found none in the index")
-        self._seek(e.offset)
-        return self._read_entry(e)
+        with reading(self.path):
+            self._seek(e.offset)
+            return self._read_entry(e)
 
     def _read_entry(self, e: Entry) -> bytes:
         return self._read_record_v2(e) if self.version == 2 else self._read_record(e)
@@ -747,8 +751,10 @@ class Reader:
         its index and footer (after which :attr:`summary` is set)."""
         if self.seekable:
             for e in list(self.entries):
-                self._seek(e.offset)
-                yield e.t, e.node, self._read_entry(e)
+                with reading(self.path):
+                    self._seek(e.offset)
+                    payload = self._read_entry(e)
+                yield e.t, e.node, payload
             return
         if self._consumed:
             raise FormatError("expected a fresh stream, found it already iterated once")

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import FormatError, OptionError
+from ..errors import FormatError, OptionError, reading
 from . import layout
 from .plan import Plan, apply_corrections, decode_lowpass, to_values
 
@@ -63,28 +63,29 @@ class Octree:
         if on_damage not in ("raise", "approximate"):
             raise OptionError(f"expected on_damage 'raise' or 'approximate', found {on_damage!r}")
         self._r = source if isinstance(source, Reader) else Reader(source)
-        try:
-            if self._r.header.get("kind") != layout.KIND:
-                raise FormatError(
-                    f"expected an octree .vpk (kind {layout.KIND!r}), found kind "
-                    f"{self._r.header.get('kind')!r}; build one with octree=True"
+        with reading(self._r.path):  # the CLI names the file
+            try:
+                if self._r.header.get("kind") != layout.KIND:
+                    raise FormatError(
+                        f"expected an octree .vpk (kind {layout.KIND!r}), found kind "
+                        f"{self._r.header.get('kind')!r}; build one with octree=True"
+                    )
+                if not self._r.seekable:
+                    raise FormatError("expected a seekable octree file, found a stream")
+                self.plan = Plan.from_header(self._r.header)
+                self.geometry = self.plan.geometry
+                h = self._r.header
+                self.spacing = hh.vector(h.get("spacing", (1, 1, 1)), "spacing", 3, positive=True)
+                self.origin = hh.vector(h.get("origin", (0, 0, 0)), "origin", 3)
+                self.summary = self._r.summary if isinstance(self._r.summary, dict) else {}
+                # the full-resolution level's error (lossy files), read where a decoder uses it
+                self.max_error = (
+                    hh.optional_number(self.summary.get("max_error"), "summary 'max_error'", lo=0)
+                    or 0.0
                 )
-            if not self._r.seekable:
-                raise FormatError("expected a seekable octree file, found a stream")
-            self.plan = Plan.from_header(self._r.header)
-            self.geometry = self.plan.geometry
-            h = self._r.header
-            self.spacing = hh.vector(h.get("spacing", (1, 1, 1)), "spacing", 3, positive=True)
-            self.origin = hh.vector(h.get("origin", (0, 0, 0)), "origin", 3)
-            self.summary = self._r.summary if isinstance(self._r.summary, dict) else {}
-            # the full-resolution level's error (lossy files), read where a decoder uses it
-            self.max_error = (
-                hh.optional_number(self.summary.get("max_error"), "summary 'max_error'", lo=0)
-                or 0.0
-            )
-        except BaseException:
-            self._r.close()
-            raise
+            except BaseException:
+                self._r.close()
+                raise
         self.header = self._r.header
         self.depth = self.geometry.depth
         self.shape = self.plan.shape

@@ -92,6 +92,18 @@ def declared_fill(vol: Volume) -> float | None:
     return None
 
 
+def _zero_bound(asked: dict[str, Any]) -> bool:
+    """Whether ``asked`` is ``max_error`` or ``rel_error`` of 0 (of any dtype): every
+    voxel exact."""
+    if len(asked) != 1:
+        return False
+    ((what, target),) = asked.items()
+    try:
+        return what in ("max_error", "rel_error") and float(target) == 0.0
+    except (TypeError, ValueError):
+        return False
+
+
 @one_blas_thread()
 def compress(
     source: Volume | np.ndarray | str,
@@ -228,6 +240,11 @@ def compress(
     if len(asked) > 1:
         found = ", ".join(f"{k}={v}" for k, v in sorted(asked.items()))
         raise OptionError(f"expected at most one lossy setting, found {found}")
+    if _zero_bound(asked):  # exact: the lossless coding, never longer than a bound's
+        log.info("an error bound of 0: coded losslessly")
+        asked = {}
+        if effort == "fast":  # the fast lossless codec, as the fast bounded one uses
+            codec, effort = ("fast" if codec == "auto" else codec), "default"
     if asked and fill_value is None:
         fill_value = declared_fill(vol)
     known_range = None  # the valid voxels' range, once read
