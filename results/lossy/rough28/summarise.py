@@ -3,7 +3,7 @@ Gaussian turbulence fields, and the most any coder that keeps every voxel within
 reach on them (32 bits over the Shannon lower bound of bound.py).
 
 python results/lossy/rough28/summarise.py  (reads json/F_E.json: `volpack -q compare
-F.npy --rel-error E --peers --json`; turb's are the lead's, /work/wt/shared28/L_turb_*)
+F.npy --rel-error E --peers --json`; turb's are the lead's, the same runs as results/unseen28/lossy/turb-*.json)
 """
 
 import json

@@ -7,7 +7,7 @@ import sys
 
 import numpy as np
 
-sys.path.insert(0, "/work/wt/rend28/scripts")
+sys.path.insert(0, str(__import__("pathlib").Path(__file__).resolve().parents[3] / "scripts"))
 import bench_render_peers as b
 
 from volpack.render import raycast
