@@ -471,8 +471,14 @@ LOSSY_CODER_CASES = [
 # bytes (lossy-1.md, "Decoding speed in the encoder's choice"). The same recipe coded
 # before that minimum, lossy-bounded-i16-quantised-fit.vpk (one more brick in mode 4,
 # by 0.8 %), is kept as it is: decoded, no longer reproduced.
+# Since session 29 the default effort codes the adaptive bins on 5 of the 12 walks
+# (lossy-1.md's encoder choice; the decoder reads either): the recipe's adaptive walk is
+# another axis order, 2764 -> 2776 bytes. lossy-bounded-f32-interp-adaptive.vpk is kept as
+# it is (decoded, no longer reproduced); the -few file is today's coding of it.
 LOSSY_CODER_CASES += [
-    ("lossy-bounded-f32-interp-adaptive", "f32", {"max_error": 2.0, "fill_value": -999.0}, None),
+    # ("lossy-bounded-f32-interp-adaptive", "f32", {"max_error": 2.0, "fill_value": -999.0}, None),
+    ("lossy-bounded-f32-interp-adaptive-few", "f32", {"max_error": 2.0, "fill_value": -999.0},
+     None),
     # ("lossy-bounded-i16-quantised-fit", "i16", {"max_error": 40}, WAVELET_BRICK),
     ("lossy-bounded-i16-quantised-saving", "i16", {"max_error": 40}, WAVELET_BRICK),
 ]  # fmt: skip

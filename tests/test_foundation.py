@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import os
 import signal
@@ -13,7 +14,7 @@ import numpy as np
 import pytest
 
 from volpack.errors import FormatError
-from volpack.format.atomic import OutputExistsError, atomic_open, check_output
+from volpack.format.atomic import OutputExistsError, atomic_dir, atomic_open, check_output
 from volpack.parallel import completed_map, ordered_map
 from volpack.volume import Volume
 from volpack.volume_codec import bricks
@@ -36,6 +37,30 @@ def test_volume_checks_and_describe():
         Volume(np.zeros((1, 1, 2)), mask=np.zeros((1, 1, 1), bool))
     f = Volume(np.array([[[1.0, np.nan, np.inf]]]))
     assert f.describe()["nan"] == 1 and f.describe()["max"] == 1.0
+
+
+def test_atomic_dir_leaves_nothing_while_another_thread_still_writes(tmp_path):
+    # zarr writes from its own thread, which an interrupt does not stop: files it added
+    # while the failed write's folder was being removed left the folder behind
+    stop = threading.Event()
+
+    def writer(folder):
+        for i in range(40):  # as zarr's store does: the parents made for each chunk
+            with contextlib.suppress(OSError):  # (the folder removed under it)
+                os.makedirs(os.path.join(folder, "c", str(i)), exist_ok=True)
+                with open(os.path.join(folder, "c", str(i), "0"), "wb") as f:
+                    f.write(bytes(4096))
+            if stop.wait(0.005):
+                return
+
+    with pytest.raises(KeyboardInterrupt):
+        with atomic_dir(tmp_path / "v.zarr") as tmp:
+            t = threading.Thread(target=writer, args=(tmp,))
+            t.start()
+            raise KeyboardInterrupt
+    stop.set()
+    t.join()
+    assert os.listdir(tmp_path) == []
 
 
 def test_atomic_open_leaves_nothing_on_failure(tmp_path):
@@ -450,3 +475,48 @@ def test_cached_only_refuses_to_compile():
         th.start()
         th.join()
     assert seen == [3.5]
+
+
+def test_workers_left_to_volpack_are_capped_by_tasks_and_memory(monkeypatch):
+    from volpack import parallel
+    from volpack.volume_codec import stream
+
+    monkeypatch.setattr(parallel, "default_workers", lambda: 8)
+    monkeypatch.setattr(parallel, "memory_budget", lambda: 3 << 30)
+    assert parallel.auto_workers(3) == 3 and parallel.auto_workers(0) == 1
+    assert parallel.auto_workers(100, 1 << 30) == 3 and parallel.auto_workers(100, 8 << 30) == 1
+    per = stream.ENCODE_BYTES_PER_VOXEL
+    # 2 x 4 x 4 bricks of 64^3 (64 MB each at 256 B a voxel): the cores cap
+    assert stream._encode_workers(0, (128, 256, 256), (64, 64, 64)) == 8
+    assert stream._encode_workers(None, (2, 40, 64, 64), (64, 64, 64)) == 2  # two frames
+    n = (3 << 30) // (128**3 * per)  # bricks of 128^3: the memory caps
+    assert stream._encode_workers(0, (512, 512, 512), (128, 128, 128)) == max(1, min(8, n))
+    assert stream._encode_workers(3, (8, 8, 8), (64, 64, 64)) == 3  # asked: as asked
+
+
+def test_compress_and_decompress_use_the_cores_by_default(tmp_path):
+    import json
+
+    from click.testing import CliRunner
+
+    from volpack.cli import main
+
+    vol = np.random.default_rng(0).integers(0, 4000, (8, 64, 96), dtype=np.uint16)
+    np.save(tmp_path / "v.npy", vol)
+    out = {}
+    for j in ("1", None):
+        args = ["compress", str(tmp_path / "v.npy"), str(tmp_path / f"v{j}.vpk"), "--json"]
+        args += ["--brick", "8,32,32"] + (["-j", j] if j else [])
+        r = CliRunner().invoke(main, args)
+        assert r.exit_code == 0, r.output
+        out[j] = json.loads(r.stdout)["workers"]
+    assert out["1"] == 1 and out[None] == min(parallel_cores(), 6)
+    assert (tmp_path / "v1.vpk").read_bytes() == (tmp_path / "vNone.vpk").read_bytes()
+    r = CliRunner().invoke(main, ["decompress", str(tmp_path / "vNone.vpk"), str(tmp_path / "b.npy")])
+    assert r.exit_code == 0 and np.array_equal(np.load(tmp_path / "b.npy"), vol), r.output
+
+
+def parallel_cores() -> int:
+    from volpack.parallel import default_workers
+
+    return default_workers()

@@ -93,18 +93,13 @@ def measure(reference: Volume | np.ndarray, test: Volume | np.ndarray) -> dict[s
             f"and {'x'.join(map(str, b.shape))}"
         )
     left_out = ref.mask
-    if a.dtype.kind == "f":  # as compare(): a NaN/Inf matched exactly is left out of the
-        special = ~np.isfinite(a)  # error; one not matched stays in, an infinite error
-        matched = special & ((a == b) | (np.isnan(a) & np.isnan(b)))
+    specials = a.dtype.kind == "f" and not all(np.isfinite(x).all() for (x,) in metrics.chunks(a))
+    if specials:  # as compare(): a NaN/Inf
+        special = ~np.isfinite(a)  # matched exactly is left out of the error; one not
+        matched = special & ((a == b) | (np.isnan(a) & np.isnan(b)))  # matched stays in
         left_out = matched if left_out is None else left_out | matched
     m = metrics.summary(a, b, mask=left_out)
-    if a.dtype == b.dtype:  # bit for bit: -0.0 against 0.0 and NaN payloads count
-        same = a.view(f"u{a.itemsize}") == b.view(f"u{b.itemsize}")
-    else:
-        same = a == b
-        if a.dtype.kind == "f" and b.dtype.kind == "f":
-            same |= np.isnan(a) & np.isnan(b)
-    differing = int(a.size - np.count_nonzero(same))
+    differing = sum(_differing(x, y) for x, y in metrics.chunks(a, b))
     return {
         "shape": list(a.shape),
         "dtype": a.dtype.name,
@@ -115,6 +110,18 @@ def measure(reference: Volume | np.ndarray, test: Volume | np.ndarray) -> dict[s
         "differing": differing,
         "identical": differing == 0 and a.dtype == b.dtype,
     }
+
+
+def _differing(a: np.ndarray, b: np.ndarray) -> int:
+    """Voxels whose values differ; bit for bit between equal dtypes (-0.0 against 0.0
+    and NaN payloads count)."""
+    if a.dtype == b.dtype:
+        same = a.view(f"u{a.itemsize}") == b.view(f"u{b.itemsize}")
+    else:
+        same = a == b
+        if a.dtype.kind == "f" and b.dtype.kind == "f":
+            same |= np.isnan(a) & np.isnan(b)
+    return int(a.size - np.count_nonzero(same))
 
 
 def compare_peers(

@@ -110,6 +110,16 @@ def summary(a, b, compressed_nbytes=None, mask=None) -> dict[str, Any]:
     return out
 
 
+def chunks(*arrays):
+    """The arrays flat, ``_CHUNK`` voxels of each at a time (a None stays None): a
+    whole-volume temporary of a big volume (a selection, a difference, a bool test)
+    costs several times its size."""
+    flat = [None if x is None else np.asarray(x).reshape(-1) for x in arrays]
+    size = next(x.size for x in flat if x is not None)
+    for s in range(0, size, _CHUNK):
+        yield tuple(None if x is None else x[s : s + _CHUNK] for x in flat)
+
+
 # --- private ---------------------------------------------------------------------------
 
 
@@ -156,11 +166,9 @@ def _error_stats(a, b, mask) -> tuple[float, float, int, float]:
     near 1e300 would overflow squared, yet their RMSE and PSNR are ordinary numbers."""
     a, b, mask = _prepare(a, b, mask)
     mx, sq, n, scale = 0.0, 0.0, 0, 1.0
-    for s in range(0, a.size, _CHUNK):
-        ca, cb = a[s : s + _CHUNK], b[s : s + _CHUNK]
-        if mask is not None:
-            keep = ~mask[s : s + _CHUNK]
-            ca, cb = ca[keep], cb[keep]
+    for ca, cb, cm in chunks(a, b, mask):
+        if cm is not None:
+            ca, cb = ca[~cm], cb[~cm]
         if ca.size == 0:
             continue
         d = _abs_diff(ca, cb)
@@ -207,15 +215,21 @@ def _psnr(sq: float, n: int, scale: float, a, peak, mask) -> float:
 
 
 def _value_range(a, mask) -> float:
-    """Return ``max - min`` of the finite valid voxels of ``a`` (0.0 when none)."""
-    a = np.asarray(a).reshape(-1)
-    if mask is not None:
-        a = a[~np.asarray(mask, dtype=bool).reshape(-1)]
-    if a.dtype.kind == "f":
-        a = a[np.isfinite(a)]
-    if a.size == 0:
+    """Return ``max - min`` of the finite valid voxels of ``a`` (0.0 when none), a chunk
+    at a time: the selected values of a whole volume would be a copy of it."""
+    a = np.asarray(a)
+    mask = None if mask is None else np.asarray(mask, dtype=bool)
+    lo = hi = None
+    for c, cm in chunks(a, mask):
+        if cm is not None:
+            c = c[~cm]
+        if c.dtype.kind == "f":
+            c = c[np.isfinite(c)]
+        if c.size:
+            lo = c.min() if lo is None else min(lo, c.min())
+            hi = c.max() if hi is None else max(hi, c.max())
+    if lo is None:
         return 0.0
-    hi, lo = a.max(), a.min()
     if a.dtype.kind in "biu":
         return float(int(hi) - int(lo))
     return float(hi) - float(lo)

@@ -48,6 +48,24 @@ def default_workers() -> int:
         return max(1, os.cpu_count() or 1)
 
 
+def memory_budget() -> int:
+    """Half the physical memory, in bytes."""
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") // 2
+    except (ValueError, OSError, AttributeError):  # pragma: no cover - not POSIX
+        return 4 << 30
+
+
+def auto_workers(tasks: int, task_bytes: int = 0) -> int:
+    """Workers for ``tasks`` independent pieces of work needing about ``task_bytes`` of
+    memory each: every core, but no more than there are tasks, and no more than half the
+    memory holds at once."""
+    n = min(default_workers(), max(1, tasks))
+    if task_bytes > 0:
+        n = min(n, max(1, memory_budget() // task_bytes))
+    return n
+
+
 def parse_workers(workers: int | None) -> int:
     """``None`` or 0 means every core; otherwise a positive count."""
     if workers is None or workers == 0:

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_user import one_error_line, run, small_npy
 from click.testing import CliRunner
 
 from volpack.cli import main
@@ -18,21 +19,9 @@ EXAMPLES = Path(__file__).resolve().parents[2] / "formats" / "examples"
 VOLUME_VPK = EXAMPLES / "lossless-auto-u8.vpk"  # a golden stream of kind "volume"
 
 
-def run(*args):
-    return CliRunner().invoke(main, [str(a) for a in args], catch_exceptions=False)
-
-
-def one_error_line(r) -> str:
-    lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
-    assert len(lines) == 1 and lines[0].startswith("volpack: error: "), r.stderr
-    return lines[0]
-
-
 @pytest.fixture
 def npy(tmp_path) -> Path:
-    p = tmp_path / "a.npy"
-    np.save(p, np.arange(4 * 5 * 6, dtype=np.uint8).reshape(4, 5, 6))
-    return p
+    return small_npy(tmp_path)
 
 
 @pytest.mark.parametrize("name", ["out.nii.gz", "out.npy", "out.h5:/x", "out.tif", "out.vtu"])

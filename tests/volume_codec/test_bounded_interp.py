@@ -32,7 +32,7 @@ def rough_float(shape, dtype=np.float32, seed=0):
     return (np.sin(z + y) * np.cos(x) * 3 + r.normal(0, 0.3, shape)).astype(dtype)
 
 
-def wavelet_only(codec, q):
+def wavelet_only(codec, q, best=None):
     """The quantised voxels' codings left to the lossless wavelet alone."""
     from volpack.volume_codec import lossy
 

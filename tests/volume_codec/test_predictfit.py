@@ -363,3 +363,25 @@ def test_fit_memory_does_not_grow_with_the_rows():
     fits, peak = traced_peak(predictfit.fit, v)
     assert fits[0][0].any()
     assert peak < 20 * v.size  # the gradients, their sorted copy, the mask
+
+
+@pytest.mark.parametrize("masked", [False, True])
+def test_fit_blocked_sums_equal_the_kernel(monkeypatch, masked):
+    """The normal equations as matrix products over blocks of slices (several blocks
+    here) give the weights of the kernel's row-by-row sums; a value range whose sums could
+    pass 2^53 takes the kernel."""
+    rng = np.random.default_rng(11)
+    v = np.cumsum(rng.integers(-9, 10, size=(23, 30, 26)), axis=1) + 300
+    mask = rng.random(v.shape) < 0.2 if masked else None
+    monkeypatch.setattr(predictfit, "FIT_CHUNK", 700)  # 3 slices a block
+    blocked = predictfit.fit(v, mask)
+    monkeypatch.setattr(predictfit, "FIT_CHUNK", 0)  # no block: the kernel's sums
+    want = predictfit.fit(v, mask)
+    for (cf, th), (cf0, th0) in zip(blocked, want):
+        np.testing.assert_array_equal(cf, cf0)
+        np.testing.assert_array_equal(th, th0)
+    called = []
+    monkeypatch.setattr(predictfit, "FIT_CHUNK", 700)
+    monkeypatch.setattr(predictfit, "_fit_blocked", lambda *a: called.append(1))
+    predictfit.fit(v << 20, mask)  # products of 2^29: past 2^53 summed
+    assert not called

@@ -64,6 +64,64 @@ def test_separable_bands_tile_the_array_and_parents_come_first(shape, levels):
     assert ((sc.end > i) & (sc.end <= n)).all()
 
 
+def reference_scan(shape, levels):
+    """The separable scan as numpy built it before session 30 (one band at a time, int64
+    tables): the slow reference of the kernel's."""
+    bands = packet.subbands(shape, levels)
+    by_index = {b.index: b for b in bands}
+    total = int(np.prod(shape))
+    strides = (shape[1] * shape[2], shape[2], 1)
+
+    def flat(start, local):
+        z, y, x = (s + loc for s, loc in zip(start, local))
+        return ((z * shape[1] + y) * shape[2] + x).ravel()
+
+    parent_flat = np.full(total, -1, np.int64)
+    cls_flat = np.zeros(total, np.uint8)
+    nbr_flat = np.full((total, 3), -1, np.int64)
+    order, end, start = [], np.arange(1, total + 1), 0
+    for b in bands:
+        idx = flat(b.start, np.ix_(*(np.arange(s) for s in b.size)))
+        order.append(idx)
+        grid = np.indices(b.size).reshape(3, -1)
+        for a in range(3):
+            nbr_flat[idx[grid[a] > 0], a] = idx[grid[a] > 0] - strides[a]
+        cls_flat[idx] = packet._band_class(b, levels)
+        if b.size[2] > 1:  # the first position of each row roots the row
+            firsts = start + b.size[2] * np.arange(b.size[0] * b.size[1])
+            end[firsts] = firsts + b.size[2]
+        start += idx.size
+        up = packet._parent(b, levels)
+        pb = by_index.get(up) if up is not None else None
+        if pb is not None:
+            ploc = [
+                np.minimum(
+                    np.arange(b.size[a]) // (2 if up[a] != b.index[a] else 1), pb.size[a] - 1
+                )
+                for a in range(3)
+            ]
+            parent_flat[idx] = flat(pb.start, np.ix_(*ploc))
+    perm = np.concatenate(order)
+    pos = np.empty(total, np.int64)
+    pos[perm] = np.arange(total)
+    pf, nf = parent_flat[perm], nbr_flat[perm]
+    parent = np.where(pf >= 0, pos[np.maximum(pf, 0)], -1)
+    nbr = np.where(nf >= 0, pos[np.maximum(nf, 0)], -1)
+    return perm, end, parent, cls_flat[perm], nbr
+
+
+@pytest.mark.parametrize(
+    "shape,levels",
+    [((9, 13, 20), (4, 4, 5)), ((6, 7, 1), (3, 0, 0)), ((5, 8, 3), (3, 3, 2)),
+     ((16, 12, 10), (2, 4, 1)), ((1, 1, 1), (0, 0, 0)), ((17, 1, 9), (0, 0, 4))],
+)  # fmt: skip
+def test_separable_scan_matches_the_numpy_reference(shape, levels):
+    sc = packet.scan(shape, levels)
+    assert [a.dtype for a in sc] == [np.int32, np.int32, np.int32, np.uint8, np.int32]
+    for got, want in zip(sc, reference_scan(shape, levels)):
+        np.testing.assert_array_equal(got, want)
+
+
 def test_separable_scan_round_trips_through_every_coder():
     from volpack.entropy import CODERS
 

@@ -58,6 +58,7 @@ class Journal:
         "raw_nbytes",
         "nbytes",
         "ratio",
+        "lossless",
         "max_error",
         "psnr",
         "seconds",

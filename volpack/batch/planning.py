@@ -82,7 +82,8 @@ def plan(
     ``shape`` option and, for compression, ``.vpk`` files are left out; folders of
     slices are not volumes here: name them, or list them in a manifest), a file, or a
     ``.csv``/``.json`` manifest (column ``input``, optional ``output`` relative to
-    ``out_dir``, optional per-file options overriding ``options``; inputs relative to
+    ``out_dir`` (a relative one may not climb out of it; an absolute one is taken as
+    it is), optional per-file options overriding ``options``; inputs relative to
     the manifest's folder). Outputs mirror the inputs' tree below their common root,
     the volume extension replaced by ``suffix``. An input named twice is planned once;
     two inputs mapping to one output raise :class:`BatchError`. Files a glob or a folder
@@ -270,6 +271,16 @@ def _walk(folder: str, kind: str, opts: dict, out_abs: str, skipped=None) -> lis
     return found
 
 
+def _leaves_out_dir(output: str) -> bool:
+    """Whether a manifest's relative output climbs out of OUT_DIR (``../x.vpk``): a
+    shared manifest must not write beside the folder it was given. Absolute outputs
+    are asked for by name and stay allowed."""
+    if os.path.isabs(output):
+        return False
+    first = os.path.normpath(output).split(os.sep)[0]
+    return first == os.pardir
+
+
 def _read_manifest(path: str) -> list[tuple[str, str, dict, str | None]]:
     base = os.path.dirname(path)
     try:
@@ -294,6 +305,11 @@ def _read_manifest(path: str) -> list[tuple[str, str, dict, str | None]]:
         if not spec:
             raise BatchError(f"expected an 'input' in every row of {path!r}, row {n} has none")
         explicit = str(row.pop("output", "") or "").strip() or None
+        if explicit and _leaves_out_dir(explicit):
+            raise BatchError(
+                f"{path!r} row {n}: expected an output inside OUT_DIR (or an absolute path), "
+                f"found {explicit!r}"
+            )
         try:
             per_file = normalize_options(row)
         except BatchError as e:

@@ -17,7 +17,7 @@ from typing import Any
 from ..errors import OptionError
 from ..jsonsafe import jsonable
 from ..metrics import throughput
-from ..parallel import one_blas_thread
+from ..parallel import memory_budget, one_blas_thread
 from .convert import convert_one, one_line
 from .journal import Journal, input_stat, is_done
 from .planning import READ_KEYS, BatchError, Task
@@ -29,18 +29,14 @@ MEMORY_FACTOR = 3
 PROCESS_MIN_TASKS_PER_WORKER = 8
 STATUSES = ("ok", "failed", "skipped", "cancelled")
 
+# The keys of every row of a report: a written row's, which a skipped row takes from the
+# journal (a journal of an older version may lack some: None).
+RECORD_KEYS = dict.fromkeys(("input", "output", "status", "error", *Journal.FIELDS))
+
 Progress = Callable[[int, int, int], None]
 
 
 # -- running ---------------------------------------------------------------------------
-
-
-def memory_budget() -> int:
-    """Half the physical memory, in bytes."""
-    try:
-        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") // 2
-    except (ValueError, OSError, AttributeError):  # pragma: no cover - not POSIX
-        return 4 << 30
 
 
 def estimate_nbytes(task: Task) -> int:
@@ -178,8 +174,10 @@ def run(
         if jr is not None:
             jr.close()
     files = [
-        records.get(i)
-        or {"input": t.input, "output": t.output, "status": "cancelled", "error": None}
+        {
+            **RECORD_KEYS,  # every row the same keys, whatever its status (None: not known)
+            **(records.get(i) or {"input": t.input, "output": t.output, "status": "cancelled"}),
+        }
         for i, t in enumerate(tasks)
     ]
     return {
@@ -307,9 +305,23 @@ def _run_local(todo, workers, executor, memory_limit, on_result, state, func) ->
                 pending.clear()
                 pool.shutdown(wait=False, cancel_futures=True)
                 pool = make_pool()
-    finally:
-        pool.shutdown(wait=True, cancel_futures=True)
+    except BaseException:  # Ctrl-C: the files under way are dropped, not waited for
+        _abandon(pool)
+        raise
+    pool.shutdown(wait=True, cancel_futures=True)
     return f"{kind} x{workers}"
+
+
+def _abandon(pool: cf.Executor) -> None:
+    """Shut ``pool`` down without waiting for the tasks under way: a thread's task runs
+    on to its end unseen (its output is written atomically, so never named), a process
+    is stopped. A batch interrupted with Ctrl-C waited minutes for its big files."""
+    # (no public way to the processes; shutdown forgets them, so they are taken first)
+    procs = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in procs:
+        with contextlib.suppress(Exception):
+            proc.terminate()
 
 
 def _run_dask(todo, scheduler, workers, processes, on_result, state, func) -> str:

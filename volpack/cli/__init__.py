@@ -9,7 +9,9 @@ heavier users nor numba.
 Exit codes: 0 success, 1 an error the user can act on (a :class:`~volpack.errors.VolpackError`,
 ``OSError`` or ``MemoryError``: one line ``volpack: error: ...`` naming flags, the traceback
 only with ``--debug``), 2 a usage error (click's own), 3 an internal error (any other
-exception: a bug, reported as one line, the traceback with ``--debug``).
+exception: a bug, reported as one line, the traceback with ``--debug``), 130 Ctrl-C (one
+line ``volpack: interrupted``; outputs are written atomically, so none is left half
+written).
 """
 
 from __future__ import annotations
@@ -18,11 +20,14 @@ import logging
 import os
 import sys
 import traceback
+import warnings
 
 import click
 
 from .. import __version__
 from ..errors import EXIT_INTERNAL
+
+EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report a command stopped by Ctrl-C
 
 CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
 
@@ -80,7 +85,12 @@ class VolpackGroup(click.Group):
             raise
         except KeyboardInterrupt:
             click.echo("volpack: interrupted", err=True)
-            sys.exit(130)
+            # what the interrupt cut short may complain as it is collected (zarr's coroutine
+            # never awaited, its event loop closed while running): the one line above is all
+            # the user is told
+            warnings.simplefilter("ignore")
+            sys.unraisablehook = lambda unraisable: None
+            sys.exit(EXIT_INTERRUPTED)
         except BrokenPipeError:
             sys.exit(1)
         except Exception as e:
@@ -189,6 +199,31 @@ def run() -> None:
     if code is not None and not isinstance(code, int):
         print(code, file=sys.stderr)
         code = 1
+    if code != EXIT_INTERRUPTED:  # Ctrl-C: no waiting for worker threads to finish their
+        _shut_down()  # files (a batch's took minutes); their outputs are never named
+    else:
+        _release_process_locks()
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):  # a closed pipe (volpack info | head): nothing to keep
+            code = code or 1
+    os._exit(code or 0)
+
+
+def _release_process_locks() -> None:
+    """After Ctrl-C, the locks of an abandoned process pool's queues released as a normal
+    exit would: without it, multiprocessing's resource tracker (a process of its own,
+    sharing stderr) warns of leaked semaphores after 'volpack: interrupted'. Only the
+    finalizers a normal exit runs first are run (priority 0 and above: queues closed,
+    locks unlinked), not the later ones that join the queues' feeder threads."""
+    util = sys.modules.get("multiprocessing.util")
+    if util is not None:
+        util._run_finalizers(0)
+
+
+def _shut_down() -> None:
+    """The interpreter's own shutdown: join non-daemon threads, run the atexit handlers."""
     import atexit
     import threading
 
@@ -196,9 +231,3 @@ def run() -> None:
     if shutdown is not None:
         shutdown()
     atexit._run_exitfuncs()
-    for stream in (sys.stdout, sys.stderr):
-        try:
-            stream.flush()
-        except (OSError, ValueError):  # a closed pipe (volpack info | head): nothing to keep
-            code = code or 1
-    os._exit(code or 0)

@@ -144,7 +144,9 @@ def batch(
 
     INPUTS are globs ('**' recurses; quote them), folders (every readable volume below),
     files, or a .csv/.json manifest (column 'input', optional 'output' and per-file
-    options such as max_error or coder). OUT_DIR mirrors the inputs' tree. Every output
+    options such as max_error or coder; a relative 'output' is inside OUT_DIR and may not
+    leave OUT_DIR with '..', an absolute one is taken as it is). OUT_DIR mirrors the
+    inputs' tree. Every output
     is written atomically, verified, and logged in OUT_DIR/.volpack-batch.jsonl, so
     --resume redoes only what is missing, changed or damaged. A file that fails is
     reported and the others go on; the exit status is then 1.

@@ -19,16 +19,17 @@ from .options import (
     accuracy,
     check_json_output,
     codec_options,
+    codec_workers_option,
     emit_json,
     fmt_speed,
     force_option,
     json_option,
     parse_brick,
+    phase,
     plural,
     progress_bar,
     raw_options,
     sizes,
-    workers_option,
 )
 
 
@@ -51,7 +52,7 @@ from .options import (
     "--scheduler",
     help="--octree: run on Dask: 'local' (a LocalCluster of --workers) or a scheduler address.",
 )
-@workers_option
+@codec_workers_option
 @raw_options
 @force_option
 @json_option
@@ -83,7 +84,8 @@ def compress(
     as_json,
     **extra,
 ) -> None:
-    """Compress the volume or tetrahedral mesh SOURCE into the .vpk file TARGET ('-' for stdout).
+    """Compress the volume or tetrahedral mesh SOURCE ('-': a .npy, or raw voxels with
+    --shape and --dtype, on stdin) into the .vpk file TARGET ('-' for stdout).
 
     Lossless by default: every voxel decodes bit-exactly (floats bit for bit). Each
     brick takes the shortest of the integer lifting wavelet, 3-D prediction, a palette,
@@ -111,6 +113,9 @@ def compress(
       volpack compress mesh.vtu mesh.vpk --bits 16        (tetrahedral mesh: --bits,
       volpack compress hex.msh mesh.vpk --tetrahedralize   --lossless-geometry, ...)
       volpack compress big.h5:/density big.vpk --octree --max-error 2 --workers 2
+      cat ct.npy | volpack compress - ct.vpk                       (standard input)
+      cat ct.raw | volpack compress - ct.vpk --shape 512,512,512 --dtype uint16
+      volpack compress ct.npy - | ssh host 'volpack decompress - ct.npy'
     """
     from .. import api
 
@@ -208,7 +213,7 @@ def compress(
     type=float,
     help="Octree files: the coarsest nodes whose voxels deviate at most this much.",
 )
-@workers_option
+@codec_workers_option
 @force_option
 @json_option
 @click.pass_context
@@ -233,6 +238,7 @@ def decompress(
       volpack decompress ct.vpk ct.npy
       volpack decompress ct.vpk roi.npy --roi 40:80,100:200,100:200
       volpack decompress ct.vpk - | python -c "import numpy, sys; print(numpy.load(sys.stdin.buffer).shape)"
+      volpack decompress ct.vpk - | volpack convert - ct.nii.gz    (a .npy through the pipe)
       volpack decompress out/ restored/ --batch --format nii.gz --workers 4
       volpack decompress big.vpk coarse.npy --level 3
       volpack decompress big.vpk approx.npy --error 10
@@ -258,8 +264,10 @@ def decompress(
         from ..octree.stream import decode
 
         vio.check_outputs(target, force=force, inputs=(source,))
-        d = decode(source, level=level, error=error, roi=roi, workers=workers)
-        api.write_volume(d.volume, target, force=force)
+        with phase(ctx, f"decoding {source}"):
+            d = decode(source, level=level, error=error, roi=roi, workers=workers)
+        with phase(ctx, f"writing {target}"):
+            api.write_volume(d.volume, target, force=force)
         stats = {"target": target, "shape": list(d.volume.shape), "dtype": str(d.volume.dtype)}
         stats.update(levels=d.levels, bytes_read=d.bytes_read, nodes_decoded=d.nodes_decoded)
         stats["seconds"] = d.seconds
@@ -273,7 +281,8 @@ def decompress(
     with progress_bar(ctx, "decompress") as progress:
         vol = api.read_volume_from(source, roi=roi, frame=frame, workers=workers, progress=progress)
     seconds = time.perf_counter() - t0
-    api.write_volume(vol, target, force=force)
+    with phase(ctx, f"writing {target}"):
+        api.write_volume(vol, target, force=force)
     stats = {
         "target": target,
         "shape": list(vol.shape),

@@ -13,6 +13,7 @@ from .options import (
     fmt_bytes,
     json_option,
     parse_brick,
+    phase,
     progress_bar,
     raw_options,
     workers_option,
@@ -73,8 +74,11 @@ def compare(source, other, brick, workers, read_options, peers, jpegxl_efforts, 
     options = {k: v for k, v in codec.items() if v is not None}
     if peers:
         _check_peer_mode(options)
-    vol = api.read_volume(source, **read_options)
-    r = run(vol, brick=parse_brick(brick), workers=workers, warm=peers, **options)
+    ctx = click.get_current_context()
+    with phase(ctx, f"reading {source}"):
+        vol = api.read_volume(source, **read_options)
+    with phase(ctx, "coding, decoding and measuring"):
+        r = run(vol, brick=parse_brick(brick), workers=workers, warm=peers, **options)
     if peers:
         _run_peers(vol, r, efforts)
     if as_json:
@@ -177,7 +181,12 @@ def _measure(source, other, brick, read_options, as_json, codec):
             f"coding options apply to one SOURCE (compare codes it), found {names} "
             "with a second volume"
         )
-    r = measure(api.read_volume(source, **read_options), api.read_volume(other, **read_options))
+    with phase(ctx, f"reading {source}"):
+        reference = api.read_volume(source, **read_options)
+    with phase(ctx, f"reading {other}"):
+        test = api.read_volume(other, **read_options)
+    with phase(ctx, "measuring the differences"):
+        r = measure(reference, test)
     if as_json:
         emit_json(r)
         return

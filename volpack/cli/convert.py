@@ -11,6 +11,8 @@ from .options import (
     json_option,
     option,
     options,
+    phase,
+    progress_bar,
     raw_options,
 )
 
@@ -39,7 +41,9 @@ from .options import (
 )  # fmt: skip
 @force_option
 @json_option
+@click.pass_context
 def convert(
+    ctx,
     source,
     target,
     read_options,
@@ -82,7 +86,8 @@ def convert(
 
     check_json_output(as_json, target)
     vio.check_outputs(target, force=force, inputs=(source,))
-    vol = api.read_volume(source, **read_options)
+    with phase(ctx, f"reading {source}"):
+        vol = api.read_volume(source, **read_options)
     steps = []
     if set_spacing or set_origin:
         vol = vol.replace(
@@ -128,9 +133,11 @@ def convert(
         vol = prep.astype(vol, astype, rounding=rounding)
         steps.append(f"astype {astype}")
     if target.endswith(".vpk"):
-        stats = api.compress(vol, target, force=force)
+        with progress_bar(ctx, "compress") as progress:
+            stats = api.compress(vol, target, force=force, progress=progress)
     else:
-        vio.write_volume(vol, target, force=force)
+        with phase(ctx, f"writing {target}"):
+            vio.write_volume(vol, target, force=force)
         stats = None
     if as_json:
         d = vol.describe()

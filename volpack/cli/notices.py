@@ -5,15 +5,21 @@
 - When stderr is not a terminal (CI logs, pipes, ``nohup``) there is no progress bar, so
   a line every few seconds says what the command is doing: compiling kernels, or how far
   its task is. Nothing is printed for a command that ends within the first interval.
+- A step with nothing to count (reading or writing a whole file, preparing a render) is
+  a *phase*: the same periodic line names it, and on a terminal one line, redrawn every
+  second and erased at its end, says what is going on and for how long.
 """
 
 from __future__ import annotations
 
+import contextlib
 import sys
 import threading
 import time
+from collections.abc import Iterator
 
 INTERVAL = 5.0
+TTY_INTERVAL = 1.0  # a phase's line on a terminal is redrawn this often
 FIRST_RUN = (
     "volpack: first run of this volpack (a new version or source tree has an empty "
     "kernel cache): compiling numba kernels ({what}); a command "
@@ -27,6 +33,7 @@ class Notices:
         self.stream = stream or sys.stderr
         self.quiet = quiet
         self.lines = not quiet and not _isatty(self.stream)
+        self.tty = not quiet and not self.lines
         self.interval = interval
         self._t0 = time.perf_counter()
         self._compiling = 0  # compilations under way (nested ones count)
@@ -34,6 +41,8 @@ class Notices:
         self._compile_s = 0.0
         self._told = False
         self._task: tuple[str, str, int, int] | None = None
+        self._phase: tuple[str, float] | None = None  # (what, when it began)
+        self._drawn = False  # a phase's line is on the terminal
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._lock = threading.Lock()
@@ -70,6 +79,20 @@ class Notices:
     def end_task(self) -> None:
         self._task = None
 
+    @contextlib.contextmanager
+    def phase(self, what: str) -> Iterator[None]:
+        """A step with nothing to count ('writing ct.nii.gz'), named while it lasts."""
+        self._phase = (what, time.perf_counter())
+        if self.lines or self.tty:
+            self._ensure_thread(self.tty)
+        try:
+            yield
+        finally:
+            with self._lock:
+                self._phase = None
+                if self._drawn:
+                    self._draw("")
+
     # -- the periodic line -------------------------------------------------------------
 
     def status(self) -> str | None:
@@ -82,18 +105,35 @@ class Notices:
             desc, unit, done, total = self._task
             of = f"/{total}" if total else ""
             return f"volpack: {t:.0f} s: {desc} {done}{of} {unit}{'s' if total != 1 else ''}"
+        if self._phase is not None:
+            return f"volpack: {t:.0f} s: {self._phase[0]}"
         return None
 
-    def _ensure_thread(self) -> None:
-        if self.lines and self._thread is None:
+    def _ensure_thread(self, tty: bool = False) -> None:
+        if (self.lines or tty) and self._thread is None:
             self._thread = threading.Thread(target=self._run, name="volpack-notices", daemon=True)
             self._thread.start()
 
     def _run(self) -> None:
-        while not self._stop.wait(self.interval):
-            line = self.status()
-            if line:
-                self._say(line)
+        while not self._stop.wait(self.interval if self.lines else TTY_INTERVAL):
+            if self.lines:
+                line = self.status()
+                if line:
+                    self._say(line)
+                continue
+            with self._lock:  # a terminal: the phase's own line, in place
+                if self._phase is not None:
+                    what, t0 = self._phase
+                    self._draw(f"volpack: {what} ({time.perf_counter() - t0:.0f} s)")
+
+    def _draw(self, line: str) -> None:
+        """Put ``line`` in place of the phase's line on the terminal ('' erases it)."""
+        try:
+            self.stream.write(f"\r{line}\x1b[K")
+            self.stream.flush()
+            self._drawn = bool(line)
+        except (OSError, ValueError):
+            pass
 
     def _say(self, line: str) -> None:
         try:
@@ -103,6 +143,9 @@ class Notices:
 
     def close(self) -> None:
         self._stop.set()
+        with self._lock:
+            if self._drawn:
+                self._draw("")
         from .. import jitwatch
 
         jitwatch.unsubscribe(self.on_compile)

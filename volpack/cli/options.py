@@ -84,6 +84,14 @@ workers_option = option(
     "-j --workers", "Threads for bricks (0 = every core). The output does not depend on it.",
     (0, None), 1,
 )  # fmt: skip
+# compress and decompress: a user's own coding takes the machine (compare times one core
+# against single-threaded peers, so it keeps workers_option's 1)
+codec_workers_option = option(
+    "-j --workers",
+    "Threads for bricks: 0 = every core, but at most one a brick and as many as half the "
+    "memory holds; 1 for one core. The output does not depend on it.",
+    (0, None), 0,
+)  # fmt: skip
 RAW_OPTIONS = options(
     option("--shape raw_shape",
            "Raw input, whatever the file's name: Z,Y,X (or T,Z,Y,X) voxels, slowest axis "
@@ -165,6 +173,15 @@ def progress_bar(ctx: click.Context, desc: str, unit: str | None = "brick") -> I
         yield update
     finally:
         bar.close()
+
+
+def phase(ctx: click.Context, what: str):
+    """A context naming a step with nothing to count ('writing ct.nii.gz') while it
+    lasts, so that no long step is silent (:meth:`.notices.Notices.phase`)."""
+    import contextlib
+
+    notices = (ctx.find_root().obj or {}).get("notices")
+    return contextlib.nullcontext() if notices is None else notices.phase(what)
 
 
 def emit_json(obj) -> None:

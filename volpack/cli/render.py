@@ -14,6 +14,7 @@ from .options import (
     force_option,
     imports_without_gc,
     json_option,
+    phase,
     progress_bar,
     raw_options,
 )
@@ -125,7 +126,7 @@ def _load_mesh(source: str, field: str | None):
     return np.asarray(m.points, np.float64), m.tets, v, field
 
 
-def _load(source: str, frame: int | None, raw: dict):
+def _load(ctx: click.Context, source: str, frame: int | None, raw: dict):
     """The 3-D Volume to draw: .vpk inputs are decoded, 4-D inputs give one frame."""
     from .. import api
     from .. import io as vio
@@ -133,9 +134,11 @@ def _load(source: str, frame: int | None, raw: dict):
 
     path = vio.parse_spec(source)[0]
     if api.kind_of(path) is not None or path.lower().endswith(".vpk"):  # '-': a .vpk stream too
-        vol = api.decompress(path, frame=frame)
+        with progress_bar(ctx, "decode") as progress:
+            vol = api.decompress(path, frame=frame, progress=progress)
     else:
-        vol = vio.read_volume(source, **raw)
+        with phase(ctx, f"reading {source}"):
+            vol = vio.read_volume(source, **raw)
     if vol.data.ndim == 4:
         t = frame or 0
         if not 0 <= t < vol.data.shape[0]:
@@ -275,56 +278,57 @@ def render(
                                      param_hint="--tf")  # fmt: skip
         data = np.zeros(len(points)) if data is None else data
     else:
-        vol = _load(source, frame, read_options)
+        vol = _load(ctx, source, frame, read_options)
         data = vol.data
         ok = np.isfinite(data) if data.dtype.kind == "f" else None
         if vol.mask is not None:
             ok = ~vol.mask if ok is None else ok & ~vol.mask
-    if ok is None and data.size:  # no copy of the selected values (16 ms of a CT)
-        lo, hi = float(data.min()), float(data.max())
-    elif ok is not None and ok.any():
-        lo, hi = float(data[ok].min()), float(data[ok].max())
-    else:
-        lo, hi = 0.0, 1.0
-    lo, hi = transfer.nonempty_range(lo, hi)
-    sample, factor = (vol if mesh is None and tree is None else None), 1
-    if tree is not None:
-        from ..render.lod import coarse_level
+    with phase(ctx, "preparing the render (value range, transfer function, framing, gradients)"):
+        if ok is None and data.size:  # no copy of the selected values (16 ms of a CT)
+            lo, hi = float(data.min()), float(data.max())
+        elif ok is not None and ok.any():
+            lo, hi = float(data[ok].min()), float(data[ok].max())
+        else:
+            lo, hi = 0.0, 1.0
+        lo, hi = transfer.nonempty_range(lo, hi)
+        sample, factor = (vol if mesh is None and tree is None else None), 1
+        if tree is not None:
+            from ..render.lod import coarse_level
 
-        sample, factor = coarse_level(tree)
-    tf = None
-    if mesh is not None and tf_spec is None:
-        pass  # a mesh without --tf is drawn as its shaded boundary surface
-    elif tf_spec is not None or not isos:
-        tf = transfer_for(tf_spec, data if sample is None else sample.data, lo=lo, hi=hi,
-                          dtype=data.dtype, mask=None if sample is None else sample.mask,
-                          size=256 if mesh is not None else max(data.shape if tree is None else tree.shape))  # fmt: skip
+            sample, factor = coarse_level(tree)
+        tf = None
+        if mesh is not None and tf_spec is None:
+            pass  # a mesh without --tf is drawn as its shaded boundary surface
+        elif tf_spec is not None or not isos:
+            tf = transfer_for(tf_spec, data if sample is None else sample.data, lo=lo, hi=hi,
+                              dtype=data.dtype, mask=None if sample is None else sample.mask,
+                              size=256 if mesh is not None else max(data.shape if tree is None else tree.shape))  # fmt: skip
 
-    azimuths = [azimuth + 360.0 * k / orbit for k in range(orbit)] if orbit else [azimuth]
-    view = Camera(
-        azimuth=azimuth, elevation=elevation, zoom=zoom, size=size, distance=distance,
-        projection="perspective" if perspective else "orthographic",
-        look_at=parse_look_at(look_at_s),
-    )  # fmt: skip
-    if fit and mesh is not None:
-        from ..render.tetra import fit_mesh_camera
-
-        view = fit_mesh_camera(view, points, cells, azimuths=azimuths if orbit else None)
-    elif fit:
-        from ..render.framing import fit_camera
-
-        view = fit_camera(
-            view, sample.data, tf, lo, hi, spacing=sample.spacing if tree is None else tree.spacing,
-            shape=tree.shape if tree is not None else None, factor=factor, mask=sample.mask,
-            isos=isos,
-            azimuths=azimuths if orbit else None,
+        azimuths = [azimuth + 360.0 * k / orbit for k in range(orbit)] if orbit else [azimuth]
+        view = Camera(
+            azimuth=azimuth, elevation=elevation, zoom=zoom, size=size, distance=distance,
+            projection="perspective" if perspective else "orthographic",
+            look_at=parse_look_at(look_at_s),
         )  # fmt: skip
-    if orbit:
-        os.makedirs(output, exist_ok=True)
-    if mesh is None and tree is None:  # sampled array, gradients, brick ranges: built once
-        from ..render.prepared import prepare_volume
+        if fit and mesh is not None:
+            from ..render.tetra import fit_mesh_camera
 
-        vol = prepare_volume(vol)
+            view = fit_mesh_camera(view, points, cells, azimuths=azimuths if orbit else None)
+        elif fit:
+            from ..render.framing import fit_camera
+
+            view = fit_camera(
+                view, sample.data, tf, lo, hi, spacing=sample.spacing if tree is None else tree.spacing,
+                shape=tree.shape if tree is not None else None, factor=factor, mask=sample.mask,
+                isos=isos,
+                azimuths=azimuths if orbit else None,
+            )  # fmt: skip
+        if orbit:
+            os.makedirs(output, exist_ok=True)
+        if mesh is None and tree is None:  # sampled array, gradients, brick ranges: built once
+            from ..render.prepared import prepare_volume
+
+            vol = prepare_volume(vol)
 
     lod_frames = []
     lod_atlas = []  # one NodeAtlas (decoded nodes, gradient bricks) for every view

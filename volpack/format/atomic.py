@@ -17,7 +17,10 @@ import os
 import re
 import secrets
 import shutil
+import signal
 import sys
+import threading
+import time
 from collections.abc import Iterator
 from typing import BinaryIO
 
@@ -106,9 +109,9 @@ def atomic_dir(path: str | os.PathLike, *, force: bool = False) -> Iterator[str]
     directory = os.path.dirname(os.path.abspath(p))
     _sweep(directory, p)
     tmp = _part_name(directory, ".part")
-    os.mkdir(tmp)
     old = None
     try:
+        os.mkdir(tmp)  # (inside: an interrupt just after it is cleaned up below)
         yield tmp
         if os.path.isdir(p) and not os.path.islink(p):
             old = _part_name(directory, ".old")  # never swept: killed here, it is kept
@@ -117,10 +120,43 @@ def atomic_dir(path: str | os.PathLike, *, force: bool = False) -> Iterator[str]
     except BaseException:
         if old is not None and not os.path.exists(p):
             os.rename(old, p)  # the earlier output back under its name
-        shutil.rmtree(tmp, ignore_errors=True)
+        _remove_tree(tmp)
         raise
     if old is not None:
         shutil.rmtree(old, ignore_errors=True)
+
+
+def _remove_tree(path: str, quiet: float = 0.05, limit: float = 2.0) -> None:
+    """Remove a temporary folder that a library's own thread may still be writing into
+    (zarr's event loop goes on with the chunks of a call that failed, making their
+    folders again): removed until it has stayed away for ``quiet`` seconds, for up to
+    ``limit`` seconds."""
+    end = time.monotonic() + limit
+    while True:
+        shutil.rmtree(path, ignore_errors=True)
+        time.sleep(quiet)
+        if not os.path.lexists(path) or time.monotonic() > end:
+            return
+
+
+@contextlib.contextmanager
+def interrupts_deferred() -> Iterator[None]:
+    """Hold back Ctrl-C (SIGINT) until the block ends, then raise it as usual: for a
+    short write done in another thread, which the interrupt would not stop. Only the main
+    thread receives signals; elsewhere (or when Python does not handle SIGINT) the block
+    runs as it is."""
+    old = signal.getsignal(signal.SIGINT)
+    if threading.current_thread() is not threading.main_thread() or not callable(old):
+        yield
+        return
+    got: list[int] = []
+    signal.signal(signal.SIGINT, lambda signum, frame: got.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
+    if got:
+        old(signal.SIGINT, None)  # Python's default handler raises KeyboardInterrupt
 
 
 # errors of a write, which name no file: a full disk, a quota, a file size limit

@@ -15,7 +15,6 @@ fast.
 
 from __future__ import annotations
 
-import io as _io
 import os
 import sys
 from typing import Any
@@ -81,7 +80,7 @@ def read_volume(
     path, fmt = _resolve(spec, opts)
     if path == "-":
         if fmt == "raw":
-            return FORMATS["raw"].function("read_bytes")(stdin().read(), "<stdin>", opts)
+            return FORMATS["raw"].function("read_stdin")(stdin(), opts)
         return FORMATS["npy"].function("read_stdin")(max_voxels)
     if not os.path.exists(path):
         raise FormatError(f"expected an existing {fmt} file, found nothing at {path!r}")
@@ -162,11 +161,7 @@ def write_volume(vol: Volume | np.ndarray, spec: str, *, force: bool = False) ->
     vol = prepare_for_write(vol)
     path, inner = parse_spec(spec)
     if path == "-":
-        buf = _io.BytesIO()
-        np.save(buf, vol.data, allow_pickle=False)
-        out = sys.stdout.buffer
-        out.write(buf.getvalue())
-        out.flush()
+        _npy_to(sys.stdout.buffer, vol.data)
         return
     fmt = output_format(path)
     f = FORMATS[fmt]
@@ -179,3 +174,18 @@ def write_volume(vol: Volume | np.ndarray, spec: str, *, force: bool = False) ->
         vol = vol.replace(data=vol.data.astype(np.uint8))
     with wrap_errors(fmt, path, writing=True):
         f.function("write")(vol, path, force, inner)
+
+
+def _npy_to(out, arr: np.ndarray) -> None:
+    """``np.save`` to a stream, its bytes, without a copy of the voxels: ``np.save``
+    itself fails on a pipe (it asks a file object for its position), and building the
+    file in memory first held the volume twice more."""
+    fmt = np.lib.format
+    arr = np.ascontiguousarray(arr)  # the header must say the order the bytes are in
+    header = fmt.header_data_from_array_1_0(arr)
+    try:
+        fmt.write_array_header_1_0(out, header)
+    except ValueError:  # a header too long for version 1.0 (as np.save)
+        fmt.write_array_header_2_0(out, header)
+    out.write(memoryview(arr.reshape(-1)).cast("B"))
+    out.flush()

@@ -200,3 +200,18 @@ def meta_from_json(text: Any) -> dict:
 
 def natural_key(name: str) -> list:
     return [int(p) if p.isdigit() else p.lower() for p in re.split(r"(\d+)", name)]
+
+
+def read_stream_into(f, arr: np.ndarray, where: str) -> None:
+    """Fill ``arr`` from the binary stream ``f`` (standard input): a pipe gives what it
+    has, so read until the array is full; reading the stream whole first held the voxels
+    two or three times."""
+    view = memoryview(arr.reshape(-1).view(np.uint8))
+    got = 0
+    while got < arr.nbytes:
+        n = f.readinto(view[got:])
+        if not n:
+            raise FormatError(
+                f"expected {arr.nbytes} bytes of voxels in {where}, found {got} (truncated)"
+            )
+        got += n

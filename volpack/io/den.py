@@ -76,6 +76,11 @@ def write(vol: Volume, path: str, force: bool, inner: str | None = None) -> None
     if vol.dtype != np.uint8 or vol.data.ndim != 3:
         raise FormatError(
             f"expected a 3-D uint8 volume for a .den file, found {vol.data.ndim}-D {vol.dtype}"
+            + (
+                "; convert it first (astype='uint8': out-of-range values are clipped and counted)"
+                if vol.data.ndim == 3
+                else ""
+            )
         )
     nz, ny, nx = vol.shape
     if max(vol.shape) > 32767:

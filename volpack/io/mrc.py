@@ -106,7 +106,8 @@ def write(vol: Volume, path: str, force: bool, inner: str | None = None) -> None
     if vol.dtype.name not in _MODES:
         raise FormatError(
             f"expected int8, uint8, int16, uint16, float16 or float32 voxels for an MRC map, "
-            f"found {vol.dtype}; convert them first"
+            f"found {vol.dtype}; convert them first (astype='float32'; astype='uint16' or "
+            f"astype='int16' when the values fit: out-of-range ones are clipped and counted)"
         )
     mrcfile = _mrcfile()
     data = vol.data.astype(np.uint16) if vol.dtype == np.uint8 else vol.data

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import io as _io
 from typing import Any
 
 import numpy as np
@@ -10,7 +9,14 @@ import numpy as np
 from ..errors import FormatError
 from ..format.streams import stdin
 from ..volume import Volume
-from .common import ReadOptions, as_volume_array, check_voxels, header_dict, native
+from .common import (
+    ReadOptions,
+    as_volume_array,
+    check_voxels,
+    header_dict,
+    native,
+    read_stream_into,
+)
 
 
 def read(path: str, opts: ReadOptions) -> Volume:
@@ -42,22 +48,39 @@ def shape_dtype(f, where: str) -> tuple[tuple[int, ...], np.dtype]:
 
 
 def read_stdin(max_voxels: int) -> Volume:
-    blob = stdin().read()
-    if not blob.startswith(b"\x93NUMPY"):
+    """A ``.npy`` stream on standard input, read into the array it declares (one copy of
+    the voxels: the stream read whole, then parsed, held them twice)."""
+    f = stdin()
+    magic = _read_up_to(f, 6)
+    if magic != b"\x93NUMPY":
         raise FormatError(
-            f"expected a .npy stream on standard input, found {len(blob)} bytes starting "
-            f"{blob[:8]!r}"
+            f"expected a .npy stream on standard input, found {len(magic)} bytes starting {magic!r}"
         )
-    buf = _io.BytesIO(blob)
-    shape, _ = shape_dtype(buf, "<stdin>")
-    check_voxels(shape, max_voxels, "<stdin>")
-    buf.seek(0)
+    fmt = np.lib.format
     try:
-        arr = np.load(buf, allow_pickle=False)
-    except ValueError as e:
+        version = tuple(_read_up_to(f, 2))
+        read_header = fmt.read_array_header_1_0 if version == (1, 0) else fmt.read_array_header_2_0
+        shape, fortran, dtype = read_header(f)
+    except (ValueError, IndexError) as e:
         raise FormatError(f"could not read the .npy stream on standard input: {e}") from None
+    check_voxels(shape, max_voxels, "<stdin>")
+    if dtype.hasobject:
+        raise FormatError(f"expected numeric voxels on standard input, found dtype {dtype}")
+    arr = np.empty(shape[::-1] if fortran else shape, dtype=dtype)
+    read_stream_into(f, arr, "the .npy stream on standard input")
+    arr = arr.T if fortran else arr
     meta: dict[str, Any] = {"source_format": "npy"}
     return Volume(as_volume_array(arr, meta, "<stdin>"), meta=meta)
+
+
+def _read_up_to(f, n: int) -> bytes:
+    out = b""
+    while len(out) < n:
+        chunk = f.read(n - len(out))
+        if not chunk:
+            break
+        out += chunk
+    return out
 
 
 def write(vol: Volume, path: str, force: bool, inner: str | None = None) -> None:

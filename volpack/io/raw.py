@@ -10,7 +10,14 @@ import numpy as np
 
 from ..errors import FormatError
 from ..volume import Volume
-from .common import ReadOptions, as_volume_array, check_voxels, header_dict, native
+from .common import (
+    ReadOptions,
+    as_volume_array,
+    check_voxels,
+    header_dict,
+    native,
+    read_stream_into,
+)
 
 
 def _raw_dtype(dtype: Any, byteorder: str) -> np.dtype:
@@ -46,8 +53,9 @@ def _raw_shape(shape) -> tuple[int, ...]:
     return sh
 
 
-def layout(opts: ReadOptions, size: int, where: str) -> tuple[tuple[int, ...], np.dtype]:
-    """The checked ``(shape, dtype)`` of a raw input of ``size`` bytes (header included)."""
+def layout(opts: ReadOptions, size: int | None, where: str) -> tuple[tuple[int, ...], np.dtype]:
+    """The checked ``(shape, dtype)`` of a raw input of ``size`` bytes (header included;
+    None: a stream, whose size is checked as it is read)."""
     shape, dtype, byteorder, offset, max_voxels = opts[1:]
     sh = _raw_shape(shape)
     dt = _raw_dtype(dtype, byteorder)
@@ -55,7 +63,7 @@ def layout(opts: ReadOptions, size: int, where: str) -> tuple[tuple[int, ...], n
         raise FormatError(f"expected a non-negative offset, found {offset}")
     check_voxels(sh, max_voxels, where)
     expected = int(offset) + math.prod(sh) * dt.itemsize
-    if size != expected:
+    if size is not None and size != expected:
         raise FormatError(
             f"expected {expected} bytes for shape {sh} of {dt} at offset {offset} in "
             f"{where}, found {size}"
@@ -74,12 +82,20 @@ def read(path: str, opts: ReadOptions) -> Volume:
     return Volume(as_volume_array(arr, meta, path), meta=meta)
 
 
-def read_bytes(blob: bytes, where: str, opts: ReadOptions) -> Volume:
-    sh, dt = layout(opts, len(blob), where)
-    offset = opts.offset
-    arr = np.frombuffer(blob, dtype=dt, count=math.prod(sh), offset=int(offset)).reshape(sh)
+def read_stdin(f, opts: ReadOptions) -> Volume:
+    """Raw voxels on standard input, read into the array the options declare."""
+    where = "standard input"
+    sh, dt = layout(opts, None, where)
+    read_stream_into(f, np.empty(int(opts.offset), np.uint8), where)  # a header to skip
+    arr = np.empty(sh, dtype=dt)
+    read_stream_into(f, arr, where)
+    if f.read(1):
+        raise FormatError(
+            f"expected {arr.nbytes + int(opts.offset)} bytes for shape {sh} of {dt} at offset "
+            f"{opts.offset} in {where}, found more"
+        )
     meta: dict[str, Any] = {"source_format": "raw"}
-    return Volume(as_volume_array(arr.copy(), meta, where), meta=meta)
+    return Volume(as_volume_array(arr, meta, where), meta=meta)
 
 
 def header(path: str, opts: ReadOptions) -> dict[str, Any]:

@@ -135,7 +135,7 @@ def header(path: str, opts: ReadOptions) -> dict[str, Any]:
 
 
 def write(vol: Volume, path: str, force: bool, inner: str | None = None) -> None:
-    from ..format.atomic import atomic_dir
+    from ..format.atomic import atomic_dir, interrupts_deferred
 
     if inner:
         raise FormatError(
@@ -152,14 +152,23 @@ def write(vol: Volume, path: str, force: bool, inner: str | None = None) -> None
             {"type": "translation", "translation": [0.0] * lead + [float(o) for o in vol.origin]},
         ],
     }
+    attrs: dict[str, Any] = {
+        "ome": {"version": "0.5", "multiscales": [{"axes": axes, "datasets": [level]}]}
+    }
+    text = meta_json(vol)
+    if text is not None:
+        attrs["volpack_meta"] = text
+    # Every call into zarr holds Ctrl-C back until it returns: zarr works in its own
+    # event-loop thread, which an interrupt does not stop, so it would go on filling the
+    # folder the interrupted write is removing. The voxels go a row of chunks at a time,
+    # so that an interrupt waits for one row at most.
     with atomic_dir(path, force=force) as tmp:
-        group = zarr.open_group(tmp, mode="w", zarr_format=3)
-        chunks = (1,) * lead + tuple(min(64, int(n)) for n in data.shape[lead:])
-        group.create_array("0", shape=data.shape, chunks=chunks, dtype=data.dtype)[...] = data
-        attrs: dict[str, Any] = {
-            "ome": {"version": "0.5", "multiscales": [{"axes": axes, "datasets": [level]}]}
-        }
-        text = meta_json(vol)
-        if text is not None:
-            attrs["volpack_meta"] = text
-        group.attrs.update(attrs)
+        with interrupts_deferred():
+            group = zarr.open_group(tmp, mode="w", zarr_format=3)
+            chunks = (1,) * lead + tuple(min(64, int(n)) for n in data.shape[lead:])
+            array = group.create_array("0", shape=data.shape, chunks=chunks, dtype=data.dtype)
+        for i in range(0, data.shape[0], chunks[0]):
+            with interrupts_deferred():
+                array[i : i + chunks[0]] = data[i : i + chunks[0]]
+        with interrupts_deferred():
+            group.attrs.update(attrs)

@@ -27,11 +27,17 @@ MIN_SHARE = 0.05  # the encoder tries a mask when the value holds this share of 
 def choose(values: np.ndarray) -> tuple[int, np.ndarray] | None:
     """The most common value and its mask, when it holds at least MIN_SHARE of the
     brick and not all of it; else None."""
-    vals, counts = np.unique(values, return_counts=True)
-    k = int(counts.argmax())
-    if counts[k] < MIN_SHARE * values.size or counts[k] == values.size:
+    lo, hi = int(values.min()), int(values.max())
+    if hi - lo < pal.DENSE_SPAN:  # counted in a table, not sorted (the same first mode)
+        counts = np.bincount((values - lo).reshape(-1), minlength=1)
+        k = int(counts.argmax())
+        top, fill = int(counts[k]), lo + k
+    else:
+        vals, counts = np.unique(values, return_counts=True)
+        k = int(counts.argmax())
+        top, fill = int(counts[k]), int(vals[k])
+    if top < MIN_SHARE * values.size or top == values.size:
         return None
-    fill = int(vals[k])
     return fill, values == fill
 
 

@@ -692,8 +692,11 @@ def code_static(r: np.ndarray) -> bytes | None:
         return None
     nctx, freqs, _ = fp.cap_contexts(counts[: fp.NCLASS])
     freqs = np.vstack([freqs, rans.normalise(counts[fp.NCLASS :])])
-    ctx = ctxs[:nsym].astype(np.int64)
-    ctx = np.where(ctx >= fp.NCLASS, ctx - fp.NCLASS + nctx, np.minimum(ctx, nctx - 1))
+    # each context byte's coded context by a table of the 256 (one int64 array a symbol
+    # made, not four)
+    every = np.arange(256, dtype=np.int64)
+    table = np.where(every >= fp.NCLASS, every - fp.NCLASS + nctx, np.minimum(every, nctx - 1))
+    ctx = table[ctxs[:nsym]]
     stream = rans.encode(toks[:nsym], ctx, freqs)
     head = bytes([nctx]) + fp.pack_tables(freqs)
     return head + put_section(stream) + bits[: (nbits + 7) >> 3].tobytes()

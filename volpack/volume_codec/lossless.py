@@ -113,6 +113,38 @@ LOCAL_MIN_SAVING = 0.0
 # The first predict_version whose encoder tries tool 3 with a box fit (effort 'max': its
 # hundreds of weights a voxel decode several times slower than the 23 of version 6).
 BOX_VERSION = 10
+# The default version's selection for integer bricks (session 30, results/lossless/lenc30):
+# the chain of _encode_fit is run on a sample of the brick, SLABS slabs of a sixteenth of
+# its slices each, spread evenly along its longer axis of z and y and joined (one central
+# slab missed backgrounds and regions that change along z), and only the variant it
+# reaches is coded in full, with each variant one of the slab's decisions made by less
+# than its margin would turn (DOMAIN_MARGIN for palette ranks against values, PRUNE_MARGIN
+# for the others) and the variant with one gradient class (which the joined slabs rank
+# badly): the shortest of those kept. The version-1 predictor is coded in full only where
+# the sample puts it within V1_MARGIN of the chain (it won no brick of the corpus at a
+# tenth of a percent). False: every variant coded in full, as before (the exhaustive mode
+# the tests compare with).
+PRUNE = True
+SLABS = 4
+SLAB_MIN = 32  # slices along the sampled axis: a thinner brick is coded as before
+JOIN = 2  # the predictor's reach back along the axis: slices of context before each slab
+DOMAIN_MARGIN = 0.005
+PRUNE_MARGIN = 0.0015
+# The low-value models and the texture bias learn slowly: a sample shortens their gain
+# (mri_itk_t1: 0.7 % in full, below 0 on the sample), so they are also coded in full
+# where the sample puts them up to this share behind.
+LEARN_MARGIN = 0.01
+# One gradient class against four: the sample's ranking of them is poor (fitted to the
+# brick, the four classes' thresholds cut the sample's few voxels unevenly), so one class
+# is also coded in full where the sample puts it up to this share ahead.
+ONE_MARGIN = 0.01
+V1_MARGIN = 0.05
+# A brick the sample puts under this many bytes a voxel is coded in full as before (the
+# models' learning, paid on the sample again and scaled up, dominates such estimates: 9046
+# bytes for 5433 on labels_itk_skullstrip, whose sample chose the mask wrongly, +4.8 %),
+# unless the wavelet's or the labels' payload is SMALL_FACTOR shorter than the estimate.
+SMALL_PAYLOAD = 0.02
+SMALL_FACTOR = 2
 TOOLS = ("auto", "wavelet", "predict")
 FLOAT_ZSTD_LEVEL = 9
 FLOAT_ZSTD_LEVEL_V3 = 19  # floats compress slowly either way; 19 finds repeats 9 misses
@@ -192,7 +224,8 @@ class LosslessCodec(BrickCodec):
         elif self.tools != "predict":
             candidates.append(self._wavelet_codec().encode(brick))
         if brick.dtype.name in FLOAT_DTYPES or (not is_float and self.tools != "wavelet"):
-            candidates += _encode_predict(brick, self.predict_version)
+            known = min(map(len, candidates))
+            candidates += _encode_predict(brick, self.predict_version, known)
         blend = b""
         if is_float and self.predict_version >= 3:
             floats = self._encode_float(brick, self.predict_version, min(map(len, candidates)))
@@ -336,15 +369,19 @@ def describe(payload: bytes) -> str:
     return {0: "wavelet", 1: "raw", 2: "constant", 3: "zstd"}.get(mode, f"mode {mode}")
 
 
-def _encode_predict(brick: np.ndarray, version: int = 1) -> list[bytes]:
+def _encode_predict(brick: np.ndarray, version: int = 1, known: int | None = None) -> list[bytes]:
     """Predictive payloads of a brick: on its values, and on their ranks when the brick
-    leaves values of its range unused."""
+    leaves values of its range unused (``known``: the shortest other payload, if any)."""
     from . import predict
 
     is_float = brick.dtype.kind == "f"
     values = to_ordered(brick) if is_float else brick.astype(np.int64)
     flags = FLAG_FLOAT if is_float else 0
     lo, hi = int(values.min()), int(values.max())
+    if PRUNE and version == MIX_VERSION and not is_float and max(brick.shape[:2]) >= SLAB_MIN:
+        pruned = _encode_pruned(brick, values, lo, hi, known)
+        if pruned is not None:
+            return pruned
     if is_float:  # exponent and mantissa apart: whole images leap at binade changes
         from . import floatcode
 
@@ -450,6 +487,165 @@ def _encode_fit(
         if len(payload) < (1 - LOCAL_MIN_SAVING) * len(best):
             best = payload
     return best
+
+
+def _encode_pruned(
+    brick: np.ndarray, values: np.ndarray, lo: int, hi: int, known: int | None
+) -> list[bytes] | None:
+    """:func:`_encode_predict` of an integer brick at the default version, pruned (see
+    :data:`PRUNE`): the payloads of the variants the slab leaves in doubt, the version-1
+    predictor's where the slab puts it near them, and the labels' as before; None where
+    the sample cannot tell (see :data:`SMALL_PAYLOAD`)."""
+    from . import predict
+
+    p = pal.build_span(values, lo, hi)
+    domains = [(bytes([MODE_PREDICT, FLAG_FIT]) + pal.pack_range(lo, hi), values, lo, hi)]
+    if 2 < len(p) < hi - lo + 1 and len(p) <= pal.MAX_PALETTE:
+        ranks = pal.to_ranks(values, p)
+        domains.append((bytes([MODE_PREDICT, FLAG_FIT | FLAG_PALETTE]) + pal.pack(p), ranks, 0, len(p) - 1))
+    out = []
+    if piecewise_constant(brick) and len(p) <= pal.MAX_PALETTE:
+        from . import labels
+
+        out.append(
+            bytes([MODE_PREDICT, FLAG_PALETTE | FLAG_LABELS])
+            + pal.pack(p)
+            + labels.encode(pal.to_ranks(values, p), len(p))
+        )
+        known = min(len(out[0]), known or len(out[0]))
+    chain = _FitChain(domains)
+    plans = chain.plan()
+    small = chain.estimate < SMALL_PAYLOAD * values.size
+    if small and (known is None or chain.estimate < SMALL_FACTOR * known):
+        return None
+    out.append(chain.best(plans))
+    head, v, a, b = domains[chain.domain]
+    v1 = len(predict.encode(chain.sample(v), a, b)) * chain.scale + len(head)
+    if v1 <= (1 + V1_MARGIN) * chain.estimate:
+        flags = FLAG_PALETTE if chain.domain else 0
+        out.append(bytes([MODE_PREDICT, flags]) + head[2:] + predict.encode(v, a, b))
+    return out
+
+
+def _sample(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The slices of the sample (SLABS slabs of ``n // 16`` slices spread evenly, each
+    after JOIN slices of context) and which of them are context, not coded."""
+    t = n // 16
+    starts = [max(0, round((i + 0.5) * n / SLABS - t / 2) - JOIN) for i in range(SLABS)]
+    index = np.concatenate([np.arange(z, z + t + JOIN) for z in starts])
+    context = np.tile(np.arange(t + JOIN) < JOIN, SLABS)
+    return index, context
+
+
+class _FitChain:
+    """The variants of :func:`_encode_fit` on a slab of the brick, then in full.
+
+    A variant is (domain, mask, one class, low, tex, mix) as the flags set them; the slab
+    makes each decision of the chain in its order, and :meth:`plan` lists the variant it
+    reached and, for each decision made by less than PRUNE_MARGIN, that variant with the
+    decision the other way."""
+
+    def __init__(self, domains: list) -> None:
+        self.domains = domains
+        shape = domains[0][1].shape
+        # (the slices of z and of y sampled where the brick is thick enough, x whole)
+        picks = [_sample(n) if n >= SLAB_MIN else (np.arange(n), np.zeros(n, bool)) for n in shape[:2]]
+        self.index = np.ix_(picks[0][0], picks[1][0])
+        self.context = picks[0][1][:, None, None] | picks[1][1][None, :, None]
+        self.context = np.broadcast_to(self.context, self.sample(domains[0][1]).shape)
+        self.scale = np.prod(shape) / np.count_nonzero(~self.context)
+        self._masks: dict = {}
+        self._fits: dict = {}
+        self.domain, self.estimate = 0, 0.0
+
+    def sample(self, a: np.ndarray) -> np.ndarray:
+        return a[self.index]
+
+    def fits(self, d: int):
+        """The fitted predictors of domain ``d`` (4 gradient classes, 1), on the brick."""
+        from . import predictfit
+
+        if d not in self._fits:
+            _, v, a, _ = self.domains[d]
+            self._fits[d] = predictfit.fit(v - a)
+        return self._fits[d]
+
+    def mask(self, d: int):
+        """(mask section, mask) of domain ``d``, or None (as :func:`bgmask.choose`)."""
+        if d not in self._masks:
+            _, v, a, _ = self.domains[d]
+            masked = bgmask.choose(v)
+            self._masks[d] = None if masked is None else (bgmask.encode(masked[0] - a, masked[1]), masked[1])
+        return self._masks[d]
+
+    def _size(self, var: tuple, fits) -> float:
+        """The slab's estimate of a variant's payload: its slab stream scaled to the brick,
+        plus the head and the mask section of the brick."""
+        from . import predictfit
+
+        d, masked, one, low, tex, mix = var
+        head, v, a, b = self.domains[d]
+        mask = self.mask(d) if masked else None
+        m = self.context if mask is None else self.sample(mask[1]) | self.context
+        n = len(predictfit.encode(self.sample(v), a, b, mask=m, fitted=fits[one], low=low, tex=tex, mix=mix))
+        return n * self.scale + len(head) + (len(mask[0]) if mask else 0) + mix
+
+    def plan(self) -> list[tuple]:
+        """The variants to code in full (the slab's pick first)."""
+        from . import predictfit
+
+        fits = [predictfit.fit(self.sample(v) - a, self.context) for _, v, a, _ in self.domains]
+        sizes = [self._size((d, False, 0, False, False, False), fits[d]) for d in range(len(fits))]
+        d = int(np.argmin(sizes))
+        doubts = [0] if len(sizes) == 2 and 1 - min(sizes) / max(sizes) <= DOMAIN_MARGIN else []
+        var = (d, False, 0, False, False, False)
+        best = self._size(var, self.fits(d))  # the brick's fit from here on
+        for i, th in ((1, 0.0), (2, 0.0), (3, 0.0), (4, 0.0), (5, MIX_MIN_SAVING)):
+            if i == 1 and self.mask(d) is None:
+                continue
+            other = var[:i] + ((1 if i == 2 else True),) + var[i + 1 :]
+            n = self._size(other, self.fits(d))
+            gain = 1 - n / best
+            below = LEARN_MARGIN if i in (3, 4) else PRUNE_MARGIN
+            above = ONE_MARGIN if i == 2 else PRUNE_MARGIN
+            if -below <= gain - th <= above:
+                doubts.append(i)
+            if gain > th:
+                var, best = other, n
+        self.domain, self.estimate = d, best
+        plans = [var]
+        for i in doubts:
+            if i == 0:  # the other domain, its mask if it has one
+                other = (1 - d, var[1] and self.mask(1 - d) is not None) + var[2:]
+            else:
+                other = var[:i] + ((1 - var[i] if i == 2 else not var[i]),) + var[i + 1 :]
+            if other not in plans:
+                plans.append(other)
+        return plans
+
+    def payload(self, var: tuple) -> bytes:
+        from . import predictfit
+
+        d, masked, one, low, tex, mix = var
+        head, v, a, b = self.domains[d]
+        mask = self.mask(d) if masked else None
+        flags = head[1] | (FLAG_MASK if mask else 0) | (FLAG_LOW if low else 0) | (FLAG_TEX if tex else 0)
+        lead = bytes([head[0], flags | FLAG_MORE, FLAG_MIX >> 8]) if mix else bytes([head[0], flags])
+        stream = predictfit.encode(
+            v, a, b, mask=None if mask is None else mask[1], fitted=self.fits(d)[one], low=low,
+            tex=tex, mix=mix,
+        )  # fmt: skip
+        return lead + head[2:] + (mask[0] if mask else b"") + stream
+
+    def best(self, plans: list[tuple]) -> bytes:
+        """The shortest payload of ``plans``, the mixed estimates kept where they save
+        MIX_MIN_SAVING over the shortest without."""
+        coded = [(var[5], self.payload(var)) for var in plans]
+        plain = min((c for mix, c in coded if not mix), key=len, default=None)
+        mixed = min((c for mix, c in coded if mix), key=len, default=None)
+        if plain is None or (mixed is not None and len(mixed) < (1 - MIX_MIN_SAVING) * len(plain)):
+            return mixed
+        return plain
 
 
 def _decode_predict(body: memoryview, shape: tuple[int, ...], dtype: np.dtype) -> np.ndarray:

@@ -130,6 +130,23 @@ LONGFIT_MIN_BITS = 1.0
 # ... and coded only where its residuals' zeroth-order entropy is at most this share of
 # the shortest other coding (the lossless codec codes them up to 15 % below it: cam_u).
 LONGFIT_MAX_ENTROPY = 1.2
+# The default effort's selection (session 29, results/lossy/enc29): the codings are made
+# in an order that finds a short one early, and the costly ones whose estimate (or first
+# step) is far from the shortest so far are not made. False: every coding of every path
+# made, as before (the exhaustive mode the tests compare with).
+PRUNE = True
+# The lossless codec's predictive tool (a chain of adaptive decisions per voxel, the
+# costliest coding of the quantised voxels and of the long fit's residual) is run on the
+# whole array only where its estimate, its ratio to the wavelet's bytes on the central
+# half of the slices times the wavelet's bytes of the whole, is below this times the
+# shortest coding so far: the ratio on those slices was within 3 % of the whole's on six
+# fields of the corpus at 1e-2, 1e-3 and 1e-5 of the range, and a predictive coding
+# (the slow tier) is kept only where it is SLOW_MIN_SAVING shorter than a faster one.
+# 1.05 made it more often, for no byte on the 52 cells (1.15x the exhaustive speed,
+# against 1.24x: results/lossy/enc29).
+PREDICT_GATE = 1.01
+SAMPLE_MIN_SLICES = 8  # thinner arrays are coded whole
+
 # The quantised voxels' inner section under effort 'fast': this byte, then a `fast` codec
 # payload (formats/fast-1.md) of them: MED prediction and static rANS decode 3-10x faster
 # than the wavelet and its adaptive coder and code as short on the head CT, and on float
@@ -403,6 +420,8 @@ class BoundedCodec(BrickCodec):
         if mask is not None:
             q = fill_masked(q, mask)  # masked voxels take their neighbour's value
         rec = self._reconstruct(q, x.dtype)
+        if self._pruned:
+            return self._encode_pruned(x, mask, clean, q, rec)
         cands = [(t, self._finish(x, mask, rec, 0, [b])) for t, b in self._code_quantised(q)]
         if fast:
             if x.size >= 64 and x.dtype.kind == "f" and not self._exact:
@@ -426,13 +445,72 @@ class BoundedCodec(BrickCodec):
                 best = keep_faster(cands, self._min_saving())
         return best
 
-    def _code_quantised(self, q: np.ndarray) -> list[tuple[int, bytes]]:
+    @property
+    def _pruned(self) -> bool:
+        return PRUNE and self.effort == "default"
+
+    def _encode_pruned(self, x, mask, clean, q, rec) -> Measured:
+        """The default effort's selection: the interpolation and coefficient paths, the
+        long fit, the float CDF 9/7 (not made, or its step search given up, where it
+        cannot come near the shortest so far), then the quantised voxels (their
+        predictive coding made where its estimate may win, PREDICT_GATE); kept by
+        ``keep_faster`` as every other selection."""
+        from . import bounded_cdf97
+
+        saving = self._min_saving()
+        big = x.size >= 64 and not self._exact
+
+        def quantised():
+            best = len(keep_faster(cands, saving)[0]) if cands else None
+            coded = self._code_quantised(q, best)
+            cands.extend((t, self._finish(x, mask, rec, 0, [b])) for t, b in coded)
+
+        cands, planned, floor = [], None, math.inf
+        if big and x.dtype.kind == "f":
+            cands.append(self._interp_candidate(x, clean, mask))
+            # the CDF 9/7 layouts' cost estimate: the long fit's gate on bits a voxel sees
+            # the wavelet's floor, as it saw its coding when that was made first
+            planned = bounded_cdf97.plan(clean.astype(np.float64), self.max_error, self.max_levels)
+            floor = bounded_cdf97.COST_FLOOR * planned[1] / 8 if planned else math.inf
+        if big:
+            cands.append((TIER_MID, self._coef_candidate(x, clean, mask)))
+        else:  # small, or on a grid: the quantised voxels alone, then the long fit
+            quantised()
+        so_far = len(keep_faster(cands, saving)[0]) if cands else 0
+        if x.dtype.kind == "f" and 8 * min(so_far, floor) >= LONGFIT_MIN_BITS * q.size:
+            longs = self._longfit(q, so_far)
+            cands += [
+                (tier, self._finish(x, mask, rec, FLAG_RESIDUALS, [long])) for tier, long in longs
+            ]
+        if planned is not None:
+            shortest = min(len(m[0]) for _, m in cands)
+            cands += [
+                (TIER_MID, c) for c in self._cdf97_candidates(x, clean, mask, shortest, planned)
+            ]
+        if big:
+            quantised()
+        return keep_faster(cands, saving)
+
+    def _predict_may_pay(self, v: np.ndarray, wav: int, best: int | None) -> bool:
+        """Whether the predictive tool's bytes of ``v`` (whose wavelet bytes are ``wav``)
+        may come within PREDICT_GATE of ``best``: estimated on the central half of its
+        slices (a central block missed the background of masked fields: mri_dipy_float's
+        ratio 0.88 for 0.78 at 1e-2 of its range; these slices 0.80)."""
+        nz = v.shape[0] if v.ndim == 3 else 0
+        if best is None or nz < SAMPLE_MIN_SLICES:
+            return True
+        part = np.ascontiguousarray(v[nz // 4 : nz // 4 + nz // 2])
+        ratio = len(self._predictive().encode(part)) / max(1, len(self._inner().encode(part)))
+        return ratio * wav < PREDICT_GATE * best
+
+    def _code_quantised(self, q: np.ndarray, best: int | None = None) -> list[tuple[int, bytes]]:
         """The quantised voxels' payloads with their decoding tiers: the lossless
         wavelet payload (modes 0-3, what this path wrote first) and the lossless codec's
         predictive one (mode 4, the fitted 3-D predictor; or raw): at tight bounds the
         quantised voxels of a noisy or thin field are better predicted from their causal
         neighbours (mri_piesno_noise at 1e-4 of the range: 106.0 -> 99.9 kB). 'fast'
-        makes the fast codec's payload alone (:data:`QVOX_FAST`)."""
+        makes the fast codec's payload alone (:data:`QVOX_FAST`). ``best``: the shortest
+        coding so far, which the predictive one must come near (:meth:`_predict_may_pay`)."""
         from .lossless import MODE_PREDICT
 
         if self.effort == "fast":
@@ -444,6 +522,8 @@ class BoundedCodec(BrickCodec):
             codec = FastCodec(zstd=False, near=FAST_NEAR)
             return [(TIER_FAST, bytes([QVOX_FAST]) + codec.encode(q))]
         wav = self._inner().encode(q)
+        if not self._predict_may_pay(q, len(wav), best):
+            return [(TIER_MID, wav)]
         p = self._predictive().encode(q)
         tier = TIER_SLOW if p[0] == MODE_PREDICT else TIER_FAST  # (else raw or constant)
         return [(TIER_MID, wav), (tier, p)]
@@ -468,6 +548,8 @@ class BoundedCodec(BrickCodec):
         if small or 8 * best < LONGFIT_MIN_BITS * q.size:
             return []
         qmax = int(np.iinfo(q.dtype).max)
+        if self._pruned:
+            return self._longfit_pruned(q, best, qmax)
         wav = self._inner()
         ctx = by_wav = shifted = static = None
         for i, reach in enumerate(lf.tried_reaches(np.ascontiguousarray(q, np.int64))):
@@ -493,6 +575,35 @@ class BoundedCodec(BrickCodec):
             out += [(TIER_MID, by_wav), (TIER_SLOW, head + self._predictive().encode(res))]
         return out
 
+    def _longfit_pruned(self, q, best: int, qmax: int) -> list[tuple[int, bytes]]:
+        """:meth:`_longfit` of the default effort: the reach kept is the one whose
+        residual codes shortest by static tables (the cheapest coding; it ranks the
+        reaches as the others do), and only its residual is coded the other ways, by the
+        lossless predictive tool where its estimate may win (:meth:`_predict_may_pay`)."""
+        from . import bounded_longfit as lf
+
+        chosen = None  # (static bytes or None, residual, plan, weights)
+        for i, reach in enumerate(lf.tried_reaches(np.ascontiguousarray(q, np.int64))):
+            r, plan, weights = lf.residuals(q, reach, qmax, prune=True)
+            if i == 0 and lf.estimate_bits(r) / 8 > best * LONGFIT_MAX_ENTROPY:
+                return []
+            body = lf.code_static(r)
+            if body is not None:
+                body = lf.encode_head(r, plan, weights, code=lf.STATIC_CODED)[0] + body
+            if chosen is None or _shorter(body, chosen[0]):
+                chosen = (body, r, plan, weights)
+        static, r, plan, weights = chosen
+        out = [(TIER_SLOW, lf.encode_head(r, plan, weights, context=True)[0] + lf.code_residuals(r))]
+        out += [(TIER_MID, static)] if static is not None else []
+        head = lf.encode_head(r, plan, weights)
+        if head is not None:
+            by_wav = head[0] + self._inner().encode(head[1])
+            out.append((TIER_MID, by_wav))
+            so_far = min([best] + [len(b) for _, b in out])
+            if self._predict_may_pay(head[1], len(by_wav), so_far):
+                out.append((TIER_SLOW, head[0] + self._predictive().encode(head[1])))
+        return out
+
     @property
     def _exact(self) -> bool:
         """Floats on a grid under a bound below half of it: the voxels are quantised to
@@ -513,20 +624,25 @@ class BoundedCodec(BrickCodec):
             inner, rec = bounded_interp.encode(g, self.step, tried, codings, FAST_BIN_SAVINGS)
         else:  # (codings left to encode's default: tests narrow it)
             saving = self._min_saving()
-            inner, rec = bounded_interp.encode(g, self.step, bounded_interp.TRIED, min_saving=saving)
+            inner, rec = bounded_interp.encode(
+                g, self.step, bounded_interp.TRIED, min_saving=saving, few=self._pruned
+            )
         tier = TIER_MID if bounded_interp.is_adaptive(inner) else TIER_FAST
         y = _to_float(rec, x.dtype, overwrite=True)
         return tier, self._finish(x, mask, y, FLAG_INTERP, [inner])
 
-    def _cdf97_candidates(self, x, clean, mask):
-        """The float CDF 9/7 path at each step it tries; each checked on every voxel."""
+    def _cdf97_candidates(self, x, clean, mask, shortest=None, planned=None):
+        """The float CDF 9/7 path at each step it tries; each checked on every voxel (none,
+        or fewer, where it cannot come near ``shortest`` bytes: :func:`.bounded_cdf97.encode`;
+        ``planned``: its layouts, if made)."""
         from . import bounded_cdf97 as w
 
         xf = x.reshape(-1).astype(np.float64)
         out = []
 
         def finish(inner, rec):
-            err = np.abs(_to_float(rec, x.dtype).reshape(-1).astype(np.float64) - xf)
+            err = _to_float(rec, x.dtype).reshape(-1).astype(np.float64)
+            err = np.abs(np.subtract(err, xf, out=err), out=err)  # in place: same values
             if mask is not None:
                 err[mask.reshape(-1)] = 0.0
             bad = np.flatnonzero(err > self.max_error)
@@ -541,7 +657,9 @@ class BoundedCodec(BrickCodec):
             out.append(self._finish(x, mask, y, FLAG_CDF97, [inner], extra, FLAG_OUTLIERS))
             return len(out[-1][0])
 
-        w.encode(clean.astype(np.float64), self.max_error, self.coder, self.max_levels, finish)
+        # (unmasked: the voxels' float64 copy serves both; the transforms make new arrays)
+        g = xf.reshape(x.shape) if clean is x else clean.astype(np.float64)
+        w.encode(g, self.max_error, self.coder, self.max_levels, finish, shortest, planned)
         return out
 
     # The coefficient path works on a fine integer grid: the voxels themselves for
@@ -571,7 +689,13 @@ class BoundedCodec(BrickCodec):
         # Voxels past the allowed grid error get a residual in units of 2s+1 grid steps,
         # which brings them back within s: mostly zeros and +-1, coded as a sparse field.
         width = 2 * slack + 1
-        res = np.where(np.abs(off) > slack, np.floor(off / width + 0.5), 0).astype(np.int64)
+        far = np.abs(off) > slack
+        res = np.divide(off, width)  # floor(off / width + 0.5) where far, in place
+        res += 0.5
+        np.floor(res, out=res)
+        res[~far] = 0.0
+        res = res.astype(np.int64)
+        del far, off
         extra = []
         if res.any():
             rec += res * width
@@ -603,7 +727,8 @@ class BoundedCodec(BrickCodec):
     def _finish(self, x, mask, rec, flags, inner, residuals=(), residual_flag=FLAG_RESIDUALS):
         """Check every voxel of ``rec``, add the exact corrections and the mask, and
         assemble the payload; returns what :meth:`encode_measured` returns."""
-        err = np.abs(rec.astype(np.float64) - x.astype(np.float64))
+        err = rec.astype(np.float64)  # |rec - x| in place (x cast to float64 as it goes)
+        err = np.abs(np.subtract(err, x, out=err, dtype=np.float64), out=err)
         if mask is not None:
             err[mask] = 0.0
         bad = np.flatnonzero(err > self.max_error)
@@ -621,9 +746,10 @@ class BoundedCodec(BrickCodec):
             parts.append(put_section(pack_corrections(x, bad)))
         parts[0] = bytes([flags])
         valid = x.size - (int(mask.sum()) if mask is not None else 0)
+        worst = float(err.max(initial=0.0))
         with np.errstate(over="ignore"):  # errors near 1e300 square to inf: PSNR unknown
-            sse = float(np.sum(err * err))
-        return Measured(b"".join(parts), float(err.max(initial=0.0)), sse, valid)
+            sse = float(np.sum(np.square(err, out=err)))  # in place: the same squares
+        return Measured(b"".join(parts), worst, sse, valid)
 
     def encode(self, brick: np.ndarray) -> bytes:
         return self.encode_measured(brick)[0]
@@ -759,6 +885,11 @@ def keep_faster(cands: list[tuple[int, Measured]], saving: float = SLOW_MIN_SAVI
         if len(m[0]) < limit:
             best_tier, best = tier, m
     return best
+
+
+def _shorter(a: bytes | None, b: bytes | None) -> bool:
+    """Whether ``a`` is a shorter coding than ``b`` (None: no coding, the longest)."""
+    return a is not None and (b is None or len(a) < len(b))
 
 
 def _exact_may_pay(x: np.ndarray, max_error: float) -> bool:
@@ -985,18 +1116,31 @@ REBUILD_OFFSET = 0.125
 def _quantize_coefs(c: np.ndarray, steps: np.ndarray, dead_zone: bool) -> np.ndarray:
     if not dead_zone:  # threshold: small coefficients dropped, the rest kept
         return np.where(np.abs(c) < steps, 0, c).astype(np.int64)
+    # sign(c) floor(|c| / step + offset), the coefficient itself where the step is at
+    # most 1, in one float64 array (the same operations as over whole temporaries)
     exact = steps <= 1.0
-    q = np.sign(c) * np.floor(np.abs(c) / np.where(exact, 1.0, steps) + DEAD_ZONE_OFFSET)
-    return np.where(exact, c, q).astype(np.int64)
+    q = np.where(exact, 1.0, steps)
+    np.divide(np.abs(c), q, out=q)
+    q += DEAD_ZONE_OFFSET
+    np.floor(q, out=q)
+    np.multiply(np.sign(c), q, out=q)
+    q[exact] = c[exact]  # (as float64, like np.where's: then cast back)
+    return q.astype(np.int64)
 
 
 def _dequantize_coefs(q: np.ndarray, steps: np.ndarray, dead_zone: bool) -> np.ndarray:
     if not dead_zone:
         return np.ascontiguousarray(q, dtype=np.int64)
+    # sign(q) floor((|q| + offset) step + 0.5), 0 for q = 0 and q itself where the step
+    # is at most 1, in one float64 array (the same operations as over whole temporaries)
     exact = steps <= 1.0
-    mag = np.floor((np.abs(q) + REBUILD_OFFSET) * steps + 0.5)
-    c = np.where(exact, q, np.where(q == 0, 0, np.sign(q) * mag))
-    return np.ascontiguousarray(c, dtype=np.int64)
+    mag = np.abs(q) + REBUILD_OFFSET
+    mag *= steps
+    mag += 0.5
+    np.floor(mag, out=mag)
+    np.multiply(np.sign(q), mag, out=mag)  # 0 where q is
+    mag[exact] = q[exact]
+    return np.ascontiguousarray(mag, dtype=np.int64)
 
 
 def band_scale(shape: tuple[int, int, int], levels: tuple[int, int, int]) -> np.ndarray:

@@ -765,6 +765,50 @@ def _fit_sums(v, mk, steps, hi, th, g, row, xtx, xty, counts, sums):
     return k
 
 
+@kernel(nrt=False)
+def _fit_rows(v, mk, steps, hi, th, z0, z1, rows, counts):
+    """The rows of :func:`_fit_sums` in slices ``z0:z1``, each class's in its part of
+    ``rows`` (the neighbours, then the voxel), counted in ``counts`` (zeroed here)."""
+    nf = steps.shape[0]
+    counts[:] = 0
+    for z in range(z0, z1):
+        for y in range(2, hi[0]):
+            for x in range(2, hi[1]):
+                if mk[z, y, x] != 0 or not _fit_varies(v, steps, z, y, x):
+                    continue
+                gk = _fit_gradient(v, z, y, x)
+                c = 0
+                for t in range(th.shape[0]):
+                    c += gk > th[t]
+                k = counts[c]
+                for j in range(nf):
+                    rows[c, k, j] = np.float64(v[z - steps[j, 0], y - steps[j, 1], x - steps[j, 2]])
+                rows[c, k, nf] = np.float64(v[z, y, x])
+                counts[c] = k + 1
+
+
+FIT_CHUNK = 1 << 14  # rows a class holds at most between two products in _fit_blocked
+
+
+def _fit_blocked(v, mk, hi, th, xtx, xty, counts):
+    """:func:`_fit_sums` (``sums`` true) as matrix products over blocks of slices: the same
+    sums (integers, exact below 2^53 in any order: the caller checks the bound), several
+    times faster than the kernel's triangle of products a row."""
+    nz, ny, nx = v.shape
+    zs = max(1, FIT_CHUNK // ((ny - 3) * (nx - 3)))
+    rows = np.empty((NCLS, zs * (ny - 3) * (nx - 3), NFIT + 1))
+    got = np.zeros(NCLS, dtype=np.int64)
+    for z0 in range(2, nz, zs):
+        _fit_rows(v, mk, _FIT_STEPS, hi, th, z0, min(nz, z0 + zs), rows, got)
+        for c in range(NCLS):
+            if got[c]:
+                r = rows[c, : got[c]]
+                g = r.T @ r
+                xtx[c] += g[:NFIT, :NFIT]
+                xty[c] += g[:NFIT, NFIT]
+                counts[c] += got[c]
+
+
 def fit(v: np.ndarray, mask: np.ndarray | None = None) -> list[tuple[np.ndarray, np.ndarray]]:
     """Weights of the fitted predictor for brick ``v`` (values from 0), in 2^-CF_BITS,
     and the gradient classes' thresholds: least squares over the voxels where every
@@ -790,10 +834,15 @@ def fit(v: np.ndarray, mask: np.ndarray | None = None) -> list[tuple[np.ndarray,
     if n < 4 * NFIT:
         return [(cf, th), (cf, th)]
     th4 = np.minimum(np.quantile(g[:n], np.arange(1, NCLS) / NCLS), NO_CLASS).astype(np.int64)
-    _fit_sums(v, mk, _FIT_STEPS, hi, th4.astype(np.float64), g, row, xtx, xty, counts, True)
-    upper = np.triu_indices(NFIT, 1)
-    for c in range(NCLS):  # the products were summed above the diagonal only
-        xtx[c][upper[::-1]] = xtx[c][upper]
+    top = max(int(v.max()), -int(v.min()))
+    small = (ny - 3) * (nx - 3) <= 4 * FIT_CHUNK  # (a slice's rows: the blocks' memory)
+    if small and n * top * top < 1 << 53:  # every partial sum exact: products sum the same
+        _fit_blocked(v, mk, hi, th4.astype(np.float64), xtx, xty, counts)
+    else:
+        _fit_sums(v, mk, _FIT_STEPS, hi, th4.astype(np.float64), g, row, xtx, xty, counts, True)
+        upper = np.triu_indices(NFIT, 1)
+        for c in range(NCLS):  # the products were summed above the diagonal only
+            xtx[c][upper[::-1]] = xtx[c][upper]
     every = _solve(xtx.sum(axis=0), xty.sum(axis=0))
     cf1 = cf.copy()
     cf1[:NFIT] = every

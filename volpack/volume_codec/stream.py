@@ -28,7 +28,13 @@ from ..format.describe import describe
 from ..format.streams import stdin
 from ..jsonsafe import jsonable
 from ..metrics import psnr_from_sse, throughput
-from ..parallel import completed_map, one_blas_thread, ordered_map, parse_workers
+from ..parallel import (
+    auto_workers,
+    completed_map,
+    one_blas_thread,
+    ordered_map,
+    parse_workers,
+)
 from ..volume import Volume, require_voxels
 from . import bricks
 from .codec import WAVELET_DTYPES, WaveletCodec, ZstdCodec
@@ -102,6 +108,26 @@ def _zero_bound(asked: dict[str, Any]) -> bool:
         return what in ("max_error", "rel_error") and float(target) == 0.0
     except (TypeError, ValueError):
         return False
+
+
+# Memory of one brick's encode, per voxel of the brick, with room to spare: a second
+# worker on the lossy selection's 128^3 float32 bricks added about 290 MB of resident
+# memory (140 B a voxel; 430 before session 30's mem30), the lossless coders less. A
+# worker count left to volpack keeps within half the memory at this rate.
+ENCODE_BYTES_PER_VOXEL = 256
+
+
+def _encode_workers(
+    workers: int | None, shape: tuple[int, ...], brick: tuple[int, int, int]
+) -> int:
+    """The thread count of an encode: as asked, or for ``None`` and 0 every core, capped
+    by the bricks there are and by the memory their encodes need at once."""
+    if workers is not None and workers != 0:
+        return parse_workers(workers)
+    frames = int(np.prod(shape[:-3], dtype=np.int64))
+    tasks = frames * int(np.prod(bricks.grid_shape(shape[-3:], brick), dtype=np.int64))
+    voxels = int(np.prod([min(b, n) for b, n in zip(brick, shape[-3:])], dtype=np.int64))
+    return auto_workers(tasks, voxels * ENCODE_BYTES_PER_VOXEL)
 
 
 @one_blas_thread()
@@ -203,7 +229,9 @@ def compress(
         and a float volume coded exactly by the default codec takes 128^3, as does an
         integer volume of at most 2^21 voxels.
     workers : int or None
-        Threads; ``None`` or 0 uses every core. The output does not depend on it.
+        Threads; ``None`` or 0 uses every core, but no more than there are bricks and no
+        more than half the memory holds (:data:`ENCODE_BYTES_PER_VOXEL` a brick voxel).
+        The output does not depend on it.
     progress : callable(done, total), optional
         Called after each brick.
 
@@ -226,7 +254,6 @@ def compress(
     vol = source if isinstance(source, Volume) else Volume(np.asarray(source))
     require_voxels(vol.data.shape)
     t0 = time.perf_counter()  # the setting search counts: the speed is the whole coding's
-    nworkers = parse_workers(workers)
     inner = {"wavelet": wavelet, "coder": coder, "order": order, "max_levels": max_levels}
     targets = {
         "max_error": max_error,
@@ -259,6 +286,7 @@ def compress(
         bounded = bool(asked) and not ({"quality", "threshold"} & set(asked))
         brick = bricks.default_brick(vol.shape, vol.dtype, bounded, codec, bool(asked))
     brick_t = bricks.parse_brick(brick)
+    nworkers = _encode_workers(workers, vol.data.shape, brick_t)
     for name, value in (("runs", runs), ("rows", rows), ("zstd", zstd)):
         if value is not None and (codec != "fast" or asked):
             raise OptionError(
@@ -451,6 +479,8 @@ class VolumeReader(CheckedReader):
         out = np.empty((len(times), *rshape), dtype=dtype)
         nodes = bricks.bricks_in_roi(spatial, brick_t, region)
         tasks = [(i, t, node) for i, t in enumerate(times) for node in nodes]
+        if workers is None or workers == 0:  # every core, one brick each at most
+            nworkers = auto_workers(len(tasks))
         if nworkers > 1:  # largest payloads first: the small ones left fill the gaps at the
             # end, so the workers finish together (each brick writes its own part of
             # ``out``: the output does not depend on the order)

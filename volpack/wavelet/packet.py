@@ -21,7 +21,6 @@ encoder and decoder rebuild the same bits.
 
 from __future__ import annotations
 
-import functools
 import itertools
 from typing import NamedTuple
 
@@ -30,7 +29,7 @@ import numpy as np
 from ..entropy.scan import Scan
 from ..errors import OptionError
 from . import cdf97
-from .sigmap import APPROX_CLASS, flat_index, row_ends, scan_of
+from .sigmap import APPROX_CLASS, scan_cache, scan_of_bands
 
 
 def forward(x: np.ndarray, levels: tuple[int, int, int]) -> np.ndarray:
@@ -105,7 +104,6 @@ def _parent(band: Band, levels) -> tuple[int, int, int] | None:
     return None if up == band.index else up
 
 
-@functools.lru_cache(maxsize=64)
 def scan(shape: tuple[int, ...], levels: tuple[int, ...]) -> Scan:
     """The ``rows`` scan (:mod:`volpack.wavelet.sigmap`) over the separable layout: bands
     coarse to fine, each in raster order, the first position of each row rooting the
@@ -115,34 +113,19 @@ def scan(shape: tuple[int, ...], levels: tuple[int, ...]) -> Scan:
     levels = tuple(int(v) for v in levels)
     if len(shape) != 3 or len(levels) != 3 or min(shape) < 1:
         raise OptionError(f"expected a 3-D shape and 3 levels, found {shape} and {levels}")
+    return _scan(shape, levels)
+
+
+@scan_cache
+def _scan(shape: tuple[int, int, int], levels: tuple[int, int, int]) -> Scan:
     bands = subbands(shape, levels)
-    by_index = {b.index: b for b in bands}
-    total = int(np.prod(shape))
-    strides = (shape[1] * shape[2], shape[2], 1)
-    parent_flat = np.full(total, -1, dtype=np.int64)
-    cls_flat = np.zeros(total, dtype=np.uint8)
-    nbr_flat = np.full((total, 3), -1, dtype=np.int64)
-    order = []
-    for b in bands:
-        local = np.ix_(*(np.arange(s) for s in b.size))
-        idx = flat_index(shape, b.start, local).ravel()
-        order.append(idx)
-        grid = np.indices(b.size).reshape(3, -1)
-        for a in range(3):
-            has = grid[a] > 0
-            nbr_flat[idx[has], a] = idx[has] - strides[a]
-        cls_flat[idx] = _band_class(b, levels)
+    at = {b.index: i for i, b in enumerate(bands)}
+    # one row a band (sigmap.scan_of_bands): the parent band and, per axis, whether the
+    # parent sits at half the position (the axes it is coarser along)
+    table = np.zeros((len(bands), 11), np.int64)
+    for i, b in enumerate(bands):
         up = _parent(b, levels)
-        pb = by_index.get(up) if up is not None else None
-        if pb is None:
-            continue
-        ploc = []
-        for a in range(3):
-            p = np.arange(b.size[a])
-            p = p // 2 if up[a] != b.index[a] else p
-            ploc.append(np.minimum(p, pb.size[a] - 1))
-        parent_flat[idx] = flat_index(shape, pb.start, np.ix_(*ploc)).ravel()
-    perm = np.concatenate(order)
-    end = np.arange(1, total + 1, dtype=np.int64)
-    row_ends(end, [b.size for b in bands])
-    return scan_of(perm, end, parent_flat, cls_flat, nbr_flat)
+        pb = at.get(up, -1) if up is not None else -1
+        halves = [int(up is not None and up[a] != b.index[a]) for a in range(3)]
+        table[i] = [*b.start, *b.size, _band_class(b, levels), pb, *halves]
+    return scan_of_bands(shape, table, dfs=False, rows=True)

@@ -22,12 +22,14 @@ coarsest level and of the approximation are roots. Two scans are offered:
 
 A scan also gives each position the scan position of its parent (coded earlier in both
 orders; -1 for roots) and a subband class for context modelling. Scans depend only on
-the brick shape and levels, so they are built once and cached.
+the brick shape and levels, so they are cached (within SCAN_CACHE_BYTES).
 """
 
 from __future__ import annotations
 
+import collections
 import functools
+import threading
 
 import numpy as np
 
@@ -42,19 +44,62 @@ ORDERS = ("dfs", "line", "rows")
 APPROX_CLASS = 24
 
 
-def flat_index(shape, start, local):
-    """Flat C-order indices of ``start + local`` (local: three broadcastable arrays)."""
-    z, y, x = (s + loc for s, loc in zip(start, local))
-    return (z * shape[1] + y) * shape[2] + x
-
-
 def _band_class(band: Band, nlevels: int) -> int:
     if band.level == nlevels:
         return APPROX_CLASS
     return min(band.level, 5) * 4 + sum(band.bits)
 
 
-@functools.lru_cache(maxsize=64)
+# What the scan caches of this module and of volpack.wavelet.packet hold at most,
+# together (every scan takes 25 bytes a voxel): a few hundred of small bricks' scans, one
+# of a 128^3 brick's. Session 30: an entry count (64 each) kept the six scans a 128^3
+# float brick's lossy paths make, 290 MB, for the whole process; the paths now build
+# again the few they need in turn (results/lossy/mem30).
+SCAN_CACHE_BYTES = 64 << 20
+SCAN_BYTES_A_VOXEL = 25
+_held: collections.OrderedDict = collections.OrderedDict()  # (builder, args) -> scan
+_lock = threading.Lock()  # the encoders' worker threads share it
+
+
+def _held_bytes() -> int:
+    return sum(a.nbytes for sc in _held.values() for a in sc)
+
+
+def scan_cache(build):
+    """Cache the scans ``build(shape, ...)`` returns (read-only, so shared; the arguments
+    as given), the least recently used let go first to keep every cached scan within
+    ``SCAN_CACHE_BYTES``: room is made before a scan is built, and the newest is kept
+    whatever its size (a step search asks for the same scan again and again)."""
+    name = f"{build.__module__}.{build.__qualname__}"
+
+    @functools.wraps(build)
+    def cached(shape, *args):
+        key = (name, shape, *args)
+        need = int(np.prod(shape)) * SCAN_BYTES_A_VOXEL
+        with _lock:
+            if key in _held:
+                _held.move_to_end(key)
+                return _held[key]
+            total = _held_bytes()
+            while _held and total + need > SCAN_CACHE_BYTES:
+                total -= sum(a.nbytes for a in _held.popitem(last=False)[1])
+        out = build(shape, *args)
+        with _lock:
+            _held[key] = out
+            total = _held_bytes()
+            while len(_held) > 1 and total > SCAN_CACHE_BYTES:
+                total -= sum(a.nbytes for a in _held.popitem(last=False)[1])
+        return out
+
+    return cached
+
+
+def clear_scans() -> None:
+    """Let every cached scan go (this module's and volpack.wavelet.packet's)."""
+    with _lock:
+        _held.clear()
+
+
 def scan(shape: tuple[int, ...], levels: tuple[int, ...], order: str = "dfs") -> Scan:
     """Return the coding order of a brick of ``shape`` decomposed with ``levels``."""
     shape = tuple(int(s) for s in shape)
@@ -63,6 +108,27 @@ def scan(shape: tuple[int, ...], levels: tuple[int, ...], order: str = "dfs") ->
         raise OptionError(f"expected order in {ORDERS}, found {order!r}")
     if len(shape) != 3 or len(levels) != 3 or min(shape) < 1:
         raise OptionError(f"expected a 3-D shape and 3 levels, found {shape} and {levels}")
+    if order == "rows":  # the line scan but for its row ends: its other tables shared
+        return _rows(shape, levels, _scan(shape, levels, "line"))
+    return _scan(shape, levels, order)
+
+
+def _rows(shape, levels, line: Scan) -> Scan:
+    end = np.arange(1, line.end.size + 1, dtype=np.int32)
+    start = 0
+    for b in sorted(subbands(shape, levels), key=lambda b: (-b.level, b.bits)):
+        bz, by, bx = b.size
+        if bx > 1:
+            firsts = start + bx * np.arange(bz * by, dtype=np.int32)
+            end[firsts] = firsts + bx
+        start += bz * by * bx
+    end.flags.writeable = False
+    return line._replace(end=end)
+
+
+@scan_cache
+def _scan(shape: tuple[int, int, int], levels: tuple[int, int, int], order: str) -> Scan:
+    """:func:`scan` of the ``dfs`` or ``line`` order (checked arguments)."""
     nlev = max(levels)
     bands = sorted(subbands(shape, levels), key=lambda b: (-b.level, b.bits))  # coding order
     at = {(b.level, b.bits): i for i, b in enumerate(bands)}
@@ -73,10 +139,18 @@ def scan(shape: tuple[int, ...], levels: tuple[int, ...], order: str = "dfs") ->
         up = at.get((b.level + 1, b.bits), -1) if b.level < nlev else -1
         halves = [int(lv > b.level + 1) for lv in levels]
         table[i] = [*b.start, *b.size, _band_class(b, nlev), up, *halves]
+    return scan_of_bands(shape, table, order == "dfs", False)
+
+
+def scan_of_bands(shape: tuple[int, ...], table: np.ndarray, dfs: bool, rows: bool) -> Scan:
+    """The read-only scan of the bands of ``table`` (int64, a row per band in coding
+    order: start, size, class, parent band or -1, and per axis 1 where the parent sits
+    at half the position), in the ``dfs`` order, else ``line`` (``rows``: the first
+    position of each band row roots the row)."""
     total = int(np.prod(shape))
     out = Scan(np.empty(total, np.int32), np.empty(total, np.int32), np.empty(total, np.int32),
                np.empty(total, np.uint8), np.empty((total, 3), np.int32))  # fmt: skip
-    _scan_kernel(shape[1], shape[2], table, order == "dfs", order == "rows", *out)
+    _scan_kernel(shape[1], shape[2], table, dfs, rows, *out)
     for a in out:
         a.flags.writeable = False
     return out
@@ -180,36 +254,3 @@ def _scan_kernel(ny, nx, bands, dfs, rows, perm, end, parent, cls, nbr):
         cls[i] = kind[f]
         for a in range(3):
             nbr[i, a] = at[near[f, a]] if near[f, a] >= 0 else -1
-
-
-def scan_of(perm, end, parent_flat, cls_flat, nbr_flat) -> Scan:
-    """The read-only :class:`Scan` of a coding order ``perm`` (flat indices) whose
-    parents, classes and neighbours are given per flat index (-1: none)."""
-    total = perm.size
-    pos = np.empty(total, dtype=np.int64)
-    pos[perm] = np.arange(total, dtype=np.int64)
-    pf = parent_flat[perm]
-    parent = np.where(pf >= 0, pos[np.maximum(pf, 0)], -1)
-    # 32-bit tables (bricks hold at most 2^30 voxels): half the memory traffic of int64.
-    nf = nbr_flat[perm]
-    nbr = np.where(nf >= 0, pos[np.maximum(nf, 0)], -1)
-    out = Scan(
-        perm.astype(np.int32),
-        end.astype(np.int32),
-        parent.astype(np.int32),
-        cls_flat[perm],
-        np.ascontiguousarray(nbr, dtype=np.int32),
-    )
-    for a in out:
-        a.flags.writeable = False
-    return out
-
-
-def row_ends(end: np.ndarray, sizes) -> None:
-    """Point the first position of each band row (longer than one) at the row's end."""
-    start = 0
-    for bz, by, bx in sizes:
-        if bx > 1:
-            firsts = start + bx * np.arange(bz * by)
-            end[firsts] = firsts + bx
-        start += bz * by * bx
