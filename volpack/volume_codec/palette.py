@@ -22,7 +22,17 @@ MAX_PALETTE = 1 << 16  # a palette beyond this costs more than it can save
 
 def build(values: np.ndarray) -> np.ndarray:
     """The sorted distinct values of ``values`` (int64)."""
-    return np.unique(np.asarray(values, dtype=np.int64))
+    return sorted_unique(np.asarray(values, dtype=np.int64))
+
+
+def sorted_unique(values: np.ndarray) -> np.ndarray:
+    """``np.unique(values)`` of integers or finite floats, by a sort: numpy 2.3's hash table is 15x slower than a sort on
+    a float brick's 2M distinct values (and at most 2x faster on few)."""
+    s = np.sort(values, axis=None)
+    keep = np.empty(s.size, dtype=bool)
+    keep[:1] = True
+    np.not_equal(s[1:], s[:-1], out=keep[1:])
+    return s[keep]
 
 
 DENSE_SPAN = 1 << 22  # a value range this narrow is mapped through a table, not sorted
