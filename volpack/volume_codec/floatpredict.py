@@ -340,11 +340,12 @@ def usable(dtype: np.dtype) -> tuple[int, ...]:
     return PREDICTORS if np.dtype(dtype).itemsize >= 4 else (LORENZO3, LORENZO2)
 
 
-def encode_best_lorenzo(brick: np.ndarray) -> bytes:
-    """The shortest Lorenzo stream of the usable predictors (one slice: in-slice only)."""
+def encode_best_lorenzo(brick: np.ndarray, predictors=None) -> bytes:
+    """The shortest Lorenzo stream of the usable predictors (one slice: in-slice only),
+    or of ``predictors``."""
     tried = [
         encode_lorenzo(brick, p)
-        for p in usable(brick.dtype)
+        for p in (usable(brick.dtype) if predictors is None else predictors)
         if brick.shape[0] > 1 or p in (LORENZO2, LORENZO2F)
     ]
     return min(tried, key=len)
