@@ -58,7 +58,11 @@ def main() -> None:
     ratios = []
     with open(args.out, "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(["volume", "shape", "bricks"] + [f"{k}_{m}" for m in modes for k in ("bytes", "cpu")] + ["same", "tools"])
+        w.writerow(
+            ["volume", "shape", "bricks"]
+            + [f"{k}_{m}" for m in modes for k in ("bytes", "cpu")]
+            + ["same", "tools"]
+        )
         for spec in args.volumes:
             a = volume(spec)
             bs = [b for _, b in bricks(a)]
@@ -75,7 +79,9 @@ def main() -> None:
                 assert d.tobytes() == b.tobytes(), spec
             ref = "before" if "before" in modes else "exact"
             same = all(x == y for x, y in zip(payloads[ref], payloads["pruned"]))
-            exact_same = "before" not in modes or payloads["before"] == payloads.get("exact", payloads["before"])
+            exact_same = "before" not in modes or payloads["before"] == payloads.get(
+                "exact", payloads["before"]
+            )
             tools = " ".join(sorted(set(lossless.describe(p) for p in payloads["pruned"])))
             row = [spec, "x".join(map(str, a.shape)), len(bs)]
             for m in modes:
@@ -84,10 +90,14 @@ def main() -> None:
             f.flush()
             ratios.append(best[ref] / best["pruned"])
             d = 100 * (size["pruned"] / size[ref] - 1)
-            print(f"{spec:18s} {' '.join(f'{m} {size[m]} {best[m]:.2f}s' for m in modes)}  "
-                  f"x{best[ref] / best['pruned']:.2f} {d:+.3f}% same {same} exact-same {exact_same} {tools}",
-                  flush=True)
-    print(f"geometric mean {math.exp(sum(map(math.log, ratios)) / len(ratios)):.3f}x over {len(ratios)}")
+            print(
+                f"{spec:18s} {' '.join(f'{m} {size[m]} {best[m]:.2f}s' for m in modes)}  "
+                f"x{best[ref] / best['pruned']:.2f} {d:+.3f}% same {same} exact-same {exact_same} {tools}",
+                flush=True,
+            )
+    print(
+        f"geometric mean {math.exp(sum(map(math.log, ratios)) / len(ratios)):.3f}x over {len(ratios)}"
+    )
 
 
 if __name__ == "__main__":

@@ -72,7 +72,7 @@ def main() -> None:
                 c = sum(r[1] for r in rows)
                 lines.append(f"  {label:55s} {c:7.2f} s  {100 * c / cpu:5.1f} %  calls {n}")
         lines.append(f"  tools: {api.info(blob)['summary']['tools']}")
-        print("\n".join(lines[-(len(TOOLS) + 2):]), flush=True)
+        print("\n".join(lines[-(len(TOOLS) + 2) :]), flush=True)
     Path(out).write_text("\n".join(lines) + "\n")
 
 

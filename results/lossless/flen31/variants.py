@@ -61,7 +61,9 @@ def main() -> None:
             lat, r["t_latfind"] = timed(fp.find_lattices, b)
             r["n_lat"] = len(lat)
             t = time.process_time()
-            r["lattice"] = min((len(codec.encode(k)) + len(codec.encode(g)) for _, k, g in lat), default="")
+            r["lattice"] = min(
+                (len(codec.encode(k)) + len(codec.encode(g)) for _, k, g in lat), default=""
+            )
             r["t_latcode"] = time.process_time() - t
             w, r["t_fit_ls"] = timed(floatfit.fit, b)
             if w is not None:
@@ -69,7 +71,9 @@ def main() -> None:
                 r["fit"] = len(s)
                 s, r["t_fitface"] = timed(floatfit.encode, b, face)
                 r["fitface"] = len(s)
-            (offs, fill), r["t_blendprep"] = timed(lambda: (floatmix.copy_offsets(b), floatmix.fill_value(b)))
+            (offs, fill), r["t_blendprep"] = timed(
+                lambda: (floatmix.copy_offsets(b), floatmix.fill_value(b))
+            )
             s, r["t_blend"] = timed(floatmix.encode, b, offsets=offs, fill=fill)
             r["blend"] = len(s)
             rows.append(r)
