@@ -19,8 +19,6 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
-
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from tools_profile import volume  # noqa: E402
 from variants import bricks  # noqa: E402

@@ -19,7 +19,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "scripts"))
 from datasets import load  # noqa: E402
 
 from volpack import api  # noqa: E402
-from volpack.volume_codec import lossless  # noqa: E402
 
 # (file suffix, function) of the tools' entry points
 TOOLS = [

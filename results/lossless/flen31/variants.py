@@ -17,8 +17,12 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from tools_profile import volume  # noqa: E402
 
-from volpack.volume_codec import floatfit, floatmix, floatpredict as fp  # noqa: E402
-from volpack.volume_codec import lossless  # noqa: E402
+from volpack.volume_codec import (  # noqa: E402
+    floatfit,
+    floatmix,
+    lossless,  # noqa: E402
+)
+from volpack.volume_codec import floatpredict as fp
 from volpack.volume_codec.codec import ZstdCodec  # noqa: E402
 
 B = 128
@@ -72,7 +76,7 @@ def main() -> None:
                 s, r["t_fitface"] = timed(floatfit.encode, b, face)
                 r["fitface"] = len(s)
             (offs, fill), r["t_blendprep"] = timed(
-                lambda: (floatmix.copy_offsets(b), floatmix.fill_value(b))
+                lambda b=b: (floatmix.copy_offsets(b), floatmix.fill_value(b))
             )
             s, r["t_blend"] = timed(floatmix.encode, b, offsets=offs, fill=fill)
             r["blend"] = len(s)
