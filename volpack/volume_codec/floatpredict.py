@@ -340,11 +340,12 @@ def usable(dtype: np.dtype) -> tuple[int, ...]:
     return PREDICTORS if np.dtype(dtype).itemsize >= 4 else (LORENZO3, LORENZO2)
 
 
-def encode_best_lorenzo(brick: np.ndarray) -> bytes:
-    """The shortest Lorenzo stream of the usable predictors (one slice: in-slice only)."""
+def encode_best_lorenzo(brick: np.ndarray, predictors=None) -> bytes:
+    """The shortest Lorenzo stream of the usable predictors (one slice: in-slice only),
+    or of ``predictors``."""
     tried = [
         encode_lorenzo(brick, p)
-        for p in usable(brick.dtype)
+        for p in (usable(brick.dtype) if predictors is None else predictors)
         if brick.shape[0] > 1 or p in (LORENZO2, LORENZO2F)
     ]
     return min(tried, key=len)
@@ -363,13 +364,19 @@ def rebuild(params: np.ndarray, k: np.ndarray, dtype: np.dtype) -> np.ndarray:
         return (off + step * k.astype(np.float64)).astype(dtype)
 
 
-def _fit(v: np.ndarray) -> list[tuple[float, float]]:
+def _fit(v: np.ndarray, span: float = np.inf) -> list[tuple[float, float]]:
     """Candidate ``(offset, step)`` lattices of finite values ``v`` (float64, 1-D): the
     step estimated from the gaps between distinct values (over the whole span, and
     rounded to three significant digits for decimal scale factors), the offset 0 or
     the most common remainder of the values after whole steps (a fill value off the
-    lattice does not move it; ``k`` keeps its scale from slice to slice)."""
-    u = np.unique(v)
+    lattice does not move it; ``k`` keeps its scale from slice to slice). None when
+    every step's ``k`` would span more than ``span`` values (a lattice the caller
+    cannot keep: its offsets need not be counted)."""
+    s = np.sort(v)
+    first = np.empty(s.size, dtype=bool)
+    first[:1] = True
+    np.not_equal(s[1:], s[:-1], out=first[1:])
+    u = s[first]
     if u.size < 3:
         return []
     gaps = np.diff(u)
@@ -380,18 +387,31 @@ def _fit(v: np.ndarray) -> list[tuple[float, float]]:
     n = round((u[-1] - u[0]) / est)
     if n >= 1:
         steps.add(float((u[-1] - u[0]) / n))
+    # (k of any offset spans at least (max - min) / step values; 1e-6: rounding)
+    if all(s > 0 and (u[-1] - u[0]) / s * (1 - 1e-6) - 1 > span for s in steps):
+        return []
+    # (a remainder is the same for equal values: it is taken of the distinct values,
+    # each counted as often as it occurs)
+    counts = np.diff(np.append(np.flatnonzero(first), s.size))
     out = []
     for step in sorted(steps):
         if step > 0:
-            rest, count = np.unique(v - step * np.rint(v / step), return_counts=True)
-            out += [(0.0, step), (float(rest[np.argmax(count)]), step)]
+            rest = u - step * np.rint(u / step)
+            order = np.argsort(rest)  # (equal remainders are the same bits: any order)
+            r = rest[order]
+            head = np.empty(r.size, dtype=bool)
+            head[:1] = True
+            np.not_equal(r[1:], r[:-1], out=head[1:])
+            count = np.add.reduceat(counts[order], np.flatnonzero(head))
+            out += [(0.0, step), (float(r[head][np.argmax(count)]), step)]
     return out
 
 
-def _lattice_k(brick: np.ndarray, params: np.ndarray):
+def _lattice_k(brick: np.ndarray, params: np.ndarray, v=None, s=None):
     """``(misses, k, gap)`` of a brick on the lattice(s) ``params``, or ``None`` when
-    ``k`` or ``gap`` would not fit int32."""
-    v = brick.astype(np.float64)
+    ``k`` or ``gap`` would not fit int32 (``v``, ``s``: the brick in float64 and its
+    signed images, when the caller has them)."""
+    v = brick.astype(np.float64) if v is None else v
     off = params[:, 0].reshape(-1, 1, 1)
     step = params[:, 1].reshape(-1, 1, 1)
     with np.errstate(all="ignore"):
@@ -399,7 +419,7 @@ def _lattice_k(brick: np.ndarray, params: np.ndarray):
     if not (np.abs(kf) < 2**31 - 1).all():
         return None
     k = kf.astype(np.int64)
-    gap = to_signed(brick) - to_signed(rebuild(params, k, brick.dtype))
+    gap = (to_signed(brick) if s is None else s) - to_signed(rebuild(params, k, brick.dtype))
     if not (np.abs(gap) < 2**31 - 1).all():
         return None
     return int(np.count_nonzero(gap)), k.astype(np.int32), gap.astype(np.int32)
@@ -415,21 +435,32 @@ def find_lattices(brick: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, np.nd
     limit = LATTICE_MAX_MISS * brick.size
     found = []
     best = None
-    for off, step in _fit(brick.astype(np.float64).reshape(-1)):
-        got = _lattice_k(brick, np.array([[off, step]]))
+    v, s = brick.astype(np.float64), to_signed(brick)
+    span = _span_limit(brick, s)  # k spanning more is not kept (see _narrow)
+    for off, step in _fit(v.reshape(-1), span):
+        got = _lattice_k(brick, np.array([[off, step]]), v, s)
         if got is not None and (best is None or got[0] < best[0][0]):
             best = (got, np.array([[off, step]]))
     if best is not None and best[0][0] <= limit and _narrow(brick, best[0][1]):
         found.append((best[1], best[0][1], best[0][2]))
     if brick.shape[0] > 1:
         rows = []
-        for sl in brick:  # the slice before's lattice is a candidate too (same packing)
-            cands = _fit(sl.astype(np.float64).reshape(-1)) + rows[-1:] + [(0.0, 1.0)]
-            scored = [(_lattice_k(sl[None], np.array([c])), c) for c in cands]
-            scored = [(g[0], i, c) for i, (g, c) in enumerate(scored) if g is not None]
+        # (the lattice per slice misses the voxels each slice's pick misses, and its k
+        # spans at least each pick's: past the limits, the rest need not be fitted)
+        misses, kmin, kmax = 0, np.inf, -np.inf
+        for z, sl in enumerate(brick):  # the slice before's lattice is a candidate too
+            vz, sz = v[z : z + 1], s[z : z + 1]
+            cands = _fit(vz.reshape(-1)) + rows[-1:] + [(0.0, 1.0)]
+            scored = [(_lattice_k(sl[None], np.array([c]), vz, sz), c) for c in cands]
+            scored = [(g[0], i, c, g[1]) for i, (g, c) in enumerate(scored) if g is not None]
             if not scored:
                 return found
-            rows.append(min(scored)[2])
+            pick = min(scored, key=lambda t: t[:2])
+            rows.append(pick[2])
+            misses += pick[0]
+            kmin, kmax = min(kmin, int(pick[3].min())), max(kmax, int(pick[3].max()))
+            if misses > limit or kmax - kmin + 1 > span:
+                return found
         params = np.array(rows)
         got = _lattice_k(brick, params)
         if got is not None and found and all(map(np.array_equal, got[1:], found[0][1:])):
@@ -442,11 +473,14 @@ def find_lattices(brick: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, np.nd
 def _narrow(brick: np.ndarray, k: np.ndarray) -> bool:
     """Whether ``k`` spans few enough values to be worth a lattice (see
     ``LATTICE_MIN_SAVING``)."""
-    kspan = int(k.max()) - int(k.min()) + 1
-    s = to_signed(brick)
+    return int(k.max()) - int(k.min()) + 1 <= _span_limit(brick, to_signed(brick))
+
+
+def _span_limit(brick: np.ndarray, s: np.ndarray) -> int:
+    """The most values a lattice's ``k`` may span (``s``: the brick's signed images)."""
     sspan = int(s.max()) - int(s.min()) + 1
     significand = np.finfo(brick.dtype).nmant + 1
-    return kspan <= (1 << significand) and kspan << LATTICE_MIN_SAVING <= sspan
+    return min(1 << significand, sspan >> LATTICE_MIN_SAVING)
 
 
 def apply_lattice(

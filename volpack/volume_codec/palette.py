@@ -22,7 +22,17 @@ MAX_PALETTE = 1 << 16  # a palette beyond this costs more than it can save
 
 def build(values: np.ndarray) -> np.ndarray:
     """The sorted distinct values of ``values`` (int64)."""
-    return np.unique(np.asarray(values, dtype=np.int64))
+    return sorted_unique(np.asarray(values, dtype=np.int64))
+
+
+def sorted_unique(values: np.ndarray) -> np.ndarray:
+    """``np.unique(values)`` of integers or finite floats, by a sort: numpy 2.3's hash table is 15x slower than a sort on
+    a float brick's 2M distinct values (and at most 2x faster on few)."""
+    s = np.sort(values, axis=None)
+    keep = np.empty(s.size, dtype=bool)
+    keep[:1] = True
+    np.not_equal(s[1:], s[:-1], out=keep[1:])
+    return s[keep]
 
 
 DENSE_SPAN = 1 << 22  # a value range this narrow is mapped through a table, not sorted
@@ -60,11 +70,21 @@ def pack(palette: np.ndarray) -> bytes:
     """The bytes of a palette (strictly increasing int64 values, at least one)."""
     gaps = np.diff(palette) - 1
     first = int(palette[0])
-    return (
-        uleb(len(palette))
-        + uleb((first << 1) ^ (first >> 63))
-        + b"".join(uleb(int(g)) for g in gaps)
-    )
+    return uleb(len(palette)) + uleb((first << 1) ^ (first >> 63)) + uleb_many(gaps)
+
+
+def uleb_many(values: np.ndarray) -> bytes:
+    """:func:`uleb` of each of ``values`` (non-negative int64), joined: 7-bit groups as
+    the columns of a table, the groups past each value's last left out (a palette of 64k
+    values: 60x faster than a call a value)."""
+    v = np.asarray(values, dtype=np.int64).astype(np.uint64)
+    groups = (v[:, None] >> (7 * np.arange(10, dtype=np.uint64))) & np.uint64(0x7F)
+    # the groups up to the highest non-zero one (one for zero)
+    count = 10 - np.argmax(groups[:, ::-1] != 0, axis=1)
+    count[v == 0] = 1
+    keep = np.arange(10) < count[:, None]
+    more = np.arange(10) < count[:, None] - 1
+    return (groups.astype(np.uint8) | (more * 0x80).astype(np.uint8))[keep].tobytes()
 
 
 def unpack(data: memoryview, limit: int) -> tuple[np.ndarray, int]:
