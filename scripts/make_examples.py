@@ -184,6 +184,8 @@ LOSSLESS_CASES = [
     ("lossless-v9-i16-local-palette", "v2-i16", {"brick": 32, "predict_version": 9}),
     # version 10: the fitted float predictor with a box fit (tool 3, predictor byte 8 + P)
     ("lossless-v10-f32-fit-box", "f32-wide", {"brick": 64, "predict_version": 10}),
+    # a 4-D series with its time steps interleaved (header "layout": "interleaved")
+    ("lossless-interleaved-u8", "series-u8", {"interleave": True}),
 ]
 
 
@@ -215,6 +217,13 @@ def lossless_source(recipe: str):
     denormals."""
     import numpy as np
 
+    if recipe == "series-u8":  # 4 time steps of a cut, a sparse pattern changing with t
+        from volpack.demo import load_demo_volume
+
+        cut = load_demo_volume().data[30:38, 40:64, 40:68].astype(np.int64)
+        t = np.arange(4).reshape(4, 1, 1, 1)
+        z, y, x = np.indices(cut.shape)
+        return np.minimum(cut + ((x + 2 * y + 3 * t) % 5 == 0) * t, 255).astype(np.uint8)
     if recipe == "v5-u8-floor":  # the head over a noise floor of small values, 1 rare
         return noise_floor(lossless_source("v2-u8-background"))
     if recipe.startswith("v2-"):  # 32^3 cuts of the bundled MRI: head and background, tissue

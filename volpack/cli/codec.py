@@ -40,6 +40,14 @@ from .options import (
 @mesh_cli.mesh_options
 @animation_options
 @click.option(
+    "--interleave/--no-interleave",
+    default=None,
+    help="A 4-D (t, z, y, x) series coded exactly: store its slices in (z, t) order, so "
+    "each voxel is also predicted from the previous time step (MR series: 5-35 % "
+    "smaller). Default: where time steps differ less than neighbouring slices; "
+    "--no-interleave codes each time step alone.",
+)
+@click.option(
     "--octree",
     is_flag=True,
     help="Build a multiresolution octree (level-of-detail and region access; reads the "
@@ -75,6 +83,7 @@ def compress(
     threshold,
     fill_value,
     effort,
+    interleave,
     octree,
     block,
     scheduler,
@@ -137,6 +146,14 @@ def compress(
             f"--effort applies to a volume under an error bound, found --effort {effort} "
             "with a mesh, an animation or --octree"
         )
+    if interleave is not None and (
+        mesh_cli.is_mesh_source(source) or wants_animation(source, extra["gop"])
+        or octree or scheduler
+    ):  # fmt: skip
+        raise click.UsageError(
+            "--interleave applies to a 4-D volume coded exactly, found it with a mesh, "
+            "an animation or --octree"
+        )
     if mesh_cli.is_mesh_source(source):
         kind, unit = "mesh", None
         opts = mesh_cli.compress_options(extra)
@@ -173,6 +190,8 @@ def compress(
         opts.update(workers=workers, read_options=read_options)
         if effort is not None:
             opts["effort"] = effort
+        if interleave is not None:
+            opts["interleave"] = interleave
     with mesh_cli.echo_warnings(), progress_bar(ctx, "compress", unit=unit) as progress:
         if unit is not None:
             opts["progress"] = progress
@@ -321,7 +340,8 @@ def _volume_line(target: str, stats: dict) -> str:
         f"{target}: {sizes(stats['file_nbytes'], stats['raw_nbytes'], stats['file_ratio'])}, "
         f"{accuracy(stats)}, "
         f"{fmt_speed(stats['mb_per_s'], stats['seconds'])} "
-        f"({stats['bricks']} {plural('brick', stats['bricks'])}, {w} {plural('worker', w)})"
+        f"({stats['bricks']} {plural('brick', stats['bricks'])}, {w} {plural('worker', w)}"
+        + (", time steps interleaved)" if stats.get("layout") else ")")
     )
 
 

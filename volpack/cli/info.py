@@ -153,6 +153,11 @@ def _human(d: dict, chunks: bool) -> str:
             if isinstance(h.get("motion"), dict)
             else []
         ),
+        *(
+            [["layout", "time steps interleaved: slices stored in (z, t) order"]]
+            if h.get("layout") == "interleaved"
+            else []
+        ),
         ["bricks", f"{d['chunks']} chunks of up to {'x'.join(map(str, h.get('brick', [])))}"],
         *(
             [["tools", ", ".join(f"{k} {v}" for k, v in s["tools"].items()) + " (bricks)"]]

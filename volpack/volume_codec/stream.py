@@ -37,6 +37,7 @@ from ..parallel import (
 )
 from ..volume import Volume, require_voxels
 from . import bricks
+from . import interleave as il
 from .codec import WAVELET_DTYPES, WaveletCodec, ZstdCodec
 from .protocol import storage_dtype
 from .registry import get_codec
@@ -154,6 +155,7 @@ def compress(
     threshold: float | None = None,
     fill_value: float | None = None,
     effort: str = "default",
+    interleave: bool | None = None,
     workers: int | None = 1,
     force: bool = False,
     progress: Progress | None = None,
@@ -222,8 +224,13 @@ def compress(
         float32/64 bricks a box of up to 10 x 10 rows of fitted weights
         (``predict_version=10``): up to 14 % fewer bytes on smooth fields, decoding
         about 2x slower.
+    interleave : bool, optional
+        A ``(t, z, y, x)`` series coded exactly: store its slices in ``(z, t)`` order, so
+        that the codecs predict each voxel also from the previous time step
+        (:mod:`.interleave`). ``None`` (the default) does where time steps differ less
+        than neighbouring slices; ``False`` codes each time step alone, as before.
     brick : int or (int, int, int), optional
-        Brick size; bricks are coded independently and decoded one by one. Default
+        Brick size (of the stored 3-D volume when interleaved); bricks are coded independently and decoded one by one. Default
         :func:`volpack.volume_codec.bricks.default_brick`: 64, but a float volume under an
         error bound (or a PSNR or ratio target) is one brick up to 4M voxels, else 128^3,
         and a float volume coded exactly by the default codec takes 128^3, as does an
@@ -241,7 +248,7 @@ def compress(
         ``raw_nbytes``, ``nbytes`` (compressed payload bytes), ``ratio``, ``file_nbytes``
         and ``file_ratio`` (the whole stream, as :func:`volpack.api.info` reports),
         ``seconds`` and ``mb_per_s`` (the coding, a setting search included), ``bricks``,
-        ``codec``.
+        ``codec``, and ``layout`` (``"interleaved"``) for a series stored interleaved.
     """
     from ..format.container import Writer
 
@@ -282,11 +289,21 @@ def compress(
         if exact:
             log.info("an error bound under 1 on integer voxels: coded exactly")
             asked = {}
-    if brick is None:
-        bounded = bool(asked) and not ({"quality", "threshold"} & set(asked))
-        brick = bricks.default_brick(vol.shape, vol.dtype, bounded, codec, bool(asked))
-    brick_t = bricks.parse_brick(brick)
-    nworkers = _encode_workers(workers, vol.data.shape, brick_t)
+    data = vol.data
+    if interleave and (asked or data.ndim != 4):
+        raise OptionError(
+            "interleave: a 4-D (t, z, y, x) series coded exactly, found "
+            + (f"a lossy setting ({', '.join(sorted(asked))})" if asked else f"{data.ndim} axes")
+        )
+    bounded = bool(asked) and not ({"quality", "threshold"} & set(asked))
+
+    def brick_of(shape: tuple[int, ...]) -> tuple[int, int, int]:
+        if brick is not None:
+            return bricks.parse_brick(brick)
+        return bricks.default_brick(shape, vol.dtype, bounded, codec, bool(asked))
+
+    brick_t = brick_of(data.shape)
+    nworkers = _encode_workers(workers, data.shape, brick_t)
     for name, value in (("runs", runs), ("rows", rows), ("zstd", zstd)):
         if value is not None and (codec != "fast" or asked):
             raise OptionError(
@@ -334,6 +351,20 @@ def compress(
             from .lossless import check_dtype
 
             check_dtype(vol.dtype)
+    layout = None
+    if data.ndim == 4 and not asked and interleave is not False:
+
+        def size_of(v: np.ndarray) -> int:  # bytes of a 3-D volume's bricks, as coded below
+            return sum(
+                len(c.encode_measured(np.ascontiguousarray(v[sl]))[0])
+                for _, sl in bricks.iter_bricks(v.shape, brick_of(v.shape))
+            )
+
+        if interleave or il.pays(data, size_of):
+            layout, data = il.LAYOUT, il.fold(data)
+            brick_t = brick_of(data.shape)
+            nworkers = _encode_workers(workers, data.shape, brick_t)
+            log.info("time steps interleaved: stored as %s", "x".join(map(str, data.shape)))
     header = {
         "kind": KIND,
         "volpack": __version__,
@@ -343,9 +374,9 @@ def compress(
         "origin": list(vol.origin),
         "brick": list(brick_t),
         "codec": c.get_config(),
+        **({"layout": layout} if layout else {}),
         "meta": jsonable(vol.meta),
     }
-    data = vol.data
     frames = data[None] if data.ndim == 3 else data
     tasks = [
         (t, node, sl)
@@ -400,6 +431,7 @@ def compress(
         "seconds": seconds,
         "mb_per_s": throughput(vol.nbytes, seconds),
         "bricks": total,
+        **({"layout": layout} if layout else {}),
         "workers": nworkers,
         "codec": c.get_config(),
         **quality_stats,
@@ -450,7 +482,9 @@ class VolumeReader(CheckedReader):
         progress: Progress | None = None,
     ) -> Volume:
         """The volume, the time step ``frame`` or the region ``roi`` (``"z0:z1,y0:y1,x0:x1"``
-        or three slices), keeping dtype, spacing and the origin of the region."""
+        or three slices), keeping dtype, spacing and the origin of the region. (A series
+        stored interleaved decodes every time step of the region's slices, also for one
+        ``frame``.)"""
         r, hdr = self._r, self.header
         nworkers = parse_workers(workers)
         shape = tuple(hdr["shape"])
@@ -462,7 +496,18 @@ class VolumeReader(CheckedReader):
         if frame is not None and not 0 <= frame < nt:
             raise FormatError(f"expected a frame in 0..{nt - 1}, found {frame}")
         seekable = r.seekable
-        nchunks = nt * math.prod(bricks.grid_shape(spatial, brick_t))
+        region = parse_roi(roi, spatial)
+        times = [frame] if frame is not None else list(range(nt))
+        # what is stored: one 3-D volume per time step, or the series interleaved
+        # (slice z * nt + t; the region's slices are whole groups of nt)
+        interleaved = hdr.get("layout") == il.LAYOUT
+        if interleaved:
+            stored, keys = il.stored_shape(shape), [0]
+            z = region[0]
+            sregion = (slice(z.start * nt, z.stop * nt), *region[1:])
+        else:
+            stored, keys, sregion = spatial, times, region
+        nchunks = (1 if interleaved else nt) * math.prod(bricks.grid_shape(stored, brick_t))
         if not seekable:  # a pipe: the payloads are read (and counted) before anything else
             cache = {(t, n): p for t, n, p in r}
         if len(r if seekable else cache) != nchunks:
@@ -472,13 +517,10 @@ class VolumeReader(CheckedReader):
                 f"expected {nchunks} chunks for shape {list(shape)} in bricks of "
                 f"{list(brick_t)}, found {len(r if seekable else cache)}"
             )
-        region = parse_roi(roi, spatial)
         origin = tuple(o + s.start * d for o, s, d in zip(hdr["origin"], region, hdr["spacing"]))
-        rshape = tuple(s.stop - s.start for s in region)
-        times = [frame] if frame is not None else list(range(nt))
-        out = np.empty((len(times), *rshape), dtype=dtype)
-        nodes = bricks.bricks_in_roi(spatial, brick_t, region)
-        tasks = [(i, t, node) for i, t in enumerate(times) for node in nodes]
+        out = np.empty((len(keys), *(s.stop - s.start for s in sregion)), dtype=dtype)
+        nodes = bricks.bricks_in_roi(stored, brick_t, sregion)
+        tasks = [(i, t, node) for i, t in enumerate(keys) for node in nodes]
         if workers is None or workers == 0:  # every core, one brick each at most
             nworkers = auto_workers(len(tasks))
         if nworkers > 1:  # largest payloads first: the small ones left fill the gaps at the
@@ -501,9 +543,9 @@ class VolumeReader(CheckedReader):
                 payload = cache.pop((t, node), None)
             if payload is None:
                 raise FormatError(f"stream has no chunk for frame {t}, brick {node}")
-            sl = bricks.brick_slices(spatial, brick_t, node)
+            sl = bricks.brick_slices(stored, brick_t, node)
             bshape = tuple(s.stop - s.start for s in sl)
-            src_sl, dst_sl = _intersect(sl, region)
+            src_sl, dst_sl = _intersect(sl, sregion)
             if all(s.stop - s.start == n for s, n in zip(src_sl, bshape)):
                 c.decode_into(payload, out[(i, *dst_sl)])  # the whole brick: in place
                 return None
@@ -514,7 +556,10 @@ class VolumeReader(CheckedReader):
                 out[part[0]] = part[1]
             if progress is not None:
                 progress(done, len(tasks))
-        data = out[0] if (len(shape) == 3 or frame is not None) else out
+        if interleaved:
+            data = il.unfold(out[0], nt, frame)
+        else:
+            data = out[0] if (len(shape) == 3 or frame is not None) else out
         return Volume(
             data, spacing=tuple(hdr["spacing"]), origin=origin, meta=dict(hdr.get("meta") or {})
         )
@@ -569,6 +614,11 @@ def check_header(hdr: dict, max_voxels: int = DEFAULT_MAX_VOXELS) -> dict:
     if not isinstance(hdr.get("meta", {}), dict):
         raise FormatError(f"expected meta as a JSON object, found {hdr['meta']!r:.60}")
     get_codec(hdr["codec"])
+    if "layout" in hdr and (hdr["layout"] != il.LAYOUT or len(shape) != 4):
+        raise FormatError(
+            f"expected layout {il.LAYOUT!r} of a 4-D volume or none, found "
+            f"{hdr['layout']!r:.40} of a {len(shape)}-D one"
+        )
     hdr["shape"], hdr["brick"] = shape, brick_t
     return hdr
 
