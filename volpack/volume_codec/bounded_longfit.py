@@ -221,19 +221,56 @@ def _lorenzo(q, i, z, y, x, sy, sz):
     return p
 
 
-@kernel
+@kernel(inline=True)
+def _row_sums(q, qf, row, c, x0, x1, s_off, o_off, w_off, fl, acc, acci):
+    """Into ``acci[x0:x1]``: the sums over class ``c``'s steps in other rows (decoded
+    already) for the run ``x0..x1`` of the row starting at voxel ``row``. In float64
+    where the class's sums are exact integers (``fl``: every partial sum under 2^53, so
+    any order gives the same), four steps a pass over the run (a quarter of the loads
+    and stores of ``acc``); else in int64, a step a pass."""
+    k = s_off[c]
+    k1 = s_off[c + 1]
+    if fl[c]:
+        for x in range(x0, x1):
+            acc[x] = 0.0
+        while k + 4 <= k1:
+            w0, w1 = np.float64(w_off[k]), np.float64(w_off[k + 1])
+            w2, w3 = np.float64(w_off[k + 2]), np.float64(w_off[k + 3])
+            b0, b1 = row - o_off[k], row - o_off[k + 1]  # >= 0: the steps exist
+            b2, b3 = row - o_off[k + 2], row - o_off[k + 3]
+            for x in range(x0, x1):  # unsigned indices: vectorised
+                acc[_U(x)] += (w0 * qf[_U(b0 + x)] + w1 * qf[_U(b1 + x)]) + (
+                    w2 * qf[_U(b2 + x)] + w3 * qf[_U(b3 + x)]
+                )
+            k += 4
+        while k < k1:
+            wk = np.float64(w_off[k])
+            b = row - o_off[k]
+            for x in range(x0, x1):
+                acc[_U(x)] += wk * qf[_U(b + x)]
+            k += 1
+        for x in range(x0, x1):
+            acci[x] = np.int64(acc[x])
+    else:
+        for x in range(x0, x1):
+            acci[x] = 0
+        for j in range(k, k1):
+            wk = w_off[j]
+            b = row - o_off[j]
+            for x in range(x0, x1):
+                acci[_U(x)] += wk * q[_U(b + x)]
+
+
+@kernel(nrt=False)
 def _walk(q, qf, r, zs, ys, xs, xb, table, s_off, o_off, w_off, s_in, o_in, w_in, fl,
-          nz, ny, nx, decode, qmax):  # fmt: skip
-    """Residuals ``r = q - prediction`` (encode) or ``q = r + prediction`` (decode) in C
-    order, row by row: on a run of a row in one class, the sums over the steps in other
-    rows (decoded already) first, for the whole run (float64 where exact: ``fl``), then
-    the steps back along the row voxel by voxel. ``qf`` holds ``q`` as float64 (filled
-    here when decoding). Returns the first voxel decoded outside ``[0, qmax]`` or -1."""
+          nz, ny, nx, acc, acci):  # fmt: skip
+    """Residuals ``r = q - prediction`` in C order, row by row: on a run of a row in one
+    class, the sums over the steps in other rows first, for the whole run
+    (:func:`_row_sums`; ``qf`` is ``q`` as float64), then the steps back along the row
+    voxel by voxel. ``acc`` and ``acci`` (``nx``) are scratch."""
     sy = nx
     sz = ny * nx
     half = np.int64(1) << (FB - 1)
-    acc = np.zeros(nx, np.float64)
-    acci = np.zeros(nx, np.int64)
     for z in range(nz):
         for y in range(ny):
             row = z * sz + y * sy
@@ -241,24 +278,8 @@ def _walk(q, qf, r, zs, ys, xs, xb, table, s_off, o_off, w_off, s_in, o_in, w_in
                 x0 = xb[seg]
                 x1 = xb[seg + 1]
                 c = table[zs[z], ys[y], xs[x0]]
-                if c >= 0 and fl[c]:
-                    for x in range(x0, x1):
-                        acc[x] = 0.0
-                    for k in range(s_off[c], s_off[c + 1]):
-                        wk = np.float64(w_off[k])
-                        b = row - o_off[k]  # >= 0: the step exists
-                        for x in range(x0, x1):  # unsigned indices: vectorised
-                            acc[_U(x)] += wk * qf[_U(b + x)]
-                    for x in range(x0, x1):
-                        acci[x] = np.int64(acc[x])
-                elif c >= 0:
-                    for x in range(x0, x1):
-                        acci[x] = 0
-                    for k in range(s_off[c], s_off[c + 1]):
-                        wk = w_off[k]
-                        b = row - o_off[k]
-                        for x in range(x0, x1):
-                            acci[_U(x)] += wk * q[_U(b + x)]
+                if c >= 0:
+                    _row_sums(q, qf, row, c, x0, x1, s_off, o_off, w_off, fl, acc, acci)
                 for x in range(x0, x1):
                     i = row + x
                     if c >= 0:
@@ -268,23 +289,68 @@ def _walk(q, qf, r, zs, ys, xs, xb, table, s_off, o_off, w_off, s_in, o_in, w_in
                         p = (s + half) >> FB
                     else:
                         p = _lorenzo(q, i, z, y, x, sy, sz)
-                    if decode:
-                        v = r[i] + p
+                    r[i] = q[i] - p
+    return -1
+
+
+@kernel(nrt=False)
+def _unwalk(q, qf, r, zs, ys, xs, xb, table, s_off, o_off, w_off, s_in, o_in, w_in, fl,
+            nz, ny, nx, qmax, acc, acci):  # fmt: skip
+    """:func:`_walk` backwards: ``q = r + prediction``, ``qf`` filled as it goes. The
+    step one voxel back along the row (which was decoded last) is added last, from a
+    register: the other steps' sum does not wait for it (integer sums, any order).
+    Returns the first voxel decoded outside ``[0, qmax]`` or -1."""
+    sy = nx
+    sz = ny * nx
+    half = np.int64(1) << (FB - 1)
+    for z in range(nz):
+        for y in range(ny):
+            row = z * sz + y * sy
+            for seg in range(xb.size - 1):
+                x0 = xb[seg]
+                x1 = xb[seg + 1]
+                c = table[zs[z], ys[y], xs[x0]]
+                if c < 0:
+                    for x in range(x0, x1):
+                        i = row + x
+                        v = r[i] + _lorenzo(q, i, z, y, x, sy, sz)
                         if v < 0 or v > qmax:
                             return i
                         q[i] = v
                         qf[i] = np.float64(v)
-                    else:
-                        r[i] = q[i] - p
+                    continue
+                _row_sums(q, qf, row, c, x0, x1, s_off, o_off, w_off, fl, acc, acci)
+                j0 = s_in[c]
+                j1 = s_in[c + 1]
+                w1 = np.int64(0)
+                if j1 > j0 and o_in[j0] == 1:
+                    w1 = w_in[j0]
+                    j0 += 1
+                prev = q[row + x0 - 1] if x0 > 0 else np.int64(0)
+                for x in range(x0, x1):
+                    i = row + x
+                    s = acci[_U(x)]
+                    for k in range(j0, j1):  # (>= 0: the step exists)
+                        s += w_in[k] * q[_U(i - o_in[k])]
+                    v = r[_U(i)] + ((s + w1 * prev + half) >> FB)
+                    if v < 0 or v > qmax:
+                        return i
+                    q[_U(i)] = v
+                    qf[_U(i)] = np.float64(v)
+                    prev = v
     return -1
 
 
 def walk(q: np.ndarray, r: np.ndarray, plan: Plan, weights, qmax: int, decode: bool) -> int:
-    """:func:`_walk` over flat int64 ``q`` and ``r`` of ``plan``'s shape."""
+    """:func:`_walk` (residuals into ``r``) or :func:`_unwalk` (``decode``: voxels into
+    ``q``) over flat int64 ``q`` and ``r`` of ``plan``'s shape."""
     qf = np.empty(q.size, np.float64) if decode else q.astype(np.float64)
     nz, ny, nx = plan.shape
-    return int(_walk(q, qf, r, *plan.kernel_args(weights, qmax), nz, ny, nx, decode,
-                     np.int64(qmax)))  # fmt: skip
+    args = plan.kernel_args(weights, qmax)
+    acc, acci = np.empty(nx, np.float64), np.empty(nx, np.int64)
+    if decode:
+        return int(_unwalk(q, qf, r, *args, nz, ny, nx, np.int64(qmax), acc, acci))
+    return int(_walk(q, qf, r, *args, nz, ny, nx, acc, acci))
 
 
 def _fit(q: np.ndarray, offs, box, ata_out=None) -> np.ndarray | None:
@@ -643,31 +709,102 @@ def _static_tokens(r, nz, ny, nx, toks, ctxs, counts, bits):
     return bpos * 8 - ((8 - nacc) & 7), k
 
 
+# The activity sum's divisors (the weights of the steps inside the brick): a row's inside
+# from z = 2 on, at z = 1 (no step two slices back) and at z = 0 (no step back along z).
+_INNER_WS = (15, 14, 8)
+_CLASS_TABLE = 2048  # activity sums looked up in a table below this
+
+
+@kernel(inline=True)
+def _inner_sums(r, i, nx, sy, sz, z, pre, sgn):
+    """For the inside of the row starting at voxel ``i`` (``x`` in ``2..nx-2``, ``y``
+    in ``2..ny-2``): the weighted magnitudes of the causal steps in rows decoded already
+    (all but ``x - 1`` and ``x - 2``), those of slices that exist (``z``), into ``pre``;
+    the sign context's part from ``y - 1`` and ``z - 1`` into ``sgn`` (0 or 2). The same
+    terms as :func:`_activity` and :func:`_sign_context` (integer sums, any order)."""
+    for x in range(2, nx - 1):
+        j = i + x
+        u = j - sz
+        a = 2 * _mag(r[_U(j - sy)]) + _mag(r[_U(j - sy - 1)]) + _mag(r[_U(j - sy + 1)])
+        a += _mag(r[_U(j - 2 * sy)])
+        t = min(max(r[_U(j - sy)], -_ACT_CAP), _ACT_CAP)
+        if z >= 1:
+            a += 2 * _mag(r[_U(u)]) + _mag(r[_U(u - sy)]) + _mag(r[_U(u - 1)])
+            a += _mag(r[_U(u + sy)]) + _mag(r[_U(u + 1)])
+            t += min(max(r[_U(u)], -_ACT_CAP), _ACT_CAP)
+        if z >= 2:
+            a += _mag(r[_U(j - 2 * sz)])
+        pre[_U(x)] = a
+        sgn[_U(x)] = 2 if t > 0 else 0
+
+
 @kernel(nrt=False)
-def _get_static(data, words, nbits, syms, info, nctx, r, nz, ny, nx, tok):
+def _get_static(data, words, nbits, syms, info, nctx, r, nz, ny, nx, tok, pre, sgn, cls):
     """Decode :func:`code_static`'s symbols into ``r``: 0, 1 (a stream that does not end
     where its lengths say) or 2 (a sign symbol past 1). ``data`` and ``words`` carry the
     zero padding that :func:`.fastpredict.take_symbol` reads past their ends; an unused
-    context's slots give a magnitude past any voxel's range (the walk rejects it)."""
+    context's slots give a magnitude past any voxel's range (the walk rejects it).
+
+    ``pre``, ``sgn`` (int64, ``nx``) and ``cls`` (uint8, 3 x :data:`_CLASS_TABLE`) are
+    scratch. The inside of a row (away from the faces along y and x) reads its context
+    from the sums over the rows before (:func:`_inner_sums`, a pass of its own) plus the
+    two voxels before it along the row, kept in registers, and its class from a table:
+    the voxel before is on the decoding's critical path, the rest is not. The faces go
+    through :func:`_activity` and :func:`_sign_context`, as the encoder does."""
+    top = nctx - 1
+    for k in range(3):  # the class of each small sum, per divisor
+        for a in range(_CLASS_TABLE):
+            cls[k, a] = min(activity_class((16 * a) // _INNER_WS[k]), top)
     x0, x1, pos = rans.open_states(data)
     reader = (np.uint64(0), np.int64(0), np.int64(0))
-    top = nctx - 1
     bad = False
+    sy = nx
+    sz = ny * nx
     i = 0
     for z in range(nz):
+        k = min(z, 2)
+        tab = cls[2 - k]
+        ws = _INNER_WS[2 - k]
         for y in range(ny):
-            for x in range(nx):
+            x = 0
+            inner = y >= 2 and y + 1 < ny and nx >= 4
+            if inner:
+                _inner_sums(r, i, nx, sy, sz, z, pre, sgn)
+            while x < nx:
+                if inner and x == 2:
+                    m1 = r[_U(i - 1)]
+                    m2 = _mag(r[_U(i - 2)])
+                    for x in range(2, nx - 1):
+                        a = pre[_U(x)] + 2 * _mag(m1) + m2
+                        if a < _CLASS_TABLE:
+                            c = np.int64(tab[_U(a)])
+                        else:
+                            c = min(activity_class((16 * a) // ws), top)
+                        m, pos, x0, x1, reader = fp.take_symbol(syms, info, c, data, pos, x0,
+                                                                x1, words, reader, tok)  # fmt: skip
+                        if m != 0:
+                            c = nctx + sgn[_U(x)] + (1 if m1 > 0 else 0)
+                            t, pos, x0, x1, reader = fp.take_symbol(syms, info, c, data, pos,
+                                                                    x0, x1, words, reader, tok)  # fmt: skip
+                            bad |= t > 1
+                            m = -m if t else m
+                        r[_U(i)] = m
+                        m2 = _mag(m1)
+                        m1 = m
+                        i += 1
+                    x = nx - 1
                 c = min(_activity(r, i, z, y, x, ny, nx), top)
                 m, pos, x0, x1, reader = fp.take_symbol(syms, info, c, data, pos, x0, x1, words,
-                                                    reader, tok)  # fmt: skip
+                                                        reader, tok)  # fmt: skip
                 if m != 0:
                     c = nctx + _sign_context(r, i, z, y, x, ny, nx)
                     t, pos, x0, x1, reader = fp.take_symbol(syms, info, c, data, pos, x0, x1,
-                                                        words, reader, tok)  # fmt: skip
+                                                            words, reader, tok)  # fmt: skip
                     bad |= t > 1
                     m = -m if t else m
                 r[i] = m
                 i += 1
+                x += 1
     if bad:
         return 2
     used = 32 * reader[2] - reader[1]
@@ -719,8 +856,11 @@ def decode_static(data, shape) -> np.ndarray:
     raw = bytes(buf[pos:])
     words = np.frombuffer(raw + bytes(-len(raw) % 4 + 4), "<u4").astype(np.uint32)
     r = np.empty(int(np.prod(shape)), np.int64)
+    scratch = np.empty((2, shape[2]), np.int64)
+    cls = np.empty((3, _CLASS_TABLE), np.uint8)
     status = _get_static(data, words, np.int64(8 * len(raw)), syms.reshape(-1),
-                         info.reshape(-1), np.int64(nctx), r, *shape, fp.TOK)  # fmt: skip
+                         info.reshape(-1), np.int64(nctx), r, *shape, fp.TOK, scratch[0],
+                         scratch[1], cls)  # fmt: skip
     if status == 2:
         raise FormatError(f"{what}: a sign symbol past 1")
     if status != 0:
