@@ -109,6 +109,28 @@ def axis_states(n: int, k: int, ahead: bool) -> np.ndarray:
     return (3 * back + a).astype(np.int64)
 
 
+@functools.lru_cache(maxsize=64)
+def _classes(shape: tuple, reach: tuple) -> tuple:
+    """What a version-2 plan of ``shape`` and ``reach`` holds before its weights (a
+    decoder meets the same shape brick after brick): the per-axis states, the states
+    used, each class's steps, and every class's steps stacked (:func:`_stacked`)."""
+    states = [axis_states(n, k, a) for n, k, a in zip(shape, reach, (False, True, True))]
+    used = [np.unique(s).tolist() for s in states]
+    keys = [
+        tuple((grades(k)[s // 3], s % 3) for k, s in zip(reach, t))
+        for t in itertools.product(*used)
+    ]
+    offsets = [class_offsets(*key) for key in keys]
+    return states, used, offsets, _stacked(offsets)
+
+
+def _stacked(offsets) -> tuple:
+    """Every class's steps stacked ``(n, 3)`` in class order, and the class of each."""
+    counts = [len(o) for o in offsets]
+    steps = np.array([s for o in offsets for s in o], np.int64).reshape(-1, 3)
+    return steps, np.repeat(np.arange(len(offsets)), counts)
+
+
 class Plan:
     """The classes of a brick of ``shape`` at reach ``(kz, ky, kx)`` (version 2), or of a
     version-1 brick: per-axis states, the class of each state triple (-1: Lorenzo), the
@@ -126,16 +148,10 @@ class Plan:
                 tab[s] = -1 if min(s) == 0 else (0 if min(s) == 2 else 1)
             self.table = tab
             self.offsets = [long_offsets(k), near_offsets()]
+            self._stacked = _stacked(self.offsets)
             return
-        self.states = [
-            axis_states(n, k, a) for n, k, a in zip(self.shape, self.reach, (False, True, True))
-        ]
-        self.used = [np.unique(s).tolist() for s in self.states]
-        self.keys = [
-            tuple((grades(k)[s // 3], s % 3) for k, s in zip(self.reach, t))
-            for t in itertools.product(*self.used)
-        ]
-        self.offsets = [class_offsets(*key) for key in self.keys]  # (cached: decoding)
+        # shared with other plans of this shape and reach: never written to
+        self.states, self.used, self.offsets, self._stacked = _classes(self.shape, self.reach)
         self.table = None  # set by :meth:`keep`
 
     def boxes(self) -> list:
@@ -149,47 +165,38 @@ class Plan:
         """The classes with weights (the rest: Lorenzo)."""
         self.present = np.asarray(present, bool)
         tab = np.full(tuple(int(s.max()) + 1 for s in self.states), -1, np.int64)
-        for c, (s, p) in enumerate(zip(itertools.product(*self.used), self.present)):
-            if p:
-                tab[s] = c
+        grid = [g.reshape(-1) for g in np.meshgrid(*self.used, indexing="ij")]  # class order
+        tab[tuple(g[self.present] for g in grid)] = np.flatnonzero(self.present)
         self.table = tab
 
     def kernel_args(self, weights, qmax):
         """The walk's arrays: per class its off-row steps (flat) and in-row steps (dx)
-        with their weights, and whether its off-row sums may run in float64."""
+        with their weights, and whether its sums may run in float64 (every class's
+        steps at once, the classes without weights left out)."""
         nz, ny, nx = self.shape
-        off_s, off_w, in_s, in_w = [], [], [], []
-        s_off, s_in, fl = [0], [0], []
-        for offs, w in zip(self.offsets, weights):
-            if w is not None and len(offs):
-                st = _steps(offs)
-                row = (st[:, 0] == 0) & (st[:, 1] == 0)
-                w = np.asarray(w, np.int64)
-                off_s.append(st[~row] @ np.array([ny * nx, nx, 1]))
-                off_w.append(w[~row])
-                in_s.append(st[row, 2])
-                in_w.append(w[row])
-                fl.append(float(np.abs(w).sum()) * float(qmax) < _EXACT_FLOAT)
-            else:  # Lorenzo: no steps
-                for v in (off_s, off_w, in_s, in_w):
-                    v.append(np.zeros(0, np.int64))
-                fl.append(True)
-            s_off.append(s_off[-1] + len(off_s[-1]))
-            s_in.append(s_in[-1] + len(in_s[-1]))
+        nc = len(self.offsets)
+        present = np.array([w is not None and len(o) > 0 for w, o in zip(weights, self.offsets)])
+        w = np.concatenate(
+            [np.zeros(0, np.int64)]
+            + [np.asarray(v, np.int64) for v, p in zip(weights, present) if p]
+        )  # fmt: skip
+        steps, cls = self._stacked
+        take = present[cls]
+        st, cls = steps[take], cls[take]  # the order of w
+        row = (st[:, 0] == 0) & (st[:, 1] == 0)
+        off = ~row
+
+        def starts(mask):
+            return np.concatenate([[0], np.cumsum(np.bincount(cls[mask], minlength=nc))])
+
         xb = np.flatnonzero(np.diff(self.states[2])) + 1
-        i64 = lambda v: np.array(v, np.int64)  # noqa: E731
-        cat = lambda v: np.concatenate([np.zeros(0, np.int64), *v]).astype(np.int64)  # noqa: E731
+        fl = np.bincount(cls, weights=np.abs(w), minlength=nc) * float(qmax) < _EXACT_FLOAT
         return (
             self.states[0], self.states[1], self.states[2],
-            i64([0, *xb.tolist(), nx]), self.table.astype(np.int64),
-            i64(s_off), cat(off_s), cat(off_w), i64(s_in), cat(in_s), cat(in_w),
-            np.array(fl, np.bool_),
+            np.array([0, *xb.tolist(), nx], np.int64), self.table.astype(np.int64),
+            starts(off).astype(np.int64), st[off] @ np.array([ny * nx, nx, 1], np.int64),
+            w[off], starts(row).astype(np.int64), st[row, 2], w[row], fl.astype(np.bool_),
         )  # fmt: skip
-
-
-@functools.lru_cache(maxsize=4096)
-def _steps(offs: tuple) -> np.ndarray:
-    return np.array(offs, np.int64).reshape(-1, 3)
 
 
 def _v1_states(n: int, k: int, ahead: bool) -> np.ndarray:
