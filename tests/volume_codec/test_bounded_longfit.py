@@ -523,8 +523,8 @@ def _lorenzo_py(q, z, y, x):
 
 @pytest.mark.parametrize("reach", [(2, 4, 4), (2, 12, 12), (4, 8, 4)])
 def test_decoding_walk_matches_python(reach):
-    """:func:`_unwalk` (the voxel before last from a register, four off-row steps a
-    pass) against :func:`_naive_decode`: some classes without weights (Lorenzo), weights
+    """:func:`_unwalk` (the voxel before from a register, the row's other steps as one
+    dense run, four off-row steps a pass) against :func:`_naive_decode`: some classes without weights (Lorenzo), weights
     near the limit on small voxels (float64 sums) and on voxels near 2^32 (int64 sums),
     and a residual that takes a voxel out of range (the first such voxel reported)."""
     rng = np.random.default_rng(sum(reach))

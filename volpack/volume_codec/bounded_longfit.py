@@ -302,10 +302,12 @@ def _walk(q, qf, r, zs, ys, xs, xb, table, s_off, o_off, w_off, s_in, o_in, w_in
 
 @kernel(nrt=False)
 def _unwalk(q, qf, r, zs, ys, xs, xb, table, s_off, o_off, w_off, s_in, o_in, w_in, fl,
-            nz, ny, nx, qmax, acc, acci):  # fmt: skip
-    """:func:`_walk` backwards: ``q = r + prediction``, ``qf`` filled as it goes. The
-    step one voxel back along the row (which was decoded last) is added last, from a
-    register: the other steps' sum does not wait for it (integer sums, any order).
+            nz, ny, nx, qmax, acc, acci, wrow):  # fmt: skip
+    """:func:`_walk` backwards: ``q = r + prediction``, ``qf`` filled as it goes. Along
+    the row, the step one voxel back (decoded last) is added last, from a register, so
+    the other steps' sum does not wait for it; those steps (2..d back) are weighed as one
+    dense run (``wrow``, scratch of :data:`K_MAX`; zeros for steps the class lacks), a
+    loop over adjacent voxels that vectorises. Integer sums: any order, the same result.
     Returns the first voxel decoded outside ``[0, qmax]`` or -1."""
     sy = nx
     sz = ny * nx
@@ -327,18 +329,24 @@ def _unwalk(q, qf, r, zs, ys, xs, xb, table, s_off, o_off, w_off, s_in, o_in, w_
                         qf[i] = np.float64(v)
                     continue
                 _row_sums(q, qf, row, c, x0, x1, s_off, o_off, w_off, fl, acc, acci)
-                j0 = s_in[c]
-                j1 = s_in[c + 1]
                 w1 = np.int64(0)
-                if j1 > j0 and o_in[j0] == 1:
-                    w1 = w_in[j0]
-                    j0 += 1
+                nd = 0  # wrow[j] weighs the voxel nd + 1 - j back
+                for k in range(s_in[c], s_in[c + 1]):
+                    nd = max(nd, o_in[k] - 1)
+                for j in range(nd):
+                    wrow[j] = 0
+                for k in range(s_in[c], s_in[c + 1]):
+                    if o_in[k] == 1:
+                        w1 += w_in[k]
+                    else:
+                        wrow[nd + 1 - o_in[k]] += w_in[k]
                 prev = q[row + x0 - 1] if x0 > 0 else np.int64(0)
                 for x in range(x0, x1):
                     i = row + x
                     s = acci[_U(x)]
-                    for k in range(j0, j1):  # (>= 0: the step exists)
-                        s += w_in[k] * q[_U(i - o_in[k])]
+                    b = i - nd - 1  # >= 0 where a step reaches nd + 1 back
+                    for j in range(nd):
+                        s += wrow[_U(j)] * q[_U(b + j)]
                     v = r[_U(i)] + ((s + w1 * prev + half) >> FB)
                     if v < 0 or v > qmax:
                         return i
@@ -356,7 +364,8 @@ def walk(q: np.ndarray, r: np.ndarray, plan: Plan, weights, qmax: int, decode: b
     args = plan.kernel_args(weights, qmax)
     acc, acci = np.empty(nx, np.float64), np.empty(nx, np.int64)
     if decode:
-        return int(_unwalk(q, qf, r, *args, nz, ny, nx, np.int64(qmax), acc, acci))
+        wrow = np.empty(K_MAX, np.int64)
+        return int(_unwalk(q, qf, r, *args, nz, ny, nx, np.int64(qmax), acc, acci, wrow))
     return int(_walk(q, qf, r, *args, nz, ny, nx, acc, acci))
 
 
