@@ -546,6 +546,9 @@ def test_decoding_walk_matches_python(reach):
         back = np.empty(q.size, np.int64)
         assert lf.walk(back, r, plan, weights, top, True) == -1
         np.testing.assert_array_equal(back, q.reshape(-1))
+        same = r.copy()  # decode() writes the voxels over their residuals
+        assert lf.walk(same, same, plan, weights, top, True) == -1
+        np.testing.assert_array_equal(same, q.reshape(-1))
         fl = plan.kernel_args(weights, top)[-1][plan.present]
         assert fl.all() == (top == 999)  # the float64 sums, then the int64 ones
         r[700] += top + 1  # the voxels before decode as before: 700 is the first out

@@ -303,7 +303,8 @@ def _walk(q, qf, r, zs, ys, xs, xb, table, s_off, o_off, w_off, s_in, o_in, w_in
 @kernel(nrt=False)
 def _unwalk(q, qf, r, zs, ys, xs, xb, table, s_off, o_off, w_off, s_in, o_in, w_in, fl,
             nz, ny, nx, qmax, acc, acci, wrow):  # fmt: skip
-    """:func:`_walk` backwards: ``q = r + prediction``, ``qf`` filled as it goes. Along
+    """:func:`_walk` backwards: ``q = r + prediction``, ``qf`` filled as it goes (``q``
+    may be ``r``: voxel ``i``'s residual is read once, before ``q[i]`` is written). Along
     the row, the step one voxel back (decoded last) is added last, from a register, so
     the other steps' sum does not wait for it; those steps (2..d back) are weighed as one
     dense run (``wrow``, scratch of :data:`K_MAX`; zeros for steps the class lacks), a
@@ -933,7 +934,7 @@ def decode(data, shape: tuple[int, ...], qdtype: np.dtype, codec) -> np.ndarray:
     else:
         res = codec.decode(buf[pos:], tuple(shape), np.dtype(_DTYPES[code]))
         r = res.astype(np.int64).reshape(-1) + lo
-    q = np.empty(r.size, np.int64)
+    q = r  # each voxel written over its residual, which the walk read just before
     qmax = int(np.iinfo(np.dtype(qdtype)).max)
     bad = walk(q, r, plan, weights, qmax, True)
     if bad >= 0:
