@@ -264,21 +264,27 @@ def test_version_1_golden_decodes_to_its_integers():
     np.testing.assert_array_equal(lf.decode(inner, q.shape, qd, LosslessCodec()), q)
 
 
+def _class_prediction(q, plan, weights, z, y, x):
+    """Voxel ``(z, y, x)``'s prediction by its class's weights in Python integers, or
+    None for a voxel whose class has none (Lorenzo)."""
+    c = plan.table[plan.states[0][z], plan.states[1][y], plan.states[2][x]]
+    if c < 0:
+        return None
+    acc = sum(
+        int(w) * int(q[z - dz, y - dy, x - dx])
+        for w, (dz, dy, dx) in zip(weights[c], plan.offsets[c])
+    )
+    return (acc + (1 << 15)) >> 16
+
+
 def _naive_residuals(q, plan, weights):
-    """Every voxel's residual from the plan's classes, in Python integers."""
-    nz, ny, nx = q.shape
+    """Every voxel's residual from the plan's classes, in Python integers (0 where
+    Lorenzo predicts: not compared here)."""
     r = np.zeros(q.shape, np.int64)
-    for z in range(nz):
-        for y in range(ny):
-            for x in range(nx):
-                c = plan.table[plan.states[0][z], plan.states[1][y], plan.states[2][x]]
-                if c < 0:
-                    continue  # Lorenzo: not compared here
-                acc = sum(
-                    int(w) * int(q[z - dz, y - dy, x - dx])
-                    for w, (dz, dy, dx) in zip(weights[c], plan.offsets[c])
-                )
-                r[z, y, x] = int(q[z, y, x]) - ((acc + (1 << 15)) >> 16)
+    for z, y, x in np.ndindex(q.shape):
+        p = _class_prediction(q, plan, weights, z, y, x)
+        if p is not None:
+            r[z, y, x] = int(q[z, y, x]) - p
     return r
 
 
@@ -488,24 +494,13 @@ def _naive_decode(r, plan, weights, qmax):
     """``q`` from the residuals in Python integers, voxel by voxel in C order (the
     classes' sums, Lorenzo where a class has no weights); the first voxel out of
     ``[0, qmax]`` as ``(None, i)``."""
-    nz, ny, nx = plan.shape
     q = np.zeros(plan.shape, np.int64)
-    for z in range(nz):
-        for y in range(ny):
-            for x in range(nx):
-                c = plan.table[plan.states[0][z], plan.states[1][y], plan.states[2][x]]
-                if c >= 0:
-                    acc = sum(
-                        int(w) * int(q[z - dz, y - dy, x - dx])
-                        for w, (dz, dy, dx) in zip(weights[c], plan.offsets[c])
-                    )
-                    p = (acc + (1 << 15)) >> 16
-                else:
-                    p = _lorenzo_py(q, z, y, x)
-                v = int(r[z, y, x]) + p
-                if v < 0 or v > qmax:
-                    return None, (z * ny + y) * nx + x
-                q[z, y, x] = v
+    for i, (z, y, x) in enumerate(np.ndindex(plan.shape)):
+        p = _class_prediction(q, plan, weights, z, y, x)
+        v = int(r[z, y, x]) + (_lorenzo_py(q, z, y, x) if p is None else p)
+        if v < 0 or v > qmax:
+            return None, i
+        q[z, y, x] = v
     return q, -1
 
 

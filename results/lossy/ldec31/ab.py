@@ -47,8 +47,8 @@ def worker() -> None:
             out = api.decompress_array(b)
             ok = bool(np.abs(out.astype(np.float64) - a).max() <= e)
             dz = peers.sz3_decode(s, a.dtype, a.shape)
-            cell = {"calls": {"volpack": lambda: api.decompress_array(b),
-                              "sz3": lambda: peers.sz3_decode(s, a.dtype, a.shape)}}
+            cell = {"calls": {"volpack": lambda b=b: api.decompress_array(b),
+                              "sz3": lambda s=s, a=a: peers.sz3_decode(s, a.dtype, a.shape)}}
             best = {"volpack": 1e9, "sz3": 1e9}
             cell["best"] = best
             reply = {"hash": hashlib.sha256(out.tobytes()).hexdigest()[:16], "ok": ok,

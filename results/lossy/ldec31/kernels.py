@@ -61,8 +61,8 @@ def main() -> None:
         tw = ta = 0.0
         for r, plan, w, qmax in cap["walk"]:
             q = np.empty(r.size, np.int64)
-            tw += best(lambda: lf.walk(q, r, plan, w, qmax, True))
-            ta += best(lambda: plan.kernel_args(w, qmax))
+            tw += best(lambda q=q, r=r, p=plan, w=w, m=qmax: lf.walk(q, r, p, w, m, True))
+            ta += best(lambda p=plan, w=w, m=qmax: p.kernel_args(w, m))
         print(f"{spec},{n},{1e9 * ts / n:.1f},{1e9 * tw / n:.1f},{1e3 * ta:.3f}", flush=True)
 
 

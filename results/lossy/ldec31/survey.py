@@ -6,6 +6,7 @@ and bench_lossy_decode's stage timers.
 """
 
 import argparse
+import csv
 import functools
 import sys
 from pathlib import Path
@@ -15,7 +16,11 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import cells  # noqa: E402
 from bench_lossy_decode import (  # noqa: E402  (scripts/ is on the path through cells)
-    STAGES, StageTimer, best_interleaved, payload_paths, profile_cell,
+    STAGES,
+    StageTimer,
+    best_interleaved,
+    payload_paths,
+    profile_cell,
 )  # fmt: skip
 
 from volpack import api, peers  # noqa: E402
@@ -29,8 +34,9 @@ def main():
     args = ap.parse_args()
     timer = StageTimer() if args.profile else None
     sz3 = peers.sz3_encoder()
-    print("field,rel,voxels,path,ratio,ms_volpack,ms_sz3,x_sz3,ns_voxel"
-          + ("," + ",".join(f"ms_{s}" for s in STAGES) if timer else ""))
+    out = csv.writer(sys.stdout, lineterminator="\n")
+    out.writerow("field,rel,voxels,path,ratio,ms_volpack,ms_sz3,x_sz3,ns_voxel".split(",")
+                 + ([f"ms_{s}" for s in STAGES] if timer else []))
     for name in args.fields or cells.TUNE + cells.HELDOUT:
         a = cells.field(name)
         for rel in cells.RELS:
@@ -48,7 +54,8 @@ def main():
             if timer:
                 ms = profile_cell(timer, calls["volpack"], args.rounds)
                 row += [f"{ms[s]:.3f}" for s in STAGES]
-            print(",".join(map(str, row)), flush=True)
+            out.writerow(row)
+            sys.stdout.flush()
 
 
 if __name__ == "__main__":
