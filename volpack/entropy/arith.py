@@ -319,13 +319,11 @@ def decode(data: bytes, scan: Scan, out: np.ndarray) -> None:
     if flat.size != scan.perm.size:
         raise FormatError(f"expected {scan.perm.size} coefficients, found room for {flat.size}")
     buf = np.frombuffer(data, dtype=np.uint8)
-    # the tabled decoder (the same decisions, coefficients and statuses): its table made
-    # here costs less than it saves (ldec31: 8-15 % of the kernel's time on 0.1-2 M
-    # coefficients, the table's pass included)
-    ctab = context_table(scan)
     decoded_into(
         flat,
-        lambda into, nmax: decode_tabled_kernel(buf, scan.perm, ctab, scan.cls, into, nmax),
+        lambda into, nmax: decode_kernel(
+            buf, scan.perm, scan.end, scan.parent, scan.cls, scan.nbr, into, nmax
+        ),
         "arithmetic",
         zeroed=True,  # zero subtrees are skipped, not written (one memset, not a scatter)
     )
