@@ -5,6 +5,7 @@ plain Python (face classes, the float64 off-row sums and their int64 fallback pa
 on real ones, and damaged payloads refused. Slow set: the walk kernel compiles here
 (about 2 CPU s); the golden streams' tests in test_golden.py are the fast ones."""
 
+import itertools
 import sys
 from pathlib import Path
 
@@ -263,21 +264,27 @@ def test_version_1_golden_decodes_to_its_integers():
     np.testing.assert_array_equal(lf.decode(inner, q.shape, qd, LosslessCodec()), q)
 
 
+def _class_prediction(q, plan, weights, z, y, x):
+    """Voxel ``(z, y, x)``'s prediction by its class's weights in Python integers, or
+    None for a voxel whose class has none (Lorenzo)."""
+    c = plan.table[plan.states[0][z], plan.states[1][y], plan.states[2][x]]
+    if c < 0:
+        return None
+    acc = sum(
+        int(w) * int(q[z - dz, y - dy, x - dx])
+        for w, (dz, dy, dx) in zip(weights[c], plan.offsets[c])
+    )
+    return (acc + (1 << 15)) >> 16
+
+
 def _naive_residuals(q, plan, weights):
-    """Every voxel's residual from the plan's classes, in Python integers."""
-    nz, ny, nx = q.shape
+    """Every voxel's residual from the plan's classes, in Python integers (0 where
+    Lorenzo predicts: not compared here)."""
     r = np.zeros(q.shape, np.int64)
-    for z in range(nz):
-        for y in range(ny):
-            for x in range(nx):
-                c = plan.table[plan.states[0][z], plan.states[1][y], plan.states[2][x]]
-                if c < 0:
-                    continue  # Lorenzo: not compared here
-                acc = sum(
-                    int(w) * int(q[z - dz, y - dy, x - dx])
-                    for w, (dz, dy, dx) in zip(weights[c], plan.offsets[c])
-                )
-                r[z, y, x] = int(q[z, y, x]) - ((acc + (1 << 15)) >> 16)
+    for z, y, x in np.ndindex(q.shape):
+        p = _class_prediction(q, plan, weights, z, y, x)
+        if p is not None:
+            r[z, y, x] = int(q[z, y, x]) - p
     return r
 
 
@@ -462,3 +469,137 @@ def test_damaged_version_1_refused():
     for data in bad:
         with pytest.raises(FormatError):
             lf.decode(data, q.shape, qd, codec)
+
+
+# -- ldec31: the decoder's faster kernels against plain readings -------------------------
+
+
+def test_static_decoder_row_insides_match_the_encoders_contexts():
+    """:func:`_get_static` reads the inside of a row (away from the faces along y and x)
+    from sums over the rows before and a class table per ``z`` (0, 1, 2 on); the encoder
+    takes every voxel's context from :func:`_context`. Round trips on shapes whose rows
+    have an inside at z = 0, 1 and later, and on shapes without one: residuals small
+    (activity sums inside the table), large (past it) and mixed (spikes)."""
+    rng = np.random.default_rng(31)
+    for shape in [(1, 5, 6), (2, 4, 4), (3, 7, 9), (5, 12, 17), (4, 3, 4), (3, 6, 3), (6, 9, 40)]:
+        for scale in (0.4, 3, 60, 5000):
+            r = np.round(rng.laplace(0, scale, shape)).astype(np.int64)
+            if scale == 3:  # spikes: sums past the table next to small ones
+                r[rng.random(shape) < 0.03] = 1 << 20
+            got = lf.decode_static(lf.code_static(r), shape)
+            np.testing.assert_array_equal(got, r.reshape(-1), err_msg=f"{shape} {scale}")
+
+
+def _naive_decode(r, plan, weights, qmax):
+    """``q`` from the residuals in Python integers, voxel by voxel in C order (the
+    classes' sums, Lorenzo where a class has no weights); the first voxel out of
+    ``[0, qmax]`` as ``(None, i)``."""
+    q = np.zeros(plan.shape, np.int64)
+    for i, (z, y, x) in enumerate(np.ndindex(plan.shape)):
+        p = _class_prediction(q, plan, weights, z, y, x)
+        v = int(r[z, y, x]) + (_lorenzo_py(q, z, y, x) if p is None else p)
+        if v < 0 or v > qmax:
+            return None, i
+        q[z, y, x] = v
+    return q, -1
+
+
+def _lorenzo_py(q, z, y, x):
+    """:func:`.bounded_longfit._lorenzo` in Python: the neighbours along the axes whose
+    index is above 0, inclusion-exclusion over them."""
+    axes = [a for a, n in enumerate((z, y, x)) if n > 0]
+    p = 0
+    for k in range(1, len(axes) + 1):
+        for sub in itertools.combinations(axes, k):
+            d = [1 if a in sub else 0 for a in range(3)]
+            p += (-1) ** (k + 1) * int(q[z - d[0], y - d[1], x - d[2]])
+    return p
+
+
+@pytest.mark.parametrize("reach", [(2, 4, 4), (2, 12, 12), (4, 8, 4)])
+def test_decoding_walk_matches_python(reach):
+    """:func:`_unwalk` (the voxel before from a register, the row's other steps as one
+    dense run, four off-row steps a pass) against :func:`_naive_decode`: some classes without weights (Lorenzo), weights
+    near the limit on small voxels (float64 sums) and on voxels near 2^32 (int64 sums),
+    and a residual that takes a voxel out of range (the first such voxel reported)."""
+    rng = np.random.default_rng(sum(reach))
+    shape = (5, 14, 19)
+    plan = lf.Plan(shape, reach)
+    for top, lo, scale in ((999, 0, 64), ((1 << 32) - 1, (1 << 32) - 300, 1)):
+        weights = [
+            rng.integers(-lf.W_LIMIT, lf.W_LIMIT + 1, len(o)) // scale
+            if o and rng.random() < 0.7 else None
+            for o in plan.offsets
+        ]  # fmt: skip
+        plan.keep([w is not None for w in weights])
+        q = rng.integers(lo, top + 1, shape).astype(np.int64)
+        r = np.empty(q.size, np.int64)
+        lf.walk(q.reshape(-1), r, plan, weights, top, False)
+        want, bad = _naive_decode(r.reshape(shape), plan, weights, top)
+        assert bad == -1
+        np.testing.assert_array_equal(want, q)
+        back = np.empty(q.size, np.int64)
+        assert lf.walk(back, r, plan, weights, top, True) == -1
+        np.testing.assert_array_equal(back, q.reshape(-1))
+        same = r.copy()  # decode() writes the voxels over their residuals
+        assert lf.walk(same, same, plan, weights, top, True) == -1
+        np.testing.assert_array_equal(same, q.reshape(-1))
+        fl = plan.kernel_args(weights, top)[-1][plan.present]
+        assert fl.all() == (top == 999)  # the float64 sums, then the int64 ones
+        r[700] += top + 1  # the voxels before decode as before: 700 is the first out
+        want, bad = _naive_decode(r.reshape(shape), plan, weights, top)
+        assert bad == 700
+        assert lf.walk(np.empty(q.size, np.int64), r, plan, weights, top, True) == bad
+
+
+def _kernel_args_by_class(plan, weights, qmax):
+    """:meth:`Plan.kernel_args` as it was built before ldec31, class by class."""
+    nz, ny, nx = plan.shape
+    off_s, off_w, in_s, in_w = [], [], [], []
+    s_off, s_in, fl = [0], [0], []
+    for offs, w in zip(plan.offsets, weights):
+        if w is not None and len(offs):
+            st = np.array(offs, np.int64).reshape(-1, 3)
+            row = (st[:, 0] == 0) & (st[:, 1] == 0)
+            w = np.asarray(w, np.int64)
+            off_s.append(st[~row] @ np.array([ny * nx, nx, 1]))
+            off_w.append(w[~row])
+            in_s.append(st[row, 2])
+            in_w.append(w[row])
+            fl.append(float(np.abs(w).sum()) * float(qmax) < float(1 << 53))
+        else:
+            for v in (off_s, off_w, in_s, in_w):
+                v.append(np.zeros(0, np.int64))
+            fl.append(True)
+        s_off.append(s_off[-1] + len(off_s[-1]))
+        s_in.append(s_in[-1] + len(in_s[-1]))
+    cat = lambda v: np.concatenate([np.zeros(0, np.int64), *v])  # noqa: E731
+    return (s_off, cat(off_s), cat(off_w), s_in, cat(in_s), cat(in_w), fl)
+
+
+@pytest.mark.parametrize("v1", [False, True])
+def test_kernel_args_match_a_class_by_class_build(v1):
+    """The walk's arrays built for every class at once (classes without weights left
+    out, the plan's classes shared between plans of one shape) against the build class
+    by class; and the class table of :meth:`Plan.keep` against the classes' state
+    triples."""
+    rng = np.random.default_rng(4)
+    cases = [((7, 20, 30), (2, 4, 12)), ((16, 16, 16), (4, 8, 4)), ((3, 5, 40), (2, 2, 16))]
+    for shape, reach in cases:
+        plan = lf.Plan(shape, (reach[0],) * 3 if v1 else reach, v1=v1)
+        for share, top in ((0.6, 999), (1.0, (1 << 40) - 1), (0.0, 255)):
+            weights = [
+                rng.integers(-lf.W_LIMIT, lf.W_LIMIT + 1, len(o))
+                if o and (v1 or rng.random() < share) else None
+                for o in plan.offsets
+            ]  # fmt: skip
+            if not v1:
+                plan.keep([w is not None for w in weights])
+                for c, t in enumerate(itertools.product(*plan.used)):
+                    assert plan.table[t] == (c if weights[c] is not None else -1)
+            got = plan.kernel_args(weights, top)
+            want = _kernel_args_by_class(plan, weights, top)
+            for g, w in zip(got[5:], want):
+                np.testing.assert_array_equal(g, w)
+                assert g.dtype == (np.bool_ if g is got[-1] else np.int64)
+                assert g.flags.c_contiguous

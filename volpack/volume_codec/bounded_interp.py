@@ -86,6 +86,9 @@ def _unpacked() -> np.ndarray:
 
 
 UNPACKED = _unpacked()
+# Indices of the walk's arrays as unsigned: numba tests a signed index for a negative
+# wrap-around (1.12-1.19x on the interpolation kinds' adaptive decoding, ldec31).
+_U = np.uint64
 # What the encoder tries: (kind, axis orders). Lorenzo in 3-D hardly depends on the
 # order; in 2-D the order's first axis is the one left out.
 TRIED = ((1, PERMS), (0, PERMS), (2, PERMS[:1]), (3, PERMS[:3]))
@@ -98,20 +101,20 @@ TRIED_FAST = ((1, PERMS[:1]), (2, PERMS[:1]))
 def _predict(rec, j, off, i, s, n, cubic):
     """Voxel ``j`` (flat) interpolated along an axis where it is ``i`` of ``n``, its
     known neighbours ``off`` (flat) = ``s`` (along the axis) apart."""
-    b = rec[j - off]
+    b = rec[_U(j - off)]
     if i + s >= n:  # no neighbour after: the one before
         return b
-    c = rec[j + off]
+    c = rec[_U(j + off)]
     if cubic == 0:
         return (b + c) * 0.5
     lo = i - 3 * s >= 0
     hi = i + 3 * s < n
     if lo and hi:
-        return (9.0 * (b + c) - (rec[j - 3 * off] + rec[j + 3 * off])) * 0.0625
+        return (9.0 * (b + c) - (rec[_U(j - 3 * off)] + rec[_U(j + 3 * off)])) * 0.0625
     if hi:  # the quadratic through -s, s, 3s
-        return (3.0 * b + 6.0 * c - rec[j + 3 * off]) * 0.125
+        return (3.0 * b + 6.0 * c - rec[_U(j + 3 * off)]) * 0.125
     if lo:  # the quadratic through -3s, -s, s
-        return (6.0 * b + 3.0 * c - rec[j - 3 * off]) * 0.125
+        return (6.0 * b + 3.0 * c - rec[_U(j - 3 * off)]) * 0.125
     return (b + c) * 0.5
 
 
@@ -280,18 +283,18 @@ def _walk(x, rec, bn, shape, step, kind, adaptive, decode, sym, ctx, abin, adx, 
                     a = np.int64(0)
                     sg = np.int64(0)
                     if xx:
-                        m = abs(np.int64(bn[j - 1]))
+                        m = abs(np.int64(bn[_U(j - 1)]))
                         na += m
                         a += min(m, 127)
-                        sg += bn[j - 1]
+                        sg += bn[_U(j - 1)]
                     if y:
-                        m = abs(np.int64(bn[j - sty]))
+                        m = abs(np.int64(bn[_U(j - sty)]))
                         na += m
                         a += min(m, 127)
-                        sg += bn[j - sty]
-                    nb = abs(np.int64(bn[j - stz])) if kind == 2 and z else np.int64(0)
+                        sg += bn[_U(j - sty)]
+                    nb = abs(np.int64(bn[_U(j - stz)])) if kind == 2 and z else np.int64(0)
                     if not decode:
-                        v = x[j]
+                        v = x[_U(j)]
                     elif adaptive and state[3] > size + 4:
                         return -1
                     if given:
@@ -304,8 +307,8 @@ def _walk(x, rec, bn, shape, step, kind, adaptive, decode, sym, ctx, abin, adx, 
                         )  # fmt: skip
                     if b == NO_RESIDUAL:
                         return -1
-                    rec[j] = p + np.float64(b) * q
-                    bn[j] = b
+                    rec[_U(j)] = p + np.float64(b) * q
+                    bn[_U(j)] = b
                     prev = min(abs(b), N_PREV - 1)
     else:
         top = 0
@@ -347,29 +350,29 @@ def _walk(x, rec, bn, shape, step, kind, adaptive, decode, sym, ctx, abin, adx, 
                             else:
                                 i = xx if axis == 2 else iz
                                 p = _predict(rec, j, off, i, s, n, kind)
-                                m = abs(np.int64(bn[j - off]))
+                                m = abs(np.int64(bn[_U(j - off)]))
                                 na += m
                                 a += min(m, 127)
                                 if i + s < n:
-                                    m = abs(np.int64(bn[j + off]))
+                                    m = abs(np.int64(bn[_U(j + off)]))
                                     na += m
                                     a += min(m, 127)
                                 # the same pass's voxels one step back along the
                                 # two other axes
                                 if has_z:
-                                    nb += abs(np.int64(bn[j - sz * stz]))
-                                    sg += bn[j - sz * stz]
+                                    nb += abs(np.int64(bn[_U(j - sz * stz)]))
+                                    sg += bn[_U(j - sz * stz)]
                                 if axis != 1 and has_back:
-                                    nb += abs(np.int64(bn[j - back]))
-                                    sg += bn[j - back]
+                                    nb += abs(np.int64(bn[_U(j - back)]))
+                                    sg += bn[_U(j - back)]
                                 if axis != 2 and xx >= xs0 + sx:
-                                    nb += abs(np.int64(bn[j - sx]))
-                                    sg += bn[j - sx]
+                                    nb += abs(np.int64(bn[_U(j - sx)]))
+                                    sg += bn[_U(j - sx)]
                             c = ACT_CONTEXT[a]
                             if has_back:
-                                c += min(abs(np.int64(bn[j - back])), N_PREV - 1)
+                                c += min(abs(np.int64(bn[_U(j - back)])), N_PREV - 1)
                             if not decode:
-                                v = x[j]
+                                v = x[_U(j)]
                             elif adaptive and state[3] > size + 4:
                                 return -1
                             if given:
@@ -382,8 +385,8 @@ def _walk(x, rec, bn, shape, step, kind, adaptive, decode, sym, ctx, abin, adx, 
                             )  # fmt: skip
                             if b == NO_RESIDUAL:
                                 return -1
-                            rec[j] = p + np.float64(b) * q
-                            bn[j] = b
+                            rec[_U(j)] = p + np.float64(b) * q
+                            bn[_U(j)] = b
     bitpos, x0, x1, pos = state
     if given:
         return 0
@@ -459,17 +462,17 @@ def _lorenzo(rec, j, z, y, x, sty, stz, use_z):
     voxel before it (z only when ``use_z``): the sum over the corners of the unit cube
     behind it, signed by parity."""
     if x and y and (z or not use_z):  # the common case first, without the tests
-        p = rec[j - 1] + rec[j - sty] - rec[j - sty - 1]
+        p = rec[_U(j - 1)] + rec[_U(j - sty)] - rec[_U(j - sty - 1)]
         if use_z:
             u = j - stz
-            p = p + rec[u] - rec[u - 1] - rec[u - sty] + rec[u - sty - 1]
+            p = p + rec[_U(u)] - rec[_U(u - 1)] - rec[_U(u - sty)] + rec[_U(u - sty - 1)]
         return p
     p = 0.0
     for corner in range(1, 8):
         dz, dy, dx = corner >> 2, (corner >> 1) & 1, corner & 1
         if (dz and not (use_z and z)) or (dy and not y) or (dx and not x):
             continue
-        t = rec[j - dz * stz - dy * sty - dx]
+        t = rec[_U(j - dz * stz - dy * sty - dx)]
         p = p + t if (dz + dy + dx) & 1 else p - t
     return p
 

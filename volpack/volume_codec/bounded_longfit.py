@@ -109,6 +109,28 @@ def axis_states(n: int, k: int, ahead: bool) -> np.ndarray:
     return (3 * back + a).astype(np.int64)
 
 
+@functools.lru_cache(maxsize=64)
+def _classes(shape: tuple, reach: tuple) -> tuple:
+    """What a version-2 plan of ``shape`` and ``reach`` holds before its weights (a
+    decoder meets the same shape brick after brick): the per-axis states, the states
+    used, each class's steps, and every class's steps stacked (:func:`_stacked`)."""
+    states = [axis_states(n, k, a) for n, k, a in zip(shape, reach, (False, True, True))]
+    used = [np.unique(s).tolist() for s in states]
+    keys = [
+        tuple((grades(k)[s // 3], s % 3) for k, s in zip(reach, t))
+        for t in itertools.product(*used)
+    ]
+    offsets = [class_offsets(*key) for key in keys]
+    return states, used, offsets, _stacked(offsets)
+
+
+def _stacked(offsets) -> tuple:
+    """Every class's steps stacked ``(n, 3)`` in class order, and the class of each."""
+    counts = [len(o) for o in offsets]
+    steps = np.array([s for o in offsets for s in o], np.int64).reshape(-1, 3)
+    return steps, np.repeat(np.arange(len(offsets)), counts)
+
+
 class Plan:
     """The classes of a brick of ``shape`` at reach ``(kz, ky, kx)`` (version 2), or of a
     version-1 brick: per-axis states, the class of each state triple (-1: Lorenzo), the
@@ -126,16 +148,10 @@ class Plan:
                 tab[s] = -1 if min(s) == 0 else (0 if min(s) == 2 else 1)
             self.table = tab
             self.offsets = [long_offsets(k), near_offsets()]
+            self._stacked = _stacked(self.offsets)
             return
-        self.states = [
-            axis_states(n, k, a) for n, k, a in zip(self.shape, self.reach, (False, True, True))
-        ]
-        self.used = [np.unique(s).tolist() for s in self.states]
-        self.keys = [
-            tuple((grades(k)[s // 3], s % 3) for k, s in zip(self.reach, t))
-            for t in itertools.product(*self.used)
-        ]
-        self.offsets = [class_offsets(*key) for key in self.keys]  # (cached: decoding)
+        # shared with other plans of this shape and reach: never written to
+        self.states, self.used, self.offsets, self._stacked = _classes(self.shape, self.reach)
         self.table = None  # set by :meth:`keep`
 
     def boxes(self) -> list:
@@ -149,47 +165,38 @@ class Plan:
         """The classes with weights (the rest: Lorenzo)."""
         self.present = np.asarray(present, bool)
         tab = np.full(tuple(int(s.max()) + 1 for s in self.states), -1, np.int64)
-        for c, (s, p) in enumerate(zip(itertools.product(*self.used), self.present)):
-            if p:
-                tab[s] = c
+        grid = [g.reshape(-1) for g in np.meshgrid(*self.used, indexing="ij")]  # class order
+        tab[tuple(g[self.present] for g in grid)] = np.flatnonzero(self.present)
         self.table = tab
 
     def kernel_args(self, weights, qmax):
         """The walk's arrays: per class its off-row steps (flat) and in-row steps (dx)
-        with their weights, and whether its off-row sums may run in float64."""
+        with their weights, and whether its sums may run in float64 (every class's
+        steps at once, the classes without weights left out)."""
         nz, ny, nx = self.shape
-        off_s, off_w, in_s, in_w = [], [], [], []
-        s_off, s_in, fl = [0], [0], []
-        for offs, w in zip(self.offsets, weights):
-            if w is not None and len(offs):
-                st = _steps(offs)
-                row = (st[:, 0] == 0) & (st[:, 1] == 0)
-                w = np.asarray(w, np.int64)
-                off_s.append(st[~row] @ np.array([ny * nx, nx, 1]))
-                off_w.append(w[~row])
-                in_s.append(st[row, 2])
-                in_w.append(w[row])
-                fl.append(float(np.abs(w).sum()) * float(qmax) < _EXACT_FLOAT)
-            else:  # Lorenzo: no steps
-                for v in (off_s, off_w, in_s, in_w):
-                    v.append(np.zeros(0, np.int64))
-                fl.append(True)
-            s_off.append(s_off[-1] + len(off_s[-1]))
-            s_in.append(s_in[-1] + len(in_s[-1]))
+        nc = len(self.offsets)
+        present = np.array([w is not None and len(o) > 0 for w, o in zip(weights, self.offsets)])
+        w = np.concatenate(
+            [np.zeros(0, np.int64)]
+            + [np.asarray(v, np.int64) for v, p in zip(weights, present) if p]
+        )  # fmt: skip
+        steps, cls = self._stacked
+        take = present[cls]
+        st, cls = steps[take], cls[take]  # the order of w
+        row = (st[:, 0] == 0) & (st[:, 1] == 0)
+        off = ~row
+
+        def starts(mask):
+            return np.concatenate([[0], np.cumsum(np.bincount(cls[mask], minlength=nc))])
+
         xb = np.flatnonzero(np.diff(self.states[2])) + 1
-        i64 = lambda v: np.array(v, np.int64)  # noqa: E731
-        cat = lambda v: np.concatenate([np.zeros(0, np.int64), *v]).astype(np.int64)  # noqa: E731
+        fl = np.bincount(cls, weights=np.abs(w), minlength=nc) * float(qmax) < _EXACT_FLOAT
         return (
             self.states[0], self.states[1], self.states[2],
-            i64([0, *xb.tolist(), nx]), self.table.astype(np.int64),
-            i64(s_off), cat(off_s), cat(off_w), i64(s_in), cat(in_s), cat(in_w),
-            np.array(fl, np.bool_),
+            np.array([0, *xb.tolist(), nx], np.int64), self.table.astype(np.int64),
+            starts(off).astype(np.int64), st[off] @ np.array([ny * nx, nx, 1], np.int64),
+            w[off], starts(row).astype(np.int64), st[row, 2], w[row], fl.astype(np.bool_),
         )  # fmt: skip
-
-
-@functools.lru_cache(maxsize=4096)
-def _steps(offs: tuple) -> np.ndarray:
-    return np.array(offs, np.int64).reshape(-1, 3)
 
 
 def _v1_states(n: int, k: int, ahead: bool) -> np.ndarray:
@@ -221,19 +228,56 @@ def _lorenzo(q, i, z, y, x, sy, sz):
     return p
 
 
-@kernel
+@kernel(inline=True)
+def _row_sums(q, qf, row, c, x0, x1, s_off, o_off, w_off, fl, acc, acci):
+    """Into ``acci[x0:x1]``: the sums over class ``c``'s steps in other rows (decoded
+    already) for the run ``x0..x1`` of the row starting at voxel ``row``. In float64
+    where the class's sums are exact integers (``fl``: every partial sum under 2^53, so
+    any order gives the same), four steps a pass over the run (a quarter of the loads
+    and stores of ``acc``); else in int64, a step a pass."""
+    k = s_off[c]
+    k1 = s_off[c + 1]
+    if fl[c]:
+        for x in range(x0, x1):
+            acc[x] = 0.0
+        while k + 4 <= k1:
+            w0, w1 = np.float64(w_off[k]), np.float64(w_off[k + 1])
+            w2, w3 = np.float64(w_off[k + 2]), np.float64(w_off[k + 3])
+            b0, b1 = row - o_off[k], row - o_off[k + 1]  # >= 0: the steps exist
+            b2, b3 = row - o_off[k + 2], row - o_off[k + 3]
+            for x in range(x0, x1):  # unsigned indices: vectorised
+                acc[_U(x)] += (w0 * qf[_U(b0 + x)] + w1 * qf[_U(b1 + x)]) + (
+                    w2 * qf[_U(b2 + x)] + w3 * qf[_U(b3 + x)]
+                )
+            k += 4
+        while k < k1:
+            wk = np.float64(w_off[k])
+            b = row - o_off[k]
+            for x in range(x0, x1):
+                acc[_U(x)] += wk * qf[_U(b + x)]
+            k += 1
+        for x in range(x0, x1):
+            acci[x] = np.int64(acc[x])
+    else:
+        for x in range(x0, x1):
+            acci[x] = 0
+        for j in range(k, k1):
+            wk = w_off[j]
+            b = row - o_off[j]
+            for x in range(x0, x1):
+                acci[_U(x)] += wk * q[_U(b + x)]
+
+
+@kernel(nrt=False)
 def _walk(q, qf, r, zs, ys, xs, xb, table, s_off, o_off, w_off, s_in, o_in, w_in, fl,
-          nz, ny, nx, decode, qmax):  # fmt: skip
-    """Residuals ``r = q - prediction`` (encode) or ``q = r + prediction`` (decode) in C
-    order, row by row: on a run of a row in one class, the sums over the steps in other
-    rows (decoded already) first, for the whole run (float64 where exact: ``fl``), then
-    the steps back along the row voxel by voxel. ``qf`` holds ``q`` as float64 (filled
-    here when decoding). Returns the first voxel decoded outside ``[0, qmax]`` or -1."""
+          nz, ny, nx, acc, acci):  # fmt: skip
+    """Residuals ``r = q - prediction`` in C order, row by row: on a run of a row in one
+    class, the sums over the steps in other rows first, for the whole run
+    (:func:`_row_sums`; ``qf`` is ``q`` as float64), then the steps back along the row
+    voxel by voxel. ``acc`` and ``acci`` (``nx``) are scratch."""
     sy = nx
     sz = ny * nx
     half = np.int64(1) << (FB - 1)
-    acc = np.zeros(nx, np.float64)
-    acci = np.zeros(nx, np.int64)
     for z in range(nz):
         for y in range(ny):
             row = z * sz + y * sy
@@ -241,24 +285,8 @@ def _walk(q, qf, r, zs, ys, xs, xb, table, s_off, o_off, w_off, s_in, o_in, w_in
                 x0 = xb[seg]
                 x1 = xb[seg + 1]
                 c = table[zs[z], ys[y], xs[x0]]
-                if c >= 0 and fl[c]:
-                    for x in range(x0, x1):
-                        acc[x] = 0.0
-                    for k in range(s_off[c], s_off[c + 1]):
-                        wk = np.float64(w_off[k])
-                        b = row - o_off[k]  # >= 0: the step exists
-                        for x in range(x0, x1):  # unsigned indices: vectorised
-                            acc[_U(x)] += wk * qf[_U(b + x)]
-                    for x in range(x0, x1):
-                        acci[x] = np.int64(acc[x])
-                elif c >= 0:
-                    for x in range(x0, x1):
-                        acci[x] = 0
-                    for k in range(s_off[c], s_off[c + 1]):
-                        wk = w_off[k]
-                        b = row - o_off[k]
-                        for x in range(x0, x1):
-                            acci[_U(x)] += wk * q[_U(b + x)]
+                if c >= 0:
+                    _row_sums(q, qf, row, c, x0, x1, s_off, o_off, w_off, fl, acc, acci)
                 for x in range(x0, x1):
                     i = row + x
                     if c >= 0:
@@ -268,23 +296,78 @@ def _walk(q, qf, r, zs, ys, xs, xb, table, s_off, o_off, w_off, s_in, o_in, w_in
                         p = (s + half) >> FB
                     else:
                         p = _lorenzo(q, i, z, y, x, sy, sz)
-                    if decode:
-                        v = r[i] + p
+                    r[i] = q[i] - p
+    return -1
+
+
+@kernel(nrt=False)
+def _unwalk(q, qf, r, zs, ys, xs, xb, table, s_off, o_off, w_off, s_in, o_in, w_in, fl,
+            nz, ny, nx, qmax, acc, acci, wrow):  # fmt: skip
+    """:func:`_walk` backwards: ``q = r + prediction``, ``qf`` filled as it goes (``q``
+    may be ``r``: voxel ``i``'s residual is read once, before ``q[i]`` is written). Along
+    the row, the step one voxel back (decoded last) is added last, from a register, so
+    the other steps' sum does not wait for it; those steps (2..d back) are weighed as one
+    dense run (``wrow``, scratch of :data:`K_MAX`; zeros for steps the class lacks), a
+    loop over adjacent voxels that vectorises. Integer sums: any order, the same result.
+    Returns the first voxel decoded outside ``[0, qmax]`` or -1."""
+    sy = nx
+    sz = ny * nx
+    half = np.int64(1) << (FB - 1)
+    for z in range(nz):
+        for y in range(ny):
+            row = z * sz + y * sy
+            for seg in range(xb.size - 1):
+                x0 = xb[seg]
+                x1 = xb[seg + 1]
+                c = table[zs[z], ys[y], xs[x0]]
+                if c < 0:
+                    for x in range(x0, x1):
+                        i = row + x
+                        v = r[i] + _lorenzo(q, i, z, y, x, sy, sz)
                         if v < 0 or v > qmax:
                             return i
                         q[i] = v
                         qf[i] = np.float64(v)
+                    continue
+                _row_sums(q, qf, row, c, x0, x1, s_off, o_off, w_off, fl, acc, acci)
+                w1 = np.int64(0)
+                nd = 0  # wrow[j] weighs the voxel nd + 1 - j back
+                for k in range(s_in[c], s_in[c + 1]):
+                    nd = max(nd, o_in[k] - 1)
+                for j in range(nd):
+                    wrow[j] = 0
+                for k in range(s_in[c], s_in[c + 1]):
+                    if o_in[k] == 1:
+                        w1 += w_in[k]
                     else:
-                        r[i] = q[i] - p
+                        wrow[nd + 1 - o_in[k]] += w_in[k]
+                prev = q[row + x0 - 1] if x0 > 0 else np.int64(0)
+                for x in range(x0, x1):
+                    i = row + x
+                    s = acci[_U(x)]
+                    b = i - nd - 1  # >= 0 where a step reaches nd + 1 back
+                    for j in range(nd):
+                        s += wrow[_U(j)] * q[_U(b + j)]
+                    v = r[_U(i)] + ((s + w1 * prev + half) >> FB)
+                    if v < 0 or v > qmax:
+                        return i
+                    q[_U(i)] = v
+                    qf[_U(i)] = np.float64(v)
+                    prev = v
     return -1
 
 
 def walk(q: np.ndarray, r: np.ndarray, plan: Plan, weights, qmax: int, decode: bool) -> int:
-    """:func:`_walk` over flat int64 ``q`` and ``r`` of ``plan``'s shape."""
+    """:func:`_walk` (residuals into ``r``) or :func:`_unwalk` (``decode``: voxels into
+    ``q``) over flat int64 ``q`` and ``r`` of ``plan``'s shape."""
     qf = np.empty(q.size, np.float64) if decode else q.astype(np.float64)
     nz, ny, nx = plan.shape
-    return int(_walk(q, qf, r, *plan.kernel_args(weights, qmax), nz, ny, nx, decode,
-                     np.int64(qmax)))  # fmt: skip
+    args = plan.kernel_args(weights, qmax)
+    acc, acci = np.empty(nx, np.float64), np.empty(nx, np.int64)
+    if decode:
+        wrow = np.empty(K_MAX, np.int64)
+        return int(_unwalk(q, qf, r, *args, nz, ny, nx, np.int64(qmax), acc, acci, wrow))
+    return int(_walk(q, qf, r, *args, nz, ny, nx, acc, acci))
 
 
 def _fit(q: np.ndarray, offs, box, ata_out=None) -> np.ndarray | None:
@@ -643,31 +726,102 @@ def _static_tokens(r, nz, ny, nx, toks, ctxs, counts, bits):
     return bpos * 8 - ((8 - nacc) & 7), k
 
 
+# The activity sum's divisors (the weights of the steps inside the brick): a row's inside
+# from z = 2 on, at z = 1 (no step two slices back) and at z = 0 (no step back along z).
+_INNER_WS = (15, 14, 8)
+_CLASS_TABLE = 2048  # activity sums looked up in a table below this
+
+
+@kernel(inline=True)
+def _inner_sums(r, i, nx, sy, sz, z, pre, sgn):
+    """For the inside of the row starting at voxel ``i`` (``x`` in ``2..nx-2``, ``y``
+    in ``2..ny-2``): the weighted magnitudes of the causal steps in rows decoded already
+    (all but ``x - 1`` and ``x - 2``), those of slices that exist (``z``), into ``pre``;
+    the sign context's part from ``y - 1`` and ``z - 1`` into ``sgn`` (0 or 2). The same
+    terms as :func:`_activity` and :func:`_sign_context` (integer sums, any order)."""
+    for x in range(2, nx - 1):
+        j = i + x
+        u = j - sz
+        a = 2 * _mag(r[_U(j - sy)]) + _mag(r[_U(j - sy - 1)]) + _mag(r[_U(j - sy + 1)])
+        a += _mag(r[_U(j - 2 * sy)])
+        t = min(max(r[_U(j - sy)], -_ACT_CAP), _ACT_CAP)
+        if z >= 1:
+            a += 2 * _mag(r[_U(u)]) + _mag(r[_U(u - sy)]) + _mag(r[_U(u - 1)])
+            a += _mag(r[_U(u + sy)]) + _mag(r[_U(u + 1)])
+            t += min(max(r[_U(u)], -_ACT_CAP), _ACT_CAP)
+        if z >= 2:
+            a += _mag(r[_U(j - 2 * sz)])
+        pre[_U(x)] = a
+        sgn[_U(x)] = 2 if t > 0 else 0
+
+
 @kernel(nrt=False)
-def _get_static(data, words, nbits, syms, info, nctx, r, nz, ny, nx, tok):
+def _get_static(data, words, nbits, syms, info, nctx, r, nz, ny, nx, tok, pre, sgn, cls):
     """Decode :func:`code_static`'s symbols into ``r``: 0, 1 (a stream that does not end
     where its lengths say) or 2 (a sign symbol past 1). ``data`` and ``words`` carry the
     zero padding that :func:`.fastpredict.take_symbol` reads past their ends; an unused
-    context's slots give a magnitude past any voxel's range (the walk rejects it)."""
+    context's slots give a magnitude past any voxel's range (the walk rejects it).
+
+    ``pre``, ``sgn`` (int64, ``nx``) and ``cls`` (uint8, 3 x :data:`_CLASS_TABLE`) are
+    scratch. The inside of a row (away from the faces along y and x) reads its context
+    from the sums over the rows before (:func:`_inner_sums`, a pass of its own) plus the
+    two voxels before it along the row, kept in registers, and its class from a table:
+    the voxel before is on the decoding's critical path, the rest is not. The faces go
+    through :func:`_activity` and :func:`_sign_context`, as the encoder does."""
+    top = nctx - 1
+    for k in range(3):  # the class of each small sum, per divisor
+        for a in range(_CLASS_TABLE):
+            cls[k, a] = min(activity_class((16 * a) // _INNER_WS[k]), top)
     x0, x1, pos = rans.open_states(data)
     reader = (np.uint64(0), np.int64(0), np.int64(0))
-    top = nctx - 1
     bad = False
+    sy = nx
+    sz = ny * nx
     i = 0
     for z in range(nz):
+        k = min(z, 2)
+        tab = cls[2 - k]
+        ws = _INNER_WS[2 - k]
         for y in range(ny):
-            for x in range(nx):
+            x = 0
+            inner = y >= 2 and y + 1 < ny and nx >= 4
+            if inner:
+                _inner_sums(r, i, nx, sy, sz, z, pre, sgn)
+            while x < nx:
+                if inner and x == 2:
+                    m1 = r[_U(i - 1)]
+                    m2 = _mag(r[_U(i - 2)])
+                    for x in range(2, nx - 1):
+                        a = pre[_U(x)] + 2 * _mag(m1) + m2
+                        if a < _CLASS_TABLE:
+                            c = np.int64(tab[_U(a)])
+                        else:
+                            c = min(activity_class((16 * a) // ws), top)
+                        m, pos, x0, x1, reader = fp.take_symbol(syms, info, c, data, pos, x0,
+                                                                x1, words, reader, tok)  # fmt: skip
+                        if m != 0:
+                            c = nctx + sgn[_U(x)] + (1 if m1 > 0 else 0)
+                            t, pos, x0, x1, reader = fp.take_symbol(syms, info, c, data, pos,
+                                                                    x0, x1, words, reader, tok)  # fmt: skip
+                            bad |= t > 1
+                            m = -m if t else m
+                        r[_U(i)] = m
+                        m2 = _mag(m1)
+                        m1 = m
+                        i += 1
+                    x = nx - 1
                 c = min(_activity(r, i, z, y, x, ny, nx), top)
                 m, pos, x0, x1, reader = fp.take_symbol(syms, info, c, data, pos, x0, x1, words,
-                                                    reader, tok)  # fmt: skip
+                                                        reader, tok)  # fmt: skip
                 if m != 0:
                     c = nctx + _sign_context(r, i, z, y, x, ny, nx)
                     t, pos, x0, x1, reader = fp.take_symbol(syms, info, c, data, pos, x0, x1,
-                                                        words, reader, tok)  # fmt: skip
+                                                            words, reader, tok)  # fmt: skip
                     bad |= t > 1
                     m = -m if t else m
                 r[i] = m
                 i += 1
+                x += 1
     if bad:
         return 2
     used = 32 * reader[2] - reader[1]
@@ -719,8 +873,11 @@ def decode_static(data, shape) -> np.ndarray:
     raw = bytes(buf[pos:])
     words = np.frombuffer(raw + bytes(-len(raw) % 4 + 4), "<u4").astype(np.uint32)
     r = np.empty(int(np.prod(shape)), np.int64)
+    scratch = np.empty((2, shape[2]), np.int64)
+    cls = np.empty((3, _CLASS_TABLE), np.uint8)
     status = _get_static(data, words, np.int64(8 * len(raw)), syms.reshape(-1),
-                         info.reshape(-1), np.int64(nctx), r, *shape, fp.TOK)  # fmt: skip
+                         info.reshape(-1), np.int64(nctx), r, *shape, fp.TOK, scratch[0],
+                         scratch[1], cls)  # fmt: skip
     if status == 2:
         raise FormatError(f"{what}: a sign symbol past 1")
     if status != 0:
@@ -777,7 +934,7 @@ def decode(data, shape: tuple[int, ...], qdtype: np.dtype, codec) -> np.ndarray:
     else:
         res = codec.decode(buf[pos:], tuple(shape), np.dtype(_DTYPES[code]))
         r = res.astype(np.int64).reshape(-1) + lo
-    q = np.empty(r.size, np.int64)
+    q = r  # each voxel written over its residual, which the walk read just before
     qmax = int(np.iinfo(np.dtype(qdtype)).max)
     bad = walk(q, r, plan, weights, qmax, True)
     if bad >= 0:
