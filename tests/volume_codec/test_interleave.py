@@ -122,10 +122,30 @@ def test_bytes_do_not_depend_on_worker_count_interleaved():
 def test_interleave_is_refused_where_it_does_not_apply():
     with pytest.raises(OptionError, match="found 3 axes"):
         api.compress_array(series()[0], interleave=True)
-    with pytest.raises(OptionError, match="lossy setting"):
-        api.compress_array(series(), interleave=True, max_error=2)
-    # a lossy series is coded a time step at a time, as before
-    assert layout(api.compress_array(series(t=2), max_error=2)) is None
+    with pytest.raises(OptionError, match="max_error or rel_error, found psnr=40"):
+        api.compress_array(series(), interleave=True, psnr=40)
+    # a PSNR target is searched on the time steps, as before
+    assert layout(api.compress_array(series(t=2), psnr=40)) is None
+
+
+@pytest.mark.parametrize("dtype", [np.int16, np.float32])
+def test_an_error_bound_holds_on_every_voxel_interleaved(dtype):
+    a = series(t=4, shape=(6, 20, 18), noise=2.0).astype(dtype)
+    if dtype == np.float32:
+        a = a / 7
+        a[1, 2, 3, 4] = np.nan
+    blob = api.compress_array(a, max_error=1.5)
+    assert layout(blob) == il.LAYOUT
+    back = api.decompress_array(blob)
+    ok = np.isfinite(a)
+    assert np.isnan(back[~ok]).all()
+    assert np.abs(back[ok].astype(np.float64) - a[ok]).max() <= 1.5
+    np.testing.assert_array_equal(stream.decompress(blob, frame=3).data, back[3])
+    assert len(blob) < len(api.compress_array(a, max_error=1.5, interleave=False))
+    rel = api.compress_array(a, rel_error=1e-3, interleave=True)
+    assert layout(rel) == il.LAYOUT
+    span = float(np.nanmax(a)) - float(np.nanmin(a))
+    assert np.nanmax(np.abs(api.decompress_array(rel).astype(np.float64) - a)) <= 1e-3 * span
 
 
 def _rewrite(blob: bytes, **header) -> bytes:
@@ -215,7 +235,10 @@ def test_the_command_line_says_what_it_chose_and_takes_either_choice(tmp_path):
     assert r.exit_code == 0
     np.testing.assert_array_equal(np.load(tmp_path / "f2.npy"), a[2])
     r = run("compress", tmp_path / "s.npy", tmp_path / "g.vpk", "--interleave", "--gop", "IPP")
-    assert r.exit_code == 2 and "--interleave applies to a 4-D volume coded exactly" in r.output
-    r = run("compress", tmp_path / "s.npy", tmp_path / "g.vpk", "--interleave", "--max-error", 2)
-    assert r.exit_code == 1 and "lossy setting (--max-error)" in r.output, r.output
+    assert (
+        r.exit_code == 2
+        and "--interleave applies to a 4-D volume (exactly or under an error bound)" in r.output
+    )
+    r = run("compress", tmp_path / "s.npy", tmp_path / "g.vpk", "--interleave", "--psnr", 40)
+    assert r.exit_code == 1 and "found --psnr 40.0" in r.output, r.output
     assert not (tmp_path / "g.vpk").exists()

@@ -225,12 +225,14 @@ def compress(
         (``predict_version=10``): up to 14 % fewer bytes on smooth fields, decoding
         about 2x slower.
     interleave : bool, optional
-        A ``(t, z, y, x)`` series coded exactly: store its slices in ``(z, t)`` order, so
-        that the codecs predict each voxel also from the previous time step
-        (:mod:`.interleave`). ``None`` (the default) does where time steps differ less
-        than neighbouring slices; ``False`` codes each time step alone, as before.
+        A ``(t, z, y, x)`` series coded exactly or under ``max_error`` / ``rel_error``:
+        store its slices in ``(z, t)`` order, so that the codecs predict each voxel also
+        from the previous time step (:mod:`.interleave`). ``None`` (the default) does
+        where a sample of the series codes shorter so; ``False`` codes each time step
+        alone, as before.
     brick : int or (int, int, int), optional
-        Brick size (of the stored 3-D volume when interleaved); bricks are coded independently and decoded one by one. Default
+        Brick size (of the stored 3-D volume when interleaved); bricks are coded
+        independently and decoded one by one. Default
         :func:`volpack.volume_codec.bricks.default_brick`: 64, but a float volume under an
         error bound (or a PSNR or ratio target) is one brick up to 4M voxels, else 128^3,
         and a float volume coded exactly by the default codec takes 128^3, as does an
@@ -290,10 +292,18 @@ def compress(
             log.info("an error bound under 1 on integer voxels: coded exactly")
             asked = {}
     data = vol.data
-    if interleave and (asked or data.ndim != 4):
+    # a layout for exact coding and error bounds; a PSNR, ratio or quality target is
+    # searched or set on the frames as before
+    layable = not set(asked) - {"max_error", "rel_error"}
+    if interleave and (not layable or data.ndim != 4):
         raise OptionError(
-            "interleave: a 4-D (t, z, y, x) series coded exactly, found "
-            + (f"a lossy setting ({', '.join(sorted(asked))})" if asked else f"{data.ndim} axes")
+            "interleave: a 4-D (t, z, y, x) series coded exactly or under max_error or "
+            "rel_error, found "
+            + (
+                f"{data.ndim} axes"
+                if data.ndim != 4
+                else ", ".join(f"{k}={v!r}" for k, v in sorted(asked.items()))
+            )
         )
     bounded = bool(asked) and not ({"quality", "threshold"} & set(asked))
 
@@ -352,7 +362,7 @@ def compress(
 
             check_dtype(vol.dtype)
     layout = None
-    if data.ndim == 4 and not asked and interleave is not False:
+    if data.ndim == 4 and layable and interleave is not False:
 
         def size_of(v: np.ndarray) -> int:  # bytes of a 3-D volume's bricks, as coded below
             return sum(
