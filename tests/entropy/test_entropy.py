@@ -415,5 +415,35 @@ def test_context_table_cache_within_its_bound(monkeypatch):
     t = arith.cached_context_table(copy)
     assert t is not arith.cached_context_table(big) and len(arith._tables) == 2
     np.testing.assert_array_equal(t, arith.context_table(big))
+    # a sparse payload's scan is noted first (no table, no bytes), given its table when
+    # asked again; the notes count against the entry bound
+    arith.clear_tables()
+    monkeypatch.setattr(arith, "TABLE_CACHE_ENTRIES", 2)
+    assert arith.cached_context_table(scans[0], build=False) is None
+    assert arith.cached_context_table(scans[1], build=False) is None
+    t = arith.cached_context_table(scans[0], build=False)
+    np.testing.assert_array_equal(t, arith.context_table(scans[0]))
+    assert arith.cached_context_table(scans[0], build=False) is t
+    assert arith.cached_context_table(scans[2], build=False) is None  # scans[1] let go
+    assert len(arith._tables) == 2
+    assert arith.cached_context_table(scans[1], build=False) is None
     arith.clear_tables()
     assert not arith._tables
+
+
+def test_sparse_payload_decodes_the_same_before_and_after_its_table():
+    # a loose-bound-like payload (few nonzero coefficients): the first decode without the
+    # table, the second with it, the same coefficients both times
+    from volpack.entropy import arith
+
+    shape, levels = (24, 20, 28), (3, 3, 3)
+    s = sigmap.scan(shape, levels, "dfs")
+    arith.clear_tables()
+    c = laplace(shape, 2.0, np.int32, 5, zeros=0.97)
+    data = arith.encode(c, s)
+    assert 8 * len(data) < arith.TABLE_BITS_A_COEFFICIENT * c.size
+    for held in (False, True):
+        out = np.full(shape, 7, np.int32)
+        arith.decode(data, s, out)
+        np.testing.assert_array_equal(out, c)
+        assert (arith._tables[(id(s.nbr), id(s.parent))][1] is not None) == held

@@ -233,27 +233,44 @@ def _context_table_kernel(nbr, parent, t):
 # coefficient, where the decoder skips zero subtrees: made per decode it cost the float
 # wavelet bricks at loose bounds 5-15 % (ldec31); the scans it comes from are cached.
 TABLE_CACHE_BYTES = 48 << 20  # 20 bytes a coefficient: a 128^3 brick's table, 42 MB
+TABLE_CACHE_ENTRIES = 256  # with the scans only noted (no table yet), which cost no bytes
+# Under this many payload bits a coefficient a first decode costs more with the table's
+# pass than without (tab31, decodes of one brick with the cache emptied: 0.18-0.39 bits
+# 0.92-0.97x, 0.83-8.3 bits 1.08-1.11x); such a scan gets its table when decoded again.
+TABLE_BITS_A_COEFFICIENT = 0.5
 _tables: collections.OrderedDict = collections.OrderedDict()  # ids -> (weakrefs, table)
 _tables_lock = threading.Lock()
 
 
-def cached_context_table(scan: Scan) -> np.ndarray:
-    """:func:`context_table` of ``scan``, kept for the next decode of the same scan."""
+def cached_context_table(scan: Scan, build: bool = True) -> np.ndarray | None:
+    """:func:`context_table` of ``scan``, kept for the next decode of the same scan; with
+    ``build`` false and none kept, ``None`` (the scan noted: its next call builds it)."""
     key = (id(scan.nbr), id(scan.parent))
     with _tables_lock:
         hit = _tables.get(key)
         if hit is not None and hit[0][0]() is scan.nbr and hit[0][1]() is scan.parent:
             _tables.move_to_end(key)
-            return hit[1]
+            if hit[1] is not None:
+                return hit[1]
+            build = True  # asked for before
+        elif not build:
+            _keep(key, scan, None)
+            return None
     t = context_table(scan)
     t.flags.writeable = False
     with _tables_lock:
-        _tables[key] = ((weakref.ref(scan.nbr), weakref.ref(scan.parent)), t)
-        _tables.move_to_end(key)
-        total = sum(v[1].nbytes for v in _tables.values())
-        while len(_tables) > 1 and total > TABLE_CACHE_BYTES:  # the newest kept
-            total -= _tables.popitem(last=False)[1][1].nbytes
+        _keep(key, scan, t)
     return t
+
+
+def _keep(key, scan: Scan, t: np.ndarray | None) -> None:
+    """Hold ``t`` (or note ``scan``) as the newest, within the bounds (the lock held)."""
+    _tables[key] = ((weakref.ref(scan.nbr), weakref.ref(scan.parent)), t)
+    _tables.move_to_end(key)
+    total = sum(v[1].nbytes for v in _tables.values() if v[1] is not None)
+    while len(_tables) > 1 and (total > TABLE_CACHE_BYTES or len(_tables) > TABLE_CACHE_ENTRIES):
+        old = _tables.popitem(last=False)[1][1]  # the newest kept, whatever its size
+        total -= 0 if old is None else old.nbytes
 
 
 def clear_tables() -> None:
@@ -360,12 +377,21 @@ def decode(data: bytes, scan: Scan, out: np.ndarray) -> None:
     buf = np.frombuffer(data, dtype=np.uint8)
     # the tabled decoder (the same decisions, coefficients and statuses), its table
     # cached: 8-15 % less than decode_kernel's time on 0.1-2 M coefficients (ldec31)
-    ctab = cached_context_table(scan)
+    ctab = cached_context_table(scan, 8 * buf.size >= TABLE_BITS_A_COEFFICIENT * flat.size)
+    if ctab is None:  # a sparse payload of a scan not seen before
+
+        def run(into, nmax):
+            return decode_kernel(
+                buf, scan.perm, scan.end, scan.parent, scan.cls, scan.nbr, into, nmax
+            )
+    else:
+
+        def run(into, nmax):
+            return decode_tabled_kernel(buf, scan.perm, scan.end, ctab, scan.cls, into, nmax)
+
     decoded_into(
         flat,
-        lambda into, nmax: decode_tabled_kernel(
-            buf, scan.perm, scan.end, ctab, scan.cls, into, nmax
-        ),
+        run,
         "arithmetic",
         zeroed=True,  # zero subtrees are skipped, not written (one memset, not a scatter)
     )
