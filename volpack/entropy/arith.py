@@ -298,9 +298,9 @@ def _tabled_context(row, nbits, nprev, n):
 @kernel
 def decode_tabled_kernel(data, perm, end, ctab, cls, flat, nmax):
     """:func:`decode_kernel` with its contexts' fixed parts read from ``ctab``
-    (:func:`context_table` of the scan ``perm`` and ``end`` come from) and the bit length's count up and down as two loops:
-    the same decisions in the same models, so the same coefficients and statuses, on
-    a sixth less CPU (README, walk16)."""
+    (:func:`context_table` of the scan ``perm`` and ``end`` come from) and the bit
+    length's count up and down as two loops: the same decisions in the same models, so
+    the same coefficients and statuses, on a sixth less CPU (README, walk16)."""
     n = perm.size
     size = data.size
     state = np.full(N_MODELS, STATE_INIT, dtype=np.uint16)
