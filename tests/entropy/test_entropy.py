@@ -74,7 +74,7 @@ def test_scan_and_context_table_against_plain_python(shape, levels, order):
             s.nbr.tolist()) == (perm, end, parent, cls, nbr)  # fmt: skip
     n = len(perm)
     want = [[v if 0 <= v < i else n for v in nbr[i]]
-            + [1 + sum(0 <= v < i for v in nbr[i]), parent[i] if parent[i] >= 0 else n, end[i]]
+            + [1 + sum(0 <= v < i for v in nbr[i]), parent[i] if parent[i] >= 0 else n]
             for i in range(n)]  # fmt: skip
     t = context_table(s)
     assert t.dtype == np.int32 and t.tolist() == want
@@ -365,3 +365,85 @@ def test_coders_load_on_first_use_and_stay_the_same_objects():
     assert CODERS["rle"].decode is fixed.decode_rle
     with pytest.raises(KeyError):
         CODERS["lzma"]
+
+
+@pytest.mark.parametrize("order", sigmap.ORDERS)
+def test_cached_context_table_decodes_as_a_fresh_one(order):
+    # arith.decode reads its table from the cache: the same table as a fresh one (the
+    # rows scan shares the line scan's), and the same coefficients as decode_kernel
+    from volpack.entropy import arith
+
+    shape, levels = (17, 9, 33), (4, 3, 5)
+    s = sigmap.scan(shape, levels, order)
+    t = arith.cached_context_table(s)
+    assert arith.cached_context_table(s) is t and not t.flags.writeable
+    np.testing.assert_array_equal(t, arith.context_table(s))
+    if order == "rows":
+        assert arith.cached_context_table(sigmap.scan(shape, levels, "line")) is t
+    c = laplace(shape, 6.0, np.int32, 11, zeros=0.6)
+    data = arith.encode(c, s)
+    a, b = np.zeros(c.size, np.int64), np.zeros(c.size, np.int64)
+    buf = np.frombuffer(data, np.uint8)
+    assert arith.decode_kernel(buf, s.perm, s.end, s.parent, s.cls, s.nbr, a, 63) == 0
+    assert arith.decode_tabled_kernel(buf, s.perm, s.end, t, s.cls, b, 63) == 0
+    np.testing.assert_array_equal(a, c.reshape(-1))
+    np.testing.assert_array_equal(b, a)
+    out = np.zeros(shape, np.int32)
+    arith.decode(data, s, out)
+    np.testing.assert_array_equal(out, c)
+
+
+def test_context_table_cache_within_its_bound(monkeypatch):
+    from volpack.entropy import arith
+    from volpack.entropy.scan import Scan
+
+    bound = 3 * 20 * 1000  # three tables of 1000 coefficients
+    monkeypatch.setattr(arith, "TABLE_CACHE_BYTES", bound)
+    arith.clear_tables()
+    scans = [sigmap.scan((10, 10, 10), (k, 1, 1), "dfs") for k in range(4)]
+    for s in scans:
+        arith.cached_context_table(s)
+        held = sum(v[1].nbytes for v in arith._tables.values())
+        assert 0 < held <= bound
+    assert len(arith._tables) == 3  # the oldest went
+    big = sigmap.scan((20, 20, 20), (2, 2, 2), "dfs")  # larger than the bound: kept alone
+    assert arith.cached_context_table(big) is arith.cached_context_table(big)
+    assert len(arith._tables) == 1
+    # a scan of other arrays (equal contents, other objects) gets a table of its own
+    monkeypatch.setattr(arith, "TABLE_CACHE_BYTES", 1 << 30)
+    copy = Scan(*(np.array(a) for a in big))
+    t = arith.cached_context_table(copy)
+    assert t is not arith.cached_context_table(big) and len(arith._tables) == 2
+    np.testing.assert_array_equal(t, arith.context_table(big))
+    # a sparse payload's scan is noted first (no table, no bytes), given its table when
+    # asked again; the notes count against the entry bound
+    arith.clear_tables()
+    monkeypatch.setattr(arith, "TABLE_CACHE_ENTRIES", 2)
+    assert arith.cached_context_table(scans[0], build=False) is None
+    assert arith.cached_context_table(scans[1], build=False) is None
+    t = arith.cached_context_table(scans[0], build=False)
+    np.testing.assert_array_equal(t, arith.context_table(scans[0]))
+    assert arith.cached_context_table(scans[0], build=False) is t
+    assert arith.cached_context_table(scans[2], build=False) is None  # scans[1] let go
+    assert len(arith._tables) == 2
+    assert arith.cached_context_table(scans[1], build=False) is None
+    arith.clear_tables()
+    assert not arith._tables
+
+
+def test_sparse_payload_decodes_the_same_before_and_after_its_table():
+    # a loose-bound-like payload (few nonzero coefficients): the first decode without the
+    # table, the second with it, the same coefficients both times
+    from volpack.entropy import arith
+
+    shape, levels = (24, 20, 28), (3, 3, 3)
+    s = sigmap.scan(shape, levels, "dfs")
+    arith.clear_tables()
+    c = laplace(shape, 2.0, np.int32, 5, zeros=0.97)
+    data = arith.encode(c, s)
+    assert 8 * len(data) < arith.TABLE_BITS_A_COEFFICIENT * c.size
+    for held in (False, True):
+        out = np.full(shape, 7, np.int32)
+        arith.decode(data, s, out)
+        np.testing.assert_array_equal(out, c)
+        assert (arith._tables[(id(s.nbr), id(s.parent))][1] is not None) == held

@@ -119,7 +119,7 @@ def test_tabled_decoder_equals_the_arith_decoder_on_valid_and_damaged_streams(sh
     good = np.frombuffer(arith.encode(c, s), np.uint8)
     cases = [good, good[:-1], good[: len(good) // 2], np.append(good, np.uint8(7)),
              np.zeros(0, np.uint8)]  # fmt: skip
-    for k in range(20):  # one byte flipped somewhere
+    for _ in range(20):  # one byte flipped somewhere
         bad = good.copy()
         bad[rng.integers(len(bad))] ^= np.uint8(1 << rng.integers(8))
         cases.append(bad)
@@ -127,9 +127,9 @@ def test_tabled_decoder_equals_the_arith_decoder_on_valid_and_damaged_streams(sh
         for data in cases:
             a, b = np.zeros(c.size, np.int64), np.zeros(c.size, np.int64)
             sa = arith.decode_kernel(data, s.perm, s.end, s.parent, s.cls, s.nbr, a, nmax)
-            sb = arith.decode_tabled_kernel(data, s.perm, tab, s.cls, b, nmax)
+            sb = arith.decode_tabled_kernel(data, s.perm, s.end, tab, s.cls, b, nmax)
             assert sa == sb
             np.testing.assert_array_equal(a, b)
     a = np.zeros(c.size, np.int64)
-    assert arith.decode_tabled_kernel(good, s.perm, tab, s.cls, a, 63) == 0
+    assert arith.decode_tabled_kernel(good, s.perm, s.end, tab, s.cls, a, 63) == 0
     np.testing.assert_array_equal(a, c.reshape(-1))

@@ -21,6 +21,10 @@ in ``formats/wavelet-1.md``.
 
 from __future__ import annotations
 
+import collections
+import threading
+import weakref
+
 import numpy as np
 
 from .._jit import kernel, leading_zeros
@@ -198,15 +202,16 @@ def decode_kernel(data, perm, end, parent, cls, nbr, flat, nmax):
 def context_table(scan: Scan) -> np.ndarray:
     """What :func:`decode_tabled_kernel` reads per scan position, made once a scan: int32
     rows of the three neighbours :func:`_context` sums (``n``, whose bit length stays 0,
-    where a neighbour is missing or comes later), 1 + the count of those present, the
-    parent (``n`` for a root) and the end of the subtree the position roots."""
-    t = np.empty((scan.perm.size, 6), np.int32)
-    _context_table_kernel(scan.nbr, scan.parent, scan.end, t)
+    where a neighbour is missing or comes later), 1 + the count of those present and the
+    parent (``n`` for a root). It depends on ``nbr`` and ``parent`` alone, which the
+    ``line`` and ``rows`` scans of a shape share."""
+    t = np.empty((scan.perm.size, 5), np.int32)
+    _context_table_kernel(scan.nbr, scan.parent, t)
     return t
 
 
 @kernel
-def _context_table_kernel(nbr, parent, end, t):
+def _context_table_kernel(nbr, parent, t):
     # one pass (numpy took a dozen calls over the scan, 0.9 ms a 32^3 brick)
     n = t.shape[0]
     for i in range(n):
@@ -220,7 +225,58 @@ def _context_table_kernel(nbr, parent, end, t):
                 t[i, a] = n
         t[i, 3] = cnt
         t[i, 4] = parent[i] if parent[i] >= 0 else n
-        t[i, 5] = end[i]
+
+
+# The tables :func:`decode` made, by the identity of the scan arrays they come from (held
+# weakly: a table goes when its scan's arrays do, or when the tables together pass
+# TABLE_CACHE_BYTES, least recently used first). The table is a pass over every
+# coefficient, where the decoder skips zero subtrees: made per decode it cost the float
+# wavelet bricks at loose bounds 5-15 % (ldec31); the scans it comes from are cached.
+TABLE_CACHE_BYTES = 48 << 20  # 20 bytes a coefficient: a 128^3 brick's table, 42 MB
+TABLE_CACHE_ENTRIES = 256  # with the scans only noted (no table yet), which cost no bytes
+# Under this many payload bits a coefficient a first decode costs more with the table's
+# pass than without (tab31, decodes of one brick with the cache emptied: 0.18-0.39 bits
+# 0.92-0.97x, 0.83-8.3 bits 1.08-1.11x); such a scan gets its table when decoded again.
+TABLE_BITS_A_COEFFICIENT = 0.5
+_tables: collections.OrderedDict = collections.OrderedDict()  # ids -> (weakrefs, table)
+_tables_lock = threading.Lock()
+
+
+def cached_context_table(scan: Scan, build: bool = True) -> np.ndarray | None:
+    """:func:`context_table` of ``scan``, kept for the next decode of the same scan; with
+    ``build`` false and none kept, ``None`` (the scan noted: its next call builds it)."""
+    key = (id(scan.nbr), id(scan.parent))
+    with _tables_lock:
+        hit = _tables.get(key)
+        if hit is not None and hit[0][0]() is scan.nbr and hit[0][1]() is scan.parent:
+            _tables.move_to_end(key)
+            if hit[1] is not None:
+                return hit[1]
+            build = True  # asked for before
+        elif not build:
+            _keep(key, scan, None)
+            return None
+    t = context_table(scan)
+    t.flags.writeable = False
+    with _tables_lock:
+        _keep(key, scan, t)
+    return t
+
+
+def _keep(key, scan: Scan, t: np.ndarray | None) -> None:
+    """Hold ``t`` (or note ``scan``) as the newest, within the bounds (the lock held)."""
+    _tables[key] = ((weakref.ref(scan.nbr), weakref.ref(scan.parent)), t)
+    _tables.move_to_end(key)
+    total = sum(v[1].nbytes for v in _tables.values() if v[1] is not None)
+    while len(_tables) > 1 and (total > TABLE_CACHE_BYTES or len(_tables) > TABLE_CACHE_ENTRIES):
+        old = _tables.popitem(last=False)[1][1]  # the newest kept, whatever its size
+        total -= 0 if old is None else old.nbytes
+
+
+def clear_tables() -> None:
+    """Let every cached context table go."""
+    with _tables_lock:
+        _tables.clear()
 
 
 @kernel(inline=True)
@@ -240,11 +296,11 @@ def _tabled_context(row, nbits, nprev, n):
 
 
 @kernel
-def decode_tabled_kernel(data, perm, ctab, cls, flat, nmax):
+def decode_tabled_kernel(data, perm, end, ctab, cls, flat, nmax):
     """:func:`decode_kernel` with its contexts' fixed parts read from ``ctab``
-    (:func:`context_table`) and the bit length's count up and down as two loops:
-    the same decisions in the same models, so the same coefficients and statuses, on
-    a sixth less CPU (README, walk16)."""
+    (:func:`context_table` of the scan ``perm`` and ``end`` come from) and the bit
+    length's count up and down as two loops: the same decisions in the same models, so
+    the same coefficients and statuses, on a sixth less CPU (README, walk16)."""
     n = perm.size
     size = data.size
     state = np.full(N_MODELS, STATE_INIT, dtype=np.uint16)
@@ -259,7 +315,7 @@ def decode_tabled_kernel(data, perm, ctab, cls, flat, nmax):
         q = _tabled_context(row, nbits, nprev, n)
         c = np.int64(cls[_U(i)])
         ctx = c * NQ + q
-        e = np.int64(row[5])
+        e = np.int64(end[_U(i)])
         if e > i + 1:  # the subtree flag (model -1, from damage, is the last one)
             kf = _U(ctx) if ctx >= 0 else _U(ctx + N_MODELS)
             bit, code, rng, pos = get(data, state, kf, code, rng, pos, RATE)
@@ -319,11 +375,23 @@ def decode(data: bytes, scan: Scan, out: np.ndarray) -> None:
     if flat.size != scan.perm.size:
         raise FormatError(f"expected {scan.perm.size} coefficients, found room for {flat.size}")
     buf = np.frombuffer(data, dtype=np.uint8)
+    # the tabled decoder (the same decisions, coefficients and statuses), its table
+    # cached: 8-15 % less than decode_kernel's time on 0.1-2 M coefficients (ldec31)
+    ctab = cached_context_table(scan, 8 * buf.size >= TABLE_BITS_A_COEFFICIENT * flat.size)
+    if ctab is None:  # a sparse payload of a scan not seen before
+
+        def run(into, nmax):
+            return decode_kernel(
+                buf, scan.perm, scan.end, scan.parent, scan.cls, scan.nbr, into, nmax
+            )
+    else:
+
+        def run(into, nmax):
+            return decode_tabled_kernel(buf, scan.perm, scan.end, ctab, scan.cls, into, nmax)
+
     decoded_into(
         flat,
-        lambda into, nmax: decode_kernel(
-            buf, scan.perm, scan.end, scan.parent, scan.cls, scan.nbr, into, nmax
-        ),
+        run,
         "arithmetic",
         zeroed=True,  # zero subtrees are skipped, not written (one memset, not a scatter)
     )

@@ -86,7 +86,7 @@ def _energy_sum(flat, scale):
 
 
 @kernel
-def _chunk_kernel(data, perm, ctab, cls, nmax, scale, norm, lo, hi, low, c, lz, ly, lx, spec):
+def _chunk_kernel(data, perm, end, ctab, cls, nmax, scale, norm, lo, hi, low, c, lz, ly, lx, spec):
     """Decode the details ``data`` (empty: none) into ``c`` (zeroed here), check their
     energy against ``[lo, hi]``, put ``low`` in the corner and lift ``c`` back in place.
     Returns 0, the decoder's status or :data:`ENERGY_MISMATCH` (``c`` then unfinished)."""
@@ -94,7 +94,7 @@ def _chunk_kernel(data, perm, ctab, cls, nmax, scale, norm, lo, hi, low, c, lz, 
     flat = c.reshape(n)  # decoded in place: a bit length of at most nmax fits the work dtype
     flat[:] = 0
     if data.size:
-        status = decode_tabled_kernel(data, perm, ctab, cls, flat, nmax)
+        status = decode_tabled_kernel(data, perm, end, ctab, cls, flat, nmax)
         if status != 0:
             return status
     own = _energy_sum(flat, scale) * norm * norm
@@ -126,7 +126,7 @@ def decode_chunk(data, scan, nmax: int, scale, norm: float, bounds, low, c, leve
     ``levels`` of wavelet table ``spec``. Returns 0, or the status that sends the
     caller to the step-by-step path."""
     s, ctab = scan
-    return int(_chunk_kernel(data, s.perm, ctab, s.cls, nmax, scale, norm, bounds[0],
+    return int(_chunk_kernel(data, s.perm, s.end, ctab, s.cls, nmax, scale, norm, bounds[0],
                              bounds[1], low, c, *levels, spec))  # fmt: skip
 
 
