@@ -600,8 +600,9 @@ def _blend_may_win(probe, offsets: list, fill, lorenzo: int, shortest: int) -> b
 
 
 def _zstd19_may_win(brick: np.ndarray, z9: int, shortest: int) -> bool:
-    """Whether zstd at level 19 may come within ZSTD_MARGIN of ``shortest`` bytes (see
-    ZSTD_SAMPLE), judged on a sample of the brick; True where it is too thin to sample."""
+    """Whether zstd at level 19 may come within ZSTD_MARGIN of ``shortest`` bytes, its
+    share of level 9's bytes judged on the integer chain's sample of slices (:func:`_sample`
+    along z and y); True where the brick is too thin to sample."""
     if max(brick.shape[:2]) < SLAB_MIN:
         return True
     rows = [_sample(n)[0] if n >= SLAB_MIN else np.arange(n) for n in brick.shape[:2]]
