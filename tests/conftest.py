@@ -69,6 +69,26 @@ def brain() -> np.ndarray:
     return load_demo_volume().data
 
 
+def rewrite_header(src: bytes, drop: tuple[str, ...] = (), **fields) -> bytes:
+    """The ``.vpk`` stream ``src`` with header ``fields`` set (a value of None is stored
+    as JSON null) and the keys in ``drop`` removed; chunks, their errors and the summary
+    kept: a damaged or altered header for the readers' checks."""
+    from volpack.format.container import Reader, Writer
+
+    with Reader(src) as r:
+        hdr, summ = dict(r.header), r.summary
+        chunks = [(t, n, r.read(t, n), e.error) for (t, n), e in zip(r.keys(), r.entries)]
+    hdr.update(fields)
+    for k in drop:
+        hdr.pop(k, None)
+    buf = io.BytesIO()
+    w = Writer(buf, hdr)
+    for t, n, p, e in chunks:
+        w.write(t, n, p, e)
+    w.close(summ)
+    return buf.getvalue()
+
+
 def smooth_volume(shape, dtype=np.int16, seed=0, noise=3.0) -> np.ndarray:
     """A smooth field plus a little noise: a stand-in for real scans in fast tests."""
     r = np.random.default_rng(seed)

@@ -9,11 +9,11 @@ import io
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from conftest import rewrite_header
 
 from volpack import api
 from volpack.cli import main
 from volpack.errors import FormatError
-from volpack.format.container import Reader, Writer
 
 
 def _cli(*args):
@@ -83,20 +83,6 @@ def test_a_mesh_without_fields_renders_its_shape(tmp_path):
     assert img[..., :3].max() > 0  # something is drawn
 
 
-def _rewrite(src: bytes, **fields) -> bytes:
-    with Reader(src) as r:
-        hdr, summ = dict(r.header), r.summary
-        chunks = [(t, n, r.read(t, n), e.error) for (t, n), e in zip(r.keys(), r.entries)]
-    for k, v in fields.items():
-        hdr[k] = v
-    buf = io.BytesIO()
-    w = Writer(buf, hdr)
-    for t, n, p, e in chunks:
-        w.write(t, n, p, e)
-    w.close(summ)
-    return buf.getvalue()
-
-
 @pytest.fixture(scope="module")
 def stream():
     a = (np.arange(6 * 7 * 8) % 13).reshape(6, 7, 8).astype(np.uint8)
@@ -133,7 +119,7 @@ def stream():
 )
 def test_bad_header_values_give_one_line_errors(stream, tmp_path, field, value, words):
     bad = tmp_path / "bad.vpk"
-    bad.write_bytes(_rewrite(stream, **{field: value}))
+    bad.write_bytes(rewrite_header(stream, **{field: value}))
     with pytest.raises(FormatError, match=words):
         api.decompress(str(bad))
     for cmd in (["decompress", bad, tmp_path / "o.npy"], ["render", bad, tmp_path / "o.png"]):
@@ -144,7 +130,7 @@ def test_a_shape_that_disagrees_with_the_chunks_is_refused_before_allocating(str
     # a fuzz find: 8 chunks under a header shape of 20 x 24 x 3,670,016 made the decoder list
     # 917,504 bricks and reserve 1.7 GB before the first brick failed (10 s); the count of
     # chunks now settles it first, from a file and from a pipe alike
-    bad = _rewrite(stream, shape=[20, 24, 3670016], brick=[16, 16, 16])
+    bad = rewrite_header(stream, shape=[20, 24, 3670016], brick=[16, 16, 16])
     with pytest.raises(FormatError, match="expected 917504 chunks .* found 1"):
         api.decompress(bad)
     with pytest.raises(FormatError, match="expected 917504 chunks"):
@@ -159,7 +145,7 @@ def test_a_shape_that_disagrees_with_the_chunks_is_refused_before_allocating(str
 def test_info_on_a_bad_shape_is_an_error(stream, tmp_path):
     for shape in ({}, None, "x"):
         bad = tmp_path / "bad.vpk"
-        bad.write_bytes(_rewrite(stream, shape=shape))
+        bad.write_bytes(rewrite_header(stream, shape=shape))
         _one_line_error(_cli("info", bad))
 
 
