@@ -42,10 +42,11 @@ from .options import (
 @click.option(
     "--interleave/--no-interleave",
     default=None,
-    help="A 4-D (t, z, y, x) series coded exactly or under --max-error/--rel-error: store "
-    "its slices in (z, t) order, so each voxel is also predicted from the previous time "
-    "step (MR series: 5-26 % smaller exactly, up to 56 % under a bound). Default: where a "
-    "sample of the series codes shorter so; --no-interleave codes each time step alone.",
+    help="A 4-D (t, z, y, x) series: store its slices in (z, t) order, so each voxel is "
+    "also predicted from the previous time step (MR series: 5-26 % smaller exactly, up to "
+    "56 % under a bound). Default: where a sample of the series codes shorter so at the "
+    "setting asked (--psnr/--ratio: the one found on the time steps, then searched again); "
+    "--no-interleave codes each time step alone.",
 )
 @click.option(
     "--octree",
@@ -151,8 +152,7 @@ def compress(
         or octree or scheduler
     ):  # fmt: skip
         raise click.UsageError(
-            "--interleave applies to a 4-D volume (exactly or under an error bound), found "
-            "it with a mesh, an animation or --octree"
+            "--interleave applies to a 4-D volume, found it with a mesh, an animation or --octree"
         )
     if mesh_cli.is_mesh_source(source):
         kind, unit = "mesh", None

@@ -9,8 +9,9 @@ series is stored as the 3-D volume ``(z * t, y, x)`` whose slice ``z * T + t`` i
 above, and a brick spans many time steps (small frames no longer pay for a brick each).
 Measured on eight MR series of nibabel and dipy (lossless, default codec): 1.06-1.35x
 fewer bytes; under error bounds of 1e-2 to 1e-4 of the range up to 2.3x
-(``README.md``, interleave31). Exact coding and ``max_error`` / ``rel_error`` take it;
-PSNR, ratio and quality targets are searched on the time steps as before.
+(``README.md``, interleave31). Every setting takes it: exact coding, a bound or a quality
+as they are; a PSNR or ratio target is searched on the time steps, the layout chosen at
+the setting found, and searched again on the stored volume from that setting.
 
 The header says so with ``"layout": "interleaved"``; its ``shape`` stays the 4-D one
 and its ``brick`` applies to the stored 3-D volume. The encoder interleaves where a

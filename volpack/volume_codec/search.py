@@ -132,10 +132,13 @@ def plan(
     inner: dict[str, Any],
     effort: str = "default",
     known_range: tuple[float, float] | None = None,
+    start: float | None = None,
 ) -> tuple[Any, dict[str, Any] | None]:
     """Return ``(codec, search record or None)`` for one lossy setting in ``asked``;
     ``effort`` is the error-bounded encoder's (:class:`BoundedCodec`); ``known_range``
-    the valid voxels' range if already read (:func:`value_range`)."""
+    the valid voxels' range if already read (:func:`value_range`); ``start`` the
+    searched knob's first value for a PSNR or ratio target (a setting found for the same
+    data in another layout), else the usual first guess."""
     ((what, target),) = asked.items()
     dtype = vol.dtype
     if dtype.kind not in "iuf":
@@ -205,10 +208,13 @@ def plan(
         def make(step: float) -> CoefCodec:
             return CoefCodec(value_range=max(rng, 1.0), step=step, **inner)
 
-        return _search(vol, brick, workers, what, float(target), make, max(rng, 1.0), "step")
+        return _search(
+            vol, brick, workers, what, float(target), make, max(rng, 1.0), "step", start=start
+        )
     sizes: dict[float, int] = {}
     codec, record = _search(
-        vol, brick, workers, what, float(target), bounded, max(rng, 1e-300), "error_bound", sizes
+        vol, brick, workers, what, float(target), bounded, max(rng, 1e-300), "error_bound", sizes,
+        start=start,
     )
     tucker = what == "psnr" and dtype.kind == "f" and fill_value is None
     tucker = tucker and math.prod(vol.shape[-3:]) >= TUCKER_MIN_VOXELS
@@ -247,10 +253,11 @@ def _tucker_or(vol, brick, workers, what, target, rng, codec, record, sizes):
 
 def _search(
     vol, brick, workers, what, target, make: Callable, rng: float, knob: str, sizes=None,
-    first: float = 1.0,
+    first: float = 1.0, start: float | None = None,
 ):
     """Search ``make``'s knob for the target; ``sizes`` (if given) gets the payload bytes
-    of every whole-volume try by knob value, ``first`` scales the first guess."""
+    of every whole-volume try by knob value, ``first`` scales the first guess and
+    ``start`` (if given) replaces it."""
     data = vol.data
     frames = data[None] if data.ndim == 3 else data
     every = [
@@ -285,7 +292,7 @@ def _search(
 
     # Uniform quantisation with bound E has MSE E^2 / 3: the first guess for a PSNR.
     e = rng * math.sqrt(3) * 10 ** (-target / 20) if what == "psnr" else rng * 1e-3
-    e *= first
+    e = e * first if start is None else start
     # Larger bounds: PSNR down, ratio up. ``low``/``high`` bracket the bound sought.
     low = high = None
     tried: list[tuple[float, float, str]] = []

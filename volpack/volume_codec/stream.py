@@ -225,11 +225,12 @@ def compress(
         (``predict_version=10``): up to 14 % fewer bytes on smooth fields, decoding
         about 2x slower.
     interleave : bool, optional
-        A ``(t, z, y, x)`` series coded exactly or under ``max_error`` / ``rel_error``:
-        store its slices in ``(z, t)`` order, so that the codecs predict each voxel also
-        from the previous time step (:mod:`.interleave`). ``None`` (the default) does
-        where a sample of the series codes shorter so; ``False`` codes each time step
-        alone, as before.
+        A ``(t, z, y, x)`` series: store its slices in ``(z, t)`` order, so that the
+        codecs predict each voxel also from the previous time step (:mod:`.interleave`).
+        ``None`` (the default) does where a sample of the series codes shorter so at the
+        setting asked (a PSNR or ratio target: the setting searched on the time steps,
+        then searched again on the stored volume); ``False`` codes each time step alone,
+        as before.
     brick : int or (int, int, int), optional
         Brick size (of the stored 3-D volume when interleaved); bricks are coded
         independently and decoded one by one. Default
@@ -292,19 +293,8 @@ def compress(
             log.info("an error bound under 1 on integer voxels: coded exactly")
             asked = {}
     data = vol.data
-    # a layout for exact coding and error bounds; a PSNR, ratio or quality target is
-    # searched or set on the frames as before
-    layable = not set(asked) - {"max_error", "rel_error"}
-    if interleave and (not layable or data.ndim != 4):
-        raise OptionError(
-            "interleave: a 4-D (t, z, y, x) series coded exactly or under max_error or "
-            "rel_error, found "
-            + (
-                f"{data.ndim} axes"
-                if data.ndim != 4
-                else ", ".join(f"{k}={v!r}" for k, v in sorted(asked.items()))
-            )
-        )
+    if interleave and data.ndim != 4:
+        raise OptionError(f"interleave: expected a 4-D (t, z, y, x) series, found {data.ndim} axes")
     bounded = bool(asked) and not ({"quality", "threshold"} & set(asked))
 
     def brick_of(shape: tuple[int, ...]) -> tuple[int, int, int]:
@@ -362,7 +352,7 @@ def compress(
 
             check_dtype(vol.dtype)
     layout = None
-    if data.ndim == 4 and layable and interleave is not False:
+    if data.ndim == 4 and interleave is not False:
 
         def size_of(v: np.ndarray) -> int:  # bytes of a 3-D volume's bricks, as coded below
             return sum(
@@ -375,6 +365,13 @@ def compress(
             brick_t = brick_of(data.shape)
             nworkers = _encode_workers(workers, data.shape, brick_t)
             log.info("time steps interleaved: stored as %s", "x".join(map(str, data.shape)))
+            if search is not None:
+                # A PSNR or ratio target: the setting found on the time steps codes the
+                # stored volume to another PSNR and size; searched again from there.
+                c, search = lossy_plan.plan(
+                    Volume(data, vol.spacing, vol.origin), brick_t, nworkers, asked,
+                    fill_value, inner, effort, known_range, start=_searched(search),
+                )  # fmt: skip
     header = {
         "kind": KIND,
         "volpack": __version__,
@@ -447,6 +444,14 @@ def compress(
         **quality_stats,
         **({"search": search} if search is not None else {}),
     }
+
+
+def _searched(record: dict[str, Any]) -> float | None:
+    """The setting a search record ended on, as a start for a search of the same kind
+    (none for a Tucker codec's step: the search begins with the bounded codec's)."""
+    if record.get("codec") == "tucker":
+        return None
+    return record.get("error_bound", record.get("step"))
 
 
 def _six_digits(d: dict[str, Any], keys: tuple[str, ...]) -> None:
