@@ -186,11 +186,26 @@ def test_ratio_target_is_the_files_on_a_small_field():
 @pytest.mark.slow
 def test_unreachable_target_reports_the_closest(brain):
     # 8-bit noise makes the rate jump where a whole band's |c| = 8 leaves the zero bin:
-    # no step gives 8:1 within 5 %, so the closest is used and reported as reached.
+    # the file comes out near 8:1 (within 5 % today), reported as reached.
     st, _ = run(brain, ratio=8.0, workers=2)
     # reached: the file's ratio as the search estimates the container (a few hundred bytes)
     assert st["search"]["reached"] == pytest.approx(st["file_ratio"], rel=2e-3)
     assert abs(st["file_ratio"] / 8 - 1) < 0.2
+
+
+def test_a_missed_target_keeps_the_nearest_within_tolerance_then_the_safe_side(caplog):
+    from volpack.volume_codec.search import _closest
+
+    # (setting, what the whole volume reached): within 0.5 dB wins, however near others are
+    assert _closest([(1.0, 49.45), (2.0, 50.3), (3.0, 49.9)], "psnr", 50) == (3.0, 49.9)
+    # a jump from 49.48 to 50.93 dB: the PSNR at or above the target, though further off
+    with caplog.at_level("WARNING", logger="volpack.volume_codec.search"):
+        assert _closest([(0.95, 49.48), (0.91, 50.93), (0.5, 61.2)], "psnr", 50) == (0.91, 50.93)
+    assert "psnr 50: not reached within 0.5 dB by any setting tried; kept 50.93" in caplog.text
+    assert _closest([(0.95, 41.0), (1.2, 38.0)], "psnr", 50) == (0.95, 41.0)  # none above
+    # a ratio: a file no larger than asked (7.2 is nearer to 8 than 9.1 in log terms too)
+    assert _closest([(1.0, 7.2), (2.0, 9.1)], "ratio", 8) == (2.0, 9.1)
+    assert _closest([(1.0, 7.2), (2.0, 8.3)], "ratio", 8) == (2.0, 8.3)
 
 
 def test_float_psnr_target_uses_the_bounded_path():

@@ -314,10 +314,16 @@ codec_options = options(
            "fast).", float),
     option("--rel-error", "Lossy: --max-error as a fraction of the value range (0: "
            "lossless).", float),
-    option("--psnr", "Lossy: reach this PSNR in dB (within 0.5 dB).", float),
+    option(
+        "--psnr",
+        "Lossy: reach this PSNR in dB (within 0.5 dB; where no setting does, the nearest "
+        "above it, with a warning).",
+        float,
+    ),
     option(
         "--ratio",
-        "Lossy: reach this compression ratio of the file, container included (within 5%).",
+        "Lossy: reach this compression ratio of the file, container included (within 5%; "
+        "where no setting does, the nearest above it, with a warning).",
         float,
     ),
     option("--quality", "Lossy, the method's scale: 255 (best), 127, 63, 31, 15 (integer "

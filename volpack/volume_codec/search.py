@@ -10,6 +10,7 @@ end. It is deterministic: the same volume and target give the same bound.
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Callable
 from typing import Any
@@ -25,6 +26,8 @@ from .floatwave import FLOAT_WAVELETS, FloatWaveletCodec
 from .lossy import EFFORTS, BoundedCodec, CoefCodec
 from .protocol import check_choice
 from .specials import sentinel, special_voxels
+
+log = logging.getLogger(__name__)
 
 PSNR_TOL = 0.5  # dB
 RATIO_TOL = 0.05  # relative
@@ -251,6 +254,34 @@ def _tucker_or(vol, brick, workers, what, target, rng, codec, record, sizes):
     return t_codec, t_record
 
 
+def _closest(whole: list[tuple[float, float]], what: str, target: float) -> tuple[float, float]:
+    """The whole-volume try to keep when the search ended without meeting the target: the
+    nearest within the tolerance, else the nearest on the target's safe side (a PSNR at or
+    above it, a file no larger than the ratio asks), else the nearest. The PSNR of an
+    integer volume can jump past the tolerance between two neighbouring settings (a uint8
+    clip: 49.48 to 50.93 dB at a step of 0.94); a user who asked 50 dB gets 50.93."""
+
+    def off(m: float) -> float:
+        return abs(m - target) if what == "psnr" else abs(math.log(m / target))
+
+    tol = PSNR_TOL if what == "psnr" else math.log1p(RATIO_TOL)
+    for keep in (
+        lambda m: off(m) <= tol,
+        lambda m: m >= target,
+        lambda m: True,
+    ):
+        kept = [(off(m), e, m) for e, m in whole if keep(m)]
+        if kept:
+            _, e, m = min(kept)
+            if off(m) > tol:
+                log.warning(
+                    "%s %g: not reached within %s by any setting tried; kept %.4g",
+                    what, target, f"{PSNR_TOL} dB" if what == "psnr" else f"{RATIO_TOL:.0%}", m,
+                )  # fmt: skip
+            return e, m
+    raise AssertionError("no whole-volume try")
+
+
 def _search(
     vol, brick, workers, what, target, make: Callable, rng: float, knob: str, sizes=None,
     first: float = 1.0, start: float | None = None,
@@ -328,18 +359,13 @@ def _search(
         else:
             e = e * 4 if need_larger else e / 4
         e = min(max(e, rng * 1e-9), rng * 4)
-    if best is None:  # report the closest whole-volume result
-        whole = [
-            (abs((m - target) if what == "psnr" else math.log(m / target)), e, m)
-            for e, m, s in tried
-            if s == "all"
-        ]
+    if best is None:
+        whole = [(e, m) for e, m, s in tried if s == "all"]
         if not whole:
             m_all = score(e, every)
             tried.append((e, m_all, "all"))
-            whole = [(0.0, e, m_all)]
-        _, e, m = min(whole)
-        best = (e, m)
+            whole = [(e, m_all)]
+        best = _closest(whole, what, target)
     record = {
         "target": what,
         "value": target,

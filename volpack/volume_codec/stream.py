@@ -166,7 +166,8 @@ def compress(
     Lossless unless one of the lossy settings is given (at most one of them):
     ``max_error`` (every valid voxel within this absolute error), ``rel_error`` (the
     same, as a fraction of the value range), ``psnr`` (dB, reached within 0.5 dB),
-    ``ratio`` (the file's, ``file_ratio``, reached within 5 %), ``quality`` (the
+    ``ratio`` (the file's, ``file_ratio``, reached within 5 %; where no setting reaches a
+    PSNR or ratio, the nearest above it is kept and a warning logged), ``quality`` (the
     method's 255/127/63/31/15 scale) or
     ``threshold`` (coefficients below it, in value units, are dropped). ``fill_value``
     marks voxels that are no data; they, NaN and +-Inf are restored exactly. Under a lossy
