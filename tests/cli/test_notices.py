@@ -63,3 +63,15 @@ def test_a_command_that_ends_quickly_prints_nothing():
     n.task("decompress", "brick")(1, 1)
     n.close()
     assert out.getvalue() == ""
+
+
+def test_a_task_of_unknown_length_counts_without_a_total():
+    # `volpack play -` learns the frame count only as it plays (it was an internal error)
+    out = io.StringIO()
+    n = Notices(out, interval=0.05)
+    try:
+        n.task("play", "frame")(3, None)
+        assert _wait_for(lambda: "play 3 frames" in out.getvalue())
+    finally:
+        n.close()
+    assert "/" not in out.getvalue().split("play 3")[1].splitlines()[0]

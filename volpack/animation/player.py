@@ -6,11 +6,17 @@ before the first frame, then one per displayed frame) and a truncated or damaged
 plays up to the damage and then raises :class:`~volpack.errors.FormatError` naming the
 frame. The transfer function's value range is fixed for the whole animation: the range
 recorded in the file's summary, else the first frame's.
+
+A 4-D series that is not an animation (a volume ``.vpk`` of shape ``(t, z, y, x)``, or
+any 4-D volume file: an fMRI run, a diffusion series) plays its time steps in order: a
+``.vpk`` stored frame by frame decodes one time step a frame, one stored interleaved (or
+read from a pipe) is decoded whole before the first (its bricks hold every time step).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import os
 import time
 from collections.abc import Callable, Iterator
 from typing import Any
@@ -73,7 +79,11 @@ def frame_count(path: str) -> int | None:
 
 def play(source: Any) -> Iterator[tuple[np.ndarray, FrameStats, dict]]:
     """Yield ``(frame, stats, header)`` in display order; ``stats.decode_ms`` is the
-    decoding done during that step (the first step holds the two start-up decodes)."""
+    decoding done during that step (the first step holds the two start-up decodes). A
+    path (or ``'-'``) that is not an animation plays as a 4-D series (:func:`series`)."""
+    if isinstance(source, str) and _kind(source) != "animation":
+        yield from series(source)
+        return
     own = None
     if isinstance(source, str) and source != "-":
         own = open(source, "rb")  # noqa: SIM115 - closed below
@@ -137,6 +147,85 @@ def _frames(src: Any) -> Iterator[tuple[np.ndarray, FrameStats, dict]]:
             break
         kind, nbytes = coded.pop(t, (reader.types[t], 0))
         yield ref.exact, FrameStats(t, kind, nbytes, 1000.0 * spent[0]), reader.header
+
+
+def _kind(source: str) -> str | None:
+    """The ``.vpk`` kind of ``source`` from its header alone, read forward (a truncated
+    animation still plays up to its damage); None for another (readable) file, and
+    ``"animation"`` where the header cannot be read (the animation reader then says why)."""
+    if source == "-":
+        from ..api import kind_of
+
+        return kind_of(source)
+    from ..format.container import MAGIC, Reader, is_vpk
+
+    try:
+        with open(source, "rb") as f:
+            if not is_vpk(f.read(len(MAGIC))):
+                return None
+            f.seek(0)
+            with Reader(_Stream(f)) as r:
+                return r.header.get("kind")
+    except (OSError, FormatError):
+        return "animation"
+
+
+def series(source: str) -> Iterator[tuple[np.ndarray, FrameStats, dict]]:
+    """Yield ``(time step, stats, header)`` of a 4-D series: a volume ``.vpk`` (``'-'``
+    too) or any volume file volpack reads; ``stats.type`` is ``"volume"`` and its
+    ``nbytes`` the time step's share of the payload (of the file read, for other files);
+    ``header`` the ``.vpk``'s (``{}`` for other files)."""
+    from ..api import kind_of, read_volume
+
+    kind = kind_of(source)
+    if kind not in (None, "volume"):
+        raise FormatError(
+            f"expected an animation or a 4-D (t, z, y, x) series, found a .vpk of kind {kind!r}"
+        )
+    t0 = time.perf_counter()
+    if kind is None:  # another volume file: read whole
+        vol, header = read_volume(source), {}
+        nbytes = os.path.getsize(source) if source != "-" else vol.nbytes
+        _four_d(vol.shape, source)
+        yield from _steps(vol.data, nbytes, t0, header)
+        return
+    from ..volume_codec import interleave
+    from ..volume_codec.stream import open as open_volume
+
+    with reading(source if source != "-" else None), open_volume(source) as reader:
+        header = reader.header
+        shape = tuple(header["shape"])
+        _four_d(shape, source)
+        per_t: dict[int, int] = {}  # payload bytes by time step (a pipe's: not known)
+        for e in reader._r.entries if reader._r.seekable else ():
+            per_t[e.t] = per_t.get(e.t, 0) + e.nbytes
+        if header.get("layout") == interleave.LAYOUT or source == "-":
+            # every brick holds every time step (or a pipe reads every chunk first)
+            data = reader.read(workers=0).data
+            yield from _steps(data, sum(per_t.values()), t0, header)
+            return
+        for t in range(shape[0]):
+            frame = reader.read(frame=t, workers=0).data
+            spent = 1000.0 * (time.perf_counter() - t0)
+            yield frame, FrameStats(t, "volume", per_t.get(t, 0), spent), header
+            t0 = time.perf_counter()
+
+
+def _four_d(shape: tuple[int, ...], source: str) -> None:
+    if len(shape) != 4:
+        raise FormatError(
+            f"expected an animation or a 4-D (t, z, y, x) series to play, found a volume of "
+            f"shape {list(shape)} in {source} (to turn about it: volpack render SOURCE "
+            "OUT_DIR --orbit N)"
+        )
+
+
+def _steps(data: np.ndarray, nbytes: int, t0: float, header: dict):
+    """The time steps of a series decoded whole: the decode counted in the first step."""
+    spent = 1000.0 * (time.perf_counter() - t0)
+    for t in range(data.shape[0]):
+        yield data[t], FrameStats(t, "volume", nbytes // data.shape[0], spent), header
+        spent = 0.0
 
 
 def play_rendered(

@@ -71,7 +71,7 @@ class Notices:
         """A ``progress(done, total)`` callback that feeds the periodic lines."""
 
         def update(done: int, total: int) -> None:
-            self._task = (desc, unit, int(done), int(total))
+            self._task = (desc, unit, int(done), int(total or 0))  # None: not known
             self._ensure_thread()
 
         return update

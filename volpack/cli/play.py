@@ -37,17 +37,22 @@ def play(ctx, source, output, tf_spec, fps, spin, show_stats, azimuth, elevation
          perspective, distance, look_at_s, size_s, step, classification, preint_method, shading,
          normals, fit, workers, force, as_json) -> None:  # fmt: skip
     """Play the animation SOURCE (.vpk, or '-') into OUTPUT: an .mp4, a .gif or a folder of
-    PNGs; without OUTPUT, decode and render only (with --stats: a timing table).
+    PNGs; without OUTPUT, decode and render only (with --stats: a timing table). SOURCE
+    may also be a 4-D (t, z, y, x) series: a volume .vpk or any 4-D volume file (an fMRI
+    .nii.gz, a .npy), played a time step a frame.
 
     Frames are decoded in storage order, one per displayed frame after the first (two
     before it), exactly as a player keeps up with a stream; a damaged stream plays up to
-    the damage, then stops with an error naming the frame.
+    the damage, then stops with an error naming the frame. A series stored frame by frame
+    decodes a time step a frame; one stored interleaved, or another file, is read whole
+    before the first.
 
     \b
     Examples:
       volpack play run.vpk run.mp4 --tf ct-skin --fps 25
       volpack play run.vpk run.gif --size 256x256 --spin 3
       volpack play run.vpk --stats
+      volpack play bold.nii.gz bold.gif --tf mri --fps 5     # an fMRI run's time steps
     """
     import dataclasses
 
