@@ -89,7 +89,7 @@ CF_BITS = 12  # fixed-point bits of the fitted weights
 CF_LIMIT = (1 << 15) - 1
 NCLS = 4  # gradient classes of the fitted predictor
 NO_CLASS = 0xFFFFFFFF  # threshold of an unused class
-ROOM_CAP = 1 << 62  # _decode_plain's cap on the voxels between its looks at the weights
+HANDOVER = -1  # a test's lever: the row from which _decode_plain hands over (-1: none)
 # The fitted predictor's neighbours as (dz, dy, dx) steps back (the order of _fitted).
 FIT_OFFSETS = (
     (0, 0, 1), (0, 1, 0), (1, 0, 0), (0, 1, 1), (0, 1, -1), (1, 0, 1), (1, 1, 0), (1, 1, 1),
@@ -723,14 +723,14 @@ def _decode_voxel(
 @kernel(nrt=False)
 def _decode_plain(
     data, mk, fill, cf, th, shape, hi, nlow, tex, mix, v, err, perr, bias_sum, bias_cnt, bias, models,
-    aux, lw, cap, coder,
+    aux, lw, stop, coder,
 ):
     """:func:`_decode_kernel` without the local fit (every stream but those flagged with
     it) and without the mix's bound on its weights, rows at a time while
     :func:`.residmix.room` says the bound cannot act on them (always, in practice: the
     weights stay far inside it). Where it could, returns 4 with the coder's state and
-    the row to go on from in ``coder``, for :func:`_decode_kernel` to finish. ``cap``:
-    the most voxels between two looks at the weights (a test's lever)."""
+    the row to go on from in ``coder``, for :func:`_decode_kernel` to finish; also at
+    row ``stop`` (a test's lever)."""
     nz, ny, nx = shape[0], shape[1], shape[2]
     sz = ny * nx
     size = data.size
@@ -744,10 +744,10 @@ def _decode_plain(
         prev = sz - cur
         for y in range(ny):
             if left < nx:
-                left = min(residmix.room(aux), cap)
-                if left < nx:
-                    coder[0], coder[1], coder[2], coder[3] = code, rng, pos, z * ny + y
-                    return 4
+                left = residmix.room(aux)
+            if left < nx or z * ny + y == stop:
+                coder[0], coder[1], coder[2], coder[3] = code, rng, pos, z * ny + y
+                return 4
             left -= nx
             for x in range(nx):
                 if pos > size + 4:
@@ -1011,7 +1011,7 @@ def decode(
             np.int64(tex), np.int64(mix))  # fmt: skip
     ws = _workspace(shape)
     coder = np.zeros(4, np.int64)
-    status = 4 if local else _decode_plain(*head, v, *ws, np.int64(ROOM_CAP), coder)
+    status = 4 if local else _decode_plain(*head, v, *ws, np.int64(HANDOVER), coder)
     if status == 4:  # the local fit, or the mix's weights near their bound: the general kernel
         status = _decode_kernel(
             *head, local, localfit.steps(FIT_OFFSETS, shape),
