@@ -655,6 +655,35 @@ def _decode_kernel(
     ``ws``, ``a``, ``g``: :mod:`.localfit`'s steps and workspace). From row ``start``
     (of the whole brick, ``z * ny + y``) on, with the coder's state ``coder[:3]``, where
     :func:`_decode_plain` stopped (0: from the stream's start)."""
+    return _decode_rows(
+        data, mk, fill, cf, th, shape, hi, nlow, tex, mix, ls, st, cs, ws, a, g, v, err, perr, bias_sum,
+        bias_cnt, bias, models, aux, lw, start, -1, coder, False,
+    )  # fmt: skip
+
+
+@kernel(nrt=False)
+def _decode_plain(
+    data, mk, fill, cf, th, shape, hi, nlow, tex, mix, st, cs, ws, a, g, v, err, perr, bias_sum, bias_cnt,
+    bias, models, aux, lw, stop, coder,
+):
+    """:func:`_decode_kernel` without the local fit (every stream but those flagged with
+    it: its tests compile out) and without the mix's bound on its weights, rows at a
+    time while :func:`.residmix.room` says the bound cannot act on them (always, in
+    practice: the weights stay far inside it). Where it could, returns 4 with the
+    coder's state and the row to go on from in ``coder``, for :func:`_decode_kernel` to
+    finish; also at row ``stop`` (a test's lever)."""
+    return _decode_rows(
+        data, mk, fill, cf, th, shape, hi, nlow, tex, mix, False, st, cs, ws, a, g, v, err, perr, bias_sum,
+        bias_cnt, bias, models, aux, lw, 0, stop, coder, True,
+    )  # fmt: skip
+
+
+@kernel(inline=True)
+def _decode_rows(
+    data, mk, fill, cf, th, shape, hi, nlow, tex, mix, ls, st, cs, ws, a, g, v, err, perr, bias_sum,
+    bias_cnt, bias, models, aux, lw, start, stop, coder, fast,
+):
+    """The two kernels' loop; ``fast`` (a constant): :func:`_decode_plain`'s."""
     nz, ny, nx = shape[0], shape[1], shape[2]
     sz = ny * nx
     size = data.size
@@ -664,10 +693,18 @@ def _decode_kernel(
     z0 = np.int64(0)
     held = (z0, z0, z0, z0, z0, z0, z0, z0)  # (not read at a row's first voxel)
     i = start * nx
+    left = np.int64(0)  # voxels to go before the weights could come near their bound
     for z in range(start // ny, nz):
         cur = (z & 1) * sz
         prev = sz - cur
         for y in range(start % ny if z == start // ny else 0, ny):
+            if fast:
+                if left < nx:
+                    left = residmix.room(aux)
+                if left < nx or z * ny + y == stop:
+                    coder[0], coder[1], coder[2], coder[3] = code, rng, pos, z * ny + y
+                    return 4
+                left -= nx
             fits = ls and z >= 2
             if fits:
                 localfit.row_start(cs, v, z, y, ny, nx, st, g)
@@ -691,7 +728,7 @@ def _decode_kernel(
                 lpe = localfit.estimate(a, v, i, st) if here and fitted else localfit.NONE
                 bad, held, code, rng, pos = _decode_voxel(
                     data, v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, nlow, bias,
-                    bias_sum, bias_cnt, held, tex, mix, lpe, lw, models, aux, code, rng, pos, True,
+                    bias_sum, bias_cnt, held, tex, mix, lpe, lw, models, aux, code, rng, pos, not fast,
                 )  # fmt: skip
                 if bad:
                     return 2
@@ -718,55 +755,6 @@ def _decode_voxel(
     held = _learn(err, perr, r, val, pred, bctx, bias_sum, bias_cnt, bias, q0, q1, q2, q3, q4, q5)
     _learn_local(lw, ctx, val, pb, lq)
     return False, held, code, rng, pos
-
-
-@kernel(nrt=False)
-def _decode_plain(
-    data, mk, fill, cf, th, shape, hi, nlow, tex, mix, v, err, perr, bias_sum, bias_cnt, bias, models,
-    aux, lw, stop, coder,
-):
-    """:func:`_decode_kernel` without the local fit (every stream but those flagged with
-    it) and without the mix's bound on its weights, rows at a time while
-    :func:`.residmix.room` says the bound cannot act on them (always, in practice: the
-    weights stay far inside it). Where it could, returns 4 with the coder's state and
-    the row to go on from in ``coder``, for :func:`_decode_kernel` to finish; also at
-    row ``stop`` (a test's lever)."""
-    nz, ny, nx = shape[0], shape[1], shape[2]
-    sz = ny * nx
-    size = data.size
-    code, rng, pos = open_stream(data)
-    z0 = np.int64(0)
-    held = (z0, z0, z0, z0, z0, z0, z0, z0)
-    i = 0
-    left = np.int64(0)  # voxels to go before the weights could come near their bound
-    for z in range(nz):
-        cur = (z & 1) * sz
-        prev = sz - cur
-        for y in range(ny):
-            if left < nx:
-                left = residmix.room(aux)
-            if left < nx or z * ny + y == stop:
-                coder[0], coder[1], coder[2], coder[3] = code, rng, pos, z * ny + y
-                return 4
-            left -= nx
-            for x in range(nx):
-                if pos > size + 4:
-                    return 1
-                r = cur + y * nx + x
-                if mk[np.uint64(i)]:
-                    v[np.uint64(i)] = fill
-                    held = _skip(err, perr, r, fill)
-                    i += 1
-                    continue
-                bad, held, code, rng, pos = _decode_voxel(
-                    data, v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, nlow, bias,
-                    bias_sum, bias_cnt, held, tex, mix, localfit.NONE, lw, models, aux, code, rng, pos,
-                    False,
-                )  # fmt: skip
-                if bad:
-                    return 2
-                i += 1
-    return end_status(data, code, pos)
 
 
 def _solve(xtx: np.ndarray, xty: np.ndarray) -> np.ndarray:
@@ -1011,11 +999,9 @@ def decode(
             np.int64(tex), np.int64(mix))  # fmt: skip
     ws = _workspace(shape)
     coder = np.zeros(4, np.int64)
-    status = 4 if local else _decode_plain(*head, v, *ws, np.int64(HANDOVER), coder)
+    fit = (localfit.steps(FIT_OFFSETS, shape), *localfit.workspace(shape if local else (1, 1, 1)))
+    status = 4 if local else _decode_plain(*head, *fit, v, *ws, np.int64(HANDOVER), coder)
     if status == 4:  # the local fit, or the mix's weights near their bound: the general kernel
-        status = _decode_kernel(
-            *head, local, localfit.steps(FIT_OFFSETS, shape),
-            *localfit.workspace(shape if local else (1, 1, 1)), v, *ws, coder[3], coder,
-        )  # fmt: skip
+        status = _decode_kernel(*head, local, *fit, v, *ws, coder[3], coder)
     check_status(status, "predictive")
     return (v + lo if lo else v).reshape(shape)  # (palette ranks start at 0: no pass)
