@@ -137,3 +137,56 @@ def test_real_scans_roundtrip_and_version_8_is_no_longer(name):
     v8 = api.compress_array(a)
     np.testing.assert_array_equal(api.decompress_array(v8, workers=2), a)
     assert len(v8) < len(api.compress_array(a, predict_version=7))
+
+
+# The decoder leaves the weights' bound out while residmix.room says it cannot act, and
+# hands the rest of the brick to the general kernel (bound in) where it could.
+
+
+@pytest.mark.parametrize("stop", [0, 1, 9, 40, 14 * 16 - 1])
+def test_handover_to_the_general_kernel_decodes_the_same(monkeypatch, stop):
+    """Handing over at any row (the first, the second, within a slice, the last) gives
+    the stream's voxels: the coder's state, the row and the learnt state carry over."""
+    v = brain((14, 16, 18), seed=4)
+    mask = v == 0
+    data = predictfit.encode(v, 0, int(v.max()), mask=mask, low=True, tex=True, mix=True)
+    monkeypatch.setattr(predictfit, "HANDOVER", stop)
+    back = predictfit.decode(data, v.shape, 0, int(v.max()), mask, 0, low=True, tex=True, mix=True)
+    np.testing.assert_array_equal(back, v)
+
+
+def test_weights_bound_cannot_act_within_room():
+    """One step moves a weight by at most DELTA_MAX, a voxel steps a set at most STEPS_MAX
+    times (every decision of its longest residual), and room is the naive count."""
+    s = np.abs(residmix.STRETCH.astype(np.int64)).max()
+    e = 65536 - residmix.P_MIN
+    worst = max(abs((a * b) >> residmix.LR_SHIFT) for a in (-s, s) for b in (-e, e))
+    assert residmix.DELTA_MAX >= worst
+    assert residmix.STEPS_MAX >= 1 + 1 + (predictfit.NLEN - 1) + 2
+    aux = residmix.workspace()
+    per = residmix.DELTA_MAX * residmix.STEPS_MAX
+    w = np.abs(aux[residmix.W_BASE :].astype(np.int64)).max()
+    assert residmix.room(aux) == (residmix.W_ZERO - 1 - w) // per
+    aux[-3] = -(residmix.W_ZERO - 1) + 5 * per
+    assert residmix.room(aux) == 5
+    aux[-3] = residmix.W_ZERO - 1
+    assert residmix.room(aux) == 0
+
+
+@pytest.mark.parametrize("margin", [0, 3])
+def test_weights_at_their_bound_decode_the_same(monkeypatch, margin):
+    """Weights started at (or ``margin`` rows of steps from) their bound, where the encoder
+    clamps them: the decoder finds no room (at once, or after a few rows) and the general
+    kernel, bound in, decodes the stream."""
+    fresh = residmix.workspace
+
+    def near_bound():
+        aux = fresh()
+        top = residmix.W_ZERO - 1 - margin * 18 * residmix.DELTA_MAX * residmix.STEPS_MAX
+        aux[residmix.W_BASE :: 2] = top
+        aux[residmix.W_BASE + 1 :: 2] = -top
+        return aux
+
+    monkeypatch.setattr(residmix, "workspace", near_bound)
+    v = noisy((8, 12, 18), seed=6, noise=12)
+    roundtrip_mix(v, int(v.min()), int(v.max()), low=True, tex=True)

@@ -89,6 +89,7 @@ CF_BITS = 12  # fixed-point bits of the fitted weights
 CF_LIMIT = (1 << 15) - 1
 NCLS = 4  # gradient classes of the fitted predictor
 NO_CLASS = 0xFFFFFFFF  # threshold of an unused class
+HANDOVER = -1  # a test's lever: the row from which _decode_plain hands over (-1: none)
 # The fitted predictor's neighbours as (dz, dy, dx) steps back (the order of _fitted).
 FIT_OFFSETS = (
     (0, 0, 1), (0, 1, 0), (1, 0, 0), (0, 1, 1), (0, 1, -1), (1, 0, 1), (1, 1, 0), (1, 1, 1),
@@ -155,37 +156,38 @@ def _put16m(out, models, k, bit, low, rng, pos, aux, mx, slot, kind):
     if not residmix.mixing(mx, p1):
         return put16(out, models, k, bit, low, rng, pos)
     mask = -np.int64(bit)
-    p, s1, s2, s3, s4, wb = residmix.mix(p1, aux, mx, slot, kind)
+    p, held = residmix.mix(p1, aux, mx, slot, kind)
     bound = (rng >> 16) * p
     low += bound & mask
     rng = bound + ((rng - 2 * bound) & mask)
     _adapt(models, k, p1, st & 255, mask)
-    residmix.learn(aux, mx, slot, p, s1, s2, s3, s4, wb, mask)
+    residmix.learn(aux, mx, slot, p, held, mask, True)
     return _push(out, low, rng, pos)
 
 
 @kernel(inline=True)
-def _get16m_held(data, st, code, rng, pos, aux, mx, slot, kind):
+def _get16m_held(data, st, code, rng, pos, aux, mx, slot, kind, clamp):
     """Decode one decision coded by :func:`_put16m` (model 1's state ``st`` held by the
-    caller); returns ``(bit, model 1's new state, code, rng, pos)``."""
+    caller; ``clamp`` as :func:`.residmix.learn`); returns ``(bit, model 1's new state,
+    code, rng, pos)``."""
     p1 = st >> 8
     if not residmix.mixing(mx, p1):
         return get16_held(data, st, code, rng, pos)
-    p, s1, s2, s3, s4, wb = residmix.mix(p1, aux, mx, slot, kind)
+    p, held = residmix.mix(p1, aux, mx, slot, kind)
     bound = (rng >> 16) * p
     bit = np.int64(code >= bound)
     mask = -bit
     code -= bound & mask
     rng = bound + ((rng - 2 * bound) & mask)
     code, rng, pos = _pull(data, code, rng, pos)
-    residmix.learn(aux, mx, slot, p, s1, s2, s3, s4, wb, mask)
+    residmix.learn(aux, mx, slot, p, held, mask, clamp)
     return bit, _adapted(p1, st & 255, mask), code, rng, pos
 
 
 @kernel(inline=True)
-def _get16m(data, models, k, code, rng, pos, aux, mx, slot, kind):
+def _get16m(data, models, k, code, rng, pos, aux, mx, slot, kind, clamp):
     bit, models[np.uint64(k)], code, rng, pos = _get16m_held(
-        data, np.int64(models[np.uint64(k)]), code, rng, pos, aux, mx, slot, kind
+        data, np.int64(models[np.uint64(k)]), code, rng, pos, aux, mx, slot, kind, clamp
     )
     return bit, code, rng, pos
 
@@ -358,20 +360,23 @@ def _mant_slot(nb, prefix):
 
 
 @kernel(inline=True)
-def get_residual_mix(data, models, ctx, sctx, q, code, rng, pos, aux, mx):
-    """Decode what :func:`put_residual_mix` coded; ``NO_RESIDUAL`` for an impossible one."""
+def get_residual_mix(data, models, ctx, sctx, q, code, rng, pos, aux, mx, clamp):
+    """Decode what :func:`put_residual_mix` coded; ``NO_RESIDUAL`` for an impossible one
+    (``clamp``: as :func:`.residmix.learn`)."""
     kz, st = _zero_state(models, ctx, sctx, q)
     sz = residmix.S_ZERO + (sctx & (NFRAC - 1))
-    bit, models[np.uint64(kz)], code, rng, pos = _get16m_held(data, st, code, rng, pos, aux, mx, sz, 0)
+    bit, models[np.uint64(kz)], code, rng, pos = _get16m_held(data, st, code, rng, pos, aux, mx, sz, 0, clamp)
     if bit == 0:
         return np.int64(0), code, rng, pos
     ks = _sign_model(ctx, sctx, q)
-    neg, code, rng, pos = _get16m(data, models, ks, code, rng, pos, aux, mx, residmix.S_SIGN + sctx, 1)
+    neg, code, rng, pos = _get16m(
+        data, models, ks, code, rng, pos, aux, mx, residmix.S_SIGN + sctx, 1, clamp
+    )
     k0 = _len_models(ctx, q, neg)
     nb = 0
     while nb < NLEN - 1:
         sl, kind = _len_slot(nb)
-        bit, code, rng, pos = _get16m(data, models, k0 + nb, code, rng, pos, aux, mx, sl, kind)
+        bit, code, rng, pos = _get16m(data, models, k0 + nb, code, rng, pos, aux, mx, sl, kind, clamp)
         if bit == 0:
             break
         nb += 1
@@ -383,7 +388,7 @@ def get_residual_mix(data, models, ctx, sctx, q, code, rng, pos, aux, mx):
     for jm in range(nm):
         km = _mant_model(nb, prefix, ctx)
         sl = _mant_slot(nb, prefix)
-        bit, code, rng, pos = _get16m(data, models, km, code, rng, pos, aux, mx, sl, 14 + jm)
+        bit, code, rng, pos = _get16m(data, models, km, code, rng, pos, aux, mx, sl, 14 + jm, clamp)
         prefix = 2 * prefix + bit
         u = (u << 1) | bit
     return _low_bits(data, u, nb, nm, neg, code, rng, pos)
@@ -641,24 +646,65 @@ def _encode_kernel(
 @kernel(nrt=False)
 def _decode_kernel(
     data, mk, fill, cf, th, shape, hi, nlow, tex, mix, ls, st, cs, ws, a, g, v, err, perr, bias_sum,
-    bias_cnt, bias, models, aux, lw,
+    bias_cnt, bias, models, aux, lw, start, coder,
 ):
     """Return 0 on success, 1 when the stream ran short, 2 on an impossible value, 3 when
     it does not end where its length says. With ``ls``, the local fit's sums are moved
     along at every voxel of its region (coded or masked), its weights fitted where
     :func:`.localfit.refits` and its estimate made at the coded voxels (``st``, ``cs``,
-    ``ws``, ``a``, ``g``: :mod:`.localfit`'s steps and workspace)."""
+    ``ws``, ``a``, ``g``: :mod:`.localfit`'s steps and workspace). From row ``start``
+    (of the whole brick, ``z * ny + y``) on, with the coder's state ``coder[:3]``, where
+    :func:`_decode_plain` stopped (0: from the stream's start)."""
+    return _decode_rows(
+        data, mk, fill, cf, th, shape, hi, nlow, tex, mix, ls, st, cs, ws, a, g, v, err, perr, bias_sum,
+        bias_cnt, bias, models, aux, lw, start, -1, coder, False,
+    )  # fmt: skip
+
+
+@kernel(nrt=False)
+def _decode_plain(
+    data, mk, fill, cf, th, shape, hi, nlow, tex, mix, st, cs, ws, a, g, v, err, perr, bias_sum, bias_cnt,
+    bias, models, aux, lw, stop, coder,
+):
+    """:func:`_decode_kernel` without the local fit (every stream but those flagged with
+    it: its tests compile out) and without the mix's bound on its weights, rows at a
+    time while :func:`.residmix.room` says the bound cannot act on them (always, in
+    practice: the weights stay far inside it). Where it could, returns 4 with the
+    coder's state and the row to go on from in ``coder``, for :func:`_decode_kernel` to
+    finish; also at row ``stop`` (a test's lever)."""
+    return _decode_rows(
+        data, mk, fill, cf, th, shape, hi, nlow, tex, mix, False, st, cs, ws, a, g, v, err, perr, bias_sum,
+        bias_cnt, bias, models, aux, lw, 0, stop, coder, True,
+    )  # fmt: skip
+
+
+@kernel(inline=True)
+def _decode_rows(
+    data, mk, fill, cf, th, shape, hi, nlow, tex, mix, ls, st, cs, ws, a, g, v, err, perr, bias_sum,
+    bias_cnt, bias, models, aux, lw, start, stop, coder, fast,
+):
+    """The two kernels' loop; ``fast`` (a constant): :func:`_decode_plain`'s."""
     nz, ny, nx = shape[0], shape[1], shape[2]
     sz = ny * nx
     size = data.size
     code, rng, pos = open_stream(data)
+    if start > 0:
+        code, rng, pos = coder[0], coder[1], coder[2]
     z0 = np.int64(0)
-    held = (z0, z0, z0, z0, z0, z0, z0, z0)
-    i = 0
-    for z in range(nz):
+    held = (z0, z0, z0, z0, z0, z0, z0, z0)  # (not read at a row's first voxel)
+    i = start * nx
+    left = np.int64(0)  # voxels to go before the weights could come near their bound
+    for z in range(start // ny, nz):
         cur = (z & 1) * sz
         prev = sz - cur
-        for y in range(ny):
+        for y in range(start % ny if z == start // ny else 0, ny):
+            if fast:
+                if left < nx:
+                    left = residmix.room(aux)
+                if left < nx or z * ny + y == stop:
+                    coder[0], coder[1], coder[2], coder[3] = code, rng, pos, z * ny + y
+                    return 4
+                left -= nx
             fits = ls and z >= 2
             if fits:
                 localfit.row_start(cs, v, z, y, ny, nx, st, g)
@@ -680,26 +726,35 @@ def _decode_kernel(
                     i += 1
                     continue
                 lpe = localfit.estimate(a, v, i, st) if here and fitted else localfit.NONE
-                pred, ctx, bctx, sctx, mx, q0, q1, q2, q3, q4, q5, pb, lq = _predict_mix(
-                    v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, bias, held, tex, mix,
-                    lpe, lw,
-                )
-                q = _low_class(pred, nlow)
-                res, code, rng, pos = get_residual_mix(
-                    data, models, ctx, sctx, q, code, rng, pos, aux, mx
-                )
-                if res == NO_RESIDUAL:
+                bad, held, code, rng, pos = _decode_voxel(
+                    data, v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, nlow, bias,
+                    bias_sum, bias_cnt, held, tex, mix, lpe, lw, models, aux, code, rng, pos, not fast,
+                )  # fmt: skip
+                if bad:
                     return 2
-                val = pred + res
-                if val < 0 or val > hi:
-                    return 2
-                v[np.uint64(i)] = val
-                held = _learn(
-                    err, perr, r, val, pred, bctx, bias_sum, bias_cnt, bias, q0, q1, q2, q3, q4, q5
-                )
-                _learn_local(lw, ctx, val, pb, lq)
                 i += 1
     return end_status(data, code, pos)
+
+
+@kernel(inline=True)
+def _decode_voxel(
+    data, v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, nlow, bias, bias_sum, bias_cnt, held, tex,
+    mix, lpe, lw, models, aux, code, rng, pos, clamp,
+):
+    """Decode voxel ``i`` into ``v`` and learn from it (``clamp``: as
+    :func:`.residmix.learn`); returns ``(impossible value, held, code, rng, pos)``."""
+    pred, ctx, bctx, sctx, mx, q0, q1, q2, q3, q4, q5, pb, lq = _predict_mix(
+        v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, held, tex, mix, lpe, lw
+    )
+    q = _low_class(pred, nlow)
+    res, code, rng, pos = get_residual_mix(data, models, ctx, sctx, q, code, rng, pos, aux, mx, clamp)
+    val = pred + res
+    if res == NO_RESIDUAL or val < 0 or val > hi:
+        return True, held, code, rng, pos
+    v[np.uint64(i)] = val
+    held = _learn(err, perr, r, val, pred, bctx, bias_sum, bias_cnt, bias, q0, q1, q2, q3, q4, q5)
+    _learn_local(lw, ctx, val, pb, lq)
+    return False, held, code, rng, pos
 
 
 def _solve(xtx: np.ndarray, xty: np.ndarray) -> np.ndarray:
@@ -940,10 +995,13 @@ def decode(
     mk = _no_mask(n) if mask is None else np.ascontiguousarray(mask, np.uint8).reshape(-1)
     v = np.empty(n, dtype=np.int64)
     shp = np.array(shape, dtype=np.int64)
-    status = _decode_kernel(
-        buf, mk, np.int64(fill - lo), cf.astype(np.int64), th, shp, np.int64(hi - lo), _nlow(low),
-        np.int64(tex), np.int64(mix), local, localfit.steps(FIT_OFFSETS, shape),
-        *localfit.workspace(shape if local else (1, 1, 1)), v, *_workspace(shape),
-    )  # fmt: skip
+    head = (buf, mk, np.int64(fill - lo), cf.astype(np.int64), th, shp, np.int64(hi - lo), _nlow(low),
+            np.int64(tex), np.int64(mix))  # fmt: skip
+    ws = _workspace(shape)
+    coder = np.zeros(4, np.int64)
+    fit = (localfit.steps(FIT_OFFSETS, shape), *localfit.workspace(shape if local else (1, 1, 1)))
+    status = 4 if local else _decode_plain(*head, *fit, v, *ws, np.int64(HANDOVER), coder)
+    if status == 4:  # the local fit, or the mix's weights near their bound: the general kernel
+        status = _decode_kernel(*head, local, *fit, v, *ws, coder[3], coder)
     check_status(status, "predictive")
     return (v + lo if lo else v).reshape(shape)  # (palette ranks start at 0: no pass)

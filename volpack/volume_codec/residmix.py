@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._jit import kernel
-from .predict import NACT, NSPREAD, activity_class, bitlen
+from .predict import NACT, NLEN, NSPREAD, activity_class, bitlen
 
 RATE_MAX = 8
 NCAP = (1 << RATE_MAX) - 1  # use counts saturate here
@@ -54,7 +54,7 @@ NSETS = NKIND * NGROUP
 NIN = 4
 N_AUX = W_BASE + NSETS * NIN
 W_ONE = 1 << 16
-W_ZERO = 1 << 31  # weights are stored offset by this (with the models' states: one array)
+W_ZERO = 1 << 31  # weights are kept within +-(W_ZERO - 1): one int32 each, beside the states
 SURE = 64512  # model 1 alone from this probability on (of either value)
 LR_SHIFT = 16  # weight step: input x error >> LR_SHIFT
 ST_MAX = 2047  # the mix's stretch is clipped to +-ST_MAX / 256
@@ -81,10 +81,12 @@ SQUASH = _squash_table()
 
 
 def workspace() -> np.ndarray:
-    """Fresh states of models 2-4 (one half, unused), then the weights (model 1 alone)."""
-    aux = np.full(N_AUX, MODEL_INIT, dtype=np.uint32)
-    aux[W_BASE:] = W_ZERO + W_ONE // 4
-    aux[W_BASE::NIN] = W_ZERO + W_ONE // 2
+    """Fresh states of models 2-4 (one half, unused), then the weights (model 1 alone).
+    int32: the states are below 2^24 and the weights signed, loaded as they are (an
+    offset to take off and put back at each was a tenth of a mixed decision's work)."""
+    aux = np.full(N_AUX, MODEL_INIT, dtype=np.int32)
+    aux[W_BASE:] = W_ONE // 4
+    aux[W_BASE::NIN] = W_ONE // 2
     return aux
 
 
@@ -159,45 +161,80 @@ def _st(st):
 
 @kernel(inline=True)
 def _w(aux, k):
-    return np.int64(aux[np.uint64(k)]) - W_ZERO
+    return np.int64(aux[np.uint64(k)])
 
 
 @kernel(inline=True)
-def _step(aux, k, s, e):
-    """Weight ``k`` moved by input ``s`` times error ``e`` (kept within the word)."""
-    w = _w(aux, k) + ((s * e) >> LR_SHIFT)
-    aux[np.uint64(k)] = min(max(w, 1 - W_ZERO), W_ZERO - 1) + W_ZERO
+def _step(aux, k, w, s, e, clamp):
+    """Weight ``k`` (now ``w``) moved by input ``s`` times error ``e``, kept within
+    +-(W_ZERO - 1) where ``clamp`` (a constant of the kernel): a caller that knows
+    the weights are far enough inside (:func:`room`) leaves the bound out."""
+    w += (s * e) >> LR_SHIFT
+    if clamp:
+        w = min(max(w, 1 - W_ZERO), W_ZERO - 1)
+    aux[np.uint64(k)] = w
 
 
 @kernel(inline=True)
 def mix(p1, aux, mx, slot, kind):
-    """The mixed probability of a 0 and what :func:`learn` needs:
-    ``(p, s1, s2, s3, s4, w index)``."""
+    """The mixed probability of a 0 and what :func:`learn` needs: ``(p, s1, s2, s3, s4,
+    w index, the four weights, models 2-4's states)`` (handed over rather than loaded
+    again: the decoder is bound by its instructions a decision)."""
     s1 = np.int64(STRETCH[np.uint64(p1 >> 4)])
-    s2 = _st(aux[np.uint64(mx[0] + slot)])
-    s3 = _st(aux[np.uint64(mx[1] + slot)])
-    s4 = _st(aux[np.uint64(mx[2] + slot)])
+    t2 = np.int64(aux[np.uint64(mx[0] + slot)])
+    t3 = np.int64(aux[np.uint64(mx[1] + slot)])
+    t4 = np.int64(aux[np.uint64(mx[2] + slot)])
+    s2 = _st(t2)
+    s3 = _st(t3)
+    s4 = _st(t4)
     wb = W_BASE + (kind * NGROUP + mx[3]) * NIN
-    dot = _w(aux, wb) * s1 + _w(aux, wb + 1) * s2 + _w(aux, wb + 2) * s3 + _w(aux, wb + 3) * s4
+    w1 = _w(aux, wb)
+    w2 = _w(aux, wb + 1)
+    w3 = _w(aux, wb + 2)
+    w4 = _w(aux, wb + 3)
+    dot = w1 * s1 + w2 * s2 + w3 * s3 + w4 * s4
     t = min(max(dot >> 16, -ST_MAX), ST_MAX)
-    return np.int64(SQUASH[np.uint64(t + ST_MAX)]), s1, s2, s3, s4, wb
+    p = np.int64(SQUASH[np.uint64(t + ST_MAX)])
+    return p, (s1, s2, s3, s4, wb, w1, w2, w3, w4, t2, t3, t4)
 
 
 @kernel(inline=True)
-def _learn_model(aux, k, mask):
-    st = np.int64(aux[np.uint64(k)])
+def _learn_model(aux, k, st, mask):
     aux[np.uint64(k)] = adapted(st >> 8, st & 255, mask)
 
 
 @kernel(inline=True)
-def learn(aux, mx, slot, p, s1, s2, s3, s4, wb, mask):
-    """After the bit (``mask`` -1 for a 1, 0 for a 0) coded with :func:`mix`'s ``p``:
-    the weights step along the error, models 2-4 adapt."""
+def learn(aux, mx, slot, p, held, mask, clamp):
+    """After the bit (``mask`` -1 for a 1, 0 for a 0) coded with :func:`mix`'s ``p`` and
+    ``held``: the weights step along the error (``clamp``: as :func:`_step`), models
+    2-4 adapt."""
+    s1, s2, s3, s4, wb, w1, w2, w3, w4, t2, t3, t4 = held
     e = ((mask + 1) << 16) - p
-    _step(aux, wb, s1, e)
-    _step(aux, wb + 1, s2, e)
-    _step(aux, wb + 2, s3, e)
-    _step(aux, wb + 3, s4, e)
-    _learn_model(aux, mx[0] + slot, mask)
-    _learn_model(aux, mx[1] + slot, mask)
-    _learn_model(aux, mx[2] + slot, mask)
+    _step(aux, wb, w1, s1, e, clamp)
+    _step(aux, wb + 1, w2, s2, e, clamp)
+    _step(aux, wb + 2, w3, s3, e, clamp)
+    _step(aux, wb + 3, w4, s4, e, clamp)
+    _learn_model(aux, mx[0] + slot, t2, mask)
+    _learn_model(aux, mx[1] + slot, t3, mask)
+    _learn_model(aux, mx[2] + slot, t4, mask)
+
+
+# The bound of the weights is two selects on each of four weights a mixed decision, on
+# the chain from one voxel's decisions to the next's: 6-10 % of the mixed decoder's time
+# (measured). It can only act on a weight within DELTA_MAX * STEPS_MAX * n of it after n
+# voxels: a step moves a weight by at most DELTA_MAX (the largest stretch times the
+# largest error, 65536 - P_MIN, over 2^16, rounded up), a voxel steps one set of weights
+# at most STEPS_MAX times (its decisions: zero flag, sign, NLEN - 1 length bits, two
+# mantissa bits).
+DELTA_MAX = (int(np.abs(STRETCH).max()) * (65536 - P_MIN) >> LR_SHIFT) + 1
+STEPS_MAX = NLEN + 3
+
+
+@kernel(inline=True)
+def room(aux):
+    """How many voxels the weights can be stepped without their bound (it cannot act
+    within them): 0 or more."""
+    m = np.int64(0)
+    for k in range(W_BASE, N_AUX):
+        m = max(m, abs(np.int64(aux[np.uint64(k)])))
+    return max(W_ZERO - 1 - m, 0) // (DELTA_MAX * STEPS_MAX)
