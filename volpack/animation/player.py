@@ -153,14 +153,17 @@ def _kind(source: str) -> str | None:
     """The ``.vpk`` kind of ``source`` from its header alone, read forward (a truncated
     animation still plays up to its damage); None for another (readable) file, and
     ``"animation"`` where the header cannot be read (the animation reader then says why)."""
-    if source == "-":
-        from ..api import kind_of
-
-        return kind_of(source)
     from ..format.container import MAGIC, Reader, is_vpk
+    from ..format.streams import vpk_kind
+    from ..io import parse_spec
 
+    path = parse_spec(source)[0] if source != "-" else source
+    if os.path.isdir(path):  # a folder of slices
+        return None
     try:
-        with open(source, "rb") as f:
+        if source == "-":  # peeked at, not consumed
+            return vpk_kind(source)
+        with open(path, "rb") as f:
             if not is_vpk(f.read(len(MAGIC))):
                 return None
             f.seek(0)
@@ -175,9 +178,9 @@ def series(source: str) -> Iterator[tuple[np.ndarray, FrameStats, dict]]:
     too) or any volume file volpack reads; ``stats.type`` is ``"volume"`` and its
     ``nbytes`` the time step's share of the payload (of the file read, for other files);
     ``header`` the ``.vpk``'s (``{}`` for other files)."""
-    from ..api import kind_of, read_volume
+    from ..io import read_volume
 
-    kind = kind_of(source)
+    kind = _kind(source)
     if kind not in (None, "volume"):
         raise FormatError(
             f"expected an animation or a 4-D (t, z, y, x) series, found a .vpk of kind {kind!r}"
