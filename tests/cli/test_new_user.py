@@ -85,12 +85,22 @@ def test_a_full_disk_names_the_output(npy, tmp_path, monkeypatch):
 
 
 def test_play_of_a_vpk_of_another_kind_says_so(tmp_path):
-    # it listed the animation header's keys against the volume header's
+    # it listed the animation header's keys against the volume header's; since session 32
+    # a 4-D volume plays its time steps, and a 3-D one is refused with a pointer to render
     r = run("play", VOLUME_VPK, tmp_path / "p.gif")
     assert r.exit_code == 1
-    assert one_error_line(r) == (
-        f"volpack: error: {VOLUME_VPK}: expected an animation .vpk (kind 'animation'), "
-        "found kind 'volume'; build one with --gop IPPP"
+    line = one_error_line(r)
+    assert line.startswith(
+        "volpack: error: expected an animation or a 4-D (t, z, y, x) series to play, found a "
+        "volume of shape ["
+    ) and line.endswith(
+        f"in {VOLUME_VPK} (to turn about it: volpack render SOURCE OUT_DIR --orbit N)"
+    )
+    octree = EXAMPLES / "octree-bounded-u8.vpk"
+    r = run("play", octree, tmp_path / "p.gif")
+    assert r.exit_code == 1 and one_error_line(r) == (
+        "volpack: error: expected an animation or a 4-D (t, z, y, x) series, found a .vpk of "
+        f"kind 'octree' in {octree} (volpack render draws it)"
     )
     assert os.listdir(tmp_path) == []
 
@@ -218,9 +228,14 @@ def test_play_and_walk_of_a_file_of_another_format_name_the_format(npy, tmp_path
     # they answered with the container's magic bytes: "expected the vpk magic
     # b'VPK\x00\r\n\x1a\n', found b'\x93NUMPY\x01\x00'" (user27's finding 14)
     r = run(command, npy, tmp_path / "o.gif")
+    # play takes any 4-D volume file since session 32 (this one is 3-D: refused)
     assert r.exit_code == 1 and one_error_line(r) == (
         f"volpack: error: expected a .vpk file, found the npy file '{npy}' "
         "(volpack convert and volpack compress read it)"
+        if command == "walk"
+        else "volpack: error: expected an animation or a 4-D (t, z, y, x) series to play, found "
+        f"a volume of shape [4, 5, 6] in {npy} (to turn about it: volpack render SOURCE OUT_DIR "
+        "--orbit N)"
     )
     assert sorted(os.listdir(tmp_path)) == ["a.npy"]
 

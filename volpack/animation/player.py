@@ -183,7 +183,8 @@ def series(source: str) -> Iterator[tuple[np.ndarray, FrameStats, dict]]:
     kind = _kind(source)
     if kind not in (None, "volume"):
         raise FormatError(
-            f"expected an animation or a 4-D (t, z, y, x) series, found a .vpk of kind {kind!r}"
+            f"expected an animation or a 4-D (t, z, y, x) series, found a .vpk of kind {kind!r} "
+            f"in {source} (volpack render draws it)"
         )
     t0 = time.perf_counter()
     if kind is None:  # another volume file: read whole
