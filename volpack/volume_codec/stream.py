@@ -53,12 +53,13 @@ LOSSY_KEYS = ("max_error", "rel_error", "psnr", "ratio", "quality", "threshold")
 
 def make_codec(codec: str = "auto", dtype: Any = None, **options: Any):
     """Choose the brick codec: ``auto`` takes the lossless codec (per brick the wavelet,
-    3-D prediction, labels or float prediction) for the 8/16/32-bit integers and
-    floats it codes exactly, and byte-shuffled zstd for the rest (64-bit integers)."""
-    from .lossless import EXACT_FLOATS
+    3-D prediction, labels or float prediction) for the integers and floats it codes
+    exactly (64-bit integers: zstd, palettes and labels), and byte-shuffled zstd for the
+    rest."""
+    from .lossless import EXACT_FLOATS, LONG_INTS
 
     if codec == "auto":
-        known = dtype is None or np.dtype(dtype).name in WAVELET_DTYPES + EXACT_FLOATS
+        known = dtype is None or np.dtype(dtype).name in WAVELET_DTYPES + LONG_INTS + EXACT_FLOATS
         codec = "lossless" if known else "zstd"
     if codec in ("lossless", "wavelet"):
         from .floatwave import FLOAT_WAVELETS
@@ -183,7 +184,8 @@ def compress(
         standard output, or an open binary file.
     codec : {"auto", "lossless", "fast", "wavelet", "zstd"}
         ``auto``: the ``lossless`` codec (per brick the wavelet, 3-D prediction, labels
-        or float prediction) for 8/16/32-bit integers and floats, zstd for 64-bit integers.
+        or float prediction) for integers and floats (64-bit integers: byte-shuffled zstd,
+        palettes and labels per brick).
         ``fast``: lossless, decoding several times faster at a lower ratio
         (:class:`volpack.volume_codec.fast.FastCodec`).
     wavelet, coder, order, max_levels

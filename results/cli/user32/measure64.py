@@ -1,0 +1,94 @@
+"""64-bit integer volumes: the default before (byte-shuffled zstd, which `auto` chose for
+64-bit integers up to a8c186a: codec='zstd' here) against the default now, in one process,
+interleaved, best of N by CPU time; every stream decoded and compared bit for bit.
+
+    PYTHONPATH=. python results/cli/user32/measure64.py VOLDIR OUT.csv [N]
+
+VOLDIR holds make.py's seg_u64.npy and aal_u64.npy; the held-out volumes are made here
+(seeds and sources not used while the change was written).
+"""
+
+from __future__ import annotations
+
+import csv
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "scripts"))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from datasets import load  # noqa: E402
+from make import voronoi_labels  # noqa: E402
+
+from volpack import api  # noqa: E402
+
+
+def heldout():
+    """Volumes of the same kind made after the change: another segmentation (denser, ids
+    below 2^40, another seed and shape), a real label atlas as int64 ids, and real scans
+    as numpy's default int64."""
+    rng = np.random.default_rng(2032)
+    out = {}
+    out["seg2_u64"] = voronoi_labels((64, 192, 192), 12000, rng, np.uint64, 2**40)
+    lab, _, _ = load("frog_labels")
+    ids = np.random.default_rng(11).choice(2**31, size=int(lab.max()) + 1, replace=False)
+    out["frog_i64"] = ids.astype(np.int64)[lab]
+    ct, _, _ = load("ct_head")
+    out["ct_i64"] = ct.astype(np.int64)
+    mri, _, _ = load("mri_ch2")
+    out["ch2_i64"] = mri.astype(np.int64)
+    return out
+
+
+def cpu(f, n):
+    best, res = None, None
+    for _ in range(n):
+        t = time.process_time()
+        res = f()
+        dt = time.process_time() - t
+        best = dt if best is None else min(best, dt)
+    return best, res
+
+
+def main(voldir: Path, out_csv: Path, n: int) -> None:
+    vols = {k: np.load(voldir / f"{k}.npy") for k in ("seg_u64", "aal_u64")}
+    vols.update(heldout())
+    api.compress_array(np.arange(4096, dtype=np.uint64).reshape(16, 16, 16) % 7)  # warm
+    rows = []
+    for name, a in vols.items():
+        row = {"volume": name, "dtype": str(a.dtype), "shape": "x".join(map(str, a.shape)),
+               "raw_mb": round(a.nbytes / 1e6, 2)}
+        enc = {"before": [], "after": []}
+        blobs = {}
+        for _ in range(n):  # interleaved
+            for tag, opts in (("before", {"codec": "zstd"}), ("after", {})):
+                t, blob = cpu(lambda: api.compress_array(a, **opts), 1)
+                enc[tag].append(t)
+                blobs[tag] = blob
+        for tag in ("before", "after"):
+            blob = blobs[tag]
+            dt, back = cpu(lambda: api.decompress_array(blob), n)
+            assert back.dtype == a.dtype and back.tobytes() == a.tobytes(), (name, tag)
+            row[f"{tag}_bytes"] = len(blob)
+            row[f"{tag}_ratio"] = round(a.nbytes / len(blob), 3)
+            row[f"{tag}_enc_cpu_s"] = round(min(enc[tag]), 3)
+            row[f"{tag}_dec_cpu_s"] = round(dt, 3)
+        row["gain"] = round(row["before_bytes"] / row["after_bytes"], 3)
+        if a.dtype.itemsize == 8 and int(a.min()) >= 0 and int(a.max()) < 2**32:
+            u32 = a.astype(np.uint32)
+            row["as_uint32_ratio"] = round(a.nbytes / len(api.compress_array(u32)), 3)
+        print(row, flush=True)
+        rows.append(row)
+        keys = []
+        for r in rows:
+            keys += [k for k in r if k not in keys]
+        with open(out_csv, "w", newline="") as f:
+            w = csv.DictWriter(f, keys)
+            w.writeheader()
+            w.writerows(rows)
+
+
+if __name__ == "__main__":
+    main(Path(sys.argv[1]), Path(sys.argv[2]), int(sys.argv[3]) if len(sys.argv) > 3 else 2)
