@@ -188,6 +188,9 @@ LOSSLESS_CASES = [
     ("lossless-interleaved-u8", "series-u8", {"interleave": True}),
     # 64-bit integers (session 32): uint64 label ids, one past 2^63, and a wide corner
     ("lossless-labels-u64", "labels-u64", {}),
+    # a (z, y, x, c) colour volume stored as the series of its channels (header
+    # "channels": "last"; session 32), the channels interleaved
+    ("lossless-channels-rgb-u8", "rgb-u8", {"brick": 32}),
 ]
 
 
@@ -226,6 +229,9 @@ def lossless_source(recipe: str):
         t = np.arange(4).reshape(4, 1, 1, 1)
         z, y, x = np.indices(cut.shape)
         return np.minimum(cut + ((x + 2 * y + 3 * t) % 5 == 0) * t, 255).astype(np.uint8)
+    if recipe == "rgb-u8":  # the cut through a colour map: (z, y, x, 3), RGB last
+        cut = wavelet_source("u8").astype(np.float64) / 255
+        return (np.stack([cut**0.6, cut, cut**1.6], -1) * 255).astype(np.uint8)
     if recipe == "labels-u64":  # the label cut as uint64 ids, a corner of wide values
         lab = np.digitize(wavelet_source("u8"), [40, 90])
         lab[:16, :16, :16] = 0

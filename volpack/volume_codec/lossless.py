@@ -234,6 +234,8 @@ class LosslessCodec(BrickCodec):
 
     def encode(self, brick: np.ndarray) -> bytes:
         brick = as_brick(brick, check_dtype)
+        if brick.dtype == np.bool_:  # a mask: coded as its bytes, 0 and 1 (uint8's payload)
+            return self.encode(brick.view(np.uint8))
         raw = _as_stored(brick)
         flat = brick.reshape(-1)
         bits = flat.view(f"u{brick.itemsize}")
@@ -364,6 +366,11 @@ class LosslessCodec(BrickCodec):
     def decode(self, data: bytes | memoryview, shape: tuple[int, ...], dtype: Any) -> np.ndarray:
         dtype = np.dtype(dtype)
         check_dtype(dtype)
+        if dtype == np.bool_:
+            out = self.decode(data, shape, np.uint8)
+            if out.size and out.max() > 1:
+                raise FormatError("lossless bool brick payload: a value other than 0 and 1")
+            return out.view(np.bool_)
         mode, body = split_mode(data, "lossless")
         if mode == MODE_FLOAT and dtype.kind == "f":
             return self._decode_float(body, tuple(shape), dtype)
@@ -388,9 +395,9 @@ def check_dtype(dtype: np.dtype) -> None:
     dtype = np.dtype(dtype)
     if dtype in _ACCEPTED:  # every brick's decoder asks; ``dtype.name`` costs 5-10 us
         return
-    if dtype.name not in WAVELET_DTYPES + LONG_INTS + EXACT_FLOATS:
+    if dtype.name not in WAVELET_DTYPES + LONG_INTS + EXACT_FLOATS + ("bool",):
         raise FormatError(
-            f"the lossless codec takes {', '.join(WAVELET_DTYPES + LONG_INTS + EXACT_FLOATS)} voxels, "
+            f"the lossless codec takes {', '.join(WAVELET_DTYPES + LONG_INTS + EXACT_FLOATS)} or bool voxels, "
             f"found {np.dtype(dtype)}; use codec='zstd' for this dtype"
         )
     _ACCEPTED.add(dtype)

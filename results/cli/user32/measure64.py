@@ -1,8 +1,11 @@
 """64-bit integer volumes: the default before (byte-shuffled zstd, which `auto` chose for
-64-bit integers up to a8c186a: codec='zstd' here) against the default now, in one process,
-interleaved, best of N by CPU time; every stream decoded and compared bit for bit.
+64-bit integers up to a8c186a, with auto's brick: codec='zstd' and that brick here)
+against the default now, in one process, interleaved, best of N by CPU time; every stream
+decoded and compared bit for bit. With BASE (a folder holding a8c186a's volpack/), the
+base's own default stream is also made in a subprocess and its length recorded
+(base_bytes: it must equal before_bytes).
 
-    PYTHONPATH=. python results/cli/user32/measure64.py VOLDIR OUT.csv [N]
+    PYTHONPATH=. python results/cli/user32/measure64.py VOLDIR OUT.csv [N [BASE]]
 
 VOLDIR holds make.py's seg_u64.npy and aal_u64.npy; the held-out volumes are made here
 (seeds and sources not used while the change was written).
@@ -11,6 +14,8 @@ VOLDIR holds make.py's seg_u64.npy and aal_u64.npy; the held-out volumes are mad
 from __future__ import annotations
 
 import csv
+import os
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -23,6 +28,17 @@ from datasets import load  # noqa: E402
 from make import voronoi_labels  # noqa: E402
 
 from volpack import api  # noqa: E402
+from volpack.volume_codec.bricks import default_brick  # noqa: E402
+
+
+def base_bytes(base: str, a: np.ndarray, tmp: Path) -> int:
+    np.save(tmp, a)
+    code = "import sys, numpy as np, volpack; print(len(volpack.compress_array(np.load(sys.argv[1]))))"
+    env = {**os.environ, "PYTHONPATH": base}
+    out = subprocess.run([sys.executable, "-c", code, str(tmp)], env=env, check=True,
+                         capture_output=True, text=True, cwd=base)
+    tmp.unlink()
+    return int(out.stdout.split()[-1])
 
 
 def heldout():
@@ -52,7 +68,7 @@ def cpu(f, n):
     return best, res
 
 
-def main(voldir: Path, out_csv: Path, n: int) -> None:
+def main(voldir: Path, out_csv: Path, n: int, base: str | None) -> None:
     vols = {k: np.load(voldir / f"{k}.npy") for k in ("seg_u64", "aal_u64")}
     vols.update(heldout())
     api.compress_array(np.arange(4096, dtype=np.uint64).reshape(16, 16, 16) % 7)  # warm
@@ -63,19 +79,22 @@ def main(voldir: Path, out_csv: Path, n: int) -> None:
         enc = {"before": [], "after": []}
         blobs = {}
         for _ in range(n):  # interleaved
-            for tag, opts in (("before", {"codec": "zstd"}), ("after", {})):
-                t, blob = cpu(lambda: api.compress_array(a, **opts), 1)
+            old = {"codec": "zstd", "brick": default_brick(a.shape, a.dtype, False, "auto")}
+            for tag, opts in (("before", old), ("after", {})):
+                t, blob = cpu(lambda a=a, o=opts: api.compress_array(a, **o), 1)
                 enc[tag].append(t)
                 blobs[tag] = blob
         for tag in ("before", "after"):
             blob = blobs[tag]
-            dt, back = cpu(lambda: api.decompress_array(blob), n)
+            dt, back = cpu(lambda b=blob: api.decompress_array(b), n)
             assert back.dtype == a.dtype and back.tobytes() == a.tobytes(), (name, tag)
             row[f"{tag}_bytes"] = len(blob)
             row[f"{tag}_ratio"] = round(a.nbytes / len(blob), 3)
             row[f"{tag}_enc_cpu_s"] = round(min(enc[tag]), 3)
             row[f"{tag}_dec_cpu_s"] = round(dt, 3)
         row["gain"] = round(row["before_bytes"] / row["after_bytes"], 3)
+        if base:
+            row["base_bytes"] = base_bytes(base, a, Path(base) / f"{name}.tmp.npy")
         if a.dtype.itemsize == 8 and int(a.min()) >= 0 and int(a.max()) < 2**32:
             u32 = a.astype(np.uint32)
             row["as_uint32_ratio"] = round(a.nbytes / len(api.compress_array(u32)), 3)
@@ -91,4 +110,5 @@ def main(voldir: Path, out_csv: Path, n: int) -> None:
 
 
 if __name__ == "__main__":
-    main(Path(sys.argv[1]), Path(sys.argv[2]), int(sys.argv[3]) if len(sys.argv) > 3 else 2)
+    args = sys.argv[1:]
+    main(Path(args[0]), Path(args[1]), int(args[2]) if len(args) > 2 else 2, args[3] if len(args) > 3 else None)
