@@ -130,3 +130,20 @@ def test_golden_channels_stream_decodes_and_is_reproduced():
     with Reader(blob) as old, Reader(again) as new:
         assert old.header == new.header
         assert [(t, n, p) for t, n, p in old] == [(t, n, p) for t, n, p in new]
+
+
+def test_complex_and_2d_arrays_are_refused_with_what_to_do(tmp_path):
+    from volpack import io as vio
+
+    k = np.fft.fftn(rgb()[..., 0].astype(np.float32)).astype(np.complex64)
+    np.save(tmp_path / "k.npy", k)
+    with pytest.raises(FormatError, match=r"two channels, np.stack\(\[a.real, a.imag\], -1\)"):
+        vio.read_volume(str(tmp_path / "k.npy"))
+    parts = np.stack([k.real, k.imag], -1)  # what the message says: a (z, y, x, 2) volume
+    blob = api.compress_array(parts)
+    assert header(blob)["channels"] == "last"
+    back = api.decompress_array(blob)
+    assert back.tobytes() == parts.tobytes()
+    np.save(tmp_path / "flat.npy", rgb()[0, :, :, 0])
+    with pytest.raises(FormatError, match=r"a volume of one slice: a\[None\]"):
+        vio.read_volume(str(tmp_path / "flat.npy"))

@@ -1,6 +1,6 @@
 """Run each volume of make.py through the command line as a user would.
 
-    PYTHONPATH=. python results/cli/user32/run.py DIR OUT.csv [NAMES...]
+    PYTHONPATH=. python results/cli/user32/run.py DIR OUT.csv [--no-peers] [NAMES...]
 
 Per volume: `volpack compress F F.vpk` (time, ratio), `volpack info F.vpk`,
 `volpack decompress F.vpk back.npy` compared bit for bit with F, then `volpack compare F
@@ -45,7 +45,7 @@ def best_peer(js):
     return d.get("ratio"), (best["name"] if best else ""), (best["ratio"] if best else None)
 
 
-def main(folder: Path, out_csv: Path, names: list[str]) -> None:
+def main(folder: Path, out_csv: Path, names: list[str], peers: bool = True) -> None:
     names = names or [ln.split("\t")[0] for ln in (folder / "volumes.txt").read_text().splitlines()]
     work = folder / "out"
     work.mkdir(exist_ok=True)
@@ -55,6 +55,8 @@ def main(folder: Path, out_csv: Path, names: list[str]) -> None:
         a = np.load(src)
         row = {"volume": name, "dtype": str(a.dtype), "shape": "x".join(map(str, a.shape))}
         vpk = work / f"{name}.vpk"
+        vpk.unlink(missing_ok=True)  # (a run again: compress refuses to overwrite)
+        (work / f"{name}_back.npy").unlink(missing_ok=True)
         rc, o, e, t = run(["compress", str(src), str(vpk)])
         row["compress_s"] = round(t, 2)
         row["compress_rc"] = rc
@@ -64,8 +66,8 @@ def main(folder: Path, out_csv: Path, names: list[str]) -> None:
             row["info_rc"] = rc
             if rc == 0:
                 info = json.loads(o)
-                row["info_shape"] = "x".join(map(str, info.get("shape", [])))
-                row["info_dtype"] = info.get("dtype")
+                row["info_shape"] = "x".join(map(str, info["header"]["shape"]))
+                row["info_dtype"] = info["header"]["dtype"]
             back = work / f"{name}_back.npy"
             rc, o, e3, t = run(["decompress", str(vpk), str(back)])
             row["decompress_s"] = round(t, 2)
@@ -77,6 +79,11 @@ def main(folder: Path, out_csv: Path, names: list[str]) -> None:
                 row["roundtrip"] = "decompress failed: " + first_error(e3)
         else:
             row["error"] = first_error(e)
+        if not peers:
+            rows.append(row)
+            print(row, flush=True)
+            write(rows, out_csv)
+            continue
         rc, o, e, t = run(["compare", str(src), "--peers", "--json"])
         row["compare_s"] = round(t, 1)
         if rc == 0:
@@ -97,14 +104,19 @@ def main(folder: Path, out_csv: Path, names: list[str]) -> None:
                 row["lossy_error"] = first_error(e)
         print(row, flush=True)
         rows.append(row)
-        keys = []
-        for r in rows:
-            keys += [k for k in r if k not in keys]
-        with open(out_csv, "w", newline="") as f:
-            w = csv.DictWriter(f, keys)
-            w.writeheader()
-            w.writerows(rows)
+        write(rows, out_csv)
+
+
+def write(rows, out_csv):
+    keys = []
+    for r in rows:
+        keys += [k for k in r if k not in keys]
+    with open(out_csv, "w", newline="") as f:
+        w = csv.DictWriter(f, keys)
+        w.writeheader()
+        w.writerows(rows)
 
 
 if __name__ == "__main__":
-    main(Path(sys.argv[1]), Path(sys.argv[2]), sys.argv[3:])
+    args = [a for a in sys.argv[3:] if a != "--no-peers"]
+    main(Path(sys.argv[1]), Path(sys.argv[2]), args, "--no-peers" not in sys.argv)
