@@ -306,7 +306,7 @@ def compress(
 
         exact, known_range = exact_bound(vol, asked, fill_value, effort)
         if exact:
-            log.info("an error bound under 1 on integer voxels: coded exactly")
+            log.info("an error bound only exact coding meets: coded exactly")
             asked = {}
     data = vol.data
     # a layout for exact coding and error bounds; a PSNR, ratio or quality target is
