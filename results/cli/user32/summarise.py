@@ -1,6 +1,7 @@
-"""Print the markdown table of run.py's CSV (the command line on every volume).
+"""Print the markdown table of run.py's CSVs (the command line on every volume); a row
+of a later CSV replaces the same volume's row of an earlier one (volumes run again).
 
-    python results/cli/user32/summarise.py results/cli/user32/after.csv
+    python results/cli/user32/summarise.py results/cli/user32/after.csv [MORE.csv ...]
 """
 
 from __future__ import annotations
@@ -14,11 +15,14 @@ def cell(r, k, fmt="{}"):
     return fmt.format(float(v)) if v and fmt != "{}" else v
 
 
-def main(path: str) -> None:
+def main(paths: list[str]) -> None:
+    rows: dict[str, dict] = {}
+    for path in paths:
+        rows.update({r["volume"]: r for r in csv.DictReader(open(path))})
     print("| volume | dtype, shape | compress s | ratio | round trip | best peer (ratio) | x best peer |"
           " --rel-error 1e-3: ratio, x best peer (peer) |")
     print("|---|---|---:|---:|---|---|---:|---|")
-    for r in csv.DictReader(open(path)):
+    for r in rows.values():
         if r.get("compress_rc") not in ("0", None):
             err = r.get("error", "").replace("volpack: error: ", "")
             print(f"| {r['volume']} | {r['dtype']} {r['shape']} | - | - | refused: {err} | | | |")
@@ -38,4 +42,4 @@ def main(path: str) -> None:
 
 
 if __name__ == "__main__":
-    main(sys.argv[1])
+    main(sys.argv[1:])
