@@ -347,10 +347,10 @@ def sz3_decode(blob: Any, dtype: Any, shape: Sequence[int]) -> np.ndarray:
 
 
 # SPERR (imagecodecs 2026.3.6) ends the process with a segmentation fault on a field with
-# one value of 1e30 at any bound, of 1e22 at a bound of 1e19, of 1e17 at 1e-3, or 1e16 at
-# 1e-4 (session 32: a smooth field with one outlier voxel; 1e20 at 1e17 and 1e16 at 1e-3
-# passed). It is not called past ten times below those: the largest magnitude at most
-# SPERR_MAX, and at most SPERR_SPAN times the bound.
+# one value of 1e30 at a bound of 1e-3 or 1e27, of 1e22 at 1e19, of 1e17 at 1e-3, or of
+# 1e16 at 1e-4 (session 32: a smooth field with one outlier voxel; 1e20 at 1e17 and 1e16
+# at 1e-3 passed). It is not called past ten times below those: the largest magnitude at
+# most SPERR_MAX, and at most SPERR_SPAN times the bound.
 SPERR_MAX = 1e20
 SPERR_SPAN = 1e19
 
