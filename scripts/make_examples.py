@@ -186,6 +186,11 @@ LOSSLESS_CASES = [
     ("lossless-v10-f32-fit-box", "f32-wide", {"brick": 64, "predict_version": 10}),
     # a 4-D series with its time steps interleaved (header "layout": "interleaved")
     ("lossless-interleaved-u8", "series-u8", {"interleave": True}),
+    # 64-bit integers (session 32): uint64 label ids, one past 2^63, and a wide corner
+    ("lossless-labels-u64", "labels-u64", {}),
+    # a (z, y, x, c) colour volume stored as the series of its channels (header
+    # "channels": "last"; session 32), the channels interleaved
+    ("lossless-channels-rgb-u8", "rgb-u8", {"brick": 32}),
 ]
 
 
@@ -224,6 +229,16 @@ def lossless_source(recipe: str):
         t = np.arange(4).reshape(4, 1, 1, 1)
         z, y, x = np.indices(cut.shape)
         return np.minimum(cut + ((x + 2 * y + 3 * t) % 5 == 0) * t, 255).astype(np.uint8)
+    if recipe == "rgb-u8":  # the cut through a colour map: (z, y, x, 3), RGB last
+        cut = wavelet_source("u8").astype(np.float64) / 255
+        return (np.stack([cut**0.6, cut, cut**1.6], -1) * 255).astype(np.uint8)
+    if recipe == "labels-u64":  # the label cut as uint64 ids, a corner of wide values
+        lab = np.digitize(wavelet_source("u8"), [40, 90])
+        lab[:16, :16, :16] = 0
+        out = np.array([0, 2**63 + 12345, 9876543210987], np.uint64)[lab]
+        corner = wavelet_source("u8")[16:, 16:, 16:].astype(np.uint64)
+        out[16:, 16:, 16:] = (corner << np.uint64(40)) + 7
+        return out
     if recipe == "v5-u8-floor":  # the head over a noise floor of small values, 1 rare
         return noise_floor(lossless_source("v2-u8-background"))
     if recipe.startswith("v2-"):  # 32^3 cuts of the bundled MRI: head and background, tissue

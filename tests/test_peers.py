@@ -105,3 +105,19 @@ def test_compare_peers_leaves_bounded_peers_out_of_nan_volumes():
     a[0, 0, 0] = np.nan
     rows, skipped = compare_peers(a, 0.01)
     assert rows == [] and "NaN, Inf or fill voxels" in skipped[0]
+
+
+@pytest.mark.parametrize("outlier, bound", [(1e30, 1e27), (1e18, 1e-3)])
+def test_sperr_is_not_run_where_it_would_crash_the_process(outlier, bound):
+    """Session 32: one voxel of 1e30 in a smooth field made `volpack compare --rel-error
+    1e-3 --peers` end in a segmentation fault inside SPERR (so did 1e18 at a bound of
+    1e-3): now SPERR is left out with a line, and the other peers run."""
+    pytest.importorskip("imagecodecs")
+    a = smooth_volume((16, 20, 24), np.int16).astype(np.float32)
+    a[3, 4, 5] = outlier
+    rows, skipped = compare_peers(a, max_error=bound)
+    assert any(s.startswith("sperr: failed") and "crashes the process" in s for s in skipped), (
+        skipped
+    )
+    assert "sperr" not in {r["name"] for r in rows}
+    assert rows  # zfp and SZ3 still ran

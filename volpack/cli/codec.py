@@ -341,7 +341,12 @@ def _volume_line(target: str, stats: dict) -> str:
         f"{accuracy(stats)}, "
         f"{fmt_speed(stats['mb_per_s'], stats['seconds'])} "
         f"({stats['bricks']} {plural('brick', stats['bricks'])}, {w} {plural('worker', w)}"
-        + (", time steps interleaved)" if stats.get("layout") else ")")
+        + (", the last axis as channels" if stats.get("channels") else "")
+        + (
+            f", {'channels' if stats.get('channels') else 'time steps'} interleaved)"
+            if stats.get("layout")
+            else ")"
+        )
     )
 
 

@@ -154,6 +154,11 @@ def _human(d: dict, chunks: bool) -> str:
             else []
         ),
         *(
+            [["channels", "last: (z, y, x, c), stored as the series of its channels"]]
+            if h.get("channels") == "last"
+            else []
+        ),
+        *(
             [["layout", "time steps interleaved: slices stored in (z, t) order"]]
             if h.get("layout") == "interleaved"
             else []

@@ -284,8 +284,8 @@ def parse_brick(value: str | None) -> int | tuple[int, int, int] | None:
 codec_options = options(
     option("--codec",
            "auto: lossless (per brick, the wavelet, 3-D prediction with a palette, labels or "
-           "float prediction) for 8/16/32-bit integers and floats, byte-shuffled zstd "
-           "for 64-bit integers. fast: lossless too, decoding several times faster (MED-style "
+           "float prediction) for integers and floats (64-bit integers: byte-shuffled zstd, "
+           "palettes and labels). fast: lossless too, decoding several times faster (MED-style "
            "prediction and table-driven rANS) at a few per cent less ratio.",
            ["auto", "lossless", "fast", "wavelet", "zstd"], "auto"),
     option("--wavelet",

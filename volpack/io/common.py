@@ -57,17 +57,28 @@ def check_voxels(shape: tuple[int, ...], max_voxels: int, where: str) -> None:
         )
 
 
+# What a user can do with the arrays volpack does not store as they are (session 32)
+COMPLEX_HINT = (
+    "; store the real and imaginary parts as two channels, np.stack([a.real, a.imag], -1)"
+    " (a (z, y, x, 2) volume)"
+)
+FLAT_HINT = "; a 2-D image is a volume of one slice: a[None] (shape (1, y, x))"
+
+
 def as_volume_array(arr: np.ndarray, meta: dict, where: str) -> np.ndarray:
     """Make ``arr`` 3-D or 4-D, native byte order, C-contiguous and of a supported type."""
     arr = np.asarray(arr)
     if arr.dtype.kind not in "biuf":  # bool stays bool: the codecs store it as it is
-        raise FormatError(f"expected integer or float voxels in {where}, found dtype {arr.dtype}")
+        raise FormatError(
+            f"expected integer or float voxels in {where}, found dtype {arr.dtype}"
+            + COMPLEX_HINT * (arr.dtype.kind == "c")
+        )
     while arr.ndim > 4 and arr.shape[-1] == 1:
         arr = arr[..., 0]
     if arr.ndim not in (3, 4):
         raise FormatError(
             f"expected a 3-D (z, y, x) or 4-D (t, z, y, x) volume in {where}, "
-            f"found shape {arr.shape}"
+            f"found shape {arr.shape}" + FLAT_HINT * (arr.ndim == 2)
         )
     if not arr.dtype.isnative:
         arr = arr.astype(arr.dtype.newbyteorder("="))

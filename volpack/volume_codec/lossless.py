@@ -89,6 +89,12 @@ BLEND_MIN_SAVING = 0.02
 FIT_MAX_GAIN = 0.25
 FIT_MAX_GAIN_BOX = 0.5  # with the box fit (version 10), up to 20 % on the CAM fields
 EXACT_FLOATS = FLOAT_DTYPES + ("float64",)
+# 64-bit integers (connectomics label ids, numpy's default integer) take the raw, zstd and
+# palette payloads (labels, prediction of ranks), and prediction of the values only where
+# they lie in the range 32-bit bricks take: the wavelet and the predictors work in that
+# range. uint64 voxels are read as the int64 of the same bits (their palette order).
+LONG_INTS = ("int64", "uint64")
+NARROW = (-(1 << 31), (1 << 32) - 1)  # the values the predictors of 32-bit voxels span
 FLAG_PALETTE, FLAG_FLOAT, FLAG_SPLIT, FLAG_LABELS, FLAG_FIT, FLAG_MASK = 1, 2, 4, 8, 16, 32
 FLAG_LOW, FLAG_TEX = 64, 128
 # With FIT, the LABELS bit (which FIT excludes) says a second flags byte follows: flags
@@ -228,6 +234,8 @@ class LosslessCodec(BrickCodec):
 
     def encode(self, brick: np.ndarray) -> bytes:
         brick = as_brick(brick, check_dtype)
+        if brick.dtype == np.bool_:  # a mask: coded as its bytes, 0 and 1 (uint8's payload)
+            return self.encode(brick.view(np.uint8))
         raw = _as_stored(brick)
         flat = brick.reshape(-1)
         bits = flat.view(f"u{brick.itemsize}")
@@ -238,6 +246,8 @@ class LosslessCodec(BrickCodec):
         if is_float:
             z = ZstdCodec(level=FLOAT_ZSTD_LEVEL).encode(brick)
             candidates.append(bytes([MODE_ZSTD]) + z)
+        elif brick.dtype.name in LONG_INTS:  # (the level of the zstd codec they had before)
+            candidates.append(bytes([MODE_ZSTD]) + ZstdCodec().encode(brick))
         elif self.tools != "predict":
             candidates.append(self._wavelet_codec().encode(brick))
         probe = None
@@ -356,12 +366,17 @@ class LosslessCodec(BrickCodec):
     def decode(self, data: bytes | memoryview, shape: tuple[int, ...], dtype: Any) -> np.ndarray:
         dtype = np.dtype(dtype)
         check_dtype(dtype)
+        if dtype == np.bool_:
+            out = self.decode(data, shape, np.uint8)
+            if out.size and out.max() > 1:
+                raise FormatError("lossless bool brick payload: a value other than 0 and 1")
+            return out.view(np.bool_)
         mode, body = split_mode(data, "lossless")
         if mode == MODE_FLOAT and dtype.kind == "f":
             return self._decode_float(body, tuple(shape), dtype)
         if mode == MODE_PREDICT and dtype.name != "float64":
             return _decode_predict(body, tuple(shape), dtype)
-        if dtype.kind != "f":
+        if dtype.kind != "f" and dtype.name not in LONG_INTS:
             if mode > MODE_ZSTD:
                 raise FormatError(f"lossless brick payload: expected mode 0 to 4, found {mode}")
             return self._wavelet_codec().decode(data, shape, dtype)
@@ -371,6 +386,8 @@ class LosslessCodec(BrickCodec):
             return np.full(shape, _from_stored(body, (1,), dtype)[0], dtype=dtype)
         if mode == MODE_ZSTD:
             return ZstdCodec(level=FLOAT_ZSTD_LEVEL).decode(body, shape, dtype)
+        if dtype.kind != "f":
+            raise FormatError(f"lossless {dtype} brick payload: expected mode 1 to 4, found {mode}")
         raise FormatError(f"lossless float brick payload: expected mode 1 to 5, found {mode}")
 
 
@@ -378,9 +395,9 @@ def check_dtype(dtype: np.dtype) -> None:
     dtype = np.dtype(dtype)
     if dtype in _ACCEPTED:  # every brick's decoder asks; ``dtype.name`` costs 5-10 us
         return
-    if dtype.name not in WAVELET_DTYPES and dtype.name not in EXACT_FLOATS:
+    if dtype.name not in WAVELET_DTYPES + LONG_INTS + EXACT_FLOATS + ("bool",):
         raise FormatError(
-            f"the lossless codec takes {', '.join(WAVELET_DTYPES + EXACT_FLOATS)} voxels, "
+            f"the lossless codec takes {', '.join(WAVELET_DTYPES + LONG_INTS + EXACT_FLOATS)} or bool voxels, "
             f"found {np.dtype(dtype)}; use codec='zstd' for this dtype"
         )
     _ACCEPTED.add(dtype)
@@ -422,20 +439,23 @@ def _encode_predict(
     from . import predict
 
     is_float = brick.dtype.kind == "f"
-    values = to_ordered(brick) if is_float else brick.astype(np.int64)
+    values = to_ordered(brick) if is_float else brick.astype(np.int64)  # (uint64: same bits)
     flags = FLAG_FLOAT if is_float else 0
     lo, hi = int(values.min()), int(values.max())
-    if PRUNE and version == MIX_VERSION and not is_float and max(brick.shape[:2]) >= SLAB_MIN:
+    narrow = is_float or (NARROW[0] <= lo and hi <= NARROW[1])
+    if PRUNE and version == MIX_VERSION and not is_float and narrow and max(brick.shape[:2]) >= SLAB_MIN:
         pruned = _encode_pruned(brick, values, lo, hi, known)
         if pruned is not None:
             return pruned
     if is_float:  # exponent and mantissa apart: whole images leap at binade changes
         out = [_encode_split(brick)] if split else []
+    elif not narrow:  # a 64-bit brick's wide values: its palette alone
+        out = []
     else:
         out = [
             bytes([MODE_PREDICT, flags]) + pal.pack_range(lo, hi) + predict.encode(values, lo, hi)
         ]
-    if version >= 2 and not is_float:  # version 1 stays a candidate: tiny bricks pay
+    if version >= 2 and not is_float and narrow:  # version 1 stays a candidate: tiny bricks pay
         out.append(
             _encode_fit(
                 values, lo, hi, version >= LOW_VERSION, version >= TEX_VERSION, version >= MIX_VERSION,
@@ -811,5 +831,5 @@ def _value_range(dtype: np.dtype) -> tuple[int, int]:
     """The integers a voxel of ``dtype`` maps to (floats: their ordered bit images)."""
     if dtype.kind == "f":
         return 0, (1 << (8 * dtype.itemsize)) - 1
-    info = np.iinfo(dtype)
+    info = np.iinfo(np.int64 if dtype.name == "uint64" else dtype)
     return int(info.min), int(info.max)

@@ -57,17 +57,21 @@ def exact_bound(
     lossless codec then codes the volume (with ``effort`` 'default' or 'max'), as it would
     without the bound, rather than the bounded codec's quantised voxels at its faster
     predictive version (3 % longer on an 8-bit scan). Also the value range when it was
-    read (for :func:`plan`, so that the volume is scanned once)."""
-    if vol.dtype.kind not in "iu" or effort == "fast" or len(asked) != 1:
+    read (for :func:`plan`, so that the volume is scanned once). A ``rel_error`` of a
+    float volume whose valid voxels are all one value is a bound of 0: coded exactly too
+    (it was refused as lossless coding asked for by a lossy setting)."""
+    if vol.dtype.kind not in "iuf" or effort == "fast" or len(asked) != 1:
         return False, None
     ((what, target),) = asked.items()
-    if what not in ("max_error", "rel_error"):
+    if what not in ("max_error", "rel_error") or (vol.dtype.kind == "f" and what != "rel_error"):
         return False, None
     try:
         float(target)
     except (TypeError, ValueError):
         return False, None
     known = value_range(vol.data, fill_value) if what == "rel_error" else None
+    if vol.dtype.kind == "f":
+        return bool(known[0] == known[1] and float(target) > 0), known
     e = absolute_bound(what, target, known[1] - known[0] if known else 1.0)
     return math.isfinite(e) and 0 <= e < 1, known
 

@@ -48,17 +48,23 @@ Progress = Callable[[int, int], None]
 
 KIND = "volume"
 DEFAULT_MAX_VOXELS = 1 << 34
+# A 4-D volume whose last axis has at most this many voxels (and every other more) is
+# taken as (z, y, x, c) channels unless told otherwise (compress's ``channels_last``).
+MAX_CHANNELS = 4
+CHANNELS_LAST = "last"  # the header's "channels" value
 LOSSY_KEYS = ("max_error", "rel_error", "psnr", "ratio", "quality", "threshold")
 
 
 def make_codec(codec: str = "auto", dtype: Any = None, **options: Any):
     """Choose the brick codec: ``auto`` takes the lossless codec (per brick the wavelet,
-    3-D prediction, labels or float prediction) for the 8/16/32-bit integers and
-    floats it codes exactly, and byte-shuffled zstd for the rest (64-bit integers)."""
-    from .lossless import EXACT_FLOATS
+    3-D prediction, labels or float prediction) for the integers, floats and masks it
+    codes exactly (64-bit integers: zstd, palettes and labels; bool: as uint8), and
+    byte-shuffled zstd for the rest."""
+    from .lossless import EXACT_FLOATS, LONG_INTS
 
     if codec == "auto":
-        known = dtype is None or np.dtype(dtype).name in WAVELET_DTYPES + EXACT_FLOATS
+        names = WAVELET_DTYPES + LONG_INTS + EXACT_FLOATS + ("bool",)
+        known = dtype is None or np.dtype(dtype).name in names
         codec = "lossless" if known else "zstd"
     if codec in ("lossless", "wavelet"):
         from .floatwave import FLOAT_WAVELETS
@@ -156,6 +162,7 @@ def compress(
     fill_value: float | None = None,
     effort: str = "default",
     interleave: bool | None = None,
+    channels_last: bool | None = None,
     workers: int | None = 1,
     force: bool = False,
     progress: Progress | None = None,
@@ -184,7 +191,8 @@ def compress(
         standard output, or an open binary file.
     codec : {"auto", "lossless", "fast", "wavelet", "zstd"}
         ``auto``: the ``lossless`` codec (per brick the wavelet, 3-D prediction, labels
-        or float prediction) for 8/16/32-bit integers and floats, zstd for 64-bit integers.
+        or float prediction) for integers and floats (64-bit integers: byte-shuffled zstd,
+        palettes and labels per brick).
         ``fast``: lossless, decoding several times faster at a lower ratio
         (:class:`volpack.volume_codec.fast.FastCodec`).
     wavelet, coder, order, max_levels
@@ -232,6 +240,13 @@ def compress(
         setting asked (a PSNR or ratio target: the setting searched on the time steps,
         then searched again on the stored volume); ``False`` codes each time step alone,
         as before.
+    channels_last : bool, optional
+        A 4-D ``(z, y, x, c)`` volume of a few channels (RGB, fluorescence channels):
+        store it as the series of its channels ``(c, z, y, x)`` (each channel a time step, ``interleave`` then
+        applying to them), header ``"channels": "last"``; decoded as ``(z, y, x, c)``
+        again. ``None`` (the default) does where the last axis has at most
+        :data:`MAX_CHANNELS` voxels and every other more; ``False`` takes the 4-D
+        volume as ``(t, z, y, x)``, as before.
     brick : int or (int, int, int), optional
         Brick size (of the stored 3-D volume when interleaved); bricks are coded
         independently and decoded one by one. Default
@@ -252,7 +267,8 @@ def compress(
         ``raw_nbytes``, ``nbytes`` (compressed payload bytes), ``ratio``, ``file_nbytes``
         and ``file_ratio`` (the whole stream, as :func:`volpack.api.info` reports),
         ``seconds`` and ``mb_per_s`` (the coding, a setting search included), ``bricks``,
-        ``codec``, and ``layout`` (``"interleaved"``) for a series stored interleaved.
+        ``codec``, ``layout`` (``"interleaved"``) for a series stored interleaved, and
+        ``channels`` (``"last"``) for a volume stored as the series of its channels.
     """
     from ..format.container import Writer
 
@@ -291,12 +307,21 @@ def compress(
 
         exact, known_range = exact_bound(vol, asked, fill_value, effort)
         if exact:
-            log.info("an error bound under 1 on integer voxels: coded exactly")
+            log.info("an error bound only exact coding meets: coded exactly")
             asked = {}
     data = vol.data
     if interleave and data.ndim != 4:
         raise OptionError(f"interleave: expected a 4-D (t, z, y, x) series, found {data.ndim} axes")
     bounded = bool(asked) and not ({"quality", "threshold"} & set(asked))
+    channels = channels_last is not False and data.ndim == 4
+    channels = channels and (channels_last or _looks_channels_last(data.shape))
+    if channels:  # the channels become the time steps of a series
+        data = np.ascontiguousarray(np.moveaxis(data, -1, 0))
+        log.info("the last axis taken as %d channels: stored as %s", data.shape[0], data.shape)
+    elif channels_last:
+        raise OptionError(f"channels_last: a 4-D (z, y, x, c) volume, found {data.ndim} axes")
+    # what a PSNR or ratio target is searched on: the series as stored
+    planned = Volume(data, vol.spacing, vol.origin) if channels else vol
 
     def brick_of(shape: tuple[int, ...]) -> tuple[int, int, int]:
         if brick is not None:
@@ -314,7 +339,7 @@ def compress(
         from . import search as lossy_plan
 
         c, search = lossy_plan.plan(
-            vol, brick_t, nworkers, asked, fill_value, inner, effort, known_range
+            planned, brick_t, nworkers, asked, fill_value, inner, effort, known_range
         )
     else:
         if effort == "max":
@@ -383,6 +408,7 @@ def compress(
         "brick": list(brick_t),
         "codec": c.get_config(),
         **({"layout": layout} if layout else {}),
+        **({"channels": CHANNELS_LAST} if channels else {}),
         "meta": jsonable(vol.meta),
     }
     frames = data[None] if data.ndim == 3 else data
@@ -440,6 +466,7 @@ def compress(
         "mb_per_s": throughput(vol.nbytes, seconds),
         "bricks": total,
         **({"layout": layout} if layout else {}),
+        **({"channels": CHANNELS_LAST} if channels else {}),
         "workers": nworkers,
         "codec": c.get_config(),
         **quality_stats,
@@ -453,6 +480,22 @@ def _searched(record: dict[str, Any]) -> float | None:
     if record.get("codec") == "tucker":
         return None
     return record.get("error_bound", record.get("step"))
+
+
+def _looks_channels_last(shape: tuple[int, ...]) -> bool:
+    """Whether a 4-D shape reads as ``(z, y, x, c)``: a last axis of at most
+    MAX_CHANNELS voxels (RGB, RGBA, two fluorescence channels) and more along every other
+    (a series of volumes 4 voxels wide is not met in practice)."""
+    return len(shape) == 4 and shape[-1] <= MAX_CHANNELS < min(shape[:-1])
+
+
+def stored_series_shape(hdr: dict) -> tuple[int, ...]:
+    """The shape a volume stream stores: its ``shape``, but ``(c, z, y, x)`` for a
+    ``(z, y, x, c)`` volume stored as the series of its channels."""
+    shape = tuple(hdr["shape"])
+    if hdr.get("channels") == CHANNELS_LAST:
+        return (shape[-1], *shape[:-1])
+    return shape
 
 
 def _six_digits(d: dict[str, Any], keys: tuple[str, ...]) -> None:
@@ -503,7 +546,7 @@ class VolumeReader(CheckedReader):
         ``frame``.)"""
         r, hdr = self._r, self.header
         nworkers = parse_workers(workers)
-        shape = tuple(hdr["shape"])
+        shape = stored_series_shape(hdr)  # (a channel is a time step here)
         dtype = np.dtype(hdr["dtype"]).newbyteorder("=")
         brick_t = tuple(hdr["brick"])
         c = get_codec(hdr["codec"])
@@ -576,6 +619,8 @@ class VolumeReader(CheckedReader):
             data = il.unfold(out[0], nt, frame)
         else:
             data = out[0] if (len(shape) == 3 or frame is not None) else out
+        if hdr.get("channels") == CHANNELS_LAST and frame is None:
+            data = np.ascontiguousarray(np.moveaxis(data, 0, -1))
         return Volume(
             data, spacing=tuple(hdr["spacing"]), origin=origin, meta=dict(hdr.get("meta") or {})
         )
@@ -634,6 +679,11 @@ def check_header(hdr: dict, max_voxels: int = DEFAULT_MAX_VOXELS) -> dict:
         raise FormatError(
             f"expected layout {il.LAYOUT!r} of a 4-D volume or none, found "
             f"{hdr['layout']!r:.40} of a {len(shape)}-D one"
+        )
+    if "channels" in hdr and (hdr["channels"] != CHANNELS_LAST or len(shape) != 4):
+        raise FormatError(
+            f"expected channels {CHANNELS_LAST!r} of a 4-D volume or none, found "
+            f"{hdr['channels']!r:.40} of a {len(shape)}-D one"
         )
     hdr["shape"], hdr["brick"] = shape, brick_t
     return hdr
