@@ -159,3 +159,20 @@ def test_complex_and_2d_arrays_are_refused_with_what_to_do(tmp_path):
     np.save(tmp_path / "flat.npy", rgb()[0, :, :, 0])
     with pytest.raises(FormatError, match=r"a volume of one slice: a\[None\]"):
         vio.read_volume(str(tmp_path / "flat.npy"))
+
+
+def test_the_command_line_decides_channels_both_ways(tmp_path):
+    from click.testing import CliRunner
+
+    from volpack.cli import main
+
+    np.save(tmp_path / "rgb.npy", rgb())
+    for flag, want in (([], "last"), (["--no-channels-last"], None)):
+        out = tmp_path / f"o{len(flag)}.vpk"
+        r = CliRunner().invoke(main, ["compress", str(tmp_path / "rgb.npy"), str(out), *flag])
+        assert r.exit_code == 0, r.output
+        assert header(out.read_bytes()).get("channels") == want
+        np.testing.assert_array_equal(api.decompress_array(out.read_bytes()), rgb())
+    r = CliRunner().invoke(main, ["compress", str(tmp_path / "rgb.npy"), str(tmp_path / "g.vpk"),
+                                  "--channels-last", "--gop", "IPP"])  # fmt: skip
+    assert r.exit_code == 2 and "--channels-last applies to a 4-D volume" in r.output

@@ -49,6 +49,14 @@ from .options import (
     "--no-interleave codes each time step alone.",
 )
 @click.option(
+    "--channels-last/--no-channels-last",
+    default=None,
+    help="A 4-D volume whose last axis holds its channels (RGB, fluorescence), (z, y, x, c): "
+    "store it as the series of its channels, decoded as (z, y, x, c) again. Default: where "
+    "the last axis has at most 4 voxels and every other more; --no-channels-last reads a "
+    "4-D volume as (t, z, y, x).",
+)
+@click.option(
     "--octree",
     is_flag=True,
     help="Build a multiresolution octree (level-of-detail and region access; reads the "
@@ -85,6 +93,7 @@ def compress(
     fill_value,
     effort,
     interleave,
+    channels_last,
     octree,
     block,
     scheduler,
@@ -147,6 +156,14 @@ def compress(
             f"--effort applies to a volume under an error bound, found --effort {effort} "
             "with a mesh, an animation or --octree"
         )
+    if channels_last is not None and (
+        mesh_cli.is_mesh_source(source) or wants_animation(source, extra["gop"])
+        or octree or scheduler
+    ):  # fmt: skip
+        raise click.UsageError(
+            "--channels-last applies to a 4-D volume, found it with a mesh, an animation or "
+            "--octree"
+        )
     if interleave is not None and (
         mesh_cli.is_mesh_source(source) or wants_animation(source, extra["gop"])
         or octree or scheduler
@@ -192,6 +209,8 @@ def compress(
             opts["effort"] = effort
         if interleave is not None:
             opts["interleave"] = interleave
+        if channels_last is not None:
+            opts["channels_last"] = channels_last
     with mesh_cli.echo_warnings(), progress_bar(ctx, "compress", unit=unit) as progress:
         if unit is not None:
             opts["progress"] = progress
