@@ -242,9 +242,9 @@ def compress(
         as before.
     channels_last : bool, optional
         A 4-D ``(z, y, x, c)`` volume of a few channels (RGB, fluorescence channels):
-        store it as the series of its channels ``(c, z, y, x)`` (each channel a time step, ``interleave`` then
-        applying to them), header ``"channels": "last"``; decoded as ``(z, y, x, c)``
-        again. ``None`` (the default) does where the last axis has at most
+        store it as the series of its channels ``(c, z, y, x)`` (each channel a time
+        step, ``interleave`` then applying to them), header ``"channels": "last"``;
+        decoded as ``(z, y, x, c)`` again. ``None`` (the default) does where the last axis has at most
         :data:`MAX_CHANNELS` voxels and every other more; ``False`` takes the 4-D
         volume as ``(t, z, y, x)``, as before.
     brick : int or (int, int, int), optional
