@@ -148,29 +148,20 @@ def compress(
         "quality": quality, "threshold": threshold, "fill_value": fill_value,
     }  # fmt: skip
     lossy = {k: v for k, v in shared.items() if k not in ("codec", "wavelet", "coder", "order")}
-    if effort is not None and (
+    not_a_volume = (
         mesh_cli.is_mesh_source(source) or wants_animation(source, extra["gop"])
         or octree or scheduler
-    ):  # fmt: skip
+    )  # fmt: skip
+    if effort is not None and not_a_volume:
         raise click.UsageError(
             f"--effort applies to a volume under an error bound, found --effort {effort} "
             "with a mesh, an animation or --octree"
         )
-    if channels_last is not None and (
-        mesh_cli.is_mesh_source(source) or wants_animation(source, extra["gop"])
-        or octree or scheduler
-    ):  # fmt: skip
-        raise click.UsageError(
-            "--channels-last applies to a 4-D volume, found it with a mesh, an animation or "
-            "--octree"
-        )
-    if interleave is not None and (
-        mesh_cli.is_mesh_source(source) or wants_animation(source, extra["gop"])
-        or octree or scheduler
-    ):  # fmt: skip
-        raise click.UsageError(
-            "--interleave applies to a 4-D volume, found it with a mesh, an animation or --octree"
-        )
+    for flag, value in (("--channels-last", channels_last), ("--interleave", interleave)):
+        if value is not None and not_a_volume:
+            raise click.UsageError(
+                f"{flag} applies to a 4-D volume, found it with a mesh, an animation or --octree"
+            )
     if mesh_cli.is_mesh_source(source):
         kind, unit = "mesh", None
         opts = mesh_cli.compress_options(extra)
