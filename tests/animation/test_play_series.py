@@ -53,6 +53,12 @@ def test_any_4d_file_plays_and_a_3d_one_is_refused(run4d, tmp_path):
     d, a = run4d
     got = list(player.series(str(d / "s.npy")))
     assert len(got) == 5 and all(np.array_equal(f, a[st.t]) for f, st, _ in got)
+    h5py = pytest.importorskip("h5py")
+    with h5py.File(tmp_path / "s.h5", "w") as f:  # a file:dataset spec
+        f["ds"] = a
+    got = list(player.play(f"{tmp_path / 's.h5'}:/ds"))
+    assert len(got) == 5 and all(np.array_equal(f, a[st.t]) for f, st, _ in got)
+    assert sum(st.nbytes for _, st, _ in got) <= (tmp_path / "s.h5").stat().st_size
     np.save(tmp_path / "one.npy", a[0])
     with pytest.raises(FormatError, match=r"4-D \(t, z, y, x\) series to play, found a volume "
                        r"of shape \[6, 20, 18\]"):  # fmt: skip

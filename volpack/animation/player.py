@@ -178,7 +178,7 @@ def series(source: str) -> Iterator[tuple[np.ndarray, FrameStats, dict]]:
     too) or any volume file volpack reads; ``stats.type`` is ``"volume"`` and its
     ``nbytes`` the time step's share of the payload (of the file read, for other files);
     ``header`` the ``.vpk``'s (``{}`` for other files)."""
-    from ..io import read_volume
+    from ..io import parse_spec, read_volume
 
     kind = _kind(source)
     if kind not in (None, "volume"):
@@ -189,7 +189,8 @@ def series(source: str) -> Iterator[tuple[np.ndarray, FrameStats, dict]]:
     t0 = time.perf_counter()
     if kind is None:  # another volume file: read whole
         vol, header = read_volume(source), {}
-        nbytes = os.path.getsize(source) if source != "-" else vol.nbytes
+        path = parse_spec(source)[0] if source != "-" else source
+        nbytes = os.path.getsize(path) if os.path.isfile(path) else vol.nbytes
         _four_d(vol.shape, source)
         yield from _steps(vol.data, nbytes, t0, header)
         return
