@@ -176,3 +176,16 @@ def test_the_command_line_decides_channels_both_ways(tmp_path):
     r = CliRunner().invoke(main, ["compress", str(tmp_path / "rgb.npy"), str(tmp_path / "g.vpk"),
                                   "--channels-last", "--gop", "IPP"])  # fmt: skip
     assert r.exit_code == 2 and "--channels-last applies to a 4-D volume" in r.output
+
+
+def test_info_of_a_source_file_names_the_axes_as_compress_takes_them(tmp_path):
+    from click.testing import CliRunner
+
+    from volpack.cli import main
+
+    np.save(tmp_path / "rgb.npy", rgb())
+    np.save(tmp_path / "series.npy", np.zeros((3, 6, 20, 18), np.int16))
+    r = CliRunner().invoke(main, ["info", str(tmp_path / "rgb.npy")])
+    assert r.exit_code == 0 and "(z, y, x, c): channels, as compress takes them" in r.output
+    r = CliRunner().invoke(main, ["info", str(tmp_path / "series.npy")])
+    assert r.exit_code == 0 and "3 x 6 x 20 x 18  (t, z, y, x)" in r.output

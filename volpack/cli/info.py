@@ -114,16 +114,23 @@ def _show(d: dict, as_json: bool, chunks: bool) -> None:
     click.echo(_human(d, chunks))
 
 
+def _axes(shape: list[int]) -> str:
+    """The axes of a source volume's shape as `compress` takes them."""
+    from ..volume_codec.channels import looks_channels_last
+
+    if len(shape) != 4:
+        return "(z, y, x)"
+    if looks_channels_last(tuple(shape)):
+        return "(z, y, x, c): channels, as compress takes them (--no-channels-last: t, z, y, x)"
+    return "(t, z, y, x)"
+
+
 def _human(d: dict, chunks: bool) -> str:
     if d["format"] != "vpk":
         rows = [
             ["path", d["path"]],
             ["format", d["format"]],
-            [
-                "shape",
-                " x ".join(map(str, d["shape"]))
-                + ("  (t, z, y, x)" if len(d["shape"]) == 4 else "  (z, y, x)"),
-            ],
+            ["shape", " x ".join(map(str, d["shape"])) + "  " + _axes(d["shape"])],
             ["dtype", d["dtype"]],
             ["spacing", ", ".join(f"{s:g}" for s in d["spacing"])],
             ["value range", f"{d['min']} .. {d['max']}"],

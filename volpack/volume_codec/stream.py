@@ -38,6 +38,7 @@ from ..parallel import (
 from ..volume import Volume, require_voxels
 from . import bricks
 from . import interleave as il
+from .channels import CHANNELS_LAST, looks_channels_last
 from .codec import WAVELET_DTYPES, WaveletCodec, ZstdCodec
 from .protocol import storage_dtype
 from .registry import get_codec
@@ -48,10 +49,6 @@ Progress = Callable[[int, int], None]
 
 KIND = "volume"
 DEFAULT_MAX_VOXELS = 1 << 34
-# A 4-D volume whose last axis has at most this many voxels (and every other more) is
-# taken as (z, y, x, c) channels unless told otherwise (compress's ``channels_last``).
-MAX_CHANNELS = 4
-CHANNELS_LAST = "last"  # the header's "channels" value
 LOSSY_KEYS = ("max_error", "rel_error", "psnr", "ratio", "quality", "threshold")
 
 
@@ -245,7 +242,7 @@ def compress(
         store it as the series of its channels ``(c, z, y, x)`` (each channel a time
         step, ``interleave`` then applying to them), header ``"channels": "last"``;
         decoded as ``(z, y, x, c)`` again. ``None`` (the default) does where the last axis has at most
-        :data:`MAX_CHANNELS` voxels and every other more; ``False`` takes the 4-D
+        :data:`.channels.MAX_CHANNELS` voxels and every other more; ``False`` takes the 4-D
         volume as ``(t, z, y, x)``, as before.
     brick : int or (int, int, int), optional
         Brick size (of the stored 3-D volume when interleaved); bricks are coded
@@ -314,7 +311,7 @@ def compress(
         raise OptionError(f"interleave: expected a 4-D (t, z, y, x) series, found {data.ndim} axes")
     bounded = bool(asked) and not ({"quality", "threshold"} & set(asked))
     channels = channels_last is not False and data.ndim == 4
-    channels = channels and (channels_last or _looks_channels_last(data.shape))
+    channels = channels and (channels_last or looks_channels_last(data.shape))
     if channels:  # the channels become the time steps of a series
         data = np.ascontiguousarray(np.moveaxis(data, -1, 0))
         log.info("the last axis taken as %d channels: stored as %s", data.shape[0], data.shape)
@@ -480,13 +477,6 @@ def _searched(record: dict[str, Any]) -> float | None:
     if record.get("codec") == "tucker":
         return None
     return record.get("error_bound", record.get("step"))
-
-
-def _looks_channels_last(shape: tuple[int, ...]) -> bool:
-    """Whether a 4-D shape reads as ``(z, y, x, c)``: a last axis of at most
-    MAX_CHANNELS voxels (RGB, RGBA, two fluorescence channels) and more along every other
-    (a series of volumes 4 voxels wide is not met in practice)."""
-    return len(shape) == 4 and shape[-1] <= MAX_CHANNELS < min(shape[:-1])
 
 
 def stored_series_shape(hdr: dict) -> tuple[int, ...]:
