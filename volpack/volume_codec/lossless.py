@@ -95,6 +95,8 @@ EXACT_FLOATS = FLOAT_DTYPES + ("float64",)
 # range. uint64 voxels are read as the int64 of the same bits (their palette order).
 LONG_INTS = ("int64", "uint64")
 NARROW = (-(1 << 31), (1 << 32) - 1)  # the values the predictors of 32-bit voxels span
+# Every voxel type the codec takes (masks last: coded as their uint8 bytes)
+LOSSLESS_DTYPES = WAVELET_DTYPES + LONG_INTS + EXACT_FLOATS + ("bool",)
 FLAG_PALETTE, FLAG_FLOAT, FLAG_SPLIT, FLAG_LABELS, FLAG_FIT, FLAG_MASK = 1, 2, 4, 8, 16, 32
 FLAG_LOW, FLAG_TEX = 64, 128
 # With FIT, the LABELS bit (which FIT excludes) says a second flags byte follows: flags
@@ -395,9 +397,9 @@ def check_dtype(dtype: np.dtype) -> None:
     dtype = np.dtype(dtype)
     if dtype in _ACCEPTED:  # every brick's decoder asks; ``dtype.name`` costs 5-10 us
         return
-    if dtype.name not in WAVELET_DTYPES + LONG_INTS + EXACT_FLOATS + ("bool",):
+    if dtype.name not in LOSSLESS_DTYPES:
         raise FormatError(
-            f"the lossless codec takes {', '.join(WAVELET_DTYPES + LONG_INTS + EXACT_FLOATS)} or bool voxels, "
+            f"the lossless codec takes {', '.join(LOSSLESS_DTYPES[:-1])} or bool voxels, "
             f"found {np.dtype(dtype)}; use codec='zstd' for this dtype"
         )
     _ACCEPTED.add(dtype)

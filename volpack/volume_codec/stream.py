@@ -39,7 +39,7 @@ from ..volume import Volume, require_voxels
 from . import bricks
 from . import interleave as il
 from .channels import CHANNELS_LAST, looks_channels_last
-from .codec import WAVELET_DTYPES, WaveletCodec, ZstdCodec
+from .codec import WaveletCodec, ZstdCodec
 from .protocol import storage_dtype
 from .registry import get_codec
 
@@ -57,11 +57,10 @@ def make_codec(codec: str = "auto", dtype: Any = None, **options: Any):
     3-D prediction, labels or float prediction) for the integers, floats and masks it
     codes exactly (64-bit integers: zstd, palettes and labels; bool: as uint8), and
     byte-shuffled zstd for the rest."""
-    from .lossless import EXACT_FLOATS, LONG_INTS
+    from .lossless import LOSSLESS_DTYPES
 
     if codec == "auto":
-        names = WAVELET_DTYPES + LONG_INTS + EXACT_FLOATS + ("bool",)
-        known = dtype is None or np.dtype(dtype).name in names
+        known = dtype is None or np.dtype(dtype).name in LOSSLESS_DTYPES
         codec = "lossless" if known else "zstd"
     if codec in ("lossless", "wavelet"):
         from .floatwave import FLOAT_WAVELETS
