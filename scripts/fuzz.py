@@ -111,6 +111,11 @@ KINDS = {
     # header and summary; one brick, and eight
     "compact": ("vpk2-lossy-bounded-f32.vpk", VOLUME_PATHS),
     "compact-bricks": ("vpk2-wavelet-53-arith-u8.vpk", VOLUME_PATHS),
+    # 64-bit label ids, a (z, y, x, c) volume stored as its channels, and a 4-D series
+    # with its time steps interleaved (header "layout")
+    "lossless-u64": ("lossless-labels-u64.vpk", VOLUME_PATHS),
+    "channels": ("lossless-channels-rgb-u8.vpk", ("decompress", "info", "stdin")),
+    "interleaved": ("lossless-interleaved-u8.vpk", ("decompress", "info", "play", "stdin")),
     "animation": (
         "animation-ibbp-bounded-u8.vpk",
         ("decompress", "frame", "info", "play", "stdin"),
