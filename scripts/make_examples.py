@@ -191,6 +191,9 @@ LOSSLESS_CASES = [
     # a (z, y, x, c) colour volume stored as the series of its channels (header
     # "channels": "last"; session 32), the channels interleaved
     ("lossless-channels-rgb-u8", "rgb-u8", {"brick": 32}),
+    # counts times a constant, a third of them through another path (their last bits
+    # moved): a lattice whose step the values of least magnitude give (session 33)
+    ("lossless-f32-counts", "f32-counts", {"brick": 32}),
 ]
 
 
@@ -232,6 +235,15 @@ def lossless_source(recipe: str):
     if recipe == "rgb-u8":  # the cut through a colour map: (z, y, x, 3), RGB last
         cut = wavelet_source("u8").astype(np.float64) / 255
         return (np.stack([cut**0.6, cut, cut**1.6], -1) * 255).astype(np.uint8)
+    if recipe == "f32-counts":  # a density from counts: k * c, and k / (1 / c) moved
+        z, y, x = np.indices((24, 28, 32))
+        rate = 2000 * (1.4 + np.sin(x / 5) * np.cos(y / 7) + 0.3 * np.sin(z / 4))
+        k = np.rint(rate).astype(np.int64) + (x * 7 + y * 13 + z * 29) % 41 - 20
+        c = np.float32(0.000515625)
+        f = (k * c).astype(np.float32)
+        two = (x + 2 * y + 3 * z) % 3 == 0
+        f[two] = k[two].astype(np.float32) / np.float32(1 / c) * np.float32(1.0000019)
+        return f
     if recipe == "labels-u64":  # the label cut as uint64 ids, a corner of wide values
         lab = np.digitize(wavelet_source("u8"), [40, 90])
         lab[:16, :16, :16] = 0

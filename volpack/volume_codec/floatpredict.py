@@ -364,14 +364,20 @@ def rebuild(params: np.ndarray, k: np.ndarray, dtype: np.dtype) -> np.ndarray:
         return (off + step * k.astype(np.float64)).astype(dtype)
 
 
-def _fit(v: np.ndarray, span: float = np.inf) -> list[tuple[float, float]]:
+MAGNITUDE_STEP = True  # False: the lattices' steps as before session 33 (the A/B compares)
+LOW_VALUES = 256  # the distinct values of least magnitude that estimate the step again
+NEAR_EQUAL = 1e-3  # a relative gap below this is taken for rounding noise there
+
+
+def _fit(v: np.ndarray, span: float = np.inf, low: bool = False) -> list[tuple[float, float]]:
     """Candidate ``(offset, step)`` lattices of finite values ``v`` (float64, 1-D): the
     step estimated from the gaps between distinct values (over the whole span, and
     rounded to three significant digits for decimal scale factors), the offset 0 or
     the most common remainder of the values after whole steps (a fill value off the
     lattice does not move it; ``k`` keeps its scale from slice to slice). None when
     every step's ``k`` would span more than ``span`` values (a lattice the caller
-    cannot keep: its offsets need not be counted)."""
+    cannot keep: its offsets need not be counted). ``low``: also the step of the values of
+    least magnitude (below; for the whole brick's lattice, not each slice's)."""
     s = np.sort(v)
     first = np.empty(s.size, dtype=bool)
     first[:1] = True
@@ -387,6 +393,32 @@ def _fit(v: np.ndarray, span: float = np.inf) -> list[tuple[float, float]]:
     n = round((u[-1] - u[0]) / est)
     if n >= 1:
         steps.add(float((u[-1] - u[0]) / n))
+    # Counts times a constant (a density from counts) computed along two paths differ in
+    # their last bits: those near-equal values make the smallest gaps, and so the
+    # estimate above, rounding noise. Their error grows with the value, so the step is
+    # also taken from the gaps between the values of least magnitude that are more than
+    # NEAR_EQUAL of them: the median of those of one unit (results/lossless/fmult33).
+    if low and MAGNITUDE_STEP:
+        mags = np.abs(u)
+        low = np.sort(
+            u if u.size <= LOW_VALUES else u[np.argpartition(mags, LOW_VALUES)[:LOW_VALUES]]
+        )
+        g = np.diff(low)
+        g = g[g > NEAR_EQUAL * np.maximum(np.abs(low[1:]), np.abs(low[:-1]))]
+        if g.size and (u[-1] - u[0]) / g.min() <= span:
+            unit = float(np.median(g[g <= 1.5 * g.min()]))  # one unit, its noise evened
+            # ... and the smallest magnitude over its whole units: the multiples of that
+            # rebuild the values bit for bit where it is one unit itself
+            m = float(np.abs(low[low != 0]).min())
+            for new in (unit, m / max(1, round(m / unit))):
+                # the low values on it (else its lattice is not tried: a smooth field's
+                # steps land anywhere), and not a fraction of a step already there: its
+                # lattice holds that one's (as many voxels) with k spanning more values
+                off = low / new - np.rint(low / new)
+                if np.mean(np.abs(off) < 0.01) >= 0.5 and not any(
+                    t >= 1.5 * new and abs(t / new - round(t / new)) < 1e-6 * t / new for t in steps
+                ):
+                    steps.add(new)
     # (k of any offset spans at least (max - min) / step values; 1e-6: rounding)
     if all(s > 0 and (u[-1] - u[0]) / s * (1 - 1e-6) - 1 > span for s in steps):
         return []
@@ -437,7 +469,7 @@ def find_lattices(brick: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, np.nd
     best = None
     v, s = brick.astype(np.float64), to_signed(brick)
     span = _span_limit(brick, s)  # k spanning more is not kept (see _narrow)
-    for off, step in _fit(v.reshape(-1), span):
+    for off, step in _fit(v.reshape(-1), span, low=True):
         got = _lattice_k(brick, np.array([[off, step]]), v, s)
         if got is not None and (best is None or got[0] < best[0][0]):
             best = (got, np.array([[off, step]]))
