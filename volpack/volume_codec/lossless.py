@@ -875,8 +875,9 @@ def _decode_fit(data: memoryview, shape: tuple[int, ...], lo: int, hi: int, flag
         raise FormatError(f"predictive brick payload: value range [{lo}, {hi}] is out of bounds")
     low, tex, mix = bool(flags & FLAG_LOW), bool(flags & FLAG_TEX), bool(flags & FLAG_MIX)
     local, plane = bool(flags & FLAG_LOCAL), bool(flags & FLAG_PLANE)
-    if flags & FLAG_MASK:
-        fill, mask, used = bgmask.decode(data, shape, hi - lo)
+    if flags & FLAG_MASK:  # (coded over the plane the voxels are, with PLANE)
+        coded = (1, shape[0] * shape[1], shape[2]) if plane else shape
+        fill, mask, used = bgmask.decode(data, coded, hi - lo)
         return predictfit.decode(data[used:], shape, lo, hi, mask, lo + fill, low, tex, mix, local, plane)
     return predictfit.decode(data, shape, lo, hi, low=low, tex=tex, mix=mix, local=local, plane=plane)
 
