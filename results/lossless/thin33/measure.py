@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import os
 import subprocess
 import sys
 import time
@@ -101,7 +102,8 @@ def main() -> None:
         if args.base:
             run = subprocess.run(
                 [sys.executable, "-c", BASE_SNIPPET, str(path)], capture_output=True, text=True,
-                env={"PYTHONPATH": str(args.base), "PATH": "/usr/bin:/bin"}, check=True,
+                env={**os.environ, "PYTHONPATH": str(args.base)}, check=True,
+                cwd="/",  # (not this tree: python -c puts the working folder first)
             )  # fmt: skip
             base = int(run.stdout.split()[-1])
         peer, peer_ratio = ("", 0.0) if args.no_peers else best_peer(a)
