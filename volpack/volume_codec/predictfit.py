@@ -956,17 +956,23 @@ def fit(v: np.ndarray, mask: np.ndarray | None = None) -> list[tuple[np.ndarray,
 PLANE_ROWS = 1 << 8  # image rows a block of fit_plane's rows takes
 
 
-def _plane_rows(a: np.ndarray, mk: np.ndarray, y0: int, y1: int):
-    """The planar fit's rows of image rows ``y0:y1`` of ``a`` (``y0 >= PLANE_REACH``): the
-    neighbours (float64), the voxels and the class measure of the voxels the fit takes
-    (not masked, not equal to all their neighbours), as :func:`_fit_sums` for 3-D."""
+def _plane_keep(a: np.ndarray, mk: np.ndarray, y0: int, y1: int):
+    """Which voxels of image rows ``y0:y1`` of ``a`` (``y0 >= PLANE_REACH``) the planar fit
+    takes (not masked, not equal to all their neighbours, as :func:`_fit_sums` for 3-D),
+    and their class measure."""
     r, nx = PLANE_REACH, a.shape[1]
     t = a[y0:y1, r : nx - r]
-    taps = np.stack([a[y0 - dy : y1 - dy, r - dx : nx - r - dx] for dy, dx in PLANE_OFFSETS], -1)
-    keep = (taps != t[..., None]).any(-1) & (mk[y0:y1, r : nx - r] == 0)
-    w, n, nw, ne, ww, nn = (taps[..., k] for k in range(6))
-    g = abs(w - nw) + abs(n - nw) + abs(n - ne) + abs(w - ww) + abs(n - nn)
-    return taps[keep].astype(np.float64), t[keep].astype(np.float64), g[keep]
+
+    def at(dy, dx):
+        return a[y0 - dy : y1 - dy, r - dx : nx - r - dx]
+
+    varies = np.zeros(t.shape, bool)
+    for dy, dx in PLANE_OFFSETS:
+        varies |= at(dy, dx) != t
+    keep = varies & (mk[y0:y1, r : nx - r] == 0)
+    w, n, nw = at(0, 1), at(1, 0), at(1, 1)
+    g = abs(w - nw) + abs(n - nw) + abs(n - at(1, -1)) + abs(w - at(0, 2)) + abs(n - at(2, 0))
+    return keep, g[keep]
 
 
 def fit_plane(v: np.ndarray, mask: np.ndarray | None = None):
@@ -978,11 +984,12 @@ def fit_plane(v: np.ndarray, mask: np.ndarray | None = None):
     mk = np.zeros(a.shape, np.uint8) if mask is None else np.asarray(mask, np.uint8).reshape(a.shape)
     cf = np.zeros(NCLS * NFIT, dtype=np.int64)
     th = np.full(NCLS - 1, NO_CLASS, dtype=np.int64)
-    ny, r = a.shape[0], PLANE_REACH
-    if ny <= r or a.shape[1] <= 2 * r:
+    (ny, nx), r = a.shape, PLANE_REACH
+    if ny <= r or nx <= 2 * r:
         return [(cf, th), (cf, th)]
-    blocks = range(r, ny, PLANE_ROWS)
-    g = np.concatenate([_plane_rows(a, mk, y, min(ny, y + PLANE_ROWS))[2] for y in blocks])
+    blocks = [(y, min(ny, y + PLANE_ROWS)) for y in range(r, ny, PLANE_ROWS)]
+    kept = [_plane_keep(a, mk, y0, y1) for y0, y1 in blocks]
+    g = np.concatenate([gk for _, gk in kept])
     n = g.size
     top = max(int(a.max()), -int(a.min()))
     if n * top * top >= 1 << 53:
@@ -990,16 +997,18 @@ def fit_plane(v: np.ndarray, mask: np.ndarray | None = None):
     if n < 4 * NFIT:
         return [(cf, th), (cf, th)]
     th4 = np.minimum(np.quantile(g, np.arange(1, NCLS) / NCLS), NO_CLASS).astype(np.int64)
-    xtx, xty = np.zeros((NCLS, NFIT, NFIT)), np.zeros((NCLS, NFIT))
+    sums = np.zeros((NCLS, NFIT + 1, NFIT + 1))  # (the neighbours', then the voxel's products)
     counts = np.zeros(NCLS, dtype=np.int64)
-    for y in blocks:
-        taps, t, gk = _plane_rows(a, mk, y, min(ny, y + PLANE_ROWS))
+    for (y0, y1), (keep, gk) in zip(blocks, kept):
         c = (gk[:, None] > th4[None, :]).sum(1)
+        rows = np.empty((gk.size, NFIT + 1))
+        for j, (dy, dx) in enumerate(PLANE_OFFSETS + ((0, 0),)):
+            rows[:, j] = a[y0 - dy : y1 - dy, r - dx : nx - r - dx][keep]
         for k in range(NCLS):
-            rows, tk = taps[c == k], t[c == k]
-            xtx[k] += rows.T @ rows  # (integers below 2^53 summed: exact in any order)
-            xty[k] += rows.T @ tk
-            counts[k] += len(tk)
+            part = rows[c == k]
+            sums[k] += part.T @ part  # (integers below 2^53 summed: exact in any order)
+            counts[k] += len(part)
+    xtx, xty = sums[:, :NFIT, :NFIT], sums[:, :NFIT, NFIT]
     every = _solve(xtx.sum(axis=0), xty.sum(axis=0))
     cf1 = cf.copy()
     cf1[:NFIT] = every
