@@ -125,6 +125,11 @@ MIX_MIN_SAVING = 0.003
 PLANE_SLICES = 16
 PLANE_AREA = 64 * 64 + 1
 PLANE_EXACT = 1 << 53
+# A brick of 3 slices or more tries it only where its slices differ from one another by
+# PLANE_STEP times as much as neighbours in a slice do (mean absolute differences): 5.6x
+# on the CT resampled to 8 thick slices (the planar stream 4.6 % shorter), 0.93x on the
+# 12x1024^2 microscopy stack (0.7 % longer: the z taps average its noise away).
+PLANE_STEP = 2.0
 # With PRUNE, the planar chain codes in full only its pick on the sample (its doubts cost
 # more time than they saved), and nothing where the sample puts it this share behind the
 # 3-D chain's estimate (the 12x1024^2 microscopy stack: 0.7 % behind in full).
@@ -507,9 +512,15 @@ def _encode_predict(
 
 
 def _plane_fits(values: np.ndarray, lo: int, hi: int) -> bool:
-    """Whether the planar stream is tried on a brick (see :data:`PLANE_SLICES`)."""
+    """Whether the planar stream is tried on a brick (see :data:`PLANE_SLICES` and
+    :data:`PLANE_STEP`)."""
     nz, ny, nx = values.shape
-    return nz <= PLANE_SLICES and ny * nx >= PLANE_AREA and values.size * (hi - lo) ** 2 < PLANE_EXACT
+    if not (nz <= PLANE_SLICES and ny * nx >= PLANE_AREA and values.size * (hi - lo) ** 2 < PLANE_EXACT):
+        return False
+    if nz <= 2:
+        return True
+    step = (np.abs(np.diff(values, axis=1)).mean() + np.abs(np.diff(values, axis=2)).mean()) / 2
+    return bool(np.abs(np.diff(values, axis=0)).mean() >= PLANE_STEP * step)
 
 
 def _encode_plane(
