@@ -34,80 +34,29 @@ def micro(shape, n, seed):
 
 
 def volumes():
-    """(name, set, description, array) of every volume."""
-    out = []
-    ct, _, _ = load("ct_head")
-    thick = ndimage.zoom(ct.astype(np.float32), (8 / ct.shape[0], 1, 1), order=1)
-    out.append(
-        (
-            "ct_slice1",
-            "tuned",
-            "head CT, middle slice, (1, 256, 256) int16",
-            ct[ct.shape[0] // 2][None].copy(),
-        )
-    )
-    out.append(
-        (
-            "ct_8thick",
-            "tuned",
-            "head CT resampled to 8 thick slices, int16",
-            np.round(thick).astype(np.int16),
-        )
-    )
-    # user32's stack came after 3000-seed Voronoi volumes on one generator: remade here
-    # from user32's own script's data when given (MICRO12), else from seed 32 directly
-    out.append(("micro_12x1024", "tuned", "widefield-like 12x1024x1024 uint16 (user32's)", None))
-    ch2, _, _ = load("mri_ch2")
-    out.append(
-        (
-            "ch2_slice1",
-            "held",
-            "Colin27 T1 MRI, middle axial slice, (1, 217, 181) uint8",
-            ch2[ch2.shape[0] // 2][None].copy(),
-        )
-    )
-    mni, _, _ = load("mri_mni152")
-    out.append(("mni_slab8", "held", "MNI152 T1, 8 middle slices, uint8", mni[90:98].copy()))
-    itk, _, _ = load("mri_itk_t1")
-    out.append(("itk_slab3", "held", "ITK T1 MRI, 3 middle slices, int16", itk[30:33].copy()))
-    s0, _, _ = load("mri_dipy_s0")
-    out.append(("dipy_s0_slab5", "held", "dipy b0 MRI, 5 middle slices, uint16", s0[2:7].copy()))
-    out.append(
-        (
-            "ct_slab4",
-            "held",
-            "head CT, 4 native slices near the skull base (30:34), int16",
-            ct[30:34].copy(),
-        )
-    )
-    out.append(("ct_slice2", "held", "head CT, 2 native slices at 80:82, int16", ct[80:82].copy()))
-    bs, _, _ = load("brainsmall")
-    out.append(
-        (
-            "brainsmall_slab6",
-            "held",
-            "brainsmall MRI (.den), 6 slices at 40:46, uint8",
-            bs[40:46].copy(),
-        )
-    )
-    cb, _, _ = load("mri_ch2better")
-    out.append(
-        (
-            "ch2better_slice1",
-            "held",
-            "Colin27 0.5 mm T1, middle slice, (1, 370, 301) uint8",
-            cb[cb.shape[0] // 2][None].copy(),
-        )
-    )
-    out.append(
-        (
-            "micro_6x768",
-            "held",
-            "widefield-like 6x768x1024 uint16, seed 7, 700 nuclei",
-            micro((6, 768, 1024), 700, 7),
-        )
-    )
-    return out
+    """(name, set, description, array) of every volume (array None: user32's stack)."""
+    names = ("ct_head", "mri_ch2", "mri_mni152", "mri_itk_t1", "mri_dipy_s0", "brainsmall")
+    names += ("mri_ch2better",)
+    scan = {n: load(n)[0] for n in names}
+    ct = scan["ct_head"]
+    thick = np.round(ndimage.zoom(ct.astype(np.float32), (8 / ct.shape[0], 1, 1), order=1))
+    mid = {n: a[a.shape[0] // 2][None].copy() for n, a in scan.items()}
+    return [
+        ("ct_slice1", "tuned", "head CT, middle slice, (1, 256, 256) int16", mid["ct_head"]),
+        ("ct_8thick", "tuned", "head CT resampled to 8 thick slices, int16", thick.astype(np.int16)),
+        # (user32's make.py drew it from a generator shared with its other volumes: read
+        # from DIR/../user32/ when there, else seeded 32 alone)
+        ("micro_12x1024", "tuned", "widefield-like 12x1024x1024 uint16 (user32's)", None),
+        ("ch2_slice1", "held", "Colin27 T1 MRI, middle axial slice, (1, 217, 181) uint8", mid["mri_ch2"]),
+        ("mni_slab8", "held", "MNI152 T1, 8 middle slices, uint8", scan["mri_mni152"][90:98].copy()),
+        ("itk_slab3", "held", "ITK T1 MRI, 3 middle slices, int16", scan["mri_itk_t1"][30:33].copy()),
+        ("dipy_s0_slab5", "held", "dipy b0 MRI, 5 middle slices, uint16", scan["mri_dipy_s0"][2:7].copy()),
+        ("ct_slab4", "held", "head CT, 4 native slices near the skull base (30:34), int16", ct[30:34].copy()),
+        ("ct_slice2", "held", "head CT, 2 native slices at 80:82, int16", ct[80:82].copy()),
+        ("brainsmall_slab6", "held", "brainsmall MRI (.den), 6 slices at 40:46, uint8", scan["brainsmall"][40:46].copy()),
+        ("ch2better_slice1", "held", "Colin27 0.5 mm T1, middle slice, (1, 370, 301) uint8", mid["mri_ch2better"]),
+        ("micro_6x768", "held", "widefield-like 6x768x1024 uint16, seed 7, 700 nuclei", micro((6, 768, 1024), 700, 7)),
+    ]  # fmt: skip
 
 
 def main(d: Path) -> None:
