@@ -814,6 +814,19 @@ def _solve(xtx: np.ndarray, xty: np.ndarray) -> np.ndarray:
 _FIT_STEPS = np.array(FIT_OFFSETS, dtype=np.int64)
 
 
+def _class_weights(xtx, xty, counts, th4) -> list[tuple[np.ndarray, np.ndarray]]:
+    """:func:`fit`'s answer from each gradient class's normal equations: the classes'
+    weights (a class of fewer than 4 NFIT rows takes those of all) with the thresholds
+    ``th4``, and the weights of all with none."""
+    every = _solve(xtx.sum(axis=0), xty.sum(axis=0))
+    cf = np.zeros(NCLS * NFIT, dtype=np.int64)
+    cf1 = cf.copy()
+    cf1[:NFIT] = every
+    for k in range(NCLS):
+        cf[k * NFIT : (k + 1) * NFIT] = _solve(xtx[k], xty[k]) if counts[k] >= 4 * NFIT else every
+    return [(cf, th4), (cf1, np.full(NCLS - 1, NO_CLASS, dtype=np.int64))]
+
+
 @kernel(inline=True)
 def _fit_varies(v, steps, z, y, x):
     t = v[z, y, x]
@@ -945,12 +958,7 @@ def fit(v: np.ndarray, mask: np.ndarray | None = None) -> list[tuple[np.ndarray,
         upper = np.triu_indices(NFIT, 1)
         for c in range(NCLS):  # the products were summed above the diagonal only
             xtx[c][upper[::-1]] = xtx[c][upper]
-    every = _solve(xtx.sum(axis=0), xty.sum(axis=0))
-    cf1 = cf.copy()
-    cf1[:NFIT] = every
-    for k in range(NCLS):
-        cf[k * NFIT : (k + 1) * NFIT] = _solve(xtx[k], xty[k]) if counts[k] >= 4 * NFIT else every
-    return [(cf, th4), (cf1, th)]
+    return _class_weights(xtx, xty, counts, th4)
 
 
 PLANE_ROWS = 1 << 8  # image rows a block of fit_plane's rows takes
@@ -1009,12 +1017,7 @@ def fit_plane(v: np.ndarray, mask: np.ndarray | None = None):
             sums[k] += part.T @ part  # (integers below 2^53 summed: exact in any order)
             counts[k] += len(part)
     xtx, xty = sums[:, :NFIT, :NFIT], sums[:, :NFIT, NFIT]
-    every = _solve(xtx.sum(axis=0), xty.sum(axis=0))
-    cf1 = cf.copy()
-    cf1[:NFIT] = every
-    for k in range(NCLS):
-        cf[k * NFIT : (k + 1) * NFIT] = _solve(xtx[k], xty[k]) if counts[k] >= 4 * NFIT else every
-    return [(cf, th4), (cf1, th)]
+    return _class_weights(xtx, xty, counts, th4)
 
 
 def _no_mask(n: int) -> np.ndarray:
