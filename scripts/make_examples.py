@@ -194,6 +194,9 @@ LOSSLESS_CASES = [
     # counts times a constant, a third of them through another path (their last bits
     # moved): a lattice whose step the values of least magnitude give (session 33)
     ("lossless-f32-counts", "f32-counts", {"brick": 32}),
+    # two slices coded as one plane by the planar predictor (session 33: flag 1024, the
+    # second flags byte's bit 2), one brick
+    ("lossless-v8-i16-plane", "thin-i16", {"brick": (2, 80, 96)}),
 ]
 
 
@@ -251,6 +254,10 @@ def lossless_source(recipe: str):
         corner = wavelet_source("u8")[16:, 16:, 16:].astype(np.uint64)
         out[16:, 16:, 16:] = (corner << np.uint64(40)) + 7
         return out
+    if recipe == "thin-i16":  # two slices 12 apart of the bundled MRI, 80 x 96, as int16
+        from volpack.demo import load_demo_volume
+
+        return load_demo_volume().data[30:54:12, 20:100, 16:112].astype(np.int16) - 100
     if recipe == "v5-u8-floor":  # the head over a noise floor of small values, 1 rare
         return noise_floor(lossless_source("v2-u8-background"))
     if recipe.startswith("v2-"):  # 32^3 cuts of the bundled MRI: head and background, tissue

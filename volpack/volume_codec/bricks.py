@@ -35,6 +35,14 @@ LOSSLESS_FLOAT_BRICK = 128
 # StarDist stack. Larger volumes keep 64^3 (not measured: minutes of encoding each).
 LOSSLESS_SMALL_VOXELS = 1 << 21
 LOSSLESS_SMALL_BRICK = 128
+# Thin integer volumes (at most THIN_SLICES slices, wider than a brick) coded exactly by
+# the default codec: a brick holds the whole depth and a square of side the largest power
+# of two with at most THIN_VOXELS voxels (z = 1: 1024, 8: 256), so its models and fitted
+# predictor learn from whole slices, not from 128^2 or 64^2 tiles of a few slices.
+# Measured (session 33, results/lossless/thin33): one CT slice +1.8 % ratio against
+# 128^2 tiles, a 12x1024x1024 microscopy stack +1.1 % against 64^3.
+THIN_SLICES = 16
+THIN_VOXELS = 1 << 20
 
 
 def default_brick(
@@ -44,19 +52,29 @@ def default_brick(
     error bound (``bounded``) the whole volume if it is small, else LOSSY_FLOAT_BRICK; for
     a float volume coded exactly by the default codec (``codec`` ``"auto"`` or
     ``"lossless"``), LOSSLESS_FLOAT_BRICK; for a small integer volume coded exactly by it
-    (no ``lossy`` setting), LOSSLESS_SMALL_BRICK."""
+    (no ``lossy`` setting), LOSSLESS_SMALL_BRICK, and for a thin one (THIN_SLICES) wider
+    than that, bricks of its whole depth (:func:`thin_brick`)."""
     spatial = tuple(int(n) for n in shape[-3:])
     exact = codec in ("auto", "lossless")
     if np.dtype(dtype).kind != "f":
-        if exact and not lossy and math.prod(spatial) <= LOSSLESS_SMALL_VOXELS:
-            return (LOSSLESS_SMALL_BRICK,) * 3
-        return (DEFAULT_BRICK,) * 3
+        small = math.prod(spatial) <= LOSSLESS_SMALL_VOXELS
+        side = LOSSLESS_SMALL_BRICK if exact and not lossy and small else DEFAULT_BRICK
+        if exact and not lossy and 0 < spatial[0] <= THIN_SLICES and max(spatial[1:]) > side:
+            return thin_brick(spatial[0])
+        return (side,) * 3
     if not bounded:
         side = LOSSLESS_FLOAT_BRICK if exact else DEFAULT_BRICK
         return (side,) * 3
     if math.prod(spatial) <= LOSSY_FLOAT_VOXELS:
         return tuple(max(1, n) for n in spatial)  # type: ignore[return-value]
     return (LOSSY_FLOAT_BRICK,) * 3
+
+
+def thin_brick(nz: int) -> tuple[int, int, int]:
+    """The brick of a thin integer volume of ``nz`` slices: ``(nz, s, s)``, ``s`` the largest
+    power of two with ``nz * s * s <= THIN_VOXELS`` (256 from 16 slices down to 5)."""
+    s = 1 << (int(math.isqrt(THIN_VOXELS // nz)).bit_length() - 1)
+    return (nz, s, s)
 
 
 def parse_brick(value: int | tuple[int, ...] | list[int]) -> tuple[int, int, int]:

@@ -96,6 +96,16 @@ FIT_OFFSETS = (
     (0, 0, 2), (0, 2, 0), (2, 0, 0), (1, 0, -1), (1, -1, 0), (1, 1, -1), (1, -1, 1), (1, -1, -1),
 )  # fmt: skip
 NFIT = len(FIT_OFFSETS)
+# The planar predictor (the payload's PLANE flag): the brick's slices coded as one plane,
+# stacked along y, with NFIT weights on these in-plane neighbours as (dy, dx) steps back
+# (the order of _fitted_plane). A few thick slices (resampled CT) or one slice have little
+# to gain along z: the 3-D fit needs two slices before a voxel (none in a 1-slice brick,
+# whose voxels all took the fallback blend), the planar one three rows and three columns.
+PLANE_OFFSETS = (
+    (0, 1), (1, 0), (1, 1), (1, -1), (0, 2), (2, 0), (1, 2), (1, -2),
+    (2, 1), (2, -1), (2, 2), (2, -2), (0, 3), (3, 0), (1, 3), (1, -3),
+)  # fmt: skip
+PLANE_REACH = 3
 # The local fit's weight against the blend (in 16ths) follows the two estimates' mean
 # absolute errors in the coding context, squared (as the weights of two estimates with
 # independent errors go); both sums halve past LOCAL_LIMIT (eighths).
@@ -440,6 +450,31 @@ def _fitted(v, cf, c, i, sy, sz):
 
 
 @kernel(inline=True)
+def _fitted_plane(v, cf, c, i, sy):
+    """The planar predictor with the weights ``cf[c:c + 16]`` (:data:`PLANE_OFFSETS`), in
+    eighths."""
+    t = (
+        cf[np.uint64(c)] * v[np.uint64(i - 1)]
+        + cf[np.uint64(c + 1)] * v[np.uint64(i - sy)]
+        + cf[np.uint64(c + 2)] * v[np.uint64(i - sy - 1)]
+        + cf[np.uint64(c + 3)] * v[np.uint64(i - sy + 1)]
+        + cf[np.uint64(c + 4)] * v[np.uint64(i - 2)]
+        + cf[np.uint64(c + 5)] * v[np.uint64(i - 2 * sy)]
+        + cf[np.uint64(c + 6)] * v[np.uint64(i - sy - 2)]
+        + cf[np.uint64(c + 7)] * v[np.uint64(i - sy + 2)]
+        + cf[np.uint64(c + 8)] * v[np.uint64(i - 2 * sy - 1)]
+        + cf[np.uint64(c + 9)] * v[np.uint64(i - 2 * sy + 1)]
+        + cf[np.uint64(c + 10)] * v[np.uint64(i - 2 * sy - 2)]
+        + cf[np.uint64(c + 11)] * v[np.uint64(i - 2 * sy + 2)]
+        + cf[np.uint64(c + 12)] * v[np.uint64(i - 3)]
+        + cf[np.uint64(c + 13)] * v[np.uint64(i - 3 * sy)]
+        + cf[np.uint64(c + 14)] * v[np.uint64(i - sy - 3)]
+        + cf[np.uint64(c + 15)] * v[np.uint64(i - sy + 3)]
+    )
+    return (t + (1 << (CF_BITS - 4))) >> (CF_BITS - 3)
+
+
+@kernel(inline=True)
 def _gather(v, err, perr, i, r, ru, z, y, x, ny, nx, hi, held):
     """:func:`.predict.gather`, with what the voxel before left (``held``: its value,
     its error and its predictors' errors, see :func:`_learn`) taken from registers
@@ -467,14 +502,15 @@ def _texture_bias(ctx, p0, W, N, U, NE, NW, UN):
 
 
 @kernel(inline=True)
-def _predict_kernel(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, held, tex, lpe, lw):
+def _predict_kernel(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, held, tex, plane, lpe, lw):
     """Prediction and contexts of voxel ``i`` = (z, y, x) from the decoded ``v`` (values
     in ``[0, hi]``), the errors of earlier voxels (as :func:`.predict.gather`; ``held``
     as :func:`_gather`) and the mean errors ``bias`` (kept by :func:`_learn`): of the
     coding context, or with ``tex`` of the texture (:func:`_texture_bias`). The blend
     is averaged with the local fit's estimate ``lpe`` (:mod:`.localfit`, in eighths)
     unless that is ``localfit.NONE``, weighted by the two's errors in the context
-    (``lw``, kept by :func:`_learn_local`).
+    (``lw``, kept by :func:`_learn_local`). With ``plane`` (a brick coded as one slice)
+    the fitted predictor is :func:`_fitted_plane`, its class by in-plane gradients.
 
     Returns ``(pred, ctx, bias slot, sign_ctx, activity, q0, ..., q5, blend, local fit)``
     (the six predictors, the blend and the clipped local fit in eighths).
@@ -489,11 +525,19 @@ def _predict_kernel(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, h
         g = abs(W - NW) + abs(N - NW) + abs(N - NE) + abs(U - UN) + abs(U - UW)
         c = (np.int64(g > th[0]) + np.int64(g > th[1]) + np.int64(g > th[2])) * NFIT
         q2 = min(max(_fitted(v, cf, c, i, nx, ny * nx), 0), h8)
+    elif plane and y >= PLANE_REACH and x >= PLANE_REACH and x + PLANE_REACH < nx:
+        g = abs(W - NW) + abs(N - NW) + abs(N - NE) + abs(W - v[np.uint64(i - 2)]) + abs(N - v[np.uint64(i - 2 * nx)])
+        c = (np.int64(g > th[0]) + np.int64(g > th[1]) + np.int64(g > th[2])) * NFIT
+        q2 = min(max(_fitted_plane(v, cf, c, i, nx), 0), h8)
     else:
         q2 = min(max(8 * (U + N - UN), 0), h8)
     q3 = min(max(8 * (W + N + U - NW - UW - UN + UNW), 0), h8)
     q4 = 8 * U
     q5 = 4 * (W + NE)
+    if plane:  # (U is W in a plane: its slots take in-plane predictors)
+        q1 = 8 * N
+        q3 = min(max(8 * (W + NE - N), 0), h8)
+        q4 = 8 * NE
     if tex:
         g = abs(W - NW) + abs(N - NW) + abs(N - NE) + abs(U - UN) + abs(U - UW)
         act = (act2 + g) >> 1
@@ -548,11 +592,11 @@ def _learn_local(lw, ctx, val, pb, lq):
 
 
 @kernel(inline=True)
-def _predict_mix(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, held, tex, mix, lpe, lw):
+def _predict_mix(v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, held, tex, plane, mix, lpe, lw):
     """:func:`_predict_kernel`, with the voxel's slots of the mixed estimates
     (:func:`.residmix.contexts`, or ``NO_MIX``) in place of the activity."""
     pred, ctx, bctx, sctx, act, q0, q1, q2, q3, q4, q5, pb, lq = _predict_kernel(
-        v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, held, tex, lpe, lw
+        v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, held, tex, plane, lpe, lw
     )
     mx = NO_MIX
     if mix:
@@ -601,8 +645,8 @@ def _workspace(shape: tuple[int, ...]) -> tuple[np.ndarray, ...]:
 
 @kernel(nrt=False)
 def _encode_kernel(
-    v, mk, cf, th, shape, hi, nlow, tex, mix, lp, ls, out, err, perr, bias_sum, bias_cnt, bias, models,
-    aux, lw,
+    v, mk, cf, th, shape, hi, nlow, tex, plane, mix, lp, ls, out, err, perr, bias_sum, bias_cnt, bias,
+    models, aux, lw,
 ):
     """``lp``: the local fit's estimate of every voxel (:func:`.localfit.estimates`),
     used when ``ls``."""
@@ -627,8 +671,8 @@ def _encode_kernel(
                     continue
                 lpe = lp[np.uint64(i)] if ls else localfit.NONE
                 pred, ctx, bctx, sctx, mx, q0, q1, q2, q3, q4, q5, pb, lq = _predict_mix(
-                    v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, bias, held, tex, mix,
-                    lpe, lw,
+                    v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, bias, held, tex, plane,
+                    mix, lpe, lw,
                 )
                 val = v[np.uint64(i)]
                 q = _low_class(pred, nlow)
@@ -645,8 +689,8 @@ def _encode_kernel(
 
 @kernel(nrt=False)
 def _decode_kernel(
-    data, mk, fill, cf, th, shape, hi, nlow, tex, mix, ls, st, cs, ws, a, g, v, err, perr, bias_sum,
-    bias_cnt, bias, models, aux, lw, start, coder,
+    data, mk, fill, cf, th, shape, hi, nlow, tex, plane, mix, ls, st, cs, ws, a, g, v, err, perr,
+    bias_sum, bias_cnt, bias, models, aux, lw, start, coder,
 ):
     """Return 0 on success, 1 when the stream ran short, 2 on an impossible value, 3 when
     it does not end where its length says. With ``ls``, the local fit's sums are moved
@@ -656,15 +700,15 @@ def _decode_kernel(
     (of the whole brick, ``z * ny + y``) on, with the coder's state ``coder[:3]``, where
     :func:`_decode_plain` stopped (0: from the stream's start)."""
     return _decode_rows(
-        data, mk, fill, cf, th, shape, hi, nlow, tex, mix, ls, st, cs, ws, a, g, v, err, perr, bias_sum,
-        bias_cnt, bias, models, aux, lw, start, -1, coder, False,
+        data, mk, fill, cf, th, shape, hi, nlow, tex, plane, mix, ls, st, cs, ws, a, g, v, err, perr,
+        bias_sum, bias_cnt, bias, models, aux, lw, start, -1, coder, False,
     )  # fmt: skip
 
 
 @kernel(nrt=False)
 def _decode_plain(
-    data, mk, fill, cf, th, shape, hi, nlow, tex, mix, st, cs, ws, a, g, v, err, perr, bias_sum, bias_cnt,
-    bias, models, aux, lw, stop, coder,
+    data, mk, fill, cf, th, shape, hi, nlow, tex, plane, mix, st, cs, ws, a, g, v, err, perr, bias_sum,
+    bias_cnt, bias, models, aux, lw, stop, coder,
 ):
     """:func:`_decode_kernel` without the local fit (every stream but those flagged with
     it: its tests compile out) and without the mix's bound on its weights, rows at a
@@ -673,15 +717,15 @@ def _decode_plain(
     coder's state and the row to go on from in ``coder``, for :func:`_decode_kernel` to
     finish; also at row ``stop`` (a test's lever)."""
     return _decode_rows(
-        data, mk, fill, cf, th, shape, hi, nlow, tex, mix, False, st, cs, ws, a, g, v, err, perr, bias_sum,
-        bias_cnt, bias, models, aux, lw, 0, stop, coder, True,
+        data, mk, fill, cf, th, shape, hi, nlow, tex, plane, mix, False, st, cs, ws, a, g, v, err, perr,
+        bias_sum, bias_cnt, bias, models, aux, lw, 0, stop, coder, True,
     )  # fmt: skip
 
 
 @kernel(inline=True)
 def _decode_rows(
-    data, mk, fill, cf, th, shape, hi, nlow, tex, mix, ls, st, cs, ws, a, g, v, err, perr, bias_sum,
-    bias_cnt, bias, models, aux, lw, start, stop, coder, fast,
+    data, mk, fill, cf, th, shape, hi, nlow, tex, plane, mix, ls, st, cs, ws, a, g, v, err, perr,
+    bias_sum, bias_cnt, bias, models, aux, lw, start, stop, coder, fast,
 ):
     """The two kernels' loop; ``fast`` (a constant): :func:`_decode_plain`'s."""
     nz, ny, nx = shape[0], shape[1], shape[2]
@@ -728,7 +772,7 @@ def _decode_rows(
                 lpe = localfit.estimate(a, v, i, st) if here and fitted else localfit.NONE
                 bad, held, code, rng, pos = _decode_voxel(
                     data, v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, nlow, bias,
-                    bias_sum, bias_cnt, held, tex, mix, lpe, lw, models, aux, code, rng, pos, not fast,
+                    bias_sum, bias_cnt, held, (tex, plane), mix, lpe, lw, models, aux, code, rng, pos, not fast,
                 )  # fmt: skip
                 if bad:
                     return 2
@@ -738,13 +782,16 @@ def _decode_rows(
 
 @kernel(inline=True)
 def _decode_voxel(
-    data, v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, nlow, bias, bias_sum, bias_cnt, held, tex,
+    data, v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, nlow, bias, bias_sum, bias_cnt, held, kinds,
     mix, lpe, lw, models, aux, code, rng, pos, clamp,
 ):
     """Decode voxel ``i`` into ``v`` and learn from it (``clamp``: as
-    :func:`.residmix.learn`); returns ``(impossible value, held, code, rng, pos)``."""
+    :func:`.residmix.learn`; ``kinds``: ``(tex, plane)``, one argument: a call of more
+    than 30 is one numba cannot inline); returns ``(impossible value, held, code, rng,
+    pos)``."""
+    tex, plane = kinds
     pred, ctx, bctx, sctx, mx, q0, q1, q2, q3, q4, q5, pb, lq = _predict_mix(
-        v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, held, tex, mix, lpe, lw
+        v, cf, th, err, perr, i, r, ru, z, y, x, ny, nx, hi, bias, held, tex, plane, mix, lpe, lw
     )
     q = _low_class(pred, nlow)
     res, code, rng, pos = get_residual_mix(data, models, ctx, sctx, q, code, rng, pos, aux, mx, clamp)
@@ -765,6 +812,19 @@ def _solve(xtx: np.ndarray, xty: np.ndarray) -> np.ndarray:
 
 
 _FIT_STEPS = np.array(FIT_OFFSETS, dtype=np.int64)
+
+
+def _class_weights(xtx, xty, counts, th4) -> list[tuple[np.ndarray, np.ndarray]]:
+    """:func:`fit`'s answer from each gradient class's normal equations: the classes'
+    weights (a class of fewer than 4 NFIT rows takes those of all) with the thresholds
+    ``th4``, and the weights of all with none."""
+    every = _solve(xtx.sum(axis=0), xty.sum(axis=0))
+    cf = np.zeros(NCLS * NFIT, dtype=np.int64)
+    cf1 = cf.copy()
+    cf1[:NFIT] = every
+    for k in range(NCLS):
+        cf[k * NFIT : (k + 1) * NFIT] = _solve(xtx[k], xty[k]) if counts[k] >= 4 * NFIT else every
+    return [(cf, th4), (cf1, np.full(NCLS - 1, NO_CLASS, dtype=np.int64))]
 
 
 @kernel(inline=True)
@@ -898,12 +958,66 @@ def fit(v: np.ndarray, mask: np.ndarray | None = None) -> list[tuple[np.ndarray,
         upper = np.triu_indices(NFIT, 1)
         for c in range(NCLS):  # the products were summed above the diagonal only
             xtx[c][upper[::-1]] = xtx[c][upper]
-    every = _solve(xtx.sum(axis=0), xty.sum(axis=0))
-    cf1 = cf.copy()
-    cf1[:NFIT] = every
-    for k in range(NCLS):
-        cf[k * NFIT : (k + 1) * NFIT] = _solve(xtx[k], xty[k]) if counts[k] >= 4 * NFIT else every
-    return [(cf, th4), (cf1, th)]
+    return _class_weights(xtx, xty, counts, th4)
+
+
+PLANE_ROWS = 1 << 8  # image rows a block of fit_plane's rows takes
+
+
+def _plane_keep(a: np.ndarray, mk: np.ndarray, y0: int, y1: int):
+    """Which voxels of image rows ``y0:y1`` of ``a`` (``y0 >= PLANE_REACH``) the planar fit
+    takes (not masked, not equal to all their neighbours, as :func:`_fit_sums` for 3-D),
+    and their class measure."""
+    r, nx = PLANE_REACH, a.shape[1]
+    t = a[y0:y1, r : nx - r]
+
+    def at(dy, dx):
+        return a[y0 - dy : y1 - dy, r - dx : nx - r - dx]
+
+    varies = np.zeros(t.shape, bool)
+    for dy, dx in PLANE_OFFSETS:
+        varies |= at(dy, dx) != t
+    keep = varies & (mk[y0:y1, r : nx - r] == 0)
+    w, n, nw = at(0, 1), at(1, 0), at(1, 1)
+    g = abs(w - nw) + abs(n - nw) + abs(n - at(1, -1)) + abs(w - at(0, 2)) + abs(n - at(2, 0))
+    return keep, g[keep]
+
+
+def fit_plane(v: np.ndarray, mask: np.ndarray | None = None):
+    """:func:`fit` for the planar predictor of brick ``v`` (values from 0) coded as one
+    plane (its slices stacked along y): least squares on :data:`PLANE_OFFSETS`, classes
+    split at the quartiles of the in-plane gradient. None where the normal equations'
+    sums could pass 2^53 (not exact in float64: their order would matter)."""
+    a = np.ascontiguousarray(v, dtype=np.int64).reshape(-1, v.shape[-1])
+    mk = np.zeros(a.shape, np.uint8) if mask is None else np.asarray(mask, np.uint8).reshape(a.shape)
+    cf = np.zeros(NCLS * NFIT, dtype=np.int64)
+    th = np.full(NCLS - 1, NO_CLASS, dtype=np.int64)
+    (ny, nx), r = a.shape, PLANE_REACH
+    if ny <= r or nx <= 2 * r:
+        return [(cf, th), (cf, th)]
+    blocks = [(y, min(ny, y + PLANE_ROWS)) for y in range(r, ny, PLANE_ROWS)]
+    kept = [_plane_keep(a, mk, y0, y1) for y0, y1 in blocks]
+    g = np.concatenate([gk for _, gk in kept])
+    n = g.size
+    top = max(int(a.max()), -int(a.min()))
+    if n * top * top >= 1 << 53:
+        return None
+    if n < 4 * NFIT:
+        return [(cf, th), (cf, th)]
+    th4 = np.minimum(np.quantile(g, np.arange(1, NCLS) / NCLS), NO_CLASS).astype(np.int64)
+    sums = np.zeros((NCLS, NFIT + 1, NFIT + 1))  # (the neighbours', then the voxel's products)
+    counts = np.zeros(NCLS, dtype=np.int64)
+    for (y0, y1), (keep, gk) in zip(blocks, kept):
+        c = (gk[:, None] > th4[None, :]).sum(1)
+        rows = np.empty((gk.size, NFIT + 1))
+        for j, (dy, dx) in enumerate(PLANE_OFFSETS + ((0, 0),)):
+            rows[:, j] = a[y0 - dy : y1 - dy, r - dx : nx - r - dx][keep]
+        for k in range(NCLS):
+            part = rows[c == k]
+            sums[k] += part.T @ part  # (integers below 2^53 summed: exact in any order)
+            counts[k] += len(part)
+    xtx, xty = sums[:, :NFIT, :NFIT], sums[:, :NFIT, NFIT]
+    return _class_weights(xtx, xty, counts, th4)
 
 
 def _no_mask(n: int) -> np.ndarray:
@@ -921,6 +1035,7 @@ def encode(
     tex: bool = False,
     mix: bool = False,
     local: bool = False,
+    plane: bool = False,
 ) -> bytes:
     """Code a 3-D integer array with values in ``[lo, hi]`` (a range below 2^32): the
     thresholds (uint32) and weights (int16) of the fitted predictor (``fitted``, or
@@ -928,7 +1043,9 @@ def encode(
     true are not coded (the decoder is told their value). ``low``: with the low-value
     models, ``tex``: with the texture bias, ``mix``: with the mixed estimates of
     :mod:`.residmix`, ``local``: averaged with the local fit of :mod:`.localfit` (the
-    decoder must be told of each; ``local`` only where :func:`.localfit.usable`)."""
+    decoder must be told of each; ``local`` only where :func:`.localfit.usable`); ``plane``:
+    the slices coded as one plane by the planar predictor (``fitted`` from
+    :func:`fit_plane`; not with ``local``)."""
     v = np.ascontiguousarray(values, dtype=np.int64)
     if v.ndim != 3:
         raise OptionError(f"expected a 3-D array, found shape {v.shape}")
@@ -936,8 +1053,17 @@ def encode(
         raise OptionError(f"expected a value range of at most 2^32, found [{lo}, {hi}]")
     if classes not in (1, NCLS):
         raise OptionError(f"expected 1 or {NCLS} gradient classes, found {classes}")
+    if plane and local:
+        raise OptionError("the planar predictor does not take the local fit")
     v = v - lo
-    cf, th = fitted if fitted is not None else fit(v, mask)[0 if classes == NCLS else 1]
+    if plane:
+        v = v.reshape(1, -1, v.shape[2])
+    if fitted is None:
+        fits = fit_plane(v, mask) if plane else fit(v, mask)
+        if fits is None:
+            raise OptionError(f"the planar fit takes values whose sums stay below 2^53, found [{lo}, {hi}]")
+        fitted = fits[0 if classes == NCLS else 1]
+    cf, th = fitted
     flat = v.reshape(-1)
     mk = _no_mask(flat.size) if mask is None else np.ascontiguousarray(mask, np.uint8).reshape(-1)
     shape = np.array(v.shape, dtype=np.int64)
@@ -949,8 +1075,8 @@ def encode(
     lp = localfit.estimates(v, FIT_OFFSETS).reshape(-1) if local else np.zeros(1, np.int64)
     body = encode_with_retry(
         lambda out: _encode_kernel(
-            flat, mk, cf, th, shape, np.int64(hi - lo), _nlow(low), np.int64(tex), np.int64(mix), lp,
-            local, out, *_workspace(v.shape),
+            flat, mk, cf, th, shape, np.int64(hi - lo), _nlow(low), np.int64(tex), plane, np.int64(mix),
+            lp, local, out, *_workspace(v.shape),
         ),
         flat.size,
         (2, 20),
@@ -974,12 +1100,15 @@ def decode(
     tex: bool = False,
     mix: bool = False,
     local: bool = False,
+    plane: bool = False,
 ):
     """Decode :func:`encode`'s bytes into an int64 array of ``shape``; voxels where
-    ``mask`` is true get ``fill``; ``low``, ``tex``, ``mix`` and ``local`` as for
-    :func:`encode`."""
+    ``mask`` is true get ``fill``; ``low``, ``tex``, ``mix``, ``local`` and ``plane`` as
+    for :func:`encode`."""
     if not (lo <= hi and hi - lo < (1 << 32)):
         raise FormatError(f"predictive payload: value range [{lo}, {hi}] is out of bounds")
+    if plane and local:
+        raise FormatError("predictive payload: the local fit is flagged with the planar predictor")
     if local and not localfit.usable(shape, hi - lo):
         raise FormatError(
             f"predictive payload: the local fit is flagged on a brick it does not apply to "
@@ -992,12 +1121,13 @@ def decode(
     cf = np.frombuffer(data, dtype="<i2", count=NCLS * NFIT, offset=4 * (NCLS - 1))
     buf = stream_bytes(data[HEAD:], "predictive")
     n = int(np.prod(shape))
+    coded = (1, shape[0] * shape[1], shape[2]) if plane else tuple(shape)
     mk = _no_mask(n) if mask is None else np.ascontiguousarray(mask, np.uint8).reshape(-1)
     v = np.empty(n, dtype=np.int64)
-    shp = np.array(shape, dtype=np.int64)
+    shp = np.array(coded, dtype=np.int64)
     head = (buf, mk, np.int64(fill - lo), cf.astype(np.int64), th, shp, np.int64(hi - lo), _nlow(low),
-            np.int64(tex), np.int64(mix))  # fmt: skip
-    ws = _workspace(shape)
+            np.int64(tex), plane, np.int64(mix))  # fmt: skip
+    ws = _workspace(coded)
     coder = np.zeros(4, np.int64)
     fit = (localfit.steps(FIT_OFFSETS, shape), *localfit.workspace(shape if local else (1, 1, 1)))
     status = 4 if local else _decode_plain(*head, *fit, v, *ws, np.int64(HANDOVER), coder)
