@@ -297,3 +297,17 @@ def test_golden_tuple_streams_decode_and_are_reproduced(stem):
     with Reader(gold) as old, Reader(again) as new:
         assert old.header == new.header
         assert [(t, n, bytes(p)) for t, n, p in old] == [(t, n, bytes(p)) for t, n, p in new]
+
+
+@pytest.mark.parametrize("dtype", [np.int8, np.uint8, np.int16, np.uint16])
+def test_find_sorts_tuples_as_signed_or_unsigned_numbers(dtype):
+    """Keys through a table (up to 24 bits) and by a sort (32 bits), signed and not: the
+    tuples come out in numeric order, channel 0 first, and index every voxel."""
+    info = np.iinfo(dtype)
+    vals = np.array([info.min, -1 if info.min else 1, 0, 5, info.max], dtype)
+    rng = np.random.default_rng(5)
+    a = vals[rng.integers(0, 5, (2, 4, 10, 12))]
+    tuples, index = tp.find(a)
+    want = sorted({(int(p), int(q)) for p, q in zip(a[0].ravel(), a[1].ravel())})
+    assert [tuple(map(int, t)) for t in tuples] == want
+    np.testing.assert_array_equal(np.moveaxis(tuples[index], -1, 0), a)

@@ -252,8 +252,9 @@ def compress(
         volume of each voxel's index into it (:mod:`.tuples`: a scan through a colour
         map, labels in colours), header ``"channels": {"axis": ..., "tuples": K}``.
         ``None`` (the default) does where the volume has at most 65,536 tuples (and
-        8 voxels a tuple) and a sample codes shorter so, unless ``interleave`` is
-        given; ``True`` wherever it has such a palette; ``False`` never, as before.
+        8 voxels a tuple) and a sample codes shorter so; ``True`` wherever it has such
+        a palette; ``False`` never, as before. Never with ``interleave`` given or a
+        lossy setting (those keep the channels).
     brick : int or (int, int, int), optional
         Brick size (of the stored 3-D volume when interleaved); bricks are coded
         independently and decoded one by one. Default

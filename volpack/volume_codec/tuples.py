@@ -69,19 +69,27 @@ def index_dtype(k: int) -> np.dtype:
     return np.dtype(np.uint8) if k <= 256 else np.dtype("<u2")
 
 
-def _unsigned(a: np.ndarray) -> np.ndarray:
-    """Integer voxels of at most 32 bits as uint64 in the same order (signed ones
-    shifted by 2^(bits-1))."""
-    if a.dtype.kind == "u":
-        return a.astype(np.uint64)
-    return (a.astype(np.int64) + (1 << (8 * a.dtype.itemsize - 1))).astype(np.uint64)
+def _unsigned(a: np.ndarray, to: type) -> np.ndarray:
+    """Native integer voxels of at most 32 bits as unsigned ``to`` in the same order
+    (signed ones with their sign bit flipped)."""
+    if a.dtype.kind == "i":
+        u = a.view(f"u{a.dtype.itemsize}")
+        a = u ^ u.dtype.type(1 << (8 * a.dtype.itemsize - 1))
+    return a.astype(to)
+
+
+# Keys of up to this many bits are ranked through a table (16 M entries: 16 MB of flags,
+# 32 MB of ranks; RGB of 8 bits), longer ones by a sort.
+DENSE_KEY_BITS = 24
 
 
 def find(series: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     """The distinct tuples of a ``(c, z, y, x)`` integer series (channel-major, as the
     channels are stored) in sorted order (channel 0 first), ``(K, C)``, and each voxel's
-    index into them, ``(z, y, x)`` int64; None where the tuples are wider than 64 bits,
-    more than :data:`MAX_TUPLES` or fewer than :data:`MIN_VOXELS_PER_TUPLE` voxels each."""
+    index into them, ``(z, y, x)``; None where the tuples are wider than 64 bits, more
+    than :data:`MAX_TUPLES` or fewer than :data:`MIN_VOXELS_PER_TUPLE` voxels each. The
+    keys take 4 bytes a voxel where the tuples fit 32 bits (8 otherwise), the index 2
+    where they fit 24 bits (8 otherwise)."""
     series = series.astype(series.dtype.newbyteorder("="), copy=False)
     c, dtype = series.shape[0], series.dtype
     bits = 8 * dtype.itemsize
@@ -89,26 +97,38 @@ def find(series: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
         return None
     n = series[0].size
     limit = min(MAX_TUPLES, n // MIN_VOXELS_PER_TUPLE)
+    kdt = np.uint32 if c * bits <= 32 else np.uint64
 
     def keys_of(part: np.ndarray) -> np.ndarray:
-        k = np.zeros(part.shape[1:], np.uint64)
+        k = np.zeros(part.shape[1:], kdt)
         for ch in range(c):
-            k = (k << np.uint64(bits)) | _unsigned(part[ch])
+            k <<= kdt(bits)
+            k |= _unsigned(part[ch], kdt)
         return k
 
     step = max(1, series.shape[1] // 16)  # a few slices first: noise is refused cheaply
     if pal.sorted_unique(keys_of(series[:, ::step]).reshape(-1)).size > limit:
         return None
     keys = keys_of(series)
-    uniq = pal.sorted_unique(keys.reshape(-1))
-    if uniq.size > limit:
-        return None
-    index = np.searchsorted(uniq, keys)
+    if c * bits <= DENSE_KEY_BITS:
+        seen = np.zeros(1 << (c * bits), bool)
+        seen[keys.reshape(-1)] = True
+        uniq = np.flatnonzero(seen).astype(kdt)
+        if uniq.size > limit:
+            return None
+        rank = np.zeros(seen.size, np.uint16)
+        rank[uniq] = np.arange(uniq.size)
+        index = rank[keys]
+    else:
+        uniq = pal.sorted_unique(keys.reshape(-1))
+        if uniq.size > limit:
+            return None
+        index = np.searchsorted(uniq, keys)
     mask = np.uint64((1 << bits) - 1)
     shift = (1 << (bits - 1)) if dtype.kind == "i" else 0
     tuples = np.empty((uniq.size, c), dtype)
     for ch in range(c):
-        u = (uniq >> np.uint64(bits * (c - 1 - ch))) & mask
+        u = (uniq.astype(np.uint64) >> np.uint64(bits * (c - 1 - ch))) & mask
         tuples[:, ch] = (u.astype(np.int64) - shift).astype(dtype)
     return tuples, index
 
@@ -140,7 +160,7 @@ def pair_counts(index: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray, np.n
     for lo, hi in pairs:
         a, b = np.minimum(lo, hi).reshape(-1), np.maximum(lo, hi).reshape(-1)
         keep = a != b
-        codes.append(a[keep] * k + b[keep])
+        codes.append(a[keep].astype(np.int64) * k + b[keep])
     code = np.concatenate(codes)
     if k * k <= 1 << 24:
         counts = np.bincount(code, minlength=k * k)
