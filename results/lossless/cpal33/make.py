@@ -67,8 +67,33 @@ def held_out() -> dict[str, tuple[np.ndarray, str]]:
     return out
 
 
+def held_out_late() -> dict[str, tuple[np.ndarray, str]]:
+    """Made after the code was final (23:35 UTC) from scans and maps not used before:
+    held_out()'s volumes were seen while the candidate orders were compared (the settled
+    order was added after mni_turbo, itk_grey, ct_viridis and ch2_aal_overlay); these
+    were not."""
+    out = {}
+    s0, _, _ = load("mri_dipy_s0")
+    out["s0_hot"] = (lut("hot")[to_u8(s0, 0, float(np.percentile(s0, 99.5)))], "dipy S0 slab through hot, RGB last")
+    inia, _, _ = load("mri_inia19_float")
+    out["inia19_twilight"] = (lut("twilight")[to_u8(inia, 0, 383.2)], "INIA19 primate T1 through twilight (cyclic), RGB last")
+    jhu, _, _ = load("atlas_jhu_wm")
+    colours = np.random.default_rng(44).integers(0, 256, (int(jhu.max()) + 1, 4)).astype(np.uint8)
+    colours[:, 3] = 200
+    colours[0] = 0
+    out["jhu_random_rgba"] = (colours[jhu], "JHU white-matter labels, random colours, alpha 200 (0 outside), RGBA last")
+    aniso, _, _ = load("mri_dipy_aniso")
+    out["aniso_magma_czyx"] = (
+        np.ascontiguousarray(np.moveaxis(lut("magma")[to_u8(aniso, 0, 2149)], -1, 0)),
+        "dipy anisotropic-voxel scan through magma, channels first (3, z, y, x)",
+    )
+    km, _, _ = load("labels_itk_kmeans")
+    out["kmeans_tab10"] = (lut("tab10")[km], "ITK k-means classes through tab10, RGB last")
+    return out
+
+
 def volumes() -> dict[str, tuple[np.ndarray, str]]:
-    return {**tuned(), **held_out()}
+    return {**tuned(), **held_out(), **held_out_late()}
 
 
 if __name__ == "__main__":
