@@ -228,9 +228,9 @@ def settled_order(perm: np.ndarray, pairs: tuple) -> np.ndarray:
     """``perm`` with each tuple moved toward its neighbours: SETTLE_ROUNDS times, each
     tuple's position becomes SETTLE_KEEP of its own plus the rest of the mean position
     of the tuples next to it in the volume (weighted by how often), and the positions
-    are ranked again. The greedy chain leaves rare tuples (a grey level of a few voxels)
+    are ranked again. The greedy chain can leave rare tuples (a grey level of a few voxels)
     at its ends or where a heavier pair took their place; here they settle between
-    their neighbours (measured: the index of MNI152 through turbo 6.6 % shorter, within
+    their neighbours (measured: the index of MNI152 through turbo 6.5 % shorter, within
     2 % of the grey scan itself). Tuples of two mixed structures (labels blended over a
     scan) are pulled across both, so the chain stays a candidate of its own."""
     a, b, w = pairs
