@@ -190,7 +190,13 @@ LOSSLESS_CASES = [
     ("lossless-labels-u64", "labels-u64", {}),
     # a (z, y, x, c) colour volume stored as the series of its channels (header
     # "channels": "last"; session 32), the channels interleaved
-    ("lossless-channels-rgb-u8", "rgb-u8", {"brick": 32}),
+    # (tuples=False since session 33, whose default stores this volume as a tuple palette)
+    ("lossless-channels-rgb-u8", "rgb-u8", {"brick": 32, "tuples": False}),
+    # tuple palettes (session 33, header "channels": {"axis", "tuples"}, palette chunk
+    # (1, 0)): RGBA last through a colour wheel (K <= 256: a uint8 index volume), and two
+    # int16 channels first with K > 256 (a uint16 index volume, signed values)
+    ("lossless-tuples-rgba-u8", "rgba-u8", {"brick": 32, "tuples": True}),
+    ("lossless-tuples-first-i16", "pair-i16-first", {"brick": 32, "tuples": True}),
     # counts times a constant, a third of them through another path (their last bits
     # moved): a lattice whose step the values of least magnitude give (session 33)
     ("lossless-f32-counts", "f32-counts", {"brick": 32}),
@@ -247,6 +253,15 @@ def lossless_source(recipe: str):
         two = (x + 2 * y + 3 * z) % 3 == 0
         f[two] = k[two].astype(np.float32) / np.float32(1 / c) * np.float32(1.0000019)
         return f
+    if recipe == "rgba-u8":  # the cut through a colour wheel and an opacity ramp, RGBA last
+        cut = wavelet_source("u8")
+        turn = 2 * np.pi * 0.8 * cut.astype(np.float64) / 255
+        wheel = [127.5 + 127 * np.cos(turn + k * 2 * np.pi / 3) for k in range(3)]
+        return np.stack([*wheel, np.minimum(3 * cut.astype(np.int64), 255)], -1).astype(np.uint8)
+    if recipe == "pair-i16-first":  # two int16 channels first: the scaled cut, a z ramp
+        cut = wavelet_source("u8").astype(np.int16)
+        z = np.arange(cut.shape[0], dtype=np.int16)[:, None, None]
+        return np.stack([cut * 37 - 3000, -2 * cut + 50 * (z // 5)])
     if recipe == "labels-u64":  # the label cut as uint64 ids, a corner of wide values
         lab = np.digitize(wavelet_source("u8"), [40, 90])
         lab[:16, :16, :16] = 0

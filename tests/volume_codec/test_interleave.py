@@ -77,7 +77,9 @@ def test_the_default_interleaves_a_static_series_and_not_independent_time_steps(
 @pytest.mark.parametrize("dtype", [np.int16, np.uint8])
 def test_interleaved_series_round_trip_with_frames_and_regions(dtype):
     a = series(t=4, shape=(7, 20, 18), dtype=dtype, noise=2.0)
-    blob = api.compress_array(a, brick=(9, 16, 16))
+    # (as uint8, mostly clipped to 255, 187 distinct tuples of the 4 time steps: a tuple
+    # palette codes it shorter since session 33, 919 bytes against 1134 interleaved)
+    blob = api.compress_array(a, brick=(9, 16, 16), tuples=False)
     assert layout(blob) == il.LAYOUT
     np.testing.assert_array_equal(api.decompress_array(blob), a)
     for t in range(4):

@@ -353,6 +353,11 @@ def _volume_line(target: str, stats: dict) -> str:
         f"({stats['bricks']} {plural('brick', stats['bricks'])}, {w} {plural('worker', w)}"
         + (", the last axis as channels" if stats.get("channels") else "")
         + (
+            f", a palette of {stats['tuples']} voxel tuples and their index volume"
+            if stats.get("tuples")
+            else ""
+        )
+        + (
             f", {'channels' if stats.get('channels') else 'time steps'} interleaved)"
             if stats.get("layout")
             else ")"

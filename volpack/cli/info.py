@@ -125,6 +125,15 @@ def _axes(shape: list[int]) -> str:
     return "(t, z, y, x)"
 
 
+def _tuples_row(spec: dict) -> str:
+    """The channels row of a volume stored as a tuple palette (its header checked)."""
+    axes = "(z, y, x, c)" if spec["axis"] == "last" else "(c, z, y, x)"
+    return (
+        f"{spec['axis']}: {axes}, stored as a palette of {spec['tuples']} voxel tuples "
+        "(chunk 1, 0) and a volume of indices into it"
+    )
+
+
 def _human(d: dict, chunks: bool) -> str:
     if d["format"] != "vpk":
         rows = [
@@ -163,6 +172,11 @@ def _human(d: dict, chunks: bool) -> str:
         *(
             [["channels", "last: (z, y, x, c), stored as the series of its channels"]]
             if h.get("channels") == "last"
+            else []
+        ),
+        *(
+            [["channels", _tuples_row(h["channels"])]]
+            if isinstance(h.get("channels"), dict)
             else []
         ),
         *(

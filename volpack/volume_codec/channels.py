@@ -19,3 +19,11 @@ def looks_channels_last(shape: tuple[int, ...]) -> bool:
     MAX_CHANNELS voxels (RGB, RGBA, two fluorescence channels) and more along every other
     (a series of volumes 4 voxels wide is not met in practice)."""
     return len(shape) == 4 and shape[-1] <= MAX_CHANNELS < min(shape[:-1])
+
+
+def looks_channels_first(shape: tuple[int, ...]) -> bool:
+    """Whether a 4-D shape may be ``(c, z, y, x)``: a first axis of at most MAX_CHANNELS
+    voxels and more along every other. Such a volume stays a series (a time step a
+    channel) unless its tuples make a palette (:mod:`.tuples`), which is lossless
+    whatever the first axis means."""
+    return len(shape) == 4 and shape[0] <= MAX_CHANNELS < min(shape[1:])

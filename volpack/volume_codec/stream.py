@@ -38,7 +38,8 @@ from ..parallel import (
 from ..volume import Volume, require_voxels
 from . import bricks
 from . import interleave as il
-from .channels import CHANNELS_LAST, looks_channels_last
+from . import tuples as tp
+from .channels import CHANNELS_LAST, looks_channels_first, looks_channels_last
 from .codec import WaveletCodec, ZstdCodec
 from .protocol import storage_dtype
 from .registry import get_codec
@@ -159,6 +160,7 @@ def compress(
     effort: str = "default",
     interleave: bool | None = None,
     channels_last: bool | None = None,
+    tuples: bool | None = None,
     workers: int | None = 1,
     force: bool = False,
     progress: Progress | None = None,
@@ -243,6 +245,16 @@ def compress(
         decoded as ``(z, y, x, c)`` again. ``None`` (the default) does where the last axis has at most
         :data:`.channels.MAX_CHANNELS` voxels and every other more; ``False`` takes the 4-D
         volume as ``(t, z, y, x)``, as before.
+    tuples : bool, optional
+        A 4-D integer volume of a few channels, last (as ``channels_last`` takes them)
+        or first (``(c, z, y, x)``, at most :data:`.channels.MAX_CHANNELS`), coded
+        exactly: store it as the palette of its distinct voxel tuples and the 3-D
+        volume of each voxel's index into it (:mod:`.tuples`: a scan through a colour
+        map, labels in colours), header ``"channels": {"axis": ..., "tuples": K}``.
+        ``None`` (the default) does where the volume has at most 65,536 tuples (and
+        8 voxels a tuple) and a sample codes shorter so; ``True`` wherever it has such
+        a palette; ``False`` never, as before. Never with ``interleave`` given or a
+        lossy setting (those keep the channels).
     brick : int or (int, int, int), optional
         Brick size (of the stored 3-D volume when interleaved); bricks are coded
         independently and decoded one by one. Default
@@ -264,7 +276,8 @@ def compress(
         and ``file_ratio`` (the whole stream, as :func:`volpack.api.info` reports),
         ``seconds`` and ``mb_per_s`` (the coding, a setting search included), ``bricks``,
         ``codec``, ``layout`` (``"interleaved"``) for a series stored interleaved, and
-        ``channels`` (``"last"``) for a volume stored as the series of its channels.
+        ``channels`` (``"last"``) for a volume stored as the series of its channels,
+        ``tuples`` (K) and ``tuple_order`` for one stored as a tuple palette.
     """
     from ..format.container import Writer
 
@@ -374,15 +387,28 @@ def compress(
 
             check_dtype(vol.dtype)
     layout = None
+
+    def size_of(v: np.ndarray) -> int:  # bytes of a 3-D volume's bricks, as coded below
+        return sum(
+            len(c.encode_measured(np.ascontiguousarray(v[sl]))[0])
+            for _, sl in bricks.iter_bricks(v.shape, brick_of(v.shape))
+        )
+
+    palette, pays = None, None  # a tuple palette (.tuples), the sample's interleave answer
+    first = not channels and looks_channels_first(data.shape)
+    if tuples is not False and (channels or first) and c.lossless and interleave is None:
+        palette, pays = tp.plan(data, size_of, force=bool(tuples))
+        if palette is not None:
+            data = palette.index
+            brick_t = brick_of(data.shape)
+            nworkers = _encode_workers(workers, data.shape, brick_t)
+            log.info(
+                "stored as a palette of %d tuples (%s order) and an index volume: about "
+                "%d bytes against %d as channels", len(palette.tuples), palette.order,
+                palette.estimate, palette.channels_estimate,
+            )  # fmt: skip
     if data.ndim == 4 and interleave is not False:
-
-        def size_of(v: np.ndarray) -> int:  # bytes of a 3-D volume's bricks, as coded below
-            return sum(
-                len(c.encode_measured(np.ascontiguousarray(v[sl]))[0])
-                for _, sl in bricks.iter_bricks(v.shape, brick_of(v.shape))
-            )
-
-        if interleave or il.pays(data, size_of):
+        if interleave or (pays if pays is not None else il.pays(data, size_of)):
             layout, data = il.LAYOUT, il.fold(data)
             brick_t = brick_of(data.shape)
             nworkers = _encode_workers(workers, data.shape, brick_t)
@@ -404,7 +430,12 @@ def compress(
         "brick": list(brick_t),
         "codec": c.get_config(),
         **({"layout": layout} if layout else {}),
-        **({"channels": CHANNELS_LAST} if channels else {}),
+        **({"channels": CHANNELS_LAST} if channels and palette is None else {}),
+        **(
+            {"channels": {"axis": tp.AXES[first], "tuples": len(palette.tuples)}}
+            if palette is not None
+            else {}
+        ),
         "meta": jsonable(vol.meta),
     }
     frames = data[None] if data.ndim == 3 else data
@@ -424,6 +455,10 @@ def compress(
     tools_used: dict[str, int] = {}  # lossless codec: bricks per tool chosen
     tool_of = getattr(c, "describe", None)
     with Writer(_stdout() if target == "-" else target, header, force=force) as w:
+        if palette is not None:  # the palette first (chunk (1, 0)), then the index bricks
+            chunk = tp.pack(palette.tuples)
+            w.write(1, 0, chunk)
+            nbytes += len(chunk)
         results = ordered_map(encode, tasks, nworkers)
         for done, (t, node, payload, err, s2, n) in enumerate(results, 1):
             w.write(t, node, payload, err)
@@ -463,6 +498,11 @@ def compress(
         "bricks": total,
         **({"layout": layout} if layout else {}),
         **({"channels": CHANNELS_LAST} if channels else {}),
+        **(
+            {"tuples": len(palette.tuples), "tuple_order": palette.order}
+            if palette is not None
+            else {}
+        ),
         "workers": nworkers,
         "codec": c.get_config(),
         **quality_stats,
@@ -480,9 +520,11 @@ def _searched(record: dict[str, Any]) -> float | None:
 
 def stored_series_shape(hdr: dict) -> tuple[int, ...]:
     """The shape a volume stream stores: its ``shape``, but ``(c, z, y, x)`` for a
-    ``(z, y, x, c)`` volume stored as the series of its channels."""
+    ``(z, y, x, c)`` volume stored as the series of its channels (or as a tuple palette:
+    the shape its channels have)."""
     shape = tuple(hdr["shape"])
-    if hdr.get("channels") == CHANNELS_LAST:
+    tup = hdr.get("channels")
+    if tup == CHANNELS_LAST or (isinstance(tup, dict) and tup.get("axis") == "last"):
         return (shape[-1], *shape[:-1])
     return shape
 
@@ -532,11 +574,13 @@ class VolumeReader(CheckedReader):
         """The volume, the time step ``frame`` or the region ``roi`` (``"z0:z1,y0:y1,x0:x1"``
         or three slices), keeping dtype, spacing and the origin of the region. (A series
         stored interleaved decodes every time step of the region's slices, also for one
-        ``frame``.)"""
+        ``frame``; one stored as a tuple palette decodes its index volume once, a
+        ``frame`` then being a channel.)"""
         r, hdr = self._r, self.header
         nworkers = parse_workers(workers)
         shape = stored_series_shape(hdr)  # (a channel is a time step here)
         dtype = np.dtype(hdr["dtype"]).newbyteorder("=")
+        tup = hdr["channels"] if isinstance(hdr.get("channels"), dict) else None
         brick_t = tuple(hdr["brick"])
         c = get_codec(hdr["codec"])
         spatial = shape[-3:]
@@ -553,9 +597,12 @@ class VolumeReader(CheckedReader):
             stored, keys = il.stored_shape(shape), [0]
             z = region[0]
             sregion = (slice(z.start * nt, z.stop * nt), *region[1:])
+        elif tup is not None:  # one 3-D volume of indices into the tuples (chunk (1, 0))
+            stored, keys, sregion = spatial, [0], region
         else:
             stored, keys, sregion = spatial, times, region
-        nchunks = (1 if interleaved else nt) * math.prod(bricks.grid_shape(stored, brick_t))
+        nchunks = (1 if interleaved or tup else nt) * math.prod(bricks.grid_shape(stored, brick_t))
+        nchunks += 1 if tup else 0
         if not seekable:  # a pipe: the payloads are read (and counted) before anything else
             cache = {(t, n): p for t, n, p in r}
         if len(r if seekable else cache) != nchunks:
@@ -566,7 +613,14 @@ class VolumeReader(CheckedReader):
                 f"{list(brick_t)}, found {len(r if seekable else cache)}"
             )
         origin = tuple(o + s.start * d for o, s, d in zip(hdr["origin"], region, hdr["spacing"]))
-        out = np.empty((len(keys), *(s.stop - s.start for s in sregion)), dtype=dtype)
+        if tup is not None:
+            key = (1, 0)
+            payload = r.read(*key) if seekable else cache.pop(key, None)
+            if payload is None:
+                raise FormatError("stream has no tuple palette chunk (t=1, node=0)")
+            palette = tp.unpack(payload, tup["tuples"], nt, dtype)
+        dtype_out = tp.index_dtype(tup["tuples"]) if tup else dtype
+        out = np.empty((len(keys), *(s.stop - s.start for s in sregion)), dtype=dtype_out)
         nodes = bricks.bricks_in_roi(stored, brick_t, sregion)
         tasks = [(i, t, node) for i, t in enumerate(keys) for node in nodes]
         if workers is None or workers == 0:  # every core, one brick each at most
@@ -597,14 +651,16 @@ class VolumeReader(CheckedReader):
             if all(s.stop - s.start == n for s, n in zip(src_sl, bshape)):
                 c.decode_into(payload, out[(i, *dst_sl)])  # the whole brick: in place
                 return None
-            return (i, *dst_sl), c.decode(payload, bshape, dtype)[src_sl]
+            return (i, *dst_sl), c.decode(payload, bshape, dtype_out)[src_sl]
 
         for done, part in enumerate(completed_map(fetch, tasks, nworkers), 1):
             if part is not None:
                 out[part[0]] = part[1]
             if progress is not None:
                 progress(done, len(tasks))
-        if interleaved:
+        if tup is not None:
+            data = tp.lookup(palette, out[0], frame, tup["axis"])
+        elif interleaved:
             data = il.unfold(out[0], nt, frame)
         else:
             data = out[0] if (len(shape) == 3 or frame is not None) else out
@@ -669,7 +725,9 @@ def check_header(hdr: dict, max_voxels: int = DEFAULT_MAX_VOXELS) -> dict:
             f"expected layout {il.LAYOUT!r} of a 4-D volume or none, found "
             f"{hdr['layout']!r:.40} of a {len(shape)}-D one"
         )
-    if "channels" in hdr and (hdr["channels"] != CHANNELS_LAST or len(shape) != 4):
+    if isinstance(hdr.get("channels"), dict):
+        tp.check_header(hdr["channels"], shape, hdr["dtype"], "layout" in hdr)
+    elif "channels" in hdr and (hdr["channels"] != CHANNELS_LAST or len(shape) != 4):
         raise FormatError(
             f"expected channels {CHANNELS_LAST!r} of a 4-D volume or none, found "
             f"{hdr['channels']!r:.40} of a {len(shape)}-D one"
