@@ -253,15 +253,16 @@ def candidate_orders(tuples: np.ndarray, index: np.ndarray) -> dict[str, np.ndar
     counts = np.bincount(index.reshape(-1), minlength=len(tuples))
     pairs = pair_counts(index, len(tuples))
     out: dict[str, np.ndarray] = {}
+    chain = None  # (the settled order starts from it, kept or not)
     for name in ORDERS:
         if name == "sorted":
             perm = np.arange(len(tuples))
         elif name == "principal":
             perm = principal_order(tuples, counts)
         elif name == "chain":
-            perm = chain_order(tuples, pairs, counts)
+            perm = chain = chain_order(tuples, pairs, counts)
         else:
-            perm = settled_order(out.get("chain", chain_order(tuples, pairs, counts)), pairs)
+            perm = settled_order(chain, pairs)
         if not any(np.array_equal(perm, p) or np.array_equal(perm[::-1], p) for p in out.values()):
             out[name] = perm
     return out
