@@ -255,7 +255,7 @@ def _sperr_method() -> Method:
         blob = peer_codecs.sperr_bounded(x, e)
         return blob, len(blob)
 
-    return Method("sperr", enc, lambda b, x: peer_codecs.sperr_decode(b), True)
+    return Method("sperr", enc, lambda b, x: peer_codecs.sperr_decode(b).reshape(x.shape), True)
 
 
 def _sperr_h5_method() -> Method:

@@ -92,7 +92,7 @@ def codecs(coder: str | None = None, effort: str | None = None):
             ),
             lambda b, a: api.decompress_array(b),
         ),
-        "sperr": (peers.sperr_bounded, lambda b, a: peers.sperr_decode(b)),
+        "sperr": (peers.sperr_bounded, lambda b, a: peers.sperr_decode(b).reshape(a.shape)),
         "sz3": (sz3_encode, lambda b, a: peers.sz3_decode(b, a.dtype, a.shape)),
     }
 

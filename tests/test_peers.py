@@ -121,3 +121,18 @@ def test_sperr_is_not_run_where_it_would_crash_the_process(outlier, bound):
     )
     assert "sperr" not in {r["name"] for r in rows}
     assert rows  # zfp and SZ3 still ran
+
+
+def test_sperr_codes_a_single_slice_as_the_image_it_is():
+    """Session 34: SPERR encodes a (1, y, x) field, but decoding it ended the process (a
+    C++ length_error in imagecodecs' SPERR); `volpack compare --peers` on any 2-D field
+    stored as one slice died with it. SPERR now gets the 2-D image."""
+    imagecodecs = pytest.importorskip("imagecodecs")
+    if not imagecodecs.SPERR.available:
+        pytest.skip("imagecodecs without SPERR")
+    a = smooth_volume((1, 40, 52), np.int16).astype(np.float32)
+    e = 0.5
+    rows, skipped = compare_peers(a, max_error=e)
+    sperr = next(r for r in rows if r["name"] == "sperr")
+    assert sperr["max_error"] <= e and sperr["ratio"] > 1
+    assert not any(s.startswith("sperr") for s in skipped)

@@ -366,7 +366,20 @@ def sperr_bounded(x: np.ndarray, e: float) -> bytes:
             f"of {float(e):.3g} (largest magnitude above {SPERR_MAX:.0e} or "
             f"{SPERR_SPAN:.0e} times the bound)"
         )
-    return imagecodecs.sperr_encode(np.ascontiguousarray(x), mode="pwe", level=float(e))
+    return imagecodecs.sperr_encode(
+        np.ascontiguousarray(_sperr_shape(x)), mode="pwe", level=float(e)
+    )
+
+
+def _sperr_shape(x: np.ndarray) -> np.ndarray:
+    """``x`` as SPERR takes it: a volume of one slice as the 2-D image it is. SPERR
+    (imagecodecs 2026.3.6) encodes a (1, y, x) array, but its decoder then ends the
+    process (a C++ length_error, session 34: any single-slice field); SPERR's 2-D mode
+    codes the same image."""
+    long = [n for n in x.shape if n > 1]
+    if x.ndim == 3 and x.shape[0] == 1 and len(long) == 2:
+        return x.reshape(long)
+    return x
 
 
 def sperr_decode(blob: bytes) -> np.ndarray:
@@ -407,7 +420,7 @@ def bounded(dtype: Any, shape: Sequence[int], max_error: float) -> tuple[list[Pe
             raise ImportError(name="imagecodecs with SPERR")
         return [
             Peer(
-                "sperr", lambda a: sperr_bounded(float_copy(a), e), sperr_decode,
+                "sperr", lambda a: sperr_bounded(float_copy(a), e), lambda b: sperr_decode(b).reshape(shape),
                 "imagecodecs sperr_encode(mode='pwe', level=E)",
             )
         ]  # fmt: skip
