@@ -68,6 +68,8 @@ def test_any_4d_file_plays_and_a_3d_one_is_refused(run4d, tmp_path):
         list(player.play(str(tmp_path / "one.vpk")))
 
 
+# slow set: the only fast user of its kernel signatures (session 34, scripts/pytest_kerneluse.py)
+@pytest.mark.slow
 def test_cli_plays_a_series_from_a_file_and_from_a_pipe(run4d, tmp_path):
     from PIL import Image
 

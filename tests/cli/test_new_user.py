@@ -307,6 +307,8 @@ def test_serve_status_without_a_server_exits_1(tmp_path, monkeypatch):
     assert run("serve", "--stop").exit_code == 0  # nothing to stop is no failure
 
 
+# slow set: the only fast user of its kernel signatures (session 34, scripts/pytest_kerneluse.py)
+@pytest.mark.slow
 def test_walk_counts_the_nodes_decoded_before_its_frames(tmp_path):
     # brainsmall as an octree: "120 frames, 1.85 frames/s, 0 nodes decoded" (user27's
     # finding 22): a tree this small is decoded whole as the coarse level (for the

@@ -142,6 +142,8 @@ def test_an_interrupt_prints_one_line_whatever_it_cut_short(tmp_path):
     assert (r.returncode, r.stderr.decode()) == (130, "volpack: interrupted\n")
 
 
+# slow set: about 6-10 CPU s of its own, in subprocesses or repeated encodes (session 34)
+@pytest.mark.slow
 def test_ctrl_c_stops_a_batch_at_once_and_resume_goes_on(tmp_path):
     # batch -j 2 of two big volumes stopped 391 s after Ctrl-C: the running files were
     # waited for (and then written, though the run was interrupted)

@@ -225,6 +225,8 @@ def test_smooth_tables_are_read_at_the_nearest_entry_in_both_kernels():
     assert np.array_equal(semi_lin, render(f, tf=semi(), **kw))  # bilinear there anyway
 
 
+# slow set: the only fast user of its kernel signatures (session 34, scripts/pytest_kerneluse.py)
+@pytest.mark.slow
 @pytest.mark.parametrize("case", ["plain", "no skipping", "terminated", "refined"])
 def test_the_near_run_gives_the_plain_loops_image_bit_for_bit(case):
     # _near_run marches most segments of an unshaded nearest-entry frame; with it off, the

@@ -12,7 +12,8 @@ from volpack import api
 from volpack.format.container import Reader
 
 
-@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+# float64: the only fast user of its kernel signatures (session 34), in the slow set
+@pytest.mark.parametrize("dtype", [np.float32, pytest.param(np.float64, marks=pytest.mark.slow)])
 def test_a_constant_field_under_a_relative_bound_is_coded_exactly(dtype):
     a = np.full((12, 14, 16), 3.25, dtype)
     a[0, 0, 0] = np.nan  # a special voxel does not count in the range

@@ -99,6 +99,8 @@ def test_pruned_selection_skips_what_cannot_win(monkeypatch):
     assert pruned == full
 
 
+# slow set: the only fast user of its kernel signatures (session 34, scripts/pytest_kerneluse.py)
+@pytest.mark.slow
 def test_specials_round_trip_bit_for_bit_when_pruned(monkeypatch):
     monkeypatch.setattr(lossless, "PRUNE_FLOAT", True)
     codec = lossless.LosslessCodec()

@@ -290,6 +290,8 @@ def test_box_weights_equal_the_row_matrix_formula():
     assert np.array_equal(got.view(np.uint32), want.view(np.uint32))
 
 
+# slow set: about 6-10 CPU s of its own, in subprocesses or repeated encodes (session 34)
+@pytest.mark.slow
 def test_files_are_the_same_bytes_on_any_number_of_blas_threads():
     """OpenBLAS splits the normal equations' sums by its thread count (the box weights of
     these waves differ between one and two threads): compress runs BLAS on one thread

@@ -379,7 +379,8 @@ def test_no_sentinel_where_the_extreme_value_is_part_of_the_field():
     assert sentinel(np.full((8, 8, 8), 5.0), None) is None
 
 
-@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+# float64: the only fast user of its kernel signatures (session 34), in the slow set
+@pytest.mark.parametrize("dtype", [np.float32, pytest.param(np.float64, marks=pytest.mark.slow)])
 @pytest.mark.parametrize("e", [0.49, 0.1, 1e-4, 1e-9])
 def test_whole_number_floats_under_a_bound_below_half_come_back_exactly(dtype, e):
     """A scan saved as floats: bins of 1 (the header's step), every voxel exact, NaN
