@@ -105,7 +105,9 @@ def test_whole_slices_code_shorter_than_tiles(small_limit, monkeypatch):
 def test_a_field_of_the_cesm_grid():
     """A 1800x3600 field (6.5 M voxels) at its real size: two bricks of whole rows."""
     y, x = np.mgrid[0:1800, 0:3600].astype(np.float64)
-    a = (np.sin(x / 300) * np.cos(y / 170) + 0.2 * np.sin((x + 2 * y) / 37)).astype(np.float32)[None]
+    a = (np.sin(x / 300) * np.cos(y / 170) + 0.2 * np.sin((x + 2 * y) / 37)).astype(np.float32)[
+        None
+    ]
     blob = api.compress_array(a, rel_error=1e-3, workers=2)
     assert brick_of(blob) == ((1, 2048, 2048), 2)
     check_bound(a, blob, 1e-3)

@@ -34,8 +34,9 @@ REPEAT = 2
 def fields():
     yield "grf_s3_1800x3600 (synthetic)", grf((1800, 3600), -3.0, 2)[None]
     yield "grf_s4_1800x3600 (synthetic)", grf((1800, 3600), -4.0, 3)[None]
-    yield "grf_s4_2x1500x1500 (synthetic)", np.stack(
-        [grf((1500, 1500), -4.0, 4), grf((1500, 1500), -4.0, 5)]
+    yield (
+        "grf_s4_2x1500x1500 (synthetic)",
+        np.stack([grf((1500, 1500), -4.0, 4), grf((1500, 1500), -4.0, 5)]),
     )
     import netCDF4
 

@@ -13,7 +13,12 @@ from trial import grf  # noqa: E402
 from volpack import api  # noqa: E402
 
 SHAPES = ((1, 2048, 2048), (1, 1024, 4096), (1, 1800, 3600))
-for label, a in (("s4", grf((1800, 3600), -4.0, 3)[None]), ("s3", grf((1800, 3600), -3.0, 2)[None])):
+for label, a in (
+    ("s4", grf((1800, 3600), -4.0, 3)[None]),
+    ("s3", grf((1800, 3600), -3.0, 2)[None]),
+):
     for rel in (1e-2, 1e-4):
-        sizes = [(br, len(api.compress_array(a, rel_error=rel, workers=2, brick=br))) for br in SHAPES]
+        sizes = [
+            (br, len(api.compress_array(a, rel_error=rel, workers=2, brick=br))) for br in SHAPES
+        ]
         print(label, rel, sizes, flush=True)
