@@ -92,7 +92,7 @@ def test_64_bit_streams_are_the_same_at_one_and_two_workers():
 
 @pytest.mark.parametrize("mode", [0, 5, 6])
 def test_a_64_bit_brick_of_an_unknown_mode_is_refused(mode):
-    with pytest.raises(FormatError, match="lossless int64 brick payload: expected mode 1 to 4"):
+    with pytest.raises(FormatError, match="lossless int64 brick payload: expected mode 1 to 4 or 6"):
         LosslessCodec().decode(bytes([mode]) + bytes(64), (2, 2, 2), np.int64)
 
 

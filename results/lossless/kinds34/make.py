@@ -75,66 +75,136 @@ def volumes():
 
     # probability maps: uint16 0..10000 (a uint8 map rescaled: a lattice of step 39.2) and
     # a smoothed map at full uint16 precision; a smoothed map as uint8 0..255
-    add("gm_u16", "tuned", "MNI152 GM map x 10000/255 (uint16 0..10000)",
-        np.round(gm * (10000 / 255)).astype(np.uint16))
-    add("wm_u16s", "held", "MNI152 WM map Gaussian-smoothed (sigma 1) x 10000/255, uint16",
-        np.round(ndimage.gaussian_filter(wm.astype(np.float64), 1.0) * (10000 / 255)).astype(np.uint16))
-    add("gm_u8s", "tuned", "MNI152 GM map Gaussian-smoothed (sigma 2), uint8 0..255",
-        np.round(ndimage.gaussian_filter(gm.astype(np.float64), 2.0)).astype(np.uint8))
+    add(
+        "gm_u16",
+        "tuned",
+        "MNI152 GM map x 10000/255 (uint16 0..10000)",
+        np.round(gm * (10000 / 255)).astype(np.uint16),
+    )
+    add(
+        "wm_u16s",
+        "held",
+        "MNI152 WM map Gaussian-smoothed (sigma 1) x 10000/255, uint16",
+        np.round(ndimage.gaussian_filter(wm.astype(np.float64), 1.0) * (10000 / 255)).astype(
+            np.uint16
+        ),
+    )
+    add(
+        "gm_u8s",
+        "tuned",
+        "MNI152 GM map Gaussian-smoothed (sigma 2), uint8 0..255",
+        np.round(ndimage.gaussian_filter(gm.astype(np.float64), 2.0)).astype(np.uint8),
+    )
     # distance transforms
     brain = bet > 0
-    add("edt_u16", "tuned", "Euclidean distance inside ch2bet's brain mask x 10, uint16",
-        np.round(ndimage.distance_transform_edt(brain) * 10).astype(np.uint16))
+    add(
+        "edt_u16",
+        "tuned",
+        "Euclidean distance inside ch2bet's brain mask x 10, uint16",
+        np.round(ndimage.distance_transform_edt(brain) * 10).astype(np.uint16),
+    )
     inside = aal > 0
     sd = ndimage.distance_transform_edt(inside) - ndimage.distance_transform_edt(~inside)
-    add("sdt_i16", "held", "signed distance to the AAL atlas' brain boundary x 10, int16",
-        np.round(sd * 10).astype(np.int16))
+    add(
+        "sdt_i16",
+        "held",
+        "signed distance to the AAL atlas' brain boundary x 10, int16",
+        np.round(sd * 10).astype(np.int16),
+    )
     # gradient magnitude of the CT
     f = ct.astype(np.float64)
     g = np.sqrt(sum(ndimage.sobel(f, axis=i) ** 2 for i in range(3)))
-    add("ctgrad_i16", "tuned", "head CT Sobel gradient magnitude / 8, int16",
-        np.round(np.minimum(g / 8, 32767)).astype(np.int16))
+    add(
+        "ctgrad_i16",
+        "tuned",
+        "head CT Sobel gradient magnitude / 8, int16",
+        np.round(np.minimum(g / 8, 32767)).astype(np.int16),
+    )
     # label maps: blocky 2x upsampling, mode downsampling, many small regions
-    add("aicha_up2", "tuned", "AICHA atlas upsampled 2x by nearest neighbour, uint8",
-        aicha.repeat(2, 0).repeat(2, 1).repeat(2, 2))
+    add(
+        "aicha_up2",
+        "tuned",
+        "AICHA atlas upsampled 2x by nearest neighbour, uint8",
+        aicha.repeat(2, 0).repeat(2, 1).repeat(2, 2),
+    )
     add("aal_down2", "held", "AAL atlas downsampled by 2 (mode of 2x2x2), uint8", mode_down2(aal))
-    add("aal_grid_u16", "tuned", "AAL regions split by a 6-voxel grid, renumbered, uint16",
-        grid_split(aal, 6))
+    add(
+        "aal_grid_u16",
+        "tuned",
+        "AAL regions split by a 6-voxel grid, renumbered, uint16",
+        grid_split(aal, 6),
+    )
     # difference images
     m = ndimage.uniform_filter(ch2.astype(np.float64), 3, mode="nearest")
-    add("ch2_diff_i16", "tuned", "Colin27 T1 minus its 3x3x3 mean (rounded), int16",
-        np.round(ch2 - m).astype(np.int16))
+    add(
+        "ch2_diff_i16",
+        "tuned",
+        "Colin27 T1 minus its 3x3x3 mean (rounded), int16",
+        np.round(ch2 - m).astype(np.int16),
+    )
     m = ndimage.uniform_filter(f, 3, mode="nearest")
-    add("ct_diff_i16", "held", "head CT minus its 3x3x3 mean (rounded), int16",
-        np.round(f - m).astype(np.int16))
+    add(
+        "ct_diff_i16",
+        "held",
+        "head CT minus its 3x3x3 mean (rounded), int16",
+        np.round(f - m).astype(np.int16),
+    )
     # low counts
     lam = ndimage.gaussian_filter(ch2.astype(np.float64), 2.0)
-    add("poisson5_u16", "tuned", "Poisson counts of the blurred Colin27 T1 scaled to 0..5, uint16",
-        rng.poisson(lam * (5 / lam.max())).astype(np.uint16))
+    add(
+        "poisson5_u16",
+        "tuned",
+        "Poisson counts of the blurred Colin27 T1 scaled to 0..5, uint16",
+        rng.poisson(lam * (5 / lam.max())).astype(np.uint16),
+    )
     lam = ndimage.gaussian_filter(bet.astype(np.float64), 2.0) * (40 / bet.max())
     keep = rng.random(bet.shape) < 0.01 / max((bet > 0).mean(), 1e-9)
-    add("sparse_u16", "held", "Poisson counts (0..40 expected) of the blurred brain on 1 % of voxels, uint16",
-        np.where(keep & (bet > 0), rng.poisson(lam), 0).astype(np.uint16))
+    add(
+        "sparse_u16",
+        "held",
+        "Poisson counts (0..40 expected) of the blurred brain on 1 % of voxels, uint16",
+        np.where(keep & (bet > 0), rng.poisson(lam), 0).astype(np.uint16),
+    )
     # elongated cuts
-    add("long_z", "tuned", "Colin27 0.5 mm T1, a 316x24x24 column along z, uint8",
-        ch2better[:, 170:194, 140:164])
+    add(
+        "long_z",
+        "tuned",
+        "Colin27 0.5 mm T1, a 316x24x24 column along z, uint8",
+        ch2better[:, 170:194, 140:164],
+    )
     add("long_x", "held", "head CT, a 24x24x256 rod along x, int16", ct[50:74, 120:144, :])
     # reduced bit depth
     q = np.round((f - f.min()) * (1023 / (f.max() - f.min())))
     add("ct10_u16", "tuned", "head CT requantised to 0..1023, uint16", q.astype(np.uint16))
-    add("ch2_x4_u16", "held", "Colin27 T1 x 4 (a bit-depth-raised copy: gaps of 4), uint16",
-        ch2.astype(np.uint16) * 4)
+    add(
+        "ch2_x4_u16",
+        "held",
+        "Colin27 T1 x 4 (a bit-depth-raised copy: gaps of 4), uint16",
+        ch2.astype(np.uint16) * 4,
+    )
     # a constant non-zero background
     hm = head_mask(ch2, 20)
-    add("ch2_bg1000", "tuned", "Colin27 T1, +1000 outside the head (mask by threshold 20), uint16",
-        np.where(hm, ch2, ch2.astype(np.uint16) + 1000).astype(np.uint16))
+    add(
+        "ch2_bg1000",
+        "tuned",
+        "Colin27 T1, +1000 outside the head (mask by threshold 20), uint16",
+        np.where(hm, ch2, ch2.astype(np.uint16) + 1000).astype(np.uint16),
+    )
     hm = head_mask(f, -500)
-    add("ct_bg3000", "held", "head CT, air outside the head set to 3000, int16",
-        np.where(hm, ct, 3000).astype(np.int16))
+    add(
+        "ct_bg3000",
+        "held",
+        "head CT, air outside the head set to 3000, int16",
+        np.where(hm, ct, 3000).astype(np.int16),
+    )
     # a mosaic (one 2-D image of tiled slices, as scanners export EPI)
     s0 = load("mri_dipy_s0")[0]
-    add("s0_mosaic", "tuned", "dipy b0 (10 slices of 128^2) tiled 2x5 into a 1x256x640 mosaic, uint16",
-        s0.reshape(2, 5, 128, 128).transpose(0, 2, 1, 3).reshape(1, 256, 640))
+    add(
+        "s0_mosaic",
+        "tuned",
+        "dipy b0 (10 slices of 128^2) tiled 2x5 into a 1x256x640 mosaic, uint16",
+        s0.reshape(2, 5, 128, 128).transpose(0, 2, 1, 3).reshape(1, 256, 640),
+    )
     return out  # fmt: skip
 
 

@@ -54,7 +54,9 @@ def table(d: Path, out: Path) -> list[dict]:
 
 def main() -> None:
     d, out = Path(sys.argv[1]), Path(sys.argv[2])
-    names = sys.argv[3:] or [ln.split("\t")[0] for ln in (d / "volumes.txt").read_text().splitlines()]
+    names = sys.argv[3:] or [
+        ln.split("\t")[0] for ln in (d / "volumes.txt").read_text().splitlines()
+    ]
     run(d, out, names)
     rows = table(d, out)
     with open(out.with_suffix(".csv"), "w", newline="") as f:

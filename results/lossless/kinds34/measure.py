@@ -1,0 +1,130 @@
+"""Volumes before and after session 34's repeated slices (mode 6), in one process.
+
+    PYTHONPATH=. python results/lossless/kinds34/measure.py DIR OUT.csv [--repeat N]
+        [--base BASE] [--no-peers] NAME ...
+
+DIR holds NAME.npy (``make.py``; a corpus name of scripts/datasets.py is loaded from
+there instead). "before" is 10dcf4d's default made by today's code with mode 6 switched
+off (lossless.REPEAT = False); BASE (10dcf4d's ``volpack/`` in a folder: ``git archive
+10dcf4d volpack | tar -x -C BASE``) makes the base's own default stream in a subprocess,
+whose length must equal before's. Encode and decode CPU seconds (time.process_time, workers=1)
+are the best of N runs, old and new interleaved. Peers: volpack.peers.lossless as
+``volpack compare --peers`` runs them (JPEG-XL efforts 7 and 9), the best by ratio.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from volpack import api, peers
+from volpack.volume_codec import lossless
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "scripts"))
+
+BASE_SNIPPET = """
+import sys, numpy as np
+from volpack import api
+print(len(api.compress_array(np.load(sys.argv[1]), workers=1)))
+"""
+
+
+def load(folder: Path, name: str) -> tuple[np.ndarray, Path]:
+    path = folder / f"{name}.npy"
+    if not path.exists():
+        from datasets import load as load_corpus
+
+        np.save(path, load_corpus(name)[0])
+    return np.load(path), path
+
+
+def encode(a: np.ndarray, old: bool) -> bytes:
+    saved = lossless.REPEAT
+    lossless.REPEAT = not old
+    try:
+        return api.compress_array(a, workers=1)
+    finally:
+        lossless.REPEAT = saved
+
+
+def cpu(fn, *args) -> float:
+    """CPU seconds of one call (every thread of this process)."""
+    t = time.process_time()
+    fn(*args)
+    return time.process_time() - t
+
+
+def best_peer(a: np.ndarray) -> tuple[str, float]:
+    found, _ = peers.lossless(a.dtype, a.shape)
+    best = ("-", 0.0)
+    for p in found:
+        blob = p.encode(a)
+        if not np.array_equal(p.decode(blob), a):
+            continue
+        ratio = a.nbytes / peers.nbytes(blob)
+        if ratio > best[1]:
+            best = (p.name, ratio)
+    return best
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("dir", type=Path)
+    ap.add_argument("out", type=Path)
+    ap.add_argument("names", nargs="+")
+    ap.add_argument("--repeat", type=int, default=2)
+    ap.add_argument("--base", type=Path)
+    ap.add_argument("--no-peers", action="store_true")
+    args = ap.parse_args()
+    rows = []
+    for name in args.names:
+        a, path = load(args.dir, name)
+        old, new = encode(a, True), encode(a, False)
+        for blob in (old, new):
+            back = api.decompress_array(blob)
+            assert back.dtype == a.dtype and np.array_equal(back, a), name
+        enc = {"old": float("inf"), "new": float("inf")}
+        dec = dict(enc)
+        for _ in range(args.repeat):  # interleaved: old, new, old, new
+            for key, flag, blob in (("old", True, old), ("new", False, new)):
+                enc[key] = min(enc[key], cpu(encode, a, flag))
+                dec[key] = min(dec[key], cpu(api.decompress_array, blob))
+        base = ""
+        if args.base:
+            run = subprocess.run(
+                [sys.executable, "-c", BASE_SNIPPET, str(path)], capture_output=True, text=True,
+                env={**os.environ, "PYTHONPATH": str(args.base)}, check=True,
+                cwd="/",  # (not this tree: python -c puts the working folder first)
+            )  # fmt: skip
+            base = int(run.stdout.split()[-1])
+        peer, peer_ratio = ("", 0.0) if args.no_peers else best_peer(a)
+        hdr = api.info(new)
+        row = {
+            "volume": name, "dtype": a.dtype.name, "shape": "x".join(map(str, a.shape)),
+            "bytes_base": base, "base_equal": base == "" or base == len(old), "same_file": old == new, "bytes_before": len(old), "bytes_after": len(new),
+            "ratio_before": round(a.nbytes / len(old), 4), "ratio_after": round(a.nbytes / len(new), 4),
+            "gain_pct": round(100 * (len(old) / len(new) - 1), 2),
+            "best_peer": peer, "peer_ratio": round(peer_ratio, 4),
+            "x_peer_before": round(a.nbytes / len(old) / peer_ratio, 4) if peer_ratio else "",
+            "x_peer_after": round(a.nbytes / len(new) / peer_ratio, 4) if peer_ratio else "",
+            "enc_cpu_before": round(enc["old"], 3), "enc_cpu_after": round(enc["new"], 3),
+            "dec_cpu_before": round(dec["old"], 3), "dec_cpu_after": round(dec["new"], 3),
+            "tools_after": ";".join(f"{k}:{v}" for k, v in sorted(hdr["summary"]["tools"].items())),
+        }  # fmt: skip
+        print(row, flush=True)
+        rows.append(row)
+    with open(args.out, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+
+
+if __name__ == "__main__":
+    main()
