@@ -126,6 +126,7 @@ def test_damaged_repeat_headers_are_refused():
     assert payload[0] == MODE_REPEAT
     runs, used = repeat.unpack(memoryview(payload)[1:], a.shape)
     assert runs == ((2, 2), (2, 2), (2, 2))
+    assert lossless.inner_mode(payload) == payload[1 + used] != MODE_REPEAT  # (lossy's tiers)
     bad = [
         bytes([MODE_REPEAT]) + repeat.pack(((2, 3), (2, 2), (2, 2))) + payload[1 + used :],  # r > k
         bytes([MODE_REPEAT])
