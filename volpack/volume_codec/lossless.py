@@ -87,11 +87,13 @@ MODE_REPEAT = 6  # slices in equal runs along an axis (:mod:`.repeat`), then mod
 # REPEAT = False: not tried (the measurements' "before").
 REPEAT_VERSION = 8
 REPEAT = True
-# Kept only where it saves this share of the brick's bytes: its decoder makes one more
-# pass, and a new tool's entry in the file's summary costs a few bytes. Slices that repeat
-# by chance (a brick edge with one slice of tissue) saved 1-21 bytes on five corpus
-# volumes and made three files 2-5 bytes longer; an upsampled label brick saves half.
+# Kept only where it saves this share of the brick's bytes and more than REPEAT_MIN_BYTES:
+# its decoder makes one more pass, and a new tool's entry in the file's summary costs
+# about 20 bytes. Slices that repeat by chance (a brick edge with one slice of tissue)
+# saved 5-23 bytes a brick on six corpus volumes and made two files 2-5 bytes longer; an
+# upsampled label brick saves about half its bytes.
 REPEAT_MIN_SAVING = 0.05
+REPEAT_MIN_BYTES = 32
 FLOAT_TOOLS = ("lorenzo", "lattice", "blend", "fit")  # the tool byte of mode 5 indexes this
 FLOAT_BLEND = 2
 FLOAT_FIT = 3
@@ -278,7 +280,7 @@ class LosslessCodec(BrickCodec):
         runs = repeat.find(brick)
         if runs is not None:  # slices in equal runs: the shrunk brick as any, if shorter
             payload = bytes([MODE_REPEAT]) + repeat.pack(runs) + self._encode(repeat.shrink(brick, runs))
-            if len(payload) < (1 - REPEAT_MIN_SAVING) * len(best):
+            if len(payload) < min((1 - REPEAT_MIN_SAVING) * len(best), len(best) - REPEAT_MIN_BYTES):
                 best = payload
         return best
 
