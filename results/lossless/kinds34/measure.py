@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import importlib.util
 import os
 import subprocess
 import sys
@@ -24,25 +25,16 @@ from pathlib import Path
 
 import numpy as np
 
-from volpack import api, peers
+from volpack import api
 from volpack.volume_codec import lossless
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "scripts"))
-
-BASE_SNIPPET = """
-import sys, numpy as np
-from volpack import api
-print(len(api.compress_array(np.load(sys.argv[1]), workers=1)))
-"""
-
-
-def load(folder: Path, name: str) -> tuple[np.ndarray, Path]:
-    path = folder / f"{name}.npy"
-    if not path.exists():
-        from datasets import load as load_corpus
-
-        np.save(path, load_corpus(name)[0])
-    return np.load(path), path
+# thin33's measure.py: its corpus loader, its base-stream snippet and its best peer
+_spec = importlib.util.spec_from_file_location(
+    "thin33_measure", Path(__file__).resolve().parents[1] / "thin33" / "measure.py"
+)
+thin33 = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(thin33)
+load, best_peer, BASE_SNIPPET = thin33.load, thin33.best_peer, thin33.BASE_SNIPPET
 
 
 def encode(a: np.ndarray, old: bool) -> bytes:
@@ -52,26 +44,6 @@ def encode(a: np.ndarray, old: bool) -> bytes:
         return api.compress_array(a, workers=1)
     finally:
         lossless.REPEAT = saved
-
-
-def cpu(fn, *args) -> float:
-    """CPU seconds of one call (every thread of this process)."""
-    t = time.process_time()
-    fn(*args)
-    return time.process_time() - t
-
-
-def best_peer(a: np.ndarray) -> tuple[str, float]:
-    found, _ = peers.lossless(a.dtype, a.shape)
-    best = ("-", 0.0)
-    for p in found:
-        blob = p.encode(a)
-        if not np.array_equal(p.decode(blob), a):
-            continue
-        ratio = a.nbytes / peers.nbytes(blob)
-        if ratio > best[1]:
-            best = (p.name, ratio)
-    return best
 
 
 def main() -> None:
@@ -122,19 +94,17 @@ def main() -> None:
             )  # fmt: skip
             base = int(run.stdout.split()[-1])
         peer, peer_ratio = known.get(name) or (("", 0.0) if args.no_peers else best_peer(a))
-        hdr = api.info(new)
-        row = {
-            "volume": name, "dtype": a.dtype.name, "shape": "x".join(map(str, a.shape)),
-            "bytes_base": base, "base_equal": base == "" or base == len(old), "same_file": old == new, "bytes_before": len(old), "bytes_after": len(new),
-            "ratio_before": round(a.nbytes / len(old), 4), "ratio_after": round(a.nbytes / len(new), 4),
-            "gain_pct": round(100 * (len(old) / len(new) - 1), 2),
-            "best_peer": peer, "peer_ratio": round(peer_ratio, 4),
-            "x_peer_before": round(a.nbytes / len(old) / peer_ratio, 4) if peer_ratio else "",
-            "x_peer_after": round(a.nbytes / len(new) / peer_ratio, 4) if peer_ratio else "",
-            "enc_cpu_before": round(enc["old"], 3), "enc_cpu_after": round(enc["new"], 3),
-            "dec_cpu_before": round(dec["old"], 3), "dec_cpu_after": round(dec["new"], 3),
-            "tools_after": ";".join(f"{k}:{v}" for k, v in sorted(hdr["summary"]["tools"].items())),
-        }  # fmt: skip
+        row = {"volume": name, "dtype": a.dtype.name, "shape": "x".join(map(str, a.shape))}
+        row.update(bytes_base=base, base_equal=base in ("", len(old)), same_file=old == new)
+        row.update(best_peer=peer, peer_ratio=round(peer_ratio, 4))
+        for when, key, blob in (("before", "old", old), ("after", "new", new)):
+            ratio = a.nbytes / len(blob)
+            row[f"bytes_{when}"], row[f"ratio_{when}"] = len(blob), round(ratio, 4)
+            row[f"x_peer_{when}"] = round(ratio / peer_ratio, 4) if peer_ratio else ""
+            row[f"enc_cpu_{when}"], row[f"dec_cpu_{when}"] = round(enc[key], 3), round(dec[key], 3)
+        row["gain_pct"] = round(100 * (len(old) / len(new) - 1), 2)
+        tools = api.info(new)["summary"]["tools"]
+        row["tools_after"] = ";".join(f"{k}:{v}" for k, v in sorted(tools.items()))
         print(row, flush=True)
         rows.append(row)
         with open(args.out, "w", newline="") as f:  # (after every volume)
