@@ -69,6 +69,8 @@ KINDS = {
     "lossless-v7": ("lossless-v7-u8-tex.vpk", VOLUME_PATHS),
     # version 8's mixed estimates (flag 256, a second flags byte)
     "lossless-v8": ("lossless-v8-u8-mix.vpk", VOLUME_PATHS),
+    # mode 6 (session 34): bricks shrunk to one slice a run of repeated slices
+    "lossless-repeat": ("lossless-v8-u8-repeat.vpk", VOLUME_PATHS),
     # version 9's local fit (flag 512 in the second flags byte), with a mask and palette
     "lossless-v9": ("lossless-v9-u8-local.vpk", VOLUME_PATHS),
     "lossless-v9-mask": ("lossless-v9-u8-local-mask.vpk", VOLUME_PATHS),

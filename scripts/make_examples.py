@@ -203,6 +203,9 @@ LOSSLESS_CASES = [
     # two slices coded as one plane by the planar predictor (session 33: flag 1024, the
     # second flags byte's bit 2), one brick
     ("lossless-v8-i16-plane", "thin-i16", {"brick": (2, 80, 96)}),
+    # a label map upsampled by nearest neighbour, 2x along z and 3x along x, cropped so
+    # that runs start mid-brick (session 34: mode 6, the brick shrunk to one slice a run)
+    ("lossless-v8-u8-repeat", "labels-runs", {"brick": 32}),
 ]
 
 
@@ -273,6 +276,9 @@ def lossless_source(recipe: str):
         from volpack.demo import load_demo_volume
 
         return load_demo_volume().data[30:54:12, 20:100, 16:112].astype(np.int16) - 100
+    if recipe == "labels-runs":  # four tissue classes, upsampled 2x in z, 3x in x, cropped
+        lab = np.digitize(wavelet_source("u8"), [40, 90, 140]).astype(np.uint8)
+        return np.ascontiguousarray(np.repeat(np.repeat(lab, 2, axis=0), 3, axis=2)[1:, :, 2:])
     if recipe == "v5-u8-floor":  # the head over a noise floor of small values, 1 rare
         return noise_floor(lossless_source("v2-u8-background"))
     if recipe.startswith("v2-"):  # 32^3 cuts of the bundled MRI: head and background, tissue

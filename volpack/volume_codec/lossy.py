@@ -519,7 +519,7 @@ class BoundedCodec(BrickCodec):
         neighbours (mri_piesno_noise at 1e-4 of the range: 106.0 -> 99.9 kB). 'fast'
         makes the fast codec's payload alone (:data:`QVOX_FAST`). ``best``: the shortest
         coding so far, which the predictive one must come near (:meth:`_predict_may_pay`)."""
-        from .lossless import MODE_PREDICT
+        from .lossless import MODE_PREDICT, inner_mode
 
         if self.effort == "fast":
             from .fast import FastCodec
@@ -533,7 +533,7 @@ class BoundedCodec(BrickCodec):
         if not self._predict_may_pay(q, len(wav), best):
             return [(TIER_MID, wav)]
         p = self._predictive().encode(q)
-        tier = TIER_SLOW if p[0] == MODE_PREDICT else TIER_FAST  # (else raw or constant)
+        tier = TIER_SLOW if inner_mode(p) == MODE_PREDICT else TIER_FAST  # (else raw or constant)
         return [(TIER_MID, wav), (tier, p)]
 
     def _longfit(self, q: np.ndarray, best: int) -> list[tuple[int, bytes]]:
