@@ -69,6 +69,8 @@ def test_which_commands_a_server_may_run(argv, command):
     assert sv.served_command(argv) == command
 
 
+# slow set: 2-4 CPU s of its own (session 34: the fast set reached its 6 minutes)
+@pytest.mark.slow
 def test_info_served_as_run_locally(server, tmp_path, capfd, monkeypatch):
     src = tmp_path / "a.npy"
     np.save(src, np.arange(60, dtype=np.int16).reshape(3, 4, 5))
@@ -87,6 +89,8 @@ def test_info_served_as_run_locally(server, tmp_path, capfd, monkeypatch):
     assert sv.forward(["info", str(src), "--no-such-flag"]) == 2
 
 
+# slow set: 2-4 CPU s of its own (session 34: the fast set reached its 6 minutes)
+@pytest.mark.slow
 def test_render_served_writes_the_same_bytes(server, tmp_path):
     src = tmp_path / "ball.npy"
     np.save(src, smooth_volume((24, 24, 24), np.uint8))  # uint8, as test_render's CLI case
@@ -112,6 +116,8 @@ def test_render_served_writes_the_same_bytes(server, tmp_path):
     assert (tmp_path / "served.png").read_bytes() == (tmp_path / "local.png").read_bytes()
 
 
+# slow set: 2-4 CPU s of its own (session 34: the fast set reached its 6 minutes)
+@pytest.mark.slow
 def test_what_runs_locally(server, tmp_path, monkeypatch):
     src = tmp_path / "a.npy"
     np.save(src, np.zeros((2, 2, 2), np.uint8))

@@ -352,6 +352,8 @@ def test_box_round_trips_are_bit_exact(dtype):
         ff.encode(a, 2, None, ((1, 1, 1), np.zeros(13, np.float32)))
 
 
+# slow set: 2-4 CPU s of its own (session 34: the fast set reached its 6 minutes)
+@pytest.mark.slow
 def test_version_10_keeps_the_box_where_shorter():
     a = wide()
     lor = fp.encode_best_lorenzo(a)
@@ -372,6 +374,8 @@ def test_version_10_keeps_the_box_where_shorter():
     assert ff.encode_best(n, 2, ff.BOX_SHAPES) == ff.encode_best(n, 2)
 
 
+# slow set: 2-4 CPU s of its own (session 34: the fast set reached its 6 minutes)
+@pytest.mark.slow
 def test_wider_boxes_not_tried_after_one_that_does_not_pay(monkeypatch):
     fitted = []
     real = ff.fit_box

@@ -148,6 +148,8 @@ def test_a_psnr_target_is_searched_again_on_the_interleaved_volume(dtype):
     assert len(blob) < len(frames)
 
 
+# slow set: 2-4 CPU s of its own (session 34: the fast set reached its 6 minutes)
+@pytest.mark.slow
 def test_a_ratio_target_buys_a_better_psnr_interleaved():
     a = series(t=6, shape=(6, 24, 20), noise=2.0).astype(np.float32) / 7
     frames = api.compress_array(a, ratio=8, interleave=False)

@@ -85,6 +85,8 @@ def test_roundtrip_with_masks(kind):
     roundtrip_local(v, int(v.min()), int(v.max()), mask=mask, mix=True)
 
 
+# slow set: 2-4 CPU s of its own (session 34: the fast set reached its 6 minutes)
+@pytest.mark.slow
 def test_saves_on_real_scans_and_says_so():
     v = benchmark_volume("brainsmall")[:40]
     v8 = LosslessCodec(predict_version=8)

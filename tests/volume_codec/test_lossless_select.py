@@ -35,7 +35,15 @@ def both(a: np.ndarray, monkeypatch, **opts) -> tuple[bytes, bytes]:
     return pruned, api.compress_array(a, **opts)
 
 
-@pytest.mark.parametrize("name", ["mri_itk_t1", "ct_head", "labels_itk_skullstrip", "brainsmall"])
+@pytest.mark.parametrize(
+    "name",
+    [
+        "mri_itk_t1",
+        "ct_head",
+        "labels_itk_skullstrip",
+        pytest.param("brainsmall", marks=pytest.mark.slow),
+    ],
+)
 def test_pruned_selection_codes_real_volumes_within_the_tolerance(name, monkeypatch):
     a = real(name)
     pruned, exhaustive = both(a, monkeypatch)

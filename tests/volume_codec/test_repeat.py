@@ -7,6 +7,7 @@ import os
 
 import numpy as np
 import pytest
+from conftest import slow_case
 
 from volpack import api
 from volpack.errors import FormatError
@@ -79,8 +80,19 @@ def test_find_none_on_a_scan_and_blank_margins_kept():
     assert runs[0][0] % 2 == 0 and naive_runs_ok(a, runs)
 
 
+# int32, int64 and float64 compile codec kernels no other fast test uses: slow set
 @pytest.mark.parametrize(
-    "dtype", ["uint8", "uint16", "int16", "int32", "int64", "float32", "float64", "bool"]
+    "dtype",
+    [
+        "uint8",
+        "uint16",
+        "int16",
+        slow_case("int32"),
+        slow_case("int64"),
+        "float32",
+        slow_case("float64"),
+        "bool",
+    ],
 )
 def test_round_trip_of_upsampled_volumes(dtype):
     lab = blobs((16, 18, 20), seed=3, n=30)
