@@ -465,7 +465,7 @@ _ACCEPTED: set = set()  # dtypes :func:`check_dtype` passed
 def inner_mode(payload: bytes) -> int:
     """The mode of a payload's voxels: mode 6's shrunk brick's, else its own."""
     if payload[:1] == bytes([MODE_REPEAT]):
-        return payload[1 + repeat.unpack(memoryview(payload)[1:], (1 << 62,) * 3)[1]]
+        return payload[1 + repeat.unpack(memoryview(payload)[1:])[1]]
     return payload[0]
 
 
@@ -474,7 +474,7 @@ def describe(payload: bytes) -> str:
     mode = payload[0] if payload else -1
     if mode == MODE_REPEAT:
         try:
-            used = repeat.unpack(memoryview(payload)[1:], (1 << 62,) * 3)[1]
+            used = repeat.unpack(memoryview(payload)[1:])[1]
         except FormatError:
             return "repeat"
         return "repeat+" + describe(payload[1 + used :])

@@ -80,13 +80,17 @@ def pack(runs) -> bytes:
     return b"".join(pal.uleb(k) + pal.uleb(r) for k, r in runs)
 
 
-def unpack(data: memoryview, shape: tuple[int, ...]) -> tuple[tuple[tuple[int, int], ...], int]:
-    """Read the runs' header for a brick of ``shape``; returns (runs, bytes used)."""
+def unpack(
+    data: memoryview, shape: tuple[int, ...] | None = None
+) -> tuple[tuple[tuple[int, int], ...], int]:
+    """Read the runs' header for a brick of ``shape`` (None: of any shape, as ``info`` and
+    the encoder's tiers read a payload's inner mode); returns (runs, bytes used)."""
     runs, pos = [], 0
-    for n in shape:
+    for n in shape if shape is not None else (None,) * 3:
         k, pos = pal.read_uleb(data, pos)
         r, pos = pal.read_uleb(data, pos)
-        if not 1 <= r <= k <= max(n, 1):
-            raise FormatError(f"repeated-slice payload: run ({k}, {r}) does not fit an axis of {n}")
+        if not 1 <= r <= k or (n is not None and k > max(n, 1)):
+            where = f"an axis of {n}" if n is not None else "1 <= r <= k"
+            raise FormatError(f"repeated-slice payload: run ({k}, {r}) does not fit {where}")
         runs.append((k, r))
     return tuple(runs), pos
