@@ -162,6 +162,13 @@ def _load(ctx: click.Context, source: str, frame: int | None, raw: dict):
               "300:bone,1200:skull@0.4 (COLOUR: a name or #rrggbb).")  # fmt: skip
 @click.option("--orbit", type=click.IntRange(min=1), help="Render N views around the volume; "
               "OUTPUT is then a folder of frame_000.png ...")  # fmt: skip
+@click.option("--view", "view_mode", type=click.Choice(["auto", "volume", "slice"]), default="auto",
+              show_default=True, help="volume: ray cast; slice: draw one slice face-on as a 2-D "
+              "image (the first axis of length 1, else the middle slice of the shortest axis; "
+              "a transfer function given colours it, opacity scaled to its largest; without one, "
+              "scans in grey and fields in a colour map over the 0.5-99.8th percentiles; --size, --zoom, "
+              "--colorbar apply); auto: slice for a volume one voxel thick drawn without "
+              "camera options, else volume.")  # fmt: skip
 @click.option("--colorbar", is_flag=True, help="Draw the transfer function under the image.")
 @click.option("--frame", type=click.IntRange(min=0), help="Time step of a 4-D input (default 0).")
 @click.option("--field", help="Tetrahedral meshes: the point or cell field to draw (default the "
@@ -195,6 +202,7 @@ def render(
     fit,
     iso_spec,
     orbit,
+    view_mode,
     colorbar,
     frame,
     field,
@@ -225,6 +233,8 @@ def render(
       volpack render ct.nii.gz inside.png --perspective --distance 20   # from inside
       volpack render mesh.vpk mesh.png --field temperature --tf generic
       volpack render big.vpk big.png --budget 2048 --tf ct-bone    # octree: level of detail
+      volpack render slice.dcm slice.png            # one slice: drawn as the image it is
+      volpack render ct.nii.gz mid.png --view slice --colorbar   # the middle axial slice
     """
     with imports_without_gc():
         import numpy as np
@@ -283,6 +293,10 @@ def render(
         ok = np.isfinite(data) if data.dtype.kind == "f" else None
         if vol.mask is not None:
             ok = ~vol.mask if ok is None else ok & ~vol.mask
+    slice_view = mesh is None and tree is None and _slice_view(ctx, view_mode, data.shape, isos, orbit)
+    if view_mode == "slice" and not slice_view:
+        raise click.BadParameter("expected a volume (not a mesh or octree) and no --iso or "
+                                 "--orbit", param_hint="--view slice")  # fmt: skip
     with phase(ctx, "preparing the render (value range, transfer function, framing, gradients)"):
         if ok is None and data.size:  # no copy of the selected values (16 ms of a CT)
             lo, hi = float(data.min()), float(data.max())
@@ -297,7 +311,14 @@ def render(
 
             sample, factor = coarse_level(tree)
         tf = None
-        if mesh is not None and tf_spec is None:
+        if slice_view:
+            from ..render.slice import slice_axis, slice_transfer
+
+            axis = slice_axis(data.shape)
+            slice_at = {"axis": axis, "index": data.shape[axis] // 2}
+        if slice_view and tf_spec in (None, "auto"):
+            tf = slice_transfer(data, dtype=data.dtype, mask=vol.mask, value_range=(lo, hi))
+        elif mesh is not None and tf_spec is None:
             pass  # a mesh without --tf is drawn as its shaded boundary surface
         elif tf_spec is not None or not isos:
             tf = transfer_for(tf_spec, data if sample is None else sample.data, lo=lo, hi=hi,
@@ -310,7 +331,9 @@ def render(
             projection="perspective" if perspective else "orthographic",
             look_at=parse_look_at(look_at_s),
         )  # fmt: skip
-        if fit and mesh is not None:
+        if slice_view:
+            pass  # drawn face-on, fitted to the image
+        elif fit and mesh is not None:
             from ..render.tetra import fit_mesh_camera
 
             view = fit_mesh_camera(view, points, cells, azimuths=azimuths if orbit else None)
@@ -325,7 +348,7 @@ def render(
             )  # fmt: skip
         if orbit:
             os.makedirs(output, exist_ok=True)
-        if mesh is None and tree is None:  # sampled array, gradients, brick ranges: built once
+        if mesh is None and tree is None and not slice_view:  # sampled array, gradients, ...
             from ..render.prepared import prepare_volume
 
             vol = prepare_volume(vol)
@@ -347,6 +370,13 @@ def render(
                 progress=progress_rows,
             )  # fmt: skip
             lod_frames.append(vars(lst))
+            return img, RenderStats(0, time.perf_counter() - t0, cam.size[0] * cam.size[1], 0)
+        if slice_view:
+            from ..render.slice import render_slice
+
+            t0 = time.perf_counter()
+            img = render_slice(vol, tf, value_range=(lo, hi), size=cam.size, zoom=zoom,
+                               nearest=tf.name == "auto-labels", **slice_at)  # fmt: skip
             return img, RenderStats(0, time.perf_counter() - t0, cam.size[0] * cam.size[1], 0)
         if mesh is not None and tf is None:
             from ..render.tetra import render_surface
@@ -384,6 +414,8 @@ def render(
                 progress(k + 1, orbit)
     report = {
         "output": output,
+        "view": "slice" if slice_view else "volume",
+        "slice": slice_at if slice_view else None,
         "frames": frames,
         "size": list(size),
         "shape": list(tree.shape if tree is not None else data.shape) if mesh is None else None,
@@ -406,12 +438,31 @@ def render(
         emit_json(report)
     else:
         what = f"{len(frames)} frames in {output}" if orbit else output
+        if slice_view:
+            click.echo(f"{what}: {size[0]}x{size[1]}, slice {slice_at['index']} across axis "
+                       f"{slice_at['axis']} drawn face-on, tf {report['tf']}", err=True)  # fmt: skip
+            return
         click.echo(
             f"{what}: {size[0]}x{size[1]}, {classification}, {shading}, "
             f"tf {report['tf'] or 'none'}, {seconds:.2f} s, "
             f"{samples / max(seconds, 1e-9) / 1e6:.1f} M samples/s",
             err=True,
         )
+
+
+_CAMERA_OPTIONS = ("azimuth", "elevation", "perspective", "distance", "look_at_s")
+
+
+def _slice_view(ctx: click.Context, mode: str, shape, isos, orbit) -> bool:
+    """Whether ``--view`` (``mode``) draws a slice: asked for, or ``auto`` on a volume one
+    voxel thick that no camera option, isosurface or orbit asks to see in 3-D."""
+    if mode != "auto":
+        return mode == "slice" and not isos and not orbit
+    from click.core import ParameterSource
+
+    default = all(ctx.get_parameter_source(p) in (ParameterSource.DEFAULT, None)
+                  for p in _CAMERA_OPTIONS)  # fmt: skip
+    return 1 in tuple(shape) and not isos and not orbit and default
 
 
 COMMANDS = [render]

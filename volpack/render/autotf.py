@@ -35,8 +35,9 @@ import numpy as np
 from ..errors import OptionError
 from .transfer import TransferFunction, check_range, load_tf, nonempty_range, preset
 
-__all__ = ["FIELD_COLOURS", "SAMPLES", "auto_transfer", "classify", "colour_table", "otsu",
-           "sample_values", "transfer_for"]  # fmt: skip
+__all__ = ["DIVERGING_COLOURS", "FIELD_COLOURS", "SAMPLES", "auto_transfer", "centred", "classify",
+           "colour_table", "colours", "labels_tf", "otsu", "sample_values", "scan_like",
+           "survey", "transfer_for", "window"]  # fmt: skip
 
 SAMPLES = 1 << 21  # voxels looked at, at most
 
@@ -134,23 +135,31 @@ def auto_transfer(values, *, dtype=None, mask=None, value_range=None, size=None)
     """
     a = np.asarray(values)
     dtype = a.dtype if dtype is None else np.dtype(dtype)
+    s, lo, hi, look = survey(a, dtype=dtype, mask=mask, value_range=value_range)
+    n = int(size) if size is not None else (max(a.shape) if a.ndim else 1)
+    if look == "ct":
+        tf = preset("ct-bone", -1024.0, 3071.0)
+        return TransferFunction(tf.points, "auto-ct")
+    if look == "labels":
+        return labels_tf(s, lo, hi)
+    return _intensity_tf(s, lo, hi, dtype, n)
+
+
+def survey(values, *, dtype=None, mask=None, value_range=None):
+    """``(sample, lo, hi, look)``: :func:`sample_values` of ``values``, the range (the
+    sample's unless ``value_range`` is given, never empty) and :func:`classify`'s look."""
+    a = np.asarray(values)
+    dtype = a.dtype if dtype is None else np.dtype(dtype)
     s = sample_values(a, mask)
     if value_range is None:
         lo, hi = (float(s.min()), float(s.max())) if s.size else (0.0, 1.0)
     else:
         lo, hi = check_range(*value_range)
     lo, hi = nonempty_range(lo, hi)
-    n = int(size) if size is not None else (max(a.shape) if a.ndim else 1)
-    look = classify(s, a if a.ndim == 3 else None, dtype)
-    if look == "ct":
-        tf = preset("ct-bone", -1024.0, 3071.0)
-        return TransferFunction(tf.points, "auto-ct")
-    if look == "labels":
-        return _labels_tf(s, lo, hi)
-    return _intensity_tf(s, lo, hi, dtype, n)
+    return s, lo, hi, classify(s, a if a.ndim == 3 else None, dtype)
 
 
-def _labels_tf(s: np.ndarray, lo: float, hi: float) -> TransferFunction:
+def labels_tf(s: np.ndarray, lo: float, hi: float) -> TransferFunction:
     """Zero empty, every label opaque; hues stride across the labels so that neighbouring
     labels differ in colour (12 hues, stepping 5 of 12 round the wheel)."""
     top = max(float(s.max()), 1.0)
@@ -172,11 +181,10 @@ def _intensity_tf(s, lo, hi, dtype, n) -> TransferFunction:
     so that both tails show, blue below zero and red above."""
     if s.size == 0:
         return TransferFunction(((lo, 0.8, 0.8, 0.8, 0.0),), "auto-intensity")
-    p_lo, p_hi = (float(v) for v in np.percentile(s, [0.5, 99.8]))
-    p_lo, p_hi = nonempty_range(max(p_lo, lo), min(max(p_hi, p_lo), hi))
+    p_lo, p_hi = window(s, lo, hi)
     amax = plateau(n)
     knots = [lo, hi, 0.0]
-    if p_lo < 0 < p_hi and abs(float(np.median(s))) < 0.05 * (p_hi - p_lo):
+    if centred(s, p_lo, p_hi):
         m = max(-p_lo, p_hi)
         mag = np.abs(s)
         t = otsu(mag, 0.0, m)
@@ -186,7 +194,7 @@ def _intensity_tf(s, lo, hi, dtype, n) -> TransferFunction:
             return amax * np.clip((np.abs(x) - t) / (top - t), 0.0, 1.0)
 
         def colour(x):
-            return _colours(_DIVERGING, (np.asarray(x) + m) / (2 * m))
+            return colours(DIVERGING_COLOURS, (np.asarray(x) + m) / (2 * m))
 
         knots += [-m, -top, -t, t, top, m]
     else:
@@ -199,14 +207,13 @@ def _intensity_tf(s, lo, hi, dtype, n) -> TransferFunction:
             c0, c1 = min(p_lo, top), t
         # a scan (integers, or a fifth of the voxels in one background spike at the low
         # end, as a float CT or MRI) in bone-to-white; other fields in a colour map
-        spike = np.count_nonzero(s <= p_lo + 0.02 * (p_hi - p_lo)) >= 0.2 * s.size
-        stops = _SCAN if np.dtype(dtype).kind in "iub" or spike else FIELD_COLOURS
+        stops = _SCAN if scan_like(s, p_lo, p_hi, dtype) else FIELD_COLOURS
 
         def alpha(x):
             return amax * np.clip((np.asarray(x) - t) / (top - t), 0.0, 1.0)
 
         def colour(x):
-            return _colours(stops, (np.asarray(x) - c0) / (c1 - c0))
+            return colours(stops, (np.asarray(x) - c0) / (c1 - c0))
 
         knots += [t, top, c0, c1] + [c0 + (c1 - c0) * p[0] for p in stops]
     xs = np.unique(np.clip(np.asarray(knots, np.float64), lo, hi))
@@ -214,6 +221,24 @@ def _intensity_tf(s, lo, hi, dtype, n) -> TransferFunction:
     a = alpha(xs)
     pts = tuple((float(x), *map(float, c), float(v)) for x, c, v in zip(xs, rgb, a))
     return TransferFunction(pts, "auto-intensity")
+
+
+def window(s: np.ndarray, lo: float, hi: float) -> tuple[float, float]:
+    """The 0.5th and 99.8th percentiles of the sample ``s``, inside ``[lo, hi]`` and apart."""
+    p_lo, p_hi = (float(v) for v in np.percentile(s, [0.5, 99.8]))
+    return nonempty_range(max(p_lo, lo), min(max(p_hi, p_lo), hi))
+
+
+def centred(s: np.ndarray, p_lo: float, p_hi: float) -> bool:
+    """A signed field centred on zero: its window spans zero and its median is near it."""
+    return p_lo < 0 < p_hi and abs(float(np.median(s))) < 0.05 * (p_hi - p_lo)
+
+
+def scan_like(s: np.ndarray, p_lo: float, p_hi: float, dtype) -> bool:
+    """A scan: integer data, or a fifth of the voxels in one background spike at the low
+    end of the window (a float CT or MRI)."""
+    spike = np.count_nonzero(s <= p_lo + 0.02 * (p_hi - p_lo)) >= 0.2 * s.size
+    return np.dtype(dtype).kind in "iub" or spike
 
 
 def _deeper(obj: np.ndarray, q: float, t: float, end: float) -> float:
@@ -225,10 +250,10 @@ def _deeper(obj: np.ndarray, q: float, t: float, end: float) -> float:
     return top
 
 
-_DIVERGING = ((0.0, 0.15, 0.35, 0.95), (0.5, 0.85, 0.85, 0.85), (1.0, 0.95, 0.20, 0.10))
+DIVERGING_COLOURS = ((0.0, 0.15, 0.35, 0.95), (0.5, 0.85, 0.85, 0.85), (1.0, 0.95, 0.20, 0.10))
 
 
-def _colours(stops, pos) -> np.ndarray:
+def colours(stops, pos) -> np.ndarray:
     """``(k, 3)`` colours of the ramp ``stops`` at positions ``pos`` (clamped to [0, 1])."""
     pos = np.clip(np.atleast_1d(np.asarray(pos, np.float64)), 0.0, 1.0)
     xs = [p[0] for p in stops]
@@ -237,7 +262,7 @@ def _colours(stops, pos) -> np.ndarray:
 
 def colour_table(n: int = 256, stops=FIELD_COLOURS) -> np.ndarray:
     """``(n, 3)`` colours of the ramp ``stops`` at ``n`` evenly spaced positions."""
-    return _colours(stops, np.linspace(0.0, 1.0, n))
+    return colours(stops, np.linspace(0.0, 1.0, n))
 
 
 def transfer_for(spec, values, *, lo: float, hi: float, dtype=None, mask=None, size=None):
