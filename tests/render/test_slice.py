@@ -153,3 +153,22 @@ def test_cli_view_slice_of_a_thick_volume_and_its_errors(tmp_path):
     assert json.loads(r.stdout)["slice"] == {"axis": 0, "index": 3}
     r, _ = _render(tmp_path, data, "--view", "slice", "--iso", "0.5:bone", "--force")
     assert r.exit_code != 0 and "--view slice" in r.output
+
+
+def test_play_draws_a_2d_series_face_on(tmp_path):
+    from PIL import Image
+
+    t = np.arange(3, dtype=np.float32)[:, None, None, None]
+    series = np.sin(np.linspace(0, 3, 24 * 16, dtype=np.float32)).reshape(1, 1, 16, 24) + t
+    np.save(tmp_path / "s.npy", series)
+    out = tmp_path / "frames"
+    r = CliRunner().invoke(main, ["-q", "play", str(tmp_path / "s.npy"), str(out) + "/",
+                                  "--size", "48x32", "--json"])  # fmt: skip
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.stdout)["view"] == "slice"
+    frames = [np.asarray(Image.open(p)) for p in sorted(out.iterdir())]
+    assert len(frames) == 3 and all(f[..., :3].max(axis=2).astype(bool).all() for f in frames)
+    assert frames[0].tobytes() != frames[2].tobytes()  # one TF for all: later steps differ
+    r = CliRunner().invoke(main, ["play", str(tmp_path / "s.npy"), "--view", "slice",
+                                  "--spin", "5"])  # fmt: skip
+    assert r.exit_code != 0 and "--spin" in r.output

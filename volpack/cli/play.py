@@ -12,7 +12,7 @@ from .options import (
     progress_bar,
     table,
 )
-from .view import parse_look_at, parse_size, view_options
+from .view import parse_look_at, parse_size, slice_view_option, view_options, wants_slice
 
 
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})
@@ -28,6 +28,7 @@ from .view import parse_look_at, parse_size, view_options
 @click.option("--stats", "show_stats", is_flag=True, help="Print a per-frame table: type, "
               "bytes, decode and render milliseconds.")  # fmt: skip
 @view_options
+@slice_view_option
 @click.option("-j", "--workers", type=click.IntRange(min=0), default=0, show_default=True,
               help="Render threads (0 = every core).")  # fmt: skip
 @force_option
@@ -35,7 +36,7 @@ from .view import parse_look_at, parse_size, view_options
 @click.pass_context
 def play(ctx, source, output, tf_spec, fps, spin, show_stats, azimuth, elevation, zoom,
          perspective, distance, look_at_s, size_s, step, classification, preint_method, shading,
-         normals, fit, workers, force, as_json) -> None:  # fmt: skip
+         normals, fit, view_mode, workers, force, as_json) -> None:  # fmt: skip
     """Play the animation SOURCE (.vpk, or '-') into OUTPUT: an .mp4, a .gif or a folder of
     PNGs; without OUTPUT, decode and render only (with --stats: a timing table). SOURCE
     may also be a 4-D (t, z, y, x) series: a volume .vpk or any 4-D volume file (an fMRI
@@ -53,6 +54,7 @@ def play(ctx, source, output, tf_spec, fps, spin, show_stats, azimuth, elevation
       volpack play run.vpk run.gif --size 256x256 --spin 3
       volpack play run.vpk --stats
       volpack play bold.nii.gz bold.gif --tf mri --fps 5     # an fMRI run's time steps
+      volpack play sst.nc sst.gif          # a 2-D field's months, (t, 1, y, x): drawn face-on
     """
     import dataclasses
 
@@ -65,8 +67,11 @@ def play(ctx, source, output, tf_spec, fps, spin, show_stats, azimuth, elevation
         from ..render.camera import Camera
         from ..render.framing import fit_camera
         from ..render.raycast import render as raycast
+        from ..render.slice import render_slice, slice_transfer
 
     size = parse_size(size_s)
+    if view_mode == "slice" and spin:
+        raise click.BadParameter("expected no --spin", param_hint="--view slice")
     if output is not None and not _is_folder(output):
         check_output(output, force=force, inputs=(source,))
     vr = player.recorded_range(source) if source != "-" else None
@@ -78,14 +83,22 @@ def play(ctx, source, output, tf_spec, fps, spin, show_stats, azimuth, elevation
             lo, hi = state["range"] or (float(np.nanmin(frame)), float(np.nanmax(frame)))
             hi = hi if hi > lo else lo + 1.0
             state["range"] = (lo, hi)
-            state["tf"] = transfer_for(tf_spec, frame, lo=lo, hi=hi, dtype=frame.dtype)
+            state["slice"] = wants_slice(ctx, view_mode, frame.shape, three_d=bool(spin))
+            if state["slice"] and tf_spec in (None, "auto"):
+                state["tf"] = slice_transfer(frame, value_range=(lo, hi))
+            else:
+                state["tf"] = transfer_for(tf_spec, frame, lo=lo, hi=hi, dtype=frame.dtype)
             view = Camera(azimuth=azimuth, elevation=elevation, zoom=zoom, size=size,
                           projection="perspective" if perspective else "orthographic",
                           distance=distance, look_at=parse_look_at(look_at_s))  # fmt: skip
             turn = [azimuth + 15.0 * k for k in range(24)] if spin else None
             state["view"] = (
-                fit_camera(view, frame, state["tf"], lo, hi, azimuths=turn) if fit else view
-            )
+                fit_camera(view, frame, state["tf"], lo, hi, azimuths=turn)
+                if fit and not state["slice"] else view
+            )  # fmt: skip
+        if state["slice"]:
+            return render_slice(frame, state["tf"], value_range=state["range"], size=size,
+                                zoom=zoom, nearest=state["tf"].name == "auto-labels")  # fmt: skip
         cam = dataclasses.replace(state["view"], azimuth=azimuth + spin * state["k"])
         state["k"] += 1
         return raycast(
@@ -109,6 +122,7 @@ def play(ctx, source, output, tf_spec, fps, spin, show_stats, azimuth, elevation
         "frames": len(rows),
         "value_range": list(state["range"]) if state["range"] else None,
         "tf": state["tf"].name if state["tf"] is not None else None,
+        "view": None if state["tf"] is None else "slice" if state["slice"] else "volume",
         "decode_fps": len(rows) / dec if dec > 0 else None,
         "render_fps": len(rows) / ren if ren > 0 else None,
         "fps": len(rows) / (dec + ren) if dec + ren > 0 else None,

@@ -18,7 +18,7 @@ from .options import (
     progress_bar,
     raw_options,
 )
-from .view import parse_look_at, parse_size, view_options
+from .view import parse_look_at, parse_size, slice_view_option, view_options, wants_slice
 
 # Colour names an isosurface spec may use beside CSS names and #rrggbb.
 ISO_COLOURS = {
@@ -162,13 +162,7 @@ def _load(ctx: click.Context, source: str, frame: int | None, raw: dict):
               "300:bone,1200:skull@0.4 (COLOUR: a name or #rrggbb).")  # fmt: skip
 @click.option("--orbit", type=click.IntRange(min=1), help="Render N views around the volume; "
               "OUTPUT is then a folder of frame_000.png ...")  # fmt: skip
-@click.option("--view", "view_mode", type=click.Choice(["auto", "volume", "slice"]), default="auto",
-              show_default=True, help="volume: ray cast; slice: draw one slice face-on as a 2-D "
-              "image (the first axis of length 1, else the middle slice of the shortest axis; "
-              "a transfer function given colours it, opacity scaled to its largest; without one, "
-              "scans in grey and fields in a colour map over the 0.5-99.8th percentiles; --size, --zoom, "
-              "--colorbar apply); auto: slice for a volume one voxel thick drawn without "
-              "camera options, else volume.")  # fmt: skip
+@slice_view_option
 @click.option("--colorbar", is_flag=True, help="Draw the transfer function under the image.")
 @click.option("--frame", type=click.IntRange(min=0), help="Time step of a 4-D input (default 0).")
 @click.option("--field", help="Tetrahedral meshes: the point or cell field to draw (default the "
@@ -293,7 +287,7 @@ def render(
         ok = np.isfinite(data) if data.dtype.kind == "f" else None
         if vol.mask is not None:
             ok = ~vol.mask if ok is None else ok & ~vol.mask
-    slice_view = mesh is None and tree is None and _slice_view(ctx, view_mode, data.shape, isos, orbit)
+    slice_view = mesh is None and tree is None and wants_slice(ctx, view_mode, data.shape, three_d=bool(isos or orbit))
     if view_mode == "slice" and not slice_view:
         raise click.BadParameter("expected a volume (not a mesh or octree) and no --iso or "
                                  "--orbit", param_hint="--view slice")  # fmt: skip
@@ -448,21 +442,6 @@ def render(
             f"{samples / max(seconds, 1e-9) / 1e6:.1f} M samples/s",
             err=True,
         )
-
-
-_CAMERA_OPTIONS = ("azimuth", "elevation", "perspective", "distance", "look_at_s")
-
-
-def _slice_view(ctx: click.Context, mode: str, shape, isos, orbit) -> bool:
-    """Whether ``--view`` (``mode``) draws a slice: asked for, or ``auto`` on a volume one
-    voxel thick that no camera option, isosurface or orbit asks to see in 3-D."""
-    if mode != "auto":
-        return mode == "slice" and not isos and not orbit
-    from click.core import ParameterSource
-
-    default = all(ctx.get_parameter_source(p) in (ParameterSource.DEFAULT, None)
-                  for p in _CAMERA_OPTIONS)  # fmt: skip
-    return 1 in tuple(shape) and not isos and not orbit and default
 
 
 COMMANDS = [render]

@@ -74,3 +74,33 @@ def view_options(f):
     for opt in reversed(opts):
         f = opt(f)
     return f
+
+
+#: Options that ask for a 3-D view; given any, ``--view auto`` ray casts even a slice.
+CAMERA_OPTIONS = ("azimuth", "elevation", "perspective", "distance", "look_at_s")
+
+
+def slice_view_option(f):
+    """``--view auto|volume|slice`` (``render`` and ``play``)."""
+    return click.option(
+        "--view", "view_mode", type=click.Choice(["auto", "volume", "slice"]), default="auto",
+        show_default=True, help="volume: ray cast; slice: draw one slice face-on as a 2-D "
+        "image (the first axis of length 1, else the middle slice of the shortest axis; a "
+        "transfer function given colours it, opacity scaled to its largest; without one, "
+        "scans in grey and fields in a colour map over the 0.5-99.8th percentiles; --size, "
+        "--zoom, --colorbar apply); auto: slice for a volume one voxel thick drawn without "
+        "camera options, else volume.",
+    )(f)  # fmt: skip
+
+
+def wants_slice(ctx: click.Context, mode: str, shape, *, three_d: bool) -> bool:
+    """Whether ``--view`` (``mode``) draws a slice: asked for, or ``auto`` on a volume one
+    voxel thick that no camera option asks to see in 3-D (``three_d``: isosurfaces, an
+    orbit or a spin ask for it too)."""
+    if mode != "auto":
+        return mode == "slice" and not three_d
+    from click.core import ParameterSource
+
+    default = all(ctx.get_parameter_source(p) in (ParameterSource.DEFAULT, None)
+                  for p in CAMERA_OPTIONS)  # fmt: skip
+    return 1 in tuple(shape) and not three_d and default
