@@ -508,6 +508,48 @@ def test_tiff_folder(tmp_path):
         vio.read_volume(str(folder))
 
 
+def test_png_slice_and_folder(tmp_path):
+    from PIL import Image
+
+    a = _ramp(np.uint16, (11, 5, 7)) * 97  # values past 255: a 16-bit PNG
+    folder = tmp_path / "stack"
+    folder.mkdir()
+    for i, sl in enumerate(a):  # natural order: s2 before s10
+        Image.fromarray(sl).save(folder / f"s{i}.png")
+    (folder / "notes.txt").write_text("ignored")
+    assert vio.detect_format(str(folder)) == "png-folder"
+    vol = vio.read_volume(str(folder))
+    assert vol.dtype == np.uint16 and vol.meta["slices"] == 11
+    np.testing.assert_array_equal(vol.data, a)
+    one = vio.read_volume(str(folder / "s3.png"))
+    assert one.shape == (1, 5, 7)
+    np.testing.assert_array_equal(one.data[0], a[3])
+    assert vio.read_header(str(folder / "s3.png"))["shape"] == [1, 5, 7]
+    grey = _ramp(np.uint8, (1, 5, 7))[0]
+    Image.fromarray(grey).save(tmp_path / "g.png")
+    np.testing.assert_array_equal(vio.read_volume(str(tmp_path / "g.png")).data[0], grey)
+    Image.fromarray(grey > 20).save(tmp_path / "b.png")  # bilevel: 0/1 as uint8
+    b = vio.read_volume(str(tmp_path / "b.png")).data
+    assert b.dtype == np.uint8 and np.array_equal(b[0], (grey > 20).astype(np.uint8))
+    with pytest.raises(FormatError, match="max_voxels|voxels"):
+        vio.read_volume(str(folder), max_voxels=100)
+    # what is refused, in one line naming the file
+    Image.fromarray(np.stack([grey] * 3, axis=-1)).save(tmp_path / "rgb.png")
+    with pytest.raises(FormatError, match="greyscale PNG.*found mode 'RGB'"):
+        vio.read_volume(str(tmp_path / "rgb.png"))
+    noise = np.random.default_rng(0).integers(0, 256, (64, 64), dtype=np.uint8)
+    Image.fromarray(noise).save(tmp_path / "n.png")
+    (tmp_path / "cut.png").write_bytes((tmp_path / "n.png").read_bytes()[:2000])
+    with pytest.raises(FormatError, match="cut.png"):
+        vio.read_volume(str(tmp_path / "cut.png"))
+    (tmp_path / "fake.png").write_bytes(b"GIF89a" + bytes(40))
+    with pytest.raises(FormatError, match="fake.png"):
+        vio.read_volume(str(tmp_path / "fake.png"))
+    Image.fromarray(a[0, :4]).save(folder / "s99.png")
+    with pytest.raises(FormatError, match="s99"):
+        vio.read_volume(str(folder))
+
+
 def test_dicom_folder(tmp_path):
     need("pydicom", "dicom")
     from pydicom.dataset import FileDataset, FileMetaDataset

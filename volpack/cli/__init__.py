@@ -165,8 +165,9 @@ def main(ctx: click.Context, verbose: int, quiet: bool, debug: bool) -> None:
     Files: .npy, .raw (--shape/--dtype), .nii/.nii.gz, .nrrd/.nhdr, .h5:/dataset,
     .nc/.cdf (netCDF, :VARIABLE), .mrc/.map/.ccp4 (MRC/CCP4 maps), .zarr stores,
     .mha/.mhd (MetaImage), .vti (VTK image data), .inr/.inr.gz, .tif (multi-page) or a
-    folder of slices, a DICOM folder, VolPack .den, InVesalius .inv3 (read), and '-'
-    for standard input/output (npy or vpk streams). Run 'volpack COMMAND --help' for more;
+    folder of .tif or greyscale .png slices (a .png: one slice; read), a DICOM folder,
+    VolPack .den, InVesalius .inv3 (read), and '-' for standard input/output (npy or vpk
+    streams). Run 'volpack COMMAND --help' for more;
     -q, -v and --debug may also follow the command.
     """
     ctx.ensure_object(dict)

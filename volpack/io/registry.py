@@ -65,6 +65,8 @@ for _f in (
     Format("netcdf", "netcdf", _NETCDF_EXTS, (".nc",)),
     Format("tiff", "tiff", _TIFF_EXTS, _TIFF_EXTS),
     Format("tiff-folder", "tiff", read="read_folder", header=None),
+    Format("png", "png", (".png",)),  # one greyscale slice (read-only)
+    Format("png-folder", "png", read="read_folder", header=None),
     Format("metaimage", "metaimage", (".mha", ".mhd"), (".mha", ".mhd")),
     Format("vti", "vti", (".vti",), (".vti",)),
     Format("inr", "inr", (".inr", ".inr.gz"), (".inr", ".inr.gz")),
@@ -112,8 +114,8 @@ def detect_format(path: str) -> str:
     """Name the format of ``path`` from its extension (folders: from their content).
 
     Returns a name of :data:`FORMATS` (``npy, raw, nifti, mgh, minc, afni, parrec,
-    nrrd, hdf5, netcdf, tiff, tiff-folder, metaimage, vti, inr, den, dicom, inv3, mrc, zarr,
-    vpk``).
+    nrrd, hdf5, netcdf, tiff, tiff-folder, png, png-folder, metaimage, vti, inr, den,
+    dicom, inv3, mrc, zarr, vpk``).
     """
     path, _ = parse_spec(os.fspath(path))
     if path == "-":
@@ -129,8 +131,8 @@ def detect_format(path: str) -> str:
             return exts[ext]
     known = ", ".join(sorted(exts))
     raise FormatError(
-        f"expected a volume file with one of the extensions {known}, a folder of TIFF or "
-        f"DICOM slices, or '-' (any other file reads as raw voxels given shape and dtype), "
+        f"expected a volume file with one of the extensions {known}, a folder of TIFF, PNG "
+        f"or DICOM slices, or '-' (any other file reads as raw voxels given shape and dtype), "
         f"found {path!r}"
     )
 
@@ -146,11 +148,13 @@ def _detect_folder(path: str) -> str:
     names = [n for n in sorted(os.listdir(path)) if not n.startswith(".")]
     if any(n.lower().endswith(_TIFF_EXTS) for n in names):
         return "tiff-folder"
+    if any(n.lower().endswith(".png") for n in names):
+        return "png-folder"
     for n in names:
         if n.lower().endswith(".dcm") or _has_dicom_magic(os.path.join(path, n)):
             return "dicom"
     raise FormatError(
-        f"expected a folder of .tif/.tiff or DICOM slices, or a zarr store, found none of "
+        f"expected a folder of .tif/.tiff, .png or DICOM slices, or a zarr store, found none of "
         f"them in {path!r}"
     )
 
