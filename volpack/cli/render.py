@@ -287,7 +287,8 @@ def render(
         ok = np.isfinite(data) if data.dtype.kind == "f" else None
         if vol.mask is not None:
             ok = ~vol.mask if ok is None else ok & ~vol.mask
-    slice_view = mesh is None and tree is None and wants_slice(ctx, view_mode, data.shape, three_d=bool(isos or orbit))
+    slice_view = (mesh is None and tree is None
+                  and wants_slice(ctx, view_mode, data.shape, three_d=bool(isos or orbit)))  # fmt: skip
     if view_mode == "slice" and not slice_view:
         raise click.BadParameter("expected a volume (not a mesh or octree) and no --iso or "
                                  "--orbit", param_hint="--view slice")  # fmt: skip

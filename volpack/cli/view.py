@@ -88,7 +88,7 @@ def slice_view_option(f):
         "image (the first axis of length 1, else the middle slice of the shortest axis; a "
         "transfer function given colours it, opacity scaled to its largest; without one, "
         "scans in grey and fields in a colour map over the 0.5-99.8th percentiles; --size, "
-        "--zoom, --colorbar apply); auto: slice for a volume one voxel thick drawn without "
+        "--zoom and render's --colorbar apply); auto: slice for a volume one voxel thick drawn without "
         "camera options, else volume.",
     )(f)  # fmt: skip
 
