@@ -10,7 +10,6 @@ import sys
 import time
 import tracemalloc
 
-
 from volpack import io as vio
 from volpack.render import framing as new
 from volpack.render.autotf import transfer_for
