@@ -7,12 +7,15 @@ Axis order is ``(z, y, x)``, with time leading for animations ``(t, z, y, x)``;
 from __future__ import annotations
 
 import dataclasses
+import logging
 import math
 from typing import Any
 
 import numpy as np
 
 from .errors import FormatError
+
+log = logging.getLogger(__name__)
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -107,6 +110,35 @@ class Volume:
         if self.meta:
             out["meta"] = self.meta
         return out
+
+
+def declared_fill(vol: Volume) -> float | None:
+    """The no-data value the source file declares for float voxels (netCDF's
+    ``_FillValue``, else ``missing_value``), so that a lossy bound, and a bound relative
+    to the value range, apply to the data and not to the fill, and a render leaves it
+    empty; None when there is none."""
+    if vol.dtype.kind != "f":
+        return None
+    for key in ("_FillValue", "missing_value"):
+        value = vol.meta.get(key)
+        if isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value):
+            log.info("%s %r of the source taken as the fill value", key, value)
+            return float(value)
+    return None
+
+
+def with_fill_masked(vol: Volume) -> Volume:
+    """``vol`` with the voxels equal to its declared fill value (:func:`declared_fill`)
+    added to its mask, so that a render leaves them empty as it does NaN and masked voxels;
+    ``vol`` itself when it declares none or holds none."""
+    fill = declared_fill(vol)
+    if fill is None:
+        return vol
+    hit = vol.data == vol.data.dtype.type(fill)
+    if not hit.any():
+        return vol
+    mask = hit if vol.mask is None else (hit | np.asarray(vol.mask, bool))
+    return dataclasses.replace(vol, mask=mask)
 
 
 def require_voxels(shape: tuple[int, ...]) -> None:

@@ -160,3 +160,33 @@ def test_info_lists_the_variables_when_none_is_named(tmp_path):
     assert [a["name"] for a in vio.list_arrays(h5)] == ["/a/one", "/b"]
     with pytest.raises(FormatError, match="several arrays"):
         vio.list_arrays(str(tmp_path / "x.npy"))
+
+
+def test_render_leaves_the_declared_fill_empty_as_nan(tmp_path):
+    """`volpack render` of a field with a _FillValue: the fill is no data, drawn as NaN
+    is (empty), and the value range and TF are the data's. Session 35 (rend35): the
+    storm's -9999 land was drawn as two blue slabs and the wind, squeezed into one bin
+    of the table over [-9999, 24], did not show."""
+    import json
+
+    from click.testing import CliRunner
+    from PIL import Image
+
+    from volpack.cli import main
+
+    path = str(tmp_path / "f.nc")
+    wind = _wind()
+    _write(path, "NETCDF4", wind, packed=False)
+    nan = wind[1].copy()
+    nan[nan == FILL] = np.nan
+    np.save(tmp_path / "nan.npy", nan)
+    images = []
+    for src, out in ((path + ":u", "fill.png"), (str(tmp_path / "nan.npy"), "nan.png")):
+        args = ["render", src, str(tmp_path / out), "--size", "32x32", "--json"]
+        r = CliRunner().invoke(main, args + (["--frame", "1"] if src.endswith(":u") else []))
+        assert r.exit_code == 0, r.output
+        lo, hi = json.loads(r.output)["value_range"]
+        assert lo == float(np.nanmin(nan)) and hi == float(np.nanmax(nan))
+        images.append(np.asarray(Image.open(tmp_path / out)))
+    np.testing.assert_array_equal(images[0], images[1])
+    assert images[0].any()

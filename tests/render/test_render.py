@@ -612,3 +612,21 @@ def test_row_sets_cover_every_row_once_in_bands(h, threads):
     if threads > 1 and h >= 4 * threads * raycast.ROW_BAND:  # whole bands of neighbours
         for r in seen:
             assert np.all(np.diff(r)[: raycast.ROW_BAND - 1] == 1)
+
+
+def test_preclassification_past_its_memory_budget_is_a_clear_error(tmp_path, monkeypatch):
+    """classification='pre' keeps 16 bytes of RGBA a voxel (session 35, rend35: a 512^3
+    uint8 volume rendered in 3.2 GB; a 1024^3 one would have asked 16 GiB more): past
+    PRECLASSIFIED_BUDGET it is refused in one line naming the modes that need no copy."""
+    from volpack.render import raycast
+
+    monkeypatch.setattr(raycast, "PRECLASSIFIED_BUDGET", 16 * 999)
+    vol = np.zeros((10, 10, 10), np.uint8)
+    tf = TransferFunction(points=((0, 1, 1, 1, 0.5), (255, 1, 1, 1, 0.5)))
+    with pytest.raises(VolpackError, match=r"at most 999 voxels for classification 'pre'.*found 1,000"):
+        render(vol, tf=tf, classification="pre", camera=Camera(size=(8, 8)))
+    np.save(tmp_path / "v.npy", vol)
+    r = CliRunner().invoke(main, ["render", str(tmp_path / "v.npy"), str(tmp_path / "v.png"),
+                                  "--classification", "pre", "--size", "8x8"])  # fmt: skip
+    assert r.exit_code == 1 and "volpack: error: expected at most 999 voxels" in r.output, r.output
+    assert "Traceback" not in r.output and not (tmp_path / "v.png").exists()

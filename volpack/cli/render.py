@@ -130,7 +130,7 @@ def _load(ctx: click.Context, source: str, frame: int | None, raw: dict):
     """The 3-D Volume to draw: .vpk inputs are decoded, 4-D inputs give one frame."""
     from .. import api
     from .. import io as vio
-    from ..volume import Volume
+    from ..volume import Volume, with_fill_masked
 
     path = vio.parse_spec(source)[0]
     if api.kind_of(path) is not None or path.lower().endswith(".vpk"):  # '-': a .vpk stream too
@@ -139,6 +139,7 @@ def _load(ctx: click.Context, source: str, frame: int | None, raw: dict):
     else:
         with phase(ctx, f"reading {source}"):
             vol = vio.read_volume(source, **raw)
+    vol = with_fill_masked(vol)  # a netCDF's _FillValue is no data: empty, as NaN is
     if vol.data.ndim == 4:
         t = frame or 0
         if not 0 <= t < vol.data.shape[0]:

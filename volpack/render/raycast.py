@@ -1753,6 +1753,23 @@ def _paged_range_kernel(atlas, page, meta, inv, offset, brick, mins, maxs):
                 )
 
 
+#: Pre-classification keeps an RGBA float32 copy of the volume, 16 bytes a voxel (a 512^3
+#: uint8 volume rendered in 3.2 GB, a 1024^3 one would need 16 GiB more): refused past this.
+PRECLASSIFIED_BUDGET = 4 << 30
+
+
+def _check_preclassified(voxels: int) -> None:
+    """Refuse ``classification='pre'`` when its RGBA copy would pass the budget."""
+    need = 16 * int(voxels)
+    if need > PRECLASSIFIED_BUDGET:
+        raise VolpackError(
+            f"expected at most {PRECLASSIFIED_BUDGET // 16:,} voxels for classification 'pre' "
+            f"(an RGBA copy of 16 bytes a voxel, at most {PRECLASSIFIED_BUDGET / 2**30:g} GiB), "
+            f"found {int(voxels):,} ({need / 2**30:.1f} GiB); 'post' and 'preintegrated' "
+            "classify along the rays and need no copy"
+        )
+
+
 @kernel
 def _classify_kernel(vol, tab, lo, scale, out):
     """Pre-classification: the (n, 4) table looked up (linearly) at every voxel."""
@@ -1925,6 +1942,7 @@ def render(
 
     rgba = np.zeros((1, 1, 1, 4), np.float32)
     if has_vol and mode == 1:
+        _check_preclassified(vol.size)
         rgba = np.empty((*vol.shape, 4), np.float32)
         _classify_kernel(vol, post_tab, lo, scale, rgba)
         if prep is not None and prep.bad is not None:

@@ -35,7 +35,7 @@ from ..parallel import (
     ordered_map,
     parse_workers,
 )
-from ..volume import Volume, require_voxels
+from ..volume import Volume, declared_fill, require_voxels
 from . import bricks
 from . import interleave as il
 from . import tuples as tp
@@ -86,20 +86,6 @@ def make_codec(codec: str = "auto", dtype: Any = None, **options: Any):
     raise OptionError(
         f"expected codec 'auto', 'lossless', 'fast', 'wavelet' or 'zstd', found {codec!r}"
     )
-
-
-def declared_fill(vol: Volume) -> float | None:
-    """The no-data value the source file declares for float voxels (netCDF's
-    ``_FillValue``, else ``missing_value``), so that a lossy bound, and a bound relative
-    to the value range, apply to the data and not to the fill; None when there is none."""
-    if vol.dtype.kind != "f":
-        return None
-    for key in ("_FillValue", "missing_value"):
-        value = vol.meta.get(key)
-        if isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value):
-            log.info("%s %r of the source taken as the fill value", key, value)
-            return float(value)
-    return None
 
 
 def _zero_bound(asked: dict[str, Any]) -> bool:
