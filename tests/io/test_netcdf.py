@@ -185,7 +185,7 @@ def test_render_leaves_the_declared_fill_empty_as_nan(tmp_path):
         args = ["render", src, str(tmp_path / out), "--size", "32x32", "--json"]
         r = CliRunner().invoke(main, args + (["--frame", "1"] if src.endswith(":u") else []))
         assert r.exit_code == 0, r.output
-        lo, hi = json.loads(r.output)["value_range"]
+        lo, hi = json.loads(r.stdout)["value_range"]
         assert lo == float(np.nanmin(nan)) and hi == float(np.nanmax(nan))
         images.append(np.asarray(Image.open(tmp_path / out)))
     np.testing.assert_array_equal(images[0], images[1])
