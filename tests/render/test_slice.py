@@ -172,3 +172,13 @@ def test_play_draws_a_2d_series_face_on(tmp_path):
     r = CliRunner().invoke(main, ["play", str(tmp_path / "s.npy"), "--view", "slice",
                                   "--spin", "5"])  # fmt: skip
     assert r.exit_code != 0 and "--spin" in r.output
+
+
+def test_a_constant_volume_is_shown_not_black():
+    from volpack.render.autotf import auto_transfer
+
+    flat = np.full((1, 6, 8), 7.0, np.float32)
+    img = render_slice(flat, slice_transfer(flat), value_range=(7.0, 8.0), size=(8, 6))
+    assert np.allclose(img[..., :3], 0.5) and np.all(img[..., 3] == 1)
+    block = np.full((8, 8, 8), 7.0, np.float32)  # the 3-D look: the block it fills, lit
+    assert auto_transfer(block, value_range=(7.0, 8.0))(7.0)[3] > 0.1

@@ -181,6 +181,8 @@ def _intensity_tf(s, lo, hi, dtype, n) -> TransferFunction:
     so that both tails show, blue below zero and red above."""
     if s.size == 0:
         return TransferFunction(((lo, 0.8, 0.8, 0.8, 0.0),), "auto-intensity")
+    if s[0] == s.min() == s.max():  # one value: no split to make; show the block it fills
+        return TransferFunction(((lo, 0.8, 0.8, 0.8, plateau(n)),), "auto-intensity")
     p_lo, p_hi = window(s, lo, hi)
     amax = plateau(n)
     knots = [lo, hi, 0.0]

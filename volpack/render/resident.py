@@ -120,7 +120,6 @@ class ResidentVolume:
         self.tree = tree
         self.k = tree.geometry.block
         self.shape = tuple(int(n) for n in tree.shape)
-        dt = np.dtype(tree.dtype)
         self.dtype = grid_dtype(tree)
         self.cells = tuple(-(-n // self.k) for n in self.shape)
         self.have = np.full(self.cells, -1, np.int64)  # node key written per cell; -1: fill

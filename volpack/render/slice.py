@@ -60,6 +60,8 @@ def slice_transfer(values, *, dtype=None, mask=None, value_range=None) -> Transf
         return TransferFunction(((lo, 0.0, 0.0, 0.0, 0.0),), "slice-empty")
     if look == "labels":
         return labels_tf(s, lo, hi)
+    if s.min() == s.max():  # one value: mid-grey, not the black of a window's low end
+        return TransferFunction(((lo, 0.5, 0.5, 0.5, 1.0),), "slice-grey")
     p_lo, p_hi = window(s, lo, hi)
     if look == "ct" or scan_like(s, p_lo, p_hi, dtype):
         stops, c0, c1, name = _GREY, p_lo, p_hi, "slice-grey"
