@@ -117,10 +117,16 @@ def declared_fill(vol: Volume) -> float | None:
     ``_FillValue``, else ``missing_value``), so that a lossy bound, and a bound relative
     to the value range, apply to the data and not to the fill, and a render leaves it
     empty; None when there is none."""
-    if vol.dtype.kind != "f":
+    return fill_in_meta(vol.meta, vol.dtype)
+
+
+def fill_in_meta(meta: dict | None, dtype) -> float | None:
+    """:func:`declared_fill` of a volume's ``meta`` and ``dtype`` (a header, before or
+    without reading the voxels)."""
+    if np.dtype(dtype).kind != "f" or not isinstance(meta, dict):
         return None
     for key in ("_FillValue", "missing_value"):
-        value = vol.meta.get(key)
+        value = meta.get(key)
         if isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value):
             log.info("%s %r of the source taken as the fill value", key, value)
             return float(value)

@@ -60,8 +60,8 @@ def test_any_4d_file_plays_and_a_3d_one_is_refused(run4d, tmp_path):
     assert len(got) == 5 and all(np.array_equal(f, a[st.t]) for f, st, _ in got)
     assert sum(st.nbytes for _, st, _ in got) <= (tmp_path / "s.h5").stat().st_size
     np.save(tmp_path / "one.npy", a[0])
-    with pytest.raises(FormatError, match=r"4-D \(t, z, y, x\) series to play, found a volume "
-                       r"of shape \[6, 20, 18\]"):  # fmt: skip
+    with pytest.raises(FormatError, match=r"4-D \(t, z, y, x\) series or a netCDF variable "
+                       r"\(time, y, x\) to play, found a volume of shape \[6, 20, 18\]"):  # fmt: skip
         list(player.play(str(tmp_path / "one.npy")))
     api.compress(a[0], str(tmp_path / "one.vpk"))
     with pytest.raises(FormatError, match="found a volume of shape"):

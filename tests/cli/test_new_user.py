@@ -91,8 +91,8 @@ def test_play_of_a_vpk_of_another_kind_says_so(tmp_path):
     assert r.exit_code == 1
     line = one_error_line(r)
     assert line.startswith(
-        "volpack: error: expected an animation or a 4-D (t, z, y, x) series to play, found a "
-        "volume of shape ["
+        "volpack: error: expected an animation, a 4-D (t, z, y, x) series or a netCDF "
+        "variable (time, y, x) to play, found a volume of shape ["
     ) and line.endswith(
         f"in {VOLUME_VPK} (to turn about it: volpack render SOURCE OUT_DIR --orbit N)"
     )
@@ -233,9 +233,9 @@ def test_play_and_walk_of_a_file_of_another_format_name_the_format(npy, tmp_path
         f"volpack: error: expected a .vpk file, found the npy file '{npy}' "
         "(volpack convert and volpack compress read it)"
         if command == "walk"
-        else "volpack: error: expected an animation or a 4-D (t, z, y, x) series to play, found "
-        f"a volume of shape [4, 5, 6] in {npy} (to turn about it: volpack render SOURCE OUT_DIR "
-        "--orbit N)"
+        else "volpack: error: expected an animation, a 4-D (t, z, y, x) series or a netCDF "
+        f"variable (time, y, x) to play, found a volume of shape [4, 5, 6] in {npy} (to turn "
+        "about it: volpack render SOURCE OUT_DIR --orbit N)"
     )
     assert sorted(os.listdir(tmp_path)) == ["a.npy"]
 

@@ -153,24 +153,70 @@ def _kind(source: str) -> str | None:
     """The ``.vpk`` kind of ``source`` from its header alone, read forward (a truncated
     animation still plays up to its damage); None for another (readable) file, and
     ``"animation"`` where the header cannot be read (the animation reader then says why)."""
-    from ..format.container import MAGIC, Reader, is_vpk
     from ..format.streams import vpk_kind
+
+    if source == "-":  # peeked at, not consumed
+        try:
+            return vpk_kind(source)
+        except (OSError, FormatError):
+            return "animation"
+    header = _vpk_header(source)
+    return header.get("kind") if header is not None else None
+
+
+def _vpk_header(source: str) -> dict | None:
+    """The ``.vpk`` header of the file ``source``, read forward; None for another file,
+    ``{"kind": "animation"}`` where it cannot be read (:func:`_kind`)."""
+    from ..format.container import MAGIC, Reader, is_vpk
     from ..io import parse_spec
 
-    path = parse_spec(source)[0] if source != "-" else source
+    path = parse_spec(source)[0]
     if os.path.isdir(path):  # a folder of slices
         return None
     try:
-        if source == "-":  # peeked at, not consumed
-            return vpk_kind(source)
         with open(path, "rb") as f:
             if not is_vpk(f.read(len(MAGIC))):
                 return None
             f.seek(0)
             with Reader(_Stream(f)) as r:
-                return r.header.get("kind")
+                return r.header
     except (OSError, FormatError):
-        return "animation"
+        return {"kind": "animation"}
+
+
+#: Names of a leading netCDF dimension that make a 3-D variable a series of 2-D fields
+#: (``(time, lat, lon)``): besides these, any name starting with "time".
+TIME_DIMENSIONS = ("t", "month", "months", "date", "day", "days", "year", "years", "record")
+
+
+def time_major(shape, meta: dict | None) -> bool:
+    """Whether a 3-D array is a series of 2-D fields: its source names its first axis as
+    time (a netCDF variable ``(time, lat, lon)``; :data:`TIME_DIMENSIONS`)."""
+    dims = meta.get("netcdf_dimensions") if isinstance(meta, dict) else None
+    if len(tuple(shape)) != 3 or not isinstance(dims, list) or len(dims) != 3:
+        return False
+    first = str(dims[0]).lower()
+    return first.startswith("time") or first in TIME_DIMENSIONS
+
+
+def declared_fill_of(source: str) -> float | None:
+    """The fill value the file ``source`` declares for its float voxels (netCDF's
+    ``_FillValue``, kept in a volume ``.vpk``'s metadata), read from its header alone;
+    None for none, for animations (which restore fills exactly) and for ``'-'``."""
+    from ..io import read_header
+    from ..volume import fill_in_meta
+
+    if source == "-":
+        return None
+    header = _vpk_header(source)
+    if header is None:
+        try:
+            header = read_header(source)
+        except (OSError, FormatError):
+            return None
+    if header.get("kind", "volume") != "volume" or "dtype" not in header:
+        return None
+    return fill_in_meta(header.get("meta"), header["dtype"])
 
 
 def series(source: str) -> Iterator[tuple[np.ndarray, FrameStats, dict]]:
@@ -191,8 +237,9 @@ def series(source: str) -> Iterator[tuple[np.ndarray, FrameStats, dict]]:
         vol, header = read_volume(source), {}
         path = parse_spec(source)[0] if source != "-" else source
         nbytes = os.path.getsize(path) if os.path.isfile(path) else vol.nbytes
-        _four_d(vol.shape, source)
-        yield from _steps(vol.data, nbytes, t0, header)
+        data = vol.data[:, None] if time_major(vol.shape, vol.meta) else vol.data
+        _four_d(data.shape, source)
+        yield from _steps(data, nbytes, t0, header)
         return
     from ..volume_codec import interleave
     from ..volume_codec.stream import open as open_volume
@@ -200,13 +247,15 @@ def series(source: str) -> Iterator[tuple[np.ndarray, FrameStats, dict]]:
     with reading(source if source != "-" else None), open_volume(source) as reader:
         header = reader.header
         shape = tuple(header["shape"])
-        _four_d(shape, source)
+        fields = time_major(shape, header.get("meta"))  # (time, lat, lon): 2-D fields
+        _four_d((shape[0], 1, *shape[1:]) if fields else shape, source)
         per_t: dict[int, int] = {}  # payload bytes by time step (a pipe's: not known)
         for e in reader._r.entries if reader._r.seekable else ():
             per_t[e.t] = per_t.get(e.t, 0) + e.nbytes
-        if header.get("layout") == interleave.LAYOUT or source == "-":
+        if fields or header.get("layout") == interleave.LAYOUT or source == "-":
             # every brick holds every time step (or a pipe reads every chunk first)
             data = reader.read(workers=0).data
+            data = data[:, None] if fields else data
             yield from _steps(data, sum(per_t.values()), t0, header)
             return
         for t in range(shape[0]):
@@ -219,9 +268,9 @@ def series(source: str) -> Iterator[tuple[np.ndarray, FrameStats, dict]]:
 def _four_d(shape: tuple[int, ...], source: str) -> None:
     if len(shape) != 4:
         raise FormatError(
-            f"expected an animation or a 4-D (t, z, y, x) series to play, found a volume of "
-            f"shape {list(shape)} in {source} (to turn about it: volpack render SOURCE "
-            "OUT_DIR --orbit N)"
+            f"expected an animation, a 4-D (t, z, y, x) series or a netCDF variable (time, y, "
+            f"x) to play, found a volume of shape {list(shape)} in {source} (to turn about "
+            "it: volpack render SOURCE OUT_DIR --orbit N)"
         )
 
 

@@ -40,7 +40,9 @@ def play(ctx, source, output, tf_spec, fps, spin, show_stats, azimuth, elevation
     """Play the animation SOURCE (.vpk, or '-') into OUTPUT: an .mp4, a .gif or a folder of
     PNGs; without OUTPUT, decode and render only (with --stats: a timing table). SOURCE
     may also be a 4-D (t, z, y, x) series: a volume .vpk or any 4-D volume file (an fMRI
-    .nii.gz, a .npy), played a time step a frame.
+    .nii.gz, a .npy), played a time step a frame; a netCDF variable whose first dimension
+    is time, (time, lat, lon), plays as 2-D fields drawn face-on, its declared fill value
+    empty.
 
     Frames are decoded in storage order, one per displayed frame after the first (two
     before it), exactly as a player keeps up with a stream; a damaged stream plays up to
@@ -54,7 +56,7 @@ def play(ctx, source, output, tf_spec, fps, spin, show_stats, azimuth, elevation
       volpack play run.vpk run.gif --size 256x256 --spin 3
       volpack play run.vpk --stats
       volpack play bold.nii.gz bold.gif --tf mri --fps 5     # an fMRI run's time steps
-      volpack play sst.nc sst.gif          # a 2-D field's months, (t, 1, y, x): drawn face-on
+      volpack play sst.nc sst.gif          # a netCDF (time, lat, lon): 2-D fields, face-on
     """
     import dataclasses
 
@@ -76,9 +78,12 @@ def play(ctx, source, output, tf_spec, fps, spin, show_stats, azimuth, elevation
         check_output(output, force=force, inputs=(source,))
     vr = player.recorded_range(source) if source != "-" else None
     n_frames = player.frame_count(source) if source != "-" else None
+    fill = player.declared_fill_of(source)  # no data: drawn empty, as NaN is
     state: dict = {"tf": None, "range": vr, "k": 0}
 
     def render(frame: np.ndarray) -> np.ndarray:
+        if fill is not None and frame.dtype.kind == "f":
+            frame = np.where(frame == frame.dtype.type(fill), frame.dtype.type(np.nan), frame)
         if state["tf"] is None:  # the first frame sets the TF and the framing for all
             lo, hi = state["range"] or (float(np.nanmin(frame)), float(np.nanmax(frame)))
             hi = hi if hi > lo else lo + 1.0
