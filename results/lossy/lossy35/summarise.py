@@ -2,6 +2,8 @@
 
 Run: python results/lossy/lossy35/summarise.py trial_base.csv [trial_after.csv] [--chart OUT.png]
 One CSV: a table of every cell. Two: before -> after for the cells of the second.
+Or: summarise.py --grid A.csv [B.csv ...]: x best of SZ3/SPERR per field and bound, later
+CSVs' cells replacing earlier ones.
 """
 
 from __future__ import annotations
@@ -106,5 +108,31 @@ def main():
         chart(rows if len(args) == 1 else rows_of(args[1]), Path(out))
 
 
+
+
+def grid(paths):
+    """One row per field: x best of SZ3/SPERR at each bound, later CSVs' cells replacing
+    earlier ones ("before -> after" where they differ)."""
+    cells, order = {}, []
+    for p in paths:
+        for r in rows_of(p):
+            k = (r["field"], r["rel"])
+            if r["field"] not in order:
+                order.append(r["field"])
+            x = num(r.get("x_best"))
+            v = f"{x:.3f}" if x else "no peer"
+            if k in cells and cells[k][0] != v:
+                v = f"{cells[k][0]} -> {v}"
+            cells[k] = (v, r["set"], r["ratio"])
+    print("| field | set | 1e-2 | 1e-3 | 1e-4 | 1e-5 |")
+    print("|---|---|---|---|---|---|")
+    for f in order:
+        vals = [cells.get((f, e)) for e in ("1e-2", "1e-3", "1e-4", "1e-5")]
+        print(f"| {f} | {vals[0][1]} | " + " | ".join(f"{v[0]} ({float(v[2]):.1f}:1)" for v in vals) + " |")
+
+
 if __name__ == "__main__":
-    main()
+    if sys.argv[1] == "--grid":
+        grid(sys.argv[2:])
+    else:
+        main()
