@@ -754,12 +754,17 @@ def encode(
     ``few``: the adaptive coding tried on fewer walks (:func:`_best_each`)."""
     best = _best_each(g, step, tried, codings, few)
     shares = min_saving if isinstance(min_saving, tuple) else (min_saving,) * len(codings)
-    chosen, shortest = None, np.inf
-    for name, share in zip(codings, shares, strict=True):
-        bits = best[name][0]
-        if chosen is None or bits < (1.0 - share) * shortest:
-            chosen = best[name]
-        shortest = min(shortest, bits)
+
+    def choose():
+        chosen, shortest = None, np.inf
+        for name, share in zip(codings, shares, strict=True):
+            bits = best[name][0]
+            if chosen is None or bits < (1.0 - share) * shortest:
+                chosen = best[name]
+            shortest = min(shortest, bits)
+        return chosen
+
+    chosen = choose()
     if SHARED_TABLES and "static" in best:  # its tables shared, if that is shorter
         bits, perm, k, rec, (sym, ctx, raw) = best["static"]
         counts = np.bincount(ctx * N_SYM + sym, minlength=N_CTX * N_SYM).reshape(N_CTX, N_SYM)
@@ -767,13 +772,15 @@ def encode(
         if len(np.unique(table_of)) < np.count_nonzero(counts.sum(axis=1)):
             shared = _static_section(perm, k, sym, ctx, raw, counts, table_of)
             was_static = chosen is best["static"]
-            best["static"] = (bits, perm, k, rec, (sym, ctx, raw, shared))
-            # kept where the choice was static (if shorter: :func:`_section`), or in place
-            # of the adaptive coding where it is shorter (and faster to decode); never
-            # where it codes longer than the choice made without it, nor in place of the
-            # grouped coding (the fastest)
-            if was_static or (chosen[2] & ADAPTIVE and len(shared) < HEADER.size + chosen[0] // 8):
-                chosen = best["static"]
+            best["static"] = (min(bits, 8 * len(shared)), perm, k, rec, (sym, ctx, raw, shared))
+            # the choice made again with the shared coding's length; kept where it is the
+            # static coding and no longer than the choice made without it (a faster one
+            # saves what the rule asks; a slower one was longer): no brick codes longer
+            again = choose()
+            if again is best["static"] and (
+                was_static or len(shared) <= HEADER.size + chosen[0] // 8
+            ):
+                chosen = again
     return _section(chosen)
 
 
