@@ -2,7 +2,7 @@
 in one process: bytes, every voxel checked against the bound (after; before too), decode
 CPU s (best of 3) of each stream, encode CPU s.
 
-Run: PYTHONPATH=. python results/lossy/lossy35/ab.py OUT.csv SPEC [RELS]
+Run: PYTHONPATH=. python results/lossy/lossy35/ab.py OUT.csv SPEC [RELS] [EFFORT]
 SPEC: comma-separated .npy paths, or names of scripts/datasets.py ("corpus": every float
 field). RELS default 1e-2,1e-3,1e-4,1e-5 (of the finite value range).
 """
@@ -48,6 +48,7 @@ def best_cpu(f, n=3):
 def main() -> None:
     out, spec = sys.argv[1], sys.argv[2]
     rels = [float(r) for r in (sys.argv[3] if len(sys.argv) > 3 else "1e-2,1e-3,1e-4,1e-5").split(",")]
+    effort = sys.argv[4] if len(sys.argv) > 4 else "default"
     rows = []
     for name, x in arrays(spec):
         fin = np.isfinite(x)
@@ -57,7 +58,7 @@ def main() -> None:
             for tag, on in (("before", False), ("after", True)):
                 bi.SHARED_TABLES = on
                 t0 = time.process_time()
-                blob = api.compress_array(x, rel_error=rel, workers=1)
+                blob = api.compress_array(x, rel_error=rel, workers=1, effort=effort)
                 row[f"enc_s_{tag}"] = round(time.process_time() - t0, 3)
                 y, dec = best_cpu(lambda b=blob: api.decompress_array(b, workers=1))
                 err = float(np.abs(y[fin].astype(np.float64) - x[fin].astype(np.float64)).max())
