@@ -97,6 +97,8 @@ KINDS = {
     "lossy-fast-float": ("lossy-bounded-f32-fast.vpk", VOLUME_PATHS),
     # ... and the interpolation path's grouped bins (kind bit 5), with raw bits
     "lossy-fast-bins": ("lossy-bounded-f32-fastbins-raw.vpk", VOLUME_PATHS),
+    # ... and its static bins with tables shared between contexts (kind bit 6)
+    "lossy-interp-shared": ("lossy-bounded-f32-interp-shared.vpk", VOLUME_PATHS),
     # ... and the exact path's lattices with their integers by the fast codec (step 19b)
     "lossy-fast-exact": ("lossy-bounded-f32-levels-fast.vpk", VOLUME_PATHS),
     # the float wavelet path: Mallat layout with the outlier bin field, and separable

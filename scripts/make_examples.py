@@ -431,9 +431,7 @@ def lossy_source(recipe: str):
         return wavelet_source("u8").astype(np.float32)
     if recipe == "f32-levels":  # steps of 1/4, offset by 0.37 per z slice
         u = wavelet_source("u8").astype(np.float64)
-        return (u * 0.25 + 250.0 + 0.37 * np.arange(u.shape[0])[:, None, None]).astype(
-            np.float32
-        )
+        return (u * 0.25 + 250.0 + 0.37 * np.arange(u.shape[0])[:, None, None]).astype(np.float32)
     if recipe in WAVES:  # six plane waves: predictable from far
         rng = np.random.default_rng(17)
         shape = WAVES[recipe]
@@ -447,6 +445,15 @@ def lossy_source(recipe: str):
         if recipe == "f32-waves-noisy":  # and a little noise: a residual worth its tables
             f += 0.02 * rng.standard_normal(f.shape)
         return (f * 10 + 20).astype(np.float32)
+    if recipe == "f32-trilinear":  # a 7x8x9 random grid interpolated trilinearly up 8x
+        out = np.random.default_rng(35).normal(size=(7, 8, 9))
+        for ax in range(3):
+            m = out.shape[ax]
+            t = np.arange((m - 1) * 8 + 1) / 8
+            i0 = np.minimum(t.astype(int), m - 2)
+            f = (t - i0).reshape([-1 if a == ax else 1 for a in range(3)])
+            out = np.take(out, i0, axis=ax) * (1 - f) + np.take(out, i0 + 1, axis=ax) * f
+        return (out * 4 + 20).astype(np.float32)
     if recipe == "f64-off":  # the f32 recipe in float64 moved off its grid of 1/3
         f = lossy_source("f32").astype(np.float64)
         ok = np.isfinite(f) & (f != -999.0)
@@ -456,7 +463,9 @@ def lossy_source(recipe: str):
         i, j, k = np.arange(40.0), np.arange(40.0), np.arange(48.0)
         f = np.zeros((40, 40, 48))
         for r, (p, q, s) in enumerate(((3, 5, 7), (11, 13, 2), (1, 4, 9), (6, 1, 5))):
-            f += np.multiply.outer(np.multiply.outer(i * p % 17 - 8, j * q % 19 - 9), k * s % 23 - 11) / (r + 1)
+            f += np.multiply.outer(
+                np.multiply.outer(i * p % 17 - 8, j * q % 19 - 9), k * s % 23 - 11
+            ) / (r + 1)
         f += (np.arange(f.size) * 0.6180339887 % 1.0).reshape(f.shape) * 0.05
         return f.astype(np.float32)
     if recipe not in ("f32", "f32-walk"):
@@ -588,6 +597,12 @@ FAST_BINS_CASES = [
     ("lossy-bounded-f32-fastbins-raw", "f32-waves", {"max_error": 0.02, "effort": "fast"}, None),
 ]  # fmt: skip
 LOSSY_CODER_CASES += FAST_BINS_CASES
+# The interpolation path's static bins with tables shared between contexts (session 35,
+# lossy-1.md step 17, kind 64 + kind): a field interpolated trilinearly up 8x, whose bins
+# are nearly all 0.
+LOSSY_CODER_CASES += [
+    ("lossy-bounded-f32-interp-shared", "f32-trilinear", {"max_error": 0.3}, None)
+]
 
 
 def make_lossy(folder: Path) -> Path:

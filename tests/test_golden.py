@@ -134,6 +134,15 @@ def lossy_source(recipe):
         if recipe == "f32-waves-noisy":  # and a little noise: a residual worth its tables
             f += 0.02 * rng.standard_normal(f.shape)
         return (f * 10 + 20).astype(np.float32)
+    if recipe == "f32-trilinear":  # a 7x8x9 random grid interpolated trilinearly up 8x
+        out = np.random.default_rng(35).normal(size=(7, 8, 9))
+        for ax in range(3):
+            m = out.shape[ax]
+            t = np.arange((m - 1) * 8 + 1) / 8
+            i0 = np.minimum(t.astype(int), m - 2)
+            f = (t - i0).reshape([-1 if a == ax else 1 for a in range(3)])
+            out = np.take(out, i0, axis=ax) * (1 - f) + np.take(out, i0 + 1, axis=ax) * f
+        return (out * 4 + 20).astype(np.float32)
     if recipe == "f64-off":  # the f32 recipe in float64 moved off its grid of 1/3
         f = lossy_source("f32").astype(np.float64)
         ok = np.isfinite(f) & (f != -999.0)
@@ -383,6 +392,9 @@ LOSSY_TODAY = [  # (stem, recipe, options, brick, (flags, kind or mode) of each 
     # by static rANS tables in those contexts (residual type 4; step 23)
     ("lossy-bounded-f32-longfit-static", "f32-waves-noisy", {"max_error": 0.005}, None,
      {(8, 0)}),
+    # the interpolation path's static bins with shared tables (kind 64 + 0, linear; session
+    # 35, step 17) on a field interpolated trilinearly up 8x
+    ("lossy-bounded-f32-interp-shared", "f32-trilinear", {"max_error": 0.3}, None, {(64, 64)}),
 ]  # fmt: skip
 # Made before a slower-decoding coding had to save 2 % of the bytes (lossy-1.md,
 # "Decoding speed in the encoder's choice"): one of its bricks is mode 4 by 0.8 %, which

@@ -68,7 +68,8 @@ def test_every_kind_round_trips_through_its_section(kind, coding):
     flag = FLAG_OF[coding]
     for step in (2.0, 0.02, 1e-7):  # the last: many bins past 32, raw bits
         inner, rec = bi.encode(g, step, tried=((kind, ((1, 2, 0),)),), codings=(coding,))
-        assert inner[:4] == bytes([1, 2, 0, kind | flag])
+        assert inner[:3] == bytes([1, 2, 0])  # static: its tables shared or not
+        assert inner[3] in ({kind, kind | bi.SHARED} if coding == "static" else {kind | flag})
         np.testing.assert_array_equal(bi.decode(inner, g.shape, step), rec)
         assert np.abs(rec - g).max() <= step / 2 * (1 + 1e-9)
     if coding == "adaptive":  # the bins and contexts it codes: the spec's, naively
@@ -235,7 +236,6 @@ def test_the_interpolation_path_refuses_integer_dtypes():
         codec.decode(payload, a.shape, np.int32)
 
 
-
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
 def test_a_transposed_walk_is_cast_straight_into_the_volume(dtype):
     # the walk's array in axis order (2, 0, 1): its voxels reach a view of a larger
@@ -343,3 +343,82 @@ def test_flat_and_strided_dequantisation_match_the_plain_reading(qdtype):
         dequantise_integer(q, step, lo, dtype, big[:, :, 2:])
         np.testing.assert_array_equal(big[:, :, 2:], want)
         assert not big[:, :, :2].any()
+
+
+def trilinear_up(shape=(5, 6, 7), up=8, seed=35):
+    """A random grid interpolated trilinearly up ``up`` times: between its nodes every
+    linear prediction is exact, so nearly every bin is 0."""
+    out = np.random.default_rng(seed).normal(size=shape)
+    for ax in range(3):
+        m = out.shape[ax]
+        t = np.arange((m - 1) * up + 1) / up
+        i0 = np.minimum(t.astype(int), m - 2)
+        f = (t - i0).reshape([-1 if a == ax else 1 for a in range(3)])
+        out = np.take(out, i0, axis=ax) * (1 - f) + np.take(out, i0 + 1, axis=ax) * f
+    return out * 4 + 20
+
+
+def test_static_bins_share_tables_where_their_contexts_are_nearly_all_zero(monkeypatch):
+    """Session 35: on a field interpolated trilinearly up, 18 tables cost more than their
+    contexts save; the shared tables (kind bit 6) code shorter and decode to the same
+    voxels, and the encoder keeps 18 tables where they are shorter."""
+    g = trilinear_up()
+    tried = ((0, ((0, 1, 2),)),)
+    plain, rec0 = None, None
+    for on in (False, True):
+        monkeypatch.setattr(bi, "SHARED_TABLES", on)
+        inner, rec = bi.encode(g, 0.4, tried=tried, codings=("static",))
+        np.testing.assert_array_equal(bi.decode(inner, g.shape, 0.4), rec)
+        if not on:
+            plain, rec0 = inner, rec
+    assert plain[3] == 0 and inner[3] == bi.SHARED
+    assert len(inner) < 0.8 * len(plain)  # 333 against 439 bytes
+    np.testing.assert_array_equal(rec, rec0)  # the same walk, only the tables differ
+    # where sharing codes longer (here: every context forced into one table, on a field
+    # half noise, half a smooth wave) the 18 tables are kept
+    monkeypatch.setattr(bi, "share_tables", lambda c: np.zeros(len(c), np.uint8))
+    half = rough_float((11, 14, 19), np.float64, seed=3)
+    half[:, :, 10:] = np.sin(np.arange(9) / 5)
+    inner, _ = bi.encode(half, 0.02, tried=tried, codings=("static",))
+    assert inner[3] == 0
+
+
+def test_share_tables_merges_what_saves_bits():
+    counts = np.zeros((bi.N_CTX, bi.N_SYM), np.int64)
+    counts[0, :2] = (100000, 3)  # nearly all zeros, and two more such contexts
+    counts[3, :3] = (2000, 2, 1)
+    counts[6, :2] = (4000, 1)
+    counts[9, :40] = 50  # broad and well filled: its own table
+    counts[12, 30:70] = 60  # broad elsewhere: its own
+    table_of = bi.share_tables(counts)
+    assert table_of[0] == table_of[3] == table_of[6]
+    assert len({table_of[0], table_of[9], table_of[12]}) == 3
+    assert table_of.max() == 2 and table_of[0] == 0  # numbered by first context
+
+
+def test_damaged_shared_tables_raise_format_errors():
+    import zstandard
+
+    g = trilinear_up()
+    inner, _ = bi.encode(g, 0.4, tried=((0, ((0, 1, 2),)),), codings=("static",))
+    assert inner[3] == bi.SHARED
+    body, pos = take_section(inner, 4, "tables")
+    tables = zstandard.ZstdDecompressor().decompress(bytes(body))
+    k = tables[0]
+
+    def with_tables(t):
+        return inner[:4] + put_section(zstandard.ZstdCompressor().compress(t)) + inner[pos:]
+
+    for bad, match in [
+        (bytes([0]) + tables[1:], "header"),  # no table
+        (bytes([19]) + tables[1:], "header"),  # more than the contexts
+        (tables[:10], "header"),  # cut inside the context indices
+        (tables[:1] + bytes([k]) + tables[2:], "names table"),  # an index past K
+        (bytes([k + 1]) + tables[1:], "cut short"),  # one table fewer than K
+        (tables + b"\x00\x00", "stray bytes"),
+    ]:
+        with pytest.raises(FormatError, match=match):
+            bi.decode(with_tables(bad), g.shape, 0.4)
+    for kind in (bi.SHARED | bi.ADAPTIVE, bi.SHARED | bi.GROUPED):
+        with pytest.raises(FormatError, match="not one of the known"):
+            bi.decode(inner[:3] + bytes([kind]) + inner[4:], g.shape, 0.4)

@@ -18,7 +18,9 @@ by :mod:`.predictfit`'s adaptive binary coder, in contexts of the predicting and
 pass's neighbouring bins: no tables to store, and models that follow the bins' spread
 where the static contexts saturate (every bin past 16 at tight bounds). Or (kind bit 5,
 effort 'fast' only) grouped for decoding speed (:data:`GROUPED`): the bins are decoded
-in a pass of their own, then the walk takes them from an array, with no contexts.
+in a pass of their own, then the walk takes them from an array, with no contexts. The
+static coding's contexts may share tables (kind bit 6, :data:`SHARED`; session 35):
+where the bins are nearly all 0, 18 tables cost more than their contexts save.
 
 The encoder's choices, made per brick by the estimated coded size and stored: which
 axis is interpolated in which order (the pass of the last axis covers half the voxels,
@@ -66,6 +68,15 @@ ADAPTIVE = 16
 # two states each: a state's renormalisation reads at its stream's position, so with
 # one stream every symbol waited for the one before; two lanes overlap.
 GROUPED = 32
+# Kind flag: the static coding's contexts share tables (session 35, lossy35): the tables
+# section holds K, a table index for each of the N_CTX contexts, then K tables. On a
+# brick whose bins are nearly all 0 the 18 tables cost more than their contexts save:
+# a field interpolated trilinearly up 8x from a 13^3 grid at 1e-2 of its range spent
+# 465 of its 2,295 bytes on tables (SZ3's whole file: 2,072). Made beside the plain
+# tables and kept where shorter.
+SHARED = 64
+SHARE_TABLE_BITS = 12.0  # what an entry of a table costs, deflated (the merge's guide)
+SHARED_TABLES = True  # the encoder makes the shared coding (off: as before session 35)
 GROUP = 16
 N_CLASS = 8  # N_SYM <= 128: bit lengths 0..7
 N_GROUP_CTX = 2 * N_CLASS - 1
@@ -662,20 +673,72 @@ def _walk_codings(g, step, perm, kind, codings, adaptive: bool):
     return rec, found
 
 
-def _section(best) -> tuple[bytes, np.ndarray]:
-    """The inner section and reconstruction of one of :func:`_best_each`'s entries."""
-    _, perm, kind, rec, coded = best
-    if kind & (ADAPTIVE | GROUPED):
-        return HEADER.pack(*perm, kind) + coded, rec
-    sym, ctx, raw = coded
-    counts = np.bincount(ctx * N_SYM + sym, minlength=N_CTX * N_SYM)
-    freq = rans.normalise(counts.reshape(N_CTX, N_SYM))
-    inner = (
+def _row_bits(rows: np.ndarray) -> np.ndarray:
+    """Bits of each row of counts (last axis: symbols) under its own entropy, plus
+    SHARE_TABLE_BITS per symbol it holds."""
+    n = rows.sum(axis=-1, keepdims=True)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ent = np.where(rows > 0, -rows * np.log2(rows / np.maximum(n, 1)), 0.0)
+    return ent.sum(axis=-1) + SHARE_TABLE_BITS * (rows > 0).sum(axis=-1)
+
+
+def share_tables(counts: np.ndarray) -> np.ndarray:
+    """The table index of each context (rows of ``counts``): contexts merged greedily,
+    the pair whose merge saves the most bits first (:func:`_row_bits`), while a merge
+    saves any. Unused contexts take table 0; tables are numbered in order of their
+    first context."""
+    counts = np.asarray(counts, dtype=np.float64)
+    used = np.flatnonzero(counts.sum(axis=1))
+    groups = [[int(c)] for c in used]
+    rows = counts[used]
+    while len(groups) > 1:
+        own = _row_bits(rows)
+        gain = _row_bits(rows[:, None, :] + rows[None, :, :]) - own[:, None] - own[None, :]
+        gain[np.tril_indices(len(groups))] = np.inf
+        i, j = np.unravel_index(int(np.argmin(gain)), gain.shape)
+        if gain[i, j] >= 0:
+            break
+        groups[i] += groups.pop(j)
+        rows[i] += rows[j]
+        rows = np.delete(rows, j, axis=0)
+    out = np.zeros(counts.shape[0], dtype=np.uint8)
+    for k, g in enumerate(sorted(groups)):
+        out[g] = k
+    return out
+
+
+def _static_section(perm, kind, sym, ctx, raw, counts, table_of=None) -> bytes:
+    """The static coding's inner section; with ``table_of`` (:func:`share_tables`) the
+    contexts share its tables (kind flag SHARED)."""
+    head = b""
+    if table_of is not None:
+        k = int(table_of.max()) + 1
+        merged = np.zeros((k, N_SYM), dtype=np.int64)
+        np.add.at(merged, table_of, counts)
+        head = bytes([k]) + table_of.tobytes()
+        freq, ctx, kind = rans.normalise(merged), table_of[ctx], kind | SHARED
+    else:
+        freq = rans.normalise(counts)
+    return (
         HEADER.pack(*perm, kind)
-        + put_section(deflate(rans.pack_tables(freq)))
+        + put_section(deflate(head + rans.pack_tables(freq)))
         + put_section(raw.tobytes())
         + rans.encode(sym, ctx, freq)
     )
+
+
+def _section(best) -> tuple[bytes, np.ndarray]:
+    """The inner section and reconstruction of one of :func:`_best_each`'s entries; the
+    static coding with tables of its own for each context or, where :func:`encode` made
+    it, with shared tables (:func:`share_tables`), whichever is shorter."""
+    _, perm, kind, rec, coded = best
+    if kind & (ADAPTIVE | GROUPED):
+        return HEADER.pack(*perm, kind) + coded, rec
+    sym, ctx, raw, *shared = coded
+    counts = np.bincount(ctx * N_SYM + sym, minlength=N_CTX * N_SYM).reshape(N_CTX, N_SYM)
+    inner = _static_section(perm, kind, sym, ctx, raw, counts)
+    if shared and len(shared[0]) < len(inner):
+        inner = shared[0]
     return inner, rec
 
 
@@ -691,12 +754,33 @@ def encode(
     ``few``: the adaptive coding tried on fewer walks (:func:`_best_each`)."""
     best = _best_each(g, step, tried, codings, few)
     shares = min_saving if isinstance(min_saving, tuple) else (min_saving,) * len(codings)
-    chosen, shortest = None, np.inf
-    for name, share in zip(codings, shares, strict=True):
-        bits = best[name][0]
-        if chosen is None or bits < (1.0 - share) * shortest:
-            chosen = best[name]
-        shortest = min(shortest, bits)
+
+    def choose():
+        chosen, shortest = None, np.inf
+        for name, share in zip(codings, shares, strict=True):
+            bits = best[name][0]
+            if chosen is None or bits < (1.0 - share) * shortest:
+                chosen = best[name]
+            shortest = min(shortest, bits)
+        return chosen
+
+    chosen = choose()
+    if SHARED_TABLES and "static" in best:  # its tables shared, if that is shorter
+        bits, perm, k, rec, (sym, ctx, raw) = best["static"]
+        counts = np.bincount(ctx * N_SYM + sym, minlength=N_CTX * N_SYM).reshape(N_CTX, N_SYM)
+        table_of = share_tables(counts)
+        if len(np.unique(table_of)) < np.count_nonzero(counts.sum(axis=1)):
+            shared = _static_section(perm, k, sym, ctx, raw, counts, table_of)
+            was_static = chosen is best["static"]
+            best["static"] = (min(bits, 8 * len(shared)), perm, k, rec, (sym, ctx, raw, shared))
+            # the choice made again with the shared coding's length; kept where it is the
+            # static coding and no longer than the choice made without it (a faster one
+            # saves what the rule asks; a slower one was longer): no brick codes longer
+            again = choose()
+            if again is best["static"] and (
+                was_static or len(shared) <= HEADER.size + chosen[0] // 8
+            ):
+                chosen = again
     return _section(chosen)
 
 
@@ -713,9 +797,9 @@ def decode(inner, shape: tuple[int, int, int], step: float) -> np.ndarray:
     if len(inner) < HEADER.size:
         raise FormatError(f"{what}: the header is cut short")
     *perm, kind = HEADER.unpack_from(inner, 0)
-    adaptive, grouped = bool(kind & ADAPTIVE), bool(kind & GROUPED)
-    kind &= ~(ADAPTIVE | GROUPED)
-    if sorted(perm) != [0, 1, 2] or kind > 3 or (adaptive and grouped):
+    adaptive, grouped, shared = bool(kind & ADAPTIVE), bool(kind & GROUPED), bool(kind & SHARED)
+    kind &= ~(ADAPTIVE | GROUPED | SHARED)
+    if sorted(perm) != [0, 1, 2] or kind > 3 or adaptive + grouped + shared > 1:
         raise FormatError(f"{what}: axis order {perm} or kind {kind} is not one of the known")
     rec = np.empty(tuple(shape[a] for a in perm), dtype=np.float64)
     bn = np.zeros(rec.size, dtype=np.int32)
@@ -727,10 +811,21 @@ def decode(inner, shape: tuple[int, int, int], step: float) -> np.ndarray:
     else:
         nctx, bits = (N_GROUP_CTX, GROUP_BITS) if grouped else (N_CTX, rans.PROB_BITS)
         body, pos = take_section(inner, HEADER.size, what)
-        tables = inflate(body, 2 * (N_SYM + 1) * nctx, f"{what} tables")
-        table, used = rans.unpack_tables(tables, nctx, N_SYM, what, bits)
-        if used != len(tables):
+        tables = inflate(body, 2 * (N_SYM + 1) * nctx + 1 + nctx, f"{what} tables")
+        table_of, start = None, 0
+        if shared:  # K, the table of each context, then K tables
+            start = 1 + N_CTX
+            if len(tables) < start or not 1 <= tables[0] <= N_CTX:
+                raise FormatError(f"{what}: the shared tables' header is cut short or not valid")
+            table_of = np.frombuffer(tables[1:start], np.uint8)
+            if table_of.max() >= tables[0]:
+                raise FormatError(f"{what}: a context names table {table_of.max()} of {tables[0]}")
+            nctx = tables[0]
+        table, used = rans.unpack_tables(tables[start:], nctx, N_SYM, what, bits)
+        if used != len(tables) - start:
             raise FormatError(f"{what}: stray bytes after the rANS tables")
+        if table_of is not None:
+            table = np.ascontiguousarray(table[table_of])
         raw, pos = take_section(inner, pos, what)
         data = np.frombuffer(bytes(inner[pos:]) + bytes(2), dtype=np.uint8)  # padded: see rans
         raw = np.frombuffer(bytes(raw) + bytes(8), dtype=np.uint8).copy()  # slack: _get_bits
