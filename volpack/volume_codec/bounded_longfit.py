@@ -398,8 +398,7 @@ def _normal(q, offs, box, s):
     C-ordered A as ever (the bytes of the fitted weights depend on the summation
     order); the slabs' A and y gathered by :func:`_gather` a chunk at a time and their
     products taken by one stacked matmul (the same BLAS call per slab), not a Python
-    stack of slices per slab (a quarter of the default encoder's time on 4-frame
-    animations)."""
+    stack of slices per slab (22 % of a profile of the default encoder, session 35)."""
     (z0, z1), (y0, y1), (x0, x1) = box
     n = len(offs)
     m = len(range(y0, y1, s)) * len(range(x0, x1, s))
@@ -428,7 +427,7 @@ def _normal(q, offs, box, s):
 
 
 @kernel(nrt=False)
-def _gather(q, steps, z0, z1, y0, y1, x0, x1, s, a, t):  # pragma: no cover - numba
+def _gather(q, steps, z0, z1, y0, y1, x0, x1, s, a, t):
     """Slabs ``z0:z1`` of :func:`_normal`'s A (``a[z - z0, p, k]``: the voxel at step
     ``steps[k]`` back from the p-th voxel of the slab at stride ``s``, as float64) and
     y (``t``), every voxel in C order of (y, x)."""
