@@ -1354,3 +1354,32 @@ def bounded_reconstruct(q, lo, step, dtype):
         .astype(dtype)
         .reshape(np.shape(q))
     )
+
+
+# --- bounded codec: the normal equations of the long-reach fit (bounded_longfit) ---
+
+
+def longfit_normal(q, offs, box, s):
+    """(A^T A, A^T y, y^T y) of ``offs`` over ``box`` at stride ``s`` along y and x, as
+    bounded_longfit summed them before session 35: slab by slab along z, each slab's A
+    stacked from slices (one column a step) and its products by numpy's matmul."""
+    import numpy as np
+
+    (z0, z1), (y0, y1), (x0, x1) = box
+    n = len(offs)
+    ata = np.zeros((n, n))
+    aty = np.zeros(n)
+    yty = 0.0
+    for z in range(z0, z1):
+        a = np.stack(
+            [
+                q[z - dz, y0 - dy : y1 - dy : s, x0 - dx : x1 - dx : s].ravel()
+                for dz, dy, dx in offs
+            ],
+            axis=1,
+        ).astype(np.float64)
+        t = q[z, y0:y1:s, x0:x1:s].ravel().astype(np.float64)
+        ata += a.T @ a
+        aty += a.T @ t
+        yty += float(t @ t)
+    return ata, aty, yty

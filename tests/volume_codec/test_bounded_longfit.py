@@ -9,6 +9,7 @@ import itertools
 import sys
 from pathlib import Path
 
+import naive
 import numpy as np
 import pytest
 from conftest import benchmark_volume
@@ -302,6 +303,32 @@ def test_walk_matches_python_sums():
     fitted = _fitted_voxels(plan, q.shape)
     want = _naive_residuals(q, plan, weights)
     np.testing.assert_array_equal(r[fitted], want[fitted])
+
+
+@pytest.mark.parametrize("chunk", [1 << 20, 7])
+def test_normal_equations_match_the_python_stack(chunk, monkeypatch):
+    """The fit's normal equations (a kernel gathers the slabs, one stacked matmul) equal
+    the slab-by-slab Python stack they replace bit for bit (the weights' bytes depend on
+    the summation order), at stride 1 and 2, odd extents, far and near steps, whole and
+    chunked slabs (``chunk`` 7: a slab or two at a time)."""
+    monkeypatch.setattr(lf, "_SLAB_CHUNK", chunk)
+    rng = np.random.default_rng(35)
+    for trial in range(24):
+        shape = tuple(int(v) for v in rng.integers(5, 23, 3))
+        if trial % 2:
+            q = rng.integers(0, 1 << int(rng.integers(3, 45)), shape)
+        else:  # smooth: large and nearly collinear columns
+            g = np.cumsum(np.cumsum(rng.normal(size=shape), 0), 2) * 10 ** rng.uniform(0, 9)
+            q = np.rint(g - g.min()).astype(np.int64)
+        plan = lf.Plan(shape, tuple(int(rng.choice([2, 4])) for _ in range(3)))
+        s = 1 + trial % 3 // 2
+        for offs, box in zip(plan.offsets, plan.boxes()):
+            if offs and min(b - a for a, b in box) > 0:
+                got = lf._normal(q, offs, box, s)
+                want = naive.longfit_normal(q, offs, box, s)
+                np.testing.assert_array_equal(got[0], want[0])
+                np.testing.assert_array_equal(got[1], want[1])
+                assert got[2] == want[2]
 
 
 def test_walk_past_2_53_takes_int64():

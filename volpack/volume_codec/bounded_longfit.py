@@ -388,23 +388,58 @@ def _fit(q: np.ndarray, offs, box, ata_out=None) -> np.ndarray | None:
     return np.clip(np.rint(w * (1 << FB)), -W_LIMIT, W_LIMIT).astype(np.int64)
 
 
+_SLAB_CHUNK = 1 << 20  # float64 elements of A gathered at once (8 MB)
+
+
 def _normal(q, offs, box, s):
-    """(A^T A, A^T y, y^T y) of ``offs`` over ``box`` at stride ``s`` along y and x."""
+    """(A^T A, A^T y, y^T y) of ``offs`` over ``box`` at stride ``s`` along y and x.
+
+    Summed slab by slab along z in order, each slab's products by BLAS on an (m, n)
+    C-ordered A as ever (the bytes of the fitted weights depend on the summation
+    order); the slabs' A and y gathered by :func:`_gather` a chunk at a time and their
+    products taken by one stacked matmul (the same BLAS call per slab), not a Python
+    stack of slices per slab (22 % of a profile of the default encoder, session 35)."""
     (z0, z1), (y0, y1), (x0, x1) = box
     n = len(offs)
+    m = len(range(y0, y1, s)) * len(range(x0, x1, s))
     ata = np.zeros((n, n))
     aty = np.zeros(n)
     yty = 0.0
-    for z in range(z0, z1):
-        a = np.stack(
-            [q[z - dz, y0 - dy:y1 - dy:s, x0 - dx:x1 - dx:s].ravel() for dz, dy, dx in offs],
-            axis=1,
-        ).astype(np.float64)
-        t = q[z, y0:y1:s, x0:x1:s].ravel().astype(np.float64)
-        ata += a.T @ a
-        aty += a.T @ t
-        yty += float(t @ t)
+    if n == 0 or m == 0 or z1 <= z0:
+        return ata, aty, yty
+    q = np.ascontiguousarray(q, dtype=np.int64)
+    steps = np.array(offs, dtype=np.int64).reshape(n, 3)
+    per = max(1, _SLAB_CHUNK // (m * (n + 1)))
+    for c0 in range(z0, z1, per):
+        c1 = min(z1, c0 + per)
+        a = np.empty((c1 - c0, m, n))
+        t = np.empty((c1 - c0, m))
+        _gather(q, steps, c0, c1, y0, y1, x0, x1, s, a, t)
+        at = a.transpose(0, 2, 1)
+        g = at @ a
+        b = np.matmul(at, t[:, :, None])
+        tt = np.matmul(t[:, None, :], t[:, :, None])
+        for i in range(c1 - c0):
+            ata += g[i]
+            aty += b[i, :, 0]
+            yty += float(tt[i, 0, 0])
     return ata, aty, yty
+
+
+@kernel(nrt=False)
+def _gather(q, steps, z0, z1, y0, y1, x0, x1, s, a, t):
+    """Slabs ``z0:z1`` of :func:`_normal`'s A (``a[z - z0, p, k]``: the voxel at step
+    ``steps[k]`` back from the p-th voxel of the slab at stride ``s``, as float64) and
+    y (``t``), every voxel in C order of (y, x)."""
+    n = steps.shape[0]
+    for z in range(z0, z1):
+        p = 0
+        for y in range(y0, y1, s):
+            for x in range(x0, x1, s):
+                for k in range(n):
+                    a[z - z0, p, k] = np.float64(q[z - steps[k, 0], y - steps[k, 1], x - steps[k, 2]])
+                t[z - z0, p] = np.float64(q[z, y, x])
+                p += 1
 
 
 def _solve(ata, aty):
