@@ -355,7 +355,12 @@ def golden_source(recipe):
     return float_specials(cut)
 
 
-@pytest.mark.parametrize("stem,recipe,tools", GOLDEN_CASES, ids=[c[0] for c in GOLDEN_CASES])
+@pytest.mark.parametrize(
+    "stem,recipe,tools",
+    # float64's kernels compile for this case alone (results/tests/kernel_use35.md): slow set
+    [pytest.param(*c, id=c[0], marks=[pytest.mark.slow] if "f64" in c[0] else [])
+     for c in GOLDEN_CASES],
+)  # fmt: skip
 def test_golden_float_prediction_stream(stem, recipe, tools, monkeypatch):
     # made before the lattice step from the values of least magnitude (session 33), which
     # codes two bricks of the special floats 185 bytes shorter; lossless-f32-counts.vpk
