@@ -98,7 +98,8 @@ def render_slice(
     tf : TransferFunction
         Colours; opacity scaled to the TF's largest (module docstring).
     value_range : (lo, hi)
-        The data range (only checked: the TF is in data values).
+        The data range: the colour table spans it, and values beyond it take its ends
+        (as the ray caster's tables do).
     size : (width, height)
         Image size in pixels.
     axis, index : int or None
