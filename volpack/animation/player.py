@@ -204,6 +204,7 @@ def declared_fill_of(source: str) -> float | None:
     ``_FillValue``, kept in a volume ``.vpk``'s metadata), read from its header alone;
     None for none, for animations (which restore fills exactly) and for ``'-'``."""
     from ..io import read_header
+    from ..io.registry import FORMATS, detect_format
     from ..volume import fill_in_meta
 
     if source == "-":
@@ -211,6 +212,10 @@ def declared_fill_of(source: str) -> float | None:
     header = _vpk_header(source)
     if header is None:
         try:
+            # formats without a header reader (DICOM, AFNI, PAR/REC, slice folders) would
+            # be read whole here and again to play; none of them declares a fill value
+            if FORMATS[detect_format(source)].header is None:
+                return None
             header = read_header(source)
         except (OSError, FormatError):
             return None
