@@ -9,7 +9,7 @@ import math
 import naive_octree
 import numpy as np
 import pytest
-from conftest import need, smooth_volume
+from conftest import need, slow_case, smooth_volume
 
 from volpack.errors import FormatError
 from volpack.octree import NodeDamaged, Octree, build, layout
@@ -360,7 +360,9 @@ def test_trilinear_written_into_a_view_equals_the_cast_result(dtype):
     assert (grid == 3).all()
 
 
-@pytest.mark.parametrize("dtype", [np.uint8, np.int8, np.uint16, np.int32, np.int64])
+@pytest.mark.parametrize(
+    "dtype", [np.uint8, np.int8, slow_case(np.uint16), np.int32, np.int64]
+)  # uint16: a kernel of its own
 def test_values_clipped_in_one_kernel_equal_to_values(dtype):
     # the kernel that writes a block's integers clipped into the tree's dtype (or float64)
     # against the numpy form of plan.to_values, with values outside the dtype's range

@@ -171,6 +171,7 @@ def test_cli_effort_max_is_lossless_version_10(tmp_path):
     assert header_codec(w.read_bytes())["effort"] == "max"
 
 
+@pytest.mark.slow  # the local fit's decoder: a kernel only these tests compile (kernel_use36.md)
 def test_effort_max_under_a_bound_is_the_shortest_within_it():
     """'max' keeps the shortest coding whatever its decoding tier, and codes the quantised
     voxels with the lossless codec's local fit: its bricks never longer (its header says

@@ -150,6 +150,7 @@ def test_blend_beats_one_lorenzo_predictor_on_a_field_that_changes():
     assert len(fm.encode(a)) < 0.98 * best
 
 
+@pytest.mark.slow  # the float decoder's kernels, shared by three slow tests only (kernel_use36.md)
 def test_codec_picks_the_blend_for_periodic_and_masked_bricks():
     a = periodic((16, 24, 40), (0, 0, 30))
     b = masked(np.float32, 0.0, (16, 16, 16))

@@ -50,6 +50,7 @@ def test_flat_windows_and_short_bricks_have_no_estimate():
     assert localfit.usable((3, 5, 5), (1 << localfit.MAX_BITS) - 1)
 
 
+@pytest.mark.slow  # the local fit's decoder: a kernel only these tests compile (kernel_use36.md)
 @pytest.mark.parametrize("shape", [(3, 5, 5), (4, 6, 30), (9, 17, 13), (12, 9, 6)])
 def test_roundtrip_shapes(shape):
     rng = np.random.default_rng(sum(shape))
@@ -59,6 +60,7 @@ def test_roundtrip_shapes(shape):
         roundtrip_local(v, int(v.min()), int(v.max()), **opts)
 
 
+@pytest.mark.slow  # the local fit's decoder: a kernel only these tests compile (kernel_use36.md)
 def test_roundtrip_extremes_of_the_value_range():
     rng = np.random.default_rng(3)
     top = (1 << localfit.MAX_BITS) - 1
@@ -68,6 +70,7 @@ def test_roundtrip_extremes_of_the_value_range():
     roundtrip_local(w, int(w.min()), int(w.max()), mix=True)
 
 
+@pytest.mark.slow  # the local fit's decoder: a kernel only these tests compile (kernel_use36.md)
 @pytest.mark.parametrize("kind", ["checker", "pairs", "edges", "one", "all-but-one"])
 def test_roundtrip_with_masks(kind):
     """Masked voxels skip the refits where two masked voxels share them: the decoder
@@ -97,6 +100,7 @@ def test_saves_on_real_scans_and_says_so():
     np.testing.assert_array_equal(v9.decode(b, v.shape, v.dtype), v)
 
 
+@pytest.mark.slow  # the local fit's decoder: a kernel only these tests compile (kernel_use36.md)
 def test_version_8_streams_are_unchanged_by_version_9():
     v = tissue().astype(np.uint8)
     assert LosslessCodec(predict_version=8).encode(v) == LosslessCodec(predict_version=8).encode(v)
@@ -118,6 +122,7 @@ def test_out_of_reach_bricks_are_refused_or_skipped():
     np.testing.assert_array_equal(LosslessCodec().decode(data, big.shape, np.int32), big)
 
 
+@pytest.mark.slow  # the local fit's decoder: a kernel only these tests compile (kernel_use36.md)
 def test_corrupt_second_flags_byte_and_bit_flips():
     v = tissue().astype(np.uint8)
     codec = LosslessCodec(predict_version=9, tools="predict")
@@ -131,6 +136,7 @@ def test_corrupt_second_flags_byte_and_bit_flips():
     flip_bits(codec, good, v, np.random.default_rng(11), 40)
 
 
+@pytest.mark.slow  # the local fit's decoder: a kernel only these tests compile (kernel_use36.md)
 def test_effort_max_is_version_10():
     v = tissue().astype(np.uint8)
     a = api.compress_array(v, effort="max")

@@ -313,7 +313,7 @@ def special_floats(dtype=np.float32):
     return f
 
 
-@pytest.mark.parametrize("dtype", [np.float32, np.float16])
+@pytest.mark.parametrize("dtype", [np.float32, slow_case(np.float16)])
 def test_floats_bit_exact(dtype):
     a = special_floats(dtype)
     roundtrip(a, brick=8)
@@ -327,6 +327,7 @@ def test_float_ordering_map():
     np.testing.assert_array_equal(from_ordered(o, np.float32).view(np.uint32), a.view(np.uint32))
 
 
+@pytest.mark.slow  # the float decoder's kernels: see SLOW_CASES
 def test_float_field_beats_byte_shuffled_zstd():
     """A signed field crossing zero with full mantissas: exponent and mantissa apart."""
     rng = np.random.default_rng(2)
@@ -395,7 +396,20 @@ def golden_source(recipe):
     return float_specials(cut)
 
 
-@pytest.mark.parametrize("stem,recipe,opts", CASES, ids=[c[0] for c in CASES])
+# cases whose kernels (the local fit's general decoder, the float decoder) only a few fast
+# tests compile: slow set (results/tests/kernel_use36.md)
+SLOW_CASES = {
+    "lossless-auto-f32-field",
+    "lossless-v9-u8-local",
+    "lossless-v9-u8-local-mask",
+    "lossless-v9-i16-local-palette",
+}
+
+
+@pytest.mark.parametrize(
+    "stem,recipe,opts",
+    [pytest.param(*c, id=c[0], marks=[pytest.mark.slow] if c[0] in SLOW_CASES else []) for c in CASES],
+)
 def test_golden_lossless_stream(stem, recipe, opts):
     blob = (GOLDEN / f"{stem}.vpk").read_bytes()
     want = golden_source(recipe)

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import benchmark_volume, flip_bits
+from conftest import benchmark_volume, flip_bits, slow_case
 from test_predictfit import brain, noisy, roundtrip_stream, tissue
 
 from volpack import api
@@ -92,6 +92,7 @@ def test_mix_same_bytes_for_any_worker_count():
         assert all(describe(p).endswith("+mix") for _, _, p in r)
 
 
+@pytest.mark.slow  # the general predictfit decoder: a kernel only the local fit shares (kernel_use36.md)
 def test_corrupt_mix_sections_raise_format_error():
     codec = LosslessCodec()
     a = tissue().astype(np.uint8)
@@ -143,6 +144,7 @@ def test_real_scans_roundtrip_and_version_8_is_no_longer(name):
 # hands the rest of the brick to the general kernel (bound in) where it could.
 
 
+@pytest.mark.slow  # the general predictfit decoder: a kernel only the local fit shares (kernel_use36.md)
 @pytest.mark.parametrize("stop", [0, 1, 9, 40, 14 * 16 - 1])
 def test_handover_to_the_general_kernel_decodes_the_same(monkeypatch, stop):
     """Handing over at any row (the first, the second, within a slice, the last) gives
@@ -173,7 +175,7 @@ def test_weights_bound_cannot_act_within_room():
     assert residmix.room(aux) == 0
 
 
-@pytest.mark.parametrize("margin", [0, 3])
+@pytest.mark.parametrize("margin", [slow_case(0), 3])
 def test_weights_at_their_bound_decode_the_same(monkeypatch, margin):
     """Weights started at (or ``margin`` rows of steps from) their bound, where the encoder
     clamps them: the decoder finds no room (at once, or after a few rows) and the general
