@@ -437,6 +437,19 @@ def test_float64_near_1e300_reports_what_it_knows(tmp_path):
     assert 0 < got["rmse"] <= got["max_error"] <= 1e-3 * np.ptp(a)
 
 
+def test_float64_near_1e_minus_300_reports_what_it_knows(tmp_path):
+    """Errors whose squares underflow to 0: the summary says the PSNR and RMSE are
+    unknown, not 'inf' and 0 (voxels do differ)."""
+    a = np.random.default_rng(2).normal(0, 1, (8, 9, 10)) * 2.0**-995
+    src, vpk = tmp_path / "a.npy", tmp_path / "a.vpk"
+    np.save(src, a)
+    r = run("compress", src, vpk, "--rel-error", "1e-3")
+    assert "PSNR unknown (squared errors beyond float64's range)" in r.output
+    text = run("info", vpk).output
+    assert "PSNR         unknown" in text and "RMSE         unknown" in text
+    assert "max error    0 " not in text
+
+
 @pytest.mark.slow
 def test_warmup_runs_every_kernel_path():
     r = CliRunner().invoke(main, ["warmup", "--json"])

@@ -238,11 +238,11 @@ def accuracy(stats: dict, bound: float | None = None) -> str:
 
 def db(psnr: float | None, max_error: float | None) -> str:
     """A PSNR for people: 'P dB', 'inf' when nothing differs, and 'unknown' when the
-    summary has none although voxels differ (errors so large that their squares
-    overflow float64, e.g. float64 data near 1e300)."""
+    summary has none although voxels differ (errors whose squares leave float64's range,
+    e.g. float64 data near 1e300 or 1e-300)."""
     if psnr is not None:
         return f"{psnr:.2f} dB"
-    return "inf" if not max_error else "unknown (squared errors overflow float64)"
+    return "inf" if not max_error else "unknown (squared errors beyond float64's range)"
 
 
 def plural(word: str, n: int) -> str:

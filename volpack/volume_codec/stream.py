@@ -528,6 +528,8 @@ def measured_quality(c, worst: float, sse: float, nvalid: int) -> dict[str, Any]
     lossless = c.lossless
     rng = getattr(c, "value_range", None)
     mse = sse / nvalid if nvalid else 0.0
+    if mse == 0.0 and worst > 0.0:  # errors near 1e-300 square to 0 (as near 1e300 to inf)
+        mse = math.nan
     psnr = psnr_from_sse(sse, nvalid, rng or 1.0)
     out = {
         "lossless": lossless,
