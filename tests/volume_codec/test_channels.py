@@ -161,6 +161,9 @@ def test_complex_and_2d_arrays_are_refused_with_what_to_do(tmp_path):
     np.save(tmp_path / "flat.npy", rgb()[0, :, :, 0])
     with pytest.raises(FormatError, match=r"a volume of one slice: a\[None\]"):
         vio.read_volume(str(tmp_path / "flat.npy"))
+    np.save(tmp_path / "line.npy", rgb()[0, 0, :, 0])
+    with pytest.raises(FormatError, match=r"a volume of one row: a\[None, None\]"):
+        vio.read_volume(str(tmp_path / "line.npy"))
 
 
 def test_the_command_line_decides_channels_both_ways(tmp_path):

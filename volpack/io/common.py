@@ -63,6 +63,7 @@ COMPLEX_HINT = (
     " (a (z, y, x, 2) volume)"
 )
 FLAT_HINT = "; a 2-D image is a volume of one slice: a[None] (shape (1, y, x))"
+LINE_HINT = "; a 1-D signal is a volume of one row: a[None, None] (shape (1, 1, x))"
 
 
 def as_volume_array(arr: np.ndarray, meta: dict, where: str) -> np.ndarray:
@@ -78,7 +79,7 @@ def as_volume_array(arr: np.ndarray, meta: dict, where: str) -> np.ndarray:
     if arr.ndim not in (3, 4):
         raise FormatError(
             f"expected a 3-D (z, y, x) or 4-D (t, z, y, x) volume in {where}, "
-            f"found shape {arr.shape}" + FLAT_HINT * (arr.ndim == 2)
+            f"found shape {arr.shape}" + FLAT_HINT * (arr.ndim == 2) + LINE_HINT * (arr.ndim == 1)
         )
     if not arr.dtype.isnative:
         arr = arr.astype(arr.dtype.newbyteorder("="))
