@@ -267,6 +267,21 @@ def test_codec_roundtrip_integer_dtypes(dtype):
     assert same_bits(a, c.decode(p, a.shape, a.dtype))
 
 
+def test_codec_codes_a_mask_and_refuses_other_values_for_it():
+    """bool bricks coded as 0s and 1s decode (the decoder asked np.iinfo of bool), and
+    a coded payload of wider values is refused for bool voxels."""
+    z, y, x = np.indices((12, 14, 16))
+    mask = (z - 6) ** 2 + (y - 7) ** 2 + (x - 8) ** 2 < 30
+    c = FastCodec(zstd=False)
+    p = c.encode(mask)
+    assert p[0] == MODE_CODED
+    assert same_bits(mask, c.decode(p, mask.shape, mask.dtype))
+    wide = c.encode(np.rint(smooth((12, 14, 16), noise=3)).astype(np.uint8))
+    assert wide[0] == MODE_CODED
+    with pytest.raises(FormatError):
+        c.decode(wide, mask.shape, mask.dtype)
+
+
 # float32 compiles a decoder signature no other fast test uses (7 CPU s): slow set
 @pytest.mark.parametrize("dtype", ["float16", slow_case("float32")])
 def test_codec_floats_bit_exact(dtype):

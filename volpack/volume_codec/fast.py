@@ -260,6 +260,8 @@ def _decode_coded(rest, shape, dtype: np.dtype, flags: int, vmin: int, vmax: int
 def _decode_integers(body, shape, dtype: np.dtype):
     """:func:`decode_parts` of a mode 0 payload's ``body``."""
     flags, rest = _coded_head(body, dtype)
+    if dtype.kind == "b":  # a mask, coded as its 0s and 1s
+        return _decode_coded(rest, shape, dtype, flags, 0, 1)
     info = np.iinfo(dtype)
     return _decode_coded(rest, shape, dtype, flags, int(info.min), int(info.max))
 
