@@ -149,6 +149,15 @@ def test_float_without_bound_is_refused():
         _build(np.zeros((4, 4, 4), np.float32))
 
 
+def test_a_mask_is_refused_with_or_without_a_bound():
+    """bool voxels: one line either way (under a bound the quantiser raised a ValueError)."""
+    m = np.zeros((4, 4, 4), bool)
+    with pytest.raises(FormatError, match="found bool"):
+        _build(m)
+    with pytest.raises(FormatError, match="integer or float voxels, found bool"):
+        _build(m, max_error=0.5)
+
+
 # -- selection -------------------------------------------------------------------------
 
 

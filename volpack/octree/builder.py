@@ -79,6 +79,11 @@ def make_plan(
     else:
         from ..volume_codec.lossy import BoundedCodec
 
+        if dtype.kind not in "iuf":
+            raise FormatError(
+                f"an error-bounded octree takes integer or float voxels, found {dtype}; "
+                "store a mask as uint8 (a.astype(np.uint8)) or without an octree"
+            )
         if value_range is None:
             raise OptionError("expected the value range for an error-bounded octree")
         # Only its quantiser is used (the octree codes with its own coder): the config
