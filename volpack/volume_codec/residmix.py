@@ -101,9 +101,9 @@ def adapted(p, n, mask):
     towards the bit coded (``mask``: -1 for a 1, 0 for a 0). ``p`` stays within
     1..65535."""
     r = np.int64(RATE[np.uint64(n)])
-    g = (65536 - p) >> r
-    p += g - ((g + (p >> r)) & mask)
-    return (p << 8) | (n + np.int64(n < NCAP))
+    up = p + ((65536 - p) >> r)  # (p + g - ((g + (p >> r)) & mask), as two moves and a
+    down = p - (p >> r)  # select: an instruction less, four times a mixed decision)
+    return ((down if mask else up) << 8) | (n + np.int64(n < NCAP))
 
 
 @kernel(inline=True)
