@@ -5,7 +5,7 @@ sure: the mix of four estimates, four weight steps, three more model updates) an
 bits coded at one half. The decisions are replayed in the order ``get_residual_mix``
 takes them (the voxels' contexts recorded by a run of the decoder, as profile.py does).
 
-    PYTHONPATH=. python results/lossless/ldec36/count.py ct_head brainsmall --out results/lossless/ldec36/count_base.csv
+    PFD32_DATA=/tmp/ldec36/data PYTHONPATH=. python results/lossless/ldec36/count.py ct_head brainsmall --out results/lossless/ldec36/count_base.csv
 """
 
 import argparse
@@ -15,9 +15,10 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import capture  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "pfd32"))  # capture.py, profile.py
 import profile as prof  # noqa: E402
+
+import capture  # noqa: E402
 
 from volpack._jit import kernel  # noqa: E402
 from volpack.entropy.rangecoder import open_stream  # noqa: E402

@@ -4,7 +4,7 @@ alone (each voxel's contexts recorded by a run of the decoder, as profile.py's
 Every variant must give the same residuals (checksum). ns per coded voxel, best of
 ``--repeat`` CPU times, variants taking turns.
 
-    PYTHONPATH=. python results/lossless/ldec36/exp.py ct_head brainsmall --repeat 5
+    PFD32_DATA=/tmp/ldec36/data PYTHONPATH=. python results/lossless/ldec36/exp.py ct_head brainsmall --repeat 5
 """
 
 import argparse
@@ -14,9 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import capture  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "pfd32"))  # capture.py, profile.py
 import profile as prof  # noqa: E402
+
+import capture  # noqa: E402
 
 from volpack._jit import kernel  # noqa: E402
 from volpack.entropy.rangecoder import TOP, open_stream  # noqa: E402

@@ -23,7 +23,7 @@ the CPU time of the alternative's model work on the decoder side (a linear searc
 cumulative counts for the symbol and the update), ns a residual; the range coder's own
 step for a multi-symbol (a division by the total) is NOT included.
 
-    PYTHONPATH=. python results/lossless/ldec36/fewer.py ct_head brainsmall --out results/lossless/ldec36/fewer.csv
+    PFD32_DATA=/tmp/ldec36/data PYTHONPATH=. python results/lossless/ldec36/fewer.py ct_head brainsmall --out results/lossless/ldec36/fewer.csv
 """
 
 import argparse
@@ -34,9 +34,10 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import capture  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "pfd32"))  # capture.py, profile.py
 import profile as prof  # noqa: E402
+
+import capture  # noqa: E402
 
 from volpack._jit import kernel  # noqa: E402
 from volpack.entropy.rangecoder import open_stream  # noqa: E402
