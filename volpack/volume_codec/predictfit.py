@@ -407,15 +407,14 @@ def get_residual_mix(data, models, ctx, sctx, q, code, rng, pos, aux, mx, clamp)
 def _weight2_table() -> np.ndarray:
     """``_weight2`` for every ``s`` below W2_SPAN, from the definition: ``w = 2^24 / t``
     from eight bits of ``t = s + 1`` (:func:`.predict.weight`), then ``max(w^2 >> 24, 1)``.
-    From ``t = 2^12`` on, ``w <= 2^12`` and the weight is 1 (from ``s = 2911`` on, in
-    fact): 16 KB, not the 32 KB of a span of 2^13, beside the coders' states in cache."""
+    From ``t = 2^13`` on, ``w < 2^12`` and the weight is 1."""
     t = np.arange(1, W2_SPAN + 1, dtype=np.int64)
     sh = np.maximum(np.floor(np.log2(t)).astype(np.int64) + 1 - 8, 0)
     w = np.maximum(RECIP[t >> sh] >> sh, 1)
     return np.maximum((w * w) >> 24, 1).astype(np.uint32)
 
 
-W2_SPAN = 1 << 12
+W2_SPAN = 1 << 13
 W2 = _weight2_table()
 
 
