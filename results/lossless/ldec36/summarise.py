@@ -1,5 +1,5 @@
 """ldec36's tables (markdown) and chart from its CSVs: the A/B (ab_tune.csv, ab_heldout.csv,
-pfd32's ab.py), the base profile (profile_base.csv), the decisions a residual
+pfd32's ab.py), the profiles (profile_base.csv, profile_branch.csv; pfd32's profile.py), the decisions a residual
 (count_base.csv) and the fewer-decisions measurement (fewer.csv).
 
     python results/lossless/ldec36/summarise.py [--chart results/lossless/ldec36/ab.png]
@@ -30,9 +30,9 @@ def main():
               f"| {r['whole_speedup']} | {r['whole_base_MBs']} -> {r['whole_branch_MBs']} "
               f"| {r['x_peer_base']} -> {r['x_peer_branch']} |")
     print("\n| item | full | predict | of which blend | entropy | loop |\n|---|---:|---:|---:|---:|---:|")
-    for r in rows("profile_base.csv"):
-        print(f"| {r['item']} | {r['full_ns']} | {r['predict_ns']} | {r['blend_ns']} | {r['entropy_ns']} "
-              f"| {r['loop_ns']} |")
+    for r, b in zip(rows("profile_base.csv"), rows("profile_branch.csv")):
+        print(f"| {r['item']} | " + " | ".join(f"{r[k]} -> {b[k]}" for k in
+                                               ("full_ns", "predict_ns", "blend_ns", "entropy_ns", "loop_ns")) + " |")
     print("\n| item | residual | share | decisions | of which mixed | raw bits |\n|---|---|---:|---:|---:|---:|")
     for r in rows("count_base.csv"):
         print(f"| {r['item']} | {r['class']} | {r['share']} | {r['decisions']} | {r['mixed']} | {r['raw_bits']} |")
