@@ -232,9 +232,67 @@ def run_base(data, mk, cx, n, models, aux):
     return acc
 
 
+@kernel(inline=True)
+def residual_oneloop(data, models, ctx, sctx, q, code, rng, pos, aux, mx):
+    """get_residual_mix with the length and mantissa decisions in one loop (one copy of
+    the mixed decision for both): the same decisions in the same order."""
+    kz, st = pf._zero_state(models, ctx, sctx, q)
+    sz = rm.S_ZERO + (sctx & (pf.NFRAC - 1))
+    bit, models[np.uint64(kz)], code, rng, pos = pf._get16m_held(data, st, code, rng, pos, aux, mx, sz, 0, False)
+    if bit == 0:
+        return np.int64(0), code, rng, pos
+    ks = pf._sign_model(ctx, sctx, q)
+    neg, code, rng, pos = pf._get16m(data, models, ks, code, rng, pos, aux, mx, rm.S_SIGN + sctx, 1, False)
+    k0 = pf._len_models(ctx, q, neg)
+    nb = 0
+    nm = -1  # -1: in the length; then the mantissa bits left
+    jm = 0
+    prefix = 1
+    u = np.int64(0)
+    k = k0
+    sl, kind = pf._len_slot(0)
+    while True:
+        bit, code, rng, pos = pf._get16m(data, models, k, code, rng, pos, aux, mx, sl, kind, False)
+        if nm < 0:
+            if bit != 0 and nb < pf.NLEN - 2:
+                nb += 1
+                k = k0 + nb
+                sl, kind = pf._len_slot(nb)
+                continue
+            nb += bit
+            if nb > 62:
+                return pf.NO_RESIDUAL, code, rng, pos
+            u = np.int64(1 if nb >= 1 else 0)
+            nm = min(nb - 1, 2)
+        else:
+            prefix = 2 * prefix + bit
+            u = (u << 1) | bit
+            jm += 1
+        if jm >= nm:
+            break
+        k = pf._mant_model(nb, prefix, ctx)
+        sl = pf._mant_slot(nb, prefix)
+        kind = 14 + jm
+    return pf._low_bits(data, u, nb, nm, neg, code, rng, pos)
+
+
+@kernel(nrt=False)
+def run_oneloop(data, mk, cx, n, models, aux):
+    code, rng, pos = open_stream(data)
+    acc = np.int64(0)
+    for i in range(n):
+        if mk[i]:
+            continue
+        b = 7 * i
+        mx = (cx[b + 3], cx[b + 4], cx[b + 5], cx[b + 6])
+        res, code, rng, pos = residual_oneloop(data, models, cx[b], cx[b + 1], cx[b + 2], code, rng, pos, aux, mx)
+        acc = acc * 31 + res
+    return acc
+
+
 VARIANTS = {"base": run_base, "generic": make((False, False, False, False)), "pull2": make((True, False, False, False)),
             "rate": make((False, True, False, False)), "tab16": make((False, False, True, False)), "t16r8": make((False, True, True, False)), "sel": make((False, True, True, True)),
-            "all3": make((True, True, True, False))}
+            "all3": make((True, True, True, False)), "oneloop": run_oneloop}
 
 
 def main():
