@@ -192,3 +192,33 @@ def test_weights_at_their_bound_decode_the_same(monkeypatch, margin):
     monkeypatch.setattr(residmix, "workspace", near_bound)
     v = noisy((8, 12, 18), seed=6, noise=12)
     roundtrip_mix(v, int(v.min()), int(v.max()), low=True, tex=True)
+
+
+def test_tables_are_narrow_and_hold_their_definitions():
+    """The mixed decision reads five table entries: the rates, stretch and squash are
+    kept as narrow as their values (uint8, int16, uint16: ldec36's 6-8 % of the residual
+    decoder), the values those of the wide definitions; the bias counts (below 64) uint8."""
+    assert residmix.RATE.dtype == np.uint8 and residmix.STRETCH.dtype == np.int16
+    assert residmix.SQUASH.dtype == np.uint16
+    rate = [min(n.bit_length(), residmix.RATE_MAX) for n in range(1, residmix.NCAP + 2)]
+    assert residmix.RATE.tolist() == rate
+    q = (np.arange(4096) + 0.5) / 4096
+    assert (residmix.STRETCH == np.round(256 * np.log(q / (1 - q)))).all()
+    x = np.arange(-residmix.ST_MAX, residmix.ST_MAX + 1)
+    sq = np.clip(np.round(65536 / (1 + np.exp(-x / 256))), residmix.P_MIN, residmix.P_MAX)
+    assert (residmix.SQUASH == sq).all()
+    assert predictfit._workspace((2, 3, 4))[3].dtype == np.uint8
+
+
+def test_adapted_is_the_masked_move():
+    """``adapted`` (two moves and a select) gives the state of the masked form it
+    replaced, ``p + g - ((g + (p >> r)) & mask)``, for every use count and both bits."""
+    rng = np.random.default_rng(36)
+    ps = np.concatenate([np.arange(1, 33), np.arange(65504, 65536), rng.integers(1, 65536, 64)])
+    for n in range(residmix.NCAP + 1):
+        r = int(residmix.RATE[n])
+        for p in ps.tolist():
+            for mask in (0, -1):
+                g = (65536 - p) >> r
+                want = ((p + g - ((g + (p >> r)) & mask)) << 8) | (n + (n < residmix.NCAP))
+                assert residmix.adapted.py_func(p, n, mask) == want

@@ -638,7 +638,8 @@ def _workspace(shape: tuple[int, ...]) -> tuple[np.ndarray, ...]:
     Then the local fit's error sums per context (:func:`_learn_local`; its sums and
     system are the decoder's alone: the encoder is handed the estimates)."""
     err, perr, _, _, _ = workspace(shape)
-    bias_sum, bias_cnt, bias = (np.zeros(NBIAS, dtype=np.int64) for _ in range(3))
+    bias_sum, bias = (np.zeros(NBIAS, dtype=np.int64) for _ in range(2))
+    bias_cnt = np.zeros(NBIAS, dtype=np.uint8)  # (below BIAS_LIMIT, 64: a cache line holds 64)
     models = np.full(N_MODELS_LOW, MODEL_INIT, dtype=np.uint32)
     return err, perr, bias_sum, bias_cnt, bias, models, residmix.workspace(), np.zeros(2 * NCTX, np.int64)
 

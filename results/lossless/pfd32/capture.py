@@ -62,11 +62,11 @@ def streams(item: str) -> list[tuple]:
     got = []
     real = pf.decode
 
-    def keep(data, shape, lo, hi, mask=None, fill=0, low=False, tex=False, mix=False, local=False):
+    def keep(data, shape, lo, hi, mask=None, fill=0, low=False, tex=False, mix=False, local=False, plane=False):
         m = None if mask is None else np.array(mask, copy=True)
         got.append((bytes(data), tuple(int(s) for s in shape), int(lo), int(hi), m, int(fill),
-                    bool(low), bool(tex), bool(mix), bool(local)))
-        return real(data, shape, lo, hi, mask, fill, low, tex, mix, local)
+                    bool(low), bool(tex), bool(mix), bool(local), bool(plane)))
+        return real(data, shape, lo, hi, mask, fill, low, tex, mix, local, plane)
 
     pf.decode = keep
     try:
@@ -82,5 +82,5 @@ if __name__ == "__main__":
     for it in items:
         s = streams(it)
         n = sum(int(np.prod(x[1])) for x in s)
-        flags = sorted({x[6:10] for x in s})
-        print(it, len(blob(it)), "streams", len(s), "voxels", n, "flags(low,tex,mix,local)", flags, flush=True)
+        flags = sorted({x[6:11] for x in s})
+        print(it, len(blob(it)), "streams", len(s), "voxels", n, "flags(low,tex,mix,local,plane)", flags, flush=True)

@@ -32,14 +32,14 @@ from volpack.volume_codec import predictfit as pf  # noqa: E402
 
 
 def kernel_args(item):
-    data, shape, lo, hi, mask, fill, low, tex, mix, local = item
+    data, shape, lo, hi, mask, fill, low, tex, mix, local, plane = item
     th = np.frombuffer(data, dtype="<u4", count=pf.NCLS - 1).astype(np.int64)
     cf = np.frombuffer(data, dtype="<i2", count=pf.NCLS * pf.NFIT, offset=4 * (pf.NCLS - 1)).astype(np.int64)
     buf = stream_bytes(data[pf.HEAD:], "predictive")
     n = int(np.prod(shape))
     mk = np.zeros(n, np.uint8) if mask is None else np.ascontiguousarray(mask, np.uint8).reshape(-1)
     return (buf, mk, np.int64(fill - lo), cf, th, np.array(shape, np.int64), np.int64(hi - lo),
-            pf._nlow(low), np.int64(tex), np.int64(mix))
+            pf._nlow(low), np.int64(tex), np.int64(plane), np.int64(mix))
 
 
 # Either tree: the branch's residual decoder takes the weights' bound as a constant
@@ -53,7 +53,7 @@ else:
 
 
 @kernel(nrt=False)
-def _record(data, mk, fill, cf, th, shape, hi, nlow, tex, mix, v, err, perr, bias_sum, bias_cnt, bias,
+def _record(data, mk, fill, cf, th, shape, hi, nlow, tex, plane, mix, v, err, perr, bias_sum, bias_cnt, bias,
             models, aux, lw, cx):
     """The decoder (no local fit), keeping each voxel's (ctx, sctx, q, mx0..3) in ``cx``."""
     nz, ny, nx = shape[0], shape[1], shape[2]
@@ -74,8 +74,8 @@ def _record(data, mk, fill, cf, th, shape, hi, nlow, tex, mix, v, err, perr, bia
                     i += 1
                     continue
                 pred, ctx, bctx, sctx, mx, q0, q1, q2, q3, q4, q5, pb, lq = pf._predict_mix(
-                    v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, bias, held, tex, mix,
-                    localfit.NONE, lw,
+                    v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, bias, held, tex, plane,
+                    mix, localfit.NONE, lw,
                 )
                 q = pf._low_class(pred, nlow)
                 b = 7 * i
@@ -90,7 +90,7 @@ def _record(data, mk, fill, cf, th, shape, hi, nlow, tex, mix, v, err, perr, bia
 
 
 @kernel(nrt=False)
-def _predict_only(vals, mk, fill, cf, th, shape, hi, nlow, tex, mix, v, err, perr, bias_sum, bias_cnt,
+def _predict_only(vals, mk, fill, cf, th, shape, hi, nlow, tex, plane, mix, v, err, perr, bias_sum, bias_cnt,
                   bias, lw):
     """The prediction chain with the values given; returns a checksum."""
     nz, ny, nx = shape[0], shape[1], shape[2]
@@ -111,8 +111,8 @@ def _predict_only(vals, mk, fill, cf, th, shape, hi, nlow, tex, mix, v, err, per
                     i += 1
                     continue
                 pred, ctx, bctx, sctx, mx, q0, q1, q2, q3, q4, q5, pb, lq = pf._predict_mix(
-                    v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, bias, held, tex, mix,
-                    localfit.NONE, lw,
+                    v, cf, th, err, perr, i, r, r - cur + prev, z, y, x, ny, nx, hi, bias, held, tex, plane,
+                    mix, localfit.NONE, lw,
                 )
                 acc += pred + ctx + sctx + pf._low_class(pred, nlow) + mx[0] + mx[1] + mx[2] + mx[3]
                 val = vals[i]
@@ -172,9 +172,9 @@ def stages(item):
     def full():  # (the whole of predictfit.decode: its Python is a few us a stream)
         return pf.decode(*item)
 
-    def predict(mix=a[9]):
+    def predict(mix=a[10]):
         err, perr, bs, bc, bias, _, _, lw = pf._workspace(shape)[:8]
-        return _predict_only(vals, *a[1:9], np.int64(mix), np.empty(n, np.int64), err, perr, bs, bc, bias, lw)
+        return _predict_only(vals, *a[1:10], np.int64(mix), np.empty(n, np.int64), err, perr, bs, bc, bias, lw)
 
     def entropy():
         ws = pf._workspace(shape)[:8]
