@@ -176,6 +176,9 @@ NEAREST = True
 #: segments through :func:`_near_run` (tests turn it off to check that it gives the plain
 #: loop's image bit for bit).
 NEAR_RUN = True
+#: Trace only the columns of each image row whose rays may meet the volume's box
+#: (:meth:`Camera.box_columns`; tests turn it off to check the image is the same).
+BOX_SPANS = True
 #: Refinement: a pre-integrated segment carrying more than this share of its pixel's
 #: opacity is marched again in ``refine`` sub-segments (see :func:`render`).
 REFINE_OPACITY = 0.1
@@ -1199,7 +1202,7 @@ def _ndv(grad, node, z, y, x, gscale, vz, vy, vx, gmin, s):
 def _march(
     vol, grad, has_grad, codes, light, frame, u, v, rows, pre, post_tab, pre2d, subs,
     lo, scale, step, leap, brick, skip, ert, shade, shading, gscale, vscale, gmin, clear,
-    refine, cols, out, row_samples,
+    refine, cols, out, row_cols,
 ):  # fmt: skip
     """Rays of image rows ``rows``; ``pre``: pre-integrated (else post-classified),
     ``shade``: 0 unshaded, 1 Phong at the segment midpoint from gradients, 2 Phong lit
@@ -1215,7 +1218,10 @@ def _march(
     reads is zero (:func:`clear_bounds`): a segment with both ends there (a sample, for
     post-classification) skips its look-up, as it would read zero opacity. ``cols``:
     the image columns ``[cols[0], cols[1])`` of those rows (a tile, see
-    :func:`_march_specialised`); ``row_samples`` gains each row's segments there.
+    :func:`_march_specialised`), of which row ``r`` traces only ``[row_cols[r, 0],
+    row_cols[r, 1])`` (:meth:`Camera.box_columns`: no ray outside meets the volume's
+    box); ``row_cols[r, 2]`` gains the row's segments there (one array for both: a call
+    of more than 30 arguments is one numba cannot inline).
     ``refine = (m, threshold)``: a full pre-integrated segment whose share of the
     pixel's opacity, ``(1 - A_acc) A``, exceeds ``threshold`` is marched again as ``k``
     sub-segments through ``subs[k - 2]``, the table for ``step / k``: ``k = m``, or 2
@@ -1238,7 +1244,7 @@ def _march(
     for k in range(rows.shape[0]):
         r = rows[k]
         count = 0
-        for c in range(cols[0], cols[1]):
+        for c in range(max(cols[0], row_cols[r, 0]), min(cols[1], row_cols[r, 1])):
             oz, oy, ox, dz, dy, dx = pixel_ray(frame, u, v, r, c)
             tnear, tfar, nseg, vz, vy, vx = _ray_span(
                 oz, oy, ox, dz, dy, dx, nz, ny, nx, vscale, step
@@ -1402,7 +1408,7 @@ def _march(
                 ii = jj
                 i += 1
             out[r, c, 0], out[r, c, 1], out[r, c, 2], out[r, c, 3] = ar, ag, ab, aa
-        row_samples[r] += count
+        row_cols[r, 2] += count
 
 
 _march_inline = kernel(_march, inline=True)
@@ -1551,7 +1557,7 @@ def _march_specialised(pre, shade):
 
     def run(vol, grad, has_grad, codes, light, frame, u, v, rows, post_tab, pre2d, subs,
             lo, scale, step, leap, brick, skip, ert, shading, gscale, vscale, gmin, clear,
-            refine, tiles, out, row_samples):  # fmt: skip
+            refine, tiles, out, row_cols):  # fmt: skip
         # rows (ascending) in bands of at most ROW_BAND consecutive ones, each band traced
         # tile by tile (column edges ``tiles``), so that the voxels a tile's rays read stay
         # in the thread's cache for the tile's next rows (a whole row of rays read more
@@ -1564,7 +1570,7 @@ def _march_specialised(pre, shade):
                 _march_inline(
                     vol, grad, has_grad, codes, light, frame, u, v, rows[k0:k1], pre, post_tab,
                     pre2d, subs, lo, scale, step, leap, brick, skip, ert, shade, shading, gscale,
-                    vscale, gmin, clear, refine, tiles[t : t + 2], out, row_samples,
+                    vscale, gmin, clear, refine, tiles[t : t + 2], out, row_cols,
                 )  # fmt: skip
             k0 = k1
 
@@ -2034,17 +2040,19 @@ def render(
         clear = tables.clear(mode == 0)
 
         tiles = np.append(np.arange(0, w, TILE_COLS, dtype=np.int64), np.int64(w))
+        row_cols = np.zeros((h, 3), np.int64)  # columns to trace, segments traced
+        row_cols[:, :2] = camera.box_columns(shape, sp) if BOX_SPANS else (0, w)
 
         def run(rows: np.ndarray) -> None:  # the fast path (see _march)
             march(
                 vol, grad, has_grad, codes, light, *ray_grid, rows, post_tab,
                 pre2d, subs, lo, scale,
                 float(step), leap, brick, bool(skip_empty), float(ert), shading_k, gscale,
-                vscale, gmin, clear, refine_k, tiles, out, row_samples,
+                vscale, gmin, clear, refine_k, tiles, out, row_cols,
             )  # fmt: skip
 
         run_row_sets(run, h, nthreads, progress)
-        return finish_render(out, row_samples, t_start, render_stats)
+        return finish_render(out, row_cols[:, 2], t_start, render_stats)
 
     def run(rows: np.ndarray) -> None:
         _render_kernel(

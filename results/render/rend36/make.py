@@ -9,8 +9,8 @@ so a crop is tissue, not air. Tuning: ``ct_crop`` (CT head, int16), ``mri_crop``
 uint8). Held out (HELDOUT.md): ``liver_crop`` (a label map, uint8).
 """
 
-from pathlib import Path
 import sys
+from pathlib import Path
 
 import numpy as np
 
