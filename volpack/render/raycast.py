@@ -160,11 +160,11 @@ BRICK = 8
 #: volumes), larger ones by BRICK^3; the per-brick ranges (8 bytes) and leap map (4
 #: bytes) stay under 25 MB.
 FINE_BRICK, FINE_BRICKS = 4, 1 << 21
-#: Plain volumes with at most this many 2^3 bricks (a 64^3 volume) skip by 2^3 bricks: a
-#: small volume fills a frame with many rays per voxel, and on the benchmark's 64^3
-#: float skull they took 13 % (semi-transparent TF) and 27 % (opaque) fewer segments,
-#: the same image; the maps stay under 400 KB.
-SMALL_BRICK, SMALL_BRICKS = 2, 1 << 15
+#: (Volumes of up to 2^15 2^3 bricks skipped by 2^3 bricks from session 25 to 35: fewer
+#: segments on the benchmark's 64^3 skull, but twice the empty-space tests a ray, each
+#: with a clamped front sample after it; on five small volumes the 4^3 bricks took
+#: 0.74-0.92x the CPU of semi-transparent frames and 0.95-1.02x of opaque ones, the
+#: skull's opaque frames 1.02-1.05x; session 36, ``results/render/rend36/``.)
 TABLE_SIZE = 256
 #: Send the common case through the fast path, :func:`_march` (tests turn it
 #: off to compare the two kernels).
@@ -2324,11 +2324,9 @@ def empty_value(base, lo, hi, dmin, quiet: bool = False) -> float:
 
 
 def brick_size(shape) -> int:
-    """Edge of the empty-space bricks of a plain volume (see :data:`FINE_BRICKS` and
-    :data:`SMALL_BRICKS`)."""
-    for edge, most in ((SMALL_BRICK, SMALL_BRICKS), (FINE_BRICK, FINE_BRICKS)):
-        if math.prod(max(1, -(-int(s) // edge)) for s in shape) <= most:
-            return edge
+    """Edge of the empty-space bricks of a plain volume (see :data:`FINE_BRICKS`)."""
+    if math.prod(max(1, -(-int(s) // FINE_BRICK)) for s in shape) <= FINE_BRICKS:
+        return FINE_BRICK
     return BRICK
 
 
