@@ -230,6 +230,25 @@ def test_refinement_brings_opaque_surfaces_nearer_a_fine_step():
         render(vol, tf=faint, refine=0, **kw)
 
 
+def test_the_lean_refinement_call_gives_the_shaded_calls_image_bit_for_bit():
+    # unshaded frames refine through _refined_plain (a third of the call's arguments):
+    # the same sums as _refined, with two and three sub-segments, to early termination
+    from volpack.render import raycast
+
+    vol, opaque, kw = wavy_opaque(24, "none")
+    for refine in (2, 3):
+        lean, st = render(vol, tf=opaque, refine=refine, render_stats=True, **kw)
+        raycast.LEAN_REFINE = False
+        try:
+            full, st_full = render(vol, tf=opaque, refine=refine, render_stats=True, **kw)
+        finally:
+            raycast.LEAN_REFINE = True
+        plain = render(vol, tf=opaque, refine=1, **kw)
+        assert np.abs(lean - plain).max() > 1e-3  # refinement moved pixels
+        assert np.array_equal(lean, full)
+        assert st.samples == st_full.samples
+
+
 @pytest.mark.parametrize("mode", POST_PHONG)
 def test_empty_space_skipping_leaves_the_image_unchanged(mode):
     vol = ball(48, 10)
