@@ -230,6 +230,25 @@ def test_refinement_brings_opaque_surfaces_nearer_a_fine_step():
         render(vol, tf=faint, refine=0, **kw)
 
 
+def test_the_lean_refinement_call_gives_the_shaded_calls_image_bit_for_bit():
+    # unshaded frames refine through _refined_plain (a third of the call's arguments):
+    # the same sums as _refined, with two and three sub-segments, to early termination
+    from volpack.render import raycast
+
+    vol, opaque, kw = wavy_opaque(24, "none")
+    for refine in (2, 3):
+        lean, st = render(vol, tf=opaque, refine=refine, render_stats=True, **kw)
+        raycast.LEAN_REFINE = False
+        try:
+            full, st_full = render(vol, tf=opaque, refine=refine, render_stats=True, **kw)
+        finally:
+            raycast.LEAN_REFINE = True
+        plain = render(vol, tf=opaque, refine=1, **kw)
+        assert np.abs(lean - plain).max() > 1e-3  # refinement moved pixels
+        assert np.array_equal(lean, full)
+        assert st.samples == st_full.samples
+
+
 @pytest.mark.parametrize("mode", POST_PHONG)
 def test_empty_space_skipping_leaves_the_image_unchanged(mode):
     vol = ball(48, 10)
@@ -580,6 +599,57 @@ def test_a_pixel_ray_is_the_ray_the_camera_gives_it():
             h, w = o.shape[:2]
             for r, c in [(0, 0), (h - 1, w - 1), (h // 2, w // 3), (h - 1, 0), (1, w - 2)]:
                 assert pixel_ray(*grid, r, c) == (*o[r, c], *d[r, c])
+
+
+def _box_hits(cam, shape, sp):
+    """Which pixels' rays meet the box [-0.5, n - 0.5] ahead of them (numpy, per ray)."""
+    o, d = cam.rays(shape, sp)
+    n = np.array(shape, float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a, b = (-0.5 - o) / d, (n - 0.5 - o) / d
+    inside = (o >= -0.5) & (o <= n - 0.5)
+    lo = np.where(d == 0, np.where(inside, -np.inf, np.inf), np.minimum(a, b))
+    hi = np.where(d == 0, np.where(inside, np.inf, -np.inf), np.maximum(a, b))
+    return hi.min(-1) > np.maximum(lo.max(-1), 0.0)
+
+
+def test_box_columns_hold_every_ray_that_meets_the_box():
+    # the fast march traces only these columns of each row: a ray left out must miss
+    rng = np.random.default_rng(36)
+    narrower = 0
+    for k in range(120):
+        shape = tuple(int(x) for x in rng.integers(1, 60, 3))
+        sp = tuple(float(x) for x in rng.uniform(0.2, 5.0, 3))
+        el = float(rng.choice([0.0, 90.0, -90.0, rng.uniform(-90, 90)]))
+        cam = Camera(azimuth=float(rng.uniform(-180, 180)), elevation=el,
+                     zoom=float(rng.choice([1.0, 0.3, 3.0, rng.uniform(0.1, 10)])),
+                     size=(int(rng.integers(1, 90)), int(rng.integers(1, 90))),
+                     distance=None if k % 3 else float(rng.uniform(0, 40)))  # fmt: skip
+        spans = cam.box_columns(shape, sp)
+        cols = np.arange(cam.size[0])[None, :]
+        traced = (cols >= spans[:, :1]) & (cols < spans[:, 1:])
+        assert not np.any(_box_hits(cam, shape, sp) & ~traced), (shape, sp, cam)
+        narrower += traced.mean() < 0.5
+    assert narrower > 30  # and they leave out most of a frame of a zoomed-out volume
+    persp = Camera(size=(20, 10), projection="perspective", zoom=0.2)
+    assert np.array_equal(persp.box_columns((4, 5, 6)), [[0, 20]] * 10)
+
+
+def test_tracing_only_the_box_columns_leaves_the_image_and_segments_unchanged():
+    from volpack.render import raycast
+
+    vol = ball(24, 7.0)
+    kw = dict(tf=blob_tf(), render_stats=True,
+              camera=Camera(azimuth=25, elevation=35, size=(60, 44), zoom=0.7))  # fmt: skip
+    img, st = render(vol, **kw)
+    raycast.BOX_SPANS = False
+    try:
+        every, st_every = render(vol, **kw)
+    finally:
+        raycast.BOX_SPANS = True
+    assert img[..., 3].max() > 0.5 and (img[..., 3] == 0).mean() > 0.3
+    assert np.array_equal(img, every)
+    assert st.samples == st_every.samples > 0
 
 
 def test_rays_that_overflow_are_refused_before_any_row_is_traced():

@@ -213,6 +213,45 @@ class Camera:
         self.corner_rays(shape_zyx, spacing)
         return self._grid(shape_zyx, spacing, corners=False)
 
+    def box_columns(
+        self, shape_zyx: tuple[int, int, int], spacing: tuple[float, float, float] = (1, 1, 1)
+    ) -> np.ndarray:
+        """``(h, 2)`` int64: per image row, the columns ``[c0, c1)`` outside which no ray of
+        an orthographic frame meets the volume's box ``[-0.5, n - 0.5]`` (every column for
+        a perspective frame). A superset: the box grown by one voxel on every side,
+        projected (:meth:`project`), and each row's cut through that convex outline (its
+        widest points lie on the segments between corner pairs) widened by a column on
+        each side; the march still tests each ray inside it. A small volume fills a
+        fraction of the frame, and its rays that miss cost their set-up and box test
+        (8 ms of CPU a 512^2 frame, a tenth of nuclei_stardist's opaque frame)."""
+        w, h = self.size
+        spans = np.zeros((h, 2), np.int64)
+        spans[:, 1] = w
+        if self.projection != "orthographic":
+            return spans
+        cam, sp, centre, radius = self.world_frame(shape_zyx, spacing)
+        shape = np.array([int(n) for n in shape_zyx], np.float64)
+        corners = np.array([[a, b, c] for a in (0, 1) for b in (0, 1) for c in (0, 1)], float)
+        with np.errstate(over="ignore", invalid="ignore"):
+            col, row, _ = cam.project((corners * (shape + 2.0) - 1.5) * sp, centre, radius)
+        if not (np.all(np.isfinite(col)) and np.all(np.isfinite(row))):
+            return spans  # no outline to trust: every column
+        i, j = np.triu_indices(8, 1)
+        r0, r1, c0, c1 = row[i], row[j], col[i], col[j]
+        rr = np.arange(h, dtype=np.float64)[:, None]
+        inside = (np.minimum(r0, r1) <= rr) & (rr <= np.maximum(r0, r1))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            f = np.where(r1 != r0, (rr - r0) / (r1 - r0), 0.0)
+        cut = c0 + f * (c1 - c0)
+        lo = np.where(inside, np.minimum(cut, np.where(r1 == r0, np.minimum(c0, c1), cut)), np.inf)
+        hi = np.where(inside, np.maximum(cut, np.where(r1 == r0, np.maximum(c0, c1), cut)), -np.inf)
+        lo, hi = lo.min(axis=1), hi.max(axis=1)
+        hit = lo <= hi
+        spans[:] = 0
+        spans[hit, 0] = np.clip(np.floor(lo[hit]) - 1, 0, w).astype(np.int64)
+        spans[hit, 1] = np.clip(np.ceil(hi[hit]) + 2, 0, w).astype(np.int64)
+        return spans
+
     def _grid(self, shape_zyx, spacing, corners: bool):
         cam, sp, centre, radius = self.world_frame(shape_zyx, spacing)
         fwd, right, up, base, half = cam._frame(centre, radius)

@@ -14,7 +14,10 @@ Threads: image rows are split into interleaved sets of bands of 16 rows
 :data:`TILE_COLS`) that run on ``workers`` threads through the nogil kernel
 (:func:`volpack.parallel.completed_map`), rather than a numba ``prange``: the parallel
 build of this kernel took three times as long to compile (about 9 s against 3 s), and
-interleaving balances the threads however the volume sits in the image.
+interleaving balances the threads however the volume sits in the image. On orthographic
+frames the fast path traces only the columns of each row whose rays may meet the
+volume's box (:meth:`Camera.box_columns`): a small volume fills a fraction of a 512^2
+frame, and its missing rays took 8 ms of CPU (1.7 ms since; session 36).
 
 Classification (``classification=``):
 
@@ -160,11 +163,11 @@ BRICK = 8
 #: volumes), larger ones by BRICK^3; the per-brick ranges (8 bytes) and leap map (4
 #: bytes) stay under 25 MB.
 FINE_BRICK, FINE_BRICKS = 4, 1 << 21
-#: Plain volumes with at most this many 2^3 bricks (a 64^3 volume) skip by 2^3 bricks: a
-#: small volume fills a frame with many rays per voxel, and on the benchmark's 64^3
-#: float skull they took 13 % (semi-transparent TF) and 27 % (opaque) fewer segments,
-#: the same image; the maps stay under 400 KB.
-SMALL_BRICK, SMALL_BRICKS = 2, 1 << 15
+#: (Volumes of up to 2^15 2^3 bricks skipped by 2^3 bricks from session 25 to 35: fewer
+#: segments on the benchmark's 64^3 skull, but twice the empty-space tests a ray, each
+#: with a clamped front sample after it; on five small volumes the 4^3 bricks took
+#: 0.74-0.92x the CPU of semi-transparent frames and 0.95-1.02x of opaque ones, the
+#: skull's opaque frames 1.02-1.05x; session 36, ``results/render/rend36/``.)
 TABLE_SIZE = 256
 #: Send the common case through the fast path, :func:`_march` (tests turn it
 #: off to compare the two kernels).
@@ -176,6 +179,12 @@ NEAREST = True
 #: segments through :func:`_near_run` (tests turn it off to check that it gives the plain
 #: loop's image bit for bit).
 NEAR_RUN = True
+#: Refine the fast path's unshaded segments through :func:`_refined_plain` (tests turn it
+#: off to check that it gives :func:`_refined`'s image bit for bit).
+LEAN_REFINE = True
+#: Trace only the columns of each image row whose rays may meet the volume's box
+#: (:meth:`Camera.box_columns`; tests turn it off to check the image is the same).
+BOX_SPANS = True
 #: Refinement: a pre-integrated segment carrying more than this share of its pixel's
 #: opacity is marched again in ``refine`` sub-segments (see :func:`render`).
 REFINE_OPACITY = 0.1
@@ -1199,7 +1208,7 @@ def _ndv(grad, node, z, y, x, gscale, vz, vy, vx, gmin, s):
 def _march(
     vol, grad, has_grad, codes, light, frame, u, v, rows, pre, post_tab, pre2d, subs,
     lo, scale, step, leap, brick, skip, ert, shade, shading, gscale, vscale, gmin, clear,
-    refine, cols, out, row_samples,
+    refine, cols, out, row_cols,
 ):  # fmt: skip
     """Rays of image rows ``rows``; ``pre``: pre-integrated (else post-classified),
     ``shade``: 0 unshaded, 1 Phong at the segment midpoint from gradients, 2 Phong lit
@@ -1215,7 +1224,10 @@ def _march(
     reads is zero (:func:`clear_bounds`): a segment with both ends there (a sample, for
     post-classification) skips its look-up, as it would read zero opacity. ``cols``:
     the image columns ``[cols[0], cols[1])`` of those rows (a tile, see
-    :func:`_march_specialised`); ``row_samples`` gains each row's segments there.
+    :func:`_march_specialised`), of which row ``r`` traces only ``[row_cols[r, 0],
+    row_cols[r, 1])`` (:meth:`Camera.box_columns`: no ray outside meets the volume's
+    box); ``row_cols[r, 2]`` gains the row's segments there (one array for both: a call
+    of more than 30 arguments is one numba cannot inline).
     ``refine = (m, threshold)``: a full pre-integrated segment whose share of the
     pixel's opacity, ``(1 - A_acc) A``, exceeds ``threshold`` is marched again as ``k``
     sub-segments through ``subs[k - 2]``, the table for ``step / k``: ``k = m``, or 2
@@ -1226,6 +1238,7 @@ def _march(
     a_ref = refine[1]
     near = refine[2] > 0.0
     bend_min = refine[3]
+    lean = refine[4] > 0.0
     runs = pre == 2  # a constant: one kernel of its own (_march_specialised)
     cl, ch_ = clear[0], clear[1]
     n_tab = pre2d.shape[0] if pre else post_tab.shape[0]
@@ -1238,7 +1251,7 @@ def _march(
     for k in range(rows.shape[0]):
         r = rows[k]
         count = 0
-        for c in range(cols[0], cols[1]):
+        for c in range(max(cols[0], row_cols[r, 0]), min(cols[1], row_cols[r, 1])):
             oz, oy, ox, dz, dy, dx = pixel_ray(frame, u, v, r, c)
             tnear, tfar, nseg, vz, vy, vx = _ray_span(
                 oz, oy, ox, dz, dy, dx, nz, ny, nx, vscale, step
@@ -1362,12 +1375,18 @@ def _march(
                         i0, i1, fi = _ucell(xfront, n_tab)
                         j0, j1, fj = _ucell(xf, n_tab)
                     m = sub_count(abs(xf - 2.0 * xfront + xprev), bend_min, nsub)
-                    ar, ag, ab, aa, done = _refined(
-                        vol, grad, has_grad, codes, light, subs, bz + i * sz, by + i * sy,
-                        bx + i * sx, sz, sy, sx, m, vs, v0, i0, i1, fi, j0, j1, fj, t0, step,
-                        shade, oz, oy, ox, dz, dy, dx, gscale, vz, vy, vx, gmin, shading, ert,
-                        ar, ag, ab, aa,
-                    )  # fmt: skip
+                    if shade == 0 and lean:  # the same sums, a third of the arguments
+                        ar, ag, ab, aa, done = _refined_plain(
+                            vol, subs[m - 2], bz + i * sz, by + i * sy, bx + i * sx, sz, sy, sx,
+                            m, vs, v0, i0, i1, fi, j0, j1, fj, ert, ar, ag, ab, aa,
+                        )  # fmt: skip
+                    else:
+                        ar, ag, ab, aa, done = _refined(
+                            vol, grad, has_grad, codes, light, subs, bz + i * sz, by + i * sy,
+                            bx + i * sx, sz, sy, sx, m, vs, v0, i0, i1, fi, j0, j1, fj, t0, step,
+                            shade, oz, oy, ox, dz, dy, dx, gscale, vz, vy, vx, gmin, shading, ert,
+                            ar, ag, ab, aa,
+                        )  # fmt: skip
                     count += m - 1
                     if done:
                         break
@@ -1402,7 +1421,7 @@ def _march(
                 ii = jj
                 i += 1
             out[r, c, 0], out[r, c, 1], out[r, c, 2], out[r, c, 3] = ar, ag, ab, aa
-        row_samples[r] += count
+        row_cols[r, 2] += count
 
 
 _march_inline = kernel(_march, inline=True)
@@ -1470,22 +1489,13 @@ def _refined(vol, grad, has_grad, codes, light, subs, pz0, py0, px0, sz, sy, sx,
     benchmark's head CT)."""
     nz, ny, nx = extent(vol)
     sub2d = subs[nsub - 2]
-    n_tab = sub2d.shape[0]
     ka, kd, ks, shin = shading[0], shading[1], shading[2], shading[3]
     ishin = int(shin)
     whole = ishin == shin and ishin >= 0
     for q in range(1, nsub + 1):
-        if q < nsub:
-            xq = fixed_sample(vol, pz0 + (q * sz) // nsub, py0 + (q * sy) // nsub,
-                              px0 + (q * sx) // nsub) * vs + v0  # fmt: skip
-            w0, w1, fw = _ucell(xq, n_tab)
-        else:
-            w0, w1, fw = j0, j1, fj
-        aq = _bilerp(sub2d, 3, u0, u1, fu, w0, w1, fw)
+        w0, w1, fw, aq, cr, cg, cb = _sub_look(vol, sub2d, pz0, py0, px0, sz, sy, sx, q, nsub,
+                                               vs, v0, u0, u1, fu, j0, j1, fj)  # fmt: skip
         if aq > 0.0:
-            cr = _bilerp(sub2d, 0, u0, u1, fu, w0, w1, fw)
-            cg = _bilerp(sub2d, 1, u0, u1, fu, w0, w1, fw)
-            cb = _bilerp(sub2d, 2, u0, u1, fu, w0, w1, fw)
             if shade:
                 tq = t0 + (q - 0.5) * (step / nsub)
                 f, sp = _light_at(
@@ -1494,13 +1504,64 @@ def _refined(vol, grad, has_grad, codes, light, subs, pz0, py0, px0, sz, sy, sx,
                     ishin, whole,
                 )  # fmt: skip
                 cr, cg, cb = cr * f + sp * aq, cg * f + sp * aq, cb * f + sp * aq
-            wgt = 1.0 - aa
-            ar, ag, ab = ar + wgt * cr, ag + wgt * cg, ab + wgt * cb
-            aa = aa + wgt * aq
-            if aa > ert:
-                ar, ag, ab, aa = _complete(ar, ag, ab, aa, cr, cg, cb, aq)
+            ar, ag, ab, aa, done = _sub_over(ar, ag, ab, aa, cr, cg, cb, aq, ert)
+            if done:
                 return ar, ag, ab, aa, True
         u0, u1, fu = w0, w1, fw
+    return ar, ag, ab, aa, False
+
+
+@kernel(nrt=False, contract=True)
+def _refined_plain(vol, sub2d, pz0, py0, px0, sz, sy, sx, nsub, vs, v0, u0, u1, fu, j0, j1, fj,
+                   ert, ar, ag, ab, aa):  # fmt: skip
+    """:func:`_refined` of an unshaded frame (the same sums in the same order), called
+    with the table of its ``nsub`` sub-segments alone and nothing of the shading: an
+    array passes as its every field, and the shaded call's 43 arguments came to about
+    110 values a call, the march's registers saved around it. On small volumes' opaque
+    frames refinement took 22-39 % of the CPU, mostly for entering it (two sub-segments
+    against none 17-31 ms a 512^2 frame, three against two 3-5 ms); this call took the
+    unshaded frames of five of them to 0.91-0.96x, the same images (session 36,
+    ``results/render/rend36/``)."""
+    for q in range(1, nsub + 1):
+        w0, w1, fw, aq, cr, cg, cb = _sub_look(vol, sub2d, pz0, py0, px0, sz, sy, sx, q, nsub,
+                                               vs, v0, u0, u1, fu, j0, j1, fj)  # fmt: skip
+        if aq > 0.0:
+            ar, ag, ab, aa, done = _sub_over(ar, ag, ab, aa, cr, cg, cb, aq, ert)
+            if done:
+                return ar, ag, ab, aa, True
+        u0, u1, fu = w0, w1, fw
+    return ar, ag, ab, aa, False
+
+
+@kernel(inline=True)
+def _sub_look(vol, sub2d, pz0, py0, px0, sz, sy, sx, q, nsub, vs, v0, u0, u1, fu, j0, j1, fj):
+    """Sub-segment ``q`` of ``nsub`` of a refined segment (:func:`_refined`): the table
+    cell of its back end (a sample, or the segment's back cell ``j`` for the last) and
+    its opacity and colours (colours 0 where the opacity is)."""
+    if q < nsub:
+        xq = fixed_sample(vol, pz0 + (q * sz) // nsub, py0 + (q * sy) // nsub,
+                          px0 + (q * sx) // nsub) * vs + v0  # fmt: skip
+        w0, w1, fw = _ucell(xq, sub2d.shape[0])
+    else:
+        w0, w1, fw = j0, j1, fj
+    aq = _bilerp(sub2d, 3, u0, u1, fu, w0, w1, fw)
+    cr = cg = cb = 0.0
+    if aq > 0.0:
+        cr = _bilerp(sub2d, 0, u0, u1, fu, w0, w1, fw)
+        cg = _bilerp(sub2d, 1, u0, u1, fu, w0, w1, fw)
+        cb = _bilerp(sub2d, 2, u0, u1, fu, w0, w1, fw)
+    return w0, w1, fw, aq, cr, cg, cb
+
+
+@kernel(inline=True)
+def _sub_over(ar, ag, ab, aa, cr, cg, cb, aq, ert):
+    """Composite a sub-segment behind the pixel so far; ``(ar, ag, ab, aa, ended)``."""
+    wgt = 1.0 - aa
+    ar, ag, ab = ar + wgt * cr, ag + wgt * cg, ab + wgt * cb
+    aa = aa + wgt * aq
+    if aa > ert:
+        ar, ag, ab, aa = _complete(ar, ag, ab, aa, cr, cg, cb, aq)
+        return ar, ag, ab, aa, True
     return ar, ag, ab, aa, False
 
 
@@ -1551,7 +1612,7 @@ def _march_specialised(pre, shade):
 
     def run(vol, grad, has_grad, codes, light, frame, u, v, rows, post_tab, pre2d, subs,
             lo, scale, step, leap, brick, skip, ert, shading, gscale, vscale, gmin, clear,
-            refine, tiles, out, row_samples):  # fmt: skip
+            refine, tiles, out, row_cols):  # fmt: skip
         # rows (ascending) in bands of at most ROW_BAND consecutive ones, each band traced
         # tile by tile (column edges ``tiles``), so that the voxels a tile's rays read stay
         # in the thread's cache for the tile's next rows (a whole row of rays read more
@@ -1564,7 +1625,7 @@ def _march_specialised(pre, shade):
                 _march_inline(
                     vol, grad, has_grad, codes, light, frame, u, v, rows[k0:k1], pre, post_tab,
                     pre2d, subs, lo, scale, step, leap, brick, skip, ert, shade, shading, gscale,
-                    vscale, gmin, clear, refine, tiles[t : t + 2], out, row_samples,
+                    vscale, gmin, clear, refine, tiles[t : t + 2], out, row_cols,
                 )  # fmt: skip
             k0 = k1
 
@@ -2024,7 +2085,8 @@ def render(
     nsub = int(refine) if has_vol and mode == 2 else 1
     subs = tables.subs(nsub) if nsub > 1 else pre2d[None]
     near = has_vol and mode == 2 and NEAREST and tables.nearest()
-    refine_k = np.array([nsub, REFINE_OPACITY, float(near), REFINE_BEND], np.float64)
+    refine_k = np.array([nsub, REFINE_OPACITY, float(near), REFINE_BEND, float(LEAN_REFINE)],
+                        np.float64)  # fmt: skip
     if fast and paged and shading == "phong" and volume.grad is not None:
         grad, has_grad = volume.grad, True  # the nodes' gradient bricks
     if fast:
@@ -2034,17 +2096,19 @@ def render(
         clear = tables.clear(mode == 0)
 
         tiles = np.append(np.arange(0, w, TILE_COLS, dtype=np.int64), np.int64(w))
+        row_cols = np.zeros((h, 3), np.int64)  # columns to trace, segments traced
+        row_cols[:, :2] = camera.box_columns(shape, sp) if BOX_SPANS else (0, w)
 
         def run(rows: np.ndarray) -> None:  # the fast path (see _march)
             march(
                 vol, grad, has_grad, codes, light, *ray_grid, rows, post_tab,
                 pre2d, subs, lo, scale,
                 float(step), leap, brick, bool(skip_empty), float(ert), shading_k, gscale,
-                vscale, gmin, clear, refine_k, tiles, out, row_samples,
+                vscale, gmin, clear, refine_k, tiles, out, row_cols,
             )  # fmt: skip
 
         run_row_sets(run, h, nthreads, progress)
-        return finish_render(out, row_samples, t_start, render_stats)
+        return finish_render(out, row_cols[:, 2], t_start, render_stats)
 
     def run(rows: np.ndarray) -> None:
         _render_kernel(
@@ -2316,11 +2380,9 @@ def empty_value(base, lo, hi, dmin, quiet: bool = False) -> float:
 
 
 def brick_size(shape) -> int:
-    """Edge of the empty-space bricks of a plain volume (see :data:`FINE_BRICKS` and
-    :data:`SMALL_BRICKS`)."""
-    for edge, most in ((SMALL_BRICK, SMALL_BRICKS), (FINE_BRICK, FINE_BRICKS)):
-        if math.prod(max(1, -(-int(s) // edge)) for s in shape) <= most:
-            return edge
+    """Edge of the empty-space bricks of a plain volume (see :data:`FINE_BRICKS`)."""
+    if math.prod(max(1, -(-int(s) // FINE_BRICK)) for s in shape) <= FINE_BRICKS:
+        return FINE_BRICK
     return BRICK
 
 

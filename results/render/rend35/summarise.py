@@ -24,7 +24,7 @@ def table(path):
         fi = float(r["first_s"]) / float(k["first_s"])
         pv, pk = float(r["psnr_db"]), float(k["psnr_db"])
         b = lambda x, bad: f"**{x:.2f}**" if bad else f"{x:.2f}"  # noqa: E731
-        out.append(f"| {Path(v).stem} | {r['dtype']} | {tf} | {sh} | {b(fw, fw > 1)} / {b(fc, fc > 1)} | "
+        out.append(f"| {Path(v).name.split('.')[0]} | {r['dtype']} | {tf} | {sh} | {b(fw, fw > 1)} / {b(fc, fc > 1)} | "
                    f"{b(fi, fi > 1)} | {1e3 * float(r['frame_s']):.0f} / {1e3 * float(k['frame_s']):.0f} | "
                    f"{pv:.1f} / {'**' if pk > pv else ''}{pk:.1f}{'**' if pk > pv else ''} |")
         worst.append((fw, fc, v, tf, sh))
