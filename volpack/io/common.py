@@ -6,6 +6,7 @@ from __future__ import annotations
 import contextlib
 import json
 import math
+import os
 import re
 from collections.abc import Iterator
 from typing import Any, NamedTuple
@@ -212,6 +213,15 @@ def meta_from_json(text: Any) -> dict:
 
 def natural_key(name: str) -> list:
     return [int(p) if p.isdigit() else p.lower() for p in re.split(r"(\d+)", name)]
+
+
+def folder_slices(path: str, exts: tuple[str, ...]) -> list[str]:
+    """The names of the files in the folder ``path`` ending in one of ``exts`` (any case),
+    hidden ones left out, in natural order (``s2`` before ``s10``): a folder of slices."""
+    return sorted(
+        (n for n in os.listdir(path) if n.lower().endswith(exts) and not n.startswith(".")),
+        key=natural_key,
+    )
 
 
 def read_stream_into(f, arr: np.ndarray, where: str) -> None:

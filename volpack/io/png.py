@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import FormatError
-from .common import ReadOptions, check_voxels, header_dict, natural_key, to_volume
+from .common import ReadOptions, check_voxels, folder_slices, header_dict, to_volume
 
 _PNG_EXTS = (".png",)
 # Pillow's modes for greyscale PNGs and the dtype each reads as (Pillow before 10 opens a
@@ -66,16 +66,8 @@ def header(path: str, opts: ReadOptions) -> dict[str, Any]:
     )
 
 
-def slice_names(path: str) -> list[str]:
-    """The PNG files of the folder ``path`` in natural order (``s2`` before ``s10``)."""
-    return sorted(
-        (n for n in os.listdir(path) if n.lower().endswith(_PNG_EXTS) and not n.startswith(".")),
-        key=natural_key,
-    )
-
-
 def read_folder(path: str, opts: ReadOptions) -> Any:
-    names = slice_names(path)
+    names = folder_slices(path, _PNG_EXTS)
     if not names:
         raise FormatError(f"expected .png slices in {path!r}, found none")
     with _open(os.path.join(path, names[0])) as img:

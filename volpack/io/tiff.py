@@ -13,9 +13,9 @@ from ..volume import Volume
 from .common import (
     ReadOptions,
     check_voxels,
+    folder_slices,
     header_dict,
     native,
-    natural_key,
     origin3,
     spacing3,
     to_volume,
@@ -121,10 +121,7 @@ def write(vol: Volume, path: str, force: bool, inner: str | None = None) -> None
 def read_folder(path: str, opts: ReadOptions) -> Volume:
     import tifffile
 
-    names = sorted(
-        (n for n in os.listdir(path) if n.lower().endswith(_TIFF_EXTS) and not n.startswith(".")),
-        key=natural_key,
-    )
+    names = folder_slices(path, _TIFF_EXTS)
     if not names:
         raise FormatError(f"expected .tif/.tiff slices in {path!r}, found none")
     with tifffile.TiffFile(os.path.join(path, names[0])) as tif:
