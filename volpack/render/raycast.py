@@ -2075,7 +2075,6 @@ def render(
             grad, has_grad = g[None], True
     w, h = camera.size
     out = np.zeros((h, w, 4), np.float32)
-    row_samples = np.zeros(h, np.int64)
     ref = float(min(sp))
     gscale = np.array([0.5 / s for s in sp], np.float64)
     vscale = np.array([s / ref for s in sp], np.float64)
@@ -2109,6 +2108,8 @@ def render(
 
         run_row_sets(run, h, nthreads, progress)
         return finish_render(out, row_cols[:, 2], t_start, render_stats)
+
+    row_samples = np.zeros(h, np.int64)  # the general kernel's segments per row
 
     def run(rows: np.ndarray) -> None:
         _render_kernel(
