@@ -203,6 +203,24 @@ def test_a_damaged_layout_is_refused_in_one_line():
         api.decompress_array(rewrite_header(flat, layout=il.LAYOUT))
 
 
+def test_play_of_a_series_whose_header_dtype_is_damaged_says_so_in_one_line(tmp_path):
+    # found by fuzz seed 37: play's look for a declared fill value read the header's dtype
+    # before the decoder had checked it (a TypeError, reported as an internal error)
+    from click.testing import CliRunner
+
+    from volpack.animation import player
+    from volpack.cli import main
+
+    a = series(t=3, shape=(4, 12, 10))
+    path = tmp_path / "s.vpk"
+    path.write_bytes(rewrite_header(api.compress_array(a, brick=8), dtype=[1e308] * 3))
+    assert player.declared_fill_of(str(path)) is None
+    r = CliRunner().invoke(main, ["play", str(path), str(tmp_path / "p.gif"), "--size", "12x12"])
+    assert r.exit_code == 1, r.output
+    assert "expected a dtype string" in r.output and "internal error" not in r.output
+    assert not (tmp_path / "p.gif").exists()
+
+
 NIBABEL_SERIES = ["functional.nii", "phantom_EPI_asc_CLEAR_2_1.PAR"]
 
 

@@ -203,6 +203,7 @@ def declared_fill_of(source: str) -> float | None:
     """The fill value the file ``source`` declares for its float voxels (netCDF's
     ``_FillValue``, kept in a volume ``.vpk``'s metadata), read from its header alone;
     None for none, for animations (which restore fills exactly) and for ``'-'``."""
+    from ..format.header import dtype as header_dtype
     from ..io import read_header
     from ..io.registry import FORMATS, detect_format
     from ..volume import fill_in_meta
@@ -219,9 +220,13 @@ def declared_fill_of(source: str) -> float | None:
             header = read_header(source)
         except (OSError, FormatError):
             return None
-    if header.get("kind", "volume") != "volume" or "dtype" not in header:
+    if header.get("kind", "volume") != "volume":
         return None
-    return fill_in_meta(header.get("meta"), header["dtype"])
+    try:  # a damaged header's dtype is for the decoder to report, not this guess
+        dtype = header_dtype(header.get("dtype"))
+    except FormatError:
+        return None
+    return fill_in_meta(header.get("meta"), dtype)
 
 
 def series(source: str) -> Iterator[tuple[np.ndarray, FrameStats, dict]]:
