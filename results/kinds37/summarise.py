@@ -39,7 +39,7 @@ def rows_of(paths):
         peers = j.get("peers", [])
         if rel:
             bound = j["compress"].get("error_bound")
-            row["max_err_over_bound"] = round(j["max_error"] / bound, 6) if bound else ""
+            row["max_err_over_bound"] = float(f"{j['max_error'] / bound:.6g}") if bound else ""
             ok = [q for q in peers if q["name"] in ("sz3", "sperr") and q["bound_held"]]
             row["peers_broke"] = ";".join(q["name"] for q in peers if not q["bound_held"])
             row["psnr"] = round(j["psnr"], 2) if j.get("psnr") is not None else ""
