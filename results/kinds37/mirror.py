@@ -28,7 +28,7 @@ def main() -> None:
         part = a
         for ax in axes:
             part = part[(slice(None),) * ax + (slice(0, (a.shape[ax] + 1) // 2),)]
-        for label, v in (("whole", a), ("one part of 2^%d" % len(axes), part)):
+        for label, v in (("whole", a), (f"one part of 2^{len(axes)}", part)):
             v = np.ascontiguousarray(v)
             vb = len(api.compress_array(v))
             zb = len(zstandard.ZstdCompressor(level=19).compress(v.tobytes()))
