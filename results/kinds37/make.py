@@ -147,7 +147,9 @@ def beetle_u12(rng):
         for leg in range(3):  # legs
             tl = np.linspace(0, 1, 300)
             yy = 0.4 + 0.15 * leg + 0.05 * tl
-            pts = np.concatenate([pts, np.stack([0.5 + 0.3 * tl, yy, 0.5 + s * (0.2 + 0.25 * tl)], 1)])
+            pts = np.concatenate(
+                [pts, np.stack([0.5 + 0.3 * tl, yy, 0.5 + s * (0.2 + 0.25 * tl)], 1)]
+            )
         idx = np.rint(pts * (np.array(shape) - 1)).astype(int)
         m = np.zeros(shape, bool)
         m[tuple(idx.T)] = True
@@ -176,8 +178,12 @@ def rm_u8(rng):
     yy, xx = np.meshgrid(np.linspace(0, 1, 128), np.linspace(0, 1, 128), indexing="ij")
     for _ in range(30):
         kx, ky = rng.integers(1, 9, size=2)
-        h += rng.normal() / (kx + ky) * np.cos(2 * np.pi * (kx * xx + rng.random())) * np.cos(
-            2 * np.pi * (ky * yy + rng.random()))
+        h += (
+            rng.normal()
+            / (kx + ky)
+            * np.cos(2 * np.pi * (kx * xx + rng.random()))
+            * np.cos(2 * np.pi * (ky * yy + rng.random()))
+        )
     h = 0.12 * h / np.abs(h).max()
     hb = 0.5 + np.where(h > 0, h, 1.8 * h)  # spikes of the heavy fluid grow longer
     width = 0.01 + 0.03 * np.abs(gauss_field(rng, shape, -3.0))
@@ -352,7 +358,9 @@ def isabel_pfill(rng):
     t = t.astype(np.float32).copy()
     sst, _, _ = load("sst_monthly")
     land = sst[0] <= -1.79
-    land = ndimage.zoom(land.astype(float), (96 / land.shape[0], 192 / land.shape[1]), order=0) > 0.5
+    land = (
+        ndimage.zoom(land.astype(float), (96 / land.shape[0], 192 / land.shape[1]), order=0) > 0.5
+    )
     topo = 4.0 * (0.5 + 0.5 * gauss_field(rng, (96, 192), -4.0) / 2.0)
     nl = np.where(land, np.clip(np.rint(topo), 1, 4), 0).astype(int)
     lev = np.arange(t.shape[0])[:, None, None]
@@ -417,7 +425,11 @@ def qmc_orb4d(rng):
         for _ in range(60):
             g = rng.integers(-6, 7, size=3)
             kk = np.sqrt((g**2).sum()) + 1
-            f += rng.normal() / kk**1.5 * np.cos(2 * np.pi * (g[0] * z + g[1] * y + g[2] * x) + rng.random() * 6.28)
+            f += (
+                rng.normal()
+                / kk**1.5
+                * np.cos(2 * np.pi * (g[0] * z + g[1] * y + g[2] * x) + rng.random() * 6.28)
+            )
         for a in atoms:
             d = [(q - a[i] + 0.5) % 1 - 0.5 for i, q in enumerate((z, y, x))]
             r = np.sqrt(sum(q**2 for q in d)) * n
@@ -428,10 +440,28 @@ def qmc_orb4d(rng):
 
 MAKERS = {
     f.__name__: f
-    for f in (engine_u8, bonsai_u8, foot_u8, beetle_u12, chameleon_u16, rm_u8, ml_u8,
-              hydrogen_u8, aneurism_u8, ring_u16, metal_i16, lowdose_i16, miranda_visc,
-              nyx_vel, nyx_temp, isabel_pfill, isabel_qcloud, s3d_oh64, s3d_temp64,
-              qmc_orb4d)  # fmt: skip
+    for f in (
+        engine_u8,
+        bonsai_u8,
+        foot_u8,
+        beetle_u12,
+        chameleon_u16,
+        rm_u8,
+        ml_u8,
+        hydrogen_u8,
+        aneurism_u8,
+        ring_u16,
+        metal_i16,
+        lowdose_i16,
+        miranda_visc,
+        nyx_vel,
+        nyx_temp,
+        isabel_pfill,
+        isabel_qcloud,
+        s3d_oh64,
+        s3d_temp64,
+        qmc_orb4d,
+    )  # fmt: skip
 }
 
 

@@ -72,7 +72,9 @@ def main() -> None:
     flts = [r for r in rows if r["rel"]]
     g = lambda r, k: r.get(k, "")  # noqa: E731
     if ints:
-        print("| volume | set | shape, dtype | ratio | best peer | x best peer | decode MB/s | x peer's | x JPEG-LS's |")
+        print(
+            "| volume | set | shape, dtype | ratio | best peer | x best peer | decode MB/s | x peer's | x JPEG-LS's |"
+        )
         print("|---|---|---|---:|---|---:|---:|---:|---:|")
         for r in ints:
             if "error" in r:
@@ -83,11 +85,15 @@ def main() -> None:
                   f"{g(r, 'x_peer_dec')} | {g(r, 'x_jpegls_dec')} |")  # fmt: skip
         print()
     if flts:
-        print("| field | set | E / range | ratio | best of SZ3, SPERR | x best | max err / bound | decode MB/s | x peer's | peers that broke the bound |")
+        print(
+            "| field | set | E / range | ratio | best of SZ3, SPERR | x best | max err / bound | decode MB/s | x peer's | peers that broke the bound |"
+        )
         print("|---|---|---|---:|---|---:|---:|---:|---:|---|")
         for r in flts:
             if "error" in r:
-                print(f"| {r['name']} | {r['set']} | {r['rel']} | ERROR: {r['error']} | | | | | | |")
+                print(
+                    f"| {r['name']} | {r['set']} | {r['rel']} | ERROR: {r['error']} | | | | | | |"
+                )
                 continue
             print(f"| {r['name']} | {r['set']} | {r['rel']} | {r['ratio']:.2f} | {g(r, 'best_peer')} "
                   f"{g(r, 'peer_ratio')} | {g(r, 'x_best')} | {g(r, 'max_err_over_bound')} | "
@@ -100,13 +106,18 @@ def main() -> None:
     ok = [r for r in rows if r.get("x_best")]
     labels = [r["name"] + (f" {r['rel']}" if r["rel"] else "") for r in ok]
     fig, ax = plt.subplots(figsize=(10, 0.28 * len(ok) + 1.2))
-    colors = ["tab:orange" if r["set"] == "held" else ("tab:blue" if not r["rel"] else "tab:green") for r in ok]
+    colors = [
+        "tab:orange" if r["set"] == "held" else ("tab:blue" if not r["rel"] else "tab:green")
+        for r in ok
+    ]
     ax.barh(range(len(ok)), [r["x_best"] for r in ok], color=colors)
     ax.set_yticks(range(len(ok)), labels, fontsize=7)
     ax.invert_yaxis()
     for x, s in ((1.0, "k"), (1.1, "r")):
         ax.axvline(x, color=s, lw=0.8, ls="--")
-    ax.set_xlabel("volpack's ratio / the best peer's (integer: any lossless peer; float: SZ3 or SPERR that held the bound)")
+    ax.set_xlabel(
+        "volpack's ratio / the best peer's (integer: any lossless peer; float: SZ3 or SPERR that held the bound)"
+    )
     ax.set_title("kinds37: blue integer, green float, orange held out")
     fig.tight_layout()
     fig.savefig(chart, dpi=110)
