@@ -8,8 +8,10 @@ between them), silicium_u8 (98x34x34, as Open SciVis's silicium: a crystal's ele
 density, atoms on a lattice symmetric about the box's centre), neghip_like_u8 (64^3: a
 potential of 40 charges placed at random, no symmetry: mode 7 must not change its
 bytes), orbital_192_u8 (192^3, a hydrogen-like density bigger than one brick: the limit
-of a per-brick mode), and orbital_f32 (96^3 float32, the density unrounded, coded
-exactly).
+of a per-brick mode, it turned out: its density is symmetric under (x, y) -> (-x, -y)
+only, a half turn, not a mirror), orbital_f32 (96^3 float32, the same density unrounded,
+coded exactly) and, added after the first five were run, hydrogen_192_u8 (make.py's
+hydrogen on 192^3: mirrored along z and y, in more than one brick).
 """
 
 from __future__ import annotations
@@ -70,7 +72,19 @@ def orbital_f32(rng):
     return _orbital(96).astype(np.float32)
 
 
-MAKERS = [nucleon_u8, silicium_u8, neghip_like_u8, orbital_192_u8, orbital_f32]
+def hydrogen_192_u8(rng):
+    """make.py's hydrogen density on 192^3: mirrored along z and y, more than one brick."""
+    z, y, x = grid((192, 192, 192), (20.0, 20.0, 20.0))
+    r = np.sqrt(x**2 + y**2 + z**2) + 1e-9
+    psi = (
+        r**2 * np.exp(-r / 3) * (3 * (z / r) ** 2 - 1) / 81.0
+        + 0.4 * r * np.exp(-r / 2) * (x / r) / 8.0
+    )
+    p = psi**2
+    return np.rint(255.0 * p / p.max()).astype(np.uint8)
+
+
+MAKERS = [nucleon_u8, silicium_u8, neghip_like_u8, orbital_192_u8, orbital_f32, hydrogen_192_u8]
 
 
 def main() -> None:

@@ -16,7 +16,7 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from make import HELD_OUT  # noqa: E402
+from make import HELD_OUT, MAKERS  # noqa: E402
 
 
 def rows_of(paths):
@@ -28,7 +28,11 @@ def rows_of(paths):
     rows = []
     for (name, rel), c in cells.items():
         j = c["json"]
-        row = {"name": name, "set": "held" if name in HELD_OUT else "tuned", "rel": rel or ""}
+        row = {
+            "name": name,
+            "set": "held" if name in HELD_OUT else "tuned" if name.split()[0] in MAKERS else "late",
+            "rel": rel or "",
+        }
         if j is None:
             row["error"] = c.get("error", "")
             rows.append(row)
