@@ -49,20 +49,24 @@ TUCKER_MIN_VOXELS = 1 << 16
 # over land: 1e-3 of the range is 1e32, a temperature field comes back as one value;
 # session 37, results/kinds37): the encoder says so, and how to keep the value out.
 FILL_RANGE_WARN = 10.0
+FILL_SAMPLE = 1 << 22  # voxels looked at for the fill value (every k-th: a large memory-
+# mapped volume is not read whole; its range is then read slab by slab, as value_range's)
 
 
 def fill_sets_range(data: np.ndarray, lo: float, hi: float) -> tuple[float, float, float, float] | None:
     """``(value, share of the voxels, lo, hi of the others)`` when a value of the float
     volume ``data`` (valid range ``lo..hi``) looks like an undeclared fill value and
-    widens that range :data:`FILL_RANGE_WARN` times or more, else None."""
+    widens that range :data:`FILL_RANGE_WARN` times or more, else None. The value and its
+    share come from every k-th voxel (all of them up to :data:`FILL_SAMPLE`)."""
     flat = np.asarray(data).reshape(-1)
-    value = sentinel(flat, special_voxels(flat, None))
+    sample = np.ascontiguousarray(flat[:: max(1, flat.size // FILL_SAMPLE)])
+    value = sentinel(sample, special_voxels(sample, None))
     if value is None:
         return None
-    a, b = value_range(flat.reshape(1, 1, -1), value)
+    a, b = value_range(data, value)
     if not (hi - lo) >= FILL_RANGE_WARN * (b - a):
         return None
-    return value, float(np.count_nonzero(flat == value)) / flat.size, a, b
+    return value, float(np.count_nonzero(sample == value)) / sample.size, a, b
 
 
 def absolute_bound(what: str, target: float, rng: float) -> float:
