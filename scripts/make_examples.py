@@ -206,6 +206,9 @@ LOSSLESS_CASES = [
     # a label map upsampled by nearest neighbour, 2x along z and 3x along x, cropped so
     # that runs start mid-brick (session 34: mode 6, the brick shrunk to one slice a run)
     ("lossless-v8-u8-repeat", "labels-runs", {"brick": 32}),
+    # a formula's field on a grid centred on the origin, its own mirror image along z
+    # (odd length) and y (session 37: mode 7, the brick cut to its first half along both)
+    ("lossless-v8-u8-mirror", "mirror-u8", {"brick": (31, 32, 32)}),
 ]
 
 
@@ -279,6 +282,11 @@ def lossless_source(recipe: str):
     if recipe == "labels-runs":  # four tissue classes, upsampled 2x in z, 3x in x, cropped
         lab = np.digitize(wavelet_source("u8"), [40, 90, 140]).astype(np.uint8)
         return np.ascontiguousarray(np.repeat(np.repeat(lab, 2, axis=0), 3, axis=2)[1:, :, 2:])
+    if recipe == "mirror-u8":  # |psi|^2 of a 3d and 2p mix on 31 x 32 x 32, scaled to uint8
+        z, y, x = np.meshgrid(*(np.linspace(-12.0, 12.0, n) for n in (31, 32, 32)), indexing="ij")
+        r = np.sqrt(x**2 + y**2 + z**2) + 1e-9
+        psi = r**2 * np.exp(-r / 3) * (3 * (z / r) ** 2 - 1) / 81 + 0.05 * x * np.exp(-r / 2)
+        return np.rint(255 * psi**2 / (psi**2).max()).astype(np.uint8)
     if recipe == "v5-u8-floor":  # the head over a noise floor of small values, 1 rare
         return noise_floor(lossless_source("v2-u8-background"))
     if recipe.startswith("v2-"):  # 32^3 cuts of the bundled MRI: head and background, tissue

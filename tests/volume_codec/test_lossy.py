@@ -370,6 +370,31 @@ def test_an_undeclared_fill_value_is_masked_when_shorter(dtype, value):
     assert len(payload) < len(unmasked._encode_masked(f, None)[0])
 
 
+@pytest.mark.parametrize("value", [1e35, -9999.0])
+def test_a_relative_bound_set_by_an_undeclared_fill_value_is_warned_of(caplog, value):
+    """Hurricane Isabel's 1e35 over land (session 37, results/kinds37): a rel_error of the
+    range it sets is a bound of 1e32, and the field came back as one value without a
+    word. The encoder now says which value sets the range and how to keep it out; with
+    the fill value declared, or on a field without one, it says nothing."""
+    from volpack.volume_codec.search import fill_sets_range
+
+    f = field("smooth", (8, 16, 16), np.float32, 3) / 50 + 280
+    region = np.indices(f.shape)[0] < 2  # the two lowest levels under ground
+    f[region] = value
+    found = fill_sets_range(f, float(f.min()), float(f.max()))
+    assert found is not None and found[0] == np.float32(value) and found[1] == 0.25
+    with caplog.at_level("WARNING", logger="volpack.volume_codec.search"):
+        api.compress_array(f, rel_error=1e-3)
+    assert f"--fill-value {np.float32(value):g}" in caplog.text
+    assert "on 25 % of the voxels sets that range" in caplog.text
+    caplog.clear()
+    with caplog.at_level("WARNING", logger="volpack.volume_codec.search"):
+        api.compress_array(f, rel_error=1e-3, fill_value=value)
+        api.compress_array(f[2:], rel_error=1e-3)
+        api.compress_array(f, max_error=0.5)  # an absolute bound: the range does not matter
+    assert caplog.text == ""
+
+
 def test_no_sentinel_where_the_extreme_value_is_part_of_the_field():
     """Zero background of a scan (next value 1 of 255) and a field whose extremes are
     rare are not fill values."""

@@ -43,6 +43,32 @@ MAX_STEPS = 14
 TUCKER_MIN_VOXELS = 1 << 16
 
 
+# A float volume's value that looks like an undeclared fill (:func:`.specials.sentinel`)
+# and stretches the range at least this many times over the other voxels' span makes a
+# ``rel_error`` of that range a bound the other voxels barely feel (Hurricane Isabel's 1e35
+# over land: 1e-3 of the range is 1e32, a temperature field comes back as one value;
+# session 37, results/kinds37): the encoder says so, and how to keep the value out.
+FILL_RANGE_WARN = 10.0
+FILL_SAMPLE = 1 << 22  # voxels looked at for the fill value (every k-th: a large memory-
+# mapped volume is not read whole; its range is then read slab by slab, as value_range's)
+
+
+def fill_sets_range(data: np.ndarray, lo: float, hi: float) -> tuple[float, float, float, float] | None:
+    """``(value, share of the voxels, lo, hi of the others)`` when a value of the float
+    volume ``data`` (valid range ``lo..hi``) looks like an undeclared fill value and
+    widens that range :data:`FILL_RANGE_WARN` times or more, else None. The value and its
+    share come from every k-th voxel (all of them up to :data:`FILL_SAMPLE`)."""
+    flat = np.asarray(data).reshape(-1)
+    sample = np.ascontiguousarray(flat[:: max(1, flat.size // FILL_SAMPLE)])
+    value = sentinel(sample, special_voxels(sample, None))
+    if value is None:
+        return None
+    a, b = value_range(data, value)
+    if not (hi - lo) >= FILL_RANGE_WARN * (b - a):
+        return None
+    return value, float(np.count_nonzero(sample == value)) / sample.size, a, b
+
+
 def absolute_bound(what: str, target: float, rng: float) -> float:
     """The error bound in value units: ``max_error`` as it is, ``rel_error`` times the
     value range ``rng``."""
@@ -184,6 +210,17 @@ def plan(
         e = absolute_bound(what, target, rng)
         if not (e >= 0 and math.isfinite(e)):
             raise OptionError(f"expected a non-negative finite {what}, found {target!r}")
+        if what == "rel_error" and dtype.kind == "f" and fill_value is None and e > 0:
+            found = fill_sets_range(vol.data, lo, hi)
+            if found is not None:
+                v, share, a, b = found
+                log.warning(
+                    "rel_error %g of the range %g..%g is a bound of %g: the value %g on %.3g %% "
+                    "of the voxels sets that range (the others span %g..%g); if it marks "
+                    "missing data, give it as the fill value (--fill-value %g) to keep it "
+                    "out of the range and store it exactly",
+                    target, lo, hi, e, v, 100 * share, a, b, v,
+                )  # fmt: skip
         if e == 0 and dtype.kind == "f":
             raise OptionError(
                 "an error bound of 0 on float voxels is lossless coding: leave out the lossy "
