@@ -2077,7 +2077,9 @@ def render(
     preint_method : {"fast", "exact"}
         Passed to :func:`volpack.render.preint.preintegrate`.
     value_range : (lo, hi)
-        The value interval the tables span; default the finite data range.
+        The value interval the tables span; default the finite data range, or the
+        TF's points within it where they cover less than :data:`NARROW_SHARE` of it (a
+        fill value or an outlier; values beyond take the TF's end values).
     table_size : int
         Entries of the TF table (and of each side of the 2-D tables). Pre-integrated
         tables smooth at the entry scale are read at the nearest entry (module
