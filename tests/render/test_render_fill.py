@@ -41,10 +41,13 @@ def truth(vol, tf) -> np.ndarray:
 
 
 @pytest.mark.parametrize("fill", [-9999.0, 1e20])
-def test_a_fill_value_leaves_the_tf_its_table(fill):
+@pytest.mark.parametrize("given", [False, True])
+def test_a_fill_value_leaves_the_tf_its_table(fill, given):
     vol = wind(fill=fill)
     tf = semi()
-    img = render(vol, tf=tf, camera=CAM)
+    # given: the data range passed as value_range, as `volpack render` does
+    vr = (float(vol.min()), float(vol.max())) if given else None
+    img = render(vol, tf=tf, camera=CAM, value_range=vr)
     err = np.abs(img - truth(vol, tf))
     # the tables over [-9999, 31] (or [0, 1e20]) held the TF in one or two entries: the
     # clear values below 3 drawn, 0.86-1.0 off the truth, 0.07-0.13 on average (before

@@ -2077,7 +2077,7 @@ def render(
     preint_method : {"fast", "exact"}
         Passed to :func:`volpack.render.preint.preintegrate`.
     value_range : (lo, hi)
-        The value interval the tables span; default the finite data range, or the
+        The value interval the tables span (default the finite data range), or the
         TF's points within it where they cover less than :data:`NARROW_SHARE` of it (a
         fill value or an outlier; values beyond take the TF's end values).
     table_size : int
@@ -2162,7 +2162,7 @@ def render(
             raise VolpackError(f"expected a finite value range, found {value_range}")
     lo, hi = nonempty_range(lo, hi)
     narrowed = False
-    if value_range is None and not paged and not isos and frange is not None:
+    if not paged and not isos and frange is not None:  # the CLI passes the data range
         lo, hi, narrowed = tf_span(tf, lo, hi)
     scale = (n - 1) / (hi - lo)
 
