@@ -179,12 +179,20 @@ NEAREST = True
 #: segments through :func:`_near_run` (tests turn it off to check that it gives the plain
 #: loop's image bit for bit).
 NEAR_RUN = True
-#: Refine the fast path's unshaded segments through :func:`_refined_plain` (tests turn it
-#: off to check that it gives :func:`_refined`'s image bit for bit).
+#: Refine the fast path's unshaded segments through :func:`_refined_plain`, and those of
+#: frames lit through quantised normals through :func:`_refined_lit` (tests turn it off
+#: to check that they give :func:`_refined`'s image bit for bit).
 LEAN_REFINE = True
 #: Trace only the columns of each image row whose rays may meet the volume's box
 #: (:meth:`Camera.box_columns`; tests turn it off to check the image is the same).
 BOX_SPANS = True
+#: Tables span the transfer function's points (clipped to the data) instead of the data
+#: range when the points cover less than this share of it: a fill value or an outlier
+#: (-9999 on a climate grid, 1e20) otherwise squeezes what the TF shows into a few of
+#: the ``table_size`` entries. Samples beyond the tables take the TF's end values, and a
+#: pre-integrated segment whose ends lie beyond them is cut where its scalar crosses
+#: the tables' ends (:func:`_clip_chord`). Session 37, ``results/render/rend37/``.
+NARROW_SHARE = 0.25
 #: Refinement: a pre-integrated segment carrying more than this share of its pixel's
 #: opacity is marched again in ``refine`` sub-segments (see :func:`render`).
 REFINE_OPACITY = 0.1
@@ -966,6 +974,8 @@ def _render_kernel(
     a_ref = refine[1]
     near = refine[2] > 0.0
     bend_min = refine[3]
+    clip = refine[5] > 0.0  # tables narrower than the data (NARROW_SHARE)
+    top = pre2d.shape[0] - 1.0
     need_ends = mode == 2 or has_iso
     for k in range(rows.shape[0]):
         r = rows[k]
@@ -1064,12 +1074,22 @@ def _render_kernel(
                         _lookup2_nearest(pre2d, (sf - lo) * scale, (sb - lo) * scale, c4)
                     else:
                         _lookup2(pre2d, (sf - lo) * scale, (sb - lo) * scale, c4)
+                    clipped = False
+                    if mode == 2 and clip and c4[3] > 0.0:
+                        xf = (sf - lo) * scale
+                        xb = (sb - lo) * scale
+                        if min(xf, xb) < 0.0 or max(xf, xb) > top:  # as in _march
+                            m = nsub if seglen == step else 1
+                            _clip_into(vol, pre2d, subs[max(m - 2, 0)], m, oz, oy, ox, dz, dy,
+                                       dx, t0, step, lo, scale, xf, xb, top, c4)  # fmt: skip
+                            count += m - 1
+                            clipped = True
                     # one piece, or (refinement, as in _march) m sub-segments of an
                     # optically thick segment through the table of their length
                     npieces = 1
                     hq = seglen
                     if (mode == 2 and nsub > 1 and c4[3] > 0.0 and (1.0 - aa) * c4[3] > a_ref
-                            and i < nseg - 1):  # fmt: skip
+                            and i < nseg - 1 and not clipped):  # fmt: skip
                         npieces = sub_count(abs(sb - 2.0 * sf + sp_) * scale, bend_min, nsub)
                         hq = step / npieces
                     s_prev = sf
@@ -1205,6 +1225,120 @@ def _ndv(grad, node, z, y, x, gscale, vz, vy, vx, gmin, s):
     return abs(gz * vz + gy * vy + gx * vx) / g
 
 
+@kernel(inline=True)
+def _part(r, g, b, a, f):
+    """A pre-integrated piece ``(r, g, b, a)`` (pre-multiplied, over a whole segment)
+    over the share ``f`` of its length (the opacity of a scalar range crossed over a
+    shorter length: its optical depth times ``f``)."""
+    if a <= 0.0 or f <= 0.0:
+        return 0.0, 0.0, 0.0, 0.0
+    a2 = 1.0 - (1.0 - min(a, 1.0)) ** f
+    g2 = a2 / a
+    return r * g2, g * g2, b * g2, a2
+
+
+@kernel
+def _clip_chord(tab, xf, xb, top):
+    """``(r, g, b, a)`` of a pre-integrated segment whose scalar runs linearly from
+    table position ``xf`` to ``xb`` (front to back) where an end lies beyond the table
+    ``[0, top]`` (:data:`NARROW_SHARE`): the TF is constant beyond its points, so the
+    piece below position 0 takes entry ``(0, 0)`` and the piece above ``top`` entry
+    ``(top, top)``, each over its share of the length, and the piece between the
+    bilinear entry of the clamped ends over its share; composited in ray order. With
+    the tables over the data range no end lies beyond them and this is never called."""
+    lo_ = min(xf, xb)
+    hi_ = max(xf, xb)
+    d = hi_ - lo_
+    n = tab.shape[0]
+    if d <= 0.0:  # both ends at one position (beyond the table): a constant segment
+        k = 0 if xf < 0.0 else n - 1
+        return tab[k, k, 0], tab[k, k, 1], tab[k, k, 2], tab[k, k, 3]
+    fb = min(max(-lo_ / d, 0.0), 1.0)  # shares of the length below, above, inside
+    fa = min(max((hi_ - top) / d, 0.0), 1.0)
+    fi = max(1.0 - fb - fa, 0.0)
+    i0, i1, fi0 = _ucell(xf, n)
+    j0, j1, fj0 = _ucell(xb, n)
+    ir, ig, ib, ia = _part(_bilerp(tab, 0, i0, i1, fi0, j0, j1, fj0),
+                           _bilerp(tab, 1, i0, i1, fi0, j0, j1, fj0),
+                           _bilerp(tab, 2, i0, i1, fi0, j0, j1, fj0),
+                           _bilerp(tab, 3, i0, i1, fi0, j0, j1, fj0), fi)  # fmt: skip
+    br, bg, bb, ba = _part(tab[0, 0, 0], tab[0, 0, 1], tab[0, 0, 2], tab[0, 0, 3], fb)
+    tr, tg, tb, ta = _part(tab[n - 1, n - 1, 0], tab[n - 1, n - 1, 1], tab[n - 1, n - 1, 2],
+                           tab[n - 1, n - 1, 3], fa)  # fmt: skip
+    if xf > xb:  # descending: above, inside, below
+        br, bg, bb, ba, tr, tg, tb, ta = tr, tg, tb, ta, br, bg, bb, ba
+    r, g, b, a = br, bg, bb, ba
+    w = 1.0 - a
+    r, g, b, a = r + w * ir, g + w * ig, b + w * ib, a + w * ia
+    w = 1.0 - a
+    return r + w * tr, g + w * tg, b + w * tb, a + w * ta
+
+
+@kernel(inline=True)
+def _chord(tab, xp, xq, top):
+    """``(r, g, b, a)`` of the chord from table position ``xp`` to ``xq``: bilinear, or
+    cut at the table's ends (:func:`_clip_chord`) where it reaches beyond them."""
+    if min(xp, xq) < 0.0 or max(xp, xq) > top:
+        return _clip_chord(tab, xp, xq, top)
+    n = tab.shape[0]
+    u0, u1, fu = _ucell(xp, n)
+    w0, w1, fw = _ucell(xq, n)
+    return (_bilerp(tab, 0, u0, u1, fu, w0, w1, fw), _bilerp(tab, 1, u0, u1, fu, w0, w1, fw),
+            _bilerp(tab, 2, u0, u1, fu, w0, w1, fw), _bilerp(tab, 3, u0, u1, fu, w0, w1, fw))
+
+
+@kernel(nrt=False, contract=True)
+def _clip_refined(vol, sub2d, pz0, py0, px0, sz, sy, sx, nsub, vs, v0, xf, xb, top):
+    """``(r, g, b, a)`` of a full segment of the fast march from table position ``xf``
+    to ``xb`` with an end beyond the tables (:func:`_clip_chord`), as ``nsub``
+    sub-segments through their table ``sub2d`` (``nsub - 1`` samples more), each cut
+    at the tables' ends where it reaches beyond them. Such a segment crosses from a
+    fill value or an outlier to the data inside one voxel, where the trilinear field is
+    far from straight along the ray (a corner of -9999 beside ones of 20): its chord
+    alone put what the TF shows at the wrong depth (storm_u's opaque images 2-4 dB below
+    VTK's PSNR; session 37). Lit, if at all, as one segment by the march."""
+    r = g = b = a = 0.0
+    xp = xf
+    for q in range(1, nsub + 1):
+        xq = xb
+        if q < nsub:
+            xq = fixed_sample(vol, pz0 + (q * sz) // nsub, py0 + (q * sy) // nsub,
+                              px0 + (q * sx) // nsub) * vs + v0  # fmt: skip
+        cr, cg, cb, aq = _chord(sub2d, xp, xq, top)
+        wgt = 1.0 - a
+        r, g, b, a = r + wgt * cr, g + wgt * cg, b + wgt * cb, a + wgt * aq
+        xp = xq
+    return r, g, b, a
+
+
+@kernel
+def _clip_into(vol, tab, sub2d, nsub, oz, oy, ox, dz, dy, dx, t0, step, lo, scale, xf, xb, top,
+               c4):  # fmt: skip
+    """The general kernel's segment with an end beyond the tables, into its look-up
+    ``c4``: as the fast march, :func:`_clip_refined` (``nsub`` > 1, samples at the
+    positions this kernel samples) or :func:`_clip_chord`; channels 4-6 of lit
+    tables, the back-weighted colour, scaled as the colour."""
+    if nsub > 1:
+        r = g = b = a = 0.0
+        xp = xf
+        for q in range(1, nsub + 1):
+            xq = xb
+            if q < nsub:
+                tq = t0 + q * (step / nsub)
+                xq = (sample(vol, oz + tq * dz, oy + tq * dy, ox + tq * dx) - lo) * scale
+            cr, cg, cb, aq = _chord(sub2d, xp, xq, top)
+            wgt = 1.0 - a
+            r, g, b, a = r + wgt * cr, g + wgt * cg, b + wgt * cb, a + wgt * aq
+            xp = xq
+    else:
+        r, g, b, a = _clip_chord(tab, xf, xb, top)
+    if tab.shape[2] > 4:
+        c4[4] = c4[4] * (r / c4[0]) if c4[0] > 0.0 else 0.0
+        c4[5] = c4[5] * (g / c4[1]) if c4[1] > 0.0 else 0.0
+        c4[6] = c4[6] * (b / c4[2]) if c4[2] > 0.0 else 0.0
+    c4[0], c4[1], c4[2], c4[3] = r, g, b, a
+
+
 def _march(
     vol, grad, has_grad, codes, light, frame, u, v, rows, pre, post_tab, pre2d, subs,
     lo, scale, step, leap, brick, skip, ert, shade, shading, gscale, vscale, gmin, clear,
@@ -1239,9 +1373,11 @@ def _march(
     near = refine[2] > 0.0
     bend_min = refine[3]
     lean = refine[4] > 0.0
+    clip = refine[5] > 0.0  # tables narrower than the data (NARROW_SHARE)
     runs = pre == 2  # a constant: one kernel of its own (_march_specialised)
     cl, ch_ = clear[0], clear[1]
     n_tab = pre2d.shape[0] if pre else post_tab.shape[0]
+    top = n_tab - 1.0
     ka, kd, ks, shin = shading[0], shading[1], shading[2], shading[3]
     ishin = int(shin)
     whole = ishin == shin and ishin >= 0
@@ -1296,6 +1432,7 @@ def _march(
             xfront = math.nan  # the segment's front (NaN: the one before is not known)
             xprev = math.nan
             have_front = False
+            qr = qg = qb = 0.0  # a clipped segment's colour (_clip_chord)
             while i < nseg:
                 if skip and i >= next_k:
                     state, i, next_k = _leap_fixed(
@@ -1334,6 +1471,7 @@ def _march(
                 tm = 0.5 * (t0 + t1)
                 count += 1
                 a = 0.0
+                clipped = False
                 if pre:
                     if not have_front:
                         # clamped: taken only after a leap, and one inlined sampler
@@ -1357,6 +1495,16 @@ def _march(
                         j0, j1, fj = _ucell(xb, n_tab)
                         if not ((xf < cl and xb < cl) or (xf > ch_ and xb > ch_)):
                             a = _bilerp(pre2d, 3, i0, i1, fi, j0, j1, fj)
+                    if clip and a > 0.0 and (min(xf, xb) < 0.0 or max(xf, xb) > top):
+                        if nsub > 1 and seglen == step:  # sampled again: see _clip_refined
+                            qr, qg, qb, a = _clip_refined(
+                                vol, subs[nsub - 2], bz + i * sz, by + i * sy, bx + i * sx, sz,
+                                sy, sx, nsub, vs, v0, xf, xb, top,
+                            )  # fmt: skip
+                            count += nsub - 1
+                        else:
+                            qr, qg, qb, a = _clip_chord(pre2d, xf, xb, top)
+                        clipped = True
                     xprev, xfront = xfront, xf
                     xf = xb
                 else:
@@ -1369,7 +1517,8 @@ def _march(
                     j0, j1, fj = i0, i1, fi
                     if not (xs < cl or xs > ch_):
                         a = _lerp2(post_tab, 3, i0, i1, fi)
-                if pre and nsub > 1 and a > 0.0 and (1.0 - aa) * a > a_ref and i < nseg - 1:
+                if (pre and nsub > 1 and a > 0.0 and (1.0 - aa) * a > a_ref and i < nseg - 1
+                        and not clipped):  # fmt: skip
                     # an optically thick segment: m sub-segments, with m - 1 more samples
                     if near:
                         i0, i1, fi = _ucell(xfront, n_tab)
@@ -1379,6 +1528,12 @@ def _march(
                         ar, ag, ab, aa, done = _refined_plain(
                             vol, subs[m - 2], bz + i * sz, by + i * sy, bx + i * sx, sz, sy, sx,
                             m, vs, v0, i0, i1, fi, j0, j1, fj, ert, ar, ag, ab, aa,
+                        )  # fmt: skip
+                    elif shade == 2 and lean:  # lit through the codes: no gradients
+                        ar, ag, ab, aa, done = _refined_lit(
+                            vol, codes, light, subs[m - 2], bz + i * sz, by + i * sy, bx + i * sx,
+                            sz, sy, sx, m, vs, v0, i0, i1, fi, j0, j1, fj, oz, oy, ox, dz, dy,
+                            dx, t0, step, ert, ar, ag, ab, aa,
                         )  # fmt: skip
                     else:
                         ar, ag, ab, aa, done = _refined(
@@ -1391,7 +1546,9 @@ def _march(
                     if done:
                         break
                 elif a > 0.0:  # colour only where there is opacity
-                    if pre and near:
+                    if clipped:
+                        cr, cg, cb = qr, qg, qb
+                    elif pre and near:
                         cr, cg, cb = pre2d[ii, jj, 0], pre2d[ii, jj, 1], pre2d[ii, jj, 2]
                     elif pre:
                         cr = _bilerp(pre2d, 0, i0, i1, fi, j0, j1, fj)
@@ -1496,6 +1653,7 @@ def _refined(vol, grad, has_grad, codes, light, subs, pz0, py0, px0, sz, sy, sx,
         w0, w1, fw, aq, cr, cg, cb = _sub_look(vol, sub2d, pz0, py0, px0, sz, sy, sx, q, nsub,
                                                vs, v0, u0, u1, fu, j0, j1, fj)  # fmt: skip
         if aq > 0.0:
+            f, sp = 1.0, 0.0
             if shade:
                 tq = t0 + (q - 0.5) * (step / nsub)
                 f, sp = _light_at(
@@ -1503,8 +1661,7 @@ def _refined(vol, grad, has_grad, codes, light, subs, pz0, py0, px0, sz, sy, sx,
                     ox + tq * dx, nz, ny, nx, gscale, vz, vy, vx, gmin, ka, kd, ks, shin,
                     ishin, whole,
                 )  # fmt: skip
-                cr, cg, cb = cr * f + sp * aq, cg * f + sp * aq, cb * f + sp * aq
-            ar, ag, ab, aa, done = _sub_over(ar, ag, ab, aa, cr, cg, cb, aq, ert)
+            ar, ag, ab, aa, done = _lit_over(ar, ag, ab, aa, cr, cg, cb, aq, f, sp, ert)
             if done:
                 return ar, ag, ab, aa, True
         u0, u1, fu = w0, w1, fw
@@ -1531,6 +1688,35 @@ def _refined_plain(vol, sub2d, pz0, py0, px0, sz, sy, sx, nsub, vs, v0, u0, u1, 
                 return ar, ag, ab, aa, True
         u0, u1, fu = w0, w1, fw
     return ar, ag, ab, aa, False
+
+
+@kernel(nrt=False, contract=True)
+def _refined_lit(vol, codes, light, sub2d, pz0, py0, px0, sz, sy, sx, nsub, vs, v0, u0, u1, fu,
+                 j0, j1, fj, oz, oy, ox, dz, dy, dx, t0, step, ert, ar, ag, ab, aa):  # fmt: skip
+    """:func:`_refined` of an orthographic Phong frame lit through the quantised normal
+    ``codes`` (``shade`` 2; the same sums in the same order), called with the table of
+    its ``nsub`` sub-segments and the codes alone: nothing of the gradients, the
+    shading constants or the other tables (as :func:`_refined_plain` for unshaded
+    frames; session 37)."""
+    for q in range(1, nsub + 1):
+        w0, w1, fw, aq, cr, cg, cb = _sub_look(vol, sub2d, pz0, py0, px0, sz, sy, sx, q, nsub,
+                                               vs, v0, u0, u1, fu, j0, j1, fj)  # fmt: skip
+        if aq > 0.0:
+            tq = t0 + (q - 0.5) * (step / nsub)
+            f, sp = lit_codes(vol, codes, light, oz + tq * dz, oy + tq * dy, ox + tq * dx)
+            ar, ag, ab, aa, done = _lit_over(ar, ag, ab, aa, cr, cg, cb, aq, f, sp, ert)
+            if done:
+                return ar, ag, ab, aa, True
+        u0, u1, fu = w0, w1, fw
+    return ar, ag, ab, aa, False
+
+
+@kernel(inline=True)
+def _lit_over(ar, ag, ab, aa, cr, cg, cb, aq, f, sp, ert):
+    """:func:`_sub_over` of a sub-segment lit by the Phong factors ``(f, sp)``
+    (:func:`_light_at`; ``(1, 0)`` leaves it as it is)."""
+    return _sub_over(ar, ag, ab, aa, cr * f + sp * aq, cg * f + sp * aq, cb * f + sp * aq, aq,
+                     ert)  # fmt: skip
 
 
 @kernel(inline=True)
@@ -1891,7 +2077,9 @@ def render(
     preint_method : {"fast", "exact"}
         Passed to :func:`volpack.render.preint.preintegrate`.
     value_range : (lo, hi)
-        The value interval the tables span; default the finite data range.
+        The value interval the tables span (default the finite data range), or the
+        TF's points within it where they cover less than :data:`NARROW_SHARE` of it (a
+        fill value or an outlier; values beyond take the TF's end values).
     table_size : int
         Entries of the TF table (and of each side of the 2-D tables). Pre-integrated
         tables smooth at the entry scale are read at the nearest entry (module
@@ -1973,6 +2161,9 @@ def render(
         if not (math.isfinite(lo) and math.isfinite(hi)):
             raise VolpackError(f"expected a finite value range, found {value_range}")
     lo, hi = nonempty_range(lo, hi)
+    narrowed = False
+    if not paged and not isos and frange is not None:  # the CLI passes the data range
+        lo, hi, narrowed = tf_span(tf, lo, hi)
     scale = (n - 1) / (hi - lo)
 
     # tables
@@ -2084,14 +2275,14 @@ def render(
     nsub = int(refine) if has_vol and mode == 2 else 1
     subs = tables.subs(nsub) if nsub > 1 else pre2d[None]
     near = has_vol and mode == 2 and NEAREST and tables.nearest()
-    refine_k = np.array([nsub, REFINE_OPACITY, float(near), REFINE_BEND, float(LEAN_REFINE)],
-                        np.float64)  # fmt: skip
+    refine_k = np.array([nsub, REFINE_OPACITY, float(near), REFINE_BEND, float(LEAN_REFINE),
+                         float(narrowed)], np.float64)  # fmt: skip
     if fast and paged and shading == "phong" and volume.grad is not None:
         grad, has_grad = volume.grad, True  # the nodes' gradient bricks
     if fast:
         march = _MARCH[mode == 2, 2 if has_codes else int(shading == "phong")]
-        if mode == 2 and shading == "none" and near and NEAR_RUN:
-            march = _NEAR_MARCH
+        if mode == 2 and shading == "none" and near and NEAR_RUN and not narrowed:
+            march = _NEAR_MARCH  # (its runs hold no clipped segment)
         clear = tables.clear(mode == 0)
 
         tiles = np.append(np.arange(0, w, TILE_COLS, dtype=np.int64), np.int64(w))
@@ -2302,6 +2493,20 @@ def band_end(rows, k0, band):
     while k1 < rows.shape[0] and k1 - k0 < band and rows[k1] == rows[k1 - 1] + 1:
         k1 += 1
     return k1
+
+
+def tf_span(tf, lo: float, hi: float) -> tuple[float, float, bool]:
+    """The range the tables span for data range ``[lo, hi]``: ``(lo, hi, False)``, or
+    the TF's points clipped to it, ``(a, b, True)``, when those cover less than
+    :data:`NARROW_SHARE` of it (a fill value or an outlier far from what the TF
+    shows). Only a :class:`TransferFunction` has points; a table spans the range."""
+    pts = getattr(tf, "points", None)
+    if not pts:
+        return lo, hi, False
+    a, b = max(lo, float(pts[0][0])), min(hi, float(pts[-1][0]))
+    if not (b > a and (b - a) < NARROW_SHARE * (hi - lo)):
+        return lo, hi, False
+    return a, b, True
 
 
 def transfer_table(tf, lo, hi, n) -> np.ndarray:
