@@ -313,7 +313,8 @@ def documented_presets() -> set[str]:
     names = set()
     for text in texts:
         flat = re.sub(r"-\s+", "-", " ".join(text.split()))  # help text wraps at hyphens
-        names |= set(re.findall(r"--tf ([a-z][a-z0-9-]*)\b", flat))
+        # a name, not a file (``--tf wind.json``)
+        names |= set(re.findall(r"--tf ([a-z][a-z0-9-]*)\b(?!\.\w|/)", flat))
         for group in re.findall(r"a preset \(([^)]*)\)", flat):
             names |= {n.strip() for n in group.split(",")}
     return names - {"auto", "my_tf"}  # my_tf: the README's example of a JSON file
