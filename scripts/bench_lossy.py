@@ -1070,6 +1070,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.from_csv:
         rows = read_csv(args.from_csv)
         out = args.out or args.from_csv.parent
+        out.mkdir(parents=True, exist_ok=True)
         done = list(dict.fromkeys(r["dataset"] for r in rows))
         write_table(rows, done, [], args, out)
         write_lead(rows, out)
