@@ -505,12 +505,13 @@ def warm_up(m: Method, x: np.ndarray, setting: float) -> None:
 
 
 def run_dataset(
-    entry: str, methods: list[Method], quick: bool, repeat: int, fill: float | None = None
+    entry: str, methods: list[Method], quick: bool, repeat: int, fill: float | None = None,
+    crop: int | None = None,
 ) -> list[dict]:
     a, desc = load_dataset(entry)
     name = dataset_name(entry)
-    if quick:
-        a = center_crop(a, 64)
+    if quick or crop:
+        a = center_crop(a, crop or 64)
     ds_kind = "float" if a.dtype.kind == "f" else "int"
     if not np.all(np.isfinite(a)):
         raise ValueError(f"{name}: NaN/Inf voxels; this benchmark needs finite data")
@@ -1053,6 +1054,13 @@ def main(argv: list[str] | None = None) -> int:
         help="missing data in every float dataset that holds it: volpack gets fill_value=V, "
         "the peers the nearest other voxel's value there; errors over the other voxels",
     )
+    p.add_argument(
+        "--crop",
+        type=int,
+        default=None,
+        help="a centre crop of N voxels along each axis (every bound and target kept): "
+        "TTHRESH's WebAssembly build traps on many volumes of 96^3 and more",
+    )
     p.add_argument("--repeat", type=int, default=2, help="timing repeats, best kept (default 2)")
     p.add_argument(
         "--out",
@@ -1103,7 +1111,9 @@ def main(argv: list[str] | None = None) -> int:
     rows = []
     for name in names:
         try:
-            rows += run_dataset(name, methods, args.quick, args.repeat, args.fill_value)
+            rows += run_dataset(
+                name, methods, args.quick, args.repeat, args.fill_value, args.crop
+            )
         except Exception as exc:
             warn(f"{name}: skipped ({type(exc).__name__}: {exc})")
             notes.append(f"dataset {name}: skipped ({exc})")
