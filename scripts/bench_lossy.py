@@ -10,6 +10,14 @@ them); integer volumes ``range * (1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2)``, keeping
     python scripts/bench_lossy.py                                # default datasets, full size
     python scripts/bench_lossy.py --quick --datasets ct_head,zmap_neurovault
     python scripts/bench_lossy.py --methods zfp,sz3,sperr        # peers only
+    python scripts/bench_lossy.py --datasets a.npy,b.npy --fill-value 1e35  # .npy files
+
+A ``--datasets`` entry ending in ``.npy`` is a file (named by its stem; float or integer,
+any number of axes the methods take). ``--fill-value V`` declares V as missing data in
+every dataset that holds it: volpack gets ``fill_value=V`` (and must give those voxels back
+exactly); the peers, which have no such option, get a copy with each of them set to its
+nearest other voxel's value (the mask is the user's to keep); bounds, PSNR's peak, max
+error and RMSE are over the other voxels.
 
 The float corpus (``scripts/datasets.py``) is split in two: fields volpack's settings were
 tuned on (``TUNE_FIELDS``) and fields kept aside to check them (``VALIDATION_FIELDS``);
@@ -189,14 +197,14 @@ def _volpack_method(name: str, **extra) -> Method:
 
     if name == "volpack-psnr":
 
-        def enc(x, p):
-            blob = api.compress_array(x, psnr=float(p), **extra)
+        def enc(x, p, **kw):
+            blob = api.compress_array(x, psnr=float(p), **extra, **kw)
             return blob, len(blob)
 
         return Method(name, enc, lambda b, x: api.decompress_array(b), False, "psnr")
 
-    def enc(x, e):
-        blob = api.compress_array(x, max_error=float(e), **extra)
+    def enc(x, e, **kw):
+        blob = api.compress_array(x, max_error=float(e), **extra, **kw)
         return blob, len(blob)
 
     return Method(name, enc, lambda b, x: api.decompress_array(b), False)
@@ -377,6 +385,45 @@ def float_copy(a: np.ndarray) -> np.ndarray:
     return peer_codecs.float_copy(a)
 
 
+def load_dataset(entry: str) -> tuple[np.ndarray, str]:
+    """The array and description of a corpus dataset, or of a ``.npy`` file."""
+    if entry.endswith(".npy"):
+        a = np.load(entry)
+        if a.dtype.kind not in "fiu":
+            raise TypeError(f"{entry}: expected float or integer voxels, found {a.dtype}")
+        a = np.ascontiguousarray(a, dtype=a.dtype.newbyteorder("="))
+        return a, f"{entry}, {a.dtype}"
+    a, _spacing, desc = datasets.load(entry)
+    return a, desc
+
+
+def dataset_name(entry: str) -> str:
+    """A ``.npy`` file is named by its stem."""
+    return Path(entry).stem if entry.endswith(".npy") else entry
+
+
+def fill_mask(a: np.ndarray, fill: float | None) -> np.ndarray | None:
+    """Where a float array holds the declared fill value (None: nowhere, or no fill)."""
+    if fill is None or a.dtype.kind != "f":
+        return None
+    mask = a == a.dtype.type(fill)
+    return mask if mask.any() else None
+
+
+def peer_copy(a: np.ndarray, mask: np.ndarray | None) -> np.ndarray:
+    """What the peers get: :func:`float_copy`, each fill voxel set to its nearest other
+    voxel's value (they have no fill option; the mask is kept by the user)."""
+    x = float_copy(a)
+    if mask is None:
+        return x
+    if mask.all():
+        raise ValueError("every voxel holds the fill value")
+    from scipy import ndimage
+
+    idx = ndimage.distance_transform_edt(mask, return_distances=False, return_indices=True)
+    return np.ascontiguousarray(x[tuple(idx)])
+
+
 def bounds_for(a: np.ndarray) -> list[float]:
     vrange = float(a.max()) - float(a.min())
     rel = FLOAT_REL_BOUNDS if a.dtype.kind == "f" else INT_REL_BOUNDS
@@ -391,11 +438,14 @@ def bounds_for(a: np.ndarray) -> list[float]:
 
 
 def measure(
-    m: Method, x: np.ndarray, a: np.ndarray, setting: float, repeat: int, encode=None
+    m: Method, x: np.ndarray, a: np.ndarray, setting: float, repeat: int, encode=None,
+    mask: np.ndarray | None = None,
 ) -> dict:
     """Encode/decode ``x`` ``repeat`` times; errors against the original ``a`` in float64.
 
-    ``encode`` replaces ``m.encode`` (the configuration ``m.choose`` picked)."""
+    ``encode`` replaces ``m.encode`` (the configuration ``m.choose`` picked). ``mask``:
+    the fill voxels, left out of the errors; a method given the fill value (volpack)
+    must give them back exactly, else its bound counts as missed."""
     raw = a.nbytes
     t_enc, t_dec = math.inf, math.inf
     blob = nbytes = out = None
@@ -413,6 +463,11 @@ def measure(
     out = np.asarray(out)
     if out.shape != a.shape:
         raise ValueError(f"decoded shape {out.shape}, expected {a.shape}")
+    fill_lost = False
+    if mask is not None:
+        if not m.float_input:  # given the fill value: those voxels back bit for bit
+            fill_lost = not np.array_equal(out[mask].view(np.uint8), a[mask].view(np.uint8))
+        out, a = out[~mask], a[~mask]
     ref = a.astype(np.float64)
     diff = out.astype(np.float64) - ref
     if not np.all(np.isfinite(diff)):
@@ -431,9 +486,11 @@ def measure(
         "encode_MBps": raw / t_enc / 1e6,
         "decode_MBps": raw / t_dec / 1e6,
     }
+    if fill_lost:
+        row["fill_lost"] = True
     if m.settings == "bound":
         row["bound"] = setting
-        row["bound_ok"] = max_err <= setting
+        row["bound_ok"] = max_err <= setting and not fill_lost
         row["excess"] = max(0.0, max_err - setting)
     else:
         row["bound"] = ""
@@ -447,22 +504,29 @@ def warm_up(m: Method, x: np.ndarray, setting: float) -> None:
     m.decode(m.encode(center_crop(x, 16), setting)[0], center_crop(x, 16))
 
 
-def run_dataset(name: str, methods: list[Method], quick: bool, repeat: int) -> list[dict]:
-    a, _spacing, desc = datasets.load(name)
-    if quick:
-        a = center_crop(a, 64)
+def run_dataset(
+    entry: str, methods: list[Method], quick: bool, repeat: int, fill: float | None = None,
+    crop: int | None = None,
+) -> list[dict]:
+    a, desc = load_dataset(entry)
+    name = dataset_name(entry)
+    if quick or crop:
+        a = center_crop(a, crop or 64)
     ds_kind = "float" if a.dtype.kind == "f" else "int"
     if not np.all(np.isfinite(a)):
         raise ValueError(f"{name}: NaN/Inf voxels; this benchmark needs finite data")
-    vrange = float(a.max()) - float(a.min())
-    xf = float_copy(a)
-    bounds = bounds_for(a)
+    mask = fill_mask(a, fill)
+    valid = a if mask is None else a[~mask]
+    vrange = float(valid.max()) - float(valid.min())
+    xf = peer_copy(a, mask)
+    bounds = bounds_for(valid)
     targets = list(PSNR_TARGETS)
     if quick:
         bounds, targets = bounds[::2], targets[::2]
     print(
         f"\n== {name}: {a.shape} {a.dtype}, range {vrange:g}, {a.nbytes / 1e6:.1f} MB"
-        f" -- {desc}\n   bounds {bounds}",
+        f" -- {desc}\n   bounds {bounds}"
+        + ("" if mask is None else f"\n   fill {fill:g} on {mask.mean():.2%} of the voxels"),
         flush=True,
     )
     base = {
@@ -492,10 +556,15 @@ def run_dataset(name: str, methods: list[Method], quick: bool, repeat: int) -> l
             label = {"quality": f"quality={s}", "psnr": f"PSNR={s:g}"}.get(m.settings, f"E={s:g}")
             try:
                 config, enc = m.choose(x, s) if m.choose else ("", None)
-                r = measure(m, x, a, s, repeat, enc)
+                if mask is not None and not m.float_input:
+                    enc = lambda x_, s_, _e=m.encode: _e(x_, s_, fill_value=fill)  # noqa: E731
+                    config = f"fill_value={fill:g}"
+                r = measure(m, x, a, s, repeat, enc, mask)
             except Exception as exc:
                 warn(f"{name}/{m.name} {label}: {type(exc).__name__}: {exc}")
                 continue
+            if r.pop("fill_lost", False):
+                config += " (fill voxels NOT restored)"
             r.update(base, method=m.name, setting=label, input_dtype=str(x.dtype), config=config)
             rows.append(r)
             ok = "" if r["bound_ok"] == "" else ("  ok" if r["bound_ok"] else "  BOUND VIOLATED")
@@ -978,6 +1047,20 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="64^3 center crop of each volume, bounds 1e-2 and 1e-4 of the range, one repeat",
     )
+    p.add_argument(
+        "--fill-value",
+        type=float,
+        default=None,
+        help="missing data in every float dataset that holds it: volpack gets fill_value=V, "
+        "the peers the nearest other voxel's value there; errors over the other voxels",
+    )
+    p.add_argument(
+        "--crop",
+        type=int,
+        default=None,
+        help="a centre crop of N voxels along each axis (every bound and target kept): "
+        "TTHRESH's WebAssembly build traps on many volumes of 96^3 and more",
+    )
     p.add_argument("--repeat", type=int, default=2, help="timing repeats, best kept (default 2)")
     p.add_argument(
         "--out",
@@ -995,6 +1078,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.from_csv:
         rows = read_csv(args.from_csv)
         out = args.out or args.from_csv.parent
+        out.mkdir(parents=True, exist_ok=True)
         done = list(dict.fromkeys(r["dataset"] for r in rows))
         write_table(rows, done, [], args, out)
         write_lead(rows, out)
@@ -1008,7 +1092,7 @@ def main(argv: list[str] | None = None) -> int:
     names = []
     for n in args.datasets.replace(" ", ",").split(","):
         names += GROUPS.get(n, [n] if n else [])
-    unknown = [n for n in names if n not in datasets.DATASETS]
+    unknown = [n for n in names if n not in datasets.DATASETS and not n.endswith(".npy")]
     if unknown:
         p.error(f"unknown dataset(s) {', '.join(unknown)}; known: {', '.join(datasets.DATASETS)}")
     wanted = [m for m in args.methods.replace(" ", ",").split(",") if m]
@@ -1027,13 +1111,15 @@ def main(argv: list[str] | None = None) -> int:
     rows = []
     for name in names:
         try:
-            rows += run_dataset(name, methods, args.quick, args.repeat)
+            rows += run_dataset(
+                name, methods, args.quick, args.repeat, args.fill_value, args.crop
+            )
         except Exception as exc:
             warn(f"{name}: skipped ({type(exc).__name__}: {exc})")
             notes.append(f"dataset {name}: skipped ({exc})")
 
     write_csv(rows, out / "lossy.csv")
-    done = [n for n in names if any(r["dataset"] == n for r in rows)]
+    done = [dataset_name(n) for n in names if any(r["dataset"] == dataset_name(n) for r in rows)]
     write_table(rows, done, notes, args, out)
     write_lead(rows, out)
     write_speed(rows, out)

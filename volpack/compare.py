@@ -51,6 +51,11 @@ def compare(vol: Volume | np.ndarray, *, warm: bool = False, **options: Any) -> 
         ):
             raise AssertionError("the decoder did not give back the NaN/Inf voxels exactly")
         left_out = ~finite if left_out is None else left_out | ~finite
+        filled = _fill_voxels(vol, options)
+        if filled is not None:  # as NaN: back bit for bit, and out of the error and peak
+            if not np.array_equal(a[filled].view(np.uint8), b[filled].view(np.uint8)):
+                raise AssertionError("the decoder did not give back the fill voxels exactly")
+            left_out = left_out | filled
     m = metrics.summary(a, b, len(blob), mask=left_out)
     out = {
         "shape": list(vol.shape),
@@ -73,6 +78,22 @@ def compare(vol: Volume | np.ndarray, *, warm: bool = False, **options: Any) -> 
         out["dec_seconds_warm"] = warm_seconds
         out["dec_mb_s_warm"] = metrics.throughput(vol.nbytes, warm_seconds)
     return out
+
+
+def _fill_voxels(vol: Volume, options: dict[str, Any]) -> np.ndarray | None:
+    """Where a float volume holds the fill value the coding was given (``fill_value``,
+    else the one its source declares, as the encoder takes it under a lossy setting):
+    the encoder keeps those voxels exactly and leaves them out of its bound, its value
+    range and its PSNR target, so the measure leaves them out too. None: no such voxel."""
+    from .volume import declared_fill
+
+    fill = options.get("fill_value")
+    if fill is None:
+        fill = declared_fill(vol)
+    if fill is None:
+        return None
+    filled = vol.data == fill
+    return filled if filled.any() else None
 
 
 def measure(reference: Volume | np.ndarray, test: Volume | np.ndarray) -> dict[str, Any]:

@@ -577,6 +577,39 @@ def test_compare_measures_float_errors_over_the_finite_voxels(tmp_path):
     assert not r["lossless"]
 
 
+def test_compare_leaves_the_fill_value_out_of_its_errors_and_psnr(tmp_path):
+    """Session 37 (psnr37): with --fill-value, compare reported the PSNR with the fill
+    (1e35) as its peak, 700 dB, where the encoder's own search had reached its target
+    over the other voxels; the fill voxels now leave the measure (as NaN does) and must
+    come back bit for bit."""
+    a = (smooth_volume((12, 20, 24), np.int16, noise=8.0) / 7.0).astype(np.float32)
+    a[:3, :5] = 1e35
+    np.save(tmp_path / "a.npy", a)
+    args = ("--fill-value", "1e35", "--json")
+    r = json.loads(run("compare", tmp_path / "a.npy", "--max-error", "0.5", *args).stdout)
+    run("compress", tmp_path / "a.npy", tmp_path / "a.vpk", "--max-error", "0.5", "--fill-value", "1e35")
+    run("decompress", tmp_path / "a.vpk", tmp_path / "b.npy")
+    b = np.load(tmp_path / "b.npy")
+    ok = a != np.float32(1e35)
+    assert np.array_equal(b[~ok], a[~ok])
+    d = b[ok].astype(np.float64) - a[ok]
+    assert 0 < r["max_error"] <= 0.5 and r["max_error"] == pytest.approx(np.abs(d).max())
+    peak = float(a[ok].max() - a[ok].min())
+    assert r["psnr"] == pytest.approx(10 * np.log10(peak**2 / (d**2).mean()))
+    assert r["rmse"] == pytest.approx(np.sqrt((d**2).mean()))
+
+
+@pytest.mark.slow
+def test_compare_at_a_psnr_target_with_a_fill_value_reports_the_psnr_reached(tmp_path):
+    """The same (psnr37) under --psnr: compare's PSNR is the one the search reached."""
+    a = (smooth_volume((12, 20, 24), np.int16, noise=8.0) / 7.0).astype(np.float32)
+    a[:3, :5] = 1e35
+    np.save(tmp_path / "a.npy", a)
+    r = run("compare", tmp_path / "a.npy", "--psnr", "40", "--fill-value", "1e35", "--json")
+    r = json.loads(r.stdout)
+    assert r["psnr"] == pytest.approx(r["compress"]["psnr"]) and abs(r["psnr"] - 40) < 0.5
+
+
 def test_compare_measures_a_second_volume_against_the_first(tmp_path):
     a = (smooth_volume((6, 7, 8), np.int16, noise=8.0) / 7.0).astype(np.float32)
     a[1, 2, 3], a[2, 3, 4] = np.nan, np.inf
