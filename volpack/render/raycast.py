@@ -198,8 +198,8 @@ NARROW_SHARE = 0.25
 #: segment of that value throughout), times the pixel's transmittance so far, is at least
 #: this (half a level of an 8-bit image): the extra samples move a segment's share of
 #: the pixel by about that much at most. On storm_u's semi-transparent frames three in
-#: four cut segments were fainter; their second samples took 12 % of the frame's CPU
-#: and changed its PSNR by under 0.05 dB (session 37, rend37b,
+#: four segments sampled again were fainter; their extra samples took 11-14 % of the
+#: frame's CPU and moved its PSNR by under 0.1 dB (session 37, rend37b,
 #: ``results/render/rend37b/probe_clip.txt``). 0: every cut segment sampled again.
 CLIP_MIN = 1.0 / 512.0
 #: Refinement: a pre-integrated segment carrying more than this share of its pixel's
