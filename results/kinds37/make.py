@@ -475,6 +475,8 @@ def main() -> None:
         if name in names:
             a = MAKERS[name](rng)
             np.save(d / f"{name}.npy", a)
+        if not (d / f"{name}.npy").exists():  # not asked for, not made before
+            continue
         a = np.load(d / f"{name}.npy", mmap_mode="r")
         kind = "float" if a.dtype.kind == "f" else "int"
         held = "held" if name in HELD_OUT else "tuned"
