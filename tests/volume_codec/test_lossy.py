@@ -395,6 +395,21 @@ def test_a_relative_bound_set_by_an_undeclared_fill_value_is_warned_of(caplog, v
     assert caplog.text == ""
 
 
+def test_a_psnr_target_over_a_range_an_undeclared_fill_value_sets_is_warned_of(caplog):
+    """A PSNR's peak is the value range: with 1e35 over land any target holds however far
+    off the temperatures come back, as a rel_error does (session 37)."""
+    f = field("smooth", (8, 16, 16), np.float32, 3) / 50 + 280
+    f[:2] = 1e35
+    with caplog.at_level("WARNING", logger="volpack.volume_codec.search"):
+        api.compress_array(f, psnr=60)
+    assert "psnr 60 dB is measured against the range" in caplog.text
+    assert "--fill-value 1e+35" in caplog.text
+    caplog.clear()
+    with caplog.at_level("WARNING", logger="volpack.volume_codec.search"):
+        api.compress_array(f[2:], psnr=60)
+    assert caplog.text == ""
+
+
 def test_no_sentinel_where_the_extreme_value_is_part_of_the_field():
     """Zero background of a scan (next value 1 of 255) and a field whose extremes are
     rare are not fill values."""

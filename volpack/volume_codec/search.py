@@ -69,6 +69,21 @@ def fill_sets_range(data: np.ndarray, lo: float, hi: float) -> tuple[float, floa
     return value, float(np.count_nonzero(sample == value)) / sample.size, a, b
 
 
+def _warn_fill_range(data: np.ndarray, lo: float, hi: float, setting: str) -> None:
+    """Log, after ``setting`` (what a relative bound or a PSNR target means on the range
+    ``lo..hi``), the value :func:`fill_sets_range` finds setting that range, and how to
+    keep it out; nothing where there is none."""
+    found = fill_sets_range(data, lo, hi)
+    if found is not None:
+        v, share, a, b = found
+        log.warning(
+            "%s: the value %g on %.3g %% of the voxels sets that range (the others span "
+            "%g..%g); if it marks missing data, give it as the fill value (--fill-value %g) "
+            "to keep it out of the range and store it exactly",
+            setting, v, 100 * share, a, b, v,
+        )  # fmt: skip
+
+
 def absolute_bound(what: str, target: float, rng: float) -> float:
     """The error bound in value units: ``max_error`` as it is, ``rel_error`` times the
     value range ``rng``."""
@@ -211,16 +226,9 @@ def plan(
         if not (e >= 0 and math.isfinite(e)):
             raise OptionError(f"expected a non-negative finite {what}, found {target!r}")
         if what == "rel_error" and dtype.kind == "f" and fill_value is None and e > 0:
-            found = fill_sets_range(vol.data, lo, hi)
-            if found is not None:
-                v, share, a, b = found
-                log.warning(
-                    "rel_error %g of the range %g..%g is a bound of %g: the value %g on %.3g %% "
-                    "of the voxels sets that range (the others span %g..%g); if it marks "
-                    "missing data, give it as the fill value (--fill-value %g) to keep it "
-                    "out of the range and store it exactly",
-                    target, lo, hi, e, v, 100 * share, a, b, v,
-                )  # fmt: skip
+            _warn_fill_range(
+                vol.data, lo, hi, f"rel_error {target:g} of the range {lo:g}..{hi:g} is a bound of {e:g}"
+            )
         if e == 0 and dtype.kind == "f":
             raise OptionError(
                 "an error bound of 0 on float voxels is lossless coding: leave out the lossy "
@@ -242,6 +250,10 @@ def plan(
     if what == "psnr":
         if not target > 0:
             raise OptionError(f"expected a positive psnr in dB, found {target!r}")
+        if dtype.kind == "f" and fill_value is None:  # its peak is the range, as rel_error's
+            _warn_fill_range(
+                vol.data, lo, hi, f"psnr {target:g} dB is measured against the range {lo:g}..{hi:g}"
+            )
     elif what == "ratio":
         if not target > 1:
             raise OptionError(f"expected a ratio above 1, found {target!r}")
