@@ -56,6 +56,9 @@ def test_a_fill_value_leaves_the_tf_its_table(fill, given):
     assert err.mean() < 3e-3
 
 
+# a guard (it passes on the code before the cut segments too) that compiles the general
+# kernel's lit path for its own case: about 12 s on an empty cache, in the slow set
+@pytest.mark.slow
 def test_clipped_segments_agree_between_the_kernels():
     """The fast march and the general kernel (perspective frames, isosurfaces) cut the
     same segments the same way."""
