@@ -284,18 +284,15 @@ class LosslessCodec(BrickCodec):
         if brick.dtype == np.bool_:  # a mask: coded as its bytes, 0 and 1 (uint8's payload)
             return self.encode(brick.view(np.uint8))
         best = self._encode(brick)
-        if not REPEAT or self.predict_version < REPEAT_VERSION or best[0] == MODE_CONSTANT:
+        if best[0] == MODE_CONSTANT:
             return best
-        runs = repeat.find(brick)
+        runs = repeat.find(brick) if REPEAT and self.predict_version >= REPEAT_VERSION else None
         if runs is not None:  # slices in equal runs: the shrunk brick as any, if shorter
             payload = bytes([MODE_REPEAT]) + repeat.pack(runs) + self._encode(repeat.shrink(brick, runs))
-            if len(payload) < min((1 - REPEAT_MIN_SAVING) * len(best), len(best) - REPEAT_MIN_BYTES):
-                best = payload
+            best = _smaller_kept(payload, best)
         axes = mirror.find(brick) if MIRROR and self.predict_version >= MIRROR_VERSION else 0
         if axes:  # its own mirror image: the first half as any brick, if shorter
-            payload = bytes([MODE_MIRROR, axes]) + self._encode(mirror.shrink(brick, axes))
-            if len(payload) < min((1 - REPEAT_MIN_SAVING) * len(best), len(best) - REPEAT_MIN_BYTES):
-                best = payload
+            best = _smaller_kept(bytes([MODE_MIRROR, axes]) + self._encode(mirror.shrink(brick, axes)), best)
         return best
 
     def _encode(self, brick: np.ndarray) -> bytes:
@@ -460,6 +457,14 @@ class LosslessCodec(BrickCodec):
         if dtype.kind != "f":
             raise FormatError(f"lossless {dtype} brick payload: expected mode 1 to 4, 6 or 7, found {mode}")
         raise FormatError(f"lossless float brick payload: expected mode 1 to 7, found {mode}")
+
+
+def _smaller_kept(payload: bytes, best: bytes) -> bytes:
+    """``payload`` (a smaller brick's: mode 6 or 7) where it is shorter than ``best`` by
+    :data:`REPEAT_MIN_SAVING` and :data:`REPEAT_MIN_BYTES`, else ``best``."""
+    if len(payload) < min((1 - REPEAT_MIN_SAVING) * len(best), len(best) - REPEAT_MIN_BYTES):
+        return payload
+    return best
 
 
 def check_dtype(dtype: np.dtype) -> None:
