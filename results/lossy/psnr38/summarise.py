@@ -39,16 +39,16 @@ def main():
           "tries, s | bpv after / before |")  # fmt: skip
     print("|---|---:|---|---|---:|")
     rows = []
+    def fmt(c):
+        w = " (warned)" if c["warn"] else ""
+        return f"{c['bpv']:.4f}, {c['psnr']:.2f}{w}, {c['tries']}, {c['sec']:.1f} ({c['codec']})"
+
     for key in after:
-        if key not in base:
+        a = cell(after[key])
+        if key not in base:  # not run before (yet)
+            print(f"| {key[0]} | {key[1]:g} | - | {fmt(a)} | - |")
             continue
-        b, a = cell(base[key]), cell(after[key])
-
-        def fmt(c):
-            w = " (warned)" if c["warn"] else ""
-            return (f"{c['bpv']:.4f}, {c['psnr']:.2f}{w}, {c['tries']}, {c['sec']:.1f} "
-                    f"({c['codec']})")  # fmt: skip
-
+        b = cell(base[key])
         x = a["bpv"] / b["bpv"]
         rows.append((key, b, a, x))
         print(f"| {key[0]} | {key[1]:g} | {fmt(b)} | {fmt(a)} | {x:.3f} |")
