@@ -247,6 +247,22 @@ def test_a_psnr_target_chooses_each_bricks_coding_by_rate_and_distortion():
     assert (rec[a == 0] == 0).all()
 
 
+def test_a_slower_coding_under_a_psnr_target_must_save_its_share_of_the_bytes_not_the_cost():
+    """keep_faster's SLOW_MIN_SAVING on the bytes: charged on the cost (bytes plus the
+    distortion's share) it kept isabel_pfill's faster coding at 80 dB, 2.1 % longer at the
+    same PSNR (session 38)."""
+    from volpack.volume_codec.lossy import SLOW_MIN_SAVING, keep_faster
+
+    fast = Measured(bytes(1000), 1.0, 4000.0, 100)
+    slow = Measured(bytes(int(1000 * (1 - 1.5 * SLOW_MIN_SAVING))), 1.0, 4000.0, 100)
+    def cost(m):
+        return len(m.payload) + m.sse
+    assert keep_faster([(0, fast), (1, slow)], SLOW_MIN_SAVING, cost) is slow
+    assert keep_faster([(0, fast), (1, slow)], SLOW_MIN_SAVING) is slow  # by bytes alike
+    slower = Measured(bytes(int(1000 * (1 - 0.5 * SLOW_MIN_SAVING))), 1.0, 4000.0, 100)
+    assert keep_faster([(0, fast), (1, slower)], SLOW_MIN_SAVING, cost) is fast
+
+
 def test_the_psnr_search_never_keeps_a_try_another_beats_in_size_and_psnr():
     from volpack.volume_codec.search import _undominated
 
