@@ -23,7 +23,7 @@ from ..parallel import ordered_map
 from ..volume import Volume
 from . import bricks
 from .floatwave import FLOAT_WAVELETS, FloatWaveletCodec
-from .lossy import EFFORTS, BoundedCodec, CoefCodec
+from .lossy import EFFORTS, RD_WEIGHT, BoundedCodec, CoefCodec
 from .protocol import check_choice
 from .specials import sentinel, special_voxels
 
@@ -218,8 +218,13 @@ def plan(
 
     grid = None  # the data's own grid, for an error bound (not searched for a target)
 
+    # under a PSNR target each brick's coding is chosen by rate and distortion (RD_WEIGHT)
+    rd = RD_WEIGHT if what == "psnr" else None
+
     def bounded(e: float) -> BoundedCodec:
-        return BoundedCodec.plan(dtype, lo, hi, e, grid, fill=fill_value, effort=effort, **inner)
+        return BoundedCodec.plan(
+            dtype, lo, hi, e, grid, fill=fill_value, effort=effort, rd=rd, **inner
+        )
 
     if what in ("max_error", "rel_error"):
         e = absolute_bound(what, target, rng)
@@ -335,6 +340,27 @@ def _closest(whole: list[tuple[float, float]], what: str, target: float) -> tupl
     raise AssertionError("no whole-volume try")
 
 
+def _undominated(
+    best: tuple[float, float], whole: list[tuple[float, float]], sizes: dict[float, int]
+) -> tuple[float, float]:
+    """``best`` (a knob value and the PSNR it reached), or where another whole-volume try
+    of ``whole`` codes no longer and reaches no lower PSNR (``sizes``: their bytes), the
+    shortest of those, then the highest PSNR. PSNR is not monotone in the knob (a brick's
+    coding changes with the bound), so the try the search ended on can be beaten in both
+    by one made before it."""
+    if best[0] not in sizes:
+        return best
+    won = [
+        (sizes[e], -m, e)
+        for e, m in whole
+        if e in sizes and sizes[e] <= sizes[best[0]] and m >= best[1]
+    ]
+    if not won:
+        return best
+    _, m, e = min(won)
+    return e, -m
+
+
 def _search(
     vol, brick, workers, what, target, make: Callable, rng: float, knob: str, sizes=None,
     first: float = 1.0, start: float | None = None,
@@ -350,6 +376,7 @@ def _search(
     pick = np.linspace(0, len(every) - 1, min(SAMPLE_BRICKS, len(every))).round().astype(int)
     sample = [every[i] for i in sorted(set(pick.tolist()))]
     container = CONTAINER_BYTES + BRICK_BYTES * len(every)
+    whole_sizes = {} if sizes is None else sizes  # payload bytes of each whole-volume try
 
     def score(e: float, tasks) -> float:
         c = make(e)
@@ -363,8 +390,8 @@ def _search(
         size = sse = n = raw = 0
         for a, b2, c2, d in ordered_map(one, tasks, workers):
             size, sse, n, raw = size + a, sse + b2, n + c2, raw + d
-        if sizes is not None and tasks is every:
-            sizes[e] = size
+        if tasks is every:
+            whole_sizes[e] = size
         if what == "ratio":  # the file's ratio: the sample carries its share of the container
             return raw / max(size + container * raw / frames.nbytes, 1)
         return psnr_from_sse(sse, n, rng)
@@ -419,6 +446,8 @@ def _search(
             tried.append((e, m_all, "all"))
             whole = [(e, m_all)]
         best = _closest(whole, what, target)
+    if what == "psnr":
+        best = _undominated(best, [(e, m) for e, m, s in tried if s == "all"], whole_sizes)
     record = {
         "target": what,
         "value": target,
