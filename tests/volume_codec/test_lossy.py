@@ -198,13 +198,17 @@ def test_unreachable_target_reports_the_closest(brain):
 
 
 def test_a_missed_target_keeps_the_nearest_within_tolerance_then_the_safe_side(caplog):
-    from volpack.volume_codec.search import _closest
+    from volpack.volume_codec.search import _closest, _warned
 
     # (setting, what the whole volume reached): within 0.5 dB wins, however near others are
     assert _closest([(1.0, 49.45), (2.0, 50.3), (3.0, 49.9)], "psnr", 50) == (3.0, 49.9)
     # a jump from 49.48 to 50.93 dB: the PSNR at or above the target, though further off
     with caplog.at_level("WARNING", logger="volpack.volume_codec.search"):
         assert _closest([(0.95, 49.48), (0.91, 50.93), (0.5, 61.2)], "psnr", 50) == (0.91, 50.93)
+        assert not caplog.text  # a search's miss is told for the record kept, not each search
+        _warned((None, {"target": "psnr", "value": 40.0, "reached": 40.33}))
+        assert not caplog.text
+        _warned((None, {"target": "psnr", "value": 50.0, "reached": 50.93}))
     assert "psnr 50: not reached within 0.5 dB by any setting tried; kept 50.93" in caplog.text
     assert _closest([(0.95, 41.0), (1.2, 38.0)], "psnr", 50) == (0.95, 41.0)  # none above
     # a ratio: a file no larger than asked (7.2 is nearer to 8 than 9.1 in log terms too)
