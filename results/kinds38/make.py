@@ -289,17 +289,20 @@ def shock_u8(rng):
     return np.clip(np.rint(v), 0, 255).astype(np.uint8)
 
 
-def _exafel(rng, n=24, size=128):
+def _exafel(rng, n=24, size=128, parts=None):
     """EXAFEL-like detector frames (x-ray free-electron laser shots): photons per pixel
     (Poisson) of a diffuse ring plus Bragg spots that move from shot to shot, times a
     gain of 30 ADU, read noise 3 ADU after dark subtraction; 2 x 2 panels with gaps of 0;
-    0.4 % dead pixels (0) and 0.05 % hot pixels (saturated 16383) fixed over the stack."""
+    0.4 % dead pixels (0) and 0.05 % hot pixels (saturated 16383) fixed over the stack.
+    ``parts``, a dict, gets the photon rates ``lam`` (n, size, size) and the pixels that
+    are live (noise_bound.py)."""
     yy, xx = np.meshgrid(
         np.arange(size) - size / 2 + 0.5, np.arange(size) - size / 2 + 0.5, indexing="ij"
     )
     r = np.hypot(yy, xx)
     ring = 0.08 + 0.6 * np.exp(-(((r - 38) / 6) ** 2)) + 0.3 / (1 + r / 10)
     frames = np.empty((n, size, size))
+    lams = np.empty((n, size, size))
     for i in range(n):
         lam = ring.copy()
         for _ in range(40):
@@ -308,6 +311,7 @@ def _exafel(rng, n=24, size=128):
                 -((yy + size / 2 - py) ** 2 + (xx + size / 2 - px) ** 2) / 1.2
             )
         frames[i] = rng.poisson(lam) * 30.0 + rng.normal(size=lam.shape) * 3.0
+        lams[i] = lam
     gap = np.zeros((size, size), bool)
     gap[size // 2 - 2 : size // 2 + 2] = True
     gap[:, size // 2 - 2 : size // 2 + 2] = True
@@ -315,6 +319,8 @@ def _exafel(rng, n=24, size=128):
     hot = rng.random((size, size)) < 0.0005
     frames[:, gap | dead] = 0.0
     frames[:, hot] = 16383.0
+    if parts is not None:
+        parts.update(lam=lams, live=~(gap | dead | hot))
     return frames
 
 
