@@ -24,16 +24,17 @@ MAX_SPAN = 1 << 20  # bricks whose values span more are not looked at (a histogr
 # A comb of period g: the values at least g / 2 from the most frequent one (the k = 0
 # peak's, or a background's: one peak is concentrated under every period) are at least
 # MIN_STEPPED of the voxels, and folded by g they take 2^H <= WIDTH * g residues (H their
-# entropy) around one peak, in two teeth (k levels) or more. A histogram of a few broad peaks (a CT's air and tissues)
-# folds to a spread. A period near the comb's (29 for 30) may pass too, and a multiple of
-# it: of the passing periods below twice the first, the tightest fold is taken.
+# entropy) around one peak, in two teeth (k levels) or more. A histogram of a few broad
+# peaks (a CT's air and tissues) folds to a spread. A period near the comb's (29 for 30)
+# may pass too, and a multiple of it: of the passing periods below twice the first, the
+# tightest fold is taken.
 WIDTH = 0.5
 MIN_STEPPED = 0.02
 MIN_TOOTH = 0.002  # and two teeth at least besides the peak's own hold this share each
 GAP = 0.03  # and at most this share of them lie in the quarter of residues between teeth
 # The teeth are noise about their centres: at most this share on one residue, and every
 # residue within g / 4 of the centre taken (labels, exact values, are for the palette:
-# session 38 found combs of labels in 21 bricks of 7 atlases without these rules)
+# session 38 found combs in 21 bricks of eight label maps without these rules)
 PEAK = 0.5
 VALUES = 2  # and the values away from the peak are at least this many times g in number
 
