@@ -112,3 +112,20 @@ def test_golden_gain_stream_decodes_and_is_reproduced():
     with Reader(blob) as old, Reader(again) as new:
         assert old.header == new.header
         assert [(t, n, p) for t, n, p in old] == [(t, n, p) for t, n, p in new]
+
+
+def test_teeth_off_the_centre_or_wide_are_not_a_comb():
+    """session 38's held-out MR angiography passed the other rules in two bricks with
+    teeth 0.08-0.21 g off the fold's centre and spreads up to 0.34 g: each tooth must sit
+    within g / 16 of the centre with a spread of at most g / 6 (detector frames: 0.01 g,
+    0.1 g)."""
+    g, rng = 30, np.random.default_rng(3)
+    ok = np.rint(rng.normal(g // 2, 3, 2000)).astype(np.int64)
+    t = np.repeat([0, 1], 1000)
+    w = np.ones(2000)
+    assert gain._centred(ok, t, w, np.array([0, 1]), g)
+    off = ok.copy()
+    off[1000:] += 5  # the second tooth 5 = 0.17 g off
+    assert not gain._centred(off, t, w, np.array([0, 1]), g)
+    wide = np.rint(rng.normal(g // 2, 6, 2000)).astype(np.int64)  # a spread of 0.2 g
+    assert not gain._centred(wide, t, w, np.array([0, 1]), g)
