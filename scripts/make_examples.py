@@ -209,6 +209,9 @@ LOSSLESS_CASES = [
     # a formula's field on a grid centred on the origin, its own mirror image along z
     # (odd length) and y (session 37: mode 7, the brick cut to its first half along both)
     ("lossless-v8-u8-mirror", "mirror-u8", {"brick": (31, 32, 32)}),
+    # detector frames: photons (Poisson) times a gain of 30 plus read noise, a dead pixel
+    # (session 38: mode 8, a gain comb, the counts and the residues coded apart)
+    ("lossless-v8-i16-gain", "gain-i16", {"brick": (12, 32, 32)}),
 ]
 
 
@@ -282,6 +285,13 @@ def lossless_source(recipe: str):
     if recipe == "labels-runs":  # four tissue classes, upsampled 2x in z, 3x in x, cropped
         lab = np.digitize(wavelet_source("u8"), [40, 90, 140]).astype(np.uint8)
         return np.ascontiguousarray(np.repeat(np.repeat(lab, 2, axis=0), 3, axis=2)[1:, :, 2:])
+    if recipe == "gain-i16":  # 12 frames of 32 x 32: 30 ADU a photon, read noise sigma 3
+        rng = np.random.default_rng(38)
+        yy, xx = np.meshgrid(np.arange(32) - 15.5, np.arange(32) - 15.5, indexing="ij")
+        lam = 0.3 + 2.0 * np.exp(-(((np.hypot(yy, xx) - 9) / 2) ** 2))
+        v = rng.poisson(lam, size=(12, 32, 32)) * 30 + np.rint(rng.normal(0, 3, (12, 32, 32)))
+        v[:, 3, 7] = 0  # a dead pixel
+        return v.astype(np.int16)
     if recipe == "mirror-u8":  # |psi|^2 of a 3d and 2p mix on 31 x 32 x 32, scaled to uint8
         z, y, x = np.meshgrid(*(np.linspace(-12.0, 12.0, n) for n in (31, 32, 32)), indexing="ij")
         r = np.sqrt(x**2 + y**2 + z**2) + 1e-9
