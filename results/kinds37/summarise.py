@@ -5,7 +5,7 @@
 Prints markdown: integer volumes (ratio, best peer, x best peer, decode MB/s and x the best
 peer's and JPEG-LS's) and float cells (ratio, the best of SZ3 and SPERR that held the bound,
 x it, max error / bound, decode MB/s x that peer's). A later file's cell replaces an
-earlier one's.
+earlier one's. Later trials (kinds38) call :func:`main` with their own name and lists.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from make import HELD_OUT, MAKERS  # noqa: E402
 
 
-def rows_of(paths):
+def rows_of(paths, held=HELD_OUT, makers=MAKERS):
     cells = {}
     for p in paths:
         for line in open(p):
@@ -30,7 +30,7 @@ def rows_of(paths):
         j = c["json"]
         row = {
             "name": name,
-            "set": "held" if name in HELD_OUT else "tuned" if name.split()[0] in MAKERS else "late",
+            "set": "held" if name in held else "tuned" if name.split()[0] in makers else "late",
             "rel": rel or "",
         }
         if j is None:
@@ -64,9 +64,9 @@ def rows_of(paths):
     return rows
 
 
-def main() -> None:
+def main(trial: str = "kinds37", held=HELD_OUT, makers=MAKERS) -> None:
     out, chart, runs = sys.argv[1], sys.argv[2], sys.argv[3:]
-    rows = rows_of(runs)
+    rows = rows_of(runs, held, makers)
     keys = list(dict.fromkeys(k for r in rows for k in r))
     with open(out, "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=keys)
@@ -122,7 +122,7 @@ def main() -> None:
     ax.set_xlabel(
         "volpack's ratio / the best peer's (integer: any lossless peer; float: SZ3 or SPERR that held the bound)"
     )
-    ax.set_title("kinds37: blue integer, green float, orange held out")
+    ax.set_title(f"{trial}: blue integer, green float, orange held out")
     fig.tight_layout()
     fig.savefig(chart, dpi=110)
 
