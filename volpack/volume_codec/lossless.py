@@ -113,6 +113,8 @@ MODE_GAIN = 8  # integers that are a count times a gain plus noise (:mod:`.gain`
 # Shannon bound); kept by the rule of mode 6. GAIN = False: not tried (the "before").
 GAIN_VERSION = 8
 GAIN = True
+# Modes that wrap another brick payload: the payload they wrap is mode 0-5, never one of these
+WRAPPING = (MODE_REPEAT, MODE_MIRROR, MODE_GAIN)
 FLOAT_TOOLS = ("lorenzo", "lattice", "blend", "fit")  # the tool byte of mode 5 indexes this
 FLOAT_BLEND = 2
 FLOAT_FIT = 3
@@ -451,14 +453,14 @@ class LosslessCodec(BrickCodec):
         if mode == MODE_GAIN and dtype.kind in "iu" and dtype.name not in LONG_INTS:
             g, s, pos, n = gain.unpack(body)
             parts = (body[pos : pos + n], body[pos + n :])
-            if any(len(p) and p[0] in (MODE_REPEAT, MODE_MIRROR, MODE_GAIN) for p in parts):
+            if any(len(p) and p[0] in WRAPPING for p in parts):
                 raise FormatError("gain-comb payload: its counts or residues are mode 6, 7 or 8")
             k, r = (self.decode(p, tuple(shape), dtype) for p in parts)
             return gain.join(k, r, g, s, dtype)
         if mode in (MODE_REPEAT, MODE_MIRROR):  # a smaller brick, then how it spreads out
             tool, what = (repeat, "repeated-slice") if mode == MODE_REPEAT else (mirror, "mirrored-halves")
             how, used = tool.unpack(body, tuple(shape))
-            if len(body) > used and body[used] in (MODE_REPEAT, MODE_MIRROR, MODE_GAIN):
+            if len(body) > used and body[used] in WRAPPING:
                 raise FormatError(f"{what} payload: its smaller brick is mode {body[used]}")
             small = self.decode(body[used:], tool.shape_of(tuple(shape), how), dtype)
             return tool.expand(small, how, tuple(shape))

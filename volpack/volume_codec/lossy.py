@@ -26,6 +26,7 @@ the first in its index. Payloads are specified in ``formats/lossy-1.md``.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from typing import Any, ClassVar
 
@@ -394,19 +395,29 @@ class BoundedCodec(BrickCodec):
     def _keep(self, cands, saving: float) -> Measured:
         return keep_faster(cands, saving, self._cost if self.rd else None)
 
-    def _budget(self, cands, saving: float, x, mask, rec) -> float:
-        """The bytes a coding of the quantised voxels ``rec`` (which reconstruct them:
+    def _budget(self, cands, saving: float, own_error) -> float:
+        """The bytes a coding of the quantised voxels (which reconstruct them as ``rec``:
         the quantised payloads and the long fit) must come under to beat ``cands``: the
-        kept one's bytes, or under ``rd`` its cost less the cost of ``rec``'s own error
-        (the pruning gates' budget: by size alone a rate-distortion choice loses the
-        codings that give exact values back; a 97 % zero field at 3 % of its range:
-        the predictive coding's 449 bytes at 51.5 dB never made against the
-        interpolation path's 490 at 46.5 dB)."""
+        kept one's bytes, or under ``rd`` its cost less ``own_error()``, the cost of
+        ``rec``'s own error (:meth:`_own_error`; the pruning gates' budget: by size alone
+        a rate-distortion choice loses the codings that give exact values back; a 97 %
+        zero field at 3 % of its range: the predictive coding's 449 bytes at 51.5 dB
+        never made against the interpolation path's 490 at 46.5 dB)."""
         best = self._keep(cands, saving)
         if not self.rd:
             return len(best[0])
-        own = self._finish(x, mask, rec, 0, [])
-        return max(0.0, self._cost(best) - (self._cost(own) - len(own[0])))
+        return max(0.0, self._cost(best) - own_error())
+
+    def _own_error(self, x, mask, rec):
+        """``rec``'s error cost under ``rd`` (:meth:`_cost` less the bytes), measured
+        once a brick however many gates ask (an error pass over the brick)."""
+
+        @functools.cache
+        def own_error() -> float:
+            own = self._finish(x, mask, rec, 0, [])
+            return self._cost(own) - len(own[0])
+
+        return own_error
 
     def _exact_fast(self, x, mask, best: Measured) -> Measured:
         """Under effort 'fast': the exact path by the fast codec (:mod:`.fastexact`),
@@ -468,8 +479,9 @@ class BoundedCodec(BrickCodec):
         if mask is not None:
             q = fill_masked(q, mask)  # masked voxels take their neighbour's value
         rec = self._reconstruct(q, x.dtype)
+        own_error = self._own_error(x, mask, rec)
         if self._pruned:
-            return self._encode_pruned(x, mask, clean, q, rec)
+            return self._encode_pruned(x, mask, clean, q, rec, own_error)
         cands = [(t, self._finish(x, mask, rec, 0, [b])) for t, b in self._code_quantised(q)]
         if fast:
             if x.size >= 64 and x.dtype.kind == "f" and not self._exact:
@@ -484,7 +496,7 @@ class BoundedCodec(BrickCodec):
             cands.append(self._interp_candidate(x, clean, mask))
         best = self._keep(cands, self._min_saving())
         if x.dtype.kind == "f":
-            longs = self._longfit(q, self._budget(cands, self._min_saving(), x, mask, rec))
+            longs = self._longfit(q, self._budget(cands, self._min_saving(), own_error))
             if longs:
                 cands += [
                     (tier, self._finish(x, mask, rec, FLAG_RESIDUALS, [long]))
@@ -497,7 +509,7 @@ class BoundedCodec(BrickCodec):
     def _pruned(self) -> bool:
         return PRUNE and self.effort == "default"
 
-    def _encode_pruned(self, x, mask, clean, q, rec) -> Measured:
+    def _encode_pruned(self, x, mask, clean, q, rec, own_error) -> Measured:
         """The default effort's selection: the interpolation and coefficient paths, the
         long fit, the float CDF 9/7 (not made, or its step search given up, where it
         cannot come near the shortest so far), then the quantised voxels (their
@@ -509,7 +521,7 @@ class BoundedCodec(BrickCodec):
         big = x.size >= 64 and not self._exact
 
         def quantised():
-            best = self._budget(cands, saving, x, mask, rec) if cands else None
+            best = self._budget(cands, saving, own_error) if cands else None
             coded = self._code_quantised(q, best)
             cands.extend((t, self._finish(x, mask, rec, 0, [b])) for t, b in coded)
 
@@ -524,7 +536,7 @@ class BoundedCodec(BrickCodec):
             cands.append((TIER_MID, self._coef_candidate(x, clean, mask)))
         else:  # small, or on a grid: the quantised voxels alone, then the long fit
             quantised()
-        so_far = self._budget(cands, saving, x, mask, rec) if cands else 0
+        so_far = self._budget(cands, saving, own_error) if cands else 0
         if x.dtype.kind == "f" and 8 * min(so_far, floor) >= LONGFIT_MIN_BITS * q.size:
             longs = self._longfit(q, so_far)
             cands += [
