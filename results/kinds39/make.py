@@ -343,7 +343,7 @@ def pet_f32(rng):
     suv[ell((-0.85, 0, 0), (0.1, 0.15, 0.15))] = 25
     for _ in range(8):
         c = rng.uniform(-0.6, 0.6, 3) * (1, 0.5, 0.6)
-        suv[ell(c, (0.04, 0.05, 0.05) * rng.uniform(0.6, 1.6))] = rng.uniform(4, 14)
+        suv[ell(c, np.array((0.04, 0.05, 0.05)) * rng.uniform(0.6, 1.6))] = rng.uniform(4, 14)
     counts = rng.poisson(suv * 6.0) / 6.0
     return ndimage.gaussian_filter(counts, 2.0).astype(np.float32)
 
