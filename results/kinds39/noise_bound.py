@@ -101,3 +101,28 @@ def h_adu(L):
 
 hs = np.array([h_adu(L) for L in lg])
 report("lightsheet_u16", np.interp(np.log(lam), np.log(lg), hs).sum() / 8)
+
+
+# phase_f32 (lossy): inside the head, phase noise of sigma 0.05 rad on a smooth field (its
+# Shannon lower bound at max error E: h(N(0, 0.05^2)) - log2(2E), the smooth field free);
+# outside it, uniform phase on [-pi, pi): log2(2 pi / 2E) bits, exactly what uniform bins
+# of 2E need. The wraps inside are given for free too.
+LOSSY = {}
+for line in open(RUN):
+    c = json.loads(line)
+    if c["rel"]:
+        LOSSY[c["name"], c["rel"]] = c["json"]
+if ("phase_f32", "1e-2") in LOSSY:
+    a = np.load(D / "phase_f32.npy", mmap_mode="r")
+    z, y, x = make.grid(a.shape, -1.0, 1.0)
+    f = float(((z / 0.85) ** 2 + (y / 0.9) ** 2 + (x / 0.75) ** 2 < 1).mean())
+    for rel in ("1e-2", "1e-3", "1e-4"):
+        j = LOSSY["phase_f32", rel]
+        e = float(rel) * 2 * np.pi
+        hin = max(gauss_h(0.05) - np.log2(2 * e), 0.0)
+        hout = np.log2(2 * np.pi / (2 * e))
+        bound = (f * hin + (1 - f) * hout) * a.size / 8
+        sz = [q for q in j["peers"] if q["name"] == "sz3"][0]["file_nbytes"]
+        vb = j["file_nbytes"]
+        print(f"phase_f32 at {rel}: head {f:.1%} of the voxels; bound {bound:,.0f} B ({hin:.2f} bits inside, {hout:.2f} outside); "
+              f"volpack {vb:,} B = {vb / bound:.3f}x the bound; SZ3 {sz:,} B = {sz / bound:.3f}x; 1.1x SZ3 needs {sz / 1.1 / bound:.3f}x the bound")  # fmt: skip
