@@ -31,7 +31,14 @@ def phase_u12(rng):
     dz, dy, dx = z + 0.3, y - 0.5, x + 0.1
     r2 = dz**2 + dy**2 + dx**2 + 0.02
     dip = (3 * dz**2 / r2 - 1) / r2**1.5 * 0.01
-    b0 = -3 * z + 2 * y * x + 4 * y**2 - 2 * z * x + dip * 30 + 0.5 * make.gauss_field(rng, shape, -5.0)
+    b0 = (
+        -3 * z
+        + 2 * y * x
+        + 4 * y**2
+        - 2 * z * x
+        + dip * 30
+        + 0.5 * make.gauss_field(rng, shape, -5.0)
+    )
     ph = 2.0 * b0 + rng.normal(scale=0.04, size=shape)
     ph = np.where(head, ph, rng.uniform(-np.pi, np.pi, size=shape))
     w = (ph + np.pi) % (2 * np.pi)
@@ -44,7 +51,9 @@ def dti_6first(rng):
 
 def cells_u32(rng):
     lab = make.cells_u16(rng).astype(np.uint64)
-    ids = (np.arange(int(lab.max()) + 1, dtype=np.uint64) * np.uint64(2654435761)) % np.uint64(2**31)
+    ids = (np.arange(int(lab.max()) + 1, dtype=np.uint64) * np.uint64(2654435761)) % np.uint64(
+        2**31
+    )
     ids[0] = 0
     return ids[lab].astype(np.uint32)
 

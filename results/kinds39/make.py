@@ -120,13 +120,20 @@ def lightsheet_u16(rng):
     c = rng.random((n, 3)) * np.array(shape)
     b = rng.uniform(60, 400, n)
     for (cz, cy, cx), bb in zip(c, b):
-        sl = tuple(slice(max(0, int(p) - 9), min(s, int(p) + 10)) for p, s in zip((cz, cy, cx), shape))
+        sl = tuple(
+            slice(max(0, int(p) - 9), min(s, int(p) + 10)) for p, s in zip((cz, cy, cx), shape)
+        )
         rr = ((z[sl] - cz) / 3.0) ** 2 + ((y[sl] - cy) / 4.0) ** 2 + ((x[sl] - cx) / 4.0) ** 2
         sig[sl] += bb * np.exp(-(rr**2) / 2)
     sig += 4 + 2 * (gauss_field(rng, shape, -4.0) + 1.5).clip(0)
     shade = np.ones(shape[:2])
     for _ in range(14):
-        zc, yc, w, depth = rng.uniform(0, shape[0]), rng.uniform(0, shape[1]), rng.uniform(1, 3), rng.uniform(0.2, 0.6)
+        zc, yc, w, depth = (
+            rng.uniform(0, shape[0]),
+            rng.uniform(0, shape[1]),
+            rng.uniform(1, 3),
+            rng.uniform(0.2, 0.6),
+        )
         shade *= 1 - depth * np.exp(-(((np.arange(shape[1]) - yc) / w) ** 2))[None, :] * np.exp(
             -(((np.arange(shape[0]) - zc) / 12) ** 2))[:, None]  # fmt: skip
     sig *= shade[:, :, None]
@@ -190,10 +197,12 @@ def us_u8(rng):
     rr = np.sqrt(depth**2 + (y - 0.5) ** 2 + (x - 0.5) ** 2)
     fan = (np.abs(th_y) < 0.61) & (np.abs(th_x) < 0.61) & (rr < 1.0) & (rr > 0.08)
     c = rng.normal(size=shape) + 1j * rng.normal(size=shape)
-    c = ndimage.gaussian_filter(c.real, (0.7, 1.8, 1.8)) + 1j * ndimage.gaussian_filter(c.imag, (0.7, 1.8, 1.8))
+    c = ndimage.gaussian_filter(c.real, (0.7, 1.8, 1.8)) + 1j * ndimage.gaussian_filter(
+        c.imag, (0.7, 1.8, 1.8)
+    )
     echo = 1 + 0.4 * gauss_field(rng, shape, -5.0)
     cyst = ((z - 0.55) / 0.12) ** 2 + ((y - 0.45) / 0.1) ** 2 + ((x - 0.55) / 0.1) ** 2
-    echo = np.where(cyst < 1, 0.08, echo) + 2.5 * np.exp(-((np.sqrt(cyst) - 1.0) / 0.08) ** 2)
+    echo = np.where(cyst < 1, 0.08, echo) + 2.5 * np.exp(-(((np.sqrt(cyst) - 1.0) / 0.08) ** 2))
     amp = np.abs(c) * echo.clip(0.02) * np.exp(-1.2 * rr) * (1 + 0.9 * rr)
     db = 20 * np.log10(amp / np.percentile(amp[fan], 99.5) + 1e-6)
     v = 255 * (db + 50) / 50
@@ -250,7 +259,9 @@ def cryoet_f32(rng):
         for _ in range(5):
             p = c + rng.normal(scale=2.5, size=3)
             sl = tuple(slice(max(0, int(t) - 6), min(n, int(t) + 7)) for t, n in zip(p, shape))
-            s[sl] += 0.8 * np.exp(-((z[sl] - p[0]) ** 2 + (y[sl] - p[1]) ** 2 + (x[sl] - p[2]) ** 2) / 5.0)
+            s[sl] += 0.8 * np.exp(
+                -((z[sl] - p[0]) ** 2 + (y[sl] - p[1]) ** 2 + (x[sl] - p[2]) ** 2) / 5.0
+            )
     s = s / s.std()
     kz, ky, kx = np.meshgrid(*(np.fft.fftfreq(n) for n in shape), indexing="ij")
     keep = np.abs(kz) <= np.abs(kx) * np.tan(np.radians(60))
@@ -294,8 +305,13 @@ def dti_f32(rng):
     d /= np.linalg.norm(d, axis=-1, keepdims=True)
     lam1 = np.where(wm, 1.7e-3, np.where(csf, 3e-3, 0.8e-3))
     lam2 = np.where(wm, 0.3e-3, lam1)
-    D = lam2[..., None, None] * np.eye(3) + (lam1 - lam2)[..., None, None] * d[..., :, None] * d[..., None, :]
-    comp = np.stack([D[..., 0, 0], D[..., 0, 1], D[..., 0, 2], D[..., 1, 1], D[..., 1, 2], D[..., 2, 2]], -1)
+    D = (
+        lam2[..., None, None] * np.eye(3)
+        + (lam1 - lam2)[..., None, None] * d[..., :, None] * d[..., None, :]
+    )
+    comp = np.stack(
+        [D[..., 0, 0], D[..., 0, 1], D[..., 0, 2], D[..., 1, 1], D[..., 1, 2], D[..., 2, 2]], -1
+    )
     comp += rng.normal(scale=0.04 * 1e-3, size=comp.shape)
     return (comp * brain[..., None]).astype(np.float32)
 
@@ -320,7 +336,9 @@ def dose_f32(rng):
         depth = (along + 1.2).clip(0)
         dd = (1 - np.exp(-depth / 0.04)) * np.exp(-0.35 * depth)
         hw, hz = 0.22, 0.25
-        lat = (erf((hw - np.abs(perp)) / 0.04) + 1) / 2 * (erf((hz - np.abs(z - tz)) / 0.04) + 1) / 2
+        lat = (
+            (erf((hw - np.abs(perp)) / 0.04) + 1) / 2 * (erf((hz - np.abs(z - tz)) / 0.04) + 1) / 2
+        )
         dose += dd * (lat + 0.03 * np.exp(-np.abs(perp) / 0.2))
     dose *= 70 / dose[48, 70, 50:60].mean()
     dose = np.where(body, dose, 0)
@@ -335,7 +353,10 @@ def pet_f32(rng):
     Gaussian post-filter; nearly zero (a small positive tail) outside the body."""
     shape = (96, 128, 128)
     z, y, x = grid(shape, -1.0, 1.0)
-    ell = lambda c, r: ((z - c[0]) / r[0]) ** 2 + ((y - c[1]) / r[1]) ** 2 + ((x - c[2]) / r[2]) ** 2 < 1  # noqa: E731
+
+    def ell(c, r):
+        return ((z - c[0]) / r[0]) ** 2 + ((y - c[1]) / r[1]) ** 2 + ((x - c[2]) / r[2]) ** 2 < 1
+
     suv = np.where((y / 0.6) ** 2 + (x / 0.8) ** 2 < 1, 0.8, 0.02)
     suv[ell((0.85, 0, 0), (0.2, 0.4, 0.35))] = 7
     suv[ell((0.2, 0.1, -0.35), (0.25, 0.3, 0.3))] = 2.2
@@ -359,7 +380,12 @@ def amr_f32(rng):
     r = np.sqrt(z**2 + y**2 + x**2)
     g = gauss_field(rng, (n, n, n), -4.0)
     rs = 0.55 + 0.03 * g
-    rho = 1 + 0.1 * g + 3 * np.exp(-(((r - rs) / 0.03) ** 2)) * (r < rs + 0.02) + 0.3 * (r < rs) * (r / rs) ** 3
+    rho = (
+        1
+        + 0.1 * g
+        + 3 * np.exp(-(((r - rs) / 0.03) ** 2)) * (r < rs + 0.02)
+        + 0.3 * (r < rs) * (r / rs) ** 3
+    )
     grad = np.sqrt(sum(gg**2 for gg in np.gradient(rho)))
     out = np.empty_like(rho)
     b = 16
@@ -371,7 +397,9 @@ def amr_f32(rng):
                 c = 8 >> lev
                 blk = rho[i : i + b, j : j + b, k : k + b]
                 m = blk[c // 2 :: c, c // 2 :: c, c // 2 :: c] if c > 1 else blk
-                out[i : i + b, j : j + b, k : k + b] = np.repeat(np.repeat(np.repeat(m, c, 0), c, 1), c, 2)
+                out[i : i + b, j : j + b, k : k + b] = np.repeat(
+                    np.repeat(np.repeat(m, c, 0), c, 1), c, 2
+                )
     return out.astype(np.float32)
 
 

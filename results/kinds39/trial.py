@@ -63,7 +63,9 @@ def main() -> None:
                 f.write(json.dumps(c) + "\n")
                 f.flush()
                 j = c["json"]
-                print(name, rel, c["rc"], c.get("error", ""), j and round(j["ratio"], 3), flush=True)
+                print(
+                    name, rel, c["rc"], c.get("error", ""), j and round(j["ratio"], 3), flush=True
+                )
 
 
 if __name__ == "__main__":

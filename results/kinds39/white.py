@@ -24,7 +24,9 @@ for s in (3, 7, 35, 1100):
 for k in (16, 500, 5000):
     q = rng.integers(0, k, size=(64, 64, 64)).astype(np.uint16)
     b = 8 * len(c.encode(q)) / q.size
-    print(f"lossless, uniform on {k} values: H0 {np.log2(k):.3f} bits, volpack {b:.3f} ({b / np.log2(k):.4f}x)")
+    print(
+        f"lossless, uniform on {k} values: H0 {np.log2(k):.3f} bits, volpack {b:.3f} ({b / np.log2(k):.4f}x)"
+    )
 u = rng.uniform(-np.pi, np.pi, size=(64, 64, 64)).astype(np.float32)
 for rel in (1e-2, 1e-3, 1e-4):
     e = rel * 2 * np.pi

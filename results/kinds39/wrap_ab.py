@@ -34,7 +34,14 @@ rng = np.random.default_rng(3900 + list(make.MAKERS).index("phase_f32"))
 dz, dy, dx = z + 0.2, y - 0.45, x
 r2 = dz**2 + dy**2 + dx**2 + 0.01
 dip = (3 * dz**2 / r2 - 1) / r2**1.5 * 0.012
-b0 = 4 * z + 3 * y * x - 5 * x**2 + 2.5 * z * y + dip * 40 + 0.6 * make.gauss_field(rng, a.shape, -5.0)
+b0 = (
+    4 * z
+    + 3 * y * x
+    - 5 * x**2
+    + 2.5 * z * y
+    + dip * 40
+    + 0.6 * make.gauss_field(rng, a.shape, -5.0)
+)
 ph = 2.5 * b0 + rng.normal(scale=0.05, size=a.shape)
 oracle = np.where(head, ph, a)
 
@@ -61,4 +68,7 @@ for rel in (1e-2, 1e-3, 1e-4):
         dt = np.uint16 if v.max() < 65536 else np.uint32
         sizes[name] = len(codec.encode(v.astype(dt)))
     base = sizes["wrapped"]
-    print(f"rel {rel:g}: K = {K:.1f} bins; " + "; ".join(f"{k} {s:,} B ({base / s:.4f}x fewer)" for k, s in sizes.items()))
+    print(
+        f"rel {rel:g}: K = {K:.1f} bins; "
+        + "; ".join(f"{k} {s:,} B ({base / s:.4f}x fewer)" for k, s in sizes.items())
+    )

@@ -15,7 +15,6 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-import make  # noqa: E402
 from wrap_ab import oracle  # noqa: E402  (wrap_ab's oracle; its own measure runs on import)
 
 import volpack.api as api  # noqa: E402
@@ -26,4 +25,6 @@ print(f"oracle unwrapped range {un.min():.1f}..{un.max():.1f} rad (the dipole's 
 for rel in (1e-3, 1e-4):
     e = rel * float(a.max() - a.min())
     w, u = len(api.compress_array(a, max_error=e)), len(api.compress_array(un, max_error=e))
-    print(f"rel {rel:g} (E {e:.4g} rad): wrapped {w:,} B, oracle unwrapped {u:,} B ({w / u:.4f}x fewer)")
+    print(
+        f"rel {rel:g} (E {e:.4g} rad): wrapped {w:,} B, oracle unwrapped {u:,} B ({w / u:.4f}x fewer)"
+    )
