@@ -226,13 +226,17 @@ class BoundedCodec(BrickCodec):
         hi: float,
         max_error: float,
         grid: float | None = None,
+        modes: tuple[float, ...] = (),
         **inner: Any,
     ) -> BoundedCodec:
         """``grid``: every valid voxel of the float volume is within ``max_error`` of
         ``lo + k * grid`` for a whole ``k`` (whole numbers, data stored to 0.1, ...; see
         :func:`volpack.volume_codec.search.lattice`): a bound below half of it is met by
-        bins of ``grid``."""
+        bins of ``grid``. ``modes``: values many float voxels hold, most common first
+        (:func:`volpack.volume_codec.search.modes`), put on bin centres
+        (:func:`on_bins`); the bound narrows with the bins."""
         dtype = np.dtype(dtype)
+        peak_lo = lo  # the PSNR's peak is the valid range, wherever the bins start
         if not (max_error > 0 and math.isfinite(max_error)):
             raise OptionError(f"expected a positive finite error bound, found {max_error!r}")
         integer = dtype.kind in "iu"
@@ -249,6 +253,9 @@ class BoundedCodec(BrickCodec):
             step = 2.0 * max_error
             if grid is not None and step < grid and math.isfinite(grid):
                 step = float(grid)  # the data's own grid: far fewer bins, and exact
+            elif modes:
+                lo, step = on_bins(lo, step, modes)
+                max_error = min(max_error, step / 2)  # every path assumes bins of 2E
             levels = (hi - lo) / step  # may overflow to inf: then it is refused below
             qmax = math.floor(levels + 0.5) + 1 if levels < 2**40 else math.inf
         for qd in ("uint8", "uint16", "int32"):
@@ -266,7 +273,7 @@ class BoundedCodec(BrickCodec):
             step=float(step),
             integer=integer,
             qdtype=qd,
-            value_range=float(hi - lo),
+            value_range=float(hi - peak_lo),
             **{k: v for k, v in inner.items() if v is not None},
         )
 
@@ -930,6 +937,24 @@ class BoundedCodec(BrickCodec):
             body, pos = _take(data, pos, len(data))
             w.apply_outliers(body, rec, self.step, self._residual_coder)
         return _to_float(rec, dtype, overwrite=True, out=into), pos
+
+
+def on_bins(lo: float, step: float, modes: tuple[float, ...]) -> tuple[float, float]:
+    """``(lo', step')``, ``lo' <= lo`` and ``step' <= step``, whose bins ``lo' + k step'``
+    have the values ``modes`` (most common first) on their centres, so that the voxels
+    holding them come back exactly and their neighbours' noise does not straddle a bin
+    edge: the two most common both where a whole number of bins at least half as wide
+    spans them, else the most common alone (same bins, moved). A field's plateaus (a
+    species' mass fraction at 0 and at its burnt value, a clipped floor, the zeros of a
+    tensor field whose minimum is below 0) then cost neither error nor bits, and the
+    PSNR no longer jumps with the bound as a plateau's value drifts across the bins."""
+    anchor = modes[0]
+    if len(modes) > 1:
+        a, b = sorted(modes[:2])
+        k = max(math.ceil((b - a) / step), 1)
+        if (b - a) / k >= step / 2:
+            anchor, step = a, (b - a) / k
+    return anchor - math.ceil((anchor - lo) / step) * step, step
 
 
 def keep_faster(

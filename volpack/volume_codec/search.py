@@ -134,6 +134,22 @@ def value_range(data: np.ndarray, fill_value: float | None) -> tuple[float, floa
 
 
 LATTICE_SAMPLE = 1 << 20  # values looked at first: most fields leave here
+MODE_SHARE = 0.05  # of the valid voxels: a value this common is put on a bin centre
+MODE_SAMPLE = 1 << 20  # voxels looked at for it (every k-th)
+
+
+def modes(data: np.ndarray, fill_value: float | None) -> tuple[float, ...]:
+    """The (at most two) values each held by at least MODE_SHARE of the valid voxels of a
+    float volume, most common first, in an evenly strided sample: under a PSNR target
+    :meth:`BoundedCodec.plan` puts them on bin centres (:func:`.lossy.on_bins`)."""
+    flat = np.asarray(data).reshape(-1)
+    v = np.asarray(flat[:: max(1, -(-flat.size // MODE_SAMPLE))])
+    v = v[~special_voxels(v, fill_value)]
+    if v.size == 0 or v.dtype.kind != "f":
+        return ()
+    u, c = np.unique(v, return_counts=True)
+    order = np.argsort(-c, kind="stable")[:2]
+    return tuple(float(u[i]) for i in order if c[i] >= MODE_SHARE * v.size)
 
 
 def lattice(data: np.ndarray, fill_value: float | None, max_error: float) -> float | None:
@@ -218,12 +234,14 @@ def plan(
 
     grid = None  # the data's own grid, for an error bound (not searched for a target)
 
-    # under a PSNR target each brick's coding is chosen by rate and distortion (RD_WEIGHT)
+    # under a PSNR target each brick's coding is chosen by rate and distortion (RD_WEIGHT),
+    # and the field's most common values sit on bin centres (an error bound keeps its bins)
     rd = RD_WEIGHT if what == "psnr" else None
+    held = modes(vol.data, fill_value) if what == "psnr" and dtype.kind == "f" else ()
 
     def bounded(e: float) -> BoundedCodec:
         return BoundedCodec.plan(
-            dtype, lo, hi, e, grid, fill=fill_value, effort=effort, rd=rd, **inner
+            dtype, lo, hi, e, grid, held, fill=fill_value, effort=effort, rd=rd, **inner
         )
 
     if what in ("max_error", "rel_error"):
