@@ -42,17 +42,22 @@ def setup_only(frame, u, v, row_cols, nz, ny, nx, vscale, step, leap, brick, sh,
     for r in range(row_cols.shape[0]):
         for c in range(row_cols[r, 0], row_cols[r, 1]):
             oz, oy, ox, dz, dy, dx = pixel_ray(frame, u, v, r, c)
-            tnear, tfar, nseg, vz, vy, vx = rc._ray_span(oz, oy, ox, dz, dy, dx, nz, ny, nx,
-                                                          vscale, step)
+            tnear, tfar, nseg, vz, vy, vx = rc._ray_span(
+                oz, oy, ox, dz, dy, dx, nz, ny, nx, vscale, step
+            )
             if nseg == 0:
                 fates[0] += 1
                 continue
-            bz, by, bx = (to_fixed(oz + tnear * dz), to_fixed(oy + tnear * dy),
-                          to_fixed(ox + tnear * dx))
+            bz, by, bx = (
+                to_fixed(oz + tnear * dz),
+                to_fixed(oy + tnear * dy),
+                to_fixed(ox + tnear * dx),
+            )
             sz, sy, sx = to_fixed(step * dz), to_fixed(step * dy), to_fixed(step * dx)
             iz, iy, ix = 1.0 / sz, 1.0 / sy, 1.0 / sx
-            state, i, next_k = rc._leap_fixed(0, nseg, bz, by, bx, sz, sy, sx, iz, iy, ix,
-                                              nz, ny, nx, leap, brick, sh)
+            state, i, next_k = rc._leap_fixed(
+                0, nseg, bz, by, bx, sz, sy, sx, iz, iy, ix, nz, ny, nx, leap, brick, sh
+            )
             if state == 2:
                 fates[1] += 1
                 continue
@@ -88,14 +93,24 @@ def main(names):
         cam = Camera(azimuth=30.0, elevation=peers.ELEVATION, size=(512, 512))
         kw = dict(camera=cam, step=0.5, workers=1)
         runs = {
-            "frame none": lambda: rc.render(prep, tf=tf, shading="none", **kw),
-            "refine=1 none": lambda: rc.render(prep, tf=tf, shading="none", refine=1, **kw),
-            "frame phong": lambda: rc.render(prep, tf=tf, shading="phong", **kw),
-            "refine=1 phong": lambda: rc.render(prep, tf=tf, shading="phong", refine=1, **kw),
-            "clear TF": lambda: rc.render(prep, tf=clear_tf, shading="none", **kw),
+            "frame none": lambda prep=prep, tf=tf, kw=kw: rc.render(
+                prep, tf=tf, shading="none", **kw
+            ),
+            "refine=1 none": lambda prep=prep, tf=tf, kw=kw: rc.render(
+                prep, tf=tf, shading="none", refine=1, **kw
+            ),
+            "frame phong": lambda prep=prep, tf=tf, kw=kw: rc.render(
+                prep, tf=tf, shading="phong", **kw
+            ),
+            "refine=1 phong": lambda prep=prep, tf=tf, kw=kw: rc.render(
+                prep, tf=tf, shading="phong", refine=1, **kw
+            ),
+            "clear TF": lambda prep=prep, kw=kw, clear_tf=clear_tf: rc.render(
+                prep, tf=clear_tf, shading="none", **kw
+            ),
         }
         stats = {}
-        for k, f in runs.items():  # compile, and the segment counts
+        for k in runs:  # compile, and the segment counts
             sh = "phong" if "phong" in k else "none"
             ref = 1 if "refine=1" in k else rc.REFINE
             t = clear_tf if k == "clear TF" else tf
@@ -121,13 +136,16 @@ def main(names):
                 times[k].append(time.process_time() - c)
             for k, wi in (("set-up", True), ("set-up w/o interior", False)):
                 c = time.process_time()
-                fates = setup_only(*ray_grid, row_cols, nz, ny, nx, vscale, 0.5, leap, brick,
-                                   shb, wi)
+                fates = setup_only(
+                    *ray_grid, row_cols, nz, ny, nx, vscale, 0.5, leap, brick, shb, wi
+                )
                 times[k].append(time.process_time() - c)
         nm = Path(name).stem.split(".")[0]
         traced = int((row_cols[:, 1] - row_cols[:, 0]).clip(0).sum())
-        print(f"{nm}: rays traced {traced}, miss box {fates[0]}, end at first test "
-              f"{fates[1]}, marched {fates[2]}")
+        print(
+            f"{nm}: rays traced {traced}, miss box {fates[0]}, end at first test "
+            f"{fates[1]}, marched {fates[2]}"
+        )
         for k, ts in times.items():
             seg = f"  segments {stats[k].samples / 1e6:.2f} M" if k in stats else ""
             print(f"  {k:22s} cpu {min(ts) * 1e3:7.1f} ms{seg}")
@@ -149,8 +167,13 @@ def prep_leap(prep, vol, sp, tf):
     rc._NEAR_MARCH = wrap(orig)
     rc._MARCH.update({k: wrap(f) for k, f in orig_m.items()})
     try:
-        rc.render(prep, tf=tf, camera=Camera(azimuth=30.0, elevation=peers.ELEVATION,
-                                            size=(512, 512)), step=0.5, workers=1)
+        rc.render(
+            prep,
+            tf=tf,
+            camera=Camera(azimuth=30.0, elevation=peers.ELEVATION, size=(512, 512)),
+            step=0.5,
+            workers=1,
+        )
     finally:
         rc._NEAR_MARCH = orig
         rc._MARCH.update(orig_m)

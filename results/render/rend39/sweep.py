@@ -72,13 +72,21 @@ def main(args):
             ref = rc.render(prep, tf=tf, camera=cam, step=0.125, shading=sh, workers=2)
             res = {}
 
-            def go(k, stats=False):
+            def go(k, stats=False, prep=prep, tf=tf, cam=cam, sh=sh):
                 knobs, kw = VARIANTS[k]
                 for a, b in defaults.items():
                     setattr(rc, a, knobs.get(a, b))
                 try:
-                    return rc.render(prep, tf=tf, camera=cam, step=0.5, shading=sh, workers=1,
-                                     render_stats=stats, **kw)
+                    return rc.render(
+                        prep,
+                        tf=tf,
+                        camera=cam,
+                        step=0.5,
+                        shading=sh,
+                        workers=1,
+                        render_stats=stats,
+                        **kw,
+                    )
                 finally:
                     for a, b in defaults.items():
                         setattr(rc, a, b)
