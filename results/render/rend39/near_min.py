@@ -11,26 +11,17 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[3]
-sys.path.insert(0, str(ROOT / "scripts"))
-sys.path.insert(0, str(ROOT / "results" / "render" / "rend37"))
-import bench_render_peers as peers  # noqa: E402
-from probe import load  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from common import first_view  # noqa: E402
 
 from volpack.render import raycast as rc  # noqa: E402
-from volpack.render.camera import Camera  # noqa: E402
-from volpack.render.prepared import prepare_volume  # noqa: E402
-from volpack.render.transfer import TransferFunction  # noqa: E402
 
 VALUES = (1, 2, 4, 8, 16, 10**9)
 
 
 def main(names):
     for name in names:
-        vol, sp = load(name)
-        prep = prepare_volume(vol, sp)
-        tf = TransferFunction(points=peers.tf_points("semi", *peers.tf_base(vol)))
-        cam = Camera(azimuth=30.0, elevation=peers.ELEVATION, size=(512, 512))
+        nm, prep, tf, cam = first_view(name, "semi")
 
         def go(v, stats=False, prep=prep, tf=tf, cam=cam):
             rc.NEAR_RUN_MIN = v
@@ -50,7 +41,6 @@ def main(names):
                 go(v)
                 res[v][2].append(time.process_time() - c)
         b = min(res[1][2])
-        nm = Path(name).name.split(".")[0]
         for v, (img, n, ts) in res.items():
             print(f"{nm:12s} NEAR_RUN_MIN {v if v < 10**9 else 'off':>4} cpu {min(ts) * 1e3:6.1f} "
                   f"ms ({min(ts) / b:.3f}x)  segments {n / 1e6:5.2f} M  same image "
