@@ -6,27 +6,11 @@ the final run's first image and PSNR; a summary line for each run.
         results/render/rend39/heldout_final/peers.csv
 """
 
-import csv
 import sys
 from pathlib import Path
 
-
-def ratios(path):
-    rows = list(csv.DictReader(open(path)))
-    by = {(r["volume"], r["tf"], r["shading"], r["renderer"]): r for r in rows}
-    out = {}
-    for (v, tf, sh, ren), r in by.items():
-        if ren != "volpack-preint":
-            continue
-        k = by[(v, tf, sh, "vtk-matched")]
-        out[(Path(v).name.split(".")[0], tf, sh)] = (
-            float(r["frame_s"]) / float(k["frame_s"]),
-            float(r["frame_cpu_s"]) / float(k["frame_cpu_s"]),
-            float(r["first_s"]) / float(k["first_s"]),
-            float(r["psnr_db"]),
-            float(k["psnr_db"]),
-        )
-    return out
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "rend37"))
+from compare import ratios  # noqa: E402  (rend37's: the same ratios of a run)
 
 
 def b(x, bad):
