@@ -1,7 +1,9 @@
 """What the session-39 probes share (rend39): a volume prepared as the peers benchmark
 prepares it, its TF and the benchmark's first view (azimuth 30, 512^2)."""
 
+import contextlib
 import sys
+import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -22,3 +24,28 @@ def first_view(name, tfk):
     tf = TransferFunction(points=peers.tf_points(tfk, *peers.tf_base(vol)))
     cam = Camera(azimuth=30.0, elevation=peers.ELEVATION, size=(512, 512))
     return Path(name).name.split(".")[0], prep, tf, cam
+
+
+def interleaved_cpu(runs, rounds):
+    """``{key: [CPU seconds, ...]}`` of calling each of ``runs`` (``{key: callable}``)
+    ``rounds`` times, one round of all after another (so load drifts hit all alike)."""
+    times = {k: [] for k in runs}
+    for _ in range(rounds):
+        for k, fn in runs.items():
+            c = time.process_time()
+            fn()
+            times[k].append(time.process_time() - c)
+    return times
+
+
+@contextlib.contextmanager
+def knobs(module, values):
+    """Module constants ``values`` (``{name: value}``) set for the block, then restored."""
+    old = {a: getattr(module, a) for a in values}
+    for a, v in values.items():
+        setattr(module, a, v)
+    try:
+        yield
+    finally:
+        for a, v in old.items():
+            setattr(module, a, v)

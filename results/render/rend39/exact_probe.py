@@ -7,7 +7,6 @@ against the fast and the exact step-0.125 images and a "truth" (exact tables at 
 """
 
 import sys
-import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -15,6 +14,9 @@ sys.path.insert(0, str(ROOT / "scripts"))
 sys.path.insert(0, str(ROOT / "results" / "render" / "rend37"))
 import bench_render_peers as peers  # noqa: E402
 from probe import load, psnr  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from common import interleaved_cpu  # noqa: E402
 
 from volpack.render import raycast as rc  # noqa: E402
 from volpack.render.camera import Camera  # noqa: E402
@@ -46,11 +48,10 @@ def main(names):
         for k, kw in VARIANTS.items():
             img, st = rc.render(prep, step=0.5, workers=1, render_stats=True, **kw0, **kw)
             res[k] = [img, st.samples, []]
-        for _ in range(3):
-            for k, kw in VARIANTS.items():
-                c = time.process_time()
-                rc.render(prep, step=0.5, workers=1, **kw0, **kw)
-                res[k][2].append(time.process_time() - c)
+        runs = {k: lambda kw=kw, prep=prep, kw0=kw0: rc.render(prep, step=0.5, workers=1, **kw0, **kw)
+                for k, kw in VARIANTS.items()}  # fmt: skip
+        for k, ts in interleaved_cpu(runs, 3).items():
+            res[k][2] = ts
         for k, (img, n, ts) in res.items():
             print(f"{nm} none {k:9s} cpu {min(ts) * 1e3:6.1f} ms seg {n / 1e6:.2f} M  psnr vs "
                   f"fast ref {psnr(img, reff):5.2f} vs exact ref {psnr(img, refe):5.2f} vs "

@@ -5,11 +5,12 @@
 The peers benchmark's first view (azimuth 30, 512^2, step 0.5, opaque TF), one thread,
 CPU ms best of ROUNDS (variants interleaved), segments, PSNR against the default
 step-0.125 image (what the benchmark scores). Variants move knobs read at render time
-(no kernel changes): REFINE_OPACITY, REFINE_BEND, ``refine``, ``ert``.
+(no kernel changes): REFINE_OPACITY, ``refine``, ``ert`` (``--knobs``, the base code),
+REFINE_GAIN (the default set; ``tried_refine_gain.diff`` applied) and REFINE_STRAIGHT
+(``--straight``; ``tried_refine_straight.diff`` applied).
 """
 
 import sys
-import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -17,6 +18,9 @@ sys.path.insert(0, str(ROOT / "scripts"))
 sys.path.insert(0, str(ROOT / "results" / "render" / "rend37"))
 import bench_render_peers as peers  # noqa: E402
 from probe import load, psnr  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from common import interleaved_cpu, knobs  # noqa: E402
 
 from volpack.render import raycast as rc  # noqa: E402
 from volpack.render.camera import Camera  # noqa: E402
@@ -46,9 +50,9 @@ if len(sys.argv) > 1 and sys.argv[1] == "--knobs":  # the first sweep (refinemen
     sys.argv.pop(1)
     VARIANTS = {
         "base": ({}, {}),
-        "refop 0.2": ({"REFINE_OPACITY": 0.2, "REFINE_GAIN": 0.0}, {}),
-        "refop 0.3": ({"REFINE_OPACITY": 0.3, "REFINE_GAIN": 0.0}, {}),
-        "refop 0.5": ({"REFINE_OPACITY": 0.5, "REFINE_GAIN": 0.0}, {}),
+        "refop 0.2": ({"REFINE_OPACITY": 0.2}, {}),
+        "refop 0.3": ({"REFINE_OPACITY": 0.3}, {}),
+        "refop 0.5": ({"REFINE_OPACITY": 0.5}, {}),
         "refine 2": ({}, {"refine": 2}),
         "refine 1": ({}, {"refine": 1}),
         "ert 0.98": ({}, {"ert": 0.98}),
@@ -61,7 +65,8 @@ def main(args):
     tfk = "opaque"
     if args and args[0].startswith("--tf="):
         tfk = args.pop(0)[5:]
-    defaults = {k: getattr(rc, k) for k in ("REFINE_OPACITY", "REFINE_BEND", "REFINE_STRAIGHT")}
+    names = {a for values, _ in VARIANTS.values() for a in values}
+    defaults = {a: getattr(rc, a) for a in names}  # a tried knob needs its diff applied
     for name in args:
         vol, sp = load(name)
         prep = prepare_volume(vol, sp)
@@ -73,32 +78,17 @@ def main(args):
             res = {}
 
             def go(k, stats=False, prep=prep, tf=tf, cam=cam, sh=sh):
-                knobs, kw = VARIANTS[k]
-                for a, b in defaults.items():
-                    setattr(rc, a, knobs.get(a, b))
-                try:
-                    return rc.render(
-                        prep,
-                        tf=tf,
-                        camera=cam,
-                        step=0.5,
-                        shading=sh,
-                        workers=1,
-                        render_stats=stats,
-                        **kw,
-                    )
-                finally:
-                    for a, b in defaults.items():
-                        setattr(rc, a, b)
+                values, kw = VARIANTS[k]
+                with knobs(rc, {**defaults, **values}):
+                    return rc.render(prep, tf=tf, camera=cam, step=0.5, shading=sh, workers=1,
+                                     render_stats=stats, **kw)  # fmt: skip
 
             for k in VARIANTS:
                 img, st = go(k, True)
                 res[k] = [psnr(img, ref), st.samples, []]
-            for _ in range(ROUNDS):
-                for k in VARIANTS:
-                    c = time.process_time()
-                    go(k)
-                    res[k][2].append(time.process_time() - c)
+            for k, ts in interleaved_cpu({k: lambda k=k: go(k) for k in VARIANTS},
+                                         ROUNDS).items():  # fmt: skip
+                res[k][2] = ts
             b = min(res["base"][2])
             for k, (p, n, ts) in res.items():
                 print(f"{nm:12s} {tfk:6s} {sh:5s} {k:12s} cpu {min(ts) * 1e3:7.1f} ms "
