@@ -1699,7 +1699,7 @@ def _refined(vol, grad, has_grad, codes, light, subs, pz0, py0, px0, sz, sy, sx,
     return ar, ag, ab, aa, False
 
 
-@kernel(nrt=False, contract=True)
+@kernel(inline=True)  # see the docstring's last sentences
 def _refined_plain(vol, sub2d, pz0, py0, px0, sz, sy, sx, nsub, vs, v0, u0, u1, fu, j0, j1, fj,
                    ert, ar, ag, ab, aa):  # fmt: skip
     """:func:`_refined` of an unshaded frame (the same sums in the same order), called
@@ -1709,7 +1709,13 @@ def _refined_plain(vol, sub2d, pz0, py0, px0, sz, sy, sx, nsub, vs, v0, u0, u1, 
     frames refinement took 22-39 % of the CPU, mostly for entering it (two sub-segments
     against none 17-31 ms a 512^2 frame, three against two 3-5 ms); this call took the
     unshaded frames of five of them to 0.91-0.96x, the same images (session 36,
-    ``results/render/rend36/``)."""
+    ``results/render/rend36/``). Inlined into the march since session 39: entering the
+    call (the march's registers saved around it) was most of what a refined segment cost
+    on engine_u8's opaque frame: two sub-segments 57 ns more than none, a third 21 ns;
+    inlined, the opaque unshaded frames of 10 volumes took 0.92-0.98x the CPU, their
+    semi-transparent ones 0.99-1.00x, the same images (``results/render/rend39/``).
+    :func:`_refined_lit` stays a call (numba cannot inline the dispatch of
+    :func:`lit_codes`)."""
     for q in range(1, nsub + 1):
         w0, w1, fw, aq, cr, cg, cb = _sub_look(vol, sub2d, pz0, py0, px0, sz, sy, sx, q, nsub,
                                                vs, v0, u0, u1, fu, j0, j1, fj)  # fmt: skip
