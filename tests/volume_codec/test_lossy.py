@@ -328,6 +328,18 @@ def test_a_psnr_target_puts_a_fields_plateaus_on_bin_centres(monkeypatch):
     assert api.compress_array(a, max_error=0.003) == bounded
 
 
+def test_a_psnr_target_on_a_field_it_codes_exactly_writes_its_file(caplog):
+    """Session 39: a two-valued float field under --psnr 40 is coded exactly (PSNR inf);
+    the search record's inf made the file's summary fail to write ("expected a
+    JSON-serialisable summary")."""
+    z, y, x = np.mgrid[:16, :16, :16]
+    a = np.where(x + y > 14, 1.0, 2.7).astype(np.float32)
+    st, blob = run(a, psnr=40)
+    assert st["psnr"] is None and st["max_error"] == 0.0
+    assert (api.decompress_array(blob) == a).all()
+    assert "kept an exact coding" in caplog.text
+
+
 def test_float_psnr_target_uses_the_bounded_path():
     a = smooth_volume((24, 40, 40), np.int16, seed=3).astype(np.float32) / 7
     st, _ = run(a, psnr=50)

@@ -373,8 +373,9 @@ def _warned(found: tuple[Any, dict[str, Any]]) -> tuple[Any, dict[str, Any]]:
     what, target, reached = record["target"], record["value"], record["reached"]
     if _missed(what, target, reached):
         log.warning(
-            "%s %g: not reached within %s by any setting tried; kept %.4g",
-            what, target, f"{PSNR_TOL} dB" if what == "psnr" else f"{RATIO_TOL:.0%}", reached,
+            "%s %g: not reached within %s by any setting tried; kept %s",
+            what, target, f"{PSNR_TOL} dB" if what == "psnr" else f"{RATIO_TOL:.0%}",
+            "an exact coding" if reached == math.inf else f"{reached:.4g}",
         )  # fmt: skip
     return found
 

@@ -469,6 +469,8 @@ def compress(
             # caller's alone
             summary["search"] = {k: v for k, v in search.items() if k != "steps"}
             _six_digits(summary["search"], ("reached",))
+            if not math.isfinite(summary["search"].get("reached", 0.0)):
+                summary["search"]["reached"] = None  # coded exactly: no PSNR (as "psnr")
         if tools_used:
             summary["tools"] = dict(sorted(tools_used.items()))
         w.close(summary=summary)
