@@ -33,7 +33,10 @@ for f in sys.argv[1:]:
     v = crop(np.load(f)).astype(np.float64)
     nz, ny, nx = v.shape
     t = v[2:, 2:-1, 2:-1]
-    cols = [v[2 - dz : nz - dz, 2 - dy : ny - 1 - dy, 2 - dx : nx - 1 - dx].ravel() for dz, dy, dx in FIT_OFFSETS]
+    cols = [
+        v[2 - dz : nz - dz, 2 - dy : ny - 1 - dy, 2 - dx : nx - 1 - dx].ravel()
+        for dz, dy, dx in FIT_OFFSETS
+    ]
     X = np.stack(cols, 1)
     y = t.ravel()
     out = []
@@ -41,4 +44,6 @@ for f in sys.argv[1:]:
         w, *_ = np.linalg.lstsq(A, y, rcond=None)
         out.append(h0(y - np.rint(A @ w)))
     name = f.rsplit("/", 1)[-1].removesuffix(".npy")
-    print(f"| {name} | {'x'.join(map(str, v.shape))} | {h0(y):.3f} | {out[0]:.3f} | {out[1]:.3f} | {out[1] - out[0]:+.3f} |")
+    print(
+        f"| {name} | {'x'.join(map(str, v.shape))} | {h0(y):.3f} | {out[0]:.3f} | {out[1]:.3f} | {out[1] - out[0]:+.3f} |"
+    )

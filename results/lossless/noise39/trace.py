@@ -86,21 +86,31 @@ cost = np.array([d[3] for d in dec])
 name = {0: "zero flag", 1: "sign"}
 groups = defaultdict(list)
 for j, kd in enumerate(kinds):
-    groups["zero flag" if kd == 0 else "sign" if kd == 1 else "length" if kd < 14 else "mantissa"].append(j)
+    groups[
+        "zero flag" if kd == 0 else "sign" if kd == 1 else "length" if kd < 14 else "mantissa"
+    ].append(j)
 print(f"{sys.argv[1]} crop {a.shape}, range [{lo}, {hi}], {n} voxels")
-print(f"stream {8 * len(body) / n:.4f} bits/voxel; coded decisions {cost.sum() / n:.4f} + raw bits {raw[0] / n:.4f}")
+print(
+    f"stream {8 * len(body) / n:.4f} bits/voxel; coded decisions {cost.sum() / n:.4f} + raw bits {raw[0] / n:.4f}"
+)
 print(f"H0 of the values {h0(val):.4f}")
 r_final = val - pred
 r_fit = val - ((q2 + 4) >> 3)
 r_blend = val - ((pb + 4) >> 3)
-print(f"H0 of residuals: final {h0(r_final):.4f}, blend {h0(r_blend):.4f}, fitted alone {h0(r_fit):.4f}")
-print(f"H(value | final prediction) {hcond(val, pred) / n:.4f}; H(value | fitted) {hcond(val, (q2 + 4) >> 3) / n:.4f}")
+print(
+    f"H0 of residuals: final {h0(r_final):.4f}, blend {h0(r_blend):.4f}, fitted alone {h0(r_fit):.4f}"
+)
+print(
+    f"H(value | final prediction) {hcond(val, pred) / n:.4f}; H(value | fitted) {hcond(val, (q2 + 4) >> 3) / n:.4f}"
+)
 print("| decision | count/voxel | adaptive bits/voxel | static H given its model | excess |")
 print("|---|---|---|---|---|")
 for g, idx in groups.items():
     idx = np.array(idx)
     hs = hcond(bits[idx], ks[idx]) / n
-    print(f"| {g} | {idx.size / n:.3f} | {cost[idx].sum() / n:.4f} | {hs:.4f} | {cost[idx].sum() / n - hs:+.4f} |")
+    print(
+        f"| {g} | {idx.size / n:.3f} | {cost[idx].sum() / n:.4f} | {hs:.4f} | {cost[idx].sum() / n - hs:+.4f} |"
+    )
 print(f"| raw bits | {raw[0] / n:.3f} | {raw[0] / n:.4f} | | |")
 
 
@@ -131,8 +141,12 @@ for i in np.flatnonzero(low & (r_final != 0)):
         prefix = 2 * prefix + bit
     sim += max(nb - 1 - max(nm, 0), 0)
 nl = low.sum()
-print(f"low class: {nl / n:.3f} of the voxels; their mantissa + raw bits {cur_mr / n:.4f} bits/voxel now, "
-      f"{sim / n:.4f} with models keyed on the prediction ({(sim - cur_mr) / n:+.4f})")
+print(
+    f"low class: {nl / n:.3f} of the voxels; their mantissa + raw bits {cur_mr / n:.4f} bits/voxel now, "
+    f"{sim / n:.4f} with models keyed on the prediction ({(sim - cur_mr) / n:+.4f})"
+)
 cur_all = cost[lowd].sum() + sum(b for i, b in rawv if low[i])
-print(f"low class coded at {cur_all / max(nl, 1):.4f} bits each; H(value | prediction) there "
-      f"{hcond(val[low], pred[low]) / max(nl, 1):.4f}")
+print(
+    f"low class coded at {cur_all / max(nl, 1):.4f} bits each; H(value | prediction) there "
+    f"{hcond(val[low], pred[low]) / max(nl, 1):.4f}"
+)
