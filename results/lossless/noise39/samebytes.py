@@ -10,7 +10,7 @@ from __future__ import annotations
 import hashlib
 import sys
 
-sys.path.insert(0, ".")
+sys.path.append(".")  # (after PYTHONPATH: the code it names is what runs)
 from scripts import datasets  # noqa: E402
 from volpack import api  # noqa: E402
 from volpack.format.container import Reader  # noqa: E402
