@@ -75,6 +75,8 @@ KINDS = {
     "lossless-mirror": ("lossless-v8-u8-mirror.vpk", VOLUME_PATHS),
     # mode 8 (session 38): a gain comb, the counts and the residues coded apart
     "lossless-gain": ("lossless-v8-i16-gain.vpk", VOLUME_PATHS),
+    # LOWM (session 39): the low-value class's mantissa bits keyed on the prediction
+    "lossless-lowm": ("lossless-v8-u8-lowm.vpk", VOLUME_PATHS),
     # version 9's local fit (flag 512 in the second flags byte), with a mask and palette
     "lossless-v9": ("lossless-v9-u8-local.vpk", VOLUME_PATHS),
     "lossless-v9-mask": ("lossless-v9-u8-local-mask.vpk", VOLUME_PATHS),

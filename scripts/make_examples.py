@@ -212,6 +212,9 @@ LOSSLESS_CASES = [
     # detector frames: photons (Poisson) times a gain of 30 plus read noise, a dead pixel
     # (session 38: mode 8, a gain comb, the counts and the residues coded apart)
     ("lossless-v8-i16-gain", "gain-i16", {"brick": (12, 32, 32)}),
+    # a narrow band over iid noise 0..14 (session 39: flag 2048, the second flags byte's
+    # bit 3, LOWM: the low-value class's mantissa bits keyed on the prediction)
+    ("lossless-v8-u8-lowm", "lowm-u8", {"brick": (12, 32, 32)}),
 ]
 
 
@@ -235,6 +238,19 @@ def place_specials(f, at=0):
     flat[1108:1111] = (-0.0, np.inf, -np.inf)
     flat[1313], flat[1567] = 1e-45, -1e-45  # the smallest denormals
     return f
+
+
+def lowm_source():
+    """12 x 32 x 32 uint8: iid uniform noise 0..14 everywhere (a scan's noise floor), a
+    ball of radius 9 raised into a narrow band (70 + 10 x a slow wave, plus the noise)."""
+    import numpy as np
+
+    rng = np.random.default_rng(39)
+    z, y, x = np.indices((12, 32, 32))
+    v = rng.integers(0, 15, size=z.shape)
+    ball = (z - 6) ** 2 + (y - 16) ** 2 + (x - 16) ** 2 <= 81
+    v[ball] += (70 + 10 * np.sin(x * 0.3) * np.cos(y * 0.2)).astype(np.int64)[ball]
+    return v.astype(np.uint8)
 
 
 def lossless_source(recipe: str):
@@ -285,6 +301,8 @@ def lossless_source(recipe: str):
     if recipe == "labels-runs":  # four tissue classes, upsampled 2x in z, 3x in x, cropped
         lab = np.digitize(wavelet_source("u8"), [40, 90, 140]).astype(np.uint8)
         return np.ascontiguousarray(np.repeat(np.repeat(lab, 2, axis=0), 3, axis=2)[1:, :, 2:])
+    if recipe == "lowm-u8":  # iid uniform noise 0..14, a band of 70..90 in a ball
+        return lowm_source()
     if recipe == "gain-i16":  # 12 frames of 32 x 32: 30 ADU a photon, read noise sigma 3
         rng = np.random.default_rng(38)
         yy, xx = np.meshgrid(np.arange(32) - 15.5, np.arange(32) - 15.5, indexing="ij")

@@ -45,6 +45,9 @@ def both(a: np.ndarray, monkeypatch, **opts) -> tuple[bytes, bytes]:
     ],
 )
 def test_pruned_selection_codes_real_volumes_within_the_tolerance(name, monkeypatch):
+    # (without LOWM, session 39, which the base tree lacked: with it both files are
+    # shorter, mri_itk_t1's exhaustive one 183,081 B and ct_head's 263,168 B)
+    monkeypatch.setattr(lossless, "LOWM", False)
     a = real(name)
     pruned, exhaustive = both(a, monkeypatch)
     assert len(pruned) <= (1 + TOLERANCE) * len(exhaustive), (len(pruned), len(exhaustive))

@@ -140,12 +140,14 @@ LOSSLESS_DTYPES = WAVELET_DTYPES + LONG_INTS + EXACT_FLOATS + ("bool",)
 FLAG_PALETTE, FLAG_FLOAT, FLAG_SPLIT, FLAG_LABELS, FLAG_FIT, FLAG_MASK = 1, 2, 4, 8, 16, 32
 FLAG_LOW, FLAG_TEX = 64, 128
 # With FIT, the LABELS bit (which FIT excludes) says a second flags byte follows: flags
-# 256 and up, MIX (256) and LOCAL (512).
-FLAG_MORE, FLAG_MIX, FLAG_LOCAL, FLAG_PLANE = FLAG_LABELS, 256, 512, 1024
+# 256 and up, MIX (256), LOCAL (512), PLANE (1024) and LOWM (2048: with LOW, the
+# low-value class's mantissa bits in models keyed on the prediction, predictfit.LOW_MANT).
+FLAG_MORE, FLAG_MIX, FLAG_LOCAL, FLAG_PLANE, FLAG_LOWM = FLAG_LABELS, 256, 512, 1024, 2048
 FLAGS = (
     FLAG_PALETTE | FLAG_FLOAT | FLAG_SPLIT | FLAG_LABELS | FLAG_FIT | FLAG_MASK | FLAG_LOW | FLAG_TEX
-    | FLAG_MIX | FLAG_LOCAL | FLAG_PLANE
+    | FLAG_MIX | FLAG_LOCAL | FLAG_PLANE | FLAG_LOWM
 )  # fmt: skip
+LOWM = True  # False: the encoder never tries LOWM (the tests compare)
 VERSIONS = (1, 2, 3, 4, 5, 6, 7, 8, 9, 10)
 LOW_VERSION = 5  # the first predict_version whose encoder tries the low-value models
 TEX_VERSION = 7  # the first predict_version whose encoder tries the texture bias
@@ -548,6 +550,7 @@ def describe(payload: bytes) -> str:
         more = payload[2] if flags & FLAG_FIT and flags & FLAG_MORE and len(payload) > 2 else 0
         name += "+mix" if more & FLAG_MIX >> 8 else ""
         name += "+local" if more & FLAG_LOCAL >> 8 else ""
+        name += "+lowm" if more & FLAG_LOWM >> 8 else ""
         return name + ("+plane" if more & FLAG_PLANE >> 8 else "")
     if mode == MODE_FLOAT and len(payload) > 1:
         tool = FLOAT_TOOLS[payload[1]] if payload[1] < len(FLOAT_TOOLS) else payload[1]
@@ -723,7 +726,35 @@ def _encode_fit(
         )  # fmt: skip
         if len(payload) < (1 - LOCAL_MIN_SAVING) * len(best):
             best = payload
-    return best
+    if not mix:  # (LOWM: version 8 and up, as MIX)
+        return best
+    return _lowm_kept(best, len(head) - 2, section, lambda lm: predictfit.encode(
+        v, a, b, mask=mask, fitted=fitted, plane=plane, lowm=lm, **_stream_flags(best)
+    ))  # fmt: skip
+
+
+def _stream_flags(payload: bytes) -> dict:
+    """The stream options a version-2 predictive payload's flags name."""
+    flags = payload[1]
+    more = payload[2] if flags & FLAG_MORE else 0
+    return dict(
+        low=bool(flags & FLAG_LOW), tex=bool(flags & FLAG_TEX), mix=bool(more & FLAG_MIX >> 8),
+        local=bool(more & FLAG_LOCAL >> 8),
+    )  # fmt: skip
+
+
+def _lowm_kept(best: bytes, nhead: int, section: bytes, enc) -> bytes:
+    """``best`` (a version-2 predictive payload: its flags, ``nhead`` bytes of range or
+    palette, ``section``, the stream), or where it has the low-value models, the same
+    with LOWM (``enc(True)``: the stream) if shorter. (One more run, on the pick only:
+    LOWM moves the mantissa bits of the low class alone, it rarely changes the pick.)"""
+    if not (LOWM and best[1] & FLAG_LOW):
+        return best
+    flags = best[1]
+    more = best[2] if flags & FLAG_MORE else 0
+    lead = 3 if flags & FLAG_MORE else 2
+    payload = bytes([best[0], flags | FLAG_MORE, more | FLAG_LOWM >> 8]) + best[lead : lead + nhead] + section
+    return min(best, payload + enc(True), key=len)
 
 
 def _encode_pruned(
@@ -908,29 +939,34 @@ class _FitChain:
                 plans.append(other)
         return plans
 
-    def payload(self, var: tuple) -> bytes:
+    def payload(self, var: tuple, lowm: bool = False) -> bytes:
         from . import predictfit
 
         d, masked, one, low, tex, mix = var
         head, v, a, b = self.domains[d]
         mask = self.mask(d) if masked else None
         flags = head[1] | (FLAG_MASK if mask else 0) | (FLAG_LOW if low else 0) | (FLAG_TEX if tex else 0)
-        lead = bytes([head[0], flags | FLAG_MORE, FLAG_MIX >> 8]) if mix else bytes([head[0], flags])
+        more = (FLAG_MIX >> 8 if mix else 0) | (FLAG_LOWM >> 8 if lowm else 0)
+        lead = bytes([head[0], flags | FLAG_MORE, more]) if more else bytes([head[0], flags])
         stream = predictfit.encode(
             v, a, b, mask=None if mask is None else mask[1], fitted=self.fits(d)[one], low=low,
-            tex=tex, mix=mix, plane=self.plane,
+            tex=tex, mix=mix, plane=self.plane, lowm=lowm,
         )  # fmt: skip
         return lead + head[2:] + (mask[0] if mask else b"") + stream
 
     def best(self, plans: list[tuple]) -> bytes:
         """The shortest payload of ``plans``, the mixed estimates kept where they save
         MIX_MIN_SAVING over the shortest without."""
-        coded = [(var[5], self.payload(var)) for var in plans]
-        plain = min((c for mix, c in coded if not mix), key=len, default=None)
-        mixed = min((c for mix, c in coded if mix), key=len, default=None)
-        if plain is None or (mixed is not None and len(mixed) < (1 - MIX_MIN_SAVING) * len(plain)):
-            return mixed
-        return plain
+        coded = [(var, self.payload(var)) for var in plans]
+        plain = min((c for c in coded if not c[0][5]), key=lambda c: len(c[1]), default=None)
+        mixed = min((c for c in coded if c[0][5]), key=lambda c: len(c[1]), default=None)
+        if plain is None or (mixed is not None and len(mixed[1]) < (1 - MIX_MIN_SAVING) * len(plain[1])):
+            var, best = mixed
+        else:
+            var, best = plain
+        if LOWM and var[3]:  # (the pick again with LOWM, see _lowm_kept)
+            best = min(best, self.payload(var, lowm=True), key=len)
+        return best
 
 
 def _decode_predict(body: memoryview, shape: tuple[int, ...], dtype: np.dtype) -> np.ndarray:
@@ -941,10 +977,11 @@ def _decode_predict(body: memoryview, shape: tuple[int, ...], dtype: np.dtype) -
     flags = body[0]
     rest = body[1:]
     if flags & FLAG_FIT and flags & FLAG_MORE:  # a second flags byte: MIX, LOCAL or both
-        if len(body) < 2 or body[1] not in (1, 2, 3, 4, 5):
+        if len(body) < 2 or body[1] & 7 not in ((0, 1, 2, 3, 4, 5) if body[1] & 8 else (1, 2, 3, 4, 5)) or body[1] > 15:
             found = f"{body[1]:#x}" if len(body) >= 2 else "the end of the payload"
             raise FormatError(f"predictive brick payload: expected the second flags byte 1 (MIX), "
-                              f"2 (LOCAL), 3 (both), 4 (PLANE) or 5 (MIX and PLANE), found {found}")
+                              f"2 (LOCAL), 3 (both), 4 (PLANE) or 5 (MIX and PLANE), each or none "
+                              f"with 8 (LOWM), found {found}")
         flags = (flags & ~FLAG_MORE) | (body[1] << 8)
         rest = body[2:]
     is_float = dtype.kind == "f"
@@ -954,6 +991,7 @@ def _decode_predict(body: memoryview, shape: tuple[int, ...], dtype: np.dtype) -
         flags & ~FLAGS
         or (fit and flags & (FLAG_FLOAT | FLAG_LABELS))
         or (flags & (FLAG_MASK | FLAG_LOW | FLAG_TEX | FLAG_MIX | FLAG_LOCAL | FLAG_PLANE) and not fit)
+        or (flags & FLAG_LOWM and not flags & FLAG_LOW)
         or bool(flags & FLAG_FLOAT) != is_float
         or (split and flags & (FLAG_PALETTE | FLAG_LABELS))
         or (split and not is_float)
@@ -999,12 +1037,12 @@ def _decode_fit(data: memoryview, shape: tuple[int, ...], lo: int, hi: int, flag
     if hi - lo >= 1 << 32:
         raise FormatError(f"predictive brick payload: value range [{lo}, {hi}] is out of bounds")
     low, tex, mix = bool(flags & FLAG_LOW), bool(flags & FLAG_TEX), bool(flags & FLAG_MIX)
-    local, plane = bool(flags & FLAG_LOCAL), bool(flags & FLAG_PLANE)
+    local, plane, lowm = bool(flags & FLAG_LOCAL), bool(flags & FLAG_PLANE), bool(flags & FLAG_LOWM)
     if flags & FLAG_MASK:  # (coded over the plane the voxels are, with PLANE)
         coded = (1, shape[0] * shape[1], shape[2]) if plane else shape
         fill, mask, used = bgmask.decode(data, coded, hi - lo)
-        return predictfit.decode(data[used:], shape, lo, hi, mask, lo + fill, low, tex, mix, local, plane)
-    return predictfit.decode(data, shape, lo, hi, low=low, tex=tex, mix=mix, local=local, plane=plane)
+        return predictfit.decode(data[used:], shape, lo, hi, mask, lo + fill, low, tex, mix, local, plane, lowm)
+    return predictfit.decode(data, shape, lo, hi, low=low, tex=tex, mix=mix, local=local, plane=plane, lowm=lowm)
 
 
 def _value_range(dtype: np.dtype) -> tuple[int, int]:

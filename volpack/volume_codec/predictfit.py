@@ -76,6 +76,17 @@ M_LOWZ = N_MODELS
 M_LOWS = M_LOWZ + NLOW * NFRAC
 M_LOWL = M_LOWS + NLOW * 3 * NFRAC
 N_MODELS_LOW = M_LOWL + NLOW * 2 * NLEN
+# Low-value mantissa models (the payload's LOWM flag, with LOW): a voxel of the low-value
+# class also codes up to three bits below the leading one in models keyed on the
+# prediction, the sign and the bit length (up to NLOWB - 1), not on the activity. On
+# noise at the bottom of the range (a uint8 scan's iid noise floor), the value given the
+# prediction is bounded by the range: the activity's models and the bits at one half
+# spent 0.07-0.09 bits a voxel there (results/lossless/noise39/trace.txt). Flagged to the
+# kernels as LOW_MANT in ``nlow``; the class ``q`` of such a voxel is NLOW + prediction.
+LOW_MANT = 1 << 8
+NLOWB = 8
+M_LOWM = N_MODELS_LOW
+N_MODELS_LOWM = M_LOWM + NLOW * 2 * NLOWB * 8
 # Texture bias (the payload's TEX flag): the bias correction kept per context of the
 # activity (NCTX / NTEXG groups) and the texture, whether each of W, N, U, NE, NW and UN
 # lies above the blend (CALIC's error feedback: -0.4 to -1.0 % of the residuals' bits on
@@ -220,9 +231,27 @@ def _mant_model(nb, prefix, ctx):
 
 
 @kernel(inline=True)
+def _mant_model_q(nb, prefix, ctx, q, neg):
+    """Mantissa bit's model: :func:`_mant_model`, or by the low-value class ``q``
+    (LOW_MANT), the sign and the length."""
+    if q < NLOW:
+        return _mant_model(nb, prefix, ctx)
+    return M_LOWM + ((((q - NLOW) * 2 + neg) * NLOWB + min(nb, NLOWB - 1)) << 3) + prefix
+
+
+@kernel(inline=True)
+def _mant_bits(nb, q):
+    """How many bits below the leading one are modelled: 2, 3 in the LOW_MANT class."""
+    return min(nb - 1, 2 + np.int64(q >= NLOW))
+
+
+@kernel(inline=True)
 def _low_class(pred, nlow):
-    """The low-value class of a prediction: itself below ``nlow``, else -1 (none)."""
-    return pred if pred < nlow else np.int64(-1)
+    """The low-value class of a prediction: itself below ``nlow`` (its low byte), plus
+    NLOW with LOW_MANT, else -1 (none)."""
+    if pred < (nlow & (LOW_MANT - 1)):
+        return pred + (NLOW if nlow & LOW_MANT else 0)
+    return np.int64(-1)
 
 
 @kernel(inline=True)
@@ -230,7 +259,7 @@ def _sign_model(ctx, sctx, q):
     """Sign's model: by the context, or by the low-value class ``q`` when there is one."""
     if q < 0:
         return M_SIGN + ctx * 3 * NFRAC + sctx
-    return M_LOWS + q * 3 * NFRAC + sctx
+    return M_LOWS + (q & (NLOW - 1)) * 3 * NFRAC + sctx
 
 
 @kernel(inline=True)
@@ -239,13 +268,13 @@ def _len_models(ctx, q, neg):
     and the sign."""
     if q < 0:
         return M_LEN + ctx * NLEN
-    return M_LOWL + (2 * q + neg) * NLEN
+    return M_LOWL + (2 * (q & (NLOW - 1)) + neg) * NLEN
 
 
 @kernel(inline=True)
 def _zero_model_q(ctx, sctx, q):
     """Zero flag's model: :func:`_zero_model`, or by the low-value class ``q``."""
-    return _zero_model(ctx, sctx) if q < 0 else M_LOWZ + q * NFRAC + (sctx & (NFRAC - 1))
+    return _zero_model(ctx, sctx) if q < 0 else M_LOWZ + (q & (NLOW - 1)) * NFRAC + (sctx & (NFRAC - 1))
 
 
 @kernel(inline=True)
@@ -260,7 +289,7 @@ def _zero_state(models, ctx, sctx, q):
     kz += h
     st = st0 + ((st1 - st0) & -h)
     if q >= 0:
-        kz = M_LOWZ + q * NFRAC + (sctx & (NFRAC - 1))
+        kz = M_LOWZ + (q & (NLOW - 1)) * NFRAC + (sctx & (NFRAC - 1))
         st = np.int64(models[np.uint64(kz)])
     return kz, st
 
@@ -293,11 +322,11 @@ def put_residual(out, models, ctx, sctx, q, r, low, rng, pos):
     k0 = _len_models(ctx, q, neg)
     for j in range(min(nb + 1, NLEN - 1)):
         low, rng, pos = put16(out, models, k0 + j, np.int64(nb > j), low, rng, pos)
-    nm = min(nb - 1, 2)
+    nm = _mant_bits(nb, q)
     prefix = 1
     for jm in range(nm):
         bit = (u >> (nb - 2 - jm)) & 1
-        low, rng, pos = put16(out, models, _mant_model(nb, prefix, ctx), bit, low, rng, pos)
+        low, rng, pos = put16(out, models, _mant_model_q(nb, prefix, ctx, q, neg), bit, low, rng, pos)
         prefix = 2 * prefix + bit
     return put_bits(out, np.uint64(u), nb - 1 - max(nm, 0), low, rng, pos)
 
@@ -320,10 +349,10 @@ def get_residual(data, models, ctx, sctx, q, code, rng, pos):
     if nb > 62:
         return NO_RESIDUAL, code, rng, pos
     u = np.int64(1 if nb >= 1 else 0)
-    nm = min(nb - 1, 2)
+    nm = _mant_bits(nb, q)
     prefix = 1
     for _ in range(nm):
-        bit, code, rng, pos = get16(data, models, _mant_model(nb, prefix, ctx), code, rng, pos)
+        bit, code, rng, pos = get16(data, models, _mant_model_q(nb, prefix, ctx, q, neg), code, rng, pos)
         prefix = 2 * prefix + bit
         u = (u << 1) | bit
     return _low_bits(data, u, nb, nm, neg, code, rng, pos)
@@ -347,13 +376,13 @@ def put_residual_mix(out, models, ctx, sctx, q, r, low, rng, pos, aux, mx):
     for j in range(min(nb + 1, NLEN - 1)):
         sl, kind = _len_slot(j)
         low, rng, pos = _put16m(out, models, k0 + j, np.int64(nb > j), low, rng, pos, aux, mx, sl, kind)
-    nm = min(nb - 1, 2)
+    nm = _mant_bits(nb, q)
     prefix = 1
     for jm in range(nm):
         bit = (u >> (nb - 2 - jm)) & 1
-        km = _mant_model(nb, prefix, ctx)
+        km = _mant_model_q(nb, prefix, ctx, q, neg)
         sl = _mant_slot(nb, prefix)
-        low, rng, pos = _put16m(out, models, km, bit, low, rng, pos, aux, mx, sl, 14 + jm)
+        low, rng, pos = _put16m(out, models, km, bit, low, rng, pos, aux, mx, sl, 14 + min(jm, 1))
         prefix = 2 * prefix + bit
     return put_bits(out, np.uint64(u), nb - 1 - max(nm, 0), low, rng, pos)
 
@@ -366,7 +395,7 @@ def _len_slot(j):
 
 @kernel(inline=True)
 def _mant_slot(nb, prefix):
-    return residmix.S_MANT + 4 * min(nb, 15) + prefix
+    return residmix.S_MANT + 4 * min(nb, 15) + (prefix & 3)  # (a third bit's prefix 4-7: 0-3)
 
 
 @kernel(inline=True)
@@ -393,12 +422,12 @@ def get_residual_mix(data, models, ctx, sctx, q, code, rng, pos, aux, mx, clamp)
     if nb > 62:
         return NO_RESIDUAL, code, rng, pos
     u = np.int64(1 if nb >= 1 else 0)
-    nm = min(nb - 1, 2)
+    nm = _mant_bits(nb, q)
     prefix = 1
     for jm in range(nm):
-        km = _mant_model(nb, prefix, ctx)
+        km = _mant_model_q(nb, prefix, ctx, q, neg)
         sl = _mant_slot(nb, prefix)
-        bit, code, rng, pos = _get16m(data, models, km, code, rng, pos, aux, mx, sl, 14 + jm, clamp)
+        bit, code, rng, pos = _get16m(data, models, km, code, rng, pos, aux, mx, sl, 14 + min(jm, 1), clamp)
         prefix = 2 * prefix + bit
         u = (u << 1) | bit
     return _low_bits(data, u, nb, nm, neg, code, rng, pos)
@@ -640,7 +669,7 @@ def _workspace(shape: tuple[int, ...]) -> tuple[np.ndarray, ...]:
     err, perr, _, _, _ = workspace(shape)
     bias_sum, bias = (np.zeros(NBIAS, dtype=np.int64) for _ in range(2))
     bias_cnt = np.zeros(NBIAS, dtype=np.uint8)  # (below BIAS_LIMIT, 64: a cache line holds 64)
-    models = np.full(N_MODELS_LOW, MODEL_INIT, dtype=np.uint32)
+    models = np.full(N_MODELS_LOWM, MODEL_INIT, dtype=np.uint32)
     return err, perr, bias_sum, bias_cnt, bias, models, residmix.workspace(), np.zeros(2 * NCTX, np.int64)
 
 
@@ -1037,6 +1066,7 @@ def encode(
     mix: bool = False,
     local: bool = False,
     plane: bool = False,
+    lowm: bool = False,
 ) -> bytes:
     """Code a 3-D integer array with values in ``[lo, hi]`` (a range below 2^32): the
     thresholds (uint32) and weights (int16) of the fitted predictor (``fitted``, or
@@ -1044,7 +1074,8 @@ def encode(
     true are not coded (the decoder is told their value). ``low``: with the low-value
     models, ``tex``: with the texture bias, ``mix``: with the mixed estimates of
     :mod:`.residmix`, ``local``: averaged with the local fit of :mod:`.localfit` (the
-    decoder must be told of each; ``local`` only where :func:`.localfit.usable`); ``plane``:
+    decoder must be told of each; ``local`` only where :func:`.localfit.usable`; ``lowm``:
+    with ``low``, the low-value mantissa models, see LOW_MANT); ``plane``:
     the slices coded as one plane by the planar predictor (``fitted`` from
     :func:`fit_plane`; not with ``local``)."""
     v = np.ascontiguousarray(values, dtype=np.int64)
@@ -1076,7 +1107,7 @@ def encode(
     lp = localfit.estimates(v, FIT_OFFSETS).reshape(-1) if local else np.zeros(1, np.int64)
     body = encode_with_retry(
         lambda out: _encode_kernel(
-            flat, mk, cf, th, shape, np.int64(hi - lo), _nlow(low), np.int64(tex), plane, np.int64(mix),
+            flat, mk, cf, th, shape, np.int64(hi - lo), _nlow(low, lowm), np.int64(tex), plane, np.int64(mix),
             lp, local, out, *_workspace(v.shape),
         ),
         flat.size,
@@ -1086,8 +1117,8 @@ def encode(
     return th.astype("<u4").tobytes() + cf.astype("<i2").tobytes() + body
 
 
-def _nlow(low: bool) -> np.int64:
-    return np.int64(NLOW if low else 0)
+def _nlow(low: bool, lowm: bool = False) -> np.int64:
+    return np.int64((NLOW | (LOW_MANT if lowm else 0)) if low else 0)
 
 
 def decode(
@@ -1102,10 +1133,11 @@ def decode(
     mix: bool = False,
     local: bool = False,
     plane: bool = False,
+    lowm: bool = False,
 ):
     """Decode :func:`encode`'s bytes into an int64 array of ``shape``; voxels where
-    ``mask`` is true get ``fill``; ``low``, ``tex``, ``mix``, ``local`` and ``plane`` as
-    for :func:`encode`."""
+    ``mask`` is true get ``fill``; ``low``, ``tex``, ``mix``, ``local``, ``plane`` and
+    ``lowm`` as for :func:`encode`."""
     if not (lo <= hi and hi - lo < (1 << 32)):
         raise FormatError(f"predictive payload: value range [{lo}, {hi}] is out of bounds")
     if plane and local:
@@ -1126,7 +1158,7 @@ def decode(
     mk = _no_mask(n) if mask is None else np.ascontiguousarray(mask, np.uint8).reshape(-1)
     v = np.empty(n, dtype=np.int64)
     shp = np.array(coded, dtype=np.int64)
-    head = (buf, mk, np.int64(fill - lo), cf.astype(np.int64), th, shp, np.int64(hi - lo), _nlow(low),
+    head = (buf, mk, np.int64(fill - lo), cf.astype(np.int64), th, shp, np.int64(hi - lo), _nlow(low, lowm),
             np.int64(tex), plane, np.int64(mix))  # fmt: skip
     ws = _workspace(coded)
     coder = np.zeros(4, np.int64)
