@@ -129,7 +129,9 @@ def test_corrupt_second_flags_byte_and_bit_flips():
     good = codec.encode(v)
     assert good[0] == MODE_PREDICT and good[1] & FLAG_FIT and good[1] & FLAG_MORE
     assert good[2] & 2  # LOCAL
-    for second in (0, 6, 8, 255):  # (4 is PLANE since session 33; 6 PLANE with LOCAL)
+    # (4 is PLANE since session 33; 6 PLANE with LOCAL; 8 LOWM since session 39, valid
+    # with LOW; 14 LOWM with PLANE and LOCAL)
+    for second in (0, 6, 14, 255):
         bad = good[:2] + bytes([second]) + good[3:]
         with pytest.raises(FormatError, match="second flags byte"):
             codec.decode(bad, v.shape, v.dtype)
