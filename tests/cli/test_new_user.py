@@ -416,3 +416,38 @@ def test_a_bound_under_1_on_integers_is_exact_from_the_command_line_too(tmp_path
     r = run("compress", tmp_path / "a.npy", tmp_path / "w.vpk", "--max-error", "0.5",
             "--wavelet", "53", "--json")  # fmt: skip
     assert r.exit_code == 0 and json.loads(r.stdout)["codec"]["id"] == "bounded"  # as asked
+
+
+@pytest.mark.parametrize(
+    "field, value",
+    [("search", "junk"), ("search.reached", "x"), ("error_bound", "e"), ("rmse", [2]),
+     ("tools", "t"), ("psnr", {})],
+)  # fmt: skip
+def test_info_shows_a_file_whose_summary_is_damaged(tmp_path, field, value):
+    """Session 39: `volpack info` (text) formatted the summary's fields as they came, and
+    a summary field of another type (`search` a string, `reached` a string) was an
+    internal error; the fuzzer runs `info --json`, which does not format them."""
+    from volpack import api
+    from volpack.format.container import Reader, Writer
+
+    z, y, x = np.mgrid[:16, :16, :16]
+    a = np.where(x + y > 14, 1.0, 2.7).astype(np.float32) + 0.01 * (z % 3)
+    blob = api.compress_array(a, psnr=40)
+    with Reader(blob) as r:
+        header, summary = dict(r.header), dict(r.summary)
+        chunks = [(t, n, r.read(t, n), e.error) for (t, n), e in zip(r.keys(), r.entries)]
+    assert isinstance(summary.get("search"), dict)  # the field the first cases damage
+    key, _, sub = field.partition(".")
+    if sub:
+        summary[key] = {**summary[key], sub: value}
+    else:
+        summary[key] = value
+    path = tmp_path / "damaged.vpk"
+    with open(path, "wb") as f:
+        w = Writer(f, header)
+        for t, n, p, e in chunks:
+            w.write(t, n, p, e)
+        w.close(summary)
+    r = CliRunner().invoke(main, ["info", str(path)])
+    assert r.exit_code == 0 and "internal error" not in r.output, r.output
+    assert "ratio" in r.output

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import click
 
+from ..errors import FormatError
 from .listing import listing_table
 from .options import db, dtype_name, emit_json, fmt_bytes, json_option, raw_options, table
 
@@ -61,8 +62,6 @@ def info(sources, as_json: bool, chunks: bool, levels: bool, read_options) -> No
 
         with spool(stdin()) as f:  # a .vpk on a pipe: its index comes last, so keep it whole
             return _show(api.info(f), as_json, chunks)
-    from ..errors import FormatError
-
     try:
         d = api.info(source, **read_options)
     except FormatError:
@@ -77,7 +76,6 @@ def _arrays(source: str) -> list[dict] | None:
     """The arrays of an HDF5, netCDF or zarr file that names none of its several
     arrays (so that ``info`` lists them rather than fail), else None."""
     from .. import io as vio
-    from ..errors import FormatError
 
     if source == "-" or vio.parse_spec(source)[1] is not None:
         return None
@@ -102,6 +100,19 @@ def _show_arrays(source: str, found: list[dict], as_json: bool) -> None:
 
 
 def _show(d: dict, as_json: bool, chunks: bool) -> None:
+    try:
+        _show_as(d, as_json, chunks)
+    except (TypeError, AttributeError, ValueError, KeyError, IndexError) as e:
+        # The text view formats what the header and summary say; a damaged file's field of
+        # another type (a list for a number, a number for a dict) must not be a crash.
+        raise FormatError(
+            f"{d.get('path', '-')}: expected header and summary fields of the types volpack "
+            f"writes, found another ({type(e).__name__}: {e}); the file is damaged "
+            "(`volpack info --json` shows its fields as stored)"
+        ) from None
+
+
+def _show_as(d: dict, as_json: bool, chunks: bool) -> None:
     if d["format"] == "mesh" or d.get("kind") == "mesh":
         from .mesh import show_info
 
@@ -134,6 +145,36 @@ def _tuples_row(spec: dict) -> str:
     )
 
 
+def _number(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def _readable_summary(s) -> dict:
+    """The summary fields the text view shows, each of the type the encoder writes: the
+    summary is what the encoder measured, checked by no decoder, so a damaged file's
+    field of another type is left out (shown as unknown), not formatted into a crash."""
+    if not isinstance(s, dict):
+        return {}
+    out = {k: s[k] for k in ("error_bound", "psnr", "rmse", "max_error") if _number(s.get(k))}
+    if isinstance(s.get("lossless"), bool):
+        out["lossless"] = s["lossless"]
+    for k in ("psnr", "rmse"):
+        if k in s and k not in out:
+            out[k] = None  # present but unreadable: None reads "unknown"
+    tools = s.get("tools")
+    if isinstance(tools, dict) and all(_number(v) for v in tools.values()):
+        out["tools"] = tools
+    q = s.get("search")
+    if (
+        isinstance(q, dict)
+        and isinstance(q.get("target"), str)
+        and _number(q.get("value"))
+        and (q.get("reached") is None or _number(q.get("reached")))
+    ):
+        out["search"] = q
+    return out
+
+
 def _human(d: dict, chunks: bool) -> str:
     if d["format"] != "vpk":
         rows = [
@@ -152,7 +193,7 @@ def _human(d: dict, chunks: bool) -> str:
             rows.append([f"meta.{k}", str(v)])
         return "\n".join(f"{k:<12} {v}" for k, v in rows)
     h = d["header"]
-    s = d.get("summary") or {}
+    s = _readable_summary(d.get("summary"))
     rows = [
         ["path", d["path"]],
         [
@@ -214,7 +255,8 @@ def _human(d: dict, chunks: bool) -> str:
         rows.append(["RMSE", "unknown" if rmse is None else f"{rmse:g}"])
         if s.get("search"):
             q = s["search"]
-            rows.append(["target", f"{q['target']} {q['value']:g}: reached {q['reached']:.4g}"])
+            got = "coded exactly" if q["reached"] is None else f"reached {q['reached']:.4g}"
+            rows.append(["target", f"{q['target']} {q['value']:g}: {got}"])
     out = "\n".join(f"{k:<12} {v}" for k, v in rows)
     if h.get("kind") == "animation":
         from .animation import frame_table
