@@ -19,6 +19,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "scripts"))
 
 from datasets import load  # noqa: E402
+from trialkit import write_volumes  # noqa: E402
 
 HELD_OUT = ("us_u8", "radar_u8", "rock_u8", "pet_f32", "amr_f32")
 
@@ -422,23 +423,7 @@ MAKERS = {
 
 
 def main() -> None:
-    d = Path(sys.argv[1])
-    d.mkdir(parents=True, exist_ok=True)
-    names = sys.argv[2:] or list(MAKERS)
-    lines = []
-    for i, name in enumerate(MAKERS):
-        rng = np.random.default_rng(3900 + i)
-        if name in names:
-            a = MAKERS[name](rng)
-            np.save(d / f"{name}.npy", a)
-        if not (d / f"{name}.npy").exists():
-            continue
-        a = np.load(d / f"{name}.npy", mmap_mode="r")
-        kind = "float" if a.dtype.kind == "f" else "int"
-        held = "held" if name in HELD_OUT else "tuned"
-        lines.append(f"{name}\t{kind}\t{held}\t{'x'.join(map(str, a.shape))}\t{a.dtype}")
-        print(lines[-1], flush=True)
-    (d / "volumes.txt").write_text("\n".join(lines) + "\n")
+    write_volumes(MAKERS, HELD_OUT, 3900, sys.argv[1:])
 
 
 if __name__ == "__main__":

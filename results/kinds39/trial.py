@@ -12,33 +12,14 @@ are not run again. compare decodes and checks every voxel against the bound.
 
 from __future__ import annotations
 
-import json
-import os
-import subprocess
 import sys
 from pathlib import Path
-
-import numpy as np
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 from make import HELD_OUT, MAKERS  # noqa: E402
-
-BOUNDS = ("1e-2", "1e-3", "1e-4")
-
-
-def run_cell(path: Path, rel: str | None, efforts: str) -> dict:
-    cmd = [sys.executable, "-m", "volpack", "-q", "compare", str(path), "--peers", "--json"]
-    cmd += ["--rel-error", rel] if rel else ["--jpegxl-efforts", efforts]
-    p = subprocess.run(cmd, capture_output=True, text=True, env=os.environ.copy())
-    out = {"name": path.stem, "rel": rel, "rc": p.returncode, "json": None}
-    out["stderr"] = p.stderr.strip()[-2000:]
-    if p.returncode != 0:
-        out["error"] = (p.stderr.strip().splitlines() or ["(no message)"])[-1][:400]
-    else:
-        out["json"] = json.loads(p.stdout)
-    return out
+from trialkit import run_cell, run_trial  # noqa: E402
 
 
 def main() -> None:
@@ -48,24 +29,7 @@ def main() -> None:
     efforts = "7,9" if "--no-e10" in sys.argv else "7,9,10"
     d, out = Path(args[0]), Path(args[1])
     names = args[2:] or [n for n in MAKERS if (n in HELD_OUT) == held]
-    done = set()
-    if out.exists():
-        for line in open(out):
-            c = json.loads(line)
-            done.add((c["name"], c["rel"]))
-    with open(out, "a") as f:
-        for name in names:
-            kind = np.load(d / f"{name}.npy", mmap_mode="r").dtype.kind
-            for rel in BOUNDS if kind == "f" else (None,):
-                if (name, rel) in done:
-                    continue
-                c = run_cell(d / f"{name}.npy", rel, efforts)
-                f.write(json.dumps(c) + "\n")
-                f.flush()
-                j = c["json"]
-                print(
-                    name, rel, c["rc"], c.get("error", ""), j and round(j["ratio"], 3), flush=True
-                )
+    run_trial(d, out, names, lambda path, rel: run_cell(path, rel, efforts))
 
 
 if __name__ == "__main__":
