@@ -69,10 +69,13 @@ def brain() -> np.ndarray:
     return load_demo_volume().data
 
 
-def rewrite_header(src: bytes, drop: tuple[str, ...] = (), **fields) -> bytes:
+def rewrite_header(
+    src: bytes, drop: tuple[str, ...] = (), summary: dict | None = None, **fields
+) -> bytes:
     """The ``.vpk`` stream ``src`` with header ``fields`` set (a value of None is stored
     as JSON null) and the keys in ``drop`` removed; chunks, their errors and the summary
-    kept: a damaged or altered header for the readers' checks."""
+    kept (or replaced by ``summary``): a damaged or altered header for the readers'
+    checks."""
     from volpack.format.container import Reader, Writer
 
     with Reader(src) as r:
@@ -85,7 +88,7 @@ def rewrite_header(src: bytes, drop: tuple[str, ...] = (), **fields) -> bytes:
     w = Writer(buf, hdr)
     for t, n, p, e in chunks:
         w.write(t, n, p, e)
-    w.close(summ)
+    w.close(summ if summary is None else summary)
     return buf.getvalue()
 
 
